@@ -1,0 +1,584 @@
+"""Semantic checks: ModelSpec -> Model, or every diagnostic at once.
+
+Small passes, each adding diagnostics: parameters, ground, bodies, joints,
+drivers, forces, initial conditions, settings, structure (graph, DOF). All
+passes run even after an error so that a user sees every problem of a file
+in one go (sympy's validate_system); a pass skips only the elements whose
+inputs were already reported broken.
+"""
+
+from __future__ import annotations
+
+import difflib
+import hashlib
+import math
+
+import numpy as np
+
+from ..errors import Diagnostic, MbdModelError, Span
+from ..model import graph
+from ..model.elements import (COORDINATES, GROUND, VELOCITIES, Driver, InitialCondition,
+                              Joint, Model, PointForce, PointRef, RigidBody,
+                              RotationalSpringDamper, SpringDamper, TimeFunction, Torque)
+from .expressions import (Dotted, ExprError, Name, Vec, compile_function, diff,
+                          evaluate, free_names, substitute)
+from .spec import ModelSpec
+
+__all__ = ["check_spec", "JOINT_KINDS", "FORCE_KINDS", "SETTINGS", "KNOWN_METHODS"]
+
+#: joint kind -> (positional points, allowed keywords, rows)
+JOINT_KINDS = {
+    "revolute": (2, {}, 2),
+    "fixed": (2, {"angle": 0.0}, 3),
+    "prismatic": (2, {"direction": None, "angle": 0.0}, 2),
+    "point_on_line": (2, {"direction": None}, 1),
+}
+#: force kind -> allowed keywords with defaults (None: required)
+FORCE_KINDS = {
+    "spring_damper": {"k": None, "c": 0.0, "length": None},
+    "rotational_spring_damper": {"k": None, "c": 0.0, "angle": 0.0},
+    "torque": {},
+    "force": {},
+}
+KNOWN_METHODS = ("hht-i3", "newmark", "nstiff", "nstiff-si2", "hht-add", "hht-si2")
+#: simulate-section settings: name -> must be positive
+SETTINGS = {"h": True, "t_end": True, "alpha": False, "beta": False, "gamma": False,
+            "b": False, "t_start": False}
+
+
+def _did_you_mean(name: str, candidates) -> str:
+    close = difflib.get_close_matches(name, list(candidates), n=1, cutoff=0.6)
+    return f"did you mean '{close[0]}'?" if close else ""
+
+
+class _Checker:
+    def __init__(self, spec: ModelSpec, overrides: dict | None):
+        self.spec = spec
+        self.overrides = dict(overrides or {})
+        self.diags: list[Diagnostic] = []
+        self.params: dict[str, float] = {}
+        self.bodies: dict[str, RigidBody] = {}
+        self.ground_points: dict[str, np.ndarray] = {"origin": np.zeros(2)}
+        self.joints: dict[str, Joint] = {}
+        self.element_spans: dict[str, Span | None] = {}
+
+    # -- helpers -------------------------------------------------------------
+    def error(self, code, message, span=None, label="", hint="", notes=(), secondary=()):
+        self.diags.append(Diagnostic("error", code, message, span, label, hint,
+                                     tuple(notes), tuple(secondary)))
+
+    def warning(self, code, message, span=None, label="", hint=""):
+        self.diags.append(Diagnostic("warning", code, message, span, label, hint))
+
+    def expr_error(self, err: ExprError, fallback: Span | None, context: str):
+        hint = err.hint
+        if err.code == "E201" and not hint:
+            hint = _did_you_mean(err.name, list(self.params) + ["pi"])
+        self.error(err.code, f"{context}: {err}", err.span or fallback,
+                   label=str(err), hint=hint)
+
+    def number(self, expr, span, context, allow_t=False):
+        """Evaluate a constant expression; None after reporting a problem."""
+        try:
+            return evaluate(expr, self.params, allow_t=allow_t)
+        except ExprError as err:
+            self.expr_error(err, span, context)
+            return None
+
+    def time_function(self, expr, span, context) -> TimeFunction | None:
+        try:
+            e = substitute(expr, self.params)
+            f, d1 = compile_function(e), diff(e)
+            d2 = diff(d1)
+            fn = TimeFunction(f, compile_function(d1), compile_function(d2),
+                              constant="t" not in free_names(e))
+            value = fn.f(0.0)
+            if not math.isfinite(value):
+                raise ExprError(f"the value at t = 0 is not finite ({value})", "E301",
+                                getattr(expr, "span", None))
+            return fn
+        except ExprError as err:
+            self.expr_error(err, span, context)
+        except (ValueError, OverflowError, ZeroDivisionError) as exc:
+            self.error("E301", f"{context}: cannot evaluate at t = 0 ({exc})",
+                       getattr(expr, "span", None) or span)
+        return None
+
+    def claim(self, name, span, what):
+        if name == "ground":
+            self.error("E202", f"'ground' is reserved and cannot name a {what}", span,
+                       "reserved name", hint="choose another name")
+            return False
+        if name in self.element_spans:
+            first = self.element_spans[name]
+            self.error("E202", f"duplicate name '{name}'", span, f"second {what} named '{name}'",
+                       hint="bodies, joints, forces and drivers share one namespace",
+                       secondary=((first, "first declared here"),) if first else ())
+            return False
+        self.element_spans[name] = span
+        return True
+
+    def point(self, expr, span, context) -> PointRef | None:
+        if not isinstance(expr, Dotted):
+            self.error("E305", f"{context}: expected a point like 'body.point'",
+                       getattr(expr, "span", None) or span, "not a point reference",
+                       hint="write e.g. 'crank.A' or 'ground.origin'")
+            return None
+        sp = expr.span or span
+        if expr.obj == "ground":
+            if expr.attr in self.ground_points:
+                return PointRef(GROUND, self.ground_points[expr.attr], expr.text)
+            self.error("E201", f"{context}: the ground has no point '{expr.attr}'", sp,
+                       "unknown point", hint=_did_you_mean(expr.attr, self.ground_points)
+                       or "declare it in a 'ground { point NAME (x, y) }' block")
+            return None
+        body = self.bodies.get(expr.obj)
+        if body is None:
+            if expr.obj not in self.broken_bodies:
+                self.error("E201", f"{context}: unknown body '{expr.obj}'", sp, "no body with this name",
+                           hint=_did_you_mean(expr.obj, list(self.bodies) + ["ground"]))
+            return None
+        if expr.attr not in body.points:
+            self.error("E201", f"{context}: body '{body.name}' has no point '{expr.attr}'", sp,
+                       "unknown point", hint=_did_you_mean(expr.attr, body.points)
+                       or f"its points are {', '.join(sorted(body.points))}")
+            return None
+        return PointRef(body.index, body.points[expr.attr], expr.text)
+
+    def vector(self, vec, span, context):
+        if not isinstance(vec, Vec):
+            self.error("E305", f"{context}: expected a vector '(x, y)'",
+                       getattr(vec, "span", None) or span, "not a vector")
+            return None
+        x = self.number(vec.x, span, context)
+        y = self.number(vec.y, span, context)
+        if x is None or y is None:
+            return None
+        return np.array([x, y])
+
+    def split_args(self, el, allowed: dict, n_positional: int, context: str):
+        """Positional args (list) and keyword values (dict of ArgSpec)."""
+        pos, kw = [], {}
+        for a in el.args:
+            if a.keyword is None:
+                if kw:
+                    self.error("E305", f"{context}: a positional argument after keyword arguments",
+                               a.span or el.span, "move it before the keywords")
+                pos.append(a)
+            elif a.keyword not in allowed:
+                self.error("E304", f"{context}: unknown option '{a.keyword}'", a.span or el.span,
+                           "unknown option", hint=_did_you_mean(a.keyword, allowed)
+                           or (f"options are {', '.join(allowed)}" if allowed else
+                               "this element takes no options"))
+            elif a.keyword in kw:
+                self.error("E202", f"{context}: option '{a.keyword}' given twice",
+                           a.span or el.span, "repeated option")
+            else:
+                kw[a.keyword] = a
+        if len(pos) != n_positional:
+            self.error("E305", f"{context}: expected {n_positional} positional argument"
+                       f"{'s' if n_positional != 1 else ''}, got {len(pos)}",
+                       el.kind_span or el.span, "wrong number of arguments")
+            return None, kw
+        for name, default in allowed.items():
+            if default is None and name not in kw:
+                self.error("E304", f"{context}: missing option '{name}'",
+                           el.kind_span or el.span, f"'{name} = ...' is required")
+        return pos, kw
+
+    # -- passes ---------------------------------------------------------------
+    def check_parameters(self):
+        spans = {}
+        for p in self.spec.parameters:
+            if p.name in spans:
+                self.error("E202", f"duplicate parameter '{p.name}'", p.span,
+                           "declared again", secondary=((spans[p.name], "first declared here"),)
+                           if spans[p.name] else ())
+                continue
+            spans[p.name] = p.span
+            if p.name in ("t", "pi"):
+                self.error("E202", f"'{p.name}' is reserved and cannot be a parameter", p.span,
+                           "reserved name")
+                continue
+            if p.name in self.overrides:
+                value = self.overrides.pop(p.name)
+                if isinstance(value, str):
+                    from .expressions import as_expr
+                    try:
+                        value = evaluate(as_expr(value), self.params)
+                    except ExprError as err:
+                        self.error("E301", f"--set {p.name}={value}: {err}", None)
+                        continue
+                    except Exception as exc:  # noqa: BLE001 - MbdSyntaxError of the override text
+                        self.error("E301", f"--set {p.name}={value}: not a valid expression ({exc})", None)
+                        continue
+                value = float(value)
+                if not math.isfinite(value):
+                    self.error("E301", f"--set {p.name}: the value is not finite", None)
+                    continue
+                self.params[p.name] = value
+                continue
+            v = self.number(p.value, p.span, f"parameter '{p.name}'")
+            if v is not None:
+                self.params[p.name] = v
+        for name in self.overrides:
+            self.error("E201", f"--set {name}: the model has no parameter '{name}'", None,
+                       hint=_did_you_mean(name, spans) or
+                       f"its parameters are {', '.join(spans) or '(none)'}")
+
+    def check_ground(self):
+        for p in self.spec.ground_points:
+            if p.name in self.ground_points:
+                self.error("E202", f"duplicate ground point '{p.name}'", p.span, "declared again")
+                continue
+            v = self.vector(p.position, p.span, f"ground point '{p.name}'")
+            if v is not None:
+                self.ground_points[p.name] = v
+
+    def check_bodies(self):
+        self.broken_bodies = set()
+        for b in self.spec.bodies:
+            if not self.claim(b.name, b.span, "body"):
+                continue
+            props = {}
+            for prop in b.properties:
+                if prop.name not in ("mass", "inertia"):
+                    self.error("E304", f"body '{b.name}': unknown property '{prop.name}'", prop.span,
+                               "unknown property",
+                               hint=_did_you_mean(prop.name, ["mass", "inertia", "point"])
+                               or "a rigid body has 'mass', 'inertia' and 'point' lines")
+                    continue
+                if prop.name in props:
+                    self.error("E202", f"body '{b.name}': '{prop.name}' given twice", prop.span,
+                               "given again")
+                    continue
+                props[prop.name] = prop
+            values = {}
+            for key, unit in (("mass", "kg"), ("inertia", "kg m^2")):
+                if key not in props:
+                    self.error("E302", f"body '{b.name}' has no {key}", b.span, f"{key} missing",
+                               hint=f"add '{key} VALUE' [{unit}]; there is no default")
+                    continue
+                v = self.number(props[key].value, props[key].span, f"{key} of body '{b.name}'")
+                if v is None:
+                    continue
+                if v <= 0:
+                    self.error("E303", f"the {key} of body '{b.name}' must be positive, got {v:g} {unit}",
+                               getattr(props[key].value, "span", None) or props[key].span,
+                               "not positive", hint=f"a rigid body has positive {key}")
+                    continue
+                values[key] = v
+            points = {"cm": np.zeros(2)}
+            for p in b.points:
+                if p.name in points:
+                    self.error("E202", f"body '{b.name}': duplicate point '{p.name}'", p.span,
+                               "declared again" if p.name != "cm" else "'cm' is the centre of mass, always defined")
+                    continue
+                v = self.vector(p.position, p.span, f"point '{b.name}.{p.name}'")
+                if v is not None:
+                    points[p.name] = v
+            if len(values) == 2:
+                self.bodies[b.name] = RigidBody(b.name, len(self.bodies), values["mass"],
+                                                values["inertia"], points, b.span)
+            else:
+                self.broken_bodies.add(b.name)
+
+    def check_joints(self):
+        for j in self.spec.joints:
+            ok = self.claim(j.name, j.span, "joint")
+            ctx = f"joint '{j.name}'"
+            if j.kind not in JOINT_KINDS:
+                self.error("E205", f"{ctx}: unknown joint type '{j.kind}'", j.kind_span or j.span,
+                           "unknown joint type", hint=_did_you_mean(j.kind, JOINT_KINDS)
+                           or f"joint types are {', '.join(JOINT_KINDS)}")
+                continue
+            npos, allowed, rows = JOINT_KINDS[j.kind]
+            pos, kw = self.split_args(j, allowed, npos, ctx)
+            if pos is None:
+                continue
+            first = self.point(pos[0].value, pos[0].span or j.span, ctx)
+            second = self.point(pos[1].value, pos[1].span or j.span, ctx)
+            direction, angle = None, 0.0
+            if "direction" in kw:
+                direction = self.vector(kw["direction"].value, kw["direction"].span, ctx)
+                if direction is not None:
+                    norm = float(np.hypot(*direction))
+                    if norm == 0.0 or not math.isfinite(norm):
+                        self.error("E306", f"{ctx}: the direction must be a non-zero vector",
+                                   kw["direction"].span, "zero direction")
+                        direction = None
+                    else:
+                        direction = direction / norm
+                if direction is None:
+                    continue
+            if "angle" in kw:
+                angle = self.number(kw["angle"].value, kw["angle"].span, ctx)
+                if angle is None:
+                    continue
+            if first is None or second is None or not ok:
+                continue
+            if first.body == second.body:
+                what = "the ground" if first.body == GROUND else f"body '{pos[0].value.obj}'"
+                self.error("E402", f"{ctx} connects {what} to itself", j.span,
+                           "both points on one body",
+                           hint="a joint connects two different bodies")
+                continue
+            self.joints[j.name] = Joint(j.name, j.kind, first, second, direction, angle,
+                                        rows, j.span)
+
+    def check_drivers(self):
+        self.drivers = []
+        for d in self.spec.drivers:
+            ok = self.claim(d.name, d.span, "driver")
+            ctx = f"driver '{d.name}'"
+            fn = self.time_function(d.value, d.span, ctx)
+            tgt = d.target
+            if tgt.obj in self.joints:
+                if tgt.attr != "angle":
+                    self.error("E201", f"{ctx}: a joint can only be driven by its 'angle'",
+                               tgt.span or d.span, "unknown joint quantity",
+                               hint=f"write '{tgt.obj}.angle'")
+                    continue
+                if ok and fn:
+                    self.drivers.append(Driver(d.name, "joint_angle", fn,
+                                               joint=self.joints[tgt.obj], span=d.span))
+                continue
+            body = self.bodies.get(tgt.obj)
+            if body is None:
+                if tgt.obj not in self.broken_bodies and tgt.obj not in self.element_spans:
+                    self.error("E201", f"{ctx}: unknown body or joint '{tgt.obj}'", tgt.span or d.span,
+                               "not declared",
+                               hint=_did_you_mean(tgt.obj, list(self.bodies) + list(self.joints)))
+                continue
+            if tgt.attr not in COORDINATES:
+                self.error("E201", f"{ctx}: '{tgt.attr}' is not a coordinate", tgt.span or d.span,
+                           "unknown coordinate", hint=_did_you_mean(tgt.attr, COORDINATES)
+                           or "a body is driven by its x, y or phi")
+                continue
+            if ok and fn:
+                self.drivers.append(Driver(d.name, "coordinate", fn, body=body.index,
+                                           coord=COORDINATES.index(tgt.attr), span=d.span))
+
+    def check_forces(self):
+        self.forces = []
+        for f in self.spec.forces:
+            ok = self.claim(f.name, f.span, "force")
+            ctx = f"force '{f.name}'"
+            if f.kind not in FORCE_KINDS:
+                self.error("E205", f"{ctx}: unknown force type '{f.kind}'", f.kind_span or f.span,
+                           "unknown force type", hint=_did_you_mean(f.kind, FORCE_KINDS)
+                           or f"force types are {', '.join(FORCE_KINDS)}")
+                continue
+            allowed = FORCE_KINDS[f.kind]
+            npos = {"spring_damper": 2, "rotational_spring_damper": 1, "torque": 2, "force": 2}[f.kind]
+            pos, kw = self.split_args(f, allowed, npos, ctx)
+            if pos is None:
+                continue
+            opts = {}
+            for name, default in allowed.items():
+                if name in kw:
+                    v = self.number(kw[name].value, kw[name].span, ctx)
+                    if v is None:
+                        break
+                    if name in ("k", "c") and v < 0:
+                        self.error("E303", f"{ctx}: '{name}' must not be negative, got {v:g}",
+                                   kw[name].span, "negative",
+                                   hint="a negative stiffness or damping feeds energy in")
+                        break
+                    if name == "length" and v < 0:
+                        self.error("E303", f"{ctx}: the free length must not be negative, got {v:g} m",
+                                   kw[name].span, "negative length")
+                        break
+                    opts[name] = v
+                elif default is not None:
+                    opts[name] = default
+                else:
+                    break
+            else:
+                el = self.force_element(f, pos, opts, ctx)
+                if el is not None and ok:
+                    self.forces.append(el)
+
+    def force_element(self, f, pos, opts, ctx):
+        if f.kind == "spring_damper":
+            a = self.point(pos[0].value, pos[0].span or f.span, ctx)
+            b = self.point(pos[1].value, pos[1].span or f.span, ctx)
+            if a is None or b is None:
+                return None
+            if a.body == b.body:
+                self.error("E402", f"{ctx} connects a body to itself", f.span, "no effect",
+                           hint="a spring-damper acts between two different bodies")
+                return None
+            return SpringDamper(f.name, a, b, opts["k"], opts["c"], opts["length"], f.span)
+        if f.kind == "rotational_spring_damper":
+            ref = pos[0].value
+            if not isinstance(ref, Name) or ref.name not in self.joints:
+                name = ref.name if isinstance(ref, Name) else "?"
+                if not (isinstance(ref, Name) and name in self.element_spans):
+                    self.error("E201", f"{ctx}: expected the name of a joint, got '{name}'",
+                               getattr(ref, "span", None) or f.span, "not a joint",
+                               hint=_did_you_mean(name, self.joints))
+                return None
+            return RotationalSpringDamper(f.name, self.joints[ref.name], opts["k"], opts["c"],
+                                          opts["angle"], f.span)
+        if f.kind == "torque":
+            ref = pos[0].value
+            if not isinstance(ref, Name) or ref.name not in self.bodies:
+                name = ref.name if isinstance(ref, Name) else "?"
+                if name not in self.broken_bodies:
+                    self.error("E201", f"{ctx}: expected the name of a body, got '{name}'",
+                               getattr(ref, "span", None) or f.span, "not a body",
+                               hint=_did_you_mean(name, self.bodies))
+                return None
+            fn = self.time_function(pos[1].value, pos[1].span or f.span, ctx)
+            return Torque(f.name, self.bodies[ref.name].index, fn, f.span) if fn else None
+        # point force
+        p = self.point(pos[0].value, pos[0].span or f.span, ctx)
+        vec = pos[1].value
+        if not isinstance(vec, Vec):
+            self.error("E305", f"{ctx}: expected the force as a vector '(fx, fy)'",
+                       pos[1].span or f.span, "not a vector")
+            return None
+        fx = self.time_function(vec.x, pos[1].span or f.span, ctx)
+        fy = self.time_function(vec.y, pos[1].span or f.span, ctx)
+        if p is None or fx is None or fy is None:
+            return None
+        if p.body == GROUND:
+            self.error("E402", f"{ctx} acts on the ground", f.span, "no effect",
+                       hint="apply the force to a moving body")
+            return None
+        return PointForce(f.name, p, fx, fy, f.span)
+
+    def check_gravity(self):
+        if self.spec.gravity is None:
+            return None
+        return self.vector(self.spec.gravity, self.spec.gravity_span, "gravity")
+
+    def check_initials(self):
+        self.initials = []
+        seen = {}
+        for ic in self.spec.initials:
+            tgt = ic.target
+            kw = "guess" if ic.guess else "initial"
+            body = self.bodies.get(tgt.obj)
+            if body is None:
+                if tgt.obj not in self.broken_bodies:
+                    self.error("E201", f"{kw}: unknown body '{tgt.obj}'", tgt.span or ic.span,
+                               "no body with this name",
+                               hint=_did_you_mean(tgt.obj, self.bodies))
+                continue
+            if tgt.attr not in COORDINATES + VELOCITIES:
+                self.error("E502", f"{kw}: '{tgt.attr}' is not a coordinate or velocity of a body",
+                           tgt.span or ic.span, "unknown field",
+                           hint=_did_you_mean(tgt.attr, COORDINATES + VELOCITIES)
+                           or "use x, y, phi, vx, vy or omega")
+                continue
+            key = (tgt.obj, tgt.attr)
+            if key in seen:
+                self.error("E502", f"{kw}: '{tgt.text}' is given twice", ic.span, "given again",
+                           secondary=((seen[key], "first given here"),) if seen[key] else ())
+                continue
+            seen[key] = ic.span
+            v = self.number(ic.value, ic.span, f"{kw} {tgt.text}")
+            if v is not None:
+                self.initials.append(InitialCondition(body.index, tgt.attr, v, ic.guess, ic.span))
+
+    def check_settings(self):
+        self.settings = {}
+        for s in self.spec.settings:
+            if s.name in self.settings:
+                self.error("E202", f"simulate: '{s.name}' is given twice", s.span, "given again")
+                continue
+            if s.name == "method":
+                if s.value not in KNOWN_METHODS:
+                    self.error("E206", f"simulate: unknown method '{s.value}'", s.span,
+                               "unknown method", hint=_did_you_mean(s.value, KNOWN_METHODS)
+                               or f"methods are {', '.join(KNOWN_METHODS)}")
+                    continue
+                self.settings["method"] = s.value
+                continue
+            if s.name not in SETTINGS:
+                self.error("E304", f"simulate: unknown setting '{s.name}'", s.span, "unknown setting",
+                           hint=_did_you_mean(s.name, list(SETTINGS) + ["method"])
+                           or f"settings are method, {', '.join(SETTINGS)}")
+                continue
+            v = self.number(s.value, s.span, f"simulate: {s.name}")
+            if v is None:
+                continue
+            if SETTINGS[s.name] and v <= 0:
+                self.error("E303", f"simulate: '{s.name}' must be positive, got {v:g}",
+                           getattr(s.value, "span", None) or s.span, "not positive")
+                continue
+            self.settings[s.name] = v
+
+    def check_structure(self, model: Model):
+        n, m = model.n_coordinates, model.n_constraints
+        dof = n - m
+        if dof < 0:
+            self.error("E401", f"the model is over-constrained: {n} coordinates but {m} "
+                       f"constraint equations (DOF by count = {dof})", self.spec.span,
+                       "over-constrained", hint="remove a joint or driver, or use a joint with "
+                       "fewer equations (e.g. point_on_line instead of revolute)",
+                       notes=tuple(f"joint '{j.name}' ({j.kind}): {j.rows} equations"
+                                   for j in model.joints))
+        for body_index in graph.bodies_not_connected_to_ground(model):
+            b = model.bodies[body_index]
+            self.warning("W401", f"body '{b.name}' is not connected to the ground by joints",
+                         b.span, "floats freely",
+                         hint="that is fine for a free body; otherwise add a joint")
+        pos = [ic for ic in model.initials if not ic.guess and not ic.is_velocity]
+        vel = [ic for ic in model.initials if not ic.guess and ic.is_velocity]
+        for kind, ics in (("position", pos), ("velocity", vel)):
+            if dof >= 0 and len(ics) > dof:
+                extra = ics[dof]
+                self.error("E501", f"{len(ics)} initial {kind} conditions fix more than the "
+                           f"{dof} degree{'s' if dof != 1 else ''} of freedom allow", extra.span,
+                           "one too many", hint="turn some into 'guess' lines: the assembly then "
+                           "computes them from the joints")
+
+
+def check_spec(spec: ModelSpec, overrides: dict | None = None) -> Model:
+    """Check a model specification and resolve it into a :class:`Model`.
+
+    Parameters
+    ----------
+    spec : ModelSpec
+        As parsed (``parse_text``) or built in Python.
+    overrides : dict of str -> float or str, optional
+        Parameter values replacing the declared ones (``--set``).
+
+    Returns
+    -------
+    Model
+        With any warnings in ``model.warnings``.
+
+    Raises
+    ------
+    MbdModelError
+        Carrying every diagnostic (errors and warnings) when there is at
+        least one error.
+    """
+    c = _Checker(spec, overrides)
+    c.check_parameters()
+    c.check_ground()
+    c.check_bodies()
+    gravity = c.check_gravity()
+    c.check_joints()
+    c.check_drivers()
+    c.check_forces()
+    c.check_initials()
+    c.check_settings()
+    source = spec.source or ""
+    model = Model(
+        name=spec.name, bodies=tuple(c.bodies.values()), ground_points=c.ground_points,
+        joints=tuple(c.joints.values()), drivers=tuple(c.drivers), forces=tuple(c.forces),
+        gravity=gravity, initials=tuple(c.initials), settings=c.settings,
+        parameters=dict(c.params), file=spec.file, source=spec.source,
+        sha256=hashlib.sha256(source.encode()).hexdigest() if spec.source else "")
+    if not any(d.is_error for d in c.diags):
+        c.check_structure(model)
+    if any(d.is_error for d in c.diags):
+        errors = [d for d in c.diags if d.is_error]
+        raise MbdModelError(f"{len(errors)} error{'s' if len(errors) != 1 else ''} in "
+                            f"{spec.file}", c.diags)
+    return Model(**{**model.__dict__, "warnings": tuple(c.diags)})

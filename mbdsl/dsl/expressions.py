@@ -1,0 +1,450 @@
+"""Whitelisted arithmetic expressions: evaluation, time derivatives, compilation.
+
+Parameter values, body data and time functions in a model file are small
+expression trees (never Python ``eval``). The allowed vocabulary is
+``+ - * / ^``, parentheses, numbers, declared parameters, ``pi``, ``t`` (only
+where a function of time is allowed) and the functions in :data:`FUNCTIONS`.
+
+Rheonomic constraints need Phi_t and Phi_tt, so a time function f(t) is
+differentiated symbolically here (:func:`diff`) rather than by finite
+differences: the derivatives are exact.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable, Union
+
+from ..errors import Span
+
+__all__ = [
+    "Num", "Name", "Dotted", "Unary", "Binary", "Call", "Vec", "Expr",
+    "FUNCTIONS", "ExprError", "evaluate", "free_names", "substitute", "diff",
+    "simplify", "compile_function", "as_expr",
+]
+
+
+@dataclass(frozen=True)
+class Num:
+    """A number literal."""
+
+    value: float
+    span: Span | None = None
+
+
+@dataclass(frozen=True)
+class Name:
+    """A reference to a parameter, ``pi`` or ``t``."""
+
+    name: str
+    span: Span | None = None
+
+
+@dataclass(frozen=True)
+class Dotted:
+    """``body.point`` (or ``joint.angle``): a reference, not a number."""
+
+    obj: str
+    attr: str
+    span: Span | None = None
+
+    @property
+    def text(self) -> str:
+        """The reference as written, e.g. ``"crank.O"``."""
+        return f"{self.obj}.{self.attr}"
+
+
+@dataclass(frozen=True)
+class Unary:
+    """``-x``."""
+
+    op: str
+    operand: "Expr"
+    span: Span | None = None
+
+
+@dataclass(frozen=True)
+class Binary:
+    """``a op b`` with op in ``+ - * / ^``."""
+
+    op: str
+    left: "Expr"
+    right: "Expr"
+    span: Span | None = None
+
+
+@dataclass(frozen=True)
+class Call:
+    """``f(x)`` for f in :data:`FUNCTIONS`."""
+
+    func: str
+    arg: "Expr"
+    span: Span | None = None
+
+
+@dataclass(frozen=True)
+class Vec:
+    """A planar vector ``(x, y)`` of two expressions."""
+
+    x: "Expr"
+    y: "Expr"
+    span: Span | None = None
+
+
+Expr = Union[Num, Name, Dotted, Unary, Binary, Call]
+
+#: Functions an expression may call, with their derivative as an expression builder.
+FUNCTIONS: dict[str, Callable[[float], float]] = {
+    "sin": math.sin, "cos": math.cos, "tan": math.tan,
+    "asin": math.asin, "acos": math.acos, "atan": math.atan,
+    "sinh": math.sinh, "cosh": math.cosh, "tanh": math.tanh,
+    "sqrt": math.sqrt, "exp": math.exp, "log": math.log, "abs": abs,
+}
+
+CONSTANTS = {"pi": math.pi}
+
+
+class ExprError(ValueError):
+    """An expression cannot be evaluated (unknown name, domain error, ...).
+
+    Attributes
+    ----------
+    code : str
+        Diagnostic code (E201 unknown name, E203 unknown function,
+        E204 time not allowed, E301 domain error or non-finite value).
+    span : Span or None
+    hint : str
+    name : str
+        The offending name, if any.
+    """
+
+    def __init__(self, message, code, span=None, hint="", name=""):
+        super().__init__(message)
+        self.code, self.span, self.hint, self.name = code, span, hint, name
+
+
+def as_expr(value) -> Expr:
+    """Turn a number, an expression string or an Expr into an Expr.
+
+    Used by the Python API so that model objects can be built with plain
+    numbers (``mass=3.0``) or text (``inertia="m1*L1^2/12"``).
+
+    Raises
+    ------
+    MbdSyntaxError
+        If a string is not a valid expression.
+    """
+    if isinstance(value, (Num, Name, Dotted, Unary, Binary, Call)):
+        return value
+    if isinstance(value, bool):
+        raise TypeError("a boolean is not an expression")
+    if isinstance(value, (int, float)):
+        return Num(float(value))
+    if isinstance(value, str):
+        from .parser import parse_expression
+        return parse_expression(value)
+    raise TypeError(f"cannot make an expression from {type(value).__name__}")
+
+
+def _apply(op: str, a: float, b: float, span) -> float:
+    try:
+        if op == "+":
+            r = a + b
+        elif op == "-":
+            r = a - b
+        elif op == "*":
+            r = a * b
+        elif op == "/":
+            if b == 0.0:
+                raise ExprError("division by zero", "E301", span,
+                                "check the divisor's parameters")
+            r = a / b
+        else:
+            r = math.pow(a, b)
+    except (OverflowError, ValueError) as exc:
+        raise ExprError(f"cannot evaluate '{op}': {exc}", "E301", span) from None
+    return r
+
+
+def evaluate(expr: Expr, env: dict[str, float], allow_t: bool = False,
+             t: float = 0.0) -> float:
+    """Evaluate an expression to a float.
+
+    Parameters
+    ----------
+    expr : Expr
+    env : dict
+        Parameter values by name.
+    allow_t : bool
+        Whether the time ``t`` [s] may appear.
+    t : float
+        Value of ``t`` when allowed.
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    ExprError
+        Unknown name or function, ``t`` where it is not allowed, a domain
+        error (``sqrt(-1)``, division by zero) or a non-finite result.
+    """
+    def ev(e):
+        if isinstance(e, Num):
+            return e.value
+        if isinstance(e, Name):
+            if e.name in env:
+                return env[e.name]
+            if e.name in CONSTANTS:
+                return CONSTANTS[e.name]
+            if e.name == "t":
+                if allow_t:
+                    return t
+                raise ExprError("time 't' cannot appear here", "E204", e.span,
+                                "only drivers, torques and forces may depend on time",
+                                name="t")
+            raise ExprError(f"unknown name '{e.name}'", "E201", e.span, name=e.name)
+        if isinstance(e, Dotted):
+            raise ExprError(f"'{e.text}' is a reference, not a number", "E301", e.span,
+                            "a number or an expression of parameters is expected here")
+        if isinstance(e, Unary):
+            return -ev(e.operand)
+        if isinstance(e, Binary):
+            return _apply(e.op, ev(e.left), ev(e.right), e.span)
+        if isinstance(e, Call):
+            f = FUNCTIONS.get(e.func)
+            if f is None:
+                raise ExprError(f"unknown function '{e.func}'", "E203", e.span,
+                                name=e.func)
+            x = ev(e.arg)
+            try:
+                return f(x)
+            except (ValueError, OverflowError) as exc:
+                raise ExprError(f"{e.func}({x:g}) is not defined ({exc})", "E301",
+                                e.span) from None
+        raise TypeError(f"not an expression: {e!r}")
+
+    value = ev(expr)
+    if not math.isfinite(value):
+        raise ExprError(f"the value is not finite ({value})", "E301",
+                        getattr(expr, "span", None))
+    return float(value)
+
+
+def free_names(expr: Expr) -> set[str]:
+    """Names an expression refers to (parameters, ``t``, ``pi``)."""
+    if isinstance(expr, Name):
+        return {expr.name}
+    if isinstance(expr, Unary):
+        return free_names(expr.operand)
+    if isinstance(expr, Binary):
+        return free_names(expr.left) | free_names(expr.right)
+    if isinstance(expr, Call):
+        return free_names(expr.arg)
+    return set()
+
+
+def substitute(expr: Expr, env: dict[str, float]) -> Expr:
+    """Replace parameters (and ``pi``) by their values, keeping ``t``.
+
+    Raises
+    ------
+    ExprError
+        For names that are neither parameters, ``pi`` nor ``t``, and
+        unknown functions.
+    """
+    if isinstance(expr, Name):
+        if expr.name == "t":
+            return expr
+        if expr.name in env:
+            return Num(env[expr.name], expr.span)
+        if expr.name in CONSTANTS:
+            return Num(CONSTANTS[expr.name], expr.span)
+        raise ExprError(f"unknown name '{expr.name}'", "E201", expr.span, name=expr.name)
+    if isinstance(expr, Unary):
+        return Unary(expr.op, substitute(expr.operand, env), expr.span)
+    if isinstance(expr, Binary):
+        return Binary(expr.op, substitute(expr.left, env), substitute(expr.right, env),
+                      expr.span)
+    if isinstance(expr, Call):
+        if expr.func not in FUNCTIONS:
+            raise ExprError(f"unknown function '{expr.func}'", "E203", expr.span,
+                            name=expr.func)
+        return Call(expr.func, substitute(expr.arg, env), expr.span)
+    if isinstance(expr, Dotted):
+        raise ExprError(f"'{expr.text}' is a reference, not a number", "E301", expr.span)
+    return expr
+
+
+def _n(v: float) -> Num:
+    return Num(float(v))
+
+
+def _is(e: Expr, v: float) -> bool:
+    return isinstance(e, Num) and e.value == v
+
+
+def simplify(e: Expr) -> Expr:
+    """Fold constant subtrees and drop the neutral elements 0 and 1."""
+    if isinstance(e, Unary):
+        x = simplify(e.operand)
+        if isinstance(x, Num):
+            return _n(-x.value)
+        return Unary("-", x)
+    if isinstance(e, Call):
+        x = simplify(e.arg)
+        if isinstance(x, Num):
+            try:
+                return _n(FUNCTIONS[e.func](x.value))
+            except (ValueError, OverflowError):
+                return Call(e.func, x, e.span)
+        return Call(e.func, x, e.span)
+    if isinstance(e, Binary):
+        a, b = simplify(e.left), simplify(e.right)
+        if isinstance(a, Num) and isinstance(b, Num):
+            try:
+                return _n(_apply(e.op, a.value, b.value, None))
+            except ExprError:
+                return Binary(e.op, a, b, e.span)
+        if e.op == "+":
+            if _is(a, 0):
+                return b
+            if _is(b, 0):
+                return a
+        if e.op == "-":
+            if _is(b, 0):
+                return a
+            if _is(a, 0):
+                return Unary("-", b)
+        if e.op == "*":
+            if _is(a, 0) or _is(b, 0):
+                return _n(0)
+            if _is(a, 1):
+                return b
+            if _is(b, 1):
+                return a
+        if e.op == "/":
+            if _is(a, 0):
+                return _n(0)
+            if _is(b, 1):
+                return a
+        if e.op == "^":
+            if _is(b, 0):
+                return _n(1)
+            if _is(b, 1):
+                return a
+        return Binary(e.op, a, b, e.span)
+    return e
+
+
+def _b(op, a, b):
+    return Binary(op, a, b)
+
+
+def diff(e: Expr, var: str = "t") -> Expr:
+    """Symbolic derivative of an expression with respect to ``var``.
+
+    Parameters must have been substituted first (:func:`substitute`), so
+    every :class:`Name` left is ``var``. The result is simplified.
+
+    Raises
+    ------
+    ExprError
+        ``abs`` at a kink is handled by sign(x) (its derivative almost
+        everywhere); a non-constant exponent uses the general power rule.
+    """
+    def d(e):
+        if isinstance(e, Num):
+            return _n(0)
+        if isinstance(e, Name):
+            return _n(1) if e.name == var else _n(0)
+        if isinstance(e, Unary):
+            return Unary("-", d(e.operand))
+        if isinstance(e, Binary):
+            a, b = e.left, e.right
+            da, db = d(a), d(b)
+            if e.op in "+-":
+                return _b(e.op, da, db)
+            if e.op == "*":
+                return _b("+", _b("*", da, b), _b("*", a, db))
+            if e.op == "/":
+                return _b("/", _b("-", _b("*", da, b), _b("*", a, db)), _b("^", b, _n(2)))
+            # power: d(a^b) = b a^(b-1) da + a^b log(a) db
+            term1 = _b("*", _b("*", b, _b("^", a, _b("-", b, _n(1)))), da)
+            if _is(simplify(db), 0):
+                return term1
+            return _b("+", term1, _b("*", _b("*", e, Call("log", a)), db))
+        if isinstance(e, Call):
+            x, dx = e.arg, d(e.arg)
+            f = e.func
+            if f == "sin":
+                g = Call("cos", x)
+            elif f == "cos":
+                g = Unary("-", Call("sin", x))
+            elif f == "tan":
+                g = _b("+", _n(1), _b("^", Call("tan", x), _n(2)))
+            elif f == "asin":
+                g = _b("/", _n(1), Call("sqrt", _b("-", _n(1), _b("^", x, _n(2)))))
+            elif f == "acos":
+                g = Unary("-", _b("/", _n(1), Call("sqrt", _b("-", _n(1), _b("^", x, _n(2))))))
+            elif f == "atan":
+                g = _b("/", _n(1), _b("+", _n(1), _b("^", x, _n(2))))
+            elif f == "sinh":
+                g = Call("cosh", x)
+            elif f == "cosh":
+                g = Call("sinh", x)
+            elif f == "tanh":
+                g = _b("-", _n(1), _b("^", Call("tanh", x), _n(2)))
+            elif f == "sqrt":
+                g = _b("/", _n(0.5), Call("sqrt", x))
+            elif f == "exp":
+                g = Call("exp", x)
+            elif f == "log":
+                g = _b("/", _n(1), x)
+            elif f == "abs":
+                g = _b("/", x, Call("abs", x))  # sign(x), defined for x != 0
+            else:
+                raise ExprError(f"unknown function '{f}'", "E203", e.span, name=f)
+            return _b("*", g, dx)
+        raise TypeError(f"cannot differentiate {e!r}")
+
+    return simplify(d(e))
+
+
+def compile_function(e: Expr, var: str = "t") -> Callable[[float], float]:
+    """Compile a substituted expression of one variable into a fast closure.
+
+    Constant subtrees are folded once, so a constant torque costs one
+    Python call per evaluation.
+    """
+    e = simplify(e)
+
+    def c(e):
+        if isinstance(e, Num):
+            v = e.value
+            return lambda t: v
+        if isinstance(e, Name):
+            return lambda t: t
+        if isinstance(e, Unary):
+            f = c(e.operand)
+            return lambda t: -f(t)
+        if isinstance(e, Binary):
+            fa, fb = c(e.left), c(e.right)
+            op = e.op
+            if op == "+":
+                return lambda t: fa(t) + fb(t)
+            if op == "-":
+                return lambda t: fa(t) - fb(t)
+            if op == "*":
+                return lambda t: fa(t) * fb(t)
+            if op == "/":
+                return lambda t: fa(t) / fb(t)
+            return lambda t: fa(t) ** fb(t)
+        if isinstance(e, Call):
+            fn, fx = FUNCTIONS[e.func], c(e.arg)
+            return lambda t: fn(fx(t))
+        raise TypeError(f"cannot compile {e!r}")
+
+    return c(e)

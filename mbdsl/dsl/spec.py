@@ -1,0 +1,262 @@
+"""Model specification: the frozen objects the parser produces.
+
+A :class:`ModelSpec` is the model as written, before any meaning is given to
+it: names are not resolved and expressions are not evaluated. The same objects
+can be built from Python (plain numbers and strings are accepted wherever an
+expression is expected) and are checked by :func:`mbdsl.dsl.check.check_spec`
+exactly as parsed files are.
+
+Example
+-------
+>>> from mbdsl.dsl.spec import ModelSpec, BodySpec, JointSpec, InitialSpec
+>>> spec = ModelSpec(
+...     name="pendulum", gravity=(0, -9.81),
+...     bodies=[BodySpec.rigid("rod", mass=1.0, inertia="1/12",
+...                            points={"O": (-0.5, 0)})],
+...     joints=[JointSpec("O", "revolute", ["ground.origin", "rod.O"])],
+...     initials=[InitialSpec("rod.phi", "-pi/4")])
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from ..errors import Span
+from .expressions import Dotted, Expr, Vec, as_expr
+
+__all__ = [
+    "ParameterSpec", "PointSpec", "PropertySpec", "BodySpec", "ArgSpec",
+    "JointSpec", "ForceSpec", "DriverSpec", "InitialSpec", "SettingSpec",
+    "ModelSpec",
+]
+
+
+def _vec(value) -> Vec:
+    if isinstance(value, Vec):
+        return value
+    x, y = value
+    return Vec(as_expr(x), as_expr(y))
+
+
+def _ref(value) -> Dotted:
+    if isinstance(value, Dotted):
+        return value
+    e = as_expr(value)
+    if not isinstance(e, Dotted):
+        raise ValueError(f"expected a reference like 'body.phi', got {value!r}")
+    return e
+
+
+def _set(obj, name, value):
+    object.__setattr__(obj, name, value)
+
+
+@dataclass(frozen=True)
+class ParameterSpec:
+    """``parameter NAME = expr``."""
+
+    name: str
+    value: Any
+    span: Span | None = None
+
+    def __post_init__(self):
+        _set(self, "value", as_expr(self.value))
+
+
+@dataclass(frozen=True)
+class PointSpec:
+    """``point NAME (x, y)``: a body-fixed point [m], relative to the centre
+    of mass in the body frame (or a ground point in the global frame)."""
+
+    name: str
+    position: Any
+    span: Span | None = None
+
+    def __post_init__(self):
+        _set(self, "position", _vec(self.position))
+
+
+@dataclass(frozen=True)
+class PropertySpec:
+    """``mass m1`` inside a body block: a named scalar property."""
+
+    name: str
+    value: Any
+    span: Span | None = None
+
+    def __post_init__(self):
+        _set(self, "value", as_expr(self.value))
+
+
+@dataclass(frozen=True)
+class BodySpec:
+    """``body NAME { ... }``: a rigid body with properties and points."""
+
+    name: str
+    properties: tuple = ()
+    points: tuple = ()
+    span: Span | None = None
+
+    def __post_init__(self):
+        _set(self, "properties", tuple(self.properties))
+        _set(self, "points", tuple(self.points))
+
+    @classmethod
+    def rigid(cls, name: str, mass, inertia, points: dict | None = None) -> "BodySpec":
+        """Build a rigid body from Python values.
+
+        Parameters
+        ----------
+        name : str
+        mass : float or str
+            [kg]
+        inertia : float or str
+            Centroidal moment of inertia [kg m^2].
+        points : dict of name -> (x, y), optional
+            Body-fixed points [m] relative to the centre of mass.
+        """
+        return cls(name, (PropertySpec("mass", mass), PropertySpec("inertia", inertia)),
+                   tuple(PointSpec(k, v) for k, v in (points or {}).items()))
+
+
+@dataclass(frozen=True)
+class ArgSpec:
+    """One argument of a joint or force: positional or ``keyword = value``.
+
+    ``value`` is an expression (a reference like ``crank.O`` is a
+    :class:`~mbdsl.dsl.expressions.Dotted`) or a :class:`Vec`.
+    """
+
+    value: Any
+    keyword: str | None = None
+    span: Span | None = None
+
+    def __post_init__(self):
+        v = self.value
+        if isinstance(v, (tuple, list)) and len(v) == 2:
+            v = _vec(v)
+        elif not isinstance(v, Vec):
+            v = as_expr(v)
+        _set(self, "value", v)
+
+
+def _args(args, options) -> tuple:
+    out = [a if isinstance(a, ArgSpec) else ArgSpec(a) for a in args]
+    out += [ArgSpec(v, k) for k, v in (options or {}).items()]
+    return tuple(out)
+
+
+@dataclass(frozen=True)
+class JointSpec:
+    """``joint NAME: kind(args)``; kinds: revolute, prismatic, point_on_line, fixed."""
+
+    name: str
+    kind: str
+    args: tuple = ()
+    options: dict | None = None
+    span: Span | None = None
+    kind_span: Span | None = None
+
+    def __post_init__(self):
+        _set(self, "args", _args(self.args, self.options))
+        _set(self, "options", None)
+
+
+@dataclass(frozen=True)
+class ForceSpec:
+    """``force NAME: kind(args)``; kinds: spring_damper,
+    rotational_spring_damper, torque, force."""
+
+    name: str
+    kind: str
+    args: tuple = ()
+    options: dict | None = None
+    span: Span | None = None
+    kind_span: Span | None = None
+
+    def __post_init__(self):
+        _set(self, "args", _args(self.args, self.options))
+        _set(self, "options", None)
+
+
+@dataclass(frozen=True)
+class DriverSpec:
+    """``driver NAME: body.coord = f(t)`` or ``driver NAME: joint.angle = f(t)``."""
+
+    name: str
+    target: Any
+    value: Any
+    span: Span | None = None
+
+    def __post_init__(self):
+        _set(self, "target", _ref(self.target))
+        _set(self, "value", as_expr(self.value))
+
+
+@dataclass(frozen=True)
+class InitialSpec:
+    """``initial body.coord = value`` (kept) or ``guess body.coord = value``
+    (a start value that assembly may change)."""
+
+    target: Any
+    value: Any
+    guess: bool = False
+    span: Span | None = None
+
+    def __post_init__(self):
+        _set(self, "target", _ref(self.target))
+        _set(self, "value", as_expr(self.value))
+
+
+@dataclass(frozen=True)
+class SettingSpec:
+    """A line of the ``simulate { }`` section; ``method`` holds a str."""
+
+    name: str
+    value: Any
+    span: Span | None = None
+
+    def __post_init__(self):
+        if self.name != "method":
+            _set(self, "value", as_expr(self.value))
+
+
+@dataclass(frozen=True)
+class ModelSpec:
+    """A whole model as written.
+
+    Parameters
+    ----------
+    name : str
+    parameters, ground_points, bodies, joints, forces, drivers, initials,
+    settings : sequences of the spec objects above
+    gravity : (x, y) or Vec or None
+        [m/s^2]; None means no gravity term at all.
+    file : str
+        Source file name, for diagnostics.
+    source : str or None
+        Source text, for diagnostics and the output's hash.
+    """
+
+    name: str
+    parameters: tuple = ()
+    gravity: Any = None
+    ground_points: tuple = ()
+    bodies: tuple = ()
+    joints: tuple = ()
+    forces: tuple = ()
+    drivers: tuple = ()
+    initials: tuple = ()
+    settings: tuple = ()
+    file: str = "<python>"
+    source: str | None = None
+    span: Span | None = None
+    gravity_span: Span | None = None
+
+    def __post_init__(self):
+        for f in ("parameters", "ground_points", "bodies", "joints", "forces",
+                  "drivers", "initials", "settings"):
+            _set(self, f, tuple(getattr(self, f)))
+        if self.gravity is not None:
+            _set(self, "gravity", _vec(self.gravity))

@@ -1,0 +1,192 @@
+"""Parse tree -> :class:`~mbdsl.dsl.spec.ModelSpec`.
+
+Runs as its own pass (never passed into ``Lark(...)``, which would lose
+``meta``). Methods follow the grammar's order; no name is resolved and no
+physics happens here.
+"""
+
+from __future__ import annotations
+
+from lark import Token, Transformer, v_args
+
+from ..errors import Span
+from . import spec as S
+from .expressions import Binary, Call, Dotted, Name, Num, Unary, Vec
+
+__all__ = ["ToSpec"]
+
+
+class ToSpec(Transformer):
+    """Build spec objects from a Lark tree of ``mbd.lark``.
+
+    Parameters
+    ----------
+    file : str
+        File name recorded in every :class:`~mbdsl.errors.Span`.
+    source : str
+        The text, stored on the resulting ModelSpec.
+    """
+
+    def __init__(self, file: str, source: str):
+        super().__init__()
+        self.file, self.source = file, source
+
+    def _span(self, meta) -> Span | None:
+        if getattr(meta, "empty", True):
+            return None
+        return Span(self.file, meta.line, meta.column, meta.end_line, meta.end_column)
+
+    def _tspan(self, tok: Token) -> Span:
+        return Span(self.file, tok.line, tok.column, tok.end_line, tok.end_column)
+
+    # -- 1. file and model header ------------------------------------------
+    @v_args(meta=True)
+    def start(self, meta, children):
+        header, *items = children
+        buckets = {k: [] for k in ("parameters", "ground_points", "bodies", "joints",
+                                   "forces", "drivers", "initials", "settings")}
+        gravity, gspan = None, None
+        for it in items:
+            if isinstance(it, S.ParameterSpec):
+                buckets["parameters"].append(it)
+            elif isinstance(it, tuple) and it and it[0] == "gravity":
+                gravity, gspan = it[1], it[2]
+            elif isinstance(it, tuple) and it and it[0] == "ground":
+                buckets["ground_points"].extend(it[1])
+            elif isinstance(it, S.BodySpec):
+                buckets["bodies"].append(it)
+            elif isinstance(it, S.JointSpec):
+                buckets["joints"].append(it)
+            elif isinstance(it, S.ForceSpec):
+                buckets["forces"].append(it)
+            elif isinstance(it, S.DriverSpec):
+                buckets["drivers"].append(it)
+            elif isinstance(it, S.InitialSpec):
+                buckets["initials"].append(it)
+            elif isinstance(it, list):
+                buckets["settings"].extend(it)
+        return S.ModelSpec(name=header[0], gravity=gravity, gravity_span=gspan,
+                           file=self.file, source=self.source, span=header[1],
+                           **buckets)
+
+    @v_args(meta=True)
+    def model_decl(self, meta, children):
+        return (str(children[0]), self._tspan(children[0]))
+
+    # -- 2. declarations -----------------------------------------------------
+    @v_args(meta=True)
+    def parameter_decl(self, meta, children):
+        return S.ParameterSpec(str(children[0]), children[1], self._tspan(children[0]))
+
+    @v_args(meta=True)
+    def gravity_decl(self, meta, children):
+        return ("gravity", children[0], self._span(meta))
+
+    @v_args(meta=True)
+    def ground_decl(self, meta, children):
+        return ("ground", list(children))
+
+    @v_args(meta=True)
+    def body_decl(self, meta, children):
+        name, *items = children
+        props = tuple(i for i in items if isinstance(i, S.PropertySpec))
+        points = tuple(i for i in items if isinstance(i, S.PointSpec))
+        return S.BodySpec(str(name), props, points, self._tspan(name))
+
+    @v_args(meta=True)
+    def point_decl(self, meta, children):
+        return S.PointSpec(str(children[0]), children[1], self._tspan(children[0]))
+
+    @v_args(meta=True)
+    def property(self, meta, children):
+        return S.PropertySpec(str(children[0]), children[1], self._tspan(children[0]))
+
+    @v_args(meta=True)
+    def joint_decl(self, meta, children):
+        name, kind, *args = children
+        return S.JointSpec(str(name), str(kind), tuple(args), span=self._tspan(name),
+                           kind_span=self._tspan(kind))
+
+    @v_args(meta=True)
+    def force_decl(self, meta, children):
+        name, kind, *args = children
+        return S.ForceSpec(str(name), str(kind), tuple(args), span=self._tspan(name),
+                           kind_span=self._tspan(kind))
+
+    @v_args(meta=True)
+    def keyword_arg(self, meta, children):
+        return S.ArgSpec(children[1], str(children[0]), self._span(meta))
+
+    @v_args(meta=True)
+    def positional_arg(self, meta, children):
+        return S.ArgSpec(children[0], None, self._span(meta))
+
+    @v_args(meta=True)
+    def driver_decl(self, meta, children):
+        return S.DriverSpec(str(children[0]), children[1], children[2],
+                            self._tspan(children[0]))
+
+    @v_args(meta=True)
+    def initial_decl(self, meta, children):
+        return S.InitialSpec(children[0], children[1], False, self._span(meta))
+
+    @v_args(meta=True)
+    def guess_decl(self, meta, children):
+        return S.InitialSpec(children[0], children[1], True, self._span(meta))
+
+    @v_args(meta=True)
+    def ref(self, meta, children):
+        return Dotted(str(children[0]), str(children[1]), self._span(meta))
+
+    @v_args(meta=True)
+    def simulate_decl(self, meta, children):
+        return list(children)
+
+    @v_args(meta=True)
+    def method_setting(self, meta, children):
+        return S.SettingSpec("method", str(children[0]), self._tspan(children[0]))
+
+    @v_args(meta=True)
+    def value_setting(self, meta, children):
+        return S.SettingSpec(str(children[0]), children[1], self._tspan(children[0]))
+
+    # -- 3. expressions --------------------------------------------------------
+    def expression(self, children):
+        return children[0]
+
+    @v_args(meta=True)
+    def vec(self, meta, children):
+        return Vec(children[0], children[1], self._span(meta))
+
+    def _bin(op):
+        @v_args(meta=True)
+        def method(self, meta, children):
+            return Binary(op, children[0], children[1], self._span(meta))
+        return method
+
+    add, sub, mul, div, pow = _bin("+"), _bin("-"), _bin("*"), _bin("/"), _bin("^")
+    del _bin
+
+    @v_args(meta=True)
+    def neg(self, meta, children):
+        return Unary("-", children[0], self._span(meta))
+
+    @v_args(meta=True)
+    def pos(self, meta, children):
+        return children[0]
+
+    @v_args(meta=True)
+    def number(self, meta, children):
+        return Num(float(children[0]), self._tspan(children[0]))
+
+    @v_args(meta=True)
+    def name(self, meta, children):
+        return Name(str(children[0]), self._tspan(children[0]))
+
+    @v_args(meta=True)
+    def dotted(self, meta, children):
+        return Dotted(str(children[0]), str(children[1]), self._span(meta))
+
+    @v_args(meta=True)
+    def call(self, meta, children):
+        return Call(str(children[0]), children[1], self._tspan(children[0]))

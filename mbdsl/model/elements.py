@@ -1,0 +1,320 @@
+"""Resolved model: bodies, joints, drivers and forces with numbers, not text.
+
+This is the checked model the assembly compiles. Every element keeps the
+:class:`~mbdsl.errors.Span` of its declaration so that numerical failures can
+be reported at the line that declared the element.
+
+Conventions (stated once for the whole package)
+-----------------------------------------------
+* Planar absolute coordinates: each rigid body has q_i = (x, y, phi), the
+  position [m] of its centre of mass and its angle [rad], counter-clockwise
+  positive from the global +x axis.
+* Body-fixed vectors s are given in the body frame relative to the centre of
+  mass; the global position of a point is r + A(phi) s.
+* The ground is body index ``GROUND`` (-1); it has no coordinates.
+* A joint's relative angle is phi(second body) - phi(first body).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from ..errors import Diagnostic, Span
+
+GROUND = -1
+
+__all__ = [
+    "GROUND", "RigidBody", "PointRef", "Joint", "Driver", "SpringDamper",
+    "RotationalSpringDamper", "Torque", "PointForce", "InitialCondition",
+    "TimeFunction", "Model", "COORDINATES", "VELOCITIES",
+]
+
+#: Names of a body's position coordinates, and of their rates, by index.
+COORDINATES = ("x", "y", "phi")
+VELOCITIES = ("vx", "vy", "omega")
+
+
+@dataclass(frozen=True)
+class TimeFunction:
+    """f(t) with its first two derivatives, compiled from an expression.
+
+    Attributes
+    ----------
+    f, df, ddf : callable float -> float
+        f(t), f'(t), f''(t), exact (symbolic differentiation).
+    text : str
+        The expression as written, for messages.
+    constant : bool
+        True when f does not depend on t.
+    """
+
+    f: Callable[[float], float]
+    df: Callable[[float], float]
+    ddf: Callable[[float], float]
+    text: str = ""
+    constant: bool = False
+
+
+@dataclass(frozen=True)
+class RigidBody:
+    """A rigid body.
+
+    Attributes
+    ----------
+    name : str
+    index : int
+        Position in the model's body list; its coordinates are
+        q[3*index : 3*index + 3].
+    mass : float [kg]
+    inertia : float [kg m^2]
+        Centroidal moment of inertia.
+    points : dict of str -> ndarray, shape (2,) [m]
+        Body-fixed points relative to the centre of mass; ``cm`` is (0, 0).
+    """
+
+    name: str
+    index: int
+    mass: float
+    inertia: float
+    points: dict
+    span: Span | None = None
+
+
+@dataclass(frozen=True)
+class PointRef:
+    """A point of a body (or of the ground), resolved.
+
+    Attributes
+    ----------
+    body : int
+        Body index, or GROUND.
+    local : ndarray, shape (2,) [m]
+        In the body frame (global coordinates for the ground).
+    text : str
+        As written, e.g. ``"crank.O"``.
+    """
+
+    body: int
+    local: np.ndarray
+    text: str
+
+
+@dataclass(frozen=True)
+class Joint:
+    """A kinematic joint.
+
+    Attributes
+    ----------
+    name : str
+    kind : {"revolute", "prismatic", "point_on_line", "fixed"}
+    first, second : PointRef
+        The two points as written. For ``point_on_line`` and ``prismatic``
+        the first point moves on the line through the second point.
+    direction : ndarray, shape (2,), or None
+        Unit direction of the line, in the second body's frame.
+    angle : float [rad]
+        Locked relative angle (prismatic, fixed).
+    rows : int
+        Number of constraint equations.
+    """
+
+    name: str
+    kind: str
+    first: PointRef
+    second: PointRef
+    direction: np.ndarray | None = None
+    angle: float = 0.0
+    rows: int = 2
+    span: Span | None = None
+
+    @property
+    def bodies(self) -> tuple[int, int]:
+        """(first body, second body) indices."""
+        return self.first.body, self.second.body
+
+
+@dataclass(frozen=True)
+class Driver:
+    """A prescribed motion (rheonomic constraint), one row.
+
+    ``kind == "coordinate"``: q[3*body + coord] - f(t) = 0.
+    ``kind == "joint_angle"``: phi(second) - phi(first) - f(t) = 0.
+    """
+
+    name: str
+    kind: str
+    function: TimeFunction
+    body: int = GROUND
+    coord: int = 2
+    joint: Joint | None = None
+    span: Span | None = None
+    rows: int = 1
+
+
+@dataclass(frozen=True)
+class SpringDamper:
+    """Translational spring-damper between two points.
+
+    Tension f = k (l - length) + c dl/dt acts along the line of the points,
+    pulling them together when positive.
+    """
+
+    name: str
+    first: PointRef
+    second: PointRef
+    k: float
+    c: float
+    length: float
+    span: Span | None = None
+
+
+@dataclass(frozen=True)
+class RotationalSpringDamper:
+    """Torsional spring-damper on a joint's relative angle theta.
+
+    Torque on the second body -(k (theta - angle) + c dtheta/dt), the
+    opposite on the first.
+    """
+
+    name: str
+    joint: Joint
+    k: float
+    c: float
+    angle: float
+    span: Span | None = None
+
+
+@dataclass(frozen=True)
+class Torque:
+    """A torque tau(t) [N m] on one body (counter-clockwise positive)."""
+
+    name: str
+    body: int
+    function: TimeFunction
+    span: Span | None = None
+
+
+@dataclass(frozen=True)
+class PointForce:
+    """A force (fx(t), fy(t)) [N], fixed in the global frame, at a body point."""
+
+    name: str
+    point: PointRef
+    fx: TimeFunction
+    fy: TimeFunction
+    span: Span | None = None
+
+
+@dataclass(frozen=True)
+class InitialCondition:
+    """``initial body.coord = value`` or ``guess body.coord = value``.
+
+    Attributes
+    ----------
+    body : int
+    field : str
+        One of x, y, phi (positions) or vx, vy, omega (velocities).
+    value : float [m, rad, m/s or rad/s]
+    guess : bool
+        True: a start value the assembly may change; False: kept.
+    """
+
+    body: int
+    field: str
+    value: float
+    guess: bool = False
+    span: Span | None = None
+
+    @property
+    def is_velocity(self) -> bool:
+        """True for vx, vy, omega."""
+        return self.field in VELOCITIES
+
+    @property
+    def coordinate(self) -> int:
+        """Index of the coordinate in q (or v)."""
+        names = VELOCITIES if self.is_velocity else COORDINATES
+        return 3 * self.body + names.index(self.field)
+
+
+@dataclass(frozen=True)
+class Model:
+    """A checked planar multibody model, ready to assemble.
+
+    Attributes
+    ----------
+    name : str
+    bodies : tuple of RigidBody
+    ground_points : dict of str -> ndarray, shape (2,) [m]
+    joints : tuple of Joint
+    drivers : tuple of Driver
+    forces : tuple of SpringDamper, RotationalSpringDamper, Torque, PointForce
+    gravity : ndarray, shape (2,) [m/s^2], or None
+    initials : tuple of InitialCondition
+    settings : dict
+        The ``simulate`` section: method (str), h, t_end, and method
+        parameters, as given.
+    parameters : dict of str -> float
+    file, source, sha256 : str
+        Where the model came from.
+    warnings : tuple of Diagnostic
+    """
+
+    name: str
+    bodies: tuple
+    ground_points: dict
+    joints: tuple
+    drivers: tuple
+    forces: tuple
+    gravity: np.ndarray | None
+    initials: tuple
+    settings: dict
+    parameters: dict
+    file: str = "<python>"
+    source: str | None = None
+    sha256: str = ""
+    warnings: tuple = ()
+
+    @property
+    def n_coordinates(self) -> int:
+        """n, the number of generalized coordinates."""
+        return 3 * len(self.bodies)
+
+    @property
+    def n_constraints(self) -> int:
+        """m, the number of constraint equations (joints and drivers)."""
+        return sum(j.rows for j in self.joints) + len(self.drivers)
+
+    @property
+    def dof(self) -> int:
+        """Degrees of freedom by Gruebler's count, n - m."""
+        return self.n_coordinates - self.n_constraints
+
+    def body(self, name: str) -> RigidBody:
+        """The body called ``name``.
+
+        Raises
+        ------
+        KeyError
+        """
+        for b in self.bodies:
+            if b.name == name:
+                return b
+        raise KeyError(name)
+
+    def coordinate_names(self) -> list[str]:
+        """``["crank.x", "crank.y", "crank.phi", ...]``, shape (n,)."""
+        return [f"{b.name}.{c}" for b in self.bodies for c in COORDINATES]
+
+    def velocity_names(self) -> list[str]:
+        """``["crank.vx", "crank.vy", "crank.omega", ...]``, shape (n,)."""
+        return [f"{b.name}.{c}" for b in self.bodies for c in VELOCITIES]
+
+    def constraint_names(self) -> list[tuple[str, int]]:
+        """(element name, row within element) for each constraint row, shape (m,)."""
+        out = [(j.name, k) for j in self.joints for k in range(j.rows)]
+        out += [(d.name, 0) for d in self.drivers]
+        return out
