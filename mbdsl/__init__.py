@@ -1,1 +1,131 @@
-"""mbdsl"""
+"""mbdsl: dynamics of planar multibody systems from a small declarative language.
+
+Public API
+----------
+load(path, overrides)        parse and check a ``.mbd`` file -> Model
+load_text(text, ...)         the same from a string
+from_spec(spec, overrides)   check a ModelSpec built in Python -> Model
+check(path)                  every diagnostic of a file (no exception)
+assemble(model)              -> AssembledSystem (M, Q, Phi and derivatives)
+simulate(model, method=..., h=..., t_end=..., **coefficients) -> Solution
+METHODS                      the paper's integration methods by name
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from .assembly.initial import InitialState, consistent_initial_state
+from .assembly.system import AssembledSystem, assemble
+from .dsl.check import check_spec
+from .dsl.parser import parse_file, parse_text
+from .dsl.spec import (ArgSpec, BodySpec, DriverSpec, ForceSpec, InitialSpec, JointSpec,
+                       ModelSpec, ParameterSpec, PointSpec, SettingSpec)
+from .errors import (AssemblyError, ConvergenceError, Diagnostic, MbdError, MbdModelError,
+                     MbdSyntaxError, render)
+from .integrators import METHODS, JacobianUpdate, NewtonOptions, integrate, make_method
+from .model.elements import Model
+from .solution import Solution
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "load", "load_text", "from_spec", "check", "assemble", "simulate", "METHODS",
+    "Model", "Solution", "AssembledSystem", "InitialState", "NewtonOptions", "JacobianUpdate",
+    "ModelSpec", "BodySpec", "JointSpec", "ForceSpec", "DriverSpec", "InitialSpec",
+    "ParameterSpec", "PointSpec", "SettingSpec", "ArgSpec",
+    "MbdError", "MbdSyntaxError", "MbdModelError", "AssemblyError", "ConvergenceError",
+    "Diagnostic", "render", "__version__",
+]
+
+
+def load(path, overrides: dict | None = None) -> Model:
+    """Parse and check a model file.
+
+    Parameters
+    ----------
+    path : str or Path
+    overrides : dict of str -> float or str, optional
+        Parameter values replacing the declared ones (the CLI's ``--set``).
+
+    Returns
+    -------
+    Model
+
+    Raises
+    ------
+    MbdSyntaxError, MbdModelError
+        With diagnostics (file, line, column, hint).
+    """
+    return check_spec(parse_file(path), overrides)
+
+
+def load_text(text: str, file: str = "<string>", overrides: dict | None = None) -> Model:
+    """Like :func:`load`, from model text."""
+    return check_spec(parse_text(text, file), overrides)
+
+
+def from_spec(spec: ModelSpec, overrides: dict | None = None) -> Model:
+    """Check a :class:`ModelSpec` built in Python (see :mod:`mbdsl.dsl.spec`)."""
+    return check_spec(spec, overrides)
+
+
+def check(path, overrides: dict | None = None) -> list[Diagnostic]:
+    """All diagnostics of a model file (errors and warnings); empty if clean."""
+    try:
+        return list(load(path, overrides).warnings)
+    except MbdError as err:
+        return err.diagnostics
+
+
+def simulate(model: Model, method: str | None = None, h: float | None = None,
+             t_end: float | None = None, *, newton: NewtonOptions | None = None,
+             on_failure: str = "raise", progress=None, **coefficients) -> Solution:
+    """Simulate a model.
+
+    Parameters
+    ----------
+    model : Model
+        From :func:`load` or :func:`from_spec`.
+    method : str, optional
+        A key of :data:`METHODS`; default: the model's ``simulate`` section,
+        else ``"hht-i3"``.
+    h : float [s], optional
+        Step size; default from the ``simulate`` section.
+    t_end : float [s], optional
+        End time; default from the ``simulate`` section.
+    newton : NewtonOptions, optional
+    on_failure : {"raise", "return"}
+        See :func:`mbdsl.integrators.integrate`.
+    progress : callable, optional
+        ``progress(t, h, iterations)`` after each step.
+    **coefficients
+        Method coefficients, e.g. ``alpha=-0.1``; default from the
+        ``simulate`` section.
+
+    Returns
+    -------
+    Solution
+
+    Raises
+    ------
+    ValueError
+        Missing h or t_end, unknown method, coefficient out of range.
+    AssemblyError
+        No consistent initial state.
+    ConvergenceError
+        The run could not go on (``on_failure="raise"``); carries the
+        partial solution.
+    """
+    s = model.settings
+    method = method or s.get("method", "hht-i3")
+    h = h if h is not None else s.get("h")
+    t_end = t_end if t_end is not None else s.get("t_end")
+    if h is None or t_end is None:
+        raise ValueError("give h and t_end, as arguments or in the model's simulate section")
+    params = {k: s[k] for k in ("alpha", "beta", "gamma", "b") if k in s}
+    params.update({k: v for k, v in coefficients.items() if v is not None})
+    m = make_method(method, **params)
+    system = assemble(model)
+    return integrate(system, m, float(t_end), float(h), t_start=float(s.get("t_start", 0.0)),
+                     newton=newton, on_failure=on_failure, progress=progress)

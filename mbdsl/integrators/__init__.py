@@ -1,1 +1,48 @@
-"""mbdsl.integrators"""
+"""Integration methods of Negrut, Jay & Khude, the Newton engine and the time loop.
+
+``METHODS`` maps the paper's method names to their classes; every entry
+shares one Newton loop (:mod:`.newton`) and one time loop (:mod:`.driver`).
+"""
+
+from .base import Block, Method, StepContext, StepState
+from .driver import integrate
+from .hht_i3 import HHTI3
+from .newton import JacobianUpdate, Newton, NewtonOptions, NewtonResult, NewtonStatus
+
+#: The paper's method names -> recipe classes.
+METHODS = {
+    "hht-i3": HHTI3,
+}
+
+__all__ = ["METHODS", "Method", "Block", "StepState", "StepContext", "integrate",
+           "HHTI3", "Newton", "NewtonOptions", "NewtonResult", "NewtonStatus",
+           "JacobianUpdate", "make_method"]
+
+
+def make_method(name: str, **parameters) -> Method:
+    """Construct a method by its paper name with validated coefficients.
+
+    Parameters
+    ----------
+    name : str
+        One of ``METHODS``.
+    **parameters
+        The method's coefficients (e.g. ``alpha``); None values are ignored.
+
+    Raises
+    ------
+    ValueError
+        Unknown method, a coefficient the method does not take, or one out
+        of its range (the message says why).
+    """
+    if name not in METHODS:
+        raise ValueError(f"unknown method '{name}'; available: {', '.join(METHODS)}")
+    cls = METHODS[name]
+    params = {k: v for k, v in parameters.items() if v is not None}
+    import inspect
+    accepted = set(inspect.signature(cls.__init__).parameters) - {"self"}
+    extra = set(params) - accepted
+    if extra:
+        raise ValueError(f"method '{name}' takes no parameter {', '.join(sorted(extra))}; "
+                         f"its parameters are {', '.join(sorted(accepted)) or '(none)'}")
+    return cls(**params)

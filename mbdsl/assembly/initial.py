@@ -1,0 +1,227 @@
+"""Consistent initial conditions: q0, v0, then (a0, lambda0).
+
+1. **Placement.** Bodies are placed along a breadth-first spanning tree of the
+   joint graph from the ground (``model.graph``): each body takes its angle
+   from an ``initial``/``guess`` line (else its parent's angle for fixed and
+   prismatic joints, else 0) and is translated so that the tree joint's two
+   points coincide. The user never computes dependent positions by hand.
+2. **Closure.** Gauss-Newton with minimum-norm steps on
+   [Phi(q, t0); q_fixed - values] = 0 closes the loops, moving the
+   coordinates the user did not fix as little as possible from the placement.
+3. **Velocities.** The minimum-norm change of the given velocities (0 where
+   none is given) that satisfies Phi_q v + Phi_t = 0 with the fixed ones kept.
+4. **Accelerations and multipliers** from the index-1 system
+   [[M, Phi_q^T], [Phi_q, 0]] [a0; lambda0] = [Q; gamma].
+
+Source: Haug, Computer-Aided Kinematics and Dynamics of Mechanical Systems,
+sec. 3.6 (assembly) and 6.3 (initial conditions); ``methods.md``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg
+
+from ..errors import AssemblyError, Diagnostic
+from ..model import graph
+from ..model.elements import GROUND
+from .groups import rot
+from .system import AssembledSystem
+
+__all__ = ["InitialState", "consistent_initial_state", "place_bodies"]
+
+
+@dataclass
+class InitialState:
+    """A consistent initial state and how it was found.
+
+    Attributes
+    ----------
+    t : float [s]
+    q, v, a : ndarray, shape (n,)
+    lam : ndarray, shape (m,)
+    position_residual, velocity_residual, acceleration_residual : float
+        max |Phi|, max |Phi_q v + Phi_t|, max |Phi_q a - gamma| at the end.
+    solved : dict of str -> float
+        Coordinates the assembly computed (not fixed by ``initial``), with
+        their values.
+    iterations : int
+        Newton iterations of the closure.
+    """
+
+    t: float
+    q: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    lam: np.ndarray
+    position_residual: float
+    velocity_residual: float
+    acceleration_residual: float
+    solved: dict = field(default_factory=dict)
+    iterations: int = 0
+
+    def report(self) -> str:
+        """A few lines for the CLI summary."""
+        lines = [f"initial conditions: |Phi| = {self.position_residual:.1e}, "
+                 f"|Phi_q v + Phi_t| = {self.velocity_residual:.1e}, "
+                 f"|Phi_q a - gamma| = {self.acceleration_residual:.1e} "
+                 f"({self.iterations} Newton iterations)"]
+        if self.solved:
+            lines.append("  solved for: " + ", ".join(f"{k} = {v:.6g}" for k, v in self.solved.items()))
+        return "\n".join(lines)
+
+
+def place_bodies(system: AssembledSystem, t0: float = 0.0) -> np.ndarray:
+    """Initial guess of q from the spanning tree of the joint graph, shape (n,)."""
+    model = system.model
+    q = np.zeros(system.n)
+    given = {}
+    for ic in model.initials:
+        if not ic.is_velocity:
+            given[(ic.body, ic.field)] = ic.value
+    placed = {GROUND}
+
+    def angle(b):
+        return 0.0 if b == GROUND else q[3 * b + 2]
+
+    def point(ref):
+        if ref.body == GROUND:
+            return ref.local
+        return q[3 * ref.body: 3 * ref.body + 2] + rot(np.array([angle(ref.body)]), ref.local[None])[0]
+
+    for parent, child, joint in graph.spanning_tree_edges(model):
+        phi = given.get((child, "phi"))
+        if phi is None and joint is not None and joint.kind in ("fixed", "prismatic"):
+            sign = 1.0 if joint.second.body == child else -1.0
+            phi = angle(parent) + sign * joint.angle
+        q[3 * child + 2] = phi if phi is not None else 0.0
+        if joint is not None:
+            mine, theirs = ((joint.second, joint.first) if joint.second.body == child
+                            else (joint.first, joint.second))
+            target = point(theirs)
+            q[3 * child: 3 * child + 2] = target - rot(np.array([q[3 * child + 2]]), mine.local[None])[0]
+        for k, name in enumerate(("x", "y")):
+            if (child, name) in given:
+                q[3 * child + k] = given[(child, name)]
+        placed.add(child)
+    return q
+
+
+def _min_norm_step(J, r):
+    return np.linalg.lstsq(J, r, rcond=None)[0]
+
+
+def consistent_initial_state(system: AssembledSystem, t0: float = 0.0,
+                             tol: float = 1e-12, max_iter: int = 50) -> InitialState:
+    """Find q0, v0, a0, lambda0 consistent with all constraint levels.
+
+    Parameters
+    ----------
+    system : AssembledSystem
+    t0 : float [s]
+    tol : float
+        Tolerance on max |Phi| [m, rad] and on the velocity residual.
+    max_iter : int
+        Newton iterations allowed for closing the loops.
+
+    Returns
+    -------
+    InitialState
+
+    Raises
+    ------
+    AssemblyError
+        E503 when the loops cannot be closed (naming the joint with the
+        largest residual, in metres or radians), E504 when the given
+        velocities contradict the constraints, E505 when the index-1 matrix
+        is singular (redundant constraints or a singular position).
+    """
+    model, lay = system.model, system.layout
+    n = system.n
+    fixed_q = [(ic.coordinate, ic.value) for ic in model.initials
+               if not ic.guess and not ic.is_velocity]
+    fixed_v = [(ic.coordinate, ic.value) for ic in model.initials
+               if not ic.guess and ic.is_velocity]
+    guess_v = [(ic.coordinate, ic.value) for ic in model.initials
+               if ic.guess and ic.is_velocity]
+    iq = np.array([i for i, _ in fixed_q], dtype=int)
+    vq = np.array([v for _, v in fixed_q])
+    E = np.zeros((len(iq), n))
+    E[np.arange(len(iq)), iq] = 1.0
+
+    q = place_bodies(system, t0)
+    q_start = q.copy()
+    it = 0
+    for it in range(1, max_iter + 1):
+        r = np.concatenate([system.Phi(q, t0), q[iq] - vq])
+        if np.max(np.abs(r), initial=0.0) <= tol:
+            it -= 1
+            break
+        J = np.vstack([system.Phi_q(q, t0), E])
+        dq = _min_norm_step(J, r)
+        if not np.all(np.isfinite(dq)):
+            break
+        q = q - dq
+    phi = system.Phi(q, t0)
+    res_q = float(np.max(np.abs(phi), initial=0.0))
+    fixed_err = float(np.max(np.abs(q[iq] - vq), initial=0.0))
+    if not np.all(np.isfinite(q)) or res_q > 1e3 * tol or fixed_err > 1e3 * tol:
+        phi0 = system.Phi(q_start, t0)
+        name, value = lay.worst_element(phi0 if np.all(np.isfinite(phi0)) else phi)
+        d = Diagnostic("error", "E503",
+                       f"the initial configuration cannot be assembled: joint '{name}' stays "
+                       f"open by {value:.3g} (m or rad) after {it} Newton iterations",
+                       lay.span_of(name), "cannot be closed",
+                       hint="check the lengths and points on this loop, or give a 'guess' "
+                       "for an angle near the intended assembly branch")
+        raise AssemblyError(d.message, [d])
+
+    # velocities: min ||v - v_g|| s.t. Phi_q v = -Phi_t, v[fixed] = given
+    v_g = np.zeros(n)
+    for i, val in guess_v + fixed_v:
+        v_g[i] = val
+    iv = np.array([i for i, _ in fixed_v], dtype=int)
+    Ev = np.zeros((len(iv), n))
+    Ev[np.arange(len(iv)), iv] = 1.0
+    Phi_q = system.Phi_q(q, t0)
+    Phi_t = system.Phi_t(q, t0)
+    A = np.vstack([Phi_q, Ev])
+    rhs = np.concatenate([-Phi_t, v_g[iv]])
+    v = v_g + _min_norm_step(A, rhs - A @ v_g)
+    res_v = float(np.max(np.abs(Phi_q @ v + Phi_t), initial=0.0))
+    scale = 1.0 + float(np.max(np.abs(v), initial=0.0))
+    if res_v > 1e-9 * scale or float(np.max(np.abs(v[iv] - v_g[iv]), initial=0.0)) > 1e-9 * scale:
+        name, value = lay.worst_element(Phi_q @ v + Phi_t)
+        d = Diagnostic("error", "E504",
+                       f"the initial velocities contradict the constraints: joint '{name}' "
+                       f"has a velocity residual {value:.3g}",
+                       lay.span_of(name), "velocity not consistent",
+                       hint="give fewer initial velocities (the DOF count), or check their values")
+        raise AssemblyError(d.message, [d])
+
+    M = system.mass_matrix(q)
+    Q = system.Q(t0, q, v)
+    gam = system.gamma(q, v, t0)
+    m = system.m
+    K = np.block([[M, Phi_q.T], [Phi_q, np.zeros((m, m))]])
+    try:
+        with np.errstate(all="ignore"):
+            lu = scipy.linalg.lu_factor(K, check_finite=True)
+        sol = scipy.linalg.lu_solve(lu, np.concatenate([Q, gam]))
+        rc = np.min(np.abs(np.diag(lu[0]))) / max(np.max(np.abs(np.diag(lu[0]))), 1e-300)
+        if not np.all(np.isfinite(sol)) or rc < 1e-13:
+            raise np.linalg.LinAlgError("singular")
+    except (np.linalg.LinAlgError, ValueError, scipy.linalg.LinAlgWarning):
+        d = Diagnostic("error", "E505",
+                       "the index-1 matrix [[M, Phi_q^T], [Phi_q, 0]] is singular at the initial "
+                       "configuration: the constraints are redundant or the mechanism is at a "
+                       "singular position", model.joints[0].span if model.joints else None,
+                       "", hint="remove a redundant joint, or start away from a dead-centre position")
+        raise AssemblyError(d.message, [d]) from None
+    a, lam = sol[:n], sol[n:]
+    res_a = float(np.max(np.abs(Phi_q @ a - gam), initial=0.0))
+    fixed_idx = set(iq.tolist())
+    solved = {lay.coordinates[i]: float(q[i]) for i in range(n) if i not in fixed_idx}
+    return InitialState(t0, q, v, a, lam, res_q, res_v, res_a, solved, it)

@@ -1,0 +1,59 @@
+"""Coordinate and constraint-row layout: indices <-> bodies and joints.
+
+Used to name output columns and to report numerical failures in the model's
+words (which joint's rows have the largest residual, which body's columns a
+singular matrix involves).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..model.elements import COORDINATES, VELOCITIES, Model
+
+__all__ = ["Layout"]
+
+
+class Layout:
+    """Names of the coordinates (n) and constraint rows (m) of a model.
+
+    Attributes
+    ----------
+    coordinates : list of str, length n
+        ``"crank.x"``, ``"crank.y"``, ``"crank.phi"``, ...
+    velocities : list of str, length n
+        ``"crank.vx"``, ...
+    rows : list of (str, int), length m
+        (joint or driver name, row within it).
+    """
+
+    def __init__(self, model: Model):
+        self.coordinates = model.coordinate_names()
+        self.velocities = model.velocity_names()
+        self.rows = model.constraint_names()
+        self._spans = {j.name: j.span for j in model.joints}
+        self._spans.update({d.name: d.span for d in model.drivers})
+        self.element_rows: dict[str, list[int]] = {}
+        for i, (name, _) in enumerate(self.rows):
+            self.element_rows.setdefault(name, []).append(i)
+
+    def multiplier_names(self) -> list[str]:
+        """``lambda.<joint>.<k>`` column names, length m."""
+        return [f"lambda.{name}.{k}" for name, k in self.rows]
+
+    def worst_element(self, residual: np.ndarray) -> tuple[str, float]:
+        """(joint or driver name, max abs residual of its rows) of the largest."""
+        best, value = "", -1.0
+        for name, rows in self.element_rows.items():
+            r = float(np.max(np.abs(residual[rows])))
+            if r > value:
+                best, value = name, r
+        return best, value
+
+    def span_of(self, name: str):
+        """Declaration span of a joint or driver, or None."""
+        return self._spans.get(name)
+
+    def body_of_column(self, i: int) -> str:
+        """Name of the coordinate in column i, e.g. ``"rod.phi"``."""
+        return self.coordinates[i]

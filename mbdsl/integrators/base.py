@@ -1,0 +1,180 @@
+"""What every integration method declares: the recipe interface.
+
+A method is a recipe: the layout of its unknowns w, the integration
+formulas q = I1(w), v = I2(w), the residual Upsilon(w) with its row
+scaling, the Newton Jacobian, its start-up, its history length, its order
+and index. The time loop (``driver.py``) and the Newton loop
+(``newton.py``) exist once and never ask which method they run.
+
+Methods hold no mutable state: per-step values live in :class:`StepContext`
+(built once per step) and :class:`StepState` (converged values at t_n).
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["Block", "StepState", "StepContext", "Method", "check_range"]
+
+
+@dataclass(frozen=True)
+class Block:
+    """A block of the unknown vector w.
+
+    Attributes
+    ----------
+    name : str
+        e.g. ``"a"``, ``"lam"``, ``"mu"``.
+    size : int
+    kind : {"kinematic", "multiplier"}
+        Selects the Newton tolerance (accelerations and positions versus
+        multipliers, which are in N and N m).
+    """
+
+    name: str
+    size: int
+    kind: str
+
+
+@dataclass
+class StepState:
+    """Converged values at one time t_n.
+
+    Attributes
+    ----------
+    t : float [s]
+    q, v, a : ndarray, shape (n,)
+        ``a`` is the method's acceleration-like variable (for HHT, the
+        acceleration of the alpha-shifted equation, a_0 = q''(t_0)).
+    lam : ndarray, shape (m,)
+    extra : dict of str -> ndarray
+        Method-specific values (``mu`` for the index-2 methods, cached
+        force terms).
+    """
+
+    t: float
+    q: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    lam: np.ndarray
+    extra: dict = field(default_factory=dict)
+
+
+@dataclass
+class StepContext:
+    """Everything one step needs, built once per step by the method.
+
+    Attributes
+    ----------
+    system : AssembledSystem
+    history : tuple of StepState
+        Newest last; as long as the method's ``history_length`` allows.
+    t : float [s]
+        t_{n+1}.
+    h : float [s]
+        This step's size.
+    cache : dict
+        Per-step constants (predictors, mid-step mass matrix, old forces).
+    """
+
+    system: object
+    history: tuple
+    t: float
+    h: float
+    cache: dict = field(default_factory=dict)
+
+    @property
+    def last(self) -> StepState:
+        """The state at t_n."""
+        return self.history[-1]
+
+
+def check_range(name: str, value: float, ok: bool, allowed: str, reason: str) -> float:
+    """Validate a method coefficient.
+
+    Raises
+    ------
+    ValueError
+        Naming the parameter, the value, the allowed range and the reason.
+    """
+    value = float(value)
+    if not np.isfinite(value) or not ok:
+        raise ValueError(f"{name} = {value:g} is out of range: {allowed} ({reason})")
+    return value
+
+
+class Method(ABC):
+    """Abstract integration recipe; the six methods of the paper are final subclasses.
+
+    Attributes
+    ----------
+    name : str
+        The paper's name, e.g. ``"hht-i3"``.
+    index : int
+        DAE index of the form it discretizes (3 or 2).
+    history_length : int
+        Number of past states the formulas use (2 for BDF2).
+    """
+
+    name: str = ""
+    index: int = 3
+    history_length: int = 1
+
+    @abstractmethod
+    def order(self) -> int:
+        """Global order of accuracy in q and v."""
+
+    @abstractmethod
+    def parameters(self) -> dict:
+        """The method's coefficients, for output metadata."""
+
+    @abstractmethod
+    def blocks(self, system) -> list[Block]:
+        """Layout of the unknown vector w."""
+
+    @abstractmethod
+    def start(self, system, initial) -> list[StepState]:
+        """The history at t_0 from a consistent InitialState."""
+
+    @abstractmethod
+    def scales(self, system, h: float) -> np.ndarray:
+        """Velocity-equivalent scale of each unknown [m/s per unit], shape (N,).
+
+        Used by the Newton convergence test (see ``newton.py``).
+        """
+
+    @abstractmethod
+    def roundoff_floor(self, system, h: float, q: np.ndarray) -> float:
+        """Smallest velocity-equivalent change [m/s] Newton can resolve at this h.
+
+        The round-off of Phi (eps |q|) divided by the method's constraint
+        row scaling; the Newton tolerance is never set below it.
+        """
+
+    @abstractmethod
+    def context(self, system, history, t: float, h: float) -> StepContext:
+        """Per-step constants for the step to t (= t_n + h)."""
+
+    @abstractmethod
+    def predict(self, ctx: StepContext) -> np.ndarray:
+        """Newton start w(0)."""
+
+    @abstractmethod
+    def residual(self, w: np.ndarray, ctx: StepContext) -> np.ndarray:
+        """Upsilon(w), row-scaled."""
+
+    @abstractmethod
+    def jacobian(self, w: np.ndarray, ctx: StepContext) -> np.ndarray:
+        """d Upsilon / d w (or the method's approximation of it)."""
+
+    @abstractmethod
+    def accept(self, w: np.ndarray, ctx: StepContext) -> StepState:
+        """The state at t_{n+1} from the converged w."""
+
+    def describe(self) -> str:
+        """``name(alpha=-0.05, ...)`` for messages."""
+        params = ", ".join(f"{k}={v:g}" for k, v in self.parameters().items())
+        return f"{self.name}({params})"

@@ -1,0 +1,165 @@
+"""The time loop: one for every method, never branching on which it runs.
+
+Each step: the method builds its :class:`StepContext`, predicts w(0), and the
+shared :class:`~mbdsl.integrators.newton.Newton` solves its residual. A step
+whose Newton iteration does not converge is never accepted: it is retried
+with h/2, up to ``max_halvings`` times; after ``grow_after`` successful steps
+at a reduced size the step doubles again, back to the nominal h. If the run
+still cannot go on, it stops with a message in the model's words (time, step
+size, method, Newton norms, the joint with the largest constraint residual)
+and the :class:`~mbdsl.solution.Solution` keeps every accepted step.
+"""
+
+from __future__ import annotations
+
+import math
+import time as _time
+
+import numpy as np
+
+from ..assembly.initial import InitialState, consistent_initial_state
+from ..errors import ConvergenceError, Diagnostic
+from ..solution import Solution, StepStats
+from .base import Method
+from .newton import Newton, NewtonOptions, NewtonStatus
+
+__all__ = ["integrate"]
+
+_HINTS = {
+    NewtonStatus.SINGULAR: "the Newton matrix is singular: the mechanism may be at a singular "
+                           "(dead-centre) position, or joints may be redundant",
+    NewtonStatus.DIVERGING: "Newton diverges: the step may be too large for the fastest motion "
+                            "(a stiff spring, a fast driver); try a smaller h",
+    NewtonStatus.MAX_ITER: "Newton converges too slowly: try a smaller h or full Newton",
+    NewtonStatus.NONFINITE: "a value became infinite or NaN: check stiffnesses, masses and "
+                            "driver functions for extreme values",
+}
+
+
+def integrate(system, method: Method, t_end: float, h: float, *, t_start: float = 0.0,
+              initial: InitialState | None = None, newton: NewtonOptions | None = None,
+              on_failure: str = "raise", max_halvings: int = 6, grow_after: int = 4,
+              progress=None) -> Solution:
+    """Integrate the equations of motion from t_start to t_end.
+
+    Parameters
+    ----------
+    system : AssembledSystem
+    method : Method
+        A configured recipe, e.g. ``HHTI3(alpha=-0.1)``.
+    t_end : float [s]
+    h : float [s]
+        Nominal step size; the last step is shortened to land on t_end.
+
+    Other Parameters
+    ----------------
+    t_start : float [s]
+    initial : InitialState, optional
+        Computed with :func:`consistent_initial_state` when not given.
+    newton : NewtonOptions, optional
+    on_failure : {"raise", "return"}
+        On a step that cannot converge: raise :class:`ConvergenceError`
+        (carrying the partial solution) or return the partial solution with
+        ``status == "failed"``.
+    max_halvings : int
+        How many times a failing step is retried with h/2.
+    grow_after : int
+        Successful steps at a reduced size before the step doubles again.
+    progress : callable (t, h, iterations) -> None, optional
+        Called after each accepted step.
+
+    Returns
+    -------
+    Solution
+
+    Raises
+    ------
+    ValueError
+        For h <= 0 or t_end <= t_start.
+    ConvergenceError
+        With ``on_failure="raise"`` when the run cannot go on.
+    """
+    if not (h > 0 and math.isfinite(h)):
+        raise ValueError(f"h must be positive and finite, got {h}")
+    if not (t_end > t_start):
+        raise ValueError(f"t_end ({t_end}) must be after t_start ({t_start})")
+    if on_failure not in ("raise", "return"):
+        raise ValueError("on_failure must be 'raise' or 'return'")
+    wall0 = _time.perf_counter()
+    if initial is None:
+        initial = consistent_initial_state(system, t_start)
+    solver = Newton(newton)
+    blocks = method.blocks(system)
+    kinds = np.concatenate([np.full(b.size, b.kind == "multiplier") for b in blocks])
+    history = method.start(system, initial)
+    sol = Solution(system, method, h, t_end, initial)
+    sol.append(history[-1], StepStats())
+    t, h_cur, good = t_start, h, 0
+    carry = 0.0          # Kahan compensation: t stays exact to round-off over 1e6 steps
+    halvings = 0
+    try:
+        while t < t_end - 1e-9 * h:
+            step = min(h_cur, t_end - t)
+            if t_end - (t + step) < 1e-6 * step:   # land on t_end, never leave a sliver
+                step = t_end - t
+            y = step - carry
+            t_new = t + y
+            new_carry = (t_new - t) - y
+            ctx = method.context(system, history, t_new, step)
+            w0 = method.predict(ctx)
+            res = solver.solve(lambda w: method.residual(w, ctx), lambda w: method.jacobian(w, ctx),
+                               w0, kinds, method.scales(system, step), key=step,
+                               floor=method.roundoff_floor(system, step, ctx.last.q))
+            if not res.converged:
+                if halvings < max_halvings:
+                    halvings += 1
+                    h_cur, good = step / 2.0, 0
+                    sol.stats_total.rejected += 1
+                    continue
+                _fail(sol, method, ctx, res, t, step, h)
+                break
+            state = method.accept(res.w, ctx)
+            history = (list(history) + [state])[-method.history_length:]
+            sol.append(state, StepStats(res.n_iter, res.n_residual, res.n_jacobian,
+                                        res.n_factor, step))
+            t, carry = t_new, new_carry
+            halvings = 0
+            if h_cur < h:
+                good += 1
+                if good >= grow_after:
+                    h_cur, good = min(2.0 * h_cur, h), 0
+            if progress is not None:
+                progress(t, step, res.n_iter)
+        else:
+            sol.status, sol.message = "completed", f"reached t_end = {t_end:g} s"
+    except KeyboardInterrupt:
+        sol.status = "interrupted"
+        sol.message = f"interrupted by the user at t = {t:.6g} s; every accepted step is kept"
+    sol.wall_time = _time.perf_counter() - wall0
+    sol.finalize()
+    if sol.status == "failed" and on_failure == "raise":
+        raise ConvergenceError(sol.message, sol.diagnostics, solution=sol)
+    return sol
+
+
+def _fail(sol, method, ctx, res, t, step, h):
+    system = ctx.system
+    detail = ""
+    span = None
+    try:
+        with np.errstate(all="ignore"):
+            state = method.accept(res.w, ctx)
+            phi = system.Phi(state.q, ctx.t)
+        if np.all(np.isfinite(phi)) and system.m:
+            name, value = system.layout.worst_element(phi)
+            detail = f"; the largest constraint residual is at '{name}' ({value:.3g})"
+            span = system.layout.span_of(name)
+    except (FloatingPointError, ValueError, ZeroDivisionError, np.linalg.LinAlgError):
+        pass
+    norms = ", ".join(f"{x:.2e}" for x in res.norms) or "none"
+    msg = (f"the step from t = {t:.6g} s could not converge with {method.describe()} "
+           f"(h = {step:.3g} s after halving from {h:.3g} s): {res.status.value}; "
+           f"Newton norms [{norms}]{detail}")
+    sol.status, sol.message = "failed", msg
+    sol.diagnostics = [Diagnostic("error", "E601", msg, span, "largest residual here" if span else "",
+                                  hint=_HINTS.get(res.status, ""))]

@@ -1,0 +1,190 @@
+"""The result of a simulation: time histories, derived quantities, statistics.
+
+Shapes: N stored time points, n coordinates, m constraint equations.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["Solution", "StepStats", "RunStats"]
+
+
+@dataclass
+class StepStats:
+    """Newton statistics of one accepted step (zeros for the initial row)."""
+
+    iterations: int = 0
+    residuals: int = 0
+    jacobians: int = 0
+    factorizations: int = 0
+    h: float = 0.0
+
+
+@dataclass
+class RunStats:
+    """Totals over a run."""
+
+    steps: int = 0
+    iterations: int = 0
+    residuals: int = 0
+    jacobians: int = 0
+    factorizations: int = 0
+    rejected: int = 0
+
+
+class Solution:
+    """Time histories of a run, and everything derived from them.
+
+    Attributes
+    ----------
+    t : ndarray, shape (N,) [s]
+    q, v, a : ndarray, shape (N, n)
+    lam : ndarray, shape (N, m)
+        Lagrange multipliers (sign convention ``M a + Phi_q^T lambda = Q``).
+    status : {"completed", "failed", "interrupted", "running"}
+    message : str
+        Why the run stopped.
+    diagnostics : list of Diagnostic
+        For a failed run, what went wrong in the model's words.
+    stats : dict of str -> ndarray, shape (N,)
+        Per step: ``iterations``, ``residuals``, ``jacobians``,
+        ``factorizations``, ``h``.
+    stats_total : RunStats
+    wall_time : float [s]
+    method_name : str
+    method_parameters : dict
+    h, t_end : float [s]
+        Nominal step size and requested end time.
+    initial : InitialState
+    """
+
+    def __init__(self, system, method, h, t_end, initial):
+        self.system = system
+        self.model = system.model
+        self.method_name = method.name
+        self.method_parameters = method.parameters()
+        self.h, self.t_end = float(h), float(t_end)
+        self.initial = initial
+        self.status, self.message, self.diagnostics = "running", "", []
+        self.wall_time = 0.0
+        self.stats_total = RunStats()
+        self._rows: list = []
+        self._stats: list = []
+
+    # -- building ---------------------------------------------------------------------
+    def append(self, state, stats: StepStats) -> None:
+        """Record an accepted step."""
+        self._rows.append(state)
+        self._stats.append(stats)
+        tot = self.stats_total
+        if stats.h > 0:
+            tot.steps += 1
+        tot.iterations += stats.iterations
+        tot.residuals += stats.residuals
+        tot.jacobians += stats.jacobians
+        tot.factorizations += stats.factorizations
+
+    def finalize(self) -> None:
+        """Stack the recorded steps into arrays."""
+        rows = self._rows
+        self.t = np.array([s.t for s in rows])
+        self.q = np.array([s.q for s in rows])
+        self.v = np.array([s.v for s in rows])
+        self.a = np.array([s.a for s in rows])
+        self.lam = np.array([s.lam for s in rows]).reshape(len(rows), self.system.m)
+        self.stats = {k: np.array([getattr(s, k) for s in self._stats])
+                      for k in ("iterations", "residuals", "jacobians", "factorizations", "h")}
+        self._derived = None
+
+    @property
+    def completed(self) -> bool:
+        """True when the run reached t_end."""
+        return self.status == "completed"
+
+    # -- derived quantities -------------------------------------------------------------
+    def _compute_derived(self):
+        if self._derived is not None:
+            return self._derived
+        sys = self.system
+        N = len(self.t)
+        kin, pot, cpos, cvel = (np.empty(N) for _ in range(4))
+        for i in range(N):
+            q, v, t = self.q[i], self.v[i], self.t[i]
+            kin[i] = sys.kinetic_energy(q, v)
+            pot[i] = sys.potential_energy(q)
+            if sys.m:
+                cpos[i] = np.max(np.abs(sys.Phi(q, t)))
+                cvel[i] = np.max(np.abs(sys.Phi_q(q, t) @ v + sys.Phi_t(q, t)))
+            else:
+                cpos[i] = cvel[i] = 0.0
+        self._derived = {"energy.kinetic": kin, "energy.potential": pot,
+                         "energy.total": kin + pot, "constraint.position": cpos,
+                         "constraint.velocity": cvel}
+        return self._derived
+
+    @property
+    def columns(self) -> list[str]:
+        """Names of every output column, in CSV order."""
+        lay = self.system.layout
+        pos = [f"{b.name}.{c}" for b in self.model.bodies for c in ("x", "y", "phi")]
+        vel = [f"{b.name}.{c}" for b in self.model.bodies for c in ("vx", "vy", "omega")]
+        return (["t"] + pos + vel + ["energy.kinetic", "energy.potential", "energy.total",
+                                     "constraint.position", "constraint.velocity",
+                                     "newton.iterations"] + lay.multiplier_names())
+
+    def column(self, name: str) -> np.ndarray:
+        """One column by name, shape (N,).
+
+        Raises
+        ------
+        KeyError
+            With the closest names, for an unknown column.
+        """
+        if name == "t":
+            return self.t
+        lay = self.system.layout
+        if name in lay.coordinates:
+            return self.q[:, lay.coordinates.index(name)]
+        if name in lay.velocities:
+            return self.v[:, lay.velocities.index(name)]
+        derived = self._compute_derived()
+        if name in derived:
+            return derived[name]
+        if name == "newton.iterations":
+            return self.stats["iterations"]
+        mult = lay.multiplier_names()
+        if name in mult:
+            return self.lam[:, mult.index(name)]
+        import difflib
+        close = difflib.get_close_matches(name, self.columns, n=3)
+        raise KeyError(f"no column '{name}'" + (f"; did you mean {', '.join(close)}?" if close else ""))
+
+    def table(self) -> tuple[list[str], np.ndarray]:
+        """(column names, values of shape (N, number of columns))."""
+        names = self.columns
+        return names, np.column_stack([self.column(c) for c in names])
+
+    def summary(self) -> str:
+        """A one-screen summary of the run."""
+        tot = self.stats_total
+        steps = max(tot.steps, 1)
+        d = self._compute_derived()
+        e = d["energy.total"]
+        lines = [
+            f"model {self.model.name}: {self.method_name} "
+            + ", ".join(f"{k}={v:g}" for k, v in self.method_parameters.items())
+            + f", h = {self.h:g} s, t = {self.t[0]:g} .. {self.t[-1]:g} s ({self.status})",
+            f"  steps {tot.steps} (rejected {tot.rejected}), wall time {self.wall_time:.3f} s "
+            f"({1e6 * self.wall_time / steps:.1f} us/step)",
+            f"  Newton: {tot.iterations / steps:.2f} iterations/step, {tot.jacobians} Jacobians, "
+            f"{tot.factorizations} factorizations, {tot.residuals} residuals",
+            f"  max |Phi| = {np.max(d['constraint.position']):.2e}, "
+            f"max |Phi_q v + Phi_t| = {np.max(d['constraint.velocity']):.2e}",
+            f"  energy: {e[0]:.6g} J -> {e[-1]:.6g} J (change {e[-1] - e[0]:+.3e} J)",
+        ]
+        if self.status != "completed":
+            lines.append(f"  stopped: {self.message}")
+        return "\n".join(lines)
