@@ -2,9 +2,10 @@
 
 1. **Placement.** Bodies are placed along a breadth-first spanning tree of the
    joint graph from the ground (``model.graph``): each body takes its angle
-   from an ``initial``/``guess`` line (else its parent's angle for fixed and
-   prismatic joints, else 0) and is translated so that the tree joint's two
-   points coincide. The user never computes dependent positions by hand.
+   from an ``initial``/``guess`` line or a driver's value at t0 (else its
+   parent's angle for fixed and prismatic joints, else 0) and is translated
+   so that the tree joint's two points coincide. The user never computes
+   dependent positions by hand.
 2. **Closure.** Gauss-Newton with minimum-norm steps on
    [Phi(q, t0); q_fixed - values] = 0 closes the loops, moving the
    coordinates the user did not fix as little as possible from the placement.
@@ -81,6 +82,11 @@ def place_bodies(system: AssembledSystem, t0: float = 0.0) -> np.ndarray:
     for ic in model.initials:
         if not ic.is_velocity:
             given[(ic.body, ic.field)] = ic.value
+    coordinate_drivers = {(d.body, ("x", "y", "phi")[d.coord]): d.function.f(t0)
+                          for d in model.drivers if d.kind == "coordinate"}
+    angle_drivers = {d.joint.name: d.function.f(t0) for d in model.drivers
+                     if d.kind == "joint_angle"}
+    given.update(coordinate_drivers)
     placed = {GROUND}
 
     def angle(b):
@@ -93,9 +99,12 @@ def place_bodies(system: AssembledSystem, t0: float = 0.0) -> np.ndarray:
 
     for parent, child, joint in graph.spanning_tree_edges(model):
         phi = given.get((child, "phi"))
-        if phi is None and joint is not None and joint.kind in ("fixed", "prismatic"):
+        if phi is None and joint is not None:
             sign = 1.0 if joint.second.body == child else -1.0
-            phi = angle(parent) + sign * joint.angle
+            if joint.name in angle_drivers:
+                phi = angle(parent) + sign * angle_drivers[joint.name]
+            elif joint.kind in ("fixed", "prismatic"):
+                phi = angle(parent) + sign * joint.angle
         q[3 * child + 2] = phi if phi is not None else 0.0
         if joint is not None:
             mine, theirs = ((joint.second, joint.first) if joint.second.body == child

@@ -91,7 +91,7 @@ class NewtonOptions:
     atol_multiplier: float = 1e-9
     max_iter: int = 12
     jacobian: JacobianUpdate = JacobianUpdate.MODIFIED
-    rate_refresh: float = 0.3
+    rate_refresh: float = 0.1
 
     def __post_init__(self):
         for name in ("rtol", "atol_kinematic", "atol_multiplier", "rate_refresh"):
