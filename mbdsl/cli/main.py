@@ -61,7 +61,8 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def _print_diagnostics(diags, err=sys.stderr):
+def _print_diagnostics(diags, err=None):
+    err = err or sys.stderr
     sources = {}
     for d in diags:
         if d.span is not None and d.span.file not in sources:

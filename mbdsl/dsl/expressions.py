@@ -413,11 +413,37 @@ def diff(e: Expr, var: str = "t") -> Expr:
     return simplify(d(e))
 
 
+def _div(a: float, b: float) -> float:
+    try:
+        return a / b
+    except ZeroDivisionError:
+        return math.copysign(math.inf, a) if a != 0 else math.nan
+
+
+def _pow(a: float, b: float) -> float:
+    try:
+        r = a ** b
+    except (OverflowError, ZeroDivisionError):
+        return math.inf
+    return r if isinstance(r, float) else math.nan   # negative ** fraction -> complex
+
+
+def _safe(fn):
+    def call(x):
+        try:
+            return fn(x)
+        except (ValueError, OverflowError):
+            return math.nan
+    return call
+
+
 def compile_function(e: Expr, var: str = "t") -> Callable[[float], float]:
     """Compile a substituted expression of one variable into a fast closure.
 
     Constant subtrees are folded once, so a constant torque costs one
-    Python call per evaluation.
+    Python call per evaluation. Evaluation never raises: a division by zero
+    gives inf, a domain error NaN, so that the time loop can stop with a
+    message in the model's words instead of a traceback.
     """
     e = simplify(e)
 
@@ -440,10 +466,10 @@ def compile_function(e: Expr, var: str = "t") -> Callable[[float], float]:
             if op == "*":
                 return lambda t: fa(t) * fb(t)
             if op == "/":
-                return lambda t: fa(t) / fb(t)
-            return lambda t: fa(t) ** fb(t)
+                return lambda t: _div(fa(t), fb(t))
+            return lambda t: _pow(fa(t), fb(t))
         if isinstance(e, Call):
-            fn, fx = FUNCTIONS[e.func], c(e.arg)
+            fn, fx = _safe(FUNCTIONS[e.func]), c(e.arg)
             return lambda t: fn(fx(t))
         raise TypeError(f"cannot compile {e!r}")
 

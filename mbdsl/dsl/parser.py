@@ -14,6 +14,7 @@ from pathlib import Path
 from lark import Lark
 from lark.exceptions import (UnexpectedCharacters, UnexpectedEOF, UnexpectedInput,
                              UnexpectedToken, VisitError)
+
 from lark.lexer import PatternStr
 
 from ..errors import Diagnostic, MbdError, MbdSyntaxError, Span
@@ -58,9 +59,34 @@ def _token_text(tok) -> str:
 
 
 @lru_cache(maxsize=1)
-def _example_parse():
+def _example_states() -> dict:
+    """(LALR state id, offending token type) -> (code, message, hint) for the catalogue.
+
+    Lark's own ``match_examples`` compares whole parser states, including the
+    depth of the stack, so an example only matches when as many statements
+    precede it; the state id and token type are what identify the mistake.
+    """
     p = grammar_parser()
-    return lambda text: p.parse(text, start="start")
+    table = {}
+    for label, snippets in EXAMPLES.items():
+        for text in snippets:
+            try:
+                p.parse(text, start="start")
+            except UnexpectedToken as ut:
+                table.setdefault((ut.state.position, ut.token.type), label)
+            except UnexpectedInput:
+                pass
+    return table
+
+
+def _match_example(err) -> tuple | None:
+    if not isinstance(err, UnexpectedToken) or err.state is None:
+        return None
+    return _example_states().get((err.state.position, err.token.type))
+
+
+_STATEMENT_KEYWORDS = {"PARAMETER", "GRAVITY", "GROUND", "BODY", "JOINT", "FORCE", "DRIVER",
+                       "INITIAL", "GUESS", "SIMULATE"}
 
 
 def _open_block_note(text: str) -> str | None:
@@ -79,11 +105,7 @@ def _open_block_note(text: str) -> str | None:
 
 def _syntax_diagnostic(err: UnexpectedInput, text: str, file: str) -> Diagnostic:
     lines = text.splitlines() or [""]
-    matched = None
-    try:
-        matched = err.match_examples(_example_parse(), EXAMPLES, use_accepts=True)
-    except Exception:  # noqa: BLE001 - match_examples re-parses; never let it mask the error
-        matched = None
+    matched = _match_example(err)
     if isinstance(err, UnexpectedCharacters):
         ch = text[err.pos_in_stream] if err.pos_in_stream < len(text) else ""
         span = Span(file, err.line, err.column, err.line, err.column + 1)
@@ -104,6 +126,12 @@ def _syntax_diagnostic(err: UnexpectedInput, text: str, file: str) -> Diagnostic
     span = Span(file, tok.line, tok.column, tok.end_line or tok.line,
                 tok.end_column or tok.column + len(str(tok)))
     expected = _describe(set(err.accepts if getattr(err, "accepts", None) else err.expected))
+    accepted = set(getattr(err, "accepts", None) or err.expected)
+    if "RBRACE" in accepted and tok.type in _STATEMENT_KEYWORDS:
+        note = _open_block_note(text[: getattr(tok, "start_pos", len(text))])
+        return Diagnostic("error", "E108", f"a block is not closed before '{tok}'", span,
+                          "a new declaration starts here", notes=(note,) if note else (),
+                          hint="add '}' at the end of the block")
     if matched is not None:
         code, message, hint = matched
         return Diagnostic("error", code, message, span, f"unexpected {_token_text(tok)}",

@@ -62,7 +62,8 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
         (carrying the partial solution) or return the partial solution with
         ``status == "failed"``.
     max_halvings : int
-        How many times a failing step is retried with h/2.
+        A failing step is retried with h/2 down to h / 2**max_halvings; a
+        step that fails at that size ends the run.
     grow_after : int
         Successful steps at a reduced size before the step doubles again.
     progress : callable (t, h, iterations) -> None, optional
@@ -96,7 +97,9 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
     sol.append(history[-1], StepStats())
     t, h_cur, good = t_start, h, 0
     carry = 0.0          # Kahan compensation: t stays exact to round-off over 1e6 steps
-    halvings = 0
+    # The limit is on the step size, not on consecutive failures: counting
+    # failures lets a run creep towards a lock-up with ever smaller steps.
+    h_min = h / 2.0 ** max_halvings
     try:
         while t < t_end - 1e-9 * h:
             step = min(h_cur, t_end - t)
@@ -111,8 +114,7 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
                                w0, kinds, method.scales(system, step), key=step,
                                floor=method.roundoff_floor(system, step, ctx.last.q))
             if not res.converged:
-                if halvings < max_halvings:
-                    halvings += 1
+                if step / 2.0 >= h_min * (1.0 - 1e-12):
                     h_cur, good = step / 2.0, 0
                     sol.stats_total.rejected += 1
                     continue
@@ -123,7 +125,6 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
             sol.append(state, StepStats(res.n_iter, res.n_residual, res.n_jacobian,
                                         res.n_factor, step))
             t, carry = t_new, new_carry
-            halvings = 0
             if h_cur < h:
                 good += 1
                 if good >= grow_after:

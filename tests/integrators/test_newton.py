@@ -1,0 +1,103 @@
+"""The Newton engine on algebraic problems, and failures that keep their data."""
+
+import numpy as np
+import pytest
+
+import mbdsl
+from mbdsl.cli.main import main
+from mbdsl.integrators.newton import JacobianUpdate, Newton, NewtonOptions, NewtonStatus
+from mbdsl.output import read_csv_metadata
+
+from ..conftest import MODELS
+
+
+def _solve(F, J, w0, **opts):
+    n = len(w0)
+    return Newton(NewtonOptions(**opts)).solve(F, J, np.array(w0, float), np.zeros(n, bool),
+                                               np.ones(n))
+
+
+def test_full_newton_converges_quadratically():
+    F = lambda w: np.array([w[0] ** 2 - 2.0, w[0] * w[1] - 1.0])
+    J = lambda w: np.array([[2 * w[0], 0.0], [w[1], w[0]]])
+    res = _solve(F, J, [1.0, 1.0], jacobian="full", rtol=1e-14, atol_kinematic=1e-14)
+    assert res.converged
+    assert res.w == pytest.approx([np.sqrt(2), 1 / np.sqrt(2)], abs=1e-14)
+    n = res.norms
+    # quadratic: each norm about the square of the previous one (in units of the tolerance)
+    ratios = [np.log(n[i + 1] * 1e-14) / np.log(n[i] * 1e-14) for i in range(1, len(n) - 2)]
+    assert all(r > 1.8 for r in ratios), (n, ratios)
+
+
+def test_modified_newton_reuses_its_factorization():
+    F = lambda w: np.array([w[0] ** 3 + w[0] - 3.0])
+    J = lambda w: np.array([[3 * w[0] ** 2 + 1.0]])
+    res = _solve(F, J, [1.1], jacobian="modified", rtol=1e-12, atol_kinematic=1e-12,
+                 max_iter=40)
+    assert res.converged and res.n_factor == 1 and res.n_iter > 2
+    assert abs(res.w[0] ** 3 + res.w[0] - 3.0) < 1e-10
+
+
+def test_divergence_and_singularity_are_detected():
+    F = lambda w: np.array([np.arctan(w[0])])          # Newton diverges from |w0| > 1.39
+    J = lambda w: np.array([[1.0 / (1.0 + w[0] ** 2)]])
+    res = _solve(F, J, [3.0], jacobian="full")
+    assert res.status in (NewtonStatus.DIVERGING, NewtonStatus.NONFINITE, NewtonStatus.MAX_ITER)
+    assert not res.converged
+    res = _solve(lambda w: np.array([1.0, 1.0]), lambda w: np.ones((2, 2)), [0.0, 0.0])
+    assert res.status is NewtonStatus.SINGULAR
+
+
+def test_options_are_validated():
+    with pytest.raises(ValueError, match="rtol"):
+        NewtonOptions(rtol=-1)
+    with pytest.raises(ValueError):
+        NewtonOptions(jacobian="sometimes")
+    with pytest.raises(ValueError, match="alpha = -0.5 is out of range"):
+        mbdsl.simulate(mbdsl.load(MODELS / "pendulum.mbd"), alpha=-0.5)
+
+
+BLOW_UP = """model locking_slider_crank   # rod shorter than crank: B leaves the x axis
+gravity (0, -9.81)
+body crank { mass 1; inertia 0.3^2/12; point O (-0.15, 0); point A (0.15, 0) }
+body rod   { mass 1; inertia 0.2^2/12; point A (-0.1, 0); point B (0.1, 0) }
+joint O: revolute(ground.origin, crank.O)
+joint A: revolute(crank.A, rod.A)
+joint B: point_on_line(rod.B, ground.origin, direction = (1, 0))
+# the loop closes only while 0.3 sin(phi) <= 0.2, i.e. up to t = asin(2/3)/0.2 = 3.65 s
+driver motor: crank.phi = 0.2*t
+guess rod.phi = -0.1
+"""
+
+
+def test_failed_run_keeps_every_accepted_step(tmp_path, capsys):
+    path = tmp_path / "blow_up.mbd"
+    path.write_text(BLOW_UP)
+    out = tmp_path / "out.csv"
+    status = main(["simulate", str(path), "--h", "1e-2", "--t-end", "5", "-o", str(out)])
+    err = capsys.readouterr().err
+    assert status == 3
+    assert "error[E601]" in err and "hht-i3" in err and "t = 3.6" in err
+    assert "Traceback" not in err
+    meta, names, values = read_csv_metadata(out)
+    assert meta["status"] == "failed"
+    t = values[:, names.index("t")]
+    assert 3.5 < t[-1] < np.arcsin(2 / 3) / 0.2 and np.all(np.diff(t) > 0)
+
+    sol = mbdsl.simulate(mbdsl.load(path), h=1e-2, t_end=5, on_failure="return")
+    assert sol.status == "failed" and len(sol.t) == len(t)
+    with pytest.raises(mbdsl.ConvergenceError) as info:
+        mbdsl.simulate(mbdsl.load(path), h=1e-2, t_end=5)
+    assert info.value.solution is not None and info.value.diagnostics[0].code == "E601"
+
+
+def test_step_halving_recovers_and_grows_back():
+    # modified Newton with one iteration allowed cannot take the nominal step
+    # near t = 0 where the motion starts; halving lets it through.
+    model = mbdsl.load(MODELS / "pendulum.mbd")
+    sol = mbdsl.simulate(model, h=0.05, t_end=1.0, newton=NewtonOptions(max_iter=2, jacobian="full"),
+                         on_failure="return")
+    hs = sol.stats["h"][1:]
+    assert sol.status == "completed"
+    assert sol.stats_total.rejected > 0 and hs.min() < 0.05
+    assert np.isclose(hs[-5:], 0.05).any() or np.isclose(sol.t[-1], 1.0)
