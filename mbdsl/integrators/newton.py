@@ -38,6 +38,7 @@ Jacobian policies (:class:`JacobianUpdate`):
 from __future__ import annotations
 
 import enum
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -141,7 +142,9 @@ class DenseLU:
     """Dense LU factorization (LAPACK getrf via scipy) of a Newton matrix."""
 
     def __init__(self, J: np.ndarray):
-        self.lu, self.piv = scipy.linalg.lu_factor(J, check_finite=False)
+        with warnings.catch_warnings():   # singularity is reported as NewtonStatus.SINGULAR
+            warnings.simplefilter("ignore", scipy.linalg.LinAlgWarning)
+            self.lu, self.piv = scipy.linalg.lu_factor(J, check_finite=False)
         d = np.abs(np.diag(self.lu))
         self.singular = bool(d.min() == 0.0 or d.min() < 1e-14 * d.max()) or not np.all(np.isfinite(d))
         self.pivot_ratio = float(d.min() / d.max()) if d.max() > 0 else 0.0
