@@ -147,7 +147,7 @@ def render(diag: Diagnostic, sources: dict[str, str] | None = None) -> str:
     sources = sources or {}
     out = [f"{diag.severity}[{diag.code}]: {diag.message}"]
 
-    def excerpt(span: Span, label: str) -> None:
+    def _excerpt(span: Span, label: str) -> None:
         out.append(f"  --> {span.file}:{span.line}:{span.column}")
         text = _line_of(sources.get(span.file), span.line)
         if text is None:
@@ -166,9 +166,9 @@ def render(diag: Diagnostic, sources: dict[str, str] | None = None) -> str:
         out.append(f" {pad} | {' ' * start}{'^' * n} {label}".rstrip())
 
     if diag.span is not None:
-        excerpt(diag.span, diag.label)
+        _excerpt(diag.span, diag.label)
     for span, label in diag.secondary:
-        excerpt(span, label)
+        _excerpt(span, label)
     for note in diag.notes:
         out.append(f"   = note: {note}")
     if diag.hint:

@@ -23,8 +23,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["rot", "CoincidenceGroup", "PointOnLineGroup", "RelativeAngleGroup",
-           "CoordinateDriverGroup", "SpringDamperGroup", "RotationalSpringGroup",
+__all__ = ["rot", "drot", "body_columns", "CoincidenceGroup", "PointOnLineGroup", "LinearConstraintGroup",
+           "SpringDamperGroup", "RotationalSpringGroup",
            "TorqueGroup", "PointForceGroup"]
 
 
@@ -46,8 +46,8 @@ def drot(phi: np.ndarray, s: np.ndarray) -> np.ndarray:
     return out
 
 
-def _cols(n: int, bodies) -> np.ndarray:
-    """Columns (x, y, phi) in q_ext of body indices (ground = -1 -> n..n+2)."""
+def body_columns(n: int, bodies) -> np.ndarray:
+    """Columns (x, y, phi) in q_ext of body indices (ground = -1 -> n..n+2), shape (k, 3)."""
     b = np.asarray(bodies, dtype=np.intp)
     base = np.where(b < 0, n, 3 * b)
     return base[:, None] + np.arange(3)[None, :]
@@ -64,7 +64,7 @@ class CoincidenceGroup:
 
     def __init__(self, n, rows, body1, s1, body2, s2):
         self.rows = np.asarray(rows, dtype=np.intp).reshape(-1, 2)
-        self.cols = np.concatenate([_cols(n, body1), _cols(n, body2)], axis=1)
+        self.cols = np.concatenate([body_columns(n, body1), body_columns(n, body2)], axis=1)
         self.s1, self.s2 = np.asarray(s1, float).reshape(-1, 2), np.asarray(s2, float).reshape(-1, 2)
         k = len(self.rows)
         self._jac = np.zeros((k, 2, 6))
@@ -106,7 +106,7 @@ class PointOnLineGroup:
 
     def __init__(self, n, rows, body_p, s_p, body_l, s_l, normal):
         self.rows = np.asarray(rows, dtype=np.intp).reshape(-1, 1)
-        self.cols = np.concatenate([_cols(n, body_p), _cols(n, body_l)], axis=1)
+        self.cols = np.concatenate([body_columns(n, body_p), body_columns(n, body_l)], axis=1)
         self.sp = np.asarray(s_p, float).reshape(-1, 2)
         self.sl = np.asarray(s_l, float).reshape(-1, 2)
         self.n0 = np.asarray(normal, float).reshape(-1, 2)
@@ -157,32 +157,36 @@ class PointOnLineGroup:
         return H
 
 
-class RelativeAngleGroup:
-    """phi2 - phi1 - offset - f(t) = 0 (fixed, prismatic, joint-angle drivers).
+class LinearConstraintGroup:
+    """Rows linear in q with constant coefficients, minus a time function:
 
-    Linear in q; ``functions`` holds a TimeFunction or None per instance.
-    Local coordinates (phi1, phi2).
+        Phi = c1 q[col1] + c2 q[col2] - offset - f(t)
+
+    This covers the locked relative angle of fixed and prismatic joints
+    (phi2 - phi1 - angle), joint-angle drivers (phi2 - phi1 - f(t)) and
+    coordinate drivers (q_c - f(t), written with the ground's dummy column
+    and coefficient 0 as its first column). Linear: Hess = 0, Phi_qt = 0.
+    ``functions`` holds a TimeFunction or None per instance.
     """
 
     r = 1
+    hess = None
 
-    def __init__(self, n, rows, body1, body2, offset, functions):
+    def __init__(self, n, rows, cols, coefs, offset, functions):
         self.rows = np.asarray(rows, dtype=np.intp).reshape(-1, 1)
-        self.cols = np.stack([_cols(n, body1)[:, 2], _cols(n, body2)[:, 2]], axis=1)
+        self.cols = np.asarray(cols, dtype=np.intp).reshape(-1, 2)
+        self.coefs = np.asarray(coefs, float).reshape(-1, 2)
         self.offset = np.asarray(offset, float)
         self.functions = list(functions)
-        k = len(self.rows)
-        self._jac = np.zeros((k, 1, 2))
-        self._jac[:, 0, 0], self._jac[:, 0, 1] = -1.0, 1.0
+        self._jac = self.coefs[:, None, :].copy()
         self.time_dependent = any(f is not None for f in self.functions)
 
     def _f(self, t, which):
         return np.array([0.0 if f is None else getattr(f, which)(t) for f in self.functions])
 
     def phi(self, qx, t):
-        """Constraint values, shape (k, 1) [rad]."""
-        q = qx[self.cols]
-        val = q[:, 1] - q[:, 0] - self.offset
+        """Constraint values, shape (k, 1) [m or rad]."""
+        val = np.einsum("kj,kj->k", self.coefs, qx[self.cols]) - self.offset
         if self.time_dependent:
             val = val - self._f(t, "f")
         return val[:, None]
@@ -190,42 +194,6 @@ class RelativeAngleGroup:
     def jac(self, qx):
         """Constant local Jacobian, shape (k, 1, 2)."""
         return self._jac
-
-    hess = None
-
-    def phi_t(self, t):
-        """d Phi / dt, shape (k, 1)."""
-        return -self._f(t, "df")[:, None]
-
-    def phi_tt(self, t):
-        """d^2 Phi / dt^2, shape (k, 1)."""
-        return -self._f(t, "ddf")[:, None]
-
-
-class CoordinateDriverGroup:
-    """q_c - f(t) = 0: a body coordinate prescribed in time. Local (q_c,)."""
-
-    r = 1
-
-    def __init__(self, n, rows, columns, functions):
-        self.rows = np.asarray(rows, dtype=np.intp).reshape(-1, 1)
-        self.cols = np.asarray(columns, dtype=np.intp).reshape(-1, 1)
-        self.functions = list(functions)
-        self._jac = np.ones((len(self.rows), 1, 1))
-        self.time_dependent = True
-
-    def _f(self, t, which):
-        return np.array([getattr(f, which)(t) for f in self.functions])
-
-    def phi(self, qx, t):
-        """Constraint values, shape (k, 1)."""
-        return (qx[self.cols[:, 0]] - self._f(t, "f"))[:, None]
-
-    def jac(self, qx):
-        """Constant local Jacobian, shape (k, 1, 1)."""
-        return self._jac
-
-    hess = None
 
     def phi_t(self, t):
         """d Phi / dt, shape (k, 1)."""
@@ -251,7 +219,7 @@ class SpringDamperGroup:
     """
 
     def __init__(self, n, body1, s1, body2, s2, k, c, length):
-        self.cols = np.concatenate([_cols(n, body1), _cols(n, body2)], axis=1)
+        self.cols = np.concatenate([body_columns(n, body1), body_columns(n, body2)], axis=1)
         self.s1, self.s2 = np.asarray(s1, float).reshape(-1, 2), np.asarray(s2, float).reshape(-1, 2)
         self.k, self.c, self.l0 = (np.asarray(x, float) for x in (k, c, length))
         self.damped = bool(np.any(self.c != 0.0))
@@ -321,7 +289,7 @@ class RotationalSpringGroup:
     """
 
     def __init__(self, n, body1, body2, k, c, angle):
-        self.cols = np.stack([_cols(n, body1)[:, 2], _cols(n, body2)[:, 2]], axis=1)
+        self.cols = np.stack([body_columns(n, body1)[:, 2], body_columns(n, body2)[:, 2]], axis=1)
         self.k, self.c, self.angle = (np.asarray(x, float) for x in (k, c, angle))
         pattern = np.array([[-1.0, 1.0], [1.0, -1.0]])  # d(Q1, Q2)/d(phi1, phi2) / k
         self._Q_q = self.k[:, None, None] * pattern[None]
@@ -348,7 +316,7 @@ class TorqueGroup:
     """Applied torques tau(t) on bodies. No q or v dependence."""
 
     def __init__(self, n, body, functions):
-        self.cols = _cols(n, body)[:, 2:3]
+        self.cols = body_columns(n, body)[:, 2:3]
         self.functions = list(functions)
 
     def forces(self, qx, vx, t):
@@ -365,7 +333,7 @@ class PointForceGroup:
     """
 
     def __init__(self, n, body, s, fx, fy):
-        self.cols = _cols(n, body)
+        self.cols = body_columns(n, body)
         self.s = np.asarray(s, float).reshape(-1, 2)
         self.fx, self.fy = list(fx), list(fy)
 

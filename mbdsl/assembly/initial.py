@@ -89,27 +89,27 @@ def place_bodies(system: AssembledSystem, t0: float = 0.0) -> np.ndarray:
     given.update(coordinate_drivers)
     placed = {GROUND}
 
-    def angle(b):
+    def _angle(b):
         return 0.0 if b == GROUND else q[3 * b + 2]
 
-    def point(ref):
+    def _point(ref):
         if ref.body == GROUND:
             return ref.local
-        return q[3 * ref.body: 3 * ref.body + 2] + rot(np.array([angle(ref.body)]), ref.local[None])[0]
+        return q[3 * ref.body: 3 * ref.body + 2] + rot(np.array([_angle(ref.body)]), ref.local[None])[0]
 
     for parent, child, joint in graph.spanning_tree_edges(model):
         phi = given.get((child, "phi"))
         if phi is None and joint is not None:
             sign = 1.0 if joint.second.body == child else -1.0
             if joint.name in angle_drivers:
-                phi = angle(parent) + sign * angle_drivers[joint.name]
+                phi = _angle(parent) + sign * angle_drivers[joint.name]
             elif joint.kind in ("fixed", "prismatic"):
-                phi = angle(parent) + sign * joint.angle
+                phi = _angle(parent) + sign * joint.angle
         q[3 * child + 2] = phi if phi is not None else 0.0
         if joint is not None:
             mine, theirs = ((joint.second, joint.first) if joint.second.body == child
                             else (joint.first, joint.second))
-            target = point(theirs)
+            target = _point(theirs)
             q[3 * child: 3 * child + 2] = target - rot(np.array([q[3 * child + 2]]), mine.local[None])[0]
         for k, name in enumerate(("x", "y")):
             if (child, name) in given:

@@ -27,9 +27,9 @@ import numpy as np
 
 from ..model.elements import (GROUND, Model, PointForce, RotationalSpringDamper,
                               SpringDamper, Torque)
-from .groups import (CoincidenceGroup, CoordinateDriverGroup, PointForceGroup,
-                     PointOnLineGroup, RelativeAngleGroup, RotationalSpringGroup,
-                     SpringDamperGroup, TorqueGroup)
+from .groups import (CoincidenceGroup, LinearConstraintGroup, PointForceGroup,
+                     PointOnLineGroup, RotationalSpringGroup, SpringDamperGroup, TorqueGroup,
+                     body_columns)
 from .layout import Layout
 
 __all__ = ["AssembledSystem", "assemble"]
@@ -75,26 +75,32 @@ class AssembledSystem:
     # -- build ------------------------------------------------------------------
     def _build_constraints(self, model):
         n = self.n
-        coinc, pol, ang, drv = [], [], [], []
+        coinc, pol, lin = [], [], []
+
+        def phi_col(body):
+            return body_columns(n, [body])[0, 2]
+
+        def angle_row(row, body1, body2, offset, fn):   # phi2 - phi1 - offset - f(t)
+            lin.append((row, (phi_col(body1), phi_col(body2)), (-1.0, 1.0), offset, fn))
+
         row = 0
         for j in model.joints:
             a, b = j.first, j.second
             if j.kind in ("revolute", "fixed"):
                 coinc.append((row, row + 1, a.body, a.local, b.body, b.local))
                 if j.kind == "fixed":
-                    ang.append((row + 2, a.body, b.body, j.angle, None))
+                    angle_row(row + 2, a.body, b.body, j.angle, None)
             elif j.kind == "point_on_line":
                 pol.append((row, a.body, a.local, b.body, b.local, _normal(j.direction)))
             elif j.kind == "prismatic":
                 pol.append((row, a.body, a.local, b.body, b.local, _normal(j.direction)))
-                # its rotation is locked: phi(second) - phi(first) = angle
-                ang.append((row + 1, a.body, b.body, j.angle, None))
+                angle_row(row + 1, a.body, b.body, j.angle, None)   # rotation locked
             row += j.rows
         for d in model.drivers:
-            if d.kind == "coordinate":
-                drv.append((row, 3 * d.body + d.coord, d.function))
+            if d.kind == "coordinate":        # q_c - f(t); first column: ground dummy, coef 0
+                lin.append((row, (n, 3 * d.body + d.coord), (0.0, 1.0), 0.0, d.function))
             else:
-                ang.append((row, d.joint.first.body, d.joint.second.body, 0.0, d.function))
+                angle_row(row, d.joint.first.body, d.joint.second.body, 0.0, d.function)
             row += 1
         assert row == self.m
         self.constraint_groups = []
@@ -106,12 +112,9 @@ class AssembledSystem:
             r, bp, sp, bl, sl, nrm = zip(*pol)
             self.constraint_groups.append(PointOnLineGroup(n, r, bp, np.array(sp), bl,
                                                            np.array(sl), np.array(nrm)))
-        if ang:
-            r, b1, b2, off, fns = zip(*ang)
-            self.constraint_groups.append(RelativeAngleGroup(n, r, b1, b2, off, fns))
-        if drv:
-            r, cols, fns = zip(*drv)
-            self.constraint_groups.append(CoordinateDriverGroup(n, r, cols, fns))
+        if lin:
+            r, cols, coefs, off, fns = zip(*lin)
+            self.constraint_groups.append(LinearConstraintGroup(n, r, cols, coefs, off, fns))
         self.nonlinear_groups = [g for g in self.constraint_groups if g.hess is not None]
         self.timed_groups = [g for g in self.constraint_groups if g.time_dependent]
         # Fixed scatter patterns (row, col) for Phi_q-shaped blocks, and flat

@@ -79,13 +79,21 @@ def _print_diagnostics(diags, err=None):
               file=err)
 
 
-def _check(args) -> int:
+def _load(args):
+    """The checked model, or None after printing its diagnostics."""
     try:
         model = load(args.model, _parse_set(args.set))
     except MbdError as exc:
         _print_diagnostics(exc.diagnostics)
-        return 1
+        return None
     _print_diagnostics(model.warnings)
+    return model
+
+
+def _check(args) -> int:
+    model = _load(args)
+    if model is None:
+        return 1
     print(f"{args.model}: model {model.name}, {len(model.bodies)} bodies, "
           f"{model.n_coordinates} coordinates, {model.n_constraints} constraints, "
           f"{model.dof} DOF (Gruebler)")
@@ -93,12 +101,9 @@ def _check(args) -> int:
 
 
 def _simulate(args) -> int:
-    try:
-        model = load(args.model, _parse_set(args.set))
-    except MbdError as exc:
-        _print_diagnostics(exc.diagnostics)
+    model = _load(args)
+    if model is None:
         return 1
-    _print_diagnostics(model.warnings)
     out = Path(args.output) if args.output else Path(args.model).with_suffix(".csv")
     from ..integrators import NewtonOptions
     status = 0

@@ -64,13 +64,16 @@ class _Checker:
 
     # -- helpers -------------------------------------------------------------
     def error(self, code, message, span=None, label="", hint="", notes=(), secondary=()):
+        """Record an error diagnostic."""
         self.diags.append(Diagnostic("error", code, message, span, label, hint,
                                      tuple(notes), tuple(secondary)))
 
     def warning(self, code, message, span=None, label="", hint=""):
+        """Record a warning diagnostic."""
         self.diags.append(Diagnostic("warning", code, message, span, label, hint))
 
     def expr_error(self, err: ExprError, fallback: Span | None, context: str):
+        """Record an expression evaluation error with a did-you-mean hint."""
         hint = err.hint
         if err.code == "E201" and not hint:
             hint = _did_you_mean(err.name, list(self.params) + ["pi"])
@@ -86,6 +89,7 @@ class _Checker:
             return None
 
     def time_function(self, expr, span, context) -> TimeFunction | None:
+        """Compile f(t) with its exact first and second derivatives; None after reporting."""
         try:
             e = substitute(expr, self.params)
             f, d1 = compile_function(e), diff(e)
@@ -105,6 +109,7 @@ class _Checker:
         return None
 
     def claim(self, name, span, what):
+        """Reserve an element name; False (after reporting) if reserved or taken."""
         if name == "ground":
             self.error("E202", f"'ground' is reserved and cannot name a {what}", span,
                        "reserved name", hint="choose another name")
@@ -119,6 +124,7 @@ class _Checker:
         return True
 
     def point(self, expr, span, context) -> PointRef | None:
+        """Resolve ``body.point`` to a PointRef; None after reporting."""
         if not isinstance(expr, Dotted):
             self.error("E305", f"{context}: expected a point like 'body.point'",
                        getattr(expr, "span", None) or span, "not a point reference",
@@ -146,6 +152,7 @@ class _Checker:
         return PointRef(body.index, body.points[expr.attr], expr.text)
 
     def vector(self, vec, span, context):
+        """Evaluate a Vec to an ndarray of shape (2,); None after reporting."""
         if not isinstance(vec, Vec):
             self.error("E305", f"{context}: expected a vector '(x, y)'",
                        getattr(vec, "span", None) or span, "not a vector")
@@ -188,6 +195,7 @@ class _Checker:
 
     # -- passes ---------------------------------------------------------------
     def check_parameters(self):
+        """Evaluate parameters in order, applying overrides."""
         spans = {}
         for p in self.spec.parameters:
             if p.name in spans:
@@ -227,6 +235,7 @@ class _Checker:
                        f"its parameters are {', '.join(spans) or '(none)'}")
 
     def check_ground(self):
+        """Collect the ground's named points."""
         for p in self.spec.ground_points:
             if p.name in self.ground_points:
                 self.error("E202", f"duplicate ground point '{p.name}'", p.span, "declared again")
@@ -236,6 +245,7 @@ class _Checker:
                 self.ground_points[p.name] = v
 
     def check_bodies(self):
+        """Check mass, inertia and points of every rigid body."""
         self.broken_bodies = set()
         for b in self.spec.bodies:
             if not self.claim(b.name, b.span, "body"):
@@ -284,6 +294,7 @@ class _Checker:
                 self.broken_bodies.add(b.name)
 
     def check_joints(self):
+        """Resolve joint points and options; reject joints of a body to itself."""
         for j in self.spec.joints:
             ok = self.claim(j.name, j.span, "joint")
             ctx = f"joint '{j.name}'"
@@ -327,6 +338,7 @@ class _Checker:
                                         rows, j.span)
 
     def check_drivers(self):
+        """Resolve driver targets (body coordinate or joint angle) and compile f(t)."""
         self.drivers = []
         for d in self.spec.drivers:
             ok = self.claim(d.name, d.span, "driver")
@@ -360,6 +372,7 @@ class _Checker:
                                            coord=COORDINATES.index(tgt.attr), span=d.span))
 
     def check_forces(self):
+        """Check force options (required, non-negative) and build force elements."""
         self.forces = []
         for f in self.spec.forces:
             ok = self.claim(f.name, f.span, "force")
@@ -400,6 +413,7 @@ class _Checker:
                     self.forces.append(el)
 
     def force_element(self, f, pos, opts, ctx):
+        """Build one force element from checked arguments; None after reporting."""
         if f.kind == "spring_damper":
             a = self.point(pos[0].value, pos[0].span or f.span, ctx)
             b = self.point(pos[1].value, pos[1].span or f.span, ctx)
@@ -450,11 +464,13 @@ class _Checker:
         return PointForce(f.name, p, fx, fy, f.span)
 
     def check_gravity(self):
+        """Evaluate the gravity vector, or None when not declared."""
         if self.spec.gravity is None:
             return None
         return self.vector(self.spec.gravity, self.spec.gravity_span, "gravity")
 
     def check_initials(self):
+        """Resolve initial and guess lines; reject unknown fields and repeats."""
         self.initials = []
         seen = {}
         for ic in self.spec.initials:
@@ -484,6 +500,7 @@ class _Checker:
                 self.initials.append(InitialCondition(body.index, tgt.attr, v, ic.guess, ic.span))
 
     def check_settings(self):
+        """Check the simulate section (known method, positive h and t_end)."""
         self.settings = {}
         for s in self.spec.settings:
             if s.name in self.settings:
@@ -512,6 +529,7 @@ class _Checker:
             self.settings[s.name] = v
 
     def check_structure(self, model: Model):
+        """DOF count, connectivity to ground, initial conditions against the DOF."""
         n, m = model.n_coordinates, model.n_constraints
         dof = n - m
         if dof < 0:

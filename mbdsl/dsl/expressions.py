@@ -191,7 +191,7 @@ def evaluate(expr: Expr, env: dict[str, float], allow_t: bool = False,
         Unknown name or function, ``t`` where it is not allowed, a domain
         error (``sqrt(-1)``, division by zero) or a non-finite result.
     """
-    def ev(e):
+    def _ev(e):
         if isinstance(e, Num):
             return e.value
         if isinstance(e, Name):
@@ -210,15 +210,15 @@ def evaluate(expr: Expr, env: dict[str, float], allow_t: bool = False,
             raise ExprError(f"'{e.text}' is a reference, not a number", "E301", e.span,
                             "a number or an expression of parameters is expected here")
         if isinstance(e, Unary):
-            return -ev(e.operand)
+            return -_ev(e.operand)
         if isinstance(e, Binary):
-            return _apply(e.op, ev(e.left), ev(e.right), e.span)
+            return _apply(e.op, _ev(e.left), _ev(e.right), e.span)
         if isinstance(e, Call):
             f = FUNCTIONS.get(e.func)
             if f is None:
                 raise ExprError(f"unknown function '{e.func}'", "E203", e.span,
                                 name=e.func)
-            x = ev(e.arg)
+            x = _ev(e.arg)
             try:
                 return f(x)
             except (ValueError, OverflowError) as exc:
@@ -226,7 +226,7 @@ def evaluate(expr: Expr, env: dict[str, float], allow_t: bool = False,
                                 e.span) from None
         raise TypeError(f"not an expression: {e!r}")
 
-    value = ev(expr)
+    value = _ev(expr)
     if not math.isfinite(value):
         raise ExprError(f"the value is not finite ({value})", "E301",
                         getattr(expr, "span", None))
@@ -355,16 +355,16 @@ def diff(e: Expr, var: str = "t") -> Expr:
         ``abs`` at a kink is handled by sign(x) (its derivative almost
         everywhere); a non-constant exponent uses the general power rule.
     """
-    def d(e):
+    def _d(e):
         if isinstance(e, Num):
             return _n(0)
         if isinstance(e, Name):
             return _n(1) if e.name == var else _n(0)
         if isinstance(e, Unary):
-            return Unary("-", d(e.operand))
+            return Unary("-", _d(e.operand))
         if isinstance(e, Binary):
             a, b = e.left, e.right
-            da, db = d(a), d(b)
+            da, db = _d(a), _d(b)
             if e.op in "+-":
                 return _b(e.op, da, db)
             if e.op == "*":
@@ -377,7 +377,7 @@ def diff(e: Expr, var: str = "t") -> Expr:
                 return term1
             return _b("+", term1, _b("*", _b("*", e, Call("log", a)), db))
         if isinstance(e, Call):
-            x, dx = e.arg, d(e.arg)
+            x, dx = e.arg, _d(e.arg)
             f = e.func
             if f == "sin":
                 g = Call("cos", x)
@@ -410,7 +410,7 @@ def diff(e: Expr, var: str = "t") -> Expr:
             return _b("*", g, dx)
         raise TypeError(f"cannot differentiate {e!r}")
 
-    return simplify(d(e))
+    return simplify(_d(e))
 
 
 def _div(a: float, b: float) -> float:
@@ -429,12 +429,12 @@ def _pow(a: float, b: float) -> float:
 
 
 def _safe(fn):
-    def call(x):
+    def _call(x):
         try:
             return fn(x)
         except (ValueError, OverflowError):
             return math.nan
-    return call
+    return _call
 
 
 def compile_function(e: Expr, var: str = "t") -> Callable[[float], float]:
@@ -447,17 +447,17 @@ def compile_function(e: Expr, var: str = "t") -> Callable[[float], float]:
     """
     e = simplify(e)
 
-    def c(e):
+    def _c(e):
         if isinstance(e, Num):
             v = e.value
             return lambda t: v
         if isinstance(e, Name):
             return lambda t: t
         if isinstance(e, Unary):
-            f = c(e.operand)
+            f = _c(e.operand)
             return lambda t: -f(t)
         if isinstance(e, Binary):
-            fa, fb = c(e.left), c(e.right)
+            fa, fb = _c(e.left), _c(e.right)
             op = e.op
             if op == "+":
                 return lambda t: fa(t) + fb(t)
@@ -469,8 +469,8 @@ def compile_function(e: Expr, var: str = "t") -> Callable[[float], float]:
                 return lambda t: _div(fa(t), fb(t))
             return lambda t: _pow(fa(t), fb(t))
         if isinstance(e, Call):
-            fn, fx = _safe(FUNCTIONS[e.func]), c(e.arg)
+            fn, fx = _safe(FUNCTIONS[e.func]), _c(e.arg)
             return lambda t: fn(fx(t))
         raise TypeError(f"cannot compile {e!r}")
 
-    return c(e)
+    return _c(e)

@@ -42,6 +42,7 @@ class ToSpec(Transformer):
     # -- 1. file and model header ------------------------------------------
     @v_args(meta=True)
     def start(self, meta, children):
+        """The whole file -> ModelSpec, statements sorted into their kinds."""
         header, *items = children
         buckets = {k: [] for k in ("parameters", "ground_points", "bodies", "joints",
                                    "forces", "drivers", "initials", "settings")}
@@ -71,23 +72,28 @@ class ToSpec(Transformer):
 
     @v_args(meta=True)
     def model_decl(self, meta, children):
+        """``model NAME`` -> (name, span)."""
         return (str(children[0]), self._tspan(children[0]))
 
     # -- 2. declarations -----------------------------------------------------
     @v_args(meta=True)
     def parameter_decl(self, meta, children):
+        """``parameter NAME = expr`` -> ParameterSpec."""
         return S.ParameterSpec(str(children[0]), children[1], self._tspan(children[0]))
 
     @v_args(meta=True)
     def gravity_decl(self, meta, children):
+        """``gravity (gx, gy)`` -> ('gravity', Vec, span)."""
         return ("gravity", children[0], self._span(meta))
 
     @v_args(meta=True)
     def ground_decl(self, meta, children):
+        """``ground { point ... }`` -> ('ground', [PointSpec])."""
         return ("ground", list(children))
 
     @v_args(meta=True)
     def body_decl(self, meta, children):
+        """``body NAME { ... }`` -> BodySpec."""
         name, *items = children
         props = tuple(i for i in items if isinstance(i, S.PropertySpec))
         points = tuple(i for i in items if isinstance(i, S.PointSpec))
@@ -95,72 +101,88 @@ class ToSpec(Transformer):
 
     @v_args(meta=True)
     def point_decl(self, meta, children):
+        """``point NAME (x, y)`` -> PointSpec."""
         return S.PointSpec(str(children[0]), children[1], self._tspan(children[0]))
 
     @v_args(meta=True)
     def property(self, meta, children):
+        """``mass m1`` -> PropertySpec."""
         return S.PropertySpec(str(children[0]), children[1], self._tspan(children[0]))
 
     @v_args(meta=True)
     def joint_decl(self, meta, children):
+        """``joint NAME: kind(args)`` -> JointSpec."""
         name, kind, *args = children
         return S.JointSpec(str(name), str(kind), tuple(args), span=self._tspan(name),
                            kind_span=self._tspan(kind))
 
     @v_args(meta=True)
     def force_decl(self, meta, children):
+        """``force NAME: kind(args)`` -> ForceSpec."""
         name, kind, *args = children
         return S.ForceSpec(str(name), str(kind), tuple(args), span=self._tspan(name),
                            kind_span=self._tspan(kind))
 
     @v_args(meta=True)
     def keyword_arg(self, meta, children):
+        """``k = 100`` -> ArgSpec with a keyword."""
         return S.ArgSpec(children[1], str(children[0]), self._span(meta))
 
     @v_args(meta=True)
     def positional_arg(self, meta, children):
+        """``crank.O`` or ``(1, 0)`` -> positional ArgSpec."""
         return S.ArgSpec(children[0], None, self._span(meta))
 
     @v_args(meta=True)
     def driver_decl(self, meta, children):
+        """``driver NAME: target = f(t)`` -> DriverSpec."""
         return S.DriverSpec(str(children[0]), children[1], children[2],
                             self._tspan(children[0]))
 
     @v_args(meta=True)
     def initial_decl(self, meta, children):
+        """``initial body.coord = value`` -> InitialSpec."""
         return S.InitialSpec(children[0], children[1], False, self._span(meta))
 
     @v_args(meta=True)
     def guess_decl(self, meta, children):
+        """``guess body.coord = value`` -> InitialSpec(guess=True)."""
         return S.InitialSpec(children[0], children[1], True, self._span(meta))
 
     @v_args(meta=True)
     def ref(self, meta, children):
+        """``body.coord`` -> Dotted."""
         return Dotted(str(children[0]), str(children[1]), self._span(meta))
 
     @v_args(meta=True)
     def simulate_decl(self, meta, children):
+        """``simulate { ... }`` -> [SettingSpec]."""
         return list(children)
 
     @v_args(meta=True)
     def method_setting(self, meta, children):
+        """``method hht-i3`` -> SettingSpec."""
         return S.SettingSpec("method", str(children[0]), self._tspan(children[0]))
 
     @v_args(meta=True)
     def value_setting(self, meta, children):
+        """``h 1e-3`` -> SettingSpec."""
         return S.SettingSpec(str(children[0]), children[1], self._tspan(children[0]))
 
     # -- 3. expressions --------------------------------------------------------
     def expression(self, children):
+        """A lone expression (parse_expression's entry point)."""
         return children[0]
 
     @v_args(meta=True)
     def vec(self, meta, children):
+        """``(x, y)`` -> Vec."""
         return Vec(children[0], children[1], self._span(meta))
 
     def _bin(op):
         @v_args(meta=True)
         def method(self, meta, children):
+            """``a op b`` -> Binary."""
             return Binary(op, children[0], children[1], self._span(meta))
         return method
 
@@ -169,24 +191,30 @@ class ToSpec(Transformer):
 
     @v_args(meta=True)
     def neg(self, meta, children):
+        """``-x`` -> Unary."""
         return Unary("-", children[0], self._span(meta))
 
     @v_args(meta=True)
     def pos(self, meta, children):
+        """``+x`` -> x."""
         return children[0]
 
     @v_args(meta=True)
     def number(self, meta, children):
+        """NUMBER -> Num."""
         return Num(float(children[0]), self._tspan(children[0]))
 
     @v_args(meta=True)
     def name(self, meta, children):
+        """NAME -> Name."""
         return Name(str(children[0]), self._tspan(children[0]))
 
     @v_args(meta=True)
     def dotted(self, meta, children):
+        """``a.b`` -> Dotted."""
         return Dotted(str(children[0]), str(children[1]), self._span(meta))
 
     @v_args(meta=True)
     def call(self, meta, children):
+        """``f(x)`` -> Call."""
         return Call(str(children[0]), children[1], self._tspan(children[0]))

@@ -36,7 +36,7 @@ def fd(f, x, eps=EPS):
 def close(analytic, numeric, rtol=1e-6):
     scale = max(1.0, float(np.max(np.abs(numeric))))
     err = float(np.max(np.abs(analytic - numeric)))
-    assert err <= rtol * scale * 10, f"max error {err:.3e} (scale {scale:.3e})"
+    assert err <= rtol * scale, f"max error {err:.3e} (scale {scale:.3e})"
 
 
 def states(system, count=4, seed=1):
