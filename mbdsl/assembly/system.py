@@ -181,6 +181,11 @@ class AssembledSystem:
         """M(q), shape (n, n) [kg, kg m^2]; constant (read-only) for rigid bodies."""
         return self._M
 
+    def mass_solve(self, q, X) -> np.ndarray:
+        """M(q)^{-1} X for X of shape (n,) or (n, k); a division for rigid bodies."""
+        X = np.asarray(X, dtype=float)
+        return X / (self.mass_diag if X.ndim == 1 else self.mass_diag[:, None])
+
     def Ma_q(self, q, a):
         """(M(q) a)_q, shape (n, n), or None when M is constant (rigid bodies)."""
         return None

@@ -6,16 +6,26 @@ shares one Newton loop (:mod:`.newton`) and one time loop (:mod:`.driver`).
 
 from .base import Block, Method, StepContext, StepState
 from .driver import integrate
+from .hht_add import HHTADD
 from .hht_i3 import HHTI3
+from .hht_si2 import HHTSI2
+from .newmark import Newmark
+from .nstiff import NStiff
+from .nstiff_si2 import NStiffSI2
 from .newton import JacobianUpdate, Newton, NewtonOptions, NewtonResult, NewtonStatus
 
 #: The paper's method names -> recipe classes.
 METHODS = {
+    "newmark": Newmark,
     "hht-i3": HHTI3,
+    "nstiff": NStiff,
+    "nstiff-si2": NStiffSI2,
+    "hht-add": HHTADD,
+    "hht-si2": HHTSI2,
 }
 
 __all__ = ["METHODS", "Method", "Block", "StepState", "StepContext", "integrate",
-           "HHTI3", "Newton", "NewtonOptions", "NewtonResult", "NewtonStatus",
+           "HHTI3", "Newmark", "NStiff", "NStiffSI2", "HHTADD", "HHTSI2", "Newton", "NewtonOptions", "NewtonResult", "NewtonStatus",
            "JacobianUpdate", "make_method"]
 
 

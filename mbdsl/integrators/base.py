@@ -117,11 +117,16 @@ class Method(ABC):
         DAE index of the form it discretizes (3 or 2).
     history_length : int
         Number of past states the formulas use (2 for BDF2).
+    extras : tuple of str
+        Per-step multiplier arrays besides lambda, output as
+        ``<name>.<joint>.<k>`` columns (``mu`` for the SI2 methods).
     """
 
     name: str = ""
     index: int = 3
     history_length: int = 1
+    #: names of StepState.extra arrays of length m written to the output (e.g. "mu")
+    extras: tuple = ()
 
     @abstractmethod
     def order(self) -> int:

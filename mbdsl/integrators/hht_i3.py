@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from .base import Block, Method, StepContext, StepState, check_range
+from .common import force_term, index3_newton_matrix, newmark_predictor, roundoff_floor
 
 __all__ = ["HHTI3"]
 
@@ -45,8 +46,10 @@ class HHTI3(Method):
     Order 2 in q and v for every alpha in range; index 3 (velocity
     constraints hold only to O(h^2)); one-step, so a0 = q''(t_0) from the
     index-1 system starts it and the step size may change between steps.
-    Cost per iteration: one residual, and one factorization of an
-    (n + m) matrix when the Jacobian is refreshed.
+    The multipliers start with a transient of size O(h) that the numerical
+    damping removes (faster for more negative alpha). Cost per iteration:
+    one residual, and one factorization of an (n + m) matrix when the
+    Jacobian is refreshed.
 
     References
     ----------
@@ -85,31 +88,20 @@ class HHTI3(Method):
         return np.concatenate([np.full(system.n, gh), np.full(system.m, gh / system.mass_scale)])
 
     def roundoff_floor(self, system, h, q) -> float:
-        """32 eps (1 + |q|_max) gamma / (beta h): Phi's round-off through the
-        1/(beta h^2) row scaling, mapped to velocity by gamma h (the factor 32
-        covers the conditioning of Phi_q; measured noise on the slider crank
-        at h = 1e-6 s: 1.5e-9 m/s, this floor: 8e-9 m/s)."""
-        eps = np.finfo(float).eps
-        return 32.0 * eps * (1.0 + float(np.max(np.abs(q), initial=0.0))) * self.gamma / (self.beta * h)
+        """Phi's round-off through the 1/(beta h^2) rows, times gamma h."""
+        return roundoff_floor(q, self.gamma / (self.beta * h))
 
     def start(self, system, initial) -> list[StepState]:
         """One state at t_0 with a_0 = q''(t_0) and lambda_0 from the index-1 system."""
         s = StepState(initial.t, initial.q, initial.v, initial.a, initial.lam)
-        s.extra["F"] = self._force(system, s)
+        s.extra["F"] = force_term(system, s.t, s.q, s.v, s.lam)
         return [s]
-
-    @staticmethod
-    def _force(system, s: StepState) -> np.ndarray:
-        """(Phi_q^T lambda - Q) at a state."""
-        return system.Phi_q(s.q, s.t).T @ s.lam - system.Q(s.t, s.q, s.v)
 
     def context(self, system, history, t, h) -> StepContext:
         """Predictor parts of q and v, and the old force term."""
-        s = history[-1]
         ctx = StepContext(system, tuple(history[-1:]), t, h)
-        ctx.cache["q_pred"] = s.q + h * s.v + 0.5 * h * h * (1.0 - 2.0 * self.beta) * s.a
-        ctx.cache["v_pred"] = s.v + h * (1.0 - self.gamma) * s.a
-        ctx.cache["F_old"] = s.extra["F"]
+        ctx.cache["q_pred"], ctx.cache["v_pred"] = newmark_predictor(history[-1], h, self.beta,
+                                                                     self.gamma)
         return ctx
 
     def _qv(self, a, ctx):
@@ -127,33 +119,18 @@ class HHTI3(Method):
         a, lam = w[:n], w[n:]
         q, v = self._qv(a, ctx)
         c = 1.0 / (1.0 + self.alpha)
-        r1 = (c * (sys.mass_matrix(q) @ a) + sys.Phi_q(q, ctx.t).T @ lam - sys.Q(ctx.t, q, v)
-              - self.alpha * c * ctx.cache["F_old"])
+        r1 = (c * (sys.mass_matrix(q) @ a) + force_term(sys, ctx.t, q, v, lam)
+              - self.alpha * c * ctx.last.extra["F"])
         r2 = sys.Phi(q, ctx.t) / (self.beta * ctx.h ** 2)
         return np.concatenate([r1, r2])
 
     def jacobian(self, w, ctx) -> np.ndarray:
         """Exact Newton matrix, shape (n + m, n + m)."""
-        sys, n, m, h = ctx.system, ctx.system.n, ctx.system.m, ctx.h
+        n, h = ctx.system.n, ctx.h
         a, lam = w[:n], w[n:]
         q, v = self._qv(a, ctx)
-        c = 1.0 / (1.0 + self.alpha)
-        bh2, gh = self.beta * h * h, self.gamma * h
-        K = c * sys.mass_matrix(q) + bh2 * sys.PhiqT_lam_q(q, lam)
-        Ma_q = sys.Ma_q(q, a)
-        if Ma_q is not None:
-            K += bh2 * c * Ma_q
-        Q_q, Q_v = sys.force_derivatives(ctx.t, q, v)
-        if Q_q is not None:
-            K -= bh2 * Q_q
-        if Q_v is not None:
-            K -= gh * Q_v
-        Phi_q = sys.Phi_q(q, ctx.t)
-        J = np.zeros((n + m, n + m))
-        J[:n, :n] = K
-        J[:n, n:] = Phi_q.T
-        J[n:, :n] = Phi_q
-        return J
+        return index3_newton_matrix(ctx.system, ctx.t, q, v, a, lam, 1.0 / (1.0 + self.alpha),
+                                    self.beta * h * h, self.gamma * h)
 
     def accept(self, w, ctx) -> StepState:
         """State at t_{n+1}, with its force term cached for the next step."""
@@ -161,5 +138,5 @@ class HHTI3(Method):
         a, lam = w[:n].copy(), w[n:].copy()
         q, v = self._qv(a, ctx)
         s = StepState(ctx.t, q, v, a, lam)
-        s.extra["F"] = self._force(ctx.system, s)
+        s.extra["F"] = force_term(ctx.system, s.t, q, v, lam)
         return s

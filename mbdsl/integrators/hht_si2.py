@@ -1,0 +1,165 @@
+"""HHT-SI2: HHT on the stabilized index-2 DAE (new in Negrut, Jay & Khude)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .base import Block, Method, StepContext, StepState, check_range
+from .common import force_jacobians, force_term, newmark_predictor, roundoff_floor
+
+__all__ = ["HHTSI2"]
+
+
+class HHTSI2(Method):
+    """Hilber-Hughes-Taylor on the stabilized index-2 formulation.
+
+        q_{n+1} = q_n + h v_n + h^2/2 [(1 - 2 beta) a_n + 2 beta a_{n+1}] + h^2/2 abar
+        v_{n+1} = v_n + h [(1 - gamma) a_n + gamma a_{n+1}]
+
+    Unknowns a_{n+1}, abar, lambda_{n+1}, mu (abar and mu live within one step):
+
+        1/(1+alpha) Mhat a + (Phi_q^T lambda - Q)_{n+1} - alpha/(1+alpha) (Phi_q^T lambda - Q)_n = 0
+        Mhat abar + Phi_q^T(q_{n+1}) mu                                = 0
+        1/h^2 Phi(q_{n+1}, t_{n+1})                                    = 0
+        1/h (Phi_q(q_{n+1}) v_{n+1} + Phi_t)                           = 0
+
+    Mhat := M(q_n + h (1 + alpha) v_n) is evaluated once per step at the
+    predicted mid-step configuration and held constant (what makes HHT-SI2
+    cheaper than NSTIFF-SI2 for large or flexible models).
+
+    Newton matrix (exact, with dq/da = beta h^2, dq/dabar = h^2/2, dv/da = gamma h):
+
+        [[Mhat/(1+alpha) + beta h^2 K - gamma h Q_v, h^2/2 K,                  Phi_q^T, 0      ],
+         [beta h^2 (Phi_q^T mu)_q,             Mhat + h^2/2 (Phi_q^T mu)_q, 0,       Phi_q^T],
+         [beta Phi_q,                          Phi_q / 2,                   0,       0      ],
+         [gamma Phi_q + beta h G,              h/2 G,                       0,       0      ]]
+
+    with K = (Phi_q^T lambda)_q - Q_q and G = (Phi_q v)_q + Phi_qt; as h -> 0
+    it tends to the nonsingular matrix of ``methods.md`` sec. 6.
+
+    Parameters
+    ----------
+    alpha : float, default -0.05
+        In [-1/3, 0]; beta = (1 - alpha)^2/4, gamma = (1 - 2 alpha)/2.
+
+    Notes
+    -----
+    Order 2; index 2 with both constraint levels enforced (velocity
+    constraint violation at round-off). One-step; a_0 = q''(t_0), mu_0 = 0.
+
+    References
+    ----------
+    Negrut, Jay & Khude; ``methods.md`` sec. 6.
+    """
+
+    name = "hht-si2"
+    index = 2
+    history_length = 1
+    extras = ("mu",)
+
+    def __init__(self, alpha: float = -0.05):
+        self.alpha = check_range("alpha", alpha, -1.0 / 3.0 - 1e-12 <= alpha <= 0.0,
+                                 "[-1/3, 0]", "HHT is unconditionally stable and second "
+                                 "order only in this range")
+        self.gamma = (1.0 - 2.0 * self.alpha) / 2.0
+        self.beta = (1.0 - self.alpha) ** 2 / 4.0
+
+    def order(self) -> int:
+        """2."""
+        return 2
+
+    def parameters(self) -> dict:
+        """alpha, and the derived beta and gamma."""
+        return {"alpha": self.alpha, "beta": self.beta, "gamma": self.gamma}
+
+    def blocks(self, system) -> list[Block]:
+        """(a, abar, lam, mu)."""
+        n, m = system.n, system.m
+        return [Block("a", n, "kinematic"), Block("abar", n, "kinematic"),
+                Block("lam", m, "multiplier"), Block("mu", m, "multiplier")]
+
+    def scales(self, system, h) -> np.ndarray:
+        """gamma h for a, h/2 for abar (dq/h), same over mean(M_ii) for lambda, mu."""
+        n, m, gh, hh = system.n, system.m, self.gamma * h, 0.5 * h
+        ms = system.mass_scale
+        return np.concatenate([np.full(n, gh), np.full(n, hh), np.full(m, gh / ms),
+                               np.full(m, hh / ms)])
+
+    def roundoff_floor(self, system, h, q) -> float:
+        """Phi's round-off through the 1/h^2 rows, times h/2."""
+        return roundoff_floor(q, 1.0 / h)
+
+    def start(self, system, initial) -> list[StepState]:
+        """One state at t_0: a_0 = q''(t_0), mu_0 = 0, the old force term cached."""
+        s = StepState(initial.t, initial.q, initial.v, initial.a, initial.lam)
+        s.extra["mu"] = np.zeros(system.m)
+        s.extra["F"] = force_term(system, s.t, s.q, s.v, s.lam)
+        return [s]
+
+    def context(self, system, history, t, h) -> StepContext:
+        """Predictors and Mhat = M(q_n + h (1 + alpha) v_n), once per step."""
+        s = history[-1]
+        ctx = StepContext(system, (s,), t, h)
+        ctx.cache["q_pred"], ctx.cache["v_pred"] = newmark_predictor(s, h, self.beta, self.gamma)
+        ctx.cache["Mhat"] = system.mass_matrix(s.q + h * (1.0 + self.alpha) * s.v)
+        return ctx
+
+    def _split(self, w, ctx):
+        n, m, h = ctx.system.n, ctx.system.m, ctx.h
+        a, abar, lam, mu = w[:n], w[n:2 * n], w[2 * n:2 * n + m], w[2 * n + m:]
+        q = ctx.cache["q_pred"] + self.beta * h * h * a + 0.5 * h * h * abar
+        v = ctx.cache["v_pred"] + self.gamma * h * a
+        return a, abar, lam, mu, q, v
+
+    def predict(self, ctx) -> np.ndarray:
+        """w(0) = (a_n, 0, lambda_n, 0)."""
+        s, n, m = ctx.last, ctx.system.n, ctx.system.m
+        return np.concatenate([s.a, np.zeros(n), s.lam, np.zeros(m)])
+
+    def residual(self, w, ctx) -> np.ndarray:
+        """Upsilon(w), shape (2n + 2m,)."""
+        sys, t, h = ctx.system, ctx.t, ctx.h
+        a, abar, lam, mu, q, v = self._split(w, ctx)
+        Mhat, Phi_q = ctx.cache["Mhat"], sys.Phi_q(q, t)
+        c = 1.0 / (1.0 + self.alpha)
+        r1 = c * (Mhat @ a) + Phi_q.T @ lam - sys.Q(t, q, v) - self.alpha * c * ctx.last.extra["F"]
+        r2 = Mhat @ abar + Phi_q.T @ mu
+        r3 = sys.Phi(q, t) / (h * h)
+        r4 = (Phi_q @ v + sys.Phi_t(q, t)) / h
+        return np.concatenate([r1, r2, r3, r4])
+
+    def jacobian(self, w, ctx) -> np.ndarray:
+        """Exact Newton matrix, shape (2n + 2m, 2n + 2m)."""
+        sys, t, h = ctx.system, ctx.t, ctx.h
+        n, m = sys.n, sys.m
+        a, abar, lam, mu, q, v = self._split(w, ctx)
+        Mhat, Phi_q = ctx.cache["Mhat"], sys.Phi_q(q, t)
+        bh2, hh2, gh = self.beta * h * h, 0.5 * h * h, self.gamma * h
+        K = sys.PhiqT_lam_q(q, lam)
+        Q_q, Q_v = force_jacobians(sys, t, q, v)
+        if Q_q is not None:
+            K = K - Q_q
+        Kmu = sys.PhiqT_lam_q(q, mu)
+        G = sys.Phiq_v_q(q, v) + sys.Phi_qt(q, t)
+        J = np.zeros((2 * n + 2 * m, 2 * n + 2 * m))
+        J[:n, :n] = Mhat / (1.0 + self.alpha) + bh2 * K
+        if Q_v is not None:
+            J[:n, :n] -= gh * Q_v
+        J[:n, n:2 * n] = hh2 * K
+        J[:n, 2 * n:2 * n + m] = Phi_q.T
+        J[n:2 * n, :n] = bh2 * Kmu
+        J[n:2 * n, n:2 * n] = Mhat + hh2 * Kmu
+        J[n:2 * n, 2 * n + m:] = Phi_q.T
+        J[2 * n:2 * n + m, :n] = self.beta * Phi_q
+        J[2 * n:2 * n + m, n:2 * n] = 0.5 * Phi_q
+        J[2 * n + m:, :n] = self.gamma * Phi_q + self.beta * h * G
+        J[2 * n + m:, n:2 * n] = 0.5 * h * G
+        return J
+
+    def accept(self, w, ctx) -> StepState:
+        """State at t_{n+1}, with mu and the force term for the next step."""
+        a, abar, lam, mu, q, v = self._split(w, ctx)
+        s = StepState(ctx.t, q, v, a.copy(), lam.copy())
+        s.extra["mu"] = mu.copy()
+        s.extra["F"] = force_term(ctx.system, s.t, q, v, s.lam)
+        return s

@@ -1,0 +1,112 @@
+"""NSTIFF: BDF2 on the index-3 DAE."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .base import Block, Method, StepContext, StepState
+from .common import bdf_coefficients, force_term, index3_newton_matrix, roundoff_floor
+
+__all__ = ["NStiff"]
+
+
+class NStiff(Method):
+    """Second-order backward differentiation (BDF2) on the index-3 DAE.
+
+    With the BDF derivative D x = c0 (x_{n+1} - xi(x)), c0 = 3/(2h),
+    xi(x) = 4/3 x_n - 1/3 x_{n-1}, applied to q' = v and v' = a:
+
+        v_{n+1} = xi(v) + a_{n+1} / c0 = 4/3 v_n - 1/3 v_{n-1} + 2/3 h a_{n+1}
+        q_{n+1} = xi(q) + v_{n+1} / c0
+                = 4/3 q_n - 1/3 q_{n-1} + h (8/9 v_n - 2/9 v_{n-1}) + 4/9 h^2 a_{n+1}
+
+    Unknowns (a_{n+1}, lambda_{n+1}); residual M a + Phi_q^T lambda - Q = 0 and
+    9/(4 h^2) Phi = 0; Newton matrix [[M + P, Phi_q^T], [Phi_q, 0]] with
+    P = 4/9 h^2 ((M a)_q + (Phi_q^T lambda)_q - Q_q) - 2/3 h Q_v.
+
+    Start-up: two-step, so the first step (and the first step after any
+    change of h) is one backward-Euler (BDF1) step in the same unknowns,
+    c0 = 1/h, xi(x) = x_n (see :func:`~mbdsl.integrators.common.bdf_coefficients`):
+    its O(h^2) local error enters the global error once, so the method is of
+    order 2 from the first step.
+
+    Notes
+    -----
+    Order 2, index 3, strongly damping (L-stable): good on stiff problems,
+    dissipative on resolved oscillations. No coefficients.
+
+    References
+    ----------
+    Gear (1971), Numerical Initial Value Problems in ODEs.
+    Negrut, Jay & Khude; ``methods.md`` sec. 1.
+    """
+
+    name = "nstiff"
+    index = 3
+    history_length = 2
+
+    def order(self) -> int:
+        """2."""
+        return 2
+
+    def parameters(self) -> dict:
+        """None: BDF2 has no free coefficient."""
+        return {}
+
+    def blocks(self, system) -> list[Block]:
+        """(a, lam)."""
+        return [Block("a", system.n, "kinematic"), Block("lam", system.m, "multiplier")]
+
+    def scales(self, system, h) -> np.ndarray:
+        """2h/3 for a (dv = da / c0), 2h/3 / mean(M_ii) for lambda."""
+        s = 2.0 * h / 3.0
+        return np.concatenate([np.full(system.n, s), np.full(system.m, s / system.mass_scale)])
+
+    def roundoff_floor(self, system, h, q) -> float:
+        """Phi's round-off through the c0^2 rows, times 1/c0 (BDF1 start-up: worst case)."""
+        return roundoff_floor(q, 1.0 / h)
+
+    def start(self, system, initial) -> list[StepState]:
+        """One state at t_0; the first step is BDF1."""
+        return [StepState(initial.t, initial.q, initial.v, initial.a, initial.lam)]
+
+    def context(self, system, history, t, h) -> StepContext:
+        """BDF coefficients (BDF2, or BDF1 at start-up) and the xi terms."""
+        c0, weights, order = bdf_coefficients(history, h)
+        ctx = StepContext(system, tuple(history[-2:]), t, h)
+        ctx.cache["c0"] = c0
+        ctx.cache["xi_q"] = sum(w * s.q for w, s in weights)
+        ctx.cache["xi_v"] = sum(w * s.v for w, s in weights)
+        ctx.cache["bdf_order"] = order
+        return ctx
+
+    def _qv(self, a, ctx):
+        c0 = ctx.cache["c0"]
+        v = ctx.cache["xi_v"] + a / c0
+        return ctx.cache["xi_q"] + v / c0, v
+
+    def predict(self, ctx) -> np.ndarray:
+        """w(0) = (a_n, lambda_n)."""
+        return np.concatenate([ctx.last.a, ctx.last.lam])
+
+    def residual(self, w, ctx) -> np.ndarray:
+        """Upsilon(w), shape (n + m,)."""
+        sys, n, c0 = ctx.system, ctx.system.n, ctx.cache["c0"]
+        a, lam = w[:n], w[n:]
+        q, v = self._qv(a, ctx)
+        r1 = sys.mass_matrix(q) @ a + force_term(sys, ctx.t, q, v, lam)
+        return np.concatenate([r1, c0 * c0 * sys.Phi(q, ctx.t)])
+
+    def jacobian(self, w, ctx) -> np.ndarray:
+        """Exact Newton matrix, shape (n + m, n + m)."""
+        n, c0 = ctx.system.n, ctx.cache["c0"]
+        a, lam = w[:n], w[n:]
+        q, v = self._qv(a, ctx)
+        return index3_newton_matrix(ctx.system, ctx.t, q, v, a, lam, 1.0, 1.0 / c0 ** 2, 1.0 / c0)
+
+    def accept(self, w, ctx) -> StepState:
+        """State at t_{n+1}."""
+        n = ctx.system.n
+        a, lam = w[:n].copy(), w[n:].copy()
+        q, v = self._qv(a, ctx)
+        return StepState(ctx.t, q, v, a, lam)
