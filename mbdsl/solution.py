@@ -35,6 +35,32 @@ class RunStats:
     rejected: int = 0
 
 
+def _reaction(system, joint, q, Phi_q, lam) -> np.ndarray:
+    """Reaction of a joint on its second body: (fx, fy) [N] in global
+    coordinates, applied at the joint's first point, and the couple [N m]
+    about that point (zero for a revolute joint).
+
+    The generalized constraint force of the joint's rows is -Phi_q^T lambda
+    (sign convention M a + Phi_q^T lambda = Q). When the second body is the
+    ground, the reaction is minus the one on the first body (the joint is
+    massless).
+    """
+    rows = system.layout.element_rows[joint.name]
+    gen = -(Phi_q[rows].T @ lam[rows])
+    p1 = joint.first
+    if p1.body >= 0:
+        r1, phi1 = q[3 * p1.body: 3 * p1.body + 2], q[3 * p1.body + 2]
+        c, s = np.cos(phi1), np.sin(phi1)
+        point = r1 + np.array([c * p1.local[0] - s * p1.local[1], s * p1.local[0] + c * p1.local[1]])
+    else:
+        point = p1.local
+    b, sign = (joint.second.body, 1.0) if joint.second.body >= 0 else (p1.body, -1.0)
+    F, tau = gen[3 * b: 3 * b + 2], gen[3 * b + 2]
+    d = point - q[3 * b: 3 * b + 2]
+    couple = tau - (d[0] * F[1] - d[1] * F[0])
+    return sign * np.array([F[0], F[1], couple])
+
+
 class Solution:
     """Time histories of a run, and everything derived from them.
 
@@ -44,6 +70,9 @@ class Solution:
     q, v, a : ndarray, shape (N, n)
     lam : ndarray, shape (N, m)
         Lagrange multipliers (sign convention ``M a + Phi_q^T lambda = Q``).
+    extras : dict of str -> ndarray, shape (N, m)
+        The method's further multipliers: ``mu`` (NSTIFF-SI2, HHT-SI2),
+        ``psi1`` (HHT-ADD).
     status : {"completed", "failed", "interrupted", "running"}
     message : str
         Why the run stopped.
@@ -66,6 +95,7 @@ class Solution:
         self.model = system.model
         self.method_name = method.name
         self.method_parameters = method.parameters()
+        self.extra_names = tuple(method.extras)
         self.h, self.t_end = float(h), float(t_end)
         self.initial = initial
         self.status, self.message, self.diagnostics = "running", "", []
@@ -95,6 +125,8 @@ class Solution:
         self.v = np.array([s.v for s in rows])
         self.a = np.array([s.a for s in rows])
         self.lam = np.array([s.lam for s in rows]).reshape(len(rows), self.system.m)
+        self.extras = {x: np.array([s.extra[x] for s in rows]).reshape(len(rows), self.system.m)
+                       for x in self.extra_names}
         self.stats = {k: np.array([getattr(s, k) for s in self._stats])
                       for k in ("iterations", "residuals", "jacobians", "factorizations", "h")}
         self._derived = None
@@ -111,18 +143,26 @@ class Solution:
         sys = self.system
         N = len(self.t)
         kin, pot, cpos, cvel = (np.empty(N) for _ in range(4))
+        joints = self.model.joints
+        reac = np.zeros((N, len(joints), 3))
         for i in range(N):
             q, v, t = self.q[i], self.v[i], self.t[i]
             kin[i] = sys.kinetic_energy(q, v)
             pot[i] = sys.potential_energy(q)
             if sys.m:
+                Phi_q = sys.Phi_q(q, t)
                 cpos[i] = np.max(np.abs(sys.Phi(q, t)))
-                cvel[i] = np.max(np.abs(sys.Phi_q(q, t) @ v + sys.Phi_t(q, t)))
+                cvel[i] = np.max(np.abs(Phi_q @ v + sys.Phi_t(q, t)))
+                for k, j in enumerate(joints):
+                    reac[i, k] = _reaction(sys, j, q, Phi_q, self.lam[i])
             else:
                 cpos[i] = cvel[i] = 0.0
         self._derived = {"energy.kinetic": kin, "energy.potential": pot,
                          "energy.total": kin + pot, "constraint.position": cpos,
                          "constraint.velocity": cvel}
+        for k, j in enumerate(joints):
+            for c, comp in enumerate(("fx", "fy", "torque")):
+                self._derived[f"reaction.{j.name}.{comp}"] = reac[:, k, c]
         return self._derived
 
     @property
@@ -131,9 +171,13 @@ class Solution:
         lay = self.system.layout
         pos = [f"{b.name}.{c}" for b in self.model.bodies for c in ("x", "y", "phi")]
         vel = [f"{b.name}.{c}" for b in self.model.bodies for c in ("vx", "vy", "omega")]
+        extras = [f"{x}.{name}.{k}" for x in self.extra_names for name, k in lay.rows]
+        reactions = [f"reaction.{j.name}.{c}" for j in self.model.joints
+                     for c in ("fx", "fy", "torque")]
         return (["t"] + pos + vel + ["energy.kinetic", "energy.potential", "energy.total",
                                      "constraint.position", "constraint.velocity",
-                                     "newton.iterations"] + lay.multiplier_names())
+                                     "newton.iterations"] + lay.multiplier_names() + extras
+                + reactions)
 
     def column(self, name: str) -> np.ndarray:
         """One column by name, shape (N,).
@@ -158,6 +202,11 @@ class Solution:
         mult = lay.multiplier_names()
         if name in mult:
             return self.lam[:, mult.index(name)]
+        head, _, rest = name.partition(".")
+        if head in self.extras:
+            rows = [f"{a}.{b}" for a, b in lay.rows]
+            if rest in rows:
+                return self.extras[head][:, rows.index(rest)]
         import difflib
         close = difflib.get_close_matches(name, self.columns, n=3)
         raise KeyError(f"no column '{name}'" + (f"; did you mean {', '.join(close)}?" if close else ""))
