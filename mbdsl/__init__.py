@@ -23,7 +23,8 @@ from .dsl.spec import (ArgSpec, BodySpec, DriverSpec, ForceSpec, InitialSpec, Jo
                        ModelSpec, ParameterSpec, PointSpec, SettingSpec)
 from .errors import (AssemblyError, ConvergenceError, Diagnostic, MbdError, MbdModelError,
                      MbdSyntaxError, render)
-from .integrators import METHODS, JacobianUpdate, NewtonOptions, integrate, make_method
+from .integrators import (METHODS, JacobianUpdate, NewtonOptions, integrate, make_method,
+                          method_parameters)
 from .model.elements import Model
 from .solution import Solution
 
@@ -123,7 +124,11 @@ def simulate(model: Model, method: str | None = None, h: float | None = None,
     t_end = t_end if t_end is not None else s.get("t_end")
     if h is None or t_end is None:
         raise ValueError("give h and t_end, as arguments or in the model's simulate section")
-    params = {k: s[k] for k in ("alpha", "beta", "gamma", "b") if k in s}
+    # coefficients from the model's simulate section apply to the methods that
+    # take them (a file written for hht-i3 still runs with --method nstiff);
+    # coefficients given here are checked strictly
+    accepted = method_parameters(method)
+    params = {k: s[k] for k in ("alpha", "beta", "gamma", "b") if k in s and k in accepted}
     params.update({k: v for k, v in coefficients.items() if v is not None})
     m = make_method(method, **params)
     system = assemble(model)

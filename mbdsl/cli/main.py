@@ -47,7 +47,10 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--method", choices=sorted(METHODS), help="integration method")
     sim.add_argument("--h", type=float, help="step size [s]")
     sim.add_argument("--t-end", type=float, help="end time [s]")
-    sim.add_argument("--alpha", type=float, help="HHT alpha in [-1/3, 0]")
+    sim.add_argument("--alpha", type=float, help="HHT alpha in [-1/3, 0] (hht-i3, hht-si2, hht-add)")
+    sim.add_argument("--beta", type=float, help="Newmark beta >= (gamma + 1/2)^2/4 (newmark)")
+    sim.add_argument("--gamma", type=float, help="Newmark gamma >= 1/2 (newmark)")
+    sim.add_argument("--b", type=float, help="HHT-ADD position weight b != 1/2 (hht-add)")
     sim.add_argument("--set", action="append", metavar="NAME=VALUE",
                      help="override a model parameter (repeatable)")
     sim.add_argument("--newton", choices=["full", "modified"], default="modified",
@@ -110,7 +113,7 @@ def _simulate(args) -> int:
     try:
         sol = simulate(model, method=args.method, h=args.h, t_end=args.t_end,
                        newton=NewtonOptions(jacobian=args.newton), on_failure="return",
-                       alpha=args.alpha)
+                       alpha=args.alpha, beta=args.beta, gamma=args.gamma, b=args.b)
     except AssemblyError as exc:
         _print_diagnostics(exc.diagnostics)
         return 4

@@ -26,7 +26,23 @@ METHODS = {
 
 __all__ = ["METHODS", "Method", "Block", "StepState", "StepContext", "integrate",
            "HHTI3", "Newmark", "NStiff", "NStiffSI2", "HHTADD", "HHTSI2", "Newton", "NewtonOptions", "NewtonResult", "NewtonStatus",
-           "JacobianUpdate", "make_method"]
+           "JacobianUpdate", "make_method", "method_parameters"]
+
+
+def method_parameters(name: str) -> set[str]:
+    """Names of the coefficients the method ``name`` accepts.
+
+    Raises
+    ------
+    ValueError
+        Unknown method.
+    """
+    if name not in METHODS:
+        raise ValueError(f"unknown method '{name}'; available: {', '.join(METHODS)}")
+    import inspect
+    params = inspect.signature(METHODS[name].__init__).parameters.values()
+    return {p.name for p in params if p.name != "self"
+            and p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD)}
 
 
 def make_method(name: str, **parameters) -> Method:
@@ -45,12 +61,9 @@ def make_method(name: str, **parameters) -> Method:
         Unknown method, a coefficient the method does not take, or one out
         of its range (the message says why).
     """
-    if name not in METHODS:
-        raise ValueError(f"unknown method '{name}'; available: {', '.join(METHODS)}")
+    accepted = method_parameters(name)
     cls = METHODS[name]
     params = {k: v for k, v in parameters.items() if v is not None}
-    import inspect
-    accepted = set(inspect.signature(cls.__init__).parameters) - {"self"}
     extra = set(params) - accepted
     if extra:
         raise ValueError(f"method '{name}' takes no parameter {', '.join(sorted(extra))}; "

@@ -1,0 +1,64 @@
+"""The command line: method options, output columns, exit statuses."""
+
+import numpy as np
+import pytest
+
+from mbdsl.cli.main import main
+from mbdsl.output import read_csv_metadata
+
+from ..conftest import MODELS
+
+
+def run(tmp_path, *args):
+    out = tmp_path / "out.csv"
+    status = main(["simulate", str(MODELS / "slider_crank.mbd"), "--t-end", "0.1", "-q",
+                   "-o", str(out), *args])
+    return status, out
+
+
+@pytest.mark.parametrize("args,params", [
+    (["--method", "newmark", "--gamma", "0.7", "--beta", "0.36"], {"gamma": 0.7, "beta": 0.36}),
+    (["--method", "hht-si2", "--alpha", "-0.3"], {"alpha": -0.3}),
+    (["--method", "hht-add", "--b", "1"], {"b": 1.0}),
+    (["--method", "nstiff"], {}),
+])
+def test_method_coefficients_reach_the_run(tmp_path, args, params):
+    status, out = run(tmp_path, *args)
+    meta, names, values = read_csv_metadata(out)
+    assert status == 0 and meta["method"] == args[1]
+    for k, v in params.items():
+        assert float(meta[f"method.{k}"]) == v
+
+
+def test_index2_output_has_mu_and_reactions(tmp_path):
+    status, out = run(tmp_path, "--method", "nstiff-si2")
+    meta, names, values = read_csv_metadata(out)
+    assert {"mu.O.0", "mu.B.0", "lambda.A.1", "reaction.B.fx", "newton.iterations"} <= set(names)
+    assert np.max(values[:, names.index("constraint.velocity")]) < 1e-9
+
+
+@pytest.mark.parametrize("args,text", [
+    (["--method", "newmark", "--gamma", "0.4"], "gamma = 0.4 is out of range"),
+    (["--method", "nstiff", "--alpha", "-0.1"], "takes no parameter alpha"),
+    (["--method", "hht-add", "--b", "0.5"], "b = 0.5 is out of range"),
+])
+def test_bad_coefficients_exit_1_with_the_reason(tmp_path, capsys, args, text):
+    status, out = run(tmp_path, *args)
+    assert status == 1 and text in capsys.readouterr().err and not out.exists()
+
+
+def test_set_override_and_summary(tmp_path, capsys):
+    out = tmp_path / "p.csv"
+    status = main(["simulate", str(MODELS / "pendulum.mbd"), "--set", "phi0=-1.2", "--t-end", "0.01",
+                   "-o", str(out)])
+    text = capsys.readouterr().out
+    assert status == 0
+    assert "iterations/step" in text and "max |Phi|" in text and "energy:" in text
+    meta, names, values = read_csv_metadata(out)
+    assert values[0, names.index("rod.phi")] == -1.2
+    assert "phi0=-1.2" in meta["parameters"]
+
+
+def test_check_prints_dof(capsys):
+    assert main(["check", str(MODELS / "slider_crank.mbd")]) == 0
+    assert "1 DOF" in capsys.readouterr().out
