@@ -21,6 +21,7 @@ class StepStats:
     jacobians: int = 0
     factorizations: int = 0
     h: float = 0.0
+    multipliers_stalled: bool = False
 
 
 @dataclass
@@ -33,6 +34,7 @@ class RunStats:
     jacobians: int = 0
     factorizations: int = 0
     rejected: int = 0
+    multipliers_stalled: int = 0
 
 
 def _reaction(system, joint, q, Phi_q, lam) -> np.ndarray:
@@ -116,6 +118,7 @@ class Solution:
         tot.residuals += stats.residuals
         tot.jacobians += stats.jacobians
         tot.factorizations += stats.factorizations
+        tot.multipliers_stalled += int(stats.multipliers_stalled)
 
     def finalize(self) -> None:
         """Stack the recorded steps into arrays."""
@@ -229,7 +232,9 @@ class Solution:
             f"  steps {tot.steps} (rejected {tot.rejected}), wall time {self.wall_time:.3f} s "
             f"({1e6 * self.wall_time / steps:.1f} us/step)",
             f"  Newton: {tot.iterations / steps:.2f} iterations/step, {tot.jacobians} Jacobians, "
-            f"{tot.factorizations} factorizations, {tot.residuals} residuals",
+            f"{tot.factorizations} factorizations, {tot.residuals} residuals"
+            + (f"; {tot.multipliers_stalled} steps with multipliers at round-off"
+               if tot.multipliers_stalled else ""),
             f"  max |Phi| = {np.max(d['constraint.position']):.2e}, "
             f"max |Phi_q v + Phi_t| = {np.max(d['constraint.velocity']):.2e}",
             f"  energy: {e[0]:.6g} J -> {e[-1]:.6g} J (change {e[-1] - e[0]:+.3e} J)",

@@ -131,7 +131,8 @@ def consistent_initial_state(system: AssembledSystem, t0: float = 0.0,
     system : AssembledSystem
     t0 : float [s]
     tol : float
-        Tolerance on max |Phi| [m, rad] and on the velocity residual.
+        Largest acceptable max |Phi| [m, rad] at the end (the iteration
+        itself runs until its correction is at round-off).
     max_iter : int
         Newton iterations allowed for closing the loops.
 
@@ -165,14 +166,15 @@ def consistent_initial_state(system: AssembledSystem, t0: float = 0.0,
     it = 0
     for it in range(1, max_iter + 1):
         r = np.concatenate([system.Phi(q, t0), q[iq] - vq])
-        if np.max(np.abs(r), initial=0.0) <= tol:
-            it -= 1
-            break
         J = np.vstack([system.Phi_q(q, t0), E])
         dq = _min_norm_step(J, r)
         if not np.all(np.isfinite(dq)):
             break
         q = q - dq
+        # Newton converges quadratically: go on until the correction is at
+        # round-off, so that |Phi(q0)| is ~1e-17 m, not merely below tol
+        if np.max(np.abs(dq), initial=0.0) <= 1e-14 * (1.0 + np.max(np.abs(q), initial=0.0)):
+            break
     phi = system.Phi(q, t0)
     res_q = float(np.max(np.abs(phi), initial=0.0))
     fixed_err = float(np.max(np.abs(q[iq] - vq), initial=0.0))

@@ -13,6 +13,12 @@ declaration order, then driver rows). Sign convention:
 ``M a + Phi_q^T lambda = Q``, so lambda is the negative of the constraint
 force in the joint's row direction. SI units.
 
+Every matrix term also exists as values on a sparsity pattern fixed at build
+(``pattern_*`` attributes and ``*_values`` methods), which is what the Newton
+matrices are assembled from (``assembly/sparse.py``); the dense ``Phi_q``,
+``PhiqT_lam_q``, ... are built from the same patterns. Residuals use the
+matrix-free products ``PhiqT_times`` and ``Phiq_times``.
+
 Only what the model declares is built and evaluated: a model without gravity
 has no gravity vector, a model without springs no spring group, and the
 force derivatives are ``None`` when no declared force depends on q or v.
@@ -65,7 +71,6 @@ class AssembledSystem:
         mass = np.repeat([b.mass for b in model.bodies], 3)
         mass[2::3] = [b.inertia for b in model.bodies]
         self.mass_diag = mass
-        self.mass_scale = float(np.mean(mass))   # [kg]: converts multipliers to accelerations
         self._M = np.diag(mass)
         self._M.setflags(write=False)
         self.mass_is_constant = True
@@ -117,15 +122,30 @@ class AssembledSystem:
             self.constraint_groups.append(LinearConstraintGroup(n, r, cols, coefs, off, fns))
         self.nonlinear_groups = [g for g in self.constraint_groups if g.hess is not None]
         self.timed_groups = [g for g in self.constraint_groups if g.time_dependent]
-        # Fixed scatter patterns (row, col) for Phi_q-shaped blocks, and flat
-        # (col, col) indices for the n x n Hessian contractions.
-        nx = self.nx
-        self._pattern = []
+        # Sparsity patterns fixed here, once: Phi_q-shaped blocks (row, col) and
+        # the n x n Hessian contractions (col, col); entries in the ground's
+        # dummy columns (index >= n) are masked out.
+        n = self.n
+        self._jac_mask, rows, cols = [], [], []
         for g in self.constraint_groups:
             rr = np.broadcast_to(g.rows[:, :, None], (len(g.rows), g.r, g.cols.shape[1]))
             cc = np.broadcast_to(g.cols[:, None, :], rr.shape)
-            self._pattern.append((rr, cc))
-        self._hess_flat = [(g.cols[:, :, None] * nx + g.cols[:, None, :]) for g in self.nonlinear_groups]
+            mask = cc < n
+            self._jac_mask.append(mask)
+            rows.append(rr[mask])
+            cols.append(cc[mask])
+        self.pattern_Phi_q = _concat_pattern(rows, cols)
+        nl = [i for i, g in enumerate(self.constraint_groups) if g.hess is not None]
+        self.pattern_Phiq_v_q = _concat_pattern([rows[i] for i in nl], [cols[i] for i in nl])
+        self._hess_mask, hr, hc = [], [], []
+        for g in self.nonlinear_groups:
+            ci = np.broadcast_to(g.cols[:, :, None], (len(g.cols),) + (g.cols.shape[1],) * 2)
+            cj = np.broadcast_to(g.cols[:, None, :], ci.shape)
+            mask = (ci < n) & (cj < n)
+            self._hess_mask.append(mask)
+            hr.append(ci[mask])
+            hc.append(cj[mask])
+        self.pattern_hessian = _concat_pattern(hr, hc)
 
     def _build_forces(self, model):
         n = self.n
@@ -160,8 +180,16 @@ class AssembledSystem:
         self.derivative_groups = [g for g in self.force_groups if g.derivatives is not None]
         self.has_Q_v = any(getattr(g, "damped", False) for g in self.derivative_groups)
         self.has_Q_q = bool(self.derivative_groups)
-        nx = self.nx
-        self._force_flat = [(g.cols[:, :, None] * nx + g.cols[:, None, :]) for g in self.derivative_groups]
+        self._force_mask, fr, fc = [], [], []
+        for g in self.derivative_groups:
+            ci = np.broadcast_to(g.cols[:, :, None], (len(g.cols),) + (g.cols.shape[1],) * 2)
+            cj = np.broadcast_to(g.cols[:, None, :], ci.shape)
+            mask = (ci < self.n) & (cj < self.n)
+            self._force_mask.append(mask)
+            fr.append(ci[mask])
+            fc.append(cj[mask])
+        self.pattern_force = _concat_pattern(fr, fc)
+        self.pattern_mass = (np.arange(self.n), np.arange(self.n))
 
     # -- helpers ------------------------------------------------------------------
     def _ext(self, x):
@@ -169,17 +197,43 @@ class AssembledSystem:
         out[: self.n] = x
         return out
 
-    def _accumulate(self, flat_list, values_list):
-        nx = self.nx
-        total = np.zeros(nx * nx)
-        for flat, vals in zip(flat_list, values_list):
-            total += np.bincount(flat.ravel(), weights=vals.ravel(), minlength=nx * nx)
-        return total.reshape(nx, nx)[: self.n, : self.n]
+    @staticmethod
+    def _dense(pattern, vals, shape) -> np.ndarray:
+        rows, cols = pattern
+        flat = rows.astype(np.int64) * shape[1] + cols
+        return np.bincount(flat, weights=vals, minlength=shape[0] * shape[1]).reshape(shape)
 
     # -- mass -----------------------------------------------------------------------
     def mass_matrix(self, q=None) -> np.ndarray:
         """M(q), shape (n, n) [kg, kg m^2]; constant (read-only) for rigid bodies."""
         return self._M
+
+    def mass_values(self, q=None) -> np.ndarray:
+        """Values of M on ``pattern_mass`` (its diagonal for rigid bodies), shape (n,)."""
+        return self.mass_diag
+
+    def mass_times(self, q, a) -> np.ndarray:
+        """M(q) a, shape (n,)."""
+        return self.mass_diag * a
+
+    def multiplier_mobility(self, q, t=0.0) -> np.ndarray:
+        """Largest acceleration a unit multiplier of each row causes, shape (m,).
+
+        max over the element's rows k and columns j of |Phi_q[k, j]| / M_jj
+        [1/kg, or rad/(s^2 N) for rotations], the same for every row of one
+        joint or driver (a single row can vanish at a particular angle).
+        Converts multipliers to velocity changes in the Newton test: on
+        Andrews' mechanism a multiplier moves a rotation (lever arm / I ~ 3e4)
+        far more than a translation (1/m ~ 30).
+        """
+        rows, cols = self.pattern_Phi_q
+        ratio = np.abs(self.Phi_q_values(q, t)) / self.mass_diag[cols]
+        per_row = np.zeros(self.m)
+        np.maximum.at(per_row, rows, ratio)
+        out = np.empty(self.m)
+        for rows in self.layout.element_rows.values():
+            out[rows] = per_row[rows].max()
+        return out
 
     def mass_solve(self, q, X) -> np.ndarray:
         """M(q)^{-1} X for X of shape (n,) or (n, k); a division for rigid bodies."""
@@ -202,20 +256,26 @@ class AssembledSystem:
                 np.add.at(out, g.cols, g.forces(qx, vx, t))
         return out[: self.n]
 
-    def force_derivatives(self, t, q, v):
-        """(Q_q, Q_v), each shape (n, n), or None where no declared force
-        depends on q (resp. v)."""
+    def force_derivative_values(self, t, q, v):
+        """(Q_q, Q_v) values on ``pattern_force``, or None where no declared
+        force depends on q (resp. v)."""
         if not self.has_Q_q:
             return None, None
         qx, vx = self._ext(q), self._ext(v)
         Qq, Qv = [], []
-        for g in self.derivative_groups:
+        for g, mask in zip(self.derivative_groups, self._force_mask):
             a, b = g.derivatives(qx, vx, t)
-            Qq.append(a)
-            Qv.append(b if b is not None else np.zeros_like(a))
-        Q_q = self._accumulate(self._force_flat, Qq)
-        Q_v = self._accumulate(self._force_flat, Qv) if self.has_Q_v else None
-        return Q_q, Q_v
+            Qq.append(a[mask])
+            Qv.append(b[mask] if b is not None else np.zeros(int(mask.sum())))
+        return np.concatenate(Qq), (np.concatenate(Qv) if self.has_Q_v else None)
+
+    def force_derivatives(self, t, q, v):
+        """(Q_q, Q_v), each shape (n, n), or None where no declared force
+        depends on q (resp. v)."""
+        Qq, Qv = self.force_derivative_values(t, q, v)
+        shape = (self.n, self.n)
+        return (None if Qq is None else self._dense(self.pattern_force, Qq, shape),
+                None if Qv is None else self._dense(self.pattern_force, Qv, shape))
 
     # -- constraints ------------------------------------------------------------------
     def Phi(self, q, t) -> np.ndarray:
@@ -226,13 +286,30 @@ class AssembledSystem:
             out[g.rows] = g.phi(qx, t)
         return out
 
+    def Phi_q_values(self, q, t=0.0) -> np.ndarray:
+        """Values of Phi_q on ``pattern_Phi_q``."""
+        qx = self._ext(q)
+        return _concat([g.jac(qx)[mask] for g, mask in zip(self.constraint_groups, self._jac_mask)])
+
     def Phi_q(self, q, t=0.0) -> np.ndarray:
         """Constraint Jacobian, shape (m, n)."""
+        return self._dense(self.pattern_Phi_q, self.Phi_q_values(q, t), (self.m, self.n))
+
+    def PhiqT_times(self, q, t, lam) -> np.ndarray:
+        """Phi_q^T lambda, shape (n,), without forming Phi_q."""
         qx = self._ext(q)
-        out = np.zeros((self.m, self.nx))
-        for g, (rr, cc) in zip(self.constraint_groups, self._pattern):
-            out[rr, cc] = g.jac(qx)
-        return out[:, : self.n]
+        out = np.zeros(self.nx)
+        for g in self.constraint_groups:
+            np.add.at(out, g.cols, np.einsum("krc,kr->kc", g.jac(qx), lam[g.rows]))
+        return out[: self.n]
+
+    def Phiq_times(self, q, t, v) -> np.ndarray:
+        """Phi_q v, shape (m,), without forming Phi_q."""
+        qx, vx = self._ext(q), self._ext(v)
+        out = np.empty(self.m)
+        for g in self.constraint_groups:
+            out[g.rows] = np.einsum("krc,kc->kr", g.jac(qx), vx[g.cols])
+        return out
 
     def Phi_t(self, q, t) -> np.ndarray:
         """Partial time derivative of Phi, shape (m,)."""
@@ -258,20 +335,26 @@ class AssembledSystem:
         """
         return np.zeros((self.m, self.n))
 
+    def Phiq_v_q_values(self, q, v) -> np.ndarray:
+        """Values of (Phi_q v)_q on ``pattern_Phiq_v_q``."""
+        qx, vx = self._ext(q), self._ext(v)
+        masks = [m for g, m in zip(self.constraint_groups, self._jac_mask) if g.hess is not None]
+        return _concat([np.einsum("krij,kj->kri", g.hess(qx), vx[g.cols])[mask]
+                        for g, mask in zip(self.nonlinear_groups, masks)])
+
     def Phiq_v_q(self, q, v) -> np.ndarray:
         """(Phi_q v)_q, shape (m, n)."""
-        qx, vx = self._ext(q), self._ext(v)
-        out = np.zeros((self.m, self.nx))
-        for g, (rr, cc) in zip(self.constraint_groups, self._pattern):
-            if g.hess is not None:
-                out[rr, cc] = np.einsum("krij,kj->kri", g.hess(qx), vx[g.cols])
-        return out[:, : self.n]
+        return self._dense(self.pattern_Phiq_v_q, self.Phiq_v_q_values(q, v), (self.m, self.n))
+
+    def PhiqT_lam_q_values(self, q, lam) -> np.ndarray:
+        """Values of (Phi_q^T lambda)_q on ``pattern_hessian``."""
+        qx = self._ext(q)
+        return _concat([np.einsum("krij,kr->kij", g.hess(qx), lam[g.rows])[mask]
+                        for g, mask in zip(self.nonlinear_groups, self._hess_mask)])
 
     def PhiqT_lam_q(self, q, lam) -> np.ndarray:
         """(Phi_q^T lambda)_q, shape (n, n), symmetric."""
-        qx = self._ext(q)
-        vals = [np.einsum("krij,kr->kij", g.hess(qx), lam[g.rows]) for g in self.nonlinear_groups]
-        return self._accumulate(self._hess_flat, vals)
+        return self._dense(self.pattern_hessian, self.PhiqT_lam_q_values(q, lam), (self.n, self.n))
 
     def gamma(self, q, v, t) -> np.ndarray:
         """Acceleration right side gamma = -(Phi_q v)_q v - 2 Phi_qt v - Phi_tt, shape (m,)."""
@@ -298,6 +381,16 @@ class AssembledSystem:
             qx = self._ext(q)
             e += sum(g.energy(qx) for g in self.potential_groups)
         return e
+
+
+def _concat(arrays) -> np.ndarray:
+    return np.concatenate(arrays) if arrays else np.zeros(0)
+
+
+def _concat_pattern(rows, cols):
+    """(rows, cols) int arrays of a pattern made of several groups."""
+    return (np.concatenate(rows).astype(np.intp) if rows else np.zeros(0, np.intp),
+            np.concatenate(cols).astype(np.intp) if cols else np.zeros(0, np.intp))
 
 
 def assemble(model: Model) -> AssembledSystem:

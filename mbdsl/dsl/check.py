@@ -20,9 +20,15 @@ from ..model import graph
 from ..model.elements import (COORDINATES, GROUND, VELOCITIES, Driver, InitialCondition,
                               Joint, Model, PointForce, PointRef, RigidBody,
                               RotationalSpringDamper, SpringDamper, TimeFunction, Torque)
-from .expressions import (Dotted, ExprError, Name, Vec, compile_function, diff,
-                          evaluate, free_names, substitute)
-from .spec import ModelSpec
+import dataclasses
+
+from .expressions import (Binary, Call, Dotted, ExprError, IndexedName, Name, Num, Unary, Vec,
+                          compile_function, diff, evaluate, free_names, substitute)
+from .spec import ForSpec, ModelSpec
+
+#: most instances one for block may create
+MAX_REPEAT = 1_000_000
+_KINDS = ("bodies", "joints", "forces", "drivers", "initials")
 
 __all__ = ["check_spec", "JOINT_KINDS", "FORCE_KINDS", "SETTINGS", "KNOWN_METHODS"]
 
@@ -193,6 +199,121 @@ class _Checker:
                            el.kind_span or el.span, f"'{name} = ...' is required")
         return pos, kw
 
+    # -- loops and indexed names ------------------------------------------------
+    def resolve_name(self, name, env, span):
+        """``link[i]`` -> ``"link[3]"`` with the loop variables in env; None after reporting."""
+        if not isinstance(name, IndexedName):
+            return name
+        try:
+            value = evaluate(name.index, {**self.params, **env})
+        except ExprError as err:
+            self.expr_error(err, name.span or span, f"index of '{name.base}[...]'")
+            return None
+        if value != int(value):
+            self.error("E301", f"the index of '{name.base}[...]' must be an integer, got {value:g}",
+                       name.span or span, "not an integer")
+            return None
+        return f"{name.base}[{int(value)}]"
+
+    def instantiate(self, obj, env, span=None):
+        """A copy of a spec or expression with the loop variables in env
+        substituted and every indexed name resolved; None after reporting."""
+        if isinstance(obj, Name):
+            return Num(float(env[obj.name]), obj.span) if obj.name in env else obj
+        if isinstance(obj, IndexedName):
+            name = self.resolve_name(obj, env, span)
+            return None if name is None else Name(name, obj.span)
+        if isinstance(obj, Dotted):
+            name = self.resolve_name(obj.obj, env, obj.span or span)
+            return None if name is None else Dotted(name, obj.attr, obj.span)
+        if isinstance(obj, Unary):
+            x = self.instantiate(obj.operand, env, span)
+            return None if x is None else Unary(obj.op, x, obj.span)
+        if isinstance(obj, Binary):
+            a, b = self.instantiate(obj.left, env, span), self.instantiate(obj.right, env, span)
+            return None if a is None or b is None else Binary(obj.op, a, b, obj.span)
+        if isinstance(obj, Call):
+            x = self.instantiate(obj.arg, env, span)
+            return None if x is None else Call(obj.func, x, obj.span)
+        if isinstance(obj, Vec):
+            x, y = self.instantiate(obj.x, env, span), self.instantiate(obj.y, env, span)
+            return None if x is None or y is None else Vec(x, y, obj.span)
+        if isinstance(obj, tuple):
+            out = tuple(self.instantiate(x, env, span) for x in obj)
+            return None if any(x is None for x in out) else out
+        if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+            span = getattr(obj, "span", None) or span
+            changes = {}
+            for f in dataclasses.fields(obj):
+                value = getattr(obj, f.name)
+                if f.name == "name":
+                    new = self.resolve_name(value, env, span)
+                elif isinstance(value, (tuple, Name, IndexedName, Dotted, Unary, Binary, Call, Vec))\
+                        or dataclasses.is_dataclass(value):
+                    new = self.instantiate(value, env, span)
+                else:
+                    continue
+                if new is None:
+                    return None
+                changes[f.name] = new
+            return dataclasses.replace(obj, **changes)
+        return obj
+
+    def expand_loops(self):
+        """Flatten for blocks into concrete declarations, in source order."""
+        keyed = {k: [] for k in _KINDS}
+        buckets = {"bodies": "bodies", "joints": "joints", "forces": "forces",
+                   "drivers": "drivers", "initials": "initials"}
+
+        def key(item, iteration):
+            sp = getattr(item, "span", None)
+            return (sp.line, sp.column) if sp else (0, 0), iteration
+
+        def add(item, env, iteration):
+            kind = {"BodySpec": "bodies", "JointSpec": "joints", "ForceSpec": "forces",
+                    "DriverSpec": "drivers", "InitialSpec": "initials"}[type(item).__name__]
+            inst = self.instantiate(item, env)
+            if inst is not None:
+                keyed[buckets[kind]].append((key(item, iteration), inst))
+
+        def loop(spec: ForSpec, env, iteration):
+            if spec.var in self.params or spec.var in ("t", "pi") or spec.var in env:
+                self.error("E202", f"the loop variable '{spec.var}' hides a parameter or an "
+                           "outer loop variable", spec.span, "choose another name")
+                return
+            try:
+                ctx = {**self.params, **env}
+                lo = evaluate(self.instantiate(spec.start, env, spec.span), ctx)
+                hi = evaluate(self.instantiate(spec.end, env, spec.span), ctx)
+            except (ExprError, TypeError) as err:
+                if isinstance(err, ExprError):
+                    self.expr_error(err, spec.span, f"bounds of 'for {spec.var}'")
+                return
+            if lo != int(lo) or hi != int(hi):
+                self.error("E301", f"the bounds of 'for {spec.var}' must be integers, got "
+                           f"{lo:g}..{hi:g}", spec.span, "not integers")
+                return
+            count = int(hi) - int(lo) + 1
+            if count > MAX_REPEAT:
+                self.error("E303", f"'for {spec.var}' would repeat {count} times, more than "
+                           f"{MAX_REPEAT}", spec.span, "too many repetitions")
+                return
+            for value in range(int(lo), int(hi) + 1):
+                inner = {**env, spec.var: value}
+                for item in spec.items:
+                    if isinstance(item, ForSpec):
+                        loop(item, inner, iteration + (value,))
+                    else:
+                        add(item, inner, iteration + (value,))
+
+        for kind in _KINDS:
+            for item in getattr(self.spec, kind):
+                add(item, {}, ())
+        for spec in self.spec.loops:
+            loop(spec, {}, ())
+        self.items = {k: [inst for _, inst in sorted(v, key=lambda kv: kv[0])]
+                      for k, v in keyed.items()}
+
     # -- passes ---------------------------------------------------------------
     def check_parameters(self):
         """Evaluate parameters in order, applying overrides."""
@@ -247,7 +368,7 @@ class _Checker:
     def check_bodies(self):
         """Check mass, inertia and points of every rigid body."""
         self.broken_bodies = set()
-        for b in self.spec.bodies:
+        for b in self.items["bodies"]:
             if not self.claim(b.name, b.span, "body"):
                 continue
             props = {}
@@ -295,7 +416,7 @@ class _Checker:
 
     def check_joints(self):
         """Resolve joint points and options; reject joints of a body to itself."""
-        for j in self.spec.joints:
+        for j in self.items["joints"]:
             ok = self.claim(j.name, j.span, "joint")
             ctx = f"joint '{j.name}'"
             if j.kind not in JOINT_KINDS:
@@ -340,7 +461,7 @@ class _Checker:
     def check_drivers(self):
         """Resolve driver targets (body coordinate or joint angle) and compile f(t)."""
         self.drivers = []
-        for d in self.spec.drivers:
+        for d in self.items["drivers"]:
             ok = self.claim(d.name, d.span, "driver")
             ctx = f"driver '{d.name}'"
             fn = self.time_function(d.value, d.span, ctx)
@@ -374,7 +495,7 @@ class _Checker:
     def check_forces(self):
         """Check force options (required, non-negative) and build force elements."""
         self.forces = []
-        for f in self.spec.forces:
+        for f in self.items["forces"]:
             ok = self.claim(f.name, f.span, "force")
             ctx = f"force '{f.name}'"
             if f.kind not in FORCE_KINDS:
@@ -473,7 +594,7 @@ class _Checker:
         """Resolve initial and guess lines; reject unknown fields and repeats."""
         self.initials = []
         seen = {}
-        for ic in self.spec.initials:
+        for ic in self.items["initials"]:
             tgt = ic.target
             kw = "guess" if ic.guess else "initial"
             body = self.bodies.get(tgt.obj)
@@ -578,6 +699,7 @@ def check_spec(spec: ModelSpec, overrides: dict | None = None) -> Model:
     """
     c = _Checker(spec, overrides)
     c.check_parameters()
+    c.expand_loops()
     c.check_ground()
     c.check_bodies()
     gravity = c.check_gravity()

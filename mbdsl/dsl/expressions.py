@@ -19,7 +19,7 @@ from typing import Callable, Union
 from ..errors import Span
 
 __all__ = [
-    "Num", "Name", "Dotted", "Unary", "Binary", "Call", "Vec", "Expr",
+    "Num", "Name", "IndexedName", "Dotted", "Unary", "Binary", "Call", "Vec", "Expr",
     "FUNCTIONS", "ExprError", "evaluate", "free_names", "substitute", "diff",
     "simplify", "compile_function", "as_expr",
 ]
@@ -42,17 +42,38 @@ class Name:
 
 
 @dataclass(frozen=True)
-class Dotted:
-    """``body.point`` (or ``joint.angle``): a reference, not a number."""
+class IndexedName:
+    """``link[i]``: a name indexed by an integer expression (inside for blocks).
 
-    obj: str
+    Resolved to the plain name ``"link[3]"`` when the loop is expanded.
+    """
+
+    base: str
+    index: "Expr"
+    span: Span | None = None
+
+    @property
+    def text(self) -> str:
+        """The name as written, e.g. ``"link[...]"``."""
+        return f"{self.base}[...]"
+
+
+@dataclass(frozen=True)
+class Dotted:
+    """``body.point`` (or ``joint.angle``): a reference, not a number.
+
+    ``obj`` is a str, or an IndexedName before loop expansion.
+    """
+
+    obj: object
     attr: str
     span: Span | None = None
 
     @property
     def text(self) -> str:
         """The reference as written, e.g. ``"crank.O"``."""
-        return f"{self.obj}.{self.attr}"
+        obj = self.obj.text if isinstance(self.obj, IndexedName) else self.obj
+        return f"{obj}.{self.attr}"
 
 
 @dataclass(frozen=True)
@@ -92,7 +113,7 @@ class Vec:
     span: Span | None = None
 
 
-Expr = Union[Num, Name, Dotted, Unary, Binary, Call]
+Expr = Union[Num, Name, Dotted, Unary, Binary, Call, IndexedName]
 
 #: Functions an expression may call, with their derivative as an expression builder.
 FUNCTIONS: dict[str, Callable[[float], float]] = {
@@ -135,7 +156,7 @@ def as_expr(value) -> Expr:
     MbdSyntaxError
         If a string is not a valid expression.
     """
-    if isinstance(value, (Num, Name, Dotted, Unary, Binary, Call)):
+    if isinstance(value, (Num, Name, Dotted, Unary, Binary, Call, IndexedName)):
         return value
     if isinstance(value, bool):
         raise TypeError("a boolean is not an expression")
@@ -206,7 +227,7 @@ def evaluate(expr: Expr, env: dict[str, float], allow_t: bool = False,
                                 "only drivers, torques and forces may depend on time",
                                 name="t")
             raise ExprError(f"unknown name '{e.name}'", "E201", e.span, name=e.name)
-        if isinstance(e, Dotted):
+        if isinstance(e, (Dotted, IndexedName)):
             raise ExprError(f"'{e.text}' is a reference, not a number", "E301", e.span,
                             "a number or an expression of parameters is expected here")
         if isinstance(e, Unary):

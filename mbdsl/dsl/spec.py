@@ -28,7 +28,7 @@ from .expressions import Dotted, Expr, Vec, as_expr
 __all__ = [
     "ParameterSpec", "PointSpec", "PropertySpec", "BodySpec", "ArgSpec",
     "JointSpec", "ForceSpec", "DriverSpec", "InitialSpec", "SettingSpec",
-    "ModelSpec",
+    "ForSpec", "ModelSpec",
 ]
 
 
@@ -223,6 +223,26 @@ class SettingSpec:
 
 
 @dataclass(frozen=True)
+class ForSpec:
+    """``for VAR in START..END { ... }``: declarations repeated for each integer
+    VAR from START to END (both included). ``items`` are body, joint, force,
+    driver, initial/guess specs and nested ForSpecs, whose names may be
+    indexed (``link[i]``); the checker expands them.
+    """
+
+    var: str
+    start: Any
+    end: Any
+    items: tuple = ()
+    span: Span | None = None
+
+    def __post_init__(self):
+        _set(self, "start", as_expr(self.start))
+        _set(self, "end", as_expr(self.end))
+        _set(self, "items", tuple(self.items))
+
+
+@dataclass(frozen=True)
 class ModelSpec:
     """A whole model as written.
 
@@ -231,6 +251,8 @@ class ModelSpec:
     name : str
     parameters, ground_points, bodies, joints, forces, drivers, initials,
     settings : sequences of the spec objects above
+    loops : sequence of ForSpec
+        Repeated declarations, expanded by the checker.
     gravity : (x, y) or Vec or None
         [m/s^2]; None means no gravity term at all.
     file : str
@@ -249,6 +271,7 @@ class ModelSpec:
     drivers: tuple = ()
     initials: tuple = ()
     settings: tuple = ()
+    loops: tuple = ()
     file: str = "<python>"
     source: str | None = None
     span: Span | None = None
@@ -256,7 +279,7 @@ class ModelSpec:
 
     def __post_init__(self):
         for f in ("parameters", "ground_points", "bodies", "joints", "forces",
-                  "drivers", "initials", "settings"):
+                  "drivers", "initials", "settings", "loops"):
             _set(self, f, tuple(getattr(self, f)))
         if self.gravity is not None:
             _set(self, "gravity", _vec(self.gravity))

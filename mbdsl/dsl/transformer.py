@@ -11,7 +11,7 @@ from lark import Token, Transformer, v_args
 
 from ..errors import Span
 from . import spec as S
-from .expressions import Binary, Call, Dotted, Name, Num, Unary, Vec
+from .expressions import Binary, Call, Dotted, IndexedName, Name, Num, Unary, Vec
 
 __all__ = ["ToSpec"]
 
@@ -45,7 +45,7 @@ class ToSpec(Transformer):
         """The whole file -> ModelSpec, statements sorted into their kinds."""
         header, *items = children
         buckets = {k: [] for k in ("parameters", "ground_points", "bodies", "joints",
-                                   "forces", "drivers", "initials", "settings")}
+                                   "forces", "drivers", "initials", "settings", "loops")}
         gravity, gspan = None, None
         for it in items:
             if isinstance(it, S.ParameterSpec):
@@ -64,6 +64,8 @@ class ToSpec(Transformer):
                 buckets["drivers"].append(it)
             elif isinstance(it, S.InitialSpec):
                 buckets["initials"].append(it)
+            elif isinstance(it, S.ForSpec):
+                buckets["loops"].append(it)
             elif isinstance(it, list):
                 buckets["settings"].extend(it)
         return S.ModelSpec(name=header[0], gravity=gravity, gravity_span=gspan,
@@ -92,12 +94,29 @@ class ToSpec(Transformer):
         return ("ground", list(children))
 
     @v_args(meta=True)
+    def for_block(self, meta, children):
+        """``for VAR in a..b { ... }`` -> ForSpec."""
+        var, start, end, *items = children
+        return S.ForSpec(str(var), start, end, tuple(items), self._span(meta))
+
+    @v_args(meta=True)
+    def indexed_name(self, meta, children):
+        """``link[i]`` as a declared name -> IndexedName."""
+        return IndexedName(str(children[0]), children[1], self._span(meta))
+
+    def _name(self, x):
+        return x if isinstance(x, IndexedName) else str(x)
+
+    def _nspan(self, x):
+        return x.span if isinstance(x, IndexedName) else self._tspan(x)
+
+    @v_args(meta=True)
     def body_decl(self, meta, children):
         """``body NAME { ... }`` -> BodySpec."""
         name, *items = children
         props = tuple(i for i in items if isinstance(i, S.PropertySpec))
         points = tuple(i for i in items if isinstance(i, S.PointSpec))
-        return S.BodySpec(str(name), props, points, self._tspan(name))
+        return S.BodySpec(self._name(name), props, points, self._nspan(name))
 
     @v_args(meta=True)
     def point_decl(self, meta, children):
@@ -113,14 +132,14 @@ class ToSpec(Transformer):
     def joint_decl(self, meta, children):
         """``joint NAME: kind(args)`` -> JointSpec."""
         name, kind, *args = children
-        return S.JointSpec(str(name), str(kind), tuple(args), span=self._tspan(name),
+        return S.JointSpec(self._name(name), str(kind), tuple(args), span=self._nspan(name),
                            kind_span=self._tspan(kind))
 
     @v_args(meta=True)
     def force_decl(self, meta, children):
         """``force NAME: kind(args)`` -> ForceSpec."""
         name, kind, *args = children
-        return S.ForceSpec(str(name), str(kind), tuple(args), span=self._tspan(name),
+        return S.ForceSpec(self._name(name), str(kind), tuple(args), span=self._nspan(name),
                            kind_span=self._tspan(kind))
 
     @v_args(meta=True)
@@ -136,8 +155,8 @@ class ToSpec(Transformer):
     @v_args(meta=True)
     def driver_decl(self, meta, children):
         """``driver NAME: target = f(t)`` -> DriverSpec."""
-        return S.DriverSpec(str(children[0]), children[1], children[2],
-                            self._tspan(children[0]))
+        return S.DriverSpec(self._name(children[0]), children[1], children[2],
+                            self._nspan(children[0]))
 
     @v_args(meta=True)
     def initial_decl(self, meta, children):
@@ -152,7 +171,7 @@ class ToSpec(Transformer):
     @v_args(meta=True)
     def ref(self, meta, children):
         """``body.coord`` -> Dotted."""
-        return Dotted(str(children[0]), str(children[1]), self._span(meta))
+        return Dotted(self._name(children[0]), str(children[1]), self._span(meta))
 
     @v_args(meta=True)
     def simulate_decl(self, meta, children):
@@ -211,8 +230,13 @@ class ToSpec(Transformer):
 
     @v_args(meta=True)
     def dotted(self, meta, children):
-        """``a.b`` -> Dotted."""
-        return Dotted(str(children[0]), str(children[1]), self._span(meta))
+        """``a.b`` or ``a[i].b`` -> Dotted."""
+        return Dotted(self._name(children[0]), str(children[1]), self._span(meta))
+
+    @v_args(meta=True)
+    def indexed(self, meta, children):
+        """``link[i]`` in an expression (a reference) -> IndexedName."""
+        return IndexedName(str(children[0]), children[1], self._span(meta))
 
     @v_args(meta=True)
     def call(self, meta, children):

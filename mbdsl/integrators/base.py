@@ -78,6 +78,9 @@ class StepContext:
         This step's size.
     cache : dict
         Per-step constants (predictors, mid-step mass matrix, old forces).
+    assembler : JacobianAssembler or None
+        The run's Newton-matrix assembler (dense or sparse, set by the
+        driver); a dense one is made on first use when None.
     """
 
     system: object
@@ -85,6 +88,7 @@ class StepContext:
     t: float
     h: float
     cache: dict = field(default_factory=dict)
+    assembler: object = None
 
     @property
     def last(self) -> StepState:
@@ -145,18 +149,20 @@ class Method(ABC):
         """The history at t_0 from a consistent InitialState."""
 
     @abstractmethod
-    def scales(self, system, h: float) -> np.ndarray:
+    def scales(self, system, h: float, q: np.ndarray) -> np.ndarray:
         """Velocity-equivalent scale of each unknown [m/s per unit], shape (N,).
 
-        Used by the Newton convergence test (see ``newton.py``).
+        Used by the Newton convergence test (see ``newton.py``); q is the
+        configuration at t_n (multipliers scale with the mobility there).
         """
 
     @abstractmethod
-    def roundoff_floor(self, system, h: float, q: np.ndarray) -> float:
-        """Smallest velocity-equivalent change [m/s] Newton can resolve at this h.
+    def roundoff_floor(self, system, h: float, q: np.ndarray) -> np.ndarray:
+        """Smallest velocity-equivalent change [m/s] Newton can resolve, per unknown.
 
-        The round-off of Phi (eps |q|) divided by the method's constraint
-        row scaling; the Newton tolerance is never set below it.
+        The round-off of Phi (eps |q|) through the method's constraint row
+        scaling (see ``common.roundoff_floor``); the Newton tolerance is
+        never set below it. Shape (N,).
         """
 
     @abstractmethod

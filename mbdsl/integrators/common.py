@@ -10,8 +10,10 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["newmark_predictor", "force_term", "force_jacobians", "index3_newton_matrix",
-           "bdf_coefficients", "roundoff_floor", "EPS"]
+from ..assembly.sparse import JacobianAssembler, Term
+
+__all__ = ["newmark_predictor", "force_term", "index3_newton_matrix", "bdf_coefficients",
+           "roundoff_floor", "EPS", "Terms", "assemble"]
 
 EPS = float(np.finfo(float).eps)
 
@@ -33,16 +35,80 @@ def newmark_predictor(state, h: float, beta: float, gamma: float):
 
 def force_term(system, t, q, v, lam) -> np.ndarray:
     """Phi_q^T lambda - Q(t, q, v), shape (n,): the HHT 'old force' term."""
-    return system.Phi_q(q, t).T @ lam - system.Q(t, q, v)
+    return system.PhiqT_times(q, t, lam) - system.Q(t, q, v)
 
 
-def force_jacobians(system, t, q, v):
-    """(Q_q, Q_v) as (n, n) arrays or None where the model declares no such term."""
-    return system.force_derivatives(t, q, v)
+class Terms:
+    """Builder of a Newton matrix's term list from the system's fixed patterns.
+
+    Each method names the blocks of its matrix; the patterns come from the
+    system, the values are computed here, and :func:`assemble` sums them
+    (dense or sparse, see ``assembly/sparse.py``).
+    """
+
+    def __init__(self, system):
+        self.system, self.items = system, []
+
+    def add(self, pattern, vals, row0=0, col0=0, coef=1.0, transpose=False):
+        """Append coef * vals on pattern at block (row0, col0); None vals are skipped."""
+        if vals is not None and coef != 0.0:
+            self.items.append(Term(pattern[0], pattern[1], vals, row0, col0, coef, transpose))
+        return self
+
+    def mass(self, q, row0=0, col0=0, coef=1.0):
+        """coef M(q)."""
+        s = self.system
+        self.add(s.pattern_mass, s.mass_values(q), row0, col0, coef)
+        return self
+
+    def identity(self, row0=0, col0=0, coef=1.0):
+        """coef I (n x n)."""
+        s = self.system
+        return self.add(s.pattern_mass, np.ones(s.n), row0, col0, coef)
+
+    def stiffness(self, t, q, v, lam, a=None, row0=0, col0=0, c_q=1.0, c_v=0.0, c_mass=1.0,
+                  inv_mass=False):
+        """c_q ((Phi_q^T lam)_q + c_mass (M a)_q - Q_q) - c_v Q_v, optionally
+        premultiplied by M^{-1} (HHT-ADD)."""
+        s = self.system
+        scale = (1.0 / s.mass_diag) if inv_mass else None
+
+        def sc(pattern, vals):
+            return vals if scale is None or vals is None else vals * scale[pattern[0]]
+        self.add(s.pattern_hessian, sc(s.pattern_hessian, s.PhiqT_lam_q_values(q, lam)),
+                 row0, col0, c_q)
+        if a is not None and not s.mass_is_constant:
+            self.add(s.pattern_Ma_q, sc(s.pattern_Ma_q, s.Ma_q_values(q, a)), row0, col0,
+                     c_q * c_mass)
+        Qq, Qv = s.force_derivative_values(t, q, v)
+        self.add(s.pattern_force, sc(s.pattern_force, Qq), row0, col0, -c_q)
+        if c_v:
+            self.add(s.pattern_force, sc(s.pattern_force, Qv), row0, col0, -c_v)
+        return self
+
+    def Phi_q(self, q, t, row0=0, col0=0, coef=1.0, transpose=False, inv_mass=False):
+        """coef Phi_q (or its transpose, or M^{-1} Phi_q^T)."""
+        s = self.system
+        vals = s.Phi_q_values(q, t)
+        if inv_mass:
+            vals = vals / s.mass_diag[s.pattern_Phi_q[1]]
+        return self.add(s.pattern_Phi_q, vals, row0, col0, coef, transpose)
+
+    def G(self, q, v, t, row0=0, col0=0, coef=1.0):
+        """coef ((Phi_q v)_q + Phi_qt); Phi_qt = 0 for every constraint mbdsl has."""
+        s = self.system
+        return self.add(s.pattern_Phiq_v_q, s.Phiq_v_q_values(q, v), row0, col0, coef)
 
 
-def index3_newton_matrix(system, t, q, v, a, lam, c_mass: float, c_q: float,
-                         c_v: float) -> np.ndarray:
+def assemble(ctx, terms: Terms, size: int):
+    """The Newton matrix from a term list, with the run's assembler (dense or sparse)."""
+    assembler = ctx.assembler
+    if assembler is None or assembler.size != size:
+        assembler = ctx.assembler = JacobianAssembler(size, sparse=False)
+    return assembler.assemble(terms.items)
+
+
+def index3_newton_matrix(ctx, q, v, a, lam, c_mass: float, c_q: float, c_v: float):
     """Newton matrix of the index-3 methods in the unknowns (a, lambda).
 
         [[c_mass M + c_q (c_mass (M a)_q + (Phi_q^T lambda)_q - Q_q) - c_v Q_v,  Phi_q^T],
@@ -53,24 +119,13 @@ def index3_newton_matrix(system, t, q, v, a, lam, c_mass: float, c_q: float,
 
     Returns
     -------
-    ndarray, shape (n + m, n + m)
+    ndarray or scipy.sparse matrix, shape (n + m, n + m)
     """
-    n, m = system.n, system.m
-    K = c_mass * system.mass_matrix(q) + c_q * system.PhiqT_lam_q(q, lam)
-    Ma_q = system.Ma_q(q, a)
-    if Ma_q is not None:
-        K += c_q * c_mass * Ma_q
-    Q_q, Q_v = force_jacobians(system, t, q, v)
-    if Q_q is not None:
-        K -= c_q * Q_q
-    if Q_v is not None:
-        K -= c_v * Q_v
-    Phi_q = system.Phi_q(q, t)
-    J = np.zeros((n + m, n + m))
-    J[:n, :n] = K
-    J[:n, n:] = Phi_q.T
-    J[n:, :n] = Phi_q
-    return J
+    system, t, n = ctx.system, ctx.t, ctx.system.n
+    T = Terms(system).mass(q, coef=c_mass)
+    T.stiffness(t, q, v, lam, a, c_q=c_q, c_v=c_v, c_mass=c_mass)
+    T.Phi_q(q, t, 0, n, transpose=True).Phi_q(q, t, n, 0)
+    return assemble(ctx, T, n + system.m)
 
 
 def bdf_coefficients(history, h: float):
@@ -96,11 +151,23 @@ def bdf_coefficients(history, h: float):
     return 1.0 / h, ((1.0, last),), 1
 
 
-def roundoff_floor(q: np.ndarray, velocity_per_metre: float) -> float:
-    """32 eps (1 + |q|_max) times the velocity change one metre of constraint
-    residual causes through the method's row scaling [m/s].
+def roundoff_floor(system, q: np.ndarray, velocity_per_metre: float, n_kinematic: int,
+                   n_multiplier: int) -> np.ndarray:
+    """Velocity-equivalent change [m/s] the round-off of Phi causes, per unknown.
 
-    The factor 32 covers the conditioning of Phi_q (measured noise on the
-    slider crank: about 7 eps (1 + |q|) / h for HHT-I3).
+    32 eps (1 + |q|_max) times the velocity change one metre of constraint
+    residual causes through the method's row scaling (measured noise on the
+    slider crank, HHT-I3, h = 1e-6: 1.5e-9 m/s; this floor: 8e-9 m/s). The
+    floor only raises a tolerance that round-off would make unreachable;
+    raising it further would leave a systematic error in every step (seen on
+    Andrews' mechanism: an error floor of 4e-5 rad at h = 1.25e-6). The
+    multipliers' own round-off floor, which geometry amplifies, is handled by
+    the Newton engine's stall rule instead (``newton.py``).
+
+    Returns
+    -------
+    ndarray, shape (n_kinematic + n_multiplier,)
     """
-    return 32.0 * EPS * (1.0 + float(np.max(np.abs(q), initial=0.0))) * velocity_per_metre
+    qmax = float(np.max(np.abs(q), initial=0.0))
+    f = 32.0 * EPS * (1.0 + qmax) * velocity_per_metre
+    return np.full(n_kinematic + n_multiplier, f)

@@ -18,6 +18,7 @@ import time as _time
 import numpy as np
 
 from ..assembly.initial import InitialState, consistent_initial_state
+from ..assembly.sparse import DENSE_LIMIT, JacobianAssembler
 from ..errors import ConvergenceError, Diagnostic
 from ..solution import Solution, StepStats
 from .base import Method
@@ -92,6 +93,10 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
     solver = Newton(newton)
     blocks = method.blocks(system)
     kinds = np.concatenate([np.full(b.size, b.kind == "multiplier") for b in blocks])
+    size = len(kinds)
+    choice = solver.options.linear_solver
+    assembler = JacobianAssembler(size, sparse=(choice == "sparse" or
+                                               (choice == "auto" and size > DENSE_LIMIT)))
     history = method.start(system, initial)
     sol = Solution(system, method, h, t_end, initial)
     sol.append(history[-1], StepStats())
@@ -109,9 +114,10 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
             t_new = t + y
             new_carry = (t_new - t) - y
             ctx = method.context(system, history, t_new, step)
+            ctx.assembler = assembler
             w0 = method.predict(ctx)
             res = solver.solve(lambda w: method.residual(w, ctx), lambda w: method.jacobian(w, ctx),
-                               w0, kinds, method.scales(system, step), key=step,
+                               w0, kinds, method.scales(system, step, ctx.last.q), key=step,
                                floor=method.roundoff_floor(system, step, ctx.last.q))
             if not res.converged:
                 if step / 2.0 >= h_min * (1.0 - 1e-12):
@@ -123,7 +129,7 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
             state = method.accept(res.w, ctx)
             history = (list(history) + [state])[-method.history_length:]
             sol.append(state, StepStats(res.n_iter, res.n_residual, res.n_jacobian,
-                                        res.n_factor, step))
+                                        res.n_factor, step, res.multipliers_stalled))
             t, carry = t_new, new_carry
             if h_cur < h:
                 good += 1

@@ -82,14 +82,14 @@ class HHTI3(Method):
         """(a, lam)."""
         return [Block("a", system.n, "kinematic"), Block("lam", system.m, "multiplier")]
 
-    def scales(self, system, h) -> np.ndarray:
-        """gamma h for a (dv = gamma h da), gamma h / mean(M_ii) for lambda."""
+    def scales(self, system, h, q) -> np.ndarray:
+        """gamma h for a (dv = gamma h da), gamma h times the mobility for lambda."""
         gh = self.gamma * h
-        return np.concatenate([np.full(system.n, gh), np.full(system.m, gh / system.mass_scale)])
+        return np.concatenate([np.full(system.n, gh), gh * system.multiplier_mobility(q)])
 
-    def roundoff_floor(self, system, h, q) -> float:
+    def roundoff_floor(self, system, h, q) -> np.ndarray:
         """Phi's round-off through the 1/(beta h^2) rows, times gamma h."""
-        return roundoff_floor(q, self.gamma / (self.beta * h))
+        return roundoff_floor(system, q, self.gamma / (self.beta * h), system.n, system.m)
 
     def start(self, system, initial) -> list[StepState]:
         """One state at t_0 with a_0 = q''(t_0) and lambda_0 from the index-1 system."""
@@ -119,7 +119,7 @@ class HHTI3(Method):
         a, lam = w[:n], w[n:]
         q, v = self._qv(a, ctx)
         c = 1.0 / (1.0 + self.alpha)
-        r1 = (c * (sys.mass_matrix(q) @ a) + force_term(sys, ctx.t, q, v, lam)
+        r1 = (c * (sys.mass_times(q, a)) + force_term(sys, ctx.t, q, v, lam)
               - self.alpha * c * ctx.last.extra["F"])
         r2 = sys.Phi(q, ctx.t) / (self.beta * ctx.h ** 2)
         return np.concatenate([r1, r2])
@@ -129,7 +129,7 @@ class HHTI3(Method):
         n, h = ctx.system.n, ctx.h
         a, lam = w[:n], w[n:]
         q, v = self._qv(a, ctx)
-        return index3_newton_matrix(ctx.system, ctx.t, q, v, a, lam, 1.0 / (1.0 + self.alpha),
+        return index3_newton_matrix(ctx, q, v, a, lam, 1.0 / (1.0 + self.alpha),
                                     self.beta * h * h, self.gamma * h)
 
     def accept(self, w, ctx) -> StepState:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from .base import Block, Method, StepContext, StepState, check_range
-from .common import force_jacobians, force_term, newmark_predictor, roundoff_floor
+from .common import Terms, assemble, force_term, newmark_predictor, roundoff_floor
 
 __all__ = ["HHTSI2"]
 
@@ -78,16 +78,15 @@ class HHTSI2(Method):
         return [Block("a", n, "kinematic"), Block("abar", n, "kinematic"),
                 Block("lam", m, "multiplier"), Block("mu", m, "multiplier")]
 
-    def scales(self, system, h) -> np.ndarray:
-        """gamma h for a, h/2 for abar (dq/h), same over mean(M_ii) for lambda, mu."""
-        n, m, gh, hh = system.n, system.m, self.gamma * h, 0.5 * h
-        ms = system.mass_scale
-        return np.concatenate([np.full(n, gh), np.full(n, hh), np.full(m, gh / ms),
-                               np.full(m, hh / ms)])
+    def scales(self, system, h, q) -> np.ndarray:
+        """gamma h for a, h/2 for abar (dq/h), the same times the mobility for lambda, mu."""
+        n, gh, hh = system.n, self.gamma * h, 0.5 * h
+        mob = system.multiplier_mobility(q)
+        return np.concatenate([np.full(n, gh), np.full(n, hh), gh * mob, hh * mob])
 
-    def roundoff_floor(self, system, h, q) -> float:
+    def roundoff_floor(self, system, h, q) -> np.ndarray:
         """Phi's round-off through the 1/h^2 rows, times h/2."""
-        return roundoff_floor(q, 1.0 / h)
+        return roundoff_floor(system, q, 1.0 / h, 2 * system.n, 2 * system.m)
 
     def start(self, system, initial) -> list[StepState]:
         """One state at t_0: a_0 = q''(t_0), mu_0 = 0, the old force term cached."""
@@ -101,7 +100,7 @@ class HHTSI2(Method):
         s = history[-1]
         ctx = StepContext(system, (s,), t, h)
         ctx.cache["q_pred"], ctx.cache["v_pred"] = newmark_predictor(s, h, self.beta, self.gamma)
-        ctx.cache["Mhat"] = system.mass_matrix(s.q + h * (1.0 + self.alpha) * s.v)
+        ctx.cache["qhat"] = s.q + h * (1.0 + self.alpha) * s.v    # Mhat = M(qhat)
         return ctx
 
     def _split(self, w, ctx):
@@ -120,12 +119,13 @@ class HHTSI2(Method):
         """Upsilon(w), shape (2n + 2m,)."""
         sys, t, h = ctx.system, ctx.t, ctx.h
         a, abar, lam, mu, q, v = self._split(w, ctx)
-        Mhat, Phi_q = ctx.cache["Mhat"], sys.Phi_q(q, t)
+        qhat = ctx.cache["qhat"]
         c = 1.0 / (1.0 + self.alpha)
-        r1 = c * (Mhat @ a) + Phi_q.T @ lam - sys.Q(t, q, v) - self.alpha * c * ctx.last.extra["F"]
-        r2 = Mhat @ abar + Phi_q.T @ mu
+        r1 = (c * sys.mass_times(qhat, a) + force_term(sys, t, q, v, lam)
+              - self.alpha * c * ctx.last.extra["F"])
+        r2 = sys.mass_times(qhat, abar) + sys.PhiqT_times(q, t, mu)
         r3 = sys.Phi(q, t) / (h * h)
-        r4 = (Phi_q @ v + sys.Phi_t(q, t)) / h
+        r4 = (sys.Phiq_times(q, t, v) + sys.Phi_t(q, t)) / h
         return np.concatenate([r1, r2, r3, r4])
 
     def jacobian(self, w, ctx) -> np.ndarray:
@@ -133,28 +133,20 @@ class HHTSI2(Method):
         sys, t, h = ctx.system, ctx.t, ctx.h
         n, m = sys.n, sys.m
         a, abar, lam, mu, q, v = self._split(w, ctx)
-        Mhat, Phi_q = ctx.cache["Mhat"], sys.Phi_q(q, t)
+        qhat = ctx.cache["qhat"]
         bh2, hh2, gh = self.beta * h * h, 0.5 * h * h, self.gamma * h
-        K = sys.PhiqT_lam_q(q, lam)
-        Q_q, Q_v = force_jacobians(sys, t, q, v)
-        if Q_q is not None:
-            K = K - Q_q
-        Kmu = sys.PhiqT_lam_q(q, mu)
-        G = sys.Phiq_v_q(q, v) + sys.Phi_qt(q, t)
-        J = np.zeros((2 * n + 2 * m, 2 * n + 2 * m))
-        J[:n, :n] = Mhat / (1.0 + self.alpha) + bh2 * K
-        if Q_v is not None:
-            J[:n, :n] -= gh * Q_v
-        J[:n, n:2 * n] = hh2 * K
-        J[:n, 2 * n:2 * n + m] = Phi_q.T
-        J[n:2 * n, :n] = bh2 * Kmu
-        J[n:2 * n, n:2 * n] = Mhat + hh2 * Kmu
-        J[n:2 * n, 2 * n + m:] = Phi_q.T
-        J[2 * n:2 * n + m, :n] = self.beta * Phi_q
-        J[2 * n:2 * n + m, n:2 * n] = 0.5 * Phi_q
-        J[2 * n + m:, :n] = self.gamma * Phi_q + self.beta * h * G
-        J[2 * n + m:, n:2 * n] = 0.5 * h * G
-        return J
+        Kmu = sys.PhiqT_lam_q_values(q, mu)
+        T = Terms(sys).mass(qhat, coef=1.0 / (1.0 + self.alpha))
+        T.stiffness(t, q, v, lam, c_q=bh2, c_v=gh)                       # Mhat is held: no (M a)_q
+        T.stiffness(t, q, v, lam, 0, n, c_q=hh2)
+        T.Phi_q(q, t, 0, 2 * n, transpose=True)
+        T.add(sys.pattern_hessian, Kmu, n, 0, bh2)
+        T.mass(qhat, n, n).add(sys.pattern_hessian, Kmu, n, n, hh2)
+        T.Phi_q(q, t, n, 2 * n + m, transpose=True)
+        T.Phi_q(q, t, 2 * n, 0, self.beta).Phi_q(q, t, 2 * n, n, 0.5)
+        T.Phi_q(q, t, 2 * n + m, 0, self.gamma).G(q, v, t, 2 * n + m, 0, self.beta * h)
+        T.G(q, v, t, 2 * n + m, n, 0.5 * h)
+        return assemble(ctx, T, 2 * n + 2 * m)
 
     def accept(self, w, ctx) -> StepState:
         """State at t_{n+1}, with mu and the force term for the next step."""

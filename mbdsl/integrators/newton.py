@@ -10,8 +10,9 @@ multipliers (Chrono's abstolS/abstolL):
 
 where s_i (declared by the method for each unknown and step size) converts
 the unknown into the change of velocity it causes within the step: gamma h
-for an HHT acceleration, gamma h / m_mean for its multipliers, 1 for a
-velocity unknown, 1/h for a position unknown. Why not a fixed tolerance on
+for an HHT acceleration, gamma h times the mobility (largest acceleration
+per unit multiplier, ``AssembledSystem.multiplier_mobility``) for its
+multipliers, 1 for a velocity unknown. Why not a fixed tolerance on
 accelerations: the constraint rows are scaled by 1/(beta h^2) to keep the
 Newton matrix well conditioned, so the round-off of Phi (~1e-16 m) reaches
 the accelerations amplified by 1/h^2 and a fixed tolerance cannot be met at
@@ -25,7 +26,19 @@ slider crank at h = 1e-4 with tol = 1e-11 m).
 A step is converged when ``eta ||dw||_W <= 1`` with eta = max(theta / (1 -
 theta), 1e-2), theta the observed contraction rate (Hairer & Wanner, sec.
 IV.8), so that a slowly contracting modified Newton iteration is not stopped
-early. A step is never reported converged otherwise.
+early.
+
+One exception, counted and reported (``NewtonResult.multipliers_stalled``,
+"steps at round-off" in the summary): when two successive updates, each
+computed with a Jacobian evaluated at its own iterate (exact Newton, so a
+stale Jacobian cannot pass for stagnation), fail to halve the best norm
+reached so far (round-off fluctuates, so "the previous norm" would be
+fooled by a lucky iterate) while it is within ROUNDOFF_BAND = 1000 times the tolerance (velocity-equivalent
+1e-6 m/s by default), the iteration has reached the round-off floor of the
+residual and the step is accepted. Long chains (N = 1000, |q| ~ 100 m, ill
+conditioned) and small lever arms (Andrews' mechanism: 1 mm, mostly in the
+multipliers) amplify that floor beyond any fixed tolerance; further
+iterations only reshuffle round-off. Growth beyond the band is divergence.
 
 Jacobian policies (:class:`JacobianUpdate`):
 
@@ -43,9 +56,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.linalg
+import scipy.sparse
+import scipy.sparse.linalg
 
 __all__ = ["JacobianUpdate", "NewtonStatus", "NewtonOptions", "NewtonResult", "Newton",
-           "DenseLU"]
+           "DenseLU", "SparseLU", "factorize"]
+
+
+#: Stagnation within this many tolerances, under exact Newton, is round-off (see above).
+ROUNDOFF_BAND = 1e3
 
 
 class JacobianUpdate(enum.Enum):
@@ -85,6 +104,11 @@ class NewtonOptions:
     jacobian : JacobianUpdate
     rate_refresh : float
         MODIFIED only: a contraction rate above this triggers a refresh.
+    linear_solver : {"auto", "dense", "sparse"}
+        LU of the Newton matrix: LAPACK on a dense array, or SuperLU
+        (scipy.sparse.linalg.splu) on a CSC matrix assembled on the
+        pattern fixed at model build. "auto" takes sparse above
+        ``mbdsl.assembly.sparse.DENSE_LIMIT`` unknowns.
     """
 
     rtol: float = 1e-8
@@ -93,8 +117,12 @@ class NewtonOptions:
     max_iter: int = 12
     jacobian: JacobianUpdate = JacobianUpdate.MODIFIED
     rate_refresh: float = 0.1
+    linear_solver: str = "auto"
 
     def __post_init__(self):
+        if self.linear_solver not in ("auto", "dense", "sparse"):
+            raise ValueError("NewtonOptions.linear_solver must be 'auto', 'dense' or 'sparse', "
+                             f"got {self.linear_solver!r}")
         for name in ("rtol", "atol_kinematic", "atol_multiplier", "rate_refresh"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"NewtonOptions.{name} must be positive, got {getattr(self, name)}")
@@ -120,6 +148,9 @@ class NewtonResult:
         Weighted norm of each update.
     residual : ndarray or None
         Last residual evaluated.
+    multipliers_stalled : bool
+        Accepted at the round-off floor (stagnation under exact Newton
+        within ROUNDOFF_BAND tolerances; see the module docstring).
     """
 
     w: np.ndarray
@@ -131,6 +162,7 @@ class NewtonResult:
     rate: float = float("nan")
     norms: list = field(default_factory=list)
     residual: np.ndarray | None = None
+    multipliers_stalled: bool = False
 
     @property
     def converged(self) -> bool:
@@ -154,6 +186,29 @@ class DenseLU:
         return scipy.linalg.lu_solve((self.lu, self.piv), r, check_finite=False)
 
 
+class SparseLU:
+    """Sparse LU factorization (SuperLU via scipy.sparse.linalg.splu) of a Newton matrix."""
+
+    def __init__(self, J):
+        self.singular = False
+        try:
+            self.lu = scipy.sparse.linalg.splu(scipy.sparse.csc_matrix(J))
+        except RuntimeError:          # "Factor is exactly singular"
+            self.singular, self.lu = True, None
+            return
+        d = np.abs(self.lu.U.diagonal())
+        self.singular = bool(d.min() < 1e-14 * d.max()) or not np.all(np.isfinite(d))
+
+    def solve(self, r: np.ndarray) -> np.ndarray:
+        """J^{-1} r."""
+        return self.lu.solve(r)
+
+
+def factorize(J):
+    """DenseLU for an ndarray, SparseLU for a scipy.sparse matrix."""
+    return SparseLU(J) if scipy.sparse.issparse(J) else DenseLU(J)
+
+
 class Newton:
     """Newton solver with a reusable factorization (one per integration run).
 
@@ -173,7 +228,7 @@ class Newton:
         self._lu, self._key = None, None
 
     def solve(self, residual, jacobian, w0: np.ndarray, kinds: np.ndarray, scales: np.ndarray,
-              key=None, floor: float = 0.0) -> NewtonResult:
+              key=None, floor=0.0) -> NewtonResult:
         """Solve residual(w) = 0 from w0.
 
         Parameters
@@ -185,7 +240,7 @@ class Newton:
             True for multiplier entries (they get ``atol_multiplier``).
         scales : ndarray, shape (N,)
             Velocity-equivalent scale s_i of each unknown [m/s per unit].
-        floor : float [m/s]
+        floor : float or ndarray of shape (N,) [m/s]
             Round-off floor declared by the method; absolute tolerances are
             raised to it.
         key : hashable
@@ -203,19 +258,22 @@ class Newton:
         res = NewtonResult(w, NewtonStatus.MAX_ITER)
         reuse = opt.jacobian is JacobianUpdate.MODIFIED
         lu = self._lu if (reuse and self._key == key) else None
-        fresh = False
+        age = np.inf          # iterations since the Jacobian in use was evaluated
         prev = None
+        best = np.inf         # smallest norm reached under exact Newton
+        stalls = grows = 0
         theta = self._rate
         for k in range(opt.max_iter):
             if lu is None:
                 J = jacobian(w)
                 res.n_jacobian += 1
-                if not np.all(np.isfinite(J)):
+                values = J.data if scipy.sparse.issparse(J) else J
+                if not np.all(np.isfinite(values)):
                     res.status = NewtonStatus.NONFINITE
                     return self._fail(res, w)
-                lu = DenseLU(J)
+                lu = factorize(J)
                 res.n_factor += 1
-                fresh = True
+                age = 0
                 if lu.singular:
                     res.status = NewtonStatus.SINGULAR
                     return self._fail(res, w)
@@ -230,6 +288,8 @@ class Newton:
             res.norms.append(norm)
             w = w - dw
             res.n_iter += 1
+            current = age == 0            # this update used a Jacobian of this very iterate
+            age += 1
             if not np.all(np.isfinite(w)):
                 res.status = NewtonStatus.NONFINITE
                 return self._fail(res, w)
@@ -237,20 +297,32 @@ class Newton:
                 theta = norm / prev
                 res.rate = theta
             eta = max(theta / (1.0 - theta), 1e-2) if theta < 1.0 else np.inf
-            if norm == 0.0 or (eta * norm <= 1.0 and norm <= 1.0):
+            stuck = prev is not None and norm >= 0.5 * prev
+            if current:      # exact Newton: no halving of the best norm means round-off
+                stalls = stalls + 1 if norm >= 0.5 * best else 0
+                best = min(best, norm)
+            roundoff = stalls >= 2 and norm <= ROUNDOFF_BAND
+            if norm == 0.0 or (eta * norm <= 1.0 and norm <= 1.0) or roundoff:
                 res.w, res.status = w, NewtonStatus.CONVERGED
+                res.multipliers_stalled = roundoff
                 self._rate = min(max(theta, 1e-3), 0.9) if np.isfinite(theta) else 0.5
                 if reuse:
                     self._lu, self._key = lu, key
                 return res
-            if prev is not None and theta >= 1.0 and fresh:
+            grows = grows + 1 if (prev is not None and theta >= 1.0 and current) else 0
+            if theta > 100.0 or (grows >= 2 and norm > ROUNDOFF_BAND):
                 res.status = NewtonStatus.DIVERGING
                 return self._fail(res, w)
-            if opt.jacobian is JacobianUpdate.FULL:
+            # A new Jacobian for the next iterate: always for full Newton. Modified
+            # Newton keeps one from an earlier step while it contracts faster than
+            # rate_refresh, one of this solve while it contracts faster than 1/2.
+            # Within the round-off band a contraction slower than 1/4 also asks for
+            # exact Newton, so that a plateau of round-off is recognised as one.
+            from_earlier_step = res.n_jacobian == 0
+            if (opt.jacobian is JacobianUpdate.FULL or stuck
+                    or (from_earlier_step and prev is not None and theta > opt.rate_refresh)
+                    or (norm <= ROUNDOFF_BAND and prev is not None and theta > 0.25)):
                 lu = None
-            elif prev is not None and theta > opt.rate_refresh and not fresh:
-                lu, prev, theta = None, None, self._rate  # refresh, keep the iterate
-                continue
             prev = norm
         res.status = NewtonStatus.MAX_ITER
         return self._fail(res, w)

@@ -57,14 +57,14 @@ class NStiff(Method):
         """(a, lam)."""
         return [Block("a", system.n, "kinematic"), Block("lam", system.m, "multiplier")]
 
-    def scales(self, system, h) -> np.ndarray:
-        """2h/3 for a (dv = da / c0), 2h/3 / mean(M_ii) for lambda."""
+    def scales(self, system, h, q) -> np.ndarray:
+        """2h/3 for a (dv = da / c0), 2h/3 times the mobility for lambda."""
         s = 2.0 * h / 3.0
-        return np.concatenate([np.full(system.n, s), np.full(system.m, s / system.mass_scale)])
+        return np.concatenate([np.full(system.n, s), s * system.multiplier_mobility(q)])
 
-    def roundoff_floor(self, system, h, q) -> float:
+    def roundoff_floor(self, system, h, q) -> np.ndarray:
         """Phi's round-off through the c0^2 rows, times 1/c0 (BDF1 start-up: worst case)."""
-        return roundoff_floor(q, 1.0 / h)
+        return roundoff_floor(system, q, 1.0 / h, system.n, system.m)
 
     def start(self, system, initial) -> list[StepState]:
         """One state at t_0; the first step is BDF1."""
@@ -94,7 +94,7 @@ class NStiff(Method):
         sys, n, c0 = ctx.system, ctx.system.n, ctx.cache["c0"]
         a, lam = w[:n], w[n:]
         q, v = self._qv(a, ctx)
-        r1 = sys.mass_matrix(q) @ a + force_term(sys, ctx.t, q, v, lam)
+        r1 = sys.mass_times(q, a) + force_term(sys, ctx.t, q, v, lam)
         return np.concatenate([r1, c0 * c0 * sys.Phi(q, ctx.t)])
 
     def jacobian(self, w, ctx) -> np.ndarray:
@@ -102,7 +102,7 @@ class NStiff(Method):
         n, c0 = ctx.system.n, ctx.cache["c0"]
         a, lam = w[:n], w[n:]
         q, v = self._qv(a, ctx)
-        return index3_newton_matrix(ctx.system, ctx.t, q, v, a, lam, 1.0, 1.0 / c0 ** 2, 1.0 / c0)
+        return index3_newton_matrix(ctx, q, v, a, lam, 1.0, 1.0 / c0 ** 2, 1.0 / c0)
 
     def accept(self, w, ctx) -> StepState:
         """State at t_{n+1}."""

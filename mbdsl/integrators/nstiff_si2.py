@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from .base import Block, Method, StepContext, StepState
-from .common import bdf_coefficients, force_jacobians, force_term, roundoff_floor
+from .common import Terms, assemble, bdf_coefficients, force_term, roundoff_floor
 
 __all__ = ["NStiffSI2"]
 
@@ -71,15 +71,16 @@ class NStiffSI2(Method):
         return [Block("Dv", n, "kinematic"), Block("Dq", n, "kinematic"),
                 Block("lam", m, "multiplier"), Block("mu", m, "multiplier")]
 
-    def scales(self, system, h) -> np.ndarray:
-        """2h/3 for Dv, 1 for Dq (a velocity), 2h/3/mean(M_ii) for lambda, 1 for mu."""
+    def scales(self, system, h, q) -> np.ndarray:
+        """2h/3 for Dv, 1 for Dq (a velocity), 2h/3 times the mobility for lambda,
+        1 for mu (Dq = v - Phi_q^T mu)."""
         n, m, s = system.n, system.m, 2.0 * h / 3.0
-        return np.concatenate([np.full(n, s), np.ones(n), np.full(m, s / system.mass_scale),
+        return np.concatenate([np.full(n, s), np.ones(n), s * system.multiplier_mobility(q),
                                np.ones(m)])
 
-    def roundoff_floor(self, system, h, q) -> float:
+    def roundoff_floor(self, system, h, q) -> np.ndarray:
         """Phi's round-off through the c0 rows (BDF1 start-up: 1/h)."""
-        return roundoff_floor(q, 1.0 / h)
+        return roundoff_floor(system, q, 1.0 / h, 2 * system.n, 2 * system.m)
 
     def start(self, system, initial) -> list[StepState]:
         """One state at t_0 (mu_0 = 0); the first step is BDF1."""
@@ -111,11 +112,10 @@ class NStiffSI2(Method):
         """Upsilon(w), shape (2n + 2m,)."""
         sys, t, c0 = ctx.system, ctx.t, ctx.cache["c0"]
         x, y, lam, mu, q, v = self._split(w, ctx)
-        Phi_q = sys.Phi_q(q, t)
-        r1 = sys.mass_matrix(q) @ x + force_term(sys, t, q, v, lam)
-        r2 = y - v + Phi_q.T @ mu
+        r1 = sys.mass_times(q, x) + force_term(sys, t, q, v, lam)
+        r2 = y - v + sys.PhiqT_times(q, t, mu)
         r3 = c0 * sys.Phi(q, t)
-        r4 = c0 * (Phi_q @ v + sys.Phi_t(q, t))
+        r4 = c0 * (sys.Phiq_times(q, t, v) + sys.Phi_t(q, t))
         return np.concatenate([r1, r2, r3, r4])
 
     def jacobian(self, w, ctx) -> np.ndarray:
@@ -123,25 +123,15 @@ class NStiffSI2(Method):
         sys, t, c0 = ctx.system, ctx.t, ctx.cache["c0"]
         n, m = sys.n, sys.m
         x, y, lam, mu, q, v = self._split(w, ctx)
-        M, Phi_q = sys.mass_matrix(q), sys.Phi_q(q, t)
-        J = np.zeros((2 * n + 2 * m, 2 * n + 2 * m))
-        A = sys.PhiqT_lam_q(q, lam)
-        Ma_q = sys.Ma_q(q, x)
-        if Ma_q is not None:
-            A = A + Ma_q
-        Q_q, Q_v = force_jacobians(sys, t, q, v)
-        if Q_q is not None:
-            A = A - Q_q
-        J[:n, :n] = M if Q_v is None else M - Q_v / c0
-        J[:n, n:2 * n] = A / c0
-        J[:n, 2 * n:2 * n + m] = Phi_q.T
-        J[n:2 * n, :n] = -np.eye(n) / c0
-        J[n:2 * n, n:2 * n] = np.eye(n) + sys.PhiqT_lam_q(q, mu) / c0
-        J[n:2 * n, 2 * n + m:] = Phi_q.T
-        J[2 * n:2 * n + m, n:2 * n] = Phi_q
-        J[2 * n + m:, :n] = Phi_q
-        J[2 * n + m:, n:2 * n] = sys.Phiq_v_q(q, v) + sys.Phi_qt(q, t)
-        return J
+        _, Qv = sys.force_derivative_values(t, q, v)
+        T = Terms(sys).mass(q).add(sys.pattern_force, Qv, coef=-1.0 / c0)
+        T.stiffness(t, q, v, lam, x, 0, n, c_q=1.0 / c0)                 # ((M x)_q + K - Q_q)/c0
+        T.Phi_q(q, t, 0, 2 * n, transpose=True)
+        T.identity(n, 0, -1.0 / c0).identity(n, n)
+        T.add(sys.pattern_hessian, sys.PhiqT_lam_q_values(q, mu), n, n, 1.0 / c0)
+        T.Phi_q(q, t, n, 2 * n + m, transpose=True)
+        T.Phi_q(q, t, 2 * n, n).Phi_q(q, t, 2 * n + m, 0).G(q, v, t, 2 * n + m, n)
+        return assemble(ctx, T, 2 * n + 2 * m)
 
     def accept(self, w, ctx) -> StepState:
         """State at t_{n+1}; a = D v."""
