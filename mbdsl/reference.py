@@ -75,7 +75,7 @@ def index1_reference(system, t_eval, rtol: float = 1e-12, atol: float = 1e-12,
     n, m = system.n, system.m
     t_eval = np.atleast_1d(np.asarray(t_eval, dtype=float))
 
-    def rhs(t, y):
+    def _rhs(t, y):
         q, v = y[:n], y[n:]
         Phi_q = system.Phi_q(q, t)
         K = np.zeros((n + m, n + m))
@@ -87,7 +87,7 @@ def index1_reference(system, t_eval, rtol: float = 1e-12, atol: float = 1e-12,
         return np.concatenate([v, a])
 
     y0 = np.concatenate([initial.q, initial.v])
-    res = scipy.integrate.solve_ivp(rhs, (initial.t, float(t_eval[-1])), y0, method="DOP853",
+    res = scipy.integrate.solve_ivp(_rhs, (initial.t, float(t_eval[-1])), y0, method="DOP853",
                                     t_eval=t_eval, rtol=rtol, atol=atol)
     if not res.success:
         raise RuntimeError(f"index-1 reference failed: {res.message}")

@@ -24,11 +24,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.linalg
+import scipy.sparse
+import scipy.sparse.linalg
 
 from ..errors import AssemblyError, Diagnostic
 from ..model import graph
 from ..model.elements import GROUND
 from .groups import rot
+from .sparse import DENSE_LIMIT
 from .system import AssembledSystem
 
 __all__ = ["InitialState", "consistent_initial_state", "place_bodies"]
@@ -119,7 +122,31 @@ def place_bodies(system: AssembledSystem, t0: float = 0.0) -> np.ndarray:
 
 
 def _min_norm_step(J, r):
+    """Minimum-norm solution of J x = r (J has full row rank or is small).
+
+    Dense: LAPACK least squares (rank-revealing, any J). Sparse (large
+    models): x = J^T (J J^T)^{-1} r with SuperLU, falling back to the dense
+    solve when J J^T is singular (redundant constraints).
+    """
+    if scipy.sparse.issparse(J):
+        try:
+            y = scipy.sparse.linalg.splu((J @ J.T).tocsc()).solve(r)
+            if np.all(np.isfinite(y)):
+                return J.T @ y
+        except RuntimeError:
+            pass
+        J = J.toarray()
     return np.linalg.lstsq(J, r, rcond=None)[0]
+
+
+def _stacked_jacobian(system, q, t, E, sparse):
+    """[Phi_q; E] (E selects the coordinates the user fixed), dense or CSR."""
+    if not sparse:
+        return np.vstack([system.Phi_q(q, t), E])
+    rows, cols = system.pattern_Phi_q
+    Pq = scipy.sparse.csr_matrix((system.Phi_q_values(q, t), (rows, cols)),
+                                 shape=(system.m, system.n))
+    return scipy.sparse.vstack([Pq, scipy.sparse.csr_matrix(E)]).tocsr()
 
 
 def consistent_initial_state(system: AssembledSystem, t0: float = 0.0,
@@ -161,13 +188,13 @@ def consistent_initial_state(system: AssembledSystem, t0: float = 0.0,
     E = np.zeros((len(iq), n))
     E[np.arange(len(iq)), iq] = 1.0
 
+    sparse = system.n + system.m > DENSE_LIMIT
     q = place_bodies(system, t0)
     q_start = q.copy()
     it = 0
     for it in range(1, max_iter + 1):
         r = np.concatenate([system.Phi(q, t0), q[iq] - vq])
-        J = np.vstack([system.Phi_q(q, t0), E])
-        dq = _min_norm_step(J, r)
+        dq = _min_norm_step(_stacked_jacobian(system, q, t0, E, sparse), r)
         if not np.all(np.isfinite(dq)):
             break
         q = q - dq
@@ -196,15 +223,14 @@ def consistent_initial_state(system: AssembledSystem, t0: float = 0.0,
     iv = np.array([i for i, _ in fixed_v], dtype=int)
     Ev = np.zeros((len(iv), n))
     Ev[np.arange(len(iv)), iv] = 1.0
-    Phi_q = system.Phi_q(q, t0)
     Phi_t = system.Phi_t(q, t0)
-    A = np.vstack([Phi_q, Ev])
+    A = _stacked_jacobian(system, q, t0, Ev, sparse)
     rhs = np.concatenate([-Phi_t, v_g[iv]])
     v = v_g + _min_norm_step(A, rhs - A @ v_g)
-    res_v = float(np.max(np.abs(Phi_q @ v + Phi_t), initial=0.0))
+    res_v = float(np.max(np.abs(system.Phiq_times(q, t0, v) + Phi_t), initial=0.0))
     scale = 1.0 + float(np.max(np.abs(v), initial=0.0))
     if res_v > 1e-9 * scale or float(np.max(np.abs(v[iv] - v_g[iv]), initial=0.0)) > 1e-9 * scale:
-        name, value = lay.worst_element(Phi_q @ v + Phi_t)
+        name, value = lay.worst_element(system.Phiq_times(q, t0, v) + Phi_t)
         d = Diagnostic("error", "E504",
                        f"the initial velocities contradict the constraints: joint '{name}' "
                        f"has a velocity residual {value:.3g}",
@@ -212,19 +238,31 @@ def consistent_initial_state(system: AssembledSystem, t0: float = 0.0,
                        hint="give fewer initial velocities (the DOF count), or check their values")
         raise AssemblyError(d.message, [d])
 
-    M = system.mass_matrix(q)
     Q = system.Q(t0, q, v)
     gam = system.gamma(q, v, t0)
     m = system.m
-    K = np.block([[M, Phi_q.T], [Phi_q, np.zeros((m, m))]])
+    rhs = np.concatenate([Q, gam])
     try:
         with np.errstate(all="ignore"):
-            lu = scipy.linalg.lu_factor(K, check_finite=True)
-        sol = scipy.linalg.lu_solve(lu, np.concatenate([Q, gam]))
-        rc = np.min(np.abs(np.diag(lu[0]))) / max(np.max(np.abs(np.diag(lu[0]))), 1e-300)
+            if sparse:
+                rows, cols = system.pattern_Phi_q
+                Pq = scipy.sparse.coo_matrix((system.Phi_q_values(q, t0), (rows, cols)),
+                                             shape=(m, n))
+                K = scipy.sparse.bmat([[scipy.sparse.diags(system.mass_values(q)), Pq.T],
+                                       [Pq, None]], format="csc")
+                lu = scipy.sparse.linalg.splu(K)
+                sol = lu.solve(rhs)
+                d = np.abs(lu.U.diagonal())
+            else:
+                Phi_q = system.Phi_q(q, t0)
+                K = np.block([[system.mass_matrix(q), Phi_q.T], [Phi_q, np.zeros((m, m))]])
+                lu = scipy.linalg.lu_factor(K, check_finite=True)
+                sol = scipy.linalg.lu_solve(lu, rhs)
+                d = np.abs(np.diag(lu[0]))
+        rc = np.min(d) / max(np.max(d), 1e-300)
         if not np.all(np.isfinite(sol)) or rc < 1e-13:
             raise np.linalg.LinAlgError("singular")
-    except (np.linalg.LinAlgError, ValueError, scipy.linalg.LinAlgWarning):
+    except (np.linalg.LinAlgError, ValueError, RuntimeError, scipy.linalg.LinAlgWarning):
         d = Diagnostic("error", "E505",
                        "the index-1 matrix [[M, Phi_q^T], [Phi_q, 0]] is singular at the initial "
                        "configuration: the constraints are redundant or the mechanism is at a "
@@ -232,7 +270,7 @@ def consistent_initial_state(system: AssembledSystem, t0: float = 0.0,
                        "", hint="remove a redundant joint, or start away from a dead-centre position")
         raise AssemblyError(d.message, [d]) from None
     a, lam = sol[:n], sol[n:]
-    res_a = float(np.max(np.abs(Phi_q @ a - gam), initial=0.0))
+    res_a = float(np.max(np.abs(system.Phiq_times(q, t0, a) - gam), initial=0.0))
     fixed_idx = set(iq.tolist())
     solved = {lay.coordinates[i]: float(q[i]) for i in range(n) if i not in fixed_idx}
     return InitialState(t0, q, v, a, lam, res_q, res_v, res_a, solved, it)

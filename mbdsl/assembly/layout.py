@@ -25,6 +25,8 @@ class Layout:
         ``"crank.vx"``, ...
     rows : list of (str, int), length m
         (joint or driver name, row within it).
+    row_element : ndarray of int, shape (m,)
+        Number of the joint or driver each row belongs to.
     """
 
     def __init__(self, model: Model):
@@ -36,6 +38,10 @@ class Layout:
         self.element_rows: dict[str, list[int]] = {}
         for i, (name, _) in enumerate(self.rows):
             self.element_rows.setdefault(name, []).append(i)
+        #: element number of each constraint row, shape (m,), for vectorised reductions
+        numbers = {name: k for k, name in enumerate(self.element_rows)}
+        self.row_element = np.array([numbers[name] for name, _ in self.rows], dtype=np.intp)
+        self.n_elements = len(numbers)
 
     def multiplier_names(self) -> list[str]:
         """``lambda.<joint>.<k>`` column names, length m."""

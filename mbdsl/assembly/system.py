@@ -82,11 +82,11 @@ class AssembledSystem:
         n = self.n
         coinc, pol, lin = [], [], []
 
-        def phi_col(body):
+        def _phi_col(body):
             return body_columns(n, [body])[0, 2]
 
-        def angle_row(row, body1, body2, offset, fn):   # phi2 - phi1 - offset - f(t)
-            lin.append((row, (phi_col(body1), phi_col(body2)), (-1.0, 1.0), offset, fn))
+        def _angle_row(row, body1, body2, offset, fn):   # phi2 - phi1 - offset - f(t)
+            lin.append((row, (_phi_col(body1), _phi_col(body2)), (-1.0, 1.0), offset, fn))
 
         row = 0
         for j in model.joints:
@@ -94,18 +94,18 @@ class AssembledSystem:
             if j.kind in ("revolute", "fixed"):
                 coinc.append((row, row + 1, a.body, a.local, b.body, b.local))
                 if j.kind == "fixed":
-                    angle_row(row + 2, a.body, b.body, j.angle, None)
+                    _angle_row(row + 2, a.body, b.body, j.angle, None)
             elif j.kind == "point_on_line":
                 pol.append((row, a.body, a.local, b.body, b.local, _normal(j.direction)))
             elif j.kind == "prismatic":
                 pol.append((row, a.body, a.local, b.body, b.local, _normal(j.direction)))
-                angle_row(row + 1, a.body, b.body, j.angle, None)   # rotation locked
+                _angle_row(row + 1, a.body, b.body, j.angle, None)   # rotation locked
             row += j.rows
         for d in model.drivers:
             if d.kind == "coordinate":        # q_c - f(t); first column: ground dummy, coef 0
                 lin.append((row, (n, 3 * d.body + d.coord), (0.0, 1.0), 0.0, d.function))
             else:
-                angle_row(row, d.joint.first.body, d.joint.second.body, 0.0, d.function)
+                _angle_row(row, d.joint.first.body, d.joint.second.body, 0.0, d.function)
             row += 1
         assert row == self.m
         self.constraint_groups = []
@@ -228,12 +228,10 @@ class AssembledSystem:
         """
         rows, cols = self.pattern_Phi_q
         ratio = np.abs(self.Phi_q_values(q, t)) / self.mass_diag[cols]
-        per_row = np.zeros(self.m)
-        np.maximum.at(per_row, rows, ratio)
-        out = np.empty(self.m)
-        for rows in self.layout.element_rows.values():
-            out[rows] = per_row[rows].max()
-        return out
+        element = self.layout.row_element            # constraint row -> element number
+        per_element = np.zeros(self.layout.n_elements)
+        np.maximum.at(per_element, element[rows], ratio)
+        return per_element[element]
 
     def mass_solve(self, q, X) -> np.ndarray:
         """M(q)^{-1} X for X of shape (n,) or (n, k); a division for rigid bodies."""

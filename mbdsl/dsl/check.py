@@ -265,18 +265,18 @@ class _Checker:
         buckets = {"bodies": "bodies", "joints": "joints", "forces": "forces",
                    "drivers": "drivers", "initials": "initials"}
 
-        def key(item, iteration):
+        def _key(item, iteration):
             sp = getattr(item, "span", None)
             return (sp.line, sp.column) if sp else (0, 0), iteration
 
-        def add(item, env, iteration):
+        def _add(item, env, iteration):
             kind = {"BodySpec": "bodies", "JointSpec": "joints", "ForceSpec": "forces",
                     "DriverSpec": "drivers", "InitialSpec": "initials"}[type(item).__name__]
             inst = self.instantiate(item, env)
             if inst is not None:
-                keyed[buckets[kind]].append((key(item, iteration), inst))
+                keyed[buckets[kind]].append((_key(item, iteration), inst))
 
-        def loop(spec: ForSpec, env, iteration):
+        def _loop(spec: ForSpec, env, iteration):
             if spec.var in self.params or spec.var in ("t", "pi") or spec.var in env:
                 self.error("E202", f"the loop variable '{spec.var}' hides a parameter or an "
                            "outer loop variable", spec.span, "choose another name")
@@ -302,15 +302,15 @@ class _Checker:
                 inner = {**env, spec.var: value}
                 for item in spec.items:
                     if isinstance(item, ForSpec):
-                        loop(item, inner, iteration + (value,))
+                        _loop(item, inner, iteration + (value,))
                     else:
-                        add(item, inner, iteration + (value,))
+                        _add(item, inner, iteration + (value,))
 
         for kind in _KINDS:
             for item in getattr(self.spec, kind):
-                add(item, {}, ())
+                _add(item, {}, ())
         for spec in self.spec.loops:
-            loop(spec, {}, ())
+            _loop(spec, {}, ())
         self.items = {k: [inst for _, inst in sorted(v, key=lambda kv: kv[0])]
                       for k, v in keyed.items()}
 

@@ -66,24 +66,19 @@ class Terms:
         s = self.system
         return self.add(s.pattern_mass, np.ones(s.n), row0, col0, coef)
 
-    def stiffness(self, t, q, v, lam, a=None, row0=0, col0=0, c_q=1.0, c_v=0.0, c_mass=1.0,
-                  inv_mass=False):
-        """c_q ((Phi_q^T lam)_q + c_mass (M a)_q - Q_q) - c_v Q_v, optionally
-        premultiplied by M^{-1} (HHT-ADD)."""
-        s = self.system
-        scale = (1.0 / s.mass_diag) if inv_mass else None
+    def stiffness(self, t, q, v, lam, row0=0, col0=0, c_q=1.0, c_v=0.0):
+        """c_q ((Phi_q^T lam)_q - Q_q) - c_v Q_v.
 
-        def sc(pattern, vals):
-            return vals if scale is None or vals is None else vals * scale[pattern[0]]
-        self.add(s.pattern_hessian, sc(s.pattern_hessian, s.PhiqT_lam_q_values(q, lam)),
-                 row0, col0, c_q)
-        if a is not None and not s.mass_is_constant:
-            self.add(s.pattern_Ma_q, sc(s.pattern_Ma_q, s.Ma_q_values(q, a)), row0, col0,
-                     c_q * c_mass)
+        The (M a)_q term of the methods' Newton matrices vanishes for rigid
+        bodies (M constant), the only bodies mbdsl has; a body with a
+        configuration-dependent mass matrix adds it here.
+        """
+        s = self.system
+        self.add(s.pattern_hessian, s.PhiqT_lam_q_values(q, lam), row0, col0, c_q)
         Qq, Qv = s.force_derivative_values(t, q, v)
-        self.add(s.pattern_force, sc(s.pattern_force, Qq), row0, col0, -c_q)
+        self.add(s.pattern_force, Qq, row0, col0, -c_q)
         if c_v:
-            self.add(s.pattern_force, sc(s.pattern_force, Qv), row0, col0, -c_v)
+            self.add(s.pattern_force, Qv, row0, col0, -c_v)
         return self
 
     def Phi_q(self, q, t, row0=0, col0=0, coef=1.0, transpose=False, inv_mass=False):
@@ -123,7 +118,7 @@ def index3_newton_matrix(ctx, q, v, a, lam, c_mass: float, c_q: float, c_v: floa
     """
     system, t, n = ctx.system, ctx.t, ctx.system.n
     T = Terms(system).mass(q, coef=c_mass)
-    T.stiffness(t, q, v, lam, a, c_q=c_q, c_v=c_v, c_mass=c_mass)
+    T.stiffness(t, q, v, lam, c_q=c_q, c_v=c_v)
     T.Phi_q(q, t, 0, n, transpose=True).Phi_q(q, t, n, 0)
     return assemble(ctx, T, n + system.m)
 

@@ -137,8 +137,8 @@ class HHTSI2(Method):
         bh2, hh2, gh = self.beta * h * h, 0.5 * h * h, self.gamma * h
         Kmu = sys.PhiqT_lam_q_values(q, mu)
         T = Terms(sys).mass(qhat, coef=1.0 / (1.0 + self.alpha))
-        T.stiffness(t, q, v, lam, c_q=bh2, c_v=gh)                       # Mhat is held: no (M a)_q
-        T.stiffness(t, q, v, lam, 0, n, c_q=hh2)
+        T.stiffness(t, q, v, lam, row0=0, col0=0, c_q=bh2, c_v=gh)       # Mhat is held: no (M a)_q
+        T.stiffness(t, q, v, lam, row0=0, col0=n, c_q=hh2)
         T.Phi_q(q, t, 0, 2 * n, transpose=True)
         T.add(sys.pattern_hessian, Kmu, n, 0, bh2)
         T.mass(qhat, n, n).add(sys.pattern_hessian, Kmu, n, n, hh2)

@@ -8,6 +8,11 @@ multipliers (Chrono's abstolS/abstolL):
 
     ||dw||_W = max_i |s_i dw_i| / (atol_i + rtol |s_i w_i|)
 
+(for multipliers, |s_i w_i| is replaced by the largest |s_j w_j| over all
+multipliers: a joint's force is judged against the largest force in the
+mechanism; in a chain of 1000 links the round-off of the small forces at the
+free end is set by the large ones at the pin)
+
 where s_i (declared by the method for each unknown and step size) converts
 the unknown into the change of velocity it causes within the step: gamma h
 for an HHT acceleration, gamma h times the mobility (largest acceleration
@@ -254,7 +259,13 @@ class Newton:
         opt = self.options
         w = np.array(w0, dtype=float)
         atol = np.maximum(np.where(kinds, opt.atol_multiplier, opt.atol_kinematic), floor)
-        weight = scales / (atol + opt.rtol * np.abs(scales * w))
+        # relative part: per entry for kinematic unknowns, norm-wise for multipliers
+        # (a joint's force is judged against the largest force in the mechanism)
+        size = np.abs(scales * w)
+        mult = np.asarray(kinds, dtype=bool)
+        if mult.any():
+            size[mult] = np.max(size[mult])
+        weight = scales / (atol + opt.rtol * size)
         res = NewtonResult(w, NewtonStatus.MAX_ITER)
         reuse = opt.jacobian is JacobianUpdate.MODIFIED
         lu = self._lu if (reuse and self._key == key) else None
