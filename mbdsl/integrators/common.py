@@ -13,9 +13,32 @@ import numpy as np
 from ..assembly.sparse import JacobianAssembler, Term
 
 __all__ = ["newmark_predictor", "force_term", "index3_newton_matrix", "bdf_coefficients",
-           "roundoff_floor", "EPS", "Terms", "assemble"]
+           "roundoff_floor", "EPS", "Terms", "assemble", "hht_coefficients",
+           "acceleration_scales"]
 
 EPS = float(np.finfo(float).eps)
+
+
+def hht_coefficients(alpha: float) -> tuple[float, float, float]:
+    """(alpha, beta, gamma) of the HHT family: alpha validated in [-1/3, 0],
+    beta = (1 - alpha)^2 / 4, gamma = (1 - 2 alpha) / 2 (Hilber, Hughes &
+    Taylor 1977).
+
+    Raises
+    ------
+    ValueError
+        alpha out of range, with the reason.
+    """
+    from .base import check_range
+    alpha = check_range("alpha", alpha, -1.0 / 3.0 - 1e-12 <= alpha <= 0.0, "[-1/3, 0]",
+                        "HHT is unconditionally stable and second order only in this range")
+    return alpha, (1.0 - alpha) ** 2 / 4.0, (1.0 - 2.0 * alpha) / 2.0
+
+
+def acceleration_scales(system, q, dv_da: float) -> np.ndarray:
+    """Velocity-equivalent scales of the unknowns (a, lambda): dv/da for the
+    accelerations, dv/da times the multiplier mobility for lambda, shape (n + m,)."""
+    return np.concatenate([np.full(system.n, dv_da), dv_da * system.multiplier_mobility(q)])
 
 
 def newmark_predictor(state, h: float, beta: float, gamma: float):

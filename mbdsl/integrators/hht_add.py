@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from .base import Block, Method, StepContext, StepState, check_range
-from .common import Terms, assemble, newmark_predictor, roundoff_floor
+from .common import Terms, assemble, hht_coefficients, newmark_predictor, roundoff_floor
 
 __all__ = ["HHTADD"]
 
@@ -81,13 +81,9 @@ class HHTADD(Method):
     extras = ("psi1",)
 
     def __init__(self, alpha: float = -0.05, b: float = 0.0):
-        self.alpha = check_range("alpha", alpha, -1.0 / 3.0 - 1e-12 <= alpha <= 0.0,
-                                 "[-1/3, 0]", "HHT is unconditionally stable and second "
-                                 "order only in this range")
+        self.alpha, self.beta, self.gamma = hht_coefficients(alpha)
         self.b = check_range("b", b, abs(b - 0.5) > 1e-12, "b != 1/2",
                              "with b = 1/2 the Newton matrix is singular as h -> 0")
-        self.gamma = (1.0 - 2.0 * self.alpha) / 2.0
-        self.beta = (1.0 - self.alpha) ** 2 / 4.0
 
     def order(self) -> int:
         """2."""

@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import Block, Method, StepContext, StepState, check_range
-from .common import force_term, index3_newton_matrix, newmark_predictor, roundoff_floor
+from .base import Block, Method, StepContext, StepState
+from .common import (acceleration_scales, force_term, hht_coefficients,
+                     index3_newton_matrix, newmark_predictor, roundoff_floor)
 
 __all__ = ["HHTI3"]
 
@@ -64,11 +65,7 @@ class HHTI3(Method):
     history_length = 1
 
     def __init__(self, alpha: float = -0.05):
-        self.alpha = check_range("alpha", alpha, -1.0 / 3.0 - 1e-12 <= alpha <= 0.0,
-                                 "[-1/3, 0]", "HHT is unconditionally stable and second "
-                                 "order only in this range")
-        self.gamma = (1.0 - 2.0 * self.alpha) / 2.0
-        self.beta = (1.0 - self.alpha) ** 2 / 4.0
+        self.alpha, self.beta, self.gamma = hht_coefficients(alpha)
 
     def order(self) -> int:
         """2."""
@@ -84,8 +81,7 @@ class HHTI3(Method):
 
     def scales(self, system, h, q) -> np.ndarray:
         """gamma h for a (dv = gamma h da), gamma h times the mobility for lambda."""
-        gh = self.gamma * h
-        return np.concatenate([np.full(system.n, gh), gh * system.multiplier_mobility(q)])
+        return acceleration_scales(system, q, self.gamma * h)
 
     def roundoff_floor(self, system, h, q) -> np.ndarray:
         """Phi's round-off through the 1/(beta h^2) rows, times gamma h."""

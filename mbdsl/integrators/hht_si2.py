@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import Block, Method, StepContext, StepState, check_range
-from .common import Terms, assemble, force_term, newmark_predictor, roundoff_floor
+from .base import Block, Method, StepContext, StepState
+from .common import (Terms, assemble, force_term,
+                     hht_coefficients, newmark_predictor, roundoff_floor)
 
 __all__ = ["HHTSI2"]
 
@@ -58,11 +59,7 @@ class HHTSI2(Method):
     extras = ("mu",)
 
     def __init__(self, alpha: float = -0.05):
-        self.alpha = check_range("alpha", alpha, -1.0 / 3.0 - 1e-12 <= alpha <= 0.0,
-                                 "[-1/3, 0]", "HHT is unconditionally stable and second "
-                                 "order only in this range")
-        self.gamma = (1.0 - 2.0 * self.alpha) / 2.0
-        self.beta = (1.0 - self.alpha) ** 2 / 4.0
+        self.alpha, self.beta, self.gamma = hht_coefficients(alpha)
 
     def order(self) -> int:
         """2."""

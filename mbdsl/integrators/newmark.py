@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from .base import Block, Method, StepContext, StepState, check_range
-from .common import force_term, index3_newton_matrix, newmark_predictor, roundoff_floor
+from .common import (acceleration_scales, force_term, index3_newton_matrix,
+                     newmark_predictor, roundoff_floor)
 
 __all__ = ["Newmark"]
 
@@ -71,8 +72,7 @@ class Newmark(Method):
 
     def scales(self, system, h, q) -> np.ndarray:
         """gamma h for a, gamma h times the mobility for lambda."""
-        gh = self.gamma * h
-        return np.concatenate([np.full(system.n, gh), gh * system.multiplier_mobility(q)])
+        return acceleration_scales(system, q, self.gamma * h)
 
     def roundoff_floor(self, system, h, q) -> np.ndarray:
         """Phi's round-off through the 1/(beta h^2) rows, times gamma h."""

@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from .base import Block, Method, StepContext, StepState
-from .common import bdf_coefficients, force_term, index3_newton_matrix, roundoff_floor
+from .common import (acceleration_scales, bdf_coefficients, force_term,
+                     index3_newton_matrix, roundoff_floor)
 
 __all__ = ["NStiff"]
 
@@ -59,8 +60,7 @@ class NStiff(Method):
 
     def scales(self, system, h, q) -> np.ndarray:
         """2h/3 for a (dv = da / c0), 2h/3 times the mobility for lambda."""
-        s = 2.0 * h / 3.0
-        return np.concatenate([np.full(system.n, s), s * system.multiplier_mobility(q)])
+        return acceleration_scales(system, q, 2.0 * h / 3.0)
 
     def roundoff_floor(self, system, h, q) -> np.ndarray:
         """Phi's round-off through the c0^2 rows, times 1/c0 (BDF1 start-up: worst case)."""
