@@ -37,30 +37,52 @@ class RunStats:
     multipliers_stalled: int = 0
 
 
-def _reaction(system, joint, q, Phi_q, lam) -> np.ndarray:
-    """Reaction of a joint on its second body: (fx, fy) [N] in global
-    coordinates, applied at the joint's first point, and the couple [N m]
-    about that point (zero for a revolute joint).
+def _generalized_constraint_forces(system, q, t, lam):
+    """-Phi_q^T lambda split by joint/driver: CSR of shape (elements, n)."""
+    import scipy.sparse
+    rows, cols = system.pattern_Phi_q
+    vals = -system.Phi_q_values(q, t) * lam[rows]
+    lay = system.layout
+    return scipy.sparse.csr_matrix((vals, (lay.row_element[rows], cols)),
+                                   shape=(lay.n_elements, system.n))
 
-    The generalized constraint force of the joint's rows is -Phi_q^T lambda
-    (sign convention M a + Phi_q^T lambda = Q). When the second body is the
-    ground, the reaction is minus the one on the first body (the joint is
-    massless).
+
+class _Reactions:
+    """Reaction of every joint on its second body, vectorised over joints.
+
+    For each joint: (fx, fy) [N] in global coordinates, applied at the
+    joint's first point, and the couple [N m] about that point (zero for a
+    revolute joint). The generalized constraint force of a joint's rows is
+    -Phi_q^T lambda (sign convention M a + Phi_q^T lambda = Q). When the
+    second body is the ground, the reaction is minus the one on the first
+    body (the joint is massless).
     """
-    rows = system.layout.element_rows[joint.name]
-    gen = -(Phi_q[rows].T @ lam[rows])
-    p1 = joint.first
-    if p1.body >= 0:
-        r1, phi1 = q[3 * p1.body: 3 * p1.body + 2], q[3 * p1.body + 2]
+
+    def __init__(self, system):
+        joints = system.model.joints
+        element = {name: k for k, name in enumerate(system.layout.element_rows)}
+        self.element = np.array([element[j.name] for j in joints], dtype=np.intp)
+        second = np.array([j.second.body for j in joints], dtype=np.intp)
+        first = np.array([j.first.body for j in joints], dtype=np.intp)
+        self.body = np.where(second >= 0, second, first)          # whose force we read
+        self.sign = np.where(second >= 0, 1.0, -1.0)
+        self.first, self.s1 = first, np.array([j.first.local for j in joints]).reshape(-1, 2)
+        self.system = system
+
+    def __call__(self, q, t, lam) -> np.ndarray:
+        """(fx, fy, couple) of every joint, shape (joints, 3)."""
+        forces = _generalized_constraint_forces(self.system, q, t, lam)
+        cols = 3 * self.body[:, None] + np.arange(3)[None, :]
+        gen = np.asarray(forces[np.repeat(self.element, 3), cols.ravel()]).reshape(-1, 3)
+        on_body = self.first >= 0
+        phi1 = np.where(on_body, q[3 * np.maximum(self.first, 0) + 2], 0.0)
         c, s = np.cos(phi1), np.sin(phi1)
-        point = r1 + np.array([c * p1.local[0] - s * p1.local[1], s * p1.local[0] + c * p1.local[1]])
-    else:
-        point = p1.local
-    b, sign = (joint.second.body, 1.0) if joint.second.body >= 0 else (p1.body, -1.0)
-    F, tau = gen[3 * b: 3 * b + 2], gen[3 * b + 2]
-    d = point - q[3 * b: 3 * b + 2]
-    couple = tau - (d[0] * F[1] - d[1] * F[0])
-    return sign * np.array([F[0], F[1], couple])
+        rot = np.stack([c * self.s1[:, 0] - s * self.s1[:, 1], s * self.s1[:, 0] + c * self.s1[:, 1]], 1)
+        r1 = np.stack([q[3 * np.maximum(self.first, 0)], q[3 * np.maximum(self.first, 0) + 1]], 1)
+        point = np.where(on_body[:, None], r1 + rot, self.s1)
+        d = point - np.stack([q[3 * self.body], q[3 * self.body + 1]], 1)
+        couple = gen[:, 2] - (d[:, 0] * gen[:, 1] - d[:, 1] * gen[:, 0])
+        return self.sign[:, None] * np.column_stack([gen[:, :2], couple])
 
 
 class Solution:
@@ -147,17 +169,17 @@ class Solution:
         N = len(self.t)
         kin, pot, cpos, cvel = (np.empty(N) for _ in range(4))
         joints = self.model.joints
+        reactions = _Reactions(sys) if joints else None
         reac = np.zeros((N, len(joints), 3))
         for i in range(N):
             q, v, t = self.q[i], self.v[i], self.t[i]
             kin[i] = sys.kinetic_energy(q, v)
             pot[i] = sys.potential_energy(q)
             if sys.m:
-                Phi_q = sys.Phi_q(q, t)
                 cpos[i] = np.max(np.abs(sys.Phi(q, t)))
-                cvel[i] = np.max(np.abs(Phi_q @ v + sys.Phi_t(q, t)))
-                for k, j in enumerate(joints):
-                    reac[i, k] = _reaction(sys, j, q, Phi_q, self.lam[i])
+                cvel[i] = np.max(np.abs(sys.Phiq_times(q, t, v) + sys.Phi_t(q, t)))
+                if reactions is not None:
+                    reac[i] = reactions(q, t, self.lam[i])
             else:
                 cpos[i] = cvel[i] = 0.0
         self._derived = {"energy.kinetic": kin, "energy.potential": pot,

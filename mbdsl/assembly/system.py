@@ -71,8 +71,6 @@ class AssembledSystem:
         mass = np.repeat([b.mass for b in model.bodies], 3)
         mass[2::3] = [b.inertia for b in model.bodies]
         self.mass_diag = mass
-        self._M = np.diag(mass)
-        self._M.setflags(write=False)
         self.mass_is_constant = True
         self._build_constraints(model)
         self._build_forces(model)
@@ -205,8 +203,13 @@ class AssembledSystem:
 
     # -- mass -----------------------------------------------------------------------
     def mass_matrix(self, q=None) -> np.ndarray:
-        """M(q), shape (n, n) [kg, kg m^2]; constant (read-only) for rigid bodies."""
-        return self._M
+        """M(q) as a dense array, shape (n, n) [kg, kg m^2], built on request.
+
+        For dense solves off the hot path (initial conditions of small models,
+        the index-1 reference); the integrators use ``mass_values`` and
+        ``mass_times``.
+        """
+        return np.diag(self.mass_diag)
 
     def mass_values(self, q=None) -> np.ndarray:
         """Values of M on ``pattern_mass`` (its diagonal for rigid bodies), shape (n,)."""

@@ -71,6 +71,12 @@ class Terms:
 
     def __init__(self, system):
         self.system, self.items = system, []
+        self._values = {}      # one Newton matrix, one configuration: evaluate each term once
+
+    def _once(self, key, fn):
+        if key not in self._values:
+            self._values[key] = fn()
+        return self._values[key]
 
     def add(self, pattern, vals, row0=0, col0=0, coef=1.0, transpose=False):
         """Append coef * vals on pattern at block (row0, col0); None vals are skipped."""
@@ -97,8 +103,10 @@ class Terms:
         configuration-dependent mass matrix adds it here.
         """
         s = self.system
-        self.add(s.pattern_hessian, s.PhiqT_lam_q_values(q, lam), row0, col0, c_q)
-        Qq, Qv = s.force_derivative_values(t, q, v)
+        self.add(s.pattern_hessian,
+                 self._once(("hessian", id(lam)), lambda: s.PhiqT_lam_q_values(q, lam)),
+                 row0, col0, c_q)
+        Qq, Qv = self._once("force", lambda: s.force_derivative_values(t, q, v))
         self.add(s.pattern_force, Qq, row0, col0, -c_q)
         if c_v:
             self.add(s.pattern_force, Qv, row0, col0, -c_v)
@@ -107,7 +115,7 @@ class Terms:
     def Phi_q(self, q, t, row0=0, col0=0, coef=1.0, transpose=False, inv_mass=False):
         """coef Phi_q (or its transpose, or M^{-1} Phi_q^T)."""
         s = self.system
-        vals = s.Phi_q_values(q, t)
+        vals = self._once("Phi_q", lambda: s.Phi_q_values(q, t))
         if inv_mass:
             vals = vals / s.mass_diag[s.pattern_Phi_q[1]]
         return self.add(s.pattern_Phi_q, vals, row0, col0, coef, transpose)
@@ -115,7 +123,8 @@ class Terms:
     def G(self, q, v, t, row0=0, col0=0, coef=1.0):
         """coef ((Phi_q v)_q + Phi_qt); Phi_qt = 0 for every constraint mbdsl has."""
         s = self.system
-        return self.add(s.pattern_Phiq_v_q, s.Phiq_v_q_values(q, v), row0, col0, coef)
+        return self.add(s.pattern_Phiq_v_q, self._once("G", lambda: s.Phiq_v_q_values(q, v)),
+                        row0, col0, coef)
 
 
 def assemble(ctx, terms: Terms, size: int):
@@ -126,7 +135,7 @@ def assemble(ctx, terms: Terms, size: int):
     return assembler.assemble(terms.items)
 
 
-def index3_newton_matrix(ctx, q, v, a, lam, c_mass: float, c_q: float, c_v: float):
+def index3_newton_matrix(ctx, q, v, lam, c_mass: float, c_q: float, c_v: float):
     """Newton matrix of the index-3 methods in the unknowns (a, lambda).
 
         [[c_mass M + c_q (c_mass (M a)_q + (Phi_q^T lambda)_q - Q_q) - c_v Q_v,  Phi_q^T],
