@@ -76,7 +76,11 @@ class CoincidenceGroup:
     def phi(self, qx, t):
         """Constraint values, shape (k, 2) [m]."""
         q = qx[self.cols]
-        return (q[:, 3:5] + rot(q[:, 5], self.s2)) - (q[:, 0:2] + rot(q[:, 2], self.s1))
+        # Differences of the (possibly large) reference coordinates first: exact
+        # when the two bodies are within a factor 2 of each other (Sterbenz), so
+        # the round-off is eps times the point offsets, not eps |r|. Index-3
+        # methods divide Phi by beta h^2, so this round-off reaches the velocities.
+        return (q[:, 3:5] - q[:, 0:2]) + (rot(q[:, 5], self.s2) - rot(q[:, 2], self.s1))
 
     def jac(self, qx):
         """Local Jacobian, shape (k, 2, 6)."""
@@ -118,7 +122,7 @@ class PointOnLineGroup:
     def _parts(self, qx):
         q = qx[self.cols]
         nvec = rot(q[:, 5], self.n0)
-        d = (q[:, 0:2] + rot(q[:, 2], self.sp)) - (q[:, 3:5] + rot(q[:, 5], self.sl))
+        d = (q[:, 0:2] - q[:, 3:5]) + (rot(q[:, 2], self.sp) - rot(q[:, 5], self.sl))
         return q, nvec, d
 
     def phi(self, qx, t):
