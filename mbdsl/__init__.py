@@ -9,6 +9,10 @@ check(path)                  every diagnostic of a file (no exception)
 assemble(model)              -> AssembledSystem (M, Q, Phi and derivatives)
 simulate(model, method=..., h=..., t_end=..., **coefficients) -> Solution
 METHODS                      the paper's integration methods by name
+write_solution(sol, path)    CSV, or HDF5 for .h5/.hdf5
+load_solution(path)          a result file back into a Solution
+plot(sol, ...)               time histories as one matplotlib figure
+animate(sol, path, ...)      the mechanism's motion as GIF/MP4
 """
 
 from __future__ import annotations
@@ -26,6 +30,7 @@ from .errors import (AssemblyError, ConvergenceError, Diagnostic, MbdError, MbdM
 from .integrators import (METHODS, JacobianUpdate, NewtonOptions, integrate, make_method,
                           method_parameters)
 from .model.elements import Model
+from .output import load_solution, write_solution
 from .solution import Solution
 
 __version__ = "0.1.0"
@@ -36,8 +41,20 @@ __all__ = [
     "ModelSpec", "BodySpec", "JointSpec", "ForceSpec", "DriverSpec", "InitialSpec",
     "ParameterSpec", "PointSpec", "SettingSpec", "ArgSpec",
     "MbdError", "MbdSyntaxError", "MbdModelError", "AssemblyError", "ConvergenceError",
-    "Diagnostic", "render", "__version__",
+    "Diagnostic", "render", "__version__", "load_solution", "write_solution", "plot", "animate",
 ]
+
+
+def plot(solution, y=None, x: str = "t", path=None):
+    """Time histories of a Solution as one figure; see :func:`mbdsl.plotting.plot_solution`."""
+    from .plotting import plot_solution
+    return plot_solution(solution, y=y, x=x, path=path)
+
+
+def animate(solution, path, fps: float = 25.0, speed: float = 1.0):
+    """Write the mechanism's motion; see :func:`mbdsl.plotting.animate_solution`."""
+    from .plotting import animate_solution
+    return animate_solution(solution, path, fps=fps, speed=speed)
 
 
 def load(path, overrides: dict | None = None) -> Model:

@@ -114,6 +114,9 @@ class Solution:
     initial : InitialState
     """
 
+    #: Per-step Newton statistics, stored and written in this order.
+    STAT_NAMES = ("iterations", "residuals", "jacobians", "factorizations", "h")
+
     def __init__(self, system, method, h, t_end, initial):
         self.system = system
         self.model = system.model
@@ -152,9 +155,52 @@ class Solution:
         self.lam = np.array([s.lam for s in rows]).reshape(len(rows), self.system.m)
         self.extras = {x: np.array([s.extra[x] for s in rows]).reshape(len(rows), self.system.m)
                        for x in self.extra_names}
-        self.stats = {k: np.array([getattr(s, k) for s in self._stats])
-                      for k in ("iterations", "residuals", "jacobians", "factorizations", "h")}
+        self.stats = {k: np.array([getattr(s, k) for s in self._stats]) for k in self.STAT_NAMES}
         self._derived = None
+
+    @classmethod
+    def from_arrays(cls, system, *, method_name: str, method_parameters: dict,
+                    extra_names, h: float, t_end: float, t, q, v, a, lam, extras: dict,
+                    stats: dict, stats_total: RunStats, status: str, message: str,
+                    wall_time: float = 0.0, derived: dict | None = None) -> "Solution":
+        """A Solution from stored arrays (``mbdsl.load_solution``).
+
+        Parameters
+        ----------
+        system : AssembledSystem
+            Rebuilt from the stored model source.
+        t : ndarray, shape (N,)
+        q, v, a : ndarray, shape (N, n)
+        lam : ndarray, shape (N, m)
+        extras : dict of str -> ndarray, shape (N, m)
+        stats : dict of str -> ndarray, shape (N,)
+            Keys :attr:`STAT_NAMES`.
+        derived : dict of str -> ndarray, shape (N,), optional
+            Stored derived columns (energies, constraint norms, reactions);
+            recomputed from q, v, lambda when absent.
+
+        Returns
+        -------
+        Solution
+            ``initial`` is None: a loaded run has no initial-state report.
+        """
+        self = cls.__new__(cls)
+        self.system, self.model = system, system.model
+        self.method_name, self.method_parameters = method_name, dict(method_parameters)
+        self.extra_names = tuple(extra_names)
+        self.h, self.t_end, self.initial = float(h), float(t_end), None
+        self.status, self.message, self.diagnostics = status, message, []
+        self.wall_time, self.stats_total = float(wall_time), stats_total
+        self._rows, self._stats = [], []
+        n, m = system.n, system.m
+        self.t = np.asarray(t, dtype=float)
+        N = len(self.t)
+        self.q, self.v, self.a = (np.asarray(x, dtype=float).reshape(N, n) for x in (q, v, a))
+        self.lam = np.asarray(lam, dtype=float).reshape(N, m)
+        self.extras = {x: np.asarray(extras[x], dtype=float).reshape(N, m) for x in self.extra_names}
+        self.stats = {k: np.asarray(stats[k]) for k in self.STAT_NAMES}
+        self._derived = dict(derived) if derived else None
+        return self
 
     @property
     def completed(self) -> bool:
@@ -194,15 +240,20 @@ class Solution:
     def columns(self) -> list[str]:
         """Names of every output column, in CSV order."""
         lay = self.system.layout
-        pos = [f"{b.name}.{c}" for b in self.model.bodies for c in ("x", "y", "phi")]
-        vel = [f"{b.name}.{c}" for b in self.model.bodies for c in ("vx", "vy", "omega")]
         extras = [f"{x}.{name}.{k}" for x in self.extra_names for name, k in lay.rows]
         reactions = [f"reaction.{j.name}.{c}" for j in self.model.joints
                      for c in ("fx", "fy", "torque")]
-        return (["t"] + pos + vel + ["energy.kinetic", "energy.potential", "energy.total",
-                                     "constraint.position", "constraint.velocity",
-                                     "newton.iterations"] + lay.multiplier_names() + extras
-                + reactions)
+        return (["t"] + lay.coordinates + lay.velocities + lay.accelerations
+                + list(self.DERIVED_NAMES) + lay.multiplier_names() + extras + reactions
+                + [f"newton.{k}" for k in self.STAT_NAMES[:-1]] + ["step.h"])
+
+    #: Derived columns every model has, in CSV order.
+    DERIVED_NAMES = ("energy.kinetic", "energy.potential", "energy.total",
+                     "constraint.position", "constraint.velocity")
+
+    def derived(self) -> dict:
+        """Energies, constraint norms and joint reactions: name -> ndarray, shape (N,)."""
+        return dict(self._compute_derived())
 
     def column(self, name: str) -> np.ndarray:
         """One column by name, shape (N,).
@@ -219,11 +270,15 @@ class Solution:
             return self.q[:, lay.coordinates.index(name)]
         if name in lay.velocities:
             return self.v[:, lay.velocities.index(name)]
+        if name in lay.accelerations:
+            return self.a[:, lay.accelerations.index(name)]
+        if name.startswith("newton.") and name[7:] in self.STAT_NAMES[:-1]:
+            return self.stats[name[7:]]
+        if name == "step.h":
+            return self.stats["h"]
         derived = self._compute_derived()
         if name in derived:
             return derived[name]
-        if name == "newton.iterations":
-            return self.stats["iterations"]
         mult = lay.multiplier_names()
         if name in mult:
             return self.lam[:, mult.index(name)]
@@ -240,6 +295,22 @@ class Solution:
         """(column names, values of shape (N, number of columns))."""
         names = self.columns
         return names, np.column_stack([self.column(c) for c in names])
+
+    def to_dataframe(self):
+        """Every column as a pandas DataFrame indexed by t (pandas is optional).
+
+        Raises
+        ------
+        ImportError
+            When pandas is not installed, saying so.
+        """
+        try:
+            import pandas as pd
+        except ImportError as exc:      # optional: keep the core free of pandas
+            raise ImportError("Solution.to_dataframe needs pandas (pip install pandas)") from exc
+        names, values = self.table()
+        return pd.DataFrame(values[:, 1:], index=pd.Index(values[:, 0], name="t"),
+                            columns=names[1:])
 
     def summary(self) -> str:
         """A one-screen summary of the run."""

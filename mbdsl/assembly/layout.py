@@ -23,6 +23,8 @@ class Layout:
         ``"crank.x"``, ``"crank.y"``, ``"crank.phi"``, ...
     velocities : list of str, length n
         ``"crank.vx"``, ...
+    accelerations : list of str, length n
+        ``"crank.ax"``, ``"crank.ay"``, ``"crank.alpha"``, ...
     rows : list of (str, int), length m
         (joint or driver name, row within it).
     row_element : ndarray of int, shape (m,)
@@ -32,6 +34,7 @@ class Layout:
     def __init__(self, model: Model):
         self.coordinates = model.coordinate_names()
         self.velocities = model.velocity_names()
+        self.accelerations = model.acceleration_names()
         self.rows = model.constraint_names()
         self._spans = {j.name: j.span for j in model.joints}
         self._spans.update({d.name: d.span for d in model.drivers})

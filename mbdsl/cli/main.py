@@ -1,4 +1,4 @@
-"""The ``mbdsl`` command line: ``mbdsl simulate FILE`` and ``mbdsl check FILE``.
+"""The ``mbdsl`` command line: ``simulate``, ``check``, ``plot`` and ``animate``.
 
 Calls the public API and nothing else. Every failure a user can cause is a
 rendered diagnostic on stderr and a non-zero exit status, never a traceback:
@@ -20,7 +20,7 @@ from pathlib import Path
 
 from .. import (METHODS, AssemblyError, ConvergenceError, MbdError, __version__, load,
                 render, simulate)
-from ..output import write_csv
+from ..output import HDF5_SUFFIXES, load_solution, write_solution
 
 __all__ = ["main", "build_parser"]
 
@@ -43,25 +43,50 @@ def build_parser() -> argparse.ArgumentParser:
 
     sim = sub.add_parser("simulate", help="simulate a model and write its time histories")
     sim.add_argument("model", help="model file (.mbd)")
-    sim.add_argument("-o", "--output", help="output CSV (default: beside the model, MODEL.csv)")
-    sim.add_argument("--method", choices=sorted(METHODS), help="integration method")
-    sim.add_argument("--h", type=float, help="step size [s]")
-    sim.add_argument("--t-end", type=float, help="end time [s]")
-    sim.add_argument("--alpha", type=float, help="HHT alpha in [-1/3, 0] (hht-i3, hht-si2, hht-add)")
-    sim.add_argument("--beta", type=float, help="Newmark beta >= (gamma + 1/2)^2/4 (newmark)")
-    sim.add_argument("--gamma", type=float, help="Newmark gamma >= 1/2 (newmark)")
-    sim.add_argument("--b", type=float, help="HHT-ADD position weight b != 1/2 (hht-add)")
-    sim.add_argument("--set", action="append", metavar="NAME=VALUE",
-                     help="override a model parameter (repeatable)")
-    sim.add_argument("--newton", choices=["full", "modified"], default="modified",
-                     help="Jacobian policy of the Newton iteration")
-    sim.add_argument("-q", "--quiet", action="store_true", help="print no summary")
+    sim.add_argument("-o", "--output", help="output file, CSV or HDF5 by extension (.csv, .h5); "
+                     "default: beside the model, MODEL.csv")
+    _run_options(sim)
+    sim.add_argument("--plot", action="store_true",
+                     help="also write the standard panels beside the output (run.csv -> run.png)")
+    sim.add_argument("-q", "--quiet", action="store_true", help="print no summary, no progress bar")
 
     chk = sub.add_parser("check", help="check a model file and print every diagnostic")
     chk.add_argument("model", help="model file (.mbd)")
     chk.add_argument("--set", action="append", metavar="NAME=VALUE",
                      help="override a model parameter (repeatable)")
+
+    plt = sub.add_parser("plot", help="plot time histories of a result file")
+    plt.add_argument("result", help="result file written by simulate (.csv, .h5)")
+    plt.add_argument("--y", help="comma-separated columns, one panel each "
+                     "(default: the standard panels)")
+    plt.add_argument("--x", default="t", help="abscissa column (default t)")
+    plt.add_argument("-o", "--output", help="figure file, format by extension (.png, .svg, .pdf); "
+                     "default: RESULT.png")
+
+    ani = sub.add_parser("animate", help="animate a model (simulated first) or a result file")
+    ani.add_argument("source", help="model file (.mbd) or result file (.csv, .h5)")
+    ani.add_argument("-o", "--output", help="animation file (.gif, or .mp4 with ffmpeg); "
+                     "default: SOURCE.gif")
+    ani.add_argument("--fps", type=float, default=25.0, help="frames per second (default 25)")
+    ani.add_argument("--speed", type=float, default=1.0,
+                     help="simulated seconds per second of video (default 1)")
+    _run_options(ani)
+    ani.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
     return p
+
+
+def _run_options(p):
+    p.add_argument("--method", choices=sorted(METHODS), help="integration method")
+    p.add_argument("--h", type=float, help="step size [s]")
+    p.add_argument("--t-end", type=float, help="end time [s]")
+    p.add_argument("--alpha", type=float, help="HHT alpha in [-1/3, 0] (hht-i3, hht-si2, hht-add)")
+    p.add_argument("--beta", type=float, help="Newmark beta >= (gamma + 1/2)^2/4 (newmark)")
+    p.add_argument("--gamma", type=float, help="Newmark gamma >= 1/2 (newmark)")
+    p.add_argument("--b", type=float, help="HHT-ADD position weight b != 1/2 (hht-add)")
+    p.add_argument("--set", action="append", metavar="NAME=VALUE",
+                   help="override a model parameter (repeatable)")
+    p.add_argument("--newton", choices=["full", "modified"], default="modified",
+                   help="Jacobian policy of the Newton iteration")
 
 
 def _print_diagnostics(diags, err=None):
@@ -103,31 +128,45 @@ def _check(args) -> int:
     return 0
 
 
-def _simulate(args) -> int:
-    model = _load(args)
-    if model is None:
-        return 1
-    out = Path(args.output) if args.output else Path(args.model).with_suffix(".csv")
+def _run(args, model):
+    """(solution, exit status) of a model with the run options, or (None, status)."""
     from ..integrators import NewtonOptions
+    from ..progress import ProgressBar
+    s = model.settings
+    t_end = args.t_end if args.t_end is not None else s.get("t_end")
     status = 0
     try:
-        sol = simulate(model, method=args.method, h=args.h, t_end=args.t_end,
-                       newton=NewtonOptions(jacobian=args.newton), on_failure="return",
-                       alpha=args.alpha, beta=args.beta, gamma=args.gamma, b=args.b)
+        with ProgressBar(float(s.get("t_start", 0.0)), float(t_end or 0.0),
+                         enabled=None if not args.quiet else False) as bar:
+            sol = simulate(model, method=args.method, h=args.h, t_end=args.t_end,
+                           newton=NewtonOptions(jacobian=args.newton), on_failure="return",
+                           progress=bar, alpha=args.alpha, beta=args.beta, gamma=args.gamma,
+                           b=args.b)
     except AssemblyError as exc:
         _print_diagnostics(exc.diagnostics)
-        return 4
+        return None, 4
     except ValueError as exc:
         print(f"error: {exc}", file=sys.stderr)
-        return 1
+        return None, 1
     if sol.status == "failed":
         _print_diagnostics(sol.diagnostics)
         status = 3
     elif sol.status == "interrupted":
         print(sol.message, file=sys.stderr)
         status = 130
+    return sol, status
+
+
+def _simulate(args) -> int:
+    model = _load(args)
+    if model is None:
+        return 1
+    out = Path(args.output) if args.output else Path(args.model).with_suffix(".csv")
+    sol, status = _run(args, model)
+    if sol is None:
+        return status
     try:
-        write_csv(sol, out)
+        write_solution(sol, out)
     except OSError as exc:
         print(f"error: cannot write {out}: {exc}", file=sys.stderr)
         return 1
@@ -135,6 +174,73 @@ def _simulate(args) -> int:
         print(sol.initial.report())
         print(sol.summary())
         print(f"wrote {out} ({len(sol.t)} rows, {len(sol.columns)} columns)")
+    if args.plot:
+        from ..plotting import plot_solution
+        fig_path = out.with_suffix(".png")
+        try:
+            plot_solution(sol, path=fig_path)
+        except OSError as exc:
+            print(f"error: cannot write {fig_path}: {exc}", file=sys.stderr)
+            return status or 1
+        if not args.quiet:
+            print(f"wrote {fig_path}")
+    return status
+
+
+def _read_result(path):
+    """A Solution from a result file, or None after printing why not."""
+    try:
+        return load_solution(path)
+    except MbdError as exc:
+        _print_diagnostics(exc.diagnostics)
+    except (OSError, ValueError) as exc:
+        print(f"error: cannot read {path}: {exc}", file=sys.stderr)
+    return None
+
+
+def _plot(args) -> int:
+    from ..plotting import plot_solution
+    sol = _read_result(args.result)
+    if sol is None:
+        return 1
+    out = Path(args.output) if args.output else Path(args.result).with_suffix(".png")
+    y = [c.strip() for c in args.y.split(",") if c.strip()] if args.y else None
+    try:
+        plot_solution(sol, y=y, x=args.x, path=out)
+    except KeyError as exc:
+        print(f"error: {exc.args[0]}", file=sys.stderr)
+        return 1
+    except (OSError, ValueError) as exc:
+        print(f"error: cannot write {out}: {exc}", file=sys.stderr)
+        return 1
+    print(f"wrote {out}")
+    return 0
+
+
+def _animate(args) -> int:
+    from ..plotting import animate_solution
+    src = Path(args.source)
+    status = 0
+    if src.suffix.lower() in (".csv",) + HDF5_SUFFIXES:
+        sol = _read_result(src)
+        if sol is None:
+            return 1
+    else:
+        args.model = args.source
+        model = _load(args)
+        if model is None:
+            return 1
+        sol, status = _run(args, model)
+        if sol is None:
+            return status
+    out = Path(args.output) if args.output else src.with_suffix(".gif")
+    try:
+        res = animate_solution(sol, out, fps=args.fps, speed=args.speed)
+    except (OSError, ValueError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 1
+    if not args.quiet:
+        print(f"wrote {out} ({res.frames} frames, t = {res.times[0]:g} .. {res.times[-1]:g} s)")
     return status
 
 
@@ -142,9 +248,8 @@ def main(argv=None) -> int:
     """Entry point of the ``mbdsl`` console script; returns the exit status."""
     args = build_parser().parse_args(argv)
     try:
-        if args.command == "check":
-            return _check(args)
-        return _simulate(args)
+        commands = {"check": _check, "simulate": _simulate, "plot": _plot, "animate": _animate}
+        return commands[args.command](args)
     except argparse.ArgumentTypeError as exc:
         print(f"mbdsl: error: {exc}", file=sys.stderr)
         return 2

@@ -29,12 +29,13 @@ GROUND = -1
 __all__ = [
     "GROUND", "RigidBody", "PointRef", "Joint", "Driver", "SpringDamper",
     "RotationalSpringDamper", "Torque", "PointForce", "InitialCondition",
-    "TimeFunction", "Model", "COORDINATES", "VELOCITIES",
+    "TimeFunction", "Model", "COORDINATES", "VELOCITIES", "ACCELERATIONS",
 ]
 
 #: Names of a body's position coordinates, and of their rates, by index.
 COORDINATES = ("x", "y", "phi")
 VELOCITIES = ("vx", "vy", "omega")
+ACCELERATIONS = ("ax", "ay", "alpha")
 
 
 @dataclass(frozen=True)
@@ -312,6 +313,10 @@ class Model:
     def velocity_names(self) -> list[str]:
         """``["crank.vx", "crank.vy", "crank.omega", ...]``, shape (n,)."""
         return [f"{b.name}.{c}" for b in self.bodies for c in VELOCITIES]
+
+    def acceleration_names(self) -> list[str]:
+        """``["crank.ax", "crank.ay", "crank.alpha", ...]``, shape (n,)."""
+        return [f"{b.name}.{c}" for b in self.bodies for c in ACCELERATIONS]
 
     def constraint_names(self) -> list[tuple[str, int]]:
         """(element name, row within element) for each constraint row, shape (m,)."""

@@ -1,0 +1,125 @@
+"""HDF5 results (h5py): the only module that imports h5py.
+
+Layout of a file written by :func:`write_hdf5` (N stored time points, n
+coordinates, m constraint rows)::
+
+    /                       attrs: every key of mbdsl.output.metadata (str)
+    /t                      (N,)      [s]
+    /q  /v  /a              (N, n)    attrs["columns"]: coordinate names
+    /lambda                 (N, m)    attrs["columns"]: lambda.<joint>.<row>
+    /extras/<mu|psi1>       (N, m)    the method's further multipliers
+    /energies               (N, 3)    kinetic, potential, total [J]
+    /constraints            (N, 2)    max |Phi| [m], max |Phi_q v + Phi_t| [m/s]
+    /reactions              (N, 3 J)  fx, fy [N], torque [N m] per joint
+    /newton                 (N, 5)    iterations, residuals, jacobians,
+                                      factorizations, h of each step
+    /model_source           str       the .mbd text (also an attribute)
+
+Every dataset carries its column names in ``attrs["columns"]``. Arrays are
+stored as float64/int64 as computed, so :func:`read_hdf5` returns a
+Solution equal to the written one bit for bit.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+__all__ = ["write_hdf5", "read_hdf5"]
+
+
+def _dataset(group, name, data, columns):
+    ds = group.create_dataset(name, data=data)
+    ds.attrs["columns"] = np.array(columns, dtype=h5py.string_dtype())
+    return ds
+
+
+def write_hdf5(solution, path, extra_metadata: dict | None = None) -> Path:
+    """Write a Solution as HDF5 (layout in the module docstring).
+
+    Parameters
+    ----------
+    solution : Solution
+    path : str or Path
+    extra_metadata : dict, optional
+        More root attributes.
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    OSError
+        If the file cannot be written.
+    """
+    from .output import metadata
+    path = Path(path)
+    sol, lay = solution, solution.system.layout
+    derived = sol.derived()
+    with h5py.File(path, "w") as f:
+        for k, v in metadata(sol, extra_metadata).items():
+            f.attrs[k] = v
+        f.create_dataset("t", data=sol.t)
+        _dataset(f, "q", sol.q, lay.coordinates)
+        _dataset(f, "v", sol.v, lay.velocities)
+        _dataset(f, "a", sol.a, lay.accelerations)
+        _dataset(f, "lambda", sol.lam, lay.multiplier_names())
+        extras = f.create_group("extras")
+        for x in sol.extra_names:
+            _dataset(extras, x, sol.extras[x], [f"{x}.{a}.{b}" for a, b in lay.rows])
+        energies = ["energy.kinetic", "energy.potential", "energy.total"]
+        _dataset(f, "energies", np.column_stack([derived[k] for k in energies]), energies)
+        cons = ["constraint.position", "constraint.velocity"]
+        _dataset(f, "constraints", np.column_stack([derived[k] for k in cons]), cons)
+        reac = [k for k in derived if k.startswith("reaction.")]
+        _dataset(f, "reactions", np.column_stack([derived[k] for k in reac])
+                 if reac else np.zeros((len(sol.t), 0)), reac)
+        grp = f.create_group("newton")
+        for k in sol.STAT_NAMES:                 # ints stay ints, h stays float
+            grp.create_dataset(k, data=sol.stats[k])
+        f.create_dataset("model_source", data=sol.model.source or "",
+                         dtype=h5py.string_dtype())
+    return path
+
+
+def _columns(ds) -> list[str]:
+    return [c.decode() if isinstance(c, bytes) else str(c) for c in ds.attrs["columns"]]
+
+
+def read_hdf5(path):
+    """A Solution from a file written by :func:`write_hdf5`.
+
+    Raises
+    ------
+    OSError
+        Not an HDF5 file, or unreadable.
+    ValueError
+        An HDF5 file that is not an mbdsl result.
+    """
+    from .output import _method_parameters, _run_stats, rebuild_system
+    from .solution import Solution
+    path = Path(path)
+    with h5py.File(path, "r") as f:
+        meta = {k: (v.decode() if isinstance(v, bytes) else str(v)) for k, v in f.attrs.items()}
+        if "method" not in meta or "q" not in f:
+            raise ValueError(f"{path}: an HDF5 file, but not a result written by mbdsl")
+        system = rebuild_system(meta, path)
+        derived = {}
+        for name in ("energies", "constraints", "reactions"):
+            ds = f[name]
+            values = ds[()]
+            derived.update({c: values[:, i] for i, c in enumerate(_columns(ds))})
+        extra_names = json.loads(meta.get("extras", "[]"))
+        return Solution.from_arrays(
+            system, method_name=meta["method"], method_parameters=_method_parameters(meta),
+            extra_names=extra_names, h=float(meta["h"]), t_end=float(meta["t_end"]),
+            t=f["t"][()], q=f["q"][()], v=f["v"][()], a=f["a"][()], lam=f["lambda"][()],
+            extras={x: f["extras"][x][()] for x in extra_names},
+            stats={k: f["newton"][k][()] for k in Solution.STAT_NAMES},
+            stats_total=_run_stats(meta), status=meta.get("status", "completed"),
+            message=meta.get("message", ""), wall_time=float(meta.get("wall_time", 0.0)),
+            derived=derived)

@@ -1,0 +1,364 @@
+"""Figures and animations of a Solution (matplotlib): the only module that imports it.
+
+Figures are built on :class:`matplotlib.figure.Figure` with the Agg canvas,
+never pyplot, so plotting works headless, in threads and in workers, and
+leaves no global figure state behind. The file format follows the extension
+(PNG, SVG, PDF; GIF through Pillow, MP4 through ffmpeg).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from .model.elements import GROUND
+
+__all__ = ["plot_solution", "animate_solution", "PANELS", "AnimationResult", "body_outline"]
+
+#: Titles of the standard panels of :func:`plot_solution`, in order.
+PANELS = ("position", "angle", "velocity", "angular velocity", "energy",
+          "constraint violation", "Newton iterations per step", "step size")
+
+#: Bodies drawn in the standard panels (the first ones; a chain of 1000 would be unreadable).
+MAX_BODIES = 4
+
+
+def _figure(width: float, height: float) -> Figure:
+    fig = Figure(figsize=(width, height), layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def _lines(ax, t, sol, names):
+    for name in names:
+        ax.plot(t, sol.column(name), label=name, lw=1.2)
+    if 1 < len(names) <= 8:
+        ax.legend(fontsize=7, loc="best")
+
+
+def plot_solution(solution, y=None, x: str = "t", path=None) -> Figure:
+    """Time histories of a run as one figure.
+
+    Parameters
+    ----------
+    solution : Solution
+    y : list of str, optional
+        Column names (see ``Solution.columns``), one panel each. Default: the
+        standard panels :data:`PANELS`: positions [m], angles [rad],
+        velocities [m/s], angular velocities [rad/s] of the first
+        :data:`MAX_BODIES` bodies, kinetic/potential/total energy [J], max
+        |Phi| and max |Phi_q v + Phi_t| on a log scale, Newton iterations per
+        step, and the step size [s].
+    x : str
+        The abscissa column; ``t`` by default, any column for a phase plot.
+    path : str or Path, optional
+        Save the figure there; format by extension (``.png``, ``.svg``, ``.pdf``).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+
+    Raises
+    ------
+    KeyError
+        An unknown column, with the closest names.
+    """
+    sol = solution
+    xs = sol.column(x)
+    xlabel = "t [s]" if x == "t" else x
+    if y:
+        fig = _figure(8.0, 1.0 + 2.0 * len(y))
+        axes = fig.subplots(len(y), 1, sharex=True, squeeze=False)[:, 0]
+        for ax, name in zip(axes, y):
+            ax.plot(xs, sol.column(name), lw=1.2)
+            ax.set_ylabel(name)
+            ax.grid(alpha=0.3)
+        axes[-1].set_xlabel(xlabel)
+    else:
+        fig = _figure(11.0, 10.0)
+        axes = fig.subplots(4, 2, sharex=True).ravel()
+        bodies = sol.model.bodies[:MAX_BODIES]
+        shown = "" if len(sol.model.bodies) <= MAX_BODIES else \
+            f" (first {MAX_BODIES} of {len(sol.model.bodies)} bodies)"
+        panels = {
+            "position": ("[m]", [f"{b.name}.{c}" for b in bodies for c in ("x", "y")]),
+            "angle": ("[rad]", [f"{b.name}.phi" for b in bodies]),
+            "velocity": ("[m/s]", [f"{b.name}.{c}" for b in bodies for c in ("vx", "vy")]),
+            "angular velocity": ("[rad/s]", [f"{b.name}.omega" for b in bodies]),
+            "energy": ("[J]", ["energy.kinetic", "energy.potential", "energy.total"]),
+        }
+        for ax, title in zip(axes, PANELS):
+            ax.set_title(title + (shown if title in ("position", "angle", "velocity",
+                                                      "angular velocity") else ""), fontsize=9)
+            ax.grid(alpha=0.3)
+            if title in panels:
+                unit, names = panels[title]
+                _lines(ax, xs, sol, names)
+                ax.set_ylabel(f"{title} {unit}")
+            elif title == "constraint violation":
+                for name, label in (("constraint.position", "max |Phi| [m]"),
+                                    ("constraint.velocity", "max |Phi_q v + Phi_t| [m/s]")):
+                    val = sol.column(name)
+                    ax.plot(xs, np.where(val > 0, val, np.nan), label=label, lw=1.2)
+                ax.set_yscale("log")
+                ax.set_ylabel("constraint violation")
+                ax.legend(fontsize=7, loc="best")
+            elif title == "Newton iterations per step":
+                ax.step(xs[1:], sol.stats["iterations"][1:], where="post", lw=1.0)
+                ax.set_ylabel("iterations")
+            else:
+                ax.step(xs[1:], sol.stats["h"][1:], where="post", lw=1.0)
+                ax.set_yscale("log")          # halvings show as equal steps
+                ax.set_ylabel("h [s]")
+        for ax in axes[-2:]:
+            ax.set_xlabel(xlabel)
+    fig.suptitle(f"{sol.model.name}: {sol.method_name}, h = {sol.h:g} s ({sol.status})",
+                 fontsize=10)
+    if path is not None:
+        fig.savefig(path)
+    return fig
+
+
+# -- animation ---------------------------------------------------------------------------
+
+def body_outline(points: np.ndarray) -> tuple[str, np.ndarray]:
+    """How to draw a rigid body through its points (body frame).
+
+    Parameters
+    ----------
+    points : ndarray, shape (k, 2) [m]
+
+    Returns
+    -------
+    kind : {"polygon", "segment", "dot"}
+    vertices : ndarray, shape (v, 2)
+        The convex outline for three or more non-collinear points (ordered
+        by angle about their centroid), the two extreme points of collinear
+        ones, the segment from the centre of mass to a single point, or the
+        centre of mass alone.
+    """
+    pts = np.unique(np.round(np.asarray(points, float).reshape(-1, 2), 12), axis=0)
+    if len(pts) == 0 or (len(pts) == 1 and not np.any(pts)):
+        return "dot", np.zeros((1, 2))
+    if len(pts) == 1:
+        return "segment", np.vstack([np.zeros(2), pts[0]])
+    c = pts.mean(axis=0)
+    d = pts - c
+    _, sv, vt = np.linalg.svd(d, full_matrices=False)
+    if len(pts) == 2 or sv[1] <= 1e-9 * sv[0]:
+        s = d @ vt[0]
+        return "segment", np.vstack([pts[np.argmin(s)], pts[np.argmax(s)]])
+    from scipy.spatial import ConvexHull
+    hull = ConvexHull(pts)
+    return "polygon", pts[hull.vertices]        # counter-clockwise
+
+
+def _world(q, body, local):
+    """Positions of body-frame points: local shape (k, 2) -> (k, 2); ground: local as is."""
+    if body == GROUND:
+        return np.asarray(local, float).reshape(-1, 2)
+    x, y, phi = q[3 * body: 3 * body + 3]
+    c, s = np.cos(phi), np.sin(phi)
+    loc = np.asarray(local, float).reshape(-1, 2)
+    return np.column_stack([x + c * loc[:, 0] - s * loc[:, 1], y + s * loc[:, 0] + c * loc[:, 1]])
+
+
+def _zigzag(p1, p2, width, coils=6):
+    """Polyline of a spring between two points: straight ends, zig-zag middle."""
+    d = p2 - p1
+    length = float(np.hypot(*d))
+    if length < 1e-12:
+        return np.vstack([p1, p2])
+    u = d / length
+    nrm = np.array([-u[1], u[0]])
+    s = np.concatenate([[0.0, 0.15], 0.15 + 0.7 * (np.arange(1, 2 * coils) / (2 * coils)),
+                        [0.85, 1.0]])
+    off = np.zeros_like(s)
+    off[2:-2] = width * np.where(np.arange(2 * coils - 1) % 2 == 0, 1.0, -1.0)
+    return p1 + np.outer(s * length, u) + np.outer(off, nrm)
+
+
+@dataclass
+class AnimationResult:
+    """What :func:`animate_solution` wrote.
+
+    Attributes
+    ----------
+    path : Path
+    frames : int
+    times : ndarray, shape (frames,) [s]
+        Simulated time of each frame.
+    figure : matplotlib.figure.Figure
+        With its axes at the first frame's limits, for mapping data to pixels.
+    colors : dict of str -> tuple
+        RGB (0..1) of each body, by name.
+    """
+
+    path: Path
+    frames: int
+    times: np.ndarray
+    figure: Figure
+    colors: dict = field(default_factory=dict)
+
+    @property
+    def axes(self):
+        """The drawing's axes."""
+        return self.figure.axes[0]
+
+
+def _interpolated(t, values, times):
+    """values (N, n) at stored t -> (len(times), n), linear in time."""
+    idx = np.clip(np.searchsorted(t, times, side="right") - 1, 0, len(t) - 2)
+    w = np.clip((times - t[idx]) / np.maximum(t[idx + 1] - t[idx], 1e-300), 0.0, 1.0)
+    return values[idx] * (1 - w)[:, None] + values[idx + 1] * w[:, None]
+
+
+def animate_solution(solution, path, fps: float = 25.0, speed: float = 1.0,
+                     size=(6.0, 4.5), dpi: int = 100) -> AnimationResult:
+    """Draw the mechanism's motion to a GIF (Pillow) or MP4 (ffmpeg).
+
+    Rigid bodies are drawn as the outline through their points
+    (:func:`body_outline`), joints as circles, spring-dampers as zig-zags,
+    ground attachment points hatched (a prismatic or point-on-line joint on
+    the ground also shows its guide), and the simulated time as a label.
+
+    Parameters
+    ----------
+    solution : Solution
+    path : str or Path
+        ``.gif`` or ``.mp4``.
+    fps : float
+        Frames per second of the file.
+    speed : float
+        Simulated seconds per second of video (2 = twice as fast).
+    size : (float, float) [inch], dpi : int
+        Frame size: ``size * dpi`` pixels.
+
+    Returns
+    -------
+    AnimationResult
+        frames = floor((t_last - t_first) fps / speed) + 1.
+
+    Raises
+    ------
+    ValueError
+        An unsupported extension, a non-positive fps or speed, or MP4 without
+        ffmpeg (saying to install it or write a GIF).
+    """
+    from matplotlib import animation
+    from matplotlib.patches import Circle, Polygon, Rectangle
+    path = Path(path)
+    ext = path.suffix.lower()
+    if fps <= 0 or speed <= 0:
+        raise ValueError(f"fps and speed must be positive (got fps={fps}, speed={speed})")
+    if ext == ".gif":
+        writer = animation.PillowWriter(fps=fps)
+    elif ext == ".mp4":
+        if not animation.writers.is_available("ffmpeg"):
+            raise ValueError("writing MP4 needs ffmpeg, which is not installed here; "
+                             "install ffmpeg or write a GIF (-o motion.gif)")
+        writer = animation.FFMpegWriter(fps=fps)
+    else:
+        raise ValueError(f"cannot write an animation as '{ext or path.name}': use .gif or .mp4")
+
+    sol, model = solution, solution.model
+    t = sol.t
+    n_frames = int(np.floor((t[-1] - t[0]) * fps / speed + 1e-9)) + 1
+    times = t[0] + np.arange(n_frames) * speed / fps
+    qs = _interpolated(t, sol.q, times) if len(t) > 1 else np.repeat(sol.q[:1], n_frames, 0)
+
+    # body geometry in body frames: declared points plus every attachment on the body
+    attach = {b.index: [np.asarray(p, float) for p in b.points.values()] for b in model.bodies}
+    joint_points = [j.first for j in model.joints]
+    springs = [f for f in model.forces if type(f).__name__ == "SpringDamper"]
+    for ref in [p for j in model.joints for p in (j.first, j.second)] + \
+            [p for s in springs for p in (s.first, s.second)]:
+        if ref.body != GROUND:
+            attach[ref.body].append(np.asarray(ref.local, float))
+    outlines = {b.index: body_outline(np.array(attach[b.index]).reshape(-1, 2))
+                for b in model.bodies}
+
+    # scene extent over every frame, for fixed limits
+    every = [np.array([p.local for j in model.joints for p in (j.first, j.second)
+                       if p.body == GROUND]).reshape(-1, 2)]
+    for b in model.bodies:
+        verts = outlines[b.index][1]
+        every += [_world(q, b.index, verts) for q in qs[:: max(1, n_frames // 200)]]
+        every.append(_world(qs[-1], b.index, verts))
+    every = np.vstack(every)
+    lo, hi = every.min(axis=0), every.max(axis=0)
+    scale = float(max(np.max(hi - lo), 1e-3))
+    lo, hi = lo - 0.12 * scale, hi + 0.12 * scale
+    r_joint = 0.015 * scale
+
+    fig = _figure(*size)
+    fig.set_dpi(dpi)
+    fig.set_layout_engine(None)
+    ax = fig.add_axes((0.02, 0.02, 0.96, 0.96))
+    ax.set_xlim(lo[0], hi[0])
+    ax.set_ylim(lo[1], hi[1])
+    ax.set_aspect("equal", adjustable="box")
+    ax.set_xticks([])
+    ax.set_yticks([])
+
+    # ground: a hatched block under every ground attachment, guides of sliders on the ground
+    for j in model.joints:
+        for p, other in ((j.first, j.second), (j.second, j.first)):
+            if p.body == GROUND:
+                g = np.asarray(p.local, float)
+                ax.add_patch(Rectangle((g[0] - 2 * r_joint, g[1] - 3.5 * r_joint), 4 * r_joint,
+                                       2.2 * r_joint, hatch="////", fill=False, lw=0.8,
+                                       edgecolor="0.3", zorder=0))
+        if j.direction is not None and j.second.body == GROUND:
+            g, d = np.asarray(j.second.local, float), np.asarray(j.direction, float)
+            d = d / np.hypot(*d)
+            ends = np.array([g - 2 * scale * d, g + 2 * scale * d])
+            ax.plot(ends[:, 0], ends[:, 1], ls="--", lw=0.8, color="0.5", zorder=0)
+
+    colors, artists = {}, {}
+    cycle = [tuple(int(h[i:i + 2], 16) / 255 for i in (1, 3, 5))
+             for h in ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd",
+                       "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf")]
+    for b in model.bodies:
+        col = cycle[b.index % len(cycle)]
+        colors[b.name] = col
+        kind, _ = outlines[b.index]
+        if kind == "polygon":
+            artists[b.index] = ax.add_patch(Polygon(np.zeros((3, 2)), closed=True, lw=2.0,
+                                                    facecolor=(*col, 0.35), edgecolor=col))
+        elif kind == "segment":
+            artists[b.index] = ax.plot([], [], lw=4.0, color=col, solid_capstyle="round")[0]
+        else:
+            artists[b.index] = ax.plot([], [], "o", ms=8, color=col)[0]
+    spring_lines = [ax.plot([], [], lw=1.0, color="k")[0] for _ in springs]
+    joint_circles = [ax.add_patch(Circle((0, 0), r_joint, fill=True, facecolor="white",
+                                         edgecolor="k", lw=1.2, zorder=5)) for _ in joint_points]
+    label = ax.text(0.02, 0.97, "", transform=ax.transAxes, va="top", fontsize=10)
+
+    def draw(k):
+        q = qs[k]
+        for b in model.bodies:
+            kind, verts = outlines[b.index]
+            w = _world(q, b.index, verts)
+            if kind == "polygon":
+                artists[b.index].set_xy(w)
+            else:
+                artists[b.index].set_data(w[:, 0], w[:, 1])
+        for line, s in zip(spring_lines, springs):
+            z = _zigzag(_world(q, s.first.body, s.first.local)[0],
+                        _world(q, s.second.body, s.second.local)[0], 0.02 * scale)
+            line.set_data(z[:, 0], z[:, 1])
+        for circ, p in zip(joint_circles, joint_points):
+            circ.center = tuple(_world(q, p.body, p.local)[0])
+        label.set_text(f"t = {times[k]:.3f} s")
+        return []
+
+    anim = animation.FuncAnimation(fig, draw, frames=n_frames, blit=False, repeat=False)
+    anim.save(str(path), writer=writer, dpi=dpi)
+    draw(0)
+    fig.canvas.draw()              # final limits (equal aspect) for data -> pixel maps
+    return AnimationResult(path=path, frames=n_frames, times=times, figure=fig, colors=colors)

@@ -1,0 +1,82 @@
+"""Progress bar for long runs (tqdm): the only module that imports tqdm.
+
+The bar shows simulated time against the end time, the current step size,
+Newton iterations per step since the last refresh, and tqdm's estimate of
+the time to go. It appears only after a run has taken a second (tqdm's
+``delay``), so short runs print nothing, and it is off when stderr is not a
+terminal.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+
+__all__ = ["ProgressBar"]
+
+
+class ProgressBar:
+    """A ``progress(t, h, iterations)`` callback for :func:`mbdsl.simulate`.
+
+    Use as a context manager; the bar closes (and leaves its last line) on
+    exit, including on an exception or Ctrl-C.
+
+    Parameters
+    ----------
+    t_start, t_end : float [s]
+        Simulated time span.
+    enabled : bool, optional
+        Default: stderr is a terminal.
+    delay : float [s]
+        Wall time before the bar first appears.
+    refresh : float [s]
+        Minimum wall time between refreshes; calls in between cost one clock read.
+    file : text stream, optional
+        Default ``sys.stderr``.
+    """
+
+    def __init__(self, t_start: float, t_end: float, enabled: bool | None = None,
+                 delay: float = 1.0, refresh: float = 0.2, file=None):
+        from tqdm import tqdm
+        file = file or sys.stderr
+        if enabled is None:
+            enabled = bool(getattr(file, "isatty", lambda: False)())
+        self.enabled = enabled
+        self.t_start, self.refresh = float(t_start), float(refresh)
+        self._iters = self._steps = 0
+        self._last = time.perf_counter()
+        self._bar = tqdm(total=float(t_end) - float(t_start), unit="s", unit_scale=False,
+                         desc="simulated", delay=delay, disable=not enabled, file=file,
+                         bar_format="{desc} {n:.4g}/{total:.4g} s |{bar}| {postfix} "
+                                    "[{elapsed}<{remaining}]", dynamic_ncols=True, leave=True)
+
+    def __call__(self, t: float, h: float, iterations: int) -> None:
+        """Record one accepted step at time t [s] with step h [s]."""
+        if not self.enabled:
+            return
+        self._iters += iterations
+        self._steps += 1
+        self._t, self._h = t, h
+        now = time.perf_counter()
+        if now - self._last < self.refresh:
+            return
+        self._last = now
+        self._show()
+
+    def _show(self) -> None:
+        self._bar.set_postfix_str(f"h {self._h:.2e} s, {self._iters / self._steps:.1f} it/step",
+                                  refresh=False)
+        self._iters = self._steps = 0
+        self._bar.update(float(self._t) - self.t_start - self._bar.n)
+
+    def close(self) -> None:
+        """Show the last step recorded, and close the bar."""
+        if self.enabled and self._steps:
+            self._show()
+        self._bar.close()
+
+    def __enter__(self) -> "ProgressBar":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()

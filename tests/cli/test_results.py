@@ -1,0 +1,223 @@
+"""Results people can look at: plots, animation, HDF5/CSV round trips, progress bar."""
+
+import io
+
+import numpy as np
+import pytest
+from PIL import Image
+
+import mbdsl
+from mbdsl.cli.main import main
+from mbdsl.plotting import PANELS, animate_solution, body_outline, plot_solution
+from mbdsl.progress import ProgressBar
+
+from ..conftest import MODELS
+
+
+@pytest.fixture(scope="module")
+def crank_run():
+    """Slider crank, HHT-SI2 (so the file also holds mu), 0.5 s."""
+    return mbdsl.simulate(mbdsl.load(MODELS / "slider_crank.mbd"), method="hht-si2", t_end=0.5)
+
+
+# -- plots ---------------------------------------------------------------------------------
+
+def test_simulate_plot_writes_the_standard_panels_beside_the_output(tmp_path):
+    out = tmp_path / "run.csv"
+    assert main(["simulate", str(MODELS / "slider_crank.mbd"), "--t-end", "0.3", "-q",
+                 "-o", str(out), "--plot"]) == 0
+    png = tmp_path / "run.png"
+    with Image.open(png) as im:
+        assert im.format == "PNG" and im.size[0] > 500 and im.size[1] > 500
+    # the same figure from the file: every named panel, with its labels
+    fig = plot_solution(mbdsl.load_solution(out))
+    axes = fig.axes
+    assert [ax.get_title() for ax in axes] == list(PANELS)
+    labels = {ax.get_title(): ax.get_ylabel() for ax in axes}
+    assert labels["position"] == "position [m]" and labels["angle"] == "angle [rad]"
+    assert labels["energy"] == "energy [J]" and labels["step size"] == "h [s]"
+    assert axes[PANELS.index("constraint violation")].get_yscale() == "log"
+    assert all(ax.get_xlabel() == "t [s]" for ax in axes[-2:])
+    energy = axes[PANELS.index("energy")]
+    assert [ln.get_label() for ln in energy.get_lines()] == [
+        "energy.kinetic", "energy.potential", "energy.total"]
+    # the plotted total energy is the solution's, not a recomputation that could differ
+    sol = mbdsl.load_solution(out)
+    np.testing.assert_array_equal(energy.get_lines()[2].get_ydata(), sol.column("energy.total"))
+
+
+def test_plot_chosen_columns_and_a_phase_plot(tmp_path, crank_run):
+    path = tmp_path / "run.h5"
+    mbdsl.write_solution(crank_run, path)
+    fig_path = tmp_path / "phase.svg"
+    assert main(["plot", str(path), "--x", "crank.phi", "--y", "crank.omega,rod.omega",
+                 "-o", str(fig_path)]) == 0
+    assert fig_path.read_text().lstrip().startswith("<?xml")
+    fig = plot_solution(crank_run, y=["crank.omega", "rod.omega"], x="crank.phi")
+    assert [ax.get_ylabel() for ax in fig.axes] == ["crank.omega", "rod.omega"]
+    line = fig.axes[0].get_lines()[0]
+    np.testing.assert_array_equal(line.get_xdata(), crank_run.column("crank.phi"))
+
+
+def test_plot_unknown_column_is_a_message(tmp_path, crank_run, capsys):
+    path = tmp_path / "run.csv"
+    mbdsl.write_solution(crank_run, path)
+    assert main(["plot", str(path), "--y", "crank.omegaa"]) == 1
+    err = capsys.readouterr().err
+    assert "no column 'crank.omegaa'" in err and "crank.omega" in err and "Traceback" not in err
+
+
+# -- animation -----------------------------------------------------------------------------
+
+def test_animate_writes_every_frame_with_the_crank_pointing_down(tmp_path):
+    gif = tmp_path / "sc.gif"
+    assert main(["animate", str(MODELS / "slider_crank.mbd"), "-o", str(gif),
+                 "--t-end", "1", "-q"]) == 0
+    with Image.open(gif) as im:
+        assert im.n_frames == 26                  # 1 s at 25 frames per second, both ends
+    # the same drawing through the API, for the data -> pixel map of the axes
+    sol = mbdsl.simulate(mbdsl.load(MODELS / "slider_crank.mbd"), t_end=1.0)
+    res = animate_solution(sol, tmp_path / "api.gif")
+    assert res.frames == 26 and res.times[-1] == pytest.approx(1.0)
+    crank = np.array(res.colors["crank"]) * 255
+    with Image.open(tmp_path / "api.gif") as im:
+        im.seek(0)
+        rgb = np.asarray(im.convert("RGB"), dtype=float)
+    height = rgb.shape[0]
+
+    def colour_at(x, y):
+        px, py = res.axes.transData.transform((x, y))
+        return rgb[int(round(height - py)), int(round(px))]
+
+    # crank O at the origin, A at (0, -0.3): crank-coloured below the pivot, not above
+    for y in (-0.08, -0.15, -0.22):
+        assert np.max(np.abs(colour_at(0.0, y) - crank)) < 40
+        assert np.max(np.abs(colour_at(0.0, -y) - crank)) > 100
+    # a later frame has moved: the crank swings toward the spring
+    with Image.open(tmp_path / "api.gif") as im:
+        im.seek(12)
+        later = np.asarray(im.convert("RGB"), dtype=float)
+    px, py = res.axes.transData.transform((0.0, -0.22))
+    assert np.max(np.abs(later[int(round(height - py)), int(round(px))] - crank)) > 100
+
+
+def test_animation_from_a_result_file_and_bad_extensions(tmp_path, crank_run, capsys):
+    path = tmp_path / "run.h5"
+    mbdsl.write_solution(crank_run, path)
+    gif = tmp_path / "fast.gif"
+    assert main(["animate", str(path), "-o", str(gif), "--fps", "10", "--speed", "2", "-q"]) == 0
+    with Image.open(gif) as im:
+        assert im.n_frames == 3                   # 0.5 s at 2x, 10 fps: t = 0, 0.2, 0.4
+    assert main(["animate", str(path), "-o", str(tmp_path / "x.avi"), "-q"]) == 1
+    assert "use .gif or .mp4" in capsys.readouterr().err
+
+
+def test_mp4_without_ffmpeg_says_so(tmp_path, crank_run):
+    from matplotlib import animation
+    if animation.writers.is_available("ffmpeg"):
+        pytest.skip("ffmpeg is installed here")
+    with pytest.raises(ValueError, match="needs ffmpeg"):
+        animate_solution(crank_run, tmp_path / "x.mp4")
+
+
+@pytest.mark.parametrize("points,kind,n", [
+    ([], "dot", 1), ([(0.2, 0.0)], "segment", 2), ([(-1, 0), (1, 0)], "segment", 2),
+    ([(-1, 0), (0, 0), (2, 0)], "segment", 2),
+    ([(0, 0), (1, 0), (1, 1), (0, 1), (0.5, 0.5)], "polygon", 4)])
+def test_body_outline(points, kind, n):
+    k, verts = body_outline(np.array(points, float).reshape(-1, 2))
+    assert k == kind and len(verts) == n
+
+
+# -- files: HDF5 and CSV round trips ---------------------------------------------------------
+
+def _same(a, b, rtol):
+    names_a, values_a = a.table()
+    names_b, values_b = b.table()
+    assert names_a == names_b
+    if rtol == 0:
+        np.testing.assert_array_equal(values_a, values_b)
+    else:
+        np.testing.assert_allclose(values_a, values_b, rtol=rtol, atol=0)
+    for k in a.STAT_NAMES:
+        np.testing.assert_array_equal(a.stats[k], b.stats[k])
+    assert a.stats_total == b.stats_total
+    assert (a.method_name, a.method_parameters, a.h, a.t_end, a.status) == \
+        (b.method_name, b.method_parameters, b.h, b.t_end, b.status)
+
+
+def test_hdf5_round_trip_is_bit_for_bit(tmp_path, crank_run):
+    import h5py
+    path = tmp_path / "run.h5"
+    assert main(["simulate", str(MODELS / "slider_crank.mbd"), "--method", "hht-si2",
+                 "--t-end", "0.5", "-q", "-o", str(path)]) == 0
+    with h5py.File(path) as f:
+        assert {"t", "q", "v", "a", "lambda", "extras", "energies", "constraints",
+                "reactions", "newton", "model_source"} <= set(f)
+        assert list(f["q"].attrs["columns"][:3]) == ["crank.x", "crank.y", "crank.phi"]
+        assert f.attrs["method"] == "hht-si2" and float(f.attrs["method.alpha"]) == -0.05
+        assert f["model_source"][()].decode() == (MODELS / "slider_crank.mbd").read_text()
+        assert len(f.attrs["model_sha256"]) == 64 and f.attrs["mbdsl_version"] == mbdsl.__version__
+    # in memory -> file -> memory: every array equal bit for bit
+    path2 = tmp_path / "api.h5"
+    mbdsl.write_solution(crank_run, path2)
+    back = mbdsl.load_solution(path2)
+    _same(crank_run, back, rtol=0)
+    for x in ("t", "q", "v", "a", "lam"):
+        assert np.array_equal(getattr(crank_run, x), getattr(back, x))
+    assert np.array_equal(crank_run.extras["mu"], back.extras["mu"])
+
+
+def test_csv_round_trip(tmp_path, crank_run):
+    path = tmp_path / "run.csv"
+    mbdsl.write_solution(crank_run, path)
+    back = mbdsl.load_solution(path)
+    _same(crank_run, back, rtol=1e-15)
+    np.testing.assert_allclose(back.a, crank_run.a, rtol=1e-15, atol=0)
+    np.testing.assert_allclose(back.extras["mu"], crank_run.extras["mu"], rtol=1e-15, atol=0)
+
+
+def test_loaded_model_is_rebuilt_with_the_run_parameters(tmp_path):
+    model = mbdsl.load(MODELS / "pendulum_chain.mbd", overrides={"N": 3})
+    sol = mbdsl.simulate(model, t_end=0.01)
+    path = tmp_path / "chain.h5"
+    mbdsl.write_solution(sol, path)
+    back = mbdsl.load_solution(path)
+    assert len(back.model.bodies) == 3 and back.model.parameters["N"] == 3
+    np.testing.assert_array_equal(back.column("link[3].omega"), sol.column("link[3].omega"))
+
+
+def test_not_a_result_file(tmp_path, capsys):
+    bad = tmp_path / "x.csv"
+    bad.write_text("a,b\n1,2\n")
+    with pytest.raises(ValueError, match="not a result file|no model source"):
+        mbdsl.load_solution(bad)
+    assert main(["plot", str(bad)]) == 1
+    assert "cannot read" in capsys.readouterr().err
+
+
+def test_to_dataframe(crank_run):
+    pd = pytest.importorskip("pandas")
+    df = crank_run.to_dataframe()
+    assert isinstance(df, pd.DataFrame) and df.index.name == "t"
+    np.testing.assert_array_equal(df["crank.omega"].to_numpy(), crank_run.column("crank.omega"))
+    assert len(df) == len(crank_run.t) and len(df.columns) == len(crank_run.columns) - 1
+
+
+# -- progress ------------------------------------------------------------------------------
+
+def test_progress_bar_shows_time_step_and_iterations():
+    buf = io.StringIO()
+    model = mbdsl.load(MODELS / "slider_crank.mbd")
+    with ProgressBar(0.0, 0.2, enabled=True, delay=0.0, refresh=0.0, file=buf) as bar:
+        mbdsl.simulate(model, t_end=0.2, progress=bar)
+    text = buf.getvalue()
+    assert "simulated" in text and "h 1.00e-03 s" in text and "it/step" in text
+    assert "0.2/0.2 s" in text
+
+
+def test_progress_bar_is_off_when_not_a_terminal():
+    buf = io.StringIO()                     # isatty() is False
+    with ProgressBar(0.0, 1.0, delay=0.0, file=buf) as bar:
+        bar(0.5, 1e-3, 4)
+    assert buf.getvalue() == ""
