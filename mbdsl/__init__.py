@@ -89,16 +89,27 @@ def from_spec(spec: ModelSpec, overrides: dict | None = None) -> Model:
 
 
 def check(path, overrides: dict | None = None) -> list[Diagnostic]:
-    """All diagnostics of a model file (errors and warnings); empty if clean."""
+    """All diagnostics of a model file (errors and warnings); empty if clean.
+
+    Beyond the language checks, assembles the initial configuration and
+    analyses it (redundant joints E401, loops that cannot close E503, a
+    mechanism that cannot move W402), as ``mbdsl check`` does.
+    """
     try:
-        return list(load(path, overrides).warnings)
+        model = load(path, overrides)
     except MbdError as err:
         return err.diagnostics
+    try:
+        init = consistent_initial_state(assemble(model), float(model.settings.get("t_start", 0.0)))
+    except MbdError as err:
+        return list(model.warnings) + err.diagnostics
+    return list(model.warnings) + list(init.warnings)
 
 
 def simulate(model: Model, method: str | None = None, h: float | None = None,
              t_end: float | None = None, *, newton: NewtonOptions | None = None,
-             on_failure: str = "raise", progress=None, **coefficients) -> Solution:
+             on_failure: str = "raise", progress=None, writer=None,
+             **coefficients) -> Solution:
     """Simulate a model.
 
     Parameters
@@ -117,6 +128,8 @@ def simulate(model: Model, method: str | None = None, h: float | None = None,
         See :func:`mbdsl.integrators.integrate`.
     progress : callable, optional
         ``progress(t, h, iterations)`` after each step.
+    writer : mbdsl.output.CsvStream, optional
+        Writes the accepted steps to a file as the run goes.
     **coefficients
         Method coefficients, e.g. ``alpha=-0.1``; default from the
         ``simulate`` section.
@@ -150,4 +163,4 @@ def simulate(model: Model, method: str | None = None, h: float | None = None,
     m = make_method(method, **params)
     system = assemble(model)
     return integrate(system, m, float(t_end), float(h), t_start=float(s.get("t_start", 0.0)),
-                     newton=newton, on_failure=on_failure, progress=progress)
+                     newton=newton, on_failure=on_failure, progress=progress, writer=writer)

@@ -102,7 +102,18 @@ class MbdModelError(MbdError):
 
 
 class AssemblyError(MbdError):
-    """No consistent initial configuration or velocity could be found (E5xx)."""
+    """No consistent initial configuration or velocity could be found (E5xx),
+    or the assembled configuration shows redundant joints (E401).
+
+    Attributes
+    ----------
+    structure : StructureReport or None
+        DOF by count and by rank, when the configuration could be analysed.
+    """
+
+    def __init__(self, message: str, diagnostics=None, structure=None):
+        super().__init__(message, diagnostics)
+        self.structure = structure
 
 
 class ConvergenceError(MbdError):

@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ["write_csv", "read_csv_metadata", "write_solution", "load_solution", "metadata",
-           "HDF5_SUFFIXES"]
+           "HDF5_SUFFIXES", "CsvStream"]
 
 HDF5_SUFFIXES = (".h5", ".hdf5")
 
@@ -90,6 +90,130 @@ def write_csv(solution, path, extra_metadata: dict | None = None) -> Path:
     np.savetxt(buf, values, fmt="%.17g", delimiter=",")
     path.write_text(buf.getvalue(), encoding="utf-8")
     return path
+
+
+class _DeferredInterrupt:
+    """Hold Ctrl-C while a chunk is written, so the file never ends mid-chunk or
+    counts a chunk twice; the KeyboardInterrupt is raised right after."""
+
+    def __enter__(self):
+        import signal
+        import threading
+        self._signal, self._hit, self._old = signal, False, None
+        if threading.current_thread() is threading.main_thread():
+            self._old = signal.signal(signal.SIGINT, self._handler)
+        return self
+
+    def _handler(self, signum, frame):
+        self._hit = True
+
+    def __exit__(self, *exc):
+        if self._old is not None:
+            self._signal.signal(self._signal.SIGINT, self._old)
+        if self._hit and exc[0] is None:
+            raise KeyboardInterrupt
+
+
+class CsvStream:
+    """Writes a run's CSV as it goes (``mbdsl simulate -o run.csv``).
+
+    The metadata lines come first with ``status: running``; chunks of rows
+    follow at most every ``interval`` seconds of wall time; ``finish``
+    writes the remaining rows and appends the final ``status``, ``message``
+    and Newton totals (:func:`read_csv_metadata` keeps the last value of a
+    key). A run stopped by Ctrl-C, a failed step or a bug therefore leaves
+    every accepted step and says why it stopped; a file whose last status
+    is ``running`` comes from a process that was killed outright.
+
+    Parameters
+    ----------
+    path : str or Path
+    interval : float [s]
+        Wall time between chunks.
+
+    Raises
+    ------
+    OSError
+        The file cannot be created (raised here, before the run starts).
+    """
+
+    def __init__(self, path, interval: float = 0.5):
+        self.path, self.interval = Path(path), float(interval)
+        self._file = open(self.path, "w", encoding="utf-8")
+        self._header, self._written, self._last = False, 0, 0.0
+
+    def _rows_text(self, sol, i0, i1, finalized) -> str:
+        from .solution import Solution
+        if finalized:
+            t, q, v, a, lam = sol.t, sol.q, sol.v, sol.a, sol.lam
+            extras, stats = sol.extras, sol.stats
+            sl = slice(i0, i1)
+            part = Solution.from_arrays(
+                sol.system, method_name=sol.method_name, method_parameters=sol.method_parameters,
+                extra_names=sol.extra_names, h=sol.h, t_end=sol.t_end, t=t[sl], q=q[sl],
+                v=v[sl], a=a[sl], lam=lam[sl], extras={k: x[sl] for k, x in extras.items()},
+                stats={k: x[sl] for k, x in stats.items()}, stats_total=sol.stats_total,
+                status=sol.status, message=sol.message)
+        else:
+            rows, st = sol._rows[i0:i1], sol._stats[i0:i1]
+            m = sol.system.m
+            part = Solution.from_arrays(
+                sol.system, method_name=sol.method_name, method_parameters=sol.method_parameters,
+                extra_names=sol.extra_names, h=sol.h, t_end=sol.t_end,
+                t=[r.t for r in rows], q=[r.q for r in rows], v=[r.v for r in rows],
+                a=[r.a for r in rows], lam=np.array([r.lam for r in rows]).reshape(len(rows), m),
+                extras={x: np.array([r.extra[x] for r in rows]).reshape(len(rows), m)
+                        for x in sol.extra_names},
+                stats={k: np.array([getattr(s, k) for s in st]) for k in Solution.STAT_NAMES},
+                stats_total=sol.stats_total, status=sol.status, message=sol.message)
+        buf = io.StringIO()
+        np.savetxt(buf, part.table()[1], fmt="%.17g", delimiter=",")
+        return buf.getvalue()
+
+    def _open(self, sol):
+        buf = io.StringIO()
+        for k, v in metadata(sol).items():
+            buf.write(f"# {k}: {v}\n")
+        buf.write(",".join(sol.columns) + "\n")
+        self._file.write(buf.getvalue())
+        self._file.flush()
+        self._header = True
+
+    def append(self, sol) -> None:
+        """After an accepted step: write the pending rows if ``interval`` has passed."""
+        import time
+        now = time.perf_counter()
+        if self._header and now - self._last < self.interval:
+            return
+        self._last = now
+        with _DeferredInterrupt():
+            if not self._header:
+                self._open(sol)
+            n = len(sol._rows)
+            if n > self._written:
+                self._file.write(self._rows_text(sol, self._written, n, finalized=False))
+                self._file.flush()
+                self._written = n
+
+    def close_unused(self) -> None:
+        """The run never started (no consistent initial state): remove the empty file."""
+        self._file.close()
+        if not self._header:
+            self.path.unlink(missing_ok=True)
+
+    def finish(self, sol) -> Path:
+        """After the run (finalized Solution): the remaining rows and the final status."""
+        with _DeferredInterrupt():
+            if not self._header:
+                self._open(sol)
+            n = len(sol.t)
+            if n > self._written:
+                self._file.write(self._rows_text(sol, self._written, n, finalized=True))
+                self._written = n
+            for k in ("status", "message", "stats_total", "wall_time"):
+                self._file.write(f"# {k}: {metadata(sol)[k]}\n")
+            self._file.close()
+        return self.path
 
 
 def read_csv_metadata(path) -> tuple[dict, list[str], np.ndarray]:

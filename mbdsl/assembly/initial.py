@@ -32,6 +32,8 @@ from ..model import graph
 from ..model.elements import GROUND
 from .groups import rot
 from .sparse import DENSE_LIMIT
+from .structure import (RANK_LIMIT, StructureReport, analyse_structure, miss_diagnosis,
+                        redundancy_diagnostics)
 from .system import AssembledSystem
 
 __all__ = ["InitialState", "consistent_initial_state", "place_bodies"]
@@ -53,6 +55,10 @@ class InitialState:
         their values.
     iterations : int
         Newton iterations of the closure.
+    structure : StructureReport or None
+        DOF by count and by rank at q (None above ``RANK_LIMIT`` rows).
+    warnings : list of Diagnostic
+        E.g. W402, a mechanism that cannot move.
     """
 
     t: float
@@ -65,6 +71,8 @@ class InitialState:
     acceleration_residual: float
     solved: dict = field(default_factory=dict)
     iterations: int = 0
+    structure: StructureReport | None = None
+    warnings: list = field(default_factory=list)
 
     def report(self) -> str:
         """A few lines for the CLI summary."""
@@ -129,12 +137,18 @@ def _min_norm_step(J, r):
     solve when J J^T is singular (redundant constraints).
     """
     if scipy.sparse.issparse(J):
-        try:
-            y = scipy.sparse.linalg.splu((J @ J.T).tocsc()).solve(r)
-            if np.all(np.isfinite(y)):
-                return J.T @ y
-        except RuntimeError:
-            pass
+        JJ = (J @ J.T).tocsc()
+        # redundant rows make J J^T singular: a tiny diagonal shift keeps the
+        # step the minimum-norm one to round-off (consistent rows) without a
+        # dense least-squares solve of a large matrix
+        for shift in (0.0, 1e-12 * max(abs(JJ).max(), 1e-300)):
+            try:
+                A = JJ if shift == 0.0 else (JJ + shift * scipy.sparse.identity(JJ.shape[0])).tocsc()
+                y = scipy.sparse.linalg.splu(A).solve(r)
+                if np.all(np.isfinite(y)):
+                    return J.T @ y
+            except RuntimeError:
+                pass
         J = J.toarray()
     return np.linalg.lstsq(J, r, rcond=None)[0]
 
@@ -189,12 +203,18 @@ def consistent_initial_state(system: AssembledSystem, t0: float = 0.0,
     E[np.arange(len(iq)), iq] = 1.0
 
     sparse = system.n + system.m > DENSE_LIMIT
-    q = place_bodies(system, t0)
+    with np.errstate(all="ignore"):
+        q = place_bodies(system, t0)
+        _require_finite(system, q, "placing the bodies along the joints gives", t0)
     q_start = q.copy()
     it = 0
     for it in range(1, max_iter + 1):
-        r = np.concatenate([system.Phi(q, t0), q[iq] - vq])
-        dq = _min_norm_step(_stacked_jacobian(system, q, t0, E, sparse), r)
+        with np.errstate(all="ignore"):
+            r = np.concatenate([system.Phi(q, t0), q[iq] - vq])
+            try:
+                dq = _min_norm_step(_stacked_jacobian(system, q, t0, E, sparse), r)
+            except (np.linalg.LinAlgError, ValueError, RuntimeError):
+                break
         if not np.all(np.isfinite(dq)):
             break
         q = q - dq
@@ -206,6 +226,12 @@ def consistent_initial_state(system: AssembledSystem, t0: float = 0.0,
     res_q = float(np.max(np.abs(phi), initial=0.0))
     fixed_err = float(np.max(np.abs(q[iq] - vq), initial=0.0))
     if not np.all(np.isfinite(q)) or res_q > 1e3 * tol or fixed_err > 1e3 * tol:
+        try:
+            d = miss_diagnosis(system, q_start, t0, fixed_q)
+        except (np.linalg.LinAlgError, ValueError, RuntimeError):
+            d = None
+        if d is not None:
+            raise AssemblyError(d.message, [d])
         phi0 = system.Phi(q_start, t0)
         name, value = lay.worst_element(phi0 if np.all(np.isfinite(phi0)) else phi)
         d = Diagnostic("error", "E503",
@@ -215,6 +241,18 @@ def consistent_initial_state(system: AssembledSystem, t0: float = 0.0,
                        hint="check the lengths and points on this loop, or give a 'guess' "
                        "for an angle near the intended assembly branch")
         raise AssemblyError(d.message, [d])
+
+    # structure at the assembled configuration: redundant joints are refused
+    # here, by name, before the singular index-1 matrix could say less
+    structure, warnings = None, []
+    if system.m <= RANK_LIMIT:
+        structure = _check_structure(system, q, t0)
+        if structure.dof_rank == 0 and not model.drivers:
+            warnings.append(Diagnostic(
+                "warning", "W402", f"the mechanism cannot move: 0 degrees of freedom "
+                f"({structure.summary()}) and no driver", model.joints[0].span
+                if model.joints else None, "locks the mechanism",
+                hint="nothing will move; remove a joint, or add a driver if that was intended"))
 
     # velocities: min ||v - v_g|| s.t. Phi_q v = -Phi_t, v[fixed] = given
     v_g = np.zeros(n)
@@ -238,8 +276,10 @@ def consistent_initial_state(system: AssembledSystem, t0: float = 0.0,
                        hint="give fewer initial velocities (the DOF count), or check their values")
         raise AssemblyError(d.message, [d])
 
-    Q = system.Q(t0, q, v)
-    gam = system.gamma(q, v, t0)
+    with np.errstate(all="ignore"):
+        Q = system.Q(t0, q, v)
+        gam = system.gamma(q, v, t0)
+    _require_finite(system, Q, "the applied forces Q are", t0, what="force")
     m = system.m
     rhs = np.concatenate([Q, gam])
     try:
@@ -259,18 +299,64 @@ def consistent_initial_state(system: AssembledSystem, t0: float = 0.0,
                 lu = scipy.linalg.lu_factor(K, check_finite=True)
                 sol = scipy.linalg.lu_solve(lu, rhs)
                 d = np.abs(np.diag(lu[0]))
-        rc = np.min(d) / max(np.max(d), 1e-300)
-        if not np.all(np.isfinite(sol)) or rc < 1e-13:
+        # singular when the solve does not reproduce its right-hand side: a
+        # pivot-ratio test would also refuse well-posed but badly scaled
+        # systems (a diagonal M spanning many decades solves exactly)
+        if not np.all(np.isfinite(sol)) or np.min(d) == 0.0:
+            raise np.linalg.LinAlgError("singular")
+        with np.errstate(all="ignore"):
+            resid = np.max(np.abs(K @ sol - rhs))
+            Knorm = np.max(np.abs(K)) if not sparse else abs(K).max()
+        if not resid <= 1e-8 * (Knorm * np.max(np.abs(sol)) + np.max(np.abs(rhs)) + 1e-300):
             raise np.linalg.LinAlgError("singular")
     except (np.linalg.LinAlgError, ValueError, RuntimeError, scipy.linalg.LinAlgWarning):
+        if structure is None and system.m <= 4 * RANK_LIMIT:
+            _check_structure(system, q, t0)          # raises E401 when joints are redundant
         d = Diagnostic("error", "E505",
                        "the index-1 matrix [[M, Phi_q^T], [Phi_q, 0]] is singular at the initial "
                        "configuration: the constraints are redundant or the mechanism is at a "
-                       "singular position", model.joints[0].span if model.joints else None,
+                       "singular position" + (f" (with {system.m} constraint rows, more than "
+                       f"{4 * RANK_LIMIT}, the joints involved are not analysed one by one)"
+                       if system.m > 4 * RANK_LIMIT else ""),
+                       model.joints[0].span if model.joints else None,
                        "", hint="remove a redundant joint, or start away from a dead-centre position")
         raise AssemblyError(d.message, [d]) from None
     a, lam = sol[:n], sol[n:]
     res_a = float(np.max(np.abs(system.Phiq_times(q, t0, a) - gam), initial=0.0))
     fixed_idx = set(iq.tolist())
     solved = {lay.coordinates[i]: float(q[i]) for i in range(n) if i not in fixed_idx}
-    return InitialState(t0, q, v, a, lam, res_q, res_v, res_a, solved, it)
+    return InitialState(t0, q, v, a, lam, res_q, res_v, res_a, solved, it, structure, warnings)
+
+
+def _require_finite(system, x, context, t0, what="coordinate"):
+    """E506 naming the first body whose entries of x (shape (n,)) are not finite."""
+    bad = np.nonzero(~np.isfinite(x))[0]
+    if len(bad) == 0:
+        return
+    name = system.layout.coordinates[bad[0]]
+    body = system.model.bodies[bad[0] // 3]
+    d = Diagnostic("error", "E506",
+                   f"{context} a non-finite {what} at t = {t0:g} s: '{name}' "
+                   f"({x[bad[0]]!r}); {len(bad)} value{'s' if len(bad) > 1 else ''} overflow",
+                   body.span, "overflows here",
+                   hint="a mass, length, point or force of extreme size: check the units "
+                        "(SI: kg, m, s, N) and the values of this body")
+    raise AssemblyError(d.message, [d])
+
+
+def _check_structure(system, q, t0) -> StructureReport:
+    """The structure report at q; AssemblyError (E401) naming redundant joints,
+    E506 when the constraint Jacobian is not finite."""
+    try:
+        report = analyse_structure(system, q, t0)
+    except FloatingPointError as exc:
+        name = str(exc)
+        d = Diagnostic("error", "E506", f"the constraint Jacobian of '{name}' is not finite at the "
+                       f"assembled configuration (t = {t0:g} s)", system.layout.span_of(name),
+                       "overflows here", hint="a point or length of extreme size: check the "
+                       "units (SI: m) and the points this joint connects")
+        raise AssemblyError(d.message, [d]) from None
+    if report.redundant:
+        diags = redundancy_diagnostics(report, system.layout)
+        raise AssemblyError(diags[0].message, diags, structure=report)
+    return report

@@ -20,7 +20,7 @@ from pathlib import Path
 
 from .. import (METHODS, AssemblyError, ConvergenceError, MbdError, __version__, load,
                 render, simulate)
-from ..output import HDF5_SUFFIXES, load_solution, write_solution
+from ..output import HDF5_SUFFIXES, CsvStream, load_solution, write_solution
 
 __all__ = ["main", "build_parser"]
 
@@ -118,17 +118,33 @@ def _load(args):
     return model
 
 
+def _print_rank(structure):
+    if structure is not None:
+        print(f"  DOF by rank = {structure.dof_rank} (rank of Phi_q {structure.rank} "
+              f"at the assembled configuration)")
+
+
 def _check(args) -> int:
+    from .. import assemble, consistent_initial_state
     model = _load(args)
     if model is None:
         return 1
     print(f"{args.model}: model {model.name}, {len(model.bodies)} bodies, "
-          f"{model.n_coordinates} coordinates, {model.n_constraints} constraints, "
-          f"{model.dof} DOF (Gruebler)")
+          f"{model.n_coordinates} coordinates, {model.n_constraints} constraint equations")
+    print(f"  DOF by count (Gruebler) = {model.dof}")
+    try:
+        init = consistent_initial_state(assemble(model), float(model.settings.get("t_start", 0.0)))
+    except MbdError as exc:
+        _print_rank(getattr(exc, "structure", None))
+        _print_diagnostics(exc.diagnostics)
+        return 1
+    _print_rank(init.structure)
+    _print_diagnostics(init.warnings)
+    print(init.report())
     return 0
 
 
-def _run(args, model):
+def _run(args, model, writer=None):
     """(solution, exit status) of a model with the run options, or (None, status)."""
     from ..integrators import NewtonOptions
     from ..progress import ProgressBar
@@ -140,7 +156,7 @@ def _run(args, model):
                          enabled=None if not args.quiet else False) as bar:
             sol = simulate(model, method=args.method, h=args.h, t_end=args.t_end,
                            newton=NewtonOptions(jacobian=args.newton), on_failure="return",
-                           progress=bar, alpha=args.alpha, beta=args.beta, gamma=args.gamma,
+                           progress=bar, writer=writer, alpha=args.alpha, beta=args.beta, gamma=args.gamma,
                            b=args.b)
     except AssemblyError as exc:
         _print_diagnostics(exc.diagnostics)
@@ -162,14 +178,25 @@ def _simulate(args) -> int:
     if model is None:
         return 1
     out = Path(args.output) if args.output else Path(args.model).with_suffix(".csv")
-    sol, status = _run(args, model)
-    if sol is None:
-        return status
-    try:
-        write_solution(sol, out)
+    stream = out.suffix.lower() not in HDF5_SUFFIXES
+    try:       # CSV is written as the run goes: a stopped run keeps every accepted step
+        writer = CsvStream(out) if stream else None
     except OSError as exc:
         print(f"error: cannot write {out}: {exc}", file=sys.stderr)
         return 1
+    sol, status = _run(args, model, writer)
+    if sol is None:
+        if writer is not None:
+            writer.close_unused()
+        return status
+    if not stream:
+        try:
+            write_solution(sol, out)
+        except OSError as exc:
+            print(f"error: cannot write {out}: {exc}", file=sys.stderr)
+            return 1
+    if sol.initial is not None and sol.initial.warnings:
+        _print_diagnostics(sol.initial.warnings)
     if not args.quiet:
         print(sol.initial.report())
         print(sol.summary())

@@ -621,8 +621,10 @@ class _Checker:
                 self.initials.append(InitialCondition(body.index, tgt.attr, v, ic.guess, ic.span))
 
     def check_settings(self):
-        """Check the simulate section (known method, positive h and t_end)."""
+        """Check the simulate section (known method, positive h and t_end,
+        method coefficients in range)."""
         self.settings = {}
+        spans = {}
         for s in self.spec.settings:
             if s.name in self.settings:
                 self.error("E202", f"simulate: '{s.name}' is given twice", s.span, "given again")
@@ -648,18 +650,35 @@ class _Checker:
                            getattr(s.value, "span", None) or s.span, "not positive")
                 continue
             self.settings[s.name] = v
+            spans[s.name] = getattr(s.value, "span", None) or s.span
+        self._check_coefficients(spans)
+
+    def _check_coefficients(self, spans):
+        """Method coefficients in their ranges, each against the methods that use
+        it (alpha: the HHT family; beta, gamma: newmark; b: hht-add), so that a
+        file never reaches the integrator with a value it would refuse."""
+        from ..integrators import make_method
+        st = self.settings
+        groups = [("hht-i3", ("alpha",)), ("newmark", ("gamma", "beta")), ("hht-add", ("b",))]
+        for method, names in groups:
+            given = {k: st[k] for k in names if k in st}
+            if not given:
+                continue
+            try:
+                make_method(method, **given)
+            except ValueError as exc:
+                name = next(iter(given))
+                self.error("E303", f"simulate: {exc}", spans.get(name), "out of range")
+                for k in given:
+                    st.pop(k, None)
 
     def check_structure(self, model: Model):
         """DOF count, connectivity to ground, initial conditions against the DOF."""
         n, m = model.n_coordinates, model.n_constraints
         dof = n - m
-        if dof < 0:
-            self.error("E401", f"the model is over-constrained: {n} coordinates but {m} "
-                       f"constraint equations (DOF by count = {dof})", self.spec.span,
-                       "over-constrained", hint="remove a joint or driver, or use a joint with "
-                       "fewer equations (e.g. point_on_line instead of revolute)",
-                       notes=tuple(f"joint '{j.name}' ({j.kind}): {j.rows} equations"
-                                   for j in model.joints))
+        # more equations than coordinates is not decided here: the rows may be
+        # redundant (E401) or inconsistent (E503), which the assembly tells apart
+        # and names the joints (assembly/structure.py)
         for body_index in graph.bodies_not_connected_to_ground(model):
             b = model.bodies[body_index]
             self.warning("W401", f"body '{b.name}' is not connected to the ground by joints",

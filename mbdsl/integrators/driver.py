@@ -40,7 +40,7 @@ _HINTS = {
 def integrate(system, method: Method, t_end: float, h: float, *, t_start: float = 0.0,
               initial: InitialState | None = None, newton: NewtonOptions | None = None,
               on_failure: str = "raise", max_halvings: int = 6, grow_after: int = 4,
-              progress=None) -> Solution:
+              progress=None, writer=None) -> Solution:
     """Integrate the equations of motion from t_start to t_end.
 
     Parameters
@@ -68,6 +68,10 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
     grow_after : int
         Successful steps at a reduced size before the step doubles again.
     progress : callable (t, h, iterations) -> None, optional
+    writer : object with ``append(solution)`` and ``finish(solution)``, optional
+        Streams accepted steps to a file as the run goes
+        (:class:`mbdsl.output.CsvStream`); ``finish`` runs on every exit,
+        including Ctrl-C and an unexpected exception, so no step is lost.
         Called after each accepted step.
 
     Returns
@@ -137,22 +141,73 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
                     h_cur, good = min(2.0 * h_cur, h), 0
             if progress is not None:
                 progress(t, step, res.n_iter)
+            if writer is not None:
+                writer.append(sol)
         else:
             sol.status, sol.message = "completed", f"reached t_end = {t_end:g} s"
     except KeyboardInterrupt:
         sol.status = "interrupted"
         sol.message = f"interrupted by the user at t = {t:.6g} s; every accepted step is kept"
+    except Exception as exc:          # a bug: keep what was computed, then let it surface
+        sol.status = "failed"
+        sol.message = f"internal error at t = {t:.6g} s: {exc!r}"
+        sol.wall_time = _time.perf_counter() - wall0
+        sol.finalize()
+        if writer is not None:
+            writer.finish(sol)
+        raise
     sol.wall_time = _time.perf_counter() - wall0
     sol.finalize()
+    if writer is not None:
+        writer.finish(sol)
     if sol.status == "failed" and on_failure == "raise":
         raise ConvergenceError(sol.message, sol.diagnostics, solution=sol)
     return sol
 
 
+def _null_vector(method, ctx, w):
+    """(s_min / s_max, right singular vector of s_min) of the Newton matrix at w
+    (dense SVD; None for matrices too large to decompose densely)."""
+    J = method.jacobian(w, ctx)
+    if hasattr(J, "toarray"):
+        if J.shape[0] > 3000:
+            return None
+        J = J.toarray()
+    J = np.asarray(J, dtype=float)
+    if not np.all(np.isfinite(J)):
+        return None
+    _, sv, vt = np.linalg.svd(J)
+    return sv[-1] / max(sv[0], 1e-300), vt[-1]
+
+
+def _stiff_elements(system, h):
+    """Springs whose natural period (sqrt of k over the attached mass or
+    inertia, a one-body estimate) is shorter than 4 h: (name, period [s])."""
+    out = []
+    model = system.model
+    for f in model.forces:
+        k = getattr(f, "k", None)
+        if not k:
+            continue
+        if hasattr(f, "joint"):                      # rotational: k [N m/rad] over inertia
+            bodies = [f.joint.first.body, f.joint.second.body]
+            inertia = [model.bodies[b].inertia for b in bodies if b >= 0]
+        else:
+            bodies = [f.first.body, f.second.body]
+            inertia = [model.bodies[b].mass for b in bodies if b >= 0]
+        if inertia:
+            period = 2.0 * np.pi * np.sqrt(min(inertia) / k)
+            if period < 4.0 * h:
+                out.append((f.name, period))
+    return sorted(out, key=lambda x: x[1])
+
+
 def _fail(sol, method, ctx, res, t, step, h):
+    from ..assembly.structure import involved_names
     system = ctx.system
     detail = ""
     span = None
+    hint = _HINTS.get(res.status, "")
     try:
         with np.errstate(all="ignore"):
             state = method.accept(res.w, ctx)
@@ -163,10 +218,43 @@ def _fail(sol, method, ctx, res, t, step, h):
             span = system.layout.span_of(name)
     except (FloatingPointError, ValueError, ZeroDivisionError, np.linalg.LinAlgError):
         pass
+    try:
+        with np.errstate(all="ignore"):        # at the last accepted state: finite, meaningful
+            svd = _null_vector(method, ctx, method.predict(ctx))
+    except (FloatingPointError, ValueError, np.linalg.LinAlgError):
+        svd = None
+    near_singular = svd is not None and svd[0] < 1e-7
+    if res.status is NewtonStatus.SINGULAR or near_singular:
+        null = svd[1] if svd is not None else None
+        if near_singular and res.status is not NewtonStatus.SINGULAR:
+            detail += f"; the Newton matrix is nearly singular (s_min/s_max = {svd[0]:.1e})"
+        if null is not None:
+            coords, elements = involved_names(system, method, null)
+            if elements:
+                detail += (f"; the singular direction involves the rows of "
+                           + ", ".join(f"'{e}'" for e in elements)
+                           + (" and the coordinates " + ", ".join(coords) if coords else ""))
+                span = system.layout.span_of(elements[0]) or span
+                hint = (f"the equations of {', '.join(repr(e) for e in elements)} become "
+                        "dependent here: a singular (dead-centre or locked) position of the "
+                        "linkage, e.g. a crank and rod in line; start elsewhere, drive past "
+                        "it with a motion, or check the joint geometry")
+            elif coords:
+                detail += "; the singular direction involves " + ", ".join(coords)
+                hint = ("no joint holds these coordinates: a body with no mass or inertia in "
+                        "that direction, or a free motion with nothing to resist it")
+    elif res.status in (NewtonStatus.DIVERGING, NewtonStatus.MAX_ITER):
+        stiff = _stiff_elements(system, step)
+        if stiff:
+            name, period = stiff[0]
+            hint = (f"'{name}' oscillates with a period of about {period:.2g} s, "
+                    f"shorter than the step can follow (h = {step:.2g} s): use a smaller h, "
+                    "or a method with numerical damping (hht-i3/hht-si2 with alpha = -0.3)")
+            span = span or next((f.span for f in system.model.forces if f.name == name), None)
     norms = ", ".join(f"{x:.2e}" for x in res.norms) or "none"
     msg = (f"the step from t = {t:.6g} s could not converge with {method.describe()} "
            f"(h = {step:.3g} s after halving from {h:.3g} s): {res.status.value}; "
            f"Newton norms [{norms}]{detail}")
     sol.status, sol.message = "failed", msg
-    sol.diagnostics = [Diagnostic("error", "E601", msg, span, "largest residual here" if span else "",
-                                  hint=_HINTS.get(res.status, ""))]
+    sol.diagnostics = [Diagnostic("error", "E601", msg, span, "involved here" if span else "",
+                                  hint=hint)]

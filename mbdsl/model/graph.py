@@ -11,7 +11,8 @@ import networkx as nx
 
 from .elements import GROUND, Model
 
-__all__ = ["body_graph", "bodies_not_connected_to_ground", "spanning_tree_edges"]
+__all__ = ["body_graph", "bodies_not_connected_to_ground", "spanning_tree_edges",
+           "loop_through"]
 
 
 def body_graph(model: Model) -> nx.MultiGraph:
@@ -55,3 +56,45 @@ def spanning_tree_edges(model: Model) -> list[tuple[int, int, object]]:
             joint = data[min(data)]["joint"]
             out.append((parent, child, joint))
     return out
+
+
+def _body_name(model: Model, b: int) -> str:
+    return "ground" if b == GROUND else model.bodies[b].name
+
+
+def loop_through(model: Model, joint_name: str) -> tuple[list[str], list[str]]:
+    """The kinematic loop a joint belongs to: (body names, joint names).
+
+    For a joint outside the spanning tree (:func:`spanning_tree_edges`), its
+    fundamental cycle: the tree path between its bodies, closed by it. For a
+    tree joint, the shortest fundamental cycle that contains it. ([], [])
+    when the joint is on no loop.
+    """
+    tree = nx.Graph()
+    tree_joints = set()
+    for parent, child, joint in spanning_tree_edges(model):
+        if joint is not None:
+            tree.add_edge(parent, child, joint=joint.name)
+            tree_joints.add(joint.name)
+
+    def cycle(j):
+        a, b = j.first.body, j.second.body
+        if a not in tree or b not in tree or not nx.has_path(tree, a, b):
+            return None
+        path = nx.shortest_path(tree, a, b)
+        joints = [tree.edges[u, v]["joint"] for u, v in zip(path, path[1:])] + [j.name]
+        return [_body_name(model, x) for x in path] + [_body_name(model, a)], joints
+
+    by_name = {j.name: j for j in model.joints}
+    if joint_name not in by_name:
+        return [], []
+    if joint_name not in tree_joints:
+        return cycle(by_name[joint_name]) or ([], [])
+    best = None
+    for j in model.joints:
+        if j.name in tree_joints:
+            continue
+        c = cycle(j)
+        if c and joint_name in c[1] and (best is None or len(c[1]) < len(best[1])):
+            best = c
+    return best or ([], [])

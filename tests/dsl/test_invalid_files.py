@@ -23,7 +23,8 @@ EXPECTED = {
     "e206_unknown_method.mbd": ("E206", 5, 19),
     "e302_missing_inertia.mbd": ("E302", 3, 6),
     "e303_negative_mass.mbd": ("E303", 3, 17),
-    "e401_over_constrained.mbd": ("E401", 1, 7),
+    "e401_redundant_joint.mbd": ("E401", 10, 7),
+    "e503_inconsistent_joints.mbd": ("E503", 4, 7),
     "e501_too_many_initials.mbd": ("E501", 6, 1),
 }
 

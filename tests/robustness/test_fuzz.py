@@ -1,0 +1,122 @@
+"""Bad input never crashes: mutated shipped models give a valid model or diagnostics.
+
+Every mutated text must end in one of: a Model that simulates a few steps
+to finite values or stops with E6xx diagnostics; an AssemblyError with
+diagnostics; an MbdError whose errors carry a line and column. Any other
+exception, a hang (deadline), or a non-finite state in a "completed" run
+fails the test. CI runs 2000 derandomized examples (about 20 s);
+``-m nightly`` runs 20000 random ones (also marked slow, so CI skips them).
+"""
+
+import math
+import re
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import mbdsl
+from mbdsl import AssemblyError, MbdError
+
+from ..conftest import MODELS
+
+# overflow in extreme inputs is expected and handled; its RuntimeWarnings are noise here
+pytestmark = pytest.mark.filterwarnings("ignore::RuntimeWarning")
+
+TEXTS = {p.name: p.read_text() for p in sorted(MODELS.glob("*.mbd"))}
+TOKEN = re.compile(r"\s+|[A-Za-z_]\w*|\d+(?:\.\d*)?(?:[eE][+-]?\d+)?|\.\.|.", re.S)
+NUMBERS = ["0", "-0", "-1", "-2.5", "1e308", "1e-308", "1e400", "nan", "inf", "-inf", "3",
+           "0.5", "1e-12", "1e12", "2^1024", "1/0", "0/0", "1e", "١", "½", "--1", "1..2"]
+INSERTS = ["kg", "m/s", "{", "}", "(", ")", ",", ";", "=", ":", "..", "é", "→", "\u200b",
+           "\U0001f600", "\n", "#", "\\", "\"", "'", "for i in 1..3 {", "t", "pi", "ground",
+           "revolute", "body", "joint", "initial", "guess", "driver", "force", "[", "]", "^"]
+
+
+def tokens(text):
+    return TOKEN.findall(text)
+
+
+@st.composite
+def mutated(draw):
+    name = draw(st.sampled_from(sorted(TEXTS)))
+    toks = tokens(TEXTS[name])
+    for _ in range(draw(st.integers(1, 3))):
+        i = draw(st.integers(0, len(toks) - 1))
+        op = draw(st.sampled_from(["delete", "duplicate", "swap", "number", "insert", "number"]))
+        if op == "delete":
+            del toks[i]
+        elif op == "duplicate":
+            toks.insert(i, toks[i])
+        elif op == "swap" and i + 1 < len(toks):
+            toks[i], toks[i + 1] = toks[i + 1], toks[i]
+        elif op == "number":
+            numeric = [k for k, t in enumerate(toks) if t[:1].isdigit()]
+            k = numeric[i % len(numeric)]
+            toks[k] = draw(st.sampled_from(NUMBERS))
+        elif op == "insert":
+            toks.insert(i, draw(st.sampled_from(INSERTS) | st.text(min_size=1, max_size=2)))
+    return name, "".join(toks)
+
+
+def check_text(text):
+    """The property: one of the allowed outcomes, never anything else."""
+    try:
+        model = mbdsl.load_text(text, file="fuzz.mbd")
+    except MbdError as exc:
+        assert exc.diagnostics, "an MbdError without diagnostics"
+        for d in exc.diagnostics:
+            if d.is_error:
+                assert d.code and d.message
+                if d.span is not None:
+                    assert d.span.line >= 1 and d.span.column >= 1
+        assert any(d.is_error and d.span is not None for d in exc.diagnostics) or \
+            any(d.code in ("E103", "E107", "E108") for d in exc.diagnostics)
+        return "rejected"
+    h = model.settings.get("h", 1e-3)
+    h = h if 1e-9 < h < 0.1 else 1e-3
+    try:
+        sol = mbdsl.simulate(model, h=h, t_end=3 * h, on_failure="return")
+    except AssemblyError as exc:
+        assert exc.diagnostics and all(d.code.startswith(("E4", "E5")) for d in exc.diagnostics
+                                       if d.is_error)
+        return "not assembled"
+    assert sol.status in ("completed", "failed")
+    if sol.status == "failed":
+        assert sol.diagnostics and sol.diagnostics[0].code.startswith("E6")
+        return "failed with a message"
+    for x in (sol.q, sol.v, sol.a, sol.lam):
+        assert np.all(np.isfinite(x)), "a completed run with non-finite values"
+    return "ran"
+
+
+@settings(max_examples=int(__import__("os").environ.get("MBDSL_FUZZ", 2000)), deadline=10_000, derandomize=True, database=None,
+          suppress_health_check=[HealthCheck.too_slow])
+@given(mutated())
+def test_mutated_models_never_crash(case):
+    name, text = case
+    check_text(text)
+
+
+@pytest.mark.nightly
+@pytest.mark.slow
+@settings(max_examples=20000, deadline=10_000, database=None,
+          suppress_health_check=[HealthCheck.too_slow])
+@given(mutated())
+def test_mutated_models_never_crash_nightly(case):
+    name, text = case
+    check_text(text)
+
+
+@pytest.mark.parametrize("text", [
+    "model m\nparameter a = 1e308 * 10\n",
+    "model m\nbody b { mass nan; inertia 1 }\n",
+    "model m\nbody b { mass 1; inertia 1e-320; point A (1e308, 0) }\n"
+    "joint J: revolute(ground.origin, b.A)\n",
+    "model m\nparameter N = 1e9\nfor i in 1..N { body b[i] { mass 1; inertia 1 } }\n",
+    "model m\n\x00\n",
+    "model m\ngravity (0, -1e308)\nbody b { mass 1e308; inertia 1e308; point A (1, 0) }\n"
+    "joint J: revolute(ground.origin, b.A)\nsimulate { h 1e-3; t_end 0.01 }\n",
+])
+def test_extreme_values(text):
+    assert check_text(text) in ("rejected", "not assembled", "failed with a message", "ran")
