@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ["write_csv", "read_csv_metadata", "write_solution", "load_solution", "metadata",
-           "HDF5_SUFFIXES", "CsvStream"]
+           "HDF5_SUFFIXES", "CsvStream", "WriteAtEnd"]
 
 HDF5_SUFFIXES = (".h5", ".hdf5")
 
@@ -214,6 +214,36 @@ class CsvStream:
                 self._file.write(f"# {k}: {metadata(sol)[k]}\n")
             self._file.close()
         return self.path
+
+
+class WriteAtEnd:
+    """A run writer for formats written whole (HDF5): ``finish`` writes the
+    file on every exit of the run, including Ctrl-C and an unexpected
+    exception, so the accepted steps are never lost.
+
+    Raises
+    ------
+    OSError
+        The file cannot be created (raised here, before the run starts).
+    """
+
+    def __init__(self, path):
+        self.path = Path(path)
+        self.path.touch()             # fail early on an unwritable path
+        self._used = False
+
+    def append(self, sol) -> None:
+        """Nothing to do per step."""
+
+    def close_unused(self) -> None:
+        """The run never started: remove the empty file."""
+        if not self._used:
+            self.path.unlink(missing_ok=True)
+
+    def finish(self, sol) -> Path:
+        """Write the whole (finalized) Solution."""
+        self._used = True
+        return write_solution(sol, self.path)
 
 
 def read_csv_metadata(path) -> tuple[dict, list[str], np.ndarray]:

@@ -3,8 +3,9 @@
 The bar shows simulated time against the end time, the current step size,
 Newton iterations per step since the last refresh, and tqdm's estimate of
 the time to go. It appears only after a run has taken a second (tqdm's
-``delay``), so short runs print nothing, and it is off when stderr is not a
-terminal.
+``delay``), so short runs print nothing, and it is off unless both stdout
+and the bar's stream (stderr) are terminals: piped or redirected runs, CI
+logs and scripts see no bar.
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ class ProgressBar:
     t_start, t_end : float [s]
         Simulated time span.
     enabled : bool, optional
-        Default: stderr is a terminal.
+        Default: stdout and ``file`` are terminals.
     delay : float [s]
         Wall time before the bar first appears.
     refresh : float [s]
@@ -40,7 +41,7 @@ class ProgressBar:
         from tqdm import tqdm
         file = file or sys.stderr
         if enabled is None:
-            enabled = bool(getattr(file, "isatty", lambda: False)())
+            enabled = all(bool(getattr(f, "isatty", lambda: False)()) for f in (file, sys.stdout))
         self.enabled = enabled
         self.t_start, self.refresh = float(t_start), float(refresh)
         self._iters = self._steps = 0

@@ -20,7 +20,7 @@ from pathlib import Path
 
 from .. import (METHODS, AssemblyError, ConvergenceError, MbdError, __version__, load,
                 render, simulate)
-from ..output import HDF5_SUFFIXES, CsvStream, load_solution, write_solution
+from ..output import HDF5_SUFFIXES, CsvStream, WriteAtEnd, load_solution
 
 __all__ = ["main", "build_parser"]
 
@@ -179,22 +179,19 @@ def _simulate(args) -> int:
         return 1
     out = Path(args.output) if args.output else Path(args.model).with_suffix(".csv")
     stream = out.suffix.lower() not in HDF5_SUFFIXES
-    try:       # CSV is written as the run goes: a stopped run keeps every accepted step
-        writer = CsvStream(out) if stream else None
+    try:       # CSV is written as the run goes, HDF5 on any exit of the run
+        writer = CsvStream(out) if stream else WriteAtEnd(out)
     except OSError as exc:
         print(f"error: cannot write {out}: {exc}", file=sys.stderr)
         return 1
-    sol, status = _run(args, model, writer)
+    try:
+        sol, status = _run(args, model, writer)
+    except OSError as exc:
+        print(f"error: cannot write {out}: {exc}", file=sys.stderr)
+        return 1
     if sol is None:
-        if writer is not None:
-            writer.close_unused()
+        writer.close_unused()
         return status
-    if not stream:
-        try:
-            write_solution(sol, out)
-        except OSError as exc:
-            print(f"error: cannot write {out}: {exc}", file=sys.stderr)
-            return 1
     if sol.initial is not None and sol.initial.warnings:
         _print_diagnostics(sol.initial.warnings)
     if not args.quiet:

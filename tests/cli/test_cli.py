@@ -61,4 +61,5 @@ def test_set_override_and_summary(tmp_path, capsys):
 
 def test_check_prints_dof(capsys):
     assert main(["check", str(MODELS / "slider_crank.mbd")]) == 0
-    assert "1 DOF" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "DOF by count (Gruebler) = 1" in out and "DOF by rank = 1 (rank of Phi_q 5" in out
