@@ -143,29 +143,27 @@ class CsvStream:
         self._header, self._written, self._last = False, 0, 0.0
 
     def _rows_text(self, sol, i0, i1, finalized) -> str:
+        """Rows i0..i1-1 of the table as CSV text, from the stacked arrays of a
+        finalized Solution or from its list of accepted states during the run."""
         from .solution import Solution
+        m = sol.system.m
         if finalized:
-            t, q, v, a, lam = sol.t, sol.q, sol.v, sol.a, sol.lam
-            extras, stats = sol.extras, sol.stats
             sl = slice(i0, i1)
-            part = Solution.from_arrays(
-                sol.system, method_name=sol.method_name, method_parameters=sol.method_parameters,
-                extra_names=sol.extra_names, h=sol.h, t_end=sol.t_end, t=t[sl], q=q[sl],
-                v=v[sl], a=a[sl], lam=lam[sl], extras={k: x[sl] for k, x in extras.items()},
-                stats={k: x[sl] for k, x in stats.items()}, stats_total=sol.stats_total,
-                status=sol.status, message=sol.message)
+            t, q, v, a, lam = sol.t[sl], sol.q[sl], sol.v[sl], sol.a[sl], sol.lam[sl]
+            extras = {k: x[sl] for k, x in sol.extras.items()}
+            stats = {k: x[sl] for k, x in sol.stats.items()}
         else:
             rows, st = sol._rows[i0:i1], sol._stats[i0:i1]
-            m = sol.system.m
-            part = Solution.from_arrays(
-                sol.system, method_name=sol.method_name, method_parameters=sol.method_parameters,
-                extra_names=sol.extra_names, h=sol.h, t_end=sol.t_end,
-                t=[r.t for r in rows], q=[r.q for r in rows], v=[r.v for r in rows],
-                a=[r.a for r in rows], lam=np.array([r.lam for r in rows]).reshape(len(rows), m),
-                extras={x: np.array([r.extra[x] for r in rows]).reshape(len(rows), m)
-                        for x in sol.extra_names},
-                stats={k: np.array([getattr(s, k) for s in st]) for k in Solution.STAT_NAMES},
-                stats_total=sol.stats_total, status=sol.status, message=sol.message)
+            t, q, v, a = ([getattr(r, k) for r in rows] for k in ("t", "q", "v", "a"))
+            lam = np.array([r.lam for r in rows]).reshape(len(rows), m)
+            extras = {x: np.array([r.extra[x] for r in rows]).reshape(len(rows), m)
+                      for x in sol.extra_names}
+            stats = {k: np.array([getattr(s, k) for s in st]) for k in Solution.STAT_NAMES}
+        part = Solution.from_arrays(
+            sol.system, method_name=sol.method_name, method_parameters=sol.method_parameters,
+            extra_names=sol.extra_names, h=sol.h, t_end=sol.t_end, t=t, q=q, v=v, a=a, lam=lam,
+            extras=extras, stats=stats, stats_total=sol.stats_total, status=sol.status,
+            message=sol.message)
         buf = io.StringIO()
         np.savetxt(buf, part.table()[1], fmt="%.17g", delimiter=",")
         return buf.getvalue()
@@ -322,6 +320,7 @@ def read_csv_solution(path):
     lay = system.layout
 
     def block(keys):
+        """Columns by name, shape (rows, len(keys))."""
         return values[:, [col[k] for k in keys]] if keys else np.zeros((len(values), 0))
 
     extra_names = json.loads(meta.get("extras", "[]"))

@@ -340,6 +340,7 @@ def animate_solution(solution, path, fps: float = 25.0, speed: float = 1.0,
     label = ax.text(0.02, 0.97, "", transform=ax.transAxes, va="top", fontsize=10)
 
     def draw(k):
+        """Move every artist to frame k."""
         q = qs[k]
         for b in model.bodies:
             kind, verts = outlines[b.index]

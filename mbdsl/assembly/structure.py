@@ -222,12 +222,15 @@ def miss_diagnosis(system, q_start: np.ndarray, t0: float, fixed: list[tuple[int
         E[np.arange(k), iq[:k]] = 1.0
 
         def held(q):
+            """Residuals of the held rows (tree joints, drivers, initial values)."""
             return np.concatenate([system.Phi(q, t0)[hard_rows], q[iq[:k]] - vq[:k]])
 
         def held_jac(q):
+            """Jacobian of :func:`held`, shape (held rows, n)."""
             return np.vstack([system.Phi_q(q, t0)[hard_rows], E])
 
         def project(q):
+            """Back onto the held rows by minimum-norm Newton steps."""
             for _ in range(30):
                 r = held(q)
                 if np.max(np.abs(r), initial=0.0) < 1e-13:
@@ -236,6 +239,7 @@ def miss_diagnosis(system, q_start: np.ndarray, t0: float, fixed: list[tuple[int
             return q
 
         def loop_res(q):
+            """Residuals of the loop-closing joints."""
             return system.Phi(q, t0)[~hard_rows]
 
         q = project(q_start.copy())

@@ -78,6 +78,7 @@ def loop_through(model: Model, joint_name: str) -> tuple[list[str], list[str]]:
             tree_joints.add(joint.name)
 
     def cycle(j):
+        """(bodies, joints) of the tree path between j's bodies closed by j, or None."""
         a, b = j.first.body, j.second.body
         if a not in tree or b not in tree or not nx.has_path(tree, a, b):
             return None
