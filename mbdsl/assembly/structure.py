@@ -52,20 +52,23 @@ def independent_rows(A: np.ndarray, rtol: float = 1e-9) -> tuple[np.ndarray, np.
     independent, dependent : ndarray of int
         Row numbers; ``len(independent)`` is the numerical rank.
     """
-    m = A.shape[0]
-    basis = np.zeros((0, A.shape[1]))
+    m, n = A.shape
+    basis = np.empty((min(m, n), n))        # orthonormal rows found so far, filled in place
+    k = 0
     ind, dep = [], []
     for i in range(m):
         r = A[i].astype(float)
         norm = np.linalg.norm(r)
+        B = basis[:k]
         for _ in range(2):                     # twice is enough (Kahan-Parlett)
-            r = r - basis.T @ (basis @ r)
+            r = r - B.T @ (B @ r)
         rn = np.linalg.norm(r)
-        if norm == 0.0 or rn <= rtol * norm:
+        if norm == 0.0 or rn <= rtol * norm or k == len(basis):
             dep.append(i)
         else:
             ind.append(i)
-            basis = np.vstack([basis, r / rn])
+            basis[k] = r / rn
+            k += 1
     return np.array(ind, dtype=int), np.array(dep, dtype=int)
 
 
@@ -181,11 +184,6 @@ def redundancy_diagnostics(report: StructureReport, layout) -> list[Diagnostic]:
     return out
 
 
-def loop_of(model, joint_name: str) -> tuple[list[str], list[str]]:
-    """(bodies, joints) of the loop the joint closes, by the body graph; ([], []) if none."""
-    return graph.loop_through(model, joint_name)
-
-
 def miss_diagnosis(system, q_start: np.ndarray, t0: float, fixed: list[tuple[int, float]],
                    max_iter: int = 60) -> Diagnostic | None:
     """Why the loops cannot close: the joint that misses, by how much, on which loop.
@@ -272,7 +270,7 @@ def miss_diagnosis(system, q_start: np.ndarray, t0: float, fixed: list[tuple[int
             return None
         phi = system.Phi(q, t0)
         name, value = lay.worst_element(phi)
-        bodies, joints = loop_of(model, name)
+        bodies, joints = graph.loop_through(model, name)
         loop = (" on the loop " + " - ".join(bodies) + " (joints " + ", ".join(joints) + ")"
                 if bodies else "")
         hint = (f"check the points and lengths on this loop: with every other joint holding, "
