@@ -13,6 +13,8 @@ write_solution(sol, path)    CSV, or HDF5 for .h5/.hdf5
 load_solution(path)          a result file back into a Solution
 plot(sol, ...)               time histories as one matplotlib figure
 animate(sol, path, ...)      the mechanism's motion as GIF/MP4
+mbdsl.studies.run_study      the paper's experiments (convergence, energy, drift,
+                             cost, work-precision) on a model, in parallel
 """
 
 from __future__ import annotations

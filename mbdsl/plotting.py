@@ -17,7 +17,8 @@ from matplotlib.figure import Figure
 
 from .model.elements import GROUND
 
-__all__ = ["plot_solution", "animate_solution", "PANELS", "AnimationResult", "body_outline"]
+__all__ = ["plot_solution", "animate_solution", "PANELS", "AnimationResult", "body_outline",
+           "Series", "Panel", "write_figure"]
 
 #: Titles of the standard panels of :func:`plot_solution`, in order.
 PANELS = ("position", "angle", "velocity", "angular velocity", "energy",
@@ -363,3 +364,106 @@ def animate_solution(solution, path, fps: float = 25.0, speed: float = 1.0,
     draw(0)
     fig.canvas.draw()              # final limits (equal aspect) for data -> pixel maps
     return AnimationResult(path=path, frames=n_frames, times=times, figure=fig, colors=colors)
+
+
+@dataclass
+class Series:
+    """One plotted series of a study figure.
+
+    Attributes
+    ----------
+    label : str
+    x, y : ndarray, shape (N,)
+    kind : {"line", "scatter", "bar"}
+        ``line``: lines with markers at the points; ``scatter``: markers only
+        (one per step); ``bar``: bars at positions 0..N-1 labelled ``x``.
+    """
+
+    label: str
+    x: np.ndarray
+    y: np.ndarray
+    kind: str = "line"
+
+
+@dataclass
+class Panel:
+    """One axes of a study figure.
+
+    Attributes
+    ----------
+    title, xlabel, ylabel : str
+    series : list of Series
+    xscale, yscale : {"linear", "log"}
+    equal : bool
+        Equal aspect (x against y components of one vector).
+    """
+
+    title: str
+    xlabel: str
+    ylabel: str
+    series: list = field(default_factory=list)
+    xscale: str = "linear"
+    yscale: str = "linear"
+    equal: bool = False
+
+
+def write_figure(panels, stem, title: str = "", columns: int | None = None) -> list[Path]:
+    """Draw panels into one figure and save it as PNG and SVG.
+
+    Parameters
+    ----------
+    panels : list of Panel
+    stem : str or Path
+        File name without suffix; ``stem.png`` and ``stem.svg`` are written.
+    title : str
+        Figure title.
+    columns : int, optional
+        Panels per row; default up to 3.
+
+    Returns
+    -------
+    list of Path
+        The files written. In the SVG, the artists of series j of panel k
+        have the id ``series-k-j`` (bars ``series-k-j-i``).
+    """
+    n = len(panels)
+    cols = columns or min(n, 3)
+    rows = -(-n // cols)
+    fig = _figure(4.6 * cols, 3.6 * rows)
+    if title:
+        fig.suptitle(title)
+    for k, panel in enumerate(panels):
+        ax = fig.add_subplot(rows, cols, k + 1)
+        for j, s in enumerate(panel.series):
+            x, y = np.asarray(s.x), np.asarray(s.y, dtype=float)
+            # every drawn artist of a series carries the id "series-<panel>-<series>[-<bar>]",
+            # so the SVG says how many series each panel shows
+            gid = f"series-{k}-{j}"
+            if s.kind == "bar":
+                bars = ax.bar(np.arange(len(y)), y, label=s.label, tick_label=[str(v) for v in x])
+                for i, bar in enumerate(bars):
+                    bar.set_gid(f"{gid}-{i}")
+                ax.tick_params(axis="x", labelrotation=30, labelsize=8)
+            elif s.kind == "scatter":
+                ax.plot(x, y, ".", ms=2, label=s.label, gid=gid)
+            else:
+                # markers show the steps of a convergence line; on a time history of
+                # thousands of steps they would hide the curve
+                ax.plot(x, y, "o-" if len(x) <= 60 else "-", ms=3, lw=1.2, label=s.label,
+                        gid=gid)
+        ax.set_xscale(panel.xscale)
+        ax.set_yscale(panel.yscale)
+        ax.set_title(panel.title, fontsize=10)
+        ax.set_xlabel(panel.xlabel)
+        ax.set_ylabel(panel.ylabel)
+        if panel.equal:
+            ax.set_aspect("equal", adjustable="datalim")
+            ax.ticklabel_format(style="sci", scilimits=(-2, 3))
+        ax.grid(True, which="both", alpha=0.3)
+        if len(panel.series) > 1:
+            ax.legend(fontsize=7, loc="best")
+    stem = Path(stem)
+    paths = [stem.with_suffix(".png"), stem.with_suffix(".svg")]
+    for p in paths:
+        fig.savefig(p, dpi=110)
+    return paths

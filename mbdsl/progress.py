@@ -13,7 +13,7 @@ from __future__ import annotations
 import sys
 import time
 
-__all__ = ["ProgressBar"]
+__all__ = ["ProgressBar", "TaskBar"]
 
 
 class ProgressBar:
@@ -77,6 +77,41 @@ class ProgressBar:
         self._bar.close()
 
     def __enter__(self) -> "ProgressBar":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+class TaskBar:
+    """A ``progress(done, total)`` callback counting finished runs of a study.
+
+    Same rules as :class:`ProgressBar`: off unless stdout and the bar's
+    stream are terminals, appears after ``delay`` seconds. Use as a context
+    manager.
+    """
+
+    def __init__(self, desc: str = "runs", enabled: bool | None = None, delay: float = 1.0,
+                 file=None):
+        from tqdm import tqdm
+        file = file or sys.stderr
+        if enabled is None:
+            enabled = all(bool(getattr(f, "isatty", lambda: False)()) for f in (file, sys.stdout))
+        self.enabled = enabled
+        self._bar = tqdm(total=0, unit="run", desc=desc, delay=delay, disable=not enabled,
+                         file=file, dynamic_ncols=True, leave=True)
+
+    def __call__(self, done: int, total: int) -> None:
+        """Record that ``done`` of ``total`` runs have finished."""
+        if self._bar.total != total:
+            self._bar.total = total
+        self._bar.update(done - self._bar.n)
+
+    def close(self) -> None:
+        """Close the bar, leaving its last line."""
+        self._bar.close()
+
+    def __enter__(self) -> "TaskBar":
         return self
 
     def __exit__(self, *exc) -> None:

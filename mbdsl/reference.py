@@ -24,7 +24,7 @@ import scipy.linalg
 
 from .assembly.initial import consistent_initial_state
 
-__all__ = ["ReferenceSolution", "index1_reference"]
+__all__ = ["ReferenceSolution", "EvaluationBudgetExceeded", "index1_reference"]
 
 
 @dataclass
@@ -39,6 +39,9 @@ class ReferenceSolution:
         max(|Phi|, |Phi_q v + Phi_t|) at the last time.
     nfev : int
         Right-hand side evaluations.
+    interpolant : callable or None
+        With ``dense_output=True``: ``interpolant(t)`` -> y = (q, v) of shape
+        (2n,) or (2n, len(t)), DOP853's order-7 continuous extension.
     """
 
     t: np.ndarray
@@ -46,10 +49,16 @@ class ReferenceSolution:
     v: np.ndarray
     drift: float
     nfev: int
+    interpolant: object = None
+
+
+class EvaluationBudgetExceeded(RuntimeError):
+    """The index-1 integration needed more right-hand side evaluations than allowed."""
 
 
 def index1_reference(system, t_eval, rtol: float = 1e-12, atol: float = 1e-12,
-                     initial=None) -> ReferenceSolution:
+                     initial=None, dense_output: bool = False,
+                     max_evaluations: int | None = None) -> ReferenceSolution:
     """Integrate the index-1 equations of motion with DOP853.
 
     Parameters
@@ -61,6 +70,12 @@ def index1_reference(system, t_eval, rtol: float = 1e-12, atol: float = 1e-12,
     rtol, atol : float
         DOP853 tolerances.
     initial : InitialState, optional
+    dense_output : bool
+        Keep DOP853's continuous extension (``ReferenceSolution.interpolant``).
+    max_evaluations : int, optional
+        Give up after this many right-hand side evaluations (a stiff model
+        makes an explicit method crawl; callers then fall back to another
+        reference).
 
     Returns
     -------
@@ -70,12 +85,22 @@ def index1_reference(system, t_eval, rtol: float = 1e-12, atol: float = 1e-12,
     ------
     RuntimeError
         If DOP853 fails (scipy's message is included).
+    EvaluationBudgetExceeded
+        After ``max_evaluations`` right-hand side evaluations.
     """
     initial = initial or consistent_initial_state(system)
     n, m = system.n, system.m
     t_eval = np.atleast_1d(np.asarray(t_eval, dtype=float))
 
+    count = [0]
+
     def _rhs(t, y):
+        """y' = (v, a) with a from the index-1 KKT system at (t, y)."""
+        count[0] += 1
+        if max_evaluations is not None and count[0] > max_evaluations:
+            raise EvaluationBudgetExceeded(
+                f"the index-1 reference needed more than {max_evaluations} evaluations "
+                f"(stopped at t = {t:.6g} s); the model is likely stiff")
         q, v = y[:n], y[n:]
         Phi_q = system.Phi_q(q, t)
         K = np.zeros((n + m, n + m))
@@ -88,7 +113,8 @@ def index1_reference(system, t_eval, rtol: float = 1e-12, atol: float = 1e-12,
 
     y0 = np.concatenate([initial.q, initial.v])
     res = scipy.integrate.solve_ivp(_rhs, (initial.t, float(t_eval[-1])), y0, method="DOP853",
-                                    t_eval=t_eval, rtol=rtol, atol=atol)
+                                    t_eval=t_eval, rtol=rtol, atol=atol,
+                                    dense_output=dense_output)
     if not res.success:
         raise RuntimeError(f"index-1 reference failed: {res.message}")
     q, v = res.y[:n].T, res.y[n:].T
@@ -96,4 +122,4 @@ def index1_reference(system, t_eval, rtol: float = 1e-12, atol: float = 1e-12,
     drift = max(float(np.max(np.abs(system.Phi(q[-1], t_last)), initial=0.0)),
                 float(np.max(np.abs(system.Phi_q(q[-1], t_last) @ v[-1]
                                     + system.Phi_t(q[-1], t_last)), initial=0.0)))
-    return ReferenceSolution(res.t, q, v, drift, res.nfev)
+    return ReferenceSolution(res.t, q, v, drift, res.nfev, res.sol if dense_output else None)

@@ -1,4 +1,4 @@
-"""The ``mbdsl`` command line: ``simulate``, ``check``, ``plot`` and ``animate``.
+"""The ``mbdsl`` command line: ``simulate``, ``check``, ``plot``, ``animate`` and ``study``.
 
 Calls the public API and nothing else. Every failure a user can cause is a
 rendered diagnostic on stderr and a non-zero exit status, never a traceback:
@@ -72,6 +72,39 @@ def build_parser() -> argparse.ArgumentParser:
                      help="simulated seconds per second of video (default 1)")
     _run_options(ani)
     ani.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
+
+    from ..studies import KINDS
+    st = sub.add_parser("study", help="the paper's experiments on a model: convergence, energy, "
+                        "drift, cost, work-precision, or all of them")
+    st.add_argument("kind", choices=KINDS + ("all",), help="which study")
+    st.add_argument("model", help="model file (.mbd)")
+    st.add_argument("--methods", default="all",
+                    help="'all' or a comma-separated list of methods (default all six)")
+    hs = st.add_mutually_exclusive_group()
+    hs.add_argument("--h", help="comma-separated step sizes [s], e.g. 1e-3,5e-4")
+    hs.add_argument("--h-range", help="halvings from FIRST to LAST, e.g. 2^-7:2^-11 "
+                    "(default: the model's h times 4 down to h/4)")
+    st.add_argument("--t-end", type=float, help="end time T [s] (default: the model's)")
+    st.add_argument("--quantity", default="positions,velocities",
+                    help="comma-separated quantities compared at T: positions, velocities "
+                    "(max over the coordinates) or columns such as crank.omega")
+    st.add_argument("--reference", default="auto",
+                    help="auto (index-1 DOP853 at 1e-12; hht-si2 at h/16 if the model is stiff), "
+                    "dop853, a method name, or a result file of mbdsl simulate")
+    st.add_argument("--joint", help="joint of the drift study (default: the first revolute "
+                    "joint between two bodies)")
+    st.add_argument("--at-h", type=float, help="step of the drift and cost studies "
+                    "(default: the middle of the steps)")
+    st.add_argument("--repeat", type=int, default=3,
+                    help="timed repeats of the cost and work-precision runs (median; default 3)")
+    st.add_argument("--jobs", type=int, help="worker processes (default: the number of cores)")
+    st.add_argument("--scheduler", help="address of a Dask scheduler (tcp://host:8786) to run "
+                    "on instead of local processes (needs mbdsl[cluster])")
+    st.add_argument("-o", "--output", help="folder for tables, figures and index.md "
+                    "(default: MODEL_KIND beside the model)")
+    st.add_argument("--set", action="append", metavar="NAME=VALUE",
+                    help="override a model parameter (repeatable)")
+    st.add_argument("-q", "--quiet", action="store_true", help="print no tables, no progress")
     return p
 
 
@@ -268,11 +301,83 @@ def _animate(args) -> int:
     return status
 
 
+def _study_options(args, model):
+    """StudyOptions from the command line and the model's simulate section."""
+    from .. import METHODS
+    from ..studies import StudyOptions, parse_h_range
+    s = model.settings
+    t_end = args.t_end if args.t_end is not None else s.get("t_end")
+    if t_end is None:
+        raise ValueError("give --t-end (the model has no t_end in its simulate section)")
+    if args.h:
+        try:
+            hs = [float(x) for x in args.h.split(",") if x.strip()]
+        except ValueError:
+            raise ValueError(f"--h expects comma-separated numbers, got '{args.h}'") from None
+    elif args.h_range:
+        hs = parse_h_range(args.h_range)
+    elif s.get("h") is not None:
+        hs = [float(s["h"]) * 2.0**k for k in (2, 1, 0, -1, -2)]
+    else:
+        raise ValueError("give --h or --h-range (the model has no h in its simulate section)")
+    if any(h <= 0 for h in hs):
+        raise ValueError("step sizes must be positive")
+    methods = list(METHODS) if args.methods == "all" else \
+        [m.strip() for m in args.methods.split(",") if m.strip()]
+    if args.repeat < 1:
+        raise ValueError("--repeat must be at least 1")
+    return StudyOptions(methods=methods, hs=hs, t_end=float(t_end),
+                        quantities=[x.strip() for x in args.quantity.split(",") if x.strip()],
+                        reference=args.reference, repeat=args.repeat, joint=args.joint,
+                        h_single=args.at_h, jobs=args.jobs, scheduler=args.scheduler)
+
+
+def _study(args) -> int:
+    from ..progress import TaskBar
+    from ..studies import run_study
+    model = _load(args)
+    if model is None:
+        return 1
+    try:
+        options = _study_options(args, model)
+    except ValueError as exc:
+        print(f"mbdsl study: error: {exc}", file=sys.stderr)
+        return 2
+    stem = Path(args.model).with_suffix("")
+    out = Path(args.output) if args.output else stem.parent / f"{stem.name}_{args.kind}"
+    log = (lambda text: None) if args.quiet else (lambda text: print(text, file=sys.stderr))
+    command = "mbdsl " + " ".join(sys.argv[1:]) if sys.argv[1:2] == ["study"] else ""
+    try:
+        with TaskBar("runs", enabled=False if args.quiet else None) as bar:
+            result = run_study(args.kind, args.model, options, _parse_set(args.set),
+                               progress=bar, log=log, command=command)
+    except AssemblyError as exc:
+        _print_diagnostics(exc.diagnostics)
+        return 4
+    except MbdError as exc:
+        _print_diagnostics(exc.diagnostics)
+        return 1
+    except (ValueError, ImportError, OSError, RuntimeError) as exc:
+        print(f"mbdsl study: error: {exc}", file=sys.stderr)
+        return 1
+    try:
+        files = result.write(out)
+    except OSError as exc:
+        print(f"error: cannot write {out}: {exc}", file=sys.stderr)
+        return 1
+    if not args.quiet:
+        print(result.text())
+        print(f"\nwrote {len(files)} files to {out} (index: {files[-1]}); "
+              f"study wall time {result.wall_time:.1f} s")
+    return 0
+
+
 def main(argv=None) -> int:
     """Entry point of the ``mbdsl`` console script; returns the exit status."""
     args = build_parser().parse_args(argv)
     try:
-        commands = {"check": _check, "simulate": _simulate, "plot": _plot, "animate": _animate}
+        commands = {"check": _check, "simulate": _simulate, "plot": _plot, "animate": _animate,
+                    "study": _study}
         return commands[args.command](args)
     except argparse.ArgumentTypeError as exc:
         print(f"mbdsl: error: {exc}", file=sys.stderr)

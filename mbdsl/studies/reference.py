@@ -1,0 +1,199 @@
+"""Reference solutions for studies, with an estimate of their own error.
+
+Three kinds, chosen by ``--reference``:
+
+``dop853`` (what ``auto`` tries first)
+    The index-1 form integrated by scipy's DOP853 (order 8) at rtol = atol =
+    1e-12 (:func:`mbdsl.reference.index1_reference`). It shares only the
+    assembly (M, Q, Phi_q, gamma) with the six methods, none of their
+    formulas. Its error is estimated by a second integration at rtol = atol =
+    1e-11: the difference is about the error of the looser run, so it bounds
+    the tighter one's from above (by roughly a factor 10).
+``METHOD`` (``auto`` falls back to ``hht-si2`` when DOP853 exceeds its
+    evaluation budget, i.e. on stiff models)
+    The named method at a step 16 times smaller than the smallest step of the
+    study, and again at 8 times smaller; Richardson's estimate
+    ``|x(h/16) - x(h/8)| / (2^p - 1)`` (p the method's order) is its error.
+``FILE``
+    A result of ``mbdsl simulate`` (CSV or HDF5). The model is rebuilt from the
+    source stored in the file and run again with the same method at twice the
+    file's step, for the same Richardson estimate.
+
+Every reference gives the state at T (errors at T) and a continuous state on
+[t0, T] (energies along a run): DOP853's order-7 continuous extension, or
+cubic Hermite interpolation of (q, v) and (v, a) over the reference's steps
+(scipy's CubicHermiteSpline), exact at the reference's own step times.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["StudyReference", "build_reference", "method_order"]
+
+#: rhs evaluations DOP853 may spend before ``auto`` gives up on it
+#: (a 2 s slider-crank run at rtol 1e-12 needs about 2300)
+DOP853_BUDGET = 600_000
+
+
+def method_order(method: str, coefficients: dict) -> int:
+    """Global order of a method: 1 for NEWMARK with gamma != 1/2, else 2 (paper, Sect. 2)."""
+    if method == "newmark" and abs(coefficients.get("gamma", 0.6) - 0.5) > 1e-14:
+        return 1
+    return 2
+
+
+@dataclass
+class StudyReference:
+    """A reference solution on [t0, T].
+
+    Attributes
+    ----------
+    description : str
+        How it was computed (for tables and the index page).
+    t_end : float [s]
+    q_end, v_end : ndarray, shape (n,)
+        Generalized coordinates and velocities at T.
+    error_q, error_v : ndarray, shape (n,)
+        Estimated absolute error of q_end, v_end (same units).
+    state : callable
+        ``state(t)`` with t of shape (N,) -> (q, v), each of shape (N, n).
+    """
+
+    description: str
+    t_end: float
+    q_end: np.ndarray
+    v_end: np.ndarray
+    error_q: np.ndarray
+    error_v: np.ndarray
+    state: object
+
+    def energy(self, system, t: np.ndarray) -> np.ndarray:
+        """Total energy T + V [J] of the reference at times t, shape (N,)."""
+        q, v = self.state(np.asarray(t, dtype=float))
+        return np.array([system.kinetic_energy(qi, vi) + system.potential_energy(qi)
+                         for qi, vi in zip(q, v)])
+
+
+def build_reference(kind: str, model, t_end: float, h_min: float,
+                    log=lambda text: None) -> StudyReference:
+    """Compute the reference a study compares against.
+
+    Parameters
+    ----------
+    kind : str
+        ``"auto"``, ``"dop853"``, a method name, or a result file path.
+    model : Model
+    t_end : float [s]
+    h_min : float [s]
+        Smallest step of the study (method references use h_min/16).
+    log : callable
+        Receives one-line progress messages.
+
+    Returns
+    -------
+    StudyReference
+
+    Raises
+    ------
+    ValueError
+        A file reference of another model, or one that does not reach T.
+    RuntimeError
+        DOP853 failed (``kind="dop853"``).
+    ConvergenceError
+        A method reference could not complete.
+    """
+    from .. import METHODS
+    if kind in ("auto", "dop853"):
+        from ..reference import EvaluationBudgetExceeded
+        try:
+            return _dop853(model, t_end, DOP853_BUDGET if kind == "auto" else None)
+        except (EvaluationBudgetExceeded, RuntimeError) as exc:
+            if kind == "dop853":
+                raise
+            log(f"reference: DOP853 gave up ({exc}); using hht-si2 at h/16")
+            return _method(model, "hht-si2", {}, t_end, h_min / 16)
+    if kind in METHODS:
+        return _method(model, kind, {}, t_end, h_min / 16)
+    return _file(kind, model, t_end)
+
+
+def _dop853(model, t_end, budget):
+    """DOP853 at 1e-12, error estimated against 1e-11."""
+    from .. import assemble
+    from ..assembly.initial import consistent_initial_state
+    from ..reference import index1_reference
+    system = assemble(model)
+    init = consistent_initial_state(system, float(model.settings.get("t_start", 0.0)))
+    fine = index1_reference(system, [t_end], 1e-12, 1e-12, init, dense_output=True,
+                            max_evaluations=budget)
+    coarse = index1_reference(system, [t_end], 1e-11, 1e-11, init, max_evaluations=budget)
+    n = system.n
+
+    def state(t):
+        """(q, v) from DOP853's continuous extension, each (N, n)."""
+        y = np.asarray(fine.interpolant(np.asarray(t, dtype=float)))
+        return y[:n].T, y[n:].T
+
+    return StudyReference(
+        f"index-1 DOP853 (scipy), rtol = atol = 1e-12, {fine.nfev} evaluations; error "
+        f"estimated against rtol = 1e-11; constraint drift at T {fine.drift:.1e}",
+        t_end, fine.q[-1], fine.v[-1], np.abs(fine.q[-1] - coarse.q[-1]),
+        np.abs(fine.v[-1] - coarse.v[-1]), state)
+
+
+def _hermite_state(sol):
+    """Continuous (q, v) of a Solution by cubic Hermite interpolation of its steps."""
+    from scipy.interpolate import CubicHermiteSpline
+    t = sol.t
+    keep = np.concatenate([[True], np.diff(t) > 0])     # Hermite needs increasing t
+    sq = CubicHermiteSpline(t[keep], sol.q[keep], sol.v[keep], axis=0)
+    sv = CubicHermiteSpline(t[keep], sol.v[keep], sol.a[keep], axis=0)
+
+    def state(tt):
+        """(q, v) at times tt, each (N, n)."""
+        tt = np.asarray(tt, dtype=float)
+        return sq(tt), sv(tt)
+
+    return state
+
+
+def _method(model, method, coefficients, t_end, h):
+    """A method at h, error by Richardson against 2h."""
+    from .. import simulate
+    fine = simulate(model, method=method, h=h, t_end=t_end, **coefficients)
+    coarse = simulate(model, method=method, h=2 * h, t_end=t_end, **coefficients)
+    p = method_order(method, fine.method_parameters)
+    return StudyReference(
+        f"{method} at h = {h:.4g} s (16 times below the smallest step), error by Richardson "
+        f"against h = {2 * h:.4g} s (order {p})", t_end, fine.q[-1], fine.v[-1],
+        np.abs(fine.q[-1] - coarse.q[-1]) / (2**p - 1),
+        np.abs(fine.v[-1] - coarse.v[-1]) / (2**p - 1), _hermite_state(fine))
+
+
+def _file(path, model, t_end):
+    """A stored result, its error by a rerun at twice its step."""
+    from .. import simulate
+    from ..output import load_solution
+    sol = load_solution(path)
+    if sol.system.layout.coordinates != model.coordinate_names():
+        raise ValueError(f"reference {path} is a result of model '{sol.model.name}' with "
+                         f"coordinates {', '.join(sol.system.layout.coordinates)}; the study's "
+                         f"model has {', '.join(model.coordinate_names())}")
+    hit = np.flatnonzero(np.abs(sol.t - t_end) <= 1e-9 * max(1.0, abs(t_end)))
+    if hit.size == 0:
+        raise ValueError(f"reference {path} has no step at T = {t_end:g} s "
+                         f"(it covers {sol.t[0]:g} .. {sol.t[-1]:g} s)")
+    i = int(hit[0])
+    from ..integrators import method_parameters
+    accepted = method_parameters(sol.method_name)     # HHT stores its derived beta, gamma too
+    coarse = simulate(sol.model, method=sol.method_name, h=2 * sol.h, t_end=t_end,
+                      **{k: v for k, v in sol.method_parameters.items() if k in accepted})
+    p = method_order(sol.method_name, sol.method_parameters)
+    return StudyReference(
+        f"file {path}: {sol.method_name} at h = {sol.h:.4g} s, error by Richardson against "
+        f"h = {2 * sol.h:.4g} s (order {p})", t_end, sol.q[i], sol.v[i],
+        np.abs(sol.q[i] - coarse.q[-1]) / (2**p - 1),
+        np.abs(sol.v[i] - coarse.v[-1]) / (2**p - 1), _hermite_state(sol))

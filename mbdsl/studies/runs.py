@@ -1,0 +1,244 @@
+"""One run of a study: what to run (RunSpec), what it returns (RunData), and the
+worker function that runs it (:func:`execute_run`).
+
+A worker receives the model as its source text, never as a parsed object, so
+the same call works in a local process pool and on a Dask cluster: specs and
+results are small, picklable dataclasses of floats and numpy arrays. A worker
+parses each distinct model once and keeps it (``_MODELS``), so a process that
+executes many runs of one study pays the parse and assembly once.
+
+Timings are taken in the worker: ``Solution.wall_time`` (the time loop only,
+model parse and initial assembly excluded), the median over ``repeat`` runs
+(a shared machine is noisy; the median ignores the occasional descheduled run).
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["ModelSource", "RunSpec", "RunData", "execute_run"]
+
+
+@dataclass(frozen=True)
+class ModelSource:
+    """A model as text, for workers that may not see the user's files.
+
+    Attributes
+    ----------
+    text : str
+        The ``.mbd`` source.
+    file : str
+        Its file name, for diagnostics.
+    overrides : tuple of (str, str)
+        Parameter overrides (``--set``), sorted.
+    """
+
+    text: str
+    file: str
+    overrides: tuple = ()
+
+    @property
+    def key(self) -> str:
+        """SHA-256 of text, file and overrides: identifies the model in a worker's cache."""
+        h = hashlib.sha256(self.text.encode())
+        h.update(self.file.encode())
+        h.update(repr(self.overrides).encode())
+        return h.hexdigest()
+
+    def load(self):
+        """The checked Model (cached per process).
+
+        Raises
+        ------
+        MbdError
+            The model has errors.
+        """
+        key = self.key
+        model = _MODELS.get(key)
+        if model is None:
+            from .. import load_text
+            model = load_text(self.text, self.file, dict(self.overrides))
+            _MODELS[key] = model
+        return model
+
+
+_MODELS: dict = {}
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """One integration of a study.
+
+    Attributes
+    ----------
+    method : str
+        A key of :data:`mbdsl.METHODS`.
+    h : float [s]
+    t_end : float [s]
+    coefficients : tuple of (str, float)
+        Method coefficients given explicitly (e.g. ``(("alpha", -0.3),)``);
+        the others come from the model's ``simulate`` section or the method's
+        defaults, as in :func:`mbdsl.simulate`.
+    repeat : int
+        Timed runs; the first also supplies the results.
+    energy : bool
+        Return the total energy at every step.
+    drift_joint : str or None
+        Return that joint's velocity constraint rows at every step.
+    """
+
+    method: str
+    h: float
+    t_end: float
+    coefficients: tuple = ()
+    repeat: int = 1
+    energy: bool = False
+    drift_joint: str | None = None
+
+    @property
+    def key(self) -> tuple:
+        """(method, h, coefficients): runs with equal keys give equal results."""
+        return (self.method, self.h, self.coefficients)
+
+    def label(self) -> str:
+        """``hht-i3 alpha=-0.3 h=2^-9``-style label for tables and messages."""
+        coef = " ".join(f"{k}={v:g}" for k, v in self.coefficients)
+        return f"{self.method}{' ' + coef if coef else ''} h={format_h(self.h)}"
+
+
+def format_h(h: float) -> str:
+    """``2^-9`` for powers of two, else ``%g``."""
+    k = np.log2(h)
+    if abs(k - round(k)) < 1e-12:
+        return f"2^{int(round(k))}"
+    return f"{h:g}"
+
+
+@dataclass
+class RunData:
+    """What a worker sends back.
+
+    Attributes
+    ----------
+    spec : RunSpec
+    status : str
+        ``"completed"`` or ``"failed"``.
+    message : str
+        Why a run failed (the model's words), else empty.
+    t_stop : float [s]
+        Last time reached.
+    q_end, v_end : ndarray, shape (n,)
+        Generalized coordinates and velocities at ``t_stop``.
+    coefficients : dict
+        Every coefficient of the method as run.
+    wall_times : list of float [s]
+        Time-loop wall time of each repeat.
+    stats : dict
+        Totals of the first run: steps, rejected, iterations, residuals,
+        jacobians, factorizations.
+    t, energy : ndarray, shape (N,) or None
+        Step times and total energy (``spec.energy``).
+    drift : ndarray, shape (N, rows) or None
+        ``Phi_q v + Phi_t`` of ``spec.drift_joint`` at every step.
+    """
+
+    spec: RunSpec
+    status: str
+    message: str
+    t_stop: float
+    q_end: np.ndarray
+    v_end: np.ndarray
+    coefficients: dict = field(default_factory=dict)
+    wall_times: list = field(default_factory=list)
+    stats: dict = field(default_factory=dict)
+    t: np.ndarray | None = None
+    energy: np.ndarray | None = None
+    drift: np.ndarray | None = None
+
+    @property
+    def completed(self) -> bool:
+        """True when the run reached t_end."""
+        return self.status == "completed"
+
+    @property
+    def time(self) -> float:
+        """Median wall time of the time loop [s]."""
+        return float(np.median(self.wall_times)) if self.wall_times else float("nan")
+
+
+def execute_run(source: ModelSource, spec: RunSpec) -> RunData:
+    """Run one spec; never raises for a run that fails numerically.
+
+    Parameters
+    ----------
+    source : ModelSource
+    spec : RunSpec
+
+    Returns
+    -------
+    RunData
+        ``status == "failed"`` with the integrator's message when the run
+        stopped early (its partial results up to ``t_stop`` are kept).
+
+    Raises
+    ------
+    MbdError
+        The model has errors or cannot be assembled (the parent reports it).
+    """
+    from .. import ConvergenceError, simulate
+    model = source.load()
+    coef = dict(spec.coefficients)
+    try:
+        sol = simulate(model, method=spec.method, h=spec.h, t_end=spec.t_end, **coef)
+        status, message = "completed", ""
+    except ConvergenceError as err:
+        sol, status, message = err.solution, "failed", str(err)
+    times = [sol.wall_time]
+    if status == "completed":
+        for _ in range(spec.repeat - 1):
+            times.append(simulate(model, method=spec.method, h=spec.h, t_end=spec.t_end,
+                                  **coef).wall_time)
+    tot = sol.stats_total
+    stats = {k: int(getattr(tot, k)) for k in
+             ("steps", "rejected", "iterations", "residuals", "jacobians", "factorizations")}
+    data = RunData(spec, status, message, float(sol.t[-1]), sol.q[-1].copy(), sol.v[-1].copy(),
+                   dict(sol.method_parameters), times, stats)
+    if spec.energy or spec.drift_joint:
+        data.t = sol.t.copy()
+    if spec.energy:
+        sys_ = sol.system
+        data.energy = np.array([sys_.kinetic_energy(q, v) + sys_.potential_energy(q)
+                                for q, v in zip(sol.q, sol.v)])
+    if spec.drift_joint:
+        data.drift = joint_velocity_violation(sol, spec.drift_joint)
+    return data
+
+
+def joint_velocity_violation(sol, joint: str) -> np.ndarray:
+    """``Phi_q v + Phi_t`` restricted to one joint's rows at every step.
+
+    Parameters
+    ----------
+    sol : Solution
+    joint : str
+        A joint or driver name of the model.
+
+    Returns
+    -------
+    ndarray, shape (N, rows of the joint)
+        [m/s] for the translational rows, [rad/s] for the rotational one.
+
+    Raises
+    ------
+    KeyError
+        Unknown joint.
+    """
+    sys_ = sol.system
+    rows = sys_.layout.element_rows[joint]
+    out = np.empty((len(sol.t), len(rows)))
+    for i, (t, q, v) in enumerate(zip(sol.t, sol.q, sol.v)):
+        out[i] = (sys_.Phiq_times(q, t, v) + sys_.Phi_t(q, t))[rows]
+    return out

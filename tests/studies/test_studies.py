@@ -1,0 +1,232 @@
+"""mbdsl study: convergence, energy, drift, cost and work-precision on small models.
+
+Oracles: the methods' known orders (1 for NEWMARK with gamma = 0.6, 2 for the
+others), energy conservation of the undamped pendulum (the study's eps(T)
+against E_ref must equal the eps(T) against E(0) computed here from a plain
+simulate), the velocity constraint (round-off for the index-2 methods), and
+determinism (--jobs 1 and --jobs 2 give identical numbers).
+"""
+
+import re
+
+import numpy as np
+import pytest
+from PIL import Image
+
+import mbdsl
+from mbdsl.cli.main import main
+from mbdsl.studies import StudyOptions, parse_h_range, run_study
+
+from ..conftest import MODELS
+
+PENDULUM = MODELS / "pendulum.mbd"
+HS = [2.0**-k for k in range(7, 11)]          # 2^-7 .. 2^-10
+T = 1.0
+ORDER = {"newmark": 1, "hht-i3": 2, "nstiff": 2, "nstiff-si2": 2, "hht-add": 2, "hht-si2": 2}
+
+
+def _series_in_svg(path):
+    """Number of distinct plotted series per panel in a figure written by write_figure."""
+    ids = re.findall(r'id="series-(\d+)-(\d+)', path.read_text())
+    panels = {}
+    for k, j in set(ids):
+        panels.setdefault(int(k), set()).add(int(j))
+    return {k: len(v) for k, v in panels.items()}
+
+
+def _assert_image(path, width=200):
+    """A readable PNG of a plausible size."""
+    with Image.open(path) as im:
+        im.verify()
+    with Image.open(path) as im:
+        assert im.format == "PNG" and im.size[0] >= width
+
+
+@pytest.fixture(scope="module")
+def pendulum_all(tmp_path_factory):
+    """Every study on the pendulum, two worker processes; written to a folder."""
+    out = tmp_path_factory.mktemp("pendulum_all")
+    opts = StudyOptions(methods=list(mbdsl.METHODS), hs=HS, t_end=T, repeat=2, jobs=2)
+    result = run_study("all", PENDULUM, opts, log=lambda s: None)
+    files = result.write(out)
+    return result, out, files
+
+
+def test_convergence_orders_on_the_pendulum(pendulum_all):
+    result, _, _ = pendulum_all
+    orders = {row[0]: row for row in result.section("convergence").tables[1].rows}
+    for method, expected in ORDER.items():
+        _, exp, pos, vel, points = orders[method]
+        assert exp == expected
+        assert points == len(HS)
+        assert abs(pos - expected) <= 0.15, (method, pos)
+        assert abs(vel - expected) <= 0.15, (method, vel)
+
+
+def test_errors_are_measured_against_an_accurate_reference(pendulum_all):
+    result, _, _ = pendulum_all
+    ref = result.reference
+    assert "DOP853" in ref.description
+    assert np.max(ref.error_q) < 1e-9 and np.max(ref.error_v) < 1e-9
+    # the reference at T agrees with a fine hht-si2 run to that run's accuracy
+    sol = mbdsl.simulate(mbdsl.load(PENDULUM), method="hht-si2", h=2.0**-13, t_end=T)
+    assert np.max(np.abs(sol.q[-1] - ref.q_end)) < 1e-6
+    err = result.section("convergence").tables[0]
+    run = result.runs[("hht-i3", HS[-1], ())]
+    row = [r for r in err.rows if r[0] == "hht-i3" and r[1] == HS[-1]][0]
+    assert row[2] == pytest.approx(np.max(np.abs(run.q_end - ref.q_end)), rel=1e-12)
+
+
+def test_energy_error_matches_an_independent_computation(pendulum_all):
+    """On a conservative model eps(T) against E_ref is eps(T) against E(0)."""
+    result, _, _ = pendulum_all
+    rows = {(r[0], r[1]): r[2] for r in result.section("energy").tables[0].rows}
+    model = mbdsl.load(PENDULUM)
+    for method in ("newmark", "hht-i3"):
+        sol = mbdsl.simulate(model, method=method, h=HS[1], t_end=T)
+        e = sol.column("energy.total")
+        eps = np.trapezoid(np.abs(e - e[0]), sol.t) / T
+        assert rows[method, HS[1]] == pytest.approx(eps, rel=1e-4)
+    orders = {r[0]: r[2] for r in result.section("energy").tables[1].rows}
+    assert abs(orders["newmark"] - 1) <= 0.3
+    for method in ("hht-i3", "hht-si2", "nstiff"):
+        assert abs(orders[method] - 2) <= 0.3, (method, orders[method])
+
+
+def test_energy_dissipation_table_compares_two_alphas(pendulum_all):
+    result, _, _ = pendulum_all
+    table = result.section("energy").tables[2]
+    methods = {r[0] for r in table.rows}
+    assert methods == {"hht-i3", "hht-si2", "hht-add"}
+    for m, h, e03, e005, ratio in table.rows:
+        assert ratio == pytest.approx(e03 / e005)
+        assert e03 > 0 and e005 > 0
+    # the alpha = -0.3 runs are real runs at that alpha
+    run = result.runs[("hht-i3", HS[0], (("alpha", -0.3),))]
+    assert run.coefficients["alpha"] == -0.3
+
+
+def test_drift_is_roundoff_for_the_index2_methods(pendulum_all):
+    result, _, _ = pendulum_all
+    rows = {r[0]: r for r in result.section("drift").tables[0].rows}
+    for m in ("nstiff-si2", "hht-add", "hht-si2"):
+        assert rows[m][3] == "round-off" and max(rows[m][1], rows[m][2]) < 1e-10
+    for m in ("newmark", "hht-i3", "nstiff"):
+        assert rows[m][3] == "O(h^p)" and max(rows[m][1], rows[m][2]) > 1e-8
+    # the table's maximum is the joint's Phi_q v + Phi_t recomputed from the run
+    sol = mbdsl.simulate(mbdsl.load(PENDULUM), method="hht-i3", h=result.options.h_single,
+                         t_end=T)
+    sysm = sol.system
+    viol = [np.abs(sysm.Phiq_times(q, t, v) + sysm.Phi_t(q, t)) for t, q, v in
+            zip(sol.t, sol.q, sol.v)]
+    assert rows["hht-i3"][1] == pytest.approx(max(v[0] for v in viol), rel=1e-9)
+
+
+def test_cost_has_one_row_per_method_with_positive_times(pendulum_all):
+    result, _, _ = pendulum_all
+    rows = result.section("cost").tables[0].rows
+    assert [r[0] for r in rows] == list(mbdsl.METHODS)
+    for m, steps, time, us, rel, its, jac, fac, res, status in rows:
+        assert steps == round(T / result.options.h_single)
+        assert time > 0 and us > 0 and rel > 0 and its >= 1 and status == "completed"
+    assert [r[4] for r in rows if r[0] == "hht-i3"] == [1.0]
+    assert len(result.runs[("hht-i3", result.options.h_single, ())].wall_times) == 2
+
+
+def test_files_figures_and_index(pendulum_all):
+    result, out, files = pendulum_all
+    names = {p.name for p in files}
+    for stem in ("convergence", "convergence_orders", "energy", "energy_orders",
+                 "energy_dissipation", "drift", "cost", "work_precision"):
+        assert f"{stem}.csv" in names and f"{stem}.md" in names
+    expected = {            # figure -> series per panel
+        "convergence": {0: 6, 1: 6},
+        "energy_eps": {0: 6},
+        "energy_curves": {0: len(HS), 1: len(HS)},
+        "drift": {k: 1 for k in range(6)},
+        "cost": {0: 1},
+        "work_precision": {0: 6},
+    }
+    for stem, series in expected.items():
+        _assert_image(out / f"{stem}.png")
+        assert _series_in_svg(out / f"{stem}.svg") == series, stem
+    index = (out / "index.md").read_text()
+    for stem in expected:
+        assert f"({stem}.png)" in index
+    assert "| hht-si2 |" in index and "DOP853" in index
+    csv = (out / "convergence.csv").read_text().splitlines()
+    assert csv[0].startswith("method,h [s],error positions,error velocities")
+    assert len(csv) == 1 + 6 * len(HS)
+
+
+def test_jobs_2_gives_the_same_errors_as_jobs_1(pendulum_all):
+    result2, _, _ = pendulum_all
+    opts = StudyOptions(methods=["newmark", "hht-si2"], hs=HS[:2], t_end=T, jobs=1)
+    result1 = run_study("convergence", PENDULUM, opts, log=lambda s: None)
+    for key, run in result1.runs.items():
+        other = result2.runs[key]
+        assert np.array_equal(run.q_end, other.q_end) and np.array_equal(run.v_end, other.v_end)
+        assert run.stats == other.stats
+
+
+def test_a_file_reference_flags_errors_at_its_own_accuracy(tmp_path):
+    """The run at the reference's own step has error 0: flagged and not fitted."""
+    ref_file = tmp_path / "ref.csv"
+    assert main(["simulate", str(PENDULUM), "--method", "hht-i3", "--h", str(HS[-1]),
+                 "--t-end", "1", "-o", str(ref_file), "-q"]) == 0
+    opts = StudyOptions(methods=["hht-i3"], hs=HS, t_end=T, reference=str(ref_file), jobs=1)
+    result = run_study("convergence", PENDULUM, opts, log=lambda s: None)
+    assert "Richardson" in result.reference.description
+    errors, orders = result.section("convergence").tables
+    last = [r for r in errors.rows if r[1] == HS[-1]][0]
+    assert last[2] == 0.0 and "below 10x reference error" in last[4]
+    # a reference only 2x finer than the study's smallest step cannot check 2^-9 either
+    est = (np.max(result.reference.error_q), np.max(result.reference.error_v))
+    clear = [r for r in errors.rows if r[2] > 10 * est[0] and r[3] > 10 * est[1]]
+    assert HS[0] in [r[1] for r in clear] and HS[-1] not in [r[1] for r in clear]
+    assert orders.rows[0][-1] == len(clear)
+    assert abs(orders.rows[0][2] - 2) < 0.3
+
+
+def test_dask_scheduler_runs_the_same_study():
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster:
+        opts = StudyOptions(methods=["hht-i3"], hs=HS[:2], t_end=T, scheduler=cluster.scheduler_address)
+        on_dask = run_study("convergence", PENDULUM, opts, log=lambda s: None)
+    local = run_study("convergence", PENDULUM,
+                      StudyOptions(methods=["hht-i3"], hs=HS[:2], t_end=T, jobs=1),
+                      log=lambda s: None)
+    assert on_dask.section("convergence").tables[0].rows == local.section("convergence").tables[0].rows
+
+
+def test_h_range():
+    assert parse_h_range("2^-7:2^-11") == [2.0**-k for k in range(7, 12)]
+    assert parse_h_range("1e-3:2.5e-4") == [1e-3, 5e-4, 2.5e-4]
+    with pytest.raises(ValueError, match="power of two apart"):
+        parse_h_range("1e-3:3e-4")
+    with pytest.raises(ValueError, match="FIRST:LAST"):
+        parse_h_range("2^-7")
+
+
+def test_cli_study_prints_the_table_and_writes_the_folder(tmp_path, capsys):
+    out = tmp_path / "conv"
+    assert main(["study", "convergence", str(PENDULUM), "--methods", "hht-i3,newmark",
+                 "--h", "0.02,0.01", "--t-end", "0.5", "--jobs", "1", "-o", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "Fitted order" in text and "hht-i3" in text and "newmark" in text
+    assert (out / "index.md").exists() and (out / "convergence.png").exists()
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--h-range", "1e-3:3e-4"], "power of two apart"),
+    (["--quantity", "rod.omegaa"], "did you mean rod.omega"),
+    (["--methods", "hht"], "unknown method 'hht'"),
+    (["--joint", "nope", "--h", "0.01"], "no joint 'nope'"),
+])
+def test_cli_study_errors_are_for_people(args, message, tmp_path, capsys):
+    kind = "drift" if "--joint" in args else "convergence"
+    status = main(["study", kind, str(PENDULUM), "--t-end", "0.1", "--jobs", "1",
+                   "-o", str(tmp_path / "x")] + args)
+    err = capsys.readouterr().err
+    assert status != 0 and message in err and "Traceback" not in err
