@@ -35,7 +35,7 @@ __all__ = ["StudyReference", "build_reference", "method_order"]
 
 #: rhs evaluations DOP853 may spend before ``auto`` gives up on it
 #: (a 2 s slider-crank run at rtol 1e-12 needs about 2300)
-DOP853_BUDGET = 600_000
+DOP853_BUDGET = 200_000
 
 
 def method_order(method: str, coefficients: dict) -> int:
