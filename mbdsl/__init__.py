@@ -30,7 +30,7 @@ from .dsl.spec import (ArgSpec, BodySpec, DriverSpec, ForceSpec, InitialSpec, Jo
 from .errors import (AssemblyError, ConvergenceError, Diagnostic, MbdError, MbdModelError,
                      MbdSyntaxError, render)
 from .integrators import (METHODS, JacobianUpdate, NewtonOptions, integrate, make_method,
-                          method_parameters)
+                          method_parameters, settings_coefficients)
 from .model.elements import Model
 from .output import load_solution, write_solution
 from .solution import Solution
@@ -159,8 +159,7 @@ def simulate(model: Model, method: str | None = None, h: float | None = None,
     # coefficients from the model's simulate section apply to the methods that
     # take them (a file written for hht-i3 still runs with --method nstiff);
     # coefficients given here are checked strictly
-    accepted = method_parameters(method)
-    params = {k: s[k] for k in ("alpha", "beta", "gamma", "b") if k in s and k in accepted}
+    params = settings_coefficients(s, method)
     params.update({k: v for k, v in coefficients.items() if v is not None})
     m = make_method(method, **params)
     system = assemble(model)

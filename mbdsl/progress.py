@@ -16,6 +16,11 @@ import time
 __all__ = ["ProgressBar", "TaskBar"]
 
 
+def _on_terminal(file) -> bool:
+    """True when both ``file`` and stdout are terminals (bars are for people, not logs)."""
+    return all(bool(getattr(f, "isatty", lambda: False)()) for f in (file, sys.stdout))
+
+
 class ProgressBar:
     """A ``progress(t, h, iterations)`` callback for :func:`mbdsl.simulate`.
 
@@ -40,14 +45,12 @@ class ProgressBar:
                  delay: float = 1.0, refresh: float = 0.2, file=None):
         from tqdm import tqdm
         file = file or sys.stderr
-        if enabled is None:
-            enabled = all(bool(getattr(f, "isatty", lambda: False)()) for f in (file, sys.stdout))
-        self.enabled = enabled
+        self.enabled = _on_terminal(file) if enabled is None else enabled
         self.t_start, self.refresh = float(t_start), float(refresh)
         self._iters = self._steps = 0
         self._last = time.perf_counter()
         self._bar = tqdm(total=float(t_end) - float(t_start), unit="s", unit_scale=False,
-                         desc="simulated", delay=delay, disable=not enabled, file=file,
+                         desc="simulated", delay=delay, disable=not self.enabled, file=file,
                          bar_format="{desc} {n:.4g}/{total:.4g} s |{bar}| {postfix} "
                                     "[{elapsed}<{remaining}]", dynamic_ncols=True, leave=True)
 
@@ -95,10 +98,8 @@ class TaskBar:
                  file=None):
         from tqdm import tqdm
         file = file or sys.stderr
-        if enabled is None:
-            enabled = all(bool(getattr(f, "isatty", lambda: False)()) for f in (file, sys.stdout))
-        self.enabled = enabled
-        self._bar = tqdm(total=0, unit="run", desc=desc, delay=delay, disable=not enabled,
+        self.enabled = _on_terminal(file) if enabled is None else enabled
+        self._bar = tqdm(total=0, unit="run", desc=desc, delay=delay, disable=not self.enabled,
                          file=file, dynamic_ncols=True, leave=True)
 
     def __call__(self, done: int, total: int) -> None:

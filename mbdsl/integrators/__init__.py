@@ -26,7 +26,7 @@ METHODS = {
 
 __all__ = ["METHODS", "Method", "Block", "StepState", "StepContext", "integrate",
            "HHTI3", "Newmark", "NStiff", "NStiffSI2", "HHTADD", "HHTSI2", "Newton", "NewtonOptions", "NewtonResult", "NewtonStatus",
-           "JacobianUpdate", "make_method", "method_parameters"]
+           "JacobianUpdate", "make_method", "method_parameters", "settings_coefficients"]
 
 
 def method_parameters(name: str) -> set[str]:
@@ -69,3 +69,19 @@ def make_method(name: str, **parameters) -> Method:
         raise ValueError(f"method '{name}' takes no parameter {', '.join(sorted(extra))}; "
                          f"its parameters are {', '.join(sorted(accepted)) or '(none)'}")
     return cls(**params)
+
+
+def settings_coefficients(settings: dict, name: str) -> dict:
+    """The coefficients a model's ``simulate`` section sets that method ``name`` takes.
+
+    A file written for hht-i3 (``alpha -0.1``) still runs with nstiff: the
+    coefficients the method does not take are left out, not refused.
+
+    Raises
+    ------
+    ValueError
+        Unknown method.
+    """
+    accepted = method_parameters(name)
+    return {k: settings[k] for k in ("alpha", "beta", "gamma", "b")
+            if k in settings and k in accepted}

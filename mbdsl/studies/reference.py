@@ -72,9 +72,8 @@ class StudyReference:
 
     def energy(self, system, t: np.ndarray) -> np.ndarray:
         """Total energy T + V [J] of the reference at times t, shape (N,)."""
-        q, v = self.state(np.asarray(t, dtype=float))
-        return np.array([system.kinetic_energy(qi, vi) + system.potential_energy(qi)
-                         for qi, vi in zip(q, v)])
+        from .runs import total_energy
+        return total_energy(system, *self.state(np.asarray(t, dtype=float)))
 
 
 def build_reference(kind: str, model, t_end: float, h_min: float,

@@ -19,7 +19,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["ModelSource", "RunSpec", "RunData", "execute_run"]
+__all__ = ["ModelSource", "RunSpec", "RunData", "execute_run", "total_energy",
+           "joint_velocity_violation"]
 
 
 @dataclass(frozen=True)
@@ -209,12 +210,16 @@ def execute_run(source: ModelSource, spec: RunSpec) -> RunData:
     if spec.energy or spec.drift_joint:
         data.t = sol.t.copy()
     if spec.energy:
-        sys_ = sol.system
-        data.energy = np.array([sys_.kinetic_energy(q, v) + sys_.potential_energy(q)
-                                for q, v in zip(sol.q, sol.v)])
+        data.energy = total_energy(sol.system, sol.q, sol.v)
     if spec.drift_joint:
         data.drift = joint_velocity_violation(sol, spec.drift_joint)
     return data
+
+
+def total_energy(system, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Kinetic plus potential energy [J] of states q, v of shape (N, n); shape (N,)."""
+    return np.array([system.kinetic_energy(qi, vi) + system.potential_energy(qi)
+                     for qi, vi in zip(q, v)])
 
 
 def joint_velocity_violation(sol, joint: str) -> np.ndarray:

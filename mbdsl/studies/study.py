@@ -282,11 +282,8 @@ def _default_joint(model) -> str | None:
 
 def _effective(model, method: str) -> dict:
     """The coefficients a run of ``method`` without explicit ones uses (model file, defaults)."""
-    from ..integrators import make_method, method_parameters
-    s = model.settings
-    accepted = method_parameters(method)
-    return make_method(method, **{k: s[k] for k in ("alpha", "beta", "gamma", "b")
-                                  if k in s and k in accepted}).parameters()
+    from ..integrators import make_method, settings_coefficients
+    return make_method(method, **settings_coefficients(model.settings, method)).parameters()
 
 
 def _plan(kinds, o: StudyOptions, joint, model) -> list[RunSpec]:
