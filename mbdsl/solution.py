@@ -244,12 +244,27 @@ class Solution:
         reactions = [f"reaction.{j.name}.{c}" for j in self.model.joints
                      for c in ("fx", "fy", "torque")]
         return (["t"] + lay.coordinates + lay.velocities + lay.accelerations
-                + list(self.DERIVED_NAMES) + lay.multiplier_names() + extras + reactions
+                + list(self.DERIVED_NAMES) + self._beam_columns() + lay.multiplier_names()
+                + extras + reactions
                 + [f"newton.{k}" for k in self.STAT_NAMES[:-1]] + ["step.h"])
 
     #: Derived columns every model has, in CSV order.
     DERIVED_NAMES = ("energy.kinetic", "energy.potential", "energy.total",
                      "constraint.position", "constraint.velocity")
+
+    def _beam_columns(self) -> list[str]:
+        """``<beam>.deflection_mid`` of every flexible beam."""
+        return [f"{b.name}.deflection_mid" for b in self.model.flexible_bodies]
+
+    def _beam_column(self, name: str):
+        """A flexible beam's column computed from q, or None for another name."""
+        head, _, tail = name.rpartition(".")
+        if tail != "deflection_mid":
+            return None
+        for b in self.model.flexible_bodies:
+            if b.name == head:
+                return b.mesh.deflection_mid(self.q[:, b.elastic_columns()])
+        return None
 
     def derived(self) -> dict:
         """Energies, constraint norms and joint reactions: name -> ndarray, shape (N,)."""
@@ -279,6 +294,9 @@ class Solution:
         derived = self._compute_derived()
         if name in derived:
             return derived[name]
+        beam = self._beam_column(name)
+        if beam is not None:
+            return beam
         mult = lay.multiplier_names()
         if name in mult:
             return self.lam[:, mult.index(name)]

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["rot", "drot", "body_columns", "CoincidenceGroup", "PointOnLineGroup", "LinearConstraintGroup",
+__all__ = ["rot", "drot", "body_columns", "PointSet", "point_difference", "CoincidenceGroup", "PointOnLineGroup", "LinearConstraintGroup",
            "SpringDamperGroup", "RotationalSpringGroup",
            "TorqueGroup", "PointForceGroup"]
 
@@ -53,111 +53,204 @@ def body_columns(n: int, bodies) -> np.ndarray:
     return base[:, None] + np.arange(3)[None, :]
 
 
+class PointSet:
+    """k points, one per instance, on rigid bodies, flexible beams or the ground.
+
+    A point is at r + A(phi) u with u = s + S q_e: s its body-fixed (or
+    undeformed) position, S the columns of a flexible beam's shape matrix
+    for the e elastic coordinates q_e it depends on (none on a rigid body).
+    Local coordinates per instance: (x, y, phi, q_e), with e padded to the
+    largest count in the set by the ground's dummy column (q_ext = 0 there)
+    and zero shape entries. Rigid-only sets have e = 0 and cost what the
+    rigid formulas cost.
+
+    * position: r + A u                                   (k, 2)
+    * jac:      [I, B u, A S]                             (k, 2, 3 + e)
+    * hess:     d2/dphi2 = -A u, d2/dphi dq_e = B S       (k, 2, 3 + e, 3 + e)
+
+    (Shabana, Dynamics of Multibody Systems, sec. 5.3: the position of an
+    arbitrary point of a deformable body in the floating frame.)
+    """
+
+    def __init__(self, n, points):
+        points = list(points)
+        k = len(points)
+        self.e = max((len(p.elastic_columns) for p in points), default=0)
+        self.c = 3 + self.e
+        ecols = np.full((k, self.e), n, dtype=np.intp)
+        self.S = np.zeros((k, 2, self.e))
+        for i, p in enumerate(points):      # build time only
+            ne = len(p.elastic_columns)
+            ecols[i, :ne] = p.elastic_columns
+            self.S[i, :, :ne] = p.elastic_shape
+        self.cols = np.concatenate([body_columns(n, [p.body for p in points]), ecols], axis=1)
+        self.s = np.array([p.local for p in points], dtype=float).reshape(-1, 2)
+        self.flexible = self.e > 0
+        self._jac = np.zeros((k, 2, self.c))
+        self._jac[:, 0, 0] = self._jac[:, 1, 1] = 1.0
+        self._hess = np.zeros((k, 2, self.c, self.c))
+
+    def local(self, q) -> np.ndarray:
+        """u = s + S q_e in the body frame, shape (k, 2), from local coordinates q (k, c)."""
+        if not self.flexible:
+            return self.s
+        return self.s + np.einsum("kaj,kj->ka", self.S, q[:, 3:])
+
+    def position(self, q) -> np.ndarray:
+        """Global positions, shape (k, 2)."""
+        return q[:, 0:2] + rot(q[:, 2], self.local(q))
+
+    def jac(self, q) -> np.ndarray:
+        """d position / d q_local, shape (k, 2, c) (a reused buffer)."""
+        J = self._jac
+        J[:, :, 2] = drot(q[:, 2], self.local(q))
+        if self.flexible:
+            c, si = np.cos(q[:, 2]), np.sin(q[:, 2])
+            J[:, 0, 3:] = c[:, None] * self.S[:, 0] - si[:, None] * self.S[:, 1]
+            J[:, 1, 3:] = si[:, None] * self.S[:, 0] + c[:, None] * self.S[:, 1]
+        return J
+
+    def hess(self, q) -> np.ndarray:
+        """d2 position / d q_local2, shape (k, 2, c, c) (a reused buffer)."""
+        H = self._hess
+        H[:, :, 2, 2] = -rot(q[:, 2], self.local(q))
+        if self.flexible:
+            c, si = np.cos(q[:, 2]), np.sin(q[:, 2])
+            BS = np.stack([-si[:, None] * self.S[:, 0] - c[:, None] * self.S[:, 1],
+                           c[:, None] * self.S[:, 0] - si[:, None] * self.S[:, 1]], axis=1)
+            H[:, :, 2, 3:] = BS
+            H[:, :, 3:, 2] = BS
+        return H
+
+
+def point_difference(P1: PointSet, q1, P2: PointSet, q2) -> np.ndarray:
+    """d = p2 - p1, shape (k, 2), from the local coordinates of both sets.
+
+    Reference coordinates are subtracted first: exact when the two bodies
+    are within a factor 2 of each other (Sterbenz), so the round-off is eps
+    times the point offsets, not eps |r|. Index-3 methods divide Phi by
+    beta h^2, so this round-off reaches the velocities.
+    """
+    return (q2[:, 0:2] - q1[:, 0:2]) + (rot(q2[:, 2], P2.local(q2)) - rot(q1[:, 2], P1.local(q1)))
+
+
+class _PointPair:
+    """Two point sets side by side, local coordinates (q_1 [c1], q_2 [c2]),
+    and the derivatives of their difference d = p2 - p1."""
+
+    def __init__(self, n, first, second):
+        self.P1, self.P2 = PointSet(n, first), PointSet(n, second)
+        self.c1 = self.P1.c
+        self.cols = np.concatenate([self.P1.cols, self.P2.cols], axis=1)
+        k, c = self.cols.shape
+        self._D = np.zeros((k, 2, c))
+        self._DD = np.zeros((k, 2, c, c))
+
+    def split(self, qx):
+        """Local coordinates of both points, (k, c1) and (k, c2)."""
+        q = qx[self.cols]
+        return q[:, :self.c1], q[:, self.c1:]
+
+    def difference(self, q1, q2):
+        """d = p2 - p1, shape (k, 2)."""
+        return point_difference(self.P1, q1, self.P2, q2)
+
+    def difference_jac(self, q1, q2):
+        """dd/dq_local = [-J1, J2], shape (k, 2, c1 + c2) (a reused buffer)."""
+        D = self._D
+        D[:, :, :self.c1] = -self.P1.jac(q1)
+        D[:, :, self.c1:] = self.P2.jac(q2)
+        return D
+
+    def difference_hess(self, q1, q2):
+        """d2d/dq_local2 = -H1 (+) H2, shape (k, 2, c, c) (a reused buffer)."""
+        c1, DD = self.c1, self._DD
+        DD[:, :, :c1, :c1] = -self.P1.hess(q1)
+        DD[:, :, c1:, c1:] = self.P2.hess(q2)
+        return DD
+
+
 class CoincidenceGroup:
     """Two points coincide (revolute, and the first two rows of fixed).
 
-    Phi = r2 + A2 s2 - r1 - A1 s1 (2 rows). Local coordinates
-    (x1, y1, phi1, x2, y2, phi2).
+    Phi = (r2 + A2 u2) - (r1 + A1 u1) (2 rows). Local coordinates
+    (x1, y1, phi1, q_e1, x2, y2, phi2, q_e2); q_e are the elastic
+    coordinates of a point on a flexible beam (none for rigid bodies).
     """
 
     r = 2
 
-    def __init__(self, n, rows, body1, s1, body2, s2):
+    def __init__(self, n, rows, first, second):
         self.rows = np.asarray(rows, dtype=np.intp).reshape(-1, 2)
-        self.cols = np.concatenate([body_columns(n, body1), body_columns(n, body2)], axis=1)
-        self.s1, self.s2 = np.asarray(s1, float).reshape(-1, 2), np.asarray(s2, float).reshape(-1, 2)
-        k = len(self.rows)
-        self._jac = np.zeros((k, 2, 6))
-        self._jac[:, 0, 0] = self._jac[:, 1, 1] = -1.0
-        self._jac[:, 0, 3] = self._jac[:, 1, 4] = 1.0
-        self._hess = np.zeros((k, 2, 6, 6))
+        self.pair = _PointPair(n, first, second)
+        self.cols = self.pair.cols
         self.time_dependent = False
 
     def phi(self, qx, t):
         """Constraint values, shape (k, 2) [m]."""
-        q = qx[self.cols]
-        # Differences of the (possibly large) reference coordinates first: exact
-        # when the two bodies are within a factor 2 of each other (Sterbenz), so
-        # the round-off is eps times the point offsets, not eps |r|. Index-3
-        # methods divide Phi by beta h^2, so this round-off reaches the velocities.
-        return (q[:, 3:5] - q[:, 0:2]) + (rot(q[:, 5], self.s2) - rot(q[:, 2], self.s1))
+        return self.pair.difference(*self.pair.split(qx))
 
     def jac(self, qx):
-        """Local Jacobian, shape (k, 2, 6)."""
-        q = qx[self.cols]
-        J = self._jac
-        J[:, :, 2] = -drot(q[:, 2], self.s1)
-        J[:, :, 5] = drot(q[:, 5], self.s2)
-        return J
+        """Local Jacobian, shape (k, 2, c)."""
+        return self.pair.difference_jac(*self.pair.split(qx))
 
     def hess(self, qx):
-        """Local Hessian, shape (k, 2, 6, 6): only the phi-phi entries."""
-        q = qx[self.cols]
-        H = self._hess
-        H[:, :, 2, 2] = rot(q[:, 2], self.s1)
-        H[:, :, 5, 5] = -rot(q[:, 5], self.s2)
-        return H
+        """Local Hessian, shape (k, 2, c, c)."""
+        return self.pair.difference_hess(*self.pair.split(qx))
 
 
 class PointOnLineGroup:
-    """Point P of body p stays on the line through point L of body l.
+    """Point P stays on the line through point L of body l.
 
-    Phi = n . (rP + AP sP - rL - AL sL), n = AL n0 the line's unit normal
-    (1 row). Local coordinates (xP, yP, phiP, xL, yL, phiL).
+    Phi = n . d, d = p_P - p_L, n = A_l n0 the line's unit normal, turning
+    with body l's (reference) frame (1 row). Local coordinates
+    (x_L, y_L, phi_L, q_eL, x_P, y_P, phi_P, q_eP), D = dd/dq_local:
+
+        Phi_q  = n^T D + (B_l n0 . d) e_phiL^T
+        Phi_qq = n . D_qq + e_phiL (B_l n0)^T D + D^T (B_l n0) e_phiL^T
+                 - (n . d) e_phiL e_phiL^T
     """
 
     r = 1
 
-    def __init__(self, n, rows, body_p, s_p, body_l, s_l, normal):
+    def __init__(self, n, rows, point, line, normal):
         self.rows = np.asarray(rows, dtype=np.intp).reshape(-1, 1)
-        self.cols = np.concatenate([body_columns(n, body_p), body_columns(n, body_l)], axis=1)
-        self.sp = np.asarray(s_p, float).reshape(-1, 2)
-        self.sl = np.asarray(s_l, float).reshape(-1, 2)
+        self.pair = _PointPair(n, line, point)          # d = p_P - p_L
+        self.cols = self.pair.cols
         self.n0 = np.asarray(normal, float).reshape(-1, 2)
-        k = len(self.rows)
-        self._jac = np.zeros((k, 1, 6))
-        self._hess = np.zeros((k, 1, 6, 6))
+        k, c = self.cols.shape
+        self._jac = np.zeros((k, 1, c))
+        self._hess = np.zeros((k, 1, c, c))
         self.time_dependent = False
 
     def _parts(self, qx):
-        q = qx[self.cols]
-        nvec = rot(q[:, 5], self.n0)
-        d = (q[:, 0:2] - q[:, 3:5]) + (rot(q[:, 2], self.sp) - rot(q[:, 5], self.sl))
-        return q, nvec, d
+        qL, qP = self.pair.split(qx)
+        phiL = qL[:, 2]
+        return qL, qP, rot(phiL, self.n0), drot(phiL, self.n0), self.pair.difference(qL, qP)
 
     def phi(self, qx, t):
         """Constraint values, shape (k, 1) [m]."""
-        _, nvec, d = self._parts(qx)
+        _, _, nvec, _, d = self._parts(qx)
         return np.einsum("ka,ka->k", nvec, d)[:, None]
 
     def jac(self, qx):
-        """Local Jacobian, shape (k, 1, 6)."""
-        q, nvec, d = self._parts(qx)
-        Bn = drot(q[:, 5], self.n0)
+        """Local Jacobian, shape (k, 1, c)."""
+        qL, qP, nvec, Bn, d = self._parts(qx)
         J = self._jac
-        J[:, 0, 0:2] = nvec
-        J[:, 0, 2] = np.einsum("ka,ka->k", nvec, drot(q[:, 2], self.sp))
-        J[:, 0, 3:5] = -nvec
-        J[:, 0, 5] = np.einsum("ka,ka->k", Bn, d) - np.einsum("ka,ka->k", nvec,
-                                                              drot(q[:, 5], self.sl))
+        J[:, 0, :] = np.einsum("ka,kaj->kj", nvec, self.pair.difference_jac(qL, qP))
+        J[:, 0, 2] += np.einsum("ka,ka->k", Bn, d)
         return J
 
     def hess(self, qx):
-        """Local Hessian, shape (k, 1, 6, 6)."""
-        q, nvec, d = self._parts(qx)
-        Bn = drot(q[:, 5], self.n0)
-        BsP = drot(q[:, 2], self.sp)
-        BsL = drot(q[:, 5], self.sl)
-        AsL = rot(q[:, 5], self.sl)
-        AsP = rot(q[:, 2], self.sp)
+        """Local Hessian, shape (k, 1, c, c)."""
+        qL, qP, nvec, Bn, d = self._parts(qx)
+        D = self.pair.difference_jac(qL, qP)
         H = self._hess
-        H[:, 0, 0:2, 5] = H[:, 0, 5, 0:2] = Bn
-        H[:, 0, 3:5, 5] = H[:, 0, 5, 3:5] = -Bn
-        H[:, 0, 2, 2] = -np.einsum("ka,ka->k", nvec, AsP)
-        H[:, 0, 2, 5] = H[:, 0, 5, 2] = np.einsum("ka,ka->k", Bn, BsP)
-        H[:, 0, 5, 5] = (-np.einsum("ka,ka->k", nvec, d)
-                         - 2.0 * np.einsum("ka,ka->k", Bn, BsL)
-                         + np.einsum("ka,ka->k", nvec, AsL))
+        H[:, 0] = np.einsum("ka,kaij->kij", nvec, self.pair.difference_hess(qL, qP))
+        BnD = np.einsum("ka,kaj->kj", Bn, D)
+        H[:, 0, 2, :] += BnD
+        H[:, 0, :, 2] += BnD
+        H[:, 0, 2, 2] -= np.einsum("ka,ka->k", nvec, d)
         return H
 
 
@@ -216,65 +309,57 @@ class LinearConstraintGroup:
 class SpringDamperGroup:
     """Translational spring-dampers between point pairs.
 
-    d = r2 + A2 s2 - r1 - A1 s1, l = |d|, e = d / l, ldot = e . d',
-    tension f = k (l - l0) + c ldot, generalized force Q = -G^T (f e) with
-    G = dd/dq_local (2 x 6). Q_q follows from the chain rule through e, l,
-    ldot and the Hessians of d; Q_v = -c (G^T e)(G^T e)^T.
+    d = p2 - p1, l = |d|, e = d / l, ldot = e . d', tension
+    f = k (l - l0) + c ldot, generalized force Q = -D^T (f e) with
+    D = dd/dq_local. Q_q follows from the chain rule through e, l, ldot and
+    the Hessians of d; Q_v = -c (D^T e)(D^T e)^T. The points may lie on
+    flexible beams (``PointSet``).
     """
 
-    def __init__(self, n, body1, s1, body2, s2, k, c, length):
-        self.cols = np.concatenate([body_columns(n, body1), body_columns(n, body2)], axis=1)
-        self.s1, self.s2 = np.asarray(s1, float).reshape(-1, 2), np.asarray(s2, float).reshape(-1, 2)
+    def __init__(self, n, first, second, k, c, length):
+        self.pair = _PointPair(n, first, second)
+        self.cols = self.pair.cols
         self.k, self.c, self.l0 = (np.asarray(x, float) for x in (k, c, length))
         self.damped = bool(np.any(self.c != 0.0))
 
     def _kin(self, qx, vx):
-        q, v = qx[self.cols], vx[self.cols]
-        As1, As2 = rot(q[:, 2], self.s1), rot(q[:, 5], self.s2)
-        d = (q[:, 3:5] + As2) - (q[:, 0:2] + As1)
-        kk = len(q)
-        G = np.zeros((kk, 2, 6))
-        G[:, 0, 0] = G[:, 1, 1] = -1.0
-        G[:, 0, 3] = G[:, 1, 4] = 1.0
-        G[:, :, 2] = -drot(q[:, 2], self.s1)
-        G[:, :, 5] = drot(q[:, 5], self.s2)
+        q1, q2 = self.pair.split(qx)
+        v = vx[self.cols]
+        d = self.pair.difference(q1, q2)
+        G = self.pair.difference_jac(q1, q2)
         ddot = np.einsum("kaj,kj->ka", G, v)
         l = np.sqrt(np.einsum("ka,ka->k", d, d))
         e = d / l[:, None]
-        return q, v, As1, As2, d, G, ddot, l, e
+        return q1, q2, v, d, G, ddot, l, e
 
     def lengths(self, qx):
         """Current lengths l, shape (k,) [m]."""
-        return self._kin(qx, np.zeros_like(qx))[7]
+        d = self.pair.difference(*self.pair.split(qx))
+        return np.sqrt(np.einsum("ka,ka->k", d, d))
 
     def forces(self, qx, vx, t):
-        """Local Q, shape (k, 6) [N, N m]."""
-        _, _, _, _, d, G, ddot, l, e = self._kin(qx, vx)
+        """Local Q, shape (k, c) [N, N m]."""
+        _, _, _, d, G, ddot, l, e = self._kin(qx, vx)
         f = self.k * (l - self.l0)
         if self.damped:
             f = f + self.c * np.einsum("ka,ka->k", e, ddot)
         return -np.einsum("kaj,ka->kj", G, f[:, None] * e)
 
     def derivatives(self, qx, vx, t):
-        """Local (Q_q, Q_v), each shape (k, 6, 6)."""
-        q, v, As1, As2, d, G, ddot, l, e = self._kin(qx, vx)
-        kk = len(q)
-        # Hessians of d's components: only (phi1, phi1) = +A1 s1, (phi2, phi2) = -A2 s2.
-        Hv = np.zeros((kk, 2, 6))            # [H_a v]_a, rows a
-        Hv[:, :, 2] = As1 * v[:, 2:3]
-        Hv[:, :, 5] = -As2 * v[:, 5:6]
+        """Local (Q_q, Q_v), each shape (k, c, c)."""
+        q1, q2, v, d, G, ddot, l, e = self._kin(qx, vx)
+        Hd = self.pair.difference_hess(q1, q2)          # (k, 2, c, c)
+        Hv = np.einsum("kaij,kj->kai", Hd, v)           # d(ddot)/dq
         P = (np.eye(2)[None] - e[:, :, None] * e[:, None, :]) / l[:, None, None]
-        de = np.einsum("kab,kbj->kaj", P, G)            # de/dq, (k, 2, 6)
+        de = np.einsum("kab,kbj->kaj", P, G)            # de/dq, (k, 2, c)
         ldot = np.einsum("ka,ka->k", e, ddot)
-        dl = np.einsum("ka,kaj->kj", e, G)              # dl/dq, (k, 6)
+        dl = np.einsum("ka,kaj->kj", e, G)              # dl/dq, (k, c)
         f = self.k * (l - self.l0) + self.c * ldot
         dldot = np.einsum("ka,kaj->kj", ddot, de) + np.einsum("ka,kaj->kj", e, Hv)
         df = self.k[:, None] * dl + self.c[:, None] * dldot
         dF = e[:, :, None] * df[:, None, :] + f[:, None, None] * de   # d(f e)/dq
         F = f[:, None] * e
-        Q_q = -np.einsum("kaj,kai->kji", G, dF)
-        Q_q[:, 2, 2] -= np.einsum("ka,ka->k", F, As1)   # - sum_a F_a H_a
-        Q_q[:, 5, 5] += np.einsum("ka,ka->k", F, As2)
+        Q_q = -np.einsum("kaj,kai->kji", G, dF) - np.einsum("ka,kaij->kij", F, Hd)
         Ge = np.einsum("kaj,ka->kj", G, e)
         Q_v = -self.c[:, None, None] * Ge[:, :, None] * Ge[:, None, :]
         return Q_q, Q_v
@@ -333,27 +418,23 @@ class TorqueGroup:
 class PointForceGroup:
     """Forces F(t), fixed in the global frame, at body points.
 
-    Q = (F, (B s) . F); Q_q has one entry, d/dphi (B s . F) = -(A s) . F.
+    Q = J^T F with J = d p / d q_local (``PointSet``): (F, (B u) . F,
+    S^T A^T F); Q_q = sum_a F_a d2 p_a / dq2 (for a rigid body the one
+    entry d/dphi (B s . F) = -(A s) . F).
     """
 
-    def __init__(self, n, body, s, fx, fy):
-        self.cols = body_columns(n, body)
-        self.s = np.asarray(s, float).reshape(-1, 2)
+    def __init__(self, n, points, fx, fy):
+        self.points = PointSet(n, points)
+        self.cols = self.points.cols
         self.fx, self.fy = list(fx), list(fy)
 
     def _F(self, t):
         return np.array([[fx.f(t), fy.f(t)] for fx, fy in zip(self.fx, self.fy)])
 
     def forces(self, qx, vx, t):
-        """Local Q, shape (k, 3) [N, N m]."""
-        F = self._F(t)
-        phi = qx[self.cols[:, 2]]
-        return np.concatenate([F, np.einsum("ka,ka->k", drot(phi, self.s), F)[:, None]], axis=1)
+        """Local Q, shape (k, c) [N, N m]."""
+        return np.einsum("kaj,ka->kj", self.points.jac(qx[self.cols]), self._F(t))
 
     def derivatives(self, qx, vx, t):
-        """Local (Q_q, None), Q_q shape (k, 3, 3)."""
-        F = self._F(t)
-        phi = qx[self.cols[:, 2]]
-        Q_q = np.zeros((len(F), 3, 3))
-        Q_q[:, 2, 2] = -np.einsum("ka,ka->k", rot(phi, self.s), F)
-        return Q_q, None
+        """Local (Q_q, None), Q_q shape (k, c, c)."""
+        return np.einsum("ka,kaij->kij", self._F(t), self.points.hess(qx[self.cols])), None

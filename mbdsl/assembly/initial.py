@@ -9,8 +9,12 @@
 2. **Closure.** Gauss-Newton with minimum-norm steps on
    [Phi(q, t0); q_fixed - values] = 0 closes the loops, moving the
    coordinates the user did not fix as little as possible from the placement.
+   Flexible beams start undeformed; their elastic coordinates are weighted
+   so that they change only where the loops cannot close otherwise
+   (``ELASTIC_WEIGHT``).
 3. **Velocities.** The minimum-norm change of the given velocities (0 where
-   none is given) that satisfies Phi_q v + Phi_t = 0 with the fixed ones kept.
+   none is given) that satisfies Phi_q v + Phi_t = 0 with the fixed ones
+   kept, elastic rates weighted the same way.
 4. **Accelerations and multipliers** from the index-1 system
    [[M, Phi_q^T], [Phi_q, 0]] [a0; lambda0] = [Q; gamma].
 
@@ -153,6 +157,32 @@ def _min_norm_step(J, r):
     return np.linalg.lstsq(J, r, rcond=None)[0]
 
 
+#: Column weight of the elastic coordinates of flexible beams in the
+#: minimum-norm closure and velocity projection: a change of an elastic
+#: coordinate costs (1/ELASTIC_WEIGHT)^2 times a change of a reference
+#: coordinate, so the loops close by moving the bodies, and the beams deform
+#: only where the geometry leaves no other way (a beam forced between two
+#: points further apart than its length).
+ELASTIC_WEIGHT = 1e-3
+
+
+def _column_weights(system) -> np.ndarray:
+    """Weights W of the minimum-norm steps, shape (n,): 1, or ELASTIC_WEIGHT."""
+    w = np.ones(system.n)
+    for b in system.model.flexible_bodies:
+        w[b.elastic_columns()] = ELASTIC_WEIGHT
+    return w
+
+
+def _weighted_step(J, r, w):
+    """min ||dq / w|| subject to J dq = r: dq = w * minnorm(J diag(w), r)."""
+    if scipy.sparse.issparse(J):
+        Jw = J @ scipy.sparse.diags(w)
+    else:
+        Jw = J * w[None, :]
+    return w * _min_norm_step(Jw, r)
+
+
 def _stacked_jacobian(system, q, t, E, sparse):
     """[Phi_q; E] (E selects the coordinates the user fixed), dense or CSR."""
     if not sparse:
@@ -163,9 +193,27 @@ def _stacked_jacobian(system, q, t, E, sparse):
     return scipy.sparse.vstack([Pq, scipy.sparse.csr_matrix(E)]).tocsr()
 
 
+#: Iterations allowed for the quasi-static start of flexible beams.
+QUASI_STATIC_ITERATIONS = 50
+
+
 def consistent_initial_state(system: AssembledSystem, t0: float = 0.0,
                              tol: float = 1e-12, max_iter: int = 50) -> InitialState:
     """Find q0, v0, a0, lambda0 consistent with all constraint levels.
+
+    With flexible beams the elastic coordinates start at their quasi-static
+    values: the deflection under the initial loads (gravity, the inertia of
+    the initial motion, the joint forces) with elastic accelerations zero.
+    A beam started undeformed instead vibrates at its (unresolved, for the
+    usual step sizes) natural frequencies, which the methods damp
+    differently and which would dominate every comparison of them. The
+    Newton-like update q_f <- q_f + K^{-1} G^{-1} a_f (K the stiffness,
+    a_f the elastic accelerations of the index-1 solution, G the elastic
+    block of the index-1 matrix's inverse) is iterated with the whole state
+    made consistent at each step, until the update is at round-off (dense:
+    meant for models of a few hundred coordinates). The elastic rates start at 0. (A static
+    correction, as in Shabana, Dynamics of Multibody Systems, sec. 5.7, on
+    the initial conditions of deformable bodies.)
 
     Parameters
     ----------
@@ -189,6 +237,38 @@ def consistent_initial_state(system: AssembledSystem, t0: float = 0.0,
         velocities contradict the constraints, E505 when the index-1 matrix
         is singular (redundant constraints or a singular position).
     """
+    state = _consistent_state(system, t0, tol, max_iter, None)
+    if not system.flexible_groups:
+        return state
+    cols = np.concatenate([b.elastic_columns() for b in model_flexible(system)])
+    K = scipy.linalg.block_diag(*[Kb for g in system.flexible_groups for Kb in g.K])
+    for _ in range(QUASI_STATIC_ITERATIONS):
+        # a_f responds to elastic forces F_f as a_f = G F_f, G the elastic block
+        # of the index-1 matrix's inverse (the constrained system's inverse
+        # mass); the elastic force of a deflection change d is -K d, so
+        # a_f(q_f + d) ~ a_f - G K d = 0 gives d = K^{-1} G^{-1} a_f.
+        n, m = system.n, system.m
+        Phi_q = system.Phi_q(state.q, t0)
+        KKT = np.block([[system.mass_matrix(state.q), Phi_q.T], [Phi_q, np.zeros((m, m))]])
+        unit = np.zeros((n + m, len(cols)))
+        unit[cols, np.arange(len(cols))] = 1.0
+        G = np.linalg.solve(KKT, unit)[cols]
+        step = np.zeros(n)
+        step[cols] = np.linalg.solve(K, np.linalg.lstsq(G, state.a[cols], rcond=1e-12)[0])
+        state = _consistent_state(system, t0, tol, max_iter, state.q + step)
+        if np.max(np.abs(step)) <= 1e-12 * (1e-9 + np.max(np.abs(state.q[cols]))):
+            break
+    return state
+
+
+def model_flexible(system):
+    """The flexible beams of a system's model, in body order."""
+    return system.model.flexible_bodies
+
+
+def _consistent_state(system, t0, tol, max_iter, elastic):
+    """consistent_initial_state with the elastic coordinates started at
+    ``elastic[elastic columns]`` (shape (n,)) instead of 0."""
     model, lay = system.model, system.layout
     n = system.n
     fixed_q = [(ic.coordinate, ic.value) for ic in model.initials
@@ -197,14 +277,21 @@ def consistent_initial_state(system: AssembledSystem, t0: float = 0.0,
                if not ic.guess and ic.is_velocity]
     guess_v = [(ic.coordinate, ic.value) for ic in model.initials
                if ic.guess and ic.is_velocity]
+    if elastic is not None:      # the quasi-static iteration sets them: the bodies close the loops
+        fixed_q = fixed_q + [(int(i), float(elastic[i])) for b in model.flexible_bodies
+                             for i in b.elastic_columns()]
     iq = np.array([i for i, _ in fixed_q], dtype=int)
     vq = np.array([v for _, v in fixed_q])
     E = np.zeros((len(iq), n))
     E[np.arange(len(iq)), iq] = 1.0
 
     sparse = system.n + system.m > DENSE_LIMIT
+    weights = _column_weights(system)
     with np.errstate(all="ignore"):
         q = place_bodies(system, t0)
+        if elastic is not None:
+            for b in model.flexible_bodies:
+                q[b.elastic_columns()] = elastic[b.elastic_columns()]
         _require_finite(system, q, "placing the bodies along the joints gives", t0)
     q_start = q.copy()
     it = 0
@@ -212,7 +299,7 @@ def consistent_initial_state(system: AssembledSystem, t0: float = 0.0,
         with np.errstate(all="ignore"):
             r = np.concatenate([system.Phi(q, t0), q[iq] - vq])
             try:
-                dq = _min_norm_step(_stacked_jacobian(system, q, t0, E, sparse), r)
+                dq = _weighted_step(_stacked_jacobian(system, q, t0, E, sparse), r, weights)
             except (np.linalg.LinAlgError, ValueError, RuntimeError):
                 break
         if not np.all(np.isfinite(dq)):
@@ -264,7 +351,7 @@ def consistent_initial_state(system: AssembledSystem, t0: float = 0.0,
     Phi_t = system.Phi_t(q, t0)
     A = _stacked_jacobian(system, q, t0, Ev, sparse)
     rhs = np.concatenate([-Phi_t, v_g[iv]])
-    v = v_g + _min_norm_step(A, rhs - A @ v_g)
+    v = v_g + _weighted_step(A, rhs - A @ v_g, weights)
     res_v = float(np.max(np.abs(system.Phiq_times(q, t0, v) + Phi_t), initial=0.0))
     scale = 1.0 + float(np.max(np.abs(v), initial=0.0))
     if res_v > 1e-9 * scale or float(np.max(np.abs(v[iv] - v_g[iv]), initial=0.0)) > 1e-9 * scale:
@@ -288,7 +375,7 @@ def consistent_initial_state(system: AssembledSystem, t0: float = 0.0,
                 rows, cols = system.pattern_Phi_q
                 Pq = scipy.sparse.coo_matrix((system.Phi_q_values(q, t0), (rows, cols)),
                                              shape=(m, n))
-                K = scipy.sparse.bmat([[scipy.sparse.diags(system.mass_values(q)), Pq.T],
+                K = scipy.sparse.bmat([[system.mass_sparse(q), Pq.T],
                                        [Pq, None]], format="csc")
                 lu = scipy.sparse.linalg.splu(K)
                 sol = lu.solve(rhs)
@@ -323,7 +410,7 @@ def consistent_initial_state(system: AssembledSystem, t0: float = 0.0,
         raise AssemblyError(d.message, [d]) from None
     a, lam = sol[:n], sol[n:]
     res_a = float(np.max(np.abs(system.Phiq_times(q, t0, a) - gam), initial=0.0))
-    fixed_idx = set(iq.tolist())
+    fixed_idx = {ic.coordinate for ic in model.initials if not ic.guess and not ic.is_velocity}
     solved = {lay.coordinates[i]: float(q[i]) for i in range(n) if i not in fixed_idx}
     return InitialState(t0, q, v, a, lam, res_q, res_v, res_a, solved, it, structure, warnings)
 
@@ -334,7 +421,7 @@ def _require_finite(system, x, context, t0, what="coordinate"):
     if len(bad) == 0:
         return
     name = system.layout.coordinates[bad[0]]
-    body = system.model.bodies[bad[0] // 3]
+    body = system.model.body(name.rpartition(".")[0])
     d = Diagnostic("error", "E506",
                    f"{context} a non-finite {what} at t = {t0:g} s: '{name}' "
                    f"({x[bad[0]]!r}); {len(bad)} value{'s' if len(bad) > 1 else ''} overflow",

@@ -8,7 +8,9 @@ Phi_q, Phi_t, Phi_tt, Phi_qt, gamma = -(Phi_q v)_q v - 2 Phi_qt v - Phi_tt,
 Q_q, Q_v, (Phi_q^T lambda)_q, (Phi_q v)_q and (M a)_q.
 
 Notation for the whole package: n generalized coordinates (3 per rigid body:
-x, y, phi of the centre of mass), m constraint equations (joint rows in
+x, y, phi of the centre of mass; 3 per flexible beam for its floating frame,
+plus its elastic coordinates, stored after those of all bodies), m
+constraint equations (joint rows in
 declaration order, then driver rows). Sign convention:
 ``M a + Phi_q^T lambda = Q``, so lambda is the negative of the constraint
 force in the joint's row direction. SI units.
@@ -31,8 +33,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..model.elements import (GROUND, Model, PointForce, RotationalSpringDamper,
-                              SpringDamper, Torque)
+from ..model.elements import (GROUND, FlexibleBeam, Model, PointForce,
+                              RotationalSpringDamper, SpringDamper, Torque)
+from .ffr import FlexibleBeamGroup
 from .groups import (CoincidenceGroup, LinearConstraintGroup, PointForceGroup,
                      PointOnLineGroup, RotationalSpringGroup, SpringDamperGroup, TorqueGroup,
                      body_columns)
@@ -59,7 +62,14 @@ class AssembledSystem:
     layout : Layout
         Maps coordinates and constraint rows back to bodies and joints.
     mass_is_constant : bool
-        True for rigid bodies: (M a)_q = 0 and M is factored once.
+        True for rigid bodies only: (M a)_q = 0 and M is diagonal. False
+        with a flexible beam: M(q) has a dense block per beam.
+    mass_diag : ndarray, shape (n,)
+        The diagonal of M for rigid bodies; for a flexible beam the
+        diagonal of its undeformed mass matrix (m, m, I0, diag M_ff), used
+        only to scale multipliers and tolerances.
+    flexible_groups : list of FlexibleBeamGroup
+        Flexible beams, grouped by their number of elastic coordinates.
     """
 
     def __init__(self, model: Model):
@@ -68,10 +78,23 @@ class AssembledSystem:
         n = self.n = model.n_coordinates
         self.m = model.n_constraints
         self.nx = n + 3                      # extended: ground coordinates at n..n+2
-        mass = np.repeat([b.mass for b in model.bodies], 3)
-        mass[2::3] = [b.inertia for b in model.bodies]
+        nb = len(model.bodies)
+        mass = np.zeros(n)
+        mass[0:3 * nb:3] = mass[1:3 * nb:3] = [b.mass for b in model.bodies]
+        mass[2:3 * nb:3] = [b.inertia for b in model.bodies]
+        by_size = {}
+        for b in model.flexible_bodies:
+            by_size.setdefault(b.n_elastic, []).append(b)
+        gravity = model.gravity if model.gravity is not None and np.any(model.gravity != 0.0) \
+            else None
+        self.flexible_groups = [FlexibleBeamGroup(n, beams, gravity) for beams in by_size.values()]
+        rigid = np.ones(n, dtype=bool)
+        for g in self.flexible_groups:
+            mass[g.cols] = np.diagonal(g.mass_blocks(np.zeros(n)), axis1=1, axis2=2)
+            rigid[g.cols.ravel()] = False
         self.mass_diag = mass
-        self.mass_is_constant = True
+        self._rigid_cols = np.flatnonzero(rigid)
+        self.mass_is_constant = not self.flexible_groups
         self._build_constraints(model)
         self._build_forces(model)
 
@@ -90,13 +113,13 @@ class AssembledSystem:
         for j in model.joints:
             a, b = j.first, j.second
             if j.kind in ("revolute", "fixed"):
-                coinc.append((row, row + 1, a.body, a.local, b.body, b.local))
+                coinc.append((row, row + 1, a, b))
                 if j.kind == "fixed":
                     _angle_row(row + 2, a.body, b.body, j.angle, None)
             elif j.kind == "point_on_line":
-                pol.append((row, a.body, a.local, b.body, b.local, _normal(j.direction)))
+                pol.append((row, a, b, _normal(j.direction)))
             elif j.kind == "prismatic":
-                pol.append((row, a.body, a.local, b.body, b.local, _normal(j.direction)))
+                pol.append((row, a, b, _normal(j.direction)))
                 _angle_row(row + 1, a.body, b.body, j.angle, None)   # rotation locked
             row += j.rows
         for d in model.drivers:
@@ -108,13 +131,11 @@ class AssembledSystem:
         assert row == self.m
         self.constraint_groups = []
         if coinc:
-            r0, r1, b1, s1, b2, s2 = zip(*coinc)
-            self.constraint_groups.append(CoincidenceGroup(
-                n, np.stack([r0, r1], axis=1), b1, np.array(s1), b2, np.array(s2)))
+            r0, r1, p1, p2 = zip(*coinc)
+            self.constraint_groups.append(CoincidenceGroup(n, np.stack([r0, r1], axis=1), p1, p2))
         if pol:
-            r, bp, sp, bl, sl, nrm = zip(*pol)
-            self.constraint_groups.append(PointOnLineGroup(n, r, bp, np.array(sp), bl,
-                                                           np.array(sl), np.array(nrm)))
+            r, pp, pl, nrm = zip(*pol)
+            self.constraint_groups.append(PointOnLineGroup(n, r, pp, pl, np.array(nrm)))
         if lin:
             r, cols, coefs, off, fns = zip(*lin)
             self.constraint_groups.append(LinearConstraintGroup(n, r, cols, coefs, off, fns))
@@ -151,7 +172,8 @@ class AssembledSystem:
         if model.gravity is not None and np.any(model.gravity != 0.0):
             Qg = np.zeros(n)
             for b in model.bodies:
-                Qg[3 * b.index: 3 * b.index + 2] = b.mass * model.gravity
+                if not isinstance(b, FlexibleBeam):      # beams: in their own group
+                    Qg[3 * b.index: 3 * b.index + 2] = b.mass * model.gravity
             self.gravity_force = Qg
         springs = [f for f in model.forces if isinstance(f, SpringDamper)]
         rsprings = [f for f in model.forces if isinstance(f, RotationalSpringDamper)]
@@ -160,8 +182,7 @@ class AssembledSystem:
         self.force_groups = []
         if springs:
             self.force_groups.append(SpringDamperGroup(
-                n, [s.first.body for s in springs], [s.first.local for s in springs],
-                [s.second.body for s in springs], [s.second.local for s in springs],
+                n, [s.first for s in springs], [s.second for s in springs],
                 [s.k for s in springs], [s.c for s in springs], [s.length for s in springs]))
         if rsprings:
             self.force_groups.append(RotationalSpringGroup(
@@ -172,8 +193,8 @@ class AssembledSystem:
                                                  [f.function for f in torques]))
         if pforces:
             self.force_groups.append(PointForceGroup(
-                n, [f.point.body for f in pforces], [f.point.local for f in pforces],
-                [f.fx for f in pforces], [f.fy for f in pforces]))
+                n, [f.point for f in pforces], [f.fx for f in pforces], [f.fy for f in pforces]))
+        self.force_groups.extend(self.flexible_groups)
         self.potential_groups = [g for g in self.force_groups if hasattr(g, "energy")]
         self.derivative_groups = [g for g in self.force_groups if g.derivatives is not None]
         self.has_Q_v = any(getattr(g, "damped", False) for g in self.derivative_groups)
@@ -187,7 +208,10 @@ class AssembledSystem:
             fr.append(ci[mask])
             fc.append(cj[mask])
         self.pattern_force = _concat_pattern(fr, fc)
-        self.pattern_mass = (np.arange(self.n), np.arange(self.n))
+        rc = self._rigid_cols
+        self.pattern_diagonal = (np.arange(self.n), np.arange(self.n))
+        self.pattern_mass = _concat_pattern([rc] + [g.pattern[0] for g in self.flexible_groups],
+                                            [rc] + [g.pattern[1] for g in self.flexible_groups])
 
     # -- helpers ------------------------------------------------------------------
     def _ext(self, x):
@@ -203,21 +227,60 @@ class AssembledSystem:
 
     # -- mass -----------------------------------------------------------------------
     def mass_matrix(self, q=None) -> np.ndarray:
-        """M(q) as a dense array, shape (n, n) [kg, kg m^2], built on request.
+        """M(q) as a dense array, shape (n, n) [kg, kg m, kg m^2], built on request.
 
         For dense solves off the hot path (initial conditions of small models,
         the index-1 reference); the integrators use ``mass_values`` and
         ``mass_times``.
         """
-        return np.diag(self.mass_diag)
+        if self.mass_is_constant:
+            return np.diag(self.mass_diag)
+        return self._dense(self.pattern_mass, self.mass_values(q), (self.n, self.n))
 
     def mass_values(self, q=None) -> np.ndarray:
-        """Values of M on ``pattern_mass`` (its diagonal for rigid bodies), shape (n,)."""
-        return self.mass_diag
+        """Values of M(q) on ``pattern_mass``: the diagonal of the rigid bodies,
+        then the dense block of every flexible beam, shape (nnz,)."""
+        if self.mass_is_constant:
+            return self.mass_diag
+        return np.concatenate([self.mass_diag[self._rigid_cols]]
+                              + [g.mass_blocks(q).ravel() for g in self.flexible_groups])
+
+    def mass_sparse(self, q=None):
+        """M(q) as a scipy.sparse CSC matrix, shape (n, n)."""
+        import scipy.sparse
+        return scipy.sparse.csc_matrix((self.mass_values(q), self.pattern_mass),
+                                       shape=(self.n, self.n))
 
     def mass_times(self, q, a) -> np.ndarray:
         """M(q) a, shape (n,)."""
-        return self.mass_diag * a
+        out = self.mass_diag * a
+        for g in self.flexible_groups:
+            out[g.cols] = np.einsum("kij,kj->ki", g.mass_blocks(q), a[g.cols])
+        return out
+
+    def mass_solve(self, q, X) -> np.ndarray:
+        """M(q)^{-1} X for X of shape (n,) or (n, k): a division for rigid
+        bodies, a dense solve per flexible beam block."""
+        X = np.asarray(X, dtype=float)
+        out = X / (self.mass_diag if X.ndim == 1 else self.mass_diag[:, None])
+        for g in self.flexible_groups:
+            rhs = X[g.cols] if X.ndim == 2 else X[g.cols][..., None]
+            sol = np.linalg.solve(g.mass_blocks(q), rhs)
+            out[g.cols] = sol if X.ndim == 2 else sol[..., 0]
+        return out
+
+    def Ma_q_values(self, q, a):
+        """Values of (M(q) a)_q on ``pattern_mass`` (zero on the rigid
+        diagonal), or None when M is constant (rigid bodies only)."""
+        if self.mass_is_constant:
+            return None
+        return np.concatenate([np.zeros(len(self._rigid_cols))]
+                              + [g.Ma_q(q, a).ravel() for g in self.flexible_groups])
+
+    def Ma_q(self, q, a):
+        """(M(q) a)_q, shape (n, n), or None when M is constant (rigid bodies)."""
+        vals = self.Ma_q_values(q, a)
+        return None if vals is None else self._dense(self.pattern_mass, vals, (self.n, self.n))
 
     def multiplier_mobility(self, q, t=0.0) -> np.ndarray:
         """Largest acceleration a unit multiplier of each row causes, shape (m,).
@@ -235,15 +298,6 @@ class AssembledSystem:
         per_element = np.zeros(self.layout.n_elements)
         np.maximum.at(per_element, element[rows], ratio)
         return per_element[element]
-
-    def mass_solve(self, q, X) -> np.ndarray:
-        """M(q)^{-1} X for X of shape (n,) or (n, k); a division for rigid bodies."""
-        X = np.asarray(X, dtype=float)
-        return X / (self.mass_diag if X.ndim == 1 else self.mass_diag[:, None])
-
-    def Ma_q(self, q, a):
-        """(M(q) a)_q, shape (n, n), or None when M is constant (rigid bodies)."""
-        return None
 
     # -- forces -------------------------------------------------------------------------
     def Q(self, t, q, v) -> np.ndarray:
@@ -370,11 +424,12 @@ class AssembledSystem:
 
     # -- energy ---------------------------------------------------------------------------
     def kinetic_energy(self, q, v) -> float:
-        """T = v^T M v / 2 [J]."""
-        return float(0.5 * np.dot(v, self.mass_diag * v))
+        """T = v^T M(q) v / 2 [J]."""
+        return float(0.5 * np.dot(v, self.mass_times(q, v)))
 
     def potential_energy(self, q) -> float:
-        """Gravity and spring potential energy [J] (zero at y = 0, unstretched springs)."""
+        """Gravity, spring and strain potential energy [J] (zero at y = 0,
+        unstretched springs, undeformed beams)."""
         e = 0.0
         if self.gravity_force is not None:
             e -= float(np.dot(self.gravity_force, q))

@@ -18,13 +18,14 @@ import numpy as np
 from ..errors import Diagnostic, MbdModelError, Span
 from ..model import graph
 from ..model.elements import (COORDINATES, GROUND, VELOCITIES, Driver, InitialCondition,
-                              Joint, Model, PointForce, PointRef, RigidBody,
+                              FlexibleBeam, Joint, Model, PointForce, PointRef, RigidBody,
                               RotationalSpringDamper, SpringDamper, TimeFunction, Torque)
 import dataclasses
 
 from .expressions import (Binary, Call, Dotted, ExprError, IndexedName, Name, Num, Unary, Vec,
                           compile_function, diff, evaluate, free_names, substitute)
-from .spec import ForSpec, ModelSpec
+from ..model.beam import FRAMES
+from .spec import BeamSpec, ForSpec, ModelSpec
 
 #: most instances one for block may create
 MAX_REPEAT = 1_000_000
@@ -155,7 +156,7 @@ class _Checker:
                        "unknown point", hint=_did_you_mean(expr.attr, body.points)
                        or f"its points are {', '.join(sorted(body.points))}")
             return None
-        return PointRef(body.index, body.points[expr.attr], expr.text)
+        return point_ref(body, expr.attr, expr.text)
 
     def vector(self, vec, span, context):
         """Evaluate a Vec to an ndarray of shape (2,); None after reporting."""
@@ -270,7 +271,7 @@ class _Checker:
             return (sp.line, sp.column) if sp else (0, 0), iteration
 
         def _add(item, env, iteration):
-            kind = {"BodySpec": "bodies", "JointSpec": "joints", "ForceSpec": "forces",
+            kind = {"BodySpec": "bodies", "BeamSpec": "bodies", "JointSpec": "joints", "ForceSpec": "forces",
                     "DriverSpec": "drivers", "InitialSpec": "initials"}[type(item).__name__]
             inst = self.instantiate(item, env)
             if inst is not None:
@@ -366,10 +367,15 @@ class _Checker:
                 self.ground_points[p.name] = v
 
     def check_bodies(self):
-        """Check mass, inertia and points of every rigid body."""
+        """Check mass, inertia and points of every rigid body, and every
+        flexible beam (``check_beam``); then place the beams' elastic
+        coordinates after the reference coordinates of all bodies."""
         self.broken_bodies = set()
         for b in self.items["bodies"]:
             if not self.claim(b.name, b.span, "body"):
+                continue
+            if isinstance(b, BeamSpec):
+                self.check_beam(b)
                 continue
             props = {}
             for prop in b.properties:
@@ -413,6 +419,97 @@ class _Checker:
                                                 values["inertia"], points, b.span)
             else:
                 self.broken_bodies.add(b.name)
+        offset = 3 * len(self.bodies)
+        for name, b in self.bodies.items():
+            if isinstance(b, FlexibleBeam):
+                self.bodies[name] = dataclasses.replace(b, elastic_offset=offset)
+                offset += b.n_elastic
+
+    #: flexible beam properties -> (unit, must be an integer)
+    BEAM_PROPERTIES = {"length": ("m", False), "E": ("Pa", False), "area": ("m^2", False),
+                       "second_moment": ("m^4", False), "elements": ("", True),
+                       "mass": ("kg", False), "density": ("kg/m^3", False)}
+
+    def check_beam(self, b: BeamSpec):
+        """Check a flexible beam: positive properties, mass or density (one),
+        an integer element count, a known frame, points on the beam."""
+        ctx = f"flexible beam '{b.name}'"
+        props, values = {}, {}
+        for prop in b.properties:
+            if prop.name not in self.BEAM_PROPERTIES:
+                self.error("E304", f"{ctx}: unknown property '{prop.name}'", prop.span,
+                           "unknown property", hint=_did_you_mean(prop.name, self.BEAM_PROPERTIES)
+                           or "a flexible beam has " + ", ".join(self.BEAM_PROPERTIES)
+                           + ", 'frame' and 'point NAME at x' lines")
+                continue
+            if prop.name in props:
+                self.error("E202", f"{ctx}: '{prop.name}' given twice", prop.span, "given again")
+                continue
+            props[prop.name] = prop
+        for key, (unit, integer) in self.BEAM_PROPERTIES.items():
+            if key not in props:
+                continue
+            v = self.number(props[key].value, props[key].span, f"{key} of {ctx}")
+            if v is None:
+                continue
+            sp = getattr(props[key].value, "span", None) or props[key].span
+            if not v > 0 or not math.isfinite(v):
+                self.error("E303", f"the {key} of {ctx} must be positive, got {v:g} {unit}".rstrip(),
+                           sp, "not positive")
+                continue
+            if integer and v != int(v):
+                self.error("E301", f"the number of elements of {ctx} must be an integer, got {v:g}",
+                           sp, "not an integer")
+                continue
+            values[key] = v
+        ok = True
+        for key in ("length", "E", "area", "second_moment", "elements"):
+            if key not in props:
+                unit = self.BEAM_PROPERTIES[key][0]
+                self.error("E302", f"{ctx} has no {key}", b.span, f"{key} missing",
+                           hint=f"add '{key} VALUE'" + (f" [{unit}]" if unit else "")
+                           + "; there is no default")
+                ok = False
+        if ("mass" in props) == ("density" in props):
+            self.error("E302", f"{ctx} needs exactly one of 'mass' [kg] and 'density' [kg/m^3]",
+                       b.span, "give mass or density",
+                       hint="the mass per length is mass/length or density*area")
+            ok = False
+        frame = b.frame or "first_node"
+        if frame not in FRAMES:
+            self.error("E304", f"{ctx}: unknown frame '{frame}'", b.frame_span or b.span,
+                       "unknown frame", hint=_did_you_mean(frame, FRAMES)
+                       or f"frames are {', '.join(FRAMES)}")
+            ok = False
+        if not ok or len(values) != len(props):
+            self.broken_bodies.add(b.name)
+            return
+        length = values["length"]
+        mass = values["mass"] if "mass" in values else values["density"] * values["area"] * length
+        points = {"start": 0.0, "end": length}
+        for p in b.points:
+            if p.name in points:
+                self.error("E202", f"{ctx}: duplicate point '{p.name}'", p.span,
+                           "declared again" if p.name not in ("start", "end")
+                           else f"'{p.name}' is always defined")
+                continue
+            at = p.at
+            if isinstance(at, Name) and at.name in ("start", "end") and at.name not in self.params:
+                x = 0.0 if at.name == "start" else length
+            else:
+                x = self.number(at, p.span, f"point '{b.name}.{p.name}'")
+                if x is None:
+                    continue
+            if not -1e-12 * length <= x <= length * (1 + 1e-12):
+                self.error("E306", f"point '{b.name}.{p.name}' at {x:g} m is not on the beam "
+                           f"(0 .. {length:g} m)", getattr(at, "span", None) or p.span,
+                           "off the beam", hint="give the arc length from the first node, "
+                           "'start' or 'end'")
+                continue
+            points[p.name] = min(max(x, 0.0), length)
+        self.bodies[b.name] = FlexibleBeam(b.name, len(self.bodies), mass, length, values["E"],
+                                           values["area"], values["second_moment"],
+                                           int(values["elements"]), frame, points, span=b.span)
 
     def check_joints(self):
         """Resolve joint points and options; reject joints of a body to itself."""
@@ -693,6 +790,21 @@ class _Checker:
                            f"{dof} degree{'s' if dof != 1 else ''} of freedom allow", extra.span,
                            "one too many", hint="turn some into 'guess' lines: the assembly then "
                            "computes them from the joints")
+
+
+def point_ref(body, name: str, text: str) -> PointRef:
+    """The PointRef of point ``name`` of a rigid body or a flexible beam.
+
+    A beam point at arc length x has u_bar0 = (x, 0) and depends on the
+    elastic coordinates of its element (the non-zero columns of S(x)).
+    """
+    if not isinstance(body, FlexibleBeam):
+        return PointRef(body.index, body.points[name], text)
+    x = body.points[name]
+    S = body.mesh.shape(x)[0]
+    used = np.flatnonzero(np.any(S != 0.0, axis=0))
+    return PointRef(body.index, np.array([x, 0.0]), text,
+                    elastic_columns=body.elastic_offset + used, elastic_shape=S[:, used])
 
 
 def check_spec(spec: ModelSpec, overrides: dict | None = None) -> Model:

@@ -121,6 +121,69 @@ class BodySpec:
 
 
 @dataclass(frozen=True)
+class BeamPointSpec:
+    """``point NAME at x`` in a flexible beam: a point by arc length [m] from
+    the first node; ``start`` and ``end`` name the two ends."""
+
+    name: str
+    at: Any
+    span: Span | None = None
+
+    def __post_init__(self):
+        _set(self, "at", as_expr(self.at))
+
+
+@dataclass(frozen=True)
+class BeamSpec:
+    """``flexible_beam NAME { ... }``: a planar Euler-Bernoulli beam in the
+    floating frame of reference (properties: mass or density, length, E,
+    area, second_moment, elements; ``frame first_node|chord``; points)."""
+
+    name: str
+    properties: tuple = ()
+    points: tuple = ()
+    frame: str | None = None
+    span: Span | None = None
+    frame_span: Span | None = None
+
+    def __post_init__(self):
+        _set(self, "properties", tuple(self.properties))
+        _set(self, "points", tuple(self.points))
+
+    @classmethod
+    def uniform(cls, name: str, *, length, E, area, second_moment, elements: int,
+                mass=None, density=None, frame: str | None = None,
+                points: dict | None = None) -> "BeamSpec":
+        """Build a flexible beam from Python values.
+
+        Parameters
+        ----------
+        name : str
+        length : float or str
+            [m]
+        E : float or str
+            Young's modulus [Pa].
+        area, second_moment : float or str
+            Cross-section area [m^2] and second moment of area [m^4].
+        elements : int
+            Number of finite elements.
+        mass, density : float or str
+            Exactly one: total mass [kg] or density [kg/m^3].
+        frame : {"first_node", "chord"}, optional
+        points : dict of name -> arc length [m] or "start"/"end"
+        """
+        props = [PropertySpec("length", length), PropertySpec("E", E),
+                 PropertySpec("area", area), PropertySpec("second_moment", second_moment),
+                 PropertySpec("elements", elements)]
+        if mass is not None:
+            props.append(PropertySpec("mass", mass))
+        if density is not None:
+            props.append(PropertySpec("density", density))
+        return cls(name, tuple(props),
+                   tuple(BeamPointSpec(k, v) for k, v in (points or {}).items()), frame)
+
+
+@dataclass(frozen=True)
 class ArgSpec:
     """One argument of a joint or force: positional or ``keyword = value``.
 

@@ -54,7 +54,7 @@ class ToSpec(Transformer):
                 gravity, gspan = it[1], it[2]
             elif isinstance(it, tuple) and it and it[0] == "ground":
                 buckets["ground_points"].extend(it[1])
-            elif isinstance(it, S.BodySpec):
+            elif isinstance(it, (S.BodySpec, S.BeamSpec)):
                 buckets["bodies"].append(it)
             elif isinstance(it, S.JointSpec):
                 buckets["joints"].append(it)
@@ -117,6 +117,26 @@ class ToSpec(Transformer):
         props = tuple(i for i in items if isinstance(i, S.PropertySpec))
         points = tuple(i for i in items if isinstance(i, S.PointSpec))
         return S.BodySpec(self._name(name), props, points, self._nspan(name))
+
+    @v_args(meta=True)
+    def beam_decl(self, meta, children):
+        """``flexible_beam NAME { ... }`` -> BeamSpec."""
+        name, *items = children
+        props = tuple(i for i in items if isinstance(i, S.PropertySpec))
+        points = tuple(i for i in items if isinstance(i, S.BeamPointSpec))
+        frames = [i for i in items if isinstance(i, tuple)]
+        frame, fspan = frames[-1] if frames else (None, None)
+        return S.BeamSpec(self._name(name), props, points, frame, self._nspan(name), fspan)
+
+    @v_args(meta=True)
+    def beam_point(self, meta, children):
+        """``point NAME at x`` -> BeamPointSpec."""
+        return S.BeamPointSpec(str(children[0]), children[1], self._tspan(children[0]))
+
+    @v_args(meta=True)
+    def beam_frame(self, meta, children):
+        """``frame NAME`` -> (name, span)."""
+        return (str(children[0]), self._tspan(children[0]))
 
     @v_args(meta=True)
     def point_decl(self, meta, children):

@@ -84,6 +84,14 @@ class Terms:
             self.items.append(Term(pattern[0], pattern[1], vals, row0, col0, coef, transpose))
         return self
 
+    def dense(self, block, row0=0, col0=0, coef=1.0):
+        """coef * a dense block (every entry on the pattern, so the pattern
+        stays fixed for the run's assembler)."""
+        r, c = block.shape
+        rows = np.repeat(np.arange(r), c)
+        cols = np.tile(np.arange(c), r)
+        return self.add((rows, cols), np.asarray(block).ravel(), row0, col0, coef)
+
     def mass(self, q, row0=0, col0=0, coef=1.0):
         """coef M(q)."""
         s = self.system
@@ -93,16 +101,18 @@ class Terms:
     def identity(self, row0=0, col0=0, coef=1.0):
         """coef I (n x n)."""
         s = self.system
-        return self.add(s.pattern_mass, np.ones(s.n), row0, col0, coef)
+        return self.add(s.pattern_diagonal, np.ones(s.n), row0, col0, coef)
 
-    def stiffness(self, t, q, v, lam, row0=0, col0=0, c_q=1.0, c_v=0.0):
-        """c_q ((Phi_q^T lam)_q - Q_q) - c_v Q_v.
+    def stiffness(self, t, q, v, lam, row0=0, col0=0, c_q=1.0, c_v=0.0, a=None, c_mass=1.0):
+        """c_q (c_mass (M a)_q + (Phi_q^T lam)_q - Q_q) - c_v Q_v.
 
-        The (M a)_q term of the methods' Newton matrices vanishes for rigid
-        bodies (M constant), the only bodies mbdsl has; a body with a
-        configuration-dependent mass matrix adds it here.
+        The (M a)_q term (``a`` the vector M multiplies in the residual) is
+        only there with flexible beams; for rigid bodies M is constant and
+        ``Ma_q_values`` is None.
         """
         s = self.system
+        if a is not None and not s.mass_is_constant:
+            self.add(s.pattern_mass, s.Ma_q_values(q, a), row0, col0, c_q * c_mass)
         self.add(s.pattern_hessian,
                  self._once(("hessian", id(lam)), lambda: s.PhiqT_lam_q_values(q, lam)),
                  row0, col0, c_q)
@@ -135,7 +145,7 @@ def assemble(ctx, terms: Terms, size: int):
     return assembler.assemble(terms.items)
 
 
-def index3_newton_matrix(ctx, q, v, lam, c_mass: float, c_q: float, c_v: float):
+def index3_newton_matrix(ctx, q, v, a, lam, c_mass: float, c_q: float, c_v: float):
     """Newton matrix of the index-3 methods in the unknowns (a, lambda).
 
         [[c_mass M + c_q (c_mass (M a)_q + (Phi_q^T lambda)_q - Q_q) - c_v Q_v,  Phi_q^T],
@@ -150,7 +160,7 @@ def index3_newton_matrix(ctx, q, v, lam, c_mass: float, c_q: float, c_v: float):
     """
     system, t, n = ctx.system, ctx.t, ctx.system.n
     T = Terms(system).mass(q, coef=c_mass)
-    T.stiffness(t, q, v, lam, c_q=c_q, c_v=c_v)
+    T.stiffness(t, q, v, lam, c_q=c_q, c_v=c_v, a=a, c_mass=c_mass)
     T.Phi_q(q, t, 0, n, transpose=True).Phi_q(q, t, n, 0)
     return assemble(ctx, T, n + system.m)
 

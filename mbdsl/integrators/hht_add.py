@@ -161,6 +161,8 @@ class HHTADD(Method):
         n, m = sys.n, sys.m
         dq, dv, a, p1, p2, q, v = self._split(w, ctx)
         h2, c4, c5, r5 = h * h, 3 * n, 3 * n + m, 2 * n + 2 * m
+        if not sys.mass_is_constant:
+            return self._jacobian_flexible(ctx, q, v, p2)
         # dR_II/dq = -M^{-1} (Phi_q^T psi_II)_q (rigid bodies: M constant);
         # df/dq = M^{-1} Q_q, df/dv = M^{-1} Q_v: the products with M^{-1}
         # are the cost the paper reports for this method.
@@ -184,6 +186,42 @@ class HHTADD(Method):
               -(1.0 + self.alpha) * h2)
         T.add(sys.pattern_force, None if Qv is None else Qv * inv[rows], r5, n,
               -(1.0 + self.alpha) * h)
+        T.identity(r5, 2 * n)
+        return assemble(ctx, T, 3 * n + 2 * m)
+
+    def _jacobian_flexible(self, ctx, q, v, p2):
+        """The same Newton matrix when M depends on q (flexible beams).
+
+        The products with M(q)^{-1} are dense n x n and n x m blocks here
+        (one block solve per beam): the cost the paper attributes to this
+        method on flexible models. (M y)_q and (M f)_q enter as in the class
+        docstring.
+        """
+        sys, t, h = ctx.system, ctx.t, ctx.h
+        n, m = sys.n, sys.m
+        h2, c4, c5, r5 = h * h, 3 * n, 3 * n + m, 2 * n + 2 * m
+        s = ctx.last
+        if "B_n" not in ctx.cache:
+            ctx.cache["B_n"] = sys.mass_solve(s.q, sys.Phi_q(s.q, s.t).T)
+        Bn = ctx.cache["B_n"]
+        B = sys.mass_solve(q, sys.Phi_q(q, t).T)
+        y = B @ p2
+        dR2 = sys.mass_solve(q, sys.PhiqT_lam_q(q, p2) - sys.Ma_q(q, y))    # = -dR_II/dq
+        Qq, Qv = sys.force_derivatives(t, q, v)
+        f = sys.mass_solve(q, sys.Q(t, q, v))
+        dfq = sys.mass_solve(q, (0.0 if Qq is None else Qq) - sys.Ma_q(q, f))
+        T = Terms(sys)
+        T.identity(0, 0).dense(dR2, 0, 0, 0.5 * self.b * h2)
+        T.identity(0, 2 * n, -self.beta)
+        T.dense(Bn, 0, c4, 0.5 * (1.0 - self.b)).dense(B, 0, c5, 0.5 * self.b)
+        T.dense(dR2, n, 0, 0.5 * h2)
+        T.identity(n, n).identity(n, 2 * n, -self.gamma)
+        T.dense(Bn, n, c4, 0.5).dense(B, n, c5, 0.5)
+        T.Phi_q(q, t, 2 * n, 0)
+        T.G(q, v, t, 2 * n + m, 0, h).Phi_q(q, t, 2 * n + m, n)
+        T.dense(dfq, r5, 0, -(1.0 + self.alpha) * h2)
+        if Qv is not None:
+            T.dense(sys.mass_solve(q, Qv), r5, n, -(1.0 + self.alpha) * h)
         T.identity(r5, 2 * n)
         return assemble(ctx, T, 3 * n + 2 * m)
 

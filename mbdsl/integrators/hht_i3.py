@@ -125,7 +125,7 @@ class HHTI3(Method):
         n, h = ctx.system.n, ctx.h
         a, lam = w[:n], w[n:]
         q, v = self._qv(a, ctx)
-        return index3_newton_matrix(ctx, q, v, lam, 1.0 / (1.0 + self.alpha),
+        return index3_newton_matrix(ctx, q, v, a, lam, 1.0 / (1.0 + self.alpha),
                                     self.beta * h * h, self.gamma * h)
 
     def accept(self, w, ctx) -> StepState:

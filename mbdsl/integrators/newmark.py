@@ -110,7 +110,7 @@ class Newmark(Method):
         n, h = ctx.system.n, ctx.h
         a, lam = w[:n], w[n:]
         q, v = self._qv(a, ctx)
-        return index3_newton_matrix(ctx, q, v, lam, 1.0,
+        return index3_newton_matrix(ctx, q, v, a, lam, 1.0,
                                     self.beta * h * h, self.gamma * h)
 
     def accept(self, w, ctx) -> StepState:

@@ -102,7 +102,7 @@ class NStiff(Method):
         n, c0 = ctx.system.n, ctx.cache["c0"]
         a, lam = w[:n], w[n:]
         q, v = self._qv(a, ctx)
-        return index3_newton_matrix(ctx, q, v, lam, 1.0, 1.0 / c0 ** 2, 1.0 / c0)
+        return index3_newton_matrix(ctx, q, v, a, lam, 1.0, 1.0 / c0 ** 2, 1.0 / c0)
 
     def accept(self, w, ctx) -> StepState:
         """State at t_{n+1}."""

@@ -12,6 +12,13 @@ Conventions (stated once for the whole package)
 * Body-fixed vectors s are given in the body frame relative to the centre of
   mass; the global position of a point is r + A(phi) s.
 * The ground is body index ``GROUND`` (-1); it has no coordinates.
+* A flexible beam (:class:`FlexibleBeam`) has the same three reference
+  coordinates (x, y, phi) of its floating frame at q[3*index : 3*index + 3],
+  and n_f elastic coordinates stored after those of all bodies, at
+  q[elastic_offset : elastic_offset + n_f]. Keeping the reference
+  coordinates of every body at 3*index lets everything that works on body
+  frames (placement, drivers, initial conditions, output names) treat rigid
+  and flexible bodies alike.
 * A joint's relative angle is phi(second body) - phi(first body).
 """
 
@@ -27,7 +34,7 @@ from ..errors import Diagnostic, Span
 GROUND = -1
 
 __all__ = [
-    "GROUND", "RigidBody", "PointRef", "Joint", "Driver", "SpringDamper",
+    "GROUND", "RigidBody", "FlexibleBeam", "PointRef", "Joint", "Driver", "SpringDamper",
     "RotationalSpringDamper", "Torque", "PointForce", "InitialCondition",
     "TimeFunction", "Model", "COORDINATES", "VELOCITIES", "ACCELERATIONS",
 ]
@@ -85,6 +92,65 @@ class RigidBody:
 
 
 @dataclass(frozen=True)
+class FlexibleBeam:
+    """A planar Euler-Bernoulli beam in the floating frame of reference.
+
+    Attributes
+    ----------
+    name : str
+    index : int
+        Position in the model's body list; its reference coordinates (the
+        floating frame: origin at the first node, see ``frame``) are
+        q[3*index : 3*index + 3].
+    mass : float [kg]
+    length : float [m]
+    E : float [Pa]
+    area : float [m^2]
+    second_moment : float [m^4]
+    elements : int
+    frame : {"first_node", "chord"}
+        Reference conditions (``model/beam.py``).
+    points : dict of str -> float [m]
+        Named points by arc length from the first node.
+    elastic_offset : int
+        First column of its elastic coordinates in q.
+    """
+
+    name: str
+    index: int
+    mass: float
+    length: float
+    E: float
+    area: float
+    second_moment: float
+    elements: int
+    frame: str
+    points: dict
+    elastic_offset: int = 0
+    span: Span | None = None
+
+    @property
+    def mesh(self):
+        """The :class:`~mbdsl.model.beam.BeamMesh` (built on each call: cheap)."""
+        from .beam import BeamMesh
+        return BeamMesh(self.length, self.elements, self.frame)
+
+    @property
+    def n_elastic(self) -> int:
+        """n_f, the number of elastic coordinates (3 per element)."""
+        return 3 * self.elements
+
+    @property
+    def inertia(self) -> float:
+        """Moment of inertia of the undeformed beam about its frame origin [kg m^2]."""
+        return self.mass * self.length ** 2 / 3.0
+
+    def elastic_columns(self) -> np.ndarray:
+        """Columns of the elastic coordinates in q, shape (n_f,)."""
+        return np.arange(self.elastic_offset, self.elastic_offset + self.n_elastic)
+
+
+@dataclass(frozen=True)
 class PointRef:
     """A point of a body (or of the ground), resolved.
 
@@ -93,14 +159,23 @@ class PointRef:
     body : int
         Body index, or GROUND.
     local : ndarray, shape (2,) [m]
-        In the body frame (global coordinates for the ground).
+        In the body frame (global coordinates for the ground); for a point
+        of a flexible beam, its undeformed position u_bar0 = (x, 0).
     text : str
         As written, e.g. ``"crank.O"``.
+    elastic_columns : ndarray of int, shape (e,)
+        For a point of a flexible beam: the columns of q its elastic
+        displacement depends on (the nodes of its element); empty otherwise.
+    elastic_shape : ndarray, shape (2, e)
+        The matching columns of the shape matrix S(x): the point is at
+        r + A(phi) (local + elastic_shape q[elastic_columns]).
     """
 
     body: int
     local: np.ndarray
     text: str
+    elastic_columns: np.ndarray = field(default_factory=lambda: np.zeros(0, np.intp))
+    elastic_shape: np.ndarray = field(default_factory=lambda: np.zeros((2, 0)))
 
 
 @dataclass(frozen=True)
@@ -248,7 +323,7 @@ class Model:
     Attributes
     ----------
     name : str
-    bodies : tuple of RigidBody
+    bodies : tuple of RigidBody or FlexibleBeam
     ground_points : dict of str -> ndarray, shape (2,) [m]
     joints : tuple of Joint
     drivers : tuple of Driver
@@ -281,8 +356,14 @@ class Model:
 
     @property
     def n_coordinates(self) -> int:
-        """n, the number of generalized coordinates."""
-        return 3 * len(self.bodies)
+        """n, the number of generalized coordinates (3 per body, plus the
+        elastic coordinates of the flexible beams)."""
+        return 3 * len(self.bodies) + sum(b.n_elastic for b in self.flexible_bodies)
+
+    @property
+    def flexible_bodies(self) -> tuple:
+        """The :class:`FlexibleBeam` bodies, in body order."""
+        return tuple(b for b in self.bodies if isinstance(b, FlexibleBeam))
 
     @property
     def n_constraints(self) -> int:
@@ -308,15 +389,18 @@ class Model:
 
     def coordinate_names(self) -> list[str]:
         """``["crank.x", "crank.y", "crank.phi", ...]``, shape (n,)."""
-        return [f"{b.name}.{c}" for b in self.bodies for c in COORDINATES]
+        return ([f"{b.name}.{c}" for b in self.bodies for c in COORDINATES]
+                + [f"{b.name}.{c}" for b in self.flexible_bodies for c in b.mesh.names])
 
     def velocity_names(self) -> list[str]:
         """``["crank.vx", "crank.vy", "crank.omega", ...]``, shape (n,)."""
-        return [f"{b.name}.{c}" for b in self.bodies for c in VELOCITIES]
+        return ([f"{b.name}.{c}" for b in self.bodies for c in VELOCITIES]
+                + [f"{b.name}.{c}_t" for b in self.flexible_bodies for c in b.mesh.names])
 
     def acceleration_names(self) -> list[str]:
         """``["crank.ax", "crank.ay", "crank.alpha", ...]``, shape (n,)."""
-        return [f"{b.name}.{c}" for b in self.bodies for c in ACCELERATIONS]
+        return ([f"{b.name}.{c}" for b in self.bodies for c in ACCELERATIONS]
+                + [f"{b.name}.{c}_tt" for b in self.flexible_bodies for c in b.mesh.names])
 
     def constraint_names(self) -> list[tuple[str, int]]:
         """(element name, row within element) for each constraint row, shape (m,)."""

@@ -1,0 +1,219 @@
+"""Flexible beams in the floating frame of reference (FFR), all at once.
+
+For a beam with reference coordinates (R, phi) (R = (x, y) the frame
+origin) and elastic coordinates q_f, a material point at arc length x is at
+
+    r = R + A(phi) u_bar,    u_bar = u_bar0(x) + S(x) q_f
+
+(``model/beam.py``). With the inertia shape integrals of ``ShapeIntegrals``
+(m, s0, I0, S_bar, M_ff, a_u, a_I, S_tilde; all computed once at build) and
+
+    s_bar = s0 + S_bar q_f       (first moment of mass in the frame)
+    a_U   = a_u + M_ff q_f       (int mu S^T u_bar)
+    a_T   = a_I + S_tilde q_f    (int mu S^T I~ u_bar)
+
+the mass matrix in local coordinates (x, y, phi, q_f) is
+
+    M = [[m I2,         B s_bar,                                  A S_bar],
+         [.,            I0 + 2 a_u.q_f + q_f^T M_ff q_f,          a_T^T  ],
+         [sym,          a_T,                                      M_ff   ]]
+
+and the quadratic velocity vector (M a = Q + Q_v, w = phi', qd = q_f'):
+
+    Q_v,R   = w^2 A s_bar - 2 w B S_bar qd
+    Q_v,phi = -2 w a_U . qd
+    Q_v,f   = w^2 a_U - 2 w S_tilde qd
+
+Applied: the elastic force -K q_f and, with gravity g, the generalized
+gravity force (m g, (B s_bar) . g, S_bar^T A^T g). Potential energy
+q_f^T K q_f / 2 - m g . R - g . A s_bar. Every q- and v-derivative the
+Newton matrices need is below, analytic: Q_q, Q_v, and (M a)_q.
+
+Source: Shabana, Dynamics of Multibody Systems, 4th ed., ch. 5 (the planar
+FFR: eqs. for the mass matrix, the inertia shape integrals and the quadratic
+velocity vector). A is the rotation matrix, B = dA/dphi, I~ = [[0,-1],[1,0]].
+
+Beams with the same number of elastic coordinates are stacked (struct of
+arrays, shape (k, ...)) and evaluated with one set of einsums; beams of
+different sizes form separate groups.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .groups import body_columns
+
+__all__ = ["FlexibleBeamGroup"]
+
+
+def _AB(phi):
+    """A(phi) and B(phi) = dA/dphi, each shape (k, 2, 2)."""
+    c, s = np.cos(phi), np.sin(phi)
+    A = np.stack([np.stack([c, -s], -1), np.stack([s, c], -1)], -2)
+    B = np.stack([np.stack([-s, -c], -1), np.stack([c, -s], -1)], -2)
+    return A, B
+
+
+class FlexibleBeamGroup:
+    """k flexible beams with the same number nf of elastic coordinates.
+
+    Local coordinates per beam: (x, y, phi, q_f), c = 3 + nf, columns
+    ``cols`` (k, c) into q.
+
+    Parameters
+    ----------
+    n : int
+        Number of coordinates of the model.
+    beams : sequence of FlexibleBeam
+    gravity : ndarray, shape (2,), or None
+        [m/s^2]; None: no gravity term.
+    """
+
+    def __init__(self, n, beams, gravity=None):
+        beams = list(beams)
+        self.beams = beams
+        self.nf = beams[0].n_elastic
+        self.c = 3 + self.nf
+        self.cols = np.concatenate([body_columns(n, [b.index for b in beams]),
+                                    np.array([b.elastic_columns() for b in beams])], axis=1)
+        ints, stiff = [], []
+        for b in beams:        # build time only: one mesh per beam
+            mesh = b.mesh
+            ints.append(mesh.shape_integrals(b.mass / b.length))
+            stiff.append(mesh.stiffness(b.E * b.area, b.E * b.second_moment))
+
+        def stack(name):
+            """One shape integral of every beam, stacked on axis 0."""
+            return np.array([getattr(i, name) for i in ints])
+
+        self.m = stack("mass")
+        self.s0, self.I0, self.S_bar = stack("s0"), stack("I0"), stack("S_bar")
+        self.M_ff, self.a_u, self.a_I = stack("M_ff"), stack("a_u"), stack("a_I")
+        self.S_tilde = stack("S_tilde")
+        self.K = np.array(stiff)
+        self.gravity = None if gravity is None else np.asarray(gravity, float)
+        self.damped = True          # the quadratic velocity vector depends on v
+        k, c = len(beams), self.c
+        self._M = np.zeros((k, c, c))
+        self._M[:, 0, 0] = self._M[:, 1, 1] = self.m
+        self._M[:, 3:, 3:] = self.M_ff
+        #: mass-matrix pattern in q: (rows, cols), each shape (k * c * c,)
+        self.pattern = (np.repeat(self.cols, c, axis=1).ravel(),
+                        np.tile(self.cols, (1, c)).ravel())
+
+    # -- kinematic parts ------------------------------------------------------------------
+    def _parts(self, q):
+        """Local q (k, c) -> phi, q_f, A, B, s_bar, a_U, a_T."""
+        phi, qf = q[:, 2], q[:, 3:]
+        A, B = _AB(phi)
+        s_bar = self.s0 + np.einsum("kaj,kj->ka", self.S_bar, qf)
+        a_U = self.a_u + np.einsum("kij,kj->ki", self.M_ff, qf)
+        a_T = self.a_I + np.einsum("kij,kj->ki", self.S_tilde, qf)
+        return phi, qf, A, B, s_bar, a_U, a_T
+
+    # -- mass --------------------------------------------------------------------------------
+    def mass_blocks(self, qx) -> np.ndarray:
+        """M(q) of every beam, shape (k, c, c) [kg, kg m, kg m^2] (a reused buffer)."""
+        q = qx[self.cols]
+        phi, qf, A, B, s_bar, a_U, a_T = self._parts(q)
+        M = self._M
+        Bs = np.einsum("kab,kb->ka", B, s_bar)
+        M[:, 0:2, 2] = M[:, 2, 0:2] = Bs
+        ASb = np.einsum("kab,kbj->kaj", A, self.S_bar)
+        M[:, 0:2, 3:] = ASb
+        M[:, 3:, 0:2] = ASb.transpose(0, 2, 1)
+        M[:, 2, 2] = (self.I0 + 2.0 * np.einsum("ki,ki->k", self.a_u, qf)
+                      + np.einsum("ki,kij,kj->k", qf, self.M_ff, qf))
+        M[:, 2, 3:] = M[:, 3:, 2] = a_T
+        return M
+
+    def Ma_q(self, qx, ax) -> np.ndarray:
+        """(M(q) a)_q of every beam, shape (k, c, c), local rows and columns."""
+        q, a = qx[self.cols], ax[self.cols]
+        phi, qf, A, B, s_bar, a_U, a_T = self._parts(q)
+        aR, aphi, af = a[:, 0:2], a[:, 2], a[:, 3:]
+        BSb = np.einsum("kab,kbj->kaj", B, self.S_bar)            # (k, 2, nf)
+        out = np.zeros((len(q), self.c, self.c))
+        # rows R: d/dphi (B s_bar aphi + A S_bar af) and d/dq_f (B S_bar aphi)
+        out[:, 0:2, 2] = (-np.einsum("kab,kb->ka", A, s_bar) * aphi[:, None]
+                          + np.einsum("kaj,kj->ka", BSb, af))
+        out[:, 0:2, 3:] = BSb * aphi[:, None, None]
+        # row phi: (B s_bar) . aR + m_phiphi aphi + a_T . af
+        out[:, 2, 2] = -np.einsum("kab,kb,ka->k", A, s_bar, aR)
+        out[:, 2, 3:] = (np.einsum("kaj,ka->kj", BSb, aR) + 2.0 * a_U * aphi[:, None]
+                         - np.einsum("kij,kj->ki", self.S_tilde, af))
+        # rows f: S_bar^T A^T aR + a_T aphi + M_ff af
+        out[:, 3:, 2] = np.einsum("kaj,ka->kj", BSb, aR)
+        out[:, 3:, 3:] = self.S_tilde * aphi[:, None, None]
+        return out
+
+    # -- forces ------------------------------------------------------------------------------
+    def forces(self, qx, vx, t):
+        """Local Q = Q_v - K q_f + Q_gravity, shape (k, c) [N, N m]."""
+        q, v = qx[self.cols], vx[self.cols]
+        phi, qf, A, B, s_bar, a_U, a_T = self._parts(q)
+        w, qd = v[:, 2], v[:, 3:]
+        w2 = (w * w)[:, None]
+        out = np.empty((len(q), self.c))
+        out[:, 0:2] = (w2 * np.einsum("kab,kb->ka", A, s_bar)
+                       - 2.0 * w[:, None] * np.einsum("kab,kbj,kj->ka", B, self.S_bar, qd))
+        out[:, 2] = -2.0 * w * np.einsum("ki,ki->k", a_U, qd)
+        out[:, 3:] = (w2 * a_U - 2.0 * w[:, None] * np.einsum("kij,kj->ki", self.S_tilde, qd)
+                      - np.einsum("kij,kj->ki", self.K, qf))
+        if self.gravity is not None:
+            g = self.gravity
+            out[:, 0:2] += self.m[:, None] * g
+            out[:, 2] += np.einsum("kab,kb,a->k", B, s_bar, g)
+            out[:, 3:] += np.einsum("kaj,kba,b->kj", self.S_bar, A, g)   # S_bar^T A^T g
+        return out
+
+    def derivatives(self, qx, vx, t):
+        """Local (Q_q, Q_v), each shape (k, c, c)."""
+        q, v = qx[self.cols], vx[self.cols]
+        phi, qf, A, B, s_bar, a_U, a_T = self._parts(q)
+        w, qd = v[:, 2], v[:, 3:]
+        kk, c = len(q), self.c
+        w1, w2 = w[:, None], (w * w)[:, None]
+        As = np.einsum("kab,kb->ka", A, s_bar)
+        Bs = np.einsum("kab,kb->ka", B, s_bar)
+        ASb = np.einsum("kab,kbj->kaj", A, self.S_bar)
+        BSb = np.einsum("kab,kbj->kaj", B, self.S_bar)
+        Sq = np.einsum("kij,kj->ki", self.S_tilde, qd)
+        Qq, Qv = np.zeros((kk, c, c)), np.zeros((kk, c, c))
+        # Q_R = w^2 A s_bar - 2 w B S_bar qd
+        Qq[:, 0:2, 2] = w2 * Bs + 2.0 * w1 * np.einsum("kaj,kj->ka", ASb, qd)
+        Qq[:, 0:2, 3:] = w2[:, :, None] * ASb
+        Qv[:, 0:2, 2] = 2.0 * w1 * As - 2.0 * np.einsum("kaj,kj->ka", BSb, qd)
+        Qv[:, 0:2, 3:] = -2.0 * w1[:, :, None] * BSb
+        # Q_phi = -2 w a_U . qd
+        Qq[:, 2, 3:] = -2.0 * w1 * np.einsum("kij,kj->ki", self.M_ff, qd)
+        Qv[:, 2, 2] = -2.0 * np.einsum("ki,ki->k", a_U, qd)
+        Qv[:, 2, 3:] = -2.0 * w1 * a_U
+        # Q_f = w^2 a_U - 2 w S_tilde qd - K q_f
+        Qq[:, 3:, 3:] = w2[:, :, None] * self.M_ff - self.K
+        Qv[:, 3:, 2] = 2.0 * w1 * a_U - 2.0 * Sq
+        Qv[:, 3:, 3:] = -2.0 * w1[:, :, None] * self.S_tilde
+        if self.gravity is not None:
+            g = self.gravity
+            Qq[:, 2, 2] += -np.einsum("ka,a->k", As, g)
+            Qq[:, 2, 3:] += np.einsum("kaj,a->kj", BSb, g)
+            Qq[:, 3:, 2] += np.einsum("kaj,a->kj", BSb, g)
+        return Qq, Qv
+
+    # -- energy and momentum -------------------------------------------------------------------
+    def energy(self, qx) -> float:
+        """Strain energy plus gravity potential energy of all beams [J]."""
+        q = qx[self.cols]
+        qf = q[:, 3:]
+        e = 0.5 * float(np.einsum("ki,kij,kj->", qf, self.K, qf))
+        if self.gravity is not None:
+            phi, qf, A, B, s_bar, a_U, a_T = self._parts(q)
+            e -= float(np.sum(self.m * (q[:, 0:2] @ self.gravity)))
+            e -= float(np.einsum("a,kab,kb->", self.gravity, A, s_bar))
+        return e
+
+    def strain_energy(self, qx) -> np.ndarray:
+        """q_f^T K q_f / 2 of each beam, shape (k,) [J]."""
+        qf = qx[self.cols][:, 3:]
+        return 0.5 * np.einsum("ki,kij,kj->k", qf, self.K, qf)
