@@ -25,7 +25,7 @@ from .assembly.initial import InitialState, consistent_initial_state
 from .assembly.system import AssembledSystem, assemble
 from .dsl.check import check_spec
 from .dsl.parser import parse_file, parse_text
-from .dsl.spec import (ArgSpec, BodySpec, DriverSpec, ForceSpec, InitialSpec, JointSpec,
+from .dsl.spec import (ArgSpec, BeamSpec, BodySpec, DriverSpec, ForceSpec, InitialSpec, JointSpec,
                        ModelSpec, ParameterSpec, PointSpec, SettingSpec)
 from .errors import (AssemblyError, ConvergenceError, Diagnostic, MbdError, MbdModelError,
                      MbdSyntaxError, render)
@@ -40,7 +40,7 @@ __version__ = "0.1.0"
 __all__ = [
     "load", "load_text", "from_spec", "check", "assemble", "simulate", "METHODS",
     "Model", "Solution", "AssembledSystem", "InitialState", "NewtonOptions", "JacobianUpdate",
-    "ModelSpec", "BodySpec", "JointSpec", "ForceSpec", "DriverSpec", "InitialSpec",
+    "ModelSpec", "BodySpec", "BeamSpec", "JointSpec", "ForceSpec", "DriverSpec", "InitialSpec",
     "ParameterSpec", "PointSpec", "SettingSpec", "ArgSpec",
     "MbdError", "MbdSyntaxError", "MbdModelError", "AssemblyError", "ConvergenceError",
     "Diagnostic", "render", "__version__", "load_solution", "write_solution", "plot", "animate",

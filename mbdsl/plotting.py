@@ -273,7 +273,11 @@ def animate_solution(solution, path, fps: float = 25.0, speed: float = 1.0,
     qs = _interpolated(t, sol.q, times) if len(t) > 1 else np.repeat(sol.q[:1], n_frames, 0)
 
     # body geometry in body frames: declared points plus every attachment on the body
-    attach = {b.index: [np.asarray(p, float) for p in b.points.values()] for b in model.bodies}
+    # (a flexible beam is drawn along its frame's x axis, undeformed: its
+    # deflections are far below the drawing's resolution on the paper's models;
+    # its elastic motion is in the result columns)
+    attach = {b.index: [np.array([p, 0.0]) if np.ndim(p) == 0 else np.asarray(p, float)
+                        for p in b.points.values()] for b in model.bodies}
     joint_points = [j.first for j in model.joints]
     springs = [f for f in model.forces if type(f).__name__ == "SpringDamper"]
     for ref in [p for j in model.joints for p in (j.first, j.second)] + \

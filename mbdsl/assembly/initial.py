@@ -242,12 +242,16 @@ def consistent_initial_state(system: AssembledSystem, t0: float = 0.0,
         return state
     cols = np.concatenate([b.elastic_columns() for b in model_flexible(system)])
     K = scipy.linalg.block_diag(*[Kb for g in system.flexible_groups for Kb in g.K])
+    def elastic_acceleration(st):
+        """Largest elastic acceleration of a state (0 when quasi-static)."""
+        return float(np.max(np.abs(st.a[cols])))
+
+    n, m = system.n, system.m
     for _ in range(QUASI_STATIC_ITERATIONS):
         # a_f responds to elastic forces F_f as a_f = G F_f, G the elastic block
         # of the index-1 matrix's inverse (the constrained system's inverse
         # mass); the elastic force of a deflection change d is -K d, so
         # a_f(q_f + d) ~ a_f - G K d = 0 gives d = K^{-1} G^{-1} a_f.
-        n, m = system.n, system.m
         Phi_q = system.Phi_q(state.q, t0)
         KKT = np.block([[system.mass_matrix(state.q), Phi_q.T], [Phi_q, np.zeros((m, m))]])
         unit = np.zeros((n + m, len(cols)))
@@ -255,10 +259,50 @@ def consistent_initial_state(system: AssembledSystem, t0: float = 0.0,
         G = np.linalg.solve(KKT, unit)[cols]
         step = np.zeros(n)
         step[cols] = np.linalg.solve(K, np.linalg.lstsq(G, state.a[cols], rcond=1e-12)[0])
-        state = _consistent_state(system, t0, tol, max_iter, state.q + step)
+        for _ in range(12):          # halve a step that does not reduce a_f
+            try:
+                trial = _consistent_state(system, t0, tol, max_iter, state.q + step)
+            except AssemblyError:
+                trial = None
+            if trial is not None and elastic_acceleration(trial) < elastic_acceleration(state):
+                break
+            step *= 0.5
+        else:
+            state.warnings.append(_not_quasi_static(system, elastic_acceleration(state)))
+            return state
+        state = trial
         if np.max(np.abs(step)) <= 1e-12 * (1e-9 + np.max(np.abs(state.q[cols]))):
             break
+    else:
+        state.warnings.append(_not_quasi_static(system, elastic_acceleration(state)))
+        return state
+    for b in system.model.flexible_bodies:
+        translations = [i for i, name in zip(b.elastic_columns(), b.mesh.names) if name[0] in "uv"]
+        largest = float(np.max(np.abs(state.q[translations])))
+        if largest > LARGE_DEFLECTION * b.length:
+            state.warnings.append(Diagnostic(
+                "warning", "W403", f"flexible beam '{b.name}' starts with a quasi-static deflection "
+                f"of {largest:.3g} m, more than {LARGE_DEFLECTION:.0%} of its length "
+                f"({b.length:g} m): its linear elasticity does not hold there", b.span,
+                "deflects too much", hint="check E, the cross-section and the loads (SI units): "
+                "the floating frame of reference assumes small elastic deflections"))
     return state
+
+
+#: A quasi-static deflection above this fraction of a beam's length is reported (W403).
+LARGE_DEFLECTION = 0.1
+
+
+def _not_quasi_static(system, accel):
+    """W403: the beams start where the iteration stopped, not quasi-statically."""
+    beams = system.model.flexible_bodies
+    return Diagnostic(
+        "warning", "W403", f"the flexible beam{'s' if len(beams) > 1 else ''} "
+        f"{', '.join(repr(b.name) for b in beams)} could not be started at their quasi-static "
+        f"deflection (elastic accelerations up to {accel:.3g} remain): the beams will vibrate "
+        "from t = 0", beams[0].span, "starts out of balance",
+        hint="linear elasticity in the floating frame needs small deflections: check E, the "
+             "cross-section and the loads, or use more elements")
 
 
 def model_flexible(system):

@@ -334,8 +334,9 @@ def run_study(kind: str, model_path, options: StudyOptions, overrides: dict | No
 
     Parameters
     ----------
-    kind : str
-        One of :data:`KINDS` or ``"all"``.
+    kind : str or sequence of str
+        One of :data:`KINDS`, ``"all"``, or several kinds sharing one
+        reference and one set of runs.
     model_path : str or Path
         The ``.mbd`` file.
     options : StudyOptions
@@ -360,9 +361,10 @@ def run_study(kind: str, model_path, options: StudyOptions, overrides: dict | No
         Unknown kind, method, quantity or joint (the message lists the valid ones).
     """
     from .. import METHODS, load_text
-    kinds = KINDS if kind == "all" else (kind,)
-    if kind != "all" and kind not in KINDS:
-        raise ValueError(f"unknown study '{kind}'; choose one of {', '.join(KINDS + ('all',))}")
+    kinds = KINDS if kind == "all" else ((kind,) if isinstance(kind, str) else tuple(kind))
+    for k in ([] if kind == "all" else kinds):
+        if k not in KINDS:
+            raise ValueError(f"unknown study '{k}'; choose one of {', '.join(KINDS + ('all',))}")
     for m in options.methods:
         if m not in METHODS:
             raise ValueError(f"unknown method '{m}'; available: {', '.join(METHODS)}")

@@ -101,7 +101,10 @@ def test_Q_q_and_Q_v(system):
     for q, v, lam, t in states(system):
         Q_q, Q_v = system.force_derivatives(t, q, v)
         close(Q_q, fd(lambda x: system.Q(t, x, v), q))
-        close(Q_v, fd(lambda x: system.Q(t, q, x), v))
+        # Q is at most quadratic in v (central differences exact but for
+        # round-off), so a larger step keeps the round-off of the large
+        # elastic forces of stiff beams (~1e5 N) out of the differences
+        close(Q_v, fd(lambda x: system.Q(t, q, x), v, eps=1e-4))
 
 
 def test_Ma_q(system):

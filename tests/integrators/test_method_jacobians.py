@@ -1,6 +1,7 @@
 """Each method's Newton matrix against central differences of its own residual.
 
-On the model with every joint, driver and force type, at a perturbed
+On the model with every joint, driver and force type (rigid, and on
+flexible beams: (M a)_q and HHT-ADD's M(q)^-1 products), at a perturbed
 (not converged) iterate and a step that is not tiny, so that every term of
 the matrix matters. Dense and sparse assembly must give the same matrix.
 """
@@ -17,6 +18,8 @@ from mbdsl.integrators import make_method
 MODELS = {
     "all_elements": Path(__file__).parents[1] / "dsl" / "valid" / "all_elements.mbd",
     "double_pendulum_stiff": Path(__file__).parents[2] / "models" / "double_pendulum_stiff.mbd",
+    "flexible_elements": Path(__file__).parents[1] / "dsl" / "valid" / "flexible_elements.mbd",
+    "flexible_slider_crank": Path(__file__).parents[2] / "models" / "flexible_slider_crank.mbd",
 }
 
 
