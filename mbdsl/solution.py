@@ -9,6 +9,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .assembly.groups import PointSet
+
 __all__ = ["Solution", "StepStats", "RunStats"]
 
 
@@ -66,7 +68,7 @@ class _Reactions:
         first = np.array([j.first.body for j in joints], dtype=np.intp)
         self.body = np.where(second >= 0, second, first)          # whose force we read
         self.sign = np.where(second >= 0, 1.0, -1.0)
-        self.first, self.s1 = first, np.array([j.first.local for j in joints]).reshape(-1, 2)
+        self.first_points = PointSet(system.n, [j.first for j in joints])  # deformation included
         self.system = system
 
     def __call__(self, q, t, lam) -> np.ndarray:
@@ -74,12 +76,8 @@ class _Reactions:
         forces = _generalized_constraint_forces(self.system, q, t, lam)
         cols = 3 * self.body[:, None] + np.arange(3)[None, :]
         gen = np.asarray(forces[np.repeat(self.element, 3), cols.ravel()]).reshape(-1, 3)
-        on_body = self.first >= 0
-        phi1 = np.where(on_body, q[3 * np.maximum(self.first, 0) + 2], 0.0)
-        c, s = np.cos(phi1), np.sin(phi1)
-        rot = np.stack([c * self.s1[:, 0] - s * self.s1[:, 1], s * self.s1[:, 0] + c * self.s1[:, 1]], 1)
-        r1 = np.stack([q[3 * np.maximum(self.first, 0)], q[3 * np.maximum(self.first, 0) + 1]], 1)
-        point = np.where(on_body[:, None], r1 + rot, self.s1)
+        qx = np.concatenate([q, np.zeros(3)])              # the ground's columns: 0
+        point = self.first_points.position(qx[self.first_points.cols])
         d = point - np.stack([q[3 * self.body], q[3 * self.body + 1]], 1)
         couple = gen[:, 2] - (d[:, 0] * gen[:, 1] - d[:, 1] * gen[:, 0])
         return self.sign[:, None] * np.column_stack([gen[:, :2], couple])
