@@ -240,7 +240,7 @@ def consistent_initial_state(system: AssembledSystem, t0: float = 0.0,
     state = _consistent_state(system, t0, tol, max_iter, None)
     if not system.flexible_groups:
         return state
-    cols = np.concatenate([b.elastic_columns() for b in model_flexible(system)])
+    cols = np.concatenate([b.elastic_columns() for b in system.model.flexible_bodies])
     K = scipy.linalg.block_diag(*[Kb for g in system.flexible_groups for Kb in g.K])
     def elastic_acceleration(st):
         """Largest elastic acceleration of a state (0 when quasi-static)."""
@@ -252,8 +252,7 @@ def consistent_initial_state(system: AssembledSystem, t0: float = 0.0,
         # of the index-1 matrix's inverse (the constrained system's inverse
         # mass); the elastic force of a deflection change d is -K d, so
         # a_f(q_f + d) ~ a_f - G K d = 0 gives d = K^{-1} G^{-1} a_f.
-        Phi_q = system.Phi_q(state.q, t0)
-        KKT = np.block([[system.mass_matrix(state.q), Phi_q.T], [Phi_q, np.zeros((m, m))]])
+        KKT = _index1_matrix(system, state.q, t0)
         unit = np.zeros((n + m, len(cols)))
         unit[cols, np.arange(len(cols))] = 1.0
         G = np.linalg.solve(KKT, unit)[cols]
@@ -303,11 +302,6 @@ def _not_quasi_static(system, accel):
         "from t = 0", beams[0].span, "starts out of balance",
         hint="linear elasticity in the floating frame needs small deflections: check E, the "
              "cross-section and the loads, or use more elements")
-
-
-def model_flexible(system):
-    """The flexible beams of a system's model, in body order."""
-    return system.model.flexible_bodies
 
 
 def _consistent_state(system, t0, tol, max_iter, elastic):
@@ -425,8 +419,7 @@ def _consistent_state(system, t0, tol, max_iter, elastic):
                 sol = lu.solve(rhs)
                 d = np.abs(lu.U.diagonal())
             else:
-                Phi_q = system.Phi_q(q, t0)
-                K = np.block([[system.mass_matrix(q), Phi_q.T], [Phi_q, np.zeros((m, m))]])
+                K = _index1_matrix(system, q, t0)
                 lu = scipy.linalg.lu_factor(K, check_finite=True)
                 sol = scipy.linalg.lu_solve(lu, rhs)
                 d = np.abs(np.diag(lu[0]))
@@ -457,6 +450,13 @@ def _consistent_state(system, t0, tol, max_iter, elastic):
     fixed_idx = {ic.coordinate for ic in model.initials if not ic.guess and not ic.is_velocity}
     solved = {lay.coordinates[i]: float(q[i]) for i in range(n) if i not in fixed_idx}
     return InitialState(t0, q, v, a, lam, res_q, res_v, res_a, solved, it, structure, warnings)
+
+
+def _index1_matrix(system, q, t0) -> np.ndarray:
+    """[[M(q), Phi_q^T], [Phi_q, 0]], dense, shape (n + m, n + m)."""
+    Phi_q = system.Phi_q(q, t0)
+    m = system.m
+    return np.block([[system.mass_matrix(q), Phi_q.T], [Phi_q, np.zeros((m, m))]])
 
 
 def _require_finite(system, x, context, t0, what="coordinate"):

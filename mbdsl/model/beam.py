@@ -127,8 +127,6 @@ class BeamMesh:
         self.nf = len(self.kept)
         comp_names = ("u", "v", "theta")
         self.names = [f"{comp_names[i % 3]}{i // 3}" for i in self.kept]
-        self._full_to_elastic = np.full(3 * nodes, -1, dtype=np.intp)
-        self._full_to_elastic[self.kept] = np.arange(self.nf)
 
     # -- shape functions ----------------------------------------------------------
     def _element_of(self, x):
@@ -158,18 +156,6 @@ class BeamMesh:
     def shape(self, x) -> np.ndarray:
         """S(x) on the elastic coordinates, shape (k, 2, nf) for k arc lengths [m]."""
         return self._full_shape(x)[:, :, self.kept]
-
-    def slope_shape(self, x) -> np.ndarray:
-        """d v / d x as a row on the elastic coordinates, shape (k, nf) [1/m]."""
-        x, e, xi = self._element_of(x)
-        l, k = self.l, len(x)
-        D = np.zeros((k, 3 * (self.elements + 1)))
-        base, ar = 3 * e, np.arange(k)
-        D[ar, base + 1] = (-6 * xi + 6 * xi ** 2) / l
-        D[ar, base + 2] = 1.0 - 4 * xi + 3 * xi ** 2
-        D[ar, base + 4] = (6 * xi - 6 * xi ** 2) / l
-        D[ar, base + 5] = -2 * xi + 3 * xi ** 2
-        return D[:, self.kept]
 
     # -- element matrices -----------------------------------------------------------
     def stiffness(self, EA: float, EI: float) -> np.ndarray:
