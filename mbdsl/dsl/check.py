@@ -485,7 +485,20 @@ class _Checker:
             self.broken_bodies.add(b.name)
             return
         length = values["length"]
-        mass = values["mass"] if "mass" in values else values["density"] * values["area"] * length
+        with np.errstate(all="ignore"):
+            mass = np.float64(values["mass"]) if "mass" in values else \
+                np.float64(values["density"]) * values["area"] * length
+            l = np.float64(length) / values["elements"]
+            derived = [mass, mass / length, mass * np.float64(length) ** 2,
+                       values["E"] * np.float64(values["area"]) / l,
+                       values["E"] * np.float64(values["second_moment"]) / l ** 3]
+        if not all(np.isfinite(x) and x > 0 for x in derived):
+            self.error("E303", f"{ctx}: its mass, inertia or element stiffness is out of the "
+                       "floating-point range (overflows or vanishes)", b.span, "out of range",
+                       hint="check the units (SI: m, kg, Pa, m^2, m^4) and the number of elements")
+            self.broken_bodies.add(b.name)
+            return
+        mass = float(mass)
         points = {"start": 0.0, "end": length}
         for p in b.points:
             if p.name in points:

@@ -56,6 +56,7 @@ def test_python_spec_matches_the_file():
     (GOOD.replace("elements 4", "elements 2.5"), "E301", "integer"),
     (GOOD.replace("E 200e9", "E -1"), "E303", "must be positive"),
     (GOOD + "; inertia 3", "E304", "unknown property 'inertia'"),
+    (GOOD.replace("length 0.6", "length 1e308"), "E303", "floating-point range"),
 ])
 def test_errors(props, code, words):
     found = codes(props)
