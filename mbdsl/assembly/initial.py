@@ -252,12 +252,17 @@ def consistent_initial_state(system: AssembledSystem, t0: float = 0.0,
         # of the index-1 matrix's inverse (the constrained system's inverse
         # mass); the elastic force of a deflection change d is -K d, so
         # a_f(q_f + d) ~ a_f - G K d = 0 gives d = K^{-1} G^{-1} a_f.
-        KKT = _index1_matrix(system, state.q, t0)
         unit = np.zeros((n + m, len(cols)))
         unit[cols, np.arange(len(cols))] = 1.0
-        G = np.linalg.solve(KKT, unit)[cols]
         step = np.zeros(n)
-        step[cols] = np.linalg.solve(K, np.linalg.lstsq(G, state.a[cols], rcond=1e-12)[0])
+        try:
+            G = np.linalg.solve(_index1_matrix(system, state.q, t0), unit)[cols]
+            step[cols] = np.linalg.solve(K, np.linalg.lstsq(G, state.a[cols], rcond=1e-12)[0])
+        except np.linalg.LinAlgError:
+            step[:] = np.nan
+        if not np.all(np.isfinite(step)):
+            state.warnings.append(_not_quasi_static(system, elastic_acceleration(state)))
+            return state
         for _ in range(12):          # halve a step that does not reduce a_f
             try:
                 trial = _consistent_state(system, t0, tol, max_iter, state.q + step)

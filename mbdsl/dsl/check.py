@@ -492,7 +492,8 @@ class _Checker:
             derived = [mass, mass / length, mass * np.float64(length) ** 2,
                        values["E"] * np.float64(values["area"]) / l,
                        values["E"] * np.float64(values["second_moment"]) / l ** 3]
-        if not all(np.isfinite(x) and x > 0 for x in derived):
+        tiny = np.finfo(float).tiny * 1e10       # far from subnormal: K must be factorable
+        if not all(np.isfinite(x) and x > tiny for x in derived):
             self.error("E303", f"{ctx}: its mass, inertia or element stiffness is out of the "
                        "floating-point range (overflows or vanishes)", b.span, "out of range",
                        hint="check the units (SI: m, kg, Pa, m^2, m^4) and the number of elements")
