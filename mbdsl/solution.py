@@ -16,14 +16,20 @@ __all__ = ["Solution", "StepStats", "RunStats"]
 
 @dataclass
 class StepStats:
-    """Newton statistics of one accepted step (zeros for the initial row)."""
+    """Newton statistics of one recorded row (zeros for the initial row).
+
+    With an output stride (``output_every`` K > 1) a row stands for the K
+    steps since the previous row: the counts are their sums, ``h`` the size
+    of the last of them and ``steps`` their number.
+    """
 
     iterations: int = 0
     residuals: int = 0
     jacobians: int = 0
     factorizations: int = 0
     h: float = 0.0
-    multipliers_stalled: bool = False
+    multipliers_stalled: int = 0      # steps accepted at the round-off floor (0 or 1 per step)
+    steps: int = 1
 
 
 @dataclass
@@ -136,7 +142,7 @@ class Solution:
         self._stats.append(stats)
         tot = self.stats_total
         if stats.h > 0:
-            tot.steps += 1
+            tot.steps += stats.steps
         tot.iterations += stats.iterations
         tot.residuals += stats.residuals
         tot.jacobians += stats.jacobians

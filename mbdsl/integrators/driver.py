@@ -40,7 +40,8 @@ _HINTS = {
 def integrate(system, method: Method, t_end: float, h: float, *, t_start: float = 0.0,
               initial: InitialState | None = None, newton: NewtonOptions | None = None,
               on_failure: str = "raise", max_halvings: int = 6, grow_after: int = 4,
-              progress=None, writer=None) -> Solution:
+              progress=None, writer=None, output_every: int = 1,
+              engine: str = "auto") -> Solution:
     """Integrate the equations of motion from t_start to t_end.
 
     Parameters
@@ -72,7 +73,16 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
         Streams accepted steps to a file as the run goes
         (:class:`mbdsl.output.CsvStream`); ``finish`` runs on every exit,
         including Ctrl-C and an unexpected exception, so no step is lost.
-        Called after each accepted step.
+        Called after each recorded step.
+    output_every : int
+        Record every K-th step (and the last one), so that a long run of a
+        large model does not hold every step in memory; a recorded row's
+        Newton counts are the sums over the steps it stands for.
+    engine : {"auto", "numpy", "compiled"}
+        "compiled" runs HHT-I3 and HHT-SI2 on rigid models through the
+        numba kernels of :mod:`.engine` (an error when the model or method
+        is not covered); "numpy" the vectorised numpy assembly; "auto" the
+        compiled engine where it applies.
 
     Returns
     -------
@@ -81,7 +91,8 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
     Raises
     ------
     ValueError
-        For h <= 0 or t_end <= t_start.
+        For h <= 0, t_end <= t_start, output_every < 1, an unknown engine,
+        or ``engine="compiled"`` where it does not apply.
     ConvergenceError
         With ``on_failure="raise"`` when the run cannot go on.
     """
@@ -91,10 +102,35 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
         raise ValueError(f"t_end ({t_end}) must be after t_start ({t_start})")
     if on_failure not in ("raise", "return"):
         raise ValueError("on_failure must be 'raise' or 'return'")
+    if not (isinstance(output_every, (int, np.integer)) and output_every >= 1):
+        raise ValueError(f"output_every must be a positive integer, got {output_every!r}")
+    output_every = int(output_every)
+    from .engine import DENSE_LIMIT as _DL, SparseAdapter, run_compiled, select_engine
+    which = select_engine(engine, system, method)
     wall0 = _time.perf_counter()
     if initial is None:
         initial = consistent_initial_state(system, t_start)
     solver = Newton(newton)
+    if which == "compiled":
+        size = (system.n + system.m) * (1 if method.name == "hht-i3" else 2)
+        choice = solver.options.linear_solver
+        if choice == "dense" or (choice == "auto" and size <= _DL):
+            sol = Solution(system, method, h, t_end, initial)
+            sol.engine = "compiled"
+            sol.append(method.start(system, initial)[-1], StepStats())
+            try:
+                run_compiled(system, method, t_end, h, t_start, initial, solver.options, sol,
+                             output_every=output_every, progress=progress, writer=writer,
+                             max_halvings=max_halvings, grow_after=grow_after)
+            finally:
+                sol.wall_time = _time.perf_counter() - wall0
+                sol.finalize()
+                if writer is not None:
+                    writer.finish(sol)
+            if sol.status == "failed" and on_failure == "raise":
+                raise ConvergenceError(sol.message, sol.diagnostics, solution=sol)
+            return sol
+        method = SparseAdapter(system, method)
     blocks = method.blocks(system)
     kinds = np.concatenate([np.full(b.size, b.kind == "multiplier") for b in blocks])
     size = len(kinds)
@@ -103,7 +139,10 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
                                                (choice == "auto" and size > DENSE_LIMIT)))
     history = method.start(system, initial)
     sol = Solution(system, method, h, t_end, initial)
+    sol.engine = which
     sol.append(history[-1], StepStats())
+    pending = StepStats(steps=0)      # steps not yet recorded (output stride)
+    n_steps = 0
     t, h_cur, good = t_start, h, 0
     carry = 0.0          # Kahan compensation: t stays exact to round-off over 1e6 steps
     # The limit is on the step size, not on consecutive failures: counting
@@ -132,20 +171,32 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
                 break
             state = method.accept(res.w, ctx)
             history = (list(history) + [state])[-method.history_length:]
-            sol.append(state, StepStats(res.n_iter, res.n_residual, res.n_jacobian,
-                                        res.n_factor, step, res.multipliers_stalled))
+            n_steps += 1
+            pending = StepStats(pending.iterations + res.n_iter, pending.residuals + res.n_residual,
+                                pending.jacobians + res.n_jacobian,
+                                pending.factorizations + res.n_factor, step,
+                                pending.multipliers_stalled + int(res.multipliers_stalled),
+                                pending.steps + 1)
             t, carry = t_new, new_carry
+            recorded = n_steps % output_every == 0 or t >= t_end - 1e-9 * h
+            if recorded:
+                sol.append(state, pending)
+                pending = StepStats(steps=0)
             if h_cur < h:
                 good += 1
                 if good >= grow_after:
                     h_cur, good = min(2.0 * h_cur, h), 0
             if progress is not None:
                 progress(t, step, res.n_iter)
-            if writer is not None:
+            if writer is not None and recorded:
                 writer.append(sol)
         else:
             sol.status, sol.message = "completed", f"reached t_end = {t_end:g} s"
+        if pending.steps:          # a failure after unrecorded steps: keep the last state
+            sol.append(history[-1], pending)
     except KeyboardInterrupt:
+        if pending.steps:
+            sol.append(history[-1], pending)
         sol.status = "interrupted"
         sol.message = f"interrupted by the user at t = {t:.6g} s; every accepted step is kept"
     except Exception as exc:          # a bug: keep what was computed, then let it surface

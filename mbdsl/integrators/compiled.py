@@ -1,0 +1,837 @@
+"""Compiled kernels (numba) for HHT-I3 and HHT-SI2 on rigid planar models.
+
+The only module of mbdsl that imports numba. It is imported lazily, when a
+run asks for the compiled engine (:mod:`mbdsl.integrators.engine`), so that
+``import mbdsl`` and model checking stay fast; the kernels are compiled once
+per machine and cached on disk (``cache=True``, numba's ``__pycache__``).
+
+Why compiled code here: on small mechanisms the numpy formulation is
+dominated by call overhead (about a microsecond per numpy call, dozens of
+calls per Newton iteration), not by arithmetic. The kernels evaluate the same
+element formulas as :mod:`mbdsl.assembly.groups` with scalar loops over the
+instances of each element type (struct of arrays, fixed at build), and for
+systems of up to ``DENSE_LIMIT`` unknowns run the whole time loop, Newton
+iteration included, without returning to Python.
+
+Model data (``md``) is a tuple of arrays in the order of :data:`MODEL_FIELDS`
+(built by ``engine.CompiledModel``): body columns index the extended
+coordinate vector q_ext = [q, 0, 0, 0], the trailing three being the
+ground, whose entries are never written to a matrix.
+
+Formulas (Haug, Computer-Aided Kinematics and Dynamics of Mechanical
+Systems, ch. 3 and 6; Nikravesh, Computer-Aided Analysis of Mechanical
+Systems, ch. 4): a body point is at r + A(phi) s, with d/dphi (A s) = B s =
+(-(A s)_y, (A s)_x) and d^2/dphi^2 (A s) = -A s.
+
+* coincidence (revolute): Phi = p2 - p1
+* point on line: Phi = n . (p_P - p_L), n = A_L n0
+* linear rows: c1 q[i1] + c2 q[i2] - offset (locked angles)
+* spring-damper: Q = -D^T (f e), f = k (l - l0) + c ldot
+* rotational spring-damper: tau = k (phi2 - phi1 - angle) + c (w2 - w1)
+* constant point forces, and constant forces (gravity, torques) in Q0
+
+The Newton iteration is the one of :mod:`mbdsl.integrators.newton`
+(weighted velocity-equivalent norm, contraction-based stopping, modified
+Newton with refresh on poor contraction, the round-off stall rule), with
+the factorization replaced by an explicit inverse of the (small) Newton
+matrix computed by LAPACK through ``numpy.linalg.inv``: the inverse is only
+used to compute Newton updates, while the residual is evaluated exactly, so
+its round-off changes the contraction, never the converged solution.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+__all__ = ["MODEL_FIELDS", "residual", "jacobian_triplets", "force_term", "mobility",
+           "accumulate", "run_dense", "triplet_bound", "HHT_I3", "HHT_SI2"]
+
+#: Method codes of the kernels.
+HHT_I3, HHT_SI2 = 0, 1
+
+#: Newton status codes (same meaning as ``NewtonStatus``).
+CONVERGED, MAX_ITER, DIVERGING, SINGULAR, NONFINITE = 0, 1, 2, 3, 4
+
+#: The order of the arrays in a model-data tuple.
+MODEL_FIELDS = ("mass", "Q0",
+                "crow", "ccol1", "cs1", "ccol2", "cs2",
+                "prow", "pcolL", "psL", "pcolP", "psP", "pn0",
+                "lrow", "lcol", "lcoef", "loff",
+                "scol1", "ss1", "scol2", "ss2", "spar",
+                "rcol", "rpar",
+                "fcol", "fs", "fF",
+                "row_element", "n_elements")
+
+ROUNDOFF_BAND = 1e3        # as in newton.py
+EPS = 2.220446049250313e-16
+
+_jit = numba.njit(cache=True, nogil=True)
+
+
+@_jit
+def _As(qx, cols, s, i):
+    """A(phi) s of instance i: (x, y)."""
+    ph = qx[cols[i, 2]]
+    c, sn = math.cos(ph), math.sin(ph)
+    return c * s[i, 0] - sn * s[i, 1], sn * s[i, 0] + c * s[i, 1]
+
+
+@_jit
+def _pol(qx, pcolL, psL, pcolP, psP, pn0, i):
+    """Point-on-line parts: n, d = p_P - p_L, A s_L, A s_P."""
+    axL, ayL = _As(qx, pcolL, psL, i)
+    axP, ayP = _As(qx, pcolP, psP, i)
+    dx = (qx[pcolP[i, 0]] - qx[pcolL[i, 0]]) + (axP - axL)
+    dy = (qx[pcolP[i, 1]] - qx[pcolL[i, 1]]) + (ayP - ayL)
+    nx, ny = _As(qx, pcolL, pn0, i)
+    return nx, ny, dx, dy, axL, ayL, axP, ayP
+
+
+@_jit
+def _pol_grad(nx, ny, dx, dy, axL, ayL, axP, ayP, g):
+    """Local gradient of n . d over (x_L, y_L, phi_L, x_P, y_P, phi_P) into g (6,)."""
+    g[0] = -nx
+    g[1] = -ny
+    g[2] = -(-nx * ayL + ny * axL) + (-ny * dx + nx * dy)
+    g[3] = nx
+    g[4] = ny
+    g[5] = -nx * ayP + ny * axP
+
+
+@_jit
+def _pol_hess(nx, ny, dx, dy, axL, ayL, axP, ayP, bnd):
+    """Hessian of n . d: (Bn . D) into bnd (6,); returns (H[phiL, phiL], H[phiP, phiP]).
+
+    H = n . D_qq + e_L (Bn)^T D + D^T Bn e_L^T - (n . d) e_L e_L^T
+    (``PointOnLineGroup``): its only nonzeros are row and column phi_L and
+    the entry (phi_P, phi_P).
+    """
+    bx, by = -ny, nx
+    bnd[0] = -bx
+    bnd[1] = -by
+    bnd[2] = -(bx * (-ayL) + by * axL)
+    bnd[3] = bx
+    bnd[4] = by
+    bnd[5] = bx * (-ayP) + by * axP
+    hLL = (nx * axL + ny * ayL) + 2.0 * bnd[2] - (nx * dx + ny * dy)
+    hPP = -(nx * axP + ny * ayP)
+    return hLL, hPP
+
+
+# --------------------------------------------------------------------------------------------
+# Vectors: Phi, Phi_q^T lambda, Phi_q v, Q
+# --------------------------------------------------------------------------------------------
+
+@_jit
+def phi(md, qx, out):
+    """Phi(q) into out (m,) [m or rad]."""
+    (mass, Q0, crow, ccol1, cs1, ccol2, cs2, prow, pcolL, psL, pcolP, psP, pn0,
+     lrow, lcol, lcoef, loff, scol1, ss1, scol2, ss2, spar, rcol, rpar, fcol, fs, fF,
+     row_element, n_elements) = md
+    for i in range(crow.shape[0]):
+        ax1, ay1 = _As(qx, ccol1, cs1, i)
+        ax2, ay2 = _As(qx, ccol2, cs2, i)
+        out[crow[i, 0]] = (qx[ccol2[i, 0]] - qx[ccol1[i, 0]]) + (ax2 - ax1)
+        out[crow[i, 1]] = (qx[ccol2[i, 1]] - qx[ccol1[i, 1]]) + (ay2 - ay1)
+    for i in range(prow.shape[0]):
+        nx, ny, dx, dy, axL, ayL, axP, ayP = _pol(qx, pcolL, psL, pcolP, psP, pn0, i)
+        out[prow[i]] = nx * dx + ny * dy
+    for i in range(lrow.shape[0]):
+        out[lrow[i]] = lcoef[i, 0] * qx[lcol[i, 0]] + lcoef[i, 1] * qx[lcol[i, 1]] - loff[i]
+
+
+@_jit
+def phiqT_add(md, qx, lam, coef, out):
+    """out[:n+3] += coef Phi_q^T lambda."""
+    (mass, Q0, crow, ccol1, cs1, ccol2, cs2, prow, pcolL, psL, pcolP, psP, pn0,
+     lrow, lcol, lcoef, loff, scol1, ss1, scol2, ss2, spar, rcol, rpar, fcol, fs, fF,
+     row_element, n_elements) = md
+    for i in range(crow.shape[0]):
+        l0, l1 = coef * lam[crow[i, 0]], coef * lam[crow[i, 1]]
+        ax1, ay1 = _As(qx, ccol1, cs1, i)
+        ax2, ay2 = _As(qx, ccol2, cs2, i)
+        out[ccol1[i, 0]] -= l0
+        out[ccol1[i, 1]] -= l1
+        out[ccol1[i, 2]] -= -ay1 * l0 + ax1 * l1
+        out[ccol2[i, 0]] += l0
+        out[ccol2[i, 1]] += l1
+        out[ccol2[i, 2]] += -ay2 * l0 + ax2 * l1
+    g = np.empty(6)
+    for i in range(prow.shape[0]):
+        nx, ny, dx, dy, axL, ayL, axP, ayP = _pol(qx, pcolL, psL, pcolP, psP, pn0, i)
+        _pol_grad(nx, ny, dx, dy, axL, ayL, axP, ayP, g)
+        lv = coef * lam[prow[i]]
+        for j in range(3):
+            out[pcolL[i, j]] += lv * g[j]
+            out[pcolP[i, j]] += lv * g[3 + j]
+    for i in range(lrow.shape[0]):
+        lv = coef * lam[lrow[i]]
+        out[lcol[i, 0]] += lcoef[i, 0] * lv
+        out[lcol[i, 1]] += lcoef[i, 1] * lv
+
+
+@_jit
+def phiq_times(md, qx, vx, out):
+    """Phi_q v into out (m,)."""
+    (mass, Q0, crow, ccol1, cs1, ccol2, cs2, prow, pcolL, psL, pcolP, psP, pn0,
+     lrow, lcol, lcoef, loff, scol1, ss1, scol2, ss2, spar, rcol, rpar, fcol, fs, fF,
+     row_element, n_elements) = md
+    for i in range(crow.shape[0]):
+        ax1, ay1 = _As(qx, ccol1, cs1, i)
+        ax2, ay2 = _As(qx, ccol2, cs2, i)
+        w1, w2 = vx[ccol1[i, 2]], vx[ccol2[i, 2]]
+        out[crow[i, 0]] = (vx[ccol2[i, 0]] - vx[ccol1[i, 0]]) + (-ay2 * w2 + ay1 * w1)
+        out[crow[i, 1]] = (vx[ccol2[i, 1]] - vx[ccol1[i, 1]]) + (ax2 * w2 - ax1 * w1)
+    g = np.empty(6)
+    for i in range(prow.shape[0]):
+        nx, ny, dx, dy, axL, ayL, axP, ayP = _pol(qx, pcolL, psL, pcolP, psP, pn0, i)
+        _pol_grad(nx, ny, dx, dy, axL, ayL, axP, ayP, g)
+        s = 0.0
+        for j in range(3):
+            s += g[j] * vx[pcolL[i, j]] + g[3 + j] * vx[pcolP[i, j]]
+        out[prow[i]] = s
+    for i in range(lrow.shape[0]):
+        out[lrow[i]] = lcoef[i, 0] * vx[lcol[i, 0]] + lcoef[i, 1] * vx[lcol[i, 1]]
+
+
+@_jit
+def _spring(qx, vx, scol1, ss1, scol2, ss2, spar, i, G, v6):
+    """Kinematics of spring i: D = dd/dq_local into G (2, 6), local v into v6;
+    returns (d, ddot, l, A s1, A s2)."""
+    ax1, ay1 = _As(qx, scol1, ss1, i)
+    ax2, ay2 = _As(qx, scol2, ss2, i)
+    dx = (qx[scol2[i, 0]] - qx[scol1[i, 0]]) + (ax2 - ax1)
+    dy = (qx[scol2[i, 1]] - qx[scol1[i, 1]]) + (ay2 - ay1)
+    G[:] = 0.0
+    G[0, 0] = -1.0
+    G[1, 1] = -1.0
+    G[0, 2] = ay1
+    G[1, 2] = -ax1
+    G[0, 3] = 1.0
+    G[1, 4] = 1.0
+    G[0, 5] = -ay2
+    G[1, 5] = ax2
+    for j in range(3):
+        v6[j] = vx[scol1[i, j]]
+        v6[3 + j] = vx[scol2[i, j]]
+    ddx = 0.0
+    ddy = 0.0
+    for j in range(6):
+        ddx += G[0, j] * v6[j]
+        ddy += G[1, j] * v6[j]
+    return dx, dy, ddx, ddy, math.sqrt(dx * dx + dy * dy), ax1, ay1, ax2, ay2
+
+
+@_jit
+def forces(md, qx, vx, out):
+    """Q(q, v) into out (n+3,) [N, N m] (overwritten)."""
+    (mass, Q0, crow, ccol1, cs1, ccol2, cs2, prow, pcolL, psL, pcolP, psP, pn0,
+     lrow, lcol, lcoef, loff, scol1, ss1, scol2, ss2, spar, rcol, rpar, fcol, fs, fF,
+     row_element, n_elements) = md
+    out[:] = Q0
+    G = np.empty((2, 6))
+    v6 = np.empty(6)
+    for i in range(scol1.shape[0]):
+        dx, dy, ddx, ddy, l, ax1, ay1, ax2, ay2 = _spring(qx, vx, scol1, ss1, scol2, ss2, spar,
+                                                          i, G, v6)
+        ex, ey = dx / l, dy / l
+        f = spar[i, 0] * (l - spar[i, 2])
+        if spar[i, 1] != 0.0:
+            f = f + spar[i, 1] * (ex * ddx + ey * ddy)
+        fx, fy = f * ex, f * ey
+        for j in range(3):
+            out[scol1[i, j]] -= G[0, j] * fx + G[1, j] * fy
+            out[scol2[i, j]] -= G[0, 3 + j] * fx + G[1, 3 + j] * fy
+    for i in range(rcol.shape[0]):
+        tau = (rpar[i, 0] * (qx[rcol[i, 1]] - qx[rcol[i, 0]] - rpar[i, 2])
+               + rpar[i, 1] * (vx[rcol[i, 1]] - vx[rcol[i, 0]]))
+        out[rcol[i, 0]] += tau
+        out[rcol[i, 1]] -= tau
+    for i in range(fcol.shape[0]):
+        ax, ay = _As(qx, fcol, fs, i)
+        out[fcol[i, 0]] += fF[i, 0]
+        out[fcol[i, 1]] += fF[i, 1]
+        out[fcol[i, 2]] += -ay * fF[i, 0] + ax * fF[i, 1]
+
+
+# --------------------------------------------------------------------------------------------
+# Matrix blocks as (row, column, value) triplets in a fixed order
+# --------------------------------------------------------------------------------------------
+
+@_jit
+def _put(R, C, V, p, r, c, v):
+    R[p] = r
+    C[p] = c
+    V[p] = v
+    return p + 1
+
+
+@_jit
+def _emit_mass(md, n, R, C, V, p, r0, c0, coef):
+    mass = md[0]
+    for j in range(n):
+        p = _put(R, C, V, p, r0 + j, c0 + j, coef * mass[j])
+    return p
+
+
+@_jit
+def _emit_phiq(md, n, qx, R, C, V, p, r0, c0, coef, transpose):
+    """coef Phi_q at (r0, c0), or coef Phi_q^T when transpose."""
+    (mass, Q0, crow, ccol1, cs1, ccol2, cs2, prow, pcolL, psL, pcolP, psP, pn0,
+     lrow, lcol, lcoef, loff, scol1, ss1, scol2, ss2, spar, rcol, rpar, fcol, fs, fF,
+     row_element, n_elements) = md
+    for i in range(crow.shape[0]):
+        ax1, ay1 = _As(qx, ccol1, cs1, i)
+        ax2, ay2 = _As(qx, ccol2, cs2, i)
+        for a in range(2):
+            row = crow[i, a]
+            # d(p2 - p1)_a / d(x1, y1, phi1, x2, y2, phi2): -e_a, -(B s1)_a, e_a, (B s2)_a
+            for which in range(4):
+                if which == 0:
+                    col, g = ccol1[i, a], -1.0
+                elif which == 1:
+                    col, g = ccol1[i, 2], (ay1 if a == 0 else -ax1)
+                elif which == 2:
+                    col, g = ccol2[i, a], 1.0
+                else:
+                    col, g = ccol2[i, 2], (-ay2 if a == 0 else ax2)
+                if col < n:
+                    if transpose:
+                        p = _put(R, C, V, p, r0 + col, c0 + row, coef * g)
+                    else:
+                        p = _put(R, C, V, p, r0 + row, c0 + col, coef * g)
+    g = np.empty(6)
+    for i in range(prow.shape[0]):
+        nx, ny, dx, dy, axL, ayL, axP, ayP = _pol(qx, pcolL, psL, pcolP, psP, pn0, i)
+        _pol_grad(nx, ny, dx, dy, axL, ayL, axP, ayP, g)
+        row = prow[i]
+        for j in range(6):
+            col = pcolL[i, j] if j < 3 else pcolP[i, j - 3]
+            if col < n:
+                if transpose:
+                    p = _put(R, C, V, p, r0 + col, c0 + row, coef * g[j])
+                else:
+                    p = _put(R, C, V, p, r0 + row, c0 + col, coef * g[j])
+    for i in range(lrow.shape[0]):
+        for j in range(2):
+            col = lcol[i, j]
+            if col < n:
+                if transpose:
+                    p = _put(R, C, V, p, r0 + col, c0 + lrow[i], coef * lcoef[i, j])
+                else:
+                    p = _put(R, C, V, p, r0 + lrow[i], c0 + col, coef * lcoef[i, j])
+    return p
+
+
+@_jit
+def _emit_hess(md, n, qx, lam, R, C, V, p, r0, c0, coef):
+    """coef (Phi_q^T lambda)_q at (r0, c0)."""
+    (mass, Q0, crow, ccol1, cs1, ccol2, cs2, prow, pcolL, psL, pcolP, psP, pn0,
+     lrow, lcol, lcoef, loff, scol1, ss1, scol2, ss2, spar, rcol, rpar, fcol, fs, fF,
+     row_element, n_elements) = md
+    for i in range(crow.shape[0]):
+        l0, l1 = lam[crow[i, 0]], lam[crow[i, 1]]
+        ax1, ay1 = _As(qx, ccol1, cs1, i)
+        ax2, ay2 = _As(qx, ccol2, cs2, i)
+        c1, c2 = ccol1[i, 2], ccol2[i, 2]
+        if c1 < n:
+            p = _put(R, C, V, p, r0 + c1, c0 + c1, coef * (l0 * ax1 + l1 * ay1))
+        if c2 < n:
+            p = _put(R, C, V, p, r0 + c2, c0 + c2, -coef * (l0 * ax2 + l1 * ay2))
+    bnd = np.empty(6)
+    for i in range(prow.shape[0]):
+        nx, ny, dx, dy, axL, ayL, axP, ayP = _pol(qx, pcolL, psL, pcolP, psP, pn0, i)
+        hLL, hPP = _pol_hess(nx, ny, dx, dy, axL, ayL, axP, ayP, bnd)
+        lv = coef * lam[prow[i]]
+        cL, cP = pcolL[i, 2], pcolP[i, 2]
+        for j in range(6):
+            col = pcolL[i, j] if j < 3 else pcolP[i, j - 3]
+            if j == 2 or col >= n or cL >= n:
+                continue
+            p = _put(R, C, V, p, r0 + cL, c0 + col, lv * bnd[j])
+            p = _put(R, C, V, p, r0 + col, c0 + cL, lv * bnd[j])
+        if cL < n:
+            p = _put(R, C, V, p, r0 + cL, c0 + cL, lv * hLL)
+        if cP < n:
+            p = _put(R, C, V, p, r0 + cP, c0 + cP, lv * hPP)
+    return p
+
+
+@_jit
+def _emit_G(md, n, qx, vx, R, C, V, p, r0, c0, coef):
+    """coef (Phi_q v)_q at (r0, c0) (Phi_qt = 0 for these constraints)."""
+    (mass, Q0, crow, ccol1, cs1, ccol2, cs2, prow, pcolL, psL, pcolP, psP, pn0,
+     lrow, lcol, lcoef, loff, scol1, ss1, scol2, ss2, spar, rcol, rpar, fcol, fs, fF,
+     row_element, n_elements) = md
+    for i in range(crow.shape[0]):
+        ax1, ay1 = _As(qx, ccol1, cs1, i)
+        ax2, ay2 = _As(qx, ccol2, cs2, i)
+        c1, c2 = ccol1[i, 2], ccol2[i, 2]
+        w1, w2 = vx[c1], vx[c2]
+        for a in range(2):
+            s1 = ax1 if a == 0 else ay1
+            s2 = ax2 if a == 0 else ay2
+            if c1 < n:
+                p = _put(R, C, V, p, r0 + crow[i, a], c0 + c1, coef * s1 * w1)
+            if c2 < n:
+                p = _put(R, C, V, p, r0 + crow[i, a], c0 + c2, -coef * s2 * w2)
+    bnd = np.empty(6)
+    v6 = np.empty(6)
+    for i in range(prow.shape[0]):
+        nx, ny, dx, dy, axL, ayL, axP, ayP = _pol(qx, pcolL, psL, pcolP, psP, pn0, i)
+        hLL, hPP = _pol_hess(nx, ny, dx, dy, axL, ayL, axP, ayP, bnd)
+        for j in range(3):
+            v6[j] = vx[pcolL[i, j]]
+            v6[3 + j] = vx[pcolP[i, j]]
+        row = prow[i]
+        for j in range(6):       # (H v)_j, H symmetric
+            col = pcolL[i, j] if j < 3 else pcolP[i, j - 3]
+            if j == 2:
+                hv = hLL * v6[2]
+                for k in range(6):
+                    if k != 2:
+                        hv += bnd[k] * v6[k]
+            else:
+                hv = bnd[j] * v6[2]
+                if j == 5:
+                    hv += hPP * v6[5]
+            if col < n:
+                p = _put(R, C, V, p, r0 + row, c0 + col, coef * hv)
+    return p
+
+
+@_jit
+def _emit_force(md, n, qx, vx, R, C, V, p, r0, c0, cq, cv):
+    """-(cq Q_q + cv Q_v) at (r0, c0) (``SpringDamperGroup.derivatives``)."""
+    (mass, Q0, crow, ccol1, cs1, ccol2, cs2, prow, pcolL, psL, pcolP, psP, pn0,
+     lrow, lcol, lcoef, loff, scol1, ss1, scol2, ss2, spar, rcol, rpar, fcol, fs, fF,
+     row_element, n_elements) = md
+    G = np.empty((2, 6))
+    v6 = np.empty(6)
+    de = np.empty((2, 6))
+    dF = np.empty((2, 6))
+    dl = np.empty(6)
+    dldot = np.empty(6)
+    cols = np.empty(6, np.int64)
+    for i in range(scol1.shape[0]):
+        k, c, l0 = spar[i, 0], spar[i, 1], spar[i, 2]
+        dx, dy, ddx, ddy, l, ax1, ay1, ax2, ay2 = _spring(qx, vx, scol1, ss1, scol2, ss2, spar,
+                                                          i, G, v6)
+        ex, ey = dx / l, dy / l
+        P00, P01, P11 = (1.0 - ex * ex) / l, -ex * ey / l, (1.0 - ey * ey) / l
+        ldot = ex * ddx + ey * ddy
+        f = k * (l - l0) + c * ldot
+        for j in range(6):
+            de[0, j] = P00 * G[0, j] + P01 * G[1, j]
+            de[1, j] = P01 * G[0, j] + P11 * G[1, j]
+            dl[j] = ex * G[0, j] + ey * G[1, j]
+            dldot[j] = ddx * de[0, j] + ddy * de[1, j]
+        # e . Hv: Hd[a, 2, 2] = (A s1)_a, Hd[a, 5, 5] = -(A s2)_a
+        dldot[2] += (ex * ax1 + ey * ay1) * v6[2]
+        dldot[5] -= (ex * ax2 + ey * ay2) * v6[5]
+        for j in range(6):
+            dfj = k * dl[j] + c * dldot[j]
+            dF[0, j] = ex * dfj + f * de[0, j]
+            dF[1, j] = ey * dfj + f * de[1, j]
+        Fx, Fy = f * ex, f * ey
+        for j in range(3):
+            cols[j] = scol1[i, j]
+            cols[3 + j] = scol2[i, j]
+        for a in range(6):
+            if cols[a] >= n:
+                continue
+            for b in range(6):
+                if cols[b] >= n:
+                    continue
+                qq = -(G[0, a] * dF[0, b] + G[1, a] * dF[1, b])
+                if a == b and a == 2:
+                    qq -= Fx * ax1 + Fy * ay1
+                elif a == b and a == 5:
+                    qq += Fx * ax2 + Fy * ay2
+                val = cq * qq
+                if c != 0.0:
+                    val += cv * (-c * (G[0, a] * ex + G[1, a] * ey) * (G[0, b] * ex + G[1, b] * ey))
+                p = _put(R, C, V, p, r0 + cols[a], c0 + cols[b], -val)
+    for i in range(rcol.shape[0]):
+        for a in range(2):
+            for b in range(2):
+                if rcol[i, a] < n and rcol[i, b] < n:
+                    sgn = -1.0 if a == b else 1.0      # Q_q = k [[-1, 1], [1, -1]]
+                    val = sgn * (cq * rpar[i, 0] + cv * rpar[i, 1])
+                    p = _put(R, C, V, p, r0 + rcol[i, a], c0 + rcol[i, b], -val)
+    for i in range(fcol.shape[0]):
+        if fcol[i, 2] < n:
+            ax, ay = _As(qx, fcol, fs, i)
+            val = cq * -(ax * fF[i, 0] + ay * fF[i, 1])
+            p = _put(R, C, V, p, r0 + fcol[i, 2], c0 + fcol[i, 2], -val)
+    return p
+
+
+# --------------------------------------------------------------------------------------------
+# The two methods: residual and Newton matrix in their unknowns
+# --------------------------------------------------------------------------------------------
+
+@_jit
+def _state(kind, n, m, w, q_pred, v_pred, bh2, hh2, gh, qx, vx):
+    """q_{n+1}, v_{n+1} into the extended vectors from the unknowns w."""
+    for j in range(n):
+        qx[j] = q_pred[j] + bh2 * w[j]
+        vx[j] = v_pred[j] + gh * w[j]
+    if kind == HHT_SI2:
+        for j in range(n):
+            qx[j] += hh2 * w[n + j]
+
+
+@_jit
+def residual(kind, md, coefs, q_pred, v_pred, F_old, w, r, qx, vx, work):
+    """Upsilon(w) of HHT-I3 (kind 0, size n + m) or HHT-SI2 (kind 1, size 2n + 2m).
+
+    ``coefs`` = (alpha, beta, gamma, h); ``qx``, ``vx``, ``work`` are
+    scratch vectors of size n + 3 (ground entries zero). Same equations as
+    ``HHTI3.residual`` and ``HHTSI2.residual``.
+    """
+    mass = md[0]
+    n, m = mass.shape[0], md[27].shape[0]
+    alpha, beta, gamma, h = coefs[0], coefs[1], coefs[2], coefs[3]
+    bh2, hh2, gh = beta * h * h, 0.5 * h * h, gamma * h
+    _state(kind, n, m, w, q_pred, v_pred, bh2, hh2, gh, qx, vx)
+    c = 1.0 / (1.0 + alpha)
+    forces(md, qx, vx, work)
+    for j in range(n):
+        work[j] = -work[j]
+    lam0 = n if kind == HHT_I3 else 2 * n
+    phiqT_add(md, qx, w[lam0:lam0 + m], 1.0, work)
+    for j in range(n):
+        r[j] = c * mass[j] * w[j] + work[j] - alpha * c * F_old[j]
+    if kind == HHT_I3:
+        phi(md, qx, r[n:])
+        for i in range(m):
+            r[n + i] /= bh2
+    else:
+        work[:] = 0.0
+        phiqT_add(md, qx, w[2 * n + m:], 1.0, work)
+        for j in range(n):
+            r[n + j] = mass[j] * w[n + j] + work[j]
+        phi(md, qx, r[2 * n:2 * n + m])
+        phiq_times(md, qx, vx, r[2 * n + m:])
+        for i in range(m):
+            r[2 * n + i] /= h * h
+            r[2 * n + m + i] /= h
+
+
+@_jit
+def jacobian_triplets(kind, md, coefs, q_pred, v_pred, w, R, C, V, qx, vx):
+    """Newton matrix entries (R, C, V), in an order and pattern fixed by the
+    model; returns their count. Duplicates are summed by the caller.
+
+    HHT-I3: ``index3_newton_matrix``; HHT-SI2: ``HHTSI2.jacobian``.
+    """
+    mass = md[0]
+    n, m = mass.shape[0], md[27].shape[0]
+    alpha, beta, gamma, h = coefs[0], coefs[1], coefs[2], coefs[3]
+    bh2, hh2, gh = beta * h * h, 0.5 * h * h, gamma * h
+    _state(kind, n, m, w, q_pred, v_pred, bh2, hh2, gh, qx, vx)
+    c = 1.0 / (1.0 + alpha)
+    p = 0
+    if kind == HHT_I3:
+        lam = w[n:n + m]
+        p = _emit_mass(md, n, R, C, V, p, 0, 0, c)
+        p = _emit_hess(md, n, qx, lam, R, C, V, p, 0, 0, bh2)
+        p = _emit_force(md, n, qx, vx, R, C, V, p, 0, 0, bh2, gh)
+        p = _emit_phiq(md, n, qx, R, C, V, p, 0, n, 1.0, True)
+        p = _emit_phiq(md, n, qx, R, C, V, p, n, 0, 1.0, False)
+    else:
+        lam, mu = w[2 * n:2 * n + m], w[2 * n + m:]
+        p = _emit_mass(md, n, R, C, V, p, 0, 0, c)
+        p = _emit_hess(md, n, qx, lam, R, C, V, p, 0, 0, bh2)
+        p = _emit_force(md, n, qx, vx, R, C, V, p, 0, 0, bh2, gh)
+        p = _emit_hess(md, n, qx, lam, R, C, V, p, 0, n, hh2)
+        p = _emit_force(md, n, qx, vx, R, C, V, p, 0, n, hh2, 0.0)
+        p = _emit_phiq(md, n, qx, R, C, V, p, 0, 2 * n, 1.0, True)
+        p = _emit_hess(md, n, qx, mu, R, C, V, p, n, 0, bh2)
+        p = _emit_mass(md, n, R, C, V, p, n, n, 1.0)
+        p = _emit_hess(md, n, qx, mu, R, C, V, p, n, n, hh2)
+        p = _emit_phiq(md, n, qx, R, C, V, p, n, 2 * n + m, 1.0, True)
+        p = _emit_phiq(md, n, qx, R, C, V, p, 2 * n, 0, beta, False)
+        p = _emit_phiq(md, n, qx, R, C, V, p, 2 * n, n, 0.5, False)
+        p = _emit_phiq(md, n, qx, R, C, V, p, 2 * n + m, 0, gamma, False)
+        p = _emit_G(md, n, qx, vx, R, C, V, p, 2 * n + m, 0, beta * h)
+        p = _emit_G(md, n, qx, vx, R, C, V, p, 2 * n + m, n, 0.5 * h)
+    return p
+
+
+@_jit
+def accumulate(V, count, position, data):
+    """data[position[i]] += V[i] for the first ``count`` triplets (data zeroed
+    first): the values of a sparse matrix on its fixed pattern."""
+    data[:] = 0.0
+    for i in range(count):
+        data[position[i]] += V[i]
+
+
+@_jit
+def force_term(md, q, v, lam, out, qx, vx, work):
+    """Phi_q^T lambda - Q(q, v) into out (n,) (``common.force_term``)."""
+    n = q.shape[0]
+    qx[:n] = q
+    vx[:n] = v
+    forces(md, qx, vx, work)
+    for j in range(n + 3):
+        work[j] = -work[j]
+    phiqT_add(md, qx, lam, 1.0, work)
+    out[:] = work[:n]
+
+
+@_jit
+def mobility(md, q, out, R, C, V, qx):
+    """Multiplier mobility per constraint row into out (m,)
+    (``AssembledSystem.multiplier_mobility``): max over the element's
+    Phi_q entries of |Phi_q[k, j]| / M_jj."""
+    mass, row_element, n_elements = md[0], md[27], md[28]
+    n = mass.shape[0]
+    qx[:n] = q
+    p = _emit_phiq(md, n, qx, R, C, V, 0, 0, 0, 1.0, False)
+    per = np.zeros(n_elements)
+    for i in range(p):
+        ratio = abs(V[i]) / mass[C[i]]
+        e = row_element[R[i]]
+        if ratio > per[e]:
+            per[e] = ratio
+    for i in range(out.shape[0]):
+        out[i] = per[row_element[i]]
+
+
+@_jit
+def _scales_weights(kind, md, coefs, q, w, opts, R, C, V, qx, weight):
+    """Newton weights (``Newton.solve``): scales / (atol + rtol |s w|), with the
+    multipliers' relative part taken norm-wise, and the round-off floor."""
+    mass = md[0]
+    n, m = mass.shape[0], md[27].shape[0]
+    alpha, beta, gamma, h = coefs[0], coefs[1], coefs[2], coefs[3]
+    rtol, atol_k, atol_m = opts[0], opts[1], opts[2]
+    mob = np.empty(m)
+    mobility(md, q, mob, R, C, V, qx)
+    qmax = 0.0
+    for j in range(n):
+        qmax = max(qmax, abs(q[j]))
+    size = w.shape[0]
+    scales = np.empty(size)
+    mult = np.zeros(size, np.bool_)
+    if kind == HHT_I3:
+        floor = 32.0 * EPS * (1.0 + qmax) * gamma / (beta * h)
+        scales[:n] = gamma * h
+        for i in range(m):
+            scales[n + i] = gamma * h * mob[i]
+            mult[n + i] = True
+    else:
+        floor = 32.0 * EPS * (1.0 + qmax) / h
+        scales[:n] = gamma * h
+        scales[n:2 * n] = 0.5 * h
+        for i in range(m):
+            scales[2 * n + i] = gamma * h * mob[i]
+            scales[2 * n + m + i] = 0.5 * h * mob[i]
+            mult[2 * n + i] = True
+            mult[2 * n + m + i] = True
+    smax = 0.0
+    for i in range(size):
+        if mult[i]:
+            smax = max(smax, abs(scales[i] * w[i]))
+    for i in range(size):
+        atol = max(atol_m if mult[i] else atol_k, floor)
+        sz = smax if mult[i] else abs(scales[i] * w[i])
+        weight[i] = scales[i] / (atol + rtol * sz)
+
+
+@_jit
+def _invert(J, Jinv):
+    """Jinv = J^-1; False when J is singular or too ill-conditioned to use
+    (1-norm condition number above 1e15)."""
+    for x in J.ravel():
+        if not np.isfinite(x):
+            return False
+    try:
+        inv = np.linalg.inv(J)
+    except Exception:      # noqa: BLE001 - numba raises LinAlgError for an exactly singular J
+        return False
+    na = np.max(np.sum(np.abs(J), axis=0))
+    ni = np.max(np.sum(np.abs(inv), axis=0))
+    if not np.isfinite(ni) or na * ni > 1e15:
+        return False
+    Jinv[:, :] = inv
+    return True
+
+
+@_jit
+def _newton(kind, md, coefs, q_pred, v_pred, F_old, w, weight, opts, Jinv, lu_state,
+            R, C, V, J, r, dw, qx, vx, work, counts):
+    """One step's Newton iteration on w (in place), dense, with the stored
+    inverse reused across iterations and steps (modified Newton).
+
+    ``opts`` = (rtol, atol_k, atol_m, max_iter, rate_refresh, full);
+    ``lu_state`` = (valid, rate); ``counts`` += (iterations, residuals,
+    jacobians, factorizations, stalled steps). Returns the status code.
+    """
+    max_iter, rate_refresh, full = int(opts[3]), opts[4], opts[5] != 0.0
+    size = w.shape[0]
+    valid = lu_state[0] != 0.0 and not full
+    age = 1 << 30
+    prev = -1.0
+    best = np.inf
+    stalls = 0
+    grows = 0
+    theta = lu_state[1]
+    n_jac = 0
+    for _ in range(max_iter):
+        if not valid:
+            p = jacobian_triplets(kind, md, coefs, q_pred, v_pred, w, R, C, V, qx, vx)
+            J[:, :] = 0.0
+            for i in range(p):
+                J[R[i], C[i]] += V[i]
+            counts[2] += 1
+            n_jac += 1
+            if not _invert(J, Jinv):
+                lu_state[0] = 0.0
+                for x in J.ravel():
+                    if not np.isfinite(x):
+                        return NONFINITE
+                return SINGULAR
+            counts[3] += 1
+            valid = True
+            age = 0
+        residual(kind, md, coefs, q_pred, v_pred, F_old, w, r, qx, vx, work)
+        counts[1] += 1
+        for i in range(size):
+            if not np.isfinite(r[i]):
+                lu_state[0] = 0.0
+                return NONFINITE
+        norm = 0.0
+        for i in range(size):
+            s = 0.0
+            for k in range(size):
+                s += Jinv[i, k] * r[k]
+            dw[i] = s
+            norm = max(norm, abs(s * weight[i]))
+        for i in range(size):
+            w[i] -= dw[i]
+        counts[0] += 1
+        current = age == 0
+        age += 1
+        for i in range(size):
+            if not np.isfinite(w[i]):
+                lu_state[0] = 0.0
+                return NONFINITE
+        if prev > 0.0:
+            theta = norm / prev
+        eta = max(theta / (1.0 - theta), 1e-2) if theta < 1.0 else np.inf
+        stuck = prev >= 0.0 and norm >= 0.5 * prev
+        if current:
+            stalls = stalls + 1 if norm >= 0.5 * best else 0
+            best = min(best, norm)
+        roundoff = stalls >= 2 and norm <= ROUNDOFF_BAND
+        if norm == 0.0 or (eta * norm <= 1.0 and norm <= 1.0) or roundoff:
+            if roundoff:
+                counts[4] += 1
+            lu_state[1] = min(max(theta, 1e-3), 0.9) if np.isfinite(theta) else 0.5
+            lu_state[0] = 0.0 if full else 1.0
+            return CONVERGED
+        grows = grows + 1 if (prev >= 0.0 and theta >= 1.0 and current) else 0
+        if theta > 100.0 or (grows >= 2 and norm > ROUNDOFF_BAND):
+            lu_state[0] = 0.0
+            return DIVERGING
+        from_earlier_step = n_jac == 0
+        if (full or stuck or (from_earlier_step and prev >= 0.0 and theta > rate_refresh)
+                or (norm <= ROUNDOFF_BAND and prev >= 0.0 and theta > 0.25)):
+            valid = False
+        prev = norm
+    lu_state[0] = 0.0
+    return MAX_ITER
+
+
+def triplet_bound(md) -> int:
+    """An upper bound of the Newton-matrix triplets either method emits."""
+    n = md[0].shape[0]
+    kc, kp, kl = md[2].shape[0], md[7].shape[0], md[13].shape[0]
+    ks, kr, kf = md[17].shape[0], md[22].shape[0], md[24].shape[0]
+    phiq = 8 * kc + 6 * kp + 2 * kl
+    return (2 * n + 6 * phiq + 4 * (2 * kc + 12 * kp) + 2 * (36 * ks + 4 * kr + kf)
+            + 2 * (4 * kc + 6 * kp))
+
+
+@_jit
+def run_dense(kind, md, coefs, t0, n_steps, step0, every, q, v, a, lam, mu, F, opts, Jinv,
+              lu_state, R, C, V, out_t, out_q, out_v, out_a, out_lam, out_mu, out_stats, counts):
+    """Take up to n_steps steps of size h = coefs[3] from (t0, q, v, a, lam, mu).
+
+    The state arrays (and F = Phi_q^T lambda - Q at that state) are updated
+    in place after every accepted step, so that they hold the last accepted
+    state when a step fails. Every step whose global number (step0 + k + 1)
+    is a multiple of ``every`` is recorded in the out_* arrays with the
+    Newton counts summed since the previous record (out_stats columns:
+    iterations, residuals, jacobians, factorizations, stalled steps, steps);
+    ``counts`` (6,) carries those sums between records and calls. R, C, V
+    are triplet buffers of ``triplet_bound(md)`` entries.
+
+    Returns
+    -------
+    (status, steps_taken, records) : status 0 when all steps converged, else
+    the failing step's Newton status.
+    """
+    mass = md[0]
+    n, m = mass.shape[0], md[27].shape[0]
+    h, alpha, beta, gamma = coefs[3], coefs[0], coefs[1], coefs[2]
+    size = n + m if kind == HHT_I3 else 2 * n + 2 * m
+    J = np.empty((size, size))
+    r = np.empty(size)
+    dw = np.empty(size)
+    w = np.empty(size)
+    weight = np.empty(size)
+    qx = np.zeros(n + 3)
+    vx = np.zeros(n + 3)
+    work = np.zeros(n + 3)
+    q_pred = np.empty(n)
+    v_pred = np.empty(n)
+    rec = 0
+    bh2, hh2, gh = beta * h * h, 0.5 * h * h, gamma * h
+    for k in range(n_steps):
+        for j in range(n):
+            q_pred[j] = q[j] + h * v[j] + 0.5 * h * h * (1.0 - 2.0 * beta) * a[j]
+            v_pred[j] = v[j] + h * (1.0 - gamma) * a[j]
+        w[:] = 0.0
+        w[:n] = a
+        if kind == HHT_I3:
+            w[n:] = lam
+        else:
+            w[2 * n:2 * n + m] = lam
+        _scales_weights(kind, md, coefs, q, w, opts, R, C, V, qx, weight)
+        status = _newton(kind, md, coefs, q_pred, v_pred, F, w, weight, opts, Jinv, lu_state,
+                         R, C, V, J, r, dw, qx, vx, work, counts)
+        if status != CONVERGED:
+            return status, k, rec
+        for j in range(n):
+            q[j] = q_pred[j] + bh2 * w[j]
+            v[j] = v_pred[j] + gh * w[j]
+            a[j] = w[j]
+        if kind == HHT_I3:
+            lam[:] = w[n:]
+        else:
+            for j in range(n):
+                q[j] += hh2 * w[n + j]
+            lam[:] = w[2 * n:2 * n + m]
+            mu[:] = w[2 * n + m:]
+        force_term(md, q, v, lam, F, qx, vx, work)
+        counts[5] += 1
+        if (step0 + k + 1) % every == 0:
+            out_t[rec] = t0 + (k + 1) * h
+            out_q[rec] = q
+            out_v[rec] = v
+            out_a[rec] = a
+            out_lam[rec] = lam
+            out_mu[rec] = mu
+            for i in range(6):
+                out_stats[rec, i] = counts[i]
+            counts[:] = 0
+            rec += 1
+    return CONVERGED, n_steps, rec

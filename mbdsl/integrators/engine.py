@@ -1,0 +1,428 @@
+"""The compiled engine: HHT-I3 and HHT-SI2 on rigid models through numba kernels.
+
+Two ways of running, chosen by the size of the Newton matrix:
+
+* up to ``DENSE_LIMIT`` unknowns, the whole time loop runs compiled
+  (:func:`mbdsl.integrators.compiled.run_dense`), in chunks between which
+  Python records output, reports progress and handles Ctrl-C;
+* above it, the shared Python time loop and Newton iteration
+  (:mod:`.driver`, :mod:`.newton`) run with compiled residuals, Newton
+  matrices assembled on a CSC pattern fixed at the start, and SuperLU.
+
+A step the compiled loop cannot converge is handed to the numpy engine,
+which retries it with smaller steps and, if the run cannot go on, writes the
+failure in the model's words exactly as it would have without compilation;
+the compiled loop resumes after it. Both engines compute the same equations;
+``tests/integrators/test_engine.py`` checks that they agree.
+
+What the kernels cover (:func:`unsupported` says why a model is not):
+rigid bodies; revolute, point_on_line, prismatic and fixed joints; drivers
+and applied loads whose functions do not depend on time; spring-dampers,
+rotational spring-dampers, gravity. Anything else runs on the numpy engine.
+"""
+
+from __future__ import annotations
+
+import math
+import time as _time
+
+import numpy as np
+import scipy.sparse
+
+from ..assembly.groups import (CoincidenceGroup, LinearConstraintGroup, PointForceGroup,
+                               PointOnLineGroup, RotationalSpringGroup, SpringDamperGroup,
+                               TorqueGroup)
+from ..assembly.sparse import DENSE_LIMIT
+from ..solution import StepStats
+from .base import StepState
+
+__all__ = ["ENGINES", "unsupported", "CompiledModel", "select_engine", "run_compiled",
+           "warm_up"]
+
+#: Engine names accepted by ``integrate(..., engine=...)`` and ``--engine``.
+ENGINES = ("auto", "numpy", "compiled")
+
+#: Methods the kernels implement.
+COMPILED_METHODS = {"hht-i3": 0, "hht-si2": 1}
+
+#: Steps per call of the compiled loop (output, progress and Ctrl-C between calls).
+CHUNK = 2000
+
+
+def _kernels():
+    """The compiled module (imports numba, loads the cached kernels)."""
+    from . import compiled
+    return compiled
+
+
+def numba_available() -> bool:
+    """True when numba can be imported."""
+    try:
+        import numba  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def unsupported(system, method) -> str | None:
+    """Why the compiled engine cannot run this model with this method, or None."""
+    if method.name not in COMPILED_METHODS:
+        return f"the compiled engine implements hht-i3 and hht-si2, not {method.name}"
+    if system.flexible_groups:
+        return "the model has flexible beams"
+    for g in system.constraint_groups:
+        if isinstance(g, LinearConstraintGroup):
+            if any(f is not None and not f.constant for f in g.functions):
+                return "a driver depends on time"
+        elif not isinstance(g, (CoincidenceGroup, PointOnLineGroup)):
+            return f"no kernel for {type(g).__name__}"
+    for g in system.force_groups:
+        if isinstance(g, TorqueGroup):
+            if not all(f.constant for f in g.functions):
+                return "a torque depends on time"
+        elif isinstance(g, PointForceGroup):
+            if not all(f.constant for f in g.fx + g.fy):
+                return "a point force depends on time"
+        elif not isinstance(g, (SpringDamperGroup, RotationalSpringGroup)):
+            return f"no kernel for {type(g).__name__}"
+    return None
+
+
+def select_engine(engine: str, system, method) -> str:
+    """'numpy' or 'compiled' for a requested engine.
+
+    Raises
+    ------
+    ValueError
+        Unknown engine name, or ``"compiled"`` for a model or method the
+        kernels do not cover (the message says why), or without numba.
+    """
+    if engine not in ENGINES:
+        raise ValueError(f"unknown engine '{engine}'; available: {', '.join(ENGINES)}")
+    if engine == "numpy":
+        return "numpy"
+    reason = unsupported(system, method)
+    if reason is None and not numba_available():
+        reason = "numba is not installed"
+    if reason is not None:
+        if engine == "compiled":
+            raise ValueError(f"the compiled engine cannot run this model: {reason}")
+        return "numpy"
+    return "compiled"
+
+
+class CompiledModel:
+    """The model's element groups as the kernels' tuple of arrays.
+
+    Built once per run from the system's groups (which already store their
+    instances as structs of arrays); field order
+    ``compiled.MODEL_FIELDS``. Constant driver values are folded into the
+    rows' offsets, constant torques and gravity into Q0.
+
+    Parameters
+    ----------
+    system : AssembledSystem
+        A model :func:`unsupported` accepts.
+    """
+
+    def __init__(self, system):
+        n = system.n
+        i8, f8 = np.int64, np.float64
+        Q0 = np.zeros(n + 3)
+        if system.gravity_force is not None:
+            Q0[:n] += system.gravity_force
+        empty = {"crow": np.zeros((0, 2), i8), "ccol1": np.zeros((0, 3), i8),
+                 "cs1": np.zeros((0, 2)), "ccol2": np.zeros((0, 3), i8), "cs2": np.zeros((0, 2)),
+                 "prow": np.zeros(0, i8), "pcolL": np.zeros((0, 3), i8), "psL": np.zeros((0, 2)),
+                 "pcolP": np.zeros((0, 3), i8), "psP": np.zeros((0, 2)), "pn0": np.zeros((0, 2)),
+                 "lrow": np.zeros(0, i8), "lcol": np.zeros((0, 2), i8),
+                 "lcoef": np.zeros((0, 2)), "loff": np.zeros(0),
+                 "scol1": np.zeros((0, 3), i8), "ss1": np.zeros((0, 2)),
+                 "scol2": np.zeros((0, 3), i8), "ss2": np.zeros((0, 2)),
+                 "spar": np.zeros((0, 3)), "rcol": np.zeros((0, 2), i8),
+                 "rpar": np.zeros((0, 3)), "fcol": np.zeros((0, 3), i8),
+                 "fs": np.zeros((0, 2)), "fF": np.zeros((0, 2))}
+        d = dict(empty)
+        for g in system.constraint_groups:
+            if isinstance(g, CoincidenceGroup):
+                d.update(crow=g.rows.astype(i8), ccol1=g.pair.P1.cols.astype(i8),
+                         cs1=g.pair.P1.s.astype(f8), ccol2=g.pair.P2.cols.astype(i8),
+                         cs2=g.pair.P2.s.astype(f8))
+            elif isinstance(g, PointOnLineGroup):
+                d.update(prow=g.rows[:, 0].astype(i8), pcolL=g.pair.P1.cols.astype(i8),
+                         psL=g.pair.P1.s.astype(f8), pcolP=g.pair.P2.cols.astype(i8),
+                         psP=g.pair.P2.s.astype(f8), pn0=g.n0.astype(f8))
+            else:
+                off = g.offset + np.array([0.0 if f is None else f.f(0.0) for f in g.functions])
+                d.update(lrow=g.rows[:, 0].astype(i8), lcol=g.cols.astype(i8),
+                         lcoef=g.coefs.astype(f8), loff=off.astype(f8))
+        for g in system.force_groups:
+            if isinstance(g, SpringDamperGroup):
+                d.update(scol1=g.pair.P1.cols.astype(i8), ss1=g.pair.P1.s.astype(f8),
+                         scol2=g.pair.P2.cols.astype(i8), ss2=g.pair.P2.s.astype(f8),
+                         spar=np.stack([g.k, g.c, g.l0], axis=1).astype(f8))
+            elif isinstance(g, RotationalSpringGroup):
+                d.update(rcol=g.cols.astype(i8),
+                         rpar=np.stack([g.k, g.c, g.angle], axis=1).astype(f8))
+            elif isinstance(g, TorqueGroup):
+                np.add.at(Q0, g.cols[:, 0], [f.f(0.0) for f in g.functions])
+            elif isinstance(g, PointForceGroup):
+                d.update(fcol=g.points.cols.astype(i8), fs=g.points.s.astype(f8),
+                         fF=np.array([[fx.f(0.0), fy.f(0.0)] for fx, fy in zip(g.fx, g.fy)],
+                                     dtype=f8).reshape(-1, 2))
+        d["mass"] = system.mass_diag.astype(f8)
+        d["Q0"] = Q0
+        d["row_element"] = system.layout.row_element.astype(i8)
+        d["n_elements"] = int(system.layout.n_elements)
+        from .compiled import MODEL_FIELDS, triplet_bound
+        self.data = tuple(np.ascontiguousarray(d[k]) if k != "n_elements" else d[k]
+                          for k in MODEL_FIELDS)
+        self.n, self.m = n, system.m
+        self.bound = triplet_bound(self.data)
+
+
+def warm_up() -> float:
+    """Load (or, on a new machine, compile and cache) every kernel on a tiny
+    model; returns the seconds it took."""
+    import mbdsl
+    t0 = _time.perf_counter()
+    _kernels()
+    model = mbdsl.load_text(_WARM_MODEL, "warm_up.mbd")
+    for name in COMPILED_METHODS:
+        mbdsl.simulate(model, method=name, h=1e-3, t_end=2e-3, engine="compiled")
+    return _time.perf_counter() - t0
+
+
+_WARM_MODEL = """model warm_up
+gravity (0, -9.81)
+body a { mass 1; inertia 0.1; point O (-0.5, 0); point E (0.5, 0) }
+body b { mass 1; inertia 0.1; point E (-0.5, 0); point F (0.5, 0) }
+joint O: revolute(ground.origin, a.O)
+joint E: revolute(a.E, b.E)
+joint F: point_on_line(b.F, ground.origin, direction = (1, 0))
+force s: spring_damper(ground.origin, b.F, k = 10, c = 1, length = 0.1)
+force r: rotational_spring_damper(E, k = 1, c = 0.1)
+initial a.phi = -0.5
+"""
+
+
+# ---------------------------------------------------------------------------------------------
+# The compiled time loop (small systems)
+# ---------------------------------------------------------------------------------------------
+
+def _step_plan(t_start, t_end, h):
+    """[(steps, step size)] covering [t_start, t_end] as the driver does: steps
+    of h, the last one shortened to land on t_end (or lengthened when the
+    remainder is below 1e-6 h)."""
+    span = t_end - t_start
+    full = int(math.floor(span / h + 1e-9))
+    rest = span - full * h
+    if rest <= 1e-9 * h:
+        return [(full, h)] if full else []
+    if rest < 1e-6 * h and full:
+        return [(full - 1, h), (1, h + rest)] if full > 1 else [(1, h + rest)]
+    return ([(full, h)] if full else []) + [(1, rest)]
+
+
+def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol, *,
+                 output_every=1, progress=None, writer=None, max_halvings=6, grow_after=4):
+    """Integrate into ``sol`` (already holding the initial row) with the
+    compiled time loop (systems of at most ``DENSE_LIMIT`` unknowns); sets
+    sol.status and sol.message. Parameters as for ``integrate``."""
+    from ..assembly.initial import InitialState
+    from .driver import integrate as numpy_integrate
+    opt = newton_options
+    K = _kernels()
+    cm = CompiledModel(system)
+    md, n, m = cm.data, system.n, system.m
+    kind = COMPILED_METHODS[method.name]
+    size = (n + m) * (1 if kind == 0 else 2)
+    start = method.start(system, initial)[-1]
+    q, v, a = start.q.copy(), start.v.copy(), start.a.copy()
+    lam = start.lam.copy()
+    mu = np.zeros(m)
+    F = start.extra["F"].copy()
+    opts = np.array([opt.rtol, opt.atol_kinematic, opt.atol_multiplier, opt.max_iter,
+                     opt.rate_refresh, 1.0 if opt.jacobian.value == "full" else 0.0])
+    Jinv = np.empty((size, size))
+    lu_state = np.array([0.0, 0.5])
+    R = np.empty(cm.bound, np.int64)
+    C = np.empty(cm.bound, np.int64)
+    V = np.empty(cm.bound)
+    counts = np.zeros(6, np.int64)
+    out_t = np.empty(CHUNK)
+    out_q, out_v, out_a = (np.empty((CHUNK, n)) for _ in range(3))
+    out_lam, out_mu = np.empty((CHUNK, m)), np.empty((CHUNK, m))
+    out_stats = np.empty((CHUNK, 6), np.int64)
+    has_mu = bool(method.extras)
+    t = t_start
+    step_no = 0           # global step count, for the output stride
+    last_h = h
+
+    def add_row(t_row, qr, vr, ar, lr, mr, st, step_h):
+        s = StepState(float(t_row), qr.copy(), vr.copy(), ar.copy(), lr.copy())
+        if has_mu:
+            s.extra["mu"] = mr.copy()
+        sol.append(s, StepStats(int(st[0]), int(st[1]), int(st[2]), int(st[3]), step_h,
+                                int(st[4]), steps=int(st[5])))
+
+    try:
+        for n_steps, step_h in _step_plan(t_start, t_end, h):
+            coefs = np.array([method.alpha, method.beta, method.gamma, step_h])
+            lu_state[0] = 0.0                     # a new h: a new Newton matrix
+            last_h = step_h
+            done = 0
+            while done < n_steps and t < t_end - 1e-9 * h:
+                chunk = min(CHUNK, n_steps - done)
+                t0 = t
+                status, taken, nrec = K.run_dense(
+                    kind, md, coefs, t0, chunk, step_no, output_every, q, v, a, lam, mu, F,
+                    opts, Jinv, lu_state, R, C, V, out_t, out_q, out_v, out_a, out_lam, out_mu,
+                    out_stats, counts)
+                for i in range(nrec):
+                    add_row(out_t[i], out_q[i], out_v[i], out_a[i], out_lam[i], out_mu[i],
+                            out_stats[i], step_h)
+                step_no += taken
+                done += taken
+                t = t0 + taken * step_h
+                if taken < chunk:
+                    # The failing step goes to the numpy engine (smaller steps, and the
+                    # diagnosis in the model's words if the run cannot go on), for a
+                    # window of 8 steps of the nominal grid, or to t_end.
+                    if counts[5]:
+                        add_row(t, q, v, a, lam, mu, counts, step_h)
+                        counts[:] = 0
+                    end = t_end if t + 9 * step_h >= t_end - 1e-9 * h else t + 8 * step_h
+                    part = numpy_integrate(
+                        system, method, end, step_h, t_start=t,
+                        initial=InitialState(t, q.copy(), v.copy(), a.copy(), lam.copy()),
+                        newton=opt, on_failure="return", max_halvings=max_halvings,
+                        grow_after=grow_after, engine="numpy")
+                    for s, stats in zip(part._rows[1:], part._stats[1:]):
+                        sol.append(s, stats)
+                    sol.stats_total.rejected += part.stats_total.rejected
+                    if part.status != "completed":
+                        sol.status, sol.message = part.status, part.message
+                        sol.diagnostics = part.diagnostics
+                        return sol
+                    last = part._rows[-1]
+                    q[:], v[:], a[:], lam[:] = last.q, last.v, last.a, last.lam
+                    if has_mu:
+                        mu[:] = last.extra["mu"]
+                    F[:] = method.start(system, InitialState(last.t, q, v, a, lam))[-1].extra["F"]
+                    covered = int(round((last.t - t) / step_h))
+                    t = last.t
+                    done += covered
+                    step_no += covered
+                    lu_state[0] = 0.0
+                if progress is not None:
+                    progress(t, step_h, int(sol.stats_total.iterations))
+                if writer is not None:
+                    writer.append(sol)
+        # the last step lands on t_end: record it if the stride skipped it
+        if counts[5]:
+            add_row(t_end, q, v, a, lam, mu, counts, last_h)
+            counts[:] = 0
+        elif abs(sol._rows[-1].t - t_end) <= 1e-9 * h:
+            sol._rows[-1].t = t_end
+        sol.status, sol.message = "completed", f"reached t_end = {t_end:g} s"
+    except KeyboardInterrupt:
+        if counts[5]:
+            add_row(t, q, v, a, lam, mu, counts, last_h)
+        sol.status = "interrupted"
+        sol.message = f"interrupted by the user at t = {t:.6g} s; every accepted step is kept"
+    return sol
+
+
+# ---------------------------------------------------------------------------------------------
+# Large systems: compiled evaluation, Python Newton with SuperLU
+# ---------------------------------------------------------------------------------------------
+
+class SparseAdapter:
+    """An HHT-I3 / HHT-SI2 recipe whose residual, Newton matrix, scales and
+    force term are evaluated by the kernels; everything else is the wrapped
+    method's. The Newton matrix is a CSC matrix on a pattern fixed at the
+    first evaluation (values refilled in place)."""
+
+    def __init__(self, system, method):
+        self._method = method
+        self._system = system
+        self._K = _kernels()
+        self._cm = CompiledModel(system)
+        self._kind = COMPILED_METHODS[method.name]
+        n, m = system.n, system.m
+        self.size = (n + m) * (1 if self._kind == 0 else 2)
+        self._R = np.empty(self._cm.bound, np.int64)
+        self._C = np.empty(self._cm.bound, np.int64)
+        self._V = np.empty(self._cm.bound)
+        self._qx, self._vx, self._work = np.zeros(n + 3), np.zeros(n + 3), np.zeros(n + 3)
+        self._pattern = None
+
+    def __getattr__(self, name):          # name, extras, blocks, start, predict, describe...
+        return getattr(self._method, name)
+
+    def _coefs(self, h):
+        mt = self._method
+        return np.array([mt.alpha, mt.beta, mt.gamma, h])
+
+    def context(self, system, history, t, h):
+        """The wrapped method's context, with its coefficients for the kernels."""
+        ctx = self._method.context(system, history, t, h)
+        ctx.cache["coefs"] = self._coefs(h)
+        return ctx
+
+    def residual(self, w, ctx):
+        """Upsilon(w) by the kernel."""
+        r = np.empty(self.size)
+        self._K.residual(self._kind, self._cm.data, ctx.cache["coefs"], ctx.cache["q_pred"],
+                         ctx.cache["v_pred"], ctx.last.extra["F"], w, r, self._qx, self._vx,
+                         self._work)
+        return r
+
+    def jacobian(self, w, ctx):
+        """Newton matrix as CSC on the fixed pattern."""
+        K = self._K
+        p = K.jacobian_triplets(self._kind, self._cm.data, ctx.cache["coefs"],
+                                ctx.cache["q_pred"], ctx.cache["v_pred"], w, self._R, self._C,
+                                self._V, self._qx, self._vx)
+        if self._pattern is None or self._pattern[0] != p:
+            key = self._C[:p] * self.size + self._R[:p]
+            uniq, position = np.unique(key, return_inverse=True)
+            indptr = np.searchsorted(uniq // self.size, np.arange(self.size + 1))
+            self._pattern = (p, position.astype(np.int64), (uniq % self.size).astype(np.int32),
+                             indptr.astype(np.int32), len(uniq))
+        _, position, indices, indptr, nnz = self._pattern
+        data = np.empty(nnz)
+        K.accumulate(self._V, p, position, data)
+        return scipy.sparse.csc_matrix((data, indices, indptr), shape=(self.size, self.size))
+
+    def scales(self, system, h, q):
+        """As the wrapped method's, with the mobility from the kernel."""
+        m, n = system.m, system.n
+        mob = np.empty(m)
+        self._K.mobility(self._cm.data, q, mob, self._R, self._C, self._V, self._qx)
+        if self._kind == 0:
+            gh = self._method.gamma * h
+            return np.concatenate([np.full(n, gh), gh * mob])
+        gh, hh = self._method.gamma * h, 0.5 * h
+        return np.concatenate([np.full(n, gh), np.full(n, hh), gh * mob, hh * mob])
+
+    def accept(self, w, ctx):
+        """The wrapped method's state, with the force term from the kernel."""
+        mt, n, m = self._method, self._system.n, self._system.m
+        h = ctx.h
+        if self._kind == 0:
+            a, lam = w[:n].copy(), w[n:].copy()
+            q = ctx.cache["q_pred"] + mt.beta * h * h * a
+        else:
+            a, abar = w[:n].copy(), w[n:2 * n]
+            lam, mu = w[2 * n:2 * n + m].copy(), w[2 * n + m:].copy()
+            q = ctx.cache["q_pred"] + mt.beta * h * h * a + 0.5 * h * h * abar
+        v = ctx.cache["v_pred"] + mt.gamma * h * a
+        s = StepState(ctx.t, q, v, a, lam)
+        if self._kind == 1:
+            s.extra["mu"] = mu
+        F = np.empty(n)
+        self._K.force_term(self._cm.data, q, v, lam, F, self._qx, self._vx, self._work)
+        s.extra["F"] = F
+        return s
