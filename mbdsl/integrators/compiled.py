@@ -47,7 +47,7 @@ import numba
 import numpy as np
 
 __all__ = ["MODEL_FIELDS", "residual", "jacobian_triplets", "force_term", "mobility",
-           "accumulate", "run_dense", "triplet_bound", "HHT_I3", "HHT_SI2"]
+           "accumulate", "run_dense", "triplet_bound", "pack", "unpack", "HHT_I3", "HHT_SI2"]
 
 #: Method codes of the kernels.
 HHT_I3, HHT_SI2 = 0, 1
@@ -486,7 +486,7 @@ def _state(kind, n, m, w, q_pred, v_pred, bh2, hh2, gh, qx, vx):
 
 
 @_jit
-def residual(kind, md, coefs, q_pred, v_pred, F_old, w, r, qx, vx, work):
+def _residual(kind, md, coefs, q_pred, v_pred, F_old, w, r, qx, vx, work):
     """Upsilon(w) of HHT-I3 (kind 0, size n + m) or HHT-SI2 (kind 1, size 2n + 2m).
 
     ``coefs`` = (alpha, beta, gamma, h); ``qx``, ``vx``, ``work`` are
@@ -523,7 +523,7 @@ def residual(kind, md, coefs, q_pred, v_pred, F_old, w, r, qx, vx, work):
 
 
 @_jit
-def jacobian_triplets(kind, md, coefs, q_pred, v_pred, w, R, C, V, qx, vx):
+def _jacobian_triplets(kind, md, coefs, q_pred, v_pred, w, R, C, V, qx, vx):
     """Newton matrix entries (R, C, V), in an order and pattern fixed by the
     model; returns their count. Duplicates are summed by the caller.
 
@@ -573,7 +573,7 @@ def accumulate(V, count, position, data):
 
 
 @_jit
-def force_term(md, q, v, lam, out, qx, vx, work):
+def _force_term(md, q, v, lam, out, qx, vx, work):
     """Phi_q^T lambda - Q(q, v) into out (n,) (``common.force_term``)."""
     n = q.shape[0]
     qx[:n] = q
@@ -586,7 +586,7 @@ def force_term(md, q, v, lam, out, qx, vx, work):
 
 
 @_jit
-def mobility(md, q, out, R, C, V, qx):
+def _mobility(md, q, out, R, C, V, qx):
     """Multiplier mobility per constraint row into out (m,)
     (``AssembledSystem.multiplier_mobility``): max over the element's
     Phi_q entries of |Phi_q[k, j]| / M_jj."""
@@ -613,7 +613,7 @@ def _scales_weights(kind, md, coefs, q, w, opts, R, C, V, qx, weight):
     alpha, beta, gamma, h = coefs[0], coefs[1], coefs[2], coefs[3]
     rtol, atol_k, atol_m = opts[0], opts[1], opts[2]
     mob = np.empty(m)
-    mobility(md, q, mob, R, C, V, qx)
+    _mobility(md, q, mob, R, C, V, qx)
     qmax = 0.0
     for j in range(n):
         qmax = max(qmax, abs(q[j]))
@@ -686,7 +686,7 @@ def _newton(kind, md, coefs, q_pred, v_pred, F_old, w, weight, opts, Jinv, lu_st
     n_jac = 0
     for _ in range(max_iter):
         if not valid:
-            p = jacobian_triplets(kind, md, coefs, q_pred, v_pred, w, R, C, V, qx, vx)
+            p = _jacobian_triplets(kind, md, coefs, q_pred, v_pred, w, R, C, V, qx, vx)
             J[:, :] = 0.0
             for i in range(p):
                 J[R[i], C[i]] += V[i]
@@ -701,7 +701,7 @@ def _newton(kind, md, coefs, q_pred, v_pred, F_old, w, weight, opts, Jinv, lu_st
             counts[3] += 1
             valid = True
             age = 0
-        residual(kind, md, coefs, q_pred, v_pred, F_old, w, r, qx, vx, work)
+        _residual(kind, md, coefs, q_pred, v_pred, F_old, w, r, qx, vx, work)
         counts[1] += 1
         for i in range(size):
             if not np.isfinite(r[i]):
@@ -750,7 +750,7 @@ def _newton(kind, md, coefs, q_pred, v_pred, F_old, w, weight, opts, Jinv, lu_st
     return MAX_ITER
 
 
-def triplet_bound(md) -> int:
+def triplet_bound(md) -> int:  # noqa: D401 (md: the unpacked tuple)
     """An upper bound of the Newton-matrix triplets either method emits."""
     n = md[0].shape[0]
     kc, kp, kl = md[2].shape[0], md[7].shape[0], md[13].shape[0]
@@ -761,7 +761,7 @@ def triplet_bound(md) -> int:
 
 
 @_jit
-def run_dense(kind, md, coefs, t0, n_steps, step0, every, q, v, a, lam, mu, F, opts, Jinv,
+def _run_dense(kind, md, coefs, t0, n_steps, step0, every, q, v, a, lam, mu, F, opts, Jinv,
               lu_state, R, C, V, out_t, out_q, out_v, out_a, out_lam, out_mu, out_stats, counts):
     """Take up to n_steps steps of size h = coefs[3] from (t0, q, v, a, lam, mu).
 
@@ -821,7 +821,7 @@ def run_dense(kind, md, coefs, t0, n_steps, step0, every, q, v, a, lam, mu, F, o
                 q[j] += hh2 * w[n + j]
             lam[:] = w[2 * n:2 * n + m]
             mu[:] = w[2 * n + m:]
-        force_term(md, q, v, lam, F, qx, vx, work)
+        _force_term(md, q, v, lam, F, qx, vx, work)
         counts[5] += 1
         if (step0 + k + 1) % every == 0:
             out_t[rec] = t0 + (k + 1) * h
@@ -835,3 +835,117 @@ def run_dense(kind, md, coefs, t0, n_steps, step0, every, q, v, a, lam, mu, F, o
             counts[:] = 0
             rec += 1
     return CONVERGED, n_steps, rec
+
+
+# --------------------------------------------------------------------------------------------
+# Public entry points on the packed model data
+#
+# Numba checks the type of every argument on each call (about 0.3 us per
+# array): a tuple of 29 arrays cost 8-10 us per residual, a third of a
+# Newton iteration on a chain of 100 links. The model data therefore crosses
+# the boundary as two flat arrays (integers, floats) with a header of
+# offsets and shapes, and is unpacked into views inside the kernel.
+# --------------------------------------------------------------------------------------------
+
+#: Fields stored as integers; the rest are floats. "n_elements" is a scalar in the header.
+_INT_FIELDS = ("crow", "ccol1", "ccol2", "prow", "pcolL", "pcolP", "lrow", "lcol",
+               "scol1", "scol2", "rcol", "fcol", "row_element")
+_HEADER = 3 * len(MODEL_FIELDS) + 1
+
+
+def pack(fields: dict):
+    """(ints, floats): the model data of ``fields`` (name -> array, and
+    "n_elements" -> int) as two flat arrays, header first in ``ints``."""
+    ints = [np.zeros(_HEADER, np.int64)]
+    floats = []
+    ni, nf = _HEADER, 0
+    header = ints[0]
+    for k, name in enumerate(MODEL_FIELDS):
+        if name == "n_elements":
+            header[-1] = int(fields[name])
+            continue
+        x = np.asarray(fields[name])
+        rows, cols = (x.shape[0], x.shape[1]) if x.ndim == 2 else (x.shape[0], 1)
+        if name in _INT_FIELDS:
+            header[3 * k:3 * k + 3] = (ni, rows, cols)
+            ints.append(x.astype(np.int64).ravel())
+            ni += x.size
+        else:
+            header[3 * k:3 * k + 3] = (nf, rows, cols)
+            floats.append(x.astype(np.float64).ravel())
+            nf += x.size
+    return np.concatenate(ints), (np.concatenate(floats) if floats else np.zeros(0))
+
+
+@_jit
+def _i1(I, k):
+    o, r = I[3 * k], I[3 * k + 1]
+    return I[o:o + r]
+
+
+@_jit
+def _i2(I, k):
+    o, r, c = I[3 * k], I[3 * k + 1], I[3 * k + 2]
+    return I[o:o + r * c].reshape((r, c))
+
+
+@_jit
+def _f1(I, Fl, k):
+    o, r = I[3 * k], I[3 * k + 1]
+    return Fl[o:o + r]
+
+
+@_jit
+def _f2(I, Fl, k):
+    o, r, c = I[3 * k], I[3 * k + 1], I[3 * k + 2]
+    return Fl[o:o + r * c].reshape((r, c))
+
+
+@_jit
+def unpack(I, Fl):
+    """The model-data tuple (views, order ``MODEL_FIELDS``) of packed arrays."""
+    return (_f1(I, Fl, 0), _f1(I, Fl, 1),
+            _i2(I, 2), _i2(I, 3), _f2(I, Fl, 4), _i2(I, 5), _f2(I, Fl, 6),
+            _i1(I, 7), _i2(I, 8), _f2(I, Fl, 9), _i2(I, 10), _f2(I, Fl, 11), _f2(I, Fl, 12),
+            _i1(I, 13), _i2(I, 14), _f2(I, Fl, 15), _f1(I, Fl, 16),
+            _i2(I, 17), _f2(I, Fl, 18), _i2(I, 19), _f2(I, Fl, 20), _f2(I, Fl, 21),
+            _i2(I, 22), _f2(I, Fl, 23),
+            _i2(I, 24), _f2(I, Fl, 25), _f2(I, Fl, 26),
+            _i1(I, 27), I[_HEADER - 1])
+
+
+@_jit
+def residual(kind, I, Fl, coefs, q_pred, v_pred, F_old, w, r, qx, vx, work):
+    """Upsilon(w) into r; see ``_residual``. Returns False when r is not finite."""
+    _residual(kind, unpack(I, Fl), coefs, q_pred, v_pred, F_old, w, r, qx, vx, work)
+    for x in r:
+        if not np.isfinite(x):
+            return False
+    return True
+
+
+@_jit
+def jacobian_triplets(kind, I, Fl, coefs, q_pred, v_pred, w, R, C, V, qx, vx):
+    """Newton-matrix triplets; see ``_jacobian_triplets``. Returns their count."""
+    return _jacobian_triplets(kind, unpack(I, Fl), coefs, q_pred, v_pred, w, R, C, V, qx, vx)
+
+
+@_jit
+def force_term(I, Fl, q, v, lam, out, qx, vx, work):
+    """Phi_q^T lambda - Q(q, v) into out (n,)."""
+    _force_term(unpack(I, Fl), q, v, lam, out, qx, vx, work)
+
+
+@_jit
+def mobility(I, Fl, q, out, R, C, V, qx):
+    """Multiplier mobility per constraint row into out (m,)."""
+    _mobility(unpack(I, Fl), q, out, R, C, V, qx)
+
+
+@_jit
+def run_dense(kind, I, Fl, coefs, t0, n_steps, step0, every, q, v, a, lam, mu, F, opts, Jinv,
+              lu_state, R, C, V, out_t, out_q, out_v, out_a, out_lam, out_mu, out_stats, counts):
+    """The compiled time loop; see ``_run_dense``."""
+    return _run_dense(kind, unpack(I, Fl), coefs, t0, n_steps, step0, every, q, v, a, lam, mu,
+                      F, opts, Jinv, lu_state, R, C, V, out_t, out_q, out_v, out_a, out_lam,
+                      out_mu, out_stats, counts)

