@@ -110,8 +110,8 @@ def check(path, overrides: dict | None = None) -> list[Diagnostic]:
 
 def simulate(model: Model, method: str | None = None, h: float | None = None,
              t_end: float | None = None, *, newton: NewtonOptions | None = None,
-             on_failure: str = "raise", progress=None, writer=None,
-             **coefficients) -> Solution:
+             on_failure: str = "raise", progress=None, writer=None, engine: str = "auto",
+             output_every: int = 1, **coefficients) -> Solution:
     """Simulate a model.
 
     Parameters
@@ -132,6 +132,10 @@ def simulate(model: Model, method: str | None = None, h: float | None = None,
         ``progress(t, h, iterations)`` after each step.
     writer : mbdsl.output.CsvStream, optional
         Writes the accepted steps to a file as the run goes.
+    engine : {"auto", "numpy", "compiled"}
+        See :func:`mbdsl.integrators.integrate`.
+    output_every : int
+        Record every K-th step and the last one.
     **coefficients
         Method coefficients, e.g. ``alpha=-0.1``; default from the
         ``simulate`` section.
@@ -164,4 +168,5 @@ def simulate(model: Model, method: str | None = None, h: float | None = None,
     m = make_method(method, **params)
     system = assemble(model)
     return integrate(system, m, float(t_end), float(h), t_start=float(s.get("t_start", 0.0)),
-                     newton=newton, on_failure=on_failure, progress=progress, writer=writer)
+                     newton=newton, on_failure=on_failure, progress=progress, writer=writer,
+                     engine=engine, output_every=output_every)

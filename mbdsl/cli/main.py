@@ -120,6 +120,21 @@ def _run_options(p):
                    help="override a model parameter (repeatable)")
     p.add_argument("--newton", choices=["full", "modified"], default="modified",
                    help="Jacobian policy of the Newton iteration")
+    p.add_argument("--engine", choices=["auto", "numpy", "compiled"], default="auto",
+                   help="compiled (numba) kernels for hht-i3/hht-si2 on rigid models, or the "
+                        "numpy assembly; auto: compiled where it applies")
+    p.add_argument("--output-every", type=_positive_int, default=1, metavar="K",
+                   help="record every K-th step (and the last): less memory on long runs")
+
+
+def _positive_int(text):
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
+    return value
 
 
 def _print_diagnostics(diags, err=None):
@@ -190,7 +205,7 @@ def _run(args, model, writer=None):
             sol = simulate(model, method=args.method, h=args.h, t_end=args.t_end,
                            newton=NewtonOptions(jacobian=args.newton), on_failure="return",
                            progress=bar, writer=writer, alpha=args.alpha, beta=args.beta, gamma=args.gamma,
-                           b=args.b)
+                           b=args.b, engine=args.engine, output_every=args.output_every)
     except AssemblyError as exc:
         _print_diagnostics(exc.diagnostics)
         return None, 4

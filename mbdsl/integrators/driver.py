@@ -156,6 +156,8 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
             y = step - carry
             t_new = t + y
             new_carry = (t_new - t) - y
+            if step == t_end - t:         # the last step lands on t_end exactly
+                t_new, new_carry = t_end, 0.0
             ctx = method.context(system, history, t_new, step)
             ctx.assembler = assembler
             w0 = method.predict(ctx)

@@ -1,0 +1,214 @@
+"""Per-step cost of HHT-I3 and HHT-SI2 against Exudyn, side by side in one process.
+
+Models (h = 1e-3 s): the slider crank (T = 2 s), the double pendulum (T = 2 s),
+pendulum chains of N = 10 (T = 1 s), 100 (T = 0.2 s) and 1000 links (T = 0.1 s,
+100 steps). Per model and method it prints:
+
+* set-up, timed apart from the steps: parse and check, assembly, consistent
+  initial state [ms];
+* wall time per step, the median of --repeat runs (the first, which loads the
+  compiled kernels, is reported separately as "first run");
+* Newton iterations, Jacobian evaluations and factorizations per step;
+* the error at T: max |q - q_ref| over all coordinates, against the published
+  slider-crank reference (tests/reference/slider_crank.json: crank angle) or
+  an independent index-1 DOP853 solution at 1e-12 (``mbdsl.reference``); the
+  chain of 1000 links has none (its index-1 solution is too costly);
+* with exudyn installed (``pip install -e ".[bench]"``), the same model run in
+  Exudyn (``exudyn_side.py``), its time per step, iterations and error, and
+  the ratio mbdsl / Exudyn.
+
+Also: start-up of the slider crank (import, parse, check, assemble, in a
+fresh interpreter), and the per-step growth from N = 100 to N = 1000.
+
+Run:  python benchmarks/speed.py [--repeat 5] [--quick] [--markdown FILE]
+Not part of CI's pass/fail; ``docs/performance.md`` keeps the latest table.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import mbdsl  # noqa: E402
+from mbdsl.integrators import integrate, make_method  # noqa: E402
+from mbdsl.reference import index1_reference  # noqa: E402
+
+import exudyn_side  # noqa: E402
+
+H = 1e-3
+ALPHA = -0.05
+CASES = [  # (label, model file, overrides, T, reference)
+    ("slider crank", "slider_crank.mbd", None, 2.0, "published"),
+    ("double pendulum", "double_pendulum.mbd", None, 2.0, "index1"),
+    ("chain N=10", "pendulum_chain.mbd", {"N": 10}, 1.0, "index1"),
+    ("chain N=100", "pendulum_chain.mbd", {"N": 100}, 0.2, "index1"),
+    ("chain N=1000", "pendulum_chain.mbd", {"N": 1000}, 0.1, None),
+]
+
+
+def startup_seconds() -> float:
+    """Import, parse, check and assemble the slider crank in a fresh interpreter."""
+    code = ("import time; t0 = time.perf_counter(); import mbdsl; "
+            f"m = mbdsl.load({str(ROOT / 'models' / 'slider_crank.mbd')!r}); "
+            "s = mbdsl.assemble(m); print(time.perf_counter() - t0)")
+    runs = [float(subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                                 check=True).stdout) for _ in range(3)]
+    return min(runs)
+
+
+def reference_q(kind, system, T):
+    """(reference q at T, mask of compared coordinates) or None."""
+    if kind == "published":
+        ref = json.loads((ROOT / "tests" / "reference" / "slider_crank.json").read_text())
+        case = ref["cases"]["damped_x0_zero"]
+        q = np.full(system.n, np.nan)
+        q[2] = case["theta1_T"]                       # crank angle: the published quantity
+        return q
+    if kind == "index1":
+        return index1_reference(system, [T]).q[-1]
+    return None
+
+
+def error(q, qref):
+    """max |q - q_ref| over the coordinates the reference gives."""
+    if qref is None:
+        return float("nan")
+    ok = np.isfinite(qref)
+    return float(np.max(np.abs(q[ok] - qref[ok])))
+
+
+def measure(label, file, overrides, T, ref_kind, methods, repeat, with_exudyn):
+    rows = []
+    t0 = time.perf_counter()
+    model = mbdsl.load(ROOT / "models" / file, overrides=overrides)
+    t1 = time.perf_counter()
+    system = mbdsl.assemble(model)
+    t2 = time.perf_counter()
+    init = mbdsl.consistent_initial_state(system)
+    t3 = time.perf_counter()
+    qref = reference_q(ref_kind, system, T)
+    exu = None
+    if with_exudyn:
+        exu = exudyn_side.run_exudyn(model, init.q, init.v, T, H, ALPHA, repeat=repeat)
+        exu["error"] = error(exu["q"], qref)
+    for name in methods:
+        method = make_method(name, alpha=ALPHA)
+        f0 = time.perf_counter()
+        sol = integrate(system, method, T, H, initial=init)
+        first = time.perf_counter() - f0
+        walls = []
+        for _ in range(repeat):
+            w0 = time.perf_counter()
+            sol = integrate(system, make_method(name, alpha=ALPHA), T, H, initial=init)
+            walls.append(time.perf_counter() - w0)
+        tot = sol.stats_total
+        row = {"model": label, "method": name, "n+m": system.n + system.m, "engine": sol.engine,
+               "parse_ms": 1e3 * (t1 - t0), "assemble_ms": 1e3 * (t2 - t1),
+               "initial_ms": 1e3 * (t3 - t2), "first_s": first,
+               "us_per_step": 1e6 * statistics.median(walls) / tot.steps,
+               "iterations": tot.iterations / tot.steps, "jacobians": tot.jacobians / tot.steps,
+               "factorizations": tot.factorizations / tot.steps,
+               "error": error(sol.q[-1], qref), "status": sol.status}
+        if exu is not None:
+            row.update(exu_us=1e6 * exu["s_per_step"], exu_iterations=exu["iterations"],
+                       exu_jacobians=exu["jacobians"], exu_error=exu["error"],
+                       ratio=row["us_per_step"] / (1e6 * exu["s_per_step"]))
+        rows.append(row)
+    return rows
+
+
+def table(rows, markdown=False) -> str:
+    head = ["model", "method", "n+m", "engine", "parse+check ms", "assemble ms", "initial ms",
+            "first run s", "us/step", "iter/step", "Jac/step", "LU/step", "error q(T)",
+            "Exudyn us/step", "Exudyn iter/step", "Exudyn error q(T)", "mbdsl/Exudyn"]
+    lines = []
+    fmt = lambda x, f: "—" if x is None or (isinstance(x, float) and np.isnan(x)) else f.format(x)  # noqa: E731
+    for r in rows:
+        lines.append([r["model"], r["method"], str(r["n+m"]), r["engine"],
+                      fmt(r["parse_ms"], "{:.1f}"), fmt(r["assemble_ms"], "{:.1f}"),
+                      fmt(r["initial_ms"], "{:.1f}"), fmt(r["first_s"], "{:.3f}"),
+                      fmt(r["us_per_step"], "{:.1f}"), fmt(r["iterations"], "{:.2f}"),
+                      fmt(r["jacobians"], "{:.3f}"), fmt(r["factorizations"], "{:.3f}"),
+                      fmt(r["error"], "{:.2e}"), fmt(r.get("exu_us"), "{:.1f}"),
+                      fmt(r.get("exu_iterations"), "{:.2f}"), fmt(r.get("exu_error"), "{:.2e}"),
+                      fmt(r.get("ratio"), "{:.2f}")])
+    if markdown:
+        out = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+        out += ["| " + " | ".join(x) + " |" for x in lines]
+        return "\n".join(out)
+    widths = [max(len(h), *(len(x[i]) for x in lines)) for i, h in enumerate(head)]
+    out = ["  ".join(h.rjust(w) for h, w in zip(head, widths))]
+    out += ["  ".join(x.rjust(w) for x, w in zip(line, widths)) for line in lines]
+    return "\n".join(out)
+
+
+def machine() -> str:
+    """One line: CPU, cores, Python, numpy, numba and exudyn versions."""
+    cpu = platform.processor() or platform.machine()
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    import numba
+    parts = [cpu, f"{os.cpu_count()} cores", f"Python {platform.python_version()}",
+             f"numpy {np.__version__}", f"numba {numba.__version__}"]
+    if exudyn_side.available():
+        parts.append(f"exudyn {exudyn_side.version()}")
+    return ", ".join(parts)
+
+
+def main(argv=None) -> int:
+    """Print the table (and write it as markdown with --markdown)."""
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--repeat", type=int, default=5)
+    p.add_argument("--methods", default="hht-i3,hht-si2")
+    p.add_argument("--quick", action="store_true", help="skip the chain of 1000 links")
+    p.add_argument("--no-exudyn", action="store_true")
+    p.add_argument("--markdown", help="write the table to this file as markdown")
+    args = p.parse_args(argv)
+    with_exudyn = exudyn_side.available() and not args.no_exudyn
+    methods = args.methods.split(",")
+    startup = startup_seconds()
+    rows = []
+    for case in CASES:
+        if args.quick and case[0] == "chain N=1000":
+            continue
+        rows += measure(*case, methods, args.repeat, with_exudyn)
+        print(f"  measured {case[0]}", file=sys.stderr)
+    text = table(rows)
+    print(machine())
+    print(text)
+    print(f"start-up of the slider crank (import, parse, check, assemble): {startup:.3f} s")
+    growth = {}
+    for name in methods:
+        per = {r["model"]: r["us_per_step"] for r in rows if r["method"] == name}
+        if "chain N=1000" in per:
+            growth[name] = per["chain N=1000"] / per["chain N=100"]
+            print(f"{name}: per-step cost N = 1000 / N = 100 = {growth[name]:.2f} (linear: 10)")
+    if args.markdown:
+        Path(args.markdown).write_text(
+            f"Machine: {machine()}\n\n{table(rows, markdown=True)}\n\n"
+            f"Start-up of the slider crank (import, parse, check, assemble, fresh "
+            f"interpreter, best of 3): {startup:.3f} s\n\n"
+            + "".join(f"Per-step cost {k}, N = 1000 / N = 100: {g:.2f} (linear: 10)\n\n"
+                      for k, g in growth.items()))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

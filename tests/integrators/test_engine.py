@@ -1,0 +1,137 @@
+"""The compiled engine (numba kernels) against the numpy engine and finite differences.
+
+The two engines evaluate the same equations with independent code (scalar
+kernels vs vectorised groups), so agreement to round-off over a run, and a
+kernel Newton matrix equal to finite differences of the kernel residual, are
+checks that can fail: a wrong sign, a missing term or a mis-scattered entry
+moves the results by far more than the tolerances below.
+"""
+
+import numpy as np
+import pytest
+
+import mbdsl
+from mbdsl.integrators import NewtonOptions, integrate, make_method
+from mbdsl.integrators.engine import CompiledModel, SparseAdapter, select_engine, unsupported
+
+from ..conftest import MODELS
+
+VALID = MODELS.parent / "tests" / "dsl" / "valid"
+# the same refresh policy in both engines, so that they take the same iterations
+SAME = NewtonOptions(rate_refresh=0.1)
+
+
+def _system(path, **overrides):
+    model = mbdsl.load(path, overrides=overrides or None)
+    system = mbdsl.assemble(model)
+    return system, mbdsl.consistent_initial_state(system)
+
+
+@pytest.mark.parametrize("method", ["hht-i3", "hht-si2"])
+@pytest.mark.parametrize("path, T", [(MODELS / "slider_crank.mbd", 0.5),
+                                     (VALID / "compiled_elements.mbd", 0.3)])
+def test_compiled_loop_matches_numpy_engine(path, T, method):
+    system, init = _system(path)
+    a = integrate(system, make_method(method), T, 1e-3, initial=init, engine="numpy", newton=SAME)
+    b = integrate(system, make_method(method), T, 1e-3, initial=init, engine="compiled",
+                  newton=SAME)
+    assert b.engine == "compiled" and a.engine == "numpy" and b.status == "completed"
+    assert np.array_equal(a.t, b.t)
+    assert np.abs(a.q - b.q).max() < 1e-10
+    assert np.abs(a.v - b.v).max() < 1e-8
+    assert np.abs(a.lam - b.lam).max() < 1e-7 * max(1.0, np.abs(a.lam).max())
+    assert a.stats_total.iterations == pytest.approx(b.stats_total.iterations, rel=0.02)
+    if method == "hht-si2":
+        assert np.abs(a.extras["mu"] - b.extras["mu"]).max() < 1e-7 * max(1.0, np.abs(a.lam).max())
+
+
+@pytest.mark.parametrize("method", ["hht-i3", "hht-si2"])
+def test_sparse_path_matches_numpy_engine(method):
+    system, init = _system(MODELS / "pendulum_chain.mbd", N=12)
+    opt = NewtonOptions(rate_refresh=0.1, linear_solver="sparse")
+    a = integrate(system, make_method(method), 0.05, 1e-3, initial=init, engine="numpy", newton=opt)
+    b = integrate(system, make_method(method), 0.05, 1e-3, initial=init, engine="compiled",
+                  newton=opt)
+    assert b.engine == "compiled"
+    assert np.abs(a.q - b.q).max() < 1e-11 and np.abs(a.v - b.v).max() < 1e-8
+
+
+@pytest.mark.parametrize("method", ["hht-i3", "hht-si2"])
+def test_kernel_newton_matrix_is_the_derivative_of_the_kernel_residual(method):
+    system, init = _system(VALID / "compiled_elements.mbd")
+    m = make_method(method)
+    ad = SparseAdapter(system, m)
+    hist = m.start(system, init)
+    ctx = ad.context(system, hist, 1e-2, 1e-2)
+    rng = np.random.default_rng(3)
+    w = m.predict(ctx) + 0.1 * rng.standard_normal(ad.size)
+    J = ad.jacobian(w, ctx).toarray()
+    fd = np.empty_like(J)
+    for j in range(ad.size):
+        e = np.zeros(ad.size)
+        step = 1e-6 * max(1.0, abs(w[j]))
+        e[j] = step
+        fd[:, j] = (ad.residual(w + e, ctx) - ad.residual(w - e, ctx)) / (2 * step)
+    scale = np.abs(J).max()
+    assert np.abs(J - fd).max() < 1e-6 * scale
+    # and the kernel residual is the numpy residual
+    assert np.allclose(ad.residual(w, ctx), m.residual(w, ctx), rtol=1e-12, atol=1e-10 * scale)
+
+
+def test_output_stride_keeps_every_kth_step_and_the_last():
+    system, init = _system(MODELS / "double_pendulum.mbd")
+    for engine in ("compiled", "numpy"):
+        full = integrate(system, make_method("hht-i3"), 0.105, 1e-3, initial=init, engine=engine)
+        part = integrate(system, make_method("hht-i3"), 0.105, 1e-3, initial=init, engine=engine,
+                         output_every=10)
+        assert len(part.t) == 1 + 10 + 1                    # t0, every 10th step, t_end
+        assert part.t[-1] == 0.105 and full.t[-1] == 0.105
+        assert np.allclose(part.t[1:-1], full.t[10:-1:10])
+        assert np.abs(part.q[1:-1] - full.q[10:-1:10]).max() < 1e-12
+        assert np.abs(part.q[-1] - full.q[-1]).max() < 1e-12
+        assert part.stats_total.steps == full.stats_total.steps == 105
+        assert part.stats_total.iterations == full.stats_total.iterations
+        assert part.stats["iterations"][1:].sum() == full.stats["iterations"][1:].sum()
+
+
+def test_a_failing_compiled_step_is_handed_to_the_numpy_engine():
+    # one full-Newton iteration cannot take the first step of the released pendulum:
+    # the compiled loop stops, the numpy engine halves the step, the compiled loop resumes
+    system, init = _system(MODELS / "pendulum.mbd")
+    opt = NewtonOptions(max_iter=2, jacobian="full")
+    a = integrate(system, make_method("hht-i3"), 1.0, 0.05, initial=init, engine="numpy",
+                  newton=opt, on_failure="return")
+    b = integrate(system, make_method("hht-i3"), 1.0, 0.05, initial=init, engine="compiled",
+                  newton=opt, on_failure="return")
+    assert a.stats_total.rejected > 0 and b.stats_total.rejected > 0
+    assert b.status == a.status == "completed"
+    assert np.any(b.stats["h"][1:] < 0.05)
+    assert b.t[-1] == 1.0 and np.abs(a.q[-1] - b.q[-1]).max() < 1e-8
+
+
+def test_engine_selection_says_why():
+    flex, _ = _system(MODELS / "flexible_slider_crank.mbd")
+    assert "flexible" in unsupported(flex, make_method("hht-i3"))
+    rigid, init = _system(MODELS / "slider_crank.mbd")
+    assert "hht-i3 and hht-si2" in unsupported(rigid, make_method("nstiff"))
+    assert select_engine("auto", flex, make_method("hht-i3")) == "numpy"
+    assert select_engine("auto", rigid, make_method("hht-i3")) == "compiled"
+    with pytest.raises(ValueError, match="flexible beams"):
+        integrate(flex, make_method("hht-i3"), 0.01, 1e-3, engine="compiled")
+    with pytest.raises(ValueError, match="unknown engine"):
+        integrate(rigid, make_method("hht-i3"), 0.01, 1e-3, initial=init, engine="fast")
+    with pytest.raises(ValueError, match="output_every"):
+        integrate(rigid, make_method("hht-i3"), 0.01, 1e-3, initial=init, output_every=0)
+    timed, _ = _system(VALID / "all_elements.mbd")
+    assert "depends on time" in unsupported(timed, make_method("hht-i3"))
+
+
+def test_packed_model_data_round_trips():
+    from mbdsl.integrators import compiled
+    system, _ = _system(VALID / "compiled_elements.mbd")
+    cm = CompiledModel(system)
+    md = compiled.unpack(cm.ints, cm.floats)
+    fields = dict(zip(compiled.MODEL_FIELDS, md))
+    assert np.array_equal(fields["mass"], system.mass_diag)
+    assert fields["crow"].shape == (2, 2) and fields["prow"].shape == (3,)
+    assert fields["spar"].shape == (3, 3) and fields["n_elements"] == system.layout.n_elements
