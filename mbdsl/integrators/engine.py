@@ -278,7 +278,8 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
                                 int(st[4]), steps=int(st[5])))
 
     try:
-        for n_steps, step_h in _step_plan(t_start, t_end, h):
+        plan = _step_plan(t_start, t_end, h)
+        for g, (n_steps, step_h) in enumerate(plan):
             coefs = np.array([method.alpha, method.beta, method.gamma, step_h])
             lu_state[0] = 0.0                     # a new h: a new Newton matrix
             last_h = step_h
@@ -326,16 +327,19 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
                     done += covered
                     step_no += covered
                     lu_state[0] = 0.0
+                if g == len(plan) - 1 and done >= n_steps:
+                    # the last step lands on t_end: record it (exactly at t_end)
+                    # before the writer sees it, also when the stride skipped it
+                    if counts[5]:
+                        add_row(t_end, q, v, a, lam, mu, counts, last_h)
+                        counts[:] = 0
+                    elif abs(sol._rows[-1].t - t_end) <= 1e-9 * h:
+                        sol._rows[-1].t = t_end
+                    t = t_end
                 if progress is not None:
                     progress(t, step_h, int(sol.stats_total.iterations))
                 if writer is not None:
                     writer.append(sol)
-        # the last step lands on t_end: record it if the stride skipped it
-        if counts[5]:
-            add_row(t_end, q, v, a, lam, mu, counts, last_h)
-            counts[:] = 0
-        elif abs(sol._rows[-1].t - t_end) <= 1e-9 * h:
-            sol._rows[-1].t = t_end
         sol.status, sol.message = "completed", f"reached t_end = {t_end:g} s"
     except KeyboardInterrupt:
         if counts[5]:
