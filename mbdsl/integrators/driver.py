@@ -105,16 +105,15 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
     if not (isinstance(output_every, (int, np.integer)) and output_every >= 1):
         raise ValueError(f"output_every must be a positive integer, got {output_every!r}")
     output_every = int(output_every)
-    from .engine import DENSE_LIMIT as _DL, SparseAdapter, run_compiled, select_engine
+    from .engine import DENSE_LIMIT as _DL, SparseAdapter, newton_size, run_compiled, select_engine
     which = select_engine(engine, system, method)
     wall0 = _time.perf_counter()
     if initial is None:
         initial = consistent_initial_state(system, t_start)
     solver = Newton(newton)
     if which == "compiled":
-        size = (system.n + system.m) * (1 if method.name == "hht-i3" else 2)
         choice = solver.options.linear_solver
-        if choice == "dense" or (choice == "auto" and size <= _DL):
+        if choice == "dense" or (choice == "auto" and newton_size(system, method) <= _DL):
             sol = Solution(system, method, h, t_end, initial)
             sol.engine = "compiled"
             sol.append(method.start(system, initial)[-1], StepStats())
@@ -123,13 +122,8 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
                              output_every=output_every, progress=progress, writer=writer,
                              max_halvings=max_halvings, grow_after=grow_after)
             finally:
-                sol.wall_time = _time.perf_counter() - wall0
-                sol.finalize()
-                if writer is not None:
-                    writer.finish(sol)
-            if sol.status == "failed" and on_failure == "raise":
-                raise ConvergenceError(sol.message, sol.diagnostics, solution=sol)
-            return sol
+                _finish(sol, wall0, writer)
+            return _result(sol, on_failure)
         method = SparseAdapter(system, method)
     blocks = method.blocks(system)
     kinds = np.concatenate([np.full(b.size, b.kind == "multiplier") for b in blocks])
@@ -204,15 +198,22 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
     except Exception as exc:          # a bug: keep what was computed, then let it surface
         sol.status = "failed"
         sol.message = f"internal error at t = {t:.6g} s: {exc!r}"
-        sol.wall_time = _time.perf_counter() - wall0
-        sol.finalize()
-        if writer is not None:
-            writer.finish(sol)
+        _finish(sol, wall0, writer)
         raise
+    _finish(sol, wall0, writer)
+    return _result(sol, on_failure)
+
+
+def _finish(sol, wall0, writer):
+    """Stack the recorded rows and close the stream: on every exit of a run."""
     sol.wall_time = _time.perf_counter() - wall0
     sol.finalize()
     if writer is not None:
         writer.finish(sol)
+
+
+def _result(sol, on_failure):
+    """The Solution, or ConvergenceError carrying it for a failed run under "raise"."""
     if sol.status == "failed" and on_failure == "raise":
         raise ConvergenceError(sol.message, sol.diagnostics, solution=sol)
     return sol

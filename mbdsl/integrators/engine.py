@@ -24,7 +24,6 @@ rotational spring-dampers, gravity. Anything else runs on the numpy engine.
 from __future__ import annotations
 
 import math
-import time as _time
 
 import numpy as np
 import scipy.sparse
@@ -37,7 +36,7 @@ from ..solution import StepStats
 from .base import StepState
 
 __all__ = ["ENGINES", "unsupported", "CompiledModel", "select_engine", "run_compiled",
-           "warm_up"]
+           "newton_size", "SparseAdapter"]
 
 #: Engine names accepted by ``integrate(..., engine=...)`` and ``--engine``.
 ENGINES = ("auto", "numpy", "compiled")
@@ -86,6 +85,11 @@ def unsupported(system, method) -> str | None:
         elif not isinstance(g, (SpringDamperGroup, RotationalSpringGroup)):
             return f"no kernel for {type(g).__name__}"
     return None
+
+
+def newton_size(system, method) -> int:
+    """Unknowns of the Newton matrix: n + m for HHT-I3, 2 (n + m) for HHT-SI2."""
+    return (system.n + system.m) * (1 if COMPILED_METHODS[method.name] == 0 else 2)
 
 
 def select_engine(engine: str, system, method) -> str:
@@ -180,31 +184,6 @@ class CompiledModel:
         self.bound = triplet_bound(tuple(d[k] for k in MODEL_FIELDS))
 
 
-def warm_up() -> float:
-    """Load (or, on a new machine, compile and cache) every kernel on a tiny
-    model; returns the seconds it took."""
-    import mbdsl
-    t0 = _time.perf_counter()
-    _kernels()
-    model = mbdsl.load_text(_WARM_MODEL, "warm_up.mbd")
-    for name in COMPILED_METHODS:
-        mbdsl.simulate(model, method=name, h=1e-3, t_end=2e-3, engine="compiled")
-    return _time.perf_counter() - t0
-
-
-_WARM_MODEL = """model warm_up
-gravity (0, -9.81)
-body a { mass 1; inertia 0.1; point O (-0.5, 0); point E (0.5, 0) }
-body b { mass 1; inertia 0.1; point E (-0.5, 0); point F (0.5, 0) }
-joint O: revolute(ground.origin, a.O)
-joint E: revolute(a.E, b.E)
-joint F: point_on_line(b.F, ground.origin, direction = (1, 0))
-force s: spring_damper(ground.origin, b.F, k = 10, c = 1, length = 0.1)
-force r: rotational_spring_damper(E, k = 1, c = 0.1)
-initial a.phi = -0.5
-"""
-
-
 # ---------------------------------------------------------------------------------------------
 # The compiled time loop (small systems)
 # ---------------------------------------------------------------------------------------------
@@ -244,7 +223,7 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
     cm = CompiledModel(system)
     I, Fl, n, m = cm.ints, cm.floats, system.n, system.m
     kind = COMPILED_METHODS[method.name]
-    size = (n + m) * (1 if kind == 0 else 2)
+    size = newton_size(system, method)
     start = method.start(system, initial)[-1]
     q, v, a = start.q.copy(), start.v.copy(), start.a.copy()
     lam = start.lam.copy()
@@ -271,6 +250,7 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
     last_h = h
 
     def add_row(t_row, qr, vr, ar, lr, mr, st, step_h):
+        """Append one recorded state with its Newton counts st (6,) to sol."""
         s = StepState(float(t_row), qr.copy(), vr.copy(), ar.copy(), lr.copy())
         if has_mu:
             s.extra["mu"] = mr.copy()
@@ -365,8 +345,8 @@ class SparseAdapter:
         self._K = _kernels()
         self._cm = CompiledModel(system)
         self._kind = COMPILED_METHODS[method.name]
-        n, m = system.n, system.m
-        self.size = (n + m) * (1 if self._kind == 0 else 2)
+        n = system.n
+        self.size = newton_size(system, method)
         self._R = np.empty(self._cm.bound, np.int64)
         self._C = np.empty(self._cm.bound, np.int64)
         self._V = np.empty(self._cm.bound)
