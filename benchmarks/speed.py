@@ -114,7 +114,7 @@ def measure(label, file, overrides, T, ref_kind, methods, repeat, with_exudyn):
             sol = integrate(system, make_method(name, alpha=ALPHA), T, H, initial=init)
             walls.append(time.perf_counter() - w0)
         tot = sol.stats_total
-        row = {"model": label, "method": name, "n+m": system.n + system.m, "engine": sol.engine,
+        row = {"model": label, "method": name, "n+m": system.n + system.m, "engine": f"{sol.engine}/{sol.linear_solver}",
                "parse_ms": 1e3 * (t1 - t0), "assemble_ms": 1e3 * (t2 - t1),
                "initial_ms": 1e3 * (t3 - t2), "first_s": first,
                "us_per_step": 1e6 * statistics.median(walls) / tot.steps,

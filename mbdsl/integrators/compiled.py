@@ -45,12 +45,19 @@ import math
 
 import numba
 import numpy as np
+from llvmlite import ir
+from numba.extending import intrinsic
 
 __all__ = ["MODEL_FIELDS", "residual", "jacobian_triplets", "force_term", "mobility",
-           "accumulate", "run_dense", "triplet_bound", "pack", "unpack", "HHT_I3", "HHT_SI2"]
+           "accumulate", "run", "triplet_bound", "pack", "unpack", "lapack_band_addresses",
+           "HHT_I3", "HHT_SI2", "DENSE", "BANDED"]
 
 #: Method codes of the kernels.
 HHT_I3, HHT_SI2 = 0, 1
+
+#: Linear solvers of the compiled loop: explicit inverse (LAPACK getrf/getri through
+#: numpy.linalg.inv), or LAPACK's band LU (dgbtrf/dgbtrs) on a bandwidth-reducing ordering.
+DENSE, BANDED = 0, 1
 
 #: Newton status codes (same meaning as ``NewtonStatus``).
 CONVERGED, MAX_ITER, DIVERGING, SINGULAR, NONFINITE = 0, 1, 2, 3, 4
@@ -645,6 +652,58 @@ def _scales_weights(kind, md, coefs, q, w, opts, R, C, V, qx, weight):
         weight[i] = scales[i] / (atol + rtol * sz)
 
 
+# --------------------------------------------------------------------------------------------
+# Linear solvers
+#
+# ``lin`` = (J, Jinv, AB, ipiv, iperm, lp, addr, trans, b): the dense Newton
+# matrix and its inverse (size x size; DENSE), and for BANDED the band
+# storage AB (size x ldab in C order, i.e. LAPACK's column-major ldab x size,
+# ldab = 2 kl + ku + 1), LAPACK's pivots, the ordering (unknown i is row
+# iperm[i] of the band matrix), the integer arguments lp = (size, size, kl,
+# ku, ldab, 1, size, info), the addresses of dgbtrf and dgbtrs
+# (``lapack_band_addresses``), the character "N" and a right-hand side
+# buffer. Arrays a solver does not use are one-element placeholders, so
+# both solvers share one compiled signature.
+# --------------------------------------------------------------------------------------------
+
+@intrinsic
+def _fortran_call(typingctx, address, args):
+    """Call the Fortran-convention routine at ``address`` (an int64 known only
+    at run time, so the calling function stays cacheable) with the data
+    pointers of the arrays in the tuple ``args``: every argument of a LAPACK
+    routine is passed by reference."""
+    sig = numba.types.void(address, args)
+
+    def codegen(context, builder, signature, llargs):
+        addr, tup = llargs
+        byte_ptr = ir.IntType(8).as_pointer()
+        ptrs = []
+        for i, ty in enumerate(signature.args[1]):
+            arr = context.make_array(ty)(context, builder, builder.extract_value(tup, i))
+            ptrs.append(builder.bitcast(arr.data, byte_ptr))
+        fnty = ir.FunctionType(ir.VoidType(), [byte_ptr] * len(ptrs))
+        builder.call(builder.inttoptr(addr, fnty.as_pointer()), ptrs)
+        return context.get_dummy_value()
+
+    return sig, codegen
+
+
+def lapack_band_addresses():
+    """int64 array (2,): the addresses of LAPACK's dgbtrf and dgbtrs in
+    scipy.linalg.cython_lapack (the LAPACK scipy itself links), or None when
+    that build uses 64-bit integers (the kernels pass 32-bit ones)."""
+    import scipy
+    from numba.extending import get_cython_function_address
+    try:
+        blas = scipy.show_config(mode="dicts")["Build Dependencies"]["blas"]
+        if any("ilp64" in str(k) and v not in (False, "False", None) for k, v in blas.items()):
+            return None
+    except Exception:       # noqa: BLE001 - an older scipy without the dict: LP64 builds only
+        pass
+    return np.array([get_cython_function_address("scipy.linalg.cython_lapack", name)
+                     for name in ("dgbtrf", "dgbtrs")], np.int64)
+
+
 @_jit
 def _invert(J, Jinv):
     """Jinv = J^-1; False when J is singular or too ill-conditioned to use
@@ -665,10 +724,67 @@ def _invert(J, Jinv):
 
 
 @_jit
-def _newton(kind, md, coefs, q_pred, v_pred, F_old, w, weight, opts, Jinv, lu_state,
-            R, C, V, J, r, dw, qx, vx, work, counts):
-    """One step's Newton iteration on w (in place), dense, with the stored
-    inverse reused across iterations and steps (modified Newton).
+def _factor(solver, lin, R, C, V, p):
+    """Factor the Newton matrix given by p triplets; the Newton status code
+    (CONVERGED for success, SINGULAR or NONFINITE)."""
+    J, Jinv, AB, ipiv, iperm, lp, addr = lin[0], lin[1], lin[2], lin[3], lin[4], lin[5], lin[6]
+    for i in range(p):
+        if not np.isfinite(V[i]):
+            return NONFINITE
+    if solver == DENSE:
+        J[:, :] = 0.0
+        for i in range(p):
+            J[R[i], C[i]] += V[i]
+        return CONVERGED if _invert(J, Jinv) else SINGULAR
+    kl, ku = lp[2], lp[3]
+    diag = kl + ku
+    AB[:, :] = 0.0
+    for i in range(p):
+        row, col = iperm[R[i]], iperm[C[i]]
+        if row - col > kl or col - row > ku:     # outside the band found at build: cannot be
+            return SINGULAR
+        AB[col, diag + row - col] += V[i]
+    lp[7] = 0
+    _fortran_call(addr[0], (lp[0:1], lp[1:2], lp[2:3], lp[3:4], AB, lp[4:5], ipiv, lp[7:8]))
+    if lp[7] != 0:                               # info > 0: an exactly zero pivot
+        return SINGULAR
+    # as SparseLU: a pivot below 1e-14 of the largest is numerically singular
+    dmin, dmax = np.inf, 0.0
+    for j in range(AB.shape[0]):
+        d = abs(AB[j, diag])
+        dmin, dmax = min(dmin, d), max(dmax, d)
+    if not (dmin >= 1e-14 * dmax) or not np.isfinite(dmax):
+        return SINGULAR
+    return CONVERGED
+
+
+@_jit
+def _solve(solver, lin, r, dw):
+    """dw = J^-1 r with the factorization of ``_factor``."""
+    size = r.shape[0]
+    if solver == DENSE:
+        Jinv = lin[1]
+        for i in range(size):
+            s = 0.0
+            for k in range(size):
+                s += Jinv[i, k] * r[k]
+            dw[i] = s
+        return
+    AB, ipiv, iperm, lp, addr, trans, b = lin[2], lin[3], lin[4], lin[5], lin[6], lin[7], lin[8]
+    for i in range(size):
+        b[iperm[i]] = r[i]
+    _fortran_call(addr[1], (trans, lp[1:2], lp[2:3], lp[3:4], lp[5:6], AB, lp[4:5], ipiv, b,
+                            lp[6:7], lp[7:8]))
+    for i in range(size):
+        dw[i] = b[iperm[i]]
+
+
+@_jit
+def _newton(kind, md, coefs, q_pred, v_pred, F_old, w, weight, opts, solver, lin, lu_state,
+            R, C, V, r, dw, qx, vx, work, counts):
+    """One step's Newton iteration on w (in place), with the stored
+    factorization (``_factor``, ``_solve``) reused across iterations and
+    steps (modified Newton).
 
     ``opts`` = (rtol, atol_k, atol_m, max_iter, rate_refresh, full);
     ``lu_state`` = (valid, rate); ``counts`` += (iterations, residuals,
@@ -687,17 +803,12 @@ def _newton(kind, md, coefs, q_pred, v_pred, F_old, w, weight, opts, Jinv, lu_st
     for _ in range(max_iter):
         if not valid:
             p = _jacobian_triplets(kind, md, coefs, q_pred, v_pred, w, R, C, V, qx, vx)
-            J[:, :] = 0.0
-            for i in range(p):
-                J[R[i], C[i]] += V[i]
             counts[2] += 1
             n_jac += 1
-            if not _invert(J, Jinv):
+            status = _factor(solver, lin, R, C, V, p)
+            if status != CONVERGED:
                 lu_state[0] = 0.0
-                for x in J.ravel():
-                    if not np.isfinite(x):
-                        return NONFINITE
-                return SINGULAR
+                return status
             counts[3] += 1
             valid = True
             age = 0
@@ -707,13 +818,10 @@ def _newton(kind, md, coefs, q_pred, v_pred, F_old, w, weight, opts, Jinv, lu_st
             if not np.isfinite(r[i]):
                 lu_state[0] = 0.0
                 return NONFINITE
+        _solve(solver, lin, r, dw)
         norm = 0.0
         for i in range(size):
-            s = 0.0
-            for k in range(size):
-                s += Jinv[i, k] * r[k]
-            dw[i] = s
-            norm = max(norm, abs(s * weight[i]))
+            norm = max(norm, abs(dw[i] * weight[i]))
         for i in range(size):
             w[i] -= dw[i]
         counts[0] += 1
@@ -761,8 +869,8 @@ def triplet_bound(md) -> int:  # noqa: D401 (md: the unpacked tuple)
 
 
 @_jit
-def _run_dense(kind, md, coefs, t0, n_steps, step0, every, q, v, a, lam, mu, F, opts, Jinv,
-              lu_state, R, C, V, out_t, out_q, out_v, out_a, out_lam, out_mu, out_stats, counts):
+def _run(kind, md, coefs, t0, n_steps, step0, every, q, v, a, lam, mu, F, opts, solver, lin,
+         lu_state, R, C, V, out_t, out_q, out_v, out_a, out_lam, out_mu, out_stats, counts):
     """Take up to n_steps steps of size h = coefs[3] from (t0, q, v, a, lam, mu).
 
     The state arrays (and F = Phi_q^T lambda - Q at that state) are updated
@@ -783,7 +891,6 @@ def _run_dense(kind, md, coefs, t0, n_steps, step0, every, q, v, a, lam, mu, F, 
     n, m = mass.shape[0], md[27].shape[0]
     h, alpha, beta, gamma = coefs[3], coefs[0], coefs[1], coefs[2]
     size = n + m if kind == HHT_I3 else 2 * n + 2 * m
-    J = np.empty((size, size))
     r = np.empty(size)
     dw = np.empty(size)
     w = np.empty(size)
@@ -806,8 +913,8 @@ def _run_dense(kind, md, coefs, t0, n_steps, step0, every, q, v, a, lam, mu, F, 
         else:
             w[2 * n:2 * n + m] = lam
         _scales_weights(kind, md, coefs, q, w, opts, R, C, V, qx, weight)
-        status = _newton(kind, md, coefs, q_pred, v_pred, F, w, weight, opts, Jinv, lu_state,
-                         R, C, V, J, r, dw, qx, vx, work, counts)
+        status = _newton(kind, md, coefs, q_pred, v_pred, F, w, weight, opts, solver, lin,
+                         lu_state, R, C, V, r, dw, qx, vx, work, counts)
         if status != CONVERGED:
             return status, k, rec
         for j in range(n):
@@ -943,9 +1050,9 @@ def mobility(I, Fl, q, out, R, C, V, qx):
 
 
 @_jit
-def run_dense(kind, I, Fl, coefs, t0, n_steps, step0, every, q, v, a, lam, mu, F, opts, Jinv,
-              lu_state, R, C, V, out_t, out_q, out_v, out_a, out_lam, out_mu, out_stats, counts):
-    """The compiled time loop; see ``_run_dense``."""
-    return _run_dense(kind, unpack(I, Fl), coefs, t0, n_steps, step0, every, q, v, a, lam, mu,
-                      F, opts, Jinv, lu_state, R, C, V, out_t, out_q, out_v, out_a, out_lam,
-                      out_mu, out_stats, counts)
+def run(kind, I, Fl, coefs, t0, n_steps, step0, every, q, v, a, lam, mu, F, opts, solver, lin,
+        lu_state, R, C, V, out_t, out_q, out_v, out_a, out_lam, out_mu, out_stats, counts):
+    """The compiled time loop; see ``_run``."""
+    return _run(kind, unpack(I, Fl), coefs, t0, n_steps, step0, every, q, v, a, lam, mu,
+                F, opts, solver, lin, lu_state, R, C, V, out_t, out_q, out_v, out_a, out_lam,
+                out_mu, out_stats, counts)

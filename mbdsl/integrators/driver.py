@@ -105,22 +105,26 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
     if not (isinstance(output_every, (int, np.integer)) and output_every >= 1):
         raise ValueError(f"output_every must be a positive integer, got {output_every!r}")
     output_every = int(output_every)
-    from .engine import DENSE_LIMIT as _DL, SparseAdapter, newton_size, run_compiled, select_engine
+    from .engine import CompiledModel, SparseAdapter, linear_solver_plan, run_compiled, select_engine
     which = select_engine(engine, system, method)
+    solver = Newton(newton)
+    if which == "numpy" and solver.options.linear_solver == "banded":
+        raise ValueError("linear_solver='banded' is a solver of the compiled engine, which "
+                         "cannot run this model or was not asked for")
     wall0 = _time.perf_counter()
     if initial is None:
         initial = consistent_initial_state(system, t_start)
-    solver = Newton(newton)
     if which == "compiled":
-        choice = solver.options.linear_solver
-        if choice == "dense" or (choice == "auto" and newton_size(system, method) <= _DL):
+        cm = CompiledModel(system)
+        plan = linear_solver_plan(system, method, solver.options, initial.q, cm)
+        if plan.kind != "sparse":
             sol = Solution(system, method, h, t_end, initial)
-            sol.engine = "compiled"
+            sol.engine, sol.linear_solver = "compiled", plan.kind
             sol.append(method.start(system, initial)[-1], StepStats())
             try:
                 run_compiled(system, method, t_end, h, t_start, initial, solver.options, sol,
-                             output_every=output_every, progress=progress, writer=writer,
-                             max_halvings=max_halvings, grow_after=grow_after)
+                             plan, output_every=output_every, progress=progress, writer=writer,
+                             max_halvings=max_halvings, grow_after=grow_after, cm=cm)
             finally:
                 _finish(sol, wall0, writer)
             return _result(sol, on_failure)
@@ -134,6 +138,7 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
     history = method.start(system, initial)
     sol = Solution(system, method, h, t_end, initial)
     sol.engine = which
+    sol.linear_solver = "sparse" if assembler.sparse else "dense"
     sol.append(history[-1], StepStats())
     pending = StepStats(steps=0)      # steps not yet recorded (output stride)
     n_steps = 0

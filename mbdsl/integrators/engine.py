@@ -1,12 +1,18 @@
 """The compiled engine: HHT-I3 and HHT-SI2 on rigid models through numba kernels.
 
-Two ways of running, chosen by the size of the Newton matrix:
+Three ways of running, chosen by the size and structure of the Newton
+matrix (:func:`linear_solver_plan`):
 
 * up to ``DENSE_LIMIT`` unknowns, the whole time loop runs compiled
-  (:func:`mbdsl.integrators.compiled.run_dense`), in chunks between which
-  Python records output, reports progress and handles Ctrl-C;
-* above it, the shared Python time loop and Newton iteration
-  (:mod:`.driver`, :mod:`.newton`) run with compiled residuals, Newton
+  (:func:`mbdsl.integrators.compiled.run`) with an explicit inverse, in
+  chunks between which Python records output, reports progress and handles
+  Ctrl-C;
+* above it, when a bandwidth-reducing ordering (reverse Cuthill-McKee,
+  scipy.sparse.csgraph) makes the Newton matrix narrow-banded (chains,
+  linkages built link by link), the same compiled loop with LAPACK's band
+  LU (dgbtrf/dgbtrs, called from the kernels);
+* otherwise, the shared Python time loop and Newton iteration
+  (:mod:`.driver`, :mod:`.newton`) with compiled residuals, Newton
   matrices assembled on a CSC pattern fixed at the start, and SuperLU.
 
 A step the compiled loop cannot converge is handed to the numpy engine,
@@ -36,7 +42,7 @@ from ..solution import StepStats
 from .base import StepState
 
 __all__ = ["ENGINES", "unsupported", "CompiledModel", "select_engine", "run_compiled",
-           "newton_size", "SparseAdapter"]
+           "newton_size", "SparseAdapter", "LinearSolverPlan", "linear_solver_plan"]
 
 #: Engine names accepted by ``integrate(..., engine=...)`` and ``--engine``.
 ENGINES = ("auto", "numpy", "compiled")
@@ -46,6 +52,17 @@ COMPILED_METHODS = {"hht-i3": 0, "hht-si2": 1}
 
 #: Steps per call of the compiled loop (output, progress and Ctrl-C between calls).
 CHUNK = 2000
+
+#: The band LU is taken when the reordered Newton matrix has at most this many sub-
+#: and super-diagonals and its band (2 kl + ku + 1 entries per unknown) is at most a
+#: quarter of a dense row: a band solve then costs a few hundred flops per unknown
+#: with no indexing or call overhead, inside the compiled loop. Measured on pendulum
+#: chains (kl = ku = 4 for HHT-I3, 11 for HHT-SI2): N = 100, HHT-SI2, 0.37 ms per
+#: step against 1.05 ms with SuperLU in the Python Newton loop; N = 1000, 4.5-5.5 ms
+#: against 10.7 ms.
+BAND_LIMIT = 32
+#: Below this many unknowns the dense inverse is kept without looking for a band.
+BAND_MIN_SIZE = 64
 
 
 def _kernels():
@@ -184,6 +201,129 @@ class CompiledModel:
         self.bound = triplet_bound(tuple(d[k] for k in MODEL_FIELDS))
 
 
+class LinearSolverPlan:
+    """How the compiled engine solves with the Newton matrix.
+
+    Attributes
+    ----------
+    kind : {"dense", "banded", "sparse"}
+        Explicit inverse in the compiled loop, LAPACK band LU in the compiled
+        loop, or SuperLU in the Python Newton loop (:class:`SparseAdapter`).
+    iperm : ndarray of int64, shape (size,) or None
+        "banded": unknown i is row iperm[i] of the band matrix.
+    kl, ku : int
+        "banded": sub- and super-diagonals of the reordered matrix.
+    addresses : ndarray of int64, shape (2,) or None
+        "banded": dgbtrf and dgbtrs (``compiled.lapack_band_addresses``).
+    why : str
+        The reason for the choice, for reports.
+    """
+
+    def __init__(self, kind, why, iperm=None, kl=0, ku=0, addresses=None):
+        self.kind, self.why = kind, why
+        self.iperm, self.kl, self.ku, self.addresses = iperm, int(kl), int(ku), addresses
+
+    def factorization_is_expensive(self, size) -> bool:
+        """Whether a factorization costs more than about six Newton iterations
+        (``NewtonOptions.refresh_rate``). Dense: an inverse costs about size/6
+        iterations (measured: at 17 unknowns the cheap policy is fastest, at 50
+        and 100 unknowns the expensive one). Band: dgbtrf's 2 kl (kl + ku + 1)
+        flops per unknown against an iteration's band solve, 2 (2 kl + ku + 1),
+        and a residual of about 20 (measured on chains: kl = ku = 11 is
+        fastest with the cheap policy)."""
+        if self.kind == "dense":
+            return size >= 40
+        return self.kl * (self.kl + self.ku + 1) > 6 * (2 * self.kl + self.ku + 11)
+
+    def workspace(self, size):
+        """The kernels' ``lin`` tuple (see ``compiled._factor``) for this plan."""
+        one = np.zeros((1, 1))
+        if self.kind == "dense":
+            J, Jinv, AB = np.empty((size, size)), np.empty((size, size)), one
+            ipiv, iperm, addresses = np.zeros(1, np.int32), np.zeros(1, np.int64), np.zeros(2, np.int64)
+        else:
+            J = Jinv = one
+            AB = np.zeros((size, 2 * self.kl + self.ku + 1))
+            ipiv, iperm, addresses = np.zeros(size, np.int32), self.iperm, self.addresses
+        lp = np.array([size, size, self.kl, self.ku, 2 * self.kl + self.ku + 1, 1, size, 0],
+                      np.int32)
+        return (J, Jinv, AB, ipiv, iperm, lp, addresses, np.array([ord("N")], np.uint8),
+                np.empty(size))
+
+
+def newton_pattern(system, method, q, cm=None):
+    """(rows, cols, values) of the Newton matrix's triplets at configuration
+    q (n,) [m, rad] at rest (h = 1e-3 s); the pattern is the model's, fixed
+    at build, the values only serve to judge SuperLU's fill."""
+    K = _kernels()
+    cm = cm or CompiledModel(system)
+    kind = COMPILED_METHODS[method.name]
+    size = newton_size(system, method)
+    n = system.n
+    R, C, V = (np.empty(cm.bound, np.int64), np.empty(cm.bound, np.int64), np.empty(cm.bound))
+    coefs = np.array([method.alpha, method.beta, method.gamma, 1e-3])
+    p = K.jacobian_triplets(kind, cm.ints, cm.floats, coefs, np.asarray(q, dtype=float),
+                            np.zeros(n), np.zeros(size),
+                            R, C, V, np.zeros(n + 3), np.zeros(n + 3))
+    return R[:p], C[:p], V[:p]
+
+
+def band_ordering(system, method, q, cm=None):
+    """(iperm, kl, ku): the reverse Cuthill-McKee ordering (scipy.sparse.csgraph)
+    of the Newton matrix's pattern J + J^T, unknown i going to row iperm[i],
+    and the bandwidths of the reordered matrix."""
+    from scipy.sparse.csgraph import reverse_cuthill_mckee
+    size = newton_size(system, method)
+    R, C, _ = newton_pattern(system, method, q, cm)
+    A = scipy.sparse.csr_matrix((np.ones(len(R)), (R, C)), shape=(size, size))
+    perm = reverse_cuthill_mckee((A + A.T).tocsr(), symmetric_mode=True)
+    iperm = np.empty(size, np.int64)
+    iperm[perm] = np.arange(size)
+    kl = int(np.max(iperm[R] - iperm[C], initial=0))
+    ku = int(np.max(iperm[C] - iperm[R], initial=0))
+    return iperm, kl, ku
+
+
+def linear_solver_plan(system, method, options, q, cm=None) -> LinearSolverPlan:
+    """The compiled engine's linear solver for this model and method, its
+    pattern judged at configuration q (n,).
+
+    ``options.linear_solver``: "dense" and "sparse" are taken as asked,
+    "banded" whenever LAPACK's band routines are usable; "auto" takes the
+    band LU when the reordered matrix is narrow (``BAND_LIMIT``, a band of
+    at most a quarter of the unknowns, at least ``BAND_MIN_SIZE`` unknowns),
+    else the dense inverse up to ``DENSE_LIMIT`` unknowns and SuperLU above.
+
+    Raises
+    ------
+    ValueError
+        "banded" asked for where the LAPACK routines cannot be called (an
+        ILP64 LAPACK build).
+    """
+    choice = options.linear_solver
+    size = newton_size(system, method)
+    dense = LinearSolverPlan("dense", f"explicit inverse ({size} unknowns)")
+    if choice == "dense" or (choice == "auto" and size < BAND_MIN_SIZE):
+        return dense
+    if choice == "sparse":
+        return LinearSolverPlan("sparse", "SuperLU, as asked")
+    addresses = _kernels().lapack_band_addresses()
+    if addresses is None:
+        if choice == "banded":
+            raise ValueError("linear_solver='banded' needs a LAPACK with 32-bit integers; "
+                             "this scipy is built with ILP64")
+        return dense if size <= DENSE_LIMIT else LinearSolverPlan(
+            "sparse", "SuperLU (the LAPACK band routines use 64-bit integers here)")
+    iperm, kl, ku = band_ordering(system, method, q, cm)
+    plan = LinearSolverPlan("banded", f"band LU, kl = {kl}, ku = {ku} ({size} unknowns)",
+                            iperm, kl, ku, addresses)
+    if choice == "banded" or (max(kl, ku) <= BAND_LIMIT and 4 * (2 * kl + ku + 1) <= size):
+        return plan
+    if size <= DENSE_LIMIT:
+        return dense
+    return LinearSolverPlan("sparse", f"SuperLU (reordered bandwidth kl = {kl}, ku = {ku})")
+
+
 # ---------------------------------------------------------------------------------------------
 # The compiled time loop (small systems)
 # ---------------------------------------------------------------------------------------------
@@ -212,15 +352,17 @@ def _resume_state(system, t, q, v, a, lam):
                         float("nan"))
 
 
-def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol, *,
-                 output_every=1, progress=None, writer=None, max_halvings=6, grow_after=4):
+def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol, plan, *,
+                 output_every=1, progress=None, writer=None, max_halvings=6, grow_after=4,
+                 cm=None):
     """Integrate into ``sol`` (already holding the initial row) with the
-    compiled time loop (systems of at most ``DENSE_LIMIT`` unknowns); sets
-    sol.status and sol.message. Parameters as for ``integrate``."""
+    compiled time loop and the linear solver of ``plan`` ("dense" or
+    "banded"); sets sol.status and sol.message. Other parameters as for
+    ``integrate``."""
     from .driver import integrate as numpy_integrate
     opt = newton_options
     K = _kernels()
-    cm = CompiledModel(system)
+    cm = cm or CompiledModel(system)
     I, Fl, n, m = cm.ints, cm.floats, system.n, system.m
     kind = COMPILED_METHODS[method.name]
     size = newton_size(system, method)
@@ -230,11 +372,10 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
     mu = np.zeros(m)
     F = start.extra["F"].copy()
     opts = np.array([opt.rtol, opt.atol_kinematic, opt.atol_multiplier, opt.max_iter,
-                     # an inverse costs about size/6 iterations (measured: at 17 unknowns
-                     # the default 0.1 is fastest, at 50 and 100 unknowns 0.3)
-                     opt.refresh_rate(size >= 40),
+                     opt.refresh_rate(plan.factorization_is_expensive(size)),
                      1.0 if opt.jacobian.value == "full" else 0.0])
-    Jinv = np.empty((size, size))
+    solver = K.DENSE if plan.kind == "dense" else K.BANDED
+    lin = plan.workspace(size)
     lu_state = np.array([0.0, 0.5])
     R = np.empty(cm.bound, np.int64)
     C = np.empty(cm.bound, np.int64)
@@ -267,10 +408,10 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
             while done < n_steps and t < t_end - 1e-9 * h:
                 chunk = min(CHUNK, n_steps - done)
                 t0 = t
-                status, taken, nrec = K.run_dense(
+                status, taken, nrec = K.run(
                     kind, I, Fl, coefs, t0, chunk, step_no, output_every, q, v, a, lam, mu, F,
-                    opts, Jinv, lu_state, R, C, V, out_t, out_q, out_v, out_a, out_lam, out_mu,
-                    out_stats, counts)
+                    opts, solver, lin, lu_state, R, C, V, out_t, out_q, out_v, out_a, out_lam,
+                    out_mu, out_stats, counts)
                 for i in range(nrec):
                     add_row(out_t[i], out_q[i], out_v[i], out_a[i], out_lam[i], out_mu[i],
                             out_stats[i], step_h)

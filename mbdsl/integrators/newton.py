@@ -116,11 +116,15 @@ class NewtonOptions:
         with the stored inverse). Measured on the chain of N = 100 links,
         HHT-I3: 0.47 factorizations and 5.6 iterations per step at 0.1,
         0.18 and 7.6 at 0.3, 25% less time per step.
-    linear_solver : {"auto", "dense", "sparse"}
+    linear_solver : {"auto", "dense", "sparse", "banded"}
         LU of the Newton matrix: LAPACK on a dense array, or SuperLU
         (scipy.sparse.linalg.splu) on a CSC matrix assembled on the
-        pattern fixed at model build. "auto" takes sparse above
-        ``mbdsl.assembly.sparse.DENSE_LIMIT`` unknowns.
+        pattern fixed at model build, or (compiled engine only) LAPACK's
+        band LU on a reverse Cuthill-McKee ordering. "auto" takes dense up
+        to ``mbdsl.assembly.sparse.DENSE_LIMIT`` unknowns; above it, sparse
+        in the numpy engine, and banded or sparse in the compiled engine
+        (``engine.linear_solver_plan``: banded when the band is at most a
+        few times SuperLU's fill).
     """
 
     rtol: float = 1e-8
@@ -139,9 +143,9 @@ class NewtonOptions:
         return 0.3 if expensive else 0.1
 
     def __post_init__(self):
-        if self.linear_solver not in ("auto", "dense", "sparse"):
-            raise ValueError("NewtonOptions.linear_solver must be 'auto', 'dense' or 'sparse', "
-                             f"got {self.linear_solver!r}")
+        if self.linear_solver not in ("auto", "dense", "sparse", "banded"):
+            raise ValueError("NewtonOptions.linear_solver must be 'auto', 'dense', 'sparse' or "
+                             f"'banded', got {self.linear_solver!r}")
         for name in ("rtol", "atol_kinematic", "atol_multiplier", "rate_refresh"):
             if name == "rate_refresh" and self.rate_refresh is None:
                 continue

@@ -12,7 +12,8 @@ import pytest
 
 import mbdsl
 from mbdsl.integrators import NewtonOptions, integrate, make_method
-from mbdsl.integrators.engine import CompiledModel, SparseAdapter, select_engine, unsupported
+from mbdsl.integrators.engine import (CompiledModel, SparseAdapter, band_ordering,
+                                     linear_solver_plan, select_engine, unsupported)
 
 from ..conftest import MODELS
 
@@ -54,6 +55,78 @@ def test_sparse_path_matches_numpy_engine(method):
                   newton=opt)
     assert b.engine == "compiled"
     assert np.abs(a.q - b.q).max() < 1e-11 and np.abs(a.v - b.v).max() < 1e-8
+
+
+@pytest.mark.parametrize("method", ["hht-i3", "hht-si2"])
+@pytest.mark.parametrize("path, overrides", [(MODELS / "pendulum_chain.mbd", {"N": 12}),
+                                             (VALID / "compiled_elements.mbd", {})])
+def test_band_lu_matches_the_dense_inverse_and_the_numpy_engine(path, overrides, method):
+    # LAPACK's band LU called from the kernels, on the reverse Cuthill-McKee
+    # ordering: a mis-placed band entry, a wrong ordering or a wrong LAPACK
+    # argument gives a wrong Newton update and no convergence, or another solution
+    system, init = _system(path, **overrides)
+    band = NewtonOptions(rate_refresh=0.1, linear_solver="banded")
+    dense = NewtonOptions(rate_refresh=0.1, linear_solver="dense")
+    a = integrate(system, make_method(method), 0.1, 1e-3, initial=init, engine="compiled",
+                  newton=band)
+    b = integrate(system, make_method(method), 0.1, 1e-3, initial=init, engine="compiled",
+                  newton=dense)
+    c = integrate(system, make_method(method), 0.1, 1e-3, initial=init, engine="numpy",
+                  newton=NewtonOptions(rate_refresh=0.1))
+    assert a.linear_solver == "banded" and b.linear_solver == "dense"
+    assert a.status == "completed" and a.stats_total.rejected == 0
+    for other in (b, c):
+        assert np.abs(a.q - other.q).max() < 1e-10
+        assert np.abs(a.v - other.v).max() < 1e-8
+        assert np.abs(a.lam - other.lam).max() < 1e-7 * max(1.0, np.abs(a.lam).max())
+    assert a.stats_total.iterations == pytest.approx(b.stats_total.iterations, rel=0.02)
+
+
+def test_band_factor_and_solve_against_numpy():
+    from mbdsl.integrators import compiled as K
+    from mbdsl.integrators.engine import LinearSolverPlan
+    rng = np.random.default_rng(7)
+    size, kl, ku = 40, 3, 2
+    A = np.zeros((size, size))
+    for i in range(size):
+        for j in range(max(0, i - kl), min(size, i + ku + 1)):
+            A[i, j] = rng.standard_normal()
+    A += 4 * np.eye(size)
+    perm = rng.permutation(size)               # the ordering the kernels undo
+    iperm = np.empty(size, np.int64)
+    iperm[perm] = np.arange(size)
+    B = A[np.ix_(iperm, iperm)]               # unknown i is row iperm[i] of A
+    R, C = np.nonzero(B)
+    V = B[R, C]
+    plan = LinearSolverPlan("banded", "test", iperm, kl, ku, K.lapack_band_addresses())
+    lin = plan.workspace(size)
+    assert K._factor(K.BANDED, lin, R, C, V, len(R)) == K.CONVERGED
+    r = rng.standard_normal(size)
+    dw = np.empty(size)
+    K._solve(K.BANDED, lin, r, dw)
+    assert np.abs(dw - np.linalg.solve(B, r)).max() < 1e-12 * np.abs(dw).max()
+    # a zero column is singular, a non-finite entry is reported as such
+    keep = C != 5
+    assert K._factor(K.BANDED, lin, R[keep], C[keep], V[keep], int(keep.sum())) == K.SINGULAR
+    V[0] = np.nan
+    assert K._factor(K.BANDED, lin, R, C, V, len(R)) == K.NONFINITE
+
+
+def test_band_ordering_of_a_chain_and_the_automatic_choice():
+    # a pendulum chain is a path graph: each link couples only to its neighbours,
+    # so the reordered HHT-I3 matrix (3 coordinates + 2 multipliers per link) has a
+    # band of about one link, whatever N; the slider crank is too small for a band
+    for N in (12, 60):
+        system, init = _system(MODELS / "pendulum_chain.mbd", N=N)
+        iperm, kl, ku = band_ordering(system, make_method("hht-i3"), init.q)
+        assert sorted(iperm) == list(range(5 * N)) and 3 <= kl <= 6 and 3 <= ku <= 6
+    plan = linear_solver_plan(system, make_method("hht-i3"), NewtonOptions(), init.q)
+    assert plan.kind == "banded"
+    crank, init = _system(MODELS / "slider_crank.mbd")
+    assert linear_solver_plan(crank, make_method("hht-i3"), NewtonOptions(), init.q).kind == "dense"
+    with pytest.raises(ValueError, match="compiled engine"):
+        integrate(crank, make_method("hht-i3"), 0.01, 1e-3, initial=init, engine="numpy",
+                  newton=NewtonOptions(linear_solver="banded"))
 
 
 @pytest.mark.parametrize("method", ["hht-i3", "hht-si2"])
