@@ -12,7 +12,7 @@ The COO -> CSC map is computed once per run: each later assembly is one
 from __future__ import annotations
 
 import numpy as np
-import scipy.sparse
+import scipy
 
 __all__ = ["Term", "JacobianAssembler", "DENSE_LIMIT"]
 

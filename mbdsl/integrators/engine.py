@@ -32,7 +32,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import scipy.sparse
+import scipy
 
 from ..assembly.groups import (CoincidenceGroup, LinearConstraintGroup, PointForceGroup,
                                PointOnLineGroup, RotationalSpringGroup, SpringDamperGroup,

@@ -60,9 +60,7 @@ import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.linalg
-import scipy.sparse
-import scipy.sparse.linalg
+import scipy
 
 __all__ = ["JacobianUpdate", "NewtonStatus", "NewtonOptions", "NewtonResult", "Newton",
            "DenseLU", "SparseLU", "factorize"]
