@@ -48,7 +48,6 @@ from mbdsl.reference import index1_reference  # noqa: E402
 import exudyn_side  # noqa: E402
 
 H = 1e-3
-ALPHA = -0.05
 CASES = [  # (label, model file, overrides, T, reference)
     ("slider crank", "slider_crank.mbd", None, 2.0, "published"),
     ("double pendulum", "double_pendulum.mbd", None, 2.0, "index1"),
@@ -93,7 +92,7 @@ def error(q, qref):
     return float(np.max(np.abs(q[ok] - qref[ok])))
 
 
-def measure(label, file, overrides, T, ref_kind, methods, repeat, with_exudyn):
+def measure(label, file, overrides, T, ref_kind, methods, repeat, with_exudyn, alpha=-0.05):
     rows = []
     t0 = time.perf_counter()
     model = mbdsl.load(ROOT / "models" / file, overrides=overrides)
@@ -105,17 +104,17 @@ def measure(label, file, overrides, T, ref_kind, methods, repeat, with_exudyn):
     qref = reference_q(ref_kind, system, T)
     exu = None
     if with_exudyn:
-        exu = exudyn_side.run_exudyn(model, init.q, init.v, T, H, ALPHA, repeat=repeat)
+        exu = exudyn_side.run_exudyn(model, init.q, init.v, T, H, alpha, repeat=repeat)
         exu["error"] = error(exu["q"], qref)
     for name in methods:
-        method = make_method(name, alpha=ALPHA)
+        method = make_method(name, alpha=alpha)
         f0 = time.perf_counter()
         sol = integrate(system, method, T, H, initial=init)
         first = time.perf_counter() - f0
         walls = []
         for _ in range(repeat):
             w0 = time.perf_counter()
-            sol = integrate(system, make_method(name, alpha=ALPHA), T, H, initial=init)
+            sol = integrate(system, make_method(name, alpha=alpha), T, H, initial=init)
             walls.append(time.perf_counter() - w0)
         tot = sol.stats_total
         row = {"model": label, "method": name, "n+m": system.n + system.m,
@@ -185,18 +184,24 @@ def main(argv=None) -> int:
     p.add_argument("--quick", action="store_true", help="skip the chain of 1000 links")
     p.add_argument("--no-exudyn", action="store_true")
     p.add_argument("--markdown", help="write the table to this file as markdown")
+    p.add_argument("--alpha", type=float, default=-0.05,
+                   help="HHT alpha; Exudyn's spectral radius is (1 + alpha) / (1 - alpha)")
+    p.add_argument("--only", help="comma-separated model labels to run (default: all)")
     args = p.parse_args(argv)
     with_exudyn = exudyn_side.available() and not args.no_exudyn
     methods = args.methods.split(",")
     startup = startup_seconds()
     rows = []
     for case in CASES:
-        if args.quick and case[0] == "chain N=1000":
+        if (args.quick and case[0] == "chain N=1000") or (
+                args.only and case[0] not in args.only.split(",")):
             continue
-        rows += measure(*case, methods, args.repeat, with_exudyn)
+        rows += measure(*case, methods, args.repeat, with_exudyn, alpha=args.alpha)
         print(f"  measured {case[0]}", file=sys.stderr)
     text = table(rows)
     print(machine())
+    print(f"h = {H:g} s, alpha = {args.alpha:g} (Exudyn: generalized-alpha, spectral radius "
+          f"{(1 + args.alpha) / (1 - args.alpha):.4g})")
     print(text)
     print(f"start-up of the slider crank (import, parse, check, assemble): {startup:.3f} s")
     growth = {}
@@ -207,7 +212,9 @@ def main(argv=None) -> int:
             print(f"{name}: per-step cost N = 1000 / N = 100 = {growth[name]:.2f} (linear: 10)")
     if args.markdown:
         Path(args.markdown).write_text(
-            f"Machine: {machine()}\n\n{table(rows, markdown=True)}\n\n"
+            f"Machine: {machine()}\n\nh = {H:g} s, alpha = {args.alpha:g} (Exudyn: "
+            f"generalized-alpha, spectral radius {(1 + args.alpha) / (1 - args.alpha):.4g})\n\n"
+            f"{table(rows, markdown=True)}\n\n"
             f"Start-up of the slider crank (import, parse, check, assemble, fresh "
             f"interpreter, best of 3): {startup:.3f} s\n\n"
             + "".join(f"Per-step cost {k}, N = 1000 / N = 100: {g:.2f} (linear: 10)\n\n"

@@ -33,10 +33,17 @@ Systems, ch. 4): a body point is at r + A(phi) s, with d/dphi (A s) = B s =
 The Newton iteration is the one of :mod:`mbdsl.integrators.newton`
 (weighted velocity-equivalent norm, contraction-based stopping, modified
 Newton with refresh on poor contraction, the round-off stall rule), with
-the factorization replaced by an explicit inverse of the (small) Newton
-matrix computed by LAPACK through ``numpy.linalg.inv``: the inverse is only
-used to compute Newton updates, while the residual is evaluated exactly, so
-its round-off changes the contraction, never the converged solution.
+one of two linear solvers (``_factor``, ``_solve``):
+
+* DENSE: an explicit inverse of the (small) Newton matrix computed by LAPACK
+  through ``numpy.linalg.inv``; the inverse is only used to compute Newton
+  updates, while the residual is evaluated exactly, so its round-off
+  changes the contraction, never the converged solution;
+* BANDED: LAPACK's band LU with partial pivoting (dgbtrf, dgbtrs) on the
+  Newton matrix reordered by reverse Cuthill-McKee (``engine.band_ordering``),
+  called through the addresses scipy.linalg.cython_lapack exports. The
+  addresses are arguments, not constants, so the kernels stay cacheable
+  (numba refuses to cache code that embeds a ctypes pointer).
 """
 
 from __future__ import annotations
