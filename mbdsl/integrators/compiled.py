@@ -662,15 +662,29 @@ def _scales_weights(kind, md, coefs, q, w, opts, R, C, V, qx, weight):
 # --------------------------------------------------------------------------------------------
 # Linear solvers
 #
-# ``lin`` = (J, Jinv, AB, ipiv, iperm, lp, addr, trans, b): the dense Newton
-# matrix and its inverse (size x size; DENSE), and for BANDED the band
-# storage AB (size x ldab in C order, i.e. LAPACK's column-major ldab x size,
-# ldab = 2 kl + ku + 1), LAPACK's pivots, the ordering (unknown i is row
-# iperm[i] of the band matrix), the integer arguments lp = (size, size, kl,
-# ku, ldab, 1, size, info), the addresses of dgbtrf and dgbtrs
-# (``lapack_band_addresses``), the character "N" and a right-hand side
-# buffer. Arrays a solver does not use are one-element placeholders, so
-# both solvers share one compiled signature.
+# ``lin`` = (J, Jinv, AB, ipiv, rperm, cperm, lp, addr, trans, b, Lr, Lc, Lv):
+# the dense Newton matrix and its inverse (size x size; DENSE), and for
+# BANDED: the band storage AB (size x ldab in C order, i.e. LAPACK's
+# column-major ldab x size, ldab = 2 kl + ku + 1), LAPACK's pivots, the
+# orderings (equation i is row rperm[i], unknown j is column cperm[j] of the
+# band matrix), the integer arguments lp = (s, s, kl, ku, ldab, 1, s, info,
+# blocks, coupling count) with s = size / blocks, the addresses of dgbtrf
+# and dgbtrs (``lapack_band_addresses``), the character "N", a right-hand
+# side buffer, and the triplets of the coupling block (below).
+#
+# Blocks: with one block the band matrix is the Newton matrix reordered.
+# With two (HHT-SI2: block 0 = the (a, lambda) unknowns with the dynamics
+# and velocity-constraint rows, block 1 = (abar, mu) with the abar and
+# position-constraint rows) it is the block lower-triangular part of the
+# Newton matrix: the diagonal blocks are factored apart (two band LUs of n +
+# m unknowns and a third of the bandwidth, instead of one of 2 (n + m)), the
+# lower block L21 enters the solve by a product, and the upper block, the
+# dependence of the dynamics and velocity-constraint rows on abar (h^2/2 K,
+# h/2 d(Phi_q v)/dq: O(h^2) and O(h) against the mass and Phi_q they sit
+# beside), is left out. That changes the Newton matrix, never the residual:
+# modified Newton converges to the same solution, at a contraction rate of
+# the order of those terms. Arrays a solver does not use are one-element
+# placeholders, so that every solver shares one compiled signature.
 # --------------------------------------------------------------------------------------------
 
 @intrinsic
@@ -734,7 +748,9 @@ def _invert(J, Jinv):
 def _factor(solver, lin, R, C, V, p):
     """Factor the Newton matrix given by p triplets; the Newton status code
     (CONVERGED for success, SINGULAR or NONFINITE)."""
-    J, Jinv, AB, ipiv, iperm, lp, addr = lin[0], lin[1], lin[2], lin[3], lin[4], lin[5], lin[6]
+    J, Jinv, AB, ipiv, rperm, cperm, lp, addr = (lin[0], lin[1], lin[2], lin[3], lin[4],
+                                                 lin[5], lin[6], lin[7])
+    Lr, Lc, Lv = lin[10], lin[11], lin[12]
     for i in range(p):
         if not np.isfinite(V[i]):
             return NONFINITE
@@ -743,18 +759,29 @@ def _factor(solver, lin, R, C, V, p):
         for i in range(p):
             J[R[i], C[i]] += V[i]
         return CONVERGED if _invert(J, Jinv) else SINGULAR
-    kl, ku = lp[2], lp[3]
+    s, kl, ku, blocks = lp[0], lp[2], lp[3], lp[8]
     diag = kl + ku
     AB[:, :] = 0.0
+    nc = 0
     for i in range(p):
-        row, col = iperm[R[i]], iperm[C[i]]
-        if row - col > kl or col - row > ku:     # outside the band found at build: cannot be
+        row, col = rperm[R[i]], cperm[C[i]]
+        rb, cb = row // s, col // s
+        if rb == cb:
+            row -= rb * s
+            col -= cb * s
+            if row - col > kl or col - row > ku:     # outside the band found at build
+                return SINGULAR
+            AB[cb * s + col, diag + row - col] += V[i]
+        elif rb > cb:                                  # the coupling block L21
+            Lr[nc], Lc[nc], Lv[nc] = row - s, col, V[i]
+            nc += 1
+    lp[9] = nc
+    for blk in range(blocks):
+        lp[7] = 0
+        _fortran_call(addr[0], (lp[0:1], lp[1:2], lp[2:3], lp[3:4], AB[blk * s:(blk + 1) * s],
+                                lp[4:5], ipiv[blk * s:(blk + 1) * s], lp[7:8]))
+        if lp[7] != 0:                               # info > 0: an exactly zero pivot
             return SINGULAR
-        AB[col, diag + row - col] += V[i]
-    lp[7] = 0
-    _fortran_call(addr[0], (lp[0:1], lp[1:2], lp[2:3], lp[3:4], AB, lp[4:5], ipiv, lp[7:8]))
-    if lp[7] != 0:                               # info > 0: an exactly zero pivot
-        return SINGULAR
     # as SparseLU: a pivot below 1e-14 of the largest is numerically singular
     dmin, dmax = np.inf, 0.0
     for j in range(AB.shape[0]):
@@ -772,18 +799,26 @@ def _solve(solver, lin, r, dw):
     if solver == DENSE:
         Jinv = lin[1]
         for i in range(size):
-            s = 0.0
+            acc = 0.0
             for k in range(size):
-                s += Jinv[i, k] * r[k]
-            dw[i] = s
+                acc += Jinv[i, k] * r[k]
+            dw[i] = acc
         return
-    AB, ipiv, iperm, lp, addr, trans, b = lin[2], lin[3], lin[4], lin[5], lin[6], lin[7], lin[8]
+    AB, ipiv, rperm, cperm, lp, addr, trans, b = (lin[2], lin[3], lin[4], lin[5], lin[6],
+                                                  lin[7], lin[8], lin[9])
+    Lr, Lc, Lv = lin[10], lin[11], lin[12]
+    s, blocks = lp[0], lp[8]
     for i in range(size):
-        b[iperm[i]] = r[i]
-    _fortran_call(addr[1], (trans, lp[1:2], lp[2:3], lp[3:4], lp[5:6], AB, lp[4:5], ipiv, b,
-                            lp[6:7], lp[7:8]))
+        b[rperm[i]] = r[i]
+    for blk in range(blocks):
+        if blk == 1:                                   # block 1's rows: r2 - L21 x1
+            for k in range(lp[9]):
+                b[s + Lr[k]] -= Lv[k] * b[Lc[k]]
+        _fortran_call(addr[1], (trans, lp[1:2], lp[2:3], lp[3:4], lp[5:6],
+                                AB[blk * s:(blk + 1) * s], lp[4:5], ipiv[blk * s:(blk + 1) * s],
+                                b[blk * s:(blk + 1) * s], lp[6:7], lp[7:8]))
     for i in range(size):
-        dw[i] = b[iperm[i]]
+        dw[i] = b[cperm[i]]
 
 
 @_jit

@@ -209,19 +209,24 @@ class LinearSolverPlan:
     kind : {"dense", "banded", "sparse"}
         Explicit inverse in the compiled loop, LAPACK band LU in the compiled
         loop, or SuperLU in the Python Newton loop (:class:`SparseAdapter`).
-    iperm : ndarray of int64, shape (size,) or None
-        "banded": unknown i is row iperm[i] of the band matrix.
+    rperm, cperm : ndarray of int64, shape (size,) or None
+        "banded": equation i is row rperm[i], unknown j column cperm[j] of
+        the band matrix.
     kl, ku : int
-        "banded": sub- and super-diagonals of the reordered matrix.
+        "banded": sub- and super-diagonals of each diagonal block.
+    blocks : int
+        "banded": 1, or 2 for HHT-SI2 split into its (a, lambda) and (abar,
+        mu) blocks (see ``compiled``, "Linear solvers").
     addresses : ndarray of int64, shape (2,) or None
         "banded": dgbtrf and dgbtrs (``compiled.lapack_band_addresses``).
     why : str
         The reason for the choice, for reports.
     """
 
-    def __init__(self, kind, why, iperm=None, kl=0, ku=0, addresses=None):
+    def __init__(self, kind, why, rperm=None, cperm=None, kl=0, ku=0, blocks=1, addresses=None):
         self.kind, self.why = kind, why
-        self.iperm, self.kl, self.ku, self.addresses = iperm, int(kl), int(ku), addresses
+        self.rperm, self.cperm, self.kl, self.ku = rperm, cperm, int(kl), int(ku)
+        self.blocks, self.addresses = int(blocks), addresses
 
     def factorization_is_expensive(self, size) -> bool:
         """Whether a factorization costs more than about six Newton iterations
@@ -235,20 +240,26 @@ class LinearSolverPlan:
             return size >= 40
         return self.kl * (self.kl + self.ku + 1) > 6 * (2 * self.kl + self.ku + 11)
 
-    def workspace(self, size):
-        """The kernels' ``lin`` tuple (see ``compiled._factor``) for this plan."""
-        one = np.zeros((1, 1))
+    def workspace(self, size, bound):
+        """The kernels' ``lin`` tuple (see ``compiled._factor``) for this
+        plan; ``bound``: the triplet bound of the model."""
+        one, i8 = np.zeros((1, 1)), np.int64
+        ldab = 2 * self.kl + self.ku + 1
         if self.kind == "dense":
             J, Jinv, AB = np.empty((size, size)), np.empty((size, size)), one
-            ipiv, iperm, addresses = np.zeros(1, np.int32), np.zeros(1, np.int64), np.zeros(2, np.int64)
+            ipiv, rperm, cperm = np.zeros(1, np.int32), np.zeros(1, i8), np.zeros(1, i8)
+            addresses, Lr, Lc, Lv = np.zeros(2, i8), np.zeros(1, i8), np.zeros(1, i8), np.zeros(1)
         else:
             J = Jinv = one
-            AB = np.zeros((size, 2 * self.kl + self.ku + 1))
-            ipiv, iperm, addresses = np.zeros(size, np.int32), self.iperm, self.addresses
-        lp = np.array([size, size, self.kl, self.ku, 2 * self.kl + self.ku + 1, 1, size, 0],
-                      np.int32)
-        return (J, Jinv, AB, ipiv, iperm, lp, addresses, np.array([ord("N")], np.uint8),
-                np.empty(size))
+            AB = np.zeros((size, ldab))
+            ipiv, rperm, cperm, addresses = (np.zeros(size, np.int32), self.rperm, self.cperm,
+                                             self.addresses)
+            nL = bound if self.blocks == 2 else 1
+            Lr, Lc, Lv = np.zeros(nL, i8), np.zeros(nL, i8), np.zeros(nL)
+        s = size // max(self.blocks, 1)
+        lp = np.array([s, s, self.kl, self.ku, ldab, 1, s, 0, self.blocks, 0], np.int32)
+        return (J, Jinv, AB, ipiv, rperm, cperm, lp, addresses, np.array([ord("N")], np.uint8),
+                np.empty(size), Lr, Lc, Lv)
 
 
 def newton_pattern(system, method, q, cm=None):
@@ -268,25 +279,63 @@ def newton_pattern(system, method, q, cm=None):
     return R[:p], C[:p], V[:p]
 
 
-def band_ordering(system, method, q, cm=None):
-    """(iperm, kl, ku): the reverse Cuthill-McKee ordering (scipy.sparse.csgraph)
-    of the Newton matrix's pattern J + J^T, unknown i going to row iperm[i],
-    and the bandwidths of the reordered matrix."""
+def _rcm(R, C, size):
+    """iperm (size,): the reverse Cuthill-McKee ordering (scipy.sparse.csgraph)
+    of the pattern (R, C) made symmetric, index i going to position iperm[i]."""
     from scipy.sparse.csgraph import reverse_cuthill_mckee
-    size = newton_size(system, method)
-    R, C, _ = newton_pattern(system, method, q, cm)
     A = scipy.sparse.csr_matrix((np.ones(len(R)), (R, C)), shape=(size, size))
     perm = reverse_cuthill_mckee((A + A.T).tocsr(), symmetric_mode=True)
     iperm = np.empty(size, np.int64)
     iperm[perm] = np.arange(size)
-    kl = int(np.max(iperm[R] - iperm[C], initial=0))
-    ku = int(np.max(iperm[C] - iperm[R], initial=0))
-    return iperm, kl, ku
+    return iperm
 
 
-def linear_solver_plan(system, method, options, q, cm=None) -> LinearSolverPlan:
+def band_ordering(system, method, q, split=False, cm=None):
+    """(rperm, cperm, kl, ku, blocks): the band matrix of the Newton matrix.
+
+    One block: the reverse Cuthill-McKee ordering of J + J^T for rows and
+    columns alike. ``split`` (HHT-SI2 only): two blocks, equations (R1,
+    R4) and unknowns (a, lambda) first, equations (R2, R3) and unknowns
+    (abar, mu) second, each ordered by reverse Cuthill-McKee of its own
+    diagonal block. kl, ku: the largest sub- and super-diagonals of the
+    diagonal blocks.
+    """
+    size = newton_size(system, method)
+    R, C, _ = newton_pattern(system, method, q, cm)
+    if not split:
+        iperm = _rcm(R, C, size)
+        rperm = cperm = iperm
+    else:
+        if COMPILED_METHODS[method.name] != 1:
+            raise ValueError("only the HHT-SI2 Newton matrix is split into blocks")
+        n, m = system.n, system.m
+        s = n + m
+        j, i = np.arange(n), np.arange(m)
+        # local position within its block of each equation (row) and unknown (column)
+        row_block = np.concatenate([np.zeros(n, np.int64), np.ones(n, np.int64),
+                                    np.ones(m, np.int64), np.zeros(m, np.int64)])
+        row_local = np.concatenate([j, j, n + i, n + i])
+        col_block = np.concatenate([np.zeros(n, np.int64), np.ones(n, np.int64),
+                                    np.zeros(m, np.int64), np.ones(m, np.int64)])
+        col_local = np.concatenate([j, j, n + i, n + i])
+        rperm, cperm = np.empty(size, np.int64), np.empty(size, np.int64)
+        for blk in (0, 1):
+            keep = (row_block[R] == blk) & (col_block[C] == blk)
+            iperm = _rcm(row_local[R[keep]], col_local[C[keep]], s)
+            rows, cols = row_block == blk, col_block == blk
+            rperm[rows] = blk * s + iperm[row_local[rows]]
+            cperm[cols] = blk * s + iperm[col_local[cols]]
+        diagonal = (row_block[R] == col_block[C])
+        R, C = R[diagonal], C[diagonal]
+    kl = int(np.max(rperm[R] - cperm[C], initial=0))
+    ku = int(np.max(cperm[C] - rperm[R], initial=0))
+    return rperm, cperm, kl, ku, (2 if split else 1)
+
+
+def linear_solver_plan(system, method, options, q, cm=None, split_si2=True) -> LinearSolverPlan:
     """The compiled engine's linear solver for this model and method, its
-    pattern judged at configuration q (n,).
+    pattern judged at configuration q (n,). The HHT-SI2 band matrix is split
+    into its two blocks unless ``split_si2`` is False.
 
     ``options.linear_solver``: "dense" and "sparse" are taken as asked,
     "banded" whenever LAPACK's band routines are usable; "auto" takes the
@@ -314,9 +363,10 @@ def linear_solver_plan(system, method, options, q, cm=None) -> LinearSolverPlan:
                              "this scipy is built with ILP64")
         return dense if size <= DENSE_LIMIT else LinearSolverPlan(
             "sparse", "SuperLU (the LAPACK band routines use 64-bit integers here)")
-    iperm, kl, ku = band_ordering(system, method, q, cm)
-    plan = LinearSolverPlan("banded", f"band LU, kl = {kl}, ku = {ku} ({size} unknowns)",
-                            iperm, kl, ku, addresses)
+    split = COMPILED_METHODS[method.name] == 1 and split_si2
+    rperm, cperm, kl, ku, blocks = band_ordering(system, method, q, split, cm)
+    plan = LinearSolverPlan("banded", f"band LU, kl = {kl}, ku = {ku}, {blocks} block(s) "
+                            f"({size} unknowns)", rperm, cperm, kl, ku, blocks, addresses)
     if choice == "banded" or (max(kl, ku) <= BAND_LIMIT and 4 * (2 * kl + ku + 1) <= size):
         return plan
     if size <= DENSE_LIMIT:
@@ -359,8 +409,12 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
     compiled time loop and the linear solver of ``plan`` ("dense" or
     "banded"); sets sol.status and sol.message. Other parameters as for
     ``integrate``."""
+    from dataclasses import replace
+
     from .driver import integrate as numpy_integrate
     opt = newton_options
+    # the numpy engine's solver for the steps handed to it ("banded" is the kernels' own)
+    numpy_opt = replace(opt, linear_solver="auto") if opt.linear_solver == "banded" else opt
     K = _kernels()
     cm = cm or CompiledModel(system)
     I, Fl, n, m = cm.ints, cm.floats, system.n, system.m
@@ -375,7 +429,7 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
                      opt.refresh_rate(plan.factorization_is_expensive(size)),
                      1.0 if opt.jacobian.value == "full" else 0.0])
     solver = K.DENSE if plan.kind == "dense" else K.BANDED
-    lin = plan.workspace(size)
+    lin = plan.workspace(size, cm.bound)
     lu_state = np.array([0.0, 0.5])
     R = np.empty(cm.bound, np.int64)
     C = np.empty(cm.bound, np.int64)
@@ -399,8 +453,8 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
                                 int(st[4]), steps=int(st[5])))
 
     try:
-        plan = _step_plan(t_start, t_end, h)
-        for g, (n_steps, step_h) in enumerate(plan):
+        schedule = _step_plan(t_start, t_end, h)
+        for g, (n_steps, step_h) in enumerate(schedule):
             coefs = np.array([method.alpha, method.beta, method.gamma, step_h])
             lu_state[0] = 0.0                     # a new h: a new Newton matrix
             last_h = step_h
@@ -422,6 +476,16 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
                     # The failing step goes to the numpy engine (smaller steps, and the
                     # diagnosis in the model's words if the run cannot go on), for a
                     # window of 8 steps of the nominal grid, or to t_end.
+                    if plan.kind == "banded" and plan.blocks == 2:
+                        # the split Newton matrix leaves out O(h) terms; where they matter
+                        # (stiff forces, fast rotation), go on with the whole band matrix
+                        rperm, cperm, kl, ku, _ = band_ordering(system, method, q, False, cm)
+                        plan = LinearSolverPlan("banded", plan.why + "; whole band matrix "
+                                                f"after a failed step at t = {t:.6g} s",
+                                                rperm, cperm, kl, ku, 1, plan.addresses)
+                        lin = plan.workspace(size, cm.bound)
+                        opts[4] = opt.refresh_rate(plan.factorization_is_expensive(size))
+                        sol.linear_solver_note = plan.why
                     if counts[5]:
                         add_row(t, q, v, a, lam, mu, counts, step_h)
                         counts[:] = 0
@@ -429,7 +493,7 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
                     part = numpy_integrate(
                         system, method, end, step_h, t_start=t,
                         initial=_resume_state(system, t, q, v, a, lam),
-                        newton=opt, on_failure="return", max_halvings=max_halvings,
+                        newton=numpy_opt, on_failure="return", max_halvings=max_halvings,
                         grow_after=grow_after, engine="numpy")
                     for s, stats in zip(part._rows[1:], part._stats[1:]):
                         sol.append(s, stats)
@@ -448,7 +512,7 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
                     done += covered
                     step_no += covered
                     lu_state[0] = 0.0
-                if g == len(plan) - 1 and done >= n_steps:
+                if g == len(schedule) - 1 and done >= n_steps:
                     # the last step lands on t_end: record it (exactly at t_end)
                     # before the writer sees it, also when the stride skipped it
                     if counts[5]:
