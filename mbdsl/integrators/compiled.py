@@ -696,6 +696,8 @@ def _fortran_call(typingctx, address, args):
     sig = numba.types.void(address, args)
 
     def codegen(context, builder, signature, llargs):
+        """LLVM IR: the arrays' data pointers, cast to i8*, passed to the
+        routine at ``addr`` as a void function of as many pointers."""
         addr, tup = llargs
         byte_ptr = ir.IntType(8).as_pointer()
         ptrs = []

@@ -42,7 +42,8 @@ from ..solution import StepStats
 from .base import StepState
 
 __all__ = ["ENGINES", "unsupported", "CompiledModel", "select_engine", "run_compiled",
-           "newton_size", "SparseAdapter", "LinearSolverPlan", "linear_solver_plan"]
+           "newton_size", "SparseAdapter", "LinearSolverPlan", "linear_solver_plan", "band_plan",
+           "band_ordering"]
 
 #: Engine names accepted by ``integrate(..., engine=...)`` and ``--engine``.
 ENGINES = ("auto", "numpy", "compiled")
@@ -332,6 +333,15 @@ def band_ordering(system, method, q, split=False, cm=None):
     return rperm, cperm, kl, ku, (2 if split else 1)
 
 
+def band_plan(system, method, q, split, addresses, cm=None) -> LinearSolverPlan:
+    """The "banded" plan of ``band_ordering`` (arguments as there; addresses
+    from ``compiled.lapack_band_addresses``)."""
+    rperm, cperm, kl, ku, blocks = band_ordering(system, method, q, split, cm)
+    return LinearSolverPlan("banded", f"band LU, kl = {kl}, ku = {ku}, {blocks} block(s) "
+                            f"({newton_size(system, method)} unknowns)", rperm, cperm, kl, ku,
+                            blocks, addresses)
+
+
 def linear_solver_plan(system, method, options, q, cm=None, split_si2=True) -> LinearSolverPlan:
     """The compiled engine's linear solver for this model and method, its
     pattern judged at configuration q (n,). The HHT-SI2 band matrix is split
@@ -363,10 +373,9 @@ def linear_solver_plan(system, method, options, q, cm=None, split_si2=True) -> L
                              "this scipy is built with ILP64")
         return dense if size <= DENSE_LIMIT else LinearSolverPlan(
             "sparse", "SuperLU (the LAPACK band routines use 64-bit integers here)")
-    split = COMPILED_METHODS[method.name] == 1 and split_si2
-    rperm, cperm, kl, ku, blocks = band_ordering(system, method, q, split, cm)
-    plan = LinearSolverPlan("banded", f"band LU, kl = {kl}, ku = {ku}, {blocks} block(s) "
-                            f"({size} unknowns)", rperm, cperm, kl, ku, blocks, addresses)
+    plan = band_plan(system, method, q, COMPILED_METHODS[method.name] == 1 and split_si2,
+                     addresses, cm)
+    kl, ku = plan.kl, plan.ku
     if choice == "banded" or (max(kl, ku) <= BAND_LIMIT and 4 * (2 * kl + ku + 1) <= size):
         return plan
     if size <= DENSE_LIMIT:
@@ -479,10 +488,9 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
                     if plan.kind == "banded" and plan.blocks == 2:
                         # the split Newton matrix leaves out O(h) terms; where they matter
                         # (stiff forces, fast rotation), go on with the whole band matrix
-                        rperm, cperm, kl, ku, _ = band_ordering(system, method, q, False, cm)
-                        plan = LinearSolverPlan("banded", plan.why + "; whole band matrix "
-                                                f"after a failed step at t = {t:.6g} s",
-                                                rperm, cperm, kl, ku, 1, plan.addresses)
+                        why = f"{plan.why}; whole band matrix after a failed step at t = {t:.6g} s"
+                        plan = band_plan(system, method, q, False, plan.addresses, cm)
+                        plan.why = why
                         lin = plan.workspace(size, cm.bound)
                         opts[4] = opt.refresh_rate(plan.factorization_is_expensive(size))
                         sol.linear_solver_note = plan.why
