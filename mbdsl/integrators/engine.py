@@ -264,9 +264,9 @@ class LinearSolverPlan:
 
 
 def newton_pattern(system, method, q, cm=None):
-    """(rows, cols, values) of the Newton matrix's triplets at configuration
+    """(rows, cols) of the Newton matrix's triplets, evaluated at configuration
     q (n,) [m, rad] at rest (h = 1e-3 s); the pattern is the model's, fixed
-    at build, the values only serve to judge SuperLU's fill."""
+    at build, whatever the configuration."""
     K = _kernels()
     cm = cm or CompiledModel(system)
     kind = COMPILED_METHODS[method.name]
@@ -277,7 +277,7 @@ def newton_pattern(system, method, q, cm=None):
     p = K.jacobian_triplets(kind, cm.ints, cm.floats, coefs, np.asarray(q, dtype=float),
                             np.zeros(n), np.zeros(size),
                             R, C, V, np.zeros(n + 3), np.zeros(n + 3))
-    return R[:p], C[:p], V[:p]
+    return R[:p], C[:p]
 
 
 def _rcm(R, C, size):
@@ -302,7 +302,7 @@ def band_ordering(system, method, q, split=False, cm=None):
     diagonal blocks.
     """
     size = newton_size(system, method)
-    R, C, _ = newton_pattern(system, method, q, cm)
+    R, C = newton_pattern(system, method, q, cm)
     if not split:
         iperm = _rcm(R, C, size)
         rperm = cperm = iperm
