@@ -111,7 +111,8 @@ def check(path, overrides: dict | None = None) -> list[Diagnostic]:
 def simulate(model: Model, method: str | None = None, h: float | None = None,
              t_end: float | None = None, *, newton: NewtonOptions | None = None,
              on_failure: str = "raise", progress=None, writer=None, engine: str = "auto",
-             output_every: int = 1, **coefficients) -> Solution:
+             output_every: int = 1, announce=None, compile_policy: str = "wait",
+             **coefficients) -> Solution:
     """Simulate a model.
 
     Parameters
@@ -136,6 +137,10 @@ def simulate(model: Model, method: str | None = None, h: float | None = None,
         See :func:`mbdsl.integrators.integrate`.
     output_every : int
         Record every K-th step and the last one.
+    announce : callable (str) -> None, optional
+        Told when the compiled kernels are compiled for this machine (once).
+    compile_policy : {"wait", "background"}
+        See :func:`mbdsl.integrators.integrate`.
     **coefficients
         Method coefficients, e.g. ``alpha=-0.1``; default from the
         ``simulate`` section.
@@ -166,7 +171,17 @@ def simulate(model: Model, method: str | None = None, h: float | None = None,
     params = settings_coefficients(s, method)
     params.update({k: v for k, v in coefficients.items() if v is not None})
     m = make_method(method, **params)
+    import time
+    t0 = time.perf_counter()
     system = assemble(model)
-    return integrate(system, m, float(t_end), float(h), t_start=float(s.get("t_start", 0.0)),
-                     newton=newton, on_failure=on_failure, progress=progress, writer=writer,
-                     engine=engine, output_every=output_every)
+    assembly_time = time.perf_counter() - t0
+    try:
+        sol = integrate(system, m, float(t_end), float(h), t_start=float(s.get("t_start", 0.0)),
+                        newton=newton, on_failure=on_failure, progress=progress,
+                        writer=writer, engine=engine, output_every=output_every,
+                        announce=announce, compile_policy=compile_policy)
+    except ConvergenceError as err:
+        err.solution.timings["setup"] += assembly_time
+        raise
+    sol.timings["setup"] += assembly_time
+    return sol

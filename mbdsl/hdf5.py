@@ -28,7 +28,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-__all__ = ["write_hdf5", "read_hdf5"]
+__all__ = ["write_hdf5", "read_hdf5", "update_attributes"]
 
 
 def _dataset(group, name, data, columns):
@@ -86,6 +86,20 @@ def write_hdf5(solution, path, extra_metadata: dict | None = None) -> Path:
     return path
 
 
+def update_attributes(path, attrs: dict) -> None:
+    """Replace root attributes (str -> str) of a result file written by
+    :func:`write_hdf5`.
+
+    Raises
+    ------
+    OSError
+        If the file cannot be opened for writing.
+    """
+    with h5py.File(path, "a") as f:
+        for k, v in attrs.items():
+            f.attrs[k] = v
+
+
 def _columns(ds) -> list[str]:
     return [c.decode() if isinstance(c, bytes) else str(c) for c in ds.attrs["columns"]]
 
@@ -100,7 +114,7 @@ def read_hdf5(path):
     ValueError
         An HDF5 file that is not an mbdsl result.
     """
-    from .output import _method_parameters, _run_stats, rebuild_system
+    from .output import _method_parameters, _run_stats, rebuild_system, run_description
     from .solution import Solution
     path = Path(path)
     with h5py.File(path, "r") as f:
@@ -122,4 +136,4 @@ def read_hdf5(path):
             stats={k: f["newton"][k][()] for k in Solution.STAT_NAMES},
             stats_total=_run_stats(meta), status=meta.get("status", "completed"),
             message=meta.get("message", ""), wall_time=float(meta.get("wall_time", 0.0)),
-            derived=derived)
+            derived=derived, **run_description(meta))

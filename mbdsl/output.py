@@ -36,7 +36,7 @@ def metadata(solution, extra: dict | None = None) -> dict:
     ``model_source`` (JSON string), ``model_parameters`` (JSON object),
     ``method``, ``method.<coefficient>``, ``h``, ``t_end``, ``status``,
     ``message``, ``extras`` (JSON list), ``stats_total`` (JSON object),
-    ``wall_time``.
+    ``wall_time``, ``engine``, ``linear_solver``, ``timings`` (JSON object).
     """
     from . import __version__
     model = solution.model
@@ -56,6 +56,9 @@ def metadata(solution, extra: dict | None = None) -> dict:
     meta["extras"] = json.dumps(list(solution.extra_names))
     meta["stats_total"] = json.dumps(asdict(solution.stats_total))
     meta["wall_time"] = repr(float(solution.wall_time))
+    meta["engine"] = solution.engine
+    meta["linear_solver"] = solution.linear_solver
+    meta["timings"] = json.dumps(solution.timings)
     meta["model_source"] = json.dumps(model.source)      # one line: newlines escaped
     meta.update(extra or {})
     return meta
@@ -87,9 +90,32 @@ def write_csv(solution, path, extra_metadata: dict | None = None) -> Path:
     for k, v in metadata(solution, extra_metadata).items():
         buf.write(f"# {k}: {v}\n")
     buf.write(",".join(names) + "\n")
-    np.savetxt(buf, values, fmt="%.17g", delimiter=",")
+    buf.write(_csv_rows(values))
     path.write_text(buf.getvalue(), encoding="utf-8")
     return path
+
+
+def _csv_rows(values) -> str:
+    """Rows of floats as CSV text, 17 significant digits (exact for doubles)."""
+    if not len(values):
+        return ""
+    line = ",".join(["%.17g"] * values.shape[1])
+    return "\n".join([line % tuple(row) for row in values.tolist()]) + "\n"
+
+
+class _Timer:
+    """Adds the wall time of a ``with`` block to ``owner.elapsed``."""
+
+    def __init__(self, owner):
+        self.owner = owner
+
+    def __enter__(self):
+        import time
+        self._t0 = time.perf_counter()
+
+    def __exit__(self, *exc):
+        import time
+        self.owner.elapsed += time.perf_counter() - self._t0
 
 
 class _DeferredInterrupt:
@@ -141,6 +167,9 @@ class CsvStream:
         self.path, self.interval = Path(path), float(interval)
         self._file = open(self.path, "w", encoding="utf-8")
         self._header, self._written, self._last = False, 0, 0.0
+        self._derived = []          # derived columns of the rows written, chunk by chunk
+        #: Wall time spent computing and writing rows [s] (``Solution.timings["output"]``).
+        self.elapsed = 0.0
 
     def _rows_text(self, sol, i0, i1, finalized) -> str:
         """Rows i0..i1-1 of the table as CSV text, from the stacked arrays of a
@@ -164,9 +193,9 @@ class CsvStream:
             extra_names=sol.extra_names, h=sol.h, t_end=sol.t_end, t=t, q=q, v=v, a=a, lam=lam,
             extras=extras, stats=stats, stats_total=sol.stats_total, status=sol.status,
             message=sol.message)
-        buf = io.StringIO()
-        np.savetxt(buf, part.table()[1], fmt="%.17g", delimiter=",")
-        return buf.getvalue()
+        text = _csv_rows(part.table()[1])
+        self._derived.append(part._derived)
+        return text
 
     def _open(self, sol):
         buf = io.StringIO()
@@ -184,7 +213,7 @@ class CsvStream:
         if self._header and now - self._last < self.interval:
             return
         self._last = now
-        with _DeferredInterrupt():
+        with _DeferredInterrupt(), _Timer(self):
             if not self._header:
                 self._open(sol)
             n = len(sol._rows)
@@ -200,16 +229,24 @@ class CsvStream:
             self.path.unlink(missing_ok=True)
 
     def finish(self, sol) -> Path:
-        """After the run (finalized Solution): the remaining rows and the final status."""
+        """After the run (finalized Solution): the remaining rows and the final
+        status. The derived columns computed chunk by chunk become the
+        Solution's (its summary does not compute them again)."""
         with _DeferredInterrupt():
-            if not self._header:
-                self._open(sol)
-            n = len(sol.t)
-            if n > self._written:
-                self._file.write(self._rows_text(sol, self._written, n, finalized=True))
-                self._written = n
-            for k in ("status", "message", "stats_total", "wall_time"):
-                self._file.write(f"# {k}: {metadata(sol)[k]}\n")
+            with _Timer(self):
+                if not self._header:
+                    self._open(sol)
+                n = len(sol.t)
+                if n > self._written:
+                    self._file.write(self._rows_text(sol, self._written, n, finalized=True))
+                    self._written = n
+                if sol._derived is None and self._derived and None not in self._derived:
+                    sol._derived = {k: np.concatenate([d[k] for d in self._derived])
+                                    for k in self._derived[0]}
+            sol.timings["output"] = self.elapsed
+            meta = metadata(sol)
+            for k in ("status", "message", "stats_total", "wall_time", "timings"):
+                self._file.write(f"# {k}: {meta[k]}\n")
             self._file.close()
         return self.path
 
@@ -229,6 +266,8 @@ class WriteAtEnd:
         self.path = Path(path)
         self.path.touch()             # fail early on an unwritable path
         self._used = False
+        #: Wall time spent writing [s] (``Solution.timings["output"]``).
+        self.elapsed = 0.0
 
     def append(self, sol) -> None:
         """Nothing to do per step."""
@@ -239,9 +278,16 @@ class WriteAtEnd:
             self.path.unlink(missing_ok=True)
 
     def finish(self, sol) -> Path:
-        """Write the whole (finalized) Solution."""
+        """Write the whole (finalized) Solution; its output time is stored
+        last, once known."""
         self._used = True
-        return write_solution(sol, self.path)
+        with _Timer(self):
+            path = write_solution(sol, self.path)
+        sol.timings["output"] = self.elapsed
+        if self.path.suffix.lower() in HDF5_SUFFIXES:
+            from .hdf5 import update_attributes
+            update_attributes(path, {"timings": json.dumps(sol.timings)})
+        return path
 
 
 def read_csv_metadata(path) -> tuple[dict, list[str], np.ndarray]:
@@ -302,6 +348,14 @@ def rebuild_system(meta: dict, path):
     return assemble(model)
 
 
+def run_description(meta: dict) -> dict:
+    """``timings``, ``engine`` and ``linear_solver`` of a stored run, for
+    :meth:`Solution.from_arrays` (absent from files of older versions)."""
+    return {"timings": json.loads(meta.get("timings", "{}")),
+            "engine": meta.get("engine", "numpy"),
+            "linear_solver": meta.get("linear_solver", "dense")}
+
+
 def _method_parameters(meta: dict) -> dict:
     return {k[7:]: float(v) for k, v in meta.items() if k.startswith("method.")}
 
@@ -338,7 +392,7 @@ def read_csv_solution(path):
         extras={x: block([f"{x}.{r}" for r in rows]) for x in extra_names},
         stats=stats, stats_total=_run_stats(meta), status=meta.get("status", "completed"),
         message=meta.get("message", ""), wall_time=float(meta.get("wall_time", 0.0)),
-        derived=derived)
+        derived=derived, **run_description(meta))
 
 
 def load_solution(path):

@@ -11,7 +11,7 @@ import numpy as np
 
 from .assembly.groups import PointSet
 
-__all__ = ["Solution", "StepStats", "RunStats"]
+__all__ = ["Solution", "StepStats", "RunStats", "derived_columns"]
 
 
 @dataclass
@@ -45,18 +45,8 @@ class RunStats:
     multipliers_stalled: int = 0
 
 
-def _generalized_constraint_forces(system, q, t, lam):
-    """-Phi_q^T lambda split by joint/driver: CSR of shape (elements, n)."""
-    import scipy.sparse
-    rows, cols = system.pattern_Phi_q
-    vals = -system.Phi_q_values(q, t) * lam[rows]
-    lay = system.layout
-    return scipy.sparse.csr_matrix((vals, (lay.row_element[rows], cols)),
-                                   shape=(lay.n_elements, system.n))
-
-
 class _Reactions:
-    """Reaction of every joint on its second body, vectorised over joints.
+    """Reaction of every joint on its second body, vectorised over joints and rows.
 
     For each joint: (fx, fy) [N] in global coordinates, applied at the
     joint's first point, and the couple [N m] about that point (zero for a
@@ -64,29 +54,95 @@ class _Reactions:
     -Phi_q^T lambda (sign convention M a + Phi_q^T lambda = Q). When the
     second body is the ground, the reaction is minus the one on the first
     body (the joint is massless).
+
+    Built once: which entries of the Phi_q pattern (a joint's rows, the
+    columns x, y, phi of the body read) add into which reaction component,
+    sorted so that one ``np.add.reduceat`` sums them for all rows at once.
     """
 
     def __init__(self, system):
         joints = system.model.joints
         element = {name: k for k, name in enumerate(system.layout.element_rows)}
-        self.element = np.array([element[j.name] for j in joints], dtype=np.intp)
+        elem = np.array([element[j.name] for j in joints], dtype=np.intp)
         second = np.array([j.second.body for j in joints], dtype=np.intp)
         first = np.array([j.first.body for j in joints], dtype=np.intp)
         self.body = np.where(second >= 0, second, first)          # whose force we read
         self.sign = np.where(second >= 0, 1.0, -1.0)
         self.first_points = PointSet(system.n, [j.first for j in joints])  # deformation included
-        self.system = system
+        self.system, self.n_joints = system, len(joints)
+        rows, cols = system.pattern_Phi_q
+        joint_of_element = np.full(system.layout.n_elements, -1, dtype=np.intp)
+        joint_of_element[elem] = np.arange(len(joints))
+        jt = joint_of_element[system.layout.row_element[rows]]
+        comp = cols - 3 * self.body[jt]
+        keep = np.flatnonzero((jt >= 0) & (comp >= 0) & (comp < 3))
+        target = 3 * jt[keep] + comp[keep]
+        order = np.argsort(target, kind="stable")
+        self.entries = keep[order]                   # pattern entries, grouped by target
+        self.rows = rows[self.entries]
+        self.targets, self.starts = np.unique(target[order], return_index=True)
 
     def __call__(self, q, t, lam) -> np.ndarray:
-        """(fx, fy, couple) of every joint, shape (joints, 3)."""
-        forces = _generalized_constraint_forces(self.system, q, t, lam)
-        cols = 3 * self.body[:, None] + np.arange(3)[None, :]
-        gen = np.asarray(forces[np.repeat(self.element, 3), cols.ravel()]).reshape(-1, 3)
-        qx = np.concatenate([q, np.zeros(3)])              # the ground's columns: 0
-        point = self.first_points.position(qx[self.first_points.cols])
-        d = point - np.stack([q[3 * self.body], q[3 * self.body + 1]], 1)
-        couple = gen[:, 2] - (d[:, 0] * gen[:, 1] - d[:, 1] * gen[:, 0])
-        return self.sign[:, None] * np.column_stack([gen[:, :2], couple])
+        """(fx, fy, couple) of every joint, shape (joints, 3), or (N, joints,
+        3) for rows q (N, n), t (N,), lam (N, m)."""
+        q, lam = np.asarray(q, dtype=float), np.asarray(lam, dtype=float)
+        vals = self.system.Phi_q_values(q, t)[..., self.entries] * -lam[..., self.rows]
+        gen = np.zeros(q.shape[:-1] + (3 * self.n_joints,))
+        if len(self.entries):
+            gen[..., self.targets] = np.add.reduceat(vals, self.starts, axis=-1)
+        gen = gen.reshape(q.shape[:-1] + (self.n_joints, 3))
+        qx = np.concatenate([q, np.zeros(q.shape[:-1] + (3,))], axis=-1)  # ground: 0
+        point = self.first_points.position(qx[..., self.first_points.cols])
+        d = point - np.stack([q[..., 3 * self.body], q[..., 3 * self.body + 1]], -1)
+        couple = gen[..., 2] - (d[..., 0] * gen[..., 1] - d[..., 1] * gen[..., 0])
+        return self.sign[:, None] * np.stack([gen[..., 0], gen[..., 1], couple], -1)
+
+
+#: Rows evaluated together for derived columns (bounds the temporary arrays).
+_ROW_CHUNK = 1024
+
+
+def derived_columns(system, t, q, v, lam) -> dict:
+    """Energies, constraint norms and joint reactions of stored rows.
+
+    Every element is evaluated for all rows at once (the element groups
+    broadcast over leading axes), in chunks of ``_ROW_CHUNK`` rows.
+
+    Parameters
+    ----------
+    system : AssembledSystem
+    t : ndarray, shape (N,) [s]
+    q, v : ndarray, shape (N, n)
+    lam : ndarray, shape (N, m)
+
+    Returns
+    -------
+    dict of str -> ndarray, shape (N,)
+        ``energy.kinetic|potential|total`` [J], ``constraint.position``
+        (max |Phi|), ``constraint.velocity`` (max |Phi_q v + Phi_t|) and
+        ``reaction.<joint>.fx|fy|torque`` [N, N m].
+    """
+    N = len(t)
+    kin, pot, cpos, cvel = (np.zeros(N) for _ in range(4))
+    joints = system.model.joints
+    reactions = _Reactions(system) if joints else None
+    reac = np.zeros((N, len(joints), 3))
+    for i0 in range(0, N, _ROW_CHUNK):
+        sl = slice(i0, min(i0 + _ROW_CHUNK, N))
+        qs, vs, ts = q[sl], v[sl], t[sl]
+        kin[sl] = system.kinetic_energy(qs, vs)
+        pot[sl] = system.potential_energy(qs)
+        if system.m:
+            cpos[sl] = np.max(np.abs(system.Phi(qs, ts)), axis=1)
+            cvel[sl] = np.max(np.abs(system.Phiq_times(qs, ts, vs) + system.Phi_t(qs, ts)), axis=1)
+            if reactions is not None:
+                reac[sl] = reactions(qs, ts, lam[sl])
+    out = {"energy.kinetic": kin, "energy.potential": pot, "energy.total": kin + pot,
+           "constraint.position": cpos, "constraint.velocity": cvel}
+    for k, j in enumerate(joints):
+        for c, comp in enumerate(("fx", "fy", "torque")):
+            out[f"reaction.{j.name}.{comp}"] = reac[:, k, c]
+    return out
 
 
 class Solution:
@@ -111,12 +167,24 @@ class Solution:
         ``factorizations``, ``h``.
     stats_total : RunStats
     wall_time : float [s]
+        The time loop's wall time (``timings["integration"]``).
+    timings : dict of str -> float [s]
+        Where the time went: ``setup`` (reading the model, assembly,
+        consistent initial conditions), ``kernels`` (loading the compiled
+        kernels, or compiling them once per machine), ``integration`` (the
+        time loop, output excluded) and ``output`` (derived columns and the
+        file written as the run went).
+    engine, linear_solver : str
+        What ran: "compiled" or "numpy"; "dense", "banded" or "sparse".
     method_name : str
     method_parameters : dict
     h, t_end : float [s]
         Nominal step size and requested end time.
     initial : InitialState
     """
+
+    #: Phases of a run's wall time (``timings``), in the order they happen.
+    TIMING_NAMES = ("setup", "kernels", "integration", "output")
 
     #: Per-step Newton statistics, stored and written in this order.
     STAT_NAMES = ("iterations", "residuals", "jacobians", "factorizations", "h")
@@ -131,6 +199,8 @@ class Solution:
         self.initial = initial
         self.status, self.message, self.diagnostics = "running", "", []
         self.wall_time = 0.0
+        self.timings = dict.fromkeys(self.TIMING_NAMES, 0.0)
+        self.engine, self.linear_solver = "numpy", "dense"
         self.stats_total = RunStats()
         self._rows: list = []
         self._stats: list = []
@@ -166,7 +236,9 @@ class Solution:
     def from_arrays(cls, system, *, method_name: str, method_parameters: dict,
                     extra_names, h: float, t_end: float, t, q, v, a, lam, extras: dict,
                     stats: dict, stats_total: RunStats, status: str, message: str,
-                    wall_time: float = 0.0, derived: dict | None = None) -> "Solution":
+                    wall_time: float = 0.0, derived: dict | None = None,
+                    timings: dict | None = None, engine: str = "numpy",
+                    linear_solver: str = "dense") -> "Solution":
         """A Solution from stored arrays (``mbdsl.load_solution``).
 
         Parameters
@@ -182,6 +254,8 @@ class Solution:
         derived : dict of str -> ndarray, shape (N,), optional
             Stored derived columns (energies, constraint norms, reactions);
             recomputed from q, v, lambda when absent.
+        timings : dict of str -> float [s], optional
+        engine, linear_solver : str
 
         Returns
         -------
@@ -195,6 +269,9 @@ class Solution:
         self.h, self.t_end, self.initial = float(h), float(t_end), None
         self.status, self.message, self.diagnostics = status, message, []
         self.wall_time, self.stats_total = float(wall_time), stats_total
+        self.timings = dict.fromkeys(cls.TIMING_NAMES, 0.0)
+        self.timings.update(timings or {})
+        self.engine, self.linear_solver = engine, linear_solver
         self._rows, self._stats = [], []
         n, m = system.n, system.m
         self.t = np.asarray(t, dtype=float)
@@ -215,29 +292,7 @@ class Solution:
     def _compute_derived(self):
         if self._derived is not None:
             return self._derived
-        sys = self.system
-        N = len(self.t)
-        kin, pot, cpos, cvel = (np.empty(N) for _ in range(4))
-        joints = self.model.joints
-        reactions = _Reactions(sys) if joints else None
-        reac = np.zeros((N, len(joints), 3))
-        for i in range(N):
-            q, v, t = self.q[i], self.v[i], self.t[i]
-            kin[i] = sys.kinetic_energy(q, v)
-            pot[i] = sys.potential_energy(q)
-            if sys.m:
-                cpos[i] = np.max(np.abs(sys.Phi(q, t)))
-                cvel[i] = np.max(np.abs(sys.Phiq_times(q, t, v) + sys.Phi_t(q, t)))
-                if reactions is not None:
-                    reac[i] = reactions(q, t, self.lam[i])
-            else:
-                cpos[i] = cvel[i] = 0.0
-        self._derived = {"energy.kinetic": kin, "energy.potential": pot,
-                         "energy.total": kin + pot, "constraint.position": cpos,
-                         "constraint.velocity": cvel}
-        for k, j in enumerate(joints):
-            for c, comp in enumerate(("fx", "fy", "torque")):
-                self._derived[f"reaction.{j.name}.{comp}"] = reac[:, k, c]
+        self._derived = derived_columns(self.system, self.t, self.q, self.v, self.lam)
         return self._derived
 
     @property
@@ -344,8 +399,9 @@ class Solution:
             f"model {self.model.name}: {self.method_name} "
             + ", ".join(f"{k}={v:g}" for k, v in self.method_parameters.items())
             + f", h = {self.h:g} s, t = {self.t[0]:g} .. {self.t[-1]:g} s ({self.status})",
-            f"  steps {tot.steps} (rejected {tot.rejected}), wall time {self.wall_time:.3f} s "
-            f"({1e6 * self.wall_time / steps:.1f} us/step)",
+            f"  steps {tot.steps} (rejected {tot.rejected}) on the {self.engine} engine "
+            f"({self.linear_solver} linear solver): {1e6 * self.wall_time / steps:.1f} us/step",
+            "  wall time: " + ", ".join(f"{k} {v:.3f} s" for k, v in self.timings.items()),
             f"  Newton: {tot.iterations / steps:.2f} iterations/step, {tot.jacobians} Jacobians, "
             f"{tot.factorizations} factorizations, {tot.residuals} residuals"
             + (f"; {tot.multipliers_stalled} steps with multipliers at round-off"

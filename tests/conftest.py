@@ -1,6 +1,7 @@
 """Shared fixtures: paths of the shipped models and the reference data."""
 
 import json
+import os
 from pathlib import Path
 
 import pytest
@@ -8,6 +9,12 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 MODELS = ROOT / "models"
 REFERENCE = Path(__file__).resolve().parent / "reference"
+
+# The command line builds missing compiled kernels in a detached background
+# process and runs that model on the numpy engine. Tests (and the mbdsl
+# processes they start, which inherit this) compile in the process instead,
+# so that which engine runs never depends on how far a background build got.
+os.environ["MBDSL_BACKGROUND_COMPILE"] = "0"
 
 
 @pytest.fixture(scope="session")

@@ -202,15 +202,17 @@ class FlexibleBeamGroup:
         return Qq, Qv
 
     # -- energy and momentum -------------------------------------------------------------------
-    def energy(self, qx) -> float:
-        """Strain energy plus gravity potential energy of all beams [J]."""
-        q = qx[self.cols]
-        qf = q[:, 3:]
-        e = 0.5 * float(np.einsum("ki,kij,kj->", qf, self.K, qf))
+    def energy(self, qx):
+        """Strain energy plus gravity potential energy of all beams [J]: a
+        float, or shape (...) for rows qx of shape (..., nx)."""
+        q = qx[..., self.cols]
+        qf = q[..., 3:]
+        e = 0.5 * np.einsum("...ki,kij,...kj->...", qf, self.K, qf)
         if self.gravity is not None:
-            phi, qf, A, B, s_bar, a_U, a_T = self._parts(q)
-            e -= float(np.sum(self.m * (q[:, 0:2] @ self.gravity)))
-            e -= float(np.einsum("a,kab,kb->", self.gravity, A, s_bar))
+            A, _ = _AB(q[..., 2])
+            s_bar = self.s0 + np.einsum("kaj,...kj->...ka", self.S_bar, qf)
+            e = e - np.sum(self.m * (q[..., 0:2] @ self.gravity), axis=-1)
+            e = e - np.einsum("a,...kab,...kb->...", self.gravity, A, s_bar)
         return e
 
     def strain_energy(self, qx) -> np.ndarray:

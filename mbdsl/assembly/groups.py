@@ -29,20 +29,22 @@ __all__ = ["rot", "drot", "body_columns", "PointSet", "point_difference", "Coinc
 
 
 def rot(phi: np.ndarray, s: np.ndarray) -> np.ndarray:
-    """A(phi) s for arrays: phi shape (k,), s shape (k, 2) -> (k, 2)."""
+    """A(phi) s for arrays: phi shape (..., k), s shape (k, 2) or (..., k, 2)
+    -> (..., k, 2). Leading axes are rows of a stored solution (evaluated
+    all at once for its derived columns); the integrators pass one row."""
     c, si = np.cos(phi), np.sin(phi)
-    out = np.empty_like(s)
-    out[:, 0] = c * s[:, 0] - si * s[:, 1]
-    out[:, 1] = si * s[:, 0] + c * s[:, 1]
+    out = np.empty(np.shape(phi) + (2,))
+    out[..., 0] = c * s[..., 0] - si * s[..., 1]
+    out[..., 1] = si * s[..., 0] + c * s[..., 1]
     return out
 
 
 def drot(phi: np.ndarray, s: np.ndarray) -> np.ndarray:
-    """B(phi) s = dA/dphi s, shape (k, 2)."""
+    """B(phi) s = dA/dphi s, shapes as for :func:`rot`."""
     c, si = np.cos(phi), np.sin(phi)
-    out = np.empty_like(s)
-    out[:, 0] = -si * s[:, 0] - c * s[:, 1]
-    out[:, 1] = c * s[:, 0] - si * s[:, 1]
+    out = np.empty(np.shape(phi) + (2,))
+    out[..., 0] = -si * s[..., 0] - c * s[..., 1]
+    out[..., 1] = c * s[..., 0] - si * s[..., 1]
     return out
 
 
@@ -94,20 +96,21 @@ class PointSet:
         """u = s + S q_e in the body frame, shape (k, 2), from local coordinates q (k, c)."""
         if not self.flexible:
             return self.s
-        return self.s + np.einsum("kaj,kj->ka", self.S, q[:, 3:])
+        return self.s + np.einsum("kaj,...kj->...ka", self.S, q[..., 3:])
 
     def position(self, q) -> np.ndarray:
-        """Global positions, shape (k, 2)."""
-        return q[:, 0:2] + rot(q[:, 2], self.local(q))
+        """Global positions, shape (..., k, 2) for q of shape (..., k, c)."""
+        return q[..., 0:2] + rot(q[..., 2], self.local(q))
 
     def jac(self, q) -> np.ndarray:
-        """d position / d q_local, shape (k, 2, c) (a reused buffer)."""
-        J = self._jac
-        J[:, :, 2] = drot(q[:, 2], self.local(q))
+        """d position / d q_local, shape (..., k, 2, c) (for one row, q of
+        shape (k, c), a reused buffer)."""
+        J = self._jac if q.ndim == 2 else np.broadcast_to(self._jac, q.shape[:-2] + self._jac.shape).copy()
+        J[..., 2] = drot(q[..., 2], self.local(q))
         if self.flexible:
-            c, si = np.cos(q[:, 2]), np.sin(q[:, 2])
-            J[:, 0, 3:] = c[:, None] * self.S[:, 0] - si[:, None] * self.S[:, 1]
-            J[:, 1, 3:] = si[:, None] * self.S[:, 0] + c[:, None] * self.S[:, 1]
+            c, si = np.cos(q[..., 2])[..., None], np.sin(q[..., 2])[..., None]
+            J[..., 0, 3:] = c * self.S[:, 0] - si * self.S[:, 1]
+            J[..., 1, 3:] = si * self.S[:, 0] + c * self.S[:, 1]
         return J
 
     def hess(self, q) -> np.ndarray:
@@ -131,7 +134,8 @@ def point_difference(P1: PointSet, q1, P2: PointSet, q2) -> np.ndarray:
     times the point offsets, not eps |r|. Index-3 methods divide Phi by
     beta h^2, so this round-off reaches the velocities.
     """
-    return (q2[:, 0:2] - q1[:, 0:2]) + (rot(q2[:, 2], P2.local(q2)) - rot(q1[:, 2], P1.local(q1)))
+    return (q2[..., 0:2] - q1[..., 0:2]) + (rot(q2[..., 2], P2.local(q2))
+                                            - rot(q1[..., 2], P1.local(q1)))
 
 
 class _PointPair:
@@ -147,19 +151,20 @@ class _PointPair:
         self._DD = np.zeros((k, 2, c, c))
 
     def split(self, qx):
-        """Local coordinates of both points, (k, c1) and (k, c2)."""
-        q = qx[self.cols]
-        return q[:, :self.c1], q[:, self.c1:]
+        """Local coordinates of both points, (..., k, c1) and (..., k, c2)."""
+        q = qx[..., self.cols]
+        return q[..., :self.c1], q[..., self.c1:]
 
     def difference(self, q1, q2):
-        """d = p2 - p1, shape (k, 2)."""
+        """d = p2 - p1, shape (..., k, 2)."""
         return point_difference(self.P1, q1, self.P2, q2)
 
     def difference_jac(self, q1, q2):
-        """dd/dq_local = [-J1, J2], shape (k, 2, c1 + c2) (a reused buffer)."""
-        D = self._D
-        D[:, :, :self.c1] = -self.P1.jac(q1)
-        D[:, :, self.c1:] = self.P2.jac(q2)
+        """dd/dq_local = [-J1, J2], shape (..., k, 2, c1 + c2) (for one row a
+        reused buffer)."""
+        D = self._D if q1.ndim == 2 else np.empty(q1.shape[:-2] + self._D.shape)
+        D[..., :self.c1] = -self.P1.jac(q1)
+        D[..., self.c1:] = self.P2.jac(q2)
         return D
 
     def difference_hess(self, q1, q2):
@@ -187,11 +192,11 @@ class CoincidenceGroup:
         self.time_dependent = False
 
     def phi(self, qx, t):
-        """Constraint values, shape (k, 2) [m]."""
+        """Constraint values, shape (..., k, 2) [m]."""
         return self.pair.difference(*self.pair.split(qx))
 
     def jac(self, qx):
-        """Local Jacobian, shape (k, 2, c)."""
+        """Local Jacobian, shape (..., k, 2, c)."""
         return self.pair.difference_jac(*self.pair.split(qx))
 
     def hess(self, qx):
@@ -225,20 +230,20 @@ class PointOnLineGroup:
 
     def _parts(self, qx):
         qL, qP = self.pair.split(qx)
-        phiL = qL[:, 2]
+        phiL = qL[..., 2]
         return qL, qP, rot(phiL, self.n0), drot(phiL, self.n0), self.pair.difference(qL, qP)
 
     def phi(self, qx, t):
-        """Constraint values, shape (k, 1) [m]."""
+        """Constraint values, shape (..., k, 1) [m]."""
         _, _, nvec, _, d = self._parts(qx)
-        return np.einsum("ka,ka->k", nvec, d)[:, None]
+        return np.einsum("...a,...a->...", nvec, d)[..., None]
 
     def jac(self, qx):
-        """Local Jacobian, shape (k, 1, c)."""
+        """Local Jacobian, shape (..., k, 1, c) (for one row a reused buffer)."""
         qL, qP, nvec, Bn, d = self._parts(qx)
-        J = self._jac
-        J[:, 0, :] = np.einsum("ka,kaj->kj", nvec, self.pair.difference_jac(qL, qP))
-        J[:, 0, 2] += np.einsum("ka,ka->k", Bn, d)
+        J = self._jac if qx.ndim == 1 else np.empty(qL.shape[:-1] + self._jac.shape[1:])
+        J[..., 0, :] = np.einsum("...a,...aj->...j", nvec, self.pair.difference_jac(qL, qP))
+        J[..., 0, 2] += np.einsum("...a,...a->...", Bn, d)
         return J
 
     def hess(self, qx):
@@ -279,26 +284,37 @@ class LinearConstraintGroup:
         self.time_dependent = any(f is not None for f in self.functions)
 
     def _f(self, t, which):
-        return np.array([0.0 if f is None else getattr(f, which)(t) for f in self.functions])
+        """f(t) (or a derivative) of every instance, shape (k,), or (..., k)
+        for an array of times."""
+        if np.ndim(t) == 0:
+            return np.array([0.0 if f is None else getattr(f, which)(t) for f in self.functions])
+        t = np.asarray(t, dtype=float)
+        out = np.zeros(t.shape + (len(self.functions),))
+        for i, f in enumerate(self.functions):
+            if f is not None:
+                g = getattr(f, which)
+                out[..., i] = np.fromiter((g(x) for x in t.ravel()), float, t.size).reshape(t.shape)
+        return out
 
     def phi(self, qx, t):
-        """Constraint values, shape (k, 1) [m or rad]."""
-        val = np.einsum("kj,kj->k", self.coefs, qx[self.cols]) - self.offset
+        """Constraint values, shape (..., k, 1) [m or rad]; t a scalar or,
+        for several rows qx (..., nx), an array of shape (...)."""
+        val = np.einsum("kj,...kj->...k", self.coefs, qx[..., self.cols]) - self.offset
         if self.time_dependent:
             val = val - self._f(t, "f")
-        return val[:, None]
+        return val[..., None]
 
     def jac(self, qx):
         """Constant local Jacobian, shape (k, 1, 2)."""
         return self._jac
 
     def phi_t(self, t):
-        """d Phi / dt, shape (k, 1)."""
-        return -self._f(t, "df")[:, None]
+        """d Phi / dt, shape (..., k, 1) (t a scalar or an array of shape (...))."""
+        return -self._f(t, "df")[..., None]
 
     def phi_tt(self, t):
-        """d^2 Phi / dt^2, shape (k, 1)."""
-        return -self._f(t, "ddf")[:, None]
+        """d^2 Phi / dt^2, shape (..., k, 1)."""
+        return -self._f(t, "ddf")[..., None]
 
 
 # ---------------------------------------------------------------------------
@@ -333,9 +349,9 @@ class SpringDamperGroup:
         return q1, q2, v, d, G, ddot, l, e
 
     def lengths(self, qx):
-        """Current lengths l, shape (k,) [m]."""
+        """Current lengths l, shape (..., k) [m]."""
         d = self.pair.difference(*self.pair.split(qx))
-        return np.sqrt(np.einsum("ka,ka->k", d, d))
+        return np.sqrt(np.einsum("...a,...a->...", d, d))
 
     def forces(self, qx, vx, t):
         """Local Q, shape (k, c) [N, N m]."""
@@ -365,9 +381,10 @@ class SpringDamperGroup:
         return Q_q, Q_v
 
     def energy(self, qx):
-        """Potential energy of all springs [J]."""
+        """Potential energy of all springs [J]: a float, or shape (...) for
+        rows qx (..., nx)."""
         l = self.lengths(qx)
-        return float(0.5 * np.sum(self.k * (l - self.l0) ** 2))
+        return 0.5 * np.sum(self.k * (l - self.l0) ** 2, axis=-1)
 
 
 class RotationalSpringGroup:
@@ -396,9 +413,9 @@ class RotationalSpringGroup:
         return self._Q_q, self._Q_v
 
     def energy(self, qx):
-        """Potential energy [J]."""
-        q = qx[self.cols]
-        return float(0.5 * np.sum(self.k * (q[:, 1] - q[:, 0] - self.angle) ** 2))
+        """Potential energy [J]: a float, or shape (...) for rows qx (..., nx)."""
+        q = qx[..., self.cols]
+        return 0.5 * np.sum(self.k * (q[..., 1] - q[..., 0] - self.angle) ** 2, axis=-1)
 
 
 class TorqueGroup:

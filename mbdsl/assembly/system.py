@@ -215,8 +215,9 @@ class AssembledSystem:
 
     # -- helpers ------------------------------------------------------------------
     def _ext(self, x):
-        out = np.zeros(self.nx)
-        out[: self.n] = x
+        """x (..., n) -> (..., n + 3) with the ground's three zero coordinates."""
+        out = np.zeros(np.shape(x)[:-1] + (self.nx,))
+        out[..., : self.n] = x
         return out
 
     @staticmethod
@@ -334,17 +335,27 @@ class AssembledSystem:
 
     # -- constraints ------------------------------------------------------------------
     def Phi(self, q, t) -> np.ndarray:
-        """Constraint values Phi(q, t), shape (m,) [m or rad]."""
+        """Constraint values Phi(q, t), shape (m,) [m or rad].
+
+        Rows of a stored solution at once: q of shape (N, n) and t of shape
+        (N,) give shape (N, m) (the same element code, vectorised over rows).
+        """
         qx = self._ext(q)
-        out = np.empty(self.m)
+        out = np.empty(qx.shape[:-1] + (self.m,))
         for g in self.constraint_groups:
-            out[g.rows] = g.phi(qx, t)
+            out[..., g.rows] = g.phi(qx, t)
         return out
 
     def Phi_q_values(self, q, t=0.0) -> np.ndarray:
-        """Values of Phi_q on ``pattern_Phi_q``."""
+        """Values of Phi_q on ``pattern_Phi_q``, shape (nnz,), or (N, nnz)
+        for rows q of shape (N, n)."""
         qx = self._ext(q)
-        return _concat([g.jac(qx)[mask] for g, mask in zip(self.constraint_groups, self._jac_mask)])
+        if qx.ndim == 1:
+            return _concat([g.jac(qx)[mask] for g, mask in zip(self.constraint_groups,
+                                                                 self._jac_mask)])
+        parts = [np.broadcast_to(g.jac(qx), qx.shape[:-1] + mask.shape)[..., mask]
+                 for g, mask in zip(self.constraint_groups, self._jac_mask)]
+        return np.concatenate(parts, axis=-1) if parts else np.zeros(qx.shape[:-1] + (0,))
 
     def Phi_q(self, q, t=0.0) -> np.ndarray:
         """Constraint Jacobian, shape (m, n)."""
@@ -359,18 +370,20 @@ class AssembledSystem:
         return out[: self.n]
 
     def Phiq_times(self, q, t, v) -> np.ndarray:
-        """Phi_q v, shape (m,), without forming Phi_q."""
+        """Phi_q v, shape (m,), without forming Phi_q; (N, m) for rows q, v
+        of shape (N, n)."""
         qx, vx = self._ext(q), self._ext(v)
-        out = np.empty(self.m)
+        out = np.empty(qx.shape[:-1] + (self.m,))
         for g in self.constraint_groups:
-            out[g.rows] = np.einsum("krc,kc->kr", g.jac(qx), vx[g.cols])
+            out[..., g.rows] = np.einsum("...krc,...kc->...kr", g.jac(qx), vx[..., g.cols])
         return out
 
     def Phi_t(self, q, t) -> np.ndarray:
-        """Partial time derivative of Phi, shape (m,)."""
-        out = np.zeros(self.m)
+        """Partial time derivative of Phi, shape (m,), or (N, m) for times t
+        of shape (N,)."""
+        out = np.zeros(np.shape(t) + (self.m,))
         for g in self.timed_groups:
-            out[g.rows] = g.phi_t(t)
+            out[..., g.rows] = g.phi_t(t)
         return out
 
     def Phi_tt(self, q, t) -> np.ndarray:
@@ -423,20 +436,32 @@ class AssembledSystem:
         return out
 
     # -- energy ---------------------------------------------------------------------------
-    def kinetic_energy(self, q, v) -> float:
-        """T = v^T M(q) v / 2 [J]."""
-        return float(0.5 * np.dot(v, self.mass_times(q, v)))
+    def kinetic_energy(self, q, v):
+        """T = v^T M(q) v / 2 [J]: a float, or shape (N,) for rows q, v of
+        shape (N, n)."""
+        if np.ndim(q) == 1:
+            return float(0.5 * np.dot(v, self.mass_times(q, v)))
+        v = np.asarray(v, dtype=float)
+        rc = self._rigid_cols
+        e = 0.5 * np.einsum("...j,j,...j->...", v[..., rc], self.mass_diag[rc], v[..., rc])
+        for g in self.flexible_groups:          # M(q) block per beam, row by row
+            qx = self._ext(q)
+            for i in np.ndindex(e.shape):
+                vb = v[i][g.cols]
+                e[i] += 0.5 * np.einsum("ki,kij,kj->", vb, g.mass_blocks(qx[i]), vb)
+        return e
 
-    def potential_energy(self, q) -> float:
+    def potential_energy(self, q):
         """Gravity, spring and strain potential energy [J] (zero at y = 0,
-        unstretched springs, undeformed beams)."""
-        e = 0.0
+        unstretched springs, undeformed beams): a float, or shape (N,) for
+        rows q of shape (N, n)."""
+        e = np.zeros(np.shape(q)[:-1])
         if self.gravity_force is not None:
-            e -= float(np.dot(self.gravity_force, q))
+            e = e - np.asarray(q) @ self.gravity_force
         if self.potential_groups:
             qx = self._ext(q)
-            e += sum(g.energy(qx) for g in self.potential_groups)
-        return e
+            e = e + sum(g.energy(qx) for g in self.potential_groups)
+        return float(e) if np.ndim(q) == 1 else e
 
 
 def _concat(arrays) -> np.ndarray:

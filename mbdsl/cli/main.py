@@ -156,12 +156,16 @@ def _print_diagnostics(diags, err=None):
 
 
 def _load(args):
-    """The checked model, or None after printing its diagnostics."""
+    """The checked model, or None after printing its diagnostics; the time
+    taken is kept in ``args.load_time`` [s]."""
+    import time
+    t0 = time.perf_counter()
     try:
         model = load(args.model, _parse_set(args.set))
     except MbdError as exc:
         _print_diagnostics(exc.diagnostics)
         return None
+    args.load_time = time.perf_counter() - t0
     _print_diagnostics(model.warnings)
     return model
 
@@ -195,8 +199,14 @@ def _check(args) -> int:
 def _run(args, model, writer=None):
     """(solution, exit status) of a model with the run options, or (None, status)."""
     from ..integrators import NewtonOptions
+    from ..integrators.kernel_cache import background_allowed
     from ..progress import ProgressBar
     s = model.settings
+
+    def announce(text):
+        if not args.quiet:
+            print(text, file=sys.stderr, flush=True)
+
     t_end = args.t_end if args.t_end is not None else s.get("t_end")
     status = 0
     try:
@@ -205,7 +215,10 @@ def _run(args, model, writer=None):
             sol = simulate(model, method=args.method, h=args.h, t_end=args.t_end,
                            newton=NewtonOptions(jacobian=args.newton), on_failure="return",
                            progress=bar, writer=writer, alpha=args.alpha, beta=args.beta, gamma=args.gamma,
-                           b=args.b, engine=args.engine, output_every=args.output_every)
+                           b=args.b, engine=args.engine, output_every=args.output_every,
+                           announce=announce,
+                           compile_policy="background" if background_allowed() else "wait")
+        sol.timings["setup"] += getattr(args, "load_time", 0.0)
     except AssemblyError as exc:
         _print_diagnostics(exc.diagnostics)
         return None, 4

@@ -41,7 +41,7 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
               initial: InitialState | None = None, newton: NewtonOptions | None = None,
               on_failure: str = "raise", max_halvings: int = 6, grow_after: int = 4,
               progress=None, writer=None, output_every: int = 1,
-              engine: str = "auto") -> Solution:
+              engine: str = "auto", announce=None, compile_policy: str = "wait") -> Solution:
     """Integrate the equations of motion from t_start to t_end.
 
     Parameters
@@ -83,6 +83,14 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
         numba kernels of :mod:`.engine` (an error when the model or method
         is not covered); "numpy" the vectorised numpy assembly; "auto" the
         compiled engine where it applies.
+    announce : callable (str) -> None, optional
+        Told when the compiled kernels are being compiled for this machine
+        (once; see :mod:`.kernel_cache`).
+    compile_policy : {"wait", "background"}
+        With ``engine="auto"``, when the compiled kernels are not built for
+        this machine yet: compile them now ("wait"), or start building them
+        in a detached process and run this model on the numpy engine
+        ("background", what the command line does, announced).
 
     Returns
     -------
@@ -106,28 +114,48 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
         raise ValueError(f"output_every must be a positive integer, got {output_every!r}")
     output_every = int(output_every)
     from .engine import CompiledModel, SparseAdapter, linear_solver_plan, run_compiled, select_engine
+    if compile_policy not in ("wait", "background"):
+        raise ValueError(f"compile_policy must be 'wait' or 'background', got {compile_policy!r}")
     which = select_engine(engine, system, method)
+    if which == "compiled" and engine == "auto" and compile_policy == "background":
+        from .kernel_cache import kernels_ready, start_background_build
+        if not kernels_ready() and start_background_build():
+            which = "numpy"
+            if announce is not None:
+                announce("the compiled kernels are being built for this machine in the "
+                         "background (once, about a minute); this run uses the numpy engine")
     solver = Newton(newton)
     if which == "numpy" and solver.options.linear_solver == "banded":
         raise ValueError("linear_solver='banded' is a solver of the compiled engine, which "
                          "cannot run this model or was not asked for")
-    wall0 = _time.perf_counter()
+    clock = _time.perf_counter
+    timings = {"setup": 0.0, "kernels": 0.0, "integration": 0.0, "output": 0.0}
+    t0 = clock()
     if initial is None:
         initial = consistent_initial_state(system, t_start)
     if which == "compiled":
+        from .kernel_cache import ensure_loaded
+        timings["setup"] = clock() - t0
+        timings["kernels"] = ensure_loaded("loop", announce)
+        t0 = clock()
         cm = CompiledModel(system)
         plan = linear_solver_plan(system, method, solver.options, initial.q, cm)
+        timings["kernels"] += clock() - t0      # the band ordering calls a kernel
         if plan.kind != "sparse":
             sol = Solution(system, method, h, t_end, initial)
             sol.engine, sol.linear_solver = "compiled", plan.kind
             sol.append(method.start(system, initial)[-1], StepStats())
+            sol.timings = timings
+            loop_start = clock()
             try:
                 run_compiled(system, method, t_end, h, t_start, initial, solver.options, sol,
                              plan, output_every=output_every, progress=progress, writer=writer,
                              max_halvings=max_halvings, grow_after=grow_after, cm=cm)
             finally:
-                _finish(sol, wall0, writer)
+                _finish(sol, writer, loop_start)
             return _result(sol, on_failure)
+        timings["kernels"] += ensure_loaded("sparse", announce)
+        t0 = clock()
         method = SparseAdapter(system, method)
     blocks = method.blocks(system)
     kinds = np.concatenate([np.full(b.size, b.kind == "multiplier") for b in blocks])
@@ -140,6 +168,9 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
     sol.engine = which
     sol.linear_solver = "sparse" if assembler.sparse else "dense"
     sol.append(history[-1], StepStats())
+    timings["setup"] += clock() - t0
+    sol.timings = timings
+    loop_start = clock()
     pending = StepStats(steps=0)      # steps not yet recorded (output stride)
     n_steps = 0
     t, h_cur, good = t_start, h, 0
@@ -203,18 +234,28 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
     except Exception as exc:          # a bug: keep what was computed, then let it surface
         sol.status = "failed"
         sol.message = f"internal error at t = {t:.6g} s: {exc!r}"
-        _finish(sol, wall0, writer)
+        _finish(sol, writer, loop_start)
         raise
-    _finish(sol, wall0, writer)
+    _finish(sol, writer, loop_start)
     return _result(sol, on_failure)
 
 
-def _finish(sol, wall0, writer):
-    """Stack the recorded rows and close the stream: on every exit of a run."""
-    sol.wall_time = _time.perf_counter() - wall0
+def _finish(sol, writer, loop_start):
+    """Stack the recorded rows and close the stream: on every exit of a run.
+
+    ``sol.timings["integration"]`` is the time since the loop started less
+    the writer's time during it (``writer.elapsed``), which goes to
+    ``"output"`` with the writer's final flush; ``sol.wall_time`` is the
+    integration time.
+    """
+    clock = _time.perf_counter
+    written = getattr(writer, "elapsed", 0.0)
+    sol.timings["integration"] = clock() - loop_start - written
+    sol.wall_time = sol.timings["integration"]
     sol.finalize()
     if writer is not None:
         writer.finish(sol)
+        sol.timings["output"] = getattr(writer, "elapsed", 0.0)
 
 
 def _result(sol, on_failure):

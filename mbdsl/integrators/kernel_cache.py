@@ -1,0 +1,235 @@
+"""Loading the compiled kernels: numba's on-disk cache, announced compilation,
+and a background build for a first run that should not wait.
+
+numba compiles the kernels of :mod:`.compiled` once per machine (about a
+minute on two cores) and caches them on disk; later processes load them in
+a fraction of a second. Two things follow for a tool that reports its own
+cost:
+
+* loading or compiling is timed apart from the time loop
+  (``Solution.timings["kernels"]``) and is never step time;
+* a newcomer's first run should not sit silent for a minute. The command
+  line therefore asks :func:`kernels_ready` first; when the kernels are not
+  built yet it starts :func:`start_background_build` (a detached process
+  running ``python -m mbdsl.integrators.kernel_cache``) and runs this one
+  model on the numpy engine, saying so. Where waiting is wanted (the Python
+  API, ``MBDSL_BACKGROUND_COMPILE=0``), :func:`ensure_loaded` compiles in
+  the process and announces it first.
+
+Whether the kernels are built is recorded by a marker file beside numba's
+cache, written after every entry point was loaded or compiled, keyed by the
+source of :mod:`.compiled`, the numba version and the host CPU (numba's own
+cache is keyed by the same). A marker that is wrong (numba's cache cleared
+by hand) costs only a late announcement: :func:`ensure_loaded` then reports
+the compilation once it has taken more than a few seconds.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import sys
+import threading
+import time
+from pathlib import Path
+
+__all__ = ["kernels_ready", "ensure_loaded", "start_background_build", "build_in_progress",
+           "background_allowed", "warm_up"]
+
+#: Environment variable: "0" makes the command line compile in the process
+#: (announced) instead of in the background.
+BACKGROUND_ENV = "MBDSL_BACKGROUND_COMPILE"
+
+#: A build lock older than this is taken to belong to a dead build [s].
+_STALE_LOCK = 900.0
+
+_loaded: set = set()          # entry-point groups loaded in this process ("loop", "sparse")
+
+
+def _compiled_source() -> Path:
+    return Path(__file__).with_name("compiled.py")
+
+
+def _cache_dir() -> Path:
+    """The folder numba caches the kernels in (the marker and the lock live there)."""
+    from . import compiled
+    try:
+        return Path(compiled.run._cache._cache_path)
+    except AttributeError:          # numba moved its internals: a folder of our own
+        base = os.environ.get("NUMBA_CACHE_DIR") or Path.home() / ".cache" / "mbdsl"
+        return Path(base)
+
+
+def _key() -> dict:
+    """What the cached kernels depend on: our source, numba, the host CPU."""
+    import llvmlite.binding as llvm
+    import numba
+    return {"source": hashlib.sha256(_compiled_source().read_bytes()).hexdigest(),
+            "numba": numba.__version__, "cpu": llvm.get_host_cpu_name(),
+            "python": sys.version.split()[0]}
+
+
+def _marker() -> Path:
+    return _cache_dir() / "mbdsl-kernels.json"
+
+
+def _lock() -> Path:
+    return _cache_dir() / "mbdsl-kernels.lock"
+
+
+def kernels_ready() -> bool:
+    """True when every kernel is in numba's cache for this machine (imports numba).
+
+    Returns False, never raises, when numba is missing or the cache folder
+    cannot be read.
+    """
+    try:
+        return json.loads(_marker().read_text()) == _key()
+    except (OSError, ValueError, ImportError):
+        return False
+
+
+def build_in_progress() -> bool:
+    """True while a background build holds the lock (and is not stale)."""
+    try:
+        return time.time() - _lock().stat().st_mtime < _STALE_LOCK
+    except (OSError, ImportError):
+        return False
+
+
+def background_allowed() -> bool:
+    """Whether the command line may build the kernels in the background
+    (``MBDSL_BACKGROUND_COMPILE`` is not "0")."""
+    return os.environ.get(BACKGROUND_ENV, "1") != "0"
+
+
+def start_background_build() -> bool:
+    """Start a detached process that compiles every kernel and writes the
+    marker, unless one is running. Returns True when a build is (now)
+    under way."""
+    import subprocess
+    try:
+        lock = _lock()
+        lock.parent.mkdir(parents=True, exist_ok=True)
+        if build_in_progress():
+            return True
+        lock.unlink(missing_ok=True)            # stale
+        fd = os.open(lock, os.O_CREAT | os.O_EXCL | os.O_WRONLY)
+    except FileExistsError:
+        return True
+    except (OSError, ImportError):
+        return False
+    os.close(fd)
+    try:
+        subprocess.Popen([sys.executable, "-m", "mbdsl.integrators.kernel_cache"],
+                         stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                         stderr=subprocess.DEVNULL, start_new_session=True, close_fds=True)
+    except OSError:
+        lock.unlink(missing_ok=True)
+        return False
+    return True
+
+
+_PENDULUM = """model kernel_warm_up
+body b { mass 1; inertia 0.1; point O (-0.5, 0); point P (0.5, 0) }
+body c { mass 1; inertia 0.1; point O (-0.5, 0) }
+joint O: revolute(ground.origin, b.O)
+joint P: revolute(b.P, c.O)
+force s: spring_damper(ground.origin, c.O, k = 10, c = 1, length = 1)
+initial b.phi = 0.3
+"""
+
+
+def warm_up(groups=("loop", "sparse")) -> None:
+    """Load (compiling if needed) the kernels of each group of entry points
+    by running a two-link pendulum one step through them, with the argument
+    types of every real run:
+
+    * "loop": the compiled time loop with the dense inverse and with the
+      band LU (``run``, and ``jacobian_triplets`` for the band ordering);
+    * "sparse": the compiled residuals and triplets under the Python Newton
+      loop (``residual``, ``jacobian_triplets``, ``accumulate``,
+      ``mobility``, ``force_term``).
+    """
+    from .. import assemble, load_text
+    from . import HHTI3, HHTSI2, NewtonOptions, integrate
+    from .compiled import lapack_band_addresses
+    system = assemble(load_text(_PENDULUM, file="<kernel warm-up>"))
+    solvers = []
+    if "loop" in groups:
+        solvers.append("dense")
+        if lapack_band_addresses() is not None:
+            solvers.append("banded")
+    if "sparse" in groups:
+        solvers.append("sparse")
+    _loaded.update(groups)           # integrate below must not warm up again
+    for solver in solvers:
+        for method in (HHTI3(), HHTSI2()):
+            integrate(system, method, 2e-3, 1e-3, engine="compiled",
+                      newton=NewtonOptions(linear_solver=solver))
+
+
+def ensure_loaded(group: str = "loop", announce=None) -> float:
+    """Load the kernels a run needs, compiling them if they are not cached.
+
+    Parameters
+    ----------
+    group : {"loop", "sparse"}
+        The entry points the run uses (see :func:`warm_up`).
+    announce : callable (str) -> None, optional
+        Told before a compilation starts (or, when the marker was wrong,
+        once loading has taken more than 5 s), and when it ends.
+
+    Returns
+    -------
+    float [s]
+        Time spent loading or compiling (0 when already loaded here).
+    """
+    if group in _loaded:
+        return 0.0
+    t0 = time.perf_counter()
+    ready = kernels_ready()
+    timer = None
+    if not ready:
+        if announce is not None:
+            announce("compiling the kernels for this machine (once; about a minute on two "
+                     "cores, then cached) ...")
+    elif announce is not None:
+        def late():
+            announce("the kernel cache is out of date: compiling the kernels for this "
+                     "machine (once) ...")
+        timer = threading.Timer(5.0, late)
+        timer.daemon = True
+        timer.start()
+    try:
+        warm_up(("loop", "sparse") if not ready else (group,))
+    finally:
+        if timer is not None:
+            timer.cancel()
+    elapsed = time.perf_counter() - t0
+    if not ready:
+        try:
+            _marker().write_text(json.dumps(_key()))
+        except OSError:
+            pass
+        if announce is not None:
+            announce(f"compiled the kernels in {elapsed:.0f} s; later runs load them from "
+                     "the cache")
+    return elapsed
+
+
+def _main() -> int:
+    """The background build: compile everything, write the marker, drop the lock."""
+    try:
+        ensure_loaded("loop")
+        return 0
+    finally:
+        try:
+            _lock().unlink(missing_ok=True)
+        except OSError:
+            pass
+
+
+if __name__ == "__main__":
+    sys.exit(_main())

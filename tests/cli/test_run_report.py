@@ -1,0 +1,171 @@
+"""What a run reports about itself: derived columns of all rows at once, where
+the wall time went, which engine ran, and how the compiled kernels are built."""
+
+import json
+import os
+import time
+
+import h5py
+import numpy as np
+import pytest
+
+import mbdsl
+from mbdsl.cli.main import main
+from mbdsl.integrators import HHTI3, integrate, kernel_cache
+from mbdsl.output import read_csv_metadata
+from mbdsl.solution import derived_columns
+
+from ..conftest import MODELS, ROOT
+
+SHIPPED = sorted(MODELS.glob("*.mbd")) + [ROOT / "tests" / "dsl" / "valid" / "all_elements.mbd",
+                                          ROOT / "tests" / "dsl" / "valid" / "flexible_elements.mbd"]
+
+
+def _row_by_row(system, t, q, v, lam):
+    """The derived columns from the one-row API, one row at a time (the oracle)."""
+    out = {"energy.kinetic": [], "energy.potential": [], "constraint.position": [],
+           "constraint.velocity": [], "reactions": []}
+    reactions = None
+    if system.model.joints:
+        from mbdsl.solution import _Reactions
+        reactions = _Reactions(system)
+    for i in range(len(t)):
+        out["energy.kinetic"].append(system.kinetic_energy(q[i], v[i]))
+        out["energy.potential"].append(system.potential_energy(q[i]))
+        out["constraint.position"].append(np.max(np.abs(system.Phi(q[i], t[i]))))
+        vel = system.Phiq_times(q[i], t[i], v[i]) + system.Phi_t(q[i], t[i])
+        out["constraint.velocity"].append(np.max(np.abs(vel)))
+        if reactions is not None:
+            out["reactions"].append(reactions(q[i], t[i], lam[i]))
+    return out
+
+
+@pytest.mark.parametrize("path", SHIPPED, ids=lambda p: p.stem)
+def test_derived_columns_of_all_rows_at_once_equal_row_by_row(path):
+    """The element groups evaluated over a leading axis of rows give what they
+    give one row at a time, on every shipped model (rigid, flexible, drivers
+    that depend on time, every joint and force kind)."""
+    model = mbdsl.load(path)
+    sol = mbdsl.simulate(model, t_end=0.02, h=1e-3, engine="numpy")
+    d = derived_columns(sol.system, sol.t, sol.q, sol.v, sol.lam)
+    ref = _row_by_row(sol.system, sol.t, sol.q, sol.v, sol.lam)
+    for k in ("energy.kinetic", "energy.potential", "constraint.position", "constraint.velocity"):
+        np.testing.assert_allclose(d[k], ref[k], rtol=1e-12, atol=1e-14, err_msg=k)
+    np.testing.assert_allclose(d["energy.total"], d["energy.kinetic"] + d["energy.potential"])
+    for j, joint in enumerate(model.joints):
+        for c, comp in enumerate(("fx", "fy", "torque")):
+            np.testing.assert_allclose(d[f"reaction.{joint.name}.{comp}"],
+                                       np.array(ref["reactions"])[:, j, c],
+                                       rtol=1e-12, atol=1e-9, err_msg=f"{joint.name}.{comp}")
+
+
+def test_pendulum_pivot_reaction_is_m_times_a_minus_g():
+    """Independent check of the reactions over rows: for a single pendulum the
+    pivot's force on the body is m (a_cm - g) (Newton's second law). NEWMARK
+    enforces M a + Phi_q^T lambda = Q at every step (HHT weights two steps)."""
+    sol = mbdsl.simulate(mbdsl.load(MODELS / "pendulum.mbd"), method="newmark", t_end=0.2,
+                         engine="numpy")
+    body = sol.model.bodies[0]
+    joint = sol.model.joints[0]
+    fx, fy = sol.column(f"reaction.{joint.name}.fx"), sol.column(f"reaction.{joint.name}.fy")
+    g = sol.model.gravity
+    sign = 1.0 if joint.second.body == 0 else -1.0   # reaction on the joint's second body
+    np.testing.assert_allclose(sign * fx, body.mass * (sol.a[:, 0] - g[0]), rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(sign * fy, body.mass * (sol.a[:, 1] - g[1]), rtol=1e-9, atol=1e-9)
+
+
+def test_summary_and_files_say_where_the_time_went_and_which_engine_ran(tmp_path, capsys):
+    out = tmp_path / "run.csv"
+    assert main(["simulate", str(MODELS / "slider_crank.mbd"), "--t-end", "0.2",
+                 "-o", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "on the compiled engine (dense linear solver)" in text
+    line = next(ln for ln in text.splitlines() if "wall time:" in ln)
+    for phase in ("setup", "kernels", "integration", "output"):
+        assert phase in line
+    meta, _, _ = read_csv_metadata(out)
+    assert meta["engine"] == "compiled" and meta["linear_solver"] == "dense"
+    timings = json.loads(meta["timings"])
+    assert set(timings) == {"setup", "kernels", "integration", "output"}
+    assert timings["output"] > 0 and timings["integration"] > 0
+    sol = mbdsl.load_solution(out)
+    assert sol.engine == "compiled" and sol.timings == timings
+    # the per-step time is the time loop's alone
+    assert sol.wall_time == timings["integration"]
+
+    h5 = tmp_path / "run.h5"
+    assert main(["simulate", str(MODELS / "slider_crank.mbd"), "--t-end", "0.2", "-q",
+                 "--engine", "numpy", "-o", str(h5)]) == 0
+    with h5py.File(h5) as f:
+        assert f.attrs["engine"] == "numpy"
+        assert json.loads(f.attrs["timings"])["output"] > 0   # stored after it was known
+    assert mbdsl.load_solution(h5).engine == "numpy"
+
+
+def test_the_csv_stream_hands_its_derived_columns_to_the_solution(tmp_path):
+    """Derived columns are computed once: the summary reuses those written."""
+    from mbdsl.output import CsvStream
+    writer = CsvStream(tmp_path / "run.csv", interval=0.0)
+    sol = mbdsl.simulate(mbdsl.load(MODELS / "slider_crank.mbd"), t_end=0.1, writer=writer)
+    assert sol._derived is not None
+    fresh = derived_columns(sol.system, sol.t, sol.q, sol.v, sol.lam)
+    for k, v in fresh.items():
+        np.testing.assert_array_equal(sol._derived[k], v)
+
+
+# -- building the kernels ---------------------------------------------------------------------
+
+@pytest.fixture
+def cache_dir(tmp_path, monkeypatch):
+    """The marker and the lock in a folder of the test's own."""
+    monkeypatch.setattr(kernel_cache, "_cache_dir", lambda: tmp_path)
+    monkeypatch.setattr(kernel_cache, "_loaded", set())     # as in a new process
+    return tmp_path
+
+
+def test_background_policy_runs_numpy_and_starts_one_build(cache_dir, monkeypatch):
+    started = []
+
+    class FakePopen:
+        def __init__(self, cmd, **kw):
+            started.append(cmd)
+            assert kw.get("start_new_session")
+
+    monkeypatch.setattr("subprocess.Popen", FakePopen)
+    system = mbdsl.assemble(mbdsl.load(MODELS / "slider_crank.mbd"))
+    said = []
+    sol = integrate(system, HHTI3(), 0.01, 1e-3, compile_policy="background",
+                    announce=said.append)
+    assert sol.engine == "numpy" and len(started) == 1
+    assert started[0][1:] == ["-m", "mbdsl.integrators.kernel_cache"]
+    assert "background" in said[0] and "numpy engine" in said[0]
+    # while the build holds its lock, no second build starts
+    sol = integrate(system, HHTI3(), 0.01, 1e-3, compile_policy="background")
+    assert sol.engine == "numpy" and len(started) == 1
+    # a lock left by a dead build is taken over
+    old = time.time() - 2 * kernel_cache._STALE_LOCK
+    os.utime(cache_dir / "mbdsl-kernels.lock", (old, old))
+    assert kernel_cache.start_background_build() and len(started) == 2
+    # the default policy waits for the kernels, announced, and records them as built
+    sol = integrate(system, HHTI3(), 0.01, 1e-3, announce=said.append)
+    assert sol.engine == "compiled"
+    assert any(s.startswith("compiling the kernels") for s in said)
+    assert kernel_cache.kernels_ready()
+    # once built, the background policy runs compiled and starts nothing
+    kernel_cache._loaded.clear()
+    sol = integrate(system, HHTI3(), 0.01, 1e-3, compile_policy="background")
+    assert sol.engine == "compiled" and len(started) == 2
+
+
+def test_a_marker_from_another_source_is_not_trusted(cache_dir):
+    (cache_dir / "mbdsl-kernels.json").write_text(json.dumps(dict(kernel_cache._key(),
+                                                                  source="0" * 64)))
+    assert not kernel_cache.kernels_ready()
+    (cache_dir / "mbdsl-kernels.json").write_text(json.dumps(kernel_cache._key()))
+    assert kernel_cache.kernels_ready()
+
+
+def test_compile_policy_is_checked():
+    system = mbdsl.assemble(mbdsl.load(MODELS / "pendulum.mbd"))
+    with pytest.raises(ValueError, match="compile_policy"):
+        integrate(system, HHTI3(), 0.01, 1e-3, compile_policy="later")
