@@ -7,9 +7,12 @@ results are small, picklable dataclasses of floats and numpy arrays. A worker
 parses each distinct model once and keeps it (``_MODELS``), so a process that
 executes many runs of one study pays the parse and assembly once.
 
-Timings are taken in the worker: ``Solution.wall_time`` (the time loop only,
-model parse and initial assembly excluded), the median over ``repeat`` runs
-(a shared machine is noisy; the median ignores the occasional descheduled run).
+Timings are taken in the worker: ``Solution.wall_time`` (the time loop only:
+model parse, assembly, initial conditions, loading the compiled kernels and
+output excluded), the median over ``repeat`` runs made after the run that
+supplies the results, which warms what a first run pays for once (kernels
+loaded, lazily imported modules, the processor's caches); a shared machine
+is noisy and the median ignores the occasional descheduled run.
 """
 
 from __future__ import annotations
@@ -84,7 +87,8 @@ class RunSpec:
         the others come from the model's ``simulate`` section or the method's
         defaults, as in :func:`mbdsl.simulate`.
     repeat : int
-        Timed runs; the first also supplies the results.
+        Timed runs after the one that supplies the results (a warm-up for
+        them); 0 for a run whose time no table reports (its own time is kept).
     energy : bool
         Return the total energy at every step.
     drift_joint : str or None
@@ -95,7 +99,7 @@ class RunSpec:
     h: float
     t_end: float
     coefficients: tuple = ()
-    repeat: int = 1
+    repeat: int = 0
     energy: bool = False
     drift_joint: str | None = None
 
@@ -136,7 +140,9 @@ class RunData:
     coefficients : dict
         Every coefficient of the method as run.
     wall_times : list of float [s]
-        Time-loop wall time of each repeat.
+        Time-loop wall time of each timed repeat.
+    engine : str
+        The engine and linear solver that ran, e.g. ``compiled/dense``.
     stats : dict
         Totals of the first run: steps, rejected, iterations, residuals,
         jacobians, factorizations.
@@ -158,6 +164,7 @@ class RunData:
     t: np.ndarray | None = None
     energy: np.ndarray | None = None
     drift: np.ndarray | None = None
+    engine: str = ""
 
     @property
     def completed(self) -> bool:
@@ -198,15 +205,15 @@ def execute_run(source: ModelSource, spec: RunSpec) -> RunData:
     except ConvergenceError as err:
         sol, status, message = err.solution, "failed", str(err)
     times = [sol.wall_time]
-    if status == "completed":
-        for _ in range(spec.repeat - 1):
-            times.append(simulate(model, method=spec.method, h=spec.h, t_end=spec.t_end,
-                                  **coef).wall_time)
+    if status == "completed" and spec.repeat:      # the first run was the warm-up
+        times = [simulate(model, method=spec.method, h=spec.h, t_end=spec.t_end,
+                          **coef).wall_time for _ in range(spec.repeat)]
     tot = sol.stats_total
     stats = {k: int(getattr(tot, k)) for k in
              ("steps", "rejected", "iterations", "residuals", "jacobians", "factorizations")}
     data = RunData(spec, status, message, float(sol.t[-1]), sol.q[-1].copy(), sol.v[-1].copy(),
-                   dict(sol.method_parameters), times, stats)
+                   dict(sol.method_parameters), times, stats,
+                   engine=f"{sol.engine}/{sol.linear_solver}")
     if spec.energy or spec.drift_joint:
         data.t = sol.t.copy()
     if spec.energy:

@@ -31,9 +31,9 @@ drift
     ``ROUNDOFF`` (relative to the largest generalized velocity) is marked
     round-off.
 cost
-    Wall time of the time loop at one common h, median of ``repeat`` runs,
-    normalised to HHT-I3 (Fig. 16), with Newton iterations per step,
-    Jacobian evaluations and factorizations.
+    Wall time of the time loop at one common h, median of ``repeat`` runs
+    after a warm-up run, normalised to HHT-I3 (Fig. 16), with the engine that
+    ran, Newton iterations per step, Jacobian evaluations and factorizations.
 work-precision
     Error of the first quantity at T against wall time, every method and h.
 """
@@ -295,7 +295,7 @@ def _plan(kinds, o: StudyOptions, joint, model) -> list[RunSpec]:
     """
     wanted: dict = {}
 
-    def need(method, h, coefficients=(), repeat=1, energy=False, drift=None):
+    def need(method, h, coefficients=(), repeat=0, energy=False, drift=None):
         """Add a run or widen an existing one with the same key."""
         plain = _effective(model, method)
         if all(plain.get(k) == v for k, v in coefficients):
@@ -307,7 +307,7 @@ def _plan(kinds, o: StudyOptions, joint, model) -> list[RunSpec]:
                            energy or old.energy, drift or old.drift_joint)
         wanted[spec.key] = spec
 
-    timed = o.repeat if "work-precision" in kinds else 1
+    timed = o.repeat if "work-precision" in kinds else 0
     for kind in kinds:
         for m in o.methods:
             if kind in ("convergence", "work-precision"):
@@ -327,6 +327,21 @@ def _plan(kinds, o: StudyOptions, joint, model) -> list[RunSpec]:
 
 
 # -- running -----------------------------------------------------------------------------------
+
+def _build_kernels(methods, model, log):
+    """Compile the kernels here, once and announced, when some method would run
+    on the compiled engine and they are not built yet: local worker
+    processes then load them instead of all compiling at once (a cluster's
+    workers build their own on their machines)."""
+    from .. import assemble, make_method
+    from ..integrators.engine import numba_available, unsupported
+    from ..integrators.kernel_cache import ensure_loaded, kernels_ready
+    if not numba_available() or kernels_ready():
+        return
+    system = assemble(model)
+    if any(unsupported(system, make_method(m)) is None for m in methods):
+        ensure_loaded("loop", announce=log)
+
 
 def run_study(kind: str, model_path, options: StudyOptions, overrides: dict | None = None,
               progress=None, log=print, command: str = "") -> StudyResult:
@@ -386,6 +401,7 @@ def run_study(kind: str, model_path, options: StudyOptions, overrides: dict | No
         reference = build_reference(options.reference, model, options.t_end, min(options.hs), log)
         log(f"reference ({time.perf_counter() - t0:.1f} s): {reference.description}")
     specs = _plan(kinds, options, joint, model)
+    _build_kernels(options.methods, model, log)
     done = [0]
 
     def on_done(data: RunData):
@@ -615,8 +631,8 @@ def _cost(o, runs, ref, model, **_):
     base_m = "hht-i3" if "hht-i3" in o.methods else o.methods[0]
     base = runs[(base_m, o.h_single, ())].time
     table = Table("cost", f"Cost at h = {format_h(o.h_single)} s, T = {o.t_end:g} s (time loop, "
-                  f"median of {o.repeat} runs)",
-                  ["method", "steps", "time [s]", "us/step", f"relative to {base_m}",
+                  f"median of {o.repeat} runs after a warm-up run)",
+                  ["method", "engine", "steps", "time [s]", "us/step", f"relative to {base_m}",
                    "iterations/step", "Jacobians", "factorizations", "residuals", "status"])
     rel = []
     for m in o.methods:
@@ -624,7 +640,8 @@ def _cost(o, runs, ref, model, **_):
         s = run.stats
         steps = max(s["steps"], 1)
         rel.append(run.time / base)
-        table.rows.append([m, s["steps"], run.time, 1e6 * run.time / steps, run.time / base,
+        table.rows.append([m, run.engine, s["steps"], run.time, 1e6 * run.time / steps,
+                           run.time / base,
                            s["iterations"] / steps, s["jacobians"], s["factorizations"],
                            s["residuals"], "completed" if run.completed else
                            f"failed at t = {run.t_stop:.4g} s"])
@@ -641,8 +658,9 @@ def _work_precision(o, runs, ref, model, **_):
     """Error against wall time, every method and h."""
     from ..plotting import Panel, Series
     q = o.quantities[0]
-    table = Table("work_precision", f"Error in {q} at T against wall time (median of {o.repeat})",
-                  ["method", "h [s]", f"error {q}", "time [s]", "status"])
+    table = Table("work_precision", f"Error in {q} at T against wall time (median of {o.repeat} "
+                  "after a warm-up run)", ["method", "engine", "h [s]", f"error {q}", "time [s]",
+                                           "status"])
     panel = Panel(f"work-precision ({q})", "wall time [s]", f"error in {q} at T",
                   xscale="log", yscale="log")
     for m in o.methods:
@@ -650,7 +668,7 @@ def _work_precision(o, runs, ref, model, **_):
         for h in o.hs:
             run = runs[(m, h, ())]
             err = quantity_error(model, run, ref, q)[0] if run.completed else float("nan")
-            table.rows.append([m, h, err, run.time, "completed" if run.completed
+            table.rows.append([m, run.engine, h, err, run.time, "completed" if run.completed
                                else f"failed at t = {run.t_stop:.4g} s"])
             if run.completed:
                 xs.append(run.time)
