@@ -44,7 +44,7 @@ BACKGROUND_ENV = "MBDSL_BACKGROUND_COMPILE"
 #: A build lock older than this is taken to belong to a dead build [s].
 _STALE_LOCK = 900.0
 
-_loaded: set = set()          # entry-point groups loaded in this process ("loop", "sparse")
+_loaded: set = set()          # entry-point groups loaded in this process (GROUPS)
 
 
 def _compiled_source() -> Path:
@@ -141,42 +141,46 @@ initial b.phi = 0.3
 """
 
 
-def warm_up(groups=("loop", "sparse")) -> None:
-    """Load (compiling if needed) the kernels of each group of entry points
-    by running a two-link pendulum one step through them, with the argument
-    types of every real run:
+#: Groups of entry points, one per linear solver of the compiled engine.
+GROUPS = ("dense", "banded", "sparse")
 
-    * "loop": the compiled time loop with the dense inverse and with the
-      band LU (``run``, and ``jacobian_triplets`` for the band ordering);
+
+def warm_up(groups=GROUPS) -> None:
+    """Load (compiling if needed) the kernels of each group of entry points
+    by running a two-link pendulum two steps through them, with the
+    argument types of every real run:
+
+    * "dense": the compiled time loop with the explicit inverse (``run``);
+    * "banded": the same loop with the band LU (``run``, and
+      ``jacobian_triplets`` for the band ordering);
     * "sparse": the compiled residuals and triplets under the Python Newton
       loop (``residual``, ``jacobian_triplets``, ``accumulate``,
       ``mobility``, ``force_term``).
+
+    Both methods share every signature (the method is an integer argument),
+    so one of them loads what both use.
     """
     from .. import assemble, load_text
-    from . import HHTI3, HHTSI2, NewtonOptions, integrate
+    from . import HHTI3, NewtonOptions, integrate
     from .compiled import lapack_band_addresses
     system = assemble(load_text(_PENDULUM, file="<kernel warm-up>"))
-    solvers = []
-    if "loop" in groups:
-        solvers.append("dense")
-        if lapack_band_addresses() is not None:
-            solvers.append("banded")
-    if "sparse" in groups:
-        solvers.append("sparse")
+    groups = [g for g in groups if g != "banded" or lapack_band_addresses() is not None]
     _loaded.update(groups)           # integrate below must not warm up again
-    for solver in solvers:
-        for method in (HHTI3(), HHTSI2()):
-            integrate(system, method, 2e-3, 1e-3, engine="compiled",
-                      newton=NewtonOptions(linear_solver=solver))
+    for solver in groups:
+        integrate(system, HHTI3(), 2e-3, 1e-3, engine="compiled",
+                  newton=NewtonOptions(linear_solver=solver))
 
 
-def ensure_loaded(group: str = "loop", announce=None) -> float:
+def ensure_loaded(group: str | None = None, announce=None) -> float:
     """Load the kernels a run needs, compiling them if they are not cached.
 
     Parameters
     ----------
-    group : {"loop", "sparse"}
-        The entry points the run uses (see :func:`warm_up`).
+    group : {"dense", "banded", "sparse"}, optional
+        The linear solver of the run, whose entry points it uses (see
+        :func:`warm_up`). Whatever the group, when the kernels are not built
+        every group is compiled and the marker written; with None, nothing
+        more is loaded.
     announce : callable (str) -> None, optional
         Told before a compilation starts (or, when the marker was wrong,
         once loading has taken more than 5 s), and when it ends.
@@ -186,10 +190,12 @@ def ensure_loaded(group: str = "loop", announce=None) -> float:
     float [s]
         Time spent loading or compiling (0 when already loaded here).
     """
-    if group in _loaded:
+    if group in _loaded or (group is None and _loaded):
         return 0.0
     t0 = time.perf_counter()
     ready = kernels_ready()
+    if ready and group is None:
+        return time.perf_counter() - t0
     timer = None
     if not ready:
         if announce is not None:
@@ -203,7 +209,7 @@ def ensure_loaded(group: str = "loop", announce=None) -> float:
         timer.daemon = True
         timer.start()
     try:
-        warm_up(("loop", "sparse") if not ready else (group,))
+        warm_up(GROUPS if not ready else (group,))
     finally:
         if timer is not None:
             timer.cancel()
@@ -222,7 +228,7 @@ def ensure_loaded(group: str = "loop", announce=None) -> float:
 def _main() -> int:
     """The background build: compile everything, write the marker, drop the lock."""
     try:
-        ensure_loaded("loop")
+        ensure_loaded()
         return 0
     finally:
         try:

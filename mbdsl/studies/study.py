@@ -340,7 +340,7 @@ def _build_kernels(methods, model, log):
         return
     system = assemble(model)
     if any(unsupported(system, make_method(m)) is None for m in methods):
-        ensure_loaded("loop", announce=log)
+        ensure_loaded(announce=log)
 
 
 def run_study(kind: str, model_path, options: StudyOptions, overrides: dict | None = None,
