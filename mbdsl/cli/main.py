@@ -204,6 +204,7 @@ def _run(args, model, writer=None):
     s = model.settings
 
     def announce(text):
+        """Say what the engine is doing about its kernels (stderr; silent with -q)."""
         if not args.quiet:
             print(text, file=sys.stderr, flush=True)
 

@@ -203,6 +203,7 @@ def ensure_loaded(group: str | None = None, announce=None) -> float:
                      "cores, then cached) ...")
     elif announce is not None:
         def late():
+            """Said when a load thought cached has taken long: it is compiling."""
             announce("the kernel cache is out of date: compiling the kernels for this "
                      "machine (once) ...")
         timer = threading.Timer(5.0, late)
