@@ -444,8 +444,8 @@ class AssembledSystem:
         v = np.asarray(v, dtype=float)
         rc = self._rigid_cols
         e = 0.5 * np.einsum("...j,j,...j->...", v[..., rc], self.mass_diag[rc], v[..., rc])
+        qx = self._ext(q) if self.flexible_groups else None
         for g in self.flexible_groups:          # M(q) block per beam, row by row
-            qx = self._ext(q)
             for i in np.ndindex(e.shape):
                 vb = v[i][g.cols]
                 e[i] += 0.5 * np.einsum("ki,kij,kj->", vb, g.mass_blocks(qx[i]), vb)

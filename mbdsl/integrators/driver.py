@@ -113,35 +113,21 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
     if not (isinstance(output_every, (int, np.integer)) and output_every >= 1):
         raise ValueError(f"output_every must be a positive integer, got {output_every!r}")
     output_every = int(output_every)
-    from .engine import CompiledModel, SparseAdapter, linear_solver_plan, run_compiled, select_engine
-    if compile_policy not in ("wait", "background"):
-        raise ValueError(f"compile_policy must be 'wait' or 'background', got {compile_policy!r}")
-    which = select_engine(engine, system, method)
-    if which == "compiled" and engine == "auto" and compile_policy == "background":
-        from .kernel_cache import kernels_ready, start_background_build
-        if not kernels_ready() and start_background_build():
-            which = "numpy"
-            if announce is not None:
-                announce("the compiled kernels are being built for this machine in the "
-                         "background (once, about a minute); this run uses the numpy engine")
+    from .engine import SparseAdapter, prepare_compiled, run_compiled, select_engine
+    which = select_engine(engine, system, method, compile_policy, announce)
     solver = Newton(newton)
     if which == "numpy" and solver.options.linear_solver == "banded":
         raise ValueError("linear_solver='banded' is a solver of the compiled engine, which "
                          "cannot run this model or was not asked for")
     clock = _time.perf_counter
-    timings = {"setup": 0.0, "kernels": 0.0, "integration": 0.0, "output": 0.0}
+    timings = dict.fromkeys(Solution.TIMING_NAMES, 0.0)
     t0 = clock()
     if initial is None:
         initial = consistent_initial_state(system, t_start)
     if which == "compiled":
-        from .kernel_cache import ensure_loaded
         timings["setup"] = clock() - t0
-        t0 = clock()
-        ensure_loaded(None, announce)         # compiles everything, announced, if not built
-        cm = CompiledModel(system)
-        plan = linear_solver_plan(system, method, solver.options, initial.q, cm)
-        ensure_loaded(plan.kind, announce)    # the entry points of this linear solver
-        timings["kernels"] = clock() - t0     # (the band ordering calls a kernel too)
+        cm, plan, timings["kernels"] = prepare_compiled(system, method, solver.options,
+                                                        initial.q, announce)
         if plan.kind != "sparse":
             sol = Solution(system, method, h, t_end, initial)
             sol.engine, sol.linear_solver = "compiled", plan.kind
@@ -171,6 +157,21 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
     timings["setup"] += clock() - t0
     sol.timings = timings
     loop_start = clock()
+    try:
+        _time_loop(system, method, solver, sol, history, kinds, assembler, t_start, t_end, h,
+                   max_halvings, grow_after, output_every, progress, writer)
+    finally:
+        _finish(sol, writer, loop_start)
+    return _result(sol, on_failure)
+
+
+def _time_loop(system, method, solver, sol, history, kinds, assembler, t_start, t_end, h,
+               max_halvings, grow_after, output_every, progress, writer):
+    """Step ``method`` from t_start to t_end with the Python Newton iteration,
+    recording into ``sol`` (which holds the initial row); sets its status and
+    message (halving, regrowth and the failure report as in the module notes).
+    Ctrl-C ends the loop with status "interrupted"; any other exception is a
+    bug: the status says so and the exception propagates."""
     pending = StepStats(steps=0)      # steps not yet recorded (output stride)
     n_steps = 0
     t, h_cur, good = t_start, h, 0
@@ -234,10 +235,7 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
     except Exception as exc:          # a bug: keep what was computed, then let it surface
         sol.status = "failed"
         sol.message = f"internal error at t = {t:.6g} s: {exc!r}"
-        _finish(sol, writer, loop_start)
         raise
-    _finish(sol, writer, loop_start)
-    return _result(sol, on_failure)
 
 
 def _finish(sol, writer, loop_start):

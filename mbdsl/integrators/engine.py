@@ -41,7 +41,8 @@ from ..assembly.sparse import DENSE_LIMIT
 from ..solution import StepStats
 from .base import StepState
 
-__all__ = ["ENGINES", "unsupported", "CompiledModel", "select_engine", "run_compiled",
+__all__ = ["ENGINES", "unsupported", "CompiledModel", "select_engine", "prepare_compiled",
+           "run_compiled",
            "newton_size", "SparseAdapter", "LinearSolverPlan", "linear_solver_plan", "band_plan",
            "band_ordering"]
 
@@ -110,17 +111,26 @@ def newton_size(system, method) -> int:
     return (system.n + system.m) * (1 if COMPILED_METHODS[method.name] == 0 else 2)
 
 
-def select_engine(engine: str, system, method) -> str:
+def select_engine(engine: str, system, method, compile_policy: str = "wait",
+                  announce=None) -> str:
     """'numpy' or 'compiled' for a requested engine.
+
+    ``compile_policy`` "background" (with ``engine="auto"``): when the
+    kernels are not built for this machine yet, start building them in a
+    detached process (:mod:`.kernel_cache`) and choose 'numpy' for this run,
+    telling ``announce``.
 
     Raises
     ------
     ValueError
-        Unknown engine name, or ``"compiled"`` for a model or method the
-        kernels do not cover (the message says why), or without numba.
+        Unknown engine name or compile policy, or ``"compiled"`` for a model
+        or method the kernels do not cover (the message says why), or
+        without numba.
     """
     if engine not in ENGINES:
         raise ValueError(f"unknown engine '{engine}'; available: {', '.join(ENGINES)}")
+    if compile_policy not in ("wait", "background"):
+        raise ValueError(f"compile_policy must be 'wait' or 'background', got {compile_policy!r}")
     if engine == "numpy":
         return "numpy"
     reason = unsupported(system, method)
@@ -130,7 +140,29 @@ def select_engine(engine: str, system, method) -> str:
         if engine == "compiled":
             raise ValueError(f"the compiled engine cannot run this model: {reason}")
         return "numpy"
+    if engine == "auto" and compile_policy == "background":
+        from .kernel_cache import kernels_ready, start_background_build
+        if not kernels_ready() and start_background_build():
+            if announce is not None:
+                announce("the compiled kernels are being built for this machine in the "
+                         "background (once, about a minute); this run uses the numpy engine")
+            return "numpy"
     return "compiled"
+
+
+def prepare_compiled(system, method, options, q, announce=None):
+    """(CompiledModel, LinearSolverPlan, seconds): the kernels' model data and
+    linear solver for a run from configuration q (n,), with every kernel the
+    run calls loaded (compiled first, announced, if not built for this
+    machine); the seconds are the time this took, never step time."""
+    import time
+    from .kernel_cache import ensure_loaded
+    t0 = time.perf_counter()
+    ensure_loaded(None, announce)         # compiles everything, announced, if not built
+    cm = CompiledModel(system)
+    plan = linear_solver_plan(system, method, options, q, cm)  # banded: calls a kernel
+    ensure_loaded(plan.kind, announce)    # the entry points of this linear solver
+    return cm, plan, time.perf_counter() - t0
 
 
 class CompiledModel:
