@@ -33,7 +33,7 @@ from ..errors import AssemblyError, Diagnostic
 from ..model import graph
 from ..model.elements import GROUND
 from .groups import rot
-from .sparse import DENSE_LIMIT
+from .sparse import DENSE_LIMIT, issparse
 from .structure import (RANK_LIMIT, StructureReport, analyse_structure, miss_diagnosis,
                         redundancy_diagnostics)
 from .system import AssembledSystem
@@ -138,7 +138,7 @@ def _min_norm_step(J, r):
     models): x = J^T (J J^T)^{-1} r with SuperLU, falling back to the dense
     solve when J J^T is singular (redundant constraints).
     """
-    if scipy.sparse.issparse(J):
+    if issparse(J):
         JJ = (J @ J.T).tocsc()
         # redundant rows make J J^T singular: a tiny diagonal shift keeps the
         # step the minimum-norm one to round-off (consistent rows) without a
@@ -174,7 +174,7 @@ def _column_weights(system) -> np.ndarray:
 
 def _weighted_step(J, r, w):
     """min ||dq / w|| subject to J dq = r: dq = w * minnorm(J diag(w), r)."""
-    if scipy.sparse.issparse(J):
+    if issparse(J):
         Jw = J @ scipy.sparse.diags(w)
     else:
         Jw = J * w[None, :]

@@ -11,14 +11,23 @@ The COO -> CSC map is computed once per run: each later assembly is one
 
 from __future__ import annotations
 
+import sys
+
 import numpy as np
 import scipy
 
-__all__ = ["Term", "JacobianAssembler", "DENSE_LIMIT"]
+__all__ = ["Term", "JacobianAssembler", "DENSE_LIMIT", "issparse"]
 
 #: Newton matrices of at most this many rows are dense by default. Measured on
 #: pendulum chains: dense LU wins below about 300 unknowns, SuperLU above.
 DENSE_LIMIT = 300
+
+
+def issparse(J) -> bool:
+    """``scipy.sparse.issparse(J)`` without importing scipy.sparse (about
+    0.1 s of start-up) when no sparse matrix can exist yet."""
+    module = sys.modules.get("scipy.sparse")
+    return module is not None and module.issparse(J)
 
 
 class Term:

@@ -62,6 +62,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy
 
+from ..assembly.sparse import issparse
+
 __all__ = ["JacobianUpdate", "NewtonStatus", "NewtonOptions", "NewtonResult", "Newton",
            "DenseLU", "SparseLU", "factorize"]
 
@@ -240,7 +242,7 @@ class SparseLU:
 
 def factorize(J):
     """DenseLU for an ndarray, SparseLU for a scipy.sparse matrix."""
-    return SparseLU(J) if scipy.sparse.issparse(J) else DenseLU(J)
+    return SparseLU(J) if issparse(J) else DenseLU(J)
 
 
 class Newton:
@@ -307,7 +309,7 @@ class Newton:
             if lu is None:
                 J = jacobian(w)
                 res.n_jacobian += 1
-                values = J.data if scipy.sparse.issparse(J) else J
+                values = J.data if issparse(J) else J
                 if not np.all(np.isfinite(values)):
                     res.status = NewtonStatus.NONFINITE
                     return self._fail(res, w)
