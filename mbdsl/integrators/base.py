@@ -185,6 +185,28 @@ class Method(ABC):
     def accept(self, w: np.ndarray, ctx: StepContext) -> StepState:
         """The state at t_{n+1} from the converged w."""
 
+    def kernel_recipe(self, h: float, first: bool):
+        """The method as data for the compiled engine (:mod:`.recipe`), or None.
+
+        Parameters
+        ----------
+        h : float [s]
+            Step size.
+        first : bool
+            A start-up step (no history at this h; only BDF2 differs).
+
+        Returns
+        -------
+        ndarray, shape (len(recipe.RECIPE_FIELDS),), or None
+            None for a method the kernels do not express.
+        """
+        return None
+
+    def first_step(self, history, h: float) -> bool:
+        """Whether the step of size h after ``history`` is a start-up step
+        (the recipe's ``first``); False for one-step methods."""
+        return False
+
     def describe(self) -> str:
         """``name(alpha=-0.05, ...)`` for messages."""
         params = ", ".join(f"{k}={v:g}" for k, v in self.parameters().items())

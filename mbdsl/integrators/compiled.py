@@ -1,4 +1,4 @@
-"""Compiled kernels (numba) for HHT-I3 and HHT-SI2 on rigid planar models.
+"""Compiled kernels (numba): the recipe methods (``recipe.py``) on rigid planar models.
 
 The only module of mbdsl that imports numba. It is imported lazily, when a
 run asks for the compiled engine (:mod:`mbdsl.integrators.engine`), so that
@@ -55,12 +55,21 @@ import numpy as np
 from llvmlite import ir
 from numba.extending import intrinsic
 
+from .recipe import RECIPE_FIELDS
+
 __all__ = ["MODEL_FIELDS", "residual", "jacobian_triplets", "force_term", "mobility",
            "accumulate", "run", "triplet_bound", "pack", "unpack", "lapack_band_addresses",
-           "HHT_I3", "HHT_SI2", "DENSE", "BANDED"]
+           "DENSE", "BANDED"]
 
-#: Method codes of the kernels.
-HHT_I3, HHT_SI2 = 0, 1
+#: The recipe entries (``recipe.RECIPE_FIELDS``, checked below): literals here, so that
+#: numba's cache of this file never holds indices of another file's version.
+(HAS_Y, SPLIT, CQX, CQY, CVX, CVY, CM, CF, DM, DI, DV, SP, SV, SX, SY, MU_MOB, FLOOR,
+ PQ0, PQ1, PV0, PV1, PA, VV0, VV1, VA, Y0V) = range(26)
+_RECIPE = ("has_y", "split", "cqx", "cqy", "cvx", "cvy", "cM", "cF", "dM", "dI", "dV",
+           "sP", "sV", "sx", "sy", "mu_mob", "floor",
+           "pq0", "pq1", "pv0", "pv1", "pa", "vv0", "vv1", "va", "y0v")
+if _RECIPE != RECIPE_FIELDS:     # pragma: no cover (a developer's error, caught by any test)
+    raise ImportError("compiled.py's recipe indices differ from recipe.RECIPE_FIELDS")
 
 #: Linear solvers of the compiled loop: explicit inverse (LAPACK getrf/getri through
 #: numpy.linalg.inv), or LAPACK's band LU (dgbtrf/dgbtrs) on a bandwidth-reducing ordering.
@@ -485,95 +494,130 @@ def _emit_force(md, n, qx, vx, R, C, V, p, r0, c0, cq, cv):
 
 
 # --------------------------------------------------------------------------------------------
-# The two methods: residual and Newton matrix in their unknowns
+# The methods as data: residual and Newton matrix of a recipe (``recipe.py``)
 # --------------------------------------------------------------------------------------------
 
 @_jit
-def _state(kind, n, m, w, q_pred, v_pred, bh2, hh2, gh, qx, vx):
-    """q_{n+1}, v_{n+1} into the extended vectors from the unknowns w."""
+def _emit_identity(n, R, C, V, p, r0, c0, coef):
+    """coef I (n x n) at (r0, c0)."""
     for j in range(n):
-        qx[j] = q_pred[j] + bh2 * w[j]
-        vx[j] = v_pred[j] + gh * w[j]
-    if kind == HHT_SI2:
-        for j in range(n):
-            qx[j] += hh2 * w[n + j]
+        p = _put(R, C, V, p, r0 + j, c0 + j, coef)
+    return p
 
 
 @_jit
-def _residual(kind, md, coefs, q_pred, v_pred, F_old, w, r, qx, vx, work):
-    """Upsilon(w) of HHT-I3 (kind 0, size n + m) or HHT-SI2 (kind 1, size 2n + 2m).
+def _layout(rec, n, m):
+    """(size, column of lambda, column of mu) of the unknowns w = (x, [y,] lambda, [mu])."""
+    if rec[HAS_Y] != 0.0:
+        return 2 * (n + m), 2 * n, 2 * n + m
+    return n + m, n, n + m
 
-    ``coefs`` = (alpha, beta, gamma, h); ``qx``, ``vx``, ``work`` are
-    scratch vectors of size n + 3 (ground entries zero). Same equations as
-    ``HHTI3.residual`` and ``HHTSI2.residual``.
+
+@_jit
+def _state(rec, n, w, q_pred, v_pred, qx, vx):
+    """q_{n+1}, v_{n+1} into the extended vectors from the unknowns w."""
+    cqx, cvx = rec[CQX], rec[CVX]
+    for j in range(n):
+        qx[j] = q_pred[j] + cqx * w[j]
+        vx[j] = v_pred[j] + cvx * w[j]
+    if rec[HAS_Y] != 0.0:
+        cqy, cvy = rec[CQY], rec[CVY]
+        for j in range(n):
+            qx[j] += cqy * w[n + j]
+            vx[j] += cvy * w[n + j]
+
+
+@_jit
+def _residual(rec, md, q_pred, v_pred, F_old, w, r, qx, vx, work):
+    """Upsilon(w) of the recipe ``rec``, size n + m (index 3) or 2 (n + m).
+
+    ``qx``, ``vx``, ``work`` are scratch vectors of size n + 3 (ground entries
+    zero). The same equations as each method's numpy ``residual``.
     """
     mass = md[0]
     n, m = mass.shape[0], md[27].shape[0]
-    alpha, beta, gamma, h = coefs[0], coefs[1], coefs[2], coefs[3]
-    bh2, hh2, gh = beta * h * h, 0.5 * h * h, gamma * h
-    _state(kind, n, m, w, q_pred, v_pred, bh2, hh2, gh, qx, vx)
-    c = 1.0 / (1.0 + alpha)
+    size, l0, u0 = _layout(rec, n, m)
+    _state(rec, n, w, q_pred, v_pred, qx, vx)
+    cM, cF = rec[CM], rec[CF]
     forces(md, qx, vx, work)
     for j in range(n):
         work[j] = -work[j]
-    lam0 = n if kind == HHT_I3 else 2 * n
-    phiqT_add(md, qx, w[lam0:lam0 + m], 1.0, work)
+    phiqT_add(md, qx, w[l0:l0 + m], 1.0, work)
     for j in range(n):
-        r[j] = c * mass[j] * w[j] + work[j] - alpha * c * F_old[j]
-    if kind == HHT_I3:
-        phi(md, qx, r[n:])
-        for i in range(m):
-            r[n + i] /= bh2
-    else:
+        r[j] = cM * mass[j] * w[j] + work[j] - cF * F_old[j]
+    phi(md, qx, r[l0:l0 + m])
+    sP = rec[SP]
+    for i in range(m):
+        r[l0 + i] *= sP
+    if rec[HAS_Y] != 0.0:
+        dM, dI, dV = rec[DM], rec[DI], rec[DV]
         work[:] = 0.0
-        phiqT_add(md, qx, w[2 * n + m:], 1.0, work)
+        phiqT_add(md, qx, w[u0:], 1.0, work)
         for j in range(n):
-            r[n + j] = mass[j] * w[n + j] + work[j]
-        phi(md, qx, r[2 * n:2 * n + m])
-        phiq_times(md, qx, vx, r[2 * n + m:])
+            r[n + j] = (dM * mass[j] + dI) * w[n + j] + dV * vx[j] + work[j]
+        phiq_times(md, qx, vx, r[u0:])
+        sV = rec[SV]
         for i in range(m):
-            r[2 * n + i] /= h * h
-            r[2 * n + m + i] /= h
+            r[u0 + i] *= sV
 
 
 @_jit
-def _jacobian_triplets(kind, md, coefs, q_pred, v_pred, w, R, C, V, qx, vx):
-    """Newton matrix entries (R, C, V), in an order and pattern fixed by the
-    model; returns their count. Duplicates are summed by the caller.
+def _jacobian_triplets(rec, md, q_pred, v_pred, w, R, C, V, qx, vx):
+    """Newton matrix entries (R, C, V) of the recipe ``rec``, in an order and
+    pattern fixed by the model and the method; returns their count.
+    Duplicates are summed by the caller.
 
-    HHT-I3: ``index3_newton_matrix``; HHT-SI2: ``HHTSI2.jacobian``.
+    The chain rule on ``_residual``: with K(u) = (Phi_q^T u)_q and
+    G = (Phi_q v)_q,
+    d R1/dx = cM M + cqx (K(lambda) - Q_q) - cvx Q_v, d R1/dy likewise with
+    cqy, cvy; d R2/dx = cqx K(mu) + dV cvx I, d R2/dy = dM M + (dI + dV cvy) I
+    + cqy K(mu); d R3/d(x, y) = sP (cqx, cqy) Phi_q; d R4/d(x, y) = sV (cvx
+    Phi_q + cqx G, cvy Phi_q + cqy G); Phi_q^T in the multiplier columns.
+    Zero coefficients are structural (the same for every h of a method) and
+    emit nothing.
     """
     mass = md[0]
     n, m = mass.shape[0], md[27].shape[0]
-    alpha, beta, gamma, h = coefs[0], coefs[1], coefs[2], coefs[3]
-    bh2, hh2, gh = beta * h * h, 0.5 * h * h, gamma * h
-    _state(kind, n, m, w, q_pred, v_pred, bh2, hh2, gh, qx, vx)
-    c = 1.0 / (1.0 + alpha)
+    size, l0, u0 = _layout(rec, n, m)
+    _state(rec, n, w, q_pred, v_pred, qx, vx)
+    cqx, cvx, sP = rec[CQX], rec[CVX], rec[SP]
+    lam = w[l0:l0 + m]
     p = 0
-    if kind == HHT_I3:
-        lam = w[n:n + m]
-        p = _emit_mass(md, n, R, C, V, p, 0, 0, c)
-        p = _emit_hess(md, n, qx, lam, R, C, V, p, 0, 0, bh2)
-        p = _emit_force(md, n, qx, vx, R, C, V, p, 0, 0, bh2, gh)
-        p = _emit_phiq(md, n, qx, R, C, V, p, 0, n, 1.0, True)
-        p = _emit_phiq(md, n, qx, R, C, V, p, n, 0, 1.0, False)
-    else:
-        lam, mu = w[2 * n:2 * n + m], w[2 * n + m:]
-        p = _emit_mass(md, n, R, C, V, p, 0, 0, c)
-        p = _emit_hess(md, n, qx, lam, R, C, V, p, 0, 0, bh2)
-        p = _emit_force(md, n, qx, vx, R, C, V, p, 0, 0, bh2, gh)
-        p = _emit_hess(md, n, qx, lam, R, C, V, p, 0, n, hh2)
-        p = _emit_force(md, n, qx, vx, R, C, V, p, 0, n, hh2, 0.0)
-        p = _emit_phiq(md, n, qx, R, C, V, p, 0, 2 * n, 1.0, True)
-        p = _emit_hess(md, n, qx, mu, R, C, V, p, n, 0, bh2)
-        p = _emit_mass(md, n, R, C, V, p, n, n, 1.0)
-        p = _emit_hess(md, n, qx, mu, R, C, V, p, n, n, hh2)
-        p = _emit_phiq(md, n, qx, R, C, V, p, n, 2 * n + m, 1.0, True)
-        p = _emit_phiq(md, n, qx, R, C, V, p, 2 * n, 0, beta, False)
-        p = _emit_phiq(md, n, qx, R, C, V, p, 2 * n, n, 0.5, False)
-        p = _emit_phiq(md, n, qx, R, C, V, p, 2 * n + m, 0, gamma, False)
-        p = _emit_G(md, n, qx, vx, R, C, V, p, 2 * n + m, 0, beta * h)
-        p = _emit_G(md, n, qx, vx, R, C, V, p, 2 * n + m, n, 0.5 * h)
+    p = _emit_mass(md, n, R, C, V, p, 0, 0, rec[CM])
+    if cqx != 0.0:
+        p = _emit_hess(md, n, qx, lam, R, C, V, p, 0, 0, cqx)
+    p = _emit_force(md, n, qx, vx, R, C, V, p, 0, 0, cqx, cvx)
+    p = _emit_phiq(md, n, qx, R, C, V, p, 0, l0, 1.0, True)
+    if cqx != 0.0:
+        p = _emit_phiq(md, n, qx, R, C, V, p, l0, 0, sP * cqx, False)
+    if rec[HAS_Y] != 0.0:
+        cqy, cvy, sV, dM, dI, dV = rec[CQY], rec[CVY], rec[SV], rec[DM], rec[DI], rec[DV]
+        mu = w[u0:]
+        if cqy != 0.0:
+            p = _emit_hess(md, n, qx, lam, R, C, V, p, 0, n, cqy)
+        if cqy != 0.0 or cvy != 0.0:
+            p = _emit_force(md, n, qx, vx, R, C, V, p, 0, n, cqy, cvy)
+        if cqx != 0.0:
+            p = _emit_hess(md, n, qx, mu, R, C, V, p, n, 0, cqx)
+        if dV * cvx != 0.0:
+            p = _emit_identity(n, R, C, V, p, n, 0, dV * cvx)
+        if dM != 0.0:
+            p = _emit_mass(md, n, R, C, V, p, n, n, dM)
+        if dI + dV * cvy != 0.0:
+            p = _emit_identity(n, R, C, V, p, n, n, dI + dV * cvy)
+        if cqy != 0.0:
+            p = _emit_hess(md, n, qx, mu, R, C, V, p, n, n, cqy)
+        p = _emit_phiq(md, n, qx, R, C, V, p, n, u0, 1.0, True)
+        if cqy != 0.0:
+            p = _emit_phiq(md, n, qx, R, C, V, p, l0, n, sP * cqy, False)
+        if cvx != 0.0:
+            p = _emit_phiq(md, n, qx, R, C, V, p, u0, 0, sV * cvx, False)
+        if cqx != 0.0:
+            p = _emit_G(md, n, qx, vx, R, C, V, p, u0, 0, sV * cqx)
+        if cvy != 0.0:
+            p = _emit_phiq(md, n, qx, R, C, V, p, u0, n, sV * cvy, False)
+        if cqy != 0.0:
+            p = _emit_G(md, n, qx, vx, R, C, V, p, u0, n, sV * cqy)
     return p
 
 
@@ -619,36 +663,33 @@ def _mobility(md, q, out, R, C, V, qx):
 
 
 @_jit
-def _scales_weights(kind, md, coefs, q, w, opts, R, C, V, qx, weight):
+def _scales_weights(rec, md, q, w, opts, R, C, V, qx, weight):
     """Newton weights (``Newton.solve``): scales / (atol + rtol |s w|), with the
-    multipliers' relative part taken norm-wise, and the round-off floor."""
+    multipliers' relative part taken norm-wise, and the round-off floor
+    (``Method.scales``, ``Method.roundoff_floor``: the recipe's sx, sy,
+    mu_mob and floor)."""
     mass = md[0]
     n, m = mass.shape[0], md[27].shape[0]
-    alpha, beta, gamma, h = coefs[0], coefs[1], coefs[2], coefs[3]
+    size, l0, u0 = _layout(rec, n, m)
     rtol, atol_k, atol_m = opts[0], opts[1], opts[2]
     mob = np.empty(m)
     _mobility(md, q, mob, R, C, V, qx)
     qmax = 0.0
     for j in range(n):
         qmax = max(qmax, abs(q[j]))
-    size = w.shape[0]
+    floor = 32.0 * EPS * (1.0 + qmax) * rec[FLOOR]
     scales = np.empty(size)
     mult = np.zeros(size, np.bool_)
-    if kind == HHT_I3:
-        floor = 32.0 * EPS * (1.0 + qmax) * gamma / (beta * h)
-        scales[:n] = gamma * h
+    sx, sy = rec[SX], rec[SY]
+    scales[:n] = sx
+    for i in range(m):
+        scales[l0 + i] = sx * mob[i]
+        mult[l0 + i] = True
+    if rec[HAS_Y] != 0.0:
+        scales[n:2 * n] = sy
         for i in range(m):
-            scales[n + i] = gamma * h * mob[i]
-            mult[n + i] = True
-    else:
-        floor = 32.0 * EPS * (1.0 + qmax) / h
-        scales[:n] = gamma * h
-        scales[n:2 * n] = 0.5 * h
-        for i in range(m):
-            scales[2 * n + i] = gamma * h * mob[i]
-            scales[2 * n + m + i] = 0.5 * h * mob[i]
-            mult[2 * n + i] = True
-            mult[2 * n + m + i] = True
+            scales[u0 + i] = sy * mob[i] if rec[MU_MOB] != 0.0 else sy
+            mult[u0 + i] = True
     smax = 0.0
     for i in range(size):
         if mult[i]:
@@ -824,7 +865,7 @@ def _solve(solver, lin, r, dw):
 
 
 @_jit
-def _newton(kind, md, coefs, q_pred, v_pred, F_old, w, weight, opts, solver, lin, lu_state,
+def _newton(rec, md, q_pred, v_pred, F_old, w, weight, opts, solver, lin, lu_state,
             R, C, V, r, dw, qx, vx, work, counts):
     """One step's Newton iteration on w (in place), with the stored
     factorization (``_factor``, ``_solve``) reused across iterations and
@@ -846,7 +887,7 @@ def _newton(kind, md, coefs, q_pred, v_pred, F_old, w, weight, opts, solver, lin
     n_jac = 0
     for _ in range(max_iter):
         if not valid:
-            p = _jacobian_triplets(kind, md, coefs, q_pred, v_pred, w, R, C, V, qx, vx)
+            p = _jacobian_triplets(rec, md, q_pred, v_pred, w, R, C, V, qx, vx)
             counts[2] += 1
             n_jac += 1
             status = _factor(solver, lin, R, C, V, p)
@@ -856,7 +897,7 @@ def _newton(kind, md, coefs, q_pred, v_pred, F_old, w, weight, opts, solver, lin
             counts[3] += 1
             valid = True
             age = 0
-        _residual(kind, md, coefs, q_pred, v_pred, F_old, w, r, qx, vx, work)
+        _residual(rec, md, q_pred, v_pred, F_old, w, r, qx, vx, work)
         counts[1] += 1
         for i in range(size):
             if not np.isfinite(r[i]):
@@ -903,19 +944,27 @@ def _newton(kind, md, coefs, q_pred, v_pred, F_old, w, weight, opts, solver, lin
 
 
 def triplet_bound(md) -> int:  # noqa: D401 (md: the unpacked tuple)
-    """An upper bound of the Newton-matrix triplets either method emits."""
+    """An upper bound of the Newton-matrix triplets any recipe emits: two mass
+    and two identity blocks, four Hessian, two force, two G and six Phi_q blocks."""
     n = md[0].shape[0]
     kc, kp, kl = md[2].shape[0], md[7].shape[0], md[13].shape[0]
     ks, kr, kf = md[17].shape[0], md[22].shape[0], md[24].shape[0]
     phiq = 8 * kc + 6 * kp + 2 * kl
-    return (2 * n + 6 * phiq + 4 * (2 * kc + 12 * kp) + 2 * (36 * ks + 4 * kr + kf)
+    return (4 * n + 6 * phiq + 4 * (2 * kc + 12 * kp) + 2 * (36 * ks + 4 * kr + kf)
             + 2 * (4 * kc + 6 * kp))
 
 
 @_jit
-def _run(kind, md, coefs, t0, n_steps, step0, every, q, v, a, lam, mu, F, opts, solver, lin,
-         lu_state, R, C, V, out_t, out_q, out_v, out_a, out_lam, out_mu, out_stats, counts):
-    """Take up to n_steps steps of size h = coefs[3] from (t0, q, v, a, lam, mu).
+def _run(rec2, md, h, t0, n_steps, step0, every, q, v, a, lam, mu, F, q_prev, v_prev, opts,
+         solver, lin, lu_state, R, C, V, out_t, out_q, out_v, out_a, out_lam, out_mu, out_stats,
+         counts):
+    """Take up to n_steps steps of size h from (t0, q, v, a, lam, mu).
+
+    ``rec2`` (2, len(RECIPE_FIELDS)): the method's recipe for a start-up
+    step (row 0) and for the steps after it (row 1) at this h. ``q_prev``,
+    ``v_prev``: the state h before (q, v), valid when lu_state[2] is 1 (set
+    after the first step; the caller resets it at a change of h).
+    ``lu_state`` = (factorization valid, contraction rate, history valid).
 
     The state arrays (and F = Phi_q^T lambda - Q at that state) are updated
     in place after every accepted step, so that they hold the last accepted
@@ -933,8 +982,11 @@ def _run(kind, md, coefs, t0, n_steps, step0, every, q, v, a, lam, mu, F, opts, 
     """
     mass = md[0]
     n, m = mass.shape[0], md[27].shape[0]
-    h, alpha, beta, gamma = coefs[3], coefs[0], coefs[1], coefs[2]
-    size = n + m if kind == HHT_I3 else 2 * n + 2 * m
+    size, l0, u0 = _layout(rec2[0], n, m)
+    has_y = rec2[0, HAS_Y] != 0.0
+    differ = False
+    for i in range(rec2.shape[1]):
+        differ = differ or rec2[0, i] != rec2[1, i]
     r = np.empty(size)
     dw = np.empty(size)
     w = np.empty(size)
@@ -945,33 +997,42 @@ def _run(kind, md, coefs, t0, n_steps, step0, every, q, v, a, lam, mu, F, opts, 
     q_pred = np.empty(n)
     v_pred = np.empty(n)
     rec = 0
-    bh2, hh2, gh = beta * h * h, 0.5 * h * h, gamma * h
     for k in range(n_steps):
+        first = lu_state[2] == 0.0
+        rc = rec2[0] if first else rec2[1]
+        pq0, pq1, pv0, pv1, pa = rc[PQ0], rc[PQ1], rc[PV0], rc[PV1], rc[PA]
+        vv0, vv1, va = rc[VV0], rc[VV1], rc[VA]
         for j in range(n):
-            q_pred[j] = q[j] + h * v[j] + 0.5 * h * h * (1.0 - 2.0 * beta) * a[j]
-            v_pred[j] = v[j] + h * (1.0 - gamma) * a[j]
+            q_pred[j] = pq0 * q[j] + pv0 * v[j] + pa * a[j]
+            v_pred[j] = vv0 * v[j] + va * a[j]
+        if not first and (pq1 != 0.0 or pv1 != 0.0 or vv1 != 0.0):
+            for j in range(n):
+                q_pred[j] += pq1 * q_prev[j] + pv1 * v_prev[j]
+                v_pred[j] += vv1 * v_prev[j]
         w[:] = 0.0
         w[:n] = a
-        if kind == HHT_I3:
-            w[n:] = lam
-        else:
-            w[2 * n:2 * n + m] = lam
-        _scales_weights(kind, md, coefs, q, w, opts, R, C, V, qx, weight)
-        status = _newton(kind, md, coefs, q_pred, v_pred, F, w, weight, opts, solver, lin,
+        w[l0:l0 + m] = lam
+        if has_y:
+            for j in range(n):
+                w[n + j] = rc[Y0V] * v[j]
+        _scales_weights(rc, md, q, w, opts, R, C, V, qx, weight)
+        status = _newton(rc, md, q_pred, v_pred, F, w, weight, opts, solver, lin,
                          lu_state, R, C, V, r, dw, qx, vx, work, counts)
         if status != CONVERGED:
             return status, k, rec
-        for j in range(n):
-            q[j] = q_pred[j] + bh2 * w[j]
-            v[j] = v_pred[j] + gh * w[j]
-            a[j] = w[j]
-        if kind == HHT_I3:
-            lam[:] = w[n:]
-        else:
-            for j in range(n):
-                q[j] += hh2 * w[n + j]
-            lam[:] = w[2 * n:2 * n + m]
-            mu[:] = w[2 * n + m:]
+        q_prev[:] = q
+        v_prev[:] = v
+        _state(rc, n, w, q_pred, v_pred, qx, vx)
+        q[:] = qx[:n]
+        v[:] = vx[:n]
+        a[:] = w[:n]
+        lam[:] = w[l0:l0 + m]
+        if has_y:
+            mu[:] = w[u0:]
+        if first:
+            lu_state[2] = 1.0
+            if differ:                       # the steady recipe has another Newton matrix
+                lu_state[0] = 0.0
         _force_term(md, q, v, lam, F, qx, vx, work)
         counts[5] += 1
         if (step0 + k + 1) % every == 0:
@@ -1066,9 +1127,10 @@ def unpack(I, Fl):
 
 
 @_jit
-def residual(kind, I, Fl, coefs, q_pred, v_pred, F_old, w, r, qx, vx, work):
-    """Upsilon(w) into r; see ``_residual``. Returns False when r is not finite."""
-    _residual(kind, unpack(I, Fl), coefs, q_pred, v_pred, F_old, w, r, qx, vx, work)
+def residual(rec, I, Fl, q_pred, v_pred, F_old, w, r, qx, vx, work):
+    """Upsilon(w) of recipe ``rec`` into r; see ``_residual``. Returns False
+    when r is not finite."""
+    _residual(rec, unpack(I, Fl), q_pred, v_pred, F_old, w, r, qx, vx, work)
     for x in r:
         if not np.isfinite(x):
             return False
@@ -1076,9 +1138,9 @@ def residual(kind, I, Fl, coefs, q_pred, v_pred, F_old, w, r, qx, vx, work):
 
 
 @_jit
-def jacobian_triplets(kind, I, Fl, coefs, q_pred, v_pred, w, R, C, V, qx, vx):
+def jacobian_triplets(rec, I, Fl, q_pred, v_pred, w, R, C, V, qx, vx):
     """Newton-matrix triplets; see ``_jacobian_triplets``. Returns their count."""
-    return _jacobian_triplets(kind, unpack(I, Fl), coefs, q_pred, v_pred, w, R, C, V, qx, vx)
+    return _jacobian_triplets(rec, unpack(I, Fl), q_pred, v_pred, w, R, C, V, qx, vx)
 
 
 @_jit
@@ -1094,9 +1156,10 @@ def mobility(I, Fl, q, out, R, C, V, qx):
 
 
 @_jit
-def run(kind, I, Fl, coefs, t0, n_steps, step0, every, q, v, a, lam, mu, F, opts, solver, lin,
-        lu_state, R, C, V, out_t, out_q, out_v, out_a, out_lam, out_mu, out_stats, counts):
+def run(rec2, I, Fl, h, t0, n_steps, step0, every, q, v, a, lam, mu, F, q_prev, v_prev, opts,
+        solver, lin, lu_state, R, C, V, out_t, out_q, out_v, out_a, out_lam, out_mu, out_stats,
+        counts):
     """The compiled time loop; see ``_run``."""
-    return _run(kind, unpack(I, Fl), coefs, t0, n_steps, step0, every, q, v, a, lam, mu,
-                F, opts, solver, lin, lu_state, R, C, V, out_t, out_q, out_v, out_a, out_lam,
-                out_mu, out_stats, counts)
+    return _run(rec2, unpack(I, Fl), h, t0, n_steps, step0, every, q, v, a, lam, mu, F,
+                q_prev, v_prev, opts, solver, lin, lu_state, R, C, V, out_t, out_q, out_v, out_a,
+                out_lam, out_mu, out_stats, counts)

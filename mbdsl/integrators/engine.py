@@ -1,4 +1,8 @@
-"""The compiled engine: HHT-I3 and HHT-SI2 on rigid models through numba kernels.
+"""The compiled engine: the recipe methods on rigid models through numba kernels.
+
+Every method that states itself as a recipe (``Method.kernel_recipe``,
+:mod:`.recipe`: NEWMARK, HHT-I3, NSTIFF, NSTIFF-SI2 and HHT-SI2) runs here;
+the kernels hold no method name.
 
 Three ways of running, chosen by the size and structure of the Newton
 matrix (:func:`linear_solver_plan`):
@@ -21,7 +25,8 @@ failure in the model's words exactly as it would have without compilation;
 the compiled loop resumes after it. Both engines compute the same equations;
 ``tests/integrators/test_engine.py`` checks that they agree.
 
-What the kernels cover (:func:`unsupported` says why a model is not):
+What the kernels cover (:func:`unsupported` says why a model or method is not):
+the methods with a recipe;
 rigid bodies; revolute, point_on_line, prismatic and fixed joints; drivers
 and applied loads whose functions do not depend on time; spring-dampers,
 rotational spring-dampers, gravity. Anything else runs on the numpy engine.
@@ -48,9 +53,6 @@ __all__ = ["ENGINES", "unsupported", "CompiledModel", "select_engine", "prepare_
 
 #: Engine names accepted by ``integrate(..., engine=...)`` and ``--engine``.
 ENGINES = ("auto", "numpy", "compiled")
-
-#: Methods the kernels implement.
-COMPILED_METHODS = {"hht-i3": 0, "hht-si2": 1}
 
 #: Steps per call of the compiled loop (output, progress and Ctrl-C between calls).
 CHUNK = 2000
@@ -84,8 +86,8 @@ def numba_available() -> bool:
 
 def unsupported(system, method) -> str | None:
     """Why the compiled engine cannot run this model with this method, or None."""
-    if method.name not in COMPILED_METHODS:
-        return f"the compiled engine implements hht-i3 and hht-si2, not {method.name}"
+    if method.kernel_recipe(1.0, False) is None:
+        return f"the compiled engine has no recipe for {method.name}"
     if system.flexible_groups:
         return "the model has flexible beams"
     for g in system.constraint_groups:
@@ -107,8 +109,19 @@ def unsupported(system, method) -> str | None:
 
 
 def newton_size(system, method) -> int:
-    """Unknowns of the Newton matrix: n + m for HHT-I3, 2 (n + m) for HHT-SI2."""
-    return (system.n + system.m) * (1 if COMPILED_METHODS[method.name] == 0 else 2)
+    """Unknowns of the Newton matrix: n + m (index 3), 2 (n + m) (stabilized index 2)."""
+    return sum(b.size for b in method.blocks(system))
+
+
+def recipes(method, h):
+    """(2, len(RECIPE_FIELDS)): the method's recipe at step size h [s] for a
+    start-up step and for the steps after it (``compiled._run``)."""
+    return np.stack([method.kernel_recipe(h, True), method.kernel_recipe(h, False)])
+
+
+def _recipe_value(method, name, h=1e-3):
+    from .recipe import RECIPE_FIELDS
+    return float(method.kernel_recipe(h, False)[RECIPE_FIELDS.index(name)])
 
 
 def select_engine(engine: str, system, method, compile_policy: str = "wait",
@@ -301,13 +314,11 @@ def newton_pattern(system, method, q, cm=None):
     at build, whatever the configuration."""
     K = _kernels()
     cm = cm or CompiledModel(system)
-    kind = COMPILED_METHODS[method.name]
     size = newton_size(system, method)
     n = system.n
     R, C, V = (np.empty(cm.bound, np.int64), np.empty(cm.bound, np.int64), np.empty(cm.bound))
-    coefs = np.array([method.alpha, method.beta, method.gamma, 1e-3])
-    p = K.jacobian_triplets(kind, cm.ints, cm.floats, coefs, np.asarray(q, dtype=float),
-                            np.zeros(n), np.zeros(size),
+    p = K.jacobian_triplets(method.kernel_recipe(1e-3, False), cm.ints, cm.floats,
+                            np.asarray(q, dtype=float), np.zeros(n), np.zeros(size),
                             R, C, V, np.zeros(n + 3), np.zeros(n + 3))
     return R[:p], C[:p]
 
@@ -327,9 +338,9 @@ def band_ordering(system, method, q, split=False, cm=None):
     """(rperm, cperm, kl, ku, blocks): the band matrix of the Newton matrix.
 
     One block: the reverse Cuthill-McKee ordering of J + J^T for rows and
-    columns alike. ``split`` (HHT-SI2 only): two blocks, equations (R1,
-    R4) and unknowns (a, lambda) first, equations (R2, R3) and unknowns
-    (abar, mu) second, each ordered by reverse Cuthill-McKee of its own
+    columns alike. ``split`` (a recipe with ``split``, HHT-SI2): two blocks,
+    equations (R1, R4) and unknowns (x, lambda) first, equations (R2, R3)
+    and unknowns (y, mu) second, each ordered by reverse Cuthill-McKee of its own
     diagonal block. kl, ku: the largest sub- and super-diagonals of the
     diagonal blocks.
     """
@@ -339,8 +350,8 @@ def band_ordering(system, method, q, split=False, cm=None):
         iperm = _rcm(R, C, size)
         rperm = cperm = iperm
     else:
-        if COMPILED_METHODS[method.name] != 1:
-            raise ValueError("only the HHT-SI2 Newton matrix is split into blocks")
+        if _recipe_value(method, "split") == 0.0:
+            raise ValueError(f"the {method.name} Newton matrix is not split into blocks")
         n, m = system.n, system.m
         s = n + m
         j, i = np.arange(n), np.arange(m)
@@ -405,7 +416,7 @@ def linear_solver_plan(system, method, options, q, cm=None, split_si2=True) -> L
                              "this scipy is built with ILP64")
         return dense if size <= DENSE_LIMIT else LinearSolverPlan(
             "sparse", "SuperLU (the LAPACK band routines use 64-bit integers here)")
-    plan = band_plan(system, method, q, COMPILED_METHODS[method.name] == 1 and split_si2,
+    plan = band_plan(system, method, q, _recipe_value(method, "split") != 0.0 and split_si2,
                      addresses, cm)
     kl, ku = plan.kl, plan.ku
     if choice == "banded" or (max(kl, ku) <= BAND_LIMIT and 4 * (2 * kl + ku + 1) <= size):
@@ -459,19 +470,27 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
     K = _kernels()
     cm = cm or CompiledModel(system)
     I, Fl, n, m = cm.ints, cm.floats, system.n, system.m
-    kind = COMPILED_METHODS[method.name]
     size = newton_size(system, method)
     start = method.start(system, initial)[-1]
     q, v, a = start.q.copy(), start.v.copy(), start.a.copy()
     lam = start.lam.copy()
     mu = np.zeros(m)
-    F = start.extra["F"].copy()
+    q_prev, v_prev = q.copy(), v.copy()
+    qx, vx, work = np.zeros(n + 3), np.zeros(n + 3), np.zeros(n + 3)
+
+    def force_term(qs, vs, ls):
+        """F = Phi_q^T lambda - Q at a state, by the kernel (F_n of the HHT recipes)."""
+        out = np.empty(n)
+        K.force_term(I, Fl, qs, vs, ls, out, qx, vx, work)
+        return out
+
+    F = force_term(q, v, lam)
     opts = np.array([opt.rtol, opt.atol_kinematic, opt.atol_multiplier, opt.max_iter,
                      opt.refresh_rate(plan.factorization_is_expensive(size)),
                      1.0 if opt.jacobian.value == "full" else 0.0])
     solver = K.DENSE if plan.kind == "dense" else K.BANDED
     lin = plan.workspace(size, cm.bound)
-    lu_state = np.array([0.0, 0.5])
+    lu_state = np.array([0.0, 0.5, 0.0])     # factorization valid, rate, history valid
     R = np.empty(cm.bound, np.int64)
     C = np.empty(cm.bound, np.int64)
     V = np.empty(cm.bound)
@@ -480,7 +499,7 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
     out_q, out_v, out_a = (np.empty((CHUNK, n)) for _ in range(3))
     out_lam, out_mu = np.empty((CHUNK, m)), np.empty((CHUNK, m))
     out_stats = np.empty((CHUNK, 6), np.int64)
-    has_mu = bool(method.extras)
+    has_mu = _recipe_value(method, "has_y") != 0.0
     t = t_start
     step_no = 0           # global step count, for the output stride
     last_h = h
@@ -496,17 +515,17 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
     try:
         schedule = _step_plan(t_start, t_end, h)
         for g, (n_steps, step_h) in enumerate(schedule):
-            coefs = np.array([method.alpha, method.beta, method.gamma, step_h])
-            lu_state[0] = 0.0                     # a new h: a new Newton matrix
+            rec2 = recipes(method, step_h)
+            lu_state[0] = lu_state[2] = 0.0       # a new h: a new Newton matrix, a start-up step
             last_h = step_h
             done = 0
             while done < n_steps and t < t_end - 1e-9 * h:
                 chunk = min(CHUNK, n_steps - done)
                 t0 = t
                 status, taken, nrec = K.run(
-                    kind, I, Fl, coefs, t0, chunk, step_no, output_every, q, v, a, lam, mu, F,
-                    opts, solver, lin, lu_state, R, C, V, out_t, out_q, out_v, out_a, out_lam,
-                    out_mu, out_stats, counts)
+                    rec2, I, Fl, step_h, t0, chunk, step_no, output_every, q, v, a, lam, mu, F,
+                    q_prev, v_prev, opts, solver, lin, lu_state, R, C, V, out_t, out_q, out_v,
+                    out_a, out_lam, out_mu, out_stats, counts)
                 for i in range(nrec):
                     add_row(out_t[i], out_q[i], out_v[i], out_a[i], out_lam[i], out_mu[i],
                             out_stats[i], step_h)
@@ -546,7 +565,13 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
                     q[:], v[:], a[:], lam[:] = last.q, last.v, last.a, last.lam
                     if has_mu:
                         mu[:] = last.extra["mu"]
-                    F[:] = method.start(system, _resume_state(system, last.t, q, v, a, lam))[-1].extra["F"]
+                    F[:] = force_term(q, v, lam)
+                    # the history of a two-step method: the numpy part's last step, if of size h
+                    before = part._rows[-2] if len(part._rows) >= 2 else None
+                    lu_state[2] = 0.0
+                    if before is not None and abs((last.t - before.t) - step_h) <= 1e-9 * step_h:
+                        q_prev[:], v_prev[:] = before.q, before.v
+                        lu_state[2] = 1.0
                     covered = int(round((last.t - t) / step_h))
                     t = last.t
                     done += covered
@@ -579,17 +604,18 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
 # ---------------------------------------------------------------------------------------------
 
 class SparseAdapter:
-    """An HHT-I3 / HHT-SI2 recipe whose residual, Newton matrix, scales and
-    force term are evaluated by the kernels; everything else is the wrapped
-    method's. The Newton matrix is a CSC matrix on a pattern fixed at the
-    first evaluation (values refilled in place)."""
+    """A recipe method whose residual, Newton matrix, scales and force term
+    are evaluated by the kernels; everything else is the wrapped method's.
+    The Newton matrix is a CSC matrix on a pattern fixed at the first
+    evaluation (values refilled in place)."""
 
     def __init__(self, system, method):
+        from .recipe import RECIPE_FIELDS
         self._method = method
         self._system = system
         self._K = _kernels()
         self._cm = CompiledModel(system)
-        self._kind = COMPILED_METHODS[method.name]
+        self._field = {k: i for i, k in enumerate(RECIPE_FIELDS)}
         n = system.n
         self.size = newton_size(system, method)
         self._R = np.empty(self._cm.bound, np.int64)
@@ -601,30 +627,47 @@ class SparseAdapter:
     def __getattr__(self, name):          # name, extras, blocks, start, predict, describe...
         return getattr(self._method, name)
 
-    def _coefs(self, h):
-        mt = self._method
-        return np.array([mt.alpha, mt.beta, mt.gamma, h])
+    def _get(self, rec, name):
+        return rec[self._field[name]]
 
     def context(self, system, history, t, h):
-        """The wrapped method's context, with its coefficients for the kernels."""
+        """The wrapped method's context, with the recipe of this step and its
+        predictors (``compiled._run``) for the kernels."""
         ctx = self._method.context(system, history, t, h)
-        ctx.cache["coefs"] = self._coefs(h)
+        rec = self._method.kernel_recipe(h, self._method.first_step(history, h))
+        g = self._get
+        s = history[-1]
+        q_pred = g(rec, "pq0") * s.q + g(rec, "pv0") * s.v + g(rec, "pa") * s.a
+        v_pred = g(rec, "vv0") * s.v + g(rec, "va") * s.a
+        if len(history) >= 2 and not self._method.first_step(history, h):
+            p = history[-2]
+            q_pred = q_pred + g(rec, "pq1") * p.q + g(rec, "pv1") * p.v
+            v_pred = v_pred + g(rec, "vv1") * p.v
+        F = s.extra.get("F")
+        if F is None:
+            F = self._force_term(s.q, s.v, s.lam)
+        ctx.cache.update(recipe=rec, kq_pred=q_pred, kv_pred=v_pred, kF=F)
         return ctx
+
+    def _force_term(self, q, v, lam):
+        F = np.empty(self._system.n)
+        self._K.force_term(self._cm.ints, self._cm.floats, q, v, lam, F, self._qx, self._vx,
+                           self._work)
+        return F
 
     def residual(self, w, ctx):
         """Upsilon(w) by the kernel."""
         r = np.empty(self.size)
-        self._K.residual(self._kind, self._cm.ints, self._cm.floats, ctx.cache["coefs"], ctx.cache["q_pred"],
-                         ctx.cache["v_pred"], ctx.last.extra["F"], w, r, self._qx, self._vx,
-                         self._work)
+        c = ctx.cache
+        self._K.residual(c["recipe"], self._cm.ints, self._cm.floats, c["kq_pred"],
+                         c["kv_pred"], c["kF"], w, r, self._qx, self._vx, self._work)
         return r
 
     def jacobian(self, w, ctx):
         """Newton matrix as CSC on the fixed pattern."""
-        K = self._K
-        p = K.jacobian_triplets(self._kind, self._cm.ints, self._cm.floats, ctx.cache["coefs"],
-                                ctx.cache["q_pred"], ctx.cache["v_pred"], w, self._R, self._C,
-                                self._V, self._qx, self._vx)
+        K, c = self._K, ctx.cache
+        p = K.jacobian_triplets(c["recipe"], self._cm.ints, self._cm.floats, c["kq_pred"],
+                                c["kv_pred"], w, self._R, self._C, self._V, self._qx, self._vx)
         if self._pattern is None or self._pattern[0] != p:
             key = self._C[:p] * self.size + self._R[:p]
             uniq, position = np.unique(key, return_inverse=True)
@@ -637,32 +680,36 @@ class SparseAdapter:
         return scipy.sparse.csc_matrix((data, indices, indptr), shape=(self.size, self.size))
 
     def scales(self, system, h, q):
-        """As the wrapped method's, with the mobility from the kernel."""
+        """The recipe's scales (as the wrapped method's), with the mobility
+        from the kernel."""
         m, n = system.m, system.n
         mob = np.empty(m)
-        self._K.mobility(self._cm.ints, self._cm.floats, q, mob, self._R, self._C, self._V, self._qx)
-        if self._kind == 0:
-            gh = self._method.gamma * h
-            return np.concatenate([np.full(n, gh), gh * mob])
-        gh, hh = self._method.gamma * h, 0.5 * h
-        return np.concatenate([np.full(n, gh), np.full(n, hh), gh * mob, hh * mob])
+        self._K.mobility(self._cm.ints, self._cm.floats, q, mob, self._R, self._C, self._V,
+                         self._qx)
+        rec = self._method.kernel_recipe(h, False)
+        sx = self._get(rec, "sx")
+        if self._get(rec, "has_y") == 0.0:
+            return np.concatenate([np.full(n, sx), sx * mob])
+        sy = self._get(rec, "sy")
+        smu = sy * mob if self._get(rec, "mu_mob") != 0.0 else np.full(m, sy)
+        return np.concatenate([np.full(n, sx), np.full(n, sy), sx * mob, smu])
 
     def accept(self, w, ctx):
-        """The wrapped method's state, with the force term from the kernel."""
-        mt, n, m = self._method, self._system.n, self._system.m
-        h = ctx.h
-        if self._kind == 0:
-            a, lam = w[:n].copy(), w[n:].copy()
-            q = ctx.cache["q_pred"] + mt.beta * h * h * a
-        else:
-            a, abar = w[:n].copy(), w[n:2 * n]
-            lam, mu = w[2 * n:2 * n + m].copy(), w[2 * n + m:].copy()
-            q = ctx.cache["q_pred"] + mt.beta * h * h * a + 0.5 * h * h * abar
-        v = ctx.cache["v_pred"] + mt.gamma * h * a
-        s = StepState(ctx.t, q, v, a, lam)
-        if self._kind == 1:
-            s.extra["mu"] = mu
-        F = np.empty(n)
-        self._K.force_term(self._cm.ints, self._cm.floats, q, v, lam, F, self._qx, self._vx, self._work)
-        s.extra["F"] = F
+        """The state of the converged w by the recipe, with the force term
+        from the kernel."""
+        n, m = self._system.n, self._system.m
+        rec, g = ctx.cache["recipe"], self._get
+        x = w[:n].copy()
+        q = ctx.cache["kq_pred"] + g(rec, "cqx") * x
+        v = ctx.cache["kv_pred"] + g(rec, "cvx") * x
+        has_y = g(rec, "has_y") != 0.0
+        if has_y:
+            y = w[n:2 * n]
+            q = q + g(rec, "cqy") * y
+            v = v + g(rec, "cvy") * y
+        l0 = 2 * n if has_y else n
+        s = StepState(ctx.t, q, v, x, w[l0:l0 + m].copy())
+        if has_y:
+            s.extra["mu"] = w[l0 + m:].copy()
+        s.extra["F"] = self._force_term(q, v, s.lam)
         return s

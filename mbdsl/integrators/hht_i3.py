@@ -7,6 +7,7 @@ import numpy as np
 from .base import Block, Method, StepContext, StepState
 from .common import (acceleration_scales, force_term, hht_coefficients,
                      index3_newton_matrix, newmark_predictor, roundoff_floor)
+from .recipe import newmark_recipe
 
 __all__ = ["HHTI3"]
 
@@ -86,6 +87,13 @@ class HHTI3(Method):
     def roundoff_floor(self, system, h, q) -> np.ndarray:
         """Phi's round-off through the 1/(beta h^2) rows, times gamma h."""
         return roundoff_floor(system, q, self.gamma / (self.beta * h), system.n, system.m)
+
+    def kernel_recipe(self, h, first):
+        """The Newmark formulas; residual M a/(1+alpha) + F - alpha/(1+alpha) F_n,
+        Phi / (beta h^2)."""
+        c = 1.0 / (1.0 + self.alpha)
+        return newmark_recipe(h, self.beta, self.gamma, cM=c, cF=self.alpha * c,
+                              sP=1.0 / (self.beta * h * h), floor=self.gamma / (self.beta * h))
 
     def start(self, system, initial) -> list[StepState]:
         """One state at t_0 with a_0 = q''(t_0) and lambda_0 from the index-1 system."""

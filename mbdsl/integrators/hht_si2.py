@@ -7,6 +7,7 @@ import numpy as np
 from .base import Block, Method, StepContext, StepState
 from .common import (Terms, assemble, force_term,
                      hht_coefficients, newmark_predictor, roundoff_floor)
+from .recipe import newmark_recipe
 
 __all__ = ["HHTSI2"]
 
@@ -84,6 +85,15 @@ class HHTSI2(Method):
     def roundoff_floor(self, system, h, q) -> np.ndarray:
         """Phi's round-off through the 1/h^2 rows, times h/2."""
         return roundoff_floor(system, q, 1.0 / h, 2 * system.n, 2 * system.m)
+
+    def kernel_recipe(self, h, first):
+        """The Newmark formulas plus h^2/2 abar in q; residual as in the class
+        docstring (rigid bodies: Mhat = M). The band LU may split it: the
+        coupling it leaves out is h^2/2 K and h/2 d(Phi_q v)/dq."""
+        c = 1.0 / (1.0 + self.alpha)
+        return newmark_recipe(h, self.beta, self.gamma, has_y=1.0, split=1.0, cqy=0.5 * h * h,
+                              cM=c, cF=self.alpha * c, dM=1.0, sP=1.0 / (h * h), sV=1.0 / h,
+                              sy=0.5 * h, mu_mob=1.0, floor=1.0 / h)
 
     def start(self, system, initial) -> list[StepState]:
         """One state at t_0: a_0 = q''(t_0), mu_0 = 0, the old force term cached."""

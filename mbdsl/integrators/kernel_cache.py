@@ -157,8 +157,8 @@ def warm_up(groups=GROUPS) -> None:
       loop (``residual``, ``jacobian_triplets``, ``accumulate``,
       ``mobility``, ``force_term``).
 
-    Both methods share every signature (the method is an integer argument),
-    so one of them loads what both use.
+    Every method shares every signature (the method is a recipe array,
+    ``recipe.py``), so one of them loads what all use.
     """
     from .. import assemble, load_text
     from . import HHTI3, NewtonOptions, integrate

@@ -7,6 +7,7 @@ import numpy as np
 from .base import Block, Method, StepContext, StepState, check_range
 from .common import (acceleration_scales, force_term, index3_newton_matrix,
                      newmark_predictor, roundoff_floor)
+from .recipe import newmark_recipe
 
 __all__ = ["Newmark"]
 
@@ -77,6 +78,11 @@ class Newmark(Method):
     def roundoff_floor(self, system, h, q) -> np.ndarray:
         """Phi's round-off through the 1/(beta h^2) rows, times gamma h."""
         return roundoff_floor(system, q, self.gamma / (self.beta * h), system.n, system.m)
+
+    def kernel_recipe(self, h, first):
+        """The Newmark formulas; residual M a + F, Phi / (beta h^2)."""
+        return newmark_recipe(h, self.beta, self.gamma, cM=1.0, sP=1.0 / (self.beta * h * h),
+                              floor=self.gamma / (self.beta * h))
 
     def start(self, system, initial) -> list[StepState]:
         """One state at t_0 with a_0 = q''(t_0)."""

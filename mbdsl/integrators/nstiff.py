@@ -7,6 +7,7 @@ import numpy as np
 from .base import Block, Method, StepContext, StepState
 from .common import (acceleration_scales, bdf_coefficients, force_term,
                      index3_newton_matrix, roundoff_floor)
+from .recipe import bdf_recipe
 
 __all__ = ["NStiff"]
 
@@ -65,6 +66,14 @@ class NStiff(Method):
     def roundoff_floor(self, system, h, q) -> np.ndarray:
         """Phi's round-off through the c0^2 rows, times 1/c0 (BDF1 start-up: worst case)."""
         return roundoff_floor(system, q, 1.0 / h, system.n, system.m)
+
+    def kernel_recipe(self, h, first):
+        """BDF2 (BDF1 when ``first``) in the unknowns of this class."""
+        return bdf_recipe(h, first, index2=False)
+
+    def first_step(self, history, h):
+        """BDF1 when no two past states are h apart (``bdf_coefficients``)."""
+        return bdf_coefficients(history, h)[2] == 1
 
     def start(self, system, initial) -> list[StepState]:
         """One state at t_0; the first step is BDF1."""

@@ -6,6 +6,7 @@ import numpy as np
 
 from .base import Block, Method, StepContext, StepState
 from .common import Terms, assemble, bdf_coefficients, force_term, roundoff_floor
+from .recipe import bdf_recipe
 
 __all__ = ["NStiffSI2"]
 
@@ -81,6 +82,14 @@ class NStiffSI2(Method):
     def roundoff_floor(self, system, h, q) -> np.ndarray:
         """Phi's round-off through the c0 rows (BDF1 start-up: 1/h)."""
         return roundoff_floor(system, q, 1.0 / h, 2 * system.n, 2 * system.m)
+
+    def kernel_recipe(self, h, first):
+        """BDF2 (BDF1 when ``first``) in the unknowns of this class."""
+        return bdf_recipe(h, first, index2=True)
+
+    def first_step(self, history, h):
+        """BDF1 when no two past states are h apart (``bdf_coefficients``)."""
+        return bdf_coefficients(history, h)[2] == 1
 
     def start(self, system, initial) -> list[StepState]:
         """One state at t_0 (mu_0 = 0); the first step is BDF1."""

@@ -1,0 +1,96 @@
+"""Kernel recipes: the methods of the Newmark family and of BDF2 as data.
+
+Five of the six methods (NEWMARK, HHT-I3, NSTIFF, NSTIFF-SI2, HHT-SI2) are
+one nonlinear system in one of two shapes of unknowns, with coefficients
+that depend on the method, the step size h and (for BDF2) whether the step
+is a start-up step. A recipe is that coefficient vector, in the spirit of
+the Butcher tableaux of scipy's Runge-Kutta solvers: the compiled engine
+(:mod:`.compiled`) reads it, and holds no method name.
+
+Unknowns w = (x, [y,] lambda, [mu]), x and y of size n, lambda and mu of size
+m; y and mu exist when ``has_y`` is 1 (the stabilized index-2 methods). The
+state at t_{n+1} is linear in them::
+
+    q = q_pred + cqx x + cqy y,        v = v_pred + cvx x + cvy y
+    q_pred = pq0 q_n + pq1 q_{n-1} + pv0 v_n + pv1 v_{n-1} + pa a_n
+    v_pred = vv0 v_n + vv1 v_{n-1} + va a_n
+
+and the residual has up to four blocks (F := Phi_q^T lambda - Q)::
+
+    R1 = cM M x + F(q, v, lambda) - cF F_n                      (n rows)
+    R2 = dM M y + dI y + dV v + Phi_q^T mu                      (n rows, has_y)
+    R3 = sP Phi(q, t)                                           (m rows)
+    R4 = sV (Phi_q v + Phi_t)                                   (m rows, has_y)
+
+Their Newton matrix follows by the chain rule (``compiled._jacobian_triplets``):
+d/dx of a term in q is its q-derivative times cqx, and so on. After
+convergence a_{n+1} = x. Newton starts from x = a_n, y = y0v v_n, lambda_n,
+mu = 0, with velocity-equivalent scales sx for x, sy for y, sx times the
+multiplier mobility for lambda, sy (times the mobility when ``mu_mob`` is
+1) for mu, and a round-off floor of 32 eps (1 + |q|_max) ``floor``
+(``common.roundoff_floor``). ``split`` is 1 where the band LU may factor the
+(x, lambda) and (y, mu) diagonal blocks apart (``compiled``, "Linear
+solvers"): the coupling it leaves out must be O(h) against the blocks.
+
+Each method's ``kernel_recipe(h, first)`` (``base.Method``) fills one with
+:func:`make_recipe`; its equations are the ones its numpy ``residual``
+evaluates, and ``tests/integrators/test_engine.py`` checks the two against
+each other and the Newton matrix against differences of the residual.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["RECIPE_FIELDS", "make_recipe", "newmark_recipe", "bdf_recipe"]
+
+#: The recipe's entries, in order (``compiled`` checks its copy against this one).
+RECIPE_FIELDS = ("has_y", "split", "cqx", "cqy", "cvx", "cvy", "cM", "cF", "dM", "dI", "dV",
+                 "sP", "sV", "sx", "sy", "mu_mob", "floor",
+                 "pq0", "pq1", "pv0", "pv1", "pa", "vv0", "vv1", "va", "y0v")
+
+
+def make_recipe(**values: float) -> np.ndarray:
+    """A recipe vector, shape (len(RECIPE_FIELDS),): the named entries, 0 elsewhere.
+
+    Raises
+    ------
+    ValueError
+        A name that is not in :data:`RECIPE_FIELDS`.
+    """
+    unknown = set(values) - set(RECIPE_FIELDS)
+    if unknown:
+        raise ValueError(f"not recipe entries: {', '.join(sorted(unknown))}")
+    return np.array([float(values.get(k, 0.0)) for k in RECIPE_FIELDS])
+
+
+def newmark_recipe(h: float, beta: float, gamma: float, **values: float) -> np.ndarray:
+    """A recipe with the Newmark predictor and x = a_{n+1} (NEWMARK, HHT-I3, HHT-SI2).
+
+    q = q_n + h v_n + h^2/2 ((1 - 2 beta) a_n + 2 beta a_{n+1}) [+ cqy y],
+    v = v_n + h ((1 - gamma) a_n + gamma a_{n+1}); ``values`` as in
+    :func:`make_recipe` (the residual's coefficients).
+    """
+    return make_recipe(cqx=beta * h * h, cvx=gamma * h, sx=gamma * h,
+                       pq0=1.0, pv0=h, pa=0.5 * h * h * (1.0 - 2.0 * beta),
+                       vv0=1.0, va=h * (1.0 - gamma), **values)
+
+
+def bdf_recipe(h: float, first: bool, index2: bool) -> np.ndarray:
+    """The recipe of BDF2 on the index-3 (NSTIFF) or stabilized index-2
+    (NSTIFF-SI2) DAE; ``first``: the start-up step, BDF1 (``common.bdf_coefficients``).
+
+    With D x = c0 (x_{n+1} - xi(x)), xi(x) = 4/3 x_n - 1/3 x_{n-1} (BDF1: x_n):
+    NSTIFF has x = D v, q = xi(q) + xi(v)/c0 + x/c0^2; NSTIFF-SI2 has x = D v,
+    y = D q, q = xi(q) + y/c0, v = xi(v) + x/c0 (``nstiff.py``, ``nstiff_si2.py``).
+    """
+    if first:
+        c0, w0, w1 = 1.0 / h, 1.0, 0.0
+    else:
+        c0, w0, w1 = 1.5 / h, 4.0 / 3.0, -1.0 / 3.0
+    common = dict(cvx=1.0 / c0, cM=1.0, sx=2.0 * h / 3.0, floor=1.0 / h,
+                  pq0=w0, pq1=w1, vv0=w0, vv1=w1)
+    if not index2:
+        return make_recipe(cqx=1.0 / c0 ** 2, sP=c0 * c0, pv0=w0 / c0, pv1=w1 / c0, **common)
+    return make_recipe(has_y=1.0, cqy=1.0 / c0, dI=1.0, dV=-1.0, sP=c0, sV=c0, sy=1.0,
+                       y0v=1.0, **common)
