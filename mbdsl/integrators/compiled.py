@@ -57,23 +57,27 @@ from numba.extending import intrinsic
 
 from .recipe import RECIPE_FIELDS
 
-__all__ = ["MODEL_FIELDS", "residual", "jacobian_triplets", "force_term", "mobility",
+__all__ = ["MODEL_FIELDS", "residual", "jacobian_triplets", "force_term", "old_force", "mobility",
            "accumulate", "run", "triplet_bound", "pack", "unpack", "lapack_band_addresses",
            "DENSE", "BANDED"]
 
 #: The recipe entries (``recipe.RECIPE_FIELDS``, checked below): literals here, so that
 #: numba's cache of this file never holds indices of another file's version.
-(HAS_Y, SPLIT, CQX, CQY, CVX, CVY, CM, CF, DM, DI, DV, SP, SV, SX, SY, MU_MOB, FLOOR,
- PQ0, PQ1, PV0, PV1, PA, VV0, VV1, VA, Y0V) = range(26)
-_RECIPE = ("has_y", "split", "cqx", "cqy", "cvx", "cvy", "cM", "cF", "dM", "dI", "dV",
+(FORM, HAS_Y, SPLIT, CQX, CQY, CVX, CVY, CM, CF, DM, DI, DV, SP, SV, SX, SY, MU_MOB, FLOOR,
+ PQ0, PQ1, PV0, PV1, PA, VV0, VV1, VA, Y0V, KA1, KA2, KB, CQ, SM) = range(32)
+_RECIPE = ("form", "has_y", "split", "cqx", "cqy", "cvx", "cvy", "cM", "cF", "dM", "dI", "dV",
            "sP", "sV", "sx", "sy", "mu_mob", "floor",
-           "pq0", "pq1", "pv0", "pv1", "pa", "vv0", "vv1", "va", "y0v")
+           "pq0", "pq1", "pv0", "pv1", "pa", "vv0", "vv1", "va", "y0v",
+           "ka1", "ka2", "kb", "cQ", "sm")
 if _RECIPE != RECIPE_FIELDS:     # pragma: no cover (a developer's error, caught by any test)
     raise ImportError("compiled.py's recipe indices differ from recipe.RECIPE_FIELDS")
 
 #: Linear solvers of the compiled loop: explicit inverse (LAPACK getrf/getri through
 #: numpy.linalg.inv), or LAPACK's band LU (dgbtrf/dgbtrs) on a bandwidth-reducing ordering.
 DENSE, BANDED = 0, 1
+
+#: The two forms of a recipe: the linear family, and HHT with additive corrections.
+LINEAR, ADDITIVE = 0, 1
 
 #: Newton status codes (same meaning as ``NewtonStatus``).
 CONVERGED, MAX_ITER, DIVERGING, SINGULAR, NONFINITE = 0, 1, 2, 3, 4
@@ -507,10 +511,15 @@ def _emit_identity(n, R, C, V, p, r0, c0, coef):
 
 @_jit
 def _layout(rec, n, m):
-    """(size, column of lambda, column of mu) of the unknowns w = (x, [y,] lambda, [mu])."""
+    """(size, column of lambda, column of the extra multipliers, column of a)
+    of the unknowns: w = (x, [y,] lambda, [mu]) in the linear form, (dq,
+    dv, a, psi_I, psi_II) in the additive form (lambda := psi_II, the extra
+    multipliers psi_I)."""
+    if rec[FORM] == ADDITIVE:
+        return 3 * n + 2 * m, 3 * n + m, 3 * n, 2 * n
     if rec[HAS_Y] != 0.0:
-        return 2 * (n + m), 2 * n, 2 * n + m
-    return n + m, n, n + m
+        return 2 * (n + m), 2 * n, 2 * n + m, 0
+    return n + m, n, n + m, 0
 
 
 @_jit
@@ -528,15 +537,21 @@ def _state(rec, n, w, q_pred, v_pred, qx, vx):
 
 
 @_jit
-def _residual(rec, md, q_pred, v_pred, F_old, w, r, qx, vx, work):
-    """Upsilon(w) of the recipe ``rec``, size n + m (index 3) or 2 (n + m).
+def _residual(rec, md, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work):
+    """Upsilon(w) of the recipe ``rec``, size n + m (index 3), 2 (n + m)
+    (stabilized index 2) or 3 n + 2 m (additive form).
 
     ``qx``, ``vx``, ``work`` are scratch vectors of size n + 3 (ground entries
-    zero). The same equations as each method's numpy ``residual``.
+    zero); ``qx_old`` the extended q_n (the additive form's Phi_q(q_n)). The
+    same equations as each method's numpy ``residual`` (the additive form's
+    rows 1, 2 and 5 multiplied by M).
     """
+    if rec[FORM] == ADDITIVE:
+        _residual_additive(rec, md, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work)
+        return
     mass = md[0]
     n, m = mass.shape[0], md[27].shape[0]
-    size, l0, u0 = _layout(rec, n, m)
+    size, l0, u0, a0 = _layout(rec, n, m)
     _state(rec, n, w, q_pred, v_pred, qx, vx)
     cM, cF = rec[CM], rec[CF]
     forces(md, qx, vx, work)
@@ -562,7 +577,7 @@ def _residual(rec, md, q_pred, v_pred, F_old, w, r, qx, vx, work):
 
 
 @_jit
-def _jacobian_triplets(rec, md, q_pred, v_pred, w, R, C, V, qx, vx):
+def _jacobian_triplets(rec, md, q_pred, v_pred, qx_old, w, R, C, V, qx, vx):
     """Newton matrix entries (R, C, V) of the recipe ``rec``, in an order and
     pattern fixed by the model and the method; returns their count.
     Duplicates are summed by the caller.
@@ -576,9 +591,11 @@ def _jacobian_triplets(rec, md, q_pred, v_pred, w, R, C, V, qx, vx):
     Zero coefficients are structural (the same for every h of a method) and
     emit nothing.
     """
+    if rec[FORM] == ADDITIVE:
+        return _jacobian_additive(rec, md, q_pred, v_pred, qx_old, w, R, C, V, qx, vx)
     mass = md[0]
     n, m = mass.shape[0], md[27].shape[0]
-    size, l0, u0 = _layout(rec, n, m)
+    size, l0, u0, a0 = _layout(rec, n, m)
     _state(rec, n, w, q_pred, v_pred, qx, vx)
     cqx, cvx, sP = rec[CQX], rec[CVX], rec[SP]
     lam = w[l0:l0 + m]
@@ -619,6 +636,101 @@ def _jacobian_triplets(rec, md, q_pred, v_pred, w, R, C, V, qx, vx):
         if cqy != 0.0:
             p = _emit_G(md, n, qx, vx, R, C, V, p, u0, n, sV * cqy)
     return p
+
+
+@_jit
+def _residual_additive(rec, md, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work):
+    """Upsilon(w) of HHT-ADD (``hht_add.py``) with its rows 1, 2 and 5
+    multiplied by M (rigid bodies: a constant diagonal, so that Newton's
+    iterates are those of the unscaled system and no M^-1 is formed)::
+
+        M dq - ka1 M a + (1 - kb)/2 Phi_q(q_n)^T psi_I + kb/2 Phi_q^T psi_II
+        M dv - ka2 M a + 1/2 Phi_q(q_n)^T psi_I + 1/2 Phi_q^T psi_II
+        sP Phi,   sV (Phi_q v + Phi_t)
+        M a - cQ Q(q, v) - cF F_n          (F_n = -Q_n)
+
+    with q = q_pred + cqx dq, v = v_pred + cvy dv.
+    """
+    mass = md[0]
+    n, m = mass.shape[0], md[27].shape[0]
+    size, l0, e0, a0 = _layout(rec, n, m)
+    _state(rec, n, w, q_pred, v_pred, qx, vx)
+    ka1, ka2, kb = rec[KA1], rec[KA2], rec[KB]
+    work[:] = 0.0
+    phiqT_add(md, qx_old, w[e0:e0 + m], 1.0, work)            # Phi_q(q_n)^T psi_I
+    for j in range(n):
+        r[j] = mass[j] * (w[j] - ka1 * w[a0 + j]) + 0.5 * (1.0 - kb) * work[j]
+        r[n + j] = mass[j] * (w[n + j] - ka2 * w[a0 + j]) + 0.5 * work[j]
+    work[:] = 0.0
+    phiqT_add(md, qx, w[l0:l0 + m], 1.0, work)                # Phi_q(q)^T psi_II
+    for j in range(n):
+        r[j] += 0.5 * kb * work[j]
+        r[n + j] += 0.5 * work[j]
+    phi(md, qx, r[2 * n:2 * n + m])
+    phiq_times(md, qx, vx, r[2 * n + m:2 * n + 2 * m])
+    sP, sV = rec[SP], rec[SV]
+    for i in range(m):
+        r[2 * n + i] *= sP
+        r[2 * n + m + i] *= sV
+    forces(md, qx, vx, work)
+    cQ, cF, r5 = rec[CQ], rec[CF], 2 * n + 2 * m
+    for j in range(n):
+        r[r5 + j] = mass[j] * w[a0 + j] - cQ * work[j] - cF * F_old[j]
+
+
+@_jit
+def _jacobian_additive(rec, md, q_pred, v_pred, qx_old, w, R, C, V, qx, vx):
+    """Newton matrix of ``_residual_additive`` (the one of ``HHTADD`` with
+    rows 1, 2 and 5 multiplied by M), K(u) = (Phi_q^T u)_q, G = (Phi_q v)_q::
+
+        [[M + kb/2 cqx K(psi_II), 0, -ka1 M, (1-kb)/2 Phi_q(q_n)^T, kb/2 Phi_q^T],
+         [cqx/2 K(psi_II),        M, -ka2 M, 1/2 Phi_q(q_n)^T,      1/2 Phi_q^T ],
+         [sP cqx Phi_q,           0, 0,      0,                     0           ],
+         [sV cqx G,      sV cvy Phi_q, 0,    0,                     0           ],
+         [-cQ cqx Q_q,   -cQ cvy Q_v,  M,    0,                     0           ]]
+    """
+    mass = md[0]
+    n, m = mass.shape[0], md[27].shape[0]
+    size, l0, e0, a0 = _layout(rec, n, m)
+    _state(rec, n, w, q_pred, v_pred, qx, vx)
+    ka1, ka2, kb, cqx, cvy = rec[KA1], rec[KA2], rec[KB], rec[CQX], rec[CVY]
+    psi2 = w[l0:l0 + m]
+    r5 = 2 * n + 2 * m
+    p = 0
+    p = _emit_mass(md, n, R, C, V, p, 0, 0, 1.0)
+    if kb != 0.0:
+        p = _emit_hess(md, n, qx, psi2, R, C, V, p, 0, 0, 0.5 * kb * cqx)
+        p = _emit_phiq(md, n, qx, R, C, V, p, 0, l0, 0.5 * kb, True)
+    p = _emit_mass(md, n, R, C, V, p, 0, a0, -ka1)
+    if kb != 1.0:
+        p = _emit_phiq(md, n, qx_old, R, C, V, p, 0, e0, 0.5 * (1.0 - kb), True)
+    p = _emit_hess(md, n, qx, psi2, R, C, V, p, n, 0, 0.5 * cqx)
+    p = _emit_mass(md, n, R, C, V, p, n, n, 1.0)
+    p = _emit_mass(md, n, R, C, V, p, n, a0, -ka2)
+    p = _emit_phiq(md, n, qx_old, R, C, V, p, n, e0, 0.5, True)
+    p = _emit_phiq(md, n, qx, R, C, V, p, n, l0, 0.5, True)
+    p = _emit_phiq(md, n, qx, R, C, V, p, 2 * n, 0, rec[SP] * cqx, False)
+    p = _emit_G(md, n, qx, vx, R, C, V, p, 2 * n + m, 0, rec[SV] * cqx)
+    p = _emit_phiq(md, n, qx, R, C, V, p, 2 * n + m, n, rec[SV] * cvy, False)
+    p = _emit_mass(md, n, R, C, V, p, r5, a0, 1.0)
+    p = _emit_force(md, n, qx, vx, R, C, V, p, r5, 0, rec[CQ] * cqx, 0.0)
+    p = _emit_force(md, n, qx, vx, R, C, V, p, r5, n, 0.0, rec[CQ] * cvy)
+    return p
+
+
+@_jit
+def _old_force(rec, md, q, v, lam, out, qx, vx, work):
+    """F_n of the recipe into out (n,): Phi_q^T lambda - Q (linear form), -Q
+    (additive form)."""
+    if rec[FORM] == ADDITIVE:
+        n = q.shape[0]
+        qx[:n] = q
+        vx[:n] = v
+        forces(md, qx, vx, work)
+        for j in range(n):
+            out[j] = -work[j]
+    else:
+        _force_term(md, q, v, lam, out, qx, vx, work)
 
 
 @_jit
@@ -670,7 +782,7 @@ def _scales_weights(rec, md, q, w, opts, R, C, V, qx, weight):
     mu_mob and floor)."""
     mass = md[0]
     n, m = mass.shape[0], md[27].shape[0]
-    size, l0, u0 = _layout(rec, n, m)
+    size, l0, u0, a0 = _layout(rec, n, m)
     rtol, atol_k, atol_m = opts[0], opts[1], opts[2]
     mob = np.empty(m)
     _mobility(md, q, mob, R, C, V, qx)
@@ -682,10 +794,17 @@ def _scales_weights(rec, md, q, w, opts, R, C, V, qx, weight):
     mult = np.zeros(size, np.bool_)
     sx, sy = rec[SX], rec[SY]
     scales[:n] = sx
-    for i in range(m):
-        scales[l0 + i] = sx * mob[i]
-        mult[l0 + i] = True
-    if rec[HAS_Y] != 0.0:
+    if rec[FORM] == ADDITIVE:          # dq, dv: sx; a: sy; psi_I, psi_II: sm times the mobility
+        scales[n:2 * n] = sx
+        scales[2 * n:3 * n] = sy
+        for i in range(m):
+            scales[u0 + i] = scales[l0 + i] = rec[SM] * mob[i]
+            mult[u0 + i] = mult[l0 + i] = True
+    else:
+        for i in range(m):
+            scales[l0 + i] = sx * mob[i]
+            mult[l0 + i] = True
+    if rec[FORM] != ADDITIVE and rec[HAS_Y] != 0.0:
         scales[n:2 * n] = sy
         for i in range(m):
             scales[u0 + i] = sy * mob[i] if rec[MU_MOB] != 0.0 else sy
@@ -865,7 +984,7 @@ def _solve(solver, lin, r, dw):
 
 
 @_jit
-def _newton(rec, md, q_pred, v_pred, F_old, w, weight, opts, solver, lin, lu_state,
+def _newton(rec, md, q_pred, v_pred, F_old, qx_old, w, weight, opts, solver, lin, lu_state,
             R, C, V, r, dw, qx, vx, work, counts):
     """One step's Newton iteration on w (in place), with the stored
     factorization (``_factor``, ``_solve``) reused across iterations and
@@ -887,7 +1006,7 @@ def _newton(rec, md, q_pred, v_pred, F_old, w, weight, opts, solver, lin, lu_sta
     n_jac = 0
     for _ in range(max_iter):
         if not valid:
-            p = _jacobian_triplets(rec, md, q_pred, v_pred, w, R, C, V, qx, vx)
+            p = _jacobian_triplets(rec, md, q_pred, v_pred, qx_old, w, R, C, V, qx, vx)
             counts[2] += 1
             n_jac += 1
             status = _factor(solver, lin, R, C, V, p)
@@ -897,7 +1016,7 @@ def _newton(rec, md, q_pred, v_pred, F_old, w, weight, opts, solver, lin, lu_sta
             counts[3] += 1
             valid = True
             age = 0
-        _residual(rec, md, q_pred, v_pred, F_old, w, r, qx, vx, work)
+        _residual(rec, md, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work)
         counts[1] += 1
         for i in range(size):
             if not np.isfinite(r[i]):
@@ -944,21 +1063,23 @@ def _newton(rec, md, q_pred, v_pred, F_old, w, weight, opts, solver, lin, lu_sta
 
 
 def triplet_bound(md) -> int:  # noqa: D401 (md: the unpacked tuple)
-    """An upper bound of the Newton-matrix triplets any recipe emits: two mass
-    and two identity blocks, four Hessian, two force, two G and six Phi_q blocks."""
+    """An upper bound of the Newton-matrix triplets any recipe emits: up to
+    five mass (and identity) blocks, four Hessian, two force, two G and six
+    Phi_q blocks."""
     n = md[0].shape[0]
     kc, kp, kl = md[2].shape[0], md[7].shape[0], md[13].shape[0]
     ks, kr, kf = md[17].shape[0], md[22].shape[0], md[24].shape[0]
     phiq = 8 * kc + 6 * kp + 2 * kl
-    return (4 * n + 6 * phiq + 4 * (2 * kc + 12 * kp) + 2 * (36 * ks + 4 * kr + kf)
+    return (6 * n + 6 * phiq + 4 * (2 * kc + 12 * kp) + 2 * (36 * ks + 4 * kr + kf)
             + 2 * (4 * kc + 6 * kp))
 
 
 @_jit
-def _run(rec2, md, h, t0, n_steps, step0, every, q, v, a, lam, mu, F, q_prev, v_prev, opts,
+def _run(rec2, md, h, t0, n_steps, step0, every, q, v, a, lam, mu, q_prev, v_prev, opts,
          solver, lin, lu_state, R, C, V, out_t, out_q, out_v, out_a, out_lam, out_mu, out_stats,
          counts):
-    """Take up to n_steps steps of size h from (t0, q, v, a, lam, mu).
+    """Take up to n_steps steps of size h from (t0, q, v, a, lam, mu); ``mu``
+    (m,) holds the method's extra multipliers (mu, or HHT-ADD's psi_I).
 
     ``rec2`` (2, len(RECIPE_FIELDS)): the method's recipe for a start-up
     step (row 0) and for the steps after it (row 1) at this h. ``q_prev``,
@@ -966,8 +1087,7 @@ def _run(rec2, md, h, t0, n_steps, step0, every, q, v, a, lam, mu, F, q_prev, v_
     after the first step; the caller resets it at a change of h).
     ``lu_state`` = (factorization valid, contraction rate, history valid).
 
-    The state arrays (and F = Phi_q^T lambda - Q at that state) are updated
-    in place after every accepted step, so that they hold the last accepted
+    The state arrays are updated in place after every accepted step, so that they hold the last accepted
     state when a step fails. Every step whose global number (step0 + k + 1)
     is a multiple of ``every`` is recorded in the out_* arrays with the
     Newton counts summed since the previous record (out_stats columns:
@@ -982,8 +1102,9 @@ def _run(rec2, md, h, t0, n_steps, step0, every, q, v, a, lam, mu, F, q_prev, v_
     """
     mass = md[0]
     n, m = mass.shape[0], md[27].shape[0]
-    size, l0, u0 = _layout(rec2[0], n, m)
-    has_y = rec2[0, HAS_Y] != 0.0
+    size, l0, e0, a0 = _layout(rec2[0], n, m)
+    has_extra = e0 < size
+    additive = rec2[0, FORM] == ADDITIVE
     differ = False
     for i in range(rec2.shape[1]):
         differ = differ or rec2[0, i] != rec2[1, i]
@@ -996,6 +1117,9 @@ def _run(rec2, md, h, t0, n_steps, step0, every, q, v, a, lam, mu, F, q_prev, v_
     work = np.zeros(n + 3)
     q_pred = np.empty(n)
     v_pred = np.empty(n)
+    qx_old = np.zeros(n + 3)
+    F = np.empty(n)
+    _old_force(rec2[0], md, q, v, lam, F, qx, vx, work)
     rec = 0
     for k in range(n_steps):
         first = lu_state[2] == 0.0
@@ -1010,13 +1134,19 @@ def _run(rec2, md, h, t0, n_steps, step0, every, q, v, a, lam, mu, F, q_prev, v_
                 q_pred[j] += pq1 * q_prev[j] + pv1 * v_prev[j]
                 v_pred[j] += vv1 * v_prev[j]
         w[:] = 0.0
-        w[:n] = a
+        w[a0:a0 + n] = a
         w[l0:l0 + m] = lam
-        if has_y:
+        if additive:                  # dq, dv at the Newmark predictor with a = a_n; psi_I = lambda_n
+            for j in range(n):
+                w[j] = rc[KA1] * a[j]
+                w[n + j] = rc[KA2] * a[j]
+            w[e0:e0 + m] = lam
+        elif has_extra:
             for j in range(n):
                 w[n + j] = rc[Y0V] * v[j]
+        qx_old[:n] = q
         _scales_weights(rc, md, q, w, opts, R, C, V, qx, weight)
-        status = _newton(rc, md, q_pred, v_pred, F, w, weight, opts, solver, lin,
+        status = _newton(rc, md, q_pred, v_pred, F, qx_old, w, weight, opts, solver, lin,
                          lu_state, R, C, V, r, dw, qx, vx, work, counts)
         if status != CONVERGED:
             return status, k, rec
@@ -1025,15 +1155,15 @@ def _run(rec2, md, h, t0, n_steps, step0, every, q, v, a, lam, mu, F, q_prev, v_
         _state(rc, n, w, q_pred, v_pred, qx, vx)
         q[:] = qx[:n]
         v[:] = vx[:n]
-        a[:] = w[:n]
+        a[:] = w[a0:a0 + n]
         lam[:] = w[l0:l0 + m]
-        if has_y:
-            mu[:] = w[u0:]
+        if has_extra:
+            mu[:] = w[e0:e0 + m]
         if first:
             lu_state[2] = 1.0
             if differ:                       # the steady recipe has another Newton matrix
                 lu_state[0] = 0.0
-        _force_term(md, q, v, lam, F, qx, vx, work)
+        _old_force(rc, md, q, v, lam, F, qx, vx, work)
         counts[5] += 1
         if (step0 + k + 1) % every == 0:
             out_t[rec] = t0 + (k + 1) * h
@@ -1127,10 +1257,10 @@ def unpack(I, Fl):
 
 
 @_jit
-def residual(rec, I, Fl, q_pred, v_pred, F_old, w, r, qx, vx, work):
+def residual(rec, I, Fl, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work):
     """Upsilon(w) of recipe ``rec`` into r; see ``_residual``. Returns False
     when r is not finite."""
-    _residual(rec, unpack(I, Fl), q_pred, v_pred, F_old, w, r, qx, vx, work)
+    _residual(rec, unpack(I, Fl), q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work)
     for x in r:
         if not np.isfinite(x):
             return False
@@ -1138,9 +1268,15 @@ def residual(rec, I, Fl, q_pred, v_pred, F_old, w, r, qx, vx, work):
 
 
 @_jit
-def jacobian_triplets(rec, I, Fl, q_pred, v_pred, w, R, C, V, qx, vx):
+def jacobian_triplets(rec, I, Fl, q_pred, v_pred, qx_old, w, R, C, V, qx, vx):
     """Newton-matrix triplets; see ``_jacobian_triplets``. Returns their count."""
-    return _jacobian_triplets(rec, unpack(I, Fl), q_pred, v_pred, w, R, C, V, qx, vx)
+    return _jacobian_triplets(rec, unpack(I, Fl), q_pred, v_pred, qx_old, w, R, C, V, qx, vx)
+
+
+@_jit
+def old_force(rec, I, Fl, q, v, lam, out, qx, vx, work):
+    """F_n of the recipe into out (n,); see ``_old_force``."""
+    _old_force(rec, unpack(I, Fl), q, v, lam, out, qx, vx, work)
 
 
 @_jit
@@ -1156,10 +1292,10 @@ def mobility(I, Fl, q, out, R, C, V, qx):
 
 
 @_jit
-def run(rec2, I, Fl, h, t0, n_steps, step0, every, q, v, a, lam, mu, F, q_prev, v_prev, opts,
+def run(rec2, I, Fl, h, t0, n_steps, step0, every, q, v, a, lam, mu, q_prev, v_prev, opts,
         solver, lin, lu_state, R, C, V, out_t, out_q, out_v, out_a, out_lam, out_mu, out_stats,
         counts):
     """The compiled time loop; see ``_run``."""
-    return _run(rec2, unpack(I, Fl), h, t0, n_steps, step0, every, q, v, a, lam, mu, F,
+    return _run(rec2, unpack(I, Fl), h, t0, n_steps, step0, every, q, v, a, lam, mu,
                 q_prev, v_prev, opts, solver, lin, lu_state, R, C, V, out_t, out_q, out_v, out_a,
                 out_lam, out_mu, out_stats, counts)

@@ -1,7 +1,7 @@
 """The compiled engine: the recipe methods on rigid models through numba kernels.
 
 Every method that states itself as a recipe (``Method.kernel_recipe``,
-:mod:`.recipe`: NEWMARK, HHT-I3, NSTIFF, NSTIFF-SI2 and HHT-SI2) runs here;
+:mod:`.recipe`: all six) runs here;
 the kernels hold no method name.
 
 Three ways of running, chosen by the size and structure of the Newton
@@ -317,8 +317,10 @@ def newton_pattern(system, method, q, cm=None):
     size = newton_size(system, method)
     n = system.n
     R, C, V = (np.empty(cm.bound, np.int64), np.empty(cm.bound, np.int64), np.empty(cm.bound))
+    qx = np.zeros(n + 3)
+    qx[:n] = q
     p = K.jacobian_triplets(method.kernel_recipe(1e-3, False), cm.ints, cm.floats,
-                            np.asarray(q, dtype=float), np.zeros(n), np.zeros(size),
+                            np.asarray(q, dtype=float), np.zeros(n), qx, np.zeros(size),
                             R, C, V, np.zeros(n + 3), np.zeros(n + 3))
     return R[:p], C[:p]
 
@@ -476,15 +478,10 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
     lam = start.lam.copy()
     mu = np.zeros(m)
     q_prev, v_prev = q.copy(), v.copy()
-    qx, vx, work = np.zeros(n + 3), np.zeros(n + 3), np.zeros(n + 3)
-
-    def force_term(qs, vs, ls):
-        """F = Phi_q^T lambda - Q at a state, by the kernel (F_n of the HHT recipes)."""
-        out = np.empty(n)
-        K.force_term(I, Fl, qs, vs, ls, out, qx, vx, work)
-        return out
-
-    F = force_term(q, v, lam)
+    # the method's extra multipliers (mu of the SI2 methods, psi_I of HHT-ADD)
+    extra = method.extras[0] if method.extras else None
+    if extra is not None and extra in start.extra:
+        mu[:] = start.extra[extra]
     opts = np.array([opt.rtol, opt.atol_kinematic, opt.atol_multiplier, opt.max_iter,
                      opt.refresh_rate(plan.factorization_is_expensive(size)),
                      1.0 if opt.jacobian.value == "full" else 0.0])
@@ -499,7 +496,6 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
     out_q, out_v, out_a = (np.empty((CHUNK, n)) for _ in range(3))
     out_lam, out_mu = np.empty((CHUNK, m)), np.empty((CHUNK, m))
     out_stats = np.empty((CHUNK, 6), np.int64)
-    has_mu = _recipe_value(method, "has_y") != 0.0
     t = t_start
     step_no = 0           # global step count, for the output stride
     last_h = h
@@ -507,8 +503,8 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
     def add_row(t_row, qr, vr, ar, lr, mr, st, step_h):
         """Append one recorded state with its Newton counts st (6,) to sol."""
         s = StepState(float(t_row), qr.copy(), vr.copy(), ar.copy(), lr.copy())
-        if has_mu:
-            s.extra["mu"] = mr.copy()
+        if extra is not None:
+            s.extra[extra] = mr.copy()
         sol.append(s, StepStats(int(st[0]), int(st[1]), int(st[2]), int(st[3]), step_h,
                                 int(st[4]), steps=int(st[5])))
 
@@ -523,7 +519,7 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
                 chunk = min(CHUNK, n_steps - done)
                 t0 = t
                 status, taken, nrec = K.run(
-                    rec2, I, Fl, step_h, t0, chunk, step_no, output_every, q, v, a, lam, mu, F,
+                    rec2, I, Fl, step_h, t0, chunk, step_no, output_every, q, v, a, lam, mu,
                     q_prev, v_prev, opts, solver, lin, lu_state, R, C, V, out_t, out_q, out_v,
                     out_a, out_lam, out_mu, out_stats, counts)
                 for i in range(nrec):
@@ -563,9 +559,8 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
                         return sol
                     last = part._rows[-1]
                     q[:], v[:], a[:], lam[:] = last.q, last.v, last.a, last.lam
-                    if has_mu:
-                        mu[:] = last.extra["mu"]
-                    F[:] = force_term(q, v, lam)
+                    if extra is not None:
+                        mu[:] = last.extra[extra]
                     # the history of a two-step method: the numpy part's last step, if of size h
                     before = part._rows[-2] if len(part._rows) >= 2 else None
                     lu_state[2] = 0.0
@@ -643,31 +638,28 @@ class SparseAdapter:
             p = history[-2]
             q_pred = q_pred + g(rec, "pq1") * p.q + g(rec, "pv1") * p.v
             v_pred = v_pred + g(rec, "vv1") * p.v
-        F = s.extra.get("F")
-        if F is None:
-            F = self._force_term(s.q, s.v, s.lam)
-        ctx.cache.update(recipe=rec, kq_pred=q_pred, kv_pred=v_pred, kF=F)
+        F = np.empty(system.n)
+        self._K.old_force(rec, self._cm.ints, self._cm.floats, s.q, s.v, s.lam, F, self._qx,
+                          self._vx, self._work)
+        qx_old = np.zeros(system.n + 3)
+        qx_old[:system.n] = s.q
+        ctx.cache.update(recipe=rec, kq_pred=q_pred, kv_pred=v_pred, kF=F, kqx_old=qx_old)
         return ctx
-
-    def _force_term(self, q, v, lam):
-        F = np.empty(self._system.n)
-        self._K.force_term(self._cm.ints, self._cm.floats, q, v, lam, F, self._qx, self._vx,
-                           self._work)
-        return F
 
     def residual(self, w, ctx):
         """Upsilon(w) by the kernel."""
         r = np.empty(self.size)
         c = ctx.cache
         self._K.residual(c["recipe"], self._cm.ints, self._cm.floats, c["kq_pred"],
-                         c["kv_pred"], c["kF"], w, r, self._qx, self._vx, self._work)
+                         c["kv_pred"], c["kF"], c["kqx_old"], w, r, self._qx, self._vx,
+                         self._work)
         return r
 
     def jacobian(self, w, ctx):
         """Newton matrix as CSC on the fixed pattern."""
         K, c = self._K, ctx.cache
         p = K.jacobian_triplets(c["recipe"], self._cm.ints, self._cm.floats, c["kq_pred"],
-                                c["kv_pred"], w, self._R, self._C, self._V, self._qx, self._vx)
+                                c["kv_pred"], c["kqx_old"], w, self._R, self._C, self._V, self._qx, self._vx)
         if self._pattern is None or self._pattern[0] != p:
             key = self._C[:p] * self.size + self._R[:p]
             uniq, position = np.unique(key, return_inverse=True)
@@ -682,34 +674,39 @@ class SparseAdapter:
     def scales(self, system, h, q):
         """The recipe's scales (as the wrapped method's), with the mobility
         from the kernel."""
+        from .recipe import ADDITIVE
         m, n = system.m, system.n
         mob = np.empty(m)
         self._K.mobility(self._cm.ints, self._cm.floats, q, mob, self._R, self._C, self._V,
                          self._qx)
-        rec = self._method.kernel_recipe(h, False)
-        sx = self._get(rec, "sx")
-        if self._get(rec, "has_y") == 0.0:
+        rec, g = self._method.kernel_recipe(h, False), self._get
+        sx, sy = g(rec, "sx"), g(rec, "sy")
+        if g(rec, "form") == ADDITIVE:
+            sm = g(rec, "sm") * mob
+            return np.concatenate([np.full(2 * n, sx), np.full(n, sy), sm, sm])
+        if g(rec, "has_y") == 0.0:
             return np.concatenate([np.full(n, sx), sx * mob])
-        sy = self._get(rec, "sy")
-        smu = sy * mob if self._get(rec, "mu_mob") != 0.0 else np.full(m, sy)
+        smu = sy * mob if g(rec, "mu_mob") != 0.0 else np.full(m, sy)
         return np.concatenate([np.full(n, sx), np.full(n, sy), sx * mob, smu])
 
     def accept(self, w, ctx):
-        """The state of the converged w by the recipe, with the force term
-        from the kernel."""
+        """The state of the converged w by the recipe (``compiled._run``)."""
+        from .recipe import ADDITIVE
         n, m = self._system.n, self._system.m
         rec, g = ctx.cache["recipe"], self._get
-        x = w[:n].copy()
+        x, y = w[:n], w[n:2 * n]
+        has_y = g(rec, "has_y") != 0.0
         q = ctx.cache["kq_pred"] + g(rec, "cqx") * x
         v = ctx.cache["kv_pred"] + g(rec, "cvx") * x
-        has_y = g(rec, "has_y") != 0.0
         if has_y:
-            y = w[n:2 * n]
             q = q + g(rec, "cqy") * y
             v = v + g(rec, "cvy") * y
-        l0 = 2 * n if has_y else n
-        s = StepState(ctx.t, q, v, x, w[l0:l0 + m].copy())
-        if has_y:
-            s.extra["mu"] = w[l0 + m:].copy()
-        s.extra["F"] = self._force_term(q, v, s.lam)
+        if g(rec, "form") == ADDITIVE:
+            a, lam, extra = w[2 * n:3 * n], w[3 * n + m:], w[3 * n:3 * n + m]
+        else:
+            l0 = 2 * n if has_y else n
+            a, lam, extra = x, w[l0:l0 + m], (w[l0 + m:] if has_y else None)
+        s = StepState(ctx.t, q, v, a.copy(), lam.copy())
+        if extra is not None:
+            s.extra[self._method.extras[0]] = extra.copy()
         return s

@@ -6,6 +6,7 @@ import numpy as np
 
 from .base import Block, Method, StepContext, StepState, check_range
 from .common import Terms, assemble, hht_coefficients, newmark_predictor, roundoff_floor
+from .recipe import additive_recipe
 
 __all__ = ["HHTADD"]
 
@@ -112,6 +113,11 @@ class HHTADD(Method):
 
     def _f(self, system, t, q, v):
         return system.mass_solve(q, system.Q(t, q, v))
+
+    def kernel_recipe(self, h, first):
+        """The additive form (``recipe.py``): these equations with rows 1, 2
+        and 5 multiplied by M, for rigid bodies."""
+        return additive_recipe(h, self.alpha, self.beta, self.gamma, self.b)
 
     def start(self, system, initial) -> list[StepState]:
         """a_0 = f(t_0, q_0, v_0); psi_I of the first step starts at lambda_0."""

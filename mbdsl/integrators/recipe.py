@@ -1,9 +1,10 @@
-"""Kernel recipes: the methods of the Newmark family and of BDF2 as data.
+"""Kernel recipes: the six methods as data.
 
 Five of the six methods (NEWMARK, HHT-I3, NSTIFF, NSTIFF-SI2, HHT-SI2) are
-one nonlinear system in one of two shapes of unknowns, with coefficients
-that depend on the method, the step size h and (for BDF2) whether the step
-is a start-up step. A recipe is that coefficient vector, in the spirit of
+one nonlinear system in one of two shapes of unknowns (the linear form,
+``form`` 0), with coefficients that depend on the method, the step size h
+and (for BDF2) whether the step is a start-up step; HHT-ADD is a second form
+(``form`` 1, below). A recipe is that coefficient vector, in the spirit of
 the Butcher tableaux of scipy's Runge-Kutta solvers: the compiled engine
 (:mod:`.compiled`) reads it, and holds no method name.
 
@@ -36,18 +37,37 @@ Each method's ``kernel_recipe(h, first)`` (``base.Method``) fills one with
 :func:`make_recipe`; its equations are the ones its numpy ``residual``
 evaluates, and ``tests/integrators/test_engine.py`` checks the two against
 each other and the Newton matrix against differences of the residual.
+
+The additive form (HHT-ADD, ``hht_add.py``): unknowns (dq, dv, a, psi_I,
+psi_II), q = q_pred + cqx dq, v = v_pred + cvy dv (Newmark predictor), and
+the residual of HHT-ADD with its rows 1, 2 and 5 multiplied by M (for rigid
+bodies a constant diagonal: Newton's iterates are unchanged and no M^-1 is
+formed)::
+
+    M dq - ka1 M a + (1 - kb)/2 Phi_q(q_n)^T psi_I + kb/2 Phi_q(q)^T psi_II
+    M dv - ka2 M a + 1/2 Phi_q(q_n)^T psi_I + 1/2 Phi_q(q)^T psi_II
+    sP Phi(q, t),   sV (Phi_q v + Phi_t)
+    M a - cQ Q(t, q, v) + cF Q_n
+
+Scales: sx for dq and dv, sy for a, sm times the mobility for psi_I and
+psi_II. lambda := psi_II; psi_I is the method's extra multiplier.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["RECIPE_FIELDS", "make_recipe", "newmark_recipe", "bdf_recipe"]
+__all__ = ["RECIPE_FIELDS", "LINEAR", "ADDITIVE", "make_recipe", "newmark_recipe",
+           "bdf_recipe", "additive_recipe"]
+
+#: The two forms (``form``).
+LINEAR, ADDITIVE = 0, 1
 
 #: The recipe's entries, in order (``compiled`` checks its copy against this one).
-RECIPE_FIELDS = ("has_y", "split", "cqx", "cqy", "cvx", "cvy", "cM", "cF", "dM", "dI", "dV",
-                 "sP", "sV", "sx", "sy", "mu_mob", "floor",
-                 "pq0", "pq1", "pv0", "pv1", "pa", "vv0", "vv1", "va", "y0v")
+RECIPE_FIELDS = ("form", "has_y", "split", "cqx", "cqy", "cvx", "cvy", "cM", "cF", "dM", "dI",
+                 "dV", "sP", "sV", "sx", "sy", "mu_mob", "floor",
+                 "pq0", "pq1", "pv0", "pv1", "pa", "vv0", "vv1", "va", "y0v",
+                 "ka1", "ka2", "kb", "cQ", "sm")
 
 
 def make_recipe(**values: float) -> np.ndarray:
@@ -94,3 +114,13 @@ def bdf_recipe(h: float, first: bool, index2: bool) -> np.ndarray:
         return make_recipe(cqx=1.0 / c0 ** 2, sP=c0 * c0, pv0=w0 / c0, pv1=w1 / c0, **common)
     return make_recipe(has_y=1.0, cqy=1.0 / c0, dI=1.0, dV=-1.0, sP=c0, sV=c0, sy=1.0,
                        y0v=1.0, **common)
+
+
+def additive_recipe(h: float, alpha: float, beta: float, gamma: float, b: float) -> np.ndarray:
+    """The recipe of HHT-ADD (``hht_add.py``): the additive form with the
+    Newmark predictor; row scalings 1/h^2 and 1/h of its constraint rows."""
+    return make_recipe(form=ADDITIVE, has_y=1.0, cqx=h * h, cvy=h, cQ=1.0 + alpha, cF=alpha,
+                       ka1=beta, ka2=gamma, kb=b, sP=1.0 / (h * h), sV=1.0 / h,
+                       sx=h, sy=gamma * h, sm=0.5 * h, floor=1.0 / h,
+                       pq0=1.0, pv0=h, pa=0.5 * h * h * (1.0 - 2.0 * beta),
+                       vv0=1.0, va=h * (1.0 - gamma))

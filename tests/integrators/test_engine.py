@@ -12,6 +12,7 @@ import pytest
 
 import mbdsl
 from mbdsl.integrators import NewtonOptions, integrate, make_method
+from mbdsl.integrators.common import force_term
 from mbdsl.integrators.engine import (CompiledModel, SparseAdapter, band_ordering,
                                      linear_solver_plan, select_engine, unsupported)
 
@@ -21,7 +22,7 @@ VALID = MODELS.parent / "tests" / "dsl" / "valid"
 # the same refresh policy in both engines, so that they take the same iterations
 SAME = NewtonOptions(rate_refresh=0.1)
 #: The methods the kernels run from their recipes.
-RECIPE_METHODS = ["newmark", "hht-i3", "nstiff", "nstiff-si2", "hht-si2"]
+RECIPE_METHODS = ["newmark", "hht-i3", "nstiff", "nstiff-si2", "hht-add", "hht-si2"]
 
 
 def _system(path, **overrides):
@@ -44,8 +45,8 @@ def test_compiled_loop_matches_numpy_engine(path, T, method):
     assert np.abs(a.v - b.v).max() < 1e-8
     assert np.abs(a.lam - b.lam).max() < 1e-7 * max(1.0, np.abs(a.lam).max())
     assert a.stats_total.iterations == pytest.approx(b.stats_total.iterations, rel=0.02)
-    if method.endswith("si2"):
-        assert np.abs(a.extras["mu"] - b.extras["mu"]).max() < 1e-7 * max(1.0, np.abs(a.lam).max())
+    for extra in make_method(method).extras:        # mu (SI2), psi1 (HHT-ADD)
+        assert np.abs(a.extras[extra] - b.extras[extra]).max() < 1e-7 * max(1.0, np.abs(a.lam).max())
 
 
 @pytest.mark.parametrize("method", RECIPE_METHODS)
@@ -170,7 +171,9 @@ def test_kernel_newton_matrix_is_the_derivative_of_the_kernel_residual(method, f
     if not first:        # a second state h later: BDF2's steady step (one-step methods: the same)
         s = hist[-1]
         later = type(s)(s.t + 1e-2, s.q + 1e-2 * s.v, s.v + 1e-2 * s.a, s.a, s.lam)
-        later.extra.update(s.extra)
+        later.extra.update(s.extra)       # mu, psi1; the cached force terms of the later state:
+        later.extra["F"] = force_term(system, later.t, later.q, later.v, later.lam)
+        later.extra["f"] = system.mass_solve(later.q, system.Q(later.t, later.q, later.v))
         hist = [s, later]
     assert m.first_step(hist, 1e-2) == (first and method.startswith("nstiff"))
     ctx = ad.context(system, hist, hist[-1].t + 1e-2, 1e-2)
@@ -185,8 +188,12 @@ def test_kernel_newton_matrix_is_the_derivative_of_the_kernel_residual(method, f
         fd[:, j] = (ad.residual(w + e, ctx) - ad.residual(w - e, ctx)) / (2 * step)
     scale = np.abs(J).max()
     assert np.abs(J - fd).max() < 1e-6 * scale
-    # and the kernel residual is the numpy residual
-    assert np.allclose(ad.residual(w, ctx), m.residual(w, ctx), rtol=1e-12, atol=1e-10 * scale)
+    # and the kernel residual is the numpy residual (HHT-ADD: rows 1, 2 and 5 times M)
+    ref = m.residual(w, ctx)
+    if method == "hht-add":
+        M = system.mass_diag
+        ref = np.concatenate([M, M, np.ones(2 * system.m), M]) * ref
+    assert np.allclose(ad.residual(w, ctx), ref, rtol=1e-12, atol=1e-10 * scale)
 
 
 def test_output_stride_keeps_every_kth_step_and_the_last():
@@ -224,7 +231,7 @@ def test_engine_selection_says_why():
     flex, _ = _system(MODELS / "flexible_slider_crank.mbd")
     assert "flexible" in unsupported(flex, make_method("hht-i3"))
     rigid, init = _system(MODELS / "slider_crank.mbd")
-    assert "no recipe for hht-add" in unsupported(rigid, make_method("hht-add"))
+    assert all(unsupported(rigid, make_method(m)) is None for m in RECIPE_METHODS)
     assert select_engine("auto", flex, make_method("hht-i3")) == "numpy"
     assert select_engine("auto", rigid, make_method("hht-i3")) == "compiled"
     with pytest.raises(ValueError, match="flexible beams"):
