@@ -173,21 +173,18 @@ class CsvStream:
 
     def _rows_text(self, sol, i0, i1, finalized) -> str:
         """Rows i0..i1-1 of the table as CSV text, from the stacked arrays of a
-        finalized Solution or from its list of accepted states during the run."""
+        finalized Solution or from the rows recorded so far during the run."""
         from .solution import Solution
-        m = sol.system.m
         if finalized:
             sl = slice(i0, i1)
             t, q, v, a, lam = sol.t[sl], sol.q[sl], sol.v[sl], sol.a[sl], sol.lam[sl]
             extras = {k: x[sl] for k, x in sol.extras.items()}
             stats = {k: x[sl] for k, x in sol.stats.items()}
         else:
-            rows, st = sol._rows[i0:i1], sol._stats[i0:i1]
-            t, q, v, a = ([getattr(r, k) for r in rows] for k in ("t", "q", "v", "a"))
-            lam = np.array([r.lam for r in rows]).reshape(len(rows), m)
-            extras = {x: np.array([r.extra[x] for r in rows]).reshape(len(rows), m)
-                      for x in sol.extra_names}
-            stats = {k: np.array([getattr(s, k) for s in st]) for k in Solution.STAT_NAMES}
+            d = sol.rows(i0, i1)
+            t, q, v, a, lam = d["t"], d["q"], d["v"], d["a"], d["lam"]
+            extras = {x: d[x] for x in sol.extra_names}
+            stats = {k: d[k] for k in Solution.STAT_NAMES}
         part = Solution.from_arrays(
             sol.system, method_name=sol.method_name, method_parameters=sol.method_parameters,
             extra_names=sol.extra_names, h=sol.h, t_end=sol.t_end, t=t, q=q, v=v, a=a, lam=lam,
@@ -216,7 +213,7 @@ class CsvStream:
         with _DeferredInterrupt(), _Timer(self):
             if not self._header:
                 self._open(sol)
-            n = len(sol._rows)
+            n = sol.n_rows
             if n > self._written:
                 self._file.write(self._rows_text(sol, self._written, n, finalized=False))
                 self._file.flush()

@@ -45,6 +45,87 @@ class RunStats:
     multipliers_stalled: int = 0
 
 
+class _RowStore:
+    """The recorded rows of a run, in segments of arrays.
+
+    The compiled time loop hands over blocks of rows as arrays
+    (:meth:`extend`); the numpy engine one accepted state at a time
+    (:meth:`append`), kept as objects until the next block or read, then
+    stacked into one segment. Why: a Python object per recorded step cost as
+    much as the compiled step itself (about 10 us per row, half of it the
+    garbage collector walking them).
+
+    A segment is a dict: "t" (k,), "q", "v", "a" (k, n), "lam" (k, m), one
+    (k, m) array per extra multiplier name, and one (k,) array per
+    ``Solution.STAT_NAMES`` entry.
+    """
+
+    def __init__(self, n: int, m: int, extra_names):
+        self.n, self.m, self.extra_names = n, m, tuple(extra_names)
+        self._segments: list[dict] = []
+        self._states: list = []
+        self._stats: list = []
+        self._count = 0
+
+    def __len__(self) -> int:
+        return self._count
+
+    def append(self, state, stats: StepStats) -> None:
+        """One accepted state (``StepState``) and its statistics."""
+        self._states.append(state)
+        self._stats.append(stats)
+        self._count += 1
+
+    def extend(self, segment: dict) -> None:
+        """A block of rows (a segment as in the class docstring; the arrays are kept)."""
+        self._flush()
+        self._segments.append(segment)
+        self._count += len(segment["t"])
+
+    def _flush(self) -> None:
+        if not self._states:
+            return
+        rows, k, m = self._states, len(self._states), self.m
+        seg = {"t": np.array([s.t for s in rows], dtype=float),
+               "q": np.array([s.q for s in rows], dtype=float).reshape(k, self.n),
+               "v": np.array([s.v for s in rows], dtype=float).reshape(k, self.n),
+               "a": np.array([s.a for s in rows], dtype=float).reshape(k, self.n),
+               "lam": np.array([s.lam for s in rows], dtype=float).reshape(k, m)}
+        for x in self.extra_names:
+            seg[x] = np.array([s.extra[x] for s in rows], dtype=float).reshape(k, m)
+        for name in Solution.STAT_NAMES:
+            seg[name] = np.array([getattr(s, name) for s in self._stats])
+        self._segments.append(seg)
+        self._states, self._stats = [], []
+
+    def get(self, i0: int, i1: int) -> dict:
+        """Rows i0..i1-1 as one segment (new arrays)."""
+        self._flush()
+        parts, start = [], 0
+        for seg in self._segments:
+            k = len(seg["t"])
+            lo, hi = max(i0 - start, 0), min(i1 - start, k)
+            if lo < hi:
+                parts.append({key: x[lo:hi] for key, x in seg.items()})
+            start += k
+        keys = ("t", "q", "v", "a", "lam") + self.extra_names + Solution.STAT_NAMES
+        if not parts:
+            shapes = {"t": (0,), "q": (0, self.n), "v": (0, self.n), "a": (0, self.n)}
+            return {key: np.zeros(shapes.get(key, (0, self.m) if key == "lam"
+                                             or key in self.extra_names else (0,)))
+                    for key in keys}
+        return {key: np.concatenate([p[key] for p in parts]) for key in keys}
+
+    def last(self) -> dict:
+        """The last row, as a one-row segment."""
+        return self.get(self._count - 1, self._count)
+
+    def set_last_t(self, t: float) -> None:
+        """Move the last row's time to t [s] (the end of a run, exactly)."""
+        self._flush()
+        self._segments[-1]["t"][-1] = t
+
+
 class _Reactions:
     """Reaction of every joint on its second body, vectorised over joints and rows.
 
@@ -202,14 +283,12 @@ class Solution:
         self.timings = dict.fromkeys(self.TIMING_NAMES, 0.0)
         self.engine, self.linear_solver = "numpy", "dense"
         self.stats_total = RunStats()
-        self._rows: list = []
-        self._stats: list = []
+        self._rows = _RowStore(system.n, system.m, self.extra_names)
 
     # -- building ---------------------------------------------------------------------
     def append(self, state, stats: StepStats) -> None:
-        """Record an accepted step."""
-        self._rows.append(state)
-        self._stats.append(stats)
+        """Record an accepted step (``StepState``) and its Newton statistics."""
+        self._rows.append(state, stats)
         tot = self.stats_total
         if stats.h > 0:
             tot.steps += stats.steps
@@ -219,17 +298,68 @@ class Solution:
         tot.factorizations += stats.factorizations
         tot.multipliers_stalled += int(stats.multipliers_stalled)
 
+    def append_block(self, t, q, v, a, lam, extras: dict, counts, h: float) -> None:
+        """Record k rows at once (the compiled loop's output); the arrays are kept.
+
+        Parameters
+        ----------
+        t : ndarray, shape (k,) [s]
+        q, v, a : ndarray, shape (k, n)
+        lam : ndarray, shape (k, m)
+        extras : dict of str -> ndarray, shape (k, m)
+            One entry per name of ``extra_names``.
+        counts : ndarray of int, shape (k, 6)
+            Per row: iterations, residuals, jacobians, factorizations, steps
+            accepted at the round-off floor, steps (``StepStats``).
+        h : float [s]
+            The step size of these rows.
+        """
+        k = len(t)
+        seg = {"t": t, "q": q, "v": v, "a": a, "lam": lam, "iterations": counts[:, 0],
+               "residuals": counts[:, 1], "jacobians": counts[:, 2],
+               "factorizations": counts[:, 3], "h": np.full(k, float(h))}
+        seg.update({x: extras[x] for x in self.extra_names})
+        self._rows.extend(seg)
+        tot, sums = self.stats_total, counts.sum(axis=0)
+        if h > 0:
+            tot.steps += int(sums[5])
+        tot.iterations += int(sums[0])
+        tot.residuals += int(sums[1])
+        tot.jacobians += int(sums[2])
+        tot.factorizations += int(sums[3])
+        tot.multipliers_stalled += int(sums[4])
+
+    def extend(self, other: "Solution", start: int = 0) -> None:
+        """Record the rows of another (finalized) run from row ``start`` on,
+        with its totals (rejected steps included)."""
+        k = len(other.t) - start
+        seg = {"t": other.t[start:], "q": other.q[start:], "v": other.v[start:],
+               "a": other.a[start:], "lam": other.lam[start:]}
+        seg.update({x: other.extras[x][start:] for x in self.extra_names})
+        seg.update({name: other.stats[name][start:] for name in self.STAT_NAMES})
+        if k > 0:
+            self._rows.extend(seg)
+        tot, o = self.stats_total, other.stats_total
+        for name in ("steps", "iterations", "residuals", "jacobians", "factorizations",
+                     "rejected", "multipliers_stalled"):
+            setattr(tot, name, getattr(tot, name) + getattr(o, name))
+
+    @property
+    def n_rows(self) -> int:
+        """Rows recorded so far."""
+        return len(self._rows)
+
+    def rows(self, i0: int, i1: int) -> dict:
+        """Rows i0..i1-1 recorded so far, as arrays ("t", "q", "v", "a",
+        "lam", the extra names and the ``STAT_NAMES``)."""
+        return self._rows.get(i0, i1)
+
     def finalize(self) -> None:
         """Stack the recorded steps into arrays."""
-        rows = self._rows
-        self.t = np.array([s.t for s in rows])
-        self.q = np.array([s.q for s in rows])
-        self.v = np.array([s.v for s in rows])
-        self.a = np.array([s.a for s in rows])
-        self.lam = np.array([s.lam for s in rows]).reshape(len(rows), self.system.m)
-        self.extras = {x: np.array([s.extra[x] for s in rows]).reshape(len(rows), self.system.m)
-                       for x in self.extra_names}
-        self.stats = {k: np.array([getattr(s, k) for s in self._stats]) for k in self.STAT_NAMES}
+        d = self._rows.get(0, len(self._rows))
+        self.t, self.q, self.v, self.a, self.lam = d["t"], d["q"], d["v"], d["a"], d["lam"]
+        self.extras = {x: d[x] for x in self.extra_names}
+        self.stats = {k: d[k] for k in self.STAT_NAMES}
         self._derived = None
 
     @classmethod
@@ -272,7 +402,7 @@ class Solution:
         self.timings = dict.fromkeys(cls.TIMING_NAMES, 0.0)
         self.timings.update(timings or {})
         self.engine, self.linear_solver = engine, linear_solver
-        self._rows, self._stats = [], []
+        self._rows = _RowStore(system.n, system.m, self.extra_names)
         n, m = system.n, system.m
         self.t = np.asarray(t, dtype=float)
         N = len(self.t)

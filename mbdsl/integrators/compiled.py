@@ -13,10 +13,11 @@ instances of each element type (struct of arrays, fixed at build), and for
 systems of up to ``DENSE_LIMIT`` unknowns run the whole time loop, Newton
 iteration included, without returning to Python.
 
-Model data (``md``) is a tuple of arrays in the order of :data:`MODEL_FIELDS`
-(built by ``engine.CompiledModel``): body columns index the extended
-coordinate vector q_ext = [q, 0, 0, 0], the trailing three being the
-ground, whose entries are never written to a matrix.
+Model data: the fields of :data:`MODEL_SCHEMA` packed into two flat arrays
+(integers ``I``, floats ``Fl``; built by ``engine.CompiledModel``) and read
+by name (``_i(I, CROW, i, 0)``): body columns index the extended coordinate
+vector q_ext = [q, 0, 0, 0], the trailing three being the ground, whose
+entries are never written to a matrix.
 
 Formulas (Haug, Computer-Aided Kinematics and Dynamics of Mechanical
 Systems, ch. 3 and 6; Nikravesh, Computer-Aided Analysis of Mechanical
@@ -57,7 +58,7 @@ from numba.extending import intrinsic
 
 from .recipe import RECIPE_FIELDS
 
-__all__ = ["MODEL_FIELDS", "residual", "jacobian_triplets", "force_term", "old_force", "mobility",
+__all__ = ["MODEL_SCHEMA", "MODEL_FIELDS", "residual", "jacobian_triplets", "force_term", "old_force", "mobility",
            "accumulate", "run", "triplet_bound", "pack", "unpack", "lapack_band_addresses",
            "DENSE", "BANDED"]
 
@@ -82,50 +83,102 @@ LINEAR, ADDITIVE = 0, 1
 #: Newton status codes (same meaning as ``NewtonStatus``).
 CONVERGED, MAX_ITER, DIVERGING, SINGULAR, NONFINITE = 0, 1, 2, 3, 4
 
-#: The order of the arrays in a model-data tuple.
-MODEL_FIELDS = ("mass", "Q0",
-                "crow", "ccol1", "cs1", "ccol2", "cs2",
-                "prow", "pcolL", "psL", "pcolP", "psP", "pn0",
-                "lrow", "lcol", "lcoef", "loff",
-                "scol1", "ss1", "scol2", "ss2", "spar",
-                "rcol", "rpar",
-                "fcol", "fs", "fF",
-                "row_element", "n_elements")
+#: The model data's schema, one entry per field: (name, "i" or "f", columns per
+#: instance; 0 for a 1-D field). Packing (``pack``), the kernels' named access (the
+#: index constants below, checked against it) and ``triplet_bound`` derive from it.
+#: Body columns index the extended coordinate vector q_ext = [q, 0, 0, 0].
+MODEL_SCHEMA = (
+    ("mass", "f", 0), ("Q0", "f", 0),                                  # diagonal M; constant Q
+    ("crow", "i", 2), ("ccol1", "i", 3), ("cs1", "f", 2),              # coincidence: rows,
+    ("ccol2", "i", 3), ("cs2", "f", 2),                                # bodies, local points
+    ("prow", "i", 0), ("pcolL", "i", 3), ("psL", "f", 2),              # point on line
+    ("pcolP", "i", 3), ("psP", "f", 2), ("pn0", "f", 2),
+    ("lrow", "i", 0), ("lcol", "i", 2), ("lcoef", "f", 2), ("loff", "f", 0),   # linear rows
+    ("scol1", "i", 3), ("ss1", "f", 2), ("scol2", "i", 3), ("ss2", "f", 2),   # spring-dampers
+    ("spar", "f", 3),                                                  # (k, c, l0)
+    ("rcol", "i", 2), ("rpar", "f", 3),                                # rotational (k, c, angle)
+    ("fcol", "i", 3), ("fs", "f", 2), ("fF", "f", 2),                  # constant point forces
+    ("row_element", "i", 0),                                           # constraint row -> element
+)
+#: The field names, and the scalar "n_elements" (the header's last entry).
+MODEL_FIELDS = tuple(name for name, _, _ in MODEL_SCHEMA) + ("n_elements",)
 
 ROUNDOFF_BAND = 1e3        # as in newton.py
 EPS = 2.220446049250313e-16
 
 _jit = numba.njit(cache=True, nogil=True)
+#: The accessors of the packed model data are inlined in numba's IR (see "Named access").
+_inline = numba.njit(cache=True, nogil=True, inline="always")
+
+
+#: The model data's fields (``MODEL_FIELDS``) by name: literals, checked against the
+#: schema below, so that numba's cache of this file never holds another version's indices.
+(MASS, Q0, CROW, CCOL1, CS1, CCOL2, CS2, PROW, PCOLL, PSL, PCOLP, PSP, PN0,
+ LROW, LCOL, LCOEF, LOFF, SCOL1, SS1, SCOL2, SS2, SPAR, RCOL, RPAR,
+ FCOL, FS, FF, ROW_ELEMENT) = range(28)
+if any(globals()[name.upper()] != k for k, (name, _, _) in enumerate(MODEL_SCHEMA)):
+    raise ImportError("compiled.py's field indices differ from MODEL_SCHEMA")   # pragma: no cover
+
+
+# --------------------------------------------------------------------------------------------
+# Named access to the packed model data
+#
+# The model data cross every kernel call as two flat arrays (integers I, floats
+# Fl) with a header of (offset, rows, columns) per field, and are read through
+# the scalar accessors below, inlined by numba. Why not a tuple of arrays, one
+# per field: numba increments and decrements the reference count of every array
+# a called kernel binds (atomic operations), and a kernel that unpacked the
+# 28-array tuple paid that 56 times per call: measured, 130-440 ns per call of
+# an empty element loop, most of a step's time on a double pendulum (perf: the
+# NRT atomics took nearly all samples of the time loop). Two arrays and scalar
+# reads cost a few ns.
+# --------------------------------------------------------------------------------------------
+
+@_inline
+def _rows(I, k):
+    """Rows (instances) of field k."""
+    return I[3 * k + 1]
+
+
+@_inline
+def _i(I, k, i, j):
+    """Entry (i, j) of integer field k (j = 0 for a 1-D field)."""
+    return I[I[3 * k] + I[3 * k + 2] * i + j]
+
+
+@_inline
+def _f(I, Fl, k, i, j):
+    """Entry (i, j) of float field k (j = 0 for a 1-D field)."""
+    return Fl[I[3 * k] + I[3 * k + 2] * i + j]
 
 
 @_jit
-def _As(qx, cols, s, i):
-    """A(phi) s of instance i: (x, y)."""
-    ph = qx[cols[i, 2]]
+def _As(I, Fl, qx, cols, s, i):
+    """A(phi) s of instance i of the element whose body columns are integer
+    field ``cols`` and whose local vectors are float field ``s``: (x, y)."""
+    ph = qx[_i(I, cols, i, 2)]
     c, sn = math.cos(ph), math.sin(ph)
-    return c * s[i, 0] - sn * s[i, 1], sn * s[i, 0] + c * s[i, 1]
+    s0, s1 = _f(I, Fl, s, i, 0), _f(I, Fl, s, i, 1)
+    return c * s0 - sn * s1, sn * s0 + c * s1
 
 
 @_jit
-def _pol(qx, pcolL, psL, pcolP, psP, pn0, i):
+def _pol(I, Fl, qx, i):
     """Point-on-line parts: n, d = p_P - p_L, A s_L, A s_P."""
-    axL, ayL = _As(qx, pcolL, psL, i)
-    axP, ayP = _As(qx, pcolP, psP, i)
-    dx = (qx[pcolP[i, 0]] - qx[pcolL[i, 0]]) + (axP - axL)
-    dy = (qx[pcolP[i, 1]] - qx[pcolL[i, 1]]) + (ayP - ayL)
-    nx, ny = _As(qx, pcolL, pn0, i)
+    axL, ayL = _As(I, Fl, qx, PCOLL, PSL, i)
+    axP, ayP = _As(I, Fl, qx, PCOLP, PSP, i)
+    dx = (qx[_i(I, PCOLP, i, 0)] - qx[_i(I, PCOLL, i, 0)]) + (axP - axL)
+    dy = (qx[_i(I, PCOLP, i, 1)] - qx[_i(I, PCOLL, i, 1)]) + (ayP - ayL)
+    nx, ny = _As(I, Fl, qx, PCOLL, PN0, i)
     return nx, ny, dx, dy, axL, ayL, axP, ayP
 
 
 @_jit
-def _pol_grad(nx, ny, dx, dy, axL, ayL, axP, ayP, g):
-    """Local gradient of n . d over (x_L, y_L, phi_L, x_P, y_P, phi_P) into g (6,)."""
-    g[0] = -nx
-    g[1] = -ny
-    g[2] = -(-nx * ayL + ny * axL) + (-ny * dx + nx * dy)
-    g[3] = nx
-    g[4] = ny
-    g[5] = -nx * ayP + ny * axP
+def _pol_grad(nx, ny, dx, dy, axL, ayL, axP, ayP):
+    """Local gradient of n . d over (x_L, y_L, phi_L, x_P, y_P, phi_P): six
+    scalars (no array: an allocation costs more than the arithmetic here)."""
+    return (-nx, -ny, -(-nx * ayL + ny * axL) + (-ny * dx + nx * dy),
+            nx, ny, -nx * ayP + ny * axP)
 
 
 @_jit
@@ -153,85 +206,75 @@ def _pol_hess(nx, ny, dx, dy, axL, ayL, axP, ayP, bnd):
 # --------------------------------------------------------------------------------------------
 
 @_jit
-def phi(md, qx, out):
+def phi(I, Fl, qx, out):
     """Phi(q) into out (m,) [m or rad]."""
-    (mass, Q0, crow, ccol1, cs1, ccol2, cs2, prow, pcolL, psL, pcolP, psP, pn0,
-     lrow, lcol, lcoef, loff, scol1, ss1, scol2, ss2, spar, rcol, rpar, fcol, fs, fF,
-     row_element, n_elements) = md
-    for i in range(crow.shape[0]):
-        ax1, ay1 = _As(qx, ccol1, cs1, i)
-        ax2, ay2 = _As(qx, ccol2, cs2, i)
-        out[crow[i, 0]] = (qx[ccol2[i, 0]] - qx[ccol1[i, 0]]) + (ax2 - ax1)
-        out[crow[i, 1]] = (qx[ccol2[i, 1]] - qx[ccol1[i, 1]]) + (ay2 - ay1)
-    for i in range(prow.shape[0]):
-        nx, ny, dx, dy, axL, ayL, axP, ayP = _pol(qx, pcolL, psL, pcolP, psP, pn0, i)
-        out[prow[i]] = nx * dx + ny * dy
-    for i in range(lrow.shape[0]):
-        out[lrow[i]] = lcoef[i, 0] * qx[lcol[i, 0]] + lcoef[i, 1] * qx[lcol[i, 1]] - loff[i]
+    for i in range(_rows(I, CROW)):
+        ax1, ay1 = _As(I, Fl, qx, CCOL1, CS1, i)
+        ax2, ay2 = _As(I, Fl, qx, CCOL2, CS2, i)
+        out[_i(I, CROW, i, 0)] = (qx[_i(I, CCOL2, i, 0)] - qx[_i(I, CCOL1, i, 0)]) + (ax2 - ax1)
+        out[_i(I, CROW, i, 1)] = (qx[_i(I, CCOL2, i, 1)] - qx[_i(I, CCOL1, i, 1)]) + (ay2 - ay1)
+    for i in range(_rows(I, PROW)):
+        nx, ny, dx, dy, axL, ayL, axP, ayP = _pol(I, Fl, qx, i)
+        out[_i(I, PROW, i, 0)] = nx * dx + ny * dy
+    for i in range(_rows(I, LROW)):
+        out[_i(I, LROW, i, 0)] = _f(I, Fl, LCOEF, i, 0) * qx[_i(I, LCOL, i, 0)] + _f(I, Fl, LCOEF, i, 1) * qx[_i(I, LCOL, i, 1)] - _f(I, Fl, LOFF, i, 0)
 
 
 @_jit
-def phiqT_add(md, qx, lam, coef, out):
+def phiqT_add(I, Fl, qx, lam, coef, out):
     """out[:n+3] += coef Phi_q^T lambda."""
-    (mass, Q0, crow, ccol1, cs1, ccol2, cs2, prow, pcolL, psL, pcolP, psP, pn0,
-     lrow, lcol, lcoef, loff, scol1, ss1, scol2, ss2, spar, rcol, rpar, fcol, fs, fF,
-     row_element, n_elements) = md
-    for i in range(crow.shape[0]):
-        l0, l1 = coef * lam[crow[i, 0]], coef * lam[crow[i, 1]]
-        ax1, ay1 = _As(qx, ccol1, cs1, i)
-        ax2, ay2 = _As(qx, ccol2, cs2, i)
-        out[ccol1[i, 0]] -= l0
-        out[ccol1[i, 1]] -= l1
-        out[ccol1[i, 2]] -= -ay1 * l0 + ax1 * l1
-        out[ccol2[i, 0]] += l0
-        out[ccol2[i, 1]] += l1
-        out[ccol2[i, 2]] += -ay2 * l0 + ax2 * l1
-    g = np.empty(6)
-    for i in range(prow.shape[0]):
-        nx, ny, dx, dy, axL, ayL, axP, ayP = _pol(qx, pcolL, psL, pcolP, psP, pn0, i)
-        _pol_grad(nx, ny, dx, dy, axL, ayL, axP, ayP, g)
-        lv = coef * lam[prow[i]]
-        for j in range(3):
-            out[pcolL[i, j]] += lv * g[j]
-            out[pcolP[i, j]] += lv * g[3 + j]
-    for i in range(lrow.shape[0]):
-        lv = coef * lam[lrow[i]]
-        out[lcol[i, 0]] += lcoef[i, 0] * lv
-        out[lcol[i, 1]] += lcoef[i, 1] * lv
+    for i in range(_rows(I, CROW)):
+        l0, l1 = coef * lam[_i(I, CROW, i, 0)], coef * lam[_i(I, CROW, i, 1)]
+        ax1, ay1 = _As(I, Fl, qx, CCOL1, CS1, i)
+        ax2, ay2 = _As(I, Fl, qx, CCOL2, CS2, i)
+        out[_i(I, CCOL1, i, 0)] -= l0
+        out[_i(I, CCOL1, i, 1)] -= l1
+        out[_i(I, CCOL1, i, 2)] -= -ay1 * l0 + ax1 * l1
+        out[_i(I, CCOL2, i, 0)] += l0
+        out[_i(I, CCOL2, i, 1)] += l1
+        out[_i(I, CCOL2, i, 2)] += -ay2 * l0 + ax2 * l1
+    for i in range(_rows(I, PROW)):
+        nx, ny, dx, dy, axL, ayL, axP, ayP = _pol(I, Fl, qx, i)
+        g0, g1, g2, g3, g4, g5 = _pol_grad(nx, ny, dx, dy, axL, ayL, axP, ayP)
+        lv = coef * lam[_i(I, PROW, i, 0)]
+        out[_i(I, PCOLL, i, 0)] += lv * g0
+        out[_i(I, PCOLL, i, 1)] += lv * g1
+        out[_i(I, PCOLL, i, 2)] += lv * g2
+        out[_i(I, PCOLP, i, 0)] += lv * g3
+        out[_i(I, PCOLP, i, 1)] += lv * g4
+        out[_i(I, PCOLP, i, 2)] += lv * g5
+    for i in range(_rows(I, LROW)):
+        lv = coef * lam[_i(I, LROW, i, 0)]
+        out[_i(I, LCOL, i, 0)] += _f(I, Fl, LCOEF, i, 0) * lv
+        out[_i(I, LCOL, i, 1)] += _f(I, Fl, LCOEF, i, 1) * lv
 
 
 @_jit
-def phiq_times(md, qx, vx, out):
+def phiq_times(I, Fl, qx, vx, out):
     """Phi_q v into out (m,)."""
-    (mass, Q0, crow, ccol1, cs1, ccol2, cs2, prow, pcolL, psL, pcolP, psP, pn0,
-     lrow, lcol, lcoef, loff, scol1, ss1, scol2, ss2, spar, rcol, rpar, fcol, fs, fF,
-     row_element, n_elements) = md
-    for i in range(crow.shape[0]):
-        ax1, ay1 = _As(qx, ccol1, cs1, i)
-        ax2, ay2 = _As(qx, ccol2, cs2, i)
-        w1, w2 = vx[ccol1[i, 2]], vx[ccol2[i, 2]]
-        out[crow[i, 0]] = (vx[ccol2[i, 0]] - vx[ccol1[i, 0]]) + (-ay2 * w2 + ay1 * w1)
-        out[crow[i, 1]] = (vx[ccol2[i, 1]] - vx[ccol1[i, 1]]) + (ax2 * w2 - ax1 * w1)
-    g = np.empty(6)
-    for i in range(prow.shape[0]):
-        nx, ny, dx, dy, axL, ayL, axP, ayP = _pol(qx, pcolL, psL, pcolP, psP, pn0, i)
-        _pol_grad(nx, ny, dx, dy, axL, ayL, axP, ayP, g)
-        s = 0.0
-        for j in range(3):
-            s += g[j] * vx[pcolL[i, j]] + g[3 + j] * vx[pcolP[i, j]]
-        out[prow[i]] = s
-    for i in range(lrow.shape[0]):
-        out[lrow[i]] = lcoef[i, 0] * vx[lcol[i, 0]] + lcoef[i, 1] * vx[lcol[i, 1]]
+    for i in range(_rows(I, CROW)):
+        ax1, ay1 = _As(I, Fl, qx, CCOL1, CS1, i)
+        ax2, ay2 = _As(I, Fl, qx, CCOL2, CS2, i)
+        w1, w2 = vx[_i(I, CCOL1, i, 2)], vx[_i(I, CCOL2, i, 2)]
+        out[_i(I, CROW, i, 0)] = (vx[_i(I, CCOL2, i, 0)] - vx[_i(I, CCOL1, i, 0)]) + (-ay2 * w2 + ay1 * w1)
+        out[_i(I, CROW, i, 1)] = (vx[_i(I, CCOL2, i, 1)] - vx[_i(I, CCOL1, i, 1)]) + (ax2 * w2 - ax1 * w1)
+    for i in range(_rows(I, PROW)):
+        nx, ny, dx, dy, axL, ayL, axP, ayP = _pol(I, Fl, qx, i)
+        g0, g1, g2, g3, g4, g5 = _pol_grad(nx, ny, dx, dy, axL, ayL, axP, ayP)
+        out[_i(I, PROW, i, 0)] = (g0 * vx[_i(I, PCOLL, i, 0)] + g1 * vx[_i(I, PCOLL, i, 1)] + g2 * vx[_i(I, PCOLL, i, 2)]
+                        + g3 * vx[_i(I, PCOLP, i, 0)] + g4 * vx[_i(I, PCOLP, i, 1)] + g5 * vx[_i(I, PCOLP, i, 2)])
+    for i in range(_rows(I, LROW)):
+        out[_i(I, LROW, i, 0)] = _f(I, Fl, LCOEF, i, 0) * vx[_i(I, LCOL, i, 0)] + _f(I, Fl, LCOEF, i, 1) * vx[_i(I, LCOL, i, 1)]
 
 
 @_jit
-def _spring(qx, vx, scol1, ss1, scol2, ss2, spar, i, G, v6):
+def _spring(I, Fl, qx, vx, i, G, v6):
     """Kinematics of spring i: D = dd/dq_local into G (2, 6), local v into v6;
     returns (d, ddot, l, A s1, A s2)."""
-    ax1, ay1 = _As(qx, scol1, ss1, i)
-    ax2, ay2 = _As(qx, scol2, ss2, i)
-    dx = (qx[scol2[i, 0]] - qx[scol1[i, 0]]) + (ax2 - ax1)
-    dy = (qx[scol2[i, 1]] - qx[scol1[i, 1]]) + (ay2 - ay1)
+    ax1, ay1 = _As(I, Fl, qx, SCOL1, SS1, i)
+    ax2, ay2 = _As(I, Fl, qx, SCOL2, SS2, i)
+    dx = (qx[_i(I, SCOL2, i, 0)] - qx[_i(I, SCOL1, i, 0)]) + (ax2 - ax1)
+    dy = (qx[_i(I, SCOL2, i, 1)] - qx[_i(I, SCOL1, i, 1)]) + (ay2 - ay1)
     G[:] = 0.0
     G[0, 0] = -1.0
     G[1, 1] = -1.0
@@ -242,8 +285,8 @@ def _spring(qx, vx, scol1, ss1, scol2, ss2, spar, i, G, v6):
     G[0, 5] = -ay2
     G[1, 5] = ax2
     for j in range(3):
-        v6[j] = vx[scol1[i, j]]
-        v6[3 + j] = vx[scol2[i, j]]
+        v6[j] = vx[_i(I, SCOL1, i, j)]
+        v6[3 + j] = vx[_i(I, SCOL2, i, j)]
     ddx = 0.0
     ddy = 0.0
     for j in range(6):
@@ -253,35 +296,42 @@ def _spring(qx, vx, scol1, ss1, scol2, ss2, spar, i, G, v6):
 
 
 @_jit
-def forces(md, qx, vx, out):
+def forces(I, Fl, qx, vx, out):
     """Q(q, v) into out (n+3,) [N, N m] (overwritten)."""
-    (mass, Q0, crow, ccol1, cs1, ccol2, cs2, prow, pcolL, psL, pcolP, psP, pn0,
-     lrow, lcol, lcoef, loff, scol1, ss1, scol2, ss2, spar, rcol, rpar, fcol, fs, fF,
-     row_element, n_elements) = md
-    out[:] = Q0
-    G = np.empty((2, 6))
-    v6 = np.empty(6)
-    for i in range(scol1.shape[0]):
-        dx, dy, ddx, ddy, l, ax1, ay1, ax2, ay2 = _spring(qx, vx, scol1, ss1, scol2, ss2, spar,
-                                                          i, G, v6)
+    for j in range(out.shape[0]):       # a loop: numba's array-to-array slice copy checks overlap
+        out[j] = _f(I, Fl, Q0, j, 0)
+    for i in range(_rows(I, SCOL1)):
+        # the kinematics of ``_spring`` in scalars (no scratch array on this hot path)
+        ax1, ay1 = _As(I, Fl, qx, SCOL1, SS1, i)
+        ax2, ay2 = _As(I, Fl, qx, SCOL2, SS2, i)
+        dx = (qx[_i(I, SCOL2, i, 0)] - qx[_i(I, SCOL1, i, 0)]) + (ax2 - ax1)
+        dy = (qx[_i(I, SCOL2, i, 1)] - qx[_i(I, SCOL1, i, 1)]) + (ay2 - ay1)
+        l = math.sqrt(dx * dx + dy * dy)
         ex, ey = dx / l, dy / l
-        f = spar[i, 0] * (l - spar[i, 2])
-        if spar[i, 1] != 0.0:
-            f = f + spar[i, 1] * (ex * ddx + ey * ddy)
+        f = _f(I, Fl, SPAR, i, 0) * (l - _f(I, Fl, SPAR, i, 2))
+        if _f(I, Fl, SPAR, i, 1) != 0.0:
+            w1, w2 = vx[_i(I, SCOL1, i, 2)], vx[_i(I, SCOL2, i, 2)]
+            ddx = (vx[_i(I, SCOL2, i, 0)] - vx[_i(I, SCOL1, i, 0)]) + (-ay2 * w2 + ay1 * w1)
+            ddy = (vx[_i(I, SCOL2, i, 1)] - vx[_i(I, SCOL1, i, 1)]) + (ax2 * w2 - ax1 * w1)
+            f = f + _f(I, Fl, SPAR, i, 1) * (ex * ddx + ey * ddy)
         fx, fy = f * ex, f * ey
-        for j in range(3):
-            out[scol1[i, j]] -= G[0, j] * fx + G[1, j] * fy
-            out[scol2[i, j]] -= G[0, 3 + j] * fx + G[1, 3 + j] * fy
-    for i in range(rcol.shape[0]):
-        tau = (rpar[i, 0] * (qx[rcol[i, 1]] - qx[rcol[i, 0]] - rpar[i, 2])
-               + rpar[i, 1] * (vx[rcol[i, 1]] - vx[rcol[i, 0]]))
-        out[rcol[i, 0]] += tau
-        out[rcol[i, 1]] -= tau
-    for i in range(fcol.shape[0]):
-        ax, ay = _As(qx, fcol, fs, i)
-        out[fcol[i, 0]] += fF[i, 0]
-        out[fcol[i, 1]] += fF[i, 1]
-        out[fcol[i, 2]] += -ay * fF[i, 0] + ax * fF[i, 1]
+        # Q = -D^T (f e), D = dd/dq_local (``_spring``'s G)
+        out[_i(I, SCOL1, i, 0)] += fx
+        out[_i(I, SCOL1, i, 1)] += fy
+        out[_i(I, SCOL1, i, 2)] -= ay1 * fx - ax1 * fy
+        out[_i(I, SCOL2, i, 0)] -= fx
+        out[_i(I, SCOL2, i, 1)] -= fy
+        out[_i(I, SCOL2, i, 2)] -= -ay2 * fx + ax2 * fy
+    for i in range(_rows(I, RCOL)):
+        tau = (_f(I, Fl, RPAR, i, 0) * (qx[_i(I, RCOL, i, 1)] - qx[_i(I, RCOL, i, 0)] - _f(I, Fl, RPAR, i, 2))
+               + _f(I, Fl, RPAR, i, 1) * (vx[_i(I, RCOL, i, 1)] - vx[_i(I, RCOL, i, 0)]))
+        out[_i(I, RCOL, i, 0)] += tau
+        out[_i(I, RCOL, i, 1)] -= tau
+    for i in range(_rows(I, FCOL)):
+        ax, ay = _As(I, Fl, qx, FCOL, FS, i)
+        out[_i(I, FCOL, i, 0)] += _f(I, Fl, FF, i, 0)
+        out[_i(I, FCOL, i, 1)] += _f(I, Fl, FF, i, 1)
+        out[_i(I, FCOL, i, 2)] += -ay * _f(I, Fl, FF, i, 0) + ax * _f(I, Fl, FF, i, 1)
 
 
 # --------------------------------------------------------------------------------------------
@@ -297,85 +347,78 @@ def _put(R, C, V, p, r, c, v):
 
 
 @_jit
-def _emit_mass(md, n, R, C, V, p, r0, c0, coef):
-    mass = md[0]
+def _emit_mass(I, Fl, n, R, C, V, p, r0, c0, coef):
     for j in range(n):
-        p = _put(R, C, V, p, r0 + j, c0 + j, coef * mass[j])
+        p = _put(R, C, V, p, r0 + j, c0 + j, coef * _f(I, Fl, MASS, j, 0))
     return p
 
 
 @_jit
-def _emit_phiq(md, n, qx, R, C, V, p, r0, c0, coef, transpose):
+def _emit_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose):
     """coef Phi_q at (r0, c0), or coef Phi_q^T when transpose."""
-    (mass, Q0, crow, ccol1, cs1, ccol2, cs2, prow, pcolL, psL, pcolP, psP, pn0,
-     lrow, lcol, lcoef, loff, scol1, ss1, scol2, ss2, spar, rcol, rpar, fcol, fs, fF,
-     row_element, n_elements) = md
-    for i in range(crow.shape[0]):
-        ax1, ay1 = _As(qx, ccol1, cs1, i)
-        ax2, ay2 = _As(qx, ccol2, cs2, i)
+    for i in range(_rows(I, CROW)):
+        ax1, ay1 = _As(I, Fl, qx, CCOL1, CS1, i)
+        ax2, ay2 = _As(I, Fl, qx, CCOL2, CS2, i)
         for a in range(2):
-            row = crow[i, a]
+            row = _i(I, CROW, i, a)
             # d(p2 - p1)_a / d(x1, y1, phi1, x2, y2, phi2): -e_a, -(B s1)_a, e_a, (B s2)_a
             for which in range(4):
                 if which == 0:
-                    col, g = ccol1[i, a], -1.0
+                    col, g = _i(I, CCOL1, i, a), -1.0
                 elif which == 1:
-                    col, g = ccol1[i, 2], (ay1 if a == 0 else -ax1)
+                    col, g = _i(I, CCOL1, i, 2), (ay1 if a == 0 else -ax1)
                 elif which == 2:
-                    col, g = ccol2[i, a], 1.0
+                    col, g = _i(I, CCOL2, i, a), 1.0
                 else:
-                    col, g = ccol2[i, 2], (-ay2 if a == 0 else ax2)
+                    col, g = _i(I, CCOL2, i, 2), (-ay2 if a == 0 else ax2)
                 if col < n:
                     if transpose:
                         p = _put(R, C, V, p, r0 + col, c0 + row, coef * g)
                     else:
                         p = _put(R, C, V, p, r0 + row, c0 + col, coef * g)
     g = np.empty(6)
-    for i in range(prow.shape[0]):
-        nx, ny, dx, dy, axL, ayL, axP, ayP = _pol(qx, pcolL, psL, pcolP, psP, pn0, i)
-        _pol_grad(nx, ny, dx, dy, axL, ayL, axP, ayP, g)
-        row = prow[i]
+    for i in range(_rows(I, PROW)):
+        nx, ny, dx, dy, axL, ayL, axP, ayP = _pol(I, Fl, qx, i)
+        g[0], g[1], g[2], g[3], g[4], g[5] = _pol_grad(nx, ny, dx, dy, axL, ayL, axP, ayP)
+        row = _i(I, PROW, i, 0)
         for j in range(6):
-            col = pcolL[i, j] if j < 3 else pcolP[i, j - 3]
+            col = _i(I, PCOLL, i, j) if j < 3 else _i(I, PCOLP, i, j - 3)
             if col < n:
                 if transpose:
                     p = _put(R, C, V, p, r0 + col, c0 + row, coef * g[j])
                 else:
                     p = _put(R, C, V, p, r0 + row, c0 + col, coef * g[j])
-    for i in range(lrow.shape[0]):
+    for i in range(_rows(I, LROW)):
         for j in range(2):
-            col = lcol[i, j]
+            col = _i(I, LCOL, i, j)
             if col < n:
                 if transpose:
-                    p = _put(R, C, V, p, r0 + col, c0 + lrow[i], coef * lcoef[i, j])
+                    p = _put(R, C, V, p, r0 + col, c0 + _i(I, LROW, i, 0), coef * _f(I, Fl, LCOEF, i, j))
                 else:
-                    p = _put(R, C, V, p, r0 + lrow[i], c0 + col, coef * lcoef[i, j])
+                    p = _put(R, C, V, p, r0 + _i(I, LROW, i, 0), c0 + col, coef * _f(I, Fl, LCOEF, i, j))
     return p
 
 
 @_jit
-def _emit_hess(md, n, qx, lam, R, C, V, p, r0, c0, coef):
+def _emit_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef):
     """coef (Phi_q^T lambda)_q at (r0, c0)."""
-    (mass, Q0, crow, ccol1, cs1, ccol2, cs2, prow, pcolL, psL, pcolP, psP, pn0,
-     lrow, lcol, lcoef, loff, scol1, ss1, scol2, ss2, spar, rcol, rpar, fcol, fs, fF,
-     row_element, n_elements) = md
-    for i in range(crow.shape[0]):
-        l0, l1 = lam[crow[i, 0]], lam[crow[i, 1]]
-        ax1, ay1 = _As(qx, ccol1, cs1, i)
-        ax2, ay2 = _As(qx, ccol2, cs2, i)
-        c1, c2 = ccol1[i, 2], ccol2[i, 2]
+    for i in range(_rows(I, CROW)):
+        l0, l1 = lam[_i(I, CROW, i, 0)], lam[_i(I, CROW, i, 1)]
+        ax1, ay1 = _As(I, Fl, qx, CCOL1, CS1, i)
+        ax2, ay2 = _As(I, Fl, qx, CCOL2, CS2, i)
+        c1, c2 = _i(I, CCOL1, i, 2), _i(I, CCOL2, i, 2)
         if c1 < n:
             p = _put(R, C, V, p, r0 + c1, c0 + c1, coef * (l0 * ax1 + l1 * ay1))
         if c2 < n:
             p = _put(R, C, V, p, r0 + c2, c0 + c2, -coef * (l0 * ax2 + l1 * ay2))
     bnd = np.empty(6)
-    for i in range(prow.shape[0]):
-        nx, ny, dx, dy, axL, ayL, axP, ayP = _pol(qx, pcolL, psL, pcolP, psP, pn0, i)
+    for i in range(_rows(I, PROW)):
+        nx, ny, dx, dy, axL, ayL, axP, ayP = _pol(I, Fl, qx, i)
         hLL, hPP = _pol_hess(nx, ny, dx, dy, axL, ayL, axP, ayP, bnd)
-        lv = coef * lam[prow[i]]
-        cL, cP = pcolL[i, 2], pcolP[i, 2]
+        lv = coef * lam[_i(I, PROW, i, 0)]
+        cL, cP = _i(I, PCOLL, i, 2), _i(I, PCOLP, i, 2)
         for j in range(6):
-            col = pcolL[i, j] if j < 3 else pcolP[i, j - 3]
+            col = _i(I, PCOLL, i, j) if j < 3 else _i(I, PCOLP, i, j - 3)
             if j == 2 or col >= n or cL >= n:
                 continue
             p = _put(R, C, V, p, r0 + cL, c0 + col, lv * bnd[j])
@@ -388,34 +431,31 @@ def _emit_hess(md, n, qx, lam, R, C, V, p, r0, c0, coef):
 
 
 @_jit
-def _emit_G(md, n, qx, vx, R, C, V, p, r0, c0, coef):
+def _emit_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef):
     """coef (Phi_q v)_q at (r0, c0) (Phi_qt = 0 for these constraints)."""
-    (mass, Q0, crow, ccol1, cs1, ccol2, cs2, prow, pcolL, psL, pcolP, psP, pn0,
-     lrow, lcol, lcoef, loff, scol1, ss1, scol2, ss2, spar, rcol, rpar, fcol, fs, fF,
-     row_element, n_elements) = md
-    for i in range(crow.shape[0]):
-        ax1, ay1 = _As(qx, ccol1, cs1, i)
-        ax2, ay2 = _As(qx, ccol2, cs2, i)
-        c1, c2 = ccol1[i, 2], ccol2[i, 2]
+    for i in range(_rows(I, CROW)):
+        ax1, ay1 = _As(I, Fl, qx, CCOL1, CS1, i)
+        ax2, ay2 = _As(I, Fl, qx, CCOL2, CS2, i)
+        c1, c2 = _i(I, CCOL1, i, 2), _i(I, CCOL2, i, 2)
         w1, w2 = vx[c1], vx[c2]
         for a in range(2):
             s1 = ax1 if a == 0 else ay1
             s2 = ax2 if a == 0 else ay2
             if c1 < n:
-                p = _put(R, C, V, p, r0 + crow[i, a], c0 + c1, coef * s1 * w1)
+                p = _put(R, C, V, p, r0 + _i(I, CROW, i, a), c0 + c1, coef * s1 * w1)
             if c2 < n:
-                p = _put(R, C, V, p, r0 + crow[i, a], c0 + c2, -coef * s2 * w2)
+                p = _put(R, C, V, p, r0 + _i(I, CROW, i, a), c0 + c2, -coef * s2 * w2)
     bnd = np.empty(6)
     v6 = np.empty(6)
-    for i in range(prow.shape[0]):
-        nx, ny, dx, dy, axL, ayL, axP, ayP = _pol(qx, pcolL, psL, pcolP, psP, pn0, i)
+    for i in range(_rows(I, PROW)):
+        nx, ny, dx, dy, axL, ayL, axP, ayP = _pol(I, Fl, qx, i)
         hLL, hPP = _pol_hess(nx, ny, dx, dy, axL, ayL, axP, ayP, bnd)
         for j in range(3):
-            v6[j] = vx[pcolL[i, j]]
-            v6[3 + j] = vx[pcolP[i, j]]
-        row = prow[i]
+            v6[j] = vx[_i(I, PCOLL, i, j)]
+            v6[3 + j] = vx[_i(I, PCOLP, i, j)]
+        row = _i(I, PROW, i, 0)
         for j in range(6):       # (H v)_j, H symmetric
-            col = pcolL[i, j] if j < 3 else pcolP[i, j - 3]
+            col = _i(I, PCOLL, i, j) if j < 3 else _i(I, PCOLP, i, j - 3)
             if j == 2:
                 hv = hLL * v6[2]
                 for k in range(6):
@@ -431,11 +471,8 @@ def _emit_G(md, n, qx, vx, R, C, V, p, r0, c0, coef):
 
 
 @_jit
-def _emit_force(md, n, qx, vx, R, C, V, p, r0, c0, cq, cv):
+def _emit_force(I, Fl, n, qx, vx, R, C, V, p, r0, c0, cq, cv):
     """-(cq Q_q + cv Q_v) at (r0, c0) (``SpringDamperGroup.derivatives``)."""
-    (mass, Q0, crow, ccol1, cs1, ccol2, cs2, prow, pcolL, psL, pcolP, psP, pn0,
-     lrow, lcol, lcoef, loff, scol1, ss1, scol2, ss2, spar, rcol, rpar, fcol, fs, fF,
-     row_element, n_elements) = md
     G = np.empty((2, 6))
     v6 = np.empty(6)
     de = np.empty((2, 6))
@@ -443,10 +480,9 @@ def _emit_force(md, n, qx, vx, R, C, V, p, r0, c0, cq, cv):
     dl = np.empty(6)
     dldot = np.empty(6)
     cols = np.empty(6, np.int64)
-    for i in range(scol1.shape[0]):
-        k, c, l0 = spar[i, 0], spar[i, 1], spar[i, 2]
-        dx, dy, ddx, ddy, l, ax1, ay1, ax2, ay2 = _spring(qx, vx, scol1, ss1, scol2, ss2, spar,
-                                                          i, G, v6)
+    for i in range(_rows(I, SCOL1)):
+        k, c, l0 = _f(I, Fl, SPAR, i, 0), _f(I, Fl, SPAR, i, 1), _f(I, Fl, SPAR, i, 2)
+        dx, dy, ddx, ddy, l, ax1, ay1, ax2, ay2 = _spring(I, Fl, qx, vx, i, G, v6)
         ex, ey = dx / l, dy / l
         P00, P01, P11 = (1.0 - ex * ex) / l, -ex * ey / l, (1.0 - ey * ey) / l
         ldot = ex * ddx + ey * ddy
@@ -465,8 +501,8 @@ def _emit_force(md, n, qx, vx, R, C, V, p, r0, c0, cq, cv):
             dF[1, j] = ey * dfj + f * de[1, j]
         Fx, Fy = f * ex, f * ey
         for j in range(3):
-            cols[j] = scol1[i, j]
-            cols[3 + j] = scol2[i, j]
+            cols[j] = _i(I, SCOL1, i, j)
+            cols[3 + j] = _i(I, SCOL2, i, j)
         for a in range(6):
             if cols[a] >= n:
                 continue
@@ -482,18 +518,18 @@ def _emit_force(md, n, qx, vx, R, C, V, p, r0, c0, cq, cv):
                 if c != 0.0:
                     val += cv * (-c * (G[0, a] * ex + G[1, a] * ey) * (G[0, b] * ex + G[1, b] * ey))
                 p = _put(R, C, V, p, r0 + cols[a], c0 + cols[b], -val)
-    for i in range(rcol.shape[0]):
+    for i in range(_rows(I, RCOL)):
         for a in range(2):
             for b in range(2):
-                if rcol[i, a] < n and rcol[i, b] < n:
+                if _i(I, RCOL, i, a) < n and _i(I, RCOL, i, b) < n:
                     sgn = -1.0 if a == b else 1.0      # Q_q = k [[-1, 1], [1, -1]]
-                    val = sgn * (cq * rpar[i, 0] + cv * rpar[i, 1])
-                    p = _put(R, C, V, p, r0 + rcol[i, a], c0 + rcol[i, b], -val)
-    for i in range(fcol.shape[0]):
-        if fcol[i, 2] < n:
-            ax, ay = _As(qx, fcol, fs, i)
-            val = cq * -(ax * fF[i, 0] + ay * fF[i, 1])
-            p = _put(R, C, V, p, r0 + fcol[i, 2], c0 + fcol[i, 2], -val)
+                    val = sgn * (cq * _f(I, Fl, RPAR, i, 0) + cv * _f(I, Fl, RPAR, i, 1))
+                    p = _put(R, C, V, p, r0 + _i(I, RCOL, i, a), c0 + _i(I, RCOL, i, b), -val)
+    for i in range(_rows(I, FCOL)):
+        if _i(I, FCOL, i, 2) < n:
+            ax, ay = _As(I, Fl, qx, FCOL, FS, i)
+            val = cq * -(ax * _f(I, Fl, FF, i, 0) + ay * _f(I, Fl, FF, i, 1))
+            p = _put(R, C, V, p, r0 + _i(I, FCOL, i, 2), c0 + _i(I, FCOL, i, 2), -val)
     return p
 
 
@@ -537,7 +573,7 @@ def _state(rec, n, w, q_pred, v_pred, qx, vx):
 
 
 @_jit
-def _residual(rec, md, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work):
+def _residual(rec, I, Fl, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work):
     """Upsilon(w) of the recipe ``rec``, size n + m (index 3), 2 (n + m)
     (stabilized index 2) or 3 n + 2 m (additive form).
 
@@ -547,37 +583,36 @@ def _residual(rec, md, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work):
     rows 1, 2 and 5 multiplied by M).
     """
     if rec[FORM] == ADDITIVE:
-        _residual_additive(rec, md, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work)
+        _residual_additive(rec, I, Fl, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work)
         return
-    mass = md[0]
-    n, m = mass.shape[0], md[27].shape[0]
+    n, m = _rows(I, MASS), _rows(I, ROW_ELEMENT)
     size, l0, u0, a0 = _layout(rec, n, m)
     _state(rec, n, w, q_pred, v_pred, qx, vx)
     cM, cF = rec[CM], rec[CF]
-    forces(md, qx, vx, work)
+    forces(I, Fl, qx, vx, work)
     for j in range(n):
         work[j] = -work[j]
-    phiqT_add(md, qx, w[l0:l0 + m], 1.0, work)
+    phiqT_add(I, Fl, qx, w[l0:l0 + m], 1.0, work)
     for j in range(n):
-        r[j] = cM * mass[j] * w[j] + work[j] - cF * F_old[j]
-    phi(md, qx, r[l0:l0 + m])
+        r[j] = cM * _f(I, Fl, MASS, j, 0) * w[j] + work[j] - cF * F_old[j]
+    phi(I, Fl, qx, r[l0:l0 + m])
     sP = rec[SP]
     for i in range(m):
         r[l0 + i] *= sP
     if rec[HAS_Y] != 0.0:
         dM, dI, dV = rec[DM], rec[DI], rec[DV]
         work[:] = 0.0
-        phiqT_add(md, qx, w[u0:], 1.0, work)
+        phiqT_add(I, Fl, qx, w[u0:], 1.0, work)
         for j in range(n):
-            r[n + j] = (dM * mass[j] + dI) * w[n + j] + dV * vx[j] + work[j]
-        phiq_times(md, qx, vx, r[u0:])
+            r[n + j] = (dM * _f(I, Fl, MASS, j, 0) + dI) * w[n + j] + dV * vx[j] + work[j]
+        phiq_times(I, Fl, qx, vx, r[u0:])
         sV = rec[SV]
         for i in range(m):
             r[u0 + i] *= sV
 
 
 @_jit
-def _jacobian_triplets(rec, md, q_pred, v_pred, qx_old, w, R, C, V, qx, vx):
+def _jacobian_triplets(rec, I, Fl, q_pred, v_pred, qx_old, w, R, C, V, qx, vx):
     """Newton matrix entries (R, C, V) of the recipe ``rec``, in an order and
     pattern fixed by the model and the method; returns their count.
     Duplicates are summed by the caller.
@@ -592,54 +627,53 @@ def _jacobian_triplets(rec, md, q_pred, v_pred, qx_old, w, R, C, V, qx, vx):
     emit nothing.
     """
     if rec[FORM] == ADDITIVE:
-        return _jacobian_additive(rec, md, q_pred, v_pred, qx_old, w, R, C, V, qx, vx)
-    mass = md[0]
-    n, m = mass.shape[0], md[27].shape[0]
+        return _jacobian_additive(rec, I, Fl, q_pred, v_pred, qx_old, w, R, C, V, qx, vx)
+    n, m = _rows(I, MASS), _rows(I, ROW_ELEMENT)
     size, l0, u0, a0 = _layout(rec, n, m)
     _state(rec, n, w, q_pred, v_pred, qx, vx)
     cqx, cvx, sP = rec[CQX], rec[CVX], rec[SP]
     lam = w[l0:l0 + m]
     p = 0
-    p = _emit_mass(md, n, R, C, V, p, 0, 0, rec[CM])
+    p = _emit_mass(I, Fl, n, R, C, V, p, 0, 0, rec[CM])
     if cqx != 0.0:
-        p = _emit_hess(md, n, qx, lam, R, C, V, p, 0, 0, cqx)
-    p = _emit_force(md, n, qx, vx, R, C, V, p, 0, 0, cqx, cvx)
-    p = _emit_phiq(md, n, qx, R, C, V, p, 0, l0, 1.0, True)
+        p = _emit_hess(I, Fl, n, qx, lam, R, C, V, p, 0, 0, cqx)
+    p = _emit_force(I, Fl, n, qx, vx, R, C, V, p, 0, 0, cqx, cvx)
+    p = _emit_phiq(I, Fl, n, qx, R, C, V, p, 0, l0, 1.0, True)
     if cqx != 0.0:
-        p = _emit_phiq(md, n, qx, R, C, V, p, l0, 0, sP * cqx, False)
+        p = _emit_phiq(I, Fl, n, qx, R, C, V, p, l0, 0, sP * cqx, False)
     if rec[HAS_Y] != 0.0:
         cqy, cvy, sV, dM, dI, dV = rec[CQY], rec[CVY], rec[SV], rec[DM], rec[DI], rec[DV]
         mu = w[u0:]
         if cqy != 0.0:
-            p = _emit_hess(md, n, qx, lam, R, C, V, p, 0, n, cqy)
+            p = _emit_hess(I, Fl, n, qx, lam, R, C, V, p, 0, n, cqy)
         if cqy != 0.0 or cvy != 0.0:
-            p = _emit_force(md, n, qx, vx, R, C, V, p, 0, n, cqy, cvy)
+            p = _emit_force(I, Fl, n, qx, vx, R, C, V, p, 0, n, cqy, cvy)
         if cqx != 0.0:
-            p = _emit_hess(md, n, qx, mu, R, C, V, p, n, 0, cqx)
+            p = _emit_hess(I, Fl, n, qx, mu, R, C, V, p, n, 0, cqx)
         if dV * cvx != 0.0:
             p = _emit_identity(n, R, C, V, p, n, 0, dV * cvx)
         if dM != 0.0:
-            p = _emit_mass(md, n, R, C, V, p, n, n, dM)
+            p = _emit_mass(I, Fl, n, R, C, V, p, n, n, dM)
         if dI + dV * cvy != 0.0:
             p = _emit_identity(n, R, C, V, p, n, n, dI + dV * cvy)
         if cqy != 0.0:
-            p = _emit_hess(md, n, qx, mu, R, C, V, p, n, n, cqy)
-        p = _emit_phiq(md, n, qx, R, C, V, p, n, u0, 1.0, True)
+            p = _emit_hess(I, Fl, n, qx, mu, R, C, V, p, n, n, cqy)
+        p = _emit_phiq(I, Fl, n, qx, R, C, V, p, n, u0, 1.0, True)
         if cqy != 0.0:
-            p = _emit_phiq(md, n, qx, R, C, V, p, l0, n, sP * cqy, False)
+            p = _emit_phiq(I, Fl, n, qx, R, C, V, p, l0, n, sP * cqy, False)
         if cvx != 0.0:
-            p = _emit_phiq(md, n, qx, R, C, V, p, u0, 0, sV * cvx, False)
+            p = _emit_phiq(I, Fl, n, qx, R, C, V, p, u0, 0, sV * cvx, False)
         if cqx != 0.0:
-            p = _emit_G(md, n, qx, vx, R, C, V, p, u0, 0, sV * cqx)
+            p = _emit_G(I, Fl, n, qx, vx, R, C, V, p, u0, 0, sV * cqx)
         if cvy != 0.0:
-            p = _emit_phiq(md, n, qx, R, C, V, p, u0, n, sV * cvy, False)
+            p = _emit_phiq(I, Fl, n, qx, R, C, V, p, u0, n, sV * cvy, False)
         if cqy != 0.0:
-            p = _emit_G(md, n, qx, vx, R, C, V, p, u0, n, sV * cqy)
+            p = _emit_G(I, Fl, n, qx, vx, R, C, V, p, u0, n, sV * cqy)
     return p
 
 
 @_jit
-def _residual_additive(rec, md, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work):
+def _residual_additive(rec, I, Fl, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work):
     """Upsilon(w) of HHT-ADD (``hht_add.py``) with its rows 1, 2 and 5
     multiplied by M (rigid bodies: a constant diagonal, so that Newton's
     iterates are those of the unscaled system and no M^-1 is formed)::
@@ -651,35 +685,34 @@ def _residual_additive(rec, md, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, wor
 
     with q = q_pred + cqx dq, v = v_pred + cvy dv.
     """
-    mass = md[0]
-    n, m = mass.shape[0], md[27].shape[0]
+    n, m = _rows(I, MASS), _rows(I, ROW_ELEMENT)
     size, l0, e0, a0 = _layout(rec, n, m)
     _state(rec, n, w, q_pred, v_pred, qx, vx)
     ka1, ka2, kb = rec[KA1], rec[KA2], rec[KB]
     work[:] = 0.0
-    phiqT_add(md, qx_old, w[e0:e0 + m], 1.0, work)            # Phi_q(q_n)^T psi_I
+    phiqT_add(I, Fl, qx_old, w[e0:e0 + m], 1.0, work)            # Phi_q(q_n)^T psi_I
     for j in range(n):
-        r[j] = mass[j] * (w[j] - ka1 * w[a0 + j]) + 0.5 * (1.0 - kb) * work[j]
-        r[n + j] = mass[j] * (w[n + j] - ka2 * w[a0 + j]) + 0.5 * work[j]
+        r[j] = _f(I, Fl, MASS, j, 0) * (w[j] - ka1 * w[a0 + j]) + 0.5 * (1.0 - kb) * work[j]
+        r[n + j] = _f(I, Fl, MASS, j, 0) * (w[n + j] - ka2 * w[a0 + j]) + 0.5 * work[j]
     work[:] = 0.0
-    phiqT_add(md, qx, w[l0:l0 + m], 1.0, work)                # Phi_q(q)^T psi_II
+    phiqT_add(I, Fl, qx, w[l0:l0 + m], 1.0, work)                # Phi_q(q)^T psi_II
     for j in range(n):
         r[j] += 0.5 * kb * work[j]
         r[n + j] += 0.5 * work[j]
-    phi(md, qx, r[2 * n:2 * n + m])
-    phiq_times(md, qx, vx, r[2 * n + m:2 * n + 2 * m])
+    phi(I, Fl, qx, r[2 * n:2 * n + m])
+    phiq_times(I, Fl, qx, vx, r[2 * n + m:2 * n + 2 * m])
     sP, sV = rec[SP], rec[SV]
     for i in range(m):
         r[2 * n + i] *= sP
         r[2 * n + m + i] *= sV
-    forces(md, qx, vx, work)
+    forces(I, Fl, qx, vx, work)
     cQ, cF, r5 = rec[CQ], rec[CF], 2 * n + 2 * m
     for j in range(n):
-        r[r5 + j] = mass[j] * w[a0 + j] - cQ * work[j] - cF * F_old[j]
+        r[r5 + j] = _f(I, Fl, MASS, j, 0) * w[a0 + j] - cQ * work[j] - cF * F_old[j]
 
 
 @_jit
-def _jacobian_additive(rec, md, q_pred, v_pred, qx_old, w, R, C, V, qx, vx):
+def _jacobian_additive(rec, I, Fl, q_pred, v_pred, qx_old, w, R, C, V, qx, vx):
     """Newton matrix of ``_residual_additive`` (the one of ``HHTADD`` with
     rows 1, 2 and 5 multiplied by M), K(u) = (Phi_q^T u)_q, G = (Phi_q v)_q::
 
@@ -689,48 +722,47 @@ def _jacobian_additive(rec, md, q_pred, v_pred, qx_old, w, R, C, V, qx, vx):
          [sV cqx G,      sV cvy Phi_q, 0,    0,                     0           ],
          [-cQ cqx Q_q,   -cQ cvy Q_v,  M,    0,                     0           ]]
     """
-    mass = md[0]
-    n, m = mass.shape[0], md[27].shape[0]
+    n, m = _rows(I, MASS), _rows(I, ROW_ELEMENT)
     size, l0, e0, a0 = _layout(rec, n, m)
     _state(rec, n, w, q_pred, v_pred, qx, vx)
     ka1, ka2, kb, cqx, cvy = rec[KA1], rec[KA2], rec[KB], rec[CQX], rec[CVY]
     psi2 = w[l0:l0 + m]
     r5 = 2 * n + 2 * m
     p = 0
-    p = _emit_mass(md, n, R, C, V, p, 0, 0, 1.0)
+    p = _emit_mass(I, Fl, n, R, C, V, p, 0, 0, 1.0)
     if kb != 0.0:
-        p = _emit_hess(md, n, qx, psi2, R, C, V, p, 0, 0, 0.5 * kb * cqx)
-        p = _emit_phiq(md, n, qx, R, C, V, p, 0, l0, 0.5 * kb, True)
-    p = _emit_mass(md, n, R, C, V, p, 0, a0, -ka1)
+        p = _emit_hess(I, Fl, n, qx, psi2, R, C, V, p, 0, 0, 0.5 * kb * cqx)
+        p = _emit_phiq(I, Fl, n, qx, R, C, V, p, 0, l0, 0.5 * kb, True)
+    p = _emit_mass(I, Fl, n, R, C, V, p, 0, a0, -ka1)
     if kb != 1.0:
-        p = _emit_phiq(md, n, qx_old, R, C, V, p, 0, e0, 0.5 * (1.0 - kb), True)
-    p = _emit_hess(md, n, qx, psi2, R, C, V, p, n, 0, 0.5 * cqx)
-    p = _emit_mass(md, n, R, C, V, p, n, n, 1.0)
-    p = _emit_mass(md, n, R, C, V, p, n, a0, -ka2)
-    p = _emit_phiq(md, n, qx_old, R, C, V, p, n, e0, 0.5, True)
-    p = _emit_phiq(md, n, qx, R, C, V, p, n, l0, 0.5, True)
-    p = _emit_phiq(md, n, qx, R, C, V, p, 2 * n, 0, rec[SP] * cqx, False)
-    p = _emit_G(md, n, qx, vx, R, C, V, p, 2 * n + m, 0, rec[SV] * cqx)
-    p = _emit_phiq(md, n, qx, R, C, V, p, 2 * n + m, n, rec[SV] * cvy, False)
-    p = _emit_mass(md, n, R, C, V, p, r5, a0, 1.0)
-    p = _emit_force(md, n, qx, vx, R, C, V, p, r5, 0, rec[CQ] * cqx, 0.0)
-    p = _emit_force(md, n, qx, vx, R, C, V, p, r5, n, 0.0, rec[CQ] * cvy)
+        p = _emit_phiq(I, Fl, n, qx_old, R, C, V, p, 0, e0, 0.5 * (1.0 - kb), True)
+    p = _emit_hess(I, Fl, n, qx, psi2, R, C, V, p, n, 0, 0.5 * cqx)
+    p = _emit_mass(I, Fl, n, R, C, V, p, n, n, 1.0)
+    p = _emit_mass(I, Fl, n, R, C, V, p, n, a0, -ka2)
+    p = _emit_phiq(I, Fl, n, qx_old, R, C, V, p, n, e0, 0.5, True)
+    p = _emit_phiq(I, Fl, n, qx, R, C, V, p, n, l0, 0.5, True)
+    p = _emit_phiq(I, Fl, n, qx, R, C, V, p, 2 * n, 0, rec[SP] * cqx, False)
+    p = _emit_G(I, Fl, n, qx, vx, R, C, V, p, 2 * n + m, 0, rec[SV] * cqx)
+    p = _emit_phiq(I, Fl, n, qx, R, C, V, p, 2 * n + m, n, rec[SV] * cvy, False)
+    p = _emit_mass(I, Fl, n, R, C, V, p, r5, a0, 1.0)
+    p = _emit_force(I, Fl, n, qx, vx, R, C, V, p, r5, 0, rec[CQ] * cqx, 0.0)
+    p = _emit_force(I, Fl, n, qx, vx, R, C, V, p, r5, n, 0.0, rec[CQ] * cvy)
     return p
 
 
 @_jit
-def _old_force(rec, md, q, v, lam, out, qx, vx, work):
+def _old_force(rec, I, Fl, q, v, lam, out, qx, vx, work):
     """F_n of the recipe into out (n,): Phi_q^T lambda - Q (linear form), -Q
     (additive form)."""
     if rec[FORM] == ADDITIVE:
         n = q.shape[0]
         qx[:n] = q
         vx[:n] = v
-        forces(md, qx, vx, work)
+        forces(I, Fl, qx, vx, work)
         for j in range(n):
             out[j] = -work[j]
     else:
-        _force_term(md, q, v, lam, out, qx, vx, work)
+        _force_term(I, Fl, q, v, lam, out, qx, vx, work)
 
 
 @_jit
@@ -743,55 +775,55 @@ def accumulate(V, count, position, data):
 
 
 @_jit
-def _force_term(md, q, v, lam, out, qx, vx, work):
+def _force_term(I, Fl, q, v, lam, out, qx, vx, work):
     """Phi_q^T lambda - Q(q, v) into out (n,) (``common.force_term``)."""
     n = q.shape[0]
     qx[:n] = q
     vx[:n] = v
-    forces(md, qx, vx, work)
+    forces(I, Fl, qx, vx, work)
     for j in range(n + 3):
         work[j] = -work[j]
-    phiqT_add(md, qx, lam, 1.0, work)
+    phiqT_add(I, Fl, qx, lam, 1.0, work)
     out[:] = work[:n]
 
 
 @_jit
-def _mobility(md, q, out, R, C, V, qx):
+def _mobility(I, Fl, q, out, R, C, V, qx, per):
     """Multiplier mobility per constraint row into out (m,)
     (``AssembledSystem.multiplier_mobility``): max over the element's
-    Phi_q entries of |Phi_q[k, j]| / M_jj."""
-    mass, row_element, n_elements = md[0], md[27], md[28]
-    n = mass.shape[0]
+    Phi_q entries of |Phi_q[k, j]| / M_jj; ``per``: scratch of n_elements."""
+    n = _rows(I, MASS)
     qx[:n] = q
-    p = _emit_phiq(md, n, qx, R, C, V, 0, 0, 0, 1.0, False)
-    per = np.zeros(n_elements)
+    p = _emit_phiq(I, Fl, n, qx, R, C, V, 0, 0, 0, 1.0, False)
+    per[:] = 0.0
     for i in range(p):
-        ratio = abs(V[i]) / mass[C[i]]
-        e = row_element[R[i]]
+        ratio = abs(V[i]) / _f(I, Fl, MASS, C[i], 0)
+        e = _i(I, ROW_ELEMENT, R[i], 0)
         if ratio > per[e]:
             per[e] = ratio
     for i in range(out.shape[0]):
-        out[i] = per[row_element[i]]
+        out[i] = per[_i(I, ROW_ELEMENT, i, 0)]
 
 
 @_jit
-def _scales_weights(rec, md, q, w, opts, R, C, V, qx, weight):
+def _scales_weights(rec, I, Fl, q, w, opts, R, C, V, qx, weight, scratch):
     """Newton weights (``Newton.solve``): scales / (atol + rtol |s w|), with the
     multipliers' relative part taken norm-wise, and the round-off floor
     (``Method.scales``, ``Method.roundoff_floor``: the recipe's sx, sy,
-    mu_mob and floor)."""
-    mass = md[0]
-    n, m = mass.shape[0], md[27].shape[0]
+    mu_mob and floor). ``scratch``: m + n_elements + 2 size floats, so that
+    a step allocates nothing."""
+    n, m, ne = _rows(I, MASS), _rows(I, ROW_ELEMENT), I[_HEADER - 1]
     size, l0, u0, a0 = _layout(rec, n, m)
     rtol, atol_k, atol_m = opts[0], opts[1], opts[2]
-    mob = np.empty(m)
-    _mobility(md, q, mob, R, C, V, qx)
+    mob = scratch[:m]
+    _mobility(I, Fl, q, mob, R, C, V, qx, scratch[m:m + ne])
     qmax = 0.0
     for j in range(n):
         qmax = max(qmax, abs(q[j]))
     floor = 32.0 * EPS * (1.0 + qmax) * rec[FLOOR]
-    scales = np.empty(size)
-    mult = np.zeros(size, np.bool_)
+    scales = scratch[m + ne:m + ne + size]
+    mult = scratch[m + ne + size:m + ne + 2 * size]
+    mult[:] = 0.0
     sx, sy = rec[SX], rec[SY]
     scales[:n] = sx
     if rec[FORM] == ADDITIVE:          # dq, dv: sx; a: sy; psi_I, psi_II: sm times the mobility
@@ -799,23 +831,24 @@ def _scales_weights(rec, md, q, w, opts, R, C, V, qx, weight):
         scales[2 * n:3 * n] = sy
         for i in range(m):
             scales[u0 + i] = scales[l0 + i] = rec[SM] * mob[i]
-            mult[u0 + i] = mult[l0 + i] = True
+            mult[u0 + i] = mult[l0 + i] = 1.0
     else:
         for i in range(m):
             scales[l0 + i] = sx * mob[i]
-            mult[l0 + i] = True
+            mult[l0 + i] = 1.0
     if rec[FORM] != ADDITIVE and rec[HAS_Y] != 0.0:
         scales[n:2 * n] = sy
         for i in range(m):
             scales[u0 + i] = sy * mob[i] if rec[MU_MOB] != 0.0 else sy
-            mult[u0 + i] = True
+            mult[u0 + i] = 1.0
     smax = 0.0
     for i in range(size):
-        if mult[i]:
+        if mult[i] != 0.0:
             smax = max(smax, abs(scales[i] * w[i]))
     for i in range(size):
-        atol = max(atol_m if mult[i] else atol_k, floor)
-        sz = smax if mult[i] else abs(scales[i] * w[i])
+        is_mult = mult[i] != 0.0
+        atol = max(atol_m if is_mult else atol_k, floor)
+        sz = smax if is_mult else abs(scales[i] * w[i])
         weight[i] = scales[i] / (atol + rtol * sz)
 
 
@@ -984,7 +1017,7 @@ def _solve(solver, lin, r, dw):
 
 
 @_jit
-def _newton(rec, md, q_pred, v_pred, F_old, qx_old, w, weight, opts, solver, lin, lu_state,
+def _newton(rec, I, Fl, q_pred, v_pred, F_old, qx_old, w, weight, opts, solver, lin, lu_state,
             R, C, V, r, dw, qx, vx, work, counts):
     """One step's Newton iteration on w (in place), with the stored
     factorization (``_factor``, ``_solve``) reused across iterations and
@@ -1006,7 +1039,7 @@ def _newton(rec, md, q_pred, v_pred, F_old, qx_old, w, weight, opts, solver, lin
     n_jac = 0
     for _ in range(max_iter):
         if not valid:
-            p = _jacobian_triplets(rec, md, q_pred, v_pred, qx_old, w, R, C, V, qx, vx)
+            p = _jacobian_triplets(rec, I, Fl, q_pred, v_pred, qx_old, w, R, C, V, qx, vx)
             counts[2] += 1
             n_jac += 1
             status = _factor(solver, lin, R, C, V, p)
@@ -1016,7 +1049,7 @@ def _newton(rec, md, q_pred, v_pred, F_old, qx_old, w, weight, opts, solver, lin
             counts[3] += 1
             valid = True
             age = 0
-        _residual(rec, md, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work)
+        _residual(rec, I, Fl, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work)
         counts[1] += 1
         for i in range(size):
             if not np.isfinite(r[i]):
@@ -1062,20 +1095,22 @@ def _newton(rec, md, q_pred, v_pred, F_old, qx_old, w, weight, opts, solver, lin
     return MAX_ITER
 
 
-def triplet_bound(md) -> int:  # noqa: D401 (md: the unpacked tuple)
-    """An upper bound of the Newton-matrix triplets any recipe emits: up to
-    five mass (and identity) blocks, four Hessian, two force, two G and six
-    Phi_q blocks."""
-    n = md[0].shape[0]
-    kc, kp, kl = md[2].shape[0], md[7].shape[0], md[13].shape[0]
-    ks, kr, kf = md[17].shape[0], md[22].shape[0], md[24].shape[0]
+def triplet_bound(I) -> int:
+    """An upper bound of the Newton-matrix triplets any recipe emits for the
+    packed model data ``I`` (its header's row counts): up to five mass (and
+    identity) blocks, four Hessian, two force, two G and six Phi_q blocks."""
+    def rows(k):
+        return int(I[3 * k + 1])
+    n = rows(MASS)
+    kc, kp, kl = rows(CROW), rows(PROW), rows(LROW)
+    ks, kr, kf = rows(SCOL1), rows(RCOL), rows(FCOL)
     phiq = 8 * kc + 6 * kp + 2 * kl
     return (6 * n + 6 * phiq + 4 * (2 * kc + 12 * kp) + 2 * (36 * ks + 4 * kr + kf)
             + 2 * (4 * kc + 6 * kp))
 
 
 @_jit
-def _run(rec2, md, h, t0, n_steps, step0, every, q, v, a, lam, mu, q_prev, v_prev, opts,
+def _run(rec2, I, Fl, h, t0, n_steps, step0, every, q, v, a, lam, mu, q_prev, v_prev, opts,
          solver, lin, lu_state, R, C, V, out_t, out_q, out_v, out_a, out_lam, out_mu, out_stats,
          counts):
     """Take up to n_steps steps of size h from (t0, q, v, a, lam, mu); ``mu``
@@ -1100,8 +1135,7 @@ def _run(rec2, md, h, t0, n_steps, step0, every, q, v, a, lam, mu, q_prev, v_pre
     (status, steps_taken, records) : status 0 when all steps converged, else
     the failing step's Newton status.
     """
-    mass = md[0]
-    n, m = mass.shape[0], md[27].shape[0]
+    n, m = _rows(I, MASS), _rows(I, ROW_ELEMENT)
     size, l0, e0, a0 = _layout(rec2[0], n, m)
     has_extra = e0 < size
     additive = rec2[0, FORM] == ADDITIVE
@@ -1119,7 +1153,8 @@ def _run(rec2, md, h, t0, n_steps, step0, every, q, v, a, lam, mu, q_prev, v_pre
     v_pred = np.empty(n)
     qx_old = np.zeros(n + 3)
     F = np.empty(n)
-    _old_force(rec2[0], md, q, v, lam, F, qx, vx, work)
+    scratch = np.empty(m + I[_HEADER - 1] + 2 * size)
+    _old_force(rec2[0], I, Fl, q, v, lam, F, qx, vx, work)
     rec = 0
     for k in range(n_steps):
         first = lu_state[2] == 0.0
@@ -1145,8 +1180,8 @@ def _run(rec2, md, h, t0, n_steps, step0, every, q, v, a, lam, mu, q_prev, v_pre
             for j in range(n):
                 w[n + j] = rc[Y0V] * v[j]
         qx_old[:n] = q
-        _scales_weights(rc, md, q, w, opts, R, C, V, qx, weight)
-        status = _newton(rc, md, q_pred, v_pred, F, qx_old, w, weight, opts, solver, lin,
+        _scales_weights(rc, I, Fl, q, w, opts, R, C, V, qx, weight, scratch)
+        status = _newton(rc, I, Fl, q_pred, v_pred, F, qx_old, w, weight, opts, solver, lin,
                          lu_state, R, C, V, r, dw, qx, vx, work, counts)
         if status != CONVERGED:
             return status, k, rec
@@ -1163,7 +1198,7 @@ def _run(rec2, md, h, t0, n_steps, step0, every, q, v, a, lam, mu, q_prev, v_pre
             lu_state[2] = 1.0
             if differ:                       # the steady recipe has another Newton matrix
                 lu_state[0] = 0.0
-        _old_force(rc, md, q, v, lam, F, qx, vx, work)
+        _old_force(rc, I, Fl, q, v, lam, F, qx, vx, work)
         counts[5] += 1
         if (step0 + k + 1) % every == 0:
             out_t[rec] = t0 + (k + 1) * h
@@ -1180,35 +1215,39 @@ def _run(rec2, md, h, t0, n_steps, step0, every, q, v, a, lam, mu, q_prev, v_pre
 
 
 # --------------------------------------------------------------------------------------------
-# Public entry points on the packed model data
+# Packing, and the public entry points on the packed model data
 #
 # Numba checks the type of every argument on each call (about 0.3 us per
-# array): a tuple of 29 arrays cost 8-10 us per residual, a third of a
-# Newton iteration on a chain of 100 links. The model data therefore crosses
-# the boundary as two flat arrays (integers, floats) with a header of
-# offsets and shapes, and is unpacked into views inside the kernel.
+# array), and inside the kernels every bound array costs reference-count
+# updates (see "Named access" above): the model data cross the boundary, and
+# every kernel call, as two flat arrays (integers, floats) with a header of
+# offsets and shapes, laid out by MODEL_SCHEMA.
 # --------------------------------------------------------------------------------------------
 
-#: Fields stored as integers; the rest are floats. "n_elements" is a scalar in the header.
-_INT_FIELDS = ("crow", "ccol1", "ccol2", "prow", "pcolL", "pcolP", "lrow", "lcol",
-               "scol1", "scol2", "rcol", "fcol", "row_element")
 _HEADER = 3 * len(MODEL_FIELDS) + 1
 
 
 def pack(fields: dict):
-    """(ints, floats): the model data of ``fields`` (name -> array, and
-    "n_elements" -> int) as two flat arrays, header first in ``ints``."""
+    """(ints, floats): the model data of ``fields`` (name -> array as
+    MODEL_SCHEMA declares it, and "n_elements" -> int) as two flat arrays,
+    header first in ``ints``.
+
+    Raises
+    ------
+    ValueError
+        A field whose columns differ from the schema's.
+    """
     ints = [np.zeros(_HEADER, np.int64)]
     floats = []
     ni, nf = _HEADER, 0
     header = ints[0]
-    for k, name in enumerate(MODEL_FIELDS):
-        if name == "n_elements":
-            header[-1] = int(fields[name])
-            continue
+    header[-1] = int(fields["n_elements"])
+    for k, (name, kind, columns) in enumerate(MODEL_SCHEMA):
         x = np.asarray(fields[name])
-        rows, cols = (x.shape[0], x.shape[1]) if x.ndim == 2 else (x.shape[0], 1)
-        if name in _INT_FIELDS:
+        if (x.ndim == 1) != (columns == 0) or (columns and x.shape[1] != columns):
+            raise ValueError(f"model data field {name!r}: shape {x.shape}, schema columns {columns}")
+        rows, cols = x.shape[0], max(columns, 1)
+        if kind == "i":
             header[3 * k:3 * k + 3] = (ni, rows, cols)
             ints.append(x.astype(np.int64).ravel())
             ni += x.size
@@ -1219,48 +1258,23 @@ def pack(fields: dict):
     return np.concatenate(ints), (np.concatenate(floats) if floats else np.zeros(0))
 
 
-@_jit
-def _i1(I, k):
-    o, r = I[3 * k], I[3 * k + 1]
-    return I[o:o + r]
-
-
-@_jit
-def _i2(I, k):
-    o, r, c = I[3 * k], I[3 * k + 1], I[3 * k + 2]
-    return I[o:o + r * c].reshape((r, c))
-
-
-@_jit
-def _f1(I, Fl, k):
-    o, r = I[3 * k], I[3 * k + 1]
-    return Fl[o:o + r]
-
-
-@_jit
-def _f2(I, Fl, k):
-    o, r, c = I[3 * k], I[3 * k + 1], I[3 * k + 2]
-    return Fl[o:o + r * c].reshape((r, c))
-
-
-@_jit
-def unpack(I, Fl):
-    """The model-data tuple (views, order ``MODEL_FIELDS``) of packed arrays."""
-    return (_f1(I, Fl, 0), _f1(I, Fl, 1),
-            _i2(I, 2), _i2(I, 3), _f2(I, Fl, 4), _i2(I, 5), _f2(I, Fl, 6),
-            _i1(I, 7), _i2(I, 8), _f2(I, Fl, 9), _i2(I, 10), _f2(I, Fl, 11), _f2(I, Fl, 12),
-            _i1(I, 13), _i2(I, 14), _f2(I, Fl, 15), _f1(I, Fl, 16),
-            _i2(I, 17), _f2(I, Fl, 18), _i2(I, 19), _f2(I, Fl, 20), _f2(I, Fl, 21),
-            _i2(I, 22), _f2(I, Fl, 23),
-            _i2(I, 24), _f2(I, Fl, 25), _f2(I, Fl, 26),
-            _i1(I, 27), I[_HEADER - 1])
+def unpack(I, Fl) -> dict:
+    """The packed model data as {field: array view} (MODEL_SCHEMA's shapes),
+    and "n_elements": for tests and debugging; the kernels read the packed
+    arrays through ``_i`` and ``_f``."""
+    out = {"n_elements": int(I[_HEADER - 1])}
+    for k, (name, kind, columns) in enumerate(MODEL_SCHEMA):
+        o, r, c = (int(x) for x in I[3 * k:3 * k + 3])
+        x = (I if kind == "i" else Fl)[o:o + r * c]
+        out[name] = x if columns == 0 else x.reshape(r, c)
+    return out
 
 
 @_jit
 def residual(rec, I, Fl, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work):
     """Upsilon(w) of recipe ``rec`` into r; see ``_residual``. Returns False
     when r is not finite."""
-    _residual(rec, unpack(I, Fl), q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work)
+    _residual(rec, I, Fl, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work)
     for x in r:
         if not np.isfinite(x):
             return False
@@ -1270,25 +1284,25 @@ def residual(rec, I, Fl, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work):
 @_jit
 def jacobian_triplets(rec, I, Fl, q_pred, v_pred, qx_old, w, R, C, V, qx, vx):
     """Newton-matrix triplets; see ``_jacobian_triplets``. Returns their count."""
-    return _jacobian_triplets(rec, unpack(I, Fl), q_pred, v_pred, qx_old, w, R, C, V, qx, vx)
+    return _jacobian_triplets(rec, I, Fl, q_pred, v_pred, qx_old, w, R, C, V, qx, vx)
 
 
 @_jit
 def old_force(rec, I, Fl, q, v, lam, out, qx, vx, work):
     """F_n of the recipe into out (n,); see ``_old_force``."""
-    _old_force(rec, unpack(I, Fl), q, v, lam, out, qx, vx, work)
+    _old_force(rec, I, Fl, q, v, lam, out, qx, vx, work)
 
 
 @_jit
 def force_term(I, Fl, q, v, lam, out, qx, vx, work):
     """Phi_q^T lambda - Q(q, v) into out (n,)."""
-    _force_term(unpack(I, Fl), q, v, lam, out, qx, vx, work)
+    _force_term(I, Fl, q, v, lam, out, qx, vx, work)
 
 
 @_jit
 def mobility(I, Fl, q, out, R, C, V, qx):
     """Multiplier mobility per constraint row into out (m,)."""
-    _mobility(unpack(I, Fl), q, out, R, C, V, qx)
+    _mobility(I, Fl, q, out, R, C, V, qx, np.empty(I[_HEADER - 1]))
 
 
 @_jit
@@ -1296,6 +1310,6 @@ def run(rec2, I, Fl, h, t0, n_steps, step0, every, q, v, a, lam, mu, q_prev, v_p
         solver, lin, lu_state, R, C, V, out_t, out_q, out_v, out_a, out_lam, out_mu, out_stats,
         counts):
     """The compiled time loop; see ``_run``."""
-    return _run(rec2, unpack(I, Fl), h, t0, n_steps, step0, every, q, v, a, lam, mu,
+    return _run(rec2, I, Fl, h, t0, n_steps, step0, every, q, v, a, lam, mu,
                 q_prev, v_prev, opts, solver, lin, lu_state, R, C, V, out_t, out_q, out_v, out_a,
                 out_lam, out_mu, out_stats, counts)

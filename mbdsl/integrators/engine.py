@@ -43,7 +43,6 @@ from ..assembly.groups import (CoincidenceGroup, LinearConstraintGroup, PointFor
                                PointOnLineGroup, RotationalSpringGroup, SpringDamperGroup,
                                TorqueGroup)
 from ..assembly.sparse import DENSE_LIMIT
-from ..solution import StepStats
 from .base import StepState
 
 __all__ = ["ENGINES", "unsupported", "CompiledModel", "select_engine", "prepare_compiled",
@@ -179,11 +178,11 @@ def prepare_compiled(system, method, options, q, announce=None):
 
 
 class CompiledModel:
-    """The model's element groups as the kernels' tuple of arrays.
+    """The model's element groups as the kernels' packed model data.
 
     Built once per run from the system's groups (which already store their
-    instances as structs of arrays); field order
-    ``compiled.MODEL_FIELDS``. Constant driver values are folded into the
+    instances as structs of arrays); fields as ``compiled.MODEL_SCHEMA``
+    declares them. Constant driver values are folded into the
     rows' offsets, constant torques and gravity into Q0.
 
     Parameters
@@ -241,10 +240,10 @@ class CompiledModel:
         d["Q0"] = Q0
         d["row_element"] = system.layout.row_element.astype(i8)
         d["n_elements"] = int(system.layout.n_elements)
-        from .compiled import MODEL_FIELDS, pack, triplet_bound
+        from .compiled import pack, triplet_bound
         self.ints, self.floats = pack(d)
         self.n, self.m = n, system.m
-        self.bound = triplet_bound(tuple(d[k] for k in MODEL_FIELDS))
+        self.bound = triplet_bound(self.ints)
 
 
 class LinearSolverPlan:
@@ -500,13 +499,21 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
     step_no = 0           # global step count, for the output stride
     last_h = h
 
-    def add_row(t_row, qr, vr, ar, lr, mr, st, step_h):
-        """Append one recorded state with its Newton counts st (6,) to sol."""
-        s = StepState(float(t_row), qr.copy(), vr.copy(), ar.copy(), lr.copy())
-        if extra is not None:
-            s.extra[extra] = mr.copy()
-        sol.append(s, StepStats(int(st[0]), int(st[1]), int(st[2]), int(st[3]), step_h,
-                                int(st[4]), steps=int(st[5])))
+    def add_rows(k, step_h):
+        """Append the first k recorded rows of the out_* arrays to sol, as arrays."""
+        if k:
+            sol.append_block(out_t[:k].copy(), out_q[:k].copy(), out_v[:k].copy(),
+                             out_a[:k].copy(), out_lam[:k].copy(),
+                             {extra: out_mu[:k].copy()} if extra is not None else {},
+                             out_stats[:k].copy(), step_h)
+
+    def add_row(t_row, step_h):
+        """Append the current state with the counts since the last record to sol."""
+        sol.append_block(np.array([float(t_row)]), q[None].copy(), v[None].copy(),
+                         a[None].copy(), lam[None].copy(),
+                         {extra: mu[None].copy()} if extra is not None else {},
+                         counts[None].copy(), step_h)
+        counts[:] = 0
 
     try:
         schedule = _step_plan(t_start, t_end, h)
@@ -522,9 +529,7 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
                     rec2, I, Fl, step_h, t0, chunk, step_no, output_every, q, v, a, lam, mu,
                     q_prev, v_prev, opts, solver, lin, lu_state, R, C, V, out_t, out_q, out_v,
                     out_a, out_lam, out_mu, out_stats, counts)
-                for i in range(nrec):
-                    add_row(out_t[i], out_q[i], out_v[i], out_a[i], out_lam[i], out_mu[i],
-                            out_stats[i], step_h)
+                add_rows(nrec, step_h)
                 step_no += taken
                 done += taken
                 t = t0 + taken * step_h
@@ -542,33 +547,28 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
                         opts[4] = opt.refresh_rate(plan.factorization_is_expensive(size))
                         sol.linear_solver_note = plan.why
                     if counts[5]:
-                        add_row(t, q, v, a, lam, mu, counts, step_h)
-                        counts[:] = 0
+                        add_row(t, step_h)
                     end = t_end if t + 9 * step_h >= t_end - 1e-9 * h else t + 8 * step_h
                     part = numpy_integrate(
                         system, method, end, step_h, t_start=t,
                         initial=_resume_state(system, t, q, v, a, lam),
                         newton=numpy_opt, on_failure="return", max_halvings=max_halvings,
                         grow_after=grow_after, engine="numpy")
-                    for s, stats in zip(part._rows[1:], part._stats[1:]):
-                        sol.append(s, stats)
-                    sol.stats_total.rejected += part.stats_total.rejected
+                    sol.extend(part, start=1)
                     if part.status != "completed":
                         sol.status, sol.message = part.status, part.message
                         sol.diagnostics = part.diagnostics
                         return sol
-                    last = part._rows[-1]
-                    q[:], v[:], a[:], lam[:] = last.q, last.v, last.a, last.lam
+                    q[:], v[:], a[:], lam[:] = part.q[-1], part.v[-1], part.a[-1], part.lam[-1]
                     if extra is not None:
-                        mu[:] = last.extra[extra]
+                        mu[:] = part.extras[extra][-1]
                     # the history of a two-step method: the numpy part's last step, if of size h
-                    before = part._rows[-2] if len(part._rows) >= 2 else None
                     lu_state[2] = 0.0
-                    if before is not None and abs((last.t - before.t) - step_h) <= 1e-9 * step_h:
-                        q_prev[:], v_prev[:] = before.q, before.v
+                    if len(part.t) >= 2 and abs((part.t[-1] - part.t[-2]) - step_h) <= 1e-9 * step_h:
+                        q_prev[:], v_prev[:] = part.q[-2], part.v[-2]
                         lu_state[2] = 1.0
-                    covered = int(round((last.t - t) / step_h))
-                    t = last.t
+                    covered = int(round((part.t[-1] - t) / step_h))
+                    t = float(part.t[-1])
                     done += covered
                     step_no += covered
                     lu_state[0] = 0.0
@@ -576,10 +576,9 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
                     # the last step lands on t_end: record it (exactly at t_end)
                     # before the writer sees it, also when the stride skipped it
                     if counts[5]:
-                        add_row(t_end, q, v, a, lam, mu, counts, last_h)
-                        counts[:] = 0
-                    elif abs(sol._rows[-1].t - t_end) <= 1e-9 * h:
-                        sol._rows[-1].t = t_end
+                        add_row(t_end, last_h)
+                    elif abs(sol.rows(sol.n_rows - 1, sol.n_rows)["t"][0] - t_end) <= 1e-9 * h:
+                        sol._rows.set_last_t(t_end)
                     t = t_end
                 if progress is not None:
                     progress(t, step_h, int(sol.stats_total.iterations))
@@ -588,7 +587,7 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
         sol.status, sol.message = "completed", f"reached t_end = {t_end:g} s"
     except KeyboardInterrupt:
         if counts[5]:
-            add_row(t, q, v, a, lam, mu, counts, last_h)
+            add_row(t, last_h)
         sol.status = "interrupted"
         sol.message = f"interrupted by the user at t = {t:.6g} s; every accepted step is kept"
     return sol

@@ -248,8 +248,8 @@ def test_packed_model_data_round_trips():
     from mbdsl.integrators import compiled
     system, _ = _system(VALID / "compiled_elements.mbd")
     cm = CompiledModel(system)
-    md = compiled.unpack(cm.ints, cm.floats)
-    fields = dict(zip(compiled.MODEL_FIELDS, md))
+    fields = compiled.unpack(cm.ints, cm.floats)
+    assert set(fields) == set(compiled.MODEL_FIELDS)
     assert np.array_equal(fields["mass"], system.mass_diag)
     assert fields["crow"].shape == (2, 2) and fields["prow"].shape == (3,)
     assert fields["spar"].shape == (3, 3) and fields["n_elements"] == system.layout.n_elements
