@@ -102,7 +102,7 @@ class _Checker:
             f, d1 = compile_function(e), diff(e)
             d2 = diff(d1)
             fn = TimeFunction(f, compile_function(d1), compile_function(d2),
-                              constant="t" not in free_names(e))
+                              constant="t" not in free_names(e), expr=e)
             value = fn.f(0.0)
             if not math.isfinite(value):
                 raise ExprError(f"the value at t = 0 is not finite ({value})", "E301",

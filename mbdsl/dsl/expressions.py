@@ -20,7 +20,8 @@ from ..errors import Span
 
 __all__ = [
     "Num", "Name", "IndexedName", "Dotted", "Unary", "Binary", "Call", "Vec", "Expr",
-    "FUNCTIONS", "ExprError", "evaluate", "free_names", "substitute", "diff",
+    "FUNCTIONS", "OPCODES", "ExprError", "evaluate", "free_names", "substitute", "diff",
+    "postfix",
     "simplify", "compile_function", "as_expr",
 ]
 
@@ -124,6 +125,11 @@ FUNCTIONS: dict[str, Callable[[float], float]] = {
 }
 
 CONSTANTS = {"pi": math.pi}
+
+#: Opcodes of a compiled program (:func:`postfix`), by number: a constant (its
+#: index in the constant table follows), t, negation, the binary operators, then
+#: one per entry of :data:`FUNCTIONS`, in order.
+OPCODES = ("const", "t", "neg", "+", "-", "*", "/", "^") + tuple(FUNCTIONS)
 
 
 class ExprError(ValueError):
@@ -495,3 +501,56 @@ def compile_function(e: Expr, var: str = "t") -> Callable[[float], float]:
         raise TypeError(f"cannot compile {e!r}")
 
     return _c(e)
+
+
+def postfix(e: Expr, var: str = "t") -> tuple[list[int], list[float], int]:
+    """A substituted expression of one variable as a postfix program, for the
+    compiled kernels (``integrators.compiled._eval``).
+
+    Returns
+    -------
+    code : list of int
+        Opcodes (:data:`OPCODES`); ``const`` is followed by the index of its
+        value in ``constants``.
+    constants : list of float
+    depth : int
+        The evaluation stack the program needs.
+
+    Raises
+    ------
+    TypeError
+        A node that is not a number, the variable, or an operator or
+        function of them (the expression was not substituted).
+    """
+    e = simplify(e)
+    code, consts = [], []
+    depth = [0, 0]          # current, largest
+
+    def push(k):
+        depth[0] += k
+        depth[1] = max(depth[1], depth[0])
+
+    def emit(e):
+        if isinstance(e, Num):
+            code.extend((0, len(consts)))
+            consts.append(float(e.value))
+            push(1)
+        elif isinstance(e, Name) and e.name == var:
+            code.append(1)
+            push(1)
+        elif isinstance(e, Unary):
+            emit(e.operand)
+            code.append(2)
+        elif isinstance(e, Binary):
+            emit(e.left)
+            emit(e.right)
+            code.append(OPCODES.index(e.op))
+            push(-1)
+        elif isinstance(e, Call):
+            emit(e.arg)
+            code.append(OPCODES.index(e.func))
+        else:
+            raise TypeError(f"cannot compile {e!r}")
+
+    emit(e)
+    return code, consts, depth[1]

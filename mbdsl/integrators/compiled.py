@@ -56,6 +56,7 @@ import numpy as np
 from llvmlite import ir
 from numba.extending import intrinsic
 
+from ..dsl.expressions import OPCODES
 from .recipe import RECIPE_FIELDS
 
 __all__ = ["MODEL_SCHEMA", "MODEL_FIELDS", "residual", "jacobian_triplets", "force_term", "old_force", "mobility",
@@ -70,7 +71,9 @@ _RECIPE = ("form", "has_y", "split", "cqx", "cqy", "cvx", "cvy", "cM", "cF", "dM
            "sP", "sV", "sx", "sy", "mu_mob", "floor",
            "pq0", "pq1", "pv0", "pv1", "pa", "vv0", "vv1", "va", "y0v",
            "ka1", "ka2", "kb", "cQ", "sm")
-if _RECIPE != RECIPE_FIELDS:     # pragma: no cover (a developer's error, caught by any test)
+_OPCODES = ("const", "t", "neg", "+", "-", "*", "/", "^", "sin", "cos", "tan", "asin", "acos",
+            "atan", "sinh", "cosh", "tanh", "sqrt", "exp", "log", "abs")
+if _RECIPE != RECIPE_FIELDS or _OPCODES != OPCODES:     # pragma: no cover (a developer's error, caught by any test)
     raise ImportError("compiled.py's recipe indices differ from recipe.RECIPE_FIELDS")
 
 #: Linear solvers of the compiled loop: explicit inverse (LAPACK getrf/getri through
@@ -99,6 +102,12 @@ MODEL_SCHEMA = (
     ("rcol", "i", 2), ("rpar", "f", 3),                                # rotational (k, c, angle)
     ("fcol", "i", 3), ("fs", "f", 2), ("fF", "f", 2),                  # constant point forces
     ("row_element", "i", 0),                                           # constraint row -> element
+    ("code", "i", 0), ("consts", "f", 0),                              # time-function programs
+    ("prog", "i", 2),                                                  # program: (start, end)
+    ("lfn", "i", 2),                                                   # linear row: f, f' programs
+    ("tcol", "i", 0), ("tfn", "i", 0),                                 # torque of t: column, f
+    ("ffn", "i", 2),                                                   # point force: fx, fy programs
+    ("stack", "f", 0),                                                 # the programs' stack
 )
 #: The field names, and the scalar "n_elements" (the header's last entry).
 MODEL_FIELDS = tuple(name for name, _, _ in MODEL_SCHEMA) + ("n_elements",)
@@ -115,7 +124,7 @@ _inline = numba.njit(cache=True, nogil=True, inline="always")
 #: schema below, so that numba's cache of this file never holds another version's indices.
 (MASS, Q0, CROW, CCOL1, CS1, CCOL2, CS2, PROW, PCOLL, PSL, PCOLP, PSP, PN0,
  LROW, LCOL, LCOEF, LOFF, SCOL1, SS1, SCOL2, SS2, SPAR, RCOL, RPAR,
- FCOL, FS, FF, ROW_ELEMENT) = range(28)
+ FCOL, FS, FF, ROW_ELEMENT, CODE, CONSTS, PROG, LFN, TCOL, TFN, FFN, STACK) = range(36)
 if any(globals()[name.upper()] != k for k, (name, _, _) in enumerate(MODEL_SCHEMA)):
     raise ImportError("compiled.py's field indices differ from MODEL_SCHEMA")   # pragma: no cover
 
@@ -205,8 +214,122 @@ def _pol_hess(nx, ny, dx, dy, axL, ayL, axP, ayP, bnd):
 # Vectors: Phi, Phi_q^T lambda, Phi_q v, Q
 # --------------------------------------------------------------------------------------------
 
+# --------------------------------------------------------------------------------------------
+# Functions of time: the language's expressions as postfix programs
+# (``dsl.expressions.postfix``), with the same non-raising semantics as
+# ``compile_function``: a division by zero gives +-inf (0/0 NaN), a domain
+# error NaN, so that a bad value stops the run with a message, not a crash.
+# --------------------------------------------------------------------------------------------
+
+#: Opcodes (``dsl.expressions.OPCODES``, checked at import): literals, as the field indices.
+(OP_CONST, OP_T, OP_NEG, OP_ADD, OP_SUB, OP_MUL, OP_DIV, OP_POW,
+ OP_SIN, OP_COS, OP_TAN, OP_ASIN, OP_ACOS, OP_ATAN, OP_SINH, OP_COSH, OP_TANH,
+ OP_SQRT, OP_EXP, OP_LOG, OP_ABS) = range(21)
+
+
 @_jit
-def phi(I, Fl, qx, out):
+def _eval(I, Fl, p, t):
+    """The value at time t [s] of program p (row of field PROG)."""
+    base, sp = I[3 * STACK], 0              # the stack is the float field STACK
+    k, end = _i(I, PROG, p, 0), _i(I, PROG, p, 1)
+    while k < end:
+        op = _i(I, CODE, k, 0)
+        k += 1
+        if op == OP_CONST:
+            Fl[base + sp] = _f(I, Fl, CONSTS, _i(I, CODE, k, 0), 0)
+            k += 1
+            sp += 1
+        elif op == OP_T:
+            Fl[base + sp] = t
+            sp += 1
+        elif op == OP_NEG:
+            Fl[base + sp - 1] = -Fl[base + sp - 1]
+        elif op <= OP_POW:
+            a, b = Fl[base + sp - 2], Fl[base + sp - 1]
+            sp -= 1
+            if op == OP_ADD:
+                x = a + b
+            elif op == OP_SUB:
+                x = a - b
+            elif op == OP_MUL:
+                x = a * b
+            elif op == OP_DIV:
+                if b != 0.0:
+                    x = a / b
+                elif a != 0.0:
+                    x = math.copysign(math.inf, a)
+                else:
+                    x = math.nan
+            else:
+                x = _pow(a, b)
+            Fl[base + sp - 1] = x
+        else:
+            Fl[base + sp - 1] = _call(op, Fl[base + sp - 1])
+    return Fl[base]
+
+
+@_jit
+def _pow(a, b):
+    """a ** b as ``expressions._pow``: inf on overflow or 0 ** negative, NaN
+    for a negative base with a fractional exponent."""
+    if a == 0.0 and b < 0.0:
+        return math.inf
+    if a < 0.0 and b != math.floor(b):
+        return math.nan
+    return math.pow(a, b)
+
+
+@_jit
+def _call(op, x):
+    """The function of opcode op at x; NaN outside its domain."""
+    if op == OP_SIN:
+        return math.sin(x)
+    if op == OP_COS:
+        return math.cos(x)
+    if op == OP_TAN:
+        return math.tan(x)
+    if op == OP_ASIN:
+        return math.asin(x) if abs(x) <= 1.0 else math.nan
+    if op == OP_ACOS:
+        return math.acos(x) if abs(x) <= 1.0 else math.nan
+    if op == OP_ATAN:
+        return math.atan(x)
+    if op == OP_SINH:
+        return math.sinh(x)
+    if op == OP_COSH:
+        return math.cosh(x)
+    if op == OP_TANH:
+        return math.tanh(x)
+    if op == OP_SQRT:
+        return math.sqrt(x) if x >= 0.0 else math.nan
+    if op == OP_EXP:
+        return math.exp(x)
+    if op == OP_LOG:
+        return math.log(x) if x > 0.0 else math.nan
+    return abs(x)
+
+
+@_jit
+def _point_force(I, Fl, t, i):
+    """(fx, fy) [N] of point force i at time t: constant, or its programs."""
+    fx, fy = _f(I, Fl, FF, i, 0), _f(I, Fl, FF, i, 1)
+    if _i(I, FFN, i, 0) >= 0:
+        fx = _eval(I, Fl, _i(I, FFN, i, 0), t)
+    if _i(I, FFN, i, 1) >= 0:
+        fy = _eval(I, Fl, _i(I, FFN, i, 1), t)
+    return fx, fy
+
+
+@_jit
+def _phi_t_add(I, Fl, t, out):
+    """out (m,) += Phi_t: -f'(t) in the rows of drivers f(t)."""
+    for i in range(_rows(I, LROW)):
+        if _i(I, LFN, i, 1) >= 0:
+            out[_i(I, LROW, i, 0)] -= _eval(I, Fl, _i(I, LFN, i, 1), t)
+
+
+@_jit
+def phi(I, Fl, t, qx, out):
     """Phi(q) into out (m,) [m or rad]."""
     for i in range(_rows(I, CROW)):
         ax1, ay1 = _As(I, Fl, qx, CCOL1, CS1, i)
@@ -217,7 +340,11 @@ def phi(I, Fl, qx, out):
         nx, ny, dx, dy, axL, ayL, axP, ayP = _pol(I, Fl, qx, i)
         out[_i(I, PROW, i, 0)] = nx * dx + ny * dy
     for i in range(_rows(I, LROW)):
-        out[_i(I, LROW, i, 0)] = _f(I, Fl, LCOEF, i, 0) * qx[_i(I, LCOL, i, 0)] + _f(I, Fl, LCOEF, i, 1) * qx[_i(I, LCOL, i, 1)] - _f(I, Fl, LOFF, i, 0)
+        val = (_f(I, Fl, LCOEF, i, 0) * qx[_i(I, LCOL, i, 0)]
+               + _f(I, Fl, LCOEF, i, 1) * qx[_i(I, LCOL, i, 1)] - _f(I, Fl, LOFF, i, 0))
+        if _i(I, LFN, i, 0) >= 0:                  # a driver f(t)
+            val -= _eval(I, Fl, _i(I, LFN, i, 0), t)
+        out[_i(I, LROW, i, 0)] = val
 
 
 @_jit
@@ -296,7 +423,7 @@ def _spring(I, Fl, qx, vx, i, G, v6):
 
 
 @_jit
-def forces(I, Fl, qx, vx, out):
+def forces(I, Fl, t, qx, vx, out):
     """Q(q, v) into out (n+3,) [N, N m] (overwritten)."""
     for j in range(out.shape[0]):       # a loop: numba's array-to-array slice copy checks overlap
         out[j] = _f(I, Fl, Q0, j, 0)
@@ -329,9 +456,12 @@ def forces(I, Fl, qx, vx, out):
         out[_i(I, RCOL, i, 1)] -= tau
     for i in range(_rows(I, FCOL)):
         ax, ay = _As(I, Fl, qx, FCOL, FS, i)
-        out[_i(I, FCOL, i, 0)] += _f(I, Fl, FF, i, 0)
-        out[_i(I, FCOL, i, 1)] += _f(I, Fl, FF, i, 1)
-        out[_i(I, FCOL, i, 2)] += -ay * _f(I, Fl, FF, i, 0) + ax * _f(I, Fl, FF, i, 1)
+        fx, fy = _point_force(I, Fl, t, i)
+        out[_i(I, FCOL, i, 0)] += fx
+        out[_i(I, FCOL, i, 1)] += fy
+        out[_i(I, FCOL, i, 2)] += -ay * fx + ax * fy
+    for i in range(_rows(I, TCOL)):                # torques of t (constant ones are in Q0)
+        out[_i(I, TCOL, i, 0)] += _eval(I, Fl, _i(I, TFN, i, 0), t)
 
 
 # --------------------------------------------------------------------------------------------
@@ -471,7 +601,7 @@ def _emit_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef):
 
 
 @_jit
-def _emit_force(I, Fl, n, qx, vx, R, C, V, p, r0, c0, cq, cv):
+def _emit_force(I, Fl, t, n, qx, vx, R, C, V, p, r0, c0, cq, cv):
     """-(cq Q_q + cv Q_v) at (r0, c0) (``SpringDamperGroup.derivatives``)."""
     G = np.empty((2, 6))
     v6 = np.empty(6)
@@ -528,7 +658,8 @@ def _emit_force(I, Fl, n, qx, vx, R, C, V, p, r0, c0, cq, cv):
     for i in range(_rows(I, FCOL)):
         if _i(I, FCOL, i, 2) < n:
             ax, ay = _As(I, Fl, qx, FCOL, FS, i)
-            val = cq * -(ax * _f(I, Fl, FF, i, 0) + ay * _f(I, Fl, FF, i, 1))
+            fx, fy = _point_force(I, Fl, t, i)
+            val = cq * -(ax * fx + ay * fy)
             p = _put(R, C, V, p, r0 + _i(I, FCOL, i, 2), c0 + _i(I, FCOL, i, 2), -val)
     return p
 
@@ -573,7 +704,7 @@ def _state(rec, n, w, q_pred, v_pred, qx, vx):
 
 
 @_jit
-def _residual(rec, I, Fl, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work):
+def _residual(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work):
     """Upsilon(w) of the recipe ``rec``, size n + m (index 3), 2 (n + m)
     (stabilized index 2) or 3 n + 2 m (additive form).
 
@@ -583,19 +714,19 @@ def _residual(rec, I, Fl, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work):
     rows 1, 2 and 5 multiplied by M).
     """
     if rec[FORM] == ADDITIVE:
-        _residual_additive(rec, I, Fl, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work)
+        _residual_additive(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work)
         return
     n, m = _rows(I, MASS), _rows(I, ROW_ELEMENT)
     size, l0, u0, a0 = _layout(rec, n, m)
     _state(rec, n, w, q_pred, v_pred, qx, vx)
     cM, cF = rec[CM], rec[CF]
-    forces(I, Fl, qx, vx, work)
+    forces(I, Fl, t, qx, vx, work)
     for j in range(n):
         work[j] = -work[j]
     phiqT_add(I, Fl, qx, w[l0:l0 + m], 1.0, work)
     for j in range(n):
         r[j] = cM * _f(I, Fl, MASS, j, 0) * w[j] + work[j] - cF * F_old[j]
-    phi(I, Fl, qx, r[l0:l0 + m])
+    phi(I, Fl, t, qx, r[l0:l0 + m])
     sP = rec[SP]
     for i in range(m):
         r[l0 + i] *= sP
@@ -606,13 +737,14 @@ def _residual(rec, I, Fl, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work):
         for j in range(n):
             r[n + j] = (dM * _f(I, Fl, MASS, j, 0) + dI) * w[n + j] + dV * vx[j] + work[j]
         phiq_times(I, Fl, qx, vx, r[u0:])
+        _phi_t_add(I, Fl, t, r[u0:])
         sV = rec[SV]
         for i in range(m):
             r[u0 + i] *= sV
 
 
 @_jit
-def _jacobian_triplets(rec, I, Fl, q_pred, v_pred, qx_old, w, R, C, V, qx, vx):
+def _jacobian_triplets(rec, I, Fl, t, q_pred, v_pred, qx_old, w, R, C, V, qx, vx):
     """Newton matrix entries (R, C, V) of the recipe ``rec``, in an order and
     pattern fixed by the model and the method; returns their count.
     Duplicates are summed by the caller.
@@ -627,7 +759,7 @@ def _jacobian_triplets(rec, I, Fl, q_pred, v_pred, qx_old, w, R, C, V, qx, vx):
     emit nothing.
     """
     if rec[FORM] == ADDITIVE:
-        return _jacobian_additive(rec, I, Fl, q_pred, v_pred, qx_old, w, R, C, V, qx, vx)
+        return _jacobian_additive(rec, I, Fl, t, q_pred, v_pred, qx_old, w, R, C, V, qx, vx)
     n, m = _rows(I, MASS), _rows(I, ROW_ELEMENT)
     size, l0, u0, a0 = _layout(rec, n, m)
     _state(rec, n, w, q_pred, v_pred, qx, vx)
@@ -637,7 +769,7 @@ def _jacobian_triplets(rec, I, Fl, q_pred, v_pred, qx_old, w, R, C, V, qx, vx):
     p = _emit_mass(I, Fl, n, R, C, V, p, 0, 0, rec[CM])
     if cqx != 0.0:
         p = _emit_hess(I, Fl, n, qx, lam, R, C, V, p, 0, 0, cqx)
-    p = _emit_force(I, Fl, n, qx, vx, R, C, V, p, 0, 0, cqx, cvx)
+    p = _emit_force(I, Fl, t, n, qx, vx, R, C, V, p, 0, 0, cqx, cvx)
     p = _emit_phiq(I, Fl, n, qx, R, C, V, p, 0, l0, 1.0, True)
     if cqx != 0.0:
         p = _emit_phiq(I, Fl, n, qx, R, C, V, p, l0, 0, sP * cqx, False)
@@ -647,7 +779,7 @@ def _jacobian_triplets(rec, I, Fl, q_pred, v_pred, qx_old, w, R, C, V, qx, vx):
         if cqy != 0.0:
             p = _emit_hess(I, Fl, n, qx, lam, R, C, V, p, 0, n, cqy)
         if cqy != 0.0 or cvy != 0.0:
-            p = _emit_force(I, Fl, n, qx, vx, R, C, V, p, 0, n, cqy, cvy)
+            p = _emit_force(I, Fl, t, n, qx, vx, R, C, V, p, 0, n, cqy, cvy)
         if cqx != 0.0:
             p = _emit_hess(I, Fl, n, qx, mu, R, C, V, p, n, 0, cqx)
         if dV * cvx != 0.0:
@@ -673,7 +805,7 @@ def _jacobian_triplets(rec, I, Fl, q_pred, v_pred, qx_old, w, R, C, V, qx, vx):
 
 
 @_jit
-def _residual_additive(rec, I, Fl, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work):
+def _residual_additive(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work):
     """Upsilon(w) of HHT-ADD (``hht_add.py``) with its rows 1, 2 and 5
     multiplied by M (rigid bodies: a constant diagonal, so that Newton's
     iterates are those of the unscaled system and no M^-1 is formed)::
@@ -699,20 +831,21 @@ def _residual_additive(rec, I, Fl, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, 
     for j in range(n):
         r[j] += 0.5 * kb * work[j]
         r[n + j] += 0.5 * work[j]
-    phi(I, Fl, qx, r[2 * n:2 * n + m])
+    phi(I, Fl, t, qx, r[2 * n:2 * n + m])
     phiq_times(I, Fl, qx, vx, r[2 * n + m:2 * n + 2 * m])
+    _phi_t_add(I, Fl, t, r[2 * n + m:2 * n + 2 * m])
     sP, sV = rec[SP], rec[SV]
     for i in range(m):
         r[2 * n + i] *= sP
         r[2 * n + m + i] *= sV
-    forces(I, Fl, qx, vx, work)
+    forces(I, Fl, t, qx, vx, work)
     cQ, cF, r5 = rec[CQ], rec[CF], 2 * n + 2 * m
     for j in range(n):
         r[r5 + j] = _f(I, Fl, MASS, j, 0) * w[a0 + j] - cQ * work[j] - cF * F_old[j]
 
 
 @_jit
-def _jacobian_additive(rec, I, Fl, q_pred, v_pred, qx_old, w, R, C, V, qx, vx):
+def _jacobian_additive(rec, I, Fl, t, q_pred, v_pred, qx_old, w, R, C, V, qx, vx):
     """Newton matrix of ``_residual_additive`` (the one of ``HHTADD`` with
     rows 1, 2 and 5 multiplied by M), K(u) = (Phi_q^T u)_q, G = (Phi_q v)_q::
 
@@ -745,24 +878,24 @@ def _jacobian_additive(rec, I, Fl, q_pred, v_pred, qx_old, w, R, C, V, qx, vx):
     p = _emit_G(I, Fl, n, qx, vx, R, C, V, p, 2 * n + m, 0, rec[SV] * cqx)
     p = _emit_phiq(I, Fl, n, qx, R, C, V, p, 2 * n + m, n, rec[SV] * cvy, False)
     p = _emit_mass(I, Fl, n, R, C, V, p, r5, a0, 1.0)
-    p = _emit_force(I, Fl, n, qx, vx, R, C, V, p, r5, 0, rec[CQ] * cqx, 0.0)
-    p = _emit_force(I, Fl, n, qx, vx, R, C, V, p, r5, n, 0.0, rec[CQ] * cvy)
+    p = _emit_force(I, Fl, t, n, qx, vx, R, C, V, p, r5, 0, rec[CQ] * cqx, 0.0)
+    p = _emit_force(I, Fl, t, n, qx, vx, R, C, V, p, r5, n, 0.0, rec[CQ] * cvy)
     return p
 
 
 @_jit
-def _old_force(rec, I, Fl, q, v, lam, out, qx, vx, work):
+def _old_force(rec, I, Fl, t, q, v, lam, out, qx, vx, work):
     """F_n of the recipe into out (n,): Phi_q^T lambda - Q (linear form), -Q
     (additive form)."""
     if rec[FORM] == ADDITIVE:
         n = q.shape[0]
         qx[:n] = q
         vx[:n] = v
-        forces(I, Fl, qx, vx, work)
+        forces(I, Fl, t, qx, vx, work)
         for j in range(n):
             out[j] = -work[j]
     else:
-        _force_term(I, Fl, q, v, lam, out, qx, vx, work)
+        _force_term(I, Fl, t, q, v, lam, out, qx, vx, work)
 
 
 @_jit
@@ -775,12 +908,12 @@ def accumulate(V, count, position, data):
 
 
 @_jit
-def _force_term(I, Fl, q, v, lam, out, qx, vx, work):
+def _force_term(I, Fl, t, q, v, lam, out, qx, vx, work):
     """Phi_q^T lambda - Q(q, v) into out (n,) (``common.force_term``)."""
     n = q.shape[0]
     qx[:n] = q
     vx[:n] = v
-    forces(I, Fl, qx, vx, work)
+    forces(I, Fl, t, qx, vx, work)
     for j in range(n + 3):
         work[j] = -work[j]
     phiqT_add(I, Fl, qx, lam, 1.0, work)
@@ -1017,7 +1150,7 @@ def _solve(solver, lin, r, dw):
 
 
 @_jit
-def _newton(rec, I, Fl, q_pred, v_pred, F_old, qx_old, w, weight, opts, solver, lin, lu_state,
+def _newton(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, weight, opts, solver, lin, lu_state,
             R, C, V, r, dw, qx, vx, work, counts):
     """One step's Newton iteration on w (in place), with the stored
     factorization (``_factor``, ``_solve``) reused across iterations and
@@ -1039,7 +1172,7 @@ def _newton(rec, I, Fl, q_pred, v_pred, F_old, qx_old, w, weight, opts, solver, 
     n_jac = 0
     for _ in range(max_iter):
         if not valid:
-            p = _jacobian_triplets(rec, I, Fl, q_pred, v_pred, qx_old, w, R, C, V, qx, vx)
+            p = _jacobian_triplets(rec, I, Fl, t, q_pred, v_pred, qx_old, w, R, C, V, qx, vx)
             counts[2] += 1
             n_jac += 1
             status = _factor(solver, lin, R, C, V, p)
@@ -1049,7 +1182,7 @@ def _newton(rec, I, Fl, q_pred, v_pred, F_old, qx_old, w, weight, opts, solver, 
             counts[3] += 1
             valid = True
             age = 0
-        _residual(rec, I, Fl, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work)
+        _residual(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work)
         counts[1] += 1
         for i in range(size):
             if not np.isfinite(r[i]):
@@ -1154,9 +1287,10 @@ def _run(rec2, I, Fl, h, t0, n_steps, step0, every, q, v, a, lam, mu, q_prev, v_
     qx_old = np.zeros(n + 3)
     F = np.empty(n)
     scratch = np.empty(m + I[_HEADER - 1] + 2 * size)
-    _old_force(rec2[0], I, Fl, q, v, lam, F, qx, vx, work)
+    _old_force(rec2[0], I, Fl, t0, q, v, lam, F, qx, vx, work)
     rec = 0
     for k in range(n_steps):
+        t = t0 + (k + 1) * h               # t_{n+1}
         first = lu_state[2] == 0.0
         rc = rec2[0] if first else rec2[1]
         pq0, pq1, pv0, pv1, pa = rc[PQ0], rc[PQ1], rc[PV0], rc[PV1], rc[PA]
@@ -1181,7 +1315,7 @@ def _run(rec2, I, Fl, h, t0, n_steps, step0, every, q, v, a, lam, mu, q_prev, v_
                 w[n + j] = rc[Y0V] * v[j]
         qx_old[:n] = q
         _scales_weights(rc, I, Fl, q, w, opts, R, C, V, qx, weight, scratch)
-        status = _newton(rc, I, Fl, q_pred, v_pred, F, qx_old, w, weight, opts, solver, lin,
+        status = _newton(rc, I, Fl, t, q_pred, v_pred, F, qx_old, w, weight, opts, solver, lin,
                          lu_state, R, C, V, r, dw, qx, vx, work, counts)
         if status != CONVERGED:
             return status, k, rec
@@ -1198,7 +1332,7 @@ def _run(rec2, I, Fl, h, t0, n_steps, step0, every, q, v, a, lam, mu, q_prev, v_
             lu_state[2] = 1.0
             if differ:                       # the steady recipe has another Newton matrix
                 lu_state[0] = 0.0
-        _old_force(rc, I, Fl, q, v, lam, F, qx, vx, work)
+        _old_force(rc, I, Fl, t, q, v, lam, F, qx, vx, work)
         counts[5] += 1
         if (step0 + k + 1) % every == 0:
             out_t[rec] = t0 + (k + 1) * h
@@ -1271,10 +1405,10 @@ def unpack(I, Fl) -> dict:
 
 
 @_jit
-def residual(rec, I, Fl, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work):
+def residual(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work):
     """Upsilon(w) of recipe ``rec`` into r; see ``_residual``. Returns False
     when r is not finite."""
-    _residual(rec, I, Fl, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work)
+    _residual(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work)
     for x in r:
         if not np.isfinite(x):
             return False
@@ -1282,21 +1416,21 @@ def residual(rec, I, Fl, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work):
 
 
 @_jit
-def jacobian_triplets(rec, I, Fl, q_pred, v_pred, qx_old, w, R, C, V, qx, vx):
+def jacobian_triplets(rec, I, Fl, t, q_pred, v_pred, qx_old, w, R, C, V, qx, vx):
     """Newton-matrix triplets; see ``_jacobian_triplets``. Returns their count."""
-    return _jacobian_triplets(rec, I, Fl, q_pred, v_pred, qx_old, w, R, C, V, qx, vx)
+    return _jacobian_triplets(rec, I, Fl, t, q_pred, v_pred, qx_old, w, R, C, V, qx, vx)
 
 
 @_jit
-def old_force(rec, I, Fl, q, v, lam, out, qx, vx, work):
+def old_force(rec, I, Fl, t, q, v, lam, out, qx, vx, work):
     """F_n of the recipe into out (n,); see ``_old_force``."""
-    _old_force(rec, I, Fl, q, v, lam, out, qx, vx, work)
+    _old_force(rec, I, Fl, t, q, v, lam, out, qx, vx, work)
 
 
 @_jit
-def force_term(I, Fl, q, v, lam, out, qx, vx, work):
+def force_term(I, Fl, t, q, v, lam, out, qx, vx, work):
     """Phi_q^T lambda - Q(q, v) into out (n,)."""
-    _force_term(I, Fl, q, v, lam, out, qx, vx, work)
+    _force_term(I, Fl, t, q, v, lam, out, qx, vx, work)
 
 
 @_jit

@@ -27,9 +27,10 @@ the compiled loop resumes after it. Both engines compute the same equations;
 
 What the kernels cover (:func:`unsupported` says why a model or method is not):
 the methods with a recipe;
-rigid bodies; revolute, point_on_line, prismatic and fixed joints; drivers
-and applied loads whose functions do not depend on time; spring-dampers,
-rotational spring-dampers, gravity. Anything else runs on the numpy engine.
+rigid bodies; revolute, point_on_line, prismatic and fixed joints; drivers,
+torques and point forces, constant or functions of time (compiled from the
+language's expressions); spring-dampers, rotational spring-dampers,
+gravity. Anything else runs on the numpy engine.
 """
 
 from __future__ import annotations
@@ -90,20 +91,20 @@ def unsupported(system, method) -> str | None:
     if system.flexible_groups:
         return "the model has flexible beams"
     for g in system.constraint_groups:
-        if isinstance(g, LinearConstraintGroup):
-            if any(f is not None and not f.constant for f in g.functions):
-                return "a driver depends on time"
-        elif not isinstance(g, (CoincidenceGroup, PointOnLineGroup)):
+        if not isinstance(g, (CoincidenceGroup, PointOnLineGroup, LinearConstraintGroup)):
             return f"no kernel for {type(g).__name__}"
     for g in system.force_groups:
-        if isinstance(g, TorqueGroup):
-            if not all(f.constant for f in g.functions):
-                return "a torque depends on time"
-        elif isinstance(g, PointForceGroup):
-            if not all(f.constant for f in g.fx + g.fy):
-                return "a point force depends on time"
-        elif not isinstance(g, (SpringDamperGroup, RotationalSpringGroup)):
+        if not isinstance(g, (SpringDamperGroup, RotationalSpringGroup, TorqueGroup,
+                              PointForceGroup)):
             return f"no kernel for {type(g).__name__}"
+    functions = [f for g in system.constraint_groups if isinstance(g, LinearConstraintGroup)
+                 for f in g.functions if f is not None]
+    functions += [f for g in system.force_groups if isinstance(g, TorqueGroup)
+                  for f in g.functions]
+    functions += [f for g in system.force_groups if isinstance(g, PointForceGroup)
+                  for f in g.fx + g.fy]
+    if any(not f.constant and f.expr is None for f in functions):
+        return "a function of time has no expression to compile"
     return None
 
 
@@ -182,8 +183,10 @@ class CompiledModel:
 
     Built once per run from the system's groups (which already store their
     instances as structs of arrays); fields as ``compiled.MODEL_SCHEMA``
-    declares them. Constant driver values are folded into the
-    rows' offsets, constant torques and gravity into Q0.
+    declares them. Constant driver values are folded into the rows'
+    offsets, constant torques and gravity into Q0; functions of time
+    become postfix programs (``dsl.expressions.postfix``): f and f' of
+    drivers, f of torques and point forces.
 
     Parameters
     ----------
@@ -209,6 +212,30 @@ class CompiledModel:
                  "rpar": np.zeros((0, 3)), "fcol": np.zeros((0, 3), i8),
                  "fs": np.zeros((0, 2)), "fF": np.zeros((0, 2))}
         d = dict(empty)
+        from ..dsl.expressions import diff, postfix
+        code, consts, prog, depth = [], [], [], [1]
+
+        def program(expr):
+            """Index of a new program for expr (a function of t)."""
+            c, k, dep = postfix(expr)
+            start = len(code)
+            j = 0
+            while j < len(c):            # constant indices are local to the program
+                if c[j] == 0:
+                    code.extend((0, c[j + 1] + len(consts)))
+                    j += 2
+                else:
+                    code.append(c[j])
+                    j += 1
+            consts.extend(k)
+            prog.append((start, len(code)))
+            depth[0] = max(depth[0], dep)
+            return len(prog) - 1
+
+        def timed(f):
+            return f is not None and not f.constant
+
+        lfn, tcol, tfn, ffn = np.zeros((0, 2), i8), [], [], np.zeros((0, 2), i8)
         for g in system.constraint_groups:
             if isinstance(g, CoincidenceGroup):
                 d.update(crow=g.rows.astype(i8), ccol1=g.pair.P1.cols.astype(i8),
@@ -219,9 +246,12 @@ class CompiledModel:
                          psL=g.pair.P1.s.astype(f8), pcolP=g.pair.P2.cols.astype(i8),
                          psP=g.pair.P2.s.astype(f8), pn0=g.n0.astype(f8))
             else:
-                off = g.offset + np.array([0.0 if f is None else f.f(0.0) for f in g.functions])
+                off = g.offset + np.array([f.f(0.0) if f is not None and f.constant else 0.0
+                                           for f in g.functions])
                 d.update(lrow=g.rows[:, 0].astype(i8), lcol=g.cols.astype(i8),
                          lcoef=g.coefs.astype(f8), loff=off.astype(f8))
+                lfn = np.array([(program(f.expr), program(diff(f.expr))) if timed(f) else (-1, -1)
+                                for f in g.functions], dtype=i8).reshape(-1, 2)
         for g in system.force_groups:
             if isinstance(g, SpringDamperGroup):
                 d.update(scol1=g.pair.P1.cols.astype(i8), ss1=g.pair.P1.s.astype(f8),
@@ -231,11 +261,26 @@ class CompiledModel:
                 d.update(rcol=g.cols.astype(i8),
                          rpar=np.stack([g.k, g.c, g.angle], axis=1).astype(f8))
             elif isinstance(g, TorqueGroup):
-                np.add.at(Q0, g.cols[:, 0], [f.f(0.0) for f in g.functions])
+                for col, f in zip(g.cols[:, 0], g.functions):
+                    if timed(f):
+                        tcol.append(col)
+                        tfn.append(program(f.expr))
+                    else:
+                        Q0[col] += f.f(0.0)
             elif isinstance(g, PointForceGroup):
                 d.update(fcol=g.points.cols.astype(i8), fs=g.points.s.astype(f8),
-                         fF=np.array([[fx.f(0.0), fy.f(0.0)] for fx, fy in zip(g.fx, g.fy)],
-                                     dtype=f8).reshape(-1, 2))
+                         fF=np.array([[0.0 if timed(fx) else fx.f(0.0),
+                                       0.0 if timed(fy) else fy.f(0.0)]
+                                      for fx, fy in zip(g.fx, g.fy)], dtype=f8).reshape(-1, 2))
+                ffn = np.array([(program(fx.expr) if timed(fx) else -1,
+                                 program(fy.expr) if timed(fy) else -1)
+                                for fx, fy in zip(g.fx, g.fy)], dtype=i8).reshape(-1, 2)
+        d.update(code=np.array(code, i8), consts=np.array(consts, f8),
+                 prog=np.array(prog, i8).reshape(-1, 2),
+                 lfn=lfn if len(lfn) == len(d["lrow"]) else np.full((len(d["lrow"]), 2), -1, i8),
+                 tcol=np.array(tcol, i8), tfn=np.array(tfn, i8),
+                 ffn=ffn if len(ffn) == len(d["fcol"]) else np.full((len(d["fcol"]), 2), -1, i8),
+                 stack=np.zeros(depth[0]))
         d["mass"] = system.mass_diag.astype(f8)
         d["Q0"] = Q0
         d["row_element"] = system.layout.row_element.astype(i8)
@@ -318,7 +363,7 @@ def newton_pattern(system, method, q, cm=None):
     R, C, V = (np.empty(cm.bound, np.int64), np.empty(cm.bound, np.int64), np.empty(cm.bound))
     qx = np.zeros(n + 3)
     qx[:n] = q
-    p = K.jacobian_triplets(method.kernel_recipe(1e-3, False), cm.ints, cm.floats,
+    p = K.jacobian_triplets(method.kernel_recipe(1e-3, False), cm.ints, cm.floats, 0.0,
                             np.asarray(q, dtype=float), np.zeros(n), qx, np.zeros(size),
                             R, C, V, np.zeros(n + 3), np.zeros(n + 3))
     return R[:p], C[:p]
@@ -638,7 +683,7 @@ class SparseAdapter:
             q_pred = q_pred + g(rec, "pq1") * p.q + g(rec, "pv1") * p.v
             v_pred = v_pred + g(rec, "vv1") * p.v
         F = np.empty(system.n)
-        self._K.old_force(rec, self._cm.ints, self._cm.floats, s.q, s.v, s.lam, F, self._qx,
+        self._K.old_force(rec, self._cm.ints, self._cm.floats, s.t, s.q, s.v, s.lam, F, self._qx,
                           self._vx, self._work)
         qx_old = np.zeros(system.n + 3)
         qx_old[:system.n] = s.q
@@ -649,7 +694,7 @@ class SparseAdapter:
         """Upsilon(w) by the kernel."""
         r = np.empty(self.size)
         c = ctx.cache
-        self._K.residual(c["recipe"], self._cm.ints, self._cm.floats, c["kq_pred"],
+        self._K.residual(c["recipe"], self._cm.ints, self._cm.floats, ctx.t, c["kq_pred"],
                          c["kv_pred"], c["kF"], c["kqx_old"], w, r, self._qx, self._vx,
                          self._work)
         return r
@@ -657,7 +702,7 @@ class SparseAdapter:
     def jacobian(self, w, ctx):
         """Newton matrix as CSC on the fixed pattern."""
         K, c = self._K, ctx.cache
-        p = K.jacobian_triplets(c["recipe"], self._cm.ints, self._cm.floats, c["kq_pred"],
+        p = K.jacobian_triplets(c["recipe"], self._cm.ints, self._cm.floats, ctx.t, c["kq_pred"],
                                 c["kv_pred"], c["kqx_old"], w, self._R, self._C, self._V, self._qx, self._vx)
         if self._pattern is None or self._pattern[0] != p:
             key = self._C[:p] * self.size + self._R[:p]

@@ -57,6 +57,10 @@ class TimeFunction:
         The expression as written, for messages.
     constant : bool
         True when f does not depend on t.
+    expr : Expr or None
+        The substituted expression of f (parameters replaced by their
+        values), from which the compiled engine builds its programs for f
+        and f' (``dsl.expressions.postfix``).
     """
 
     f: Callable[[float], float]
@@ -64,6 +68,7 @@ class TimeFunction:
     ddf: Callable[[float], float]
     text: str = ""
     constant: bool = False
+    expr: object = None
 
 
 @dataclass(frozen=True)

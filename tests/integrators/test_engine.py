@@ -33,7 +33,8 @@ def _system(path, **overrides):
 
 @pytest.mark.parametrize("method", RECIPE_METHODS)
 @pytest.mark.parametrize("path, T", [(MODELS / "slider_crank.mbd", 0.5),
-                                     (VALID / "compiled_elements.mbd", 0.3)])
+                                     (VALID / "compiled_elements.mbd", 0.3),
+                                     (VALID / "all_elements.mbd", 0.3)])
 def test_compiled_loop_matches_numpy_engine(path, T, method):
     system, init = _system(path)
     a = integrate(system, make_method(method), T, 1e-3, initial=init, engine="numpy", newton=SAME)
@@ -161,10 +162,12 @@ def test_band_ordering_of_a_chain_and_the_automatic_choice():
                   newton=NewtonOptions(linear_solver="banded"))
 
 
+@pytest.mark.parametrize("model", ["compiled_elements.mbd", "all_elements.mbd"])
 @pytest.mark.parametrize("first", [True, False])
 @pytest.mark.parametrize("method", RECIPE_METHODS)
-def test_kernel_newton_matrix_is_the_derivative_of_the_kernel_residual(method, first):
-    system, init = _system(VALID / "compiled_elements.mbd")
+def test_kernel_newton_matrix_is_the_derivative_of_the_kernel_residual(method, first, model):
+    # all_elements: drivers, a torque and a point force that are functions of time
+    system, init = _system(VALID / model)
     m = make_method(method)
     ad = SparseAdapter(system, m)
     hist = m.start(system, init)
@@ -240,8 +243,8 @@ def test_engine_selection_says_why():
         integrate(rigid, make_method("hht-i3"), 0.01, 1e-3, initial=init, engine="fast")
     with pytest.raises(ValueError, match="output_every"):
         integrate(rigid, make_method("hht-i3"), 0.01, 1e-3, initial=init, output_every=0)
-    timed, _ = _system(VALID / "all_elements.mbd")
-    assert "depends on time" in unsupported(timed, make_method("hht-i3"))
+    timed, _ = _system(VALID / "all_elements.mbd")      # functions of time are compiled
+    assert unsupported(timed, make_method("hht-i3")) is None
 
 
 def test_packed_model_data_round_trips():
@@ -267,3 +270,28 @@ def test_a_failed_split_si2_step_goes_on_with_the_whole_band_matrix():
     assert b.stats_total.rejected > 0 and b.status == a.status == "completed"
     assert "whole band matrix" in b.linear_solver_note
     assert b.t[-1] == 0.2 and np.abs(a.q[-1] - b.q[-1]).max() < 1e-8
+
+
+@pytest.mark.parametrize("expr", ["0.3*cos(t)", "t^2/(1 + t) - 2^t", "exp(-t)*sin(3*t)",
+                                  "sqrt(t) + log(1 + t) - atan(t)",
+                                  "abs(sin(t)) - tanh(t) + cosh(t/5) - sinh(t/7)",
+                                  "asin(t/10) + acos(t/10) + tan(t/4)", "-(t - 1)^3",
+                                  "1/(t - 1)", "log(1.5 - t)"])
+def test_compiled_functions_of_time_are_the_language_s(expr):
+    # a torque f(t) evaluated by the kernels' postfix programs against the
+    # language's own evaluation (compile_function), also where f is not finite
+    from mbdsl.integrators import compiled
+    text = f"""model f
+body b {{ mass 2; inertia 0.1 }}
+force T: torque(b, {expr})
+"""
+    system = mbdsl.assemble(mbdsl.load_text(text, file="<f>"))
+    cm = CompiledModel(system)
+    q = v = np.zeros(3)
+    fn = system.force_groups[0].functions[0]
+    for t in (0.0, 0.5, 1.0, 2.5):
+        out = np.empty(3)
+        compiled.force_term(cm.ints, cm.floats, t, q, v, np.zeros(0), out, np.zeros(6),
+                            np.zeros(6), np.zeros(6))
+        assert np.array_equal(-out[2], fn.f(t), equal_nan=True) or \
+            -out[2] == pytest.approx(fn.f(t), rel=1e-14, abs=1e-15)
