@@ -56,6 +56,7 @@ import exudyn_side  # noqa: E402
 H = 1e-3
 CASES = [  # (label, model file, overrides, T, reference, h)
     ("slider crank", "slider_crank.mbd", None, 2.0, "published", H),
+    ("driven slider crank", "slider_crank_driven.mbd", None, 2.0, "index1", H),
     ("double pendulum", "double_pendulum.mbd", None, 2.0, "index1", H),
     ("chain N=10", "pendulum_chain.mbd", {"N": 10}, 1.0, "index1", H),
     ("chain N=100", "pendulum_chain.mbd", {"N": 100}, 0.1, "index1", H),
