@@ -34,6 +34,7 @@ from .integrators import (METHODS, JacobianUpdate, NewtonOptions, integrate, mak
 from .model.elements import Model
 from .output import load_solution, write_solution
 from .solution import Solution
+from .registry import DEFAULT_METHOD
 
 __version__ = "0.1.0"
 
@@ -160,7 +161,7 @@ def simulate(model: Model, method: str | None = None, h: float | None = None,
         partial solution.
     """
     s = model.settings
-    method = method or s.get("method", "hht-i3")
+    method = method or s.get("method", DEFAULT_METHOD)
     h = h if h is not None else s.get("h")
     t_end = t_end if t_end is not None else s.get("t_end")
     if h is None or t_end is None:

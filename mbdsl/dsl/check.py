@@ -17,6 +17,7 @@ import numpy as np
 
 from ..errors import Diagnostic, MbdModelError, Span
 from ..model import graph
+from ..registry import COEFFICIENTS, METHOD_COEFFICIENTS, METHOD_NAMES
 from ..model.elements import (COORDINATES, GROUND, VELOCITIES, Driver, InitialCondition,
                               FlexibleBeam, Joint, Model, PointForce, PointRef, RigidBody,
                               RotationalSpringDamper, SpringDamper, TimeFunction, Torque)
@@ -47,10 +48,9 @@ FORCE_KINDS = {
     "torque": {},
     "force": {},
 }
-KNOWN_METHODS = ("hht-i3", "newmark", "nstiff", "nstiff-si2", "hht-add", "hht-si2")
-#: simulate-section settings: name -> must be positive
-SETTINGS = {"h": True, "t_end": True, "alpha": False, "beta": False, "gamma": False,
-            "b": False, "t_start": False}
+KNOWN_METHODS = METHOD_NAMES
+#: simulate-section settings: name -> must be positive (the methods' coefficients: no)
+SETTINGS = {"h": True, "t_end": True, **{c: False for c in COEFFICIENTS}, "t_start": False}
 
 
 def _did_you_mean(name: str, candidates) -> str:
@@ -770,7 +770,12 @@ class _Checker:
         file never reaches the integrator with a value it would refuse."""
         from ..integrators import make_method
         st = self.settings
-        groups = [("hht-i3", ("alpha",)), ("newmark", ("gamma", "beta")), ("hht-add", ("b",))]
+        groups, claimed = [], set()      # each coefficient against the first method taking it
+        for method, coefs in METHOD_COEFFICIENTS.items():
+            names = tuple(c for c in coefs if c not in claimed)
+            claimed.update(names)
+            if names:
+                groups.append((method, names))
         for method, names in groups:
             given = {k: st[k] for k in names if k in st}
             if not given:

@@ -13,16 +13,12 @@ from .newmark import Newmark
 from .nstiff import NStiff
 from .nstiff_si2 import NStiffSI2
 from .newton import JacobianUpdate, Newton, NewtonOptions, NewtonResult, NewtonStatus
+from ..registry import COEFFICIENTS, METHOD_NAMES
 
-#: The paper's method names -> recipe classes.
-METHODS = {
-    "newmark": Newmark,
-    "hht-i3": HHTI3,
-    "nstiff": NStiff,
-    "nstiff-si2": NStiffSI2,
-    "hht-add": HHTADD,
-    "hht-si2": HHTSI2,
-}
+_CLASSES = (Newmark, HHTI3, NStiff, NStiffSI2, HHTADD, HHTSI2)
+
+#: The paper's method names (``mbdsl.registry``, in its order) -> method classes.
+METHODS = {name: next(c for c in _CLASSES if c.name == name) for name in METHOD_NAMES}
 
 __all__ = ["METHODS", "Method", "Block", "StepState", "StepContext", "integrate",
            "HHTI3", "Newmark", "NStiff", "NStiffSI2", "HHTADD", "HHTSI2", "Newton", "NewtonOptions", "NewtonResult", "NewtonStatus",
@@ -83,5 +79,4 @@ def settings_coefficients(settings: dict, name: str) -> dict:
         Unknown method.
     """
     accepted = method_parameters(name)
-    return {k: settings[k] for k in ("alpha", "beta", "gamma", "b")
-            if k in settings and k in accepted}
+    return {k: settings[k] for k in COEFFICIENTS if k in settings and k in accepted}

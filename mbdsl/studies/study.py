@@ -49,6 +49,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..registry import methods_taking
 from .parallel import default_jobs, run_specs
 from .reference import StudyReference, build_reference, method_order
 from .runs import ModelSource, RunData, RunSpec, format_h
@@ -69,7 +70,7 @@ ROUNDOFF = 1e-10
 ALPHAS = (-0.3, -0.05)
 
 #: Methods that take HHT's alpha.
-ALPHA_METHODS = ("hht-i3", "hht-si2", "hht-add")
+ALPHA_METHODS = methods_taking("alpha")
 
 
 def parse_h_range(text: str) -> list[float]:

@@ -120,3 +120,18 @@ def test_reaction_of_a_swinging_pendulum():
     a = np.gradient(sol.v, sol.t, axis=0)[5:-5, :2]
     F = np.stack([sol.column("reaction.O.fx"), sol.column("reaction.O.fy")], axis=1)[5:-5]
     assert np.max(np.abs(F - 1.0 * (a - np.array([0.0, -9.81])))) < 1e-3 * 9.81
+
+
+def test_the_registry_is_the_methods_own():
+    # the leaf registry (names, coefficients, defaults) that the checks, the CLI
+    # and the studies read agrees with the method classes' constructors
+    import inspect
+
+    from mbdsl.integrators import METHODS
+    from mbdsl.registry import METHOD_COEFFICIENTS, METHOD_NAMES
+    assert tuple(METHODS) == METHOD_NAMES
+    for name, cls in METHODS.items():
+        params = {p.name: p.default for p in inspect.signature(cls.__init__).parameters.values()
+                  if p.name != "self" and p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD)}
+        assert params == METHOD_COEFFICIENTS[name], name
+        assert cls.name == name
