@@ -58,15 +58,18 @@ ENGINES = ("auto", "numpy", "compiled")
 CHUNK = 2000
 
 #: The band LU is taken when the reordered Newton matrix has at most this many sub-
-#: and super-diagonals and its band (2 kl + ku + 1 entries per unknown) is at most a
-#: quarter of a dense row: a band solve then costs a few hundred flops per unknown
-#: with no indexing or call overhead, inside the compiled loop. Measured on pendulum
-#: chains (kl = ku = 4 for HHT-I3, 11 for HHT-SI2): N = 100, HHT-SI2, 0.37 ms per
-#: step against 1.05 ms with SuperLU in the Python Newton loop; N = 1000, 4.5-5.5 ms
-#: against 10.7 ms.
+#: and super-diagonals and its band (2 kl + ku + 1 entries per unknown) is at most
+#: half a dense row: a band solve then costs a few hundred flops per unknown with no
+#: indexing or call overhead, inside the compiled loop. Measured on pendulum chains
+#: (kl = ku = 4 for HHT-I3, 11 for HHT-SI2): N = 100, HHT-SI2, 0.37 ms per step
+#: against 1.05 ms with SuperLU in the Python Newton loop; N = 1000, 4.5-5.5 ms
+#: against 10.7 ms. Against the dense inverse (us per step, dense / band): chain of
+#: 6 links, HHT-I3 (30 unknowns) 45 / 38, NSTIFF-SI2 (60) 94 / 72, HHT-ADD (78) 204
+#: / 157; 10 links, NSTIFF-SI2 (100) 215 / 77; Andrews' mechanism, HHT-I3 (41
+#: unknowns, kl = ku = 9: more than half a row) 27 / 34, so kept dense.
 BAND_LIMIT = 32
 #: Below this many unknowns the dense inverse is kept without looking for a band.
-BAND_MIN_SIZE = 64
+BAND_MIN_SIZE = 30
 
 
 def _kernels():
@@ -393,8 +396,21 @@ def band_ordering(system, method, q, split=False, cm=None):
     size = newton_size(system, method)
     R, C = newton_pattern(system, method, q, cm)
     if not split:
-        iperm = _rcm(R, C, size)
-        rperm = cperm = iperm
+        # Equation i is paired with unknown pair[i] (the diagonal of the band matrix):
+        # itself where the equations come in the unknowns' order; for HHT-ADD's
+        # additive form, whose rows are (E1, E2, E3, E4, E5) and unknowns (dq, dv, a,
+        # psi_I, psi_II), E5 (M a - ...) pairs with a, and the constraint rows E3, E4
+        # with psi_I, psi_II. Without it, reverse Cuthill-McKee of a chain's matrix
+        # found a bandwidth of 368 instead of a few tens.
+        if _recipe_value(method, "form") == 1.0:
+            n, m = system.n, system.m
+            pair = np.concatenate([np.arange(2 * n), 3 * n + np.arange(2 * m),
+                                   2 * n + np.arange(n)])
+            iperm = _rcm(pair[R], C, size)
+            rperm, cperm = iperm[pair], iperm
+        else:
+            iperm = _rcm(R, C, size)
+            rperm = cperm = iperm
     else:
         if _recipe_value(method, "split") == 0.0:
             raise ValueError(f"the {method.name} Newton matrix is not split into blocks")
@@ -439,7 +455,7 @@ def linear_solver_plan(system, method, options, q, cm=None, split_si2=True) -> L
     ``options.linear_solver``: "dense" and "sparse" are taken as asked,
     "banded" whenever LAPACK's band routines are usable; "auto" takes the
     band LU when the reordered matrix is narrow (``BAND_LIMIT``, a band of
-    at most a quarter of the unknowns, at least ``BAND_MIN_SIZE`` unknowns),
+    at most half the unknowns, at least ``BAND_MIN_SIZE`` unknowns),
     else the dense inverse up to ``DENSE_LIMIT`` unknowns and SuperLU above.
 
     Raises
@@ -465,7 +481,7 @@ def linear_solver_plan(system, method, options, q, cm=None, split_si2=True) -> L
     plan = band_plan(system, method, q, _recipe_value(method, "split") != 0.0 and split_si2,
                      addresses, cm)
     kl, ku = plan.kl, plan.ku
-    if choice == "banded" or (max(kl, ku) <= BAND_LIMIT and 4 * (2 * kl + ku + 1) <= size):
+    if choice == "banded" or (max(kl, ku) <= BAND_LIMIT and 2 * (2 * kl + ku + 1) <= size):
         return plan
     if size <= DENSE_LIMIT:
         return dense

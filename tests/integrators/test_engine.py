@@ -153,6 +153,11 @@ def test_band_ordering_of_a_chain_and_the_automatic_choice():
         n, m = system.n, system.m             # a, lambda and R1, R4 in block 0
         assert cperm[:n].max() < n + m and cperm[2 * n:2 * n + m].max() < n + m
         assert rperm[2 * n + m:].max() < n + m and rperm[n:2 * n].min() >= n + m
+        # HHT-ADD: equations paired with unknowns (E5 with a, E3 and E4 with psi)
+        # before the ordering, so that its band is a few links wide too
+        rperm, cperm, kl3, ku3, _ = band_ordering(system, make_method("hht-add"), init.q)
+        assert sorted(rperm) == sorted(cperm) == list(range(13 * N))
+        assert kl3 <= 16 and ku3 <= 16
     plan = linear_solver_plan(system, make_method("hht-i3"), NewtonOptions(), init.q)
     assert plan.kind == "banded"
     crank, init = _system(MODELS / "slider_crank.mbd")
