@@ -275,7 +275,10 @@ class Solution:
         self.model = system.model
         self.method_name = method.name
         self.method_parameters = method.parameters()
-        self.extra_names = tuple(method.extras)
+        # stored per step (the method's extras) and added on output (``output_extras``)
+        self._stored_extras = tuple(method.extras)
+        self.extra_names = self._stored_extras + tuple(getattr(method, "output_extras", ()))
+        self._output_map = getattr(method, "output_multipliers", None)
         self.h, self.t_end = float(h), float(t_end)
         self.initial = initial
         self.status, self.message, self.diagnostics = "running", "", []
@@ -283,7 +286,7 @@ class Solution:
         self.timings = dict.fromkeys(self.TIMING_NAMES, 0.0)
         self.engine, self.linear_solver = "numpy", "dense"
         self.stats_total = RunStats()
-        self._rows = _RowStore(system.n, system.m, self.extra_names)
+        self._rows = _RowStore(system.n, system.m, self._stored_extras)
 
     # -- building ---------------------------------------------------------------------
     def append(self, state, stats: StepStats) -> None:
@@ -318,7 +321,7 @@ class Solution:
         seg = {"t": t, "q": q, "v": v, "a": a, "lam": lam, "iterations": counts[:, 0],
                "residuals": counts[:, 1], "jacobians": counts[:, 2],
                "factorizations": counts[:, 3], "h": np.full(k, float(h))}
-        seg.update({x: extras[x] for x in self.extra_names})
+        seg.update({x: extras[x] for x in self._stored_extras})
         self._rows.extend(seg)
         tot, sums = self.stats_total, counts.sum(axis=0)
         if h > 0:
@@ -330,15 +333,12 @@ class Solution:
         tot.multipliers_stalled += int(sums[4])
 
     def extend(self, other: "Solution", start: int = 0) -> None:
-        """Record the rows of another (finalized) run from row ``start`` on,
-        with its totals (rejected steps included)."""
-        k = len(other.t) - start
-        seg = {"t": other.t[start:], "q": other.q[start:], "v": other.v[start:],
-               "a": other.a[start:], "lam": other.lam[start:]}
-        seg.update({x: other.extras[x][start:] for x in self.extra_names})
-        seg.update({name: other.stats[name][start:] for name in self.STAT_NAMES})
+        """Record the rows of another run of the same method (its rows as
+        stored, before any output mapping) from row ``start`` on, with its
+        totals (rejected steps included)."""
+        k = other.n_rows - start
         if k > 0:
-            self._rows.extend(seg)
+            self._rows.extend(other._rows.get(start, other.n_rows))
         tot, o = self.stats_total, other.stats_total
         for name in ("steps", "iterations", "residuals", "jacobians", "factorizations",
                      "rejected", "multipliers_stalled"):
@@ -351,12 +351,19 @@ class Solution:
 
     def rows(self, i0: int, i1: int) -> dict:
         """Rows i0..i1-1 recorded so far, as arrays ("t", "q", "v", "a",
-        "lam", the extra names and the ``STAT_NAMES``)."""
-        return self._rows.get(i0, i1)
+        "lam", the extra names and the ``STAT_NAMES``), with the method's
+        output multipliers (``Method.output_multipliers``)."""
+        d = self._rows.get(i0, i1)
+        if self._output_map is not None and len(d["t"]):
+            lam, extras = self._output_map(self.system, d["t"], d["q"], d["v"], d["lam"],
+                                           {x: d[x] for x in self._stored_extras})
+            d.update(extras)
+            d["lam"] = lam
+        return d
 
     def finalize(self) -> None:
         """Stack the recorded steps into arrays."""
-        d = self._rows.get(0, len(self._rows))
+        d = self.rows(0, len(self._rows))
         self.t, self.q, self.v, self.a, self.lam = d["t"], d["q"], d["v"], d["a"], d["lam"]
         self.extras = {x: d[x] for x in self.extra_names}
         self.stats = {k: d[k] for k in self.STAT_NAMES}
@@ -395,7 +402,8 @@ class Solution:
         self = cls.__new__(cls)
         self.system, self.model = system, system.model
         self.method_name, self.method_parameters = method_name, dict(method_parameters)
-        self.extra_names = tuple(extra_names)
+        self.extra_names = self._stored_extras = tuple(extra_names)
+        self._output_map = None
         self.h, self.t_end, self.initial = float(h), float(t_end), None
         self.status, self.message, self.diagnostics = status, message, []
         self.wall_time, self.stats_total = float(wall_time), stats_total

@@ -435,6 +435,30 @@ class AssembledSystem:
             out[g.rows] -= g.phi_tt(t)
         return out
 
+    def index1_multipliers(self, t, q, v) -> np.ndarray:
+        """lambda from the index-1 system at each state, shape (N, m).
+
+        [[M(q), Phi_q^T], [Phi_q, 0]] [a; lambda] = [Q(t, q, v); gamma(q, v, t)]:
+        the Lagrange multipliers of the equations of motion, exact for the
+        given q and v (Haug, sec. 6.3). Rows: t (N,) [s], q and v (N, n).
+        A singular matrix (a singular configuration) gives NaN for that row.
+        """
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        q, v = np.atleast_2d(q), np.atleast_2d(v)
+        n, m = self.n, self.m
+        out = np.empty((len(t), m))
+        K = np.zeros((n + m, n + m))
+        for i in range(len(t)):
+            K[:n, :n] = self.mass_matrix(q[i])
+            P = self.Phi_q(q[i], t[i])
+            K[:n, n:], K[n:, :n] = P.T, P
+            rhs = np.concatenate([self.Q(t[i], q[i], v[i]), self.gamma(q[i], v[i], t[i])])
+            try:
+                out[i] = np.linalg.solve(K, rhs)[n:]
+            except np.linalg.LinAlgError:
+                out[i] = np.nan
+        return out
+
     # -- energy ---------------------------------------------------------------------------
     def kinetic_energy(self, q, v):
         """T = v^T M(q) v / 2 [J]: a float, or shape (N,) for rows q, v of

@@ -131,6 +131,8 @@ class Method(ABC):
     history_length: int = 1
     #: names of StepState.extra arrays of length m written to the output (e.g. "mu")
     extras: tuple = ()
+    #: further (m,) columns that :meth:`output_multipliers` adds to the output
+    output_extras: tuple = ()
 
     @abstractmethod
     def order(self) -> int:
@@ -206,6 +208,30 @@ class Method(ABC):
         """Whether the step of size h after ``history`` is a start-up step
         (the recipe's ``first``); False for one-step methods."""
         return False
+
+    def output_multipliers(self, system, t, q, v, lam, extras):
+        """The multipliers written to the output for recorded rows, and the
+        extra columns (``output_extras``) added to them.
+
+        Parameters
+        ----------
+        system : AssembledSystem
+        t : ndarray, shape (N,) [s]
+        q, v : ndarray, shape (N, n)
+        lam : ndarray, shape (N, m)
+            The method's multipliers as the steps computed them.
+        extras : dict of str -> ndarray, shape (N, m)
+            The stored extras (``extras``).
+
+        Returns
+        -------
+        lam : ndarray, shape (N, m)
+        extras : dict
+            Entries for ``output_extras``. Here: ``lam`` unchanged, no extras
+            (the methods whose lambda is the Lagrange multiplier of the
+            equations of motion at t_{n+1}).
+        """
+        return lam, {}
 
     def describe(self) -> str:
         """``name(alpha=-0.05, ...)`` for messages."""

@@ -122,3 +122,28 @@ def test_multiplier_transient_decays_faster_with_more_damping():
     _, err_large, _ = _torque_error(-0.3)
     window = (t >= 0.02) & (t < 0.1)
     assert np.max(err_large[window]) < 0.1 * np.max(err_small[window])
+
+
+@pytest.mark.parametrize("method", ["hht-i3", "nstiff", "nstiff-si2", "hht-add", "hht-si2"])
+def test_multipliers_converge_at_the_method_s_order(method):
+    # lambda at T against the index-1 multipliers of an independent DOP853 solution
+    # (q, v at T to 1e-12): order 2 for the second-order methods. HHT-ADD's own
+    # psi_II converges at order 1; its output lambda comes from the index-1
+    # system at (q, v) and its psi_II is kept as the psi2 column.
+    from mbdsl.integrators import integrate, make_method
+    from mbdsl.reference import index1_reference
+    system = mbdsl.assemble(mbdsl.load(MODELS / "slider_crank.mbd"))
+    init = mbdsl.consistent_initial_state(system)
+    T = 0.25
+    ref = index1_reference(system, np.array([T]))
+    lam_ref = system.index1_multipliers([T], ref.q, ref.v)[0]
+    errors, psi2 = [], []
+    for h in (1e-3, 5e-4, 2.5e-4):
+        sol = integrate(system, make_method(method), T, h, initial=init)
+        errors.append(np.abs(sol.lam[-1] - lam_ref).max())
+        if method == "hht-add":
+            psi2.append(np.abs(sol.extras["psi2"][-1] - lam_ref).max())
+    orders = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
+    assert np.all(np.abs(orders - 2.0) < 0.15), orders
+    if psi2:
+        assert np.all(np.abs(np.log2(np.array(psi2[:-1]) / np.array(psi2[1:])) - 1.0) < 0.15)
