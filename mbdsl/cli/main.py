@@ -87,7 +87,8 @@ def build_parser() -> argparse.ArgumentParser:
     st.add_argument("--t-end", type=float, help="end time T [s] (default: the model's)")
     st.add_argument("--quantity", default="positions,velocities",
                     help="comma-separated quantities compared at T: positions, velocities "
-                    "(max over the coordinates) or columns such as crank.omega")
+                    "(max over the coordinates) or columns such as crank.omega or "
+                    "lambda.O.0 (a multiplier)")
     st.add_argument("--reference", default="auto",
                     help="auto (index-1 DOP853 at 1e-12; hht-si2 at h/16 if the model is stiff), "
                     "dop853, a method name, or a result file of mbdsl simulate")

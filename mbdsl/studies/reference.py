@@ -60,6 +60,11 @@ class StudyReference:
         Estimated absolute error of q_end, v_end (same units).
     state : callable
         ``state(t)`` with t of shape (N,) -> (q, v), each of shape (N, n).
+    lam_names : tuple of str
+        The multiplier columns (``lambda.<joint>.<k>``), once
+        :meth:`add_multipliers` has run.
+    lam_end, error_lam : ndarray, shape (m,), or None
+        The multipliers at T and their estimated error.
     """
 
     description: str
@@ -69,6 +74,21 @@ class StudyReference:
     error_q: np.ndarray
     error_v: np.ndarray
     state: object
+    lam_names: tuple = ()
+    lam_end: np.ndarray | None = None
+    error_lam: np.ndarray | None = None
+
+    def add_multipliers(self, system) -> None:
+        """lambda at T from the index-1 system at (q_end, v_end) (the
+        Lagrange multipliers of the reference's state), with an error
+        estimate: the change of those multipliers when q and v move by their
+        estimated errors."""
+        lay = system.layout
+        self.lam_names = tuple(f"lambda.{name}.{k}" for name, k in lay.rows)
+        lam = system.index1_multipliers([self.t_end], self.q_end, self.v_end)[0]
+        moved = system.index1_multipliers([self.t_end], self.q_end + self.error_q,
+                                          self.v_end + self.error_v)[0]
+        self.lam_end, self.error_lam = lam, np.abs(moved - lam)
 
     def energy(self, system, t: np.ndarray) -> np.ndarray:
         """Total energy T + V [J] of the reference at times t, shape (N,)."""

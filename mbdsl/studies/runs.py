@@ -136,6 +136,8 @@ class RunData:
     t_stop : float [s]
         Last time reached.
     q_end, v_end : ndarray, shape (n,)
+    lam_end : ndarray, shape (m,)
+        The output multipliers at the end (``Method.output_multipliers``).
         Generalized coordinates and velocities at ``t_stop``.
     coefficients : dict
         Every coefficient of the method as run.
@@ -164,6 +166,7 @@ class RunData:
     t: np.ndarray | None = None
     energy: np.ndarray | None = None
     drift: np.ndarray | None = None
+    lam_end: np.ndarray | None = None
     engine: str = ""
 
     @property
@@ -214,6 +217,7 @@ def execute_run(source: ModelSource, spec: RunSpec) -> RunData:
     data = RunData(spec, status, message, float(sol.t[-1]), sol.q[-1].copy(), sol.v[-1].copy(),
                    dict(sol.method_parameters), times, stats,
                    engine=f"{sol.engine}/{sol.linear_solver}")
+    data.lam_end = sol.lam[-1].copy()
     if spec.energy or spec.drift_joint:
         data.t = sol.t.copy()
     if spec.energy:

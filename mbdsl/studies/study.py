@@ -400,6 +400,9 @@ def run_study(kind: str, model_path, options: StudyOptions, overrides: dict | No
     if any(k in kinds for k in ("convergence", "energy", "work-precision")):
         t0 = time.perf_counter()
         reference = build_reference(options.reference, model, options.t_end, min(options.hs), log)
+        if any(q.startswith("lambda.") for q in options.quantities):
+            from .. import assemble
+            reference.add_multipliers(assemble(model))
         log(f"reference ({time.perf_counter() - t0:.1f} s): {reference.description}")
     specs = _plan(kinds, options, joint, model)
     _build_kernels(options.methods, model, log)
@@ -428,15 +431,24 @@ def run_study(kind: str, model_path, options: StudyOptions, overrides: dict | No
                        time.perf_counter() - started, command)
 
 
+def _multiplier_names(model) -> list:
+    """The model's multiplier columns, ``lambda.<joint or driver>.<k>``."""
+    from .. import assemble
+    return [f"lambda.{name}.{k}" for name, k in assemble(model).layout.rows]
+
+
 def _check_quantities(model, quantities):
-    """Quantities must be ``positions``, ``velocities`` or coordinate/velocity names."""
+    """Quantities must be ``positions``, ``velocities``, coordinate or velocity
+    names, or multiplier columns (``lambda.<joint>.<k>``)."""
     valid = ["positions", "velocities"] + model.coordinate_names() + model.velocity_names()
+    if any(q.startswith("lambda.") for q in quantities):
+        valid += _multiplier_names(model)
     for qn in quantities:
         if qn not in valid:
             import difflib
             close = difflib.get_close_matches(qn, valid, n=3)
-            raise ValueError(f"no quantity '{qn}' (a study compares positions and velocities at "
-                             f"T)" + (f"; did you mean {', '.join(close)}?" if close else
+            raise ValueError(f"no quantity '{qn}' (a study compares positions, velocities and "
+                             f"multipliers at T)" + (f"; did you mean {', '.join(close)}?" if close else
                                       f"; choose from {', '.join(valid)}"))
 
 
@@ -451,6 +463,9 @@ def quantity_error(model, run: RunData, ref: StudyReference, quantity: str) -> t
         return float(np.max(np.abs(run.q_end - ref.q_end))), float(np.max(ref.error_q))
     if quantity == "velocities":
         return float(np.max(np.abs(run.v_end - ref.v_end))), float(np.max(ref.error_v))
+    if quantity.startswith("lambda."):
+        i = ref.lam_names.index(quantity)
+        return abs(float(run.lam_end[i] - ref.lam_end[i])), float(ref.error_lam[i])
     coords = model.coordinate_names()
     if quantity in coords:
         i = coords.index(quantity)

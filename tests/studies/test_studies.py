@@ -233,3 +233,22 @@ def test_cli_study_errors_are_for_people(args, message, tmp_path, capsys):
                    "-o", str(tmp_path / "x")] + args)
     err = capsys.readouterr().err
     assert status != 0 and message in err and "Traceback" not in err
+
+
+def test_convergence_of_a_multiplier_column():
+    # --quantity lambda.<joint>.<k>: the reference's multipliers come from the
+    # index-1 system at its (q, v) at T; every second-order method, HHT-ADD
+    # included (its output lambda is the index-1 one), converges at order 2
+    opts = StudyOptions(methods=["newmark", "hht-i3", "hht-add", "hht-si2"],
+                        hs=[2.0**-k for k in range(8, 12)], t_end=0.5,
+                        quantities=["lambda.O.0"], jobs=1)
+    result = run_study("convergence", MODELS / "slider_crank.mbd", opts, log=lambda s: None)
+    orders = {row[0]: row for row in result.section("convergence").tables[1].rows}
+    for method in ("hht-i3", "hht-add", "hht-si2"):
+        _, exp, order, points = orders[method]
+        assert exp == 2 and points == 4 and abs(order - 2.0) <= 0.15, (method, order)
+    assert abs(orders["newmark"][2] - 1.0) <= 0.15
+    with pytest.raises(ValueError, match="lambda.O.0"):
+        run_study("convergence", MODELS / "slider_crank.mbd",
+                  StudyOptions(methods=["hht-i3"], hs=[1e-3], t_end=0.1,
+                               quantities=["lambda.Q.0"], jobs=1), log=lambda s: None)
