@@ -203,6 +203,50 @@ def test_dask_scheduler_runs_the_same_study():
     assert on_dask.section("convergence").tables[0].rows == local.section("convergence").tables[0].rows
 
 
+def test_a_study_on_a_cluster_of_separate_processes(tmp_path):
+    # a real cluster: `dask scheduler` and two `dask worker` processes (as on
+    # machines of their own), the study run through the command line with
+    # --scheduler; the same errors as --jobs 1. The processes are stopped at the end.
+    import json
+    import subprocess
+    import sys
+    import time
+    distributed = pytest.importorskip("distributed")
+    sfile = tmp_path / "scheduler.json"
+    quiet = {"stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL}
+    procs = [subprocess.Popen([sys.executable, "-m", "dask", "scheduler", "--host", "127.0.0.1",
+                               "--port", "0", "--no-dashboard", "--scheduler-file", str(sfile)],
+                              **quiet)]
+    try:
+        deadline = time.monotonic() + 120
+        while not sfile.exists() and time.monotonic() < deadline:    # readiness, not a race
+            time.sleep(0.2)
+        address = json.loads(sfile.read_text())["address"]
+        for _ in range(2):
+            procs.append(subprocess.Popen(
+                [sys.executable, "-m", "dask", "worker", "--scheduler-file", str(sfile),
+                 "--nworkers", "1", "--nthreads", "1", "--no-dashboard"], **quiet))
+        args = ["study", "convergence", str(PENDULUM), "--methods", "hht-i3,hht-si2",
+                "--h", f"{HS[0]},{HS[1]}", "--t-end", str(T)]
+        with distributed.Client(address, timeout=120) as client:
+            client.wait_for_workers(2, timeout=120)
+            with distributed.get_task_stream(client) as stream:     # what the workers ran
+                assert main(args + ["--scheduler", address, "-o", str(tmp_path / "cluster")]) == 0
+        assert len(stream.data) >= 4
+        assert main(args + ["--jobs", "1", "-o", str(tmp_path / "local")]) == 0
+        cluster = (tmp_path / "cluster" / "convergence.csv").read_text()
+        local = (tmp_path / "local" / "convergence.csv").read_text()
+        assert cluster == local and "hht-si2" in cluster
+    finally:
+        for p in procs[::-1]:
+            p.terminate()
+        for p in procs:
+            try:
+                p.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                p.kill()
+
+
 def test_h_range():
     assert parse_h_range("2^-7:2^-11") == [2.0**-k for k in range(7, 12)]
     assert parse_h_range("1e-3:2.5e-4") == [1e-3, 5e-4, 2.5e-4]
