@@ -75,7 +75,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     from ..studies import KINDS
     st = sub.add_parser("study", help="the paper's experiments on a model: convergence, energy, "
-                        "drift, cost, work-precision, or all of them")
+                        "drift, cost, work-precision, or all of them; recommend: the cheapest "
+                        "method for target errors")
     st.add_argument("kind", choices=KINDS + ("all",), help="which study")
     st.add_argument("model", help="model file (.mbd)")
     st.add_argument("--methods", default="all",
@@ -96,6 +97,9 @@ def build_parser() -> argparse.ArgumentParser:
                     "joint between two bodies)")
     st.add_argument("--at-h", type=float, help="step of the drift and cost studies "
                     "(default: the middle of the steps)")
+    st.add_argument("--tol", default="1e-3,1e-5,1e-7",
+                    help="recommend: comma-separated target errors in the first quantity "
+                    "(default 1e-3,1e-5,1e-7)")
     st.add_argument("--repeat", type=int, default=3,
                     help="timed repeats of the cost and work-precision runs (median; default 3)")
     st.add_argument("--jobs", type=int, help="worker processes (default: the number of cores)")
@@ -356,10 +360,17 @@ def _study_options(args, model):
         [m.strip() for m in args.methods.split(",") if m.strip()]
     if args.repeat < 1:
         raise ValueError("--repeat must be at least 1")
+    try:
+        tols = tuple(float(x) for x in args.tol.split(",") if x.strip())
+    except ValueError:
+        raise ValueError(f"--tol expects comma-separated numbers, got '{args.tol}'") from None
+    if not tols or any(not (x > 0) for x in tols):
+        raise ValueError("--tol: target errors must be positive")
     return StudyOptions(methods=methods, hs=hs, t_end=float(t_end),
                         quantities=[x.strip() for x in args.quantity.split(",") if x.strip()],
                         reference=args.reference, repeat=args.repeat, joint=args.joint,
-                        h_single=args.at_h, jobs=args.jobs, scheduler=args.scheduler)
+                        h_single=args.at_h, jobs=args.jobs, scheduler=args.scheduler,
+                        tols=tols)
 
 
 def _study(args) -> int:

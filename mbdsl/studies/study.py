@@ -55,10 +55,12 @@ from .reference import StudyReference, build_reference, method_order
 from .runs import ModelSource, RunData, RunSpec, format_h
 from .tables import Table, fmt
 
-__all__ = ["KINDS", "StudyOptions", "StudyResult", "Section", "run_study", "parse_h_range"]
+__all__ = ["KINDS", "ALL_KINDS", "StudyOptions", "StudyResult", "Section", "run_study", "parse_h_range"]
 
 #: The study kinds, in the order ``all`` runs them.
-KINDS = ("convergence", "energy", "drift", "cost", "work-precision")
+KINDS = ("convergence", "energy", "drift", "cost", "work-precision", "recommend")
+#: The kinds ``all`` runs (``recommend`` is asked for by name, with its tolerances).
+ALL_KINDS = KINDS[:5]
 
 #: An error below this multiple of the reference's estimated error is not fitted.
 REFERENCE_MARGIN = 10.0
@@ -135,6 +137,8 @@ class StudyOptions:
         Local worker processes (default: the number of cores).
     scheduler : str or None
         Dask scheduler address.
+    tols : tuple of float
+        Target errors of ``recommend`` (in the first quantity's units).
     """
 
     methods: list
@@ -147,6 +151,7 @@ class StudyOptions:
     h_single: float | None = None
     jobs: int | None = None
     scheduler: str | None = None
+    tols: tuple = (1e-3, 1e-5, 1e-7)
 
     def __post_init__(self):
         self.hs = sorted({float(h) for h in self.hs}, reverse=True)
@@ -308,10 +313,10 @@ def _plan(kinds, o: StudyOptions, joint, model) -> list[RunSpec]:
                            energy or old.energy, drift or old.drift_joint)
         wanted[spec.key] = spec
 
-    timed = o.repeat if "work-precision" in kinds else 0
+    timed = o.repeat if ("work-precision" in kinds or "recommend" in kinds) else 0
     for kind in kinds:
         for m in o.methods:
-            if kind in ("convergence", "work-precision"):
+            if kind in ("convergence", "work-precision", "recommend"):
                 for h in o.hs:
                     need(m, h, repeat=timed)
             elif kind == "energy":
@@ -377,7 +382,7 @@ def run_study(kind: str, model_path, options: StudyOptions, overrides: dict | No
         Unknown kind, method, quantity or joint (the message lists the valid ones).
     """
     from .. import METHODS, load_text
-    kinds = KINDS if kind == "all" else ((kind,) if isinstance(kind, str) else tuple(kind))
+    kinds = ALL_KINDS if kind == "all" else ((kind,) if isinstance(kind, str) else tuple(kind))
     for k in ([] if kind == "all" else kinds):
         if k not in KINDS:
             raise ValueError(f"unknown study '{k}'; choose one of {', '.join(KINDS + ('all',))}")
@@ -397,7 +402,7 @@ def run_study(kind: str, model_path, options: StudyOptions, overrides: dict | No
             raise ValueError(f"no joint '{joint}' for the drift study; the model's joints are "
                              f"{', '.join(names) or '(none)'}")
     reference = None
-    if any(k in kinds for k in ("convergence", "energy", "work-precision")):
+    if any(k in kinds for k in ("convergence", "energy", "work-precision", "recommend")):
         t0 = time.perf_counter()
         reference = build_reference(options.reference, model, options.t_end, min(options.hs), log)
         if any(q.startswith("lambda.") for q in options.quantities):
@@ -424,9 +429,9 @@ def run_study(kind: str, model_path, options: StudyOptions, overrides: dict | No
         from .. import assemble
         system = assemble(model)
     analyse = {"convergence": _convergence, "energy": _energy, "drift": _drift,
-               "cost": _cost, "work-precision": _work_precision}
-    sections = [analyse[k](options, runs, reference, model=model, system=system, joint=joint)
-                for k in kinds]
+               "cost": _cost, "work-precision": _work_precision, "recommend": _recommend}
+    sections = [analyse[k](options, runs, reference, model=model, system=system, joint=joint,
+                           source=source) for k in kinds]
     return StudyResult(model.name, options, reference, runs, sections,
                        time.perf_counter() - started, command)
 
@@ -696,4 +701,99 @@ def _work_precision(o, runs, ref, model, **_):
                    [("work_precision", [panel], "Work-precision")])
 
 
-__all__ += ["quantity_error", "fitted_order", "fmt"]
+#: The h a recommendation extrapolates to is this fraction of the one the fitted order
+#: predicts (then rounded down to the sweep's largest h halved a whole number of
+#: times), so that an error a little above the asymptotic line still meets the target.
+RECOMMEND_SAFETY = 0.8
+#: A recommendation extrapolates at most this factor below the smallest swept h (a
+#: verifying run costs up to that factor times the sweep's longest run).
+RECOMMEND_REACH = 32.0
+
+
+def recommend_h(hs, errors, tol, order, h_max):
+    """(h, predicted error, basis) for a target error tol from one method's sweep.
+
+    ``measured``: the largest swept h whose error is at most tol. Otherwise
+    ``extrapolated``: from the smallest swept h along the method's order,
+    h = RECOMMEND_SAFETY * h_s (tol / e_s)^(1/order), rounded down to h_max /
+    2^k. ``not reached``: no usable point (every run failed).
+    """
+    pts = sorted((h, e) for h, e in zip(hs, errors) if np.isfinite(e) and e > 0)
+    ok = [(h, e) for h, e in pts if e <= tol]
+    if ok:
+        return max(ok)[0], dict(ok)[max(ok)[0]], "measured"
+    if not pts:
+        return float("nan"), float("nan"), "not reached"
+    h_s, e_s = pts[0]
+    h = RECOMMEND_SAFETY * h_s * (tol / e_s) ** (1.0 / order)
+    k = int(np.ceil(np.log2(h_max / h)))
+    h = h_max / 2.0**k
+    return h, e_s * (h / h_s) ** order, "extrapolated"
+
+
+def _recommend(o, runs, ref, model, source=None, **_):
+    """For each target error, the cheapest method and the h it needs.
+
+    Candidates come from the sweep (``recommend_h``); an extrapolated one is
+    run at its h and kept only if it meets the target (with h halved up to
+    twice): below the swept step sizes an index-3 method meets the floor its
+    Newton tolerance and round-off set (HHT-I3 on the slider crank: 1e-7 m at
+    h = 7.6e-6 s, worse than at 3.1e-5 s), which no order extrapolates.
+    """
+    from .runs import execute_run
+    q = o.quantities[0]
+    table = Table("recommend", f"Cheapest method for a target error in {q} at T = {o.t_end:g} s "
+                  f"(time of the time loop, median of {o.repeat} after a warm-up run; measured "
+                  "in the sweep, or extrapolated along the method's order and verified by a "
+                  "run)", ["target", "method", "h [s]", "error", "basis", "time [s]",
+                           "engine", "runner-up", "runner-up time [s]"])
+    for tol in o.tols:
+        options = []
+        for m in o.methods:
+            hs = [h for h in o.hs if runs[(m, h, ())].completed]
+            if not hs:
+                continue
+            errs = [quantity_error(model, runs[(m, h, ())], ref, q)[0] for h in hs]
+            order = method_order(m, runs[(m, hs[0], ())].coefficients)
+            h, err, basis = recommend_h(hs, errs, tol, order, max(o.hs))
+            if not np.isfinite(h):
+                continue
+            run = runs[(m, h if basis == "measured" else min(hs), ())]
+            per_step = run.time / max(run.stats.get("steps", 0), 1)
+            options.append([per_step * o.t_end / h, m, h, err, basis, run.engine])
+        options.sort()
+        chosen = []
+        for opt in options:
+            if len(chosen) == 2:
+                break
+            if opt[4] == "measured" or source is None:
+                chosen.append(opt)
+                continue
+            for _ in range(3):                 # verify an extrapolated step size by a run
+                if opt[2] < min(o.hs) / RECOMMEND_REACH:
+                    break
+                data = execute_run(source, RunSpec(opt[1], opt[2], o.t_end, (), 1))
+                err = quantity_error(model, data, ref, q)[0] if data.completed else np.inf
+                if err <= tol:
+                    opt[0], opt[3], opt[4] = data.time, err, "extrapolated, verified"
+                    chosen.append(opt)
+                    break
+                opt[2] /= 2.0
+        chosen.sort()
+        if not chosen:
+            table.rows.append([tol, "none", float("nan"), float("nan"),
+                               "not reached: no method met it at the step sizes tried "
+                               f"(down to {min(o.hs) / RECOMMEND_REACH:.3g} s)", float("nan"), "", "",
+                               float("nan")])
+            continue
+        best, second = chosen[0], (chosen[1] if len(chosen) > 1 else None)
+        table.rows.append([tol, best[1], best[2], best[3], best[4], best[0], best[5],
+                           second[1] if second else "", second[0] if second else float("nan")])
+    caption = ("Which method, for what accuracy, at what cost: for each target error the "
+               "method that needs the least time on this model, the step size it needs and the "
+               "runner-up. A step size below the swept ones is extrapolated along the method's "
+               "order and then run to verify it.")
+    return Section("recommend", caption, [table], [])
+
+
+__all__ += ["quantity_error", "fitted_order", "fmt", "recommend_h"]
