@@ -438,6 +438,10 @@ def write_figure(panels, stem, title: str = "", columns: int | None = None) -> l
         fig.suptitle(title)
     for k, panel in enumerate(panels):
         ax = fig.add_subplot(rows, cols, k + 1)
+        # the scales first: setting a scale resets the axis' locator and formatter,
+        # which would replace a bar chart's method names by the numbers 0..N-1
+        ax.set_xscale(panel.xscale)
+        ax.set_yscale(panel.yscale)
         for j, s in enumerate(panel.series):
             x, y = np.asarray(s.x), np.asarray(s.y, dtype=float)
             # every drawn artist of a series carries the id "series-<panel>-<series>[-<bar>]",
@@ -455,8 +459,6 @@ def write_figure(panels, stem, title: str = "", columns: int | None = None) -> l
                 # thousands of steps they would hide the curve
                 ax.plot(x, y, "o-" if len(x) <= 60 else "-", ms=3, lw=1.2, label=s.label,
                         gid=gid)
-        ax.set_xscale(panel.xscale)
-        ax.set_yscale(panel.yscale)
         ax.set_title(panel.title, fontsize=10)
         ax.set_xlabel(panel.xlabel)
         ax.set_ylabel(panel.ylabel)

@@ -153,6 +153,12 @@ def test_files_figures_and_index(pendulum_all):
     for stem, series in expected.items():
         _assert_image(out / f"{stem}.png")
         assert _series_in_svg(out / f"{stem}.svg") == series, stem
+    # every figure names what it shows: the bars of the cost chart carry the method
+    # names as tick labels, the line plots a legend of the methods (matplotlib's SVG
+    # writes each text it draws as a comment before its glyphs)
+    for stem in ("cost", "convergence", "energy_eps", "work_precision"):
+        texts = set(re.findall(r"<!-- (.*?) -->", (out / f"{stem}.svg").read_text()))
+        assert set(mbdsl.METHODS) <= texts, (stem, set(mbdsl.METHODS) - texts)
     index = (out / "index.md").read_text()
     for stem in expected:
         assert f"({stem}.png)" in index
