@@ -194,14 +194,32 @@ class CsvStream:
         self._derived.append(part._derived)
         return text
 
+    #: Header fields known only at the end, written padded to these widths and
+    #: rewritten in place by :meth:`finish`, so that the head of the file is true.
+    _LATE_FIELDS = {"status": 11, "wall_time": 24}
+
     def _open(self, sol):
         buf = io.StringIO()
+        self._late = {}
         for k, v in metadata(sol).items():
-            buf.write(f"# {k}: {v}\n")
+            if k in self._LATE_FIELDS:
+                buf.write(f"# {k}: ")
+                self._late[k] = len(buf.getvalue().encode("utf-8"))
+                buf.write(f"{v:<{self._LATE_FIELDS[k]}}\n")
+            else:
+                buf.write(f"# {k}: {v}\n")
         buf.write(",".join(sol.columns) + "\n")
         self._file.write(buf.getvalue())
         self._file.flush()
         self._header = True
+
+    def _rewrite_late_fields(self, meta) -> None:
+        """The header's status and wall time, overwritten in place (closed file)."""
+        with open(self.path, "r+b") as f:
+            for k, offset in self._late.items():
+                value = f"{meta[k]:<{self._LATE_FIELDS[k]}}"[:self._LATE_FIELDS[k]]
+                f.seek(offset)
+                f.write(value.encode("ascii"))
 
     def append(self, sol) -> None:
         """After an accepted step: write the pending rows if ``interval`` has passed."""
@@ -245,6 +263,7 @@ class CsvStream:
             for k in ("status", "message", "stats_total", "wall_time", "timings"):
                 self._file.write(f"# {k}: {meta[k]}\n")
             self._file.close()
+            self._rewrite_late_fields(meta)
         return self.path
 
 

@@ -169,3 +169,22 @@ def test_compile_policy_is_checked():
     system = mbdsl.assemble(mbdsl.load(MODELS / "pendulum.mbd"))
     with pytest.raises(ValueError, match="compile_policy"):
         integrate(system, HHTI3(), 0.01, 1e-3, compile_policy="later")
+
+
+def test_the_head_of_a_streamed_csv_is_true_after_the_run(tmp_path):
+    # `head out.csv` shows the final status and wall time, not "running" and 0.0:
+    # the fields are written padded while the run goes and rewritten in place
+    out = tmp_path / "out.csv"
+    assert main(["simulate", str(MODELS / "slider_crank.mbd"), "--t-end", "0.2", "-q",
+                 "-o", str(out)]) == 0
+    head = {}
+    with open(out, encoding="utf-8") as f:
+        for line in f:
+            if not line.startswith("#"):
+                break                                   # the column names: the head ends
+            key, _, value = line[1:].strip().partition(": ")
+            head.setdefault(key, value)
+    assert head["status"] == "completed"
+    assert float(head["wall_time"]) > 0.0
+    meta, names, values = read_csv_metadata(out)
+    assert meta["status"] == "completed" and values.shape[0] == 201 and names[0] == "t"
