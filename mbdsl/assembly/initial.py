@@ -76,14 +76,32 @@ class InitialState:
     structure: StructureReport | None = None
     warnings: list = field(default_factory=list)
 
+    #: At most this many solved coordinates are listed in :meth:`report`.
+    REPORT_COORDINATES = 10
+
     def report(self) -> str:
-        """A few lines for the CLI summary."""
+        """A few lines for the CLI summary: the residuals, and the coordinates
+        the assembly solved for (at most ``REPORT_COORDINATES``, then "and N
+        more"; a value below 1e-12 of the model's length scale, or 1e-12 rad,
+        printed as 0: the round-off of a coordinate that is zero)."""
+        it = self.iterations
         lines = [f"initial conditions: |Phi| = {self.position_residual:.1e}, "
                  f"|Phi_q v + Phi_t| = {self.velocity_residual:.1e}, "
                  f"|Phi_q a - gamma| = {self.acceleration_residual:.1e} "
-                 f"({self.iterations} Newton iterations)"]
+                 f"({it} Newton iteration{'' if it == 1 else 's'})"]
         if self.solved:
-            lines.append("  solved for: " + ", ".join(f"{k} = {v:.6g}" for k, v in self.solved.items()))
+            lengths = [abs(v) for k, v in self.solved.items() if k.endswith((".x", ".y"))]
+            scale = max(lengths, default=0.0)
+
+            def shown(k, v):
+                small = 1e-12 * (scale if k.endswith((".x", ".y")) else 1.0)
+                return 0.0 if abs(v) < small else v
+
+            items = list(self.solved.items())
+            text = ", ".join(f"{k} = {shown(k, v):.6g}" for k, v in items[:self.REPORT_COORDINATES])
+            if len(items) > self.REPORT_COORDINATES:
+                text += f", and {len(items) - self.REPORT_COORDINATES} more"
+            lines.append("  solved for: " + text)
         return "\n".join(lines)
 
 

@@ -188,3 +188,18 @@ def test_the_head_of_a_streamed_csv_is_true_after_the_run(tmp_path):
     assert float(head["wall_time"]) > 0.0
     meta, names, values = read_csv_metadata(out)
     assert meta["status"] == "completed" and values.shape[0] == 201 and names[0] == "t"
+
+
+def test_the_solved_for_line_is_short_and_prints_round_off_as_zero():
+    from mbdsl.assembly.initial import InitialState
+    solved = {"crank.x": -2.75e-17, "crank.y": -0.15, "crank.phi": 3e-13}
+    solved.update({f"link{i}.y": -0.1 * i for i in range(1, 12)})
+    st = InitialState(0.0, np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(0), 1e-16, 0.0, 0.0,
+                      solved, 1)
+    text = st.report()
+    assert "(1 Newton iteration)" in text
+    assert "crank.x = 0," in text and "crank.phi = 0," in text and "crank.y = -0.15" in text
+    assert text.count(" = ") == 3 + 10 and text.endswith("and 4 more")
+    # a model's own output: the slider crank's crank.x is zero to round-off
+    system = mbdsl.assemble(mbdsl.load(MODELS / "slider_crank.mbd"))
+    assert "crank.x = 0," in mbdsl.consistent_initial_state(system).report()
