@@ -114,20 +114,34 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _run_options(p):
-    p.add_argument("--method", choices=sorted(METHODS), help="integration method")
-    p.add_argument("--h", type=float, help="step size [s]")
-    p.add_argument("--t-end", type=float, help="end time [s]")
-    p.add_argument("--alpha", type=float, help="HHT alpha in [-1/3, 0] (hht-i3, hht-si2, hht-add)")
-    p.add_argument("--beta", type=float, help="Newmark beta >= (gamma + 1/2)^2/4 (newmark)")
-    p.add_argument("--gamma", type=float, help="Newmark gamma >= 1/2 (newmark)")
-    p.add_argument("--b", type=float, help="HHT-ADD position weight b != 1/2 (hht-add)")
+    from ..registry import DEFAULT_METHOD, METHOD_COEFFICIENTS, methods_taking
+
+    def coef(name, text):
+        """Help of a method coefficient: its range, the methods taking it, its default."""
+        users = methods_taking(name)
+        default = METHOD_COEFFICIENTS[users[0]][name]
+        return f"{text} ({', '.join(users)}; default {default:g})"
+
+    p.add_argument("--method", choices=sorted(METHODS),
+                   help=f"integration method (default: the model's simulate block, else "
+                        f"{DEFAULT_METHOD})")
+    p.add_argument("--h", type=float, help="step size [s] (default: the model's simulate block; "
+                   "required without one)")
+    p.add_argument("--t-end", type=float, help="end time [s] (default: the model's simulate "
+                   "block; required without one)")
+    p.add_argument("--alpha", type=float, help=coef("alpha", "HHT alpha in [-1/3, 0]"))
+    p.add_argument("--beta", type=float, help=coef("beta", "Newmark beta >= (gamma + 1/2)^2/4"))
+    p.add_argument("--gamma", type=float, help=coef("gamma", "Newmark gamma >= 1/2"))
+    p.add_argument("--b", type=float, help=coef("b", "HHT-ADD position weight b != 1/2"))
     p.add_argument("--set", action="append", metavar="NAME=VALUE",
                    help="override a model parameter (repeatable)")
     p.add_argument("--newton", choices=["full", "modified"], default="modified",
-                   help="Jacobian policy of the Newton iteration")
+                   help="Jacobian policy of the Newton iteration (default modified)")
     p.add_argument("--engine", choices=["auto", "numpy", "compiled"], default="auto",
-                   help="compiled (numba) kernels for hht-i3/hht-si2 on rigid models, or the "
-                        "numpy assembly; auto: compiled where it applies")
+                   help="compiled: numba kernels, every method on rigid models (drivers and "
+                        "loads constant or functions of time); numpy: the vectorised assembly "
+                        "(models with flexible beams always); auto (default): compiled where "
+                        "it applies")
     p.add_argument("--output-every", type=_positive_int, default=1, metavar="K",
                    help="record every K-th step (and the last): less memory on long runs")
 

@@ -63,3 +63,13 @@ def test_check_prints_dof(capsys):
     assert main(["check", str(MODELS / "slider_crank.mbd")]) == 0
     out = capsys.readouterr().out
     assert "DOF by count (Gruebler) = 1" in out and "DOF by rank = 1 (rank of Phi_q 5" in out
+
+
+def test_simulate_help_shows_the_defaults(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["simulate", "--help"])
+    assert exc.value.code == 0
+    text = " ".join(capsys.readouterr().out.split())
+    assert "default: the model's simulate block, else hht-i3" in text
+    assert "required without one" in text and "default -0.05" in text
+    assert "default 0.6" in text and "default modified" in text and "auto (default)" in text
