@@ -385,6 +385,9 @@ def read_csv_solution(path):
     """A Solution from a CSV written by :func:`write_csv` (exact: 17 digits)."""
     from .solution import Solution
     meta, names, values = read_csv_metadata(path)
+    if not names:
+        raise ValueError(f"{path}: the file is truncated (it ends inside its header, before "
+                         "the column names); write it again with mbdsl simulate")
     system = rebuild_system(meta, path)
     col = {name: i for i, name in enumerate(names)}
     lay = system.layout

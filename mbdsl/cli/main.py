@@ -20,6 +20,7 @@ from pathlib import Path
 
 from .. import (METHODS, AssemblyError, ConvergenceError, MbdError, __version__, load,
                 render, simulate)
+from ..errors import Diagnostic
 from ..output import HDF5_SUFFIXES, CsvStream, WriteAtEnd, load_solution
 
 __all__ = ["main", "build_parser"]
@@ -228,6 +229,14 @@ def _run(args, model, writer=None):
             print(text, file=sys.stderr, flush=True)
 
     t_end = args.t_end if args.t_end is not None else s.get("t_end")
+    h = args.h if args.h is not None else s.get("h")
+    t_start = float(s.get("t_start", 0.0))
+    if h is not None and t_end is not None and t_end > t_start and h >= t_end - t_start:
+        _print_diagnostics([Diagnostic(
+            "warning", "W601", f"the step h = {h:g} s is not smaller than the run "
+            f"(t = {t_start:g} .. {t_end:g} s): it takes a single step of {t_end - t_start:g} s",
+            None, "one step",
+            hint="did you mean a smaller h (e.g. 1e-3), or a later --t-end?")])
     status = 0
     try:
         with ProgressBar(float(s.get("t_start", 0.0)), float(t_end or 0.0),
@@ -263,12 +272,12 @@ def _simulate(args) -> int:
     try:       # CSV is written as the run goes, HDF5 on any exit of the run
         writer = CsvStream(out) if stream else WriteAtEnd(out)
     except OSError as exc:
-        print(f"error: cannot write {out}: {exc}", file=sys.stderr)
+        _write_error(out, exc)
         return 1
     try:
         sol, status = _run(args, model, writer)
     except OSError as exc:
-        print(f"error: cannot write {out}: {exc}", file=sys.stderr)
+        _write_error(out, exc)
         return 1
     if sol is None:
         writer.close_unused()
@@ -285,15 +294,31 @@ def _simulate(args) -> int:
         try:
             plot_solution(sol, path=fig_path)
         except OSError as exc:
-            print(f"error: cannot write {fig_path}: {exc}", file=sys.stderr)
+            _write_error(fig_path, exc)
             return status or 1
         if not args.quiet:
             print(f"wrote {fig_path}")
     return status
 
 
+def _write_error(path, exc) -> None:
+    """Why a file cannot be written, in words (a missing folder named)."""
+    path = Path(path)
+    if not path.parent.exists():
+        print(f"error: cannot write {path}: the folder {path.parent} does not exist",
+              file=sys.stderr)
+    else:
+        print(f"error: cannot write {path}: {getattr(exc, 'strerror', None) or exc}",
+              file=sys.stderr)
+
+
 def _read_result(path):
     """A Solution from a result file, or None after printing why not."""
+    if Path(path).suffix.lower() not in (".csv",) + HDF5_SUFFIXES:
+        print(f"error: {path} is not a result file: plot reads a .csv or .h5 written by "
+              "mbdsl simulate (for a model file, run: mbdsl simulate MODEL --plot)",
+              file=sys.stderr)
+        return None
     try:
         return load_solution(path)
     except MbdError as exc:
@@ -315,7 +340,10 @@ def _plot(args) -> int:
     except KeyError as exc:
         print(f"error: {exc.args[0]}", file=sys.stderr)
         return 1
-    except (OSError, ValueError) as exc:
+    except OSError as exc:
+        _write_error(out, exc)
+        return 1
+    except ValueError as exc:
         print(f"error: cannot write {out}: {exc}", file=sys.stderr)
         return 1
     print(f"wrote {out}")
@@ -418,7 +446,7 @@ def _study(args) -> int:
     try:
         files = result.write(out)
     except OSError as exc:
-        print(f"error: cannot write {out}: {exc}", file=sys.stderr)
+        _write_error(out / "index.md", exc)
         return 1
     if not args.quiet:
         print(result.text())

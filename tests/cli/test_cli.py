@@ -73,3 +73,22 @@ def test_simulate_help_shows_the_defaults(capsys):
     assert "default: the model's simulate block, else hht-i3" in text
     assert "required without one" in text and "default -0.05" in text
     assert "default 0.6" in text and "default modified" in text and "auto (default)" in text
+
+
+def test_messages_for_wrong_files_name_the_problem(tmp_path, capsys):
+    # no raw Python messages: a model given to plot, a folder that does not
+    # exist, a result file cut inside its header
+    assert main(["plot", str(MODELS / "slider_crank.mbd")]) == 1
+    assert "is not a result file" in capsys.readouterr().err
+    missing = tmp_path / "no" / "such" / "out.csv"
+    assert main(["simulate", str(MODELS / "slider_crank.mbd"), "-q", "--t-end", "0.01",
+                 "-o", str(missing)]) == 1
+    err = capsys.readouterr().err
+    assert f"the folder {missing.parent} does not exist" in err and "Errno" not in err
+    out = tmp_path / "run.csv"
+    assert main(["simulate", str(MODELS / "slider_crank.mbd"), "-q", "--t-end", "0.01",
+                 "-o", str(out)]) == 0
+    cut = tmp_path / "cut.csv"
+    cut.write_text(out.read_text()[:300])
+    assert main(["plot", str(cut)]) == 1
+    assert "the file is truncated" in capsys.readouterr().err
