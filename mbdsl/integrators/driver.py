@@ -348,14 +348,26 @@ def _fail(sol, method, ctx, res, t, step, h):
         stiff = _stiff_elements(system, step)
         if stiff:
             name, period = stiff[0]
+            alpha = getattr(method, "alpha", None)
+            if alpha is not None and alpha <= -0.3 + 1e-9:      # that advice is followed
+                remedy = ("use a smaller h (alpha is already -0.3, the most damping HHT "
+                          "allows), or nstiff / nstiff-si2, which damp such a mode more")
+            else:
+                remedy = ("use a smaller h, or a method with numerical damping "
+                          "(hht-i3/hht-si2 with alpha = -0.3)")
             hint = (f"'{name}' oscillates with a period of about {period:.2g} s, "
-                    f"shorter than the step can follow (h = {step:.2g} s): use a smaller h, "
-                    "or a method with numerical damping (hht-i3/hht-si2 with alpha = -0.3)")
+                    f"shorter than the step can follow (h = {step:.2g} s): {remedy}")
             span = span or next((f.span for f in system.model.forces if f.name == name), None)
-    norms = ", ".join(f"{x:.2e}" for x in res.norms) or "none"
+    k = len(res.norms)
+    if k == 0:
+        norms = "no Newton iteration"
+    elif k <= 2:
+        norms = "Newton norms " + ", ".join(f"{x:.2g}" for x in res.norms)
+    else:            # where it started and where it ended: the trend is what helps
+        norms = f"Newton norm {res.norms[0]:.2g} -> {res.norms[-1]:.2g} in {k} iterations"
     msg = (f"the step from t = {t:.6g} s could not converge with {method.describe()} "
            f"(h = {step:.3g} s after halving from {h:.3g} s): {res.status.value}; "
-           f"Newton norms [{norms}]{detail}")
+           f"{norms}{detail}")
     sol.status, sol.message = "failed", msg
     sol.diagnostics = [Diagnostic("error", "E601", msg, span, "involved here" if span else "",
                                   hint=hint)]

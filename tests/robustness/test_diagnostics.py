@@ -170,3 +170,21 @@ def test_sigint_keeps_every_accepted_step(tmp_path):
     assert len(ref.t) == len(t)
     np.testing.assert_array_equal(values[-2, 1:7], ref.q[-2])
     np.testing.assert_allclose(values[-1, 1:7], ref.q[-1], rtol=1e-12, atol=1e-14)
+
+
+@pytest.mark.parametrize("alpha", [-0.3, -0.05])
+def test_a_stiff_failure_s_hint_never_repeats_advice_already_followed(alpha):
+    # two full-Newton iterations cannot take a 50 ms step of a pendulum with a 1e7 N m/rad
+    # elbow: the hint names the spring; it suggests alpha = -0.3 only when alpha is not
+    # already -0.3, and the message gives the Newton norms' trend, not every norm
+    from mbdsl.integrators import NewtonOptions, integrate, make_method
+    system = mbdsl.assemble(mbdsl.load(MODELS / "double_pendulum_stiff.mbd",
+                                       overrides={"elbow0": 1e-3}))
+    sol = integrate(system, make_method("hht-i3", alpha=alpha), 0.5, 0.05,
+                    newton=NewtonOptions(max_iter=2, jacobian="full"), on_failure="return",
+                    max_halvings=0)
+    assert sol.status == "failed"
+    d = sol.diagnostics[0]
+    assert "'elbow' oscillates" in d.hint
+    assert ("alpha = -0.3" in d.hint) == (alpha != -0.3)
+    assert "Newton norms" in d.message and d.message.count("e+") <= 3
