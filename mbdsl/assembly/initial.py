@@ -372,6 +372,10 @@ def _consistent_state(system, t0, tol, max_iter, elastic):
     res_q = float(np.max(np.abs(phi), initial=0.0))
     fixed_err = float(np.max(np.abs(q[iq] - vq), initial=0.0))
     if not np.all(np.isfinite(q)) or res_q > 1e3 * tol or fixed_err > 1e3 * tol:
+        # more initial conditions than the count of DOF: the likely cause
+        d = dof_diagnostic(model, n - system.m, "count") if elastic is None else None
+        if d is not None:
+            raise AssemblyError(d.message, [d])
         try:
             d = miss_diagnosis(system, q_start, t0, fixed_q)
         except (np.linalg.LinAlgError, ValueError, RuntimeError):
@@ -392,7 +396,12 @@ def _consistent_state(system, t0, tol, max_iter, elastic):
     # here, by name, before the singular index-1 matrix could say less
     structure, warnings = None, []
     if system.m <= RANK_LIMIT:
-        structure = _check_structure(system, q, t0)
+        structure = _check_structure(system, q, t0)     # E401 first: the cause, if any
+    d = dof_diagnostic(model, structure.dof_rank if structure else n - system.m,
+                       "rank" if structure else "count") if elastic is None else None
+    if d is not None:
+        raise AssemblyError(d.message, [d])
+    if structure is not None:
         if structure.dof_rank == 0 and not model.drivers:
             warnings.append(Diagnostic(
                 "warning", "W402", f"the mechanism cannot move: 0 degrees of freedom "
@@ -494,6 +503,22 @@ def _require_finite(system, x, context, t0, what="coordinate"):
                    hint="a mass, length, point or force of extreme size: check the units "
                         "(SI: kg, m, s, N) and the values of this body")
     raise AssemblyError(d.message, [d])
+
+
+def dof_diagnostic(model, dof: int, by: str):
+    """E501 when the model's initial position or velocity conditions (not
+    guesses) are more than ``dof`` degrees of freedom allow, else None; ``by``
+    says how the DOF were counted ("rank", "count")."""
+    pos = [ic for ic in model.initials if not ic.guess and not ic.is_velocity]
+    vel = [ic for ic in model.initials if not ic.guess and ic.is_velocity]
+    for kind, ics in (("position", pos), ("velocity", vel)):
+        if dof >= 0 and len(ics) > dof:
+            return Diagnostic("error", "E501", f"{len(ics)} initial {kind} conditions fix more "
+                              f"than the {dof} degree{'s' if dof != 1 else ''} of freedom "
+                              f"(by {by}) allow", ics[dof].span, "one too many",
+                              hint="turn some into 'guess' lines: the assembly then computes "
+                              "them from the joints")
+    return None
 
 
 def _check_structure(system, q, t0) -> StructureReport:

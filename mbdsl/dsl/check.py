@@ -68,6 +68,9 @@ class _Checker:
         self.ground_points: dict[str, np.ndarray] = {"origin": np.zeros(2)}
         self.joints: dict[str, Joint] = {}
         self.element_spans: dict[str, Span | None] = {}
+        # names whose own error is reported: their uses are not reported again
+        self.broken_names: set[str] = set()
+        self.broken_points: set[tuple[str, str]] = set()
 
     # -- helpers -------------------------------------------------------------
     def error(self, code, message, span=None, label="", hint="", notes=(), secondary=()):
@@ -81,6 +84,8 @@ class _Checker:
 
     def expr_error(self, err: ExprError, fallback: Span | None, context: str):
         """Record an expression evaluation error with a did-you-mean hint."""
+        if err.code == "E201" and err.name in self.broken_names:
+            return                    # a follow-on of the error that broke this parameter
         hint = err.hint
         if err.code == "E201" and not hint:
             hint = _did_you_mean(err.name, list(self.params) + ["pi"])
@@ -141,6 +146,8 @@ class _Checker:
         if expr.obj == "ground":
             if expr.attr in self.ground_points:
                 return PointRef(GROUND, self.ground_points[expr.attr], expr.text)
+            if ("ground", expr.attr) in self.broken_points:
+                return None           # its own error was reported where it is declared
             self.error("E201", f"{context}: the ground has no point '{expr.attr}'", sp,
                        "unknown point", hint=_did_you_mean(expr.attr, self.ground_points)
                        or "declare it in a 'ground { point NAME (x, y) }' block")
@@ -152,6 +159,8 @@ class _Checker:
                            hint=_did_you_mean(expr.obj, list(self.bodies) + ["ground"]))
             return None
         if expr.attr not in body.points:
+            if (body.name, expr.attr) in self.broken_points:
+                return None           # its own error was reported where it is declared
             self.error("E201", f"{context}: body '{body.name}' has no point '{expr.attr}'", sp,
                        "unknown point", hint=_did_you_mean(expr.attr, body.points)
                        or f"its points are {', '.join(sorted(body.points))}")
@@ -338,19 +347,24 @@ class _Checker:
                         value = evaluate(as_expr(value), self.params)
                     except ExprError as err:
                         self.error("E301", f"--set {p.name}={value}: {err}", None)
+                        self.broken_names.add(p.name)
                         continue
                     except Exception as exc:  # noqa: BLE001 - MbdSyntaxError of the override text
                         self.error("E301", f"--set {p.name}={value}: not a valid expression ({exc})", None)
+                        self.broken_names.add(p.name)
                         continue
                 value = float(value)
                 if not math.isfinite(value):
                     self.error("E301", f"--set {p.name}: the value is not finite", None)
+                    self.broken_names.add(p.name)
                     continue
                 self.params[p.name] = value
                 continue
             v = self.number(p.value, p.span, f"parameter '{p.name}'")
             if v is not None:
                 self.params[p.name] = v
+            else:
+                self.broken_names.add(p.name)
         for name in self.overrides:
             self.error("E201", f"--set {name}: the model has no parameter '{name}'", None,
                        hint=_did_you_mean(name, spans) or
@@ -365,6 +379,8 @@ class _Checker:
             v = self.vector(p.position, p.span, f"ground point '{p.name}'")
             if v is not None:
                 self.ground_points[p.name] = v
+            else:
+                self.broken_points.add(("ground", p.name))
 
     def check_bodies(self):
         """Check mass, inertia and points of every rigid body, and every
@@ -414,6 +430,8 @@ class _Checker:
                 v = self.vector(p.position, p.span, f"point '{b.name}.{p.name}'")
                 if v is not None:
                     points[p.name] = v
+                else:
+                    self.broken_points.add((b.name, p.name))
             if len(values) == 2:
                 self.bodies[b.name] = RigidBody(b.name, len(self.bodies), values["mass"],
                                                 values["inertia"], points, b.span)
@@ -789,9 +807,7 @@ class _Checker:
                     st.pop(k, None)
 
     def check_structure(self, model: Model):
-        """DOF count, connectivity to ground, initial conditions against the DOF."""
-        n, m = model.n_coordinates, model.n_constraints
-        dof = n - m
+        """Connectivity to the ground (the DOF are judged by the assembly)."""
         # more equations than coordinates is not decided here: the rows may be
         # redundant (E401) or inconsistent (E503), which the assembly tells apart
         # and names the joints (assembly/structure.py)
@@ -800,15 +816,9 @@ class _Checker:
             self.warning("W401", f"body '{b.name}' is not connected to the ground by joints",
                          b.span, "floats freely",
                          hint="that is fine for a free body; otherwise add a joint")
-        pos = [ic for ic in model.initials if not ic.guess and not ic.is_velocity]
-        vel = [ic for ic in model.initials if not ic.guess and ic.is_velocity]
-        for kind, ics in (("position", pos), ("velocity", vel)):
-            if dof >= 0 and len(ics) > dof:
-                extra = ics[dof]
-                self.error("E501", f"{len(ics)} initial {kind} conditions fix more than the "
-                           f"{dof} degree{'s' if dof != 1 else ''} of freedom allow", extra.span,
-                           "one too many", hint="turn some into 'guess' lines: the assembly then "
-                           "computes them from the joints")
+        # initial conditions against the DOF are judged by the assembly, by rank
+        # (``initial.dof_diagnostic``): counting would blame an 'initial' line for
+        # what a redundant joint does (E401)
 
 
 def point_ref(body, name: str, text: str) -> PointRef:

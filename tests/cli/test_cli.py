@@ -92,3 +92,20 @@ def test_messages_for_wrong_files_name_the_problem(tmp_path, capsys):
     cut.write_text(out.read_text()[:300])
     assert main(["plot", str(cut)]) == 1
     assert "the file is truncated" in capsys.readouterr().err
+
+
+def test_follow_on_errors_are_not_reported(tmp_path, capsys):
+    # one mistake, one error: a bad --set value does not also make every use of the
+    # parameter an "unknown name", a point that cannot be evaluated is not also
+    # "no point" at every joint that uses it
+    assert main(["check", str(MODELS / "slider_crank.mbd"), "--set", "k=abc"]) == 1
+    err = capsys.readouterr().err
+    assert "--set k=abc" in err and "unknown name 'k'" not in err and "1 error," in err
+    model = tmp_path / "divz.mbd"
+    model.write_text("model divz\nparameter z = 0\n"
+                     "body b { mass 1; inertia 1; point p (1/z, 0) }\n"
+                     "joint J: revolute(ground.origin, b.p)\n"
+                     "joint K: revolute(b.p, ground.origin)\n")
+    assert main(["check", str(model)]) == 1
+    err = capsys.readouterr().err
+    assert "division by zero" in err and "has no point" not in err and "1 error," in err

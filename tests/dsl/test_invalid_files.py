@@ -24,6 +24,7 @@ EXPECTED = {
     "e302_missing_inertia.mbd": ("E302", 3, 6),
     "e303_negative_mass.mbd": ("E303", 3, 17),
     "e401_redundant_joint.mbd": ("E401", 10, 7),
+    "e401_parallelogram_with_initial.mbd": ("E401", 13, 7),   # not E501: DOF by rank
     "e503_inconsistent_joints.mbd": ("E503", 4, 7),
     "e501_too_many_initials.mbd": ("E501", 6, 1),
 }
