@@ -41,7 +41,7 @@ def _lines(ax, t, sol, names):
         ax.legend(fontsize=7, loc="best")
 
 
-def plot_solution(solution, y=None, x: str = "t", path=None) -> Figure:
+def plot_solution(solution, y=None, x: str = "t", path=None, bodies=None) -> Figure:
     """Time histories of a run as one figure.
 
     Parameters
@@ -58,6 +58,9 @@ def plot_solution(solution, y=None, x: str = "t", path=None) -> Figure:
         The abscissa column; ``t`` by default, any column for a phase plot.
     path : str or Path, optional
         Save the figure there; format by extension (``.png``, ``.svg``, ``.pdf``).
+    bodies : list of str, optional
+        The bodies of the standard panels (default: the first
+        :data:`MAX_BODIES`; the panel titles say so when some are left out).
 
     Returns
     -------
@@ -66,7 +69,7 @@ def plot_solution(solution, y=None, x: str = "t", path=None) -> Figure:
     Raises
     ------
     KeyError
-        An unknown column, with the closest names.
+        An unknown column or body, with the closest names.
     """
     sol = solution
     xs = sol.column(x)
@@ -82,9 +85,22 @@ def plot_solution(solution, y=None, x: str = "t", path=None) -> Figure:
     else:
         fig = _figure(11.0, 10.0)
         axes = fig.subplots(4, 2, sharex=True).ravel()
-        bodies = sol.model.bodies[:MAX_BODIES]
-        shown = "" if len(sol.model.bodies) <= MAX_BODIES else \
-            f" (first {MAX_BODIES} of {len(sol.model.bodies)} bodies)"
+        by_name = {b.name: b for b in sol.model.bodies}
+        if bodies:
+            for name in bodies:
+                if name not in by_name:
+                    import difflib
+                    close = difflib.get_close_matches(name, list(by_name), n=3)
+                    raise KeyError(f"no body '{name}'" + (f"; did you mean {', '.join(close)}?"
+                                   if close else f"; the bodies are {', '.join(by_name)}"))
+            chosen = [by_name[n] for n in bodies]
+            shown = "" if len(chosen) == len(by_name) else \
+                f" ({len(chosen)} of {len(by_name)} bodies)"
+        else:
+            chosen = list(sol.model.bodies[:MAX_BODIES])
+            shown = "" if len(sol.model.bodies) <= MAX_BODIES else \
+                f" (first {MAX_BODIES} of {len(sol.model.bodies)} bodies; choose with --bodies)"
+        bodies = chosen
         panels = {
             "position": ("[m]", [f"{b.name}.{c}" for b in bodies for c in ("x", "y")]),
             "angle": ("[rad]", [f"{b.name}.phi" for b in bodies]),
@@ -109,11 +125,15 @@ def plot_solution(solution, y=None, x: str = "t", path=None) -> Figure:
                 ax.set_ylabel("constraint violation")
                 ax.legend(fontsize=7, loc="best")
             elif title == "Newton iterations per step":
-                ax.step(xs[1:], sol.stats["iterations"][1:], where="post", lw=1.0)
+                # row i's counts belong to the step (t_{i-1}, t_i]: one stair per step
+                if len(xs) > 1:
+                    ax.stairs(sol.stats["iterations"][1:], xs, lw=1.0, baseline=None)
                 ax.set_ylabel("iterations")
             else:
-                ax.step(xs[1:], sol.stats["h"][1:], where="post", lw=1.0)
-                ax.set_yscale("log")          # halvings show as equal steps
+                h = sol.stats["h"][1:]
+                if len(xs) > 1:
+                    ax.stairs(h, xs, lw=1.0, baseline=None)
+                    _step_size_axis(ax, h)
                 ax.set_ylabel("h [s]")
         for ax in axes[-2:]:
             ax.set_xlabel(xlabel)
@@ -122,6 +142,43 @@ def plot_solution(solution, y=None, x: str = "t", path=None) -> Figure:
     if path is not None:
         fig.savefig(path)
     return fig
+
+
+def _step_size_axis(ax, h) -> None:
+    """A log axis of step sizes whose ticks are the halvings (factors of 2) with
+    their values as labels, padded by half a halving: a constant h shows as one
+    labelled line, not a decade of identical "10^-3" labels."""
+    from matplotlib.ticker import FixedLocator, FuncFormatter, NullLocator
+    h = np.asarray(h, dtype=float)
+    h = h[np.isfinite(h) & (h > 0)]
+    if not len(h):
+        return
+    lo, hi = float(h.min()), float(h.max())
+    ax.set_yscale("log")                       # halvings show as equal steps
+    ax.set_ylim(lo / 2**0.5, hi * 2**0.5)
+    k = int(np.ceil(np.log2(hi / lo) + 1e-9))
+    ticks = hi / 2.0 ** np.arange(0, k + 1)
+    if len(ticks) > 6:                         # at most six labels
+        ticks = ticks[:: int(np.ceil(len(ticks) / 6))]
+    ax.yaxis.set_major_locator(FixedLocator(ticks))
+    ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:.3g}"))
+    ax.yaxis.set_minor_locator(NullLocator())
+
+
+def _readable_log_ticks(ax) -> None:
+    """Log axes whose tick labels do not overlap: over a decade or more only the
+    powers of ten are labelled; within less than a decade (no or one power of
+    ten inside, where matplotlib labels every minor tick) the minor ticks are
+    1, 2 and 5 times a power of ten, labelled with their values."""
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+    for axis, lim in ((ax.xaxis, ax.get_xlim()), (ax.yaxis, ax.get_ylim())):
+        if axis.get_scale() != "log" or not min(lim) > 0:
+            continue
+        if max(lim) / min(lim) >= 10.0:
+            axis.set_minor_formatter(NullFormatter())
+        else:
+            axis.set_minor_locator(LogLocator(base=10.0, subs=(2.0, 5.0)))
+            axis.set_minor_formatter(FuncFormatter(lambda v, _: f"{v:.2g}"))
 
 
 # -- animation ---------------------------------------------------------------------------
@@ -466,6 +523,7 @@ def write_figure(panels, stem, title: str = "", columns: int | None = None) -> l
             ax.set_aspect("equal", adjustable="datalim")
             ax.ticklabel_format(style="sci", scilimits=(-2, 3))
         ax.grid(True, which="both", alpha=0.3)
+        _readable_log_ticks(ax)
         if len(panel.series) > 1:
             ax.legend(fontsize=7, loc="best")
     stem = Path(stem)

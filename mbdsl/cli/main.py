@@ -61,6 +61,8 @@ def build_parser() -> argparse.ArgumentParser:
     plt.add_argument("--y", help="comma-separated columns, one panel each "
                      "(default: the standard panels)")
     plt.add_argument("--x", default="t", help="abscissa column (default t)")
+    plt.add_argument("--bodies", help="comma-separated bodies of the standard panels "
+                     "(default: the first 4)")
     plt.add_argument("-o", "--output", help="figure file, format by extension (.png, .svg, .pdf); "
                      "default: RESULT.png")
 
@@ -336,7 +338,9 @@ def _plot(args) -> int:
     out = Path(args.output) if args.output else Path(args.result).with_suffix(".png")
     y = [c.strip() for c in args.y.split(",") if c.strip()] if args.y else None
     try:
-        plot_solution(sol, y=y, x=args.x, path=out)
+        bodies = [b.strip() for b in args.bodies.split(",") if b.strip()] if args.bodies \
+            else None
+        plot_solution(sol, y=y, x=args.x, path=out, bodies=bodies)
     except KeyError as exc:
         print(f"error: {exc.args[0]}", file=sys.stderr)
         return 1

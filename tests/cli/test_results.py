@@ -221,3 +221,41 @@ def test_progress_bar_is_off_when_not_a_terminal():
     with ProgressBar(0.0, 1.0, delay=0.0, file=buf) as bar:
         bar(0.5, 1e-3, 4)
     assert buf.getvalue() == ""
+
+
+def test_standard_plot_step_size_bodies_and_log_ticks():
+    # the step-size panel: one stair per step over (t_{i-1}, t_i], no drop at t_end,
+    # distinct labels (the halvings); the bodies shown can be chosen and the panel
+    # titles say how many are shown
+    from matplotlib.figure import Figure
+
+    from mbdsl.plotting import _readable_log_ticks, plot_solution
+    model = mbdsl.load(MODELS / "pendulum_chain.mbd", overrides={"N": 6})
+    sol = mbdsl.simulate(model, method="hht-i3", h=1e-3, t_end=0.05)
+    fig = plot_solution(sol)
+    ax = next(a for a in fig.axes if a.get_ylabel() == "h [s]")
+    stairs = ax.patches[0]
+    values, edges = stairs.get_data()[:2]
+    assert np.allclose(values, 1e-3) and edges[0] == 0.0 and edges[-1] == pytest.approx(0.05)
+    labels = [t.get_text() for t in ax.get_yticklabels() if t.get_text()]
+    assert labels and len(labels) == len(set(labels))
+    titles = [a.get_title() for a in fig.axes]
+    assert "position (first 4 of 6 bodies; choose with --bodies)" in titles
+    fig = plot_solution(sol, bodies=["link[5]", "link[6]"])
+    angle = next(a for a in fig.axes if a.get_title().startswith("angle"))
+    assert angle.get_title() == "angle (2 of 6 bodies)"
+    assert [line.get_label() for line in angle.get_lines()] == ["link[5].phi", "link[6].phi"]
+    with pytest.raises(KeyError, match="did you mean link"):
+        plot_solution(sol, bodies=["lnk"])
+    # log axes of study figures: within less than a decade matplotlib labels every
+    # minor tick (2e-2, 3e-2, ..., 9e-2: overlapping); only 2 and 5 times 10^k remain
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    fig = Figure()
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot()
+    ax.loglog([0.012, 0.09], [1e-8, 1e-3])
+    _readable_log_ticks(ax)
+    fig.canvas.draw()
+    minor = [t.get_text() for t in ax.xaxis.get_minorticklabels() if t.get_text()]
+    assert 1 <= len(minor) <= 3 and len(set(minor)) == len(minor), minor
+    assert all(not t.get_text() for t in ax.yaxis.get_minorticklabels())   # 5 decades
