@@ -199,7 +199,7 @@ def ensure_loaded(group: str | None = None, announce=None) -> float:
     timer = None
     if not ready:
         if announce is not None:
-            announce("compiling the kernels for this machine (once; about a minute on two "
+            announce("compiling the kernels for this machine (once; about two minutes on two "
                      "cores, then cached) ...")
     elif announce is not None:
         def late():
