@@ -94,6 +94,7 @@ class InitialState:
             scale = max(lengths, default=0.0)
 
             def shown(k, v):
+                """v, or 0 when it is round-off of a zero coordinate."""
                 small = 1e-12 * (scale if k.endswith((".x", ".y")) else 1.0)
                 return 0.0 if abs(v) < small else v
 

@@ -527,10 +527,12 @@ def postfix(e: Expr, var: str = "t") -> tuple[list[int], list[float], int]:
     depth = [0, 0]          # current, largest
 
     def push(k):
+        """Track the stack depth after k values are pushed (negative: popped)."""
         depth[0] += k
         depth[1] = max(depth[1], depth[0])
 
     def emit(e):
+        """Append the postfix code of node e."""
         if isinstance(e, Num):
             code.extend((0, len(consts)))
             consts.append(float(e.value))

@@ -1233,6 +1233,7 @@ def triplet_bound(I) -> int:
     packed model data ``I`` (its header's row counts): up to five mass (and
     identity) blocks, four Hessian, two force, two G and six Phi_q blocks."""
     def rows(k):
+        """Instances of field k (the header's row count)."""
         return int(I[3 * k + 1])
     n = rows(MASS)
     kc, kp, kl = rows(CROW), rows(PROW), rows(LROW)
@@ -1287,7 +1288,9 @@ def _run(rec2, I, Fl, h, t0, n_steps, step0, every, q, v, a, lam, mu, q_prev, v_
     qx_old = np.zeros(n + 3)
     F = np.empty(n)
     scratch = np.empty(m + I[_HEADER - 1] + 2 * size)
-    _old_force(rec2[0], I, Fl, t0, q, v, lam, F, qx, vx, work)
+    F[:] = 0.0                             # F_n, used only by recipes with cF != 0
+    if rec2[0, CF] != 0.0:
+        _old_force(rec2[0], I, Fl, t0, q, v, lam, F, qx, vx, work)
     rec = 0
     for k in range(n_steps):
         t = t0 + (k + 1) * h               # t_{n+1}
@@ -1332,7 +1335,8 @@ def _run(rec2, I, Fl, h, t0, n_steps, step0, every, q, v, a, lam, mu, q_prev, v_
             lu_state[2] = 1.0
             if differ:                       # the steady recipe has another Newton matrix
                 lu_state[0] = 0.0
-        _old_force(rc, I, Fl, t, q, v, lam, F, qx, vx, work)
+        if rc[CF] != 0.0:                  # F_n enters the next residual only through cF
+            _old_force(rc, I, Fl, t, q, v, lam, F, qx, vx, work)
         counts[5] += 1
         if (step0 + k + 1) % every == 0:
             out_t[rec] = t0 + (k + 1) * h

@@ -236,6 +236,7 @@ class CompiledModel:
             return len(prog) - 1
 
         def timed(f):
+            """Whether f is a function of time (compiled as a program)."""
             return f is not None and not f.constant
 
         lfn, tcol, tfn, ffn = np.zeros((0, 2), i8), [], [], np.zeros((0, 2), i8)
