@@ -59,7 +59,8 @@ from numba.extending import intrinsic
 from ..dsl.expressions import OPCODES
 from .recipe import RECIPE_FIELDS
 
-__all__ = ["MODEL_SCHEMA", "MODEL_FIELDS", "residual", "jacobian_triplets", "force_term", "old_force", "mobility",
+__all__ = ["MODEL_SCHEMA", "MODEL_FIELDS", "residual", "jacobian_triplets", "force_term", "old_force",
+           "predict", "state", "layout", "mobility",
            "accumulate", "run", "triplet_bound", "pack", "unpack", "lapack_band_addresses",
            "DENSE", "BANDED"]
 
@@ -704,6 +705,27 @@ def _state(rec, n, w, q_pred, v_pred, qx, vx):
 
 
 @_jit
+def predict(rec, first, q, v, a, q_prev, v_prev, q_pred, v_pred):
+    """The recipe's predictors into q_pred, v_pred (n,) from the state at t_n
+    (q, v, a) and, unless ``first``, the one h before (q_prev, v_prev)."""
+    n = q.shape[0]
+    pq0, pq1, pv0, pv1, pa = rec[PQ0], rec[PQ1], rec[PV0], rec[PV1], rec[PA]
+    vv0, vv1, va = rec[VV0], rec[VV1], rec[VA]
+    for j in range(n):
+        q_pred[j] = pq0 * q[j] + pv0 * v[j] + pa * a[j]
+        v_pred[j] = vv0 * v[j] + va * a[j]
+    if not first and (pq1 != 0.0 or pv1 != 0.0 or vv1 != 0.0):
+        for j in range(n):
+            q_pred[j] += pq1 * q_prev[j] + pv1 * v_prev[j]
+            v_pred[j] += vv1 * v_prev[j]
+
+
+#: The state map and the layout of the unknowns, for the Python Newton loop
+#: (``engine.SparseAdapter``): the same compiled functions as the time loop's.
+state, layout = _state, _layout
+
+
+@_jit
 def _residual(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work):
     """Upsilon(w) of the recipe ``rec``, size n + m (index 3), 2 (n + m)
     (stabilized index 2) or 3 n + 2 m (additive form).
@@ -1296,15 +1318,7 @@ def _run(rec2, I, Fl, h, t0, n_steps, step0, every, q, v, a, lam, mu, q_prev, v_
         t = t0 + (k + 1) * h               # t_{n+1}
         first = lu_state[2] == 0.0
         rc = rec2[0] if first else rec2[1]
-        pq0, pq1, pv0, pv1, pa = rc[PQ0], rc[PQ1], rc[PV0], rc[PV1], rc[PA]
-        vv0, vv1, va = rc[VV0], rc[VV1], rc[VA]
-        for j in range(n):
-            q_pred[j] = pq0 * q[j] + pv0 * v[j] + pa * a[j]
-            v_pred[j] = vv0 * v[j] + va * a[j]
-        if not first and (pq1 != 0.0 or pv1 != 0.0 or vv1 != 0.0):
-            for j in range(n):
-                q_pred[j] += pq1 * q_prev[j] + pv1 * v_prev[j]
-                v_pred[j] += vv1 * v_prev[j]
+        predict(rc, first, q, v, a, q_prev, v_prev, q_pred, v_pred)
         w[:] = 0.0
         w[a0:a0 + n] = a
         w[l0:l0 + m] = lam

@@ -690,15 +690,12 @@ class SparseAdapter:
         """The wrapped method's context, with the recipe of this step and its
         predictors (``compiled._run``) for the kernels."""
         ctx = self._method.context(system, history, t, h)
-        rec = self._method.kernel_recipe(h, self._method.first_step(history, h))
-        g = self._get
+        first = self._method.first_step(history, h)
+        rec = self._method.kernel_recipe(h, first)
         s = history[-1]
-        q_pred = g(rec, "pq0") * s.q + g(rec, "pv0") * s.v + g(rec, "pa") * s.a
-        v_pred = g(rec, "vv0") * s.v + g(rec, "va") * s.a
-        if len(history) >= 2 and not self._method.first_step(history, h):
-            p = history[-2]
-            q_pred = q_pred + g(rec, "pq1") * p.q + g(rec, "pv1") * p.v
-            v_pred = v_pred + g(rec, "vv1") * p.v
+        p = history[-2] if len(history) >= 2 else s
+        q_pred, v_pred = np.empty(system.n), np.empty(system.n)
+        self._K.predict(rec, first, s.q, s.v, s.a, p.q, p.v, q_pred, v_pred)
         F = np.empty(system.n)
         self._K.old_force(rec, self._cm.ints, self._cm.floats, s.t, s.q, s.v, s.lam, F, self._qx,
                           self._vx, self._work)
@@ -752,22 +749,13 @@ class SparseAdapter:
 
     def accept(self, w, ctx):
         """The state of the converged w by the recipe (``compiled._run``)."""
-        from .recipe import ADDITIVE
         n, m = self._system.n, self._system.m
-        rec, g = ctx.cache["recipe"], self._get
-        x, y = w[:n], w[n:2 * n]
-        has_y = g(rec, "has_y") != 0.0
-        q = ctx.cache["kq_pred"] + g(rec, "cqx") * x
-        v = ctx.cache["kv_pred"] + g(rec, "cvx") * x
-        if has_y:
-            q = q + g(rec, "cqy") * y
-            v = v + g(rec, "cvy") * y
-        if g(rec, "form") == ADDITIVE:
-            a, lam, extra = w[2 * n:3 * n], w[3 * n + m:], w[3 * n:3 * n + m]
-        else:
-            l0 = 2 * n if has_y else n
-            a, lam, extra = x, w[l0:l0 + m], (w[l0 + m:] if has_y else None)
-        s = StepState(ctx.t, q, v, a.copy(), lam.copy())
-        if extra is not None:
-            s.extra[self._method.extras[0]] = extra.copy()
+        rec = ctx.cache["recipe"]
+        qx, vx = np.zeros(n + 3), np.zeros(n + 3)
+        self._K.state(rec, n, w, ctx.cache["kq_pred"], ctx.cache["kv_pred"], qx, vx)
+        size, l0, e0, a0 = self._K.layout(rec, n, m)
+        s = StepState(ctx.t, qx[:n].copy(), vx[:n].copy(), w[a0:a0 + n].copy(),
+                      w[l0:l0 + m].copy())
+        if e0 < size:
+            s.extra[self._method.extras[0]] = w[e0:e0 + m].copy()
         return s
