@@ -18,7 +18,11 @@ default, ``--methods``) it prints:
   chain of 1000 links has none (its index-1 solution is too costly);
 * with exudyn installed (``pip install -e ".[bench]"``), the same model run in
   Exudyn (``exudyn_side.py``; rigid models with the elements it translates),
-  its time per step, iterations and error, and the ratio mbdsl / Exudyn.
+  its time per step, iterations and error, the ratio mbdsl / Exudyn of the
+  times per step and of the errors. Exudyn runs generalized-alpha at the
+  spectral radius rho_inf = (1 + alpha)/(1 - alpha); mbdsl's ``genalpha`` and
+  ``genalpha-si2`` run at the same rho_inf, the HHT methods at alpha, so the
+  error ratio of ``genalpha`` compares the same formula in two codes.
 
 Also: start-up of the slider crank (import, parse, check, assemble, in a
 fresh interpreter), the per-step growth from N = 100 to N = 1000, and the
@@ -142,9 +146,11 @@ def measure(label, file, overrides, T, ref_kind, h, methods, repeat, with_exudyn
             print(f"  {label}: not run in Exudyn ({exc})", file=sys.stderr)
 
     def method_of(name):
-        """The method with HHT's alpha where it takes one."""
-        return make_method(name, **({"alpha": alpha} if "alpha" in method_parameters(name)
-                                    else {}))
+        """The method with HHT's alpha where it takes one, and generalized-alpha at
+        the same spectral radius at infinity, rho_inf = (1 + alpha)/(1 - alpha)."""
+        taken = method_parameters(name)
+        given = {"alpha": alpha, "rho_inf": (1.0 + alpha) / (1.0 - alpha)}
+        return make_method(name, **{k: v for k, v in given.items() if k in taken})
 
     for name in methods:
         f0 = time.perf_counter()
@@ -167,7 +173,8 @@ def measure(label, file, overrides, T, ref_kind, h, methods, repeat, with_exudyn
         if exu is not None:
             row.update(exu_us=1e6 * exu["s_per_step"], exu_iterations=exu["iterations"],
                        exu_jacobians=exu["jacobians"], exu_error=exu["error"],
-                       ratio=row["us_per_step"] / (1e6 * exu["s_per_step"]))
+                       ratio=row["us_per_step"] / (1e6 * exu["s_per_step"]),
+                       error_ratio=row["error"] / exu["error"])
         rows.append(row)
     return rows
 
@@ -175,7 +182,8 @@ def measure(label, file, overrides, T, ref_kind, h, methods, repeat, with_exudyn
 def table(rows, markdown=False) -> str:
     head = ["model", "method", "n+m", "engine", "parse+check ms", "assemble ms", "initial ms",
             "first run s", "us/step", "iter/step", "Jac/step", "LU/step", "error q(T)",
-            "Exudyn us/step", "Exudyn iter/step", "Exudyn error q(T)", "mbdsl/Exudyn"]
+            "Exudyn us/step", "Exudyn iter/step", "Exudyn error q(T)", "mbdsl/Exudyn",
+            "error/Exudyn error"]
     lines = []
     fmt = lambda x, f: "—" if x is None or (isinstance(x, float) and np.isnan(x)) else f.format(x)  # noqa: E731
     for r in rows:
@@ -186,7 +194,7 @@ def table(rows, markdown=False) -> str:
                       fmt(r["jacobians"], "{:.3f}"), fmt(r["factorizations"], "{:.3f}"),
                       fmt(r["error"], "{:.2e}"), fmt(r.get("exu_us"), "{:.1f}"),
                       fmt(r.get("exu_iterations"), "{:.2f}"), fmt(r.get("exu_error"), "{:.2e}"),
-                      fmt(r.get("ratio"), "{:.2f}")])
+                      fmt(r.get("ratio"), "{:.2f}"), fmt(r.get("error_ratio"), "{:.3f}")])
     if markdown:
         out = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
         out += ["| " + " | ".join(x) + " |" for x in lines]

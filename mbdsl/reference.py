@@ -1,4 +1,4 @@
-"""Reference solutions independent of the six integrators.
+"""Reference solutions independent of the integrators.
 
 :func:`index1_reference` integrates the index-1 form of the equations of
 motion, y = (q, v), y' = (v, a(q, v, t)) with (a, lambda) from

@@ -17,7 +17,8 @@ from __future__ import annotations
 __all__ = ["METHOD_COEFFICIENTS", "METHOD_NAMES", "DEFAULT_METHOD", "COEFFICIENTS",
            "methods_taking"]
 
-#: The paper's method names, in the paper's order -> {coefficient: default}.
+#: The method names -> {coefficient: default}: the paper's six in the paper's order,
+#: then generalized-alpha (beyond the paper) at index 3 and stabilized index 2.
 METHOD_COEFFICIENTS: dict[str, dict[str, float]] = {
     "newmark": {"gamma": 0.6, "beta": 0.3025},
     "hht-i3": {"alpha": -0.05},
@@ -25,6 +26,8 @@ METHOD_COEFFICIENTS: dict[str, dict[str, float]] = {
     "nstiff-si2": {},
     "hht-add": {"alpha": -0.05, "b": 0.0},
     "hht-si2": {"alpha": -0.05},
+    "genalpha": {"rho_inf": 0.9},
+    "genalpha-si2": {"rho_inf": 0.9},
 }
 
 #: The method names, in order.

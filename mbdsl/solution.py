@@ -262,6 +262,10 @@ class Solution:
     h, t_end : float [s]
         Nominal step size and requested end time.
     initial : InitialState
+    last_state : StepState or None
+        The last accepted state of a numpy-engine run with the method's
+        carried values (``extra``), to continue it exactly (the compiled
+        engine resumes from it after a step handed to the numpy engine).
     """
 
     #: Phases of a run's wall time (``timings``), in the order they happen.
@@ -287,6 +291,7 @@ class Solution:
         self.engine, self.linear_solver = "numpy", "dense"
         self.stats_total = RunStats()
         self._rows = _RowStore(system.n, system.m, self._stored_extras)
+        self.last_state = None
 
     # -- building ---------------------------------------------------------------------
     def append(self, state, stats: StepStats) -> None:

@@ -61,6 +61,10 @@ class InitialState:
         DOF by count and by rank at q (None above ``RANK_LIMIT`` rows).
     warnings : list of Diagnostic
         E.g. W402, a mechanism that cannot move.
+    method_state : dict of str -> ndarray
+        Values a method carries between steps, when a run resumes from an
+        accepted step rather than from t_0 (generalized-alpha's ``aux``);
+        empty for a start.
     """
 
     t: float
@@ -75,6 +79,7 @@ class InitialState:
     iterations: int = 0
     structure: StructureReport | None = None
     warnings: list = field(default_factory=list)
+    method_state: dict = field(default_factory=dict)
 
     #: At most this many solved coordinates are listed in :meth:`report`.
     REPORT_COORDINATES = 10

@@ -83,7 +83,8 @@ def build_parser() -> argparse.ArgumentParser:
     st.add_argument("kind", choices=KINDS + ("all",), help="which study")
     st.add_argument("model", help="model file (.mbd)")
     st.add_argument("--methods", default="all",
-                    help="'all' or a comma-separated list of methods (default all six)")
+                    help="'all' or a comma-separated list of methods (default all: the paper's six "
+                         "and genalpha, genalpha-si2)")
     hs = st.add_mutually_exclusive_group()
     hs.add_argument("--h", help="comma-separated step sizes [s], e.g. 1e-3,5e-4")
     hs.add_argument("--h-range", help="halvings from FIRST to LAST, e.g. 2^-7:2^-11 "
@@ -136,6 +137,8 @@ def _run_options(p):
     p.add_argument("--beta", type=float, help=coef("beta", "Newmark beta >= (gamma + 1/2)^2/4"))
     p.add_argument("--gamma", type=float, help=coef("gamma", "Newmark gamma >= 1/2"))
     p.add_argument("--b", type=float, help=coef("b", "HHT-ADD position weight b != 1/2"))
+    p.add_argument("--rho-inf", type=float, dest="rho_inf",
+                   help=coef("rho_inf", "generalized-alpha spectral radius at infinity in [0, 1]"))
     p.add_argument("--set", action="append", metavar="NAME=VALUE",
                    help="override a model parameter (repeatable)")
     p.add_argument("--newton", choices=["full", "modified"], default="modified",
@@ -246,7 +249,7 @@ def _run(args, model, writer=None):
             sol = simulate(model, method=args.method, h=args.h, t_end=args.t_end,
                            newton=NewtonOptions(jacobian=args.newton), on_failure="return",
                            progress=bar, writer=writer, alpha=args.alpha, beta=args.beta, gamma=args.gamma,
-                           b=args.b, engine=args.engine, output_every=args.output_every,
+                           b=args.b, rho_inf=args.rho_inf, engine=args.engine, output_every=args.output_every,
                            announce=announce,
                            compile_policy="background" if background_allowed() else "wait")
         sol.timings["setup"] += getattr(args, "load_time", 0.0)

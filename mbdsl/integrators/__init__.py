@@ -8,6 +8,7 @@ from .base import Block, Method, StepContext, StepState
 from .driver import integrate
 from .hht_add import HHTADD
 from .hht_i3 import HHTI3
+from .genalpha import GenAlpha, GenAlphaSI2
 from .hht_si2 import HHTSI2
 from .newmark import Newmark
 from .nstiff import NStiff
@@ -15,13 +16,13 @@ from .nstiff_si2 import NStiffSI2
 from .newton import JacobianUpdate, Newton, NewtonOptions, NewtonResult, NewtonStatus
 from ..registry import COEFFICIENTS, METHOD_NAMES
 
-_CLASSES = (Newmark, HHTI3, NStiff, NStiffSI2, HHTADD, HHTSI2)
+_CLASSES = (Newmark, HHTI3, NStiff, NStiffSI2, HHTADD, HHTSI2, GenAlpha, GenAlphaSI2)
 
-#: The paper's method names (``mbdsl.registry``, in its order) -> method classes.
+#: The method names (``mbdsl.registry``, in its order) -> method classes.
 METHODS = {name: next(c for c in _CLASSES if c.name == name) for name in METHOD_NAMES}
 
 __all__ = ["METHODS", "Method", "Block", "StepState", "StepContext", "integrate",
-           "HHTI3", "Newmark", "NStiff", "NStiffSI2", "HHTADD", "HHTSI2", "Newton", "NewtonOptions", "NewtonResult", "NewtonStatus",
+           "HHTI3", "Newmark", "NStiff", "NStiffSI2", "HHTADD", "HHTSI2", "GenAlpha", "GenAlphaSI2", "Newton", "NewtonOptions", "NewtonResult", "NewtonStatus",
            "JacobianUpdate", "make_method", "method_parameters", "settings_coefficients"]
 
 

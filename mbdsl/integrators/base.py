@@ -111,7 +111,7 @@ def check_range(name: str, value: float, ok: bool, allowed: str, reason: str) ->
 
 
 class Method(ABC):
-    """Abstract integration recipe; the six methods of the paper are final subclasses.
+    """Abstract integration recipe; the paper's six methods and generalized-alpha are final subclasses.
 
     Attributes
     ----------

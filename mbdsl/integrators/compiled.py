@@ -60,18 +60,18 @@ from ..dsl.expressions import OPCODES
 from .recipe import RECIPE_FIELDS
 
 __all__ = ["MODEL_SCHEMA", "MODEL_FIELDS", "residual", "jacobian_triplets", "force_term", "old_force",
-           "predict", "state", "layout", "mobility",
+           "predict", "state", "layout", "advance", "mobility",
            "accumulate", "run", "triplet_bound", "pack", "unpack", "lapack_band_addresses",
            "DENSE", "BANDED"]
 
 #: The recipe entries (``recipe.RECIPE_FIELDS``, checked below): literals here, so that
 #: numba's cache of this file never holds indices of another file's version.
 (FORM, HAS_Y, SPLIT, CQX, CQY, CVX, CVY, CM, CF, DM, DI, DV, SP, SV, SX, SY, MU_MOB, FLOOR,
- PQ0, PQ1, PV0, PV1, PA, VV0, VV1, VA, Y0V, KA1, KA2, KB, CQ, SM) = range(32)
+ PQ0, PQ1, PV0, PV1, PA, VV0, VV1, VA, Y0V, KA1, KA2, KB, CQ, SM, PB, VB, BB, BA, BX) = range(37)
 _RECIPE = ("form", "has_y", "split", "cqx", "cqy", "cvx", "cvy", "cM", "cF", "dM", "dI", "dV",
            "sP", "sV", "sx", "sy", "mu_mob", "floor",
            "pq0", "pq1", "pv0", "pv1", "pa", "vv0", "vv1", "va", "y0v",
-           "ka1", "ka2", "kb", "cQ", "sm")
+           "ka1", "ka2", "kb", "cQ", "sm", "pb", "vb", "bb", "ba", "bx")
 _OPCODES = ("const", "t", "neg", "+", "-", "*", "/", "^", "sin", "cos", "tan", "asin", "acos",
             "atan", "sinh", "cosh", "tanh", "sqrt", "exp", "log", "abs")
 if _RECIPE != RECIPE_FIELDS or _OPCODES != OPCODES:     # pragma: no cover (a developer's error, caught by any test)
@@ -705,24 +705,40 @@ def _state(rec, n, w, q_pred, v_pred, qx, vx):
 
 
 @_jit
-def predict(rec, first, q, v, a, q_prev, v_prev, q_pred, v_pred):
+def predict(rec, first, q, v, a, b, q_prev, v_prev, q_pred, v_pred):
     """The recipe's predictors into q_pred, v_pred (n,) from the state at t_n
-    (q, v, a) and, unless ``first``, the one h before (q_prev, v_prev)."""
+    (q, v, a, the auxiliary acceleration b) and, unless ``first``, the one h
+    before (q_prev, v_prev)."""
     n = q.shape[0]
     pq0, pq1, pv0, pv1, pa = rec[PQ0], rec[PQ1], rec[PV0], rec[PV1], rec[PA]
     vv0, vv1, va = rec[VV0], rec[VV1], rec[VA]
     for j in range(n):
         q_pred[j] = pq0 * q[j] + pv0 * v[j] + pa * a[j]
         v_pred[j] = vv0 * v[j] + va * a[j]
+    pb, vb = rec[PB], rec[VB]
+    if pb != 0.0 or vb != 0.0:
+        for j in range(n):
+            q_pred[j] += pb * b[j]
+            v_pred[j] += vb * b[j]
     if not first and (pq1 != 0.0 or pv1 != 0.0 or vv1 != 0.0):
         for j in range(n):
             q_pred[j] += pq1 * q_prev[j] + pv1 * v_prev[j]
             v_pred[j] += vv1 * v_prev[j]
 
 
-#: The state map and the layout of the unknowns, for the Python Newton loop
-#: (``engine.SparseAdapter``): the same compiled functions as the time loop's.
-state, layout = _state, _layout
+@_jit
+def _advance(rec, b, a, x):
+    """The auxiliary acceleration b (n,) in place from t_n to t_{n+1}:
+    b_{n+1} = bb b_n + ba a_n + bx x, x = a_{n+1} (recipes without it: nothing)."""
+    bb, ba, bx = rec[BB], rec[BA], rec[BX]
+    if bb != 0.0 or ba != 0.0 or bx != 0.0:
+        for j in range(b.shape[0]):
+            b[j] = bb * b[j] + ba * a[j] + bx * x[j]
+
+
+#: The state map, the layout of the unknowns and the auxiliary's update, for the Python
+#: Newton loop (``engine.SparseAdapter``): the same compiled functions as the time loop's.
+state, layout, advance = _state, _layout, _advance
 
 
 @_jit
@@ -1266,11 +1282,12 @@ def triplet_bound(I) -> int:
 
 
 @_jit
-def _run(rec2, I, Fl, h, t0, n_steps, step0, every, q, v, a, lam, mu, q_prev, v_prev, opts,
+def _run(rec2, I, Fl, h, t0, n_steps, step0, every, q, v, a, b, lam, mu, q_prev, v_prev, opts,
          solver, lin, lu_state, R, C, V, out_t, out_q, out_v, out_a, out_lam, out_mu, out_stats,
          counts):
-    """Take up to n_steps steps of size h from (t0, q, v, a, lam, mu); ``mu``
-    (m,) holds the method's extra multipliers (mu, or HHT-ADD's psi_I).
+    """Take up to n_steps steps of size h from (t0, q, v, a, b, lam, mu); ``mu``
+    (m,) holds the method's extra multipliers (mu, or HHT-ADD's psi_I), ``b``
+    (n,) the auxiliary acceleration of the recipes that carry one.
 
     ``rec2`` (2, len(RECIPE_FIELDS)): the method's recipe for a start-up
     step (row 0) and for the steps after it (row 1) at this h. ``q_prev``,
@@ -1318,7 +1335,7 @@ def _run(rec2, I, Fl, h, t0, n_steps, step0, every, q, v, a, lam, mu, q_prev, v_
         t = t0 + (k + 1) * h               # t_{n+1}
         first = lu_state[2] == 0.0
         rc = rec2[0] if first else rec2[1]
-        predict(rc, first, q, v, a, q_prev, v_prev, q_pred, v_pred)
+        predict(rc, first, q, v, a, b, q_prev, v_prev, q_pred, v_pred)
         w[:] = 0.0
         w[a0:a0 + n] = a
         w[l0:l0 + m] = lam
@@ -1341,6 +1358,7 @@ def _run(rec2, I, Fl, h, t0, n_steps, step0, every, q, v, a, lam, mu, q_prev, v_
         _state(rc, n, w, q_pred, v_pred, qx, vx)
         q[:] = qx[:n]
         v[:] = vx[:n]
+        _advance(rc, b, a, w[a0:a0 + n])
         a[:] = w[a0:a0 + n]
         lam[:] = w[l0:l0 + m]
         if has_extra:
@@ -1458,10 +1476,10 @@ def mobility(I, Fl, q, out, R, C, V, qx):
 
 
 @_jit
-def run(rec2, I, Fl, h, t0, n_steps, step0, every, q, v, a, lam, mu, q_prev, v_prev, opts,
+def run(rec2, I, Fl, h, t0, n_steps, step0, every, q, v, a, b, lam, mu, q_prev, v_prev, opts,
         solver, lin, lu_state, R, C, V, out_t, out_q, out_v, out_a, out_lam, out_mu, out_stats,
         counts):
     """The compiled time loop; see ``_run``."""
-    return _run(rec2, I, Fl, h, t0, n_steps, step0, every, q, v, a, lam, mu,
+    return _run(rec2, I, Fl, h, t0, n_steps, step0, every, q, v, a, b, lam, mu,
                 q_prev, v_prev, opts, solver, lin, lu_state, R, C, V, out_t, out_q, out_v, out_a,
                 out_lam, out_mu, out_stats, counts)

@@ -154,6 +154,7 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
     sol.engine = which
     sol.linear_solver = "sparse" if assembler.sparse else "dense"
     sol.append(history[-1], StepStats())
+    sol.last_state = history[-1]
     timings["setup"] += clock() - t0
     sol.timings = timings
     loop_start = clock()
@@ -204,6 +205,7 @@ def _time_loop(system, method, solver, sol, history, kinds, assembler, t_start, 
                 break
             state = method.accept(res.w, ctx)
             history = (list(history) + [state])[-method.history_length:]
+            sol.last_state = state
             n_steps += 1
             pending = StepStats(pending.iterations + res.n_iter, pending.residuals + res.n_residual,
                                 pending.jacobians + res.n_jacobian,
@@ -349,12 +351,17 @@ def _fail(sol, method, ctx, res, t, step, h):
         if stiff:
             name, period = stiff[0]
             alpha = getattr(method, "alpha", None)
+            rho_inf = getattr(method, "rho_inf", None)
             if alpha is not None and alpha <= -0.3 + 1e-9:      # that advice is followed
                 remedy = ("use a smaller h (alpha is already -0.3, the most damping HHT "
                           "allows), or nstiff / nstiff-si2, which damp such a mode more")
+            elif rho_inf is not None and rho_inf <= 1e-12:
+                remedy = ("use a smaller h (rho_inf is already 0: such a mode is removed in "
+                          "one step where the step resolves nothing of it)")
             else:
                 remedy = ("use a smaller h, or a method with numerical damping "
-                          "(hht-i3/hht-si2 with alpha = -0.3)")
+                          "(hht-i3/hht-si2 with alpha = -0.3, genalpha/genalpha-si2 with "
+                          "rho_inf = 0)")
             hint = (f"'{name}' oscillates with a period of about {period:.2g} s, "
                     f"shorter than the step can follow (h = {step:.2g} s): {remedy}")
             span = span or next((f.span for f in system.model.forces if f.name == name), None)

@@ -1,7 +1,7 @@
 """The compiled engine: the recipe methods on rigid models through numba kernels.
 
 Every method that states itself as a recipe (``Method.kernel_recipe``,
-:mod:`.recipe`: all six) runs here;
+:mod:`.recipe`: all eight) runs here;
 the kernels hold no method name.
 
 Three ways of running, chosen by the size and structure of the Newton
@@ -507,14 +507,15 @@ def _step_plan(t_start, t_end, h):
     return ([(full, h)] if full else []) + [(1, rest)]
 
 
-def _resume_state(system, t, q, v, a, lam):
-    """An accepted state as the start of a numpy-engine run (its residuals measured)."""
+def _resume_state(system, t, q, v, a, lam, method_state=None):
+    """An accepted state as the start of a numpy-engine run (its residuals
+    measured); ``method_state``: the method's carried values (``aux``)."""
     from ..assembly.initial import InitialState
     return InitialState(t, q.copy(), v.copy(), a.copy(), lam.copy(),
                         float(np.max(np.abs(system.Phi(q, t)), initial=0.0)),
                         float(np.max(np.abs(system.Phiq_times(q, t, v) + system.Phi_t(q, t)),
                                      initial=0.0)),
-                        float("nan"))
+                        float("nan"), method_state=dict(method_state or {}))
 
 
 def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol, plan, *,
@@ -536,6 +537,8 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
     size = newton_size(system, method)
     start = method.start(system, initial)[-1]
     q, v, a = start.q.copy(), start.v.copy(), start.a.copy()
+    # the auxiliary acceleration of the recipes that carry one (generalized-alpha)
+    b = np.array(start.extra["aux"], dtype=float) if "aux" in start.extra else np.zeros(n)
     lam = start.lam.copy()
     mu = np.zeros(m)
     q_prev, v_prev = q.copy(), v.copy()
@@ -588,7 +591,7 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
                 chunk = min(CHUNK, n_steps - done)
                 t0 = t
                 status, taken, nrec = K.run(
-                    rec2, I, Fl, step_h, t0, chunk, step_no, output_every, q, v, a, lam, mu,
+                    rec2, I, Fl, step_h, t0, chunk, step_no, output_every, q, v, a, b, lam, mu,
                     q_prev, v_prev, opts, solver, lin, lu_state, R, C, V, out_t, out_q, out_v,
                     out_a, out_lam, out_mu, out_stats, counts)
                 add_rows(nrec, step_h)
@@ -613,7 +616,7 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
                     end = t_end if t + 9 * step_h >= t_end - 1e-9 * h else t + 8 * step_h
                     part = numpy_integrate(
                         system, method, end, step_h, t_start=t,
-                        initial=_resume_state(system, t, q, v, a, lam),
+                        initial=_resume_state(system, t, q, v, a, lam, {"aux": b.copy()}),
                         newton=numpy_opt, on_failure="return", max_halvings=max_halvings,
                         grow_after=grow_after, engine="numpy")
                     sol.extend(part, start=1)
@@ -622,6 +625,8 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
                         sol.diagnostics = part.diagnostics
                         return sol
                     q[:], v[:], a[:], lam[:] = part.q[-1], part.v[-1], part.a[-1], part.lam[-1]
+                    if "aux" in part.last_state.extra:
+                        b[:] = part.last_state.extra["aux"]
                     if extra is not None:
                         mu[:] = part.extras[extra][-1]
                     # the history of a two-step method: the numpy part's last step, if of size h
@@ -695,13 +700,16 @@ class SparseAdapter:
         s = history[-1]
         p = history[-2] if len(history) >= 2 else s
         q_pred, v_pred = np.empty(system.n), np.empty(system.n)
-        self._K.predict(rec, first, s.q, s.v, s.a, p.q, p.v, q_pred, v_pred)
+        b = s.extra.get("aux")
+        b = np.zeros(system.n) if b is None else b
+        self._K.predict(rec, first, s.q, s.v, s.a, b, p.q, p.v, q_pred, v_pred)
         F = np.empty(system.n)
         self._K.old_force(rec, self._cm.ints, self._cm.floats, s.t, s.q, s.v, s.lam, F, self._qx,
                           self._vx, self._work)
         qx_old = np.zeros(system.n + 3)
         qx_old[:system.n] = s.q
-        ctx.cache.update(recipe=rec, kq_pred=q_pred, kv_pred=v_pred, kF=F, kqx_old=qx_old)
+        ctx.cache.update(recipe=rec, kq_pred=q_pred, kv_pred=v_pred, kF=F, kqx_old=qx_old,
+                         kb=b, ka=s.a)
         return ctx
 
     def residual(self, w, ctx):
@@ -758,4 +766,8 @@ class SparseAdapter:
                       w[l0:l0 + m].copy())
         if e0 < size:
             s.extra[self._method.extras[0]] = w[e0:e0 + m].copy()
+        if "aux" in ctx.last.extra:
+            b = np.array(ctx.cache["kb"], dtype=float)
+            self._K.advance(rec, b, ctx.cache["ka"], w[a0:a0 + n])
+            s.extra["aux"] = b
         return s

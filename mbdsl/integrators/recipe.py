@@ -1,6 +1,7 @@
-"""Kernel recipes: the six methods as data.
+"""Kernel recipes: the methods as data.
 
-Five of the six methods (NEWMARK, HHT-I3, NSTIFF, NSTIFF-SI2, HHT-SI2) are
+Seven of the eight methods (NEWMARK, HHT-I3, NSTIFF, NSTIFF-SI2, HHT-SI2,
+GENALPHA, GENALPHA-SI2) are
 one nonlinear system in one of two shapes of unknowns (the linear form,
 ``form`` 0), with coefficients that depend on the method, the step size h
 and (for BDF2) whether the step is a start-up step; HHT-ADD is a second form
@@ -13,8 +14,14 @@ m; y and mu exist when ``has_y`` is 1 (the stabilized index-2 methods). The
 state at t_{n+1} is linear in them::
 
     q = q_pred + cqx x + cqy y,        v = v_pred + cvx x + cvy y
-    q_pred = pq0 q_n + pq1 q_{n-1} + pv0 v_n + pv1 v_{n-1} + pa a_n
-    v_pred = vv0 v_n + vv1 v_{n-1} + va a_n
+    q_pred = pq0 q_n + pq1 q_{n-1} + pv0 v_n + pv1 v_{n-1} + pa a_n + pb b_n
+    v_pred = vv0 v_n + vv1 v_{n-1} + va a_n + vb b_n
+
+where a_n is the converged x of the step before and b_n an auxiliary
+acceleration carried from step to step (generalized-alpha's a_n, see
+``genalpha.py``; unused, 0, by the paper's six), advanced after each step by
+
+    b_{n+1} = bb b_n + ba a_n + bx a_{n+1}
 
 and the residual has up to four blocks (F := Phi_q^T lambda - Q)::
 
@@ -58,7 +65,7 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["RECIPE_FIELDS", "LINEAR", "ADDITIVE", "make_recipe", "newmark_recipe",
-           "bdf_recipe", "additive_recipe"]
+           "bdf_recipe", "additive_recipe", "genalpha_recipe", "uses_auxiliary"]
 
 #: The two forms (``form``).
 LINEAR, ADDITIVE = 0, 1
@@ -67,7 +74,7 @@ LINEAR, ADDITIVE = 0, 1
 RECIPE_FIELDS = ("form", "has_y", "split", "cqx", "cqy", "cvx", "cvy", "cM", "cF", "dM", "dI",
                  "dV", "sP", "sV", "sx", "sy", "mu_mob", "floor",
                  "pq0", "pq1", "pv0", "pv1", "pa", "vv0", "vv1", "va", "y0v",
-                 "ka1", "ka2", "kb", "cQ", "sm")
+                 "ka1", "ka2", "kb", "cQ", "sm", "pb", "vb", "bb", "ba", "bx")
 
 
 def make_recipe(**values: float) -> np.ndarray:
@@ -124,3 +131,32 @@ def additive_recipe(h: float, alpha: float, beta: float, gamma: float, b: float)
                        sx=h, sy=gamma * h, sm=0.5 * h, floor=1.0 / h,
                        pq0=1.0, pv0=h, pa=0.5 * h * h * (1.0 - 2.0 * beta),
                        vv0=1.0, va=h * (1.0 - gamma))
+
+
+def genalpha_recipe(h: float, alpha_m: float, alpha_f: float, beta: float, gamma: float,
+                    **values: float) -> np.ndarray:
+    """A recipe of the generalized-alpha formulas with x = qdd_{n+1}, the true
+    acceleration (``genalpha.py``), and b the auxiliary acceleration a_n of
+    Arnold & Bruls (2007):
+
+        (1 - alpha_m) b_{n+1} + alpha_m b_n = (1 - alpha_f) qdd_{n+1} + alpha_f qdd_n
+        q = q_n + h v_n + h^2 (1/2 - beta) b_n + h^2 beta b_{n+1}
+        v = v_n + h (1 - gamma) b_n + h gamma b_{n+1}
+
+    with b_{n+1} eliminated: q = q_pred + beta' h^2 x, v = v_pred + gamma' h x,
+    beta' = beta (1 - alpha_f)/(1 - alpha_m), gamma' = gamma (1 - alpha_f)/(1 - alpha_m).
+    ``values`` as in :func:`make_recipe` (the residual's coefficients).
+    """
+    d = 1.0 / (1.0 - alpha_m)
+    return make_recipe(cqx=beta * (1.0 - alpha_f) * d * h * h, cvx=gamma * (1.0 - alpha_f) * d * h,
+                       sx=gamma * (1.0 - alpha_f) * d * h,
+                       pq0=1.0, pv0=h, pa=beta * alpha_f * d * h * h,
+                       pb=(0.5 - beta - beta * alpha_m * d) * h * h,
+                       vv0=1.0, va=gamma * alpha_f * d * h, vb=(1.0 - gamma - gamma * alpha_m * d) * h,
+                       bb=-alpha_m * d, ba=alpha_f * d, bx=(1.0 - alpha_f) * d, **values)
+
+
+def uses_auxiliary(rec) -> bool:
+    """Whether the recipe carries the auxiliary acceleration b."""
+    i = RECIPE_FIELDS.index
+    return any(rec[i(k)] != 0.0 for k in ("pb", "vb", "bb", "ba", "bx"))

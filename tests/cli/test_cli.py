@@ -21,6 +21,8 @@ def run(tmp_path, *args):
     (["--method", "hht-si2", "--alpha", "-0.3"], {"alpha": -0.3}),
     (["--method", "hht-add", "--b", "1"], {"b": 1.0}),
     (["--method", "nstiff"], {}),
+    (["--method", "genalpha", "--rho-inf", "0.5"], {"rho_inf": 0.5, "alpha_m": 0.0}),
+    (["--method", "genalpha-si2", "--rho-inf", "1"], {"rho_inf": 1.0, "alpha_f": 0.5}),
 ])
 def test_method_coefficients_reach_the_run(tmp_path, args, params):
     status, out = run(tmp_path, *args)
@@ -41,6 +43,8 @@ def test_index2_output_has_mu_and_reactions(tmp_path):
     (["--method", "newmark", "--gamma", "0.4"], "gamma = 0.4 is out of range"),
     (["--method", "nstiff", "--alpha", "-0.1"], "takes no parameter alpha"),
     (["--method", "hht-add", "--b", "0.5"], "b = 0.5 is out of range"),
+    (["--method", "genalpha", "--rho-inf", "-0.1"], "rho_inf = -0.1 is out of range: [0, 1]"),
+    (["--method", "hht-i3", "--rho-inf", "0.5"], "takes no parameter rho_inf"),
 ])
 def test_bad_coefficients_exit_1_with_the_reason(tmp_path, capsys, args, text):
     status, out = run(tmp_path, *args)
@@ -109,3 +113,19 @@ def test_follow_on_errors_are_not_reported(tmp_path, capsys):
     assert main(["check", str(model)]) == 1
     err = capsys.readouterr().err
     assert "division by zero" in err and "has no point" not in err and "1 error," in err
+
+
+def test_rho_inf_in_the_simulate_block(tmp_path, capsys):
+    text = (MODELS / "pendulum.mbd").read_text().replace(
+        "simulate { method hht-i3; h 1e-3; t_end 4 }",
+        "simulate { method genalpha; h 1e-3; t_end 0.05; rho_inf 0.25 }")
+    path = tmp_path / "ga.mbd"
+    path.write_text(text)
+    out = tmp_path / "ga.csv"
+    assert main(["simulate", str(path), "-q", "-o", str(out)]) == 0
+    meta, names, values = read_csv_metadata(out)
+    assert meta["method"] == "genalpha" and float(meta["method.rho_inf"]) == 0.25
+    path.write_text(text.replace("rho_inf 0.25", "rho_inf 1.5"))
+    assert main(["simulate", str(path), "-q", "-o", str(out)]) != 0
+    err = capsys.readouterr().err
+    assert "E303" in err and "rho_inf = 1.5 is out of range" in err and "ga.mbd:" in err

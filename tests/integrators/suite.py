@@ -1,4 +1,4 @@
-"""Shared definitions of the six-method suite (test_methods*.py).
+"""Shared definitions of the method suite (the paper's six and generalized-alpha) (test_methods*.py).
 
 Oracles: the independent slider-crank reference (tests/reference), the
 index-1 DOP853 reference (for T = 0.05 s), energy conservation of the
@@ -13,8 +13,9 @@ import mbdsl
 from ..conftest import MODELS
 
 METHODS = list(mbdsl.METHODS)
-ORDER = {"newmark": 1, "hht-i3": 2, "nstiff": 2, "nstiff-si2": 2, "hht-add": 2, "hht-si2": 2}
-INDEX2 = ("nstiff-si2", "hht-add", "hht-si2")
+ORDER = {"newmark": 1, "hht-i3": 2, "nstiff": 2, "nstiff-si2": 2, "hht-add": 2, "hht-si2": 2,
+         "genalpha": 2, "genalpha-si2": 2}
+INDEX2 = ("nstiff-si2", "hht-add", "hht-si2", "genalpha-si2")
 HS = [2.0**-k for k in range(8, 13)]
 
 

@@ -18,7 +18,7 @@ from ..conftest import MODELS, REFERENCE
 
 ANDREWS = json.loads((REFERENCE / "andrews.json").read_text())
 BEST = np.array(ANDREWS["best_estimate_angles"]["0.03"])
-SECOND_ORDER = ["hht-i3", "nstiff", "nstiff-si2", "hht-add", "hht-si2"]
+SECOND_ORDER = ["hht-i3", "nstiff", "nstiff-si2", "hht-add", "hht-si2", "genalpha", "genalpha-si2"]
 
 
 def relative_angles(phi):

@@ -15,7 +15,7 @@ from ..conftest import MODELS
 from .suite import HS, INDEX2, METHODS, ORDER, eps_energy, fitted_slope, slider_crank  # noqa: F401
 
 
-def test_methods_are_the_papers_six():
+def test_methods_are_the_papers_six_and_generalized_alpha():
     assert set(mbdsl.METHODS) == set(ORDER)
     for name, cls in mbdsl.METHODS.items():
         m = make_method(name)
@@ -36,7 +36,8 @@ def test_order_on_the_slider_crank(method, slider_crank, slider_crank_reference)
         assert abs(fitted_slope(HS, errors) - ORDER[method]) <= 0.15, (method, errors)
 
 
-@pytest.mark.parametrize("method", ["nstiff", "nstiff-si2", "hht-i3", "hht-si2"])
+@pytest.mark.parametrize("method", ["nstiff", "nstiff-si2", "hht-i3", "hht-si2", "genalpha",
+                                    "genalpha-si2"])
 def test_order_from_the_first_step(method, slider_crank):
     """Two-step methods start with one BDF1 step; order 2 must hold over a few steps."""
     system = mbdsl.assemble(slider_crank)
@@ -101,6 +102,9 @@ def test_coefficients_are_validated_with_reasons():
             make_method(name, alpha=0.1)
     with pytest.raises(ValueError, match="takes no parameter alpha"):
         make_method("nstiff", alpha=-0.1)
+    for name in ("genalpha", "genalpha-si2"):
+        with pytest.raises(ValueError, match=r"rho_inf = 1.2 is out of range: \[0, 1\]"):
+            make_method(name, rho_inf=1.2)
     m = make_method("hht-i3", alpha=-0.3)
     assert m.gamma == pytest.approx(0.8) and m.beta == pytest.approx(1.3**2 / 4)
 
@@ -109,7 +113,7 @@ def test_index2_methods_write_mu_and_every_method_reactions(slider_crank):
     for method in METHODS:
         sol = mbdsl.simulate(slider_crank, method=method, h=1e-3, t_end=0.05)
         cols = sol.columns
-        assert ("mu.O.0" in cols) == (method in ("nstiff-si2", "hht-si2"))
+        assert ("mu.O.0" in cols) == (method in ("nstiff-si2", "hht-si2", "genalpha-si2"))
         assert {"reaction.O.fx", "reaction.B.fy", "reaction.A.torque", "lambda.B.0"} <= set(cols)
         assert np.max(np.abs(sol.column("reaction.A.torque"))) < 1e-9   # revolute: no couple
 
