@@ -5,7 +5,7 @@ Three kinds, chosen by ``--reference``:
 ``dop853`` (what ``auto`` tries first)
     The index-1 form integrated by scipy's DOP853 (order 8) at rtol = atol =
     1e-12 (:func:`mbdsl.reference.index1_reference`). It shares only the
-    assembly (M, Q, Phi_q, gamma) with the six methods, none of their
+    assembly (M, Q, Phi_q, gamma) with the methods, none of their
     formulas. Its error is estimated by a second integration at rtol = atol =
     1e-11: the difference is about the error of the looser run, so it bounds
     the tighter one's from above (by roughly a factor 10).

@@ -118,7 +118,7 @@ class StudyOptions:
     Attributes
     ----------
     methods : list of str
-        Method names (default all six).
+        Method names (default all: the paper's six and generalized-alpha).
     hs : list of float [s]
         Step sizes, any order (sorted decreasing).
     t_end : float [s]
@@ -533,7 +533,7 @@ def _convergence(o, runs, ref, model, **_):
     errors.notes.append(f"reference: {ref.description}")
     caption = ("Global error at T of each method against the reference, on log-log axes: a "
                "method of order p draws a line of slope p (the paper's Figs. 3-6). NEWMARK "
-               "(gamma = 0.6) is first order; the other five are second order.")
+               "(gamma = 0.6 by default) is first order; the others are second order.")
     return Section("convergence", caption, [errors, orders],
                    [("convergence", panels, "Convergence at T")])
 
