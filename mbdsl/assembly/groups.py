@@ -25,7 +25,7 @@ import numpy as np
 
 __all__ = ["rot", "drot", "body_columns", "PointSet", "point_difference", "CoincidenceGroup", "PointOnLineGroup", "LinearConstraintGroup",
            "SpringDamperGroup", "RotationalSpringGroup",
-           "TorqueGroup", "PointForceGroup"]
+           "TorqueGroup", "StateTorqueGroup", "PointForceGroup"]
 
 
 def rot(phi: np.ndarray, s: np.ndarray) -> np.ndarray:
@@ -430,6 +430,85 @@ class TorqueGroup:
         return np.array([[f.f(t)] for f in self.functions])
 
     derivatives = None
+
+
+class StateTorqueGroup:
+    """Torques of time and of the motion: tau(t, x) on a body (``torque``), or
+    +tau on a revolute joint's second body and -tau on its first
+    (``joint_torque``), x the state variables the expression reads
+    (``StateVariable``: linear in q or in v).
+
+    Q_q = sign dtau/dx_k dx_k/dq for the position-level variables, Q_v the
+    same for the velocity-level ones: the partial derivatives are the
+    expression's own, differentiated symbolically (``StateFunction.grads``).
+    Local coordinates per instance: the rotation coordinates of its targets,
+    then those its variables read, padded by the ground's dummy column.
+
+    Attributes
+    ----------
+    cols : ndarray of intp, shape (k, c)
+    targets : list of (int, int)
+        Per instance, the local columns of the +tau and the -tau body (the
+        ground's dummy column for a torque on one body).
+    """
+
+    def __init__(self, n, plus, minus, functions):
+        from ..model.elements import StateFunction
+        self.n = n
+        self.functions = list(functions)
+        ground_phi = n + 2
+        per, self.targets, self._vars = [], [], []
+        for p, m, f in zip(plus, minus, functions):
+            targets = [3 * b + 2 if b >= 0 else ground_phi for b in (p, m)]
+            cols = list(targets)
+            if isinstance(f, StateFunction):
+                for var in f.variables:
+                    cols += [3 * b + j for b, j, _ in var.terms]
+            cols = list(dict.fromkeys(cols))
+            where = {c: a for a, c in enumerate(cols)}
+            self.targets.append((where[targets[0]], where[targets[1]]))
+            self._vars.append([] if not isinstance(f, StateFunction) else
+                              [(var.level, [(where[3 * b + j], c) for b, j, c in var.terms])
+                               for var in f.variables])
+            per.append(cols)
+        width = max(len(c) for c in per)
+        self.cols = np.array([c + [ground_phi] * (width - len(c)) for c in per], dtype=np.intp)
+        self._state = [isinstance(f, StateFunction) for f in self.functions]
+        self.damped = any(level == 1 for v in self._vars for level, _ in v)
+
+    def _tau(self, f, qx, vx, t):
+        """tau and, for a state function, the variables' values."""
+        if hasattr(f, "variables"):
+            x = f.values(qx, vx)
+            return f.f(t, x), x
+        return f.f(t), None
+
+    def forces(self, qx, vx, t):
+        """Local Q, shape (k, c) [N m]."""
+        out = np.zeros(self.cols.shape)
+        for i, f in enumerate(self.functions):
+            tau, _ = self._tau(f, qx, vx, t)
+            a, b = self.targets[i]
+            out[i, a] += tau
+            out[i, b] -= tau
+        return out
+
+    def derivatives(self, qx, vx, t):
+        """Local (Q_q, Q_v), shape (k, c, c)."""
+        k, c = self.cols.shape
+        Qq, Qv = np.zeros((k, c, c)), np.zeros((k, c, c))
+        for i, f in enumerate(self.functions):
+            if not self._state[i]:
+                continue
+            x = f.values(qx, vx)
+            a, b = self.targets[i]
+            for grad, (level, terms) in zip(f.grads, self._vars[i]):
+                g = grad(t, x)
+                M = Qq if level == 0 else Qv
+                for col, coef in terms:
+                    M[i, a, col] += g * coef
+                    M[i, b, col] -= g * coef
+        return Qq, Qv
 
 
 class PointForceGroup:

@@ -33,11 +33,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..model.elements import (GROUND, FlexibleBeam, Model, PointForce,
-                              RotationalSpringDamper, SpringDamper, Torque)
+from ..model.elements import (GROUND, FlexibleBeam, JointTorque, Model, PointForce,
+                              RotationalSpringDamper, SpringDamper, TimeFunction, Torque)
 from .ffr import FlexibleBeamGroup
 from .groups import (CoincidenceGroup, LinearConstraintGroup, PointForceGroup,
                      PointOnLineGroup, RotationalSpringGroup, SpringDamperGroup, TorqueGroup,
+                     StateTorqueGroup,
                      body_columns)
 from .layout import Layout
 
@@ -177,7 +178,11 @@ class AssembledSystem:
             self.gravity_force = Qg
         springs = [f for f in model.forces if isinstance(f, SpringDamper)]
         rsprings = [f for f in model.forces if isinstance(f, RotationalSpringDamper)]
-        torques = [f for f in model.forces if isinstance(f, Torque)]
+        torques = [f for f in model.forces if isinstance(f, Torque)
+                   and isinstance(f.function, TimeFunction)]
+        # torques that read the motion, and torques in joints (on two bodies)
+        state_torques = [f for f in model.forces if isinstance(f, JointTorque)
+                         or (isinstance(f, Torque) and not isinstance(f.function, TimeFunction))]
         pforces = [f for f in model.forces if isinstance(f, PointForce)]
         self.force_groups = []
         if springs:
@@ -191,6 +196,12 @@ class AssembledSystem:
         if torques:
             self.force_groups.append(TorqueGroup(n, [f.body for f in torques],
                                                  [f.function for f in torques]))
+        if state_torques:
+            self.force_groups.append(StateTorqueGroup(
+                n, [f.joint.second.body if isinstance(f, JointTorque) else f.body
+                    for f in state_torques],
+                [f.joint.first.body if isinstance(f, JointTorque) else GROUND
+                 for f in state_torques], [f.function for f in state_torques]))
         if pforces:
             self.force_groups.append(PointForceGroup(
                 n, [f.point for f in pforces], [f.fx for f in pforces], [f.fy for f in pforces]))

@@ -20,11 +20,13 @@ from ..model import graph
 from ..registry import COEFFICIENTS, METHOD_COEFFICIENTS, METHOD_NAMES
 from ..model.elements import (COORDINATES, GROUND, VELOCITIES, Driver, InitialCondition,
                               FlexibleBeam, Joint, Model, PointForce, PointRef, RigidBody,
-                              RotationalSpringDamper, SpringDamper, TimeFunction, Torque)
+                              JointTorque, RotationalSpringDamper, SpringDamper,
+                              StateFunction, StateVariable, TimeFunction, Torque)
 import dataclasses
 
 from .expressions import (Binary, Call, Dotted, ExprError, IndexedName, Name, Num, Unary, Vec,
-                          compile_function, diff, evaluate, free_names, substitute)
+                          compile_function, compile_state_function, diff, evaluate,
+                          free_names, substitute)
 from ..model.beam import FRAMES
 from .spec import BeamSpec, ForSpec, ModelSpec
 
@@ -46,8 +48,14 @@ FORCE_KINDS = {
     "spring_damper": {"k": None, "c": 0.0, "length": None},
     "rotational_spring_damper": {"k": None, "c": 0.0, "angle": 0.0},
     "torque": {},
+    "joint_torque": {},
     "force": {},
 }
+#: What a force expression may read of the motion: body field -> (level, coordinate),
+#: and revolute-joint field -> level (angle, rate: phi2 - phi1 and its rate).
+BODY_STATE = {"x": (0, 0), "y": (0, 1), "phi": (0, 2), "vx": (1, 0), "vy": (1, 1),
+              "omega": (1, 2)}
+REVOLUTE_STATE = {"angle": 0, "rate": 1}
 KNOWN_METHODS = METHOD_NAMES
 #: simulate-section settings: name -> must be positive (the methods' coefficients: no)
 SETTINGS = {"h": True, "t_end": True, **{c: False for c in COEFFICIENTS}, "t_start": False}
@@ -56,6 +64,10 @@ SETTINGS = {"h": True, "t_end": True, **{c: False for c in COEFFICIENTS}, "t_sta
 def _did_you_mean(name: str, candidates) -> str:
     close = difflib.get_close_matches(name, list(candidates), n=1, cutoff=0.6)
     return f"did you mean '{close[0]}'?" if close else ""
+
+
+class _BrokenReference(ExprError):
+    """A reference to an element whose own error is reported (not reported again)."""
 
 
 class _Checker:
@@ -119,6 +131,88 @@ class _Checker:
             self.error("E301", f"{context}: cannot evaluate at t = 0 ({exc})",
                        getattr(expr, "span", None) or span)
         return None
+
+    def state_variable(self, ref: Dotted) -> StateVariable:
+        """The state variable of a reference in a force expression
+        (``crank.omega``, ``O.angle``).
+
+        Raises
+        ------
+        ExprError
+            E201 for an unknown body or joint, E304 for a field it does not have.
+        """
+        obj = ref.obj if isinstance(ref.obj, str) else getattr(ref.obj, "text", "?")
+        if obj in self.bodies:
+            body = self.bodies[obj]
+            if isinstance(body, FlexibleBeam):
+                raise ExprError(f"'{ref.text}': force expressions read the state of rigid "
+                                "bodies and joints, not of flexible beams", "E304", ref.span,
+                                hint="use a rigid body or a joint")
+            if ref.attr not in BODY_STATE:
+                raise ExprError(f"'{ref.text}': a body's state in a force is one of "
+                                f"{', '.join(BODY_STATE)}", "E304", ref.span,
+                                hint=_did_you_mean(ref.attr, BODY_STATE)
+                                or f"fields are {', '.join(BODY_STATE)}")
+            level, j = BODY_STATE[ref.attr]
+            return StateVariable(ref.text, level, ((body.index, j, 1.0),))
+        if obj in self.joints:
+            joint = self.joints[obj]
+            if joint.kind != "revolute" or ref.attr not in REVOLUTE_STATE:
+                allowed = ", ".join(REVOLUTE_STATE)
+                raise ExprError(f"'{ref.text}': a force reads a revolute joint's {allowed}",
+                                "E304", ref.span,
+                                hint=(f"'{obj}' is a {joint.kind} joint"
+                                      if joint.kind != "revolute" else
+                                      _did_you_mean(ref.attr, REVOLUTE_STATE)
+                                      or f"fields are {allowed}"))
+            b1, b2 = joint.bodies
+            for b in (b1, b2):
+                if b != GROUND and isinstance(self.model_body(b), FlexibleBeam):
+                    raise ExprError(f"'{ref.text}': the joint holds a flexible beam, whose "
+                                    "rotation at the joint is not its frame's", "E304",
+                                    ref.span)
+            terms = tuple((b, 2, c) for b, c in ((b2, 1.0), (b1, -1.0)) if b != GROUND)
+            return StateVariable(ref.text, REVOLUTE_STATE[ref.attr], terms)
+        if obj in self.broken_bodies or obj in self.broken_names:
+            raise _BrokenReference(ref.text, "E201", ref.span)
+        raise ExprError(f"unknown body or joint '{obj}' in '{ref.text}'", "E201", ref.span,
+                        name=obj, hint=_did_you_mean(obj, list(self.bodies) + list(self.joints))
+                        or "a force reads the state of a body or a revolute joint")
+
+    def model_body(self, index):
+        """The body with this index."""
+        return next(b for b in self.bodies.values() if b.index == index)
+
+    def force_function(self, expr, span, context):
+        """A force magnitude: f(t) (TimeFunction) when the expression reads no
+        state, else f(t, state) (StateFunction) with its exact partial
+        derivatives; None after reporting."""
+        found: dict[str, StateVariable] = {}
+
+        def resolve(ref):
+            """The variable's name; records it."""
+            var = self.state_variable(ref)
+            found.setdefault(var.name, var)
+            return var.name
+        try:
+            e = substitute(expr, self.params, resolve)
+        except _BrokenReference:
+            return None                 # a reference to a broken element: reported already
+        except ExprError as err:
+            self.expr_error(err, span, context)
+            return None
+        if not found:
+            return self.time_function(expr, span, context)
+        variables = tuple(found.values())
+        names = tuple(v.name for v in variables)
+        try:
+            grads = tuple(diff(e, name) for name in names)
+        except ExprError as err:
+            self.expr_error(err, span, context)
+            return None
+        return StateFunction(compile_state_function(e, names),
+                             tuple(compile_state_function(g, names) for g in grads),
+                             variables, expr=e, grad_exprs=grads)
 
     def claim(self, name, span, what):
         """Reserve an element name; False (after reporting) if reserved or taken."""
@@ -633,7 +727,8 @@ class _Checker:
                            or f"force types are {', '.join(FORCE_KINDS)}")
                 continue
             allowed = FORCE_KINDS[f.kind]
-            npos = {"spring_damper": 2, "rotational_spring_damper": 1, "torque": 2, "force": 2}[f.kind]
+            npos = {"spring_damper": 2, "rotational_spring_damper": 1, "torque": 2,
+                    "joint_torque": 2, "force": 2}[f.kind]
             pos, kw = self.split_args(f, allowed, npos, ctx)
             if pos is None:
                 continue
@@ -678,10 +773,13 @@ class _Checker:
             ref = pos[0].value
             if not isinstance(ref, Name) or ref.name not in self.joints:
                 name = ref.name if isinstance(ref, Name) else "?"
-                if not (isinstance(ref, Name) and name in self.element_spans):
+                # a claimed name that is no body is a joint whose own error is reported
+                if not (isinstance(ref, Name) and name in self.element_spans
+                        and name not in self.bodies):
                     self.error("E201", f"{ctx}: expected the name of a joint, got '{name}'",
                                getattr(ref, "span", None) or f.span, "not a joint",
-                               hint=_did_you_mean(name, self.joints))
+                               hint=_did_you_mean(name, self.joints)
+                               or (f"'{name}' is a body" if name in self.bodies else ""))
                 return None
             return RotationalSpringDamper(f.name, self.joints[ref.name], opts["k"], opts["c"],
                                           opts["angle"], f.span)
@@ -694,8 +792,29 @@ class _Checker:
                                getattr(ref, "span", None) or f.span, "not a body",
                                hint=_did_you_mean(name, self.bodies))
                 return None
-            fn = self.time_function(pos[1].value, pos[1].span or f.span, ctx)
+            fn = self.force_function(pos[1].value, pos[1].span or f.span, ctx)
             return Torque(f.name, self.bodies[ref.name].index, fn, f.span) if fn else None
+        if f.kind == "joint_torque":
+            ref = pos[0].value
+            if not isinstance(ref, Name) or ref.name not in self.joints:
+                name = ref.name if isinstance(ref, Name) else "?"
+                # a claimed name that is no body is a joint whose own error is reported
+                if not (isinstance(ref, Name) and name in self.element_spans
+                        and name not in self.bodies):
+                    self.error("E201", f"{ctx}: expected the name of a joint, got '{name}'",
+                               getattr(ref, "span", None) or f.span, "not a joint",
+                               hint=_did_you_mean(name, self.joints)
+                               or (f"'{name}' is a body" if name in self.bodies else ""))
+                return None
+            joint = self.joints[ref.name]
+            if joint.kind != "revolute":
+                self.error("E305", f"{ctx}: a joint torque acts in a revolute joint; "
+                           f"'{joint.name}' is a {joint.kind} joint",
+                           getattr(ref, "span", None) or f.span, "not a revolute joint",
+                           hint="apply torque(body, ...) to one of its bodies instead")
+                return None
+            fn = self.force_function(pos[1].value, pos[1].span or f.span, ctx)
+            return JointTorque(f.name, joint, fn, f.span) if fn else None
         # point force
         p = self.point(pos[0].value, pos[0].span or f.span, ctx)
         vec = pos[1].value

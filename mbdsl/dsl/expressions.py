@@ -22,7 +22,7 @@ __all__ = [
     "Num", "Name", "IndexedName", "Dotted", "Unary", "Binary", "Call", "Vec", "Expr",
     "FUNCTIONS", "OPCODES", "ExprError", "evaluate", "free_names", "substitute", "diff",
     "postfix",
-    "simplify", "compile_function", "as_expr",
+    "simplify", "compile_function", "compile_state_function", "as_expr",
 ]
 
 
@@ -127,9 +127,10 @@ FUNCTIONS: dict[str, Callable[[float], float]] = {
 CONSTANTS = {"pi": math.pi}
 
 #: Opcodes of a compiled program (:func:`postfix`), by number: a constant (its
-#: index in the constant table follows), t, negation, the binary operators, then
-#: one per entry of :data:`FUNCTIONS`, in order.
-OPCODES = ("const", "t", "neg", "+", "-", "*", "/", "^") + tuple(FUNCTIONS)
+#: index in the constant table follows), t, negation, the binary operators, one
+#: per entry of :data:`FUNCTIONS` in order, then a state variable (its index
+#: in the model's table of state variables follows).
+OPCODES = ("const", "t", "neg", "+", "-", "*", "/", "^") + tuple(FUNCTIONS) + ("x",)
 
 
 class ExprError(ValueError):
@@ -273,14 +274,20 @@ def free_names(expr: Expr) -> set[str]:
     return set()
 
 
-def substitute(expr: Expr, env: dict[str, float]) -> Expr:
+def substitute(expr: Expr, env: dict[str, float],
+               state: Callable[[Dotted], str] | None = None) -> Expr:
     """Replace parameters (and ``pi``) by their values, keeping ``t``.
+
+    ``state``: where the expression may use the state of the model (forces of
+    the motion), it maps a reference such as ``crank.omega`` to the name of
+    a state variable (a :class:`Name` in the result), or raises ExprError.
 
     Raises
     ------
     ExprError
-        For names that are neither parameters, ``pi`` nor ``t``, and
-        unknown functions.
+        For names that are neither parameters, ``pi`` nor ``t``, unknown
+        functions, and references where no state is allowed (or that
+        ``state`` refuses).
     """
     if isinstance(expr, Name):
         if expr.name == "t":
@@ -291,16 +298,18 @@ def substitute(expr: Expr, env: dict[str, float]) -> Expr:
             return Num(CONSTANTS[expr.name], expr.span)
         raise ExprError(f"unknown name '{expr.name}'", "E201", expr.span, name=expr.name)
     if isinstance(expr, Unary):
-        return Unary(expr.op, substitute(expr.operand, env), expr.span)
+        return Unary(expr.op, substitute(expr.operand, env, state), expr.span)
     if isinstance(expr, Binary):
-        return Binary(expr.op, substitute(expr.left, env), substitute(expr.right, env),
-                      expr.span)
+        return Binary(expr.op, substitute(expr.left, env, state),
+                      substitute(expr.right, env, state), expr.span)
     if isinstance(expr, Call):
         if expr.func not in FUNCTIONS:
             raise ExprError(f"unknown function '{expr.func}'", "E203", expr.span,
                             name=expr.func)
-        return Call(expr.func, substitute(expr.arg, env), expr.span)
+        return Call(expr.func, substitute(expr.arg, env, state), expr.span)
     if isinstance(expr, Dotted):
+        if state is not None:
+            return Name(state(expr), expr.span)
         raise ExprError(f"'{expr.text}' is a reference, not a number", "E301", expr.span)
     return expr
 
@@ -503,9 +512,51 @@ def compile_function(e: Expr, var: str = "t") -> Callable[[float], float]:
     return _c(e)
 
 
-def postfix(e: Expr, var: str = "t") -> tuple[list[int], list[float], int]:
-    """A substituted expression of one variable as a postfix program, for the
-    compiled kernels (``integrators.compiled._eval``).
+def compile_state_function(e: Expr, variables: tuple) -> Callable[[float, "object"], float]:
+    """Compile a substituted expression of t and the state variables
+    ``variables`` (names) into f(t, x), x holding their values in order.
+    Never raises (as :func:`compile_function`)."""
+    e = simplify(e)
+    index = {name: k for k, name in enumerate(variables)}
+
+    def _c(e):
+        if isinstance(e, Num):
+            v = e.value
+            return lambda t, x: v
+        if isinstance(e, Name):
+            if e.name in index:
+                k = index[e.name]
+                return lambda t, x: x[k]
+            return lambda t, x: t
+        if isinstance(e, Unary):
+            f = _c(e.operand)
+            return lambda t, x: -f(t, x)
+        if isinstance(e, Binary):
+            fa, fb = _c(e.left), _c(e.right)
+            op = e.op
+            if op == "+":
+                return lambda t, x: fa(t, x) + fb(t, x)
+            if op == "-":
+                return lambda t, x: fa(t, x) - fb(t, x)
+            if op == "*":
+                return lambda t, x: fa(t, x) * fb(t, x)
+            if op == "/":
+                return lambda t, x: _div(fa(t, x), fb(t, x))
+            return lambda t, x: _pow(fa(t, x), fb(t, x))
+        if isinstance(e, Call):
+            fn, fx = _safe(FUNCTIONS[e.func]), _c(e.arg)
+            return lambda t, x: fn(fx(t, x))
+        raise TypeError(f"cannot compile {e!r}")
+
+    return _c(e)
+
+
+def postfix(e: Expr, var: str = "t", variables: dict | None = None
+            ) -> tuple[list[int], list[float], int]:
+    """A substituted expression as a postfix program, for the compiled kernels
+    (``integrators.compiled._eval``): of time ``var`` and, with
+    ``variables`` (name -> index in the model's table of state variables),
+    of the state.
 
     Returns
     -------
@@ -539,6 +590,9 @@ def postfix(e: Expr, var: str = "t") -> tuple[list[int], list[float], int]:
             push(1)
         elif isinstance(e, Name) and e.name == var:
             code.append(1)
+            push(1)
+        elif isinstance(e, Name) and variables and e.name in variables:
+            code.extend((OPCODES.index("x"), int(variables[e.name])))
             push(1)
         elif isinstance(e, Unary):
             emit(e.operand)

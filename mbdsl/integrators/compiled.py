@@ -73,7 +73,7 @@ _RECIPE = ("form", "has_y", "split", "cqx", "cqy", "cvx", "cvy", "cM", "cF", "dM
            "pq0", "pq1", "pv0", "pv1", "pa", "vv0", "vv1", "va", "y0v",
            "ka1", "ka2", "kb", "cQ", "sm", "pb", "vb", "bb", "ba", "bx")
 _OPCODES = ("const", "t", "neg", "+", "-", "*", "/", "^", "sin", "cos", "tan", "asin", "acos",
-            "atan", "sinh", "cosh", "tanh", "sqrt", "exp", "log", "abs")
+            "atan", "sinh", "cosh", "tanh", "sqrt", "exp", "log", "abs", "x")
 if _RECIPE != RECIPE_FIELDS or _OPCODES != OPCODES:     # pragma: no cover (a developer's error, caught by any test)
     raise ImportError("compiled.py's recipe indices differ from recipe.RECIPE_FIELDS")
 
@@ -109,6 +109,10 @@ MODEL_SCHEMA = (
     ("tcol", "i", 0), ("tfn", "i", 0),                                 # torque of t: column, f
     ("ffn", "i", 2),                                                   # point force: fx, fy programs
     ("stack", "f", 0),                                                 # the programs' stack
+    ("var", "i", 3), ("varc", "f", 2),                                 # state variables: level,
+    ("xval", "f", 0),                                                  # 2 (column, coef); values
+    ("stq", "i", 3),                                                   # torques of the state:
+    ("sdv", "i", 3),                                                   # f, +col, -col; dtau/dx
 )
 #: The field names, and the scalar "n_elements" (the header's last entry).
 MODEL_FIELDS = tuple(name for name, _, _ in MODEL_SCHEMA) + ("n_elements",)
@@ -125,7 +129,8 @@ _inline = numba.njit(cache=True, nogil=True, inline="always")
 #: schema below, so that numba's cache of this file never holds another version's indices.
 (MASS, Q0, CROW, CCOL1, CS1, CCOL2, CS2, PROW, PCOLL, PSL, PCOLP, PSP, PN0,
  LROW, LCOL, LCOEF, LOFF, SCOL1, SS1, SCOL2, SS2, SPAR, RCOL, RPAR,
- FCOL, FS, FF, ROW_ELEMENT, CODE, CONSTS, PROG, LFN, TCOL, TFN, FFN, STACK) = range(36)
+ FCOL, FS, FF, ROW_ELEMENT, CODE, CONSTS, PROG, LFN, TCOL, TFN, FFN, STACK,
+ VAR, VARC, XVAL, STQ, SDV) = range(41)
 if any(globals()[name.upper()] != k for k, (name, _, _) in enumerate(MODEL_SCHEMA)):
     raise ImportError("compiled.py's field indices differ from MODEL_SCHEMA")   # pragma: no cover
 
@@ -225,12 +230,13 @@ def _pol_hess(nx, ny, dx, dy, axL, ayL, axP, ayP, bnd):
 #: Opcodes (``dsl.expressions.OPCODES``, checked at import): literals, as the field indices.
 (OP_CONST, OP_T, OP_NEG, OP_ADD, OP_SUB, OP_MUL, OP_DIV, OP_POW,
  OP_SIN, OP_COS, OP_TAN, OP_ASIN, OP_ACOS, OP_ATAN, OP_SINH, OP_COSH, OP_TANH,
- OP_SQRT, OP_EXP, OP_LOG, OP_ABS) = range(21)
+ OP_SQRT, OP_EXP, OP_LOG, OP_ABS, OP_X) = range(22)
 
 
 @_jit
 def _eval(I, Fl, p, t):
-    """The value at time t [s] of program p (row of field PROG)."""
+    """The value at time t [s] of program p (row of field PROG); a program of
+    the state reads the variables' values from XVAL (``_state_values``)."""
     base, sp = I[3 * STACK], 0              # the stack is the float field STACK
     k, end = _i(I, PROG, p, 0), _i(I, PROG, p, 1)
     while k < end:
@@ -245,6 +251,10 @@ def _eval(I, Fl, p, t):
             sp += 1
         elif op == OP_NEG:
             Fl[base + sp - 1] = -Fl[base + sp - 1]
+        elif op == OP_X:
+            Fl[base + sp] = Fl[I[3 * XVAL] + _i(I, CODE, k, 0)]
+            k += 1
+            sp += 1
         elif op <= OP_POW:
             a, b = Fl[base + sp - 2], Fl[base + sp - 1]
             sp -= 1
@@ -319,6 +329,20 @@ def _point_force(I, Fl, t, i):
     if _i(I, FFN, i, 1) >= 0:
         fy = _eval(I, Fl, _i(I, FFN, i, 1), t)
     return fx, fy
+
+
+@_jit
+def _state_values(I, Fl, qx, vx):
+    """The state variables' values into XVAL: sum of coef q[col] (level 0) or
+    coef v[col] (level 1) over their two (column, coef) entries."""
+    base = I[3 * XVAL]
+    for k in range(_rows(I, VAR)):
+        c1, c2 = _i(I, VAR, k, 1), _i(I, VAR, k, 2)
+        a1, a2 = _f(I, Fl, VARC, k, 0), _f(I, Fl, VARC, k, 1)
+        if _i(I, VAR, k, 0) == 0:
+            Fl[base + k] = a1 * qx[c1] + a2 * qx[c2]
+        else:
+            Fl[base + k] = a1 * vx[c1] + a2 * vx[c2]
 
 
 @_jit
@@ -463,6 +487,12 @@ def forces(I, Fl, t, qx, vx, out):
         out[_i(I, FCOL, i, 2)] += -ay * fx + ax * fy
     for i in range(_rows(I, TCOL)):                # torques of t (constant ones are in Q0)
         out[_i(I, TCOL, i, 0)] += _eval(I, Fl, _i(I, TFN, i, 0), t)
+    if _rows(I, STQ) > 0:                          # torques of the state, and in joints
+        _state_values(I, Fl, qx, vx)
+        for i in range(_rows(I, STQ)):
+            tau = _eval(I, Fl, _i(I, STQ, i, 0), t)
+            out[_i(I, STQ, i, 1)] += tau
+            out[_i(I, STQ, i, 2)] -= tau
 
 
 # --------------------------------------------------------------------------------------------
@@ -662,6 +692,24 @@ def _emit_force(I, Fl, t, n, qx, vx, R, C, V, p, r0, c0, cq, cv):
             fx, fy = _point_force(I, Fl, t, i)
             val = cq * -(ax * fx + ay * fy)
             p = _put(R, C, V, p, r0 + _i(I, FCOL, i, 2), c0 + _i(I, FCOL, i, 2), -val)
+    if _rows(I, SDV) > 0:      # torques of the state: Q_q, Q_v = +-dtau/dx dx/d(q, v)
+        _state_values(I, Fl, qx, vx)
+        for e in range(_rows(I, SDV)):
+            s, k = _i(I, SDV, e, 0), _i(I, SDV, e, 1)
+            c = cq if _i(I, VAR, k, 0) == 0 else cv
+            if c == 0.0:
+                continue
+            g = c * _eval(I, Fl, _i(I, SDV, e, 2), t)
+            for a in range(2):
+                row = _i(I, STQ, s, 1 + a)
+                if row >= n:
+                    continue
+                sgn = 1.0 if a == 0 else -1.0
+                for j in range(2):
+                    col = _i(I, VAR, k, 1 + j)
+                    if col < n and _f(I, Fl, VARC, k, j) != 0.0:
+                        p = _put(R, C, V, p, r0 + row, c0 + col,
+                                 -sgn * g * _f(I, Fl, VARC, k, j))
     return p
 
 
@@ -1269,7 +1317,9 @@ def _newton(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, weight, opts, solve
 def triplet_bound(I) -> int:
     """An upper bound of the Newton-matrix triplets any recipe emits for the
     packed model data ``I`` (its header's row counts): up to five mass (and
-    identity) blocks, four Hessian, two force, two G and six Phi_q blocks."""
+    identity) blocks, four Hessian, two force, two G and six Phi_q blocks (a force
+    block: 36 entries per spring-damper, 4 per rotational one and per partial
+    derivative of a torque of the state, 1 per point force)."""
     def rows(k):
         """Instances of field k (the header's row count)."""
         return int(I[3 * k + 1])
@@ -1277,7 +1327,7 @@ def triplet_bound(I) -> int:
     kc, kp, kl = rows(CROW), rows(PROW), rows(LROW)
     ks, kr, kf = rows(SCOL1), rows(RCOL), rows(FCOL)
     phiq = 8 * kc + 6 * kp + 2 * kl
-    return (6 * n + 6 * phiq + 4 * (2 * kc + 12 * kp) + 2 * (36 * ks + 4 * kr + kf)
+    return (6 * n + 6 * phiq + 4 * (2 * kc + 12 * kp) + 2 * (36 * ks + 4 * kr + kf + 4 * rows(SDV))
             + 2 * (4 * kc + 6 * kp))
 
 

@@ -42,7 +42,7 @@ import scipy
 
 from ..assembly.groups import (CoincidenceGroup, LinearConstraintGroup, PointForceGroup,
                                PointOnLineGroup, RotationalSpringGroup, SpringDamperGroup,
-                               TorqueGroup)
+                               StateTorqueGroup, TorqueGroup)
 from ..assembly.sparse import DENSE_LIMIT
 from .base import StepState
 
@@ -98,7 +98,7 @@ def unsupported(system, method) -> str | None:
             return f"no kernel for {type(g).__name__}"
     for g in system.force_groups:
         if not isinstance(g, (SpringDamperGroup, RotationalSpringGroup, TorqueGroup,
-                              PointForceGroup)):
+                              PointForceGroup, StateTorqueGroup)):
             return f"no kernel for {type(g).__name__}"
     functions = [f for g in system.constraint_groups if isinstance(g, LinearConstraintGroup)
                  for f in g.functions if f is not None]
@@ -106,6 +106,8 @@ def unsupported(system, method) -> str | None:
                   for f in g.functions]
     functions += [f for g in system.force_groups if isinstance(g, PointForceGroup)
                   for f in g.fx + g.fy]
+    functions += [f for g in system.force_groups if isinstance(g, StateTorqueGroup)
+                  for f in g.functions]
     if any(not f.constant and f.expr is None for f in functions):
         return "a function of time has no expression to compile"
     return None
@@ -215,17 +217,22 @@ class CompiledModel:
                  "rpar": np.zeros((0, 3)), "fcol": np.zeros((0, 3), i8),
                  "fs": np.zeros((0, 2)), "fF": np.zeros((0, 2))}
         d = dict(empty)
-        from ..dsl.expressions import diff, postfix
+        from ..dsl.expressions import OPCODES, Num, diff, postfix
+        STATE_OP = OPCODES.index("x")
         code, consts, prog, depth = [], [], [], [1]
 
-        def program(expr):
-            """Index of a new program for expr (a function of t)."""
-            c, k, dep = postfix(expr)
+        def program(expr, variables=None):
+            """Index of a new program for expr (a function of t and, with
+            ``variables`` (name -> row of "var"), of the state)."""
+            c, k, dep = postfix(expr, variables=variables)
             start = len(code)
             j = 0
             while j < len(c):            # constant indices are local to the program
                 if c[j] == 0:
                     code.extend((0, c[j + 1] + len(consts)))
+                    j += 2
+                elif c[j] == STATE_OP:   # a state variable: its row follows
+                    code.extend((c[j], c[j + 1]))
                     j += 2
                 else:
                     code.append(c[j])
@@ -240,6 +247,8 @@ class CompiledModel:
             return f is not None and not f.constant
 
         lfn, tcol, tfn, ffn = np.zeros((0, 2), i8), [], [], np.zeros((0, 2), i8)
+        var, varc, var_row = [], [], {}      # the state variables the torques read
+        stq, sdv = [], []
         for g in system.constraint_groups:
             if isinstance(g, CoincidenceGroup):
                 d.update(crow=g.rows.astype(i8), ccol1=g.pair.P1.cols.astype(i8),
@@ -271,6 +280,23 @@ class CompiledModel:
                         tfn.append(program(f.expr))
                     else:
                         Q0[col] += f.f(0.0)
+            elif isinstance(g, StateTorqueGroup):
+                for i, f in enumerate(g.functions):
+                    names = {}
+                    for v in getattr(f, "variables", ()):
+                        cols = [3 * b + j for b, j, _ in v.terms] + [n + 2] * (2 - len(v.terms))
+                        coefs = [c for _, _, c in v.terms] + [0.0] * (2 - len(v.terms))
+                        key = (v.level, *cols, *coefs)
+                        if key not in var_row:
+                            var_row[key] = len(var)
+                            var.append((v.level, *cols))
+                            varc.append(coefs)
+                        names[v.name] = var_row[key]
+                    expr = f.expr if f.expr is not None else Num(f.f(0.0))
+                    a, b = (int(g.cols[i, j]) for j in g.targets[i])
+                    stq.append((program(expr, names), a, b))
+                    for v, ge in zip(getattr(f, "variables", ()), getattr(f, "grad_exprs", ())):
+                        sdv.append((len(stq) - 1, names[v.name], program(ge, names)))
             elif isinstance(g, PointForceGroup):
                 d.update(fcol=g.points.cols.astype(i8), fs=g.points.s.astype(f8),
                          fF=np.array([[0.0 if timed(fx) else fx.f(0.0),
@@ -284,7 +310,10 @@ class CompiledModel:
                  lfn=lfn if len(lfn) == len(d["lrow"]) else np.full((len(d["lrow"]), 2), -1, i8),
                  tcol=np.array(tcol, i8), tfn=np.array(tfn, i8),
                  ffn=ffn if len(ffn) == len(d["fcol"]) else np.full((len(d["fcol"]), 2), -1, i8),
-                 stack=np.zeros(depth[0]))
+                 stack=np.zeros(depth[0]),
+                 var=np.array(var, i8).reshape(-1, 3), varc=np.array(varc, f8).reshape(-1, 2),
+                 xval=np.zeros(len(var)), stq=np.array(stq, i8).reshape(-1, 3),
+                 sdv=np.array(sdv, i8).reshape(-1, 3))
         d["mass"] = system.mass_diag.astype(f8)
         d["Q0"] = Q0
         d["row_element"] = system.layout.row_element.astype(i8)

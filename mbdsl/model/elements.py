@@ -35,8 +35,8 @@ GROUND = -1
 
 __all__ = [
     "GROUND", "RigidBody", "FlexibleBeam", "PointRef", "Joint", "Driver", "SpringDamper",
-    "RotationalSpringDamper", "Torque", "PointForce", "InitialCondition",
-    "TimeFunction", "Model", "COORDINATES", "VELOCITIES", "ACCELERATIONS",
+    "RotationalSpringDamper", "Torque", "JointTorque", "PointForce", "InitialCondition",
+    "TimeFunction", "StateVariable", "StateFunction", "Model", "COORDINATES", "VELOCITIES", "ACCELERATIONS",
 ]
 
 #: Names of a body's position coordinates, and of their rates, by index.
@@ -69,6 +69,66 @@ class TimeFunction:
     text: str = ""
     constant: bool = False
     expr: object = None
+
+
+@dataclass(frozen=True)
+class StateVariable:
+    """A quantity of the motion a force expression may use: a linear
+    combination of generalized coordinates (``level`` 0) or velocities
+    (``level`` 1) of rigid bodies.
+
+    Attributes
+    ----------
+    name : str
+        As written, e.g. ``"crank.omega"``, ``"O.angle"``.
+    level : int
+        0: x = sum c_j q[j] (+ offset); 1: x = sum c_j v[j].
+    terms : tuple of (int, int, float)
+        (body index, coordinate 0..2 = x, y, phi, coefficient c_j).
+    offset : float
+        Added to a position-level variable (0 for every variable mbdsl has).
+    """
+
+    name: str
+    level: int
+    terms: tuple
+    offset: float = 0.0
+
+
+@dataclass(frozen=True)
+class StateFunction:
+    """f(t, x) of time and state variables, with its exact partial derivatives.
+
+    Attributes
+    ----------
+    f : callable (t, x) -> float
+        x: the values of ``variables``, in order.
+    grads : tuple of callable (t, x) -> float
+        df/dx_k for each variable (symbolic differentiation), in order.
+    variables : tuple of StateVariable
+    expr : Expr
+        The substituted expression (state variables as names), for the
+        compiled engine; ``grad_exprs`` its partial derivatives.
+    grad_exprs : tuple of Expr
+    text : str
+    """
+
+    f: Callable
+    grads: tuple
+    variables: tuple
+    expr: object = None
+    grad_exprs: tuple = ()
+    text: str = ""
+    constant: bool = False
+
+    def values(self, qx, vx) -> np.ndarray:
+        """The state variables' values at (q, v) extended by the ground's zeros,
+        shape (len(variables),)."""
+        out = np.empty(len(self.variables))
+        for k, var in enumerate(self.variables):
+            src = qx if var.level == 0 else vx
+            out[k] = var.offset + sum(c * src[3 * b + j] for b, j, c in var.terms)
+        return out
 
 
 @dataclass(frozen=True)
@@ -270,11 +330,23 @@ class RotationalSpringDamper:
 
 @dataclass(frozen=True)
 class Torque:
-    """A torque tau(t) [N m] on one body (counter-clockwise positive)."""
+    """A torque tau [N m] on one body (counter-clockwise positive): tau(t)
+    (TimeFunction) or tau(t, state) (StateFunction)."""
 
     name: str
     body: int
-    function: TimeFunction
+    function: object
+    span: Span | None = None
+
+
+@dataclass(frozen=True)
+class JointTorque:
+    """A torque tau [N m] acting in a revolute joint: +tau on its second
+    body, -tau on its first (an actuator between them); tau(t) or tau(t, state)."""
+
+    name: str
+    joint: "Joint"
+    function: object
     span: Span | None = None
 
 
@@ -332,7 +404,7 @@ class Model:
     ground_points : dict of str -> ndarray, shape (2,) [m]
     joints : tuple of Joint
     drivers : tuple of Driver
-    forces : tuple of SpringDamper, RotationalSpringDamper, Torque, PointForce
+    forces : tuple of SpringDamper, RotationalSpringDamper, Torque, JointTorque, PointForce
     gravity : ndarray, shape (2,) [m/s^2], or None
     initials : tuple of InitialCondition
     settings : dict

@@ -260,8 +260,15 @@ def test_packed_model_data_round_trips():
     fields = compiled.unpack(cm.ints, cm.floats)
     assert set(fields) == set(compiled.MODEL_FIELDS)
     assert np.array_equal(fields["mass"], system.mass_diag)
-    assert fields["crow"].shape == (2, 2) and fields["prow"].shape == (3,)
+    assert fields["crow"].shape == (3, 2) and fields["prow"].shape == (3,)
     assert fields["spar"].shape == (3, 3) and fields["n_elements"] == system.layout.n_elements
+    # T2 reads J6.angle, J6.rate, a.omega, c.phi; T3 d.omega, b.x, e.vy: 7 variables,
+    # 2 torques of the state with one partial derivative per variable they read
+    assert fields["var"].shape == (7, 3) and fields["stq"].shape == (2, 3)
+    assert fields["sdv"].shape == (7, 3) and fields["xval"].shape == (7,)
+    J6 = [k for k in range(7) if fields["var"][k, 0] == 0 and fields["varc"][k, 1] == -1.0]
+    assert len(J6) == 1           # J6.angle = f.phi - b.phi
+    assert list(fields["var"][J6[0], 1:]) == [3 * 5 + 2, 3 * 1 + 2]
 
 
 def test_a_failed_split_si2_step_goes_on_with_the_whole_band_matrix():
