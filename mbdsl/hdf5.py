@@ -71,7 +71,7 @@ def write_hdf5(solution, path, extra_metadata: dict | None = None) -> Path:
         extras = f.create_group("extras")
         for x in sol.extra_names:
             _dataset(extras, x, sol.extras[x], [f"{x}.{a}.{b}" for a, b in lay.rows])
-        energies = ["energy.kinetic", "energy.potential", "energy.total"]
+        energies = [k for k in sol.DERIVED_NAMES if k.startswith("energy.")]
         _dataset(f, "energies", np.column_stack([derived[k] for k in energies]), energies)
         cons = ["constraint.position", "constraint.velocity"]
         _dataset(f, "constraints", np.column_stack([derived[k] for k in cons]), cons)

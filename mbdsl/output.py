@@ -168,6 +168,7 @@ class CsvStream:
         self._file = open(self.path, "w", encoding="utf-8")
         self._header, self._written, self._last = False, 0, 0.0
         self._derived = []          # derived columns of the rows written, chunk by chunk
+        self._energy = None         # the energy integrals at the last row written
         #: Wall time spent computing and writing rows [s] (``Solution.timings["output"]``).
         self.elapsed = 0.0
 
@@ -190,7 +191,9 @@ class CsvStream:
             extra_names=sol.extra_names, h=sol.h, t_end=sol.t_end, t=t, q=q, v=v, a=a, lam=lam,
             extras=extras, stats=stats, stats_total=sol.stats_total, status=sol.status,
             message=sol.message)
+        part.energy_start = self._energy
         text = _csv_rows(part.table()[1])
+        self._energy = dict(part.energy_end)
         self._derived.append(part._derived)
         return text
 

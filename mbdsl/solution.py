@@ -183,7 +183,42 @@ class _Reactions:
 _ROW_CHUNK = 1024
 
 
-def derived_columns(system, t, q, v, lam) -> dict:
+def energy_flows(system, t, q, v, lam, total, phi_t=None, start=None) -> dict:
+    """``energy.work``, ``energy.dissipated`` and ``energy.balance`` of rows.
+
+    work(t) = int_0^t p_in, dissipated(t) = int_0^t p_dissipated
+    (``AssembledSystem.power``), by the trapezoidal rule over the rows (second
+    order, as the methods' energies; with ``--output-every`` K the rows are K
+    steps apart and the quadrature error grows as (K h)^2). balance = E(t) -
+    E(0) - work + dissipated is zero for the exact motion; its size is the
+    integration's energy error.
+
+    Parameters
+    ----------
+    total : ndarray, shape (N,) [J]
+        ``energy.total`` of the rows.
+    start : dict, optional
+        The state after the rows before these (:func:`energy_end`): a run
+        written chunk by chunk integrates on from it; None: the rows start
+        the run.
+    """
+    p_in, p_diss = system.power(t, q, v, lam, phi_t)
+    if start is None:
+        start = {"t": t[0], "p_in": p_in[0], "p_dissipated": p_diss[0], "work": 0.0,
+                 "dissipated": 0.0, "E0": total[0]}
+    t_prev = np.concatenate([[start["t"]], t[:-1]])
+    dt = 0.5 * (t - t_prev)
+    work = np.cumsum(np.concatenate([[start["work"]], dt * (
+        p_in + np.concatenate([[start["p_in"]], p_in[:-1]]))]))[1:]
+    diss = np.cumsum(np.concatenate([[start["dissipated"]], dt * (
+        p_diss + np.concatenate([[start["p_dissipated"]], p_diss[:-1]]))]))[1:]
+    return {"energy.work": work, "energy.dissipated": diss,
+            "energy.balance": total - start["E0"] - work + diss,
+            "_end": {"t": t[-1], "p_in": p_in[-1], "p_dissipated": p_diss[-1],
+                     "work": work[-1], "dissipated": diss[-1], "E0": start["E0"]}}
+
+
+def derived_columns(system, t, q, v, lam, start=None, end=None) -> dict:
     """Energies, constraint norms and joint reactions of stored rows.
 
     Every element is evaluated for all rows at once (the element groups
@@ -196,15 +231,22 @@ def derived_columns(system, t, q, v, lam) -> dict:
     q, v : ndarray, shape (N, n)
     lam : ndarray, shape (N, m)
 
+    start, end : dict, optional
+        The energy integrals carried from the rows before (``start``, None
+        when these rows begin the run) and to the rows after (``end`` is
+        filled): see :func:`energy_flows`.
+
     Returns
     -------
     dict of str -> ndarray, shape (N,)
-        ``energy.kinetic|potential|total`` [J], ``constraint.position``
+        ``energy.kinetic|potential|total``, ``energy.work|dissipated|balance``
+        [J], ``constraint.position``
         (max |Phi|), ``constraint.velocity`` (max |Phi_q v + Phi_t|) and
         ``reaction.<joint>.fx|fy|torque`` [N, N m].
     """
     N = len(t)
     kin, pot, cpos, cvel = (np.zeros(N) for _ in range(4))
+    phi_t = np.zeros((N, system.m))
     joints = system.model.joints
     reactions = _Reactions(system) if joints else None
     reac = np.zeros((N, len(joints), 3))
@@ -215,14 +257,20 @@ def derived_columns(system, t, q, v, lam) -> dict:
         pot[sl] = system.potential_energy(qs)
         if system.m:
             cpos[sl] = np.max(np.abs(system.Phi(qs, ts)), axis=1)
-            cvel[sl] = np.max(np.abs(system.Phiq_times(qs, ts, vs) + system.Phi_t(qs, ts)), axis=1)
+            phi_t[sl] = system.Phi_t(qs, ts)
+            cvel[sl] = np.max(np.abs(system.Phiq_times(qs, ts, vs) + phi_t[sl]), axis=1)
             if reactions is not None:
                 reac[sl] = reactions(qs, ts, lam[sl])
-    out = {"energy.kinetic": kin, "energy.potential": pot, "energy.total": kin + pot,
-           "constraint.position": cpos, "constraint.velocity": cvel}
+    out = {"energy.kinetic": kin, "energy.potential": pot, "energy.total": kin + pot}
+    flows = energy_flows(system, t, q, v, lam, kin + pot, phi_t, start)
+    carry = flows.pop("_end")
+    out.update(flows)
+    out.update({"constraint.position": cpos, "constraint.velocity": cvel})
     for k, j in enumerate(joints):
         for c, comp in enumerate(("fx", "fy", "torque")):
             out[f"reaction.{j.name}.{comp}"] = reac[:, k, c]
+    if end is not None:              # for a writer that goes on with the next rows
+        end.update(carry)
     return out
 
 
@@ -292,6 +340,7 @@ class Solution:
         self.stats_total = RunStats()
         self._rows = _RowStore(system.n, system.m, self._stored_extras)
         self.last_state = None
+        self.energy_start, self.energy_end = None, {}
 
     # -- building ---------------------------------------------------------------------
     def append(self, state, stats: StepStats) -> None:
@@ -424,6 +473,8 @@ class Solution:
         self.extras = {x: np.asarray(extras[x], dtype=float).reshape(N, m) for x in self.extra_names}
         self.stats = {k: np.asarray(stats[k]) for k in self.STAT_NAMES}
         self._derived = dict(derived) if derived else None
+        self.last_state = None
+        self.energy_start, self.energy_end = None, {}
         return self
 
     @property
@@ -435,7 +486,9 @@ class Solution:
     def _compute_derived(self):
         if self._derived is not None:
             return self._derived
-        self._derived = derived_columns(self.system, self.t, self.q, self.v, self.lam)
+        self._derived = derived_columns(self.system, self.t, self.q, self.v, self.lam,
+                                        start=getattr(self, "energy_start", None),
+                                        end=self.energy_end)
         return self._derived
 
     @property
@@ -451,7 +504,8 @@ class Solution:
                 + [f"newton.{k}" for k in self.STAT_NAMES[:-1]] + ["step.h"])
 
     #: Derived columns every model has, in CSV order.
-    DERIVED_NAMES = ("energy.kinetic", "energy.potential", "energy.total",
+    DERIVED_NAMES = ("energy.kinetic", "energy.potential", "energy.total", "energy.work",
+                     "energy.dissipated", "energy.balance",
                      "constraint.position", "constraint.velocity")
 
     def _beam_columns(self) -> list[str]:
@@ -551,7 +605,9 @@ class Solution:
                if tot.multipliers_stalled else ""),
             f"  max |Phi| = {np.max(d['constraint.position']):.2e}, "
             f"max |Phi_q v + Phi_t| = {np.max(d['constraint.velocity']):.2e}",
-            f"  energy: {e[0]:.6g} J -> {e[-1]:.6g} J (change {e[-1] - e[0]:+.3e} J)",
+            f"  energy: {e[0]:.6g} J -> {e[-1]:.6g} J (change {e[-1] - e[0]:+.3e} J; work "
+            f"{d['energy.work'][-1]:+.4g} J, dissipated {d['energy.dissipated'][-1]:.4g} J; "
+            f"balance max {np.max(np.abs(d['energy.balance'])):.2e} J)",
         ]
         if self.status != "completed":
             lines.append(f"  stopped: {self.message}")

@@ -386,6 +386,19 @@ class SpringDamperGroup:
         l = self.lengths(qx)
         return 0.5 * np.sum(self.k * (l - self.l0) ** 2, axis=-1)
 
+    def dissipation(self, qx, vx):
+        """Power the dampers dissipate, sum of c ldot^2 [W], shape (N,) for
+        rows qx, vx (N, nx)."""
+        if not self.damped:
+            return np.zeros(qx.shape[0])
+        q1, q2 = self.pair.split(qx)
+        d = self.pair.difference(q1, q2)                           # (N, k, 2)
+        G = self.pair.difference_jac(q1, q2)                       # (N, k, 2, c)
+        ddot = np.einsum("nkaj,nkj->nka", G, vx[:, self.cols])
+        e = d / np.sqrt(np.einsum("nka,nka->nk", d, d))[..., None]
+        ldot = np.einsum("nka,nka->nk", e, ddot)
+        return np.sum(self.c * ldot ** 2, axis=-1)
+
 
 class RotationalSpringGroup:
     """Torsional spring-dampers on relative angles theta = phi2 - phi1 - angle.
@@ -416,6 +429,12 @@ class RotationalSpringGroup:
         """Potential energy [J]: a float, or shape (...) for rows qx (..., nx)."""
         q = qx[..., self.cols]
         return 0.5 * np.sum(self.k * (q[..., 1] - q[..., 0] - self.angle) ** 2, axis=-1)
+
+    def dissipation(self, qx, vx):
+        """Power the dampers dissipate, sum of c theta'^2 [W], shape (N,) for
+        rows vx (N, nx)."""
+        v = vx[:, self.cols]
+        return np.sum(self.c * (v[..., 1] - v[..., 0]) ** 2, axis=-1)
 
 
 class TorqueGroup:

@@ -486,6 +486,45 @@ class AssembledSystem:
                 e[i] += 0.5 * np.einsum("ki,kij,kj->", vb, g.mass_blocks(qx[i]), vb)
         return e
 
+    def power(self, t, q, v, lam, phi_t=None):
+        """Power put in and power dissipated, per row [W].
+
+        Put in: the applied loads that are not potential forces (torques,
+        joint torques, point forces; Q_group . v) and the drivers (lambda .
+        Phi_t, the power of the rheonomic constraint forces -Phi_q^T lambda
+        on a motion with Phi_q v + Phi_t = 0). Dissipated: the dampers of
+        spring-dampers and rotational spring-dampers. Gravity, springs and
+        beam strain are in :meth:`potential_energy`. Only what the model
+        declares is evaluated.
+
+        Parameters
+        ----------
+        t : ndarray, shape (N,) [s]
+        q, v : ndarray, shape (N, n)
+        lam : ndarray, shape (N, m)
+        phi_t : ndarray, shape (N, m), optional
+            Phi_t at the rows, when already computed.
+
+        Returns
+        -------
+        p_in, p_dissipated : ndarray, shape (N,) [W]
+        """
+        N = len(t)
+        p_in, p_diss = np.zeros(N), np.zeros(N)
+        qx, vx = self._ext(q), self._ext(v)
+        for g in self.force_groups:
+            if isinstance(g, (SpringDamperGroup, RotationalSpringGroup)):
+                p_diss += g.dissipation(qx, vx)
+            elif isinstance(g, (TorqueGroup, StateTorqueGroup, PointForceGroup)):
+                for i in range(N):
+                    p_in[i] += np.sum(g.forces(qx[i], vx[i], t[i]) * vx[i][g.cols])
+        if self.m and any(isinstance(g, LinearConstraintGroup) and any(
+                f is not None and not f.constant for f in g.functions)
+                for g in self.constraint_groups):
+            pt = self.Phi_t(q, t) if phi_t is None else phi_t
+            p_in += np.sum(lam * pt, axis=-1)
+        return p_in, p_diss
+
     def potential_energy(self, q):
         """Gravity, spring and strain potential energy [J] (zero at y = 0,
         unstretched springs, undeformed beams): a float, or shape (N,) for
