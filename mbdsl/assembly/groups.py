@@ -204,21 +204,42 @@ class CoincidenceGroup:
         return self.pair.difference_hess(*self.pair.split(qx))
 
 
-class PointOnLineGroup:
-    """Point P stays on the line through point L of body l.
+def _time_functions(functions, t, which):
+    """f(t) (``which`` "f", "df" or "ddf") of every instance (None: 0), shape
+    (k,), or (..., k) for an array of times."""
+    if np.ndim(t) == 0:
+        return np.array([0.0 if f is None else getattr(f, which)(t) for f in functions])
+    t = np.asarray(t, dtype=float)
+    out = np.zeros(t.shape + (len(functions),))
+    for i, f in enumerate(functions):
+        if f is not None:
+            g = getattr(f, which)
+            out[..., i] = np.fromiter((g(x) for x in t.ravel()), float, t.size).reshape(t.shape)
+    return out
 
-    Phi = n . d, d = p_P - p_L, n = A_l n0 the line's unit normal, turning
-    with body l's (reference) frame (1 row). Local coordinates
-    (x_L, y_L, phi_L, q_eL, x_P, y_P, phi_P, q_eP), D = dd/dq_local:
+
+class PointOnLineGroup:
+    """Point P stays on the line through point L of body l, or is driven
+    along it.
+
+    Phi = n . d - f(t), d = p_P - p_L, n = A_l n0 turning with body l's
+    (reference) frame (1 row): with n0 the line's unit normal and no f, P
+    stays on the line (point_on_line, prismatic); with n0 the line's unit
+    direction, n . d is the distance of P along the line and f(t) drives it
+    (a ``P.distance`` driver). Local coordinates (x_L, y_L, phi_L, q_eL, x_P,
+    y_P, phi_P, q_eP), D = dd/dq_local:
 
         Phi_q  = n^T D + (B_l n0 . d) e_phiL^T
         Phi_qq = n . D_qq + e_phiL (B_l n0)^T D + D^T (B_l n0) e_phiL^T
                  - (n . d) e_phiL e_phiL^T
+        Phi_t  = -f'(t),  Phi_tt = -f''(t),  Phi_qt = 0
+
+    ``functions`` holds a TimeFunction or None per instance.
     """
 
     r = 1
 
-    def __init__(self, n, rows, point, line, normal):
+    def __init__(self, n, rows, point, line, normal, functions=None):
         self.rows = np.asarray(rows, dtype=np.intp).reshape(-1, 1)
         self.pair = _PointPair(n, line, point)          # d = p_P - p_L
         self.cols = self.pair.cols
@@ -226,7 +247,20 @@ class PointOnLineGroup:
         k, c = self.cols.shape
         self._jac = np.zeros((k, 1, c))
         self._hess = np.zeros((k, 1, c, c))
-        self.time_dependent = False
+        self.functions = list(functions) if functions is not None else [None] * k
+        self.time_dependent = any(f is not None for f in self.functions)
+
+    def _f(self, t, which):
+        """f(t) (or a derivative) of every instance, shape (k,) or (..., k)."""
+        return _time_functions(self.functions, t, which)
+
+    def phi_t(self, t):
+        """d Phi / dt, shape (..., k, 1) (t a scalar or an array of shape (...))."""
+        return -self._f(t, "df")[..., None]
+
+    def phi_tt(self, t):
+        """d^2 Phi / dt^2, shape (..., k, 1)."""
+        return -self._f(t, "ddf")[..., None]
 
     def _parts(self, qx):
         qL, qP = self.pair.split(qx)
@@ -234,9 +268,13 @@ class PointOnLineGroup:
         return qL, qP, rot(phiL, self.n0), drot(phiL, self.n0), self.pair.difference(qL, qP)
 
     def phi(self, qx, t):
-        """Constraint values, shape (..., k, 1) [m]."""
+        """Constraint values, shape (..., k, 1) [m]; t a scalar or, for several
+        rows qx (..., nx), an array of shape (...)."""
         _, _, nvec, _, d = self._parts(qx)
-        return np.einsum("...a,...a->...", nvec, d)[..., None]
+        val = np.einsum("...a,...a->...", nvec, d)
+        if self.time_dependent:
+            val = val - self._f(t, "f")
+        return val[..., None]
 
     def jac(self, qx):
         """Local Jacobian, shape (..., k, 1, c) (for one row a reused buffer)."""
@@ -286,15 +324,7 @@ class LinearConstraintGroup:
     def _f(self, t, which):
         """f(t) (or a derivative) of every instance, shape (k,), or (..., k)
         for an array of times."""
-        if np.ndim(t) == 0:
-            return np.array([0.0 if f is None else getattr(f, which)(t) for f in self.functions])
-        t = np.asarray(t, dtype=float)
-        out = np.zeros(t.shape + (len(self.functions),))
-        for i, f in enumerate(self.functions):
-            if f is not None:
-                g = getattr(f, which)
-                out[..., i] = np.fromiter((g(x) for x in t.ravel()), float, t.size).reshape(t.shape)
-        return out
+        return _time_functions(self.functions, t, which)
 
     def phi(self, qx, t):
         """Constraint values, shape (..., k, 1) [m or rad]; t a scalar or,

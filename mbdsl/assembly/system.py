@@ -118,14 +118,17 @@ class AssembledSystem:
                 if j.kind == "fixed":
                     _angle_row(row + 2, a.body, b.body, j.angle, None)
             elif j.kind == "point_on_line":
-                pol.append((row, a, b, _normal(j.direction)))
+                pol.append((row, a, b, _normal(j.direction), None))
             elif j.kind == "prismatic":
-                pol.append((row, a, b, _normal(j.direction)))
+                pol.append((row, a, b, _normal(j.direction), None))
                 _angle_row(row + 1, a.body, b.body, j.angle, None)   # rotation locked
             row += j.rows
         for d in model.drivers:
             if d.kind == "coordinate":        # q_c - f(t); first column: ground dummy, coef 0
                 lin.append((row, (n, 3 * d.body + d.coord), (0.0, 1.0), 0.0, d.function))
+            elif d.kind == "joint_distance":  # u . (p1 - p2) - f(t), u along the line
+                pol.append((row, d.joint.first, d.joint.second,
+                            np.asarray(d.joint.direction, float), d.function))
             else:
                 _angle_row(row, d.joint.first.body, d.joint.second.body, 0.0, d.function)
             row += 1
@@ -135,8 +138,8 @@ class AssembledSystem:
             r0, r1, p1, p2 = zip(*coinc)
             self.constraint_groups.append(CoincidenceGroup(n, np.stack([r0, r1], axis=1), p1, p2))
         if pol:
-            r, pp, pl, nrm = zip(*pol)
-            self.constraint_groups.append(PointOnLineGroup(n, r, pp, pl, np.array(nrm)))
+            r, pp, pl, nrm, fns = zip(*pol)
+            self.constraint_groups.append(PointOnLineGroup(n, r, pp, pl, np.array(nrm), fns))
         if lin:
             r, cols, coefs, off, fns = zip(*lin)
             self.constraint_groups.append(LinearConstraintGroup(n, r, cols, coefs, off, fns))
@@ -518,9 +521,8 @@ class AssembledSystem:
             elif isinstance(g, (TorqueGroup, StateTorqueGroup, PointForceGroup)):
                 for i in range(N):
                     p_in[i] += np.sum(g.forces(qx[i], vx[i], t[i]) * vx[i][g.cols])
-        if self.m and any(isinstance(g, LinearConstraintGroup) and any(
-                f is not None and not f.constant for f in g.functions)
-                for g in self.constraint_groups):
+        if self.m and any(f is not None and not f.constant for g in self.timed_groups
+                          for f in g.functions):
             pt = self.Phi_t(q, t) if phi_t is None else phi_t
             p_in += np.sum(lam * pt, axis=-1)
         return p_in, p_diss

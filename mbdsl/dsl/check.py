@@ -690,14 +690,19 @@ class _Checker:
             fn = self.time_function(d.value, d.span, ctx)
             tgt = d.target
             if tgt.obj in self.joints:
-                if tgt.attr != "angle":
-                    self.error("E201", f"{ctx}: a joint can only be driven by its 'angle'",
+                joint = self.joints[tgt.obj]
+                sliding = joint.kind in ("prismatic", "point_on_line")
+                if tgt.attr not in ("angle", "distance") or (tgt.attr == "distance"
+                                                             and not sliding):
+                    self.error("E201", f"{ctx}: a {joint.kind} joint is driven by its "
+                               + ("'angle' or 'distance'" if sliding else "'angle'"),
                                tgt.span or d.span, "unknown joint quantity",
-                               hint=f"write '{tgt.obj}.angle'")
+                               hint=f"write '{tgt.obj}.angle'" if not sliding else
+                               f"write '{tgt.obj}.distance' (along the line, from its point)")
                     continue
                 if ok and fn:
-                    self.drivers.append(Driver(d.name, "joint_angle", fn,
-                                               joint=self.joints[tgt.obj], span=d.span))
+                    kind = "joint_distance" if tgt.attr == "distance" else "joint_angle"
+                    self.drivers.append(Driver(d.name, kind, fn, joint=joint, span=d.span))
                 continue
             body = self.bodies.get(tgt.obj)
             if body is None:

@@ -113,6 +113,7 @@ MODEL_SCHEMA = (
     ("xval", "f", 0),                                                  # 2 (column, coef); values
     ("stq", "i", 3),                                                   # torques of the state:
     ("sdv", "i", 3),                                                   # f, +col, -col; dtau/dx
+    ("pfn", "i", 2),                                                   # point on line: f, f'
 )
 #: The field names, and the scalar "n_elements" (the header's last entry).
 MODEL_FIELDS = tuple(name for name, _, _ in MODEL_SCHEMA) + ("n_elements",)
@@ -130,7 +131,7 @@ _inline = numba.njit(cache=True, nogil=True, inline="always")
 (MASS, Q0, CROW, CCOL1, CS1, CCOL2, CS2, PROW, PCOLL, PSL, PCOLP, PSP, PN0,
  LROW, LCOL, LCOEF, LOFF, SCOL1, SS1, SCOL2, SS2, SPAR, RCOL, RPAR,
  FCOL, FS, FF, ROW_ELEMENT, CODE, CONSTS, PROG, LFN, TCOL, TFN, FFN, STACK,
- VAR, VARC, XVAL, STQ, SDV) = range(41)
+ VAR, VARC, XVAL, STQ, SDV, PFN) = range(42)
 if any(globals()[name.upper()] != k for k, (name, _, _) in enumerate(MODEL_SCHEMA)):
     raise ImportError("compiled.py's field indices differ from MODEL_SCHEMA")   # pragma: no cover
 
@@ -351,6 +352,9 @@ def _phi_t_add(I, Fl, t, out):
     for i in range(_rows(I, LROW)):
         if _i(I, LFN, i, 1) >= 0:
             out[_i(I, LROW, i, 0)] -= _eval(I, Fl, _i(I, LFN, i, 1), t)
+    for i in range(_rows(I, PROW)):
+        if _i(I, PFN, i, 1) >= 0:
+            out[_i(I, PROW, i, 0)] -= _eval(I, Fl, _i(I, PFN, i, 1), t)
 
 
 @_jit
@@ -364,6 +368,8 @@ def phi(I, Fl, t, qx, out):
     for i in range(_rows(I, PROW)):
         nx, ny, dx, dy, axL, ayL, axP, ayP = _pol(I, Fl, qx, i)
         out[_i(I, PROW, i, 0)] = nx * dx + ny * dy
+        if _i(I, PFN, i, 0) >= 0:                  # a distance driver f(t)
+            out[_i(I, PROW, i, 0)] -= _eval(I, Fl, _i(I, PFN, i, 0), t)
     for i in range(_rows(I, LROW)):
         val = (_f(I, Fl, LCOEF, i, 0) * qx[_i(I, LCOL, i, 0)]
                + _f(I, Fl, LCOEF, i, 1) * qx[_i(I, LCOL, i, 1)] - _f(I, Fl, LOFF, i, 0))

@@ -100,7 +100,8 @@ def unsupported(system, method) -> str | None:
         if not isinstance(g, (SpringDamperGroup, RotationalSpringGroup, TorqueGroup,
                               PointForceGroup, StateTorqueGroup)):
             return f"no kernel for {type(g).__name__}"
-    functions = [f for g in system.constraint_groups if isinstance(g, LinearConstraintGroup)
+    functions = [f for g in system.constraint_groups
+                 if isinstance(g, (LinearConstraintGroup, PointOnLineGroup))
                  for f in g.functions if f is not None]
     functions += [f for g in system.force_groups if isinstance(g, TorqueGroup)
                   for f in g.functions]
@@ -247,6 +248,7 @@ class CompiledModel:
             return f is not None and not f.constant
 
         lfn, tcol, tfn, ffn = np.zeros((0, 2), i8), [], [], np.zeros((0, 2), i8)
+        pfn = np.zeros((0, 2), i8)
         var, varc, var_row = [], [], {}      # the state variables the torques read
         stq, sdv = [], []
         for g in system.constraint_groups:
@@ -258,6 +260,10 @@ class CompiledModel:
                 d.update(prow=g.rows[:, 0].astype(i8), pcolL=g.pair.P1.cols.astype(i8),
                          psL=g.pair.P1.s.astype(f8), pcolP=g.pair.P2.cols.astype(i8),
                          psP=g.pair.P2.s.astype(f8), pn0=g.n0.astype(f8))
+                pfn = np.array([(-1, -1) if f is None else
+                                (program(f.expr), program(diff(f.expr))) if f.expr is not None
+                                else (program(Num(f.f(0.0))), -1)      # a constant
+                                for f in g.functions], dtype=i8).reshape(-1, 2)
             else:
                 off = g.offset + np.array([f.f(0.0) if f is not None and f.constant else 0.0
                                            for f in g.functions])
@@ -313,7 +319,8 @@ class CompiledModel:
                  stack=np.zeros(depth[0]),
                  var=np.array(var, i8).reshape(-1, 3), varc=np.array(varc, f8).reshape(-1, 2),
                  xval=np.zeros(len(var)), stq=np.array(stq, i8).reshape(-1, 3),
-                 sdv=np.array(sdv, i8).reshape(-1, 3))
+                 sdv=np.array(sdv, i8).reshape(-1, 3),
+                 pfn=pfn if len(pfn) == len(d["prow"]) else np.full((len(d["prow"]), 2), -1, i8))
         d["mass"] = system.mass_diag.astype(f8)
         d["Q0"] = Q0
         d["row_element"] = system.layout.row_element.astype(i8)

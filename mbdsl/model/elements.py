@@ -283,6 +283,9 @@ class Driver:
 
     ``kind == "coordinate"``: q[3*body + coord] - f(t) = 0.
     ``kind == "joint_angle"``: phi(second) - phi(first) - f(t) = 0.
+    ``kind == "joint_distance"`` (prismatic, point_on_line): u . (p1 - p2) - f(t)
+    = 0, u the line's unit direction turning with the second body, p1 the
+    first (sliding) point, p2 the line's point.
     """
 
     name: str

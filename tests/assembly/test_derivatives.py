@@ -62,9 +62,10 @@ def test_model_declares_every_element_type(system):
         return
     kinds = {j.kind for j in system.model.joints}
     assert kinds == {"revolute", "prismatic", "point_on_line", "fixed"}
-    assert {d.kind for d in system.model.drivers} == {"coordinate", "joint_angle"}
+    assert {d.kind for d in system.model.drivers} == {"coordinate", "joint_angle",
+                                                      "joint_distance"}
     assert len(system.force_groups) == 5      # the torques of the state are a group of their own
-    assert system.m == 2 + 2 + 1 + 3 + 1 + 2 + 2
+    assert system.m == 2 + 2 + 1 + 3 + 1 + 2 + 2 + 1
 
 
 def test_Phi_q(system):

@@ -131,4 +131,4 @@ def test_dof_counts():
     model = mbdsl.load(ROOT / "models" / "slider_crank.mbd")
     assert (model.n_coordinates, model.n_constraints, model.dof) == (6, 5, 1)
     model = mbdsl.load(ROOT / "tests" / "dsl" / "valid" / "all_elements.mbd")
-    assert model.n_constraints == 13
+    assert model.n_constraints == 14
