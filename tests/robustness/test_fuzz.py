@@ -30,7 +30,10 @@ NUMBERS = ["0", "-0", "-1", "-2.5", "1e308", "1e-308", "1e400", "nan", "inf", "-
            "0.5", "1e-12", "1e12", "2^1024", "1/0", "0/0", "1e", "١", "½", "--1", "1..2"]
 INSERTS = ["kg", "m/s", "{", "}", "(", ")", ",", ";", "=", ":", "..", "é", "→", "\u200b",
            "\U0001f600", "\n", "#", "\\", "\"", "'", "for i in 1..3 {", "t", "pi", "ground",
-           "revolute", "body", "joint", "initial", "guess", "driver", "force", "[", "]", "^"]
+           "revolute", "body", "joint", "initial", "guess", "driver", "force", "[", "]", "^",
+           # the state in force expressions, joint torques and distance drivers
+           ".", "omega", "rate", "angle", "distance", "crank.omega", "O.rate", "joint_torque",
+           "torque", "prismatic"]
 
 
 def tokens(text):
