@@ -8,9 +8,10 @@ coordinates, m constraint rows)::
     /q  /v  /a              (N, n)    attrs["columns"]: coordinate names
     /lambda                 (N, m)    attrs["columns"]: lambda.<joint>.<row>
     /extras/<mu|psi1>       (N, m)    the method's further multipliers
-    /energies               (N, 3)    kinetic, potential, total [J]
+    /energies               (N, 6)    kinetic, potential, total, work, dissipated, balance [J]
     /constraints            (N, 2)    max |Phi| [m], max |Phi_q v + Phi_t| [m/s]
-    /reactions              (N, 3 J)  fx, fy [N], torque [N m] per joint
+    /reactions              (N, 3 J + D)  fx, fy [N], torque [N m] per joint, then the
+                            driver loads driver.<name>.force|torque
     /newton                 (N, 5)    iterations, residuals, jacobians,
                                       factorizations, h of each step
     /model_source           str       the .mbd text (also an attribute)
@@ -75,7 +76,7 @@ def write_hdf5(solution, path, extra_metadata: dict | None = None) -> Path:
         _dataset(f, "energies", np.column_stack([derived[k] for k in energies]), energies)
         cons = ["constraint.position", "constraint.velocity"]
         _dataset(f, "constraints", np.column_stack([derived[k] for k in cons]), cons)
-        reac = [k for k in derived if k.startswith("reaction.")]
+        reac = [k for k in derived if k.startswith(("reaction.", "driver."))]
         _dataset(f, "reactions", np.column_stack([derived[k] for k in reac])
                  if reac else np.zeros((len(sol.t), 0)), reac)
         grp = f.create_group("newton")

@@ -151,6 +151,8 @@ class _Reactions:
         self.sign = np.where(second >= 0, 1.0, -1.0)
         self.first_points = PointSet(system.n, [j.first for j in joints])  # deformation included
         self.system, self.n_joints = system, len(joints)
+        # zero by construction, written as 0 rather than the round-off of the sum
+        self.pinned = np.array([j.kind == "revolute" for j in joints], dtype=bool)
         rows, cols = system.pattern_Phi_q
         joint_of_element = np.full(system.layout.n_elements, -1, dtype=np.intp)
         joint_of_element[elem] = np.arange(len(joints))
@@ -176,6 +178,7 @@ class _Reactions:
         point = self.first_points.position(qx[..., self.first_points.cols])
         d = point - np.stack([q[..., 3 * self.body], q[..., 3 * self.body + 1]], -1)
         couple = gen[..., 2] - (d[..., 0] * gen[..., 1] - d[..., 1] * gen[..., 0])
+        couple = np.where(self.pinned, 0.0, couple)     # a revolute transmits no couple
         return self.sign[:, None] * np.stack([gen[..., 0], gen[..., 1], couple], -1)
 
 
@@ -216,6 +219,22 @@ def energy_flows(system, t, q, v, lam, total, phi_t=None, start=None) -> dict:
             "energy.balance": total - start["E0"] - work + diss,
             "_end": {"t": t[-1], "p_in": p_in[-1], "p_dissipated": p_diss[-1],
                      "work": work[-1], "dissipated": diss[-1], "E0": start["E0"]}}
+
+
+def driver_loads(system) -> list[tuple[str, int]]:
+    """(column, constraint row) of every driver's load: ``driver.<name>.force``
+    [N] for a driven x, y or joint distance, ``driver.<name>.torque`` [N m]
+    for a driven phi or joint angle. The load is -lambda of the driver's row
+    (sign convention M a + Phi_q^T lambda = Q, a driver row q_c - f(t)): the
+    generalized force the driver applies to the driven coordinate, i.e. on
+    the driven body's x, y or phi, on a joint's second body (its first body
+    takes the opposite), or along the line on a sliding joint's first point."""
+    out = []
+    for d in system.model.drivers:
+        row = system.layout.element_rows[d.name][0]
+        force = (d.kind == "coordinate" and d.coord < 2) or d.kind == "joint_distance"
+        out.append((f"driver.{d.name}.{'force' if force else 'torque'}", int(row)))
+    return out
 
 
 def derived_columns(system, t, q, v, lam, start=None, end=None) -> dict:
@@ -269,6 +288,8 @@ def derived_columns(system, t, q, v, lam, start=None, end=None) -> dict:
     for k, j in enumerate(joints):
         for c, comp in enumerate(("fx", "fy", "torque")):
             out[f"reaction.{j.name}.{comp}"] = reac[:, k, c]
+    for name, row in driver_loads(system):
+        out[name] = -lam[:, row]
     if end is not None:              # for a writer that goes on with the next rows
         end.update(carry)
     return out
@@ -498,6 +519,7 @@ class Solution:
         extras = [f"{x}.{name}.{k}" for x in self.extra_names for name, k in lay.rows]
         reactions = [f"reaction.{j.name}.{c}" for j in self.model.joints
                      for c in ("fx", "fy", "torque")]
+        reactions += [name for name, _ in driver_loads(self.system)]
         return (["t"] + lay.coordinates + lay.velocities + lay.accelerations
                 + list(self.DERIVED_NAMES) + self._beam_columns() + lay.multiplier_names()
                 + extras + reactions

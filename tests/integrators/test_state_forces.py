@@ -211,6 +211,8 @@ def test_actuator_force_of_a_driven_prismatic_joint(method, tol, after, engine):
     assert sol.engine == engine
     force = -sol.column("lambda.lift.0")[sol.t >= after]
     assert np.max(np.abs(force - (2 * 0.1 + 2 * 9.81 * 0.5))) < tol
+    # the same load by the driver's name
+    assert np.array_equal(sol.column("driver.lift.force"), -sol.column("lambda.lift.0"))
     s = np.hypot(sol.column("block.x"), sol.column("block.y"))
     assert np.max(np.abs(s - (0.1 * sol.t + 0.05 * sol.t ** 2))) < 1e-12
     # the actuator's work is the energy the block gains (NSTIFF: 7.5e-6 J from its
@@ -271,3 +273,21 @@ def test_servo_arm_tracks_within_the_quasi_static_bound():
     for e, load in ((e1, "lambda.dO.0"), (e2, "lambda.dE.0")):
         bound = np.max(np.abs(inv.column(load))) / 200.0
         assert 0.9 * bound < np.max(np.abs(e[late])) <= bound
+
+
+def test_driver_loads_by_name_and_zero_reactions(tmp_path):
+    """driver.<name>.torque of a driven crank is -lambda of its row, and goes
+    to the file and back; a revolute joint's couple is written as 0."""
+    from ..conftest import MODELS
+    sol = mbdsl.simulate(mbdsl.load(MODELS / "slider_crank_driven.mbd"), h=1e-3, t_end=0.5)
+    assert np.array_equal(sol.column("driver.motor.torque"), -sol.column("lambda.motor.0"))
+    for joint in ("O", "A"):
+        assert np.all(sol.column(f"reaction.{joint}.torque") == 0.0)
+    for suffix in (".csv", ".h5"):
+        path = tmp_path / f"run{suffix}"
+        from mbdsl.hdf5 import write_hdf5
+        from mbdsl.output import write_csv
+        (write_hdf5 if suffix == ".h5" else write_csv)(sol, path)
+        back = mbdsl.load_solution(path)
+        np.testing.assert_array_equal(back.column("driver.motor.torque"),
+                                      sol.column("driver.motor.torque"))
