@@ -260,6 +260,9 @@ def consistent_initial_state(system: AssembledSystem, t0: float = 0.0,
         is singular (redundant constraints or a singular position).
     """
     state = _consistent_state(system, t0, tol, max_iter, None)
+    if system.model.static:
+        q = static_positions(system, t0, state.q, state.lam)
+        return _consistent_state(system, t0, tol, max_iter, None, q_start=q)
     if not system.flexible_groups:
         return state
     cols = np.concatenate([b.elastic_columns() for b in system.model.flexible_bodies])
@@ -331,9 +334,84 @@ def _not_quasi_static(system, accel):
              "cross-section and the loads, or use more elements")
 
 
-def _consistent_state(system, t0, tol, max_iter, elastic):
+#: Newton iterations of the static equilibrium.
+STATIC_ITERATIONS = 50
+
+
+def static_positions(system, t0: float, q: np.ndarray, lam: np.ndarray) -> np.ndarray:
+    """Positions of static equilibrium: Q(t0, q, 0) = Phi_q^T lambda, Phi(q, t0) = 0,
+    with the coordinates the ``initial`` lines give held at their values.
+
+    Newton's method on
+
+        Q(t0, q, 0) - Phi_q(q)^T lambda - E^T mu = 0,   Phi(q, t0) = 0,   E q = q_given
+
+    (mu the reactions of the held coordinates), matrix
+    [[Q_q - (Phi_q^T lambda)_q, -Phi_q^T, -E^T], [Phi_q, 0, 0], [E, 0, 0]],
+    started from the assembled configuration q (n,) and its multipliers
+    lambda (m,). Every declared force enters (gravity, springs, torques, point
+    forces, beam strain) at zero velocity; drivers hold their values at t0.
+    (A static analysis as in Haug, Computer-Aided Kinematics and Dynamics of
+    Mechanical Systems, sec. 9.1, with the equilibrium found by Newton's
+    method on the constrained equations rather than by minimising the
+    potential, so that non-conservative loads are allowed.)
+
+    Raises
+    ------
+    AssemblyError
+        E507 when Newton does not reach an equilibrium (none near the
+        assembled configuration, or the mechanism is not held: a free
+        degree of freedom under a load that no spring resists).
+    """
+    model, n, m = system.model, system.n, system.m
+    iq = np.array([ic.coordinate for ic in model.initials
+                   if not ic.guess and not ic.is_velocity], dtype=int)
+    given = q[iq].copy()
+    f = len(iq)
+    E = np.zeros((f, n))
+    E[np.arange(f), iq] = 1.0
+    v0 = np.zeros(n)
+    x = np.concatenate([q, lam, np.zeros(f)])
+    scale = 1.0 + float(np.max(np.abs(system.Q(t0, q, v0)), initial=0.0))
+    residual = np.inf
+    for _ in range(STATIC_ITERATIONS):
+        q, lam, mu = x[:n], x[n:n + m], x[n + m:]
+        with np.errstate(all="ignore"):
+            r = np.concatenate([system.Q(t0, q, v0) - system.PhiqT_times(q, t0, lam) - E.T @ mu,
+                                system.Phi(q, t0), q[iq] - given])
+            Qq = system.force_derivatives(t0, q, v0)[0]
+            K = (np.zeros((n, n)) if Qq is None else Qq) - system.PhiqT_lam_q(q, lam)
+            Pq = system.Phi_q(q, t0)
+            J = np.block([[K, -Pq.T, -E.T], [Pq, np.zeros((m, m + f))],
+                          [E, np.zeros((f, m + f))]])
+        residual = float(np.max(np.abs(r[:n]), initial=0.0)) / scale
+        if not np.all(np.isfinite(r)):
+            break
+        try:
+            dx = np.linalg.solve(J, r)
+        except np.linalg.LinAlgError:
+            break
+        x = x - dx
+        if np.max(np.abs(dx[:n]), initial=0.0) <= 1e-14 * (1.0 + np.max(np.abs(x[:n]))):
+            q = x[:n]
+            r = system.Q(t0, q, v0) - system.PhiqT_times(q, t0, x[n:n + m]) - E.T @ x[n + m:]
+            if float(np.max(np.abs(r), initial=0.0)) <= 1e-9 * scale:
+                return q
+            break
+    d = Diagnostic("error", "E507",
+                   "no static equilibrium was found near the assembled configuration "
+                   f"(force residual {residual:.3g} of the loads after Newton's method): "
+                   "the mechanism may not be held against its loads",
+                   model.static_span, "initial static",
+                   hint="a degree of freedom that only gravity or a constant load acts on has "
+                   "no equilibrium: add a spring, hold it with an 'initial' line, or drive it")
+    raise AssemblyError(d.message, [d])
+
+
+def _consistent_state(system, t0, tol, max_iter, elastic, q_start=None):
     """consistent_initial_state with the elastic coordinates started at
-    ``elastic[elastic columns]`` (shape (n,)) instead of 0."""
+    ``elastic[elastic columns]`` (shape (n,)) instead of 0, or the whole
+    configuration started at ``q_start`` (n,) (a static equilibrium)."""
     model, lay = system.model, system.layout
     n = system.n
     fixed_q = [(ic.coordinate, ic.value) for ic in model.initials
@@ -353,7 +431,7 @@ def _consistent_state(system, t0, tol, max_iter, elastic):
     sparse = system.n + system.m > DENSE_LIMIT
     weights = _column_weights(system)
     with np.errstate(all="ignore"):
-        q = place_bodies(system, t0)
+        q = place_bodies(system, t0) if q_start is None else np.array(q_start, dtype=float)
         if elastic is not None:
             for b in model.flexible_bodies:
                 q[b.elastic_columns()] = elastic[b.elastic_columns()]

@@ -56,6 +56,12 @@ def build_parser() -> argparse.ArgumentParser:
     chk.add_argument("--set", action="append", metavar="NAME=VALUE",
                      help="override a model parameter (repeatable)")
 
+    sta = sub.add_parser("static", help="find and print the model's static equilibrium "
+                         "(as 'initial static' starts a run)")
+    sta.add_argument("model", help="model file (.mbd)")
+    sta.add_argument("--set", action="append", metavar="NAME=VALUE",
+                     help="override a model parameter (repeatable)")
+
     plt = sub.add_parser("plot", help="plot time histories of a result file")
     plt.add_argument("result", help="result file written by simulate (.csv, .h5)")
     plt.add_argument("--y", help="comma-separated columns, one panel each "
@@ -218,6 +224,40 @@ def _check(args) -> int:
     _print_rank(init.structure)
     _print_diagnostics(init.warnings)
     print(init.report())
+    return 0
+
+
+def _static(args) -> int:
+    """Print the static equilibrium: coordinates, joint reactions, driver loads."""
+    import dataclasses
+
+    import numpy as np
+
+    from .. import assemble, consistent_initial_state
+    from ..solution import derived_columns
+    model = _load(args)
+    if model is None:
+        return 1
+    model = dataclasses.replace(model, static=True)
+    t0 = float(model.settings.get("t_start", 0.0))
+    system = assemble(model)
+    try:
+        init = consistent_initial_state(system, t0)
+    except MbdError as exc:
+        _print_diagnostics(exc.diagnostics)
+        return 4
+    _print_diagnostics(init.warnings)
+    print(f"{args.model}: static equilibrium of model {model.name} at t = {t0:g} s")
+    for name, value in zip(system.layout.coordinates, init.q):
+        print(f"  {name:<24} {value: .9g}")
+    derived = derived_columns(system, np.array([t0]), init.q[None], init.v[None],
+                              init.lam[None])
+    loads = [k for k in derived if k.startswith(("reaction.", "driver."))]
+    if loads:
+        print("  loads [N, N m]:")
+        for k in loads:
+            print(f"  {k:<24} {derived[k][0]: .6g}")
+    print(f"  energy.potential         {derived['energy.potential'][0]: .9g} J")
     return 0
 
 
@@ -467,8 +507,12 @@ def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     try:
         commands = {"check": _check, "simulate": _simulate, "plot": _plot, "animate": _animate,
-                    "study": _study}
+                    "study": _study, "static": _static}
         return commands[args.command](args)
+    except BrokenPipeError:           # the reader went away (| head): stop quietly
+        import os
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
     except argparse.ArgumentTypeError as exc:
         print(f"mbdsl: error: {exc}", file=sys.stderr)
         return 2

@@ -998,7 +998,8 @@ def check_spec(spec: ModelSpec, overrides: dict | None = None) -> Model:
         joints=tuple(c.joints.values()), drivers=tuple(c.drivers), forces=tuple(c.forces),
         gravity=gravity, initials=tuple(c.initials), settings=c.settings,
         parameters=dict(c.params), file=spec.file, source=spec.source,
-        sha256=hashlib.sha256(source.encode()).hexdigest() if spec.source else "")
+        sha256=hashlib.sha256(source.encode()).hexdigest() if spec.source else "",
+        static=bool(spec.static), static_span=spec.static_span)
     if not any(d.is_error for d in c.diags):
         c.check_structure(model)
     if any(d.is_error for d in c.diags):

@@ -322,6 +322,8 @@ class ModelSpec:
         Source file name, for diagnostics.
     source : str or None
         Source text, for diagnostics and the output's hash.
+    static : bool
+        ``initial static``: start at rest in static equilibrium.
     """
 
     name: str
@@ -339,6 +341,8 @@ class ModelSpec:
     source: str | None = None
     span: Span | None = None
     gravity_span: Span | None = None
+    static: bool = False
+    static_span: Span | None = None
 
     def __post_init__(self):
         for f in ("parameters", "ground_points", "bodies", "joints", "forces",

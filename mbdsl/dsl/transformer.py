@@ -46,9 +46,11 @@ class ToSpec(Transformer):
         header, *items = children
         buckets = {k: [] for k in ("parameters", "ground_points", "bodies", "joints",
                                    "forces", "drivers", "initials", "settings", "loops")}
-        gravity, gspan = None, None
+        gravity, gspan, static = None, None, None
         for it in items:
-            if isinstance(it, S.ParameterSpec):
+            if isinstance(it, tuple) and it and it[0] == "static":
+                static = it[1]
+            elif isinstance(it, S.ParameterSpec):
                 buckets["parameters"].append(it)
             elif isinstance(it, tuple) and it and it[0] == "gravity":
                 gravity, gspan = it[1], it[2]
@@ -70,7 +72,12 @@ class ToSpec(Transformer):
                 buckets["settings"].extend(it)
         return S.ModelSpec(name=header[0], gravity=gravity, gravity_span=gspan,
                            file=self.file, source=self.source, span=header[1],
-                           **buckets)
+                           static=static is not None, static_span=static, **buckets)
+
+    @v_args(meta=True)
+    def static_decl(self, meta, children):
+        """``initial static`` -> ("static", span)."""
+        return ("static", self._span(meta))
 
     @v_args(meta=True)
     def model_decl(self, meta, children):

@@ -417,6 +417,10 @@ class Model:
     file, source, sha256 : str
         Where the model came from.
     warnings : tuple of Diagnostic
+    static : bool
+        Start at rest in static equilibrium (``initial static``): the
+        positions the initial lines leave free are solved for equilibrium
+        under the declared forces at t_start.
     """
 
     name: str
@@ -433,6 +437,8 @@ class Model:
     source: str | None = None
     sha256: str = ""
     warnings: tuple = ()
+    static: bool = False
+    static_span: Span | None = None
 
     @property
     def n_coordinates(self) -> int:
