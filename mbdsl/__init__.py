@@ -87,7 +87,17 @@ def load_text(text: str, file: str = "<string>", overrides: dict | None = None) 
 
 
 def from_spec(spec: ModelSpec, overrides: dict | None = None) -> Model:
-    """Check a :class:`ModelSpec` built in Python (see :mod:`mbdsl.dsl.spec`)."""
+    """Check a :class:`ModelSpec` built in Python (see :mod:`mbdsl.dsl.spec`).
+
+    The model's source is the specification written in the language
+    (:func:`mbdsl.dsl.unparse.spec_text`), so that its result files can be
+    read back, plotted and animated like those of a model file.
+    """
+    if spec.source is None:
+        import dataclasses
+
+        from .dsl.unparse import spec_text
+        spec = dataclasses.replace(spec, source=spec_text(spec))
     return check_spec(spec, overrides)
 
 

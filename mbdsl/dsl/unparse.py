@@ -1,0 +1,155 @@
+"""Model specifications back to the language: the text of a :class:`ModelSpec`.
+
+A model built from Python (``ModelSpec``, ``mbdsl.from_spec``) has no file;
+its text, written here, is what the result files store as the model's source,
+so that ``mbdsl.load_solution``, ``mbdsl plot`` and ``mbdsl animate`` rebuild
+it exactly as they rebuild a model read from a file. Parsing the text gives
+the same specification (numbers are written with repr, which round-trips
+every float), hence the same model.
+"""
+
+from __future__ import annotations
+
+import math
+
+from .expressions import Binary, Call, Dotted, IndexedName, Name, Num, Unary, Vec
+
+__all__ = ["expr_text", "spec_text"]
+
+#: Binding strength of the operators (the grammar's precedence, ``mbd.lark`` sec. 3).
+_PREC = {"+": 1, "-": 1, "*": 2, "/": 2, "^": 4}
+_UNARY, _ATOM = 3, 5
+
+
+def _number(v: float) -> str:
+    if math.isnan(v):
+        return "(0/0)"
+    if math.isinf(v):
+        return "1e999" if v > 0 else "(-1e999)"
+    if v == int(v) and abs(v) < 1e15:
+        text = str(int(v))
+    else:
+        text = repr(float(v))
+    return text if not text.startswith("-") else f"({text})"
+
+
+def _prec(e) -> int:
+    if isinstance(e, Binary):
+        return _PREC[e.op]
+    if isinstance(e, Unary):
+        return _UNARY
+    if isinstance(e, Num) and (e.value < 0 or math.isinf(e.value)):
+        return _ATOM           # written in parentheses already
+    return _ATOM
+
+
+def _name(x) -> str:
+    return f"{x.base}[{expr_text(x.index)}]" if isinstance(x, IndexedName) else str(x)
+
+
+def expr_text(e) -> str:
+    """An expression, vector or reference as the language writes it.
+
+    Parentheses are written where the grammar's precedence needs them (``^``
+    binds tighter than unary minus and is right-associative; its left operand
+    is an atom).
+
+    Raises
+    ------
+    TypeError
+        Not an expression node.
+    """
+    if isinstance(e, Num):
+        return _number(e.value)
+    if isinstance(e, Name):
+        return e.name
+    if isinstance(e, IndexedName):
+        return _name(e)
+    if isinstance(e, Dotted):
+        return f"{_name(e.obj)}.{e.attr}"
+    if isinstance(e, Vec):
+        return f"({expr_text(e.x)}, {expr_text(e.y)})"
+    if isinstance(e, Call):
+        return f"{e.func}({expr_text(e.arg)})"
+    if isinstance(e, Unary):
+        inner = expr_text(e.operand)
+        return f"-({inner})" if _prec(e.operand) < _UNARY else f"-{inner}"
+    if isinstance(e, Binary):
+        p = _PREC[e.op]
+        left, right = expr_text(e.left), expr_text(e.right)
+        if e.op == "^":
+            if _prec(e.left) < _ATOM:                  # the left operand of ^ is an atom
+                left = f"({left})"
+            if _prec(e.right) < _UNARY:                # the right one a unary
+                right = f"({right})"
+        else:
+            if _prec(e.left) < p:
+                left = f"({left})"
+            if _prec(e.right) <= p:          # the tree as built, not a re-association
+                right = f"({right})"
+        return f"{left} {e.op} {right}" if p == 1 else f"{left}{e.op}{right}"
+    raise TypeError(f"not an expression: {e!r}")
+
+
+def _args(args) -> str:
+    return ", ".join(expr_text(a.value) if a.keyword is None
+                     else f"{a.keyword} = {expr_text(a.value)}" for a in args)
+
+
+def _item(it, indent: str) -> list[str]:
+    """The lines of one declaration (body, beam, joint, force, driver,
+    initial, for block)."""
+    from . import spec as S
+    if isinstance(it, S.BodySpec):
+        parts = [f"{p.name} {expr_text(p.value)}" for p in it.properties]
+        parts += [f"point {p.name} {expr_text(p.position)}" for p in it.points]
+        return [f"{indent}body {_name(it.name)} {{ {'; '.join(parts)} }}"]
+    if isinstance(it, S.BeamSpec):
+        parts = [f"{p.name} {expr_text(p.value)}" for p in it.properties]
+        if it.frame is not None:
+            parts.append(f"frame {it.frame}")
+        parts += [f"point {p.name} at {expr_text(p.at)}" for p in it.points]
+        return [f"{indent}flexible_beam {_name(it.name)} {{ {'; '.join(parts)} }}"]
+    if isinstance(it, S.JointSpec):
+        return [f"{indent}joint {_name(it.name)}: {it.kind}({_args(it.args)})"]
+    if isinstance(it, S.ForceSpec):
+        return [f"{indent}force {_name(it.name)}: {it.kind}({_args(it.args)})"]
+    if isinstance(it, S.DriverSpec):
+        return [f"{indent}driver {_name(it.name)}: {expr_text(it.target)} = "
+                f"{expr_text(it.value)}"]
+    if isinstance(it, S.InitialSpec):
+        word = "guess" if it.guess else "initial"
+        return [f"{indent}{word} {expr_text(it.target)} = {expr_text(it.value)}"]
+    if isinstance(it, S.ForSpec):
+        lines = [f"{indent}for {it.var} in {expr_text(it.start)}..{expr_text(it.end)} {{"]
+        for sub in it.items:
+            lines += _item(sub, indent + "  ")
+        return lines + [f"{indent}}}"]
+    raise TypeError(f"not a declaration: {it!r}")
+
+
+def spec_text(spec) -> str:
+    """The model file of a :class:`~mbdsl.dsl.spec.ModelSpec`.
+
+    Declarations are written grouped by kind (parameters, gravity, ground
+    points, bodies, joints, forces, drivers, initial lines, repeated blocks,
+    the simulate section): the language does not depend on their order.
+    """
+    lines = [f"model {spec.name}   # written by mbdsl from a model built in Python", ""]
+    lines += [f"parameter {p.name} = {expr_text(p.value)}" for p in spec.parameters]
+    if spec.gravity is not None:
+        lines.append(f"gravity {expr_text(spec.gravity)}")
+    if spec.ground_points:
+        pts = "; ".join(f"point {p.name} {expr_text(p.position)}" for p in spec.ground_points)
+        lines.append(f"ground {{ {pts} }}")
+    for group in (spec.bodies, spec.joints, spec.forces, spec.drivers, spec.initials,
+                  spec.loops):
+        for it in group:
+            lines += _item(it, "")
+    if spec.static:
+        lines.append("initial static")
+    if spec.settings:
+        parts = [f"method {s.value}" if s.name == "method" else f"{s.name} {expr_text(s.value)}"
+                 for s in spec.settings]
+        lines.append(f"simulate {{ {'; '.join(parts)} }}")
+    return "\n".join(lines) + "\n"
