@@ -11,7 +11,8 @@ coordinates, m constraint rows)::
     /energies               (N, 6)    kinetic, potential, total, work, dissipated, balance [J]
     /constraints            (N, 2)    max |Phi| [m], max |Phi_q v + Phi_t| [m/s]
     /reactions              (N, 3 J + D)  fx, fy [N], torque [N m] per joint, then the
-                            driver loads driver.<name>.force|torque
+                            driver loads driver.<name>.force|torque and the
+                            outputs output.<name>
     /newton                 (N, 5)    iterations, residuals, jacobians,
                                       factorizations, h of each step
     /model_source           str       the .mbd text (also an attribute)
@@ -76,7 +77,7 @@ def write_hdf5(solution, path, extra_metadata: dict | None = None) -> Path:
         _dataset(f, "energies", np.column_stack([derived[k] for k in energies]), energies)
         cons = ["constraint.position", "constraint.velocity"]
         _dataset(f, "constraints", np.column_stack([derived[k] for k in cons]), cons)
-        reac = [k for k in derived if k.startswith(("reaction.", "driver."))]
+        reac = [k for k in derived if k.startswith(("reaction.", "driver.", "output."))]
         _dataset(f, "reactions", np.column_stack([derived[k] for k in reac])
                  if reac else np.zeros((len(sol.t), 0)), reac)
         grp = f.create_group("newton")

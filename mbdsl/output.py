@@ -402,7 +402,7 @@ def read_csv_solution(path):
     extra_names = json.loads(meta.get("extras", "[]"))
     rows = [f"{a}.{b}" for a, b in lay.rows]
     derived = {k: values[:, i] for k, i in col.items()
-               if k in Solution.DERIVED_NAMES or k.startswith(("reaction.", "driver."))}
+               if k in Solution.DERIVED_NAMES or k.startswith(("reaction.", "driver.", "output."))}
     stats = {k: values[:, col[f"newton.{k}"]] for k in Solution.STAT_NAMES[:-1]}
     stats = {k: v.astype(int) for k, v in stats.items()}
     stats["h"] = values[:, col["step.h"]]

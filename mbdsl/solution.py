@@ -237,7 +237,60 @@ def driver_loads(system) -> list[tuple[str, int]]:
     return out
 
 
-def derived_columns(system, t, q, v, lam, start=None, end=None) -> dict:
+def output_columns(system, t, q, v, a, derived) -> dict:
+    """The ``output.<name>`` columns of the model's ``output`` lines, shape (N,)
+    each, evaluated over the rows (numpy: a division by zero gives inf).
+
+    Parameters
+    ----------
+    t : ndarray, shape (N,) [s]
+    q, v : ndarray, shape (N, n)
+    a : ndarray, shape (N, n), or None
+        Accelerations (None: an output that reads one is NaN).
+    derived : dict
+        The derived columns of the same rows (energies, reactions, loads).
+    """
+    from .assembly.groups import drot, rot
+    from .dsl.expressions import evaluate_rows
+    lay, N = system.layout, len(t)
+    index = {name: (q, i) for i, name in enumerate(lay.coordinates)}
+    index.update({name: (v, i) for i, name in enumerate(lay.velocities)})
+    if a is not None:
+        index.update({name: (a, i) for i, name in enumerate(lay.accelerations)})
+    out = {}
+    for o in system.model.outputs:
+        env = {}
+        for var in o.variables:
+            if var.kind == "column":
+                if var.column in index:
+                    arr, i = index[var.column]
+                    env[var.name] = arr[:, i]
+                else:
+                    env[var.name] = derived.get(var.column, np.full(N, np.nan))
+            elif var.kind == "joint":
+                src = q if var.field == "angle" else v
+                val = np.zeros(N)
+                for b, sign in zip(var.bodies, (-1.0, 1.0)):
+                    if b >= 0:
+                        val = val + sign * src[:, 3 * b + 2]
+                env[var.name] = val
+            else:                               # a point of a rigid body (or the ground)
+                b, s = var.point.body, np.asarray(var.point.local, dtype=float)
+                if b < 0:
+                    pos, vel = np.tile(s, (N, 1)), np.zeros((N, 2))
+                else:
+                    phi = q[:, 3 * b + 2]
+                    pos = q[:, 3 * b:3 * b + 2] + rot(phi, np.broadcast_to(s, (N, 2)))
+                    vel = v[:, 3 * b:3 * b + 2] + v[:, 3 * b + 2:3 * b + 3] * drot(
+                        phi, np.broadcast_to(s, (N, 2)))
+                k = {"x": 0, "y": 1, "vx": 0, "vy": 1}[var.field]
+                env[var.name] = (pos if var.field in ("x", "y") else vel)[:, k]
+        out[f"output.{o.name}"] = np.broadcast_to(
+            evaluate_rows(o.expr, env, np.asarray(t, dtype=float)), (N,)).astype(float)
+    return out
+
+
+def derived_columns(system, t, q, v, lam, start=None, end=None, a=None) -> dict:
     """Energies, constraint norms and joint reactions of stored rows.
 
     Every element is evaluated for all rows at once (the element groups
@@ -290,6 +343,8 @@ def derived_columns(system, t, q, v, lam, start=None, end=None) -> dict:
             out[f"reaction.{j.name}.{comp}"] = reac[:, k, c]
     for name, row in driver_loads(system):
         out[name] = -lam[:, row]
+    if system.model.outputs:
+        out.update(output_columns(system, t, q, v, a, out))
     if end is not None:              # for a writer that goes on with the next rows
         end.update(carry)
     return out
@@ -509,7 +564,7 @@ class Solution:
             return self._derived
         self._derived = derived_columns(self.system, self.t, self.q, self.v, self.lam,
                                         start=getattr(self, "energy_start", None),
-                                        end=self.energy_end)
+                                        end=self.energy_end, a=self.a)
         return self._derived
 
     @property
@@ -520,6 +575,7 @@ class Solution:
         reactions = [f"reaction.{j.name}.{c}" for j in self.model.joints
                      for c in ("fx", "fy", "torque")]
         reactions += [name for name, _ in driver_loads(self.system)]
+        reactions += [f"output.{o.name}" for o in self.model.outputs]
         return (["t"] + lay.coordinates + lay.velocities + lay.accelerations
                 + list(self.DERIVED_NAMES) + self._beam_columns() + lay.multiplier_names()
                 + extras + reactions

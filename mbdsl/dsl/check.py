@@ -20,7 +20,8 @@ from ..model import graph
 from ..registry import COEFFICIENTS, METHOD_COEFFICIENTS, METHOD_NAMES
 from ..model.elements import (COORDINATES, GROUND, VELOCITIES, Driver, InitialCondition,
                               FlexibleBeam, Joint, Model, PointForce, PointRef, RigidBody,
-                              JointTorque, RotationalSpringDamper, SpringDamper,
+                              JointTorque, Output, OutputVariable, RotationalSpringDamper,
+                              SpringDamper,
                               StateFunction, StateVariable, TimeFunction, Torque)
 import dataclasses
 
@@ -843,6 +844,105 @@ class _Checker:
             return None
         return self.vector(self.spec.gravity, self.spec.gravity_span, "gravity")
 
+    #: What an output may read besides bodies, points and joints: result columns.
+    OUTPUT_GROUPS = {"energy": ("kinetic", "potential", "total", "work", "dissipated", "balance"),
+                     "constraint": ("position", "velocity")}
+
+    def output_variable(self, ref: Dotted) -> OutputVariable:
+        """The quantity of a reference in an ``output`` expression.
+
+        Raises
+        ------
+        ExprError
+            E201 for an unknown body, point, joint or driver; E304 for a
+            field it does not have.
+        """
+        from ..model.elements import ACCELERATIONS
+
+        def fail(msg, code="E304", hint=""):
+            """The error of this reference."""
+            return ExprError(f"'{ref.text}': {msg}", code, ref.span, hint=hint)
+        if isinstance(ref.obj, Dotted):            # body.point.field, reaction.J.fx, driver.D.force
+            head, mid, attr = ref.obj.obj, ref.obj.attr, ref.attr
+            if head == "reaction":
+                if mid not in self.joints or attr not in ("fx", "fy", "torque"):
+                    raise fail("a reaction is reaction.<joint>.fx|fy|torque",
+                               "E201" if mid not in self.joints else "E304",
+                               _did_you_mean(mid, self.joints))
+                return OutputVariable(ref.text, "column", column=ref.text)
+            if head == "driver":
+                drivers = {d.name: d for d in self.drivers}
+                if mid not in drivers:
+                    raise fail("no such driver", "E201", _did_you_mean(mid, drivers))
+                d = drivers[mid]
+                force = (d.kind == "coordinate" and d.coord < 2) or d.kind == "joint_distance"
+                want = "force" if force else "torque"
+                if attr != want:
+                    raise fail(f"driver '{mid}' applies a {want}", hint=f"write driver.{mid}.{want}")
+                return OutputVariable(ref.text, "column", column=ref.text)
+            body = self.bodies.get(head) if isinstance(head, str) else None
+            if body is None:
+                raise fail(f"unknown body '{head}'", "E201",
+                           _did_you_mean(str(head), list(self.bodies) + ["reaction", "driver"]))
+            if isinstance(body, FlexibleBeam):
+                raise fail("outputs read points of rigid bodies, not of flexible beams",
+                           hint="use the beam's deflection column or a rigid body's point")
+            if mid not in body.points:
+                raise fail(f"body '{head}' has no point '{mid}'", "E201",
+                           _did_you_mean(mid, body.points))
+            if attr not in ("x", "y", "vx", "vy"):
+                raise fail("a point's field is x, y, vx or vy",
+                           hint=_did_you_mean(attr, ("x", "y", "vx", "vy")))
+            return OutputVariable(ref.text, "point", point=point_ref(body, mid, ref.text),
+                                  field=attr)
+        obj, attr = ref.obj, ref.attr
+        if obj in self.OUTPUT_GROUPS:
+            if attr not in self.OUTPUT_GROUPS[obj]:
+                raise fail(f"{obj} columns are {', '.join(self.OUTPUT_GROUPS[obj])}",
+                           hint=_did_you_mean(attr, self.OUTPUT_GROUPS[obj]))
+            return OutputVariable(ref.text, "column", column=ref.text)
+        if obj in self.bodies:
+            fields = COORDINATES + VELOCITIES + ACCELERATIONS
+            if attr not in fields:
+                raise fail(f"a body's fields are {', '.join(fields)}",
+                           hint=_did_you_mean(attr, fields) or "or a point: body.point.x")
+            return OutputVariable(ref.text, "column", column=ref.text)
+        if obj in self.joints:
+            j = self.joints[obj]
+            if j.kind != "revolute" or attr not in ("angle", "rate"):
+                raise fail("an output reads a revolute joint's angle or rate",
+                           hint=f"'{obj}' is a {j.kind} joint" if j.kind != "revolute"
+                           else _did_you_mean(attr, ("angle", "rate")))
+            return OutputVariable(ref.text, "joint", field=attr, bodies=j.bodies)
+        raise fail(f"unknown body or joint '{obj}'", "E201",
+                   _did_you_mean(str(obj), list(self.bodies) + list(self.joints)
+                                 + list(self.OUTPUT_GROUPS)))
+
+    def check_outputs(self):
+        """``output NAME = expr`` lines: names unique, references resolved."""
+        self.outputs = []
+        seen = {}
+        for o in self.spec.outputs:
+            if o.name in seen:
+                self.error("E202", f"output '{o.name}' is declared twice", o.span, "second one",
+                           secondary=((seen[o.name], "first declared here"),) if seen[o.name]
+                           else ())
+                continue
+            seen[o.name] = o.span
+            found = {}
+
+            def resolve(ref):
+                """The variable's name; records it."""
+                var = self.output_variable(ref)
+                found.setdefault(var.name, var)
+                return var.name
+            try:
+                e = substitute(o.value, self.params, resolve)
+            except ExprError as err:
+                self.expr_error(err, o.span, f"output '{o.name}'")
+                continue
+            self.outputs.append(Output(o.name, e, tuple(found.values()), o.span))
+
     def check_initials(self):
         """Resolve initial and guess lines; reject unknown fields and repeats."""
         self.initials = []
@@ -991,6 +1091,7 @@ def check_spec(spec: ModelSpec, overrides: dict | None = None) -> Model:
     c.check_drivers()
     c.check_forces()
     c.check_initials()
+    c.check_outputs()
     c.check_settings()
     source = spec.source or ""
     model = Model(
@@ -999,7 +1100,7 @@ def check_spec(spec: ModelSpec, overrides: dict | None = None) -> Model:
         gravity=gravity, initials=tuple(c.initials), settings=c.settings,
         parameters=dict(c.params), file=spec.file, source=spec.source,
         sha256=hashlib.sha256(source.encode()).hexdigest() if spec.source else "",
-        static=bool(spec.static), static_span=spec.static_span)
+        static=bool(spec.static), static_span=spec.static_span, outputs=tuple(c.outputs))
     if not any(d.is_error for d in c.diags):
         c.check_structure(model)
     if any(d.is_error for d in c.diags):

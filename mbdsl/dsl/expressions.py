@@ -20,7 +20,8 @@ from ..errors import Span
 
 __all__ = [
     "Num", "Name", "IndexedName", "Dotted", "Unary", "Binary", "Call", "Vec", "Expr",
-    "FUNCTIONS", "OPCODES", "ExprError", "evaluate", "free_names", "substitute", "diff",
+    "FUNCTIONS", "OPCODES", "ExprError", "evaluate", "evaluate_rows", "free_names",
+    "substitute", "diff",
     "postfix",
     "simplify", "compile_function", "compile_state_function", "as_expr",
 ]
@@ -72,8 +73,9 @@ class Dotted:
 
     @property
     def text(self) -> str:
-        """The reference as written, e.g. ``"crank.O"``."""
-        obj = self.obj.text if isinstance(self.obj, IndexedName) else self.obj
+        """The reference as written, e.g. ``"crank.O"`` (``"arm.T.x"``: obj is
+        itself a Dotted, a point of a body)."""
+        obj = self.obj.text if isinstance(self.obj, (IndexedName, Dotted)) else self.obj
         return f"{obj}.{self.attr}"
 
 
@@ -259,6 +261,41 @@ def evaluate(expr: Expr, env: dict[str, float], allow_t: bool = False,
         raise ExprError(f"the value is not finite ({value})", "E301",
                         getattr(expr, "span", None))
     return float(value)
+
+
+def evaluate_rows(expr: Expr, env: dict, t):
+    """A substituted expression over rows: names are looked up in ``env``
+    (name -> array of shape (N,)), ``t`` is the array of times (N,); numpy
+    arithmetic, so a division by zero or a domain error gives inf or NaN in
+    that row instead of raising.
+
+    Raises
+    ------
+    TypeError
+        A node that is not a number, a known name or an operator or function.
+    """
+    import numpy as np
+    ufuncs = {"sin": np.sin, "cos": np.cos, "tan": np.tan, "asin": np.arcsin,
+              "acos": np.arccos, "atan": np.arctan, "sinh": np.sinh, "cosh": np.cosh,
+              "tanh": np.tanh, "sqrt": np.sqrt, "exp": np.exp, "log": np.log, "abs": np.abs}
+
+    def _ev(e):
+        if isinstance(e, Num):
+            return np.full(np.shape(t), float(e.value))
+        if isinstance(e, Name):
+            return np.asarray(t, dtype=float) if e.name == "t" else np.asarray(env[e.name])
+        if isinstance(e, Unary):
+            return -_ev(e.operand)
+        if isinstance(e, Binary):
+            a, b = _ev(e.left), _ev(e.right)
+            return {"+": np.add, "-": np.subtract, "*": np.multiply, "/": np.divide,
+                    "^": np.power}[e.op](a, b)
+        if isinstance(e, Call):
+            return ufuncs[e.func](_ev(e.arg))
+        raise TypeError(f"cannot evaluate {e!r}")
+
+    with np.errstate(all="ignore"):
+        return _ev(expr)
 
 
 def free_names(expr: Expr) -> set[str]:

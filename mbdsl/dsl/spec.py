@@ -28,7 +28,7 @@ from .expressions import Dotted, Expr, Vec, as_expr
 __all__ = [
     "ParameterSpec", "PointSpec", "PropertySpec", "BodySpec", "ArgSpec",
     "JointSpec", "ForceSpec", "DriverSpec", "InitialSpec", "SettingSpec",
-    "ForSpec", "ModelSpec",
+    "ForSpec", "OutputSpec", "ModelSpec",
 ]
 
 
@@ -273,6 +273,20 @@ class InitialSpec:
 
 
 @dataclass(frozen=True)
+class OutputSpec:
+    """``output NAME = expr``: a column ``output.NAME`` of the results, any
+    expression of t, parameters and the state (``arm.T.y``, ``O.angle``,
+    ``crank.omega``, ``reaction.O.fx``, ``energy.total``)."""
+
+    name: str
+    value: Any
+    span: Span | None = None
+
+    def __post_init__(self):
+        _set(self, "value", as_expr(self.value))
+
+
+@dataclass(frozen=True)
 class SettingSpec:
     """A line of the ``simulate { }`` section; ``method`` holds a str."""
 
@@ -324,6 +338,8 @@ class ModelSpec:
         Source text, for diagnostics and the output's hash.
     static : bool
         ``initial static``: start at rest in static equilibrium.
+    outputs : sequence of OutputSpec
+        Output columns (sensors).
     """
 
     name: str
@@ -337,6 +353,7 @@ class ModelSpec:
     initials: tuple = ()
     settings: tuple = ()
     loops: tuple = ()
+    outputs: tuple = ()
     file: str = "<python>"
     source: str | None = None
     span: Span | None = None
@@ -346,7 +363,7 @@ class ModelSpec:
 
     def __post_init__(self):
         for f in ("parameters", "ground_points", "bodies", "joints", "forces",
-                  "drivers", "initials", "settings", "loops"):
+                  "drivers", "initials", "settings", "loops", "outputs"):
             _set(self, f, tuple(getattr(self, f)))
         if self.gravity is not None:
             _set(self, "gravity", _vec(self.gravity))

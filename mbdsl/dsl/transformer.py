@@ -45,7 +45,8 @@ class ToSpec(Transformer):
         """The whole file -> ModelSpec, statements sorted into their kinds."""
         header, *items = children
         buckets = {k: [] for k in ("parameters", "ground_points", "bodies", "joints",
-                                   "forces", "drivers", "initials", "settings", "loops")}
+                                   "forces", "drivers", "initials", "settings", "loops",
+                                   "outputs")}
         gravity, gspan, static = None, None, None
         for it in items:
             if isinstance(it, tuple) and it and it[0] == "static":
@@ -68,6 +69,8 @@ class ToSpec(Transformer):
                 buckets["initials"].append(it)
             elif isinstance(it, S.ForSpec):
                 buckets["loops"].append(it)
+            elif isinstance(it, S.OutputSpec):
+                buckets["outputs"].append(it)
             elif isinstance(it, list):
                 buckets["settings"].extend(it)
         return S.ModelSpec(name=header[0], gravity=gravity, gravity_span=gspan,
@@ -259,6 +262,17 @@ class ToSpec(Transformer):
     def dotted(self, meta, children):
         """``a.b`` or ``a[i].b`` -> Dotted."""
         return Dotted(self._name(children[0]), str(children[1]), self._span(meta))
+
+    @v_args(meta=True)
+    def dotted2(self, meta, children):
+        """``arm.T.x`` (a point's field, or ``reaction.O.fx``) -> Dotted of a Dotted."""
+        inner = Dotted(self._name(children[0]), str(children[1]), self._span(meta))
+        return Dotted(inner, str(children[2]), self._span(meta))
+
+    @v_args(meta=True)
+    def output_decl(self, meta, children):
+        """``output NAME = expr`` -> OutputSpec."""
+        return S.OutputSpec(str(children[0]), children[1], self._tspan(children[0]))
 
     @v_args(meta=True)
     def indexed(self, meta, children):

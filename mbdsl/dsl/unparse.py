@@ -44,6 +44,8 @@ def _prec(e) -> int:
 
 
 def _name(x) -> str:
+    if isinstance(x, Dotted):
+        return expr_text(x)
     return f"{x.base}[{expr_text(x.index)}]" if isinstance(x, IndexedName) else str(x)
 
 
@@ -148,6 +150,7 @@ def spec_text(spec) -> str:
             lines += _item(it, "")
     if spec.static:
         lines.append("initial static")
+    lines += [f"output {o.name} = {expr_text(o.value)}" for o in spec.outputs]
     if spec.settings:
         parts = [f"method {s.value}" if s.name == "method" else f"{s.name} {expr_text(s.value)}"
                  for s in spec.settings]

@@ -36,7 +36,7 @@ GROUND = -1
 __all__ = [
     "GROUND", "RigidBody", "FlexibleBeam", "PointRef", "Joint", "Driver", "SpringDamper",
     "RotationalSpringDamper", "Torque", "JointTorque", "PointForce", "InitialCondition",
-    "TimeFunction", "StateVariable", "StateFunction", "Model", "COORDINATES", "VELOCITIES", "ACCELERATIONS",
+    "TimeFunction", "StateVariable", "StateFunction", "Output", "OutputVariable", "Model", "COORDINATES", "VELOCITIES", "ACCELERATIONS",
 ]
 
 #: Names of a body's position coordinates, and of their rates, by index.
@@ -129,6 +129,47 @@ class StateFunction:
             src = qx if var.level == 0 else vx
             out[k] = var.offset + sum(c * src[3 * b + j] for b, j, c in var.terms)
         return out
+
+
+@dataclass(frozen=True)
+class OutputVariable:
+    """A quantity an output expression reads.
+
+    Attributes
+    ----------
+    name : str
+        As written, e.g. ``"arm.T.y"``.
+    kind : {"column", "point", "joint"}
+        "column": a result column by name (``column``); "point": ``field``
+        (x, y, vx, vy) of a rigid body's point ``point``; "joint": a revolute
+        joint's relative angle (``field`` "angle") or rate ("rate") of the
+        bodies ``bodies`` (first, second).
+    """
+
+    name: str
+    kind: str
+    column: str = ""
+    point: "PointRef | None" = None
+    field: str = ""
+    bodies: tuple = ()
+
+
+@dataclass(frozen=True)
+class Output:
+    """``output NAME = expr``: the column ``output.NAME``.
+
+    Attributes
+    ----------
+    name : str
+    expr : Expr
+        Substituted (parameters replaced), its variables as names.
+    variables : tuple of OutputVariable
+    """
+
+    name: str
+    expr: object
+    variables: tuple
+    span: Span | None = None
 
 
 @dataclass(frozen=True)
@@ -421,6 +462,8 @@ class Model:
         Start at rest in static equilibrium (``initial static``): the
         positions the initial lines leave free are solved for equilibrium
         under the declared forces at t_start.
+    outputs : tuple of Output
+        ``output`` lines: columns ``output.<name>``.
     """
 
     name: str
@@ -439,6 +482,7 @@ class Model:
     warnings: tuple = ()
     static: bool = False
     static_span: Span | None = None
+    outputs: tuple = ()
 
     @property
     def n_coordinates(self) -> int:
