@@ -763,6 +763,21 @@ class _Checker:
                 if el is not None and ok:
                     self.forces.append(el)
 
+    def joint_argument(self, arg, f, ctx) -> Joint | None:
+        """The joint a force names as its first argument; None after reporting
+        (silently for a joint whose own error is reported)."""
+        ref = arg.value
+        if isinstance(ref, Name) and ref.name in self.joints:
+            return self.joints[ref.name]
+        name = ref.name if isinstance(ref, Name) else "?"
+        # a claimed name that is no body is a joint whose own error is reported
+        if not (isinstance(ref, Name) and name in self.element_spans and name not in self.bodies):
+            self.error("E201", f"{ctx}: expected the name of a joint, got '{name}'",
+                       getattr(ref, "span", None) or f.span, "not a joint",
+                       hint=_did_you_mean(name, self.joints)
+                       or (f"'{name}' is a body" if name in self.bodies else ""))
+        return None
+
     def force_element(self, f, pos, opts, ctx):
         """Build one force element from checked arguments; None after reporting."""
         if f.kind == "spring_damper":
@@ -776,19 +791,11 @@ class _Checker:
                 return None
             return SpringDamper(f.name, a, b, opts["k"], opts["c"], opts["length"], f.span)
         if f.kind == "rotational_spring_damper":
-            ref = pos[0].value
-            if not isinstance(ref, Name) or ref.name not in self.joints:
-                name = ref.name if isinstance(ref, Name) else "?"
-                # a claimed name that is no body is a joint whose own error is reported
-                if not (isinstance(ref, Name) and name in self.element_spans
-                        and name not in self.bodies):
-                    self.error("E201", f"{ctx}: expected the name of a joint, got '{name}'",
-                               getattr(ref, "span", None) or f.span, "not a joint",
-                               hint=_did_you_mean(name, self.joints)
-                               or (f"'{name}' is a body" if name in self.bodies else ""))
+            joint = self.joint_argument(pos[0], f, ctx)
+            if joint is None:
                 return None
-            return RotationalSpringDamper(f.name, self.joints[ref.name], opts["k"], opts["c"],
-                                          opts["angle"], f.span)
+            return RotationalSpringDamper(f.name, joint, opts["k"], opts["c"], opts["angle"],
+                                          f.span)
         if f.kind == "torque":
             ref = pos[0].value
             if not isinstance(ref, Name) or ref.name not in self.bodies:
@@ -801,18 +808,10 @@ class _Checker:
             fn = self.force_function(pos[1].value, pos[1].span or f.span, ctx)
             return Torque(f.name, self.bodies[ref.name].index, fn, f.span) if fn else None
         if f.kind == "joint_torque":
-            ref = pos[0].value
-            if not isinstance(ref, Name) or ref.name not in self.joints:
-                name = ref.name if isinstance(ref, Name) else "?"
-                # a claimed name that is no body is a joint whose own error is reported
-                if not (isinstance(ref, Name) and name in self.element_spans
-                        and name not in self.bodies):
-                    self.error("E201", f"{ctx}: expected the name of a joint, got '{name}'",
-                               getattr(ref, "span", None) or f.span, "not a joint",
-                               hint=_did_you_mean(name, self.joints)
-                               or (f"'{name}' is a body" if name in self.bodies else ""))
+            joint = self.joint_argument(pos[0], f, ctx)
+            if joint is None:
                 return None
-            joint = self.joints[ref.name]
+            ref = pos[0].value
             if joint.kind != "revolute":
                 self.error("E305", f"{ctx}: a joint torque acts in a revolute joint; "
                            f"'{joint.name}' is a {joint.kind} joint",

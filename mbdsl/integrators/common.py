@@ -14,7 +14,7 @@ from ..assembly.sparse import JacobianAssembler, Term
 
 __all__ = ["newmark_predictor", "force_term", "index3_newton_matrix", "bdf_coefficients",
            "roundoff_floor", "EPS", "Terms", "assemble", "hht_coefficients",
-           "acceleration_scales"]
+           "acceleration_scales", "si2_residual", "si2_newton_matrix"]
 
 EPS = float(np.finfo(float).eps)
 
@@ -208,3 +208,57 @@ def roundoff_floor(system, q: np.ndarray, velocity_per_metre: float, n_kinematic
     qmax = float(np.max(np.abs(q), initial=0.0))
     f = 32.0 * EPS * (1.0 + qmax) * velocity_per_metre
     return np.full(n_kinematic + n_multiplier, f)
+
+
+def si2_residual(ctx, q, v, x, abar, lam, mu, c_mass: float, old_force=None) -> np.ndarray:
+    """Residual of the stabilized index-2 Newmark-type methods (HHT-SI2,
+    GENALPHA-SI2), shape (2n + 2m,):
+
+        c_mass Mhat x + (Phi_q^T lambda - Q)_{n+1} [- old_force]
+        Mhat abar + Phi_q^T(q_{n+1}) mu
+        1/h^2 Phi(q_{n+1}, t_{n+1})
+        1/h (Phi_q v + Phi_t)_{n+1}
+
+    Mhat = M(ctx.cache["qhat"]) held for the step; ``old_force`` the
+    method's term at t_n (HHT: alpha/(1+alpha) F_n), or None.
+    """
+    sys, t, h = ctx.system, ctx.t, ctx.h
+    qhat = ctx.cache["qhat"]
+    r1 = c_mass * sys.mass_times(qhat, x) + force_term(sys, t, q, v, lam)
+    if old_force is not None:
+        r1 = r1 - old_force
+    r2 = sys.mass_times(qhat, abar) + sys.PhiqT_times(q, t, mu)
+    r3 = sys.Phi(q, t) / (h * h)
+    r4 = (sys.Phiq_times(q, t, v) + sys.Phi_t(q, t)) / h
+    return np.concatenate([r1, r2, r3, r4])
+
+
+def si2_newton_matrix(ctx, q, v, lam, mu, c_mass: float, beta: float, gamma: float):
+    """Exact Newton matrix of :func:`si2_residual` in (x, abar, lambda, mu), with
+    q = q_pred + beta h^2 x + h^2/2 abar and v = v_pred + gamma h x (HHT-SI2:
+    beta, gamma; GENALPHA-SI2: beta', gamma'):
+
+        [[c Mhat + beta h^2 K - gamma h Q_v, h^2/2 K,                   Phi_q^T, 0      ],
+         [beta h^2 (Phi_q^T mu)_q,           Mhat + h^2/2 (Phi_q^T mu)_q, 0,       Phi_q^T],
+         [beta Phi_q,                        Phi_q / 2,                 0,       0      ],
+         [gamma Phi_q + beta h G,            h/2 G,                     0,       0      ]]
+
+    K = (Phi_q^T lambda)_q - Q_q, G = (Phi_q v)_q + Phi_qt; Mhat is held, so
+    no (M a)_q term. Shape (2n + 2m, 2n + 2m).
+    """
+    sys, t, h = ctx.system, ctx.t, ctx.h
+    n, m = sys.n, sys.m
+    qhat = ctx.cache["qhat"]
+    bh2, hh2, gh = beta * h * h, 0.5 * h * h, gamma * h
+    Kmu = sys.PhiqT_lam_q_values(q, mu)
+    T = Terms(sys).mass(qhat, coef=c_mass)
+    T.stiffness(t, q, v, lam, row0=0, col0=0, c_q=bh2, c_v=gh)
+    T.stiffness(t, q, v, lam, row0=0, col0=n, c_q=hh2)
+    T.Phi_q(q, t, 0, 2 * n, transpose=True)
+    T.add(sys.pattern_hessian, Kmu, n, 0, bh2)
+    T.mass(qhat, n, n).add(sys.pattern_hessian, Kmu, n, n, hh2)
+    T.Phi_q(q, t, n, 2 * n + m, transpose=True)
+    T.Phi_q(q, t, 2 * n, 0, beta).Phi_q(q, t, 2 * n, n, 0.5)
+    T.Phi_q(q, t, 2 * n + m, 0, gamma).G(q, v, t, 2 * n + m, 0, beta * h)
+    T.G(q, v, t, 2 * n + m, n, 0.5 * h)
+    return assemble(ctx, T, 2 * n + 2 * m)

@@ -14,8 +14,8 @@ from __future__ import annotations
 import numpy as np
 
 from .base import Block, Method, StepContext, StepState, check_range
-from .common import (Terms, acceleration_scales, assemble, index3_newton_matrix,
-                     roundoff_floor)
+from .common import (acceleration_scales, index3_newton_matrix, roundoff_floor,
+                     si2_newton_matrix, si2_residual)
 from .recipe import genalpha_recipe
 
 __all__ = ["GenAlpha", "GenAlphaSI2", "genalpha_coefficients"]
@@ -311,35 +311,14 @@ class GenAlphaSI2(_GenAlphaBase):
         return np.concatenate([s.a, np.zeros(n), s.lam, np.zeros(m)])
 
     def residual(self, w, ctx) -> np.ndarray:
-        """Upsilon(w), shape (2n + 2m,)."""
-        sys, t, h = ctx.system, ctx.t, ctx.h
+        """Upsilon(w), shape (2n + 2m,) (``common.si2_residual``)."""
         x, abar, lam, mu, q, v = self._split(w, ctx)
-        qhat = ctx.cache["qhat"]
-        r1 = sys.mass_times(qhat, x) + sys.PhiqT_times(q, t, lam) - sys.Q(t, q, v)
-        r2 = sys.mass_times(qhat, abar) + sys.PhiqT_times(q, t, mu)
-        r3 = sys.Phi(q, t) / (h * h)
-        r4 = (sys.Phiq_times(q, t, v) + sys.Phi_t(q, t)) / h
-        return np.concatenate([r1, r2, r3, r4])
+        return si2_residual(ctx, q, v, x, abar, lam, mu, 1.0)
 
     def jacobian(self, w, ctx):
-        """Exact Newton matrix, shape (2n + 2m, 2n + 2m)."""
-        sys, t, h = ctx.system, ctx.t, ctx.h
-        n, m = sys.n, sys.m
+        """Exact Newton matrix, shape (2n + 2m, 2n + 2m) (``common.si2_newton_matrix``)."""
         x, abar, lam, mu, q, v = self._split(w, ctx)
-        qhat = ctx.cache["qhat"]
-        bh2, hh2, gh = self.beta_p * h * h, 0.5 * h * h, self.gamma_p * h
-        Kmu = sys.PhiqT_lam_q_values(q, mu)
-        T = Terms(sys).mass(qhat)
-        T.stiffness(t, q, v, lam, row0=0, col0=0, c_q=bh2, c_v=gh)       # Mhat is held: no (M a)_q
-        T.stiffness(t, q, v, lam, row0=0, col0=n, c_q=hh2)
-        T.Phi_q(q, t, 0, 2 * n, transpose=True)
-        T.add(sys.pattern_hessian, Kmu, n, 0, bh2)
-        T.mass(qhat, n, n).add(sys.pattern_hessian, Kmu, n, n, hh2)
-        T.Phi_q(q, t, n, 2 * n + m, transpose=True)
-        T.Phi_q(q, t, 2 * n, 0, self.beta_p).Phi_q(q, t, 2 * n, n, 0.5)
-        T.Phi_q(q, t, 2 * n + m, 0, self.gamma_p).G(q, v, t, 2 * n + m, 0, self.beta_p * h)
-        T.G(q, v, t, 2 * n + m, n, 0.5 * h)
-        return assemble(ctx, T, 2 * n + 2 * m)
+        return si2_newton_matrix(ctx, q, v, lam, mu, 1.0, self.beta_p, self.gamma_p)
 
     def accept(self, w, ctx) -> StepState:
         """State at t_{n+1}, with mu and the advanced auxiliary acceleration."""

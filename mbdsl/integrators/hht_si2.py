@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from .base import Block, Method, StepContext, StepState
-from .common import (Terms, assemble, force_term,
-                     hht_coefficients, newmark_predictor, roundoff_floor)
+from .common import (force_term, hht_coefficients, newmark_predictor, roundoff_floor,
+                     si2_newton_matrix, si2_residual)
 from .recipe import newmark_recipe
 
 __all__ = ["HHTSI2"]
@@ -123,37 +123,16 @@ class HHTSI2(Method):
         return np.concatenate([s.a, np.zeros(n), s.lam, np.zeros(m)])
 
     def residual(self, w, ctx) -> np.ndarray:
-        """Upsilon(w), shape (2n + 2m,)."""
-        sys, t, h = ctx.system, ctx.t, ctx.h
+        """Upsilon(w), shape (2n + 2m,) (``common.si2_residual``)."""
         a, abar, lam, mu, q, v = self._split(w, ctx)
-        qhat = ctx.cache["qhat"]
         c = 1.0 / (1.0 + self.alpha)
-        r1 = (c * sys.mass_times(qhat, a) + force_term(sys, t, q, v, lam)
-              - self.alpha * c * ctx.last.extra["F"])
-        r2 = sys.mass_times(qhat, abar) + sys.PhiqT_times(q, t, mu)
-        r3 = sys.Phi(q, t) / (h * h)
-        r4 = (sys.Phiq_times(q, t, v) + sys.Phi_t(q, t)) / h
-        return np.concatenate([r1, r2, r3, r4])
+        return si2_residual(ctx, q, v, a, abar, lam, mu, c, self.alpha * c * ctx.last.extra["F"])
 
     def jacobian(self, w, ctx) -> np.ndarray:
-        """Exact Newton matrix, shape (2n + 2m, 2n + 2m)."""
-        sys, t, h = ctx.system, ctx.t, ctx.h
-        n, m = sys.n, sys.m
+        """Exact Newton matrix, shape (2n + 2m, 2n + 2m) (``common.si2_newton_matrix``)."""
         a, abar, lam, mu, q, v = self._split(w, ctx)
-        qhat = ctx.cache["qhat"]
-        bh2, hh2, gh = self.beta * h * h, 0.5 * h * h, self.gamma * h
-        Kmu = sys.PhiqT_lam_q_values(q, mu)
-        T = Terms(sys).mass(qhat, coef=1.0 / (1.0 + self.alpha))
-        T.stiffness(t, q, v, lam, row0=0, col0=0, c_q=bh2, c_v=gh)       # Mhat is held: no (M a)_q
-        T.stiffness(t, q, v, lam, row0=0, col0=n, c_q=hh2)
-        T.Phi_q(q, t, 0, 2 * n, transpose=True)
-        T.add(sys.pattern_hessian, Kmu, n, 0, bh2)
-        T.mass(qhat, n, n).add(sys.pattern_hessian, Kmu, n, n, hh2)
-        T.Phi_q(q, t, n, 2 * n + m, transpose=True)
-        T.Phi_q(q, t, 2 * n, 0, self.beta).Phi_q(q, t, 2 * n, n, 0.5)
-        T.Phi_q(q, t, 2 * n + m, 0, self.gamma).G(q, v, t, 2 * n + m, 0, self.beta * h)
-        T.G(q, v, t, 2 * n + m, n, 0.5 * h)
-        return assemble(ctx, T, 2 * n + 2 * m)
+        return si2_newton_matrix(ctx, q, v, lam, mu, 1.0 / (1.0 + self.alpha), self.beta,
+                                 self.gamma)
 
     def accept(self, w, ctx) -> StepState:
         """State at t_{n+1}, with mu and the force term for the next step."""

@@ -141,7 +141,9 @@ def test_stiff_mode_is_damped_faster_with_more_negative_alpha(method):
     weak = mbdsl.simulate(model, method=method, h=1e-3, t_end=0.2, alpha=-0.05)
     assert elbow_energy(strong)[0] == pytest.approx(5.0)
     assert settle_time(strong) <= 0.05
-    assert settle_time(strong) < settle_time(weak) < np.inf
+    # at least three times sooner (the figure docs/studies/double_pendulum_stiff/alpha_effect
+    # shows it for every method; examples/alpha_effect.py draws it)
+    assert 3 * settle_time(strong) <= settle_time(weak) < np.inf
 
 
 def test_trapezoidal_newmark_keeps_the_stiff_mode():
