@@ -437,7 +437,8 @@ class Series:
     x, y : ndarray, shape (N,)
     kind : {"line", "scatter", "bar"}
         ``line``: lines with markers at the points; ``scatter``: markers only
-        (one per step); ``bar``: bars at positions 0..N-1 labelled ``x``.
+        (one per step); ``bar``: bars at positions 0..N-1 labelled ``x``
+        (several bar series of a panel are grouped side by side).
     """
 
     label: str
@@ -499,13 +500,21 @@ def write_figure(panels, stem, title: str = "", columns: int | None = None) -> l
         # which would replace a bar chart's method names by the numbers 0..N-1
         ax.set_xscale(panel.xscale)
         ax.set_yscale(panel.yscale)
+        n_bars = sum(s.kind == "bar" for s in panel.series)
+        width = 0.8 / max(n_bars, 1)
+        b = 0
         for j, s in enumerate(panel.series):
             x, y = np.asarray(s.x), np.asarray(s.y, dtype=float)
             # every drawn artist of a series carries the id "series-<panel>-<series>[-<bar>]",
             # so the SVG says how many series each panel shows
             gid = f"series-{k}-{j}"
             if s.kind == "bar":
-                bars = ax.bar(np.arange(len(y)), y, label=s.label, tick_label=[str(v) for v in x])
+                # several bar series in one panel are grouped side by side at each label
+                pos = np.arange(len(y)) + (b - (n_bars - 1) / 2) * width
+                bars = ax.bar(pos, y, width=width if n_bars > 1 else 0.8, label=s.label)
+                if b == 0:
+                    ax.set_xticks(np.arange(len(y)), [str(v) for v in x])
+                b += 1
                 for i, bar in enumerate(bars):
                     bar.set_gid(f"{gid}-{i}")
                 ax.tick_params(axis="x", labelrotation=30, labelsize=8)
