@@ -232,7 +232,7 @@ class _Checker:
 
     def point(self, expr, span, context) -> PointRef | None:
         """Resolve ``body.point`` to a PointRef; None after reporting."""
-        if not isinstance(expr, Dotted):
+        if not isinstance(expr, Dotted) or not isinstance(expr.obj, str):
             self.error("E305", f"{context}: expected a point like 'body.point'",
                        getattr(expr, "span", None) or span, "not a point reference",
                        hint="write e.g. 'crank.A' or 'ground.origin'")
@@ -329,6 +329,9 @@ class _Checker:
             name = self.resolve_name(obj, env, span)
             return None if name is None else Name(name, obj.span)
         if isinstance(obj, Dotted):
+            if isinstance(obj.obj, Dotted):        # link[i].B.x: resolve the inner reference
+                inner = self.instantiate(obj.obj, env, span)
+                return None if inner is None else Dotted(inner, obj.attr, obj.span)
             name = self.resolve_name(obj.obj, env, obj.span or span)
             return None if name is None else Dotted(name, obj.attr, obj.span)
         if isinstance(obj, Unary):

@@ -62,3 +62,15 @@ def test_output_mistakes_are_reported_at_their_place(line, code, text):
     d = [d for d in info.value.diagnostics if d.code == code]
     assert d and d[0].span is not None, [str(x) for x in info.value.diagnostics]
     assert any(text in (x.message + " " + (x.hint or "")) for x in d)
+
+
+def test_a_point_with_a_field_where_a_point_is_expected():
+    """``crank.A.y`` parses (an output reads it) but is no point: E305 at its place."""
+    text = (MODELS / "slider_crank.mbd").read_text().replace(
+        "spring_damper(ground.origin, rod.B", "spring_damper(ground.origin.x, rod.B")
+    with pytest.raises(MbdModelError) as info:
+        mbdsl.load_text(text, "sc.mbd")
+    d = info.value.diagnostics[0]
+    assert d.code == "E305" and "expected a point like 'body.point'" in d.message
+    assert d.span is not None and d.span.line == text.splitlines().index(
+        next(x for x in text.splitlines() if "ground.origin.x" in x)) + 1

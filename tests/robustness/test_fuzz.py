@@ -33,7 +33,9 @@ INSERTS = ["kg", "m/s", "{", "}", "(", ")", ",", ";", "=", ":", "..", "é", "→
            "revolute", "body", "joint", "initial", "guess", "driver", "force", "[", "]", "^",
            # the state in force expressions, joint torques and distance drivers
            ".", "omega", "rate", "angle", "distance", "crank.omega", "O.rate", "joint_torque",
-           "torque", "prismatic"]
+           "torque", "prismatic",
+           # static starts and output lines
+           "static", "initial static\n", "output", "output x = crank.A.y\n", "reaction"]
 
 
 def tokens(text):
