@@ -14,7 +14,8 @@ from ..assembly.sparse import JacobianAssembler, Term
 
 __all__ = ["newmark_predictor", "force_term", "index3_newton_matrix", "bdf_coefficients",
            "roundoff_floor", "EPS", "Terms", "assemble", "hht_coefficients",
-           "acceleration_scales", "si2_residual", "si2_newton_matrix"]
+           "acceleration_scales", "si2_blocks", "si2_scales", "si2_residual",
+           "si2_newton_matrix"]
 
 EPS = float(np.finfo(float).eps)
 
@@ -208,6 +209,24 @@ def roundoff_floor(system, q: np.ndarray, velocity_per_metre: float, n_kinematic
     qmax = float(np.max(np.abs(q), initial=0.0))
     f = 32.0 * EPS * (1.0 + qmax) * velocity_per_metre
     return np.full(n_kinematic + n_multiplier, f)
+
+
+def si2_blocks(system):
+    """The unknowns (a, abar, lambda, mu) of the stabilized index-2
+    Newmark-type methods (HHT-SI2, GENALPHA-SI2)."""
+    from .base import Block
+    n, m = system.n, system.m
+    return [Block("a", n, "kinematic"), Block("abar", n, "kinematic"),
+            Block("lam", m, "multiplier"), Block("mu", m, "multiplier")]
+
+
+def si2_scales(system, q, dv_da: float, h: float) -> np.ndarray:
+    """Velocity-equivalent scales of (a, abar, lambda, mu): dv/da for a, h/2
+    for abar (dq/h), the same times the multiplier mobility for lambda and
+    mu; shape (2n + 2m,)."""
+    n, hh = system.n, 0.5 * h
+    mob = system.multiplier_mobility(q)
+    return np.concatenate([np.full(n, dv_da), np.full(n, hh), dv_da * mob, hh * mob])
 
 
 def si2_residual(ctx, q, v, x, abar, lam, mu, c_mass: float, old_force=None) -> np.ndarray:

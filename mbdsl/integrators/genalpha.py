@@ -15,7 +15,7 @@ import numpy as np
 
 from .base import Block, Method, StepContext, StepState, check_range
 from .common import (acceleration_scales, index3_newton_matrix, roundoff_floor,
-                     si2_newton_matrix, si2_residual)
+                     si2_blocks, si2_newton_matrix, si2_residual, si2_scales)
 from .recipe import genalpha_recipe
 
 __all__ = ["GenAlpha", "GenAlphaSI2", "genalpha_coefficients"]
@@ -261,16 +261,13 @@ class GenAlphaSI2(_GenAlphaBase):
     extras = ("mu",)
 
     def blocks(self, system) -> list[Block]:
-        """(a, abar, lam, mu); a is qdd_{n+1}."""
-        n, m = system.n, system.m
-        return [Block("a", n, "kinematic"), Block("abar", n, "kinematic"),
-                Block("lam", m, "multiplier"), Block("mu", m, "multiplier")]
+        """(a, abar, lam, mu) (``common.si2_blocks``)."""
+        return si2_blocks(system)
 
     def scales(self, system, h, q) -> np.ndarray:
-        """gamma' h for qdd, h/2 for abar, the same times the mobility for lambda, mu."""
-        n, gh, hh = system.n, self.gamma_p * h, 0.5 * h
-        mob = system.multiplier_mobility(q)
-        return np.concatenate([np.full(n, gh), np.full(n, hh), gh * mob, hh * mob])
+        """gamma' h for qdd, h/2 for abar, the same times the mobility for
+        lambda, mu (``common.si2_scales``)."""
+        return si2_scales(system, q, self.gamma_p * h, h)
 
     def roundoff_floor(self, system, h, q) -> np.ndarray:
         """Phi's round-off through the 1/h^2 rows, times h/2."""

@@ -6,7 +6,7 @@ import numpy as np
 
 from .base import Block, Method, StepContext, StepState
 from .common import (force_term, hht_coefficients, newmark_predictor, roundoff_floor,
-                     si2_newton_matrix, si2_residual)
+                     si2_blocks, si2_newton_matrix, si2_residual, si2_scales)
 from .recipe import newmark_recipe
 
 __all__ = ["HHTSI2"]
@@ -71,16 +71,13 @@ class HHTSI2(Method):
         return {"alpha": self.alpha, "beta": self.beta, "gamma": self.gamma}
 
     def blocks(self, system) -> list[Block]:
-        """(a, abar, lam, mu)."""
-        n, m = system.n, system.m
-        return [Block("a", n, "kinematic"), Block("abar", n, "kinematic"),
-                Block("lam", m, "multiplier"), Block("mu", m, "multiplier")]
+        """(a, abar, lam, mu) (``common.si2_blocks``)."""
+        return si2_blocks(system)
 
     def scales(self, system, h, q) -> np.ndarray:
-        """gamma h for a, h/2 for abar (dq/h), the same times the mobility for lambda, mu."""
-        n, gh, hh = system.n, self.gamma * h, 0.5 * h
-        mob = system.multiplier_mobility(q)
-        return np.concatenate([np.full(n, gh), np.full(n, hh), gh * mob, hh * mob])
+        """gamma h for a, h/2 for abar, the same times the mobility for
+        lambda, mu (``common.si2_scales``)."""
+        return si2_scales(system, q, self.gamma * h, h)
 
     def roundoff_floor(self, system, h, q) -> np.ndarray:
         """Phi's round-off through the 1/h^2 rows, times h/2."""
