@@ -482,48 +482,59 @@ class TorqueGroup:
 
 
 class StateTorqueGroup:
-    """Torques of time and of the motion: tau(t, x) on a body (``torque``), or
-    +tau on a revolute joint's second body and -tau on its first
-    (``joint_torque``), x the state variables the expression reads
-    (``StateVariable``: linear in q or in v).
+    """Loads of time and of the motion, tau(t, x) times a direction w(q):
 
-    Q_q = sign dtau/dx_k dx_k/dq for the position-level variables, Q_v the
-    same for the velocity-level ones: the partial derivatives are the
-    expression's own, differentiated symbolically (``StateFunction.grads``).
-    Local coordinates per instance: the rotation coordinates of its targets,
-    then those its variables read, padded by the ground's dummy column.
+    * a torque on a body (``torque``): w = e_phi of the body;
+    * a torque in a revolute joint (``joint_torque``): w = e_phi2 - e_phi1;
+    * a force along a sliding joint (``joint_force``): w = grad s, s the
+      joint's distance (``model.elements.line_distance``): +tau u on its
+      sliding point, -tau u on the line's point, in generalized form;
+
+    x the state variables the expression reads (``StateVariable``: linear in
+    q or v, or a sliding joint's distance or speed). Then
+
+        Q = tau w,  Q_q = w (dtau/dq)^T + tau dw/dq,  Q_v = w (dtau/dv)^T
+
+    with dtau/dq = sum_k dtau/dx_k dx_k/dq (the expression's partial
+    derivatives, symbolic: ``StateFunction.grads``; dx/dq of a distance is
+    grad s, of a speed grad s . v is (d^2 s) v and dx/dv = grad s), and dw/dq
+    = d^2 s for a force, 0 for a torque. Local coordinates per instance: the
+    coordinates of its direction, then those its variables read, padded by
+    the ground's dummy column.
 
     Attributes
     ----------
     cols : ndarray of intp, shape (k, c)
-    targets : list of (int, int)
-        Per instance, the local columns of the +tau and the -tau body (the
-        ground's dummy column for a torque on one body).
+    targets : list of (int, int) or None
+        Per torque, the local columns of the +tau and the -tau body (the
+        ground's dummy column for a torque on one body); None for a force.
     """
 
-    def __init__(self, n, plus, minus, functions):
-        from ..model.elements import StateFunction
+    def __init__(self, n, plus, minus, functions, lines=None):
+        from ..model.elements import line_columns
         self.n = n
         self.functions = list(functions)
+        self.lines = list(lines) if lines is not None else [None] * len(self.functions)
         ground_phi = n + 2
-        per, self.targets, self._vars = [], [], []
-        for p, m, f in zip(plus, minus, functions):
-            targets = [3 * b + 2 if b >= 0 else ground_phi for b in (p, m)]
-            cols = list(targets)
-            if isinstance(f, StateFunction):
-                for var in f.variables:
-                    cols += [3 * b + j for b, j, _ in var.terms]
+        per, self.targets, self._line_cols, self._vars = [], [], [], []
+        for p, m, f, line in zip(plus, minus, self.functions, self.lines):
+            if line is None:
+                own = [3 * b + 2 if b >= 0 else ground_phi for b in (p, m)]
+            else:
+                own = line_columns(line, n)
+            cols = list(own)
+            for var in getattr(f, "variables", ()):
+                cols += var.columns(n)
             cols = list(dict.fromkeys(cols))
             where = {c: a for a, c in enumerate(cols)}
-            self.targets.append((where[targets[0]], where[targets[1]]))
-            self._vars.append([] if not isinstance(f, StateFunction) else
-                              [(var.level, [(where[3 * b + j], c) for b, j, c in var.terms])
-                               for var in f.variables])
+            self.targets.append((where[own[0]], where[own[1]]) if line is None else None)
+            self._line_cols.append([where[c] for c in own] if line is not None else None)
+            self._vars.append([(var, [where[c] for c in var.columns(n)])
+                               for var in getattr(f, "variables", ())])
             per.append(cols)
         width = max(len(c) for c in per)
         self.cols = np.array([c + [ground_phi] * (width - len(c)) for c in per], dtype=np.intp)
-        self._state = [isinstance(f, StateFunction) for f in self.functions]
-        self.damped = any(level == 1 for v in self._vars for level, _ in v)
+        self.damped = any(var.level == 1 for v in self._vars for var, _ in v)
 
     def _tau(self, f, qx, vx, t):
         """tau and, for a state function, the variables' values."""
@@ -532,31 +543,53 @@ class StateTorqueGroup:
             return f.f(t, x), x
         return f.f(t), None
 
+    def _direction(self, i, qx):
+        """(local columns, w, dw/dq or None) of instance i."""
+        if self.lines[i] is None:
+            a, b = self.targets[i]
+            return [a, b], np.array([1.0, -1.0]), None
+        from ..model.elements import line_distance
+        _, grad, H = line_distance(self.lines[i], qx)
+        return self._line_cols[i], grad, H
+
     def forces(self, qx, vx, t):
-        """Local Q, shape (k, c) [N m]."""
+        """Local Q, shape (k, c) [N, N m]."""
         out = np.zeros(self.cols.shape)
         for i, f in enumerate(self.functions):
             tau, _ = self._tau(f, qx, vx, t)
-            a, b = self.targets[i]
-            out[i, a] += tau
-            out[i, b] -= tau
+            cols, w, _ = self._direction(i, qx)
+            np.add.at(out[i], cols, tau * w)
         return out
 
     def derivatives(self, qx, vx, t):
         """Local (Q_q, Q_v), shape (k, c, c)."""
+        from ..model.elements import line_distance
         k, c = self.cols.shape
         Qq, Qv = np.zeros((k, c, c)), np.zeros((k, c, c))
         for i, f in enumerate(self.functions):
-            if not self._state[i]:
+            tau, x = self._tau(f, qx, vx, t)
+            cols, w, dw = self._direction(i, qx)
+            if dw is not None:
+                Qq[i][np.ix_(cols, cols)] += tau * dw
+            if x is None:
                 continue
-            x = f.values(qx, vx)
-            a, b = self.targets[i]
-            for grad, (level, terms) in zip(f.grads, self._vars[i]):
+            dq, dv = np.zeros(c), np.zeros(c)
+            for grad, (var, local) in zip(f.grads, self._vars[i]):
                 g = grad(t, x)
-                M = Qq if level == 0 else Qv
-                for col, coef in terms:
-                    M[i, a, col] += g * coef
-                    M[i, b, col] -= g * coef
+                if var.line is None:
+                    target = dq if var.level == 0 else dv
+                    for a, (_, _, coef) in zip(local, var.terms):
+                        target[a] += g * coef
+                    continue
+                _, gs, Hs = line_distance(var.line, qx)
+                if var.level == 0:
+                    np.add.at(dq, local, g * gs)
+                else:
+                    np.add.at(dq, local, g * (Hs @ vx[var.columns(self.n)]))
+                    np.add.at(dv, local, g * gs)
+            for a, wa in zip(cols, w):
+                Qq[i, a] += wa * dq
+                Qv[i, a] += wa * dv
         return Qq, Qv
 
 

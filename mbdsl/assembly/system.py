@@ -33,7 +33,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..model.elements import (GROUND, FlexibleBeam, JointTorque, Model, PointForce,
+from ..model.elements import (GROUND, FlexibleBeam, JointForce, JointTorque, Model,
+                              PointForce,
                               RotationalSpringDamper, SpringDamper, TimeFunction, Torque)
 from .ffr import FlexibleBeamGroup
 from .groups import (CoincidenceGroup, LinearConstraintGroup, PointForceGroup,
@@ -184,7 +185,7 @@ class AssembledSystem:
         torques = [f for f in model.forces if isinstance(f, Torque)
                    and isinstance(f.function, TimeFunction)]
         # torques that read the motion, and torques in joints (on two bodies)
-        state_torques = [f for f in model.forces if isinstance(f, JointTorque)
+        state_torques = [f for f in model.forces if isinstance(f, (JointTorque, JointForce))
                          or (isinstance(f, Torque) and not isinstance(f.function, TimeFunction))]
         pforces = [f for f in model.forces if isinstance(f, PointForce)]
         self.force_groups = []
@@ -200,11 +201,17 @@ class AssembledSystem:
             self.force_groups.append(TorqueGroup(n, [f.body for f in torques],
                                                  [f.function for f in torques]))
         if state_torques:
+            def line(f):
+                """A joint force's line geometry (model.elements.line_distance)."""
+                j = f.joint
+                return (j.second.body, tuple(j.second.local), j.first.body, tuple(j.first.local),
+                        tuple(j.direction))
             self.force_groups.append(StateTorqueGroup(
-                n, [f.joint.second.body if isinstance(f, JointTorque) else f.body
-                    for f in state_torques],
+                n, [f.joint.second.body if isinstance(f, JointTorque) else
+                    getattr(f, "body", GROUND) for f in state_torques],
                 [f.joint.first.body if isinstance(f, JointTorque) else GROUND
-                 for f in state_torques], [f.function for f in state_torques]))
+                 for f in state_torques], [f.function for f in state_torques],
+                [line(f) if isinstance(f, JointForce) else None for f in state_torques]))
         if pforces:
             self.force_groups.append(PointForceGroup(
                 n, [f.point for f in pforces], [f.fx for f in pforces], [f.fy for f in pforces]))

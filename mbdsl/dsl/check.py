@@ -20,7 +20,8 @@ from ..model import graph
 from ..registry import COEFFICIENTS, METHOD_COEFFICIENTS, METHOD_NAMES
 from ..model.elements import (COORDINATES, GROUND, VELOCITIES, Driver, InitialCondition,
                               FlexibleBeam, Joint, Model, PointForce, PointRef, RigidBody,
-                              JointTorque, Output, OutputVariable, RotationalSpringDamper,
+                              JointForce, JointTorque, Output, OutputVariable,
+                              RotationalSpringDamper,
                               SpringDamper,
                               StateFunction, StateVariable, TimeFunction, Torque)
 import dataclasses
@@ -50,6 +51,7 @@ FORCE_KINDS = {
     "rotational_spring_damper": {"k": None, "c": 0.0, "angle": 0.0},
     "torque": {},
     "joint_torque": {},
+    "joint_force": {},
     "force": {},
 }
 #: What a force expression may read of the motion: body field -> (level, coordinate),
@@ -57,6 +59,8 @@ FORCE_KINDS = {
 BODY_STATE = {"x": (0, 0), "y": (0, 1), "phi": (0, 2), "vx": (1, 0), "vy": (1, 1),
               "omega": (1, 2)}
 REVOLUTE_STATE = {"angle": 0, "rate": 1}
+#: ... and a prismatic or point_on_line joint's distance along its line and its rate.
+SLIDING_STATE = {"distance": 0, "speed": 1}
 KNOWN_METHODS = METHOD_NAMES
 #: simulate-section settings: name -> must be positive (the methods' coefficients: no)
 SETTINGS = {"h": True, "t_end": True, **{c: False for c in COEFFICIENTS}, "t_start": False}
@@ -156,6 +160,15 @@ class _Checker:
                                 or f"fields are {', '.join(BODY_STATE)}")
             level, j = BODY_STATE[ref.attr]
             return StateVariable(ref.text, level, ((body.index, j, 1.0),))
+        if obj in self.joints and self.joints[obj].kind in ("prismatic", "point_on_line"):
+            joint = self.joints[obj]
+            if ref.attr not in SLIDING_STATE:
+                raise ExprError(f"'{ref.text}': a force reads a {joint.kind} joint's "
+                                f"{', '.join(SLIDING_STATE)}", "E304", ref.span,
+                                hint=_did_you_mean(ref.attr, SLIDING_STATE)
+                                or f"fields are {', '.join(SLIDING_STATE)}")
+            line = self.sliding_line(joint, ref)
+            return StateVariable(ref.text, SLIDING_STATE[ref.attr], (), line=line)
         if obj in self.joints:
             joint = self.joints[obj]
             if joint.kind != "revolute" or ref.attr not in REVOLUTE_STATE:
@@ -179,6 +192,25 @@ class _Checker:
         raise ExprError(f"unknown body or joint '{obj}' in '{ref.text}'", "E201", ref.span,
                         name=obj, hint=_did_you_mean(obj, list(self.bodies) + list(self.joints))
                         or "a force reads the state of a body or a revolute joint")
+
+    def sliding_line(self, joint, ref=None):
+        """The geometry (body L, s_L, body P, s_P, u0) of a sliding joint's
+        line (``model.elements.line_distance``).
+
+        Raises
+        ------
+        ExprError
+            E304 when a body of the joint is a flexible beam.
+        """
+        for b in joint.bodies:
+            if b != GROUND and isinstance(self.model_body(b), FlexibleBeam):
+                raise ExprError(f"'{ref.text if ref is not None else joint.name}': the joint "
+                                "holds a flexible beam (its distance is read on rigid bodies "
+                                "only)", "E304", ref.span if ref is not None else joint.span)
+        first, second = joint.first, joint.second
+        return (second.body, tuple(float(x) for x in second.local), first.body,
+                tuple(float(x) for x in first.local),
+                tuple(float(x) for x in joint.direction))
 
     def model_body(self, index):
         """The body with this index."""
@@ -737,7 +769,7 @@ class _Checker:
                 continue
             allowed = FORCE_KINDS[f.kind]
             npos = {"spring_damper": 2, "rotational_spring_damper": 1, "torque": 2,
-                    "joint_torque": 2, "force": 2}[f.kind]
+                    "joint_torque": 2, "joint_force": 2, "force": 2}[f.kind]
             pos, kw = self.split_args(f, allowed, npos, ctx)
             if pos is None:
                 continue
@@ -823,6 +855,23 @@ class _Checker:
                 return None
             fn = self.force_function(pos[1].value, pos[1].span or f.span, ctx)
             return JointTorque(f.name, joint, fn, f.span) if fn else None
+        if f.kind == "joint_force":
+            joint = self.joint_argument(pos[0], f, ctx)
+            if joint is None:
+                return None
+            if joint.kind not in ("prismatic", "point_on_line"):
+                self.error("E305", f"{ctx}: a joint force acts along a prismatic or point_on_line "
+                           f"joint; '{joint.name}' is a {joint.kind} joint",
+                           getattr(pos[0].value, "span", None) or f.span, "not a sliding joint",
+                           hint="use joint_torque for a revolute joint")
+                return None
+            try:
+                self.sliding_line(joint)
+            except ExprError as err:
+                self.expr_error(err, f.span, ctx)
+                return None
+            fn = self.force_function(pos[1].value, pos[1].span or f.span, ctx)
+            return JointForce(f.name, joint, fn, f.span) if fn else None
         # point force
         p = self.point(pos[0].value, pos[0].span or f.span, ctx)
         vec = pos[1].value

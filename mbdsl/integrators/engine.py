@@ -100,6 +100,11 @@ def unsupported(system, method) -> str | None:
         if not isinstance(g, (SpringDamperGroup, RotationalSpringGroup, TorqueGroup,
                               PointForceGroup, StateTorqueGroup)):
             return f"no kernel for {type(g).__name__}"
+        if isinstance(g, StateTorqueGroup) and (
+                any(line is not None for line in g.lines)
+                or any(v.line is not None for f in g.functions
+                       for v in getattr(f, "variables", ()))):
+            return "no kernel yet for joint forces and sliding joints' distance or speed in forces"
     functions = [f for g in system.constraint_groups
                  if isinstance(g, (LinearConstraintGroup, PointOnLineGroup))
                  for f in g.functions if f is not None]

@@ -35,7 +35,8 @@ GROUND = -1
 
 __all__ = [
     "GROUND", "RigidBody", "FlexibleBeam", "PointRef", "Joint", "Driver", "SpringDamper",
-    "RotationalSpringDamper", "Torque", "JointTorque", "PointForce", "InitialCondition",
+    "RotationalSpringDamper", "Torque", "JointTorque", "JointForce", "PointForce",
+    "InitialCondition", "line_distance", "line_columns",
     "TimeFunction", "StateVariable", "StateFunction", "Output", "OutputVariable", "Model", "COORDINATES", "VELOCITIES", "ACCELERATIONS",
 ]
 
@@ -87,12 +88,67 @@ class StateVariable:
         (body index, coordinate 0..2 = x, y, phi, coefficient c_j).
     offset : float
         Added to a position-level variable (0 for every variable mbdsl has).
+    line : tuple or None
+        A sliding joint's ``distance`` (level 0) or ``speed`` (level 1), not
+        linear: (body L, s_L, body P, s_P, u0) (:func:`line_distance`); terms
+        is empty then.
     """
 
     name: str
     level: int
     terms: tuple
     offset: float = 0.0
+    line: tuple | None = None
+
+    def columns(self, n: int) -> list[int]:
+        """The coordinates it reads, as columns of q extended by the ground's
+        three (n..n+2)."""
+        if self.line is None:
+            return [3 * b + j for b, j, _ in self.terms]
+        return line_columns(self.line, n)
+
+
+def line_columns(line, n: int) -> list[int]:
+    """Columns (x, y, phi of the line's body, then of the point's body) of a
+    sliding joint's geometry ``line`` = (body L, s_L, body P, s_P, u0) in q
+    extended by the ground's three (n..n+2)."""
+    bL, _, bP, _, _ = line
+    return [3 * b + j if b >= 0 else n + j for b in (bL, bP) for j in range(3)]
+
+
+def line_distance(line, qx):
+    """Distance along a sliding joint and its derivatives: s = u . (p_P - p_L),
+    u = A(phi_L) u0, p = r + A(phi) s_body, for the rigid bodies (or ground)
+    of ``line`` = (body L, s_L, body P, s_P, u0).
+
+    Returns
+    -------
+    s : float [m]
+    grad : ndarray, shape (6,)
+        ds/d(x_L, y_L, phi_L, x_P, y_P, phi_P).
+    hess : ndarray, shape (6, 6)
+        d^2 s / d(...)^2 (as ``PointOnLineGroup.hess`` with n0 = u0).
+    """
+    cols = line_columns(line, len(qx) - 3)
+    q = qx[cols]
+    _, sL, _, sP, u0 = line
+
+    def rot(phi, v):
+        c, sn = np.cos(phi), np.sin(phi)
+        return np.array([c * v[0] - sn * v[1], sn * v[0] + c * v[1]])
+    u, Bu = rot(q[2], u0), rot(q[2], (-u0[1], u0[0]))
+    aL, aP = rot(q[2], sL), rot(q[5], sP)
+    BaL, BaP = np.array([-aL[1], aL[0]]), np.array([-aP[1], aP[0]])
+    d = q[3:5] + aP - q[0:2] - aL
+    s = float(u @ d)
+    grad = np.array([-u[0], -u[1], Bu @ d - u @ BaL, u[0], u[1], u @ BaP])
+    H = np.zeros((6, 6))
+    row = np.array([-Bu[0], -Bu[1], -Bu @ BaL, Bu[0], Bu[1], Bu @ BaP])   # (B u)^T D
+    H[2, :] += row
+    H[:, 2] += row
+    H[2, 2] += u @ aL - s
+    H[5, 5] -= u @ aP
+    return s, grad, H
 
 
 @dataclass(frozen=True)
@@ -126,6 +182,10 @@ class StateFunction:
         shape (len(variables),)."""
         out = np.empty(len(self.variables))
         for k, var in enumerate(self.variables):
+            if var.line is not None:          # distance or speed along a sliding joint
+                s, grad, _ = line_distance(var.line, qx)
+                out[k] = s if var.level == 0 else float(grad @ vx[var.columns(len(qx) - 3)])
+                continue
             src = qx if var.level == 0 else vx
             out[k] = var.offset + sum(c * src[3 * b + j] for b, j, c in var.terms)
         return out
@@ -379,6 +439,19 @@ class Torque:
 
     name: str
     body: int
+    function: object
+    span: Span | None = None
+
+
+@dataclass(frozen=True)
+class JointForce:
+    """A force F [N] acting in a prismatic or point_on_line joint along its
+    line: +F u on the first (sliding) point, -F u on the line's point (an
+    actuator between them); F(t) or F(t, state). Its generalized force is
+    F grad s, s the joint's distance (:func:`line_distance`)."""
+
+    name: str
+    joint: "Joint"
     function: object
     span: Span | None = None
 
