@@ -109,11 +109,12 @@ MODEL_SCHEMA = (
     ("tcol", "i", 0), ("tfn", "i", 0),                                 # torque of t: column, f
     ("ffn", "i", 2),                                                   # point force: fx, fy programs
     ("stack", "f", 0),                                                 # the programs' stack
-    ("var", "i", 3), ("varc", "f", 2),                                 # state variables: level,
-    ("xval", "f", 0),                                                  # 2 (column, coef); values
-    ("stq", "i", 3),                                                   # torques of the state:
-    ("sdv", "i", 3),                                                   # f, +col, -col; dtau/dx
+    ("var", "i", 4), ("varc", "f", 2),                                 # state variables: level,
+    ("xval", "f", 0),                                                  # 2 (column, coef), line; values
+    ("stq", "i", 4),                                                   # loads of the state: f,
+    ("sdv", "i", 3),                                                   # +col, -col, line; dtau/dx
     ("pfn", "i", 2),                                                   # point on line: f, f'
+    ("geo", "i", 6), ("geof", "f", 6),                                 # sliding joints' lines
 )
 #: The field names, and the scalar "n_elements" (the header's last entry).
 MODEL_FIELDS = tuple(name for name, _, _ in MODEL_SCHEMA) + ("n_elements",)
@@ -131,7 +132,7 @@ _inline = numba.njit(cache=True, nogil=True, inline="always")
 (MASS, Q0, CROW, CCOL1, CS1, CCOL2, CS2, PROW, PCOLL, PSL, PCOLP, PSP, PN0,
  LROW, LCOL, LCOEF, LOFF, SCOL1, SS1, SCOL2, SS2, SPAR, RCOL, RPAR,
  FCOL, FS, FF, ROW_ELEMENT, CODE, CONSTS, PROG, LFN, TCOL, TFN, FFN, STACK,
- VAR, VARC, XVAL, STQ, SDV, PFN) = range(42)
+ VAR, VARC, XVAL, STQ, SDV, PFN, GEO, GEOF) = range(44)
 if any(globals()[name.upper()] != k for k, (name, _, _) in enumerate(MODEL_SCHEMA)):
     raise ImportError("compiled.py's field indices differ from MODEL_SCHEMA")   # pragma: no cover
 
@@ -333,11 +334,59 @@ def _point_force(I, Fl, t, i):
 
 
 @_jit
-def _state_values(I, Fl, qx, vx):
+def _line(I, Fl, qx, g, grad, H):
+    """Distance s along sliding line g (fields GEO, GEOF: columns of the line's
+    body and of the point's body, s_L, s_P, u0) with ds/dq into grad (6,) and
+    d^2 s/dq^2 into H (6, 6) over (x_L, y_L, phi_L, x_P, y_P, phi_P): the
+    formulas of ``model.elements.line_distance``. Returns s."""
+    phL, phP = qx[_i(I, GEO, g, 2)], qx[_i(I, GEO, g, 5)]
+    cL, sL_, cP, sP_ = math.cos(phL), math.sin(phL), math.cos(phP), math.sin(phP)
+    u0x, u0y = _f(I, Fl, GEOF, g, 4), _f(I, Fl, GEOF, g, 5)
+    ux, uy = cL * u0x - sL_ * u0y, sL_ * u0x + cL * u0y
+    bux, buy = -uy, ux                                   # B(phi_L) u0
+    lx, ly = _f(I, Fl, GEOF, g, 0), _f(I, Fl, GEOF, g, 1)
+    px, py = _f(I, Fl, GEOF, g, 2), _f(I, Fl, GEOF, g, 3)
+    aLx, aLy = cL * lx - sL_ * ly, sL_ * lx + cL * ly
+    aPx, aPy = cP * px - sP_ * py, sP_ * px + cP * py
+    dx = qx[_i(I, GEO, g, 3)] + aPx - qx[_i(I, GEO, g, 0)] - aLx
+    dy = qx[_i(I, GEO, g, 4)] + aPy - qx[_i(I, GEO, g, 1)] - aLy
+    s = ux * dx + uy * dy
+    grad[0] = -ux
+    grad[1] = -uy
+    grad[2] = (bux * dx + buy * dy) - (ux * -aLy + uy * aLx)
+    grad[3] = ux
+    grad[4] = uy
+    grad[5] = ux * -aPy + uy * aPx
+    H[:, :] = 0.0
+    row0, row1, row2 = -bux, -buy, -(bux * -aLy + buy * aLx)
+    row3, row4, row5 = bux, buy, bux * -aPy + buy * aPx
+    for j, r in enumerate((row0, row1, row2, row3, row4, row5)):
+        H[2, j] += r
+        H[j, 2] += r
+    H[2, 2] += (ux * aLx + uy * aLy) - s
+    H[5, 5] -= ux * aPx + uy * aPy
+    return s
+
+
+@_jit
+def _state_values(I, Fl, qx, vx, grad, H):
     """The state variables' values into XVAL: sum of coef q[col] (level 0) or
-    coef v[col] (level 1) over their two (column, coef) entries."""
+    coef v[col] (level 1) over their two (column, coef) entries, or a sliding
+    line's distance s (level 0) or speed grad s . v (level 1); grad (6,), H
+    (6, 6) scratch."""
     base = I[3 * XVAL]
     for k in range(_rows(I, VAR)):
+        g = _i(I, VAR, k, 3)
+        if g >= 0:
+            s = _line(I, Fl, qx, g, grad, H)
+            if _i(I, VAR, k, 0) == 0:
+                Fl[base + k] = s
+            else:
+                acc = 0.0
+                for j in range(6):
+                    acc += grad[j] * vx[_i(I, GEO, g, j)]
+                Fl[base + k] = acc
+            continue
         c1, c2 = _i(I, VAR, k, 1), _i(I, VAR, k, 2)
         a1, a2 = _f(I, Fl, VARC, k, 0), _f(I, Fl, VARC, k, 1)
         if _i(I, VAR, k, 0) == 0:
@@ -493,12 +542,19 @@ def forces(I, Fl, t, qx, vx, out):
         out[_i(I, FCOL, i, 2)] += -ay * fx + ax * fy
     for i in range(_rows(I, TCOL)):                # torques of t (constant ones are in Q0)
         out[_i(I, TCOL, i, 0)] += _eval(I, Fl, _i(I, TFN, i, 0), t)
-    if _rows(I, STQ) > 0:                          # torques of the state, and in joints
-        _state_values(I, Fl, qx, vx)
+    if _rows(I, STQ) > 0:                          # loads of the state, in joints
+        grad, H = np.empty(6), np.empty((6, 6))
+        _state_values(I, Fl, qx, vx, grad, H)
         for i in range(_rows(I, STQ)):
             tau = _eval(I, Fl, _i(I, STQ, i, 0), t)
-            out[_i(I, STQ, i, 1)] += tau
-            out[_i(I, STQ, i, 2)] -= tau
+            g = _i(I, STQ, i, 3)
+            if g < 0:                              # a torque: +tau, -tau
+                out[_i(I, STQ, i, 1)] += tau
+                out[_i(I, STQ, i, 2)] -= tau
+            else:                                  # a force along a sliding line: tau grad s
+                _line(I, Fl, qx, g, grad, H)
+                for j in range(6):
+                    out[_i(I, GEO, g, j)] += tau * grad[j]
 
 
 # --------------------------------------------------------------------------------------------
@@ -698,24 +754,64 @@ def _emit_force(I, Fl, t, n, qx, vx, R, C, V, p, r0, c0, cq, cv):
             fx, fy = _point_force(I, Fl, t, i)
             val = cq * -(ax * fx + ay * fy)
             p = _put(R, C, V, p, r0 + _i(I, FCOL, i, 2), c0 + _i(I, FCOL, i, 2), -val)
-    if _rows(I, SDV) > 0:      # torques of the state: Q_q, Q_v = +-dtau/dx dx/d(q, v)
-        _state_values(I, Fl, qx, vx)
-        for e in range(_rows(I, SDV)):
-            s, k = _i(I, SDV, e, 0), _i(I, SDV, e, 1)
-            c = cq if _i(I, VAR, k, 0) == 0 else cv
-            if c == 0.0:
-                continue
-            g = c * _eval(I, Fl, _i(I, SDV, e, 2), t)
-            for a in range(2):
-                row = _i(I, STQ, s, 1 + a)
-                if row >= n:
+    if _rows(I, STQ) > 0:      # loads of the state: Q = tau w, w = +-e_phi or grad s
+        grad, H = np.empty(6), np.empty((6, 6))
+        wg, wH = np.empty(6), np.empty((6, 6))
+        _state_values(I, Fl, qx, vx, grad, H)
+        if cq != 0.0:          # tau dw/dq of a force along a sliding line
+            for i in range(_rows(I, STQ)):
+                g = _i(I, STQ, i, 3)
+                if g < 0:
                     continue
-                sgn = 1.0 if a == 0 else -1.0
-                for j in range(2):
-                    col = _i(I, VAR, k, 1 + j)
-                    if col < n and _f(I, Fl, VARC, k, j) != 0.0:
-                        p = _put(R, C, V, p, r0 + row, c0 + col,
-                                 -sgn * g * _f(I, Fl, VARC, k, j))
+                tau = _eval(I, Fl, _i(I, STQ, i, 0), t)
+                _line(I, Fl, qx, g, wg, wH)
+                for a in range(6):
+                    ra = _i(I, GEO, g, a)
+                    for b in range(6):
+                        cb = _i(I, GEO, g, b)
+                        if ra < n and cb < n and wH[a, b] != 0.0:
+                            p = _put(R, C, V, p, r0 + ra, c0 + cb, -cq * tau * wH[a, b])
+        for e in range(_rows(I, SDV)):   # w (dtau/dx_k) (dx_k/dq, dx_k/dv)
+            si, kv = _i(I, SDV, e, 0), _i(I, SDV, e, 1)
+            gk = _eval(I, Fl, _i(I, SDV, e, 2), t)
+            gs = _i(I, STQ, si, 3)
+            if gs >= 0:
+                _line(I, Fl, qx, gs, wg, wH)
+            nrow = 2 if gs < 0 else 6
+            gv = _i(I, VAR, kv, 3)
+            if gv >= 0:
+                _line(I, Fl, qx, gv, grad, H)
+            for a in range(nrow):
+                if gs < 0:
+                    row, w = _i(I, STQ, si, 1 + a), (1.0 if a == 0 else -1.0)
+                else:
+                    row, w = _i(I, GEO, gs, a), wg[a]
+                if row >= n or w == 0.0:
+                    continue
+                if gv < 0:                 # linear in q (level 0) or v (level 1)
+                    c = cq if _i(I, VAR, kv, 0) == 0 else cv
+                    if c == 0.0:
+                        continue
+                    for j in range(2):
+                        col = _i(I, VAR, kv, 1 + j)
+                        if col < n and _f(I, Fl, VARC, kv, j) != 0.0:
+                            p = _put(R, C, V, p, r0 + row, c0 + col,
+                                     -c * w * gk * _f(I, Fl, VARC, kv, j))
+                    continue
+                for j in range(6):         # a sliding distance (grad s) or speed
+                    col = _i(I, GEO, gv, j)
+                    if col >= n:
+                        continue
+                    if _i(I, VAR, kv, 0) == 0:
+                        dq, dv = grad[j], 0.0
+                    else:                  # d(grad s . v)/dq = H v, d/dv = grad s
+                        dq = 0.0
+                        for m2 in range(6):
+                            dq += H[j, m2] * vx[_i(I, GEO, gv, m2)]
+                        dv = grad[j]
+                    val = cq * dq + cv * dv
+                    if val != 0.0:
+                        p = _put(R, C, V, p, r0 + row, c0 + col, -w * gk * val)
     return p
 
 
@@ -1324,8 +1420,9 @@ def triplet_bound(I) -> int:
     """An upper bound of the Newton-matrix triplets any recipe emits for the
     packed model data ``I`` (its header's row counts): up to five mass (and
     identity) blocks, four Hessian, two force, two G and six Phi_q blocks (a force
-    block: 36 entries per spring-damper, 4 per rotational one and per partial
-    derivative of a torque of the state, 1 per point force)."""
+    block: 36 entries per spring-damper, 4 per rotational one, 1 per point
+    force, 36 per partial derivative of a load of the state (6 rows by 6
+    columns) and 36 per load of the state (tau d^2 s of a joint force))."""
     def rows(k):
         """Instances of field k (the header's row count)."""
         return int(I[3 * k + 1])
@@ -1333,7 +1430,8 @@ def triplet_bound(I) -> int:
     kc, kp, kl = rows(CROW), rows(PROW), rows(LROW)
     ks, kr, kf = rows(SCOL1), rows(RCOL), rows(FCOL)
     phiq = 8 * kc + 6 * kp + 2 * kl
-    return (6 * n + 6 * phiq + 4 * (2 * kc + 12 * kp) + 2 * (36 * ks + 4 * kr + kf + 4 * rows(SDV))
+    return (6 * n + 6 * phiq + 4 * (2 * kc + 12 * kp)
+            + 2 * (36 * ks + 4 * kr + kf + 36 * rows(SDV) + 36 * rows(STQ))
             + 2 * (4 * kc + 6 * kp))
 
 

@@ -100,11 +100,6 @@ def unsupported(system, method) -> str | None:
         if not isinstance(g, (SpringDamperGroup, RotationalSpringGroup, TorqueGroup,
                               PointForceGroup, StateTorqueGroup)):
             return f"no kernel for {type(g).__name__}"
-        if isinstance(g, StateTorqueGroup) and (
-                any(line is not None for line in g.lines)
-                or any(v.line is not None for f in g.functions
-                       for v in getattr(f, "variables", ()))):
-            return "no kernel yet for joint forces and sliding joints' distance or speed in forces"
     functions = [f for g in system.constraint_groups
                  if isinstance(g, (LinearConstraintGroup, PointOnLineGroup))
                  for f in g.functions if f is not None]
@@ -224,6 +219,7 @@ class CompiledModel:
                  "fs": np.zeros((0, 2)), "fF": np.zeros((0, 2))}
         d = dict(empty)
         from ..dsl.expressions import OPCODES, Num, diff, postfix
+        from ..model.elements import line_columns
         STATE_OP = OPCODES.index("x")
         code, consts, prog, depth = [], [], [], [1]
 
@@ -255,6 +251,7 @@ class CompiledModel:
         lfn, tcol, tfn, ffn = np.zeros((0, 2), i8), [], [], np.zeros((0, 2), i8)
         pfn = np.zeros((0, 2), i8)
         var, varc, var_row = [], [], {}      # the state variables the torques read
+        geo, geof, geo_row = [], [], {}      # sliding joints' lines (model.elements.line_distance)
         stq, sdv = [], []
         for g in system.constraint_groups:
             if isinstance(g, CoincidenceGroup):
@@ -292,20 +289,36 @@ class CompiledModel:
                     else:
                         Q0[col] += f.f(0.0)
             elif isinstance(g, StateTorqueGroup):
-                for i, f in enumerate(g.functions):
+                def line_row(line):
+                    """Row of a sliding joint's line in geo/geof (shared by every use)."""
+                    if line not in geo_row:
+                        geo_row[line] = len(geo)
+                        geo.append(line_columns(line, n))
+                        geof.append([*line[1], *line[3], *line[4]])
+                    return geo_row[line]
+                for i, (f, line) in enumerate(zip(g.functions, g.lines)):
                     names = {}
                     for v in getattr(f, "variables", ()):
-                        cols = [3 * b + j for b, j, _ in v.terms] + [n + 2] * (2 - len(v.terms))
-                        coefs = [c for _, _, c in v.terms] + [0.0] * (2 - len(v.terms))
-                        key = (v.level, *cols, *coefs)
+                        if v.line is not None:
+                            key = (v.level, "line", v.line)
+                            row = (v.level, n + 2, n + 2, line_row(v.line))
+                            coefs = [0.0, 0.0]
+                        else:
+                            cols = [3 * b + j for b, j, _ in v.terms] + [n + 2] * (2 - len(v.terms))
+                            coefs = [c for _, _, c in v.terms] + [0.0] * (2 - len(v.terms))
+                            key = (v.level, *cols, *coefs)
+                            row = (v.level, *cols, -1)
                         if key not in var_row:
                             var_row[key] = len(var)
-                            var.append((v.level, *cols))
+                            var.append(row)
                             varc.append(coefs)
                         names[v.name] = var_row[key]
                     expr = f.expr if f.expr is not None else Num(f.f(0.0))
-                    a, b = (int(g.cols[i, j]) for j in g.targets[i])
-                    stq.append((program(expr, names), a, b))
+                    if line is None:
+                        a, b = (int(g.cols[i, j]) for j in g.targets[i])
+                        stq.append((program(expr, names), a, b, -1))
+                    else:
+                        stq.append((program(expr, names), n + 2, n + 2, line_row(line)))
                     for v, ge in zip(getattr(f, "variables", ()), getattr(f, "grad_exprs", ())):
                         sdv.append((len(stq) - 1, names[v.name], program(ge, names)))
             elif isinstance(g, PointForceGroup):
@@ -322,8 +335,9 @@ class CompiledModel:
                  tcol=np.array(tcol, i8), tfn=np.array(tfn, i8),
                  ffn=ffn if len(ffn) == len(d["fcol"]) else np.full((len(d["fcol"]), 2), -1, i8),
                  stack=np.zeros(depth[0]),
-                 var=np.array(var, i8).reshape(-1, 3), varc=np.array(varc, f8).reshape(-1, 2),
-                 xval=np.zeros(len(var)), stq=np.array(stq, i8).reshape(-1, 3),
+                 var=np.array(var, i8).reshape(-1, 4), varc=np.array(varc, f8).reshape(-1, 2),
+                 xval=np.zeros(len(var)), stq=np.array(stq, i8).reshape(-1, 4),
+                 geo=np.array(geo, i8).reshape(-1, 6), geof=np.array(geof, f8).reshape(-1, 6),
                  sdv=np.array(sdv, i8).reshape(-1, 3),
                  pfn=pfn if len(pfn) == len(d["prow"]) else np.full((len(d["prow"]), 2), -1, i8))
         d["mass"] = system.mass_diag.astype(f8)

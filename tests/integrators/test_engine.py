@@ -171,7 +171,8 @@ def test_band_ordering_of_a_chain_and_the_automatic_choice():
                   newton=NewtonOptions(linear_solver="banded"))
 
 
-@pytest.mark.parametrize("model", ["compiled_elements.mbd", "all_elements.mbd"])
+@pytest.mark.parametrize("model", ["compiled_elements.mbd", "all_elements.mbd",
+                                   "sliding_elements.mbd"])
 @pytest.mark.parametrize("first", [True, False])
 @pytest.mark.parametrize("method", RECIPE_METHODS)
 def test_kernel_newton_matrix_is_the_derivative_of_the_kernel_residual(method, first, model):
@@ -268,11 +269,17 @@ def test_packed_model_data_round_trips():
     assert fields["spar"].shape == (3, 3) and fields["n_elements"] == system.layout.n_elements
     # T2 reads J6.angle, J6.rate, a.omega, c.phi; T3 d.omega, b.x, e.vy: 7 variables,
     # 2 torques of the state with one partial derivative per variable they read
-    assert fields["var"].shape == (7, 3) and fields["stq"].shape == (2, 3)
+    assert fields["var"].shape == (7, 4) and fields["stq"].shape == (2, 4)
     assert fields["sdv"].shape == (7, 3) and fields["xval"].shape == (7,)
     J6 = [k for k in range(7) if fields["var"][k, 0] == 0 and fields["varc"][k, 1] == -1.0]
-    assert len(J6) == 1           # J6.angle = f.phi - b.phi
-    assert list(fields["var"][J6[0], 1:]) == [3 * 5 + 2, 3 * 1 + 2]
+    assert len(J6) == 1           # J6.angle = f.phi - b.phi, no sliding line
+    assert list(fields["var"][J6[0], 1:]) == [3 * 5 + 2, 3 * 1 + 2, -1]
+    assert fields["geo"].shape == (0, 6)
+    # sliding_elements: three joint forces on three lines, and the distances and
+    # speeds read on them: each line packed once
+    sliding, _ = _system(VALID / "sliding_elements.mbd")
+    f2 = compiled.unpack(*(lambda c: (c.ints, c.floats))(CompiledModel(sliding)))
+    assert f2["geo"].shape == (3, 6) and list(f2["stq"][:, 3]) .count(-1) == 1
 
 
 def test_a_failed_split_si2_step_goes_on_with_the_whole_band_matrix():
