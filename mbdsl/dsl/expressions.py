@@ -20,7 +20,7 @@ from ..errors import Span
 
 __all__ = [
     "Num", "Name", "IndexedName", "Dotted", "Unary", "Binary", "Call", "Vec", "Expr",
-    "FUNCTIONS", "OPCODES", "ExprError", "evaluate", "evaluate_rows", "free_names",
+    "FUNCTIONS", "PAIR_FUNCTIONS", "OPCODES", "ExprError", "evaluate", "evaluate_rows", "free_names",
     "substitute", "diff",
     "postfix",
     "simplify", "compile_function", "compile_state_function", "as_expr",
@@ -124,15 +124,20 @@ FUNCTIONS: dict[str, Callable[[float], float]] = {
     "asin": math.asin, "acos": math.acos, "atan": math.atan,
     "sinh": math.sinh, "cosh": math.cosh, "tanh": math.tanh,
     "sqrt": math.sqrt, "exp": math.exp, "log": math.log, "abs": abs,
+    "sign": lambda x: 1.0 if x > 0 else (-1.0 if x < 0 else 0.0 * x),
 }
+
+#: Functions of two arguments, written as calls (``min(a, b)``) and held as
+#: Binary nodes; ``clip(x, lo, hi)`` is max(lo, min(x, hi)).
+PAIR_FUNCTIONS = ("min", "max")
 
 CONSTANTS = {"pi": math.pi}
 
 #: Opcodes of a compiled program (:func:`postfix`), by number: a constant (its
 #: index in the constant table follows), t, negation, the binary operators, one
 #: per entry of :data:`FUNCTIONS` in order, then a state variable (its index
-#: in the model's table of state variables follows).
-OPCODES = ("const", "t", "neg", "+", "-", "*", "/", "^") + tuple(FUNCTIONS) + ("x",)
+#: in the model's table of state variables follows), then min and max (binary).
+OPCODES = ("const", "t", "neg", "+", "-", "*", "/", "^") + tuple(FUNCTIONS) + ("x",) + PAIR_FUNCTIONS
 
 
 class ExprError(ValueError):
@@ -190,6 +195,10 @@ def _apply(op: str, a: float, b: float, span) -> float:
                 raise ExprError("division by zero", "E301", span,
                                 "check the divisor's parameters")
             r = a / b
+        elif op == "min":
+            r = min(a, b)
+        elif op == "max":
+            r = max(a, b)
         else:
             r = math.pow(a, b)
     except (OverflowError, ValueError) as exc:
@@ -246,8 +255,7 @@ def evaluate(expr: Expr, env: dict[str, float], allow_t: bool = False,
         if isinstance(e, Call):
             f = FUNCTIONS.get(e.func)
             if f is None:
-                raise ExprError(f"unknown function '{e.func}'", "E203", e.span,
-                                name=e.func)
+                raise _function_error(e)
             x = _ev(e.arg)
             try:
                 return f(x)
@@ -277,7 +285,8 @@ def evaluate_rows(expr: Expr, env: dict, t):
     import numpy as np
     ufuncs = {"sin": np.sin, "cos": np.cos, "tan": np.tan, "asin": np.arcsin,
               "acos": np.arccos, "atan": np.arctan, "sinh": np.sinh, "cosh": np.cosh,
-              "tanh": np.tanh, "sqrt": np.sqrt, "exp": np.exp, "log": np.log, "abs": np.abs}
+              "tanh": np.tanh, "sqrt": np.sqrt, "exp": np.exp, "log": np.log, "abs": np.abs,
+              "sign": np.sign}
 
     def _ev(e):
         if isinstance(e, Num):
@@ -289,7 +298,7 @@ def evaluate_rows(expr: Expr, env: dict, t):
         if isinstance(e, Binary):
             a, b = _ev(e.left), _ev(e.right)
             return {"+": np.add, "-": np.subtract, "*": np.multiply, "/": np.divide,
-                    "^": np.power}[e.op](a, b)
+                    "^": np.power, "min": np.minimum, "max": np.maximum}[e.op](a, b)
         if isinstance(e, Call):
             return ufuncs[e.func](_ev(e.arg))
         raise TypeError(f"cannot evaluate {e!r}")
@@ -341,14 +350,24 @@ def substitute(expr: Expr, env: dict[str, float],
                       substitute(expr.right, env, state), expr.span)
     if isinstance(expr, Call):
         if expr.func not in FUNCTIONS:
-            raise ExprError(f"unknown function '{expr.func}'", "E203", expr.span,
-                            name=expr.func)
+            raise _function_error(expr)
         return Call(expr.func, substitute(expr.arg, env, state), expr.span)
     if isinstance(expr, Dotted):
         if state is not None:
             return Name(state(expr), expr.span)
         raise ExprError(f"'{expr.text}' is a reference, not a number", "E301", expr.span)
     return expr
+
+
+def _function_error(call: Call) -> ExprError:
+    """E203 for a call of an unknown function, or of a known one with the wrong
+    number of arguments (the parser writes those as ``name/count``)."""
+    name, _, count = call.func.partition("/")
+    if count:
+        arity = {"min": 2, "max": 2, "clip": 3}.get(name, 1)
+        return ExprError(f"'{name}' takes {arity} argument{'s' if arity > 1 else ''}, got {count}",
+                         "E203", call.span, name=name)
+    return ExprError(f"unknown function '{call.func}'", "E203", call.span, name=call.func)
 
 
 def _n(v: float) -> Num:
@@ -444,6 +463,12 @@ def diff(e: Expr, var: str = "t") -> Expr:
                 return _b("+", _b("*", da, b), _b("*", a, db))
             if e.op == "/":
                 return _b("/", _b("-", _b("*", da, b), _b("*", a, db)), _b("^", b, _n(2)))
+            if e.op in PAIR_FUNCTIONS:
+                # d min(a, b) = (da + db)/2 - sign(a - b) (da - db)/2 (max: + ...): the
+                # derivative of the active argument, their mean where a = b
+                half = _b("/", _b("-", da, db), _n(2))
+                switch = _b("*", Call("sign", _b("-", a, b)), half)
+                return _b("-" if e.op == "min" else "+", _b("/", _b("+", da, db), _n(2)), switch)
             # power: d(a^b) = b a^(b-1) da + a^b log(a) db
             term1 = _b("*", _b("*", b, _b("^", a, _b("-", b, _n(1)))), da)
             if _is(simplify(db), 0):
@@ -477,7 +502,9 @@ def diff(e: Expr, var: str = "t") -> Expr:
             elif f == "log":
                 g = _b("/", _n(1), x)
             elif f == "abs":
-                g = _b("/", x, Call("abs", x))  # sign(x), defined for x != 0
+                g = Call("sign", x)             # 0 at the kink: a subgradient
+            elif f == "sign":
+                g = _n(0)
             else:
                 raise ExprError(f"unknown function '{f}'", "E203", e.span, name=f)
             return _b("*", g, dx)
@@ -540,6 +567,10 @@ def compile_function(e: Expr, var: str = "t") -> Callable[[float], float]:
                 return lambda t: fa(t) * fb(t)
             if op == "/":
                 return lambda t: _div(fa(t), fb(t))
+            if op == "min":
+                return lambda t: min(fa(t), fb(t))
+            if op == "max":
+                return lambda t: max(fa(t), fb(t))
             return lambda t: _pow(fa(t), fb(t))
         if isinstance(e, Call):
             fn, fx = _safe(FUNCTIONS[e.func]), _c(e.arg)
@@ -579,6 +610,10 @@ def compile_state_function(e: Expr, variables: tuple) -> Callable[[float, "objec
                 return lambda t, x: fa(t, x) * fb(t, x)
             if op == "/":
                 return lambda t, x: _div(fa(t, x), fb(t, x))
+            if op == "min":
+                return lambda t, x: min(fa(t, x), fb(t, x))
+            if op == "max":
+                return lambda t, x: max(fa(t, x), fb(t, x))
             return lambda t, x: _pow(fa(t, x), fb(t, x))
         if isinstance(e, Call):
             fn, fx = _safe(FUNCTIONS[e.func]), _c(e.arg)

@@ -281,5 +281,15 @@ class ToSpec(Transformer):
 
     @v_args(meta=True)
     def call(self, meta, children):
-        """``f(x)`` -> Call."""
-        return Call(str(children[0]), children[1], self._tspan(children[0]))
+        """``f(x)`` -> Call; ``min(a, b)``, ``max(a, b)`` -> Binary;
+        ``clip(x, lo, hi)`` -> max(lo, min(x, hi)). A wrong number of
+        arguments is kept as a Call that the checks report (E203)."""
+        name, args = str(children[0]), children[1:]
+        span = self._tspan(children[0])
+        if name in ("min", "max") and len(args) == 2:
+            return Binary(name, args[0], args[1], span)
+        if name == "clip" and len(args) == 3:
+            return Binary("max", args[1], Binary("min", args[0], args[2], span), span)
+        if len(args) != 1:
+            return Call(f"{name}/{len(args)}", args[0], span)
+        return Call(name, args[0], span)

@@ -35,7 +35,7 @@ def _number(v: float) -> str:
 
 def _prec(e) -> int:
     if isinstance(e, Binary):
-        return _PREC[e.op]
+        return _PREC.get(e.op, _ATOM)          # min, max: written as calls
     if isinstance(e, Unary):
         return _UNARY
     if isinstance(e, Num) and (e.value < 0 or math.isinf(e.value)):
@@ -76,6 +76,8 @@ def expr_text(e) -> str:
     if isinstance(e, Unary):
         inner = expr_text(e.operand)
         return f"-({inner})" if _prec(e.operand) < _UNARY else f"-{inner}"
+    if isinstance(e, Binary) and e.op in ("min", "max"):
+        return f"{e.op}({expr_text(e.left)}, {expr_text(e.right)})"
     if isinstance(e, Binary):
         p = _PREC[e.op]
         left, right = expr_text(e.left), expr_text(e.right)

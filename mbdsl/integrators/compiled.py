@@ -73,7 +73,8 @@ _RECIPE = ("form", "has_y", "split", "cqx", "cqy", "cvx", "cvy", "cM", "cF", "dM
            "pq0", "pq1", "pv0", "pv1", "pa", "vv0", "vv1", "va", "y0v",
            "ka1", "ka2", "kb", "cQ", "sm", "pb", "vb", "bb", "ba", "bx")
 _OPCODES = ("const", "t", "neg", "+", "-", "*", "/", "^", "sin", "cos", "tan", "asin", "acos",
-            "atan", "sinh", "cosh", "tanh", "sqrt", "exp", "log", "abs", "x")
+            "atan", "sinh", "cosh", "tanh", "sqrt", "exp", "log", "abs", "sign", "x", "min",
+            "max")
 if _RECIPE != RECIPE_FIELDS or _OPCODES != OPCODES:     # pragma: no cover (a developer's error, caught by any test)
     raise ImportError("compiled.py's recipe indices differ from recipe.RECIPE_FIELDS")
 
@@ -232,7 +233,7 @@ def _pol_hess(nx, ny, dx, dy, axL, ayL, axP, ayP, bnd):
 #: Opcodes (``dsl.expressions.OPCODES``, checked at import): literals, as the field indices.
 (OP_CONST, OP_T, OP_NEG, OP_ADD, OP_SUB, OP_MUL, OP_DIV, OP_POW,
  OP_SIN, OP_COS, OP_TAN, OP_ASIN, OP_ACOS, OP_ATAN, OP_SINH, OP_COSH, OP_TANH,
- OP_SQRT, OP_EXP, OP_LOG, OP_ABS, OP_X) = range(22)
+ OP_SQRT, OP_EXP, OP_LOG, OP_ABS, OP_SIGN, OP_X, OP_MIN, OP_MAX) = range(25)
 
 
 @_jit
@@ -257,6 +258,10 @@ def _eval(I, Fl, p, t):
             Fl[base + sp] = Fl[I[3 * XVAL] + _i(I, CODE, k, 0)]
             k += 1
             sp += 1
+        elif op == OP_MIN or op == OP_MAX:
+            a, b = Fl[base + sp - 2], Fl[base + sp - 1]
+            sp -= 1
+            Fl[base + sp - 1] = min(a, b) if op == OP_MIN else max(a, b)
         elif op <= OP_POW:
             a, b = Fl[base + sp - 2], Fl[base + sp - 1]
             sp -= 1
@@ -319,6 +324,8 @@ def _call(op, x):
         return math.exp(x)
     if op == OP_LOG:
         return math.log(x) if x > 0.0 else math.nan
+    if op == OP_SIGN:
+        return 1.0 if x > 0.0 else (-1.0 if x < 0.0 else 0.0)
     return abs(x)
 
 

@@ -42,6 +42,8 @@ def test_written_text_is_the_same_model(path):
     Binary("/", Num(1.0), Binary("*", Num(2.0), Num(4.0))),       # 1/(2*4)
     Binary("*", Num(-0.1), Num(3.0)),
     Num(0.1 + 0.2), Num(1e-300), Num(6.02e23),
+    Binary("max", Num(-1.0), Binary("min", Binary("*", Num(2.0), Num(3.0)), Num(1.0))),  # clip
+    Binary("^", Binary("min", Num(2.0), Num(3.0)), Num(2.0)),
 ])
 def test_expressions_keep_their_tree_and_numbers(tree):
     from mbdsl.dsl.expressions import evaluate, simplify
@@ -68,3 +70,12 @@ def test_result_of_a_python_built_model_reads_back_plots_and_animates(tmp_path):
     assert main(["animate", str(tmp_path / "api.h5"), "-o", str(tmp_path / "api.gif"),
                  "--fps", "5"]) == 0
     assert (tmp_path / "api.gif").stat().st_size > 0
+
+
+def test_piecewise_functions_parse_and_their_arity_is_checked():
+    from mbdsl.dsl.expressions import evaluate
+    assert evaluate(as_expr("clip(5, -1, 2) + min(3, 4) - max(-2, -3)"), {}) == 2 + 3 + 2
+    with pytest.raises(mbdsl.MbdModelError) as info:
+        mbdsl.load_text("model m\nparameter a = min(1, 2, 3)\n", "m.mbd")
+    d = info.value.diagnostics[0]
+    assert d.code == "E203" and "'min' takes 2 arguments, got 3" in d.message

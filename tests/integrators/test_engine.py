@@ -300,7 +300,9 @@ def test_a_failed_split_si2_step_goes_on_with_the_whole_band_matrix():
                                   "sqrt(t) + log(1 + t) - atan(t)",
                                   "abs(sin(t)) - tanh(t) + cosh(t/5) - sinh(t/7)",
                                   "asin(t/10) + acos(t/10) + tan(t/4)", "-(t - 1)^3",
-                                  "1/(t - 1)", "log(1.5 - t)"])
+                                  "1/(t - 1)", "log(1.5 - t)",
+                                  "clip(3*t - 1, -0.5, 2) + min(t, 1.2)*max(0.5, t^2)",
+                                  "sign(t - 1)*t + abs(t - 1)"])
 def test_compiled_functions_of_time_are_the_language_s(expr):
     # a torque f(t) evaluated by the kernels' postfix programs against the
     # language's own evaluation (compile_function), also where f is not finite

@@ -360,3 +360,23 @@ def test_sliding_misuse(line, code, text):
     d = [x for x in info.value.diagnostics if x.code == code]
     assert d and d[0].span is not None
     assert any(text in (x.message + " " + (x.hint or "")) for x in d)
+
+
+# -- piecewise laws: saturation ------------------------------------------------------------
+
+@pytest.mark.parametrize("engine", ["numpy", "compiled"])
+def test_saturated_motor_accelerates_at_its_limit_then_follows_its_curve(engine):
+    """torque(w, clip(2*(10 - w.omega), -1, 1)) on a flywheel of 0.5 kg m^2: the
+    torque saturates at 1 N m until omega = 9.5 rad/s (t = 4.75 s, uniform
+    acceleration 2 rad/s^2), then omega = 10 - 0.5 exp(-4 (t - 4.75))."""
+    text = FLYWHEEL.replace("2*(1 - w.omega/10)", "clip(2*(10 - w.omega), -1, 1)")
+    sol = mbdsl.simulate(mbdsl.load_text(text), method="hht-i3", h=1e-3, t_end=6.0,
+                         engine=engine)
+    assert sol.engine == engine
+    t, w = sol.t, sol.column("w.omega")
+    early = t <= 4.7
+    assert np.max(np.abs(w[early] - 2.0 * t[early])) < 1e-9
+    late = t >= 4.8
+    exact = 10.0 - 0.5 * np.exp(-4.0 * (t[late] - 4.75))
+    assert np.max(np.abs(w[late] - exact)) < 1e-3         # the kink is met within a step
+    assert sol.stats_total.rejected == 0
