@@ -73,3 +73,22 @@ def test_elastic_columns_of_a_point_are_its_element():
                                   beam.elastic_offset + np.flatnonzero(np.any(S_full != 0, 0)))
     assert np.allclose(ref.elastic_shape @ np.ones(len(ref.elastic_columns)),
                        S_full @ np.ones(S_full.shape[1]))
+
+
+def test_an_unloaded_beam_at_rest_starts_without_a_warning():
+    """No load, no motion: the beam is quasi-static undeformed, and W403 (which
+    said "elastic accelerations up to 0 remain") is not raised; a loaded one
+    is started deflected, also without it."""
+    text = """model hub_beam
+body hub { mass 1; inertia 0.1 }
+flexible_beam arm { mass 1.2; length 1; E 7e10; area 1e-4; second_moment 1e-9; elements 4
+                    frame first_node; point a at start; point b at end }
+joint O: revolute(ground.origin, hub.cm)
+joint W: fixed(hub.cm, arm.a)
+"""
+    for extra, deflected in (("", False), ("gravity (0, -9.81)\ninitial hub.phi = 0\n", True)):
+        model = mbdsl.load_text(text + extra)
+        init = mbdsl.consistent_initial_state(mbdsl.assemble(model))
+        assert not [w for w in init.warnings if w.code == "W403"]
+        elastic = init.q[[i for b in model.flexible_bodies for i in b.elastic_columns()]]
+        assert (np.max(np.abs(elastic)) > 1e-6) == deflected
