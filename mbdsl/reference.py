@@ -107,8 +107,8 @@ def index1_reference(system, t_eval, rtol: float = 1e-12, atol: float = 1e-12,
         K[:n, :n] = system.mass_matrix(q)
         K[:n, n:] = Phi_q.T
         K[n:, :n] = Phi_q
-        rhs_ = np.concatenate([system.Q(t, q, v), system.gamma(q, v, t)])
-        a = scipy.linalg.solve(K, rhs_, check_finite=False)[:n]
+        a = system.index1_solve(K, t, q, v, solve=lambda rhs_: scipy.linalg.solve(
+            K, rhs_, check_finite=False))[:n]
         return np.concatenate([v, a])
 
     y0 = np.concatenate([initial.q, initial.v])

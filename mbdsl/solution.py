@@ -267,6 +267,16 @@ def output_columns(system, t, q, v, a, derived) -> dict:
                     env[var.name] = arr[:, i]
                 else:
                     env[var.name] = derived.get(var.column, np.full(N, np.nan))
+            elif var.kind == "joint" and var.line is not None:      # s or ds/dt
+                from .model.elements import line_columns, line_distance
+                qx = np.concatenate([q, np.zeros((N, 3))], axis=1)
+                cols = line_columns(var.line, q.shape[1])
+                vals = np.empty(N)
+                for r in range(N):
+                    s, grad, _ = line_distance(var.line, qx[r])
+                    vals[r] = s if var.field == "distance" else grad @ np.append(
+                        v[r], np.zeros(3))[cols]
+                env[var.name] = vals
             elif var.kind == "joint":
                 src = q if var.field == "angle" else v
                 val = np.zeros(N)

@@ -65,6 +65,10 @@ class InitialState:
         Values a method carries between steps, when a run resumes from an
         accepted step rather than from t_0 (generalized-alpha's ``aux``);
         empty for a start.
+    Q : ndarray, shape (n,), or None
+        The applied forces a_0 and lambda_0 were solved with, when they are
+        not Q(t_0, q_0, v_0, lambda_0): a friction joint at rest starts from
+        the Coulomb limit (:func:`coulomb_start`); None otherwise.
     """
 
     t: float
@@ -80,6 +84,7 @@ class InitialState:
     structure: StructureReport | None = None
     warnings: list = field(default_factory=list)
     method_state: dict = field(default_factory=dict)
+    Q: np.ndarray | None = None
 
     #: At most this many solved coordinates are listed in :meth:`report`.
     REPORT_COORDINATES = 10
@@ -380,14 +385,14 @@ def static_positions(system, t0: float, q: np.ndarray, lam: np.ndarray) -> np.nd
     E[np.arange(f), iq] = 1.0
     v0 = np.zeros(n)
     x = np.concatenate([q, lam, np.zeros(f)])
-    scale = 1.0 + float(np.max(np.abs(system.Q(t0, q, v0)), initial=0.0))
+    scale = 1.0 + float(np.max(np.abs(system.Q(t0, q, v0, lam)), initial=0.0))
     residual = np.inf
     for _ in range(STATIC_ITERATIONS):
         q, lam, mu = x[:n], x[n:n + m], x[n + m:]
         with np.errstate(all="ignore"):
-            r = np.concatenate([system.Q(t0, q, v0) - system.PhiqT_times(q, t0, lam) - E.T @ mu,
+            r = np.concatenate([system.Q(t0, q, v0, lam) - system.PhiqT_times(q, t0, lam) - E.T @ mu,
                                 system.Phi(q, t0), q[iq] - given])
-            Qq = system.force_derivatives(t0, q, v0)[0]
+            Qq = system.force_derivatives(t0, q, v0, lam)[0]
             K = (np.zeros((n, n)) if Qq is None else Qq) - system.PhiqT_lam_q(q, lam)
             Pq = system.Phi_q(q, t0)
             J = np.block([[K, -Pq.T, -E.T], [Pq, np.zeros((m, m + f))],
@@ -402,7 +407,7 @@ def static_positions(system, t0: float, q: np.ndarray, lam: np.ndarray) -> np.nd
         x = x - dx
         if np.max(np.abs(dx[:n]), initial=0.0) <= 1e-14 * (1.0 + np.max(np.abs(x[:n]))):
             q = x[:n]
-            r = system.Q(t0, q, v0) - system.PhiqT_times(q, t0, x[n:n + m]) - E.T @ x[n + m:]
+            r = system.Q(t0, q, v0, x[n:n + m]) - system.PhiqT_times(q, t0, x[n:n + m]) - E.T @ x[n + m:]
             if float(np.max(np.abs(r), initial=0.0)) <= 1e-9 * scale:
                 return q
             break
@@ -524,7 +529,8 @@ def _consistent_state(system, t0, tol, max_iter, elastic, q_start=None):
         raise AssemblyError(d.message, [d])
 
     with np.errstate(all="ignore"):
-        Q = system.Q(t0, q, v)
+        # friction's loads start from zero multipliers; iterated below
+        Q = system.Q(t0, q, v, np.zeros(system.m) if system.multiplier_groups else None)
         gam = system.gamma(q, v, t0)
     _require_finite(system, Q, "the applied forces Q are", t0, what="force")
     m = system.m
@@ -555,6 +561,10 @@ def _consistent_state(system, t0, tol, max_iter, elastic, q_start=None):
             Knorm = np.max(np.abs(K)) if not sparse else abs(K).max()
         if not resid <= 1e-8 * (Knorm * np.max(np.abs(sol)) + np.max(np.abs(rhs)) + 1e-300):
             raise np.linalg.LinAlgError("singular")
+        Q_start = None
+        if system.multiplier_groups:        # friction: Q(lambda), at rest its Coulomb limit
+            sol, Q_start = coulomb_start(system, t0, q, v, (
+                lu.solve if sparse else lambda r: scipy.linalg.lu_solve(lu, r)))
     except (np.linalg.LinAlgError, ValueError, RuntimeError, scipy.linalg.LinAlgWarning):
         if structure is None and system.m <= 4 * RANK_LIMIT:
             _check_structure(system, q, t0)          # raises E401 when joints are redundant
@@ -571,7 +581,87 @@ def _consistent_state(system, t0, tol, max_iter, elastic, q_start=None):
     res_a = float(np.max(np.abs(system.Phiq_times(q, t0, a) - gam), initial=0.0))
     fixed_idx = {ic.coordinate for ic in model.initials if not ic.guess and not ic.is_velocity}
     solved = {lay.coordinates[i]: float(q[i]) for i in range(n) if i not in fixed_idx}
-    return InitialState(t0, q, v, a, lam, res_q, res_v, res_a, solved, it, structure, warnings)
+    return InitialState(t0, q, v, a, lam, res_q, res_v, res_a, solved, it, structure, warnings,
+                        Q=Q_start)
+
+
+def coulomb_start(system, t0, q, v, solve):
+    """a_0 and lambda_0 of a model with friction, joints at rest at their
+    Coulomb limit.
+
+    The regularised law gives no friction at z = 0, so a joint at rest starts
+    with the acceleration of a frictionless joint and reaches its friction
+    force only once |z| ~ v_reg, after about v_reg / |dz/dt| (2e-5 s for a block
+    on an incline): a transient no step resolves, which a second-order method
+    would carry as an O(h) velocity error. The start therefore takes the
+    limit v_reg -> 0 (Filippov's solution of the Coulomb law): with slip
+    s_i in [-1, 1] in place of tanh(z_i / v_reg) (and mu_static), each joint
+    at rest (|z| <= 1e-3 v_reg) slides (s = +-1, dz/dt of that sign) when
+    even its full static friction cannot hold it, and otherwise sticks
+    (dz/dt = 0, s found by regula falsi; dz/dt is monotone in s). Several
+    joints are swept in turn (Gauss-Seidel) until their s settle.
+
+    Parameters
+    ----------
+    system : AssembledSystem
+    t0 : float [s]
+    q, v : ndarray, shape (n,)
+    solve : callable
+        Solves with the factorized index-1 matrix, rhs (n + m,) -> (n + m,).
+
+    Returns
+    -------
+    sol : ndarray, shape (n + m,)
+        (a_0, lambda_0).
+    Q : ndarray, shape (n,), or None
+        The applied forces at the start (None: no joint at rest, the law itself).
+    """
+    n = system.n
+    g = system.multiplier_groups[0]
+    qx, vx = system._ext(q), system._ext(v)
+    rest = np.abs(g.speeds(qx, vx)) <= 1e-3 * g.regularisation()
+    if not rest.any():
+        return system.index1_solve(None, t0, q, v, solve), None
+    slip = np.where(rest, 0.0, np.nan)
+
+    def rate(s):
+        sol = system.index1_solve(None, t0, q, v, solve, slip=s)
+        return g.speeds(qx, vx, system._ext(sol[:n])), sol
+
+    for _ in range(20):
+        before = slip.copy()
+        for i in np.flatnonzero(rest):
+            trial = slip.copy()
+            trial[i] = 1.0
+            up = rate(trial)[0][i]
+            if up > 0.0:                 # slides forward even against full friction
+                slip[i] = 1.0
+                continue
+            trial[i] = -1.0
+            down = rate(trial)[0][i]
+            if down < 0.0:
+                slip[i] = -1.0
+                continue
+            lo, f_lo, hi, f_hi = -1.0, down, 1.0, up        # f_lo >= 0 >= f_hi: sticks
+            tol = 1e-14 * (abs(f_lo) + abs(f_hi)) + 1e-300
+            s = 0.0
+            for _ in range(60):
+                s = lo - f_lo * (hi - lo) / (f_hi - f_lo) if f_hi != f_lo else 0.5 * (lo + hi)
+                trial[i] = s
+                f = rate(trial)[0][i]
+                if abs(f) <= tol:
+                    break
+                if f > 0.0:
+                    lo, f_lo = s, f
+                    f_hi *= 0.5                            # Illinois: no stalled end
+                else:
+                    hi, f_hi = s, f
+                    f_lo *= 0.5
+            slip[i] = s
+        if np.max(np.abs(slip[rest] - before[rest])) <= 1e-12:
+            break
+    sol = rate(slip)[1]
+    return sol, system.Q(t0, q, v, sol[n:], slip)
 
 
 def _index1_matrix(system, q, t0) -> np.ndarray:

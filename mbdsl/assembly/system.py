@@ -33,11 +33,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..model.elements import (GROUND, FlexibleBeam, JointForce, JointTorque, Model,
+from ..model.elements import (GROUND, FlexibleBeam, Friction, JointForce, JointTorque, Model,
                               PointForce,
                               RotationalSpringDamper, SpringDamper, TimeFunction, Torque)
 from .ffr import FlexibleBeamGroup
-from .groups import (CoincidenceGroup, LinearConstraintGroup, PointForceGroup,
+from .groups import (CoincidenceGroup, FrictionGroup, LinearConstraintGroup, PointForceGroup,
                      PointOnLineGroup, RotationalSpringGroup, SpringDamperGroup, TorqueGroup,
                      StateTorqueGroup,
                      body_columns)
@@ -112,7 +112,9 @@ class AssembledSystem:
             lin.append((row, (_phi_col(body1), _phi_col(body2)), (-1.0, 1.0), offset, fn))
 
         row = 0
+        self.joint_rows = {}                 # joint name -> its first row of lambda
         for j in model.joints:
+            self.joint_rows[j.name] = row
             a, b = j.first, j.second
             if j.kind in ("revolute", "fixed"):
                 coinc.append((row, row + 1, a, b))
@@ -215,7 +217,37 @@ class AssembledSystem:
         if pforces:
             self.force_groups.append(PointForceGroup(
                 n, [f.point for f in pforces], [f.fx for f in pforces], [f.fy for f in pforces]))
+        frictions = [f for f in model.forces if isinstance(f, Friction)]
+        if frictions:
+            def reaction_rows(j):
+                """The rows of lambda that carry a joint's normal reaction."""
+                r0 = self.joint_rows[j.name]
+                return [r0, r0 + 1] if j.kind == "revolute" else [r0]
+
+            def geometry(j):
+                """A sliding joint's line (model.elements.line_distance); None for a revolute."""
+                return None if j.kind == "revolute" else (
+                    j.second.body, tuple(j.second.local), j.first.body, tuple(j.first.local),
+                    tuple(j.direction))
+            self.force_groups.append(FrictionGroup(
+                n, [f.joint.second.body for f in frictions], [f.joint.first.body for f in frictions],
+                [geometry(f.joint) for f in frictions], [reaction_rows(f.joint) for f in frictions],
+                [(f.mu, f.mu_static, f.v_stribeck, f.viscous, f.v_reg, f.radius)
+                 for f in frictions]))
         self.force_groups.extend(self.flexible_groups)
+        #: Groups whose loads read lambda (friction): Q(t, q, v, lambda).
+        self.multiplier_groups = [g for g in self.force_groups
+                                  if getattr(g, "uses_multipliers", False)]
+        fr, fc = [], []
+        for g in self.multiplier_groups:
+            for cols, rows in zip(g.cols, g.rows):
+                r = np.repeat(cols, len(rows))
+                c = np.tile(rows, len(cols))
+                keep = r < n
+                fr.append(r[keep])
+                fc.append(c[keep])
+        #: Pattern (row of Q, row of lambda) of Q_lambda; None without friction.
+        self.pattern_force_lam = _concat_pattern(fr, fc) if fr else None
         self.potential_groups = [g for g in self.force_groups if hasattr(g, "energy")]
         self.derivative_groups = [g for g in self.force_groups if g.derivatives is not None]
         self.has_Q_v = any(getattr(g, "damped", False) for g in self.derivative_groups)
@@ -322,34 +354,74 @@ class AssembledSystem:
         return per_element[element]
 
     # -- forces -------------------------------------------------------------------------
-    def Q(self, t, q, v) -> np.ndarray:
-        """Generalized applied forces Q(t, q, v), shape (n,) [N, N m]."""
+    def _needs(self, lam):
+        if lam is None and self.multiplier_groups:
+            raise ValueError("the model has friction: its forces need the multipliers lambda")
+
+    def Q(self, t, q, v, lam=None, slip=None) -> np.ndarray:
+        """Generalized applied forces Q(t, q, v[, lambda]), shape (n,) [N, N m].
+
+        ``slip``: friction's tanh(z/v_reg) replaced, per friction instance
+        (NaN: not), for the Coulomb limit at rest (``FrictionGroup.law``).
+
+        Raises
+        ------
+        ValueError
+            ``lam`` (m,) not given for a model with friction (its normal
+            loads are reactions).
+        """
         out = np.zeros(self.nx)
         if self.gravity_force is not None:
             out[: self.n] += self.gravity_force
         if self.force_groups:
+            self._needs(lam)
             qx, vx = self._ext(q), self._ext(v)
             for g in self.force_groups:
-                np.add.at(out, g.cols, g.forces(qx, vx, t))
+                if getattr(g, "uses_multipliers", False):
+                    np.add.at(out, g.cols, g.forces(qx, vx, t, lam, slip))
+                else:
+                    np.add.at(out, g.cols, g.forces(qx, vx, t))
         return out[: self.n]
 
-    def force_derivative_values(self, t, q, v):
+    def Q_lam_values(self, t, q, v, lam):
+        """dQ/dlambda values on ``pattern_force_lam`` (friction), or None
+        without friction."""
+        if not self.multiplier_groups:
+            return None
+        qx, vx = self._ext(q), self._ext(v)
+        out = []
+        for g in self.multiplier_groups:
+            for cols, block in zip(g.cols, g.multiplier_derivatives(qx, vx, t, lam)):
+                out.append(block[cols < self.n].ravel())
+        return np.concatenate(out)
+
+    def Q_lam(self, t, q, v, lam):
+        """dQ/dlambda, shape (n, m), or None without friction."""
+        vals = self.Q_lam_values(t, q, v, lam)
+        return None if vals is None else self._dense(self.pattern_force_lam, vals,
+                                                     (self.n, self.m))
+
+    def force_derivative_values(self, t, q, v, lam=None):
         """(Q_q, Q_v) values on ``pattern_force``, or None where no declared
-        force depends on q (resp. v)."""
+        force depends on q (resp. v); ``lam`` as in :meth:`Q`."""
         if not self.has_Q_q:
             return None, None
+        self._needs(lam)
         qx, vx = self._ext(q), self._ext(v)
         Qq, Qv = [], []
         for g, mask in zip(self.derivative_groups, self._force_mask):
-            a, b = g.derivatives(qx, vx, t)
+            if getattr(g, "uses_multipliers", False):
+                a, b = g.derivatives(qx, vx, t, lam)
+            else:
+                a, b = g.derivatives(qx, vx, t)
             Qq.append(a[mask])
             Qv.append(b[mask] if b is not None else np.zeros(int(mask.sum())))
         return np.concatenate(Qq), (np.concatenate(Qv) if self.has_Q_v else None)
 
-    def force_derivatives(self, t, q, v):
+    def force_derivatives(self, t, q, v, lam=None):
         """(Q_q, Q_v), each shape (n, n), or None where no declared force
-        depends on q (resp. v)."""
-        Qq, Qv = self.force_derivative_values(t, q, v)
+        depends on q (resp. v); ``lam`` as in :meth:`Q`."""
+        Qq, Qv = self.force_derivative_values(t, q, v, lam)
         shape = (self.n, self.n)
         return (None if Qq is None else self._dense(self.pattern_force, Qq, shape),
                 None if Qv is None else self._dense(self.pattern_force, Qv, shape))
@@ -473,12 +545,42 @@ class AssembledSystem:
             K[:n, :n] = self.mass_matrix(q[i])
             P = self.Phi_q(q[i], t[i])
             K[:n, n:], K[n:, :n] = P.T, P
-            rhs = np.concatenate([self.Q(t[i], q[i], v[i]), self.gamma(q[i], v[i], t[i])])
             try:
-                out[i] = np.linalg.solve(K, rhs)[n:]
+                out[i] = self.index1_solve(K, t[i], q[i], v[i])[n:]
             except np.linalg.LinAlgError:
                 out[i] = np.nan
         return out
+
+    #: Fixed-point iterations on lambda of the index-1 solve with friction.
+    FRICTION_ITERATIONS = 100
+
+    def index1_solve(self, K, t, q, v, solve=None, slip=None):
+        """(a, lambda) of the index-1 system with matrix K (or its factorization's
+        ``solve``), shape (n + m,).
+
+        With friction Q depends on lambda, and the system is solved by the
+        fixed-point iteration lambda_{k+1} = lambda(Q(t, q, v, lambda_k)),
+        from lambda_0 = 0: its contraction factor is the friction's share of the
+        reaction (of order mu r / (lever arm)), small for every physical mu.
+
+        Raises
+        ------
+        numpy.linalg.LinAlgError
+            K singular, or the iteration does not settle (friction coefficients
+            so large that the reactions feed themselves).
+        """
+        n = self.n
+        solve = solve or (lambda rhs: np.linalg.solve(K, rhs))
+        gam = self.gamma(q, v, t)
+        lam = np.zeros(self.m)
+        for _ in range(self.FRICTION_ITERATIONS if self.multiplier_groups else 1):
+            sol = solve(np.concatenate([self.Q(t, q, v, lam, slip), gam]))
+            change = np.max(np.abs(sol[n:] - lam), initial=0.0)
+            lam = sol[n:]
+            if not self.multiplier_groups or \
+                    change <= 1e-13 * (1.0 + np.max(np.abs(lam), initial=0.0)):
+                return sol
+        raise np.linalg.LinAlgError("the index-1 multipliers with friction do not settle")
 
     # -- energy ---------------------------------------------------------------------------
     def kinetic_energy(self, q, v):
@@ -503,7 +605,7 @@ class AssembledSystem:
         joint torques, point forces; Q_group . v) and the drivers (lambda .
         Phi_t, the power of the rheonomic constraint forces -Phi_q^T lambda
         on a motion with Phi_q v + Phi_t = 0). Dissipated: the dampers of
-        spring-dampers and rotational spring-dampers. Gravity, springs and
+        spring-dampers and rotational spring-dampers, and friction. Gravity, springs and
         beam strain are in :meth:`potential_energy`. Only what the model
         declares is evaluated.
 
@@ -528,6 +630,9 @@ class AssembledSystem:
             elif isinstance(g, (TorqueGroup, StateTorqueGroup, PointForceGroup)):
                 for i in range(N):
                     p_in[i] += np.sum(g.forces(qx[i], vx[i], t[i]) * vx[i][g.cols])
+            elif isinstance(g, FrictionGroup):
+                for i in range(N):
+                    p_diss[i] += np.sum(g.dissipation(qx[i], vx[i], t[i], lam[i]))
         if self.m and any(f is not None and not f.constant for g in self.timed_groups
                           for f in g.functions):
             pt = self.Phi_t(q, t) if phi_t is None else phi_t

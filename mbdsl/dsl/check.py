@@ -20,7 +20,7 @@ from ..model import graph
 from ..registry import COEFFICIENTS, METHOD_COEFFICIENTS, METHOD_NAMES
 from ..model.elements import (COORDINATES, GROUND, VELOCITIES, Driver, InitialCondition,
                               FlexibleBeam, Joint, Model, PointForce, PointRef, RigidBody,
-                              JointForce, JointTorque, Output, OutputVariable,
+                              Friction, JointForce, JointTorque, Output, OutputVariable,
                               RotationalSpringDamper,
                               SpringDamper,
                               StateFunction, StateVariable, TimeFunction, Torque)
@@ -45,13 +45,17 @@ JOINT_KINDS = {
     "prismatic": (2, {"direction": None, "angle": 0.0}, 2),
     "point_on_line": (2, {"direction": None}, 1),
 }
-#: force kind -> allowed keywords with defaults (None: required)
+#: an optional keyword without a default value (``friction``'s radius, mu_static)
+_UNSET = float("nan")
+#: force kind -> allowed keywords with defaults (None: required; _UNSET: optional)
 FORCE_KINDS = {
     "spring_damper": {"k": None, "c": 0.0, "length": None},
     "rotational_spring_damper": {"k": None, "c": 0.0, "angle": 0.0},
     "torque": {},
     "joint_torque": {},
     "joint_force": {},
+    "friction": {"mu": None, "radius": _UNSET, "mu_static": _UNSET, "v_stribeck": 0.0,
+                 "viscous": 0.0, "v_reg": 1e-4},
     "force": {},
 }
 #: What a force expression may read of the motion: body field -> (level, coordinate),
@@ -769,7 +773,7 @@ class _Checker:
                 continue
             allowed = FORCE_KINDS[f.kind]
             npos = {"spring_damper": 2, "rotational_spring_damper": 1, "torque": 2,
-                    "joint_torque": 2, "joint_force": 2, "force": 2}[f.kind]
+                    "joint_torque": 2, "joint_force": 2, "force": 2, "friction": 1}[f.kind]
             pos, kw = self.split_args(f, allowed, npos, ctx)
             if pos is None:
                 continue
@@ -779,10 +783,18 @@ class _Checker:
                     v = self.number(kw[name].value, kw[name].span, ctx)
                     if v is None:
                         break
-                    if name in ("k", "c") and v < 0:
+                    if name in ("k", "c", "mu", "mu_static", "viscous", "v_stribeck",
+                                "radius") and v < 0:
                         self.error("E303", f"{ctx}: '{name}' must not be negative, got {v:g}",
                                    kw[name].span, "negative",
-                                   hint="a negative stiffness or damping feeds energy in")
+                                   hint="a negative stiffness, damping or friction coefficient "
+                                   "feeds energy in")
+                        break
+                    if name == "v_reg" and not v > 0:
+                        self.error("E303", f"{ctx}: the regularisation speed 'v_reg' must be "
+                                   f"positive, got {v:g}", kw[name].span, "not positive",
+                                   hint="the friction force reaches mu N at a few v_reg: "
+                                   "1e-4 m/s (or rad/s) suits most machines")
                         break
                     if name == "length" and v < 0:
                         self.error("E303", f"{ctx}: the free length must not be negative, got {v:g} m",
@@ -872,6 +884,8 @@ class _Checker:
                 return None
             fn = self.force_function(pos[1].value, pos[1].span or f.span, ctx)
             return JointForce(f.name, joint, fn, f.span) if fn else None
+        if f.kind == "friction":
+            return self.friction_element(f, pos, opts, ctx)
         # point force
         p = self.point(pos[0].value, pos[0].span or f.span, ctx)
         vec = pos[1].value
@@ -888,6 +902,50 @@ class _Checker:
                        hint="apply the force to a moving body")
             return None
         return PointForce(f.name, p, fx, fy, f.span)
+
+    def friction_element(self, f, pos, opts, ctx):
+        """A Friction element from checked options; None after reporting."""
+        joint = self.joint_argument(pos[0], f, ctx)
+        if joint is None:
+            return None
+        span = getattr(pos[0].value, "span", None) or f.span
+        kw = {a.keyword: a for a in f.args if a.keyword is not None}
+        if joint.kind == "fixed":
+            self.error("E305", f"{ctx}: friction acts in a joint that moves; '{joint.name}' is "
+                       "a fixed joint", span, "a fixed joint does not slide",
+                       hint="friction(J, ...) takes a revolute, prismatic or point_on_line joint")
+            return None
+        radius = opts["radius"]
+        if joint.kind == "revolute":
+            if np.isnan(radius):
+                self.error("E304", f"{ctx}: friction in a revolute joint needs the pin's "
+                           "'radius' (m)", f.kind_span or f.span, "'radius = ...' is required",
+                           hint="the friction torque is mu r |reaction|")
+                return None
+        else:
+            if not np.isnan(radius):
+                self.error("E304", f"{ctx}: 'radius' is for revolute joints; '{joint.name}' is "
+                           f"a {joint.kind} joint", kw["radius"].span or f.span,
+                           "not a revolute joint",
+                           hint="a sliding joint's friction force is mu |normal reaction|")
+                return None
+            radius = 1.0
+            try:
+                self.sliding_line(joint)
+            except ExprError as err:
+                self.expr_error(err, f.span, ctx)
+                return None
+        mu = opts["mu"]
+        mu_s = mu if np.isnan(opts["mu_static"]) else opts["mu_static"]
+        if mu_s != mu and opts["v_stribeck"] == 0.0:
+            self.error("E304", f"{ctx}: 'mu_static' differs from 'mu' but no 'v_stribeck' "
+                       "says at which speed", kw["mu_static"].span or f.span,
+                       "needs v_stribeck",
+                       hint="mu(z) = mu + (mu_static - mu) exp(-(z/v_stribeck)^2): "
+                       "give v_stribeck = ... (m/s or rad/s)")
+            return None
+        return Friction(f.name, joint, mu, mu_s, opts["v_stribeck"], opts["viscous"],
+                        opts["v_reg"], radius, f.span)
 
     def check_gravity(self):
         """Evaluate the gravity vector, or None when not declared."""
@@ -960,8 +1018,18 @@ class _Checker:
             return OutputVariable(ref.text, "column", column=ref.text)
         if obj in self.joints:
             j = self.joints[obj]
+            if j.kind in ("prismatic", "point_on_line"):
+                if attr not in SLIDING_STATE:
+                    raise fail("an output reads a sliding joint's distance or speed",
+                               hint=_did_you_mean(attr, SLIDING_STATE))
+                try:
+                    line = self.sliding_line(j, ref)
+                except ExprError as err:
+                    raise fail(str(err.args[0]))
+                return OutputVariable(ref.text, "joint", field=attr, bodies=j.bodies, line=line)
             if j.kind != "revolute" or attr not in ("angle", "rate"):
-                raise fail("an output reads a revolute joint's angle or rate",
+                raise fail("an output reads a revolute joint's angle or rate, or a sliding "
+                           "joint's distance or speed",
                            hint=f"'{obj}' is a {j.kind} joint" if j.kind != "revolute"
                            else _did_you_mean(attr, ("angle", "rate")))
             return OutputVariable(ref.text, "joint", field=attr, bodies=j.bodies)

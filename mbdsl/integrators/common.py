@@ -58,8 +58,17 @@ def newmark_predictor(state, h: float, beta: float, gamma: float):
 
 
 def force_term(system, t, q, v, lam) -> np.ndarray:
-    """Phi_q^T lambda - Q(t, q, v), shape (n,): the HHT 'old force' term."""
-    return system.PhiqT_times(q, t, lam) - system.Q(t, q, v)
+    """Phi_q^T lambda - Q(t, q, v, lambda), shape (n,): the HHT 'old force'
+    term (Q reads lambda only with friction)."""
+    return system.PhiqT_times(q, t, lam) - system.Q(t, q, v, lam)
+
+
+def start_force_term(system, initial) -> np.ndarray:
+    """force_term at t_0 with the forces the start was solved with
+    (``InitialState.Q``: friction's Coulomb limit at rest), shape (n,)."""
+    if getattr(initial, "Q", None) is None:
+        return force_term(system, initial.t, initial.q, initial.v, initial.lam)
+    return system.PhiqT_times(initial.q, initial.t, initial.lam) - initial.Q
 
 
 class Terms:
@@ -117,11 +126,23 @@ class Terms:
         self.add(s.pattern_hessian,
                  self._once(("hessian", id(lam)), lambda: s.PhiqT_lam_q_values(q, lam)),
                  row0, col0, c_q)
-        Qq, Qv = self._once("force", lambda: s.force_derivative_values(t, q, v))
+        Qq, Qv = self._once("force", lambda: s.force_derivative_values(t, q, v, lam))
         self.add(s.pattern_force, Qq, row0, col0, -c_q)
         if c_v:
             self.add(s.pattern_force, Qv, row0, col0, -c_v)
         return self
+
+    def Q_lam(self, t, q, v, lam, row0=0, col0=0, coef=1.0, inv_mass=False):
+        """coef dQ/dlambda (or M^{-1} dQ/dlambda), n x m: friction's normal
+        loads are reactions, so wherever Phi_q^T lambda - Q stands the lambda
+        columns hold Phi_q^T - Q_lambda. Nothing without friction."""
+        s = self.system
+        if s.pattern_force_lam is None:
+            return self
+        vals = s.Q_lam_values(t, q, v, lam)
+        if inv_mass:
+            vals = vals / s.mass_diag[s.pattern_force_lam[0]]
+        return self.add(s.pattern_force_lam, vals, row0, col0, coef)
 
     def Phi_q(self, q, t, row0=0, col0=0, coef=1.0, transpose=False, inv_mass=False):
         """coef Phi_q (or its transpose, or M^{-1} Phi_q^T)."""
@@ -149,7 +170,8 @@ def assemble(ctx, terms: Terms, size: int):
 def index3_newton_matrix(ctx, q, v, a, lam, c_mass: float, c_q: float, c_v: float):
     """Newton matrix of the index-3 methods in the unknowns (a, lambda).
 
-        [[c_mass M + c_q (c_mass (M a)_q + (Phi_q^T lambda)_q - Q_q) - c_v Q_v,  Phi_q^T],
+        [[c_mass M + c_q (c_mass (M a)_q + (Phi_q^T lambda)_q - Q_q) - c_v Q_v,
+          Phi_q^T - Q_lambda],
          [Phi_q,                                                              0      ]]
 
     with c_q = dq/da and c_v = dv/da of the method's integration formulas
@@ -162,7 +184,7 @@ def index3_newton_matrix(ctx, q, v, a, lam, c_mass: float, c_q: float, c_v: floa
     system, t, n = ctx.system, ctx.t, ctx.system.n
     T = Terms(system).mass(q, coef=c_mass)
     T.stiffness(t, q, v, lam, c_q=c_q, c_v=c_v, a=a, c_mass=c_mass)
-    T.Phi_q(q, t, 0, n, transpose=True).Phi_q(q, t, n, 0)
+    T.Phi_q(q, t, 0, n, transpose=True).Q_lam(t, q, v, lam, 0, n, -1.0).Phi_q(q, t, n, 0)
     return assemble(ctx, T, n + system.m)
 
 
@@ -273,7 +295,7 @@ def si2_newton_matrix(ctx, q, v, lam, mu, c_mass: float, beta: float, gamma: flo
     T = Terms(sys).mass(qhat, coef=c_mass)
     T.stiffness(t, q, v, lam, row0=0, col0=0, c_q=bh2, c_v=gh)
     T.stiffness(t, q, v, lam, row0=0, col0=n, c_q=hh2)
-    T.Phi_q(q, t, 0, 2 * n, transpose=True)
+    T.Phi_q(q, t, 0, 2 * n, transpose=True).Q_lam(t, q, v, lam, 0, 2 * n, -1.0)
     T.add(sys.pattern_hessian, Kmu, n, 0, bh2)
     T.mass(qhat, n, n).add(sys.pattern_hessian, Kmu, n, n, hh2)
     T.Phi_q(q, t, n, 2 * n + m, transpose=True)

@@ -186,7 +186,7 @@ class GenAlpha(_GenAlphaBase):
         sys, n, t = ctx.system, ctx.system.n, ctx.t
         x, lam = w[:n], w[n:]
         q, v = self._qv(x, ctx)
-        r1 = sys.mass_times(q, x) + sys.PhiqT_times(q, t, lam) - sys.Q(t, q, v)
+        r1 = sys.mass_times(q, x) + sys.PhiqT_times(q, t, lam) - sys.Q(t, q, v, lam)
         r2 = sys.Phi(q, t) / (self.beta_p * ctx.h ** 2)
         return np.concatenate([r1, r2])
 

@@ -112,8 +112,11 @@ class HHTADD(Method):
         """Phi's round-off through the 1/h^2 rows, times h."""
         return roundoff_floor(system, q, 1.0 / h, 3 * system.n, 2 * system.m)
 
-    def _f(self, system, t, q, v):
-        return system.mass_solve(q, system.Q(t, q, v))
+    def _f(self, system, t, q, v, lam):
+        """f = M^{-1} Q(t, q, v, lambda); lambda := psi_II, read only by
+        friction (whose normal load is then psi_II: an O(h) approximation of
+        the reaction, see ``output_multipliers``)."""
+        return system.mass_solve(q, system.Q(t, q, v, lam))
 
     def output_multipliers(self, system, t, q, v, lam, extras):
         """lambda from the index-1 system at each step's (t, q, v); psi_II
@@ -135,8 +138,9 @@ class HHTADD(Method):
 
     def start(self, system, initial) -> list[StepState]:
         """a_0 = f(t_0, q_0, v_0); psi_I of the first step starts at lambda_0."""
-        s = StepState(initial.t, initial.q, initial.v,
-                      self._f(system, initial.t, initial.q, initial.v), initial.lam)
+        f0 = (self._f(system, initial.t, initial.q, initial.v, initial.lam)
+              if getattr(initial, "Q", None) is None else system.mass_solve(initial.q, initial.Q))
+        s = StepState(initial.t, initial.q, initial.v, f0, initial.lam)
         s.extra["psi1"] = initial.lam.copy()
         s.extra["f"] = s.a.copy()
         return [s]
@@ -172,7 +176,7 @@ class HHTADD(Method):
         e2 = dv - self.gamma * a - 0.5 * (R1 + R2)
         e3 = sys.Phi(q, t) / (h * h)
         e4 = (sys.Phiq_times(q, t, v) + sys.Phi_t(q, t)) / h
-        e5 = a - (1.0 + self.alpha) * self._f(sys, t, q, v) + self.alpha * ctx.last.extra["f"]
+        e5 = a - (1.0 + self.alpha) * self._f(sys, t, q, v, p2) + self.alpha * ctx.last.extra["f"]
         return np.concatenate([e1, e2, e3, e4, e5])
 
     def jacobian(self, w, ctx) -> np.ndarray:
@@ -200,8 +204,9 @@ class HHTADD(Method):
         T.Phi_q(q, t, n, c5, 0.5, transpose=True, inv_mass=True)
         T.Phi_q(q, t, 2 * n, 0)
         T.G(q, v, t, 2 * n + m, 0, h).Phi_q(q, t, 2 * n + m, n)
-        Qq, Qv = sys.force_derivative_values(t, q, v)
+        Qq, Qv = sys.force_derivative_values(t, q, v, p2)
         rows = sys.pattern_force[0]
+        T.Q_lam(t, q, v, p2, r5, c5, -(1.0 + self.alpha), inv_mass=True)
         T.add(sys.pattern_force, None if Qq is None else Qq * inv[rows], r5, 0,
               -(1.0 + self.alpha) * h2)
         T.add(sys.pattern_force, None if Qv is None else Qv * inv[rows], r5, n,
@@ -227,8 +232,9 @@ class HHTADD(Method):
         B = sys.mass_solve(q, sys.Phi_q(q, t).T)
         y = B @ p2
         dR2 = sys.mass_solve(q, sys.PhiqT_lam_q(q, p2) - sys.Ma_q(q, y))    # = -dR_II/dq
-        Qq, Qv = sys.force_derivatives(t, q, v)
-        f = sys.mass_solve(q, sys.Q(t, q, v))
+        Qq, Qv = sys.force_derivatives(t, q, v, p2)
+        f = sys.mass_solve(q, sys.Q(t, q, v, p2))
+        Ql = sys.Q_lam(t, q, v, p2)            # friction: d f / d psi_II
         dfq = sys.mass_solve(q, (0.0 if Qq is None else Qq) - sys.Ma_q(q, f))
         T = Terms(sys)
         T.identity(0, 0).dense(dR2, 0, 0, 0.5 * self.b * h2)
@@ -242,6 +248,8 @@ class HHTADD(Method):
         T.dense(dfq, r5, 0, -(1.0 + self.alpha) * h2)
         if Qv is not None:
             T.dense(sys.mass_solve(q, Qv), r5, n, -(1.0 + self.alpha) * h)
+        if Ql is not None:
+            T.dense(sys.mass_solve(q, Ql), r5, c5, -(1.0 + self.alpha))
         T.identity(r5, 2 * n)
         return assemble(ctx, T, 3 * n + 2 * m)
 
@@ -250,5 +258,5 @@ class HHTADD(Method):
         dq, dv, a, p1, p2, q, v = self._split(w, ctx)
         s = StepState(ctx.t, q, v, a.copy(), p2.copy())
         s.extra["psi1"] = p1.copy()
-        s.extra["f"] = self._f(ctx.system, ctx.t, q, v)
+        s.extra["f"] = self._f(ctx.system, ctx.t, q, v, p2)
         return s

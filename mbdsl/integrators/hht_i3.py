@@ -6,7 +6,7 @@ import numpy as np
 
 from .base import Block, Method, StepContext, StepState
 from .common import (acceleration_scales, force_term, hht_coefficients,
-                     index3_newton_matrix, newmark_predictor, roundoff_floor)
+                     index3_newton_matrix, newmark_predictor, roundoff_floor, start_force_term)
 from .recipe import newmark_recipe
 
 __all__ = ["HHTI3"]
@@ -98,7 +98,7 @@ class HHTI3(Method):
     def start(self, system, initial) -> list[StepState]:
         """One state at t_0 with a_0 = q''(t_0) and lambda_0 from the index-1 system."""
         s = StepState(initial.t, initial.q, initial.v, initial.a, initial.lam)
-        s.extra["F"] = force_term(system, s.t, s.q, s.v, s.lam)
+        s.extra["F"] = start_force_term(system, initial)
         return [s]
 
     def context(self, system, history, t, h) -> StepContext:

@@ -6,7 +6,8 @@ import numpy as np
 
 from .base import Block, Method, StepContext, StepState
 from .common import (force_term, hht_coefficients, newmark_predictor, roundoff_floor,
-                     si2_blocks, si2_newton_matrix, si2_residual, si2_scales)
+                     si2_blocks, si2_newton_matrix, si2_residual, si2_scales,
+                     start_force_term)
 from .recipe import newmark_recipe
 
 __all__ = ["HHTSI2"]
@@ -96,7 +97,7 @@ class HHTSI2(Method):
         """One state at t_0: a_0 = q''(t_0), mu_0 = 0, the old force term cached."""
         s = StepState(initial.t, initial.q, initial.v, initial.a, initial.lam)
         s.extra["mu"] = np.zeros(system.m)
-        s.extra["F"] = force_term(system, s.t, s.q, s.v, s.lam)
+        s.extra["F"] = start_force_term(system, initial)
         return [s]
 
     def context(self, system, history, t, h) -> StepContext:

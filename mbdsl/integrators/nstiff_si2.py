@@ -132,10 +132,10 @@ class NStiffSI2(Method):
         sys, t, c0 = ctx.system, ctx.t, ctx.cache["c0"]
         n, m = sys.n, sys.m
         x, y, lam, mu, q, v = self._split(w, ctx)
-        _, Qv = sys.force_derivative_values(t, q, v)
+        _, Qv = sys.force_derivative_values(t, q, v, lam)
         T = Terms(sys).mass(q).add(sys.pattern_force, Qv, coef=-1.0 / c0)
         T.stiffness(t, q, v, lam, row0=0, col0=n, c_q=1.0 / c0, a=x)   # ((M x)_q + K - Q_q)/c0
-        T.Phi_q(q, t, 0, 2 * n, transpose=True)
+        T.Phi_q(q, t, 0, 2 * n, transpose=True).Q_lam(t, q, v, lam, 0, 2 * n, -1.0)
         T.identity(n, 0, -1.0 / c0).identity(n, n)
         T.add(sys.pattern_hessian, sys.PhiqT_lam_q_values(q, mu), n, n, 1.0 / c0)
         T.Phi_q(q, t, n, 2 * n + m, transpose=True)

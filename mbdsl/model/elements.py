@@ -35,7 +35,7 @@ GROUND = -1
 
 __all__ = [
     "GROUND", "RigidBody", "FlexibleBeam", "PointRef", "Joint", "Driver", "SpringDamper",
-    "RotationalSpringDamper", "Torque", "JointTorque", "JointForce", "PointForce",
+    "RotationalSpringDamper", "Torque", "JointTorque", "JointForce", "Friction", "PointForce",
     "InitialCondition", "line_distance", "line_columns",
     "TimeFunction", "StateVariable", "StateFunction", "Output", "OutputVariable", "Model", "COORDINATES", "VELOCITIES", "ACCELERATIONS",
 ]
@@ -203,7 +203,8 @@ class OutputVariable:
         "column": a result column by name (``column``); "point": ``field``
         (x, y, vx, vy) of a rigid body's point ``point``; "joint": a revolute
         joint's relative angle (``field`` "angle") or rate ("rate") of the
-        bodies ``bodies`` (first, second).
+        bodies ``bodies`` (first, second), or with ``line`` (the geometry of
+        :func:`line_distance`) a sliding joint's distance or speed.
     """
 
     name: str
@@ -212,6 +213,7 @@ class OutputVariable:
     point: "PointRef | None" = None
     field: str = ""
     bodies: tuple = ()
+    line: tuple | None = None
 
 
 @dataclass(frozen=True)
@@ -453,6 +455,45 @@ class JointForce:
     name: str
     joint: "Joint"
     function: object
+    span: Span | None = None
+
+
+@dataclass(frozen=True)
+class Friction:
+    """Coulomb friction in a joint, from the joint's own reaction.
+
+    In a revolute joint a torque -r |R| mu(z) tanh(z/v_reg) - c z on the
+    second body (the opposite on the first), z the relative rate [rad/s] and
+    |R| the pin's reaction [N]; in a prismatic or point_on_line joint a force
+    -|N| mu(z) tanh(z/v_reg) - c z along the line on its sliding point (the
+    opposite on the line's body), z the sliding speed [m/s] and |N| the
+    normal reaction [N]. mu(z) = mu + (mu_static - mu) exp(-(z/v_stribeck)^2)
+    (Andersson, Soderberg & Bjorklund 2007; ``assembly.groups.FrictionGroup``).
+
+    Attributes
+    ----------
+    mu, mu_static : float
+        Kinetic and static friction coefficients (equal: no Stribeck effect).
+    v_stribeck : float
+        Stribeck speed [m/s or rad/s]; 0 without a Stribeck effect.
+    viscous : float
+        Viscous coefficient c [N s/m or N m s/rad].
+    v_reg : float
+        Regularisation speed [m/s or rad/s]: a stuck joint creeps at
+        v_reg atanh(load / (mu N)), below 2 v_reg while its load stays below
+        0.96 mu N.
+    radius : float
+        Pin radius r [m] of a revolute joint (1 for a sliding joint).
+    """
+
+    name: str
+    joint: "Joint"
+    mu: float
+    mu_static: float
+    v_stribeck: float
+    viscous: float
+    v_reg: float
+    radius: float = 1.0
     span: Span | None = None
 
 
