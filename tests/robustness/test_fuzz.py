@@ -35,7 +35,10 @@ INSERTS = ["kg", "m/s", "{", "}", "(", ")", ",", ";", "=", ":", "..", "é", "→
            ".", "omega", "rate", "angle", "distance", "crank.omega", "O.rate", "joint_torque",
            "torque", "prismatic",
            # static starts and output lines
-           "static", "initial static\n", "output", "output x = crank.A.y\n", "reaction"]
+           "static", "initial static\n", "output", "output x = crank.A.y\n", "reaction",
+           # friction in joints
+           "friction", "mu", "radius", "mu_static", "v_stribeck", "viscous", "v_reg",
+           "force f: friction(P, mu = 0.3)\n", "force f: friction(O, mu = 0.1, radius = 0.01)\n"]
 
 
 def tokens(text):
