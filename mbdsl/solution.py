@@ -423,6 +423,9 @@ class Solution:
         self.wall_time = 0.0
         self.timings = dict.fromkeys(self.TIMING_NAMES, 0.0)
         self.engine, self.linear_solver = "numpy", "dense"
+        #: Why the compiled engine did not run a model ``engine="auto"`` chose
+        #: the numpy engine for (``engine.unsupported``), or None.
+        self.engine_note = None
         self.stats_total = RunStats()
         self._rows = _RowStore(system.n, system.m, self._stored_extras)
         self.last_state = None
@@ -685,7 +688,9 @@ class Solution:
             + ", ".join(f"{k}={v:g}" for k, v in self.method_parameters.items())
             + f", h = {self.h:g} s, t = {self.t[0]:g} .. {self.t[-1]:g} s ({self.status})",
             f"  steps {tot.steps} (rejected {tot.rejected}) on the {self.engine} engine "
-            f"({self.linear_solver} linear solver): {1e6 * self.wall_time / steps:.1f} us/step",
+            f"({self.linear_solver} linear solver"
+            + (f"; not compiled: {self.engine_note}" if getattr(self, "engine_note", None) else "")
+            + f"): {1e6 * self.wall_time / steps:.1f} us/step",
             "  wall time: " + ", ".join(f"{k} {v:.3f} s" for k, v in self.timings.items()),
             f"  Newton: {tot.iterations / steps:.2f} iterations/step, {tot.jacobians} Jacobians, "
             f"{tot.factorizations} factorizations, {tot.residuals} residuals"

@@ -152,6 +152,8 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
     history = method.start(system, initial)
     sol = Solution(system, method, h, t_end, initial)
     sol.engine = which
+    from .engine import unsupported
+    sol.engine_note = unsupported(system, method) if engine == "auto" else None
     sol.linear_solver = "sparse" if assembler.sparse else "dense"
     sol.append(history[-1], StepStats())
     sol.last_state = history[-1]

@@ -98,7 +98,7 @@ def unsupported(system, method) -> str | None:
             return f"no kernel for {type(g).__name__}"
     for g in system.force_groups:
         if getattr(g, "uses_multipliers", False):
-            return "the model has friction (its loads read the multipliers; no kernel for it yet)"
+            return "the model has friction, whose loads read the multipliers: no kernel for it yet"
         if not isinstance(g, (SpringDamperGroup, RotationalSpringGroup, TorqueGroup,
                               PointForceGroup, StateTorqueGroup)):
             return f"no kernel for {type(g).__name__}"

@@ -217,3 +217,11 @@ def test_energy_balance_on_the_incline(method):
         assert worst[-1] < (1e-5 if method.startswith("nstiff") else 1e-10) * top
     if method.startswith("nstiff"):
         assert 3.5 < worst[0] / worst[1] < 4.5, worst
+
+
+def test_the_summary_says_why_friction_runs_on_the_numpy_engine():
+    sol = mbdsl.simulate(mbdsl.load(INCLINE), t_end=0.01)
+    assert sol.engine == "numpy"
+    assert "not compiled: the model has friction" in sol.summary()
+    with pytest.raises(ValueError, match="the model has friction"):
+        mbdsl.simulate(mbdsl.load(INCLINE), t_end=0.01, engine="compiled")
