@@ -30,6 +30,8 @@ Systems, ch. 4): a body point is at r + A(phi) s, with d/dphi (A s) = B s =
 * spring-damper: Q = -D^T (f e), f = k (l - l0) + c ldot
 * rotational spring-damper: tau = k (phi2 - phi1 - angle) + c (w2 - w1)
 * constant point forces, and constant forces (gravity, torques) in Q0
+* friction in joints: tau = -N mu(z) tanh(z/v_reg) - c z along w (``FrictionGroup``),
+  N from the joint's multipliers: Q reads lambda, Q_lambda beside Phi_q^T
 
 The Newton iteration is the one of :mod:`mbdsl.integrators.newton`
 (weighted velocity-equivalent norm, contraction-based stopping, modified
@@ -116,7 +118,8 @@ MODEL_SCHEMA = (
     ("sdv", "i", 3),                                                   # +col, -col, line; dtau/dx
     ("pfn", "i", 2),                                                   # point on line: f, f'
     ("geo", "i", 6), ("geof", "f", 6),                                 # sliding joints' lines
-)
+    ("fri", "i", 5), ("frp", "f", 6),                                  # friction: +col, -col,
+)                                                                      # line, row, rows; law
 #: The field names, and the scalar "n_elements" (the header's last entry).
 MODEL_FIELDS = tuple(name for name, _, _ in MODEL_SCHEMA) + ("n_elements",)
 
@@ -133,7 +136,7 @@ _inline = numba.njit(cache=True, nogil=True, inline="always")
 (MASS, Q0, CROW, CCOL1, CS1, CCOL2, CS2, PROW, PCOLL, PSL, PCOLP, PSP, PN0,
  LROW, LCOL, LCOEF, LOFF, SCOL1, SS1, SCOL2, SS2, SPAR, RCOL, RPAR,
  FCOL, FS, FF, ROW_ELEMENT, CODE, CONSTS, PROG, LFN, TCOL, TFN, FFN, STACK,
- VAR, VARC, XVAL, STQ, SDV, PFN, GEO, GEOF) = range(44)
+ VAR, VARC, XVAL, STQ, SDV, PFN, GEO, GEOF, FRI, FRP) = range(46)
 if any(globals()[name.upper()] != k for k, (name, _, _) in enumerate(MODEL_SCHEMA)):
     raise ImportError("compiled.py's field indices differ from MODEL_SCHEMA")   # pragma: no cover
 
@@ -510,8 +513,55 @@ def _spring(I, Fl, qx, vx, i, G, v6):
 
 
 @_jit
-def forces(I, Fl, t, qx, vx, out):
-    """Q(q, v) into out (n+3,) [N, N m] (overwritten)."""
+def _friction_law(I, Fl, i, z, lam):
+    """(tau, dtau/dz, dtau/dN_raw, R) of friction instance i at joint speed z:
+    ``FrictionGroup.law`` with R = |lambda_J| (N = r R). dtau/dlambda_J =
+    dtau/dN_raw lambda_J / R (0 at R = 0)."""
+    mu_k, mu_s, v_s = _f(I, Fl, FRP, i, 0), _f(I, Fl, FRP, i, 1), _f(I, Fl, FRP, i, 2)
+    c, v_reg, rad = _f(I, Fl, FRP, i, 3), _f(I, Fl, FRP, i, 4), _f(I, Fl, FRP, i, 5)
+    e, dmu = 0.0, 0.0
+    if v_s > 0.0:
+        e = math.exp(-(z / v_s) ** 2)
+        dmu = (mu_s - mu_k) * e * (-2.0 * z / (v_s * v_s))
+    mu = mu_k + (mu_s - mu_k) * e
+    th = math.tanh(z / v_reg)
+    row, nr = _i(I, FRI, i, 3), _i(I, FRI, i, 4)
+    R2 = 0.0
+    for k in range(nr):
+        R2 += lam[row + k] * lam[row + k]
+    R = math.sqrt(R2)
+    N = rad * R
+    tau = -N * mu * th - c * z
+    dz = -N * (dmu * th + mu * (1.0 - th * th) / v_reg) - c
+    return tau, dz, -mu * th * rad, R
+
+
+@_jit
+def _friction_kin(I, Fl, i, qx, vx, grad, H):
+    """Joint speed z of friction instance i; its direction w into grad (6,)
+    (revolute: (1, -1) on its +col, -col) and, for a sliding line, d^2 s
+    into H. Returns (z, g): g the line's row, -1 for a revolute."""
+    g = _i(I, FRI, i, 2)
+    if g < 0:
+        grad[0], grad[1] = 1.0, -1.0
+        return vx[_i(I, FRI, i, 0)] - vx[_i(I, FRI, i, 1)], g
+    _line(I, Fl, qx, g, grad, H)
+    z = 0.0
+    for j in range(6):
+        z += grad[j] * vx[_i(I, GEO, g, j)]
+    return z, g
+
+
+@_jit
+def _friction_col(I, i, g, a):
+    """Column of local entry a of friction instance i (line g, or a revolute)."""
+    return _i(I, FRI, i, a) if g < 0 else _i(I, GEO, g, a)
+
+
+@_jit
+def forces(I, Fl, t, qx, vx, lam, out):
+    """Q(q, v, lambda) into out (n+3,) [N, N m] (overwritten); lambda (m,) is
+    read by friction only."""
     for j in range(out.shape[0]):       # a loop: numba's array-to-array slice copy checks overlap
         out[j] = _f(I, Fl, Q0, j, 0)
     for i in range(_rows(I, SCOL1)):
@@ -562,6 +612,13 @@ def forces(I, Fl, t, qx, vx, out):
                 _line(I, Fl, qx, g, grad, H)
                 for j in range(6):
                     out[_i(I, GEO, g, j)] += tau * grad[j]
+    if _rows(I, FRI) > 0:                          # friction: tau w
+        grad, H = np.empty(6), np.empty((6, 6))
+        for i in range(_rows(I, FRI)):
+            z, g = _friction_kin(I, Fl, i, qx, vx, grad, H)
+            tau, dz, dN, Rn = _friction_law(I, Fl, i, z, lam)
+            for a in range(2 if g < 0 else 6):
+                out[_friction_col(I, i, g, a)] += tau * grad[a]
 
 
 # --------------------------------------------------------------------------------------------
@@ -701,7 +758,56 @@ def _emit_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef):
 
 
 @_jit
-def _emit_force(I, Fl, t, n, qx, vx, R, C, V, p, r0, c0, cq, cv):
+def _emit_friction(I, Fl, n, qx, vx, lam, R, C, V, p, r0, c0, cq, cv):
+    """Friction's -(cq Q_q + cv Q_v) at (r0, c0): Q_q = tau d^2 s + w dtau/dz
+    (d^2 s v)^T, Q_v = w dtau/dz w^T (``FrictionGroup.derivatives``)."""
+    w, H = np.empty(6), np.empty((6, 6))
+    Hv = np.empty(6)
+    for i in range(_rows(I, FRI)):
+        z, g = _friction_kin(I, Fl, i, qx, vx, w, H)
+        tau, dz, dN, Rn = _friction_law(I, Fl, i, z, lam)
+        k = 2 if g < 0 else 6
+        for b in range(k):
+            Hv[b] = 0.0
+            if g >= 0:
+                for j in range(6):
+                    Hv[b] += H[b, j] * vx[_i(I, GEO, g, j)]
+        for a in range(k):
+            ra = _friction_col(I, i, g, a)
+            if ra >= n:
+                continue
+            for b in range(k):
+                cb = _friction_col(I, i, g, b)
+                if cb >= n:
+                    continue
+                val = cv * dz * w[a] * w[b]
+                if g >= 0:
+                    val += cq * (tau * H[a, b] + dz * w[a] * Hv[b])
+                p = _put(R, C, V, p, r0 + ra, c0 + cb, -val)
+    return p
+
+
+@_jit
+def _emit_friction_lam(I, Fl, n, qx, vx, lam, R, C, V, p, r0, c0, coef):
+    """-coef Q_lambda at (r0, c0), Q_lambda = w (dtau/dlambda_J)^T over the
+    joint's reaction rows (``FrictionGroup.multiplier_derivatives``)."""
+    w, H = np.empty(6), np.empty((6, 6))
+    for i in range(_rows(I, FRI)):
+        z, g = _friction_kin(I, Fl, i, qx, vx, w, H)
+        tau, dz, dN, Rn = _friction_law(I, Fl, i, z, lam)
+        row, nr = _i(I, FRI, i, 3), _i(I, FRI, i, 4)
+        for a in range(2 if g < 0 else 6):
+            ra = _friction_col(I, i, g, a)
+            if ra >= n:
+                continue
+            for k in range(nr):
+                d = dN * lam[row + k] / Rn if Rn > 0.0 else 0.0
+                p = _put(R, C, V, p, r0 + ra, c0 + row + k, -coef * w[a] * d)
+    return p
+
+
+@_jit
+def _emit_force(I, Fl, t, n, qx, vx, lam, R, C, V, p, r0, c0, cq, cv):
     """-(cq Q_q + cv Q_v) at (r0, c0) (``SpringDamperGroup.derivatives``)."""
     G = np.empty((2, 6))
     v6 = np.empty(6)
@@ -819,6 +925,8 @@ def _emit_force(I, Fl, t, n, qx, vx, R, C, V, p, r0, c0, cq, cv):
                     val = cq * dq + cv * dv
                     if val != 0.0:
                         p = _put(R, C, V, p, r0 + row, c0 + col, -w * gk * val)
+    if _rows(I, FRI) > 0:
+        p = _emit_friction(I, Fl, n, qx, vx, lam, R, C, V, p, r0, c0, cq, cv)
     return p
 
 
@@ -915,7 +1023,7 @@ def _residual(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work):
     size, l0, u0, a0 = _layout(rec, n, m)
     _state(rec, n, w, q_pred, v_pred, qx, vx)
     cM, cF = rec[CM], rec[CF]
-    forces(I, Fl, t, qx, vx, work)
+    forces(I, Fl, t, qx, vx, w[l0:l0 + m], work)
     for j in range(n):
         work[j] = -work[j]
     phiqT_add(I, Fl, qx, w[l0:l0 + m], 1.0, work)
@@ -964,8 +1072,10 @@ def _jacobian_triplets(rec, I, Fl, t, q_pred, v_pred, qx_old, w, R, C, V, qx, vx
     p = _emit_mass(I, Fl, n, R, C, V, p, 0, 0, rec[CM])
     if cqx != 0.0:
         p = _emit_hess(I, Fl, n, qx, lam, R, C, V, p, 0, 0, cqx)
-    p = _emit_force(I, Fl, t, n, qx, vx, R, C, V, p, 0, 0, cqx, cvx)
+    p = _emit_force(I, Fl, t, n, qx, vx, lam, R, C, V, p, 0, 0, cqx, cvx)
     p = _emit_phiq(I, Fl, n, qx, R, C, V, p, 0, l0, 1.0, True)
+    if _rows(I, FRI) > 0:                  # Phi_q^T - Q_lambda: friction reads lambda
+        p = _emit_friction_lam(I, Fl, n, qx, vx, lam, R, C, V, p, 0, l0, 1.0)
     if cqx != 0.0:
         p = _emit_phiq(I, Fl, n, qx, R, C, V, p, l0, 0, sP * cqx, False)
     if rec[HAS_Y] != 0.0:
@@ -974,7 +1084,7 @@ def _jacobian_triplets(rec, I, Fl, t, q_pred, v_pred, qx_old, w, R, C, V, qx, vx
         if cqy != 0.0:
             p = _emit_hess(I, Fl, n, qx, lam, R, C, V, p, 0, n, cqy)
         if cqy != 0.0 or cvy != 0.0:
-            p = _emit_force(I, Fl, t, n, qx, vx, R, C, V, p, 0, n, cqy, cvy)
+            p = _emit_force(I, Fl, t, n, qx, vx, lam, R, C, V, p, 0, n, cqy, cvy)
         if cqx != 0.0:
             p = _emit_hess(I, Fl, n, qx, mu, R, C, V, p, n, 0, cqx)
         if dV * cvx != 0.0:
@@ -1033,7 +1143,7 @@ def _residual_additive(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, r, qx, v
     for i in range(m):
         r[2 * n + i] *= sP
         r[2 * n + m + i] *= sV
-    forces(I, Fl, t, qx, vx, work)
+    forces(I, Fl, t, qx, vx, w[l0:l0 + m], work)              # friction reads psi_II
     cQ, cF, r5 = rec[CQ], rec[CF], 2 * n + 2 * m
     for j in range(n):
         r[r5 + j] = _f(I, Fl, MASS, j, 0) * w[a0 + j] - cQ * work[j] - cF * F_old[j]
@@ -1073,8 +1183,10 @@ def _jacobian_additive(rec, I, Fl, t, q_pred, v_pred, qx_old, w, R, C, V, qx, vx
     p = _emit_G(I, Fl, n, qx, vx, R, C, V, p, 2 * n + m, 0, rec[SV] * cqx)
     p = _emit_phiq(I, Fl, n, qx, R, C, V, p, 2 * n + m, n, rec[SV] * cvy, False)
     p = _emit_mass(I, Fl, n, R, C, V, p, r5, a0, 1.0)
-    p = _emit_force(I, Fl, t, n, qx, vx, R, C, V, p, r5, 0, rec[CQ] * cqx, 0.0)
-    p = _emit_force(I, Fl, t, n, qx, vx, R, C, V, p, r5, n, 0.0, rec[CQ] * cvy)
+    p = _emit_force(I, Fl, t, n, qx, vx, psi2, R, C, V, p, r5, 0, rec[CQ] * cqx, 0.0)
+    p = _emit_force(I, Fl, t, n, qx, vx, psi2, R, C, V, p, r5, n, 0.0, rec[CQ] * cvy)
+    if _rows(I, FRI) > 0:
+        p = _emit_friction_lam(I, Fl, n, qx, vx, psi2, R, C, V, p, r5, l0, rec[CQ])
     return p
 
 
@@ -1086,7 +1198,7 @@ def _old_force(rec, I, Fl, t, q, v, lam, out, qx, vx, work):
         n = q.shape[0]
         qx[:n] = q
         vx[:n] = v
-        forces(I, Fl, t, qx, vx, work)
+        forces(I, Fl, t, qx, vx, lam, work)
         for j in range(n):
             out[j] = -work[j]
     else:
@@ -1108,7 +1220,7 @@ def _force_term(I, Fl, t, q, v, lam, out, qx, vx, work):
     n = q.shape[0]
     qx[:n] = q
     vx[:n] = v
-    forces(I, Fl, t, qx, vx, work)
+    forces(I, Fl, t, qx, vx, lam, work)
     for j in range(n + 3):
         work[j] = -work[j]
     phiqT_add(I, Fl, qx, lam, 1.0, work)
@@ -1438,14 +1550,14 @@ def triplet_bound(I) -> int:
     ks, kr, kf = rows(SCOL1), rows(RCOL), rows(FCOL)
     phiq = 8 * kc + 6 * kp + 2 * kl
     return (6 * n + 6 * phiq + 4 * (2 * kc + 12 * kp)
-            + 2 * (36 * ks + 4 * kr + kf + 36 * rows(SDV) + 36 * rows(STQ))
-            + 2 * (4 * kc + 6 * kp))
+            + 2 * (36 * ks + 4 * kr + kf + 36 * rows(SDV) + 36 * rows(STQ) + 36 * rows(FRI))
+            + 2 * (4 * kc + 6 * kp) + 12 * rows(FRI))
 
 
 @_jit
 def _run(rec2, I, Fl, h, t0, n_steps, step0, every, q, v, a, b, lam, mu, q_prev, v_prev, opts,
          solver, lin, lu_state, R, C, V, out_t, out_q, out_v, out_a, out_lam, out_mu, out_stats,
-         counts):
+         counts, F0):
     """Take up to n_steps steps of size h from (t0, q, v, a, b, lam, mu); ``mu``
     (m,) holds the method's extra multipliers (mu, or HHT-ADD's psi_I), ``b``
     (n,) the auxiliary acceleration of the recipes that carry one.
@@ -1462,7 +1574,9 @@ def _run(rec2, I, Fl, h, t0, n_steps, step0, every, q, v, a, b, lam, mu, q_prev,
     Newton counts summed since the previous record (out_stats columns:
     iterations, residuals, jacobians, factorizations, stalled steps, steps);
     ``counts`` (6,) carries those sums between records and calls. R, C, V
-    are triplet buffers of ``triplet_bound(md)`` entries.
+    are triplet buffers of ``triplet_bound(md)`` entries. ``F0`` (n,): F_n at
+    t0 when F0[0] is not NaN (a start whose forces are not the law's at
+    (q, v, lambda): friction's Coulomb limit, ``InitialState.Q``).
 
     Returns
     -------
@@ -1490,7 +1604,10 @@ def _run(rec2, I, Fl, h, t0, n_steps, step0, every, q, v, a, b, lam, mu, q_prev,
     scratch = np.empty(m + I[_HEADER - 1] + 2 * size)
     F[:] = 0.0                             # F_n, used only by recipes with cF != 0
     if rec2[0, CF] != 0.0:
-        _old_force(rec2[0], I, Fl, t0, q, v, lam, F, qx, vx, work)
+        if F0.shape[0] == n and not math.isnan(F0[0]):
+            F[:] = F0
+        else:
+            _old_force(rec2[0], I, Fl, t0, q, v, lam, F, qx, vx, work)
     rec = 0
     for k in range(n_steps):
         t = t0 + (k + 1) * h               # t_{n+1}
@@ -1639,8 +1756,8 @@ def mobility(I, Fl, q, out, R, C, V, qx):
 @_jit
 def run(rec2, I, Fl, h, t0, n_steps, step0, every, q, v, a, b, lam, mu, q_prev, v_prev, opts,
         solver, lin, lu_state, R, C, V, out_t, out_q, out_v, out_a, out_lam, out_mu, out_stats,
-        counts):
+        counts, F0):
     """The compiled time loop; see ``_run``."""
     return _run(rec2, I, Fl, h, t0, n_steps, step0, every, q, v, a, b, lam, mu,
                 q_prev, v_prev, opts, solver, lin, lu_state, R, C, V, out_t, out_q, out_v, out_a,
-                out_lam, out_mu, out_stats, counts)
+                out_lam, out_mu, out_stats, counts, F0)

@@ -29,8 +29,9 @@ What the kernels cover (:func:`unsupported` says why a model or method is not):
 the methods with a recipe;
 rigid bodies; revolute, point_on_line, prismatic and fixed joints; drivers,
 torques and point forces, constant or functions of time (compiled from the
-language's expressions); spring-dampers, rotational spring-dampers,
-gravity. Anything else runs on the numpy engine.
+language's expressions); loads of the state (torques, joint torques and joint
+forces reading the motion); spring-dampers, rotational spring-dampers,
+friction in joints, gravity. Anything else runs on the numpy engine.
 """
 
 from __future__ import annotations
@@ -40,7 +41,8 @@ import math
 import numpy as np
 import scipy
 
-from ..assembly.groups import (CoincidenceGroup, LinearConstraintGroup, PointForceGroup,
+from ..assembly.groups import (CoincidenceGroup, FrictionGroup, LinearConstraintGroup,
+                               PointForceGroup,
                                PointOnLineGroup, RotationalSpringGroup, SpringDamperGroup,
                                StateTorqueGroup, TorqueGroup)
 from ..assembly.sparse import DENSE_LIMIT
@@ -97,10 +99,8 @@ def unsupported(system, method) -> str | None:
         if not isinstance(g, (CoincidenceGroup, PointOnLineGroup, LinearConstraintGroup)):
             return f"no kernel for {type(g).__name__}"
     for g in system.force_groups:
-        if getattr(g, "uses_multipliers", False):
-            return "the model has friction, whose loads read the multipliers: no kernel for it yet"
         if not isinstance(g, (SpringDamperGroup, RotationalSpringGroup, TorqueGroup,
-                              PointForceGroup, StateTorqueGroup)):
+                              PointForceGroup, StateTorqueGroup, FrictionGroup)):
             return f"no kernel for {type(g).__name__}"
     functions = [f for g in system.constraint_groups
                  if isinstance(g, (LinearConstraintGroup, PointOnLineGroup))
@@ -218,7 +218,8 @@ class CompiledModel:
                  "scol2": np.zeros((0, 3), i8), "ss2": np.zeros((0, 2)),
                  "spar": np.zeros((0, 3)), "rcol": np.zeros((0, 2), i8),
                  "rpar": np.zeros((0, 3)), "fcol": np.zeros((0, 3), i8),
-                 "fs": np.zeros((0, 2)), "fF": np.zeros((0, 2))}
+                 "fs": np.zeros((0, 2)), "fF": np.zeros((0, 2)),
+                 "fri": np.zeros((0, 5), i8), "frp": np.zeros((0, 6))}
         d = dict(empty)
         from ..dsl.expressions import OPCODES, Num, diff, postfix
         from ..model.elements import line_columns
@@ -255,6 +256,15 @@ class CompiledModel:
         var, varc, var_row = [], [], {}      # the state variables the torques read
         geo, geof, geo_row = [], [], {}      # sliding joints' lines (model.elements.line_distance)
         stq, sdv = [], []
+
+        def line_row(line):
+            """Row of a sliding joint's line in geo/geof (shared by every use)."""
+            if line not in geo_row:
+                geo_row[line] = len(geo)
+                geo.append(line_columns(line, n))
+                geof.append([*line[1], *line[3], *line[4]])
+            return geo_row[line]
+
         for g in system.constraint_groups:
             if isinstance(g, CoincidenceGroup):
                 d.update(crow=g.rows.astype(i8), ccol1=g.pair.P1.cols.astype(i8),
@@ -291,13 +301,6 @@ class CompiledModel:
                     else:
                         Q0[col] += f.f(0.0)
             elif isinstance(g, StateTorqueGroup):
-                def line_row(line):
-                    """Row of a sliding joint's line in geo/geof (shared by every use)."""
-                    if line not in geo_row:
-                        geo_row[line] = len(geo)
-                        geo.append(line_columns(line, n))
-                        geof.append([*line[1], *line[3], *line[4]])
-                    return geo_row[line]
                 for i, (f, line) in enumerate(zip(g.functions, g.lines)):
                     names = {}
                     for v in getattr(f, "variables", ()):
@@ -323,6 +326,15 @@ class CompiledModel:
                         stq.append((program(expr, names), n + 2, n + 2, line_row(line)))
                     for v, ge in zip(getattr(f, "variables", ()), getattr(f, "grad_exprs", ())):
                         sdv.append((len(stq) - 1, names[v.name], program(ge, names)))
+            elif isinstance(g, FrictionGroup):
+                fri = []
+                for i, line in enumerate(g.lines):
+                    rows = [int(r) for r in g.rows[i]]
+                    if line is None:
+                        fri.append((int(g.cols[i, 0]), int(g.cols[i, 1]), -1, rows[0], len(rows)))
+                    else:
+                        fri.append((n + 2, n + 2, line_row(line), rows[0], len(rows)))
+                d.update(fri=np.array(fri, i8).reshape(-1, 5), frp=g.params.astype(f8))
             elif isinstance(g, PointForceGroup):
                 d.update(fcol=g.points.cols.astype(i8), fs=g.points.s.astype(f8),
                          fF=np.array([[0.0 if timed(fx) else fx.f(0.0),
@@ -617,6 +629,15 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
     out_q, out_v, out_a = (np.empty((CHUNK, n)) for _ in range(3))
     out_lam, out_mu = np.empty((CHUNK, m)), np.empty((CHUNK, m))
     out_stats = np.empty((CHUNK, 6), np.int64)
+    # F_n of the first step when the start's forces are not the law's at (q, v, lambda)
+    # (friction's Coulomb limit at rest, InitialState.Q); NaN: the kernels compute it
+    no_F = np.full(n, np.nan)
+    F_start = no_F
+    if getattr(initial, "Q", None) is not None:
+        from .recipe import ADDITIVE, RECIPE_FIELDS
+        additive = method.kernel_recipe(h, True)[RECIPE_FIELDS.index("form")] == ADDITIVE
+        F_start = -initial.Q if additive else (
+            system.PhiqT_times(initial.q, initial.t, initial.lam) - initial.Q)
     t = t_start
     step_no = 0           # global step count, for the output stride
     last_h = h
@@ -650,7 +671,8 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
                 status, taken, nrec = K.run(
                     rec2, I, Fl, step_h, t0, chunk, step_no, output_every, q, v, a, b, lam, mu,
                     q_prev, v_prev, opts, solver, lin, lu_state, R, C, V, out_t, out_q, out_v,
-                    out_a, out_lam, out_mu, out_stats, counts)
+                    out_a, out_lam, out_mu, out_stats, counts,
+                    F_start if step_no == 0 else no_F)
                 add_rows(nrec, step_h)
                 step_no += taken
                 done += taken

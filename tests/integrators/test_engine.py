@@ -35,7 +35,8 @@ def _system(path, **overrides):
 @pytest.mark.parametrize("method", RECIPE_METHODS)
 @pytest.mark.parametrize("path, T", [(MODELS / "slider_crank.mbd", 0.5),
                                      (VALID / "compiled_elements.mbd", 0.3),
-                                     (VALID / "all_elements.mbd", 0.3)])
+                                     (VALID / "all_elements.mbd", 0.3),
+                                     (VALID / "friction_elements.mbd", 0.3)])
 def test_compiled_loop_matches_numpy_engine(path, T, method):
     system, init = _system(path)
     a = integrate(system, make_method(method), T, 1e-3, initial=init, engine="numpy", newton=SAME)
@@ -172,7 +173,7 @@ def test_band_ordering_of_a_chain_and_the_automatic_choice():
 
 
 @pytest.mark.parametrize("model", ["compiled_elements.mbd", "all_elements.mbd",
-                                   "sliding_elements.mbd"])
+                                   "sliding_elements.mbd", "friction_elements.mbd"])
 @pytest.mark.parametrize("first", [True, False])
 @pytest.mark.parametrize("method", RECIPE_METHODS)
 def test_kernel_newton_matrix_is_the_derivative_of_the_kernel_residual(method, first, model):
@@ -186,7 +187,8 @@ def test_kernel_newton_matrix_is_the_derivative_of_the_kernel_residual(method, f
         later = type(s)(s.t + 1e-2, s.q + 1e-2 * s.v, s.v + 1e-2 * s.a, s.a, s.lam)
         later.extra.update(s.extra)       # mu, psi1; the cached force terms of the later state:
         later.extra["F"] = force_term(system, later.t, later.q, later.v, later.lam)
-        later.extra["f"] = system.mass_solve(later.q, system.Q(later.t, later.q, later.v))
+        later.extra["f"] = system.mass_solve(later.q, system.Q(later.t, later.q, later.v,
+                                                                    later.lam))
         hist = [s, later]
     assert m.first_step(hist, 1e-2) == (first and method.startswith("nstiff"))
     ctx = ad.context(system, hist, hist[-1].t + 1e-2, 1e-2)
