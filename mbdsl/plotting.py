@@ -225,6 +225,32 @@ def _world(q, body, local):
     return np.column_stack([x + c * loc[:, 0] - s * loc[:, 1], y + s * loc[:, 0] + c * loc[:, 1]])
 
 
+def beam_world(q, beam, arcs, scale: float = 1.0) -> np.ndarray:
+    """World positions of a flexible beam's material points, deformed.
+
+    r + A(phi) ((x, 0) + scale S(x) q_f) at arc lengths x (the floating frame
+    of reference; ``scale`` magnifies the elastic displacement for drawing).
+
+    Parameters
+    ----------
+    q : ndarray, shape (n,)
+    beam : FlexibleBeam
+    arcs : ndarray, shape (k,) [m]
+        In [0, beam.length].
+    scale : float
+        Deformation scale (1: true size).
+
+    Returns
+    -------
+    ndarray, shape (k, 2) [m]
+    """
+    arcs = np.asarray(arcs, float).reshape(-1)
+    S = beam.mesh.shape(arcs)                               # (k, 2, nf)
+    local = np.column_stack([arcs, np.zeros(len(arcs))])
+    local = local + scale * np.einsum("kif,f->ki", S, q[beam.elastic_columns()])
+    return _world(q, beam.index, local)
+
+
 def _zigzag(p1, p2, width, coils=6):
     """Polyline of a spring between two points: straight ends, zig-zag middle."""
     d = p2 - p1
@@ -276,13 +302,17 @@ def _interpolated(t, values, times):
 
 
 def animate_solution(solution, path, fps: float = 25.0, speed: float = 1.0,
-                     size=(6.0, 4.5), dpi: int = 100) -> AnimationResult:
+                     size=(6.0, 4.5), dpi: int = 100,
+                     deform_scale: float = 1.0) -> AnimationResult:
     """Draw the mechanism's motion to a GIF (Pillow) or MP4 (ffmpeg).
 
-    Rigid bodies are drawn as the outline through their points
-    (:func:`body_outline`), joints as circles, spring-dampers as zig-zags,
-    ground attachment points hatched (a prismatic or point-on-line joint on
-    the ground also shows its guide), and the simulated time as a label.
+    Rigid bodies are drawn with their ``shape`` lines (lines, circles,
+    polygons in the body frame), or without them as the outline through
+    their points (:func:`body_outline`); flexible beams as their deformed
+    centre line (:func:`beam_world`, the elastic displacement times
+    ``deform_scale``); joints as circles, spring-dampers as zig-zags, ground
+    attachment points hatched (a prismatic or point-on-line joint on the
+    ground also shows its guide), and the simulated time as a label.
 
     Parameters
     ----------
@@ -295,6 +325,8 @@ def animate_solution(solution, path, fps: float = 25.0, speed: float = 1.0,
         Simulated seconds per second of video (2 = twice as fast).
     size : (float, float) [inch], dpi : int
         Frame size: ``size * dpi`` pixels.
+    deform_scale : float
+        Magnification of the beams' elastic displacements (1: true size).
 
     Returns
     -------
@@ -313,6 +345,8 @@ def animate_solution(solution, path, fps: float = 25.0, speed: float = 1.0,
     ext = path.suffix.lower()
     if fps <= 0 or speed <= 0:
         raise ValueError(f"fps and speed must be positive (got fps={fps}, speed={speed})")
+    if not (deform_scale >= 0 and np.isfinite(deform_scale)):
+        raise ValueError(f"the deformation scale must be zero or positive, got {deform_scale}")
     if ext == ".gif":
         writer = animation.PillowWriter(fps=fps)
     elif ext == ".mp4":
@@ -329,10 +363,26 @@ def animate_solution(solution, path, fps: float = 25.0, speed: float = 1.0,
     times = t[0] + np.arange(n_frames) * speed / fps
     qs = _interpolated(t, sol.q, times) if len(t) > 1 else np.repeat(sol.q[:1], n_frames, 0)
 
-    # body geometry in body frames: declared points plus every attachment on the body
-    # (a flexible beam is drawn along its frame's x axis, undeformed: its
-    # deflections are far below the drawing's resolution on the paper's models;
-    # its elastic motion is in the result columns)
+    # body geometry in body frames: declared points plus every attachment on the body;
+    # declared shapes replace the outline; flexible beams: their deformed centre line
+    from .model.elements import FlexibleBeam
+    beams = {b.index: b for b in model.bodies if isinstance(b, FlexibleBeam)}
+    arcs = {i: np.linspace(0.0, b.length, 8 * b.elements + 1) for i, b in beams.items()}
+
+    def located(q, body, local):
+        """World position of a body-frame point (on a beam: deformed, by its arc)."""
+        if body in beams:
+            return beam_world(q, beams[body], [float(np.asarray(local).reshape(-1)[0])],
+                              deform_scale)
+        return _world(q, body, local)
+
+    def shape_verts(shape):
+        """Body-frame vertices bounding a shape (a circle: its bounding square)."""
+        if shape.kind == "circle":
+            c, r = shape.points[0], shape.radius
+            return c + r * np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]], float)
+        return shape.points
+
     attach = {b.index: [np.array([p, 0.0]) if np.ndim(p) == 0 else np.asarray(p, float)
                         for p in b.points.values()] for b in model.bodies}
     joint_points = [j.first for j in model.joints]
@@ -348,9 +398,14 @@ def animate_solution(solution, path, fps: float = 25.0, speed: float = 1.0,
     every = [np.array([p.local for j in model.joints for p in (j.first, j.second)
                        if p.body == GROUND]).reshape(-1, 2)]
     for b in model.bodies:
-        verts = outlines[b.index][1]
-        every += [_world(q, b.index, verts) for q in qs[:: max(1, n_frames // 200)]]
-        every.append(_world(qs[-1], b.index, verts))
+        sample = list(qs[:: max(1, n_frames // 200)]) + [qs[-1]]
+        if b.index in beams:
+            every += [beam_world(q, b, arcs[b.index], deform_scale) for q in sample]
+            continue
+        shapes = getattr(b, "shapes", ())
+        verts = (np.vstack([shape_verts(s) for s in shapes]) if shapes
+                 else outlines[b.index][1])
+        every += [_world(q, b.index, verts) for q in sample]
     every = np.vstack(every)
     lo, hi = every.min(axis=0), every.max(axis=0)
     scale = float(max(np.max(hi - lo), 1e-3))
@@ -385,10 +440,28 @@ def animate_solution(solution, path, fps: float = 25.0, speed: float = 1.0,
     cycle = [tuple(int(h[i:i + 2], 16) / 255 for i in (1, 3, 5))
              for h in ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd",
                        "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf")]
+    shape_artists = {}
     for b in model.bodies:
         col = cycle[b.index % len(cycle)]
         colors[b.name] = col
         kind, _ = outlines[b.index]
+        if b.index in beams:
+            artists[b.index] = ax.plot([], [], lw=3.0, color=col, solid_capstyle="round")[0]
+            continue
+        if getattr(b, "shapes", ()):
+            drawn = []
+            for s in b.shapes:
+                if s.kind == "circle":
+                    drawn.append(ax.add_patch(Circle((0, 0), s.radius, lw=2.0,
+                                                     facecolor=(*col, 0.35), edgecolor=col)))
+                elif s.kind == "polygon":
+                    drawn.append(ax.add_patch(Polygon(np.zeros((3, 2)), closed=True, lw=2.0,
+                                                      facecolor=(*col, 0.35), edgecolor=col)))
+                else:
+                    drawn.append(ax.plot([], [], lw=4.0, color=col,
+                                         solid_capstyle="round")[0])
+            shape_artists[b.index] = drawn
+            continue
         if kind == "polygon":
             artists[b.index] = ax.add_patch(Polygon(np.zeros((3, 2)), closed=True, lw=2.0,
                                                     facecolor=(*col, 0.35), edgecolor=col))
@@ -405,6 +478,20 @@ def animate_solution(solution, path, fps: float = 25.0, speed: float = 1.0,
         """Move every artist to frame k."""
         q = qs[k]
         for b in model.bodies:
+            if b.index in beams:
+                w = beam_world(q, b, arcs[b.index], deform_scale)
+                artists[b.index].set_data(w[:, 0], w[:, 1])
+                continue
+            if b.index in shape_artists:
+                for s, art in zip(b.shapes, shape_artists[b.index]):
+                    w = _world(q, b.index, s.points)
+                    if s.kind == "circle":
+                        art.center = tuple(w[0])
+                    elif s.kind == "polygon":
+                        art.set_xy(w)
+                    else:
+                        art.set_data(w[:, 0], w[:, 1])
+                continue
             kind, verts = outlines[b.index]
             w = _world(q, b.index, verts)
             if kind == "polygon":
@@ -412,11 +499,11 @@ def animate_solution(solution, path, fps: float = 25.0, speed: float = 1.0,
             else:
                 artists[b.index].set_data(w[:, 0], w[:, 1])
         for line, s in zip(spring_lines, springs):
-            z = _zigzag(_world(q, s.first.body, s.first.local)[0],
-                        _world(q, s.second.body, s.second.local)[0], 0.02 * scale)
+            z = _zigzag(located(q, s.first.body, s.first.local)[0],
+                        located(q, s.second.body, s.second.local)[0], 0.02 * scale)
             line.set_data(z[:, 0], z[:, 1])
         for circ, p in zip(joint_circles, joint_points):
-            circ.center = tuple(_world(q, p.body, p.local)[0])
+            circ.center = tuple(located(q, p.body, p.local)[0])
         label.set_text(f"t = {times[k]:.3f} s")
         return []
 

@@ -77,6 +77,9 @@ def build_parser() -> argparse.ArgumentParser:
     ani.add_argument("-o", "--output", help="animation file (.gif, or .mp4 with ffmpeg); "
                      "default: SOURCE.gif")
     ani.add_argument("--fps", type=float, default=25.0, help="frames per second (default 25)")
+    ani.add_argument("--deform-scale", type=float, default=1.0, metavar="S",
+                     help="draw flexible beams with their elastic displacement times S "
+                     "(default 1: true size)")
     ani.add_argument("--speed", type=float, default=1.0,
                      help="simulated seconds per second of video (default 1)")
     _run_options(ani)
@@ -415,7 +418,8 @@ def _animate(args) -> int:
             return status
     out = Path(args.output) if args.output else src.with_suffix(".gif")
     try:
-        res = animate_solution(sol, out, fps=args.fps, speed=args.speed)
+        res = animate_solution(sol, out, fps=args.fps, speed=args.speed,
+                               deform_scale=args.deform_scale)
     except (OSError, ValueError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 1

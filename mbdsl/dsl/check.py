@@ -19,7 +19,7 @@ from ..errors import Diagnostic, MbdModelError, Span
 from ..model import graph
 from ..registry import COEFFICIENTS, METHOD_COEFFICIENTS, METHOD_NAMES
 from ..model.elements import (COORDINATES, GROUND, VELOCITIES, Driver, InitialCondition,
-                              FlexibleBeam, Joint, Model, PointForce, PointRef, RigidBody,
+                              FlexibleBeam, Joint, Model, PointForce, PointRef, RigidBody, Shape,
                               Friction, JointForce, JointTorque, Output, OutputVariable,
                               RotationalSpringDamper,
                               SpringDamper,
@@ -566,9 +566,11 @@ class _Checker:
                     points[p.name] = v
                 else:
                     self.broken_points.add((b.name, p.name))
+            shapes = tuple(s for s in (self.shape(b.name, sp, points) for sp in b.shapes)
+                           if s is not None)
             if len(values) == 2:
                 self.bodies[b.name] = RigidBody(b.name, len(self.bodies), values["mass"],
-                                                values["inertia"], points, b.span)
+                                                values["inertia"], points, b.span, shapes)
             else:
                 self.broken_bodies.add(b.name)
         offset = 3 * len(self.bodies)
@@ -576,6 +578,68 @@ class _Checker:
             if isinstance(b, FlexibleBeam):
                 self.bodies[name] = dataclasses.replace(b, elastic_offset=offset)
                 offset += b.n_elastic
+
+    #: shape kind -> (fewest points, most points, takes a radius)
+    SHAPES = {"line": (2, 2, False), "circle": (1, 1, True), "polygon": (3, None, False)}
+
+    def shape(self, body, sp, points):
+        """A Shape of body ``body`` from its ShapeSpec; None after reporting.
+        Points are the body's point names (``points``) or (x, y) in its frame."""
+        ctx = f"shape {sp.kind} of body '{body}'"
+        if sp.kind not in self.SHAPES:
+            self.error("E205", f"body '{body}': unknown shape '{sp.kind}'", sp.kind_span or sp.span,
+                       "unknown shape", hint=_did_you_mean(sp.kind, self.SHAPES)
+                       or f"shapes are {', '.join(self.SHAPES)}")
+            return None
+        lo, hi, has_radius = self.SHAPES[sp.kind]
+        args = list(sp.args)
+        if any(a.keyword is not None for a in args):
+            a = next(a for a in args if a.keyword is not None)
+            self.error("E304", f"{ctx}: shapes take no options, got '{a.keyword}'",
+                       a.span or sp.span, "unknown option",
+                       hint="write the points, then a circle's radius: circle(cm, 0.05)")
+            return None
+        radius = 0.0
+        if has_radius:
+            if len(args) != 2:
+                self.error("E305", f"{ctx}: expected a centre point and a radius, got "
+                           f"{len(args)} argument{'s' if len(args) != 1 else ''}",
+                           sp.kind_span or sp.span, "circle(point, radius)")
+                return None
+            r = self.number(args[1].value, args[1].span or sp.span, ctx)
+            if r is None:
+                return None
+            if not r > 0:
+                self.error("E303", f"{ctx}: the radius must be positive, got {r:g} m",
+                           args[1].span or sp.span, "not positive")
+                return None
+            radius, args = r, args[:1]
+        if len(args) < lo or (hi is not None and len(args) > hi):
+            want = f"{lo}" if lo == hi else f"at least {lo}"
+            self.error("E305", f"{ctx}: expected {want} points, got {len(args)}",
+                       sp.kind_span or sp.span, "wrong number of points")
+            return None
+        xy = []
+        for a in args:
+            v = a.value
+            if isinstance(v, Name) and not isinstance(v, Vec):
+                if v.name not in points:
+                    self.error("E201", f"{ctx}: body '{body}' has no point '{v.name}'",
+                               a.span or sp.span, "unknown point",
+                               hint=_did_you_mean(v.name, points)
+                               or "name a point of the body, or give (x, y) in its frame")
+                    return None
+                xy.append(np.asarray(points[v.name], float))
+                continue
+            if not isinstance(v, Vec):
+                self.error("E305", f"{ctx}: expected a point name or (x, y), got an expression",
+                           a.span or sp.span, "not a point")
+                return None
+            p = self.vector(v, a.span or sp.span, ctx)
+            if p is None:
+                return None
+            xy.append(p)
+        return Shape(sp.kind, np.array(xy, float).reshape(-1, 2), radius)
 
     #: flexible beam properties -> (unit, must be an integer)
     BEAM_PROPERTIES = {"length": ("m", False), "E": ("Pa", False), "area": ("m^2", False),

@@ -26,7 +26,7 @@ from ..errors import Span
 from .expressions import Dotted, Expr, Vec, as_expr
 
 __all__ = [
-    "ParameterSpec", "PointSpec", "PropertySpec", "BodySpec", "ArgSpec",
+    "ParameterSpec", "PointSpec", "PropertySpec", "BodySpec", "ShapeSpec", "ArgSpec",
     "JointSpec", "ForceSpec", "DriverSpec", "InitialSpec", "SettingSpec",
     "ForSpec", "OutputSpec", "ModelSpec",
 ]
@@ -90,17 +90,35 @@ class PropertySpec:
 
 
 @dataclass(frozen=True)
+class ShapeSpec:
+    """``shape KIND(args)`` in a body: how ``mbdsl animate`` draws it; kinds
+    line (two points), circle (centre point, radius [m]) and polygon (three
+    or more points). A point is a body point's name or body-frame
+    coordinates ``(x, y)`` [m]."""
+
+    kind: str
+    args: tuple = ()
+    span: Span | None = None
+    kind_span: Span | None = None
+
+    def __post_init__(self):
+        _set(self, "args", _args(self.args, None))
+
+
+@dataclass(frozen=True)
 class BodySpec:
-    """``body NAME { ... }``: a rigid body with properties and points."""
+    """``body NAME { ... }``: a rigid body with properties, points and shapes."""
 
     name: str
     properties: tuple = ()
     points: tuple = ()
     span: Span | None = None
+    shapes: tuple = ()
 
     def __post_init__(self):
         _set(self, "properties", tuple(self.properties))
         _set(self, "points", tuple(self.points))
+        _set(self, "shapes", tuple(self.shapes))
 
     @classmethod
     def rigid(cls, name: str, mass, inertia, points: dict | None = None) -> "BodySpec":

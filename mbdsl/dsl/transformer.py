@@ -126,7 +126,14 @@ class ToSpec(Transformer):
         name, *items = children
         props = tuple(i for i in items if isinstance(i, S.PropertySpec))
         points = tuple(i for i in items if isinstance(i, S.PointSpec))
-        return S.BodySpec(self._name(name), props, points, self._nspan(name))
+        shapes = tuple(i for i in items if isinstance(i, S.ShapeSpec))
+        return S.BodySpec(self._name(name), props, points, self._nspan(name), shapes)
+
+    @v_args(meta=True)
+    def shape_decl(self, meta, children):
+        """``shape kind(args)`` -> ShapeSpec."""
+        kind, *args = children
+        return S.ShapeSpec(str(kind), tuple(args), self._span(meta), self._tspan(kind))
 
     @v_args(meta=True)
     def beam_decl(self, meta, children):

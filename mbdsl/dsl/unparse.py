@@ -107,6 +107,7 @@ def _item(it, indent: str) -> list[str]:
     if isinstance(it, S.BodySpec):
         parts = [f"{p.name} {expr_text(p.value)}" for p in it.properties]
         parts += [f"point {p.name} {expr_text(p.position)}" for p in it.points]
+        parts += [f"shape {s.kind}({_args(s.args)})" for s in it.shapes]
         return [f"{indent}body {_name(it.name)} {{ {'; '.join(parts)} }}"]
     if isinstance(it, S.BeamSpec):
         parts = [f"{p.name} {expr_text(p.value)}" for p in it.properties]

@@ -34,7 +34,7 @@ from ..errors import Diagnostic, Span
 GROUND = -1
 
 __all__ = [
-    "GROUND", "RigidBody", "FlexibleBeam", "PointRef", "Joint", "Driver", "SpringDamper",
+    "GROUND", "RigidBody", "Shape", "FlexibleBeam", "PointRef", "Joint", "Driver", "SpringDamper",
     "RotationalSpringDamper", "Torque", "JointTorque", "JointForce", "Friction", "PointForce",
     "InitialCondition", "line_distance", "line_columns",
     "TimeFunction", "StateVariable", "StateFunction", "Output", "OutputVariable", "Model", "COORDINATES", "VELOCITIES", "ACCELERATIONS",
@@ -249,6 +249,8 @@ class RigidBody:
         Centroidal moment of inertia.
     points : dict of str -> ndarray, shape (2,) [m]
         Body-fixed points relative to the centre of mass; ``cm`` is (0, 0).
+    shapes : tuple of Shape
+        What ``mbdsl animate`` draws (empty: the outline of the points).
     """
 
     name: str
@@ -257,6 +259,25 @@ class RigidBody:
     inertia: float
     points: dict
     span: Span | None = None
+    shapes: tuple = ()
+
+
+@dataclass(frozen=True)
+class Shape:
+    """A drawn shape of a rigid body, in its frame.
+
+    Attributes
+    ----------
+    kind : {"line", "circle", "polygon"}
+    points : ndarray, shape (k, 2) [m]
+        Line: its two ends; circle: its centre; polygon: its vertices.
+    radius : float [m]
+        Circles only (0 otherwise).
+    """
+
+    kind: str
+    points: np.ndarray
+    radius: float = 0.0
 
 
 @dataclass(frozen=True)

@@ -259,3 +259,82 @@ def test_standard_plot_step_size_bodies_and_log_ticks():
     minor = [t.get_text() for t in ax.xaxis.get_minorticklabels() if t.get_text()]
     assert 1 <= len(minor) <= 3 and len(set(minor)) == len(minor), minor
     assert all(not t.get_text() for t in ax.yaxis.get_minorticklabels())   # 5 decades
+
+
+SHAPED = """model shaped   # a pendulum drawn with shapes: a rod and a disc at its tip
+gravity (0, -9.81)
+body p { mass 1; inertia 0.02; point O (-0.4, 0); point T (0.4, 0)
+         shape line(O, T); shape circle(T, 0.12); shape polygon(O, (-0.3, 0.1), (-0.3, -0.1)) }
+joint O: revolute(ground.origin, p.O)
+initial p.phi = -pi/2
+initial p.omega = 0
+"""
+
+
+def test_shapes_are_drawn_where_the_body_is(tmp_path):
+    """Hanging straight down at t = 0: the disc (radius 0.12 m) is centred at
+    (0, -0.8); a point of the disc off the rod is body-coloured, the same
+    offset on the other side of the pivot is not (the points' outline would
+    have drawn only the rod)."""
+    sol = mbdsl.simulate(mbdsl.load_text(SHAPED), t_end=0.04, h=1e-3)
+    assert [s.kind for s in sol.model.bodies[0].shapes] == ["line", "circle", "polygon"]
+    res = animate_solution(sol, tmp_path / "s.gif")
+    col = np.array(res.colors["p"]) * 255
+    with Image.open(tmp_path / "s.gif") as im:
+        rgb = np.asarray(im.convert("RGB"), dtype=float)
+    height = rgb.shape[0]
+
+    def colour_at(x, y):
+        px, py = res.axes.transData.transform((x, y))
+        return rgb[int(round(height - py)), int(round(px))]
+    inside = colour_at(0.08, -0.8)                  # in the disc, 8 cm right of the rod
+    outside = colour_at(0.08, -0.6)                 # 8 cm right of the rod, above the disc
+    assert np.max(np.abs(inside - outside)) > 30
+    white = np.array([255.0, 255.0, 255.0])
+    assert np.max(np.abs(outside - white)) < 10    # background there
+    assert np.max(np.abs(inside - white)) > 30     # the disc's fill (body colour, 35 %)
+
+
+@pytest.mark.parametrize("line,code", [
+    ("shape line(O)", "E305"), ("shape circle(T, -1)", "E303"), ("shape circle(T)", "E305"),
+    ("shape star(O, T)", "E205"), ("shape line(O, X)", "E201"), ("shape polygon(O, T)", "E305"),
+    ("shape line(O, T, width = 2)", "E304")])
+def test_shape_misuse_is_reported(line, code):
+    from mbdsl.errors import MbdModelError
+    text = SHAPED.replace("shape line(O, T); shape circle(T, 0.12); "
+                          "shape polygon(O, (-0.3, 0.1), (-0.3, -0.1))", line)
+    with pytest.raises(MbdModelError) as err:
+        mbdsl.load_text(text)
+    assert code in [d.code for d in err.value.diagnostics]
+
+
+def test_beams_are_drawn_deformed_by_the_deform_scale(tmp_path):
+    """beam_world: r + A(phi) ((x, 0) + s S(x) q_f); at a node S q_f is that
+    node's (u, v)."""
+    from mbdsl.plotting import beam_world
+    model = mbdsl.load(MODELS / "flexible_slider_crank.mbd")
+    beam = next(b for b in model.bodies if isinstance(b, mbdsl.model.elements.FlexibleBeam))
+    q = np.zeros(model.n_coordinates)
+    q[3 * beam.index: 3 * beam.index + 3] = (0.1, 0.2, 0.5)
+    names = beam.mesh.names
+    end = beam.elements // 2                        # a middle node (a chord frame pins v at the end)
+    arc = end * beam.length / beam.elements
+    cols = beam.elastic_columns()
+    q[cols[names.index(f"u{end}")]] = 0.003
+    q[cols[names.index(f"v{end}")]] = 0.01
+    c, s = np.cos(0.5), np.sin(0.5)
+    for scale in (1.0, 50.0):
+        local = np.array([arc + scale * 0.003, scale * 0.01])
+        expect = np.array([0.1, 0.2]) + np.array([c * local[0] - s * local[1],
+                                                  s * local[0] + c * local[1]])
+        np.testing.assert_allclose(beam_world(q, beam, [arc], scale)[0], expect,
+                                   atol=1e-14)
+    np.testing.assert_allclose(beam_world(q, beam, [0.0], 50.0)[0], (0.1, 0.2), atol=1e-14)
+    sol = mbdsl.simulate(model, t_end=0.01)
+    gif = tmp_path / "beam.gif"
+    assert main(["animate", str(MODELS / "flexible_slider_crank.mbd"), "-o", str(gif),
+                 "--t-end", "0.08", "--deform-scale", "100", "-q"]) == 0
+    with Image.open(gif) as im:
+        assert im.n_frames == 3
+    with pytest.raises(ValueError, match="deformation scale"):
+        animate_solution(sol, tmp_path / "x.gif", deform_scale=-1)

@@ -38,7 +38,9 @@ INSERTS = ["kg", "m/s", "{", "}", "(", ")", ",", ";", "=", ":", "..", "é", "→
            "static", "initial static\n", "output", "output x = crank.A.y\n", "reaction",
            # friction in joints
            "friction", "mu", "radius", "mu_static", "v_stribeck", "viscous", "v_reg",
-           "force f: friction(P, mu = 0.3)\n", "force f: friction(O, mu = 0.1, radius = 0.01)\n"]
+           "force f: friction(P, mu = 0.3)\n", "force f: friction(O, mu = 0.1, radius = 0.01)\n",
+           # drawn shapes
+           "shape", "line", "circle", "polygon", "shape line(E, T)", "shape circle(cm, 0.1); "]
 
 
 def tokens(text):
