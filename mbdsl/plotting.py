@@ -470,6 +470,8 @@ def animate_solution(solution, path, fps: float = 25.0, speed: float = 1.0,
         else:
             artists[b.index] = ax.plot([], [], "o", ms=8, color=col)[0]
     spring_lines = [ax.plot([], [], lw=1.0, color="k")[0] for _ in springs]
+    rods = [j for j in model.joints if j.kind == "distance"]         # massless rods
+    rod_lines = [ax.plot([], [], lw=1.5, color="0.2")[0] for _ in rods]
     joint_circles = [ax.add_patch(Circle((0, 0), r_joint, fill=True, facecolor="white",
                                          edgecolor="k", lw=1.2, zorder=5)) for _ in joint_points]
     label = ax.text(0.02, 0.97, "", transform=ax.transAxes, va="top", fontsize=10)
@@ -502,6 +504,10 @@ def animate_solution(solution, path, fps: float = 25.0, speed: float = 1.0,
             z = _zigzag(located(q, s.first.body, s.first.local)[0],
                         located(q, s.second.body, s.second.local)[0], 0.02 * scale)
             line.set_data(z[:, 0], z[:, 1])
+        for line, j in zip(rod_lines, rods):
+            ends = np.vstack([located(q, j.first.body, j.first.local),
+                              located(q, j.second.body, j.second.local)])
+            line.set_data(ends[:, 0], ends[:, 1])
         for circ, p in zip(joint_circles, joint_points):
             circ.center = tuple(located(q, p.body, p.local)[0])
         label.set_text(f"t = {times[k]:.3f} s")

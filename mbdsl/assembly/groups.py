@@ -204,6 +204,53 @@ class CoincidenceGroup:
         return self.pair.difference_hess(*self.pair.split(qx))
 
 
+class DistanceGroup:
+    """Two points held at a fixed distance L (``distance`` joint: a massless rod).
+
+    Phi = (d . d - L^2) / (2 L), d = p2 - p1 (1 row): zero exactly when |d| = L,
+    smooth everywhere (|d| - L is not at d = 0), and scaled so that Phi is a
+    length near the solution and its multiplier the rod's tension [N]
+    (Haug, Computer-Aided Kinematics and Dynamics of Mechanical Systems,
+    sec. 3.3, the distance constraint). With D = dd/dq_local:
+
+        Phi_q = d^T D / L,   Phi_qq = (D^T D + sum_a d_a D_a,qq) / L
+    """
+
+    r = 1
+
+    def __init__(self, n, rows, first, second, lengths):
+        self.rows = np.asarray(rows, dtype=np.intp).reshape(-1, 1)
+        self.pair = _PointPair(n, first, second)
+        self.cols = self.pair.cols
+        self.L = np.asarray(lengths, float).reshape(-1)
+        self.time_dependent = False
+        k, c = self.cols.shape
+        self._hess = np.zeros((k, 1, c, c))
+
+    def phi(self, qx, t):
+        """Constraint values, shape (..., k, 1) [m]."""
+        d = self.pair.difference(*self.pair.split(qx))
+        return ((np.einsum("...a,...a->...", d, d) - self.L ** 2) / (2.0 * self.L))[..., None]
+
+    def jac(self, qx):
+        """Local Jacobian, shape (..., k, 1, c)."""
+        q1, q2 = self.pair.split(qx)
+        d = self.pair.difference(q1, q2)
+        D = self.pair.difference_jac(q1, q2)
+        return (np.einsum("...a,...aj->...j", d, D) / self.L[:, None])[..., None, :]
+
+    def hess(self, qx):
+        """Local Hessian, shape (k, 1, c, c)."""
+        q1, q2 = self.pair.split(qx)
+        d = self.pair.difference(q1, q2)
+        D = self.pair.difference_jac(q1, q2)
+        DD = self.pair.difference_hess(q1, q2)
+        H = self._hess
+        H[:, 0] = (np.einsum("kai,kaj->kij", D, D) + np.einsum("ka,kaij->kij", d, DD)) \
+            / self.L[:, None, None]
+        return H
+
+
 def _time_functions(functions, t, which):
     """f(t) (``which`` "f", "df" or "ddf") of every instance (None: 0), shape
     (k,), or (..., k) for an array of times."""

@@ -37,7 +37,8 @@ from ..model.elements import (GROUND, FlexibleBeam, Friction, JointForce, JointT
                               PointForce,
                               RotationalSpringDamper, SpringDamper, TimeFunction, Torque)
 from .ffr import FlexibleBeamGroup
-from .groups import (CoincidenceGroup, FrictionGroup, LinearConstraintGroup, PointForceGroup,
+from .groups import (CoincidenceGroup, DistanceGroup, FrictionGroup, LinearConstraintGroup,
+                     PointForceGroup,
                      PointOnLineGroup, RotationalSpringGroup, SpringDamperGroup, TorqueGroup,
                      StateTorqueGroup,
                      body_columns)
@@ -103,7 +104,7 @@ class AssembledSystem:
     # -- build ------------------------------------------------------------------
     def _build_constraints(self, model):
         n = self.n
-        coinc, pol, lin = [], [], []
+        coinc, pol, lin, dist = [], [], [], []
 
         def _phi_col(body):
             return body_columns(n, [body])[0, 2]
@@ -125,6 +126,8 @@ class AssembledSystem:
             elif j.kind == "prismatic":
                 pol.append((row, a, b, _normal(j.direction), None))
                 _angle_row(row + 1, a.body, b.body, j.angle, None)   # rotation locked
+            elif j.kind == "distance":
+                dist.append((row, a, b, j.length))
             row += j.rows
         for d in model.drivers:
             if d.kind == "coordinate":        # q_c - f(t); first column: ground dummy, coef 0
@@ -146,6 +149,9 @@ class AssembledSystem:
         if lin:
             r, cols, coefs, off, fns = zip(*lin)
             self.constraint_groups.append(LinearConstraintGroup(n, r, cols, coefs, off, fns))
+        if dist:
+            r, p1, p2, lengths = zip(*dist)
+            self.constraint_groups.append(DistanceGroup(n, r, p1, p2, lengths))
         self.nonlinear_groups = [g for g in self.constraint_groups if g.hess is not None]
         self.timed_groups = [g for g in self.constraint_groups if g.time_dependent]
         # Sparsity patterns fixed here, once: Phi_q-shaped blocks (row, col) and

@@ -30,7 +30,7 @@ from .expressions import (Binary, Call, Dotted, ExprError, IndexedName, Name, Nu
                           compile_function, compile_state_function, diff, evaluate,
                           free_names, substitute)
 from ..model.beam import FRAMES
-from .spec import BeamSpec, ForSpec, ModelSpec
+from .spec import BeamSpec, ForSpec, GroundSpec, ModelSpec
 
 #: most instances one for block may create
 MAX_REPEAT = 1_000_000
@@ -44,6 +44,7 @@ JOINT_KINDS = {
     "fixed": (2, {"angle": 0.0}, 3),
     "prismatic": (2, {"direction": None, "angle": 0.0}, 2),
     "point_on_line": (2, {"direction": None}, 1),
+    "distance": (2, {"length": None}, 1),
 }
 #: an optional keyword without a default value (``friction``'s radius, mu_static)
 _UNSET = float("nan")
@@ -369,7 +370,8 @@ class _Checker:
                 inner = self.instantiate(obj.obj, env, span)
                 return None if inner is None else Dotted(inner, obj.attr, obj.span)
             name = self.resolve_name(obj.obj, env, obj.span or span)
-            return None if name is None else Dotted(name, obj.attr, obj.span)
+            attr = self.resolve_name(obj.attr, env, obj.span or span)     # ground.P[i]
+            return None if name is None or attr is None else Dotted(name, attr, obj.span)
         if isinstance(obj, Unary):
             x = self.instantiate(obj.operand, env, span)
             return None if x is None else Unary(obj.op, x, obj.span)
@@ -405,7 +407,7 @@ class _Checker:
 
     def expand_loops(self):
         """Flatten for blocks into concrete declarations, in source order."""
-        keyed = {k: [] for k in _KINDS}
+        keyed = {k: [] for k in _KINDS + ("ground_points",)}
         buckets = {"bodies": "bodies", "joints": "joints", "forces": "forces",
                    "drivers": "drivers", "initials": "initials"}
 
@@ -414,6 +416,12 @@ class _Checker:
             return (sp.line, sp.column) if sp else (0, 0), iteration
 
         def _add(item, env, iteration):
+            if isinstance(item, GroundSpec):           # ground points of a for block
+                for p in item.points:
+                    inst = self.instantiate(p, env)
+                    if inst is not None:
+                        keyed["ground_points"].append((_key(p, iteration), inst))
+                return
             kind = {"BodySpec": "bodies", "BeamSpec": "bodies", "JointSpec": "joints", "ForceSpec": "forces",
                     "DriverSpec": "drivers", "InitialSpec": "initials"}[type(item).__name__]
             inst = self.instantiate(item, env)
@@ -453,6 +461,10 @@ class _Checker:
         for kind in _KINDS:
             for item in getattr(self.spec, kind):
                 _add(item, {}, ())
+        for p in self.spec.ground_points:              # indexed names resolve here too
+            inst = self.instantiate(p, {})
+            if inst is not None:
+                keyed["ground_points"].append((_key(p, ()), inst))
         for spec in self.spec.loops:
             _loop(spec, {}, ())
         self.items = {k: [inst for _, inst in sorted(v, key=lambda kv: kv[0])]
@@ -506,7 +518,7 @@ class _Checker:
 
     def check_ground(self):
         """Collect the ground's named points."""
-        for p in self.spec.ground_points:
+        for p in self.items["ground_points"]:
             if p.name in self.ground_points:
                 self.error("E202", f"duplicate ground point '{p.name}'", p.span, "declared again")
                 continue
@@ -774,6 +786,17 @@ class _Checker:
                 angle = self.number(kw["angle"].value, kw["angle"].span, ctx)
                 if angle is None:
                     continue
+            length = 0.0
+            if "length" in kw:
+                length = self.number(kw["length"].value, kw["length"].span, ctx)
+                if length is None:
+                    continue
+                if not length > 0:
+                    self.error("E303", f"{ctx}: the length must be positive, got {length:g} m",
+                               kw["length"].span, "not positive",
+                               hint="a distance joint holds two points a positive distance "
+                               "apart; for coincident points use a revolute joint")
+                    continue
             if first is None or second is None or not ok:
                 continue
             if first.body == second.body:
@@ -783,7 +806,7 @@ class _Checker:
                            hint="a joint connects two different bodies")
                 continue
             self.joints[j.name] = Joint(j.name, j.kind, first, second, direction, angle,
-                                        rows, j.span)
+                                        rows, j.span, length)
 
     def check_drivers(self):
         """Resolve driver targets (body coordinate or joint angle) and compile f(t)."""
@@ -974,9 +997,10 @@ class _Checker:
             return None
         span = getattr(pos[0].value, "span", None) or f.span
         kw = {a.keyword: a for a in f.args if a.keyword is not None}
-        if joint.kind == "fixed":
-            self.error("E305", f"{ctx}: friction acts in a joint that moves; '{joint.name}' is "
-                       "a fixed joint", span, "a fixed joint does not slide",
+        if joint.kind in ("fixed", "distance"):
+            self.error("E305", f"{ctx}: friction acts in a revolute, prismatic or point_on_line "
+                       f"joint; '{joint.name}' is a {joint.kind} joint", span,
+                       f"no sliding surface in a {joint.kind} joint",
                        hint="friction(J, ...) takes a revolute, prismatic or point_on_line joint")
             return None
         radius = opts["radius"]

@@ -76,7 +76,8 @@ class Dotted:
         """The reference as written, e.g. ``"crank.O"`` (``"arm.T.x"``: obj is
         itself a Dotted, a point of a body)."""
         obj = self.obj.text if isinstance(self.obj, (IndexedName, Dotted)) else self.obj
-        return f"{obj}.{self.attr}"
+        attr = self.attr.text if isinstance(self.attr, IndexedName) else self.attr
+        return f"{obj}.{attr}"
 
 
 @dataclass(frozen=True)

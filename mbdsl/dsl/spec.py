@@ -26,7 +26,8 @@ from ..errors import Span
 from .expressions import Dotted, Expr, Vec, as_expr
 
 __all__ = [
-    "ParameterSpec", "PointSpec", "PropertySpec", "BodySpec", "ShapeSpec", "ArgSpec",
+    "ParameterSpec", "PointSpec", "PropertySpec", "BodySpec", "ShapeSpec", "GroundSpec",
+    "ArgSpec",
     "JointSpec", "ForceSpec", "DriverSpec", "InitialSpec", "SettingSpec",
     "ForSpec", "OutputSpec", "ModelSpec",
 ]
@@ -87,6 +88,18 @@ class PropertySpec:
 
     def __post_init__(self):
         _set(self, "value", as_expr(self.value))
+
+
+@dataclass(frozen=True)
+class GroundSpec:
+    """``ground { point ... }`` inside a ``for`` block (at the top level its
+    points go straight to ``ModelSpec.ground_points``)."""
+
+    points: tuple = ()
+    span: Span | None = None
+
+    def __post_init__(self):
+        _set(self, "points", tuple(self.points))
 
 
 @dataclass(frozen=True)

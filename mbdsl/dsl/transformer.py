@@ -55,8 +55,8 @@ class ToSpec(Transformer):
                 buckets["parameters"].append(it)
             elif isinstance(it, tuple) and it and it[0] == "gravity":
                 gravity, gspan = it[1], it[2]
-            elif isinstance(it, tuple) and it and it[0] == "ground":
-                buckets["ground_points"].extend(it[1])
+            elif isinstance(it, S.GroundSpec):
+                buckets["ground_points"].extend(it.points)
             elif isinstance(it, (S.BodySpec, S.BeamSpec)):
                 buckets["bodies"].append(it)
             elif isinstance(it, S.JointSpec):
@@ -100,8 +100,8 @@ class ToSpec(Transformer):
 
     @v_args(meta=True)
     def ground_decl(self, meta, children):
-        """``ground { point ... }`` -> ('ground', [PointSpec])."""
-        return ("ground", list(children))
+        """``ground { point ... }`` -> GroundSpec."""
+        return S.GroundSpec(tuple(children), self._span(meta))
 
     @v_args(meta=True)
     def for_block(self, meta, children):
@@ -157,8 +157,8 @@ class ToSpec(Transformer):
 
     @v_args(meta=True)
     def point_decl(self, meta, children):
-        """``point NAME (x, y)`` -> PointSpec."""
-        return S.PointSpec(str(children[0]), children[1], self._tspan(children[0]))
+        """``point NAME (x, y)`` (or ``point P[i] (x, y)``) -> PointSpec."""
+        return S.PointSpec(self._name(children[0]), children[1], self._nspan(children[0]))
 
     @v_args(meta=True)
     def property(self, meta, children):
@@ -269,6 +269,12 @@ class ToSpec(Transformer):
     def dotted(self, meta, children):
         """``a.b`` or ``a[i].b`` -> Dotted."""
         return Dotted(self._name(children[0]), str(children[1]), self._span(meta))
+
+    @v_args(meta=True)
+    def dotted_indexed(self, meta, children):
+        """``ground.P[i]``: an indexed point -> Dotted with an IndexedName attr."""
+        attr = IndexedName(str(children[1]), children[2], self._tspan(children[1]))
+        return Dotted(self._name(children[0]), attr, self._span(meta))
 
     @v_args(meta=True)
     def dotted2(self, meta, children):

@@ -68,7 +68,7 @@ def expr_text(e) -> str:
     if isinstance(e, IndexedName):
         return _name(e)
     if isinstance(e, Dotted):
-        return f"{_name(e.obj)}.{e.attr}"
+        return f"{_name(e.obj)}.{_name(e.attr)}"
     if isinstance(e, Vec):
         return f"({expr_text(e.x)}, {expr_text(e.y)})"
     if isinstance(e, Call):
@@ -106,7 +106,7 @@ def _item(it, indent: str) -> list[str]:
     from . import spec as S
     if isinstance(it, S.BodySpec):
         parts = [f"{p.name} {expr_text(p.value)}" for p in it.properties]
-        parts += [f"point {p.name} {expr_text(p.position)}" for p in it.points]
+        parts += [f"point {_name(p.name)} {expr_text(p.position)}" for p in it.points]
         parts += [f"shape {s.kind}({_args(s.args)})" for s in it.shapes]
         return [f"{indent}body {_name(it.name)} {{ {'; '.join(parts)} }}"]
     if isinstance(it, S.BeamSpec):
@@ -125,6 +125,9 @@ def _item(it, indent: str) -> list[str]:
     if isinstance(it, S.InitialSpec):
         word = "guess" if it.guess else "initial"
         return [f"{indent}{word} {expr_text(it.target)} = {expr_text(it.value)}"]
+    if isinstance(it, S.GroundSpec):
+        pts = "; ".join(f"point {_name(p.name)} {expr_text(p.position)}" for p in it.points)
+        return [f"{indent}ground {{ {pts} }}"]
     if isinstance(it, S.ForSpec):
         lines = [f"{indent}for {it.var} in {expr_text(it.start)}..{expr_text(it.end)} {{"]
         for sub in it.items:
@@ -145,7 +148,8 @@ def spec_text(spec) -> str:
     if spec.gravity is not None:
         lines.append(f"gravity {expr_text(spec.gravity)}")
     if spec.ground_points:
-        pts = "; ".join(f"point {p.name} {expr_text(p.position)}" for p in spec.ground_points)
+        pts = "; ".join(f"point {_name(p.name)} {expr_text(p.position)}"
+                        for p in spec.ground_points)
         lines.append(f"ground {{ {pts} }}")
     for group in (spec.bodies, spec.joints, spec.forces, spec.drivers, spec.initials,
                   spec.loops):

@@ -374,7 +374,7 @@ class Joint:
     Attributes
     ----------
     name : str
-    kind : {"revolute", "prismatic", "point_on_line", "fixed"}
+    kind : {"revolute", "prismatic", "point_on_line", "fixed", "distance"}
     first, second : PointRef
         The two points as written. For ``point_on_line`` and ``prismatic``
         the first point moves on the line through the second point.
@@ -384,6 +384,8 @@ class Joint:
         Locked relative angle (prismatic, fixed).
     rows : int
         Number of constraint equations.
+    length : float [m]
+        The distance a ``distance`` joint holds (0 for the others).
     """
 
     name: str
@@ -394,6 +396,7 @@ class Joint:
     angle: float = 0.0
     rows: int = 2
     span: Span | None = None
+    length: float = 0.0
 
     @property
     def bodies(self) -> tuple[int, int]:

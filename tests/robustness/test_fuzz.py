@@ -40,7 +40,10 @@ INSERTS = ["kg", "m/s", "{", "}", "(", ")", ",", ";", "=", ":", "..", "é", "→
            "friction", "mu", "radius", "mu_static", "v_stribeck", "viscous", "v_reg",
            "force f: friction(P, mu = 0.3)\n", "force f: friction(O, mu = 0.1, radius = 0.01)\n",
            # drawn shapes
-           "shape", "line", "circle", "polygon", "shape line(E, T)", "shape circle(cm, 0.1); "]
+           "shape", "line", "circle", "polygon", "shape line(E, T)", "shape circle(cm, 0.1); ",
+           # distance joints, indexed points, ground points in for blocks
+           "distance", "length", "joint R: distance(ground.origin, crank.A, length = 0.2)\n",
+           "P[1]", "ground.P[i]", "for i in 1..2 { ground { point P[i] (i, 0) } }\n"]
 
 
 def tokens(text):
