@@ -26,6 +26,7 @@ Systems, ch. 4): a body point is at r + A(phi) s, with d/dphi (A s) = B s =
 
 * coincidence (revolute): Phi = p2 - p1
 * point on line: Phi = n . (p_P - p_L), n = A_L n0
+* distance: Phi = (d . d - L^2) / (2 L), d = p2 - p1
 * linear rows: c1 q[i1] + c2 q[i2] - offset (locked angles)
 * spring-damper: Q = -D^T (f e), f = k (l - l0) + c ldot
 * rotational spring-damper: tau = k (phi2 - phi1 - angle) + c (w2 - w1)
@@ -119,7 +120,10 @@ MODEL_SCHEMA = (
     ("pfn", "i", 2),                                                   # point on line: f, f'
     ("geo", "i", 6), ("geof", "f", 6),                                 # sliding joints' lines
     ("fri", "i", 5), ("frp", "f", 6),                                  # friction: +col, -col,
-)                                                                      # line, row, rows; law
+                                                                       # line, row, rows; law
+    ("drow", "i", 0), ("dcol1", "i", 3), ("ds1", "f", 2),              # distance joints
+    ("dcol2", "i", 3), ("ds2", "f", 2), ("dlen", "f", 0),
+)
 #: The field names, and the scalar "n_elements" (the header's last entry).
 MODEL_FIELDS = tuple(name for name, _, _ in MODEL_SCHEMA) + ("n_elements",)
 
@@ -136,7 +140,8 @@ _inline = numba.njit(cache=True, nogil=True, inline="always")
 (MASS, Q0, CROW, CCOL1, CS1, CCOL2, CS2, PROW, PCOLL, PSL, PCOLP, PSP, PN0,
  LROW, LCOL, LCOEF, LOFF, SCOL1, SS1, SCOL2, SS2, SPAR, RCOL, RPAR,
  FCOL, FS, FF, ROW_ELEMENT, CODE, CONSTS, PROG, LFN, TCOL, TFN, FFN, STACK,
- VAR, VARC, XVAL, STQ, SDV, PFN, GEO, GEOF, FRI, FRP) = range(46)
+ VAR, VARC, XVAL, STQ, SDV, PFN, GEO, GEOF, FRI, FRP,
+ DROW, DCOL1, DS1, DCOL2, DS2, DLEN) = range(52)
 if any(globals()[name.upper()] != k for k, (name, _, _) in enumerate(MODEL_SCHEMA)):
     raise ImportError("compiled.py's field indices differ from MODEL_SCHEMA")   # pragma: no cover
 
@@ -192,6 +197,40 @@ def _pol(I, Fl, qx, i):
     dy = (qx[_i(I, PCOLP, i, 1)] - qx[_i(I, PCOLL, i, 1)]) + (ayP - ayL)
     nx, ny = _As(I, Fl, qx, PCOLL, PN0, i)
     return nx, ny, dx, dy, axL, ayL, axP, ayP
+
+
+@_jit
+def _dist(I, Fl, qx, i, g):
+    """Distance joint i: d = p2 - p1 and A1 s1, A2 s2, its length L; the
+    gradient of Phi over (x1, y1, phi1, x2, y2, phi2) into g (6,).
+    Returns (dx, dy, ax1, ay1, ax2, ay2, L)."""
+    ax1, ay1 = _As(I, Fl, qx, DCOL1, DS1, i)
+    ax2, ay2 = _As(I, Fl, qx, DCOL2, DS2, i)
+    dx = (qx[_i(I, DCOL2, i, 0)] - qx[_i(I, DCOL1, i, 0)]) + (ax2 - ax1)
+    dy = (qx[_i(I, DCOL2, i, 1)] - qx[_i(I, DCOL1, i, 1)]) + (ay2 - ay1)
+    L = _f(I, Fl, DLEN, i, 0)
+    g[0], g[1], g[2] = -dx / L, -dy / L, (dx * ay1 - dy * ax1) / L
+    g[3], g[4], g[5] = dx / L, dy / L, (-dx * ay2 + dy * ax2) / L
+    return dx, dy, ax1, ay1, ax2, ay2, L
+
+
+@_jit
+def _dist_col(I, i, j):
+    """Column of local entry j (x1, y1, phi1, x2, y2, phi2) of distance joint i."""
+    return _i(I, DCOL1, i, j) if j < 3 else _i(I, DCOL2, i, j - 3)
+
+
+@_jit
+def _dist_hess(dx, dy, ax1, ay1, ax2, ay2, L, H):
+    """Hessian of the distance row, (D^T D + sum_a d_a D_a,qq) / L, into H (6, 6);
+    D = dd/dq = [[-1, 0, ay1, 1, 0, -ay2], [0, -1, -ax1, 0, 1, ax2]]."""
+    D0 = (-1.0, 0.0, ay1, 1.0, 0.0, -ay2)
+    D1 = (0.0, -1.0, -ax1, 0.0, 1.0, ax2)
+    for a in range(6):
+        for b in range(6):
+            H[a, b] = (D0[a] * D0[b] + D1[a] * D1[b]) / L
+    H[2, 2] += (dx * ax1 + dy * ay1) / L
+    H[5, 5] -= (dx * ax2 + dy * ay2) / L
 
 
 @_jit
@@ -435,6 +474,11 @@ def phi(I, Fl, t, qx, out):
         if _i(I, LFN, i, 0) >= 0:                  # a driver f(t)
             val -= _eval(I, Fl, _i(I, LFN, i, 0), t)
         out[_i(I, LROW, i, 0)] = val
+    if _rows(I, DROW) > 0:
+        g = np.empty(6)
+        for i in range(_rows(I, DROW)):
+            dx, dy, ax1, ay1, ax2, ay2, L = _dist(I, Fl, qx, i, g)
+            out[_i(I, DROW, i, 0)] = (dx * dx + dy * dy - L * L) / (2.0 * L)
 
 
 @_jit
@@ -464,6 +508,13 @@ def phiqT_add(I, Fl, qx, lam, coef, out):
         lv = coef * lam[_i(I, LROW, i, 0)]
         out[_i(I, LCOL, i, 0)] += _f(I, Fl, LCOEF, i, 0) * lv
         out[_i(I, LCOL, i, 1)] += _f(I, Fl, LCOEF, i, 1) * lv
+    if _rows(I, DROW) > 0:
+        g = np.empty(6)
+        for i in range(_rows(I, DROW)):
+            _dist(I, Fl, qx, i, g)
+            lv = coef * lam[_i(I, DROW, i, 0)]
+            for j in range(6):
+                out[_dist_col(I, i, j)] += lv * g[j]
 
 
 @_jit
@@ -482,6 +533,14 @@ def phiq_times(I, Fl, qx, vx, out):
                         + g3 * vx[_i(I, PCOLP, i, 0)] + g4 * vx[_i(I, PCOLP, i, 1)] + g5 * vx[_i(I, PCOLP, i, 2)])
     for i in range(_rows(I, LROW)):
         out[_i(I, LROW, i, 0)] = _f(I, Fl, LCOEF, i, 0) * vx[_i(I, LCOL, i, 0)] + _f(I, Fl, LCOEF, i, 1) * vx[_i(I, LCOL, i, 1)]
+    if _rows(I, DROW) > 0:
+        g = np.empty(6)
+        for i in range(_rows(I, DROW)):
+            _dist(I, Fl, qx, i, g)
+            acc = 0.0
+            for j in range(6):
+                acc += g[j] * vx[_dist_col(I, i, j)]
+            out[_i(I, DROW, i, 0)] = acc
 
 
 @_jit
@@ -683,6 +742,16 @@ def _emit_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose):
                     p = _put(R, C, V, p, r0 + col, c0 + _i(I, LROW, i, 0), coef * _f(I, Fl, LCOEF, i, j))
                 else:
                     p = _put(R, C, V, p, r0 + _i(I, LROW, i, 0), c0 + col, coef * _f(I, Fl, LCOEF, i, j))
+    for i in range(_rows(I, DROW)):
+        _dist(I, Fl, qx, i, g)
+        row = _i(I, DROW, i, 0)
+        for j in range(6):
+            col = _dist_col(I, i, j)
+            if col < n:
+                if transpose:
+                    p = _put(R, C, V, p, r0 + col, c0 + row, coef * g[j])
+                else:
+                    p = _put(R, C, V, p, r0 + row, c0 + col, coef * g[j])
     return p
 
 
@@ -714,6 +783,18 @@ def _emit_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef):
             p = _put(R, C, V, p, r0 + cL, c0 + cL, lv * hLL)
         if cP < n:
             p = _put(R, C, V, p, r0 + cP, c0 + cP, lv * hPP)
+    if _rows(I, DROW) > 0:
+        g, H = np.empty(6), np.empty((6, 6))
+        for i in range(_rows(I, DROW)):
+            dx, dy, ax1, ay1, ax2, ay2, L = _dist(I, Fl, qx, i, g)
+            _dist_hess(dx, dy, ax1, ay1, ax2, ay2, L, H)
+            lv = coef * lam[_i(I, DROW, i, 0)]
+            for a in range(6):
+                ca = _dist_col(I, i, a)
+                for b in range(6):
+                    cb = _dist_col(I, i, b)
+                    if ca < n and cb < n:
+                        p = _put(R, C, V, p, r0 + ca, c0 + cb, lv * H[a, b])
     return p
 
 
@@ -754,6 +835,21 @@ def _emit_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef):
                     hv += hPP * v6[5]
             if col < n:
                 p = _put(R, C, V, p, r0 + row, c0 + col, coef * hv)
+    if _rows(I, DROW) > 0:
+        g, H = np.empty(6), np.empty((6, 6))
+        for i in range(_rows(I, DROW)):
+            dx, dy, ax1, ay1, ax2, ay2, L = _dist(I, Fl, qx, i, g)
+            _dist_hess(dx, dy, ax1, ay1, ax2, ay2, L, H)
+            for j in range(6):
+                v6[j] = vx[_dist_col(I, i, j)]
+            row = _i(I, DROW, i, 0)
+            for a in range(6):
+                col = _dist_col(I, i, a)
+                if col < n:
+                    hv = 0.0
+                    for b in range(6):
+                        hv += H[a, b] * v6[b]
+                    p = _put(R, C, V, p, r0 + row, c0 + col, coef * hv)
     return p
 
 
@@ -1546,12 +1642,12 @@ def triplet_bound(I) -> int:
         """Instances of field k (the header's row count)."""
         return int(I[3 * k + 1])
     n = rows(MASS)
-    kc, kp, kl = rows(CROW), rows(PROW), rows(LROW)
+    kc, kp, kl, kd = rows(CROW), rows(PROW), rows(LROW), rows(DROW)
     ks, kr, kf = rows(SCOL1), rows(RCOL), rows(FCOL)
-    phiq = 8 * kc + 6 * kp + 2 * kl
-    return (6 * n + 6 * phiq + 4 * (2 * kc + 12 * kp)
+    phiq = 8 * kc + 6 * kp + 2 * kl + 6 * kd
+    return (6 * n + 6 * phiq + 4 * (2 * kc + 12 * kp + 36 * kd)
             + 2 * (36 * ks + 4 * kr + kf + 36 * rows(SDV) + 36 * rows(STQ) + 36 * rows(FRI))
-            + 2 * (4 * kc + 6 * kp) + 12 * rows(FRI))
+            + 2 * (4 * kc + 6 * kp + 6 * kd) + 12 * rows(FRI))
 
 
 @_jit

@@ -27,7 +27,7 @@ the compiled loop resumes after it. Both engines compute the same equations;
 
 What the kernels cover (:func:`unsupported` says why a model or method is not):
 the methods with a recipe;
-rigid bodies; revolute, point_on_line, prismatic and fixed joints; drivers,
+rigid bodies; revolute, point_on_line, prismatic, fixed and distance joints; drivers,
 torques and point forces, constant or functions of time (compiled from the
 language's expressions); loads of the state (torques, joint torques and joint
 forces reading the motion); spring-dampers, rotational spring-dampers,
@@ -41,7 +41,8 @@ import math
 import numpy as np
 import scipy
 
-from ..assembly.groups import (CoincidenceGroup, FrictionGroup, LinearConstraintGroup,
+from ..assembly.groups import (CoincidenceGroup, DistanceGroup, FrictionGroup,
+                               LinearConstraintGroup,
                                PointForceGroup,
                                PointOnLineGroup, RotationalSpringGroup, SpringDamperGroup,
                                StateTorqueGroup, TorqueGroup)
@@ -96,7 +97,8 @@ def unsupported(system, method) -> str | None:
     if system.flexible_groups:
         return "the model has flexible beams"
     for g in system.constraint_groups:
-        if not isinstance(g, (CoincidenceGroup, PointOnLineGroup, LinearConstraintGroup)):
+        if not isinstance(g, (CoincidenceGroup, PointOnLineGroup, LinearConstraintGroup,
+                              DistanceGroup)):
             return f"no kernel for {type(g).__name__}"
     for g in system.force_groups:
         if not isinstance(g, (SpringDamperGroup, RotationalSpringGroup, TorqueGroup,
@@ -219,7 +221,9 @@ class CompiledModel:
                  "spar": np.zeros((0, 3)), "rcol": np.zeros((0, 2), i8),
                  "rpar": np.zeros((0, 3)), "fcol": np.zeros((0, 3), i8),
                  "fs": np.zeros((0, 2)), "fF": np.zeros((0, 2)),
-                 "fri": np.zeros((0, 5), i8), "frp": np.zeros((0, 6))}
+                 "fri": np.zeros((0, 5), i8), "frp": np.zeros((0, 6)),
+                 "drow": np.zeros(0, i8), "dcol1": np.zeros((0, 3), i8), "ds1": np.zeros((0, 2)),
+                 "dcol2": np.zeros((0, 3), i8), "ds2": np.zeros((0, 2)), "dlen": np.zeros(0)}
         d = dict(empty)
         from ..dsl.expressions import OPCODES, Num, diff, postfix
         from ..model.elements import line_columns
@@ -270,6 +274,10 @@ class CompiledModel:
                 d.update(crow=g.rows.astype(i8), ccol1=g.pair.P1.cols.astype(i8),
                          cs1=g.pair.P1.s.astype(f8), ccol2=g.pair.P2.cols.astype(i8),
                          cs2=g.pair.P2.s.astype(f8))
+            elif isinstance(g, DistanceGroup):
+                d.update(drow=g.rows[:, 0].astype(i8), dcol1=g.pair.P1.cols.astype(i8),
+                         ds1=g.pair.P1.s.astype(f8), dcol2=g.pair.P2.cols.astype(i8),
+                         ds2=g.pair.P2.s.astype(f8), dlen=g.L.astype(f8))
             elif isinstance(g, PointOnLineGroup):
                 d.update(prow=g.rows[:, 0].astype(i8), pcolL=g.pair.P1.cols.astype(i8),
                          psL=g.pair.P1.s.astype(f8), pcolP=g.pair.P2.cols.astype(i8),

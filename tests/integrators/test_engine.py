@@ -36,7 +36,8 @@ def _system(path, **overrides):
 @pytest.mark.parametrize("path, T", [(MODELS / "slider_crank.mbd", 0.5),
                                      (VALID / "compiled_elements.mbd", 0.3),
                                      (VALID / "all_elements.mbd", 0.3),
-                                     (VALID / "friction_elements.mbd", 0.3)])
+                                     (VALID / "friction_elements.mbd", 0.3),
+                                     (VALID / "distance_elements.mbd", 0.3)])
 def test_compiled_loop_matches_numpy_engine(path, T, method):
     system, init = _system(path)
     a = integrate(system, make_method(method), T, 1e-3, initial=init, engine="numpy", newton=SAME)
@@ -173,7 +174,8 @@ def test_band_ordering_of_a_chain_and_the_automatic_choice():
 
 
 @pytest.mark.parametrize("model", ["compiled_elements.mbd", "all_elements.mbd",
-                                   "sliding_elements.mbd", "friction_elements.mbd"])
+                                   "sliding_elements.mbd", "friction_elements.mbd",
+                                   "distance_elements.mbd"])
 @pytest.mark.parametrize("first", [True, False])
 @pytest.mark.parametrize("method", RECIPE_METHODS)
 def test_kernel_newton_matrix_is_the_derivative_of_the_kernel_residual(method, first, model):
