@@ -504,6 +504,50 @@ class Solution:
             d["lam"] = lam
         return d
 
+    #: A beam's elastic displacement, as a fraction of its length, above which
+    #: :meth:`run_warnings` says the linear floating-frame model has left its range.
+    DEFLECTION_LIMIT = 0.1
+
+    def run_warnings(self) -> list:
+        """Warnings about the computed motion (not its start), from the stored rows.
+
+        W404: a flexible beam whose elastic displacement (the largest
+        |S(x) q_f| over its nodes, in its floating frame) passes
+        ``DEFLECTION_LIMIT`` of its length: the linear elasticity of the
+        floating frame of reference (small deflections, no geometric
+        stiffening) is not valid there, and a rotating beam may be going
+        unstable. Once per beam, at the first stored time it happens.
+
+        Returns
+        -------
+        list of Diagnostic
+        """
+        from .errors import Diagnostic
+        out = []
+        q = self.q
+        if len(q) == 0:
+            return out
+        for beam in self.model.flexible_bodies:
+            arcs = np.linspace(0.0, beam.length, beam.elements + 1)
+            S = beam.mesh.shape(arcs)                              # (k, 2, nf)
+            disp = np.einsum("kif,Nf->Nki", S, q[:, beam.elastic_columns()])
+            size = np.max(np.hypot(disp[..., 0], disp[..., 1]), axis=1)
+            over = np.flatnonzero(size > self.DEFLECTION_LIMIT * beam.length)
+            if len(over) == 0:
+                continue
+            i, worst = int(over[0]), int(np.argmax(size))
+            out.append(Diagnostic(
+                "warning", "W404",
+                f"flexible beam '{beam.name}' deflects by {size[i]:.3g} m at t = {self.t[i]:.6g} s, "
+                f"more than {100 * self.DEFLECTION_LIMIT:g} % of its {beam.length:g} m length "
+                f"(largest {size[worst]:.3g} m at t = {self.t[worst]:.6g} s): the floating frame's "
+                "linear elasticity is not valid at such deflections", beam.span,
+                "deflects too far",
+                hint="a beam spinning faster than its first bending frequency softens without "
+                "geometric stiffening; check E, the second moment and the loads, or use more "
+                "bodies"))
+        return out
+
     def finalize(self) -> None:
         """Stack the recorded steps into arrays."""
         d = self.rows(0, len(self._rows))

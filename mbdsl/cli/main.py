@@ -332,6 +332,8 @@ def _simulate(args) -> int:
         return status
     if sol.initial is not None and sol.initial.warnings:
         _print_diagnostics(sol.initial.warnings)
+    if sol.model.flexible_bodies:
+        _print_diagnostics(sol.run_warnings())
     if not args.quiet:
         print(sol.initial.report())
         print(sol.summary())
