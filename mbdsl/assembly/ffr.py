@@ -24,10 +24,30 @@ and the quadratic velocity vector (M a = Q + Q_v, w = phi', qd = q_f'):
     Q_v,phi = -2 w a_U . qd
     Q_v,f   = w^2 a_U - 2 w S_tilde qd
 
-Applied: the elastic force -K q_f and, with gravity g, the generalized
+Applied: the elastic force -K q_f (minus, with geometric stiffening, the
+gradient of the nonlinear part of the axial strain energy, below) and, with
+gravity g, the generalized
 gravity force (m g, (B s_bar) . g, S_bar^T A^T g). Potential energy
 q_f^T K q_f / 2 - m g . R - g . A s_bar. Every q- and v-derivative the
 Newton matrices need is below, analytic: Q_q, Q_v, and (M a)_q.
+
+Geometric stiffening (on unless the beam says ``stiffening off``): the axial
+strain of element e is eps_e = a_e + c_e / 2 (the foreshortening of a bent
+beam) instead of a_e, with a_e = Bu_e q_f its u' and c_e = q_f^T G_e q_f the
+element mean of v'^2 (``BeamMesh.strain_gradients``: averaged, so that a bent
+beam is not locked). The strain energy gains, with k_e = EA l / 2,
+
+    U_G = sum_e k_e (a_e c_e + c_e^2 / 4)
+    dU_G/dq_f = sum_e k_e [c_e Bu_e + (2 a_e + c_e) G_e q_f]
+    d^2U_G/dq_f^2 = sum_e k_e [2 Bu_e g_e^T + 2 g_e Bu_e^T + 2 g_e g_e^T
+                               + (2 a_e + c_e) G_e],   g_e = G_e q_f
+
+so an axial force EA a_e (centrifugal or applied) stiffens bending by
+EA a_e l G_e, the geometric stiffness, which the linear floating frame
+misses (a spinning cantilever softens and diverges above its first
+frequency). Sharf, "Geometric stiffening in multibody dynamics
+formulations", J. Guidance, Control, and Dynamics 18 (1995) 882-890, and
+Sharf (1996), Multibody System Dynamics; Kane, Ryan & Banerjee (1987).
 
 Source: Shabana, Dynamics of Multibody Systems, 4th ed., ch. 5 (the planar
 FFR: eqs. for the mass matrix, the inertia shape integrals and the quadratic
@@ -92,6 +112,15 @@ class FlexibleBeamGroup:
         self.M_ff, self.a_u, self.a_I = stack("M_ff"), stack("a_u"), stack("a_I")
         self.S_tilde = stack("S_tilde")
         self.K = np.array(stiff)
+        # geometric stiffening: quadrature data of the beams that have it
+        self.stiffening = np.array([getattr(b, "stiffening", True) for b in beams])
+        if self.stiffening.any():
+            grads = [b.mesh.strain_gradients() for b in beams]
+            self.Bu = np.array([g[0] for g in grads])                 # (k, N_e, nf)
+            self.G = np.array([g[1] for g in grads])                  # (k, N_e, nf, nf)
+            self.kEA = np.array([np.full(b.elements, 0.5 * b.E * b.area * b.length / b.elements
+                                         * (1.0 if s else 0.0))
+                                 for b, s in zip(beams, self.stiffening)])
         self.gravity = None if gravity is None else np.asarray(gravity, float)
         self.damped = True          # the quadratic velocity vector depends on v
         k, c = len(beams), self.c
@@ -148,6 +177,40 @@ class FlexibleBeamGroup:
         out[:, 3:, 3:] = self.S_tilde * aphi[:, None, None]
         return out
 
+    # -- geometric stiffening ---------------------------------------------------------------
+    def _strains(self, qf):
+        """a_e, g_e = G_e q_f and c_e per element: shapes (..., k, N_e),
+        (..., k, N_e, nf), (..., k, N_e)."""
+        a = np.einsum("kej,...kj->...ke", self.Bu, qf)
+        g = np.einsum("keij,...kj->...kei", self.G, qf)
+        return a, g, np.einsum("...kei,...ki->...ke", g, qf)
+
+    def _stiffening_force(self, qf):
+        """dU_G/dq_f, shape (k, nf) (module docstring)."""
+        a, g, c = self._strains(qf)
+        return (np.einsum("ke,kej->kj", self.kEA * c, self.Bu)
+                + np.einsum("ke,kej->kj", self.kEA * (2.0 * a + c), g))
+
+    def _stiffening_matrix(self, qf):
+        """d^2U_G/dq_f^2, shape (k, nf, nf)."""
+        a, g, c = self._strains(qf)
+        cross = np.einsum("ke,kei,kej->kij", self.kEA, self.Bu, g)
+        return (2.0 * (cross + cross.transpose(0, 2, 1))
+                + 2.0 * np.einsum("ke,kei,kej->kij", self.kEA, g, g)
+                + np.einsum("ke,keij->kij", self.kEA * (2.0 * a + c), self.G))
+
+    def tangent_stiffness(self, qx) -> np.ndarray:
+        """K (+ d^2U_G/dq_f^2 with geometric stiffening) of every beam at q,
+        shape (k, nf, nf) [N/m, N, N m]."""
+        if not self.stiffening.any():
+            return self.K
+        return self.K + self._stiffening_matrix(qx[self.cols][:, 3:])
+
+    def _stiffening_energy(self, qf):
+        """U_G of every beam, shape (..., k)."""
+        a, _, c = self._strains(qf)
+        return np.einsum("ke,...ke->...k", self.kEA, a * c + 0.25 * c * c)
+
     # -- forces ------------------------------------------------------------------------------
     def forces(self, qx, vx, t):
         """Local Q = Q_v - K q_f + Q_gravity, shape (k, c) [N, N m]."""
@@ -161,6 +224,8 @@ class FlexibleBeamGroup:
         out[:, 2] = -2.0 * w * np.einsum("ki,ki->k", a_U, qd)
         out[:, 3:] = (w2 * a_U - 2.0 * w[:, None] * np.einsum("kij,kj->ki", self.S_tilde, qd)
                       - np.einsum("kij,kj->ki", self.K, qf))
+        if self.stiffening.any():
+            out[:, 3:] -= self._stiffening_force(qf)
         if self.gravity is not None:
             g = self.gravity
             out[:, 0:2] += self.m[:, None] * g
@@ -192,6 +257,8 @@ class FlexibleBeamGroup:
         Qv[:, 2, 3:] = -2.0 * w1 * a_U
         # Q_f = w^2 a_U - 2 w S_tilde qd - K q_f
         Qq[:, 3:, 3:] = w2[:, :, None] * self.M_ff - self.K
+        if self.stiffening.any():
+            Qq[:, 3:, 3:] -= self._stiffening_matrix(qf)
         Qv[:, 3:, 2] = 2.0 * w1 * a_U - 2.0 * Sq
         Qv[:, 3:, 3:] = -2.0 * w1[:, :, None] * self.S_tilde
         if self.gravity is not None:
@@ -208,6 +275,8 @@ class FlexibleBeamGroup:
         q = qx[..., self.cols]
         qf = q[..., 3:]
         e = 0.5 * np.einsum("...ki,kij,...kj->...", qf, self.K, qf)
+        if self.stiffening.any():
+            e = e + np.sum(self._stiffening_energy(qf), axis=-1)
         if self.gravity is not None:
             A, _ = _AB(q[..., 2])
             s_bar = self.s0 + np.einsum("kaj,...kj->...ka", self.S_bar, qf)
@@ -216,6 +285,7 @@ class FlexibleBeamGroup:
         return e
 
     def strain_energy(self, qx) -> np.ndarray:
-        """q_f^T K q_f / 2 of each beam, shape (k,) [J]."""
+        """q_f^T K q_f / 2 (+ U_G with geometric stiffening) of each beam, shape (k,) [J]."""
         qf = qx[self.cols][:, 3:]
-        return 0.5 * np.einsum("ki,kij,kj->k", qf, self.K, qf)
+        e = 0.5 * np.einsum("ki,kij,kj->k", qf, self.K, qf)
+        return e + self._stiffening_energy(qf) if self.stiffening.any() else e

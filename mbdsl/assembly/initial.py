@@ -271,7 +271,11 @@ def consistent_initial_state(system: AssembledSystem, t0: float = 0.0,
     if not system.flexible_groups:
         return state
     cols = np.concatenate([b.elastic_columns() for b in system.model.flexible_bodies])
-    K = scipy.linalg.block_diag(*[Kb for g in system.flexible_groups for Kb in g.K])
+    def tangent(q):
+        """The beams' elastic stiffness at q (with geometric stiffening: its tangent)."""
+        qx = np.concatenate([q, np.zeros(3)])
+        return scipy.linalg.block_diag(*[Kb for g in system.flexible_groups
+                                         for Kb in g.tangent_stiffness(qx)])
     def elastic_acceleration(st):
         """Largest elastic acceleration of a state (0 when quasi-static)."""
         return float(np.max(np.abs(st.a[cols])))
@@ -299,7 +303,8 @@ def consistent_initial_state(system: AssembledSystem, t0: float = 0.0,
         step = np.zeros(n)
         try:
             G = np.linalg.solve(_index1_matrix(system, state.q, t0), unit)[cols]
-            step[cols] = np.linalg.solve(K, np.linalg.lstsq(G, state.a[cols], rcond=1e-12)[0])
+            step[cols] = np.linalg.solve(tangent(state.q),
+                                         np.linalg.lstsq(G, state.a[cols], rcond=1e-12)[0])
         except np.linalg.LinAlgError:
             step[:] = np.nan
         if not np.all(np.isfinite(step)):

@@ -663,7 +663,18 @@ class _Checker:
         an integer element count, a known frame, points on the beam."""
         ctx = f"flexible beam '{b.name}'"
         props, values = {}, {}
+        stiffening = True
         for prop in b.properties:
+            if prop.name == "stiffening":         # stiffening on | off
+                v = prop.value
+                if isinstance(v, Name) and v.name in ("on", "off"):
+                    stiffening = v.name == "on"
+                else:
+                    self.error("E304", f"{ctx}: 'stiffening' is 'on' or 'off'",
+                               getattr(v, "span", None) or prop.span, "expected on or off",
+                               hint="geometric stiffening (the axial force's bending stiffness) "
+                               "is on by default; 'stiffening off' keeps the linear beam")
+                continue
             if prop.name not in self.BEAM_PROPERTIES:
                 self.error("E304", f"{ctx}: unknown property '{prop.name}'", prop.span,
                            "unknown property", hint=_did_you_mean(prop.name, self.BEAM_PROPERTIES)
@@ -751,7 +762,8 @@ class _Checker:
             points[p.name] = min(max(x, 0.0), length)
         self.bodies[b.name] = FlexibleBeam(b.name, len(self.bodies), mass, length, values["E"],
                                            values["area"], values["second_moment"],
-                                           int(values["elements"]), frame, points, span=b.span)
+                                           int(values["elements"]), frame, points, span=b.span,
+                                           stiffening=stiffening)
 
     def check_joints(self):
         """Resolve joint points and options; reject joints of a body to itself."""

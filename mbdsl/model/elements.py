@@ -303,6 +303,9 @@ class FlexibleBeam:
         Named points by arc length from the first node.
     elastic_offset : int
         First column of its elastic coordinates in q.
+    stiffening : bool
+        Geometric stiffening (the nonlinear axial strain, ``assembly/ffr.py``);
+        False: the linear floating-frame beam (``stiffening off``).
     """
 
     name: str
@@ -317,6 +320,7 @@ class FlexibleBeam:
     points: dict
     elastic_offset: int = 0
     span: Span | None = None
+    stiffening: bool = True
 
     @property
     def mesh(self):
