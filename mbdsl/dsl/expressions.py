@@ -109,6 +109,18 @@ class Call:
 
 
 @dataclass(frozen=True)
+class Cond:
+    """``if(test, then, other)``: ``then`` where ``test`` is not 0, else
+    ``other``; only the chosen branch is evaluated where evaluation can fail
+    (:func:`evaluate`), and the derivative is that of the chosen branch."""
+
+    test: "Expr"
+    then: "Expr"
+    other: "Expr"
+    span: Span | None = None
+
+
+@dataclass(frozen=True)
 class Vec:
     """A planar vector ``(x, y)`` of two expressions."""
 
@@ -117,7 +129,7 @@ class Vec:
     span: Span | None = None
 
 
-Expr = Union[Num, Name, Dotted, Unary, Binary, Call, IndexedName]
+Expr = Union[Num, Name, Dotted, Unary, Binary, Call, Cond, IndexedName]
 
 #: Functions an expression may call, with their derivative as an expression builder.
 FUNCTIONS: dict[str, Callable[[float], float]] = {
@@ -132,13 +144,17 @@ FUNCTIONS: dict[str, Callable[[float], float]] = {
 #: Binary nodes; ``clip(x, lo, hi)`` is max(lo, min(x, hi)).
 PAIR_FUNCTIONS = ("min", "max")
 
+#: Comparisons, Binary nodes worth 1.0 (true) or 0.0 (false); derivative 0.
+COMPARISONS = ("<", ">", "<=", ">=")
+
 CONSTANTS = {"pi": math.pi}
 
 #: Opcodes of a compiled program (:func:`postfix`), by number: a constant (its
 #: index in the constant table follows), t, negation, the binary operators, one
 #: per entry of :data:`FUNCTIONS` in order, then a state variable (its index
 #: in the model's table of state variables follows), then min and max (binary).
-OPCODES = ("const", "t", "neg", "+", "-", "*", "/", "^") + tuple(FUNCTIONS) + ("x",) + PAIR_FUNCTIONS
+OPCODES = (("const", "t", "neg", "+", "-", "*", "/", "^") + tuple(FUNCTIONS) + ("x",)
+           + PAIR_FUNCTIONS + COMPARISONS + ("if",))
 
 
 class ExprError(ValueError):
@@ -171,7 +187,7 @@ def as_expr(value) -> Expr:
     MbdSyntaxError
         If a string is not a valid expression.
     """
-    if isinstance(value, (Num, Name, Dotted, Unary, Binary, Call, IndexedName)):
+    if isinstance(value, (Num, Name, Dotted, Unary, Binary, Call, Cond, IndexedName)):
         return value
     if isinstance(value, bool):
         raise TypeError("a boolean is not an expression")
@@ -200,11 +216,18 @@ def _apply(op: str, a: float, b: float, span) -> float:
             r = min(a, b)
         elif op == "max":
             r = max(a, b)
+        elif op in COMPARISONS:
+            r = _compare(op, a, b)
         else:
             r = math.pow(a, b)
     except (OverflowError, ValueError) as exc:
         raise ExprError(f"cannot evaluate '{op}': {exc}", "E301", span) from None
     return r
+
+
+def _compare(op: str, a: float, b: float) -> float:
+    """1.0 when ``a op b`` holds, else 0.0."""
+    return float(a < b if op == "<" else a > b if op == ">" else a <= b if op == "<=" else a >= b)
 
 
 def evaluate(expr: Expr, env: dict[str, float], allow_t: bool = False,
@@ -253,6 +276,8 @@ def evaluate(expr: Expr, env: dict[str, float], allow_t: bool = False,
             return -_ev(e.operand)
         if isinstance(e, Binary):
             return _apply(e.op, _ev(e.left), _ev(e.right), e.span)
+        if isinstance(e, Cond):
+            return _ev(e.then) if _ev(e.test) != 0.0 else _ev(e.other)
         if isinstance(e, Call):
             f = FUNCTIONS.get(e.func)
             if f is None:
@@ -298,8 +323,13 @@ def evaluate_rows(expr: Expr, env: dict, t):
             return -_ev(e.operand)
         if isinstance(e, Binary):
             a, b = _ev(e.left), _ev(e.right)
+            if e.op in COMPARISONS:
+                return {"<": np.less, ">": np.greater, "<=": np.less_equal,
+                        ">=": np.greater_equal}[e.op](a, b).astype(float)
             return {"+": np.add, "-": np.subtract, "*": np.multiply, "/": np.divide,
                     "^": np.power, "min": np.minimum, "max": np.maximum}[e.op](a, b)
+        if isinstance(e, Cond):
+            return np.where(_ev(e.test) != 0.0, _ev(e.then), _ev(e.other))
         if isinstance(e, Call):
             return ufuncs[e.func](_ev(e.arg))
         raise TypeError(f"cannot evaluate {e!r}")
@@ -318,6 +348,8 @@ def free_names(expr: Expr) -> set[str]:
         return free_names(expr.left) | free_names(expr.right)
     if isinstance(expr, Call):
         return free_names(expr.arg)
+    if isinstance(expr, Cond):
+        return free_names(expr.test) | free_names(expr.then) | free_names(expr.other)
     return set()
 
 
@@ -353,6 +385,9 @@ def substitute(expr: Expr, env: dict[str, float],
         if expr.func not in FUNCTIONS:
             raise _function_error(expr)
         return Call(expr.func, substitute(expr.arg, env, state), expr.span)
+    if isinstance(expr, Cond):
+        return Cond(substitute(expr.test, env, state), substitute(expr.then, env, state),
+                    substitute(expr.other, env, state), expr.span)
     if isinstance(expr, Dotted):
         if state is not None:
             return Name(state(expr), expr.span)
@@ -365,7 +400,7 @@ def _function_error(call: Call) -> ExprError:
     number of arguments (the parser writes those as ``name/count``)."""
     name, _, count = call.func.partition("/")
     if count:
-        arity = {"min": 2, "max": 2, "clip": 3}.get(name, 1)
+        arity = {"min": 2, "max": 2, "clip": 3, "if": 3}.get(name, 1)
         return ExprError(f"'{name}' takes {arity} argument{'s' if arity > 1 else ''}, got {count}",
                          "E203", call.span, name=name)
     return ExprError(f"unknown function '{call.func}'", "E203", call.span, name=call.func)
@@ -381,6 +416,11 @@ def _is(e: Expr, v: float) -> bool:
 
 def simplify(e: Expr) -> Expr:
     """Fold constant subtrees and drop the neutral elements 0 and 1."""
+    if isinstance(e, Cond):
+        test = simplify(e.test)
+        if isinstance(test, Num):
+            return simplify(e.then) if test.value != 0.0 else simplify(e.other)
+        return Cond(test, simplify(e.then), simplify(e.other), e.span)
     if isinstance(e, Unary):
         x = simplify(e.operand)
         if isinstance(x, Num):
@@ -458,6 +498,8 @@ def diff(e: Expr, var: str = "t") -> Expr:
         if isinstance(e, Binary):
             a, b = e.left, e.right
             da, db = _d(a), _d(b)
+            if e.op in COMPARISONS:
+                return _n(0)                    # piecewise constant
             if e.op in "+-":
                 return _b(e.op, da, db)
             if e.op == "*":
@@ -475,6 +517,8 @@ def diff(e: Expr, var: str = "t") -> Expr:
             if _is(simplify(db), 0):
                 return term1
             return _b("+", term1, _b("*", _b("*", e, Call("log", a)), db))
+        if isinstance(e, Cond):                # the chosen branch's derivative
+            return Cond(e.test, _d(e.then), _d(e.other), e.span)
         if isinstance(e, Call):
             x, dx = e.arg, _d(e.arg)
             f = e.func
@@ -572,7 +616,12 @@ def compile_function(e: Expr, var: str = "t") -> Callable[[float], float]:
                 return lambda t: min(fa(t), fb(t))
             if op == "max":
                 return lambda t: max(fa(t), fb(t))
+            if op in COMPARISONS:
+                return lambda t: _compare(op, fa(t), fb(t))
             return lambda t: _pow(fa(t), fb(t))
+        if isinstance(e, Cond):
+            ft, fa, fb = _c(e.test), _c(e.then), _c(e.other)
+            return lambda t: fa(t) if ft(t) != 0.0 else fb(t)
         if isinstance(e, Call):
             fn, fx = _safe(FUNCTIONS[e.func]), _c(e.arg)
             return lambda t: fn(fx(t))
@@ -615,7 +664,12 @@ def compile_state_function(e: Expr, variables: tuple) -> Callable[[float, "objec
                 return lambda t, x: min(fa(t, x), fb(t, x))
             if op == "max":
                 return lambda t, x: max(fa(t, x), fb(t, x))
+            if op in COMPARISONS:
+                return lambda t, x: _compare(op, fa(t, x), fb(t, x))
             return lambda t, x: _pow(fa(t, x), fb(t, x))
+        if isinstance(e, Cond):
+            ft, fa, fb = _c(e.test), _c(e.then), _c(e.other)
+            return lambda t, x: fa(t, x) if ft(t, x) != 0.0 else fb(t, x)
         if isinstance(e, Call):
             fn, fx = _safe(FUNCTIONS[e.func]), _c(e.arg)
             return lambda t, x: fn(fx(t, x))
@@ -678,6 +732,12 @@ def postfix(e: Expr, var: str = "t", variables: dict | None = None
         elif isinstance(e, Call):
             emit(e.arg)
             code.append(OPCODES.index(e.func))
+        elif isinstance(e, Cond):        # both branches computed, one kept (a NaN of
+            emit(e.test)                 # the other is discarded)
+            emit(e.then)
+            emit(e.other)
+            code.append(OPCODES.index("if"))
+            push(-2)
         else:
             raise TypeError(f"cannot compile {e!r}")
 

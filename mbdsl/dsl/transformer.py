@@ -11,7 +11,7 @@ from lark import Token, Transformer, v_args
 
 from ..errors import Span
 from . import spec as S
-from .expressions import Binary, Call, Dotted, IndexedName, Name, Num, Unary, Vec
+from .expressions import Binary, Call, Cond, Dotted, IndexedName, Name, Num, Unary, Vec
 
 __all__ = ["ToSpec"]
 
@@ -245,6 +245,29 @@ class ToSpec(Transformer):
     add, sub, mul, div, pow = _bin("+"), _bin("-"), _bin("*"), _bin("/"), _bin("^")
     del _bin
 
+    def _compare(self, op, meta, children):
+        return Binary(op, children[0], children[1], self._span(meta))
+
+    @v_args(meta=True)
+    def lt(self, meta, children):
+        """``a < b`` -> Binary (1 or 0)."""
+        return self._compare("<", meta, children)
+
+    @v_args(meta=True)
+    def gt(self, meta, children):
+        """``a > b`` -> Binary (1 or 0)."""
+        return self._compare(">", meta, children)
+
+    @v_args(meta=True)
+    def le(self, meta, children):
+        """``a <= b`` -> Binary (1 or 0)."""
+        return self._compare("<=", meta, children)
+
+    @v_args(meta=True)
+    def ge(self, meta, children):
+        """``a >= b`` -> Binary (1 or 0)."""
+        return self._compare(">=", meta, children)
+
     @v_args(meta=True)
     def neg(self, meta, children):
         """``-x`` -> Unary."""
@@ -303,6 +326,8 @@ class ToSpec(Transformer):
             return Binary(name, args[0], args[1], span)
         if name == "clip" and len(args) == 3:
             return Binary("max", args[1], Binary("min", args[0], args[2], span), span)
+        if name == "if" and len(args) == 3:
+            return Cond(args[0], args[1], args[2], span)
         if len(args) != 1:
             return Call(f"{name}/{len(args)}", args[0], span)
         return Call(name, args[0], span)

@@ -12,12 +12,12 @@ from __future__ import annotations
 
 import math
 
-from .expressions import Binary, Call, Dotted, IndexedName, Name, Num, Unary, Vec
+from .expressions import Binary, Call, Cond, Dotted, IndexedName, Name, Num, Unary, Vec
 
 __all__ = ["expr_text", "spec_text"]
 
 #: Binding strength of the operators (the grammar's precedence, ``mbd.lark`` sec. 3).
-_PREC = {"+": 1, "-": 1, "*": 2, "/": 2, "^": 4}
+_PREC = {"<": 0, ">": 0, "<=": 0, ">=": 0, "+": 1, "-": 1, "*": 2, "/": 2, "^": 4}
 _UNARY, _ATOM = 3, 5
 
 
@@ -73,6 +73,8 @@ def expr_text(e) -> str:
         return f"({expr_text(e.x)}, {expr_text(e.y)})"
     if isinstance(e, Call):
         return f"{e.func}({expr_text(e.arg)})"
+    if isinstance(e, Cond):
+        return f"if({expr_text(e.test)}, {expr_text(e.then)}, {expr_text(e.other)})"
     if isinstance(e, Unary):
         inner = expr_text(e.operand)
         return f"-({inner})" if _prec(e.operand) < _UNARY else f"-{inner}"
@@ -91,7 +93,7 @@ def expr_text(e) -> str:
                 left = f"({left})"
             if _prec(e.right) <= p:          # the tree as built, not a re-association
                 right = f"({right})"
-        return f"{left} {e.op} {right}" if p == 1 else f"{left}{e.op}{right}"
+        return f"{left} {e.op} {right}" if p <= 1 else f"{left}{e.op}{right}"
     raise TypeError(f"not an expression: {e!r}")
 
 

@@ -77,7 +77,7 @@ _RECIPE = ("form", "has_y", "split", "cqx", "cqy", "cvx", "cvy", "cM", "cF", "dM
            "ka1", "ka2", "kb", "cQ", "sm", "pb", "vb", "bb", "ba", "bx")
 _OPCODES = ("const", "t", "neg", "+", "-", "*", "/", "^", "sin", "cos", "tan", "asin", "acos",
             "atan", "sinh", "cosh", "tanh", "sqrt", "exp", "log", "abs", "sign", "x", "min",
-            "max")
+            "max", "<", ">", "<=", ">=", "if")
 if _RECIPE != RECIPE_FIELDS or _OPCODES != OPCODES:     # pragma: no cover (a developer's error, caught by any test)
     raise ImportError("compiled.py's recipe indices differ from recipe.RECIPE_FIELDS")
 
@@ -275,7 +275,8 @@ def _pol_hess(nx, ny, dx, dy, axL, ayL, axP, ayP, bnd):
 #: Opcodes (``dsl.expressions.OPCODES``, checked at import): literals, as the field indices.
 (OP_CONST, OP_T, OP_NEG, OP_ADD, OP_SUB, OP_MUL, OP_DIV, OP_POW,
  OP_SIN, OP_COS, OP_TAN, OP_ASIN, OP_ACOS, OP_ATAN, OP_SINH, OP_COSH, OP_TANH,
- OP_SQRT, OP_EXP, OP_LOG, OP_ABS, OP_SIGN, OP_X, OP_MIN, OP_MAX) = range(25)
+ OP_SQRT, OP_EXP, OP_LOG, OP_ABS, OP_SIGN, OP_X, OP_MIN, OP_MAX,
+ OP_LT, OP_GT, OP_LE, OP_GE, OP_IF) = range(30)
 
 
 @_jit
@@ -304,6 +305,22 @@ def _eval(I, Fl, p, t):
             a, b = Fl[base + sp - 2], Fl[base + sp - 1]
             sp -= 1
             Fl[base + sp - 1] = min(a, b) if op == OP_MIN else max(a, b)
+        elif op >= OP_LT and op <= OP_GE:    # comparisons: 1.0 or 0.0
+            a, b = Fl[base + sp - 2], Fl[base + sp - 1]
+            sp -= 1
+            if op == OP_LT:
+                c = a < b
+            elif op == OP_GT:
+                c = a > b
+            elif op == OP_LE:
+                c = a <= b
+            else:
+                c = a >= b
+            Fl[base + sp - 1] = 1.0 if c else 0.0
+        elif op == OP_IF:                    # test, then, other -> the chosen one
+            test, a, b = Fl[base + sp - 3], Fl[base + sp - 2], Fl[base + sp - 1]
+            sp -= 2
+            Fl[base + sp - 1] = a if test != 0.0 else b
         elif op <= OP_POW:
             a, b = Fl[base + sp - 2], Fl[base + sp - 1]
             sp -= 1

@@ -306,7 +306,9 @@ def test_a_failed_split_si2_step_goes_on_with_the_whole_band_matrix():
                                   "asin(t/10) + acos(t/10) + tan(t/4)", "-(t - 1)^3",
                                   "1/(t - 1)", "log(1.5 - t)",
                                   "clip(3*t - 1, -0.5, 2) + min(t, 1.2)*max(0.5, t^2)",
-                                  "sign(t - 1)*t + abs(t - 1)"])
+                                  "sign(t - 1)*t + abs(t - 1)",
+                                  "if(t < 1, t^2, 2*t - 1) + (t >= 0.5) - 2*(t > 2.5)",
+                                  "if(t <= 0.5, sqrt(0.5 - t), log(t - 0.5))"])
 def test_compiled_functions_of_time_are_the_language_s(expr):
     # a torque f(t) evaluated by the kernels' postfix programs against the
     # language's own evaluation (compile_function), also where f is not finite

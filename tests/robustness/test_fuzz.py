@@ -43,7 +43,9 @@ INSERTS = ["kg", "m/s", "{", "}", "(", ")", ",", ";", "=", ":", "..", "é", "→
            "shape", "line", "circle", "polygon", "shape line(E, T)", "shape circle(cm, 0.1); ",
            # distance joints, indexed points, ground points in for blocks
            "distance", "length", "joint R: distance(ground.origin, crank.A, length = 0.2)\n",
-           "P[1]", "ground.P[i]", "for i in 1..2 { ground { point P[i] (i, 0) } }\n"]
+           "P[1]", "ground.P[i]", "for i in 1..2 { ground { point P[i] (i, 0) } }\n",
+           # comparisons and if
+           "<", ">=", "if", "if(t < 1, 0, 1)", " < ", "(t > 2)*"]
 
 
 def tokens(text):
