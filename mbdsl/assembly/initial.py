@@ -637,6 +637,7 @@ def coulomb_start(system, t0, q, v, solve):
     slip = np.where(rest, 0.0, np.nan)
 
     def rate(s):
+        """(dz/dt per friction joint, (a, lambda)) with slips s (NaN: the law)."""
         sol = system.index1_solve(None, t0, q, v, solve, slip=s)
         return g.speeds(qx, vx, system._ext(sol[:n])), sol
 

@@ -134,6 +134,7 @@ def line_distance(line, qx):
     _, sL, _, sP, u0 = line
 
     def rot(phi, v):
+        """A(phi) v, shape (2,)."""
         c, sn = np.cos(phi), np.sin(phi)
         return np.array([c * v[0] - sn * v[1], sn * v[0] + c * v[1]])
     u, Bu = rot(q[2], u0), rot(q[2], (-u0[1], u0[0]))
