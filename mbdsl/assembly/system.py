@@ -244,6 +244,8 @@ class AssembledSystem:
         #: Groups whose loads read lambda (friction): Q(t, q, v, lambda).
         self.multiplier_groups = [g for g in self.force_groups
                                   if getattr(g, "uses_multipliers", False)]
+        # decided once here, not per evaluation: which groups' loads take lambda
+        self._force_reads_lam = [g in self.multiplier_groups for g in self.force_groups]
         fr, fc = [], []
         for g in self.multiplier_groups:
             for cols, rows in zip(g.cols, g.rows):
@@ -256,6 +258,7 @@ class AssembledSystem:
         self.pattern_force_lam = _concat_pattern(fr, fc) if fr else None
         self.potential_groups = [g for g in self.force_groups if hasattr(g, "energy")]
         self.derivative_groups = [g for g in self.force_groups if g.derivatives is not None]
+        self._derivative_reads_lam = [g in self.multiplier_groups for g in self.derivative_groups]
         self.has_Q_v = any(getattr(g, "damped", False) for g in self.derivative_groups)
         self.has_Q_q = bool(self.derivative_groups)
         self._force_mask, fr, fc = [], [], []
@@ -382,8 +385,8 @@ class AssembledSystem:
         if self.force_groups:
             self._needs(lam)
             qx, vx = self._ext(q), self._ext(v)
-            for g in self.force_groups:
-                if getattr(g, "uses_multipliers", False):
+            for g, reads_lam in zip(self.force_groups, self._force_reads_lam):
+                if reads_lam:
                     np.add.at(out, g.cols, g.forces(qx, vx, t, lam, slip))
                 else:
                     np.add.at(out, g.cols, g.forces(qx, vx, t))
@@ -415,8 +418,9 @@ class AssembledSystem:
         self._needs(lam)
         qx, vx = self._ext(q), self._ext(v)
         Qq, Qv = [], []
-        for g, mask in zip(self.derivative_groups, self._force_mask):
-            if getattr(g, "uses_multipliers", False):
+        for g, mask, reads_lam in zip(self.derivative_groups, self._force_mask,
+                                      self._derivative_reads_lam):
+            if reads_lam:
                 a, b = g.derivatives(qx, vx, t, lam)
             else:
                 a, b = g.derivatives(qx, vx, t)

@@ -25,6 +25,7 @@ from .transformer import ToSpec
 __all__ = ["parse_text", "parse_file", "parse_expression", "grammar_parser"]
 
 _WORDS = {"NAME": "a name", "NUMBER": "a number", "METHOD": "a method name",
+          "COMPARE": "a comparison (<, >, <=, >=)",
           "$END": "the end of the file"}
 
 

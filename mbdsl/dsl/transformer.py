@@ -245,28 +245,11 @@ class ToSpec(Transformer):
     add, sub, mul, div, pow = _bin("+"), _bin("-"), _bin("*"), _bin("/"), _bin("^")
     del _bin
 
-    def _compare(self, op, meta, children):
-        return Binary(op, children[0], children[1], self._span(meta))
-
     @v_args(meta=True)
-    def lt(self, meta, children):
-        """``a < b`` -> Binary (1 or 0)."""
-        return self._compare("<", meta, children)
-
-    @v_args(meta=True)
-    def gt(self, meta, children):
-        """``a > b`` -> Binary (1 or 0)."""
-        return self._compare(">", meta, children)
-
-    @v_args(meta=True)
-    def le(self, meta, children):
-        """``a <= b`` -> Binary (1 or 0)."""
-        return self._compare("<=", meta, children)
-
-    @v_args(meta=True)
-    def ge(self, meta, children):
-        """``a >= b`` -> Binary (1 or 0)."""
-        return self._compare(">=", meta, children)
+    def compare(self, meta, children):
+        """``a < b`` (``>``, ``<=``, ``>=``) -> Binary worth 1 or 0."""
+        left, op, right = children
+        return Binary(str(op), left, right, self._span(meta))
 
     @v_args(meta=True)
     def neg(self, meta, children):

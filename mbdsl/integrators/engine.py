@@ -642,10 +642,10 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
     no_F = np.full(n, np.nan)
     F_start = no_F
     if getattr(initial, "Q", None) is not None:
+        from .common import start_force_term
         from .recipe import ADDITIVE, RECIPE_FIELDS
         additive = method.kernel_recipe(h, True)[RECIPE_FIELDS.index("form")] == ADDITIVE
-        F_start = -initial.Q if additive else (
-            system.PhiqT_times(initial.q, initial.t, initial.lam) - initial.Q)
+        F_start = -initial.Q if additive else start_force_term(system, initial)
     t = t_start
     step_no = 0           # global step count, for the output stride
     last_h = h
