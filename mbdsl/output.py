@@ -35,7 +35,8 @@ def metadata(solution, extra: dict | None = None) -> dict:
     Keys: ``mbdsl_version``, ``model``, ``model_file``, ``model_sha256``,
     ``model_source`` (JSON string), ``model_parameters`` (JSON object),
     ``method``, ``method.<coefficient>``, ``h``, ``t_end``, ``status``,
-    ``message``, ``extras`` (JSON list), ``stats_total`` (JSON object),
+    ``message``, ``extras`` (JSON list), ``units`` (JSON object: column ->
+    SI unit, "" for none or mixed), ``stats_total`` (JSON object),
     ``wall_time``, ``engine``, ``linear_solver``, ``timings`` (JSON object).
     """
     from . import __version__
@@ -54,6 +55,7 @@ def metadata(solution, extra: dict | None = None) -> dict:
         meta["parameters"] = ", ".join(f"{k}={float(v)!r}" for k, v in model.parameters.items())
     meta["model_parameters"] = json.dumps({k: float(v) for k, v in model.parameters.items()})
     meta["extras"] = json.dumps(list(solution.extra_names))
+    meta["units"] = json.dumps(solution.column_units())
     meta["stats_total"] = json.dumps(asdict(solution.stats_total))
     meta["wall_time"] = repr(float(solution.wall_time))
     meta["engine"] = solution.engine

@@ -73,13 +73,18 @@ def plot_solution(solution, y=None, x: str = "t", path=None, bodies=None) -> Fig
     """
     sol = solution
     xs = sol.column(x)
-    xlabel = "t [s]" if x == "t" else x
+    col_units = sol.column_units()
+
+    def label(name):
+        """``crank.phi [rad]``: the column with its SI unit, when it has one."""
+        return f"{name} [{col_units[name]}]" if col_units.get(name) else name
+    xlabel = label(x)
     if y:
         fig = _figure(8.0, 1.0 + 2.0 * len(y))
         axes = fig.subplots(len(y), 1, sharex=True, squeeze=False)[:, 0]
         for ax, name in zip(axes, y):
             ax.plot(xs, sol.column(name), lw=1.2)
-            ax.set_ylabel(name)
+            ax.set_ylabel(label(name))
             ax.grid(alpha=0.3)
         axes[-1].set_xlabel(xlabel)
     else:

@@ -638,6 +638,44 @@ class Solution:
                 + extras + reactions
                 + [f"newton.{k}" for k in self.STAT_NAMES[:-1]] + ["step.h"])
 
+    def column_units(self) -> dict[str, str]:
+        """The SI unit of every column (``""``: none, or a mix such as the
+        constraint residual norms and a flexible beam's nodal coordinates).
+
+        A multiplier has the unit of the load its row carries: N for a row
+        that holds a point (revolute, fixed, point_on_line, distance; a driven
+        x, y or joint distance), N m for a row that holds an angle (a fixed or
+        prismatic joint's third or second row; a driven phi or joint angle).
+        Outputs carry the unit their expression determines, if it does.
+        """
+        from .dsl import units
+        angle_rows = {"fixed": {2}, "prismatic": {1}}
+        lam = {}
+        for j in self.model.joints:
+            for k in range(j.rows):
+                lam[f"lambda.{j.name}.{k}"] = "N*m" if k in angle_rows.get(j.kind, ()) else "N"
+        for d in self.model.drivers:
+            point = (d.kind == "coordinate" and d.coord < 2) or d.kind == "joint_distance"
+            lam[f"lambda.{d.name}.0"] = "N" if point else "N*m"
+        outputs = {f"output.{o.name}": getattr(o, "unit", "") for o in self.model.outputs}
+        out = {}
+        for name in self.columns:
+            if name in lam:
+                out[name] = lam[name]
+            elif name in outputs:
+                out[name] = outputs[name]
+            elif name.startswith("reaction.") or name.startswith("driver."):
+                out[name] = units.column_unit(name)
+            elif name.startswith("newton."):
+                out[name] = ""
+            elif name == "step.h":
+                out[name] = "s"
+            elif name.endswith(".deflection_mid"):
+                out[name] = "m"
+            else:
+                out[name] = units.column_unit(name)
+        return out
+
     #: Derived columns every model has, in CSV order.
     DERIVED_NAMES = ("energy.kinetic", "energy.potential", "energy.total", "energy.work",
                      "energy.dissipated", "energy.balance",

@@ -31,6 +31,7 @@ from .expressions import (Binary, Call, Dotted, ExprError, IndexedName, Name, Nu
                           free_names, substitute)
 from ..model.beam import FRAMES
 from .spec import BeamSpec, ForSpec, GroundSpec, ModelSpec
+from . import units
 
 #: most instances one for block may create
 MAX_REPEAT = 1_000_000
@@ -86,6 +87,7 @@ class _Checker:
         self.overrides = dict(overrides or {})
         self.diags: list[Diagnostic] = []
         self.params: dict[str, float] = {}
+        self.param_dims: dict[str, units.Dimension | None] = {}
         self.bodies: dict[str, RigidBody] = {}
         self.ground_points: dict[str, np.ndarray] = {"origin": np.zeros(2)}
         self.joints: dict[str, Joint] = {}
@@ -114,16 +116,53 @@ class _Checker:
         self.error(err.code, f"{context}: {err}", err.span or fallback,
                    label=str(err), hint=hint)
 
-    def number(self, expr, span, context, allow_t=False):
-        """Evaluate a constant expression; None after reporting a problem."""
+    def dimension(self, expr, want, span, context) -> bool:
+        """Check the dimension of ``expr`` against the SI unit ``want``
+        (``"kg"``, ``"N/m"``; None: anything); False after reporting E307.
+        Only a dimension the units written determine is checked (see
+        :func:`mbdsl.dsl.units.dimension`)."""
+        try:
+            got = units.dimension(expr, self.param_dims)
+        except units.DimensionError as err:
+            self.error("E307", f"{context}: {err}", err.span or span, "dimensions differ",
+                       hint="add quantities of one kind; write plain numbers in SI")
+            return False
+        if want is None or got is None or got == units.expected(want):
+            return True
+        self.error("E307", f"{context}: expected {units.describe(units.expected(want))} "
+                   f"[{want}], got {units.describe(got)}",
+                   getattr(expr, "span", None) or span, f"not {units.describe(units.expected(want))}",
+                   hint=f"write the value in {want} or a unit of the same kind, "
+                   "or as a plain SI number")
+        return False
+
+    def number(self, expr, span, context, allow_t=False, unit=None):
+        """Evaluate a constant expression (in SI; ``unit``: the SI unit its
+        dimension must have, if any is written); None after reporting."""
+        if not self.dimension(expr, unit, span, context):
+            return None
         try:
             return evaluate(expr, self.params, allow_t=allow_t)
         except ExprError as err:
             self.expr_error(err, span, context)
             return None
 
-    def time_function(self, expr, span, context) -> TimeFunction | None:
-        """Compile f(t) with its exact first and second derivatives; None after reporting."""
+    def angle(self, expr, span, context, unit="rad"):
+        """A constant angle [rad] (or None after reporting); a plain number
+        above 2 pi in magnitude gets W301 (degrees are the usual mistake)."""
+        v = self.number(expr, span, context, unit=unit)
+        if v is not None and abs(v) > 2 * math.pi + 1e-12 and not units.has_unit(expr):
+            self.warning("W301", f"{context}: {v:g} rad is more than a full turn",
+                         getattr(expr, "span", None) or span, "radians",
+                         hint=f"plain numbers are radians; for degrees write '{v:g} deg'")
+        return v
+
+    def time_function(self, expr, span, context, unit=None) -> TimeFunction | None:
+        """Compile f(t) with its exact first and second derivatives (``unit``:
+        the SI unit of its value, checked as in :meth:`number`); None after
+        reporting."""
+        if not self.dimension(expr, unit, span, context):
+            return None
         try:
             e = substitute(expr, self.params)
             f, d1 = compile_function(e), diff(e)
@@ -221,10 +260,12 @@ class _Checker:
         """The body with this index."""
         return next(b for b in self.bodies.values() if b.index == index)
 
-    def force_function(self, expr, span, context):
+    def force_function(self, expr, span, context, unit=None):
         """A force magnitude: f(t) (TimeFunction) when the expression reads no
         state, else f(t, state) (StateFunction) with its exact partial
-        derivatives; None after reporting."""
+        derivatives; None after reporting. ``unit``: as in :meth:`number`."""
+        if not self.dimension(expr, unit, span, context):
+            return None
         found: dict[str, StateVariable] = {}
 
         def resolve(ref):
@@ -240,7 +281,7 @@ class _Checker:
             self.expr_error(err, span, context)
             return None
         if not found:
-            return self.time_function(expr, span, context)
+            return self.time_function(expr, span, context, unit)
         variables = tuple(found.values())
         names = tuple(v.name for v in variables)
         try:
@@ -299,14 +340,15 @@ class _Checker:
             return None
         return point_ref(body, expr.attr, expr.text)
 
-    def vector(self, vec, span, context):
-        """Evaluate a Vec to an ndarray of shape (2,); None after reporting."""
+    def vector(self, vec, span, context, unit="m"):
+        """Evaluate a Vec to an ndarray of shape (2,) (components in the SI
+        ``unit``, checked as in :meth:`number`); None after reporting."""
         if not isinstance(vec, Vec):
             self.error("E305", f"{context}: expected a vector '(x, y)'",
                        getattr(vec, "span", None) or span, "not a vector")
             return None
-        x = self.number(vec.x, span, context)
-        y = self.number(vec.y, span, context)
+        x = self.number(vec.x, span, context, unit=unit)
+        y = self.number(vec.y, span, context, unit=unit)
         if x is None or y is None:
             return None
         return np.array([x, y])
@@ -509,6 +551,8 @@ class _Checker:
             v = self.number(p.value, p.span, f"parameter '{p.name}'")
             if v is not None:
                 self.params[p.name] = v
+                # a parameter written with units has their dimension wherever it is used
+                self.param_dims[p.name] = units.dimension(p.value, self.param_dims)
             else:
                 self.broken_names.add(p.name)
         for name in self.overrides:
@@ -558,7 +602,8 @@ class _Checker:
                     self.error("E302", f"body '{b.name}' has no {key}", b.span, f"{key} missing",
                                hint=f"add '{key} VALUE' [{unit}]; there is no default")
                     continue
-                v = self.number(props[key].value, props[key].span, f"{key} of body '{b.name}'")
+                v = self.number(props[key].value, props[key].span, f"{key} of body '{b.name}'",
+                                unit=unit.replace(" ", "*"))
                 if v is None:
                     continue
                 if v <= 0:
@@ -618,7 +663,7 @@ class _Checker:
                            f"{len(args)} argument{'s' if len(args) != 1 else ''}",
                            sp.kind_span or sp.span, "circle(point, radius)")
                 return None
-            r = self.number(args[1].value, args[1].span or sp.span, ctx)
+            r = self.number(args[1].value, args[1].span or sp.span, ctx, unit="m")
             if r is None:
                 return None
             if not r > 0:
@@ -688,7 +733,8 @@ class _Checker:
         for key, (unit, integer) in self.BEAM_PROPERTIES.items():
             if key not in props:
                 continue
-            v = self.number(props[key].value, props[key].span, f"{key} of {ctx}")
+            v = self.number(props[key].value, props[key].span, f"{key} of {ctx}",
+                            unit=unit or None)
             if v is None:
                 continue
             sp = getattr(props[key].value, "span", None) or props[key].span
@@ -750,7 +796,7 @@ class _Checker:
             if isinstance(at, Name) and at.name in ("start", "end") and at.name not in self.params:
                 x = 0.0 if at.name == "start" else length
             else:
-                x = self.number(at, p.span, f"point '{b.name}.{p.name}'")
+                x = self.number(at, p.span, f"point '{b.name}.{p.name}'", unit="m")
                 if x is None:
                     continue
             if not -1e-12 * length <= x <= length * (1 + 1e-12):
@@ -783,7 +829,8 @@ class _Checker:
             second = self.point(pos[1].value, pos[1].span or j.span, ctx)
             direction, angle = None, 0.0
             if "direction" in kw:
-                direction = self.vector(kw["direction"].value, kw["direction"].span, ctx)
+                direction = self.vector(kw["direction"].value, kw["direction"].span, ctx,
+                                        unit=None)
                 if direction is not None:
                     norm = float(np.hypot(*direction))
                     if norm == 0.0 or not math.isfinite(norm):
@@ -795,12 +842,12 @@ class _Checker:
                 if direction is None:
                     continue
             if "angle" in kw:
-                angle = self.number(kw["angle"].value, kw["angle"].span, ctx)
+                angle = self.angle(kw["angle"].value, kw["angle"].span, f"{ctx}: angle")
                 if angle is None:
                     continue
             length = 0.0
             if "length" in kw:
-                length = self.number(kw["length"].value, kw["length"].span, ctx)
+                length = self.number(kw["length"].value, kw["length"].span, ctx, unit="m")
                 if length is None:
                     continue
                 if not length > 0:
@@ -820,14 +867,17 @@ class _Checker:
             self.joints[j.name] = Joint(j.name, j.kind, first, second, direction, angle,
                                         rows, j.span, length)
 
+    #: the SI unit of a driven quantity
+    DRIVER_UNITS = {"x": "m", "y": "m", "phi": "rad", "angle": "rad", "distance": "m"}
+
     def check_drivers(self):
         """Resolve driver targets (body coordinate or joint angle) and compile f(t)."""
         self.drivers = []
         for d in self.items["drivers"]:
             ok = self.claim(d.name, d.span, "driver")
             ctx = f"driver '{d.name}'"
-            fn = self.time_function(d.value, d.span, ctx)
             tgt = d.target
+            fn = self.time_function(d.value, d.span, ctx, unit=self.DRIVER_UNITS.get(tgt.attr))
             if tgt.obj in self.joints:
                 joint = self.joints[tgt.obj]
                 sliding = joint.kind in ("prismatic", "point_on_line")
@@ -859,6 +909,13 @@ class _Checker:
                 self.drivers.append(Driver(d.name, "coordinate", fn, body=body.index,
                                            coord=COORDINATES.index(tgt.attr), span=d.span))
 
+    #: the SI unit of a force option (friction's speeds are m/s or rad/s by joint: unchecked)
+    FORCE_UNITS = {("spring_damper", "k"): "N/m", ("spring_damper", "c"): "N*s/m",
+                   ("spring_damper", "length"): "m", ("rotational_spring_damper", "k"): "N*m/rad",
+                   ("rotational_spring_damper", "c"): "N*m*s/rad",
+                   ("rotational_spring_damper", "angle"): "rad", ("friction", "mu"): "1",
+                   ("friction", "mu_static"): "1", ("friction", "radius"): "m"}
+
     def check_forces(self):
         """Check force options (required, non-negative) and build force elements."""
         self.forces = []
@@ -879,7 +936,9 @@ class _Checker:
             opts = {}
             for name, default in allowed.items():
                 if name in kw:
-                    v = self.number(kw[name].value, kw[name].span, ctx)
+                    v = (self.angle if name == "angle" else self.number)(
+                        kw[name].value, kw[name].span, f"{ctx}: {name}",
+                        unit=self.FORCE_UNITS.get((f.kind, name)))
                     if v is None:
                         break
                     if name in ("k", "c", "mu", "mu_static", "viscous", "v_stribeck",
@@ -951,7 +1010,7 @@ class _Checker:
                                getattr(ref, "span", None) or f.span, "not a body",
                                hint=_did_you_mean(name, self.bodies))
                 return None
-            fn = self.force_function(pos[1].value, pos[1].span or f.span, ctx)
+            fn = self.force_function(pos[1].value, pos[1].span or f.span, ctx, unit="N*m")
             return Torque(f.name, self.bodies[ref.name].index, fn, f.span) if fn else None
         if f.kind == "joint_torque":
             joint = self.joint_argument(pos[0], f, ctx)
@@ -964,7 +1023,7 @@ class _Checker:
                            getattr(ref, "span", None) or f.span, "not a revolute joint",
                            hint="apply torque(body, ...) to one of its bodies instead")
                 return None
-            fn = self.force_function(pos[1].value, pos[1].span or f.span, ctx)
+            fn = self.force_function(pos[1].value, pos[1].span or f.span, ctx, unit="N*m")
             return JointTorque(f.name, joint, fn, f.span) if fn else None
         if f.kind == "joint_force":
             joint = self.joint_argument(pos[0], f, ctx)
@@ -981,7 +1040,7 @@ class _Checker:
             except ExprError as err:
                 self.expr_error(err, f.span, ctx)
                 return None
-            fn = self.force_function(pos[1].value, pos[1].span or f.span, ctx)
+            fn = self.force_function(pos[1].value, pos[1].span or f.span, ctx, unit="N")
             return JointForce(f.name, joint, fn, f.span) if fn else None
         if f.kind == "friction":
             return self.friction_element(f, pos, opts, ctx)
@@ -992,8 +1051,8 @@ class _Checker:
             self.error("E305", f"{ctx}: expected the force as a vector '(fx, fy)'",
                        pos[1].span or f.span, "not a vector")
             return None
-        fx = self.time_function(vec.x, pos[1].span or f.span, ctx)
-        fy = self.time_function(vec.y, pos[1].span or f.span, ctx)
+        fx = self.time_function(vec.x, pos[1].span or f.span, ctx, unit="N")
+        fy = self.time_function(vec.y, pos[1].span or f.span, ctx, unit="N")
         if p is None or fx is None or fy is None:
             return None
         if p.body == GROUND:
@@ -1051,7 +1110,7 @@ class _Checker:
         """Evaluate the gravity vector, or None when not declared."""
         if self.spec.gravity is None:
             return None
-        return self.vector(self.spec.gravity, self.spec.gravity_span, "gravity")
+        return self.vector(self.spec.gravity, self.spec.gravity_span, "gravity", unit="m/s^2")
 
     #: What an output may read besides bodies, points and joints: result columns.
     OUTPUT_GROUPS = {"energy": ("kinetic", "potential", "total", "work", "dissipated", "balance"),
@@ -1160,7 +1219,17 @@ class _Checker:
             except ExprError as err:
                 self.expr_error(err, o.span, f"output '{o.name}'")
                 continue
-            self.outputs.append(Output(o.name, e, tuple(found.values()), o.span))
+            try:
+                dim = units.dimension(o.value, self.param_dims, units.reference_dimension)
+            except units.DimensionError as err:
+                self.error("E307", f"output '{o.name}': {err}", err.span or o.span,
+                           "dimensions differ")
+                continue
+            self.outputs.append(Output(o.name, e, tuple(found.values()), o.span,
+                                       units.unit_text(dim)))
+
+    #: the SI unit of a body coordinate or velocity
+    INITIAL_UNITS = {"x": "m", "y": "m", "phi": "rad", "vx": "m/s", "vy": "m/s", "omega": "rad/s"}
 
     def check_initials(self):
         """Resolve initial and guess lines; reject unknown fields and repeats."""
@@ -1188,7 +1257,11 @@ class _Checker:
                            secondary=((seen[key], "first given here"),) if seen[key] else ())
                 continue
             seen[key] = ic.span
-            v = self.number(ic.value, ic.span, f"{kw} {tgt.text}")
+            if tgt.attr == "phi":
+                v = self.angle(ic.value, ic.span, f"{kw} {tgt.text}")
+            else:
+                v = self.number(ic.value, ic.span, f"{kw} {tgt.text}",
+                                unit=self.INITIAL_UNITS[tgt.attr])
             if v is not None:
                 self.initials.append(InitialCondition(body.index, tgt.attr, v, ic.guess, ic.span))
 
@@ -1214,7 +1287,8 @@ class _Checker:
                            hint=_did_you_mean(s.name, list(SETTINGS) + ["method"])
                            or f"settings are method, {', '.join(SETTINGS)}")
                 continue
-            v = self.number(s.value, s.span, f"simulate: {s.name}")
+            v = self.number(s.value, s.span, f"simulate: {s.name}",
+                            unit="s" if s.name in ("h", "t_end", "t_start") else "1")
             if v is None:
                 continue
             if SETTINGS[s.name] and v <= 0:

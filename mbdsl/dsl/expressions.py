@@ -29,10 +29,14 @@ __all__ = [
 
 @dataclass(frozen=True)
 class Num:
-    """A number literal."""
+    """A number literal; ``value`` in SI. A number written with a unit
+    (``15 cm``) keeps the number as written and the unit (``"15"``, ``"cm"``)
+    for messages, dimension checks and writing the model back."""
 
     value: float
     span: Span | None = None
+    unit: str | None = None
+    written: str | None = None
 
 
 @dataclass(frozen=True)

@@ -7,13 +7,19 @@ physics happens here.
 
 from __future__ import annotations
 
+import re
+
 from lark import Token, Transformer, v_args
 
-from ..errors import Span
+from ..errors import Diagnostic, MbdSyntaxError, Span
 from . import spec as S
+from . import units
 from .expressions import Binary, Call, Cond, Dotted, IndexedName, Name, Num, Unary, Vec
 
 __all__ = ["ToSpec"]
+
+#: a QUANTITY token split into the number and the unit as written
+_QUANTITY = re.compile(r"((?:\d+(?:\.\d+)?|\.\d+)(?:[eE][+-]?\d+)?)[ \t]*(\S+)")
 
 
 class ToSpec(Transformer):
@@ -265,6 +271,19 @@ class ToSpec(Transformer):
     def number(self, meta, children):
         """NUMBER -> Num."""
         return Num(float(children[0]), self._tspan(children[0]))
+
+    @v_args(meta=True)
+    def quantity(self, meta, children):
+        """QUANTITY (``15 cm``) -> Num in SI, keeping the number and unit as written."""
+        tok = children[0]
+        number, unit = _QUANTITY.match(str(tok)).groups()
+        try:
+            value = units.to_si(number, unit)
+        except units.UnitError as err:
+            diag = Diagnostic("error", "E307", str(err), self._tspan(tok), "unknown unit",
+                              hint="units are SI symbols and their multiples, joined by * and /")
+            raise MbdSyntaxError(diag.message, [diag]) from None
+        return Num(value, self._tspan(tok), unit=unit, written=number)
 
     @v_args(meta=True)
     def name(self, meta, children):

@@ -62,7 +62,7 @@ def expr_text(e) -> str:
         Not an expression node.
     """
     if isinstance(e, Num):
-        return _number(e.value)
+        return f"{e.written} {e.unit}" if e.unit is not None else _number(e.value)
     if isinstance(e, Name):
         return e.name
     if isinstance(e, IndexedName):
@@ -83,6 +83,8 @@ def expr_text(e) -> str:
     if isinstance(e, Binary):
         p = _PREC[e.op]
         left, right = expr_text(e.left), expr_text(e.right)
+        if e.op in "*/^" and isinstance(e.left, Num) and e.left.unit is not None:
+            left = f"({left})"          # 15 cm*m would read as one unit, cm*m
         if e.op == "^":
             if _prec(e.left) < _ATOM:                  # the left operand of ^ is an atom
                 left = f"({left})"

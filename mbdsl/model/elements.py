@@ -227,12 +227,15 @@ class Output:
     expr : Expr
         Substituted (parameters replaced), its variables as names.
     variables : tuple of OutputVariable
+    unit : str
+        The SI unit the expression determines (``"m"``, ``"N*m"``), or ``""``.
     """
 
     name: str
     expr: object
     variables: tuple
     span: Span | None = None
+    unit: str = ""
 
 
 @dataclass(frozen=True)

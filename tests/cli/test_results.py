@@ -54,7 +54,8 @@ def test_plot_chosen_columns_and_a_phase_plot(tmp_path, crank_run):
                  "-o", str(fig_path)]) == 0
     assert fig_path.read_text().lstrip().startswith("<?xml")
     fig = plot_solution(crank_run, y=["crank.omega", "rod.omega"], x="crank.phi")
-    assert [ax.get_ylabel() for ax in fig.axes] == ["crank.omega", "rod.omega"]
+    assert [ax.get_ylabel() for ax in fig.axes] == ["crank.omega [rad/s]", "rod.omega [rad/s]"]
+    assert fig.axes[-1].get_xlabel() == "crank.phi [rad]"
     line = fig.axes[0].get_lines()[0]
     np.testing.assert_array_equal(line.get_xdata(), crank_run.column("crank.phi"))
 

@@ -45,7 +45,10 @@ INSERTS = ["kg", "m/s", "{", "}", "(", ")", ",", ";", "=", ":", "..", "é", "→
            "distance", "length", "joint R: distance(ground.origin, crank.A, length = 0.2)\n",
            "P[1]", "ground.P[i]", "for i in 1..2 { ground { point P[i] (i, 0) } }\n",
            # comparisons and if
-           "<", ">=", "if", "if(t < 1, 0, 1)", " < ", "(t > 2)*"]
+           "<", ">=", "if", "if(t < 1, 0, 1)", " < ", "(t > 2)*",
+           # units
+           " cm", " deg", " rpm", " N/m", " kg*m^2", " s", " ms", "m^2", "*m", "/s", " mm",
+           "5 mm", "(2 kg)*", " + 1 s", "1e400 kg", "initial crank.phi = 270\n"]
 
 
 def tokens(text):
