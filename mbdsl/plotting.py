@@ -220,17 +220,19 @@ def body_outline(points: np.ndarray) -> tuple[str, np.ndarray]:
     return "polygon", pts[hull.vertices]        # counter-clockwise
 
 
-def _world(q, body, local):
-    """Positions of body-frame points: local shape (k, 2) -> (k, 2); ground: local as is."""
+def _world(q, body, local, cmap):
+    """Positions of body-frame points: local shape (k, 2) -> (k, 2); ground:
+    local as is. ``cmap``: the model's CoordinateMap (a particle's phi is 0)."""
     if body == GROUND:
         return np.asarray(local, float).reshape(-1, 2)
-    x, y, phi = q[3 * body: 3 * body + 3]
+    cx, cy, cp = cmap(body)[0]
+    x, y, phi = q[cx], q[cy], (q[cp] if cp < len(q) else 0.0)
     c, s = np.cos(phi), np.sin(phi)
     loc = np.asarray(local, float).reshape(-1, 2)
     return np.column_stack([x + c * loc[:, 0] - s * loc[:, 1], y + s * loc[:, 0] + c * loc[:, 1]])
 
 
-def beam_world(q, beam, arcs, scale: float = 1.0) -> np.ndarray:
+def beam_world(q, beam, arcs, scale: float = 1.0, *, cmap) -> np.ndarray:
     """World positions of a flexible beam's material points, deformed.
 
     r + A(phi) ((x, 0) + scale S(x) q_f) at arc lengths x (the floating frame
@@ -244,6 +246,8 @@ def beam_world(q, beam, arcs, scale: float = 1.0) -> np.ndarray:
         In [0, beam.length].
     scale : float
         Deformation scale (1: true size).
+    cmap : CoordinateMap
+        The model's body columns (``Model.coordinate_map``).
 
     Returns
     -------
@@ -253,7 +257,7 @@ def beam_world(q, beam, arcs, scale: float = 1.0) -> np.ndarray:
     S = beam.mesh.shape(arcs)                               # (k, 2, nf)
     local = np.column_stack([arcs, np.zeros(len(arcs))])
     local = local + scale * np.einsum("kif,f->ki", S, q[beam.elastic_columns()])
-    return _world(q, beam.index, local)
+    return _world(q, beam.index, local, cmap)
 
 
 def _zigzag(p1, p2, width, coils=6):
@@ -363,6 +367,7 @@ def animate_solution(solution, path, fps: float = 25.0, speed: float = 1.0,
         raise ValueError(f"cannot write an animation as '{ext or path.name}': use .gif or .mp4")
 
     sol, model = solution, solution.model
+    cmap = model.coordinate_map
     t = sol.t
     n_frames = int(np.floor((t[-1] - t[0]) * fps / speed + 1e-9)) + 1
     times = t[0] + np.arange(n_frames) * speed / fps
@@ -378,8 +383,8 @@ def animate_solution(solution, path, fps: float = 25.0, speed: float = 1.0,
         """World position of a body-frame point (on a beam: deformed, by its arc)."""
         if body in beams:
             return beam_world(q, beams[body], [float(np.asarray(local).reshape(-1)[0])],
-                              deform_scale)
-        return _world(q, body, local)
+                              deform_scale, cmap=cmap)
+        return _world(q, body, local, cmap)
 
     def shape_verts(shape):
         """Body-frame vertices bounding a shape (a circle: its bounding square)."""
@@ -405,12 +410,12 @@ def animate_solution(solution, path, fps: float = 25.0, speed: float = 1.0,
     for b in model.bodies:
         sample = list(qs[:: max(1, n_frames // 200)]) + [qs[-1]]
         if b.index in beams:
-            every += [beam_world(q, b, arcs[b.index], deform_scale) for q in sample]
+            every += [beam_world(q, b, arcs[b.index], deform_scale, cmap=cmap) for q in sample]
             continue
         shapes = getattr(b, "shapes", ())
         verts = (np.vstack([shape_verts(s) for s in shapes]) if shapes
                  else outlines[b.index][1])
-        every += [_world(q, b.index, verts) for q in sample]
+        every += [_world(q, b.index, verts, cmap) for q in sample]
     every = np.vstack(every)
     lo, hi = every.min(axis=0), every.max(axis=0)
     scale = float(max(np.max(hi - lo), 1e-3))
@@ -486,12 +491,12 @@ def animate_solution(solution, path, fps: float = 25.0, speed: float = 1.0,
         q = qs[k]
         for b in model.bodies:
             if b.index in beams:
-                w = beam_world(q, b, arcs[b.index], deform_scale)
+                w = beam_world(q, b, arcs[b.index], deform_scale, cmap=cmap)
                 artists[b.index].set_data(w[:, 0], w[:, 1])
                 continue
             if b.index in shape_artists:
                 for s, art in zip(b.shapes, shape_artists[b.index]):
-                    w = _world(q, b.index, s.points)
+                    w = _world(q, b.index, s.points, cmap)
                     if s.kind == "circle":
                         art.center = tuple(w[0])
                     elif s.kind == "polygon":
@@ -500,7 +505,7 @@ def animate_solution(solution, path, fps: float = 25.0, speed: float = 1.0,
                         art.set_data(w[:, 0], w[:, 1])
                 continue
             kind, verts = outlines[b.index]
-            w = _world(q, b.index, verts)
+            w = _world(q, b.index, verts, cmap)
             if kind == "polygon":
                 artists[b.index].set_xy(w)
             else:

@@ -149,16 +149,25 @@ class _Reactions:
         first = np.array([j.first.body for j in joints], dtype=np.intp)
         self.body = np.where(second >= 0, second, first)          # whose force we read
         self.sign = np.where(second >= 0, 1.0, -1.0)
-        self.first_points = PointSet(system.n, [j.first for j in joints])  # deformation included
+        self.first_points = PointSet(system.cmap, [j.first for j in joints])  # deformation included
         self.system, self.n_joints = system, len(joints)
-        # zero by construction, written as 0 rather than the round-off of the sum
-        self.pinned = np.array([j.kind == "revolute" for j in joints], dtype=bool)
+        # zero by construction, written as 0 rather than the round-off of the sum:
+        # a pin, a rod (its force along the rod, through the first point) and a
+        # point on a line transmit no couple about the first point, nor does
+        # anything acting on a particle
+        particle = [getattr(system.model.bodies[b], "particle", False) if b >= 0 else False
+                    for b in self.body]
+        self.pinned = np.array([j.kind in ("revolute", "distance", "point_on_line") or p
+                                for j, p in zip(joints, particle)], dtype=bool)
         rows, cols = system.pattern_Phi_q
         joint_of_element = np.full(system.layout.n_elements, -1, dtype=np.intp)
         joint_of_element[elem] = np.arange(len(joints))
         jt = joint_of_element[system.layout.row_element[rows]]
-        comp = cols - 3 * self.body[jt]
-        keep = np.flatnonzero((jt >= 0) & (comp >= 0) & (comp < 3))
+        # the columns (x, y, phi) of the body whose force we read, per joint
+        self.body_cols = system.cmap(self.body).reshape(-1, 3)
+        match = cols[:, None] == self.body_cols[np.maximum(jt, 0)]
+        comp = np.where(match.any(axis=1), match.argmax(axis=1), -1)
+        keep = np.flatnonzero((jt >= 0) & (comp >= 0))
         target = 3 * jt[keep] + comp[keep]
         order = np.argsort(target, kind="stable")
         self.entries = keep[order]                   # pattern entries, grouped by target
@@ -176,7 +185,7 @@ class _Reactions:
         gen = gen.reshape(q.shape[:-1] + (self.n_joints, 3))
         qx = np.concatenate([q, np.zeros(q.shape[:-1] + (3,))], axis=-1)  # ground: 0
         point = self.first_points.position(qx[..., self.first_points.cols])
-        d = point - np.stack([q[..., 3 * self.body], q[..., 3 * self.body + 1]], -1)
+        d = point - np.stack([qx[..., self.body_cols[:, 0]], qx[..., self.body_cols[:, 1]]], -1)
         couple = gen[..., 2] - (d[..., 0] * gen[..., 1] - d[..., 1] * gen[..., 0])
         couple = np.where(self.pinned, 0.0, couple)     # a revolute transmits no couple
         return self.sign[:, None] * np.stack([gen[..., 0], gen[..., 1], couple], -1)
@@ -252,7 +261,9 @@ def output_columns(system, t, q, v, a, derived) -> dict:
     """
     from .assembly.groups import drot, rot
     from .dsl.expressions import evaluate_rows
-    lay, N = system.layout, len(t)
+    lay, N, cmap = system.layout, len(t), system.cmap
+    qx = np.concatenate([q, np.zeros((N, 3))], axis=1)      # ground (and particles' phi): 0
+    vx = np.concatenate([v, np.zeros((N, 3))], axis=1)
     index = {name: (q, i) for i, name in enumerate(lay.coordinates)}
     index.update({name: (v, i) for i, name in enumerate(lay.velocities)})
     if a is not None:
@@ -269,29 +280,28 @@ def output_columns(system, t, q, v, a, derived) -> dict:
                     env[var.name] = derived.get(var.column, np.full(N, np.nan))
             elif var.kind == "joint" and var.line is not None:      # s or ds/dt
                 from .model.elements import line_columns, line_distance
-                qx = np.concatenate([q, np.zeros((N, 3))], axis=1)
-                cols = line_columns(var.line, q.shape[1])
+                cols = line_columns(var.line, cmap)
                 vals = np.empty(N)
                 for r in range(N):
-                    s, grad, _ = line_distance(var.line, qx[r])
-                    vals[r] = s if var.field == "distance" else grad @ np.append(
-                        v[r], np.zeros(3))[cols]
+                    s, grad, _ = line_distance(var.line, qx[r], cmap)
+                    vals[r] = s if var.field == "distance" else grad @ vx[r, cols]
                 env[var.name] = vals
             elif var.kind == "joint":
-                src = q if var.field == "angle" else v
+                src = qx if var.field == "angle" else vx
                 val = np.zeros(N)
                 for b, sign in zip(var.bodies, (-1.0, 1.0)):
                     if b >= 0:
-                        val = val + sign * src[:, 3 * b + 2]
+                        val = val + sign * src[:, cmap.column(b, 2)]
                 env[var.name] = val
             else:                               # a point of a rigid body (or the ground)
                 b, s = var.point.body, np.asarray(var.point.local, dtype=float)
                 if b < 0:
                     pos, vel = np.tile(s, (N, 1)), np.zeros((N, 2))
                 else:
-                    phi = q[:, 3 * b + 2]
-                    pos = q[:, 3 * b:3 * b + 2] + rot(phi, np.broadcast_to(s, (N, 2)))
-                    vel = v[:, 3 * b:3 * b + 2] + v[:, 3 * b + 2:3 * b + 3] * drot(
+                    cx, cy, cp = cmap(b)[0]
+                    phi = qx[:, cp]
+                    pos = qx[:, [cx, cy]] + rot(phi, np.broadcast_to(s, (N, 2)))
+                    vel = vx[:, [cx, cy]] + vx[:, cp:cp + 1] * drot(
                         phi, np.broadcast_to(s, (N, 2)))
                 k = {"x": 0, "y": 1, "vx": 0, "vy": 1}[var.field]
                 env[var.name] = (pos if var.field in ("x", "y") else vel)[:, k]

@@ -83,19 +83,19 @@ class FlexibleBeamGroup:
 
     Parameters
     ----------
-    n : int
-        Number of coordinates of the model.
+    cmap : CoordinateMap
+        The model's body columns (``Model.coordinate_map``).
     beams : sequence of FlexibleBeam
     gravity : ndarray, shape (2,), or None
         [m/s^2]; None: no gravity term.
     """
 
-    def __init__(self, n, beams, gravity=None):
+    def __init__(self, cmap, beams, gravity=None):
         beams = list(beams)
         self.beams = beams
         self.nf = beams[0].n_elastic
         self.c = 3 + self.nf
-        self.cols = np.concatenate([body_columns(n, [b.index for b in beams]),
+        self.cols = np.concatenate([body_columns(cmap, [b.index for b in beams]),
                                     np.array([b.elastic_columns() for b in beams])], axis=1)
         ints, stiff = [], []
         for b in beams:        # build time only: one mesh per beam

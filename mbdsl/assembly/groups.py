@@ -48,11 +48,11 @@ def drot(phi: np.ndarray, s: np.ndarray) -> np.ndarray:
     return out
 
 
-def body_columns(n: int, bodies) -> np.ndarray:
-    """Columns (x, y, phi) in q_ext of body indices (ground = -1 -> n..n+2), shape (k, 3)."""
-    b = np.asarray(bodies, dtype=np.intp)
-    base = np.where(b < 0, n, 3 * b)
-    return base[:, None] + np.arange(3)[None, :]
+def body_columns(cmap, bodies) -> np.ndarray:
+    """Columns (x, y, phi) in q_ext of body indices (ground = -1 -> n..n+2; a
+    particle's phi -> n+2), shape (k, 3), from the model's
+    :class:`~mbdsl.model.elements.CoordinateMap`."""
+    return cmap(bodies)
 
 
 class PointSet:
@@ -74,7 +74,8 @@ class PointSet:
     arbitrary point of a deformable body in the floating frame.)
     """
 
-    def __init__(self, n, points):
+    def __init__(self, cmap, points):
+        n = cmap.n
         points = list(points)
         k = len(points)
         self.e = max((len(p.elastic_columns) for p in points), default=0)
@@ -85,7 +86,7 @@ class PointSet:
             ne = len(p.elastic_columns)
             ecols[i, :ne] = p.elastic_columns
             self.S[i, :, :ne] = p.elastic_shape
-        self.cols = np.concatenate([body_columns(n, [p.body for p in points]), ecols], axis=1)
+        self.cols = np.concatenate([body_columns(cmap, [p.body for p in points]), ecols], axis=1)
         self.s = np.array([p.local for p in points], dtype=float).reshape(-1, 2)
         self.flexible = self.e > 0
         self._jac = np.zeros((k, 2, self.c))
@@ -142,8 +143,8 @@ class _PointPair:
     """Two point sets side by side, local coordinates (q_1 [c1], q_2 [c2]),
     and the derivatives of their difference d = p2 - p1."""
 
-    def __init__(self, n, first, second):
-        self.P1, self.P2 = PointSet(n, first), PointSet(n, second)
+    def __init__(self, cmap, first, second):
+        self.P1, self.P2 = PointSet(cmap, first), PointSet(cmap, second)
         self.c1 = self.P1.c
         self.cols = np.concatenate([self.P1.cols, self.P2.cols], axis=1)
         k, c = self.cols.shape
@@ -185,9 +186,9 @@ class CoincidenceGroup:
 
     r = 2
 
-    def __init__(self, n, rows, first, second):
+    def __init__(self, cmap, rows, first, second):
         self.rows = np.asarray(rows, dtype=np.intp).reshape(-1, 2)
-        self.pair = _PointPair(n, first, second)
+        self.pair = _PointPair(cmap, first, second)
         self.cols = self.pair.cols
         self.time_dependent = False
 
@@ -218,9 +219,9 @@ class DistanceGroup:
 
     r = 1
 
-    def __init__(self, n, rows, first, second, lengths):
+    def __init__(self, cmap, rows, first, second, lengths):
         self.rows = np.asarray(rows, dtype=np.intp).reshape(-1, 1)
-        self.pair = _PointPair(n, first, second)
+        self.pair = _PointPair(cmap, first, second)
         self.cols = self.pair.cols
         self.L = np.asarray(lengths, float).reshape(-1)
         self.time_dependent = False
@@ -286,9 +287,9 @@ class PointOnLineGroup:
 
     r = 1
 
-    def __init__(self, n, rows, point, line, normal, functions=None):
+    def __init__(self, cmap, rows, point, line, normal, functions=None):
         self.rows = np.asarray(rows, dtype=np.intp).reshape(-1, 1)
-        self.pair = _PointPair(n, line, point)          # d = p_P - p_L
+        self.pair = _PointPair(cmap, line, point)          # d = p_P - p_L
         self.cols = self.pair.cols
         self.n0 = np.asarray(normal, float).reshape(-1, 2)
         k, c = self.cols.shape
@@ -359,7 +360,7 @@ class LinearConstraintGroup:
     r = 1
     hess = None
 
-    def __init__(self, n, rows, cols, coefs, offset, functions):
+    def __init__(self, cmap, rows, cols, coefs, offset, functions):
         self.rows = np.asarray(rows, dtype=np.intp).reshape(-1, 1)
         self.cols = np.asarray(cols, dtype=np.intp).reshape(-1, 2)
         self.coefs = np.asarray(coefs, float).reshape(-1, 2)
@@ -409,8 +410,8 @@ class SpringDamperGroup:
     flexible beams (``PointSet``).
     """
 
-    def __init__(self, n, first, second, k, c, length):
-        self.pair = _PointPair(n, first, second)
+    def __init__(self, cmap, first, second, k, c, length):
+        self.pair = _PointPair(cmap, first, second)
         self.cols = self.pair.cols
         self.k, self.c, self.l0 = (np.asarray(x, float) for x in (k, c, length))
         self.damped = bool(np.any(self.c != 0.0))
@@ -484,8 +485,8 @@ class RotationalSpringGroup:
     Q_q and Q_v are constant. Local coordinates (phi1, phi2).
     """
 
-    def __init__(self, n, body1, body2, k, c, angle):
-        self.cols = np.stack([body_columns(n, body1)[:, 2], body_columns(n, body2)[:, 2]], axis=1)
+    def __init__(self, cmap, body1, body2, k, c, angle):
+        self.cols = np.stack([body_columns(cmap, body1)[:, 2], body_columns(cmap, body2)[:, 2]], axis=1)
         self.k, self.c, self.angle = (np.asarray(x, float) for x in (k, c, angle))
         pattern = np.array([[-1.0, 1.0], [1.0, -1.0]])  # d(Q1, Q2)/d(phi1, phi2) / k
         self._Q_q = self.k[:, None, None] * pattern[None]
@@ -517,8 +518,8 @@ class RotationalSpringGroup:
 class TorqueGroup:
     """Applied torques tau(t) on bodies. No q or v dependence."""
 
-    def __init__(self, n, body, functions):
-        self.cols = body_columns(n, body)[:, 2:3]
+    def __init__(self, cmap, body, functions):
+        self.cols = body_columns(cmap, body)[:, 2:3]
         self.functions = list(functions)
 
     def forces(self, qx, vx, t):
@@ -557,26 +558,27 @@ class StateTorqueGroup:
         ground's dummy column for a torque on one body); None for a force.
     """
 
-    def __init__(self, n, plus, minus, functions, lines=None):
+    def __init__(self, cmap, plus, minus, functions, lines=None):
+        n = cmap.n
         from ..model.elements import line_columns
-        self.n = n
+        self.cmap = cmap
         self.functions = list(functions)
         self.lines = list(lines) if lines is not None else [None] * len(self.functions)
         ground_phi = n + 2
         per, self.targets, self._line_cols, self._vars = [], [], [], []
         for p, m, f, line in zip(plus, minus, self.functions, self.lines):
             if line is None:
-                own = [3 * b + 2 if b >= 0 else ground_phi for b in (p, m)]
+                own = [int(c) for c in cmap([p, m])[:, 2]]
             else:
-                own = line_columns(line, n)
+                own = line_columns(line, cmap)
             cols = list(own)
             for var in getattr(f, "variables", ()):
-                cols += var.columns(n)
+                cols += var.columns(cmap)
             cols = list(dict.fromkeys(cols))
             where = {c: a for a, c in enumerate(cols)}
             self.targets.append((where[own[0]], where[own[1]]) if line is None else None)
             self._line_cols.append([where[c] for c in own] if line is not None else None)
-            self._vars.append([(var, [where[c] for c in var.columns(n)])
+            self._vars.append([(var, [where[c] for c in var.columns(cmap)])
                                for var in getattr(f, "variables", ())])
             per.append(cols)
         width = max(len(c) for c in per)
@@ -586,7 +588,7 @@ class StateTorqueGroup:
     def _tau(self, f, qx, vx, t):
         """tau and, for a state function, the variables' values."""
         if hasattr(f, "variables"):
-            x = f.values(qx, vx)
+            x = f.values(qx, vx, self.cmap)
             return f.f(t, x), x
         return f.f(t), None
 
@@ -596,7 +598,7 @@ class StateTorqueGroup:
             a, b = self.targets[i]
             return [a, b], np.array([1.0, -1.0]), None
         from ..model.elements import line_distance
-        _, grad, H = line_distance(self.lines[i], qx)
+        _, grad, H = line_distance(self.lines[i], qx, self.cmap)
         return self._line_cols[i], grad, H
 
     def forces(self, qx, vx, t):
@@ -628,11 +630,11 @@ class StateTorqueGroup:
                     for a, (_, _, coef) in zip(local, var.terms):
                         target[a] += g * coef
                     continue
-                _, gs, Hs = line_distance(var.line, qx)
+                _, gs, Hs = line_distance(var.line, qx, self.cmap)
                 if var.level == 0:
                     np.add.at(dq, local, g * gs)
                 else:
-                    np.add.at(dq, local, g * (Hs @ vx[var.columns(self.n)]))
+                    np.add.at(dq, local, g * (Hs @ vx[var.columns(self.cmap)]))
                     np.add.at(dv, local, g * gs)
             for a, wa in zip(cols, w):
                 Qq[i, a] += wa * dq
@@ -648,8 +650,8 @@ class PointForceGroup:
     entry d/dphi (B s . F) = -(A s) . F).
     """
 
-    def __init__(self, n, points, fx, fy):
-        self.points = PointSet(n, points)
+    def __init__(self, cmap, points, fx, fy):
+        self.points = PointSet(cmap, points)
         self.cols = self.points.cols
         self.fx, self.fy = list(fx), list(fy)
 
@@ -698,8 +700,8 @@ class FrictionGroup:
 
     Parameters
     ----------
-    n : int
-        Generalized coordinates.
+    cmap : CoordinateMap
+        The model's body columns (``Model.coordinate_map``).
     plus, minus : sequence of int
         Per instance, the second and first body of a revolute (-1: ground);
         ignored for a sliding joint.
@@ -723,16 +725,17 @@ class FrictionGroup:
     damped = True
     uses_multipliers = True
 
-    def __init__(self, n, plus, minus, lines, rows, params):
+    def __init__(self, cmap, plus, minus, lines, rows, params):
+        n = cmap.n
         from ..model.elements import line_columns
-        self.n, self.lines = n, list(lines)
+        self.n, self.cmap, self.lines = n, cmap, list(lines)
         ground_phi = n + 2
         per, self._dir = [], []
         for p, m, line in zip(plus, minus, self.lines):
             if line is None:
-                cols = [3 * b + 2 if b >= 0 else ground_phi for b in (p, m)]
+                cols = [int(c) for c in cmap([p, m])[:, 2]]
             else:
-                cols = line_columns(line, n)
+                cols = line_columns(line, cmap)
             per.append(cols)
         width = max(len(c) for c in per)
         self.cols = np.array([c + [ground_phi] * (width - len(c)) for c in per], dtype=np.intp)
@@ -745,7 +748,7 @@ class FrictionGroup:
             w = np.array([1.0, -1.0])
             return [0, 1], w, None, float(w @ vx[self.cols[i, :2]]), np.zeros(2)
         from ..model.elements import line_distance
-        _, grad, H = line_distance(self.lines[i], qx)
+        _, grad, H = line_distance(self.lines[i], qx, self.cmap)
         v = vx[self.cols[i, :6]]
         return list(range(6)), grad, H, float(grad @ v), H @ v
 

@@ -119,7 +119,8 @@ class InitialState:
 def place_bodies(system: AssembledSystem, t0: float = 0.0) -> np.ndarray:
     """Initial guess of q from the spanning tree of the joint graph, shape (n,)."""
     model = system.model
-    q = np.zeros(system.n)
+    cmap = system.cmap
+    q = np.zeros(system.n + 3)          # extended: ground (and particles' phi) at n..n+2 stay 0
     given = {}
     for ic in model.initials:
         if not ic.is_velocity:
@@ -132,12 +133,12 @@ def place_bodies(system: AssembledSystem, t0: float = 0.0) -> np.ndarray:
     placed = {GROUND}
 
     def _angle(b):
-        return 0.0 if b == GROUND else q[3 * b + 2]
+        return 0.0 if b == GROUND else q[cmap.column(b, 2)]
 
     def _point(ref):
         if ref.body == GROUND:
             return ref.local
-        return q[3 * ref.body: 3 * ref.body + 2] + rot(np.array([_angle(ref.body)]), ref.local[None])[0]
+        return q[cmap(ref.body)[0, :2]] + rot(np.array([_angle(ref.body)]), ref.local[None])[0]
 
     for parent, child, joint in graph.spanning_tree_edges(model):
         phi = given.get((child, "phi"))
@@ -147,17 +148,19 @@ def place_bodies(system: AssembledSystem, t0: float = 0.0) -> np.ndarray:
                 phi = _angle(parent) + sign * angle_drivers[joint.name]
             elif joint.kind in ("fixed", "prismatic"):
                 phi = _angle(parent) + sign * joint.angle
-        q[3 * child + 2] = phi if phi is not None else 0.0
+        cx, cy, cp = cmap(child)[0]
+        if cp < system.n:                   # a particle does not turn
+            q[cp] = phi if phi is not None else 0.0
         if joint is not None:
             mine, theirs = ((joint.second, joint.first) if joint.second.body == child
                             else (joint.first, joint.second))
             target = _point(theirs)
-            q[3 * child: 3 * child + 2] = target - rot(np.array([q[3 * child + 2]]), mine.local[None])[0]
+            q[[cx, cy]] = target - rot(np.array([q[cp]]), mine.local[None])[0]
         for k, name in enumerate(("x", "y")):
             if (child, name) in given:
-                q[3 * child + k] = given[(child, name)]
+                q[(cx, cy)[k]] = given[(child, name)]
         placed.add(child)
-    return q
+    return q[:system.n]
 
 
 def _min_norm_step(J, r):
@@ -389,7 +392,7 @@ def static_positions(system, t0: float, q: np.ndarray, lam: np.ndarray) -> np.nd
         degree of freedom under a load that no spring resists).
     """
     model, n, m = system.model, system.n, system.m
-    iq = np.array([ic.coordinate for ic in model.initials
+    iq = np.array([ic.column(system.cmap) for ic in model.initials
                    if not ic.guess and not ic.is_velocity], dtype=int)
     given = q[iq].copy()
     f = len(iq)
@@ -439,11 +442,11 @@ def _consistent_state(system, t0, tol, max_iter, elastic, q_start=None):
     configuration started at ``q_start`` (n,) (a static equilibrium)."""
     model, lay = system.model, system.layout
     n = system.n
-    fixed_q = [(ic.coordinate, ic.value) for ic in model.initials
+    fixed_q = [(ic.column(system.cmap), ic.value) for ic in model.initials
                if not ic.guess and not ic.is_velocity]
-    fixed_v = [(ic.coordinate, ic.value) for ic in model.initials
+    fixed_v = [(ic.column(system.cmap), ic.value) for ic in model.initials
                if not ic.guess and ic.is_velocity]
-    guess_v = [(ic.coordinate, ic.value) for ic in model.initials
+    guess_v = [(ic.column(system.cmap), ic.value) for ic in model.initials
                if ic.guess and ic.is_velocity]
     if elastic is not None:      # the quasi-static iteration sets them: the bodies close the loops
         fixed_q = fixed_q + [(int(i), float(elastic[i])) for b in model.flexible_bodies
@@ -591,7 +594,7 @@ def _consistent_state(system, t0, tol, max_iter, elastic, q_start=None):
         raise AssemblyError(d.message, [d]) from None
     a, lam = sol[:n], sol[n:]
     res_a = float(np.max(np.abs(system.Phiq_times(q, t0, a) - gam), initial=0.0))
-    fixed_idx = {ic.coordinate for ic in model.initials if not ic.guess and not ic.is_velocity}
+    fixed_idx = {ic.column(system.cmap) for ic in model.initials if not ic.guess and not ic.is_velocity}
     solved = {lay.coordinates[i]: float(q[i]) for i in range(n) if i not in fixed_idx}
     return InitialState(t0, q, v, a, lam, res_q, res_v, res_a, solved, it, structure, warnings,
                         Q=Q_start)

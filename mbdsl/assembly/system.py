@@ -83,14 +83,18 @@ class AssembledSystem:
         self.nx = n + 3                      # extended: ground coordinates at n..n+2
         nb = len(model.bodies)
         mass = np.zeros(n)
-        mass[0:3 * nb:3] = mass[1:3 * nb:3] = [b.mass for b in model.bodies]
-        mass[2:3 * nb:3] = [b.inertia for b in model.bodies]
+        cmap = self.cmap = model.coordinate_map
+        if nb:
+            # a particle's phi is the ground's dummy n+2, outside q: dropped
+            mass[cmap.table[:, 0]] = mass[cmap.table[:, 1]] = [b.mass for b in model.bodies]
+            own = cmap.table[:, 2] < n
+            mass[cmap.table[own, 2]] = [b.inertia for b, o in zip(model.bodies, own) if o]
         by_size = {}
         for b in model.flexible_bodies:
             by_size.setdefault(b.n_elastic, []).append(b)
         gravity = model.gravity if model.gravity is not None and np.any(model.gravity != 0.0) \
             else None
-        self.flexible_groups = [FlexibleBeamGroup(n, beams, gravity) for beams in by_size.values()]
+        self.flexible_groups = [FlexibleBeamGroup(cmap, beams, gravity) for beams in by_size.values()]
         rigid = np.ones(n, dtype=bool)
         for g in self.flexible_groups:
             mass[g.cols] = np.diagonal(g.mass_blocks(np.zeros(n)), axis1=1, axis2=2)
@@ -106,8 +110,10 @@ class AssembledSystem:
         n = self.n
         coinc, pol, lin, dist = [], [], [], []
 
+        cmap = self.cmap
+
         def _phi_col(body):
-            return body_columns(n, [body])[0, 2]
+            return body_columns(cmap, [body])[0, 2]
 
         def _angle_row(row, body1, body2, offset, fn):   # phi2 - phi1 - offset - f(t)
             lin.append((row, (_phi_col(body1), _phi_col(body2)), (-1.0, 1.0), offset, fn))
@@ -131,7 +137,7 @@ class AssembledSystem:
             row += j.rows
         for d in model.drivers:
             if d.kind == "coordinate":        # q_c - f(t); first column: ground dummy, coef 0
-                lin.append((row, (n, 3 * d.body + d.coord), (0.0, 1.0), 0.0, d.function))
+                lin.append((row, (n, cmap.column(d.body, d.coord)), (0.0, 1.0), 0.0, d.function))
             elif d.kind == "joint_distance":  # u . (p1 - p2) - f(t), u along the line
                 pol.append((row, d.joint.first, d.joint.second,
                             np.asarray(d.joint.direction, float), d.function))
@@ -142,16 +148,16 @@ class AssembledSystem:
         self.constraint_groups = []
         if coinc:
             r0, r1, p1, p2 = zip(*coinc)
-            self.constraint_groups.append(CoincidenceGroup(n, np.stack([r0, r1], axis=1), p1, p2))
+            self.constraint_groups.append(CoincidenceGroup(cmap, np.stack([r0, r1], axis=1), p1, p2))
         if pol:
             r, pp, pl, nrm, fns = zip(*pol)
-            self.constraint_groups.append(PointOnLineGroup(n, r, pp, pl, np.array(nrm), fns))
+            self.constraint_groups.append(PointOnLineGroup(cmap, r, pp, pl, np.array(nrm), fns))
         if lin:
             r, cols, coefs, off, fns = zip(*lin)
-            self.constraint_groups.append(LinearConstraintGroup(n, r, cols, coefs, off, fns))
+            self.constraint_groups.append(LinearConstraintGroup(cmap, r, cols, coefs, off, fns))
         if dist:
             r, p1, p2, lengths = zip(*dist)
-            self.constraint_groups.append(DistanceGroup(n, r, p1, p2, lengths))
+            self.constraint_groups.append(DistanceGroup(cmap, r, p1, p2, lengths))
         self.nonlinear_groups = [g for g in self.constraint_groups if g.hess is not None]
         self.timed_groups = [g for g in self.constraint_groups if g.time_dependent]
         # Sparsity patterns fixed here, once: Phi_q-shaped blocks (row, col) and
@@ -180,13 +186,13 @@ class AssembledSystem:
         self.pattern_hessian = _concat_pattern(hr, hc)
 
     def _build_forces(self, model):
-        n = self.n
+        n, cmap = self.n, self.cmap
         self.gravity_force = None
         if model.gravity is not None and np.any(model.gravity != 0.0):
             Qg = np.zeros(n)
             for b in model.bodies:
                 if not isinstance(b, FlexibleBeam):      # beams: in their own group
-                    Qg[3 * b.index: 3 * b.index + 2] = b.mass * model.gravity
+                    Qg[cmap.table[b.index, :2]] = b.mass * model.gravity
             self.gravity_force = Qg
         springs = [f for f in model.forces if isinstance(f, SpringDamper)]
         rsprings = [f for f in model.forces if isinstance(f, RotationalSpringDamper)]
@@ -199,14 +205,14 @@ class AssembledSystem:
         self.force_groups = []
         if springs:
             self.force_groups.append(SpringDamperGroup(
-                n, [s.first for s in springs], [s.second for s in springs],
+                cmap, [s.first for s in springs], [s.second for s in springs],
                 [s.k for s in springs], [s.c for s in springs], [s.length for s in springs]))
         if rsprings:
             self.force_groups.append(RotationalSpringGroup(
-                n, [s.joint.first.body for s in rsprings], [s.joint.second.body for s in rsprings],
+                cmap, [s.joint.first.body for s in rsprings], [s.joint.second.body for s in rsprings],
                 [s.k for s in rsprings], [s.c for s in rsprings], [s.angle for s in rsprings]))
         if torques:
-            self.force_groups.append(TorqueGroup(n, [f.body for f in torques],
+            self.force_groups.append(TorqueGroup(cmap, [f.body for f in torques],
                                                  [f.function for f in torques]))
         if state_torques:
             def line(f):
@@ -215,14 +221,14 @@ class AssembledSystem:
                 return (j.second.body, tuple(j.second.local), j.first.body, tuple(j.first.local),
                         tuple(j.direction))
             self.force_groups.append(StateTorqueGroup(
-                n, [f.joint.second.body if isinstance(f, JointTorque) else
+                cmap, [f.joint.second.body if isinstance(f, JointTorque) else
                     getattr(f, "body", GROUND) for f in state_torques],
                 [f.joint.first.body if isinstance(f, JointTorque) else GROUND
                  for f in state_torques], [f.function for f in state_torques],
                 [line(f) if isinstance(f, JointForce) else None for f in state_torques]))
         if pforces:
             self.force_groups.append(PointForceGroup(
-                n, [f.point for f in pforces], [f.fx for f in pforces], [f.fy for f in pforces]))
+                cmap, [f.point for f in pforces], [f.fx for f in pforces], [f.fy for f in pforces]))
         frictions = [f for f in model.forces if isinstance(f, Friction)]
         if frictions:
             def reaction_rows(j):
@@ -236,7 +242,7 @@ class AssembledSystem:
                     j.second.body, tuple(j.second.local), j.first.body, tuple(j.first.local),
                     tuple(j.direction))
             self.force_groups.append(FrictionGroup(
-                n, [f.joint.second.body for f in frictions], [f.joint.first.body for f in frictions],
+                cmap, [f.joint.second.body for f in frictions], [f.joint.first.body for f in frictions],
                 [geometry(f.joint) for f in frictions], [reaction_rows(f.joint) for f in frictions],
                 [(f.mu, f.mu_static, f.v_stribeck, f.viscous, f.v_reg, f.radius)
                  for f in frictions]))

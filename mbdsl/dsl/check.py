@@ -203,6 +203,9 @@ class _Checker:
                                 hint=_did_you_mean(ref.attr, BODY_STATE)
                                 or f"fields are {', '.join(BODY_STATE)}")
             level, j = BODY_STATE[ref.attr]
+            if j == 2 and getattr(body, "particle", False):
+                raise ExprError(f"'{ref.text}': particle '{obj}' does not turn (it has x, y, "
+                                "vx, vy)", "E304", ref.span)
             return StateVariable(ref.text, level, ((body.index, j, 1.0),))
         if obj in self.joints and self.joints[obj].kind in ("prismatic", "point_on_line"):
             joint = self.joints[obj]
@@ -225,6 +228,10 @@ class _Checker:
                                       or f"fields are {allowed}"))
             b1, b2 = joint.bodies
             for b in (b1, b2):
+                if self.is_particle(b):
+                    raise ExprError(f"'{ref.text}': the joint holds particle "
+                                    f"'{self.model_body(b).name}', which does not turn", "E304",
+                                    ref.span)
                 if b != GROUND and isinstance(self.model_body(b), FlexibleBeam):
                     raise ExprError(f"'{ref.text}': the joint holds a flexible beam, whose "
                                     "rotation at the joint is not its frame's", "E304",
@@ -583,6 +590,9 @@ class _Checker:
             if isinstance(b, BeamSpec):
                 self.check_beam(b)
                 continue
+            if b.particle:
+                self.check_particle(b)
+                continue
             props = {}
             for prop in b.properties:
                 if prop.name not in ("mass", "inertia"):
@@ -630,11 +640,67 @@ class _Checker:
                                                 values["inertia"], points, b.span, shapes)
             else:
                 self.broken_bodies.add(b.name)
-        offset = 3 * len(self.bodies)
+        offset = sum(2 if getattr(b, "particle", False) else 3 for b in self.bodies.values())
         for name, b in self.bodies.items():
             if isinstance(b, FlexibleBeam):
                 self.bodies[name] = dataclasses.replace(b, elastic_offset=offset)
                 offset += b.n_elastic
+
+    def check_particle(self, b):
+        """A particle (point mass): a positive mass, no inertia, no points
+        but ``cm``; shapes are drawn at its position without turning."""
+        ctx = f"particle '{b.name}'"
+        mass = None
+        for prop in b.properties:
+            if prop.name != "mass":
+                self.error("E304", f"{ctx}: unknown property '{prop.name}'", prop.span,
+                           "unknown property",
+                           hint="a particle has a mass only: it does not turn, so it has no "
+                           "inertia (declare a body for that)" if prop.name == "inertia"
+                           else _did_you_mean(prop.name, ["mass"]) or "a particle has a 'mass'")
+                continue
+            if mass is not None:
+                self.error("E202", f"{ctx}: 'mass' given twice", prop.span, "given again")
+                continue
+            mass = self.number(prop.value, prop.span, f"mass of {ctx}", unit="kg")
+            if mass is not None and not mass > 0:
+                self.error("E303", f"the mass of {ctx} must be positive, got {mass:g} kg",
+                           getattr(prop.value, "span", None) or prop.span, "not positive")
+                mass = None
+            mass = mass if mass is not None else float("nan")
+        if mass is None:
+            self.error("E302", f"{ctx} has no mass", b.span, "mass missing",
+                       hint="add 'mass VALUE' [kg]; there is no default")
+        for p in b.points:
+            self.error("E304", f"{ctx}: a particle has one point, 'cm' (its position)", p.span,
+                       "a point off the particle",
+                       hint="joints and forces attach at NAME.cm; for points that turn with "
+                       "the mass, declare a body")
+        points = {"cm": np.zeros(2)}
+        shapes = tuple(s for s in (self.shape(b.name, sp, points) for sp in b.shapes)
+                       if s is not None)
+        if mass is None or not math.isfinite(mass) or b.points:
+            self.broken_bodies.add(b.name)
+            return
+        self.bodies[b.name] = RigidBody(b.name, len(self.bodies), mass, 0.0, points, b.span,
+                                        shapes, particle=True)
+
+    def is_particle(self, index) -> bool:
+        """Whether body ``index`` is a particle (the ground is not)."""
+        return index != GROUND and getattr(self.model_body(index), "particle", False)
+
+    def turning(self, bodies, ctx, span, what) -> bool:
+        """False (after reporting E305) when one of ``bodies`` is a particle:
+        ``what`` (a rotation, a relative angle...) needs bodies that turn."""
+        for b in bodies:
+            if self.is_particle(b):
+                name = self.model_body(b).name
+                self.error("E305", f"{ctx}: {what}, and particle '{name}' does not turn",
+                           span, "a particle has no angle",
+                           hint="a particle has coordinates x, y only; declare a body "
+                           "(mass and inertia) where a rotation matters")
+                return False
+        return True
 
     #: shape kind -> (fewest points, most points, takes a radius)
     SHAPES = {"line": (2, 2, False), "circle": (1, 1, True), "polygon": (3, None, False)}
@@ -858,6 +924,12 @@ class _Checker:
                     continue
             if first is None or second is None or not ok:
                 continue
+            locks = {"fixed": (first.body, second.body), "prismatic": (first.body, second.body),
+                     "point_on_line": (second.body,)}.get(j.kind, ())
+            if not self.turning(locks, ctx, j.span, f"a {j.kind} joint "
+                                + ("holds its line in the second body's frame"
+                                   if j.kind == "point_on_line" else "locks a relative angle")):
+                continue
             if first.body == second.body:
                 what = "the ground" if first.body == GROUND else f"body '{pos[0].value.obj}'"
                 self.error("E402", f"{ctx} connects {what} to itself", j.span,
@@ -889,6 +961,9 @@ class _Checker:
                                hint=f"write '{tgt.obj}.angle'" if not sliding else
                                f"write '{tgt.obj}.distance' (along the line, from its point)")
                     continue
+                if tgt.attr == "angle" and not self.turning(joint.bodies, ctx, tgt.span or d.span,
+                                                            "a joint angle is a relative rotation"):
+                    continue
                 if ok and fn:
                     kind = "joint_distance" if tgt.attr == "distance" else "joint_angle"
                     self.drivers.append(Driver(d.name, kind, fn, joint=joint, span=d.span))
@@ -904,6 +979,9 @@ class _Checker:
                 self.error("E201", f"{ctx}: '{tgt.attr}' is not a coordinate", tgt.span or d.span,
                            "unknown coordinate", hint=_did_you_mean(tgt.attr, COORDINATES)
                            or "a body is driven by its x, y or phi")
+                continue
+            if tgt.attr == "phi" and not self.turning([body.index], ctx, tgt.span or d.span,
+                                                      "a driven angle needs a body that turns"):
                 continue
             if ok and fn:
                 self.drivers.append(Driver(d.name, "coordinate", fn, body=body.index,
@@ -997,7 +1075,8 @@ class _Checker:
             return SpringDamper(f.name, a, b, opts["k"], opts["c"], opts["length"], f.span)
         if f.kind == "rotational_spring_damper":
             joint = self.joint_argument(pos[0], f, ctx)
-            if joint is None:
+            if joint is None or not self.turning(joint.bodies, ctx, f.span,
+                                                 "a rotational spring acts on a relative angle"):
                 return None
             return RotationalSpringDamper(f.name, joint, opts["k"], opts["c"], opts["angle"],
                                           f.span)
@@ -1009,6 +1088,9 @@ class _Checker:
                     self.error("E201", f"{ctx}: expected the name of a body, got '{name}'",
                                getattr(ref, "span", None) or f.span, "not a body",
                                hint=_did_you_mean(name, self.bodies))
+                return None
+            if not self.turning([self.bodies[ref.name].index], ctx, f.span,
+                                "a torque turns a body"):
                 return None
             fn = self.force_function(pos[1].value, pos[1].span or f.span, ctx, unit="N*m")
             return Torque(f.name, self.bodies[ref.name].index, fn, f.span) if fn else None
@@ -1022,6 +1104,8 @@ class _Checker:
                            f"'{joint.name}' is a {joint.kind} joint",
                            getattr(ref, "span", None) or f.span, "not a revolute joint",
                            hint="apply torque(body, ...) to one of its bodies instead")
+                return None
+            if not self.turning(joint.bodies, ctx, f.span, "a joint torque turns its bodies"):
                 return None
             fn = self.force_function(pos[1].value, pos[1].span or f.span, ctx, unit="N*m")
             return JointTorque(f.name, joint, fn, f.span) if fn else None
@@ -1075,6 +1159,9 @@ class _Checker:
                        hint="friction(J, ...) takes a revolute, prismatic or point_on_line joint")
             return None
         radius = opts["radius"]
+        if joint.kind == "revolute" and not self.turning(
+                joint.bodies, ctx, f.span, "friction in a revolute joint brakes a relative rotation"):
+            return None
         if joint.kind == "revolute":
             if np.isnan(radius):
                 self.error("E304", f"{ctx}: friction in a revolute joint needs the pin's "
@@ -1171,6 +1258,8 @@ class _Checker:
             return OutputVariable(ref.text, "column", column=ref.text)
         if obj in self.bodies:
             fields = COORDINATES + VELOCITIES + ACCELERATIONS
+            if getattr(self.bodies[obj], "particle", False):
+                fields = ("x", "y", "vx", "vy", "ax", "ay")
             if attr not in fields:
                 raise fail(f"a body's fields are {', '.join(fields)}",
                            hint=_did_you_mean(attr, fields) or "or a point: body.point.x")
@@ -1191,6 +1280,8 @@ class _Checker:
                            "joint's distance or speed",
                            hint=f"'{obj}' is a {j.kind} joint" if j.kind != "revolute"
                            else _did_you_mean(attr, ("angle", "rate")))
+            if any(self.is_particle(b) for b in j.bodies):
+                raise fail("the joint holds a particle, which does not turn")
             return OutputVariable(ref.text, "joint", field=attr, bodies=j.bodies)
         raise fail(f"unknown body or joint '{obj}'", "E201",
                    _did_you_mean(str(obj), list(self.bodies) + list(self.joints)
@@ -1250,6 +1341,10 @@ class _Checker:
                            tgt.span or ic.span, "unknown field",
                            hint=_did_you_mean(tgt.attr, COORDINATES + VELOCITIES)
                            or "use x, y, phi, vx, vy or omega")
+                continue
+            if getattr(body, "particle", False) and tgt.attr in ("phi", "omega"):
+                self.error("E502", f"{kw}: particle '{tgt.obj}' does not turn: it has x, y, vx "
+                           "and vy", tgt.span or ic.span, "a particle has no angle")
                 continue
             key = (tgt.obj, tgt.attr)
             if key in seen:

@@ -120,13 +120,16 @@ class ShapeSpec:
 
 @dataclass(frozen=True)
 class BodySpec:
-    """``body NAME { ... }``: a rigid body with properties, points and shapes."""
+    """``body NAME { ... }``: a rigid body with properties, points and shapes;
+    ``particle NAME { ... }`` (``particle=True``): a point mass, coordinates
+    (x, y) only, with a mass and no inertia."""
 
     name: str
     properties: tuple = ()
     points: tuple = ()
     span: Span | None = None
     shapes: tuple = ()
+    particle: bool = False
 
     def __post_init__(self):
         _set(self, "properties", tuple(self.properties))

@@ -126,14 +126,23 @@ class ToSpec(Transformer):
     def _nspan(self, x):
         return x.span if isinstance(x, IndexedName) else self._tspan(x)
 
-    @v_args(meta=True)
-    def body_decl(self, meta, children):
-        """``body NAME { ... }`` -> BodySpec."""
+    def _body(self, children, particle):
         name, *items = children
         props = tuple(i for i in items if isinstance(i, S.PropertySpec))
         points = tuple(i for i in items if isinstance(i, S.PointSpec))
         shapes = tuple(i for i in items if isinstance(i, S.ShapeSpec))
-        return S.BodySpec(self._name(name), props, points, self._nspan(name), shapes)
+        return S.BodySpec(self._name(name), props, points, self._nspan(name), shapes,
+                          particle=particle)
+
+    @v_args(meta=True)
+    def body_decl(self, meta, children):
+        """``body NAME { ... }`` -> BodySpec."""
+        return self._body(children, False)
+
+    @v_args(meta=True)
+    def particle_decl(self, meta, children):
+        """``particle NAME { ... }`` -> BodySpec(particle=True)."""
+        return self._body(children, True)
 
     @v_args(meta=True)
     def shape_decl(self, meta, children):

@@ -112,7 +112,8 @@ def _item(it, indent: str) -> list[str]:
         parts = [f"{p.name} {expr_text(p.value)}" for p in it.properties]
         parts += [f"point {_name(p.name)} {expr_text(p.position)}" for p in it.points]
         parts += [f"shape {s.kind}({_args(s.args)})" for s in it.shapes]
-        return [f"{indent}body {_name(it.name)} {{ {'; '.join(parts)} }}"]
+        kind = "particle" if it.particle else "body"
+        return [f"{indent}{kind} {_name(it.name)} {{ {'; '.join(parts)} }}"]
     if isinstance(it, S.BeamSpec):
         parts = [f"{p.name} {expr_text(p.value)}" for p in it.properties]
         if it.frame is not None:

@@ -265,7 +265,7 @@ class CompiledModel:
             """Row of a sliding joint's line in geo/geof (shared by every use)."""
             if line not in geo_row:
                 geo_row[line] = len(geo)
-                geo.append(line_columns(line, n))
+                geo.append(line_columns(line, system.cmap))
                 geof.append([*line[1], *line[3], *line[4]])
             return geo_row[line]
 
@@ -317,7 +317,7 @@ class CompiledModel:
                             row = (v.level, n + 2, n + 2, line_row(v.line))
                             coefs = [0.0, 0.0]
                         else:
-                            cols = [3 * b + j for b, j, _ in v.terms] + [n + 2] * (2 - len(v.terms))
+                            cols = (v.columns(system.cmap) + [n + 2] * (2 - len(v.terms)))
                             coefs = [c for _, _, c in v.terms] + [0.0] * (2 - len(v.terms))
                             key = (v.level, *cols, *coefs)
                             row = (v.level, *cols, -1)

@@ -12,18 +12,24 @@ Conventions (stated once for the whole package)
 * Body-fixed vectors s are given in the body frame relative to the centre of
   mass; the global position of a point is r + A(phi) s.
 * The ground is body index ``GROUND`` (-1); it has no coordinates.
+* A particle (:class:`RigidBody` with ``particle=True``: a point mass) has
+  two coordinates (x, y) and no rotation.
 * A flexible beam (:class:`FlexibleBeam`) has the same three reference
-  coordinates (x, y, phi) of its floating frame at q[3*index : 3*index + 3],
-  and n_f elastic coordinates stored after those of all bodies, at
-  q[elastic_offset : elastic_offset + n_f]. Keeping the reference
-  coordinates of every body at 3*index lets everything that works on body
-  frames (placement, drivers, initial conditions, output names) treat rigid
-  and flexible bodies alike.
+  coordinates (x, y, phi) of its floating frame, and n_f elastic coordinates
+  stored after those of all bodies, at q[elastic_offset : elastic_offset + n_f].
+* Where a body's coordinates are in q is said by one table,
+  :class:`CoordinateMap` (``Model.coordinate_map``): bodies in declaration
+  order, three columns each (two for a particle). Everything that works on
+  body frames (element groups, placement, drivers, initial conditions,
+  outputs) reads it, so rigid bodies, particles and beams' frames are
+  treated alike: a particle's phi is the ground's (always 0) dummy column,
+  and its only point, ``cm``, never turns.
 * A joint's relative angle is phi(second body) - phi(first body).
 """
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 from typing import Callable
 
@@ -36,12 +42,62 @@ GROUND = -1
 __all__ = [
     "GROUND", "RigidBody", "Shape", "FlexibleBeam", "PointRef", "Joint", "Driver", "SpringDamper",
     "RotationalSpringDamper", "Torque", "JointTorque", "JointForce", "Friction", "PointForce",
-    "InitialCondition", "line_distance", "line_columns",
+    "InitialCondition", "line_distance", "line_columns", "CoordinateMap",
     "TimeFunction", "StateVariable", "StateFunction", "Output", "OutputVariable", "Model", "COORDINATES", "VELOCITIES", "ACCELERATIONS",
 ]
 
 #: Names of a body's position coordinates, and of their rates, by index.
 COORDINATES = ("x", "y", "phi")
+
+
+class CoordinateMap:
+    """Where each body's (x, y, phi) are in q extended by the ground's three
+    dummy coordinates, q_ext = [q, 0, 0, 0] (length n + 3).
+
+    Bodies take three columns each in declaration order, a particle two; the
+    ground (body ``GROUND``) is at n, n+1, n+2, and a particle's phi is the
+    ground's n+2 (always 0: a particle never turns, so nothing reads a
+    rotation of it, and what is written to that column is dropped with the
+    ground's).
+
+    Parameters
+    ----------
+    bodies : sequence of RigidBody or FlexibleBeam
+    n : int
+        The number of generalized coordinates.
+
+    Attributes
+    ----------
+    n : int
+    table : ndarray of int, shape (n_bodies, 3)
+        Columns of x, y, phi of each body.
+    """
+
+    def __init__(self, bodies, n: int):
+        self.n = int(n)
+        rows, offset = [], 0
+        for b in bodies:
+            if getattr(b, "particle", False):
+                rows.append((offset, offset + 1, self.n + 2))
+                offset += 2
+            else:
+                rows.append((offset, offset + 1, offset + 2))
+                offset += 3
+        self.n_reference = offset
+        self.table = np.array(rows, dtype=np.intp).reshape(-1, 3)
+
+    def __call__(self, bodies) -> np.ndarray:
+        """Columns (x, y, phi) of body indices (ground -1 -> n..n+2), shape (k, 3)."""
+        b = np.asarray(bodies, dtype=np.intp).reshape(-1)
+        out = np.empty((len(b), 3), dtype=np.intp)
+        ground = b < 0
+        out[ground] = self.n + np.arange(3)
+        out[~ground] = self.table[b[~ground]]
+        return out
+
+    def column(self, body: int, coord: int) -> int:
+        """The column of coordinate ``coord`` (0, 1, 2 = x, y, phi) of ``body``."""
+        return int(self(body)[0, coord])
 VELOCITIES = ("vx", "vy", "omega")
 ACCELERATIONS = ("ax", "ay", "alpha")
 
@@ -85,7 +141,8 @@ class StateVariable:
     level : int
         0: x = sum c_j q[j] (+ offset); 1: x = sum c_j v[j].
     terms : tuple of (int, int, float)
-        (body index, coordinate 0..2 = x, y, phi, coefficient c_j).
+        (body index, coordinate 0..2 = x, y, phi, coefficient c_j); its
+        columns are those of :class:`CoordinateMap`.
     offset : float
         Added to a position-level variable (0 for every variable mbdsl has).
     line : tuple or None
@@ -100,23 +157,23 @@ class StateVariable:
     offset: float = 0.0
     line: tuple | None = None
 
-    def columns(self, n: int) -> list[int]:
+    def columns(self, cmap: "CoordinateMap") -> list[int]:
         """The coordinates it reads, as columns of q extended by the ground's
         three (n..n+2)."""
         if self.line is None:
-            return [3 * b + j for b, j, _ in self.terms]
-        return line_columns(self.line, n)
+            return [cmap.column(b, j) for b, j, _ in self.terms]
+        return line_columns(self.line, cmap)
 
 
-def line_columns(line, n: int) -> list[int]:
+def line_columns(line, cmap: "CoordinateMap") -> list[int]:
     """Columns (x, y, phi of the line's body, then of the point's body) of a
     sliding joint's geometry ``line`` = (body L, s_L, body P, s_P, u0) in q
     extended by the ground's three (n..n+2)."""
     bL, _, bP, _, _ = line
-    return [3 * b + j if b >= 0 else n + j for b in (bL, bP) for j in range(3)]
+    return [int(c) for c in cmap([bL, bP]).ravel()]
 
 
-def line_distance(line, qx):
+def line_distance(line, qx, cmap: "CoordinateMap"):
     """Distance along a sliding joint and its derivatives: s = u . (p_P - p_L),
     u = A(phi_L) u0, p = r + A(phi) s_body, for the rigid bodies (or ground)
     of ``line`` = (body L, s_L, body P, s_P, u0).
@@ -129,8 +186,7 @@ def line_distance(line, qx):
     hess : ndarray, shape (6, 6)
         d^2 s / d(...)^2 (as ``PointOnLineGroup.hess`` with n0 = u0).
     """
-    cols = line_columns(line, len(qx) - 3)
-    q = qx[cols]
+    q = qx[line_columns(line, cmap)]
     _, sL, _, sP, u0 = line
 
     def rot(phi, v):
@@ -178,17 +234,17 @@ class StateFunction:
     text: str = ""
     constant: bool = False
 
-    def values(self, qx, vx) -> np.ndarray:
+    def values(self, qx, vx, cmap: CoordinateMap) -> np.ndarray:
         """The state variables' values at (q, v) extended by the ground's zeros,
         shape (len(variables),)."""
         out = np.empty(len(self.variables))
         for k, var in enumerate(self.variables):
             if var.line is not None:          # distance or speed along a sliding joint
-                s, grad, _ = line_distance(var.line, qx)
-                out[k] = s if var.level == 0 else float(grad @ vx[var.columns(len(qx) - 3)])
+                s, grad, _ = line_distance(var.line, qx, cmap)
+                out[k] = s if var.level == 0 else float(grad @ vx[var.columns(cmap)])
                 continue
             src = qx if var.level == 0 else vx
-            out[k] = var.offset + sum(c * src[3 * b + j] for b, j, c in var.terms)
+            out[k] = var.offset + sum(c * src[cmap.column(b, j)] for b, j, c in var.terms)
         return out
 
 
@@ -246,15 +302,18 @@ class RigidBody:
     ----------
     name : str
     index : int
-        Position in the model's body list; its coordinates are
-        q[3*index : 3*index + 3].
+        Position in the model's body list (its columns in q:
+        ``Model.coordinate_map``).
     mass : float [kg]
     inertia : float [kg m^2]
-        Centroidal moment of inertia.
+        Centroidal moment of inertia (0 for a particle).
     points : dict of str -> ndarray, shape (2,) [m]
         Body-fixed points relative to the centre of mass; ``cm`` is (0, 0).
     shapes : tuple of Shape
         What ``mbdsl animate`` draws (empty: the outline of the points).
+    particle : bool
+        A point mass (``particle NAME { mass m }``): coordinates (x, y)
+        only, no rotation, no inertia, one point ``cm``.
     """
 
     name: str
@@ -264,6 +323,12 @@ class RigidBody:
     points: dict
     span: Span | None = None
     shapes: tuple = ()
+    particle: bool = False
+
+    @property
+    def coordinate_fields(self) -> tuple:
+        """("x", "y", "phi"), or ("x", "y") for a particle."""
+        return COORDINATES[:2] if self.particle else COORDINATES
 
 
 @dataclass(frozen=True)
@@ -293,8 +358,8 @@ class FlexibleBeam:
     name : str
     index : int
         Position in the model's body list; its reference coordinates (the
-        floating frame: origin at the first node, see ``frame``) are
-        q[3*index : 3*index + 3].
+        floating frame: origin at the first node, see ``frame``) are where
+        ``Model.coordinate_map`` says.
     mass : float [kg]
     length : float [m]
     E : float [Pa]
@@ -416,7 +481,8 @@ class Joint:
 class Driver:
     """A prescribed motion (rheonomic constraint), one row.
 
-    ``kind == "coordinate"``: q[3*body + coord] - f(t) = 0.
+    ``kind == "coordinate"``: q[c] - f(t) = 0, c the body's column of
+    ``coord`` (``Model.coordinate_map``).
     ``kind == "joint_angle"``: phi(second) - phi(first) - f(t) = 0.
     ``kind == "joint_distance"`` (prismatic, point_on_line): u . (p1 - p2) - f(t)
     = 0, u the line's unit direction turning with the second body, p1 the
@@ -576,11 +642,16 @@ class InitialCondition:
         """True for vx, vy, omega."""
         return self.field in VELOCITIES
 
-    @property
-    def coordinate(self) -> int:
+    def column(self, cmap: CoordinateMap) -> int:
         """Index of the coordinate in q (or v)."""
         names = VELOCITIES if self.is_velocity else COORDINATES
-        return 3 * self.body + names.index(self.field)
+        return cmap.column(self.body, names.index(self.field))
+
+
+def _fields(body, names):
+    """The body's fields of ``names`` (x, y, phi or their rates): the first
+    two for a particle."""
+    return names[:2] if getattr(body, "particle", False) else names
 
 
 @dataclass(frozen=True)
@@ -632,9 +703,15 @@ class Model:
 
     @property
     def n_coordinates(self) -> int:
-        """n, the number of generalized coordinates (3 per body, plus the
-        elastic coordinates of the flexible beams)."""
-        return 3 * len(self.bodies) + sum(b.n_elastic for b in self.flexible_bodies)
+        """n, the number of generalized coordinates (3 per body, 2 per
+        particle, plus the elastic coordinates of the flexible beams)."""
+        return (sum(2 if getattr(b, "particle", False) else 3 for b in self.bodies)
+                + sum(b.n_elastic for b in self.flexible_bodies))
+
+    @functools.cached_property
+    def coordinate_map(self) -> CoordinateMap:
+        """Where each body's coordinates are in q (:class:`CoordinateMap`)."""
+        return CoordinateMap(self.bodies, self.n_coordinates)
 
     @property
     def flexible_bodies(self) -> tuple:
@@ -665,17 +742,17 @@ class Model:
 
     def coordinate_names(self) -> list[str]:
         """``["crank.x", "crank.y", "crank.phi", ...]``, shape (n,)."""
-        return ([f"{b.name}.{c}" for b in self.bodies for c in COORDINATES]
+        return ([f"{b.name}.{c}" for b in self.bodies for c in _fields(b, COORDINATES)]
                 + [f"{b.name}.{c}" for b in self.flexible_bodies for c in b.mesh.names])
 
     def velocity_names(self) -> list[str]:
         """``["crank.vx", "crank.vy", "crank.omega", ...]``, shape (n,)."""
-        return ([f"{b.name}.{c}" for b in self.bodies for c in VELOCITIES]
+        return ([f"{b.name}.{c}" for b in self.bodies for c in _fields(b, VELOCITIES)]
                 + [f"{b.name}.{c}_t" for b in self.flexible_bodies for c in b.mesh.names])
 
     def acceleration_names(self) -> list[str]:
         """``["crank.ax", "crank.ay", "crank.alpha", ...]``, shape (n,)."""
-        return ([f"{b.name}.{c}" for b in self.bodies for c in ACCELERATIONS]
+        return ([f"{b.name}.{c}" for b in self.bodies for c in _fields(b, ACCELERATIONS)]
                 + [f"{b.name}.{c}_tt" for b in self.flexible_bodies for c in b.mesh.names])
 
     def constraint_names(self) -> list[tuple[str, int]]:

@@ -48,7 +48,10 @@ INSERTS = ["kg", "m/s", "{", "}", "(", ")", ",", ";", "=", ":", "..", "é", "→
            "<", ">=", "if", "if(t < 1, 0, 1)", " < ", "(t > 2)*",
            # units
            " cm", " deg", " rpm", " N/m", " kg*m^2", " s", " ms", "m^2", "*m", "/s", " mm",
-           "5 mm", "(2 kg)*", " + 1 s", "1e400 kg", "initial crank.phi = 270\n"]
+           "5 mm", "(2 kg)*", " + 1 s", "1e400 kg", "initial crank.phi = 270\n",
+           # particles
+           "particle", "particle q { mass 1 }\n", "q.cm", "particle q { mass 1; inertia 1 }\n",
+           "joint Q: distance(ground.origin, q.cm, length = 1)\n"]
 
 
 def tokens(text):
