@@ -123,7 +123,7 @@ def simulate(model: Model, method: str | None = None, h: float | None = None,
              t_end: float | None = None, *, newton: NewtonOptions | None = None,
              on_failure: str = "raise", progress=None, writer=None, engine: str = "auto",
              output_every: int = 1, announce=None, compile_policy: str = "wait",
-             **coefficients) -> Solution:
+             formulation: str | None = None, **coefficients) -> Solution:
     """Simulate a model.
 
     Parameters
@@ -152,6 +152,11 @@ def simulate(model: Model, method: str | None = None, h: float | None = None,
         Told when the compiled kernels are compiled for this machine (once).
     compile_policy : {"wait", "background"}
         See :func:`mbdsl.integrators.integrate`.
+    formulation : {"lagrange", "augmented"}, optional
+        The constraint formulation (``Method.formulated``); default: the
+        ``simulate`` section's, else ``"lagrange"``. ``"augmented"`` runs
+        through singular positions and redundant joints (newmark, hht-i3,
+        nstiff, genalpha; numpy engine).
     **coefficients
         Method coefficients, e.g. ``alpha=-0.1``; default from the
         ``simulate`` section.
@@ -163,7 +168,8 @@ def simulate(model: Model, method: str | None = None, h: float | None = None,
     Raises
     ------
     ValueError
-        Missing h or t_end, unknown method, coefficient out of range.
+        Missing h or t_end, unknown method, coefficient out of range, an
+        unknown formulation or one the method does not take.
     AssemblyError
         No consistent initial state.
     ConvergenceError
@@ -185,6 +191,7 @@ def simulate(model: Model, method: str | None = None, h: float | None = None,
     import time
     t0 = time.perf_counter()
     system = assemble(model)
+    m = m.formulated(formulation or s.get("formulation", "lagrange"), system)
     assembly_time = time.perf_counter() - t0
     try:
         sol = integrate(system, m, float(t_end), float(h), t_start=float(s.get("t_start", 0.0)),

@@ -34,7 +34,7 @@ def metadata(solution, extra: dict | None = None) -> dict:
 
     Keys: ``mbdsl_version``, ``model``, ``model_file``, ``model_sha256``,
     ``model_source`` (JSON string), ``model_parameters`` (JSON object),
-    ``method``, ``method.<coefficient>``, ``h``, ``t_end``, ``status``,
+    ``method``, ``formulation``, ``method.<coefficient>``, ``h``, ``t_end``, ``status``,
     ``message``, ``extras`` (JSON list), ``units`` (JSON object: column ->
     SI unit, "" for none or mixed), ``stats_total`` (JSON object),
     ``wall_time``, ``engine``, ``linear_solver``, ``timings`` (JSON object).
@@ -47,6 +47,7 @@ def metadata(solution, extra: dict | None = None) -> dict:
         "model_file": model.file,
         "model_sha256": model.sha256,
         "method": solution.method_name,
+        "formulation": getattr(solution, "formulation", "lagrange"),
     }
     meta.update({f"method.{k}": repr(float(v)) for k, v in solution.method_parameters.items()})
     meta.update({"h": repr(solution.h), "t_end": repr(solution.t_end),

@@ -423,6 +423,8 @@ class Solution:
         self.model = system.model
         self.method_name = method.name
         self.method_parameters = method.parameters()
+        #: the constraint formulation (``Method.formulated``)
+        self.formulation = getattr(method, "formulation", "lagrange")
         # stored per step (the method's extras) and added on output (``output_extras``)
         self._stored_extras = tuple(method.extras)
         self.extra_names = self._stored_extras + tuple(getattr(method, "output_extras", ()))
@@ -778,6 +780,8 @@ class Solution:
         lines = [
             f"model {self.model.name}: {self.method_name} "
             + ", ".join(f"{k}={v:g}" for k, v in self.method_parameters.items())
+            + (", augmented Lagrangian formulation"
+               if getattr(self, "formulation", "lagrange") == "augmented" else "")
             + f", h = {self.h:g} s, t = {self.t[0]:g} .. {self.t[-1]:g} s ({self.status})",
             f"  steps {tot.steps} (rejected {tot.rejected}) on the {self.engine} engine "
             f"({self.linear_solver} linear solver"

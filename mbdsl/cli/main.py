@@ -148,6 +148,11 @@ def _run_options(p):
     p.add_argument("--b", type=float, help=coef("b", "HHT-ADD position weight b != 1/2"))
     p.add_argument("--rho-inf", type=float, dest="rho_inf",
                    help=coef("rho_inf", "generalized-alpha spectral radius at infinity in [0, 1]"))
+    p.add_argument("--formulation", choices=["lagrange", "augmented"],
+                   help="constraint formulation (default: the model's simulate block, else "
+                        "lagrange); augmented: the index-3 augmented Lagrangian, through "
+                        "singular positions and redundant joints (newmark, hht-i3, nstiff, "
+                        "genalpha; numpy engine)")
     p.add_argument("--set", action="append", metavar="NAME=VALUE",
                    help="override a model parameter (repeatable)")
     p.add_argument("--newton", choices=["full", "modified"], default="modified",
@@ -293,7 +298,7 @@ def _run(args, model, writer=None):
                            newton=NewtonOptions(jacobian=args.newton), on_failure="return",
                            progress=bar, writer=writer, alpha=args.alpha, beta=args.beta, gamma=args.gamma,
                            b=args.b, rho_inf=args.rho_inf, engine=args.engine, output_every=args.output_every,
-                           announce=announce,
+                           announce=announce, formulation=getattr(args, "formulation", None),
                            compile_policy="background" if background_allowed() else "wait")
         sol.timings["setup"] += getattr(args, "load_time", 0.0)
     except AssemblyError as exc:

@@ -1305,13 +1305,16 @@ class _Checker:
                 var = self.output_variable(ref)
                 found.setdefault(var.name, var)
                 return var.name
+            value = self.instantiate(o.value, {}, o.span)      # crank[1].T.x -> "crank[1]"
+            if value is None:
+                continue
             try:
-                e = substitute(o.value, self.params, resolve)
+                e = substitute(value, self.params, resolve)
             except ExprError as err:
                 self.expr_error(err, o.span, f"output '{o.name}'")
                 continue
             try:
-                dim = units.dimension(o.value, self.param_dims, units.reference_dimension)
+                dim = units.dimension(value, self.param_dims, units.reference_dimension)
             except units.DimensionError as err:
                 self.error("E307", f"output '{o.name}': {err}", err.span or o.span,
                            "dimensions differ")
@@ -1377,10 +1380,20 @@ class _Checker:
                     continue
                 self.settings["method"] = s.value
                 continue
+            if s.name == "formulation":         # formulation lagrange | augmented
+                v = s.value
+                if isinstance(v, Name) and v.name in ("lagrange", "augmented"):
+                    self.settings["formulation"] = v.name
+                else:
+                    self.error("E304", "simulate: 'formulation' is 'lagrange' or 'augmented'",
+                               getattr(v, "span", None) or s.span, "unknown formulation",
+                               hint="'augmented' runs through singular positions and "
+                               "redundant joints (newmark, hht-i3, nstiff, genalpha)")
+                continue
             if s.name not in SETTINGS:
                 self.error("E304", f"simulate: unknown setting '{s.name}'", s.span, "unknown setting",
-                           hint=_did_you_mean(s.name, list(SETTINGS) + ["method"])
-                           or f"settings are method, {', '.join(SETTINGS)}")
+                           hint=_did_you_mean(s.name, list(SETTINGS) + ["method", "formulation"])
+                           or f"settings are method, formulation, {', '.join(SETTINGS)}")
                 continue
             v = self.number(s.value, s.span, f"simulate: {s.name}",
                             unit="s" if s.name in ("h", "t_end", "t_start") else "1")

@@ -81,6 +81,9 @@ class StepContext:
     assembler : JacobianAssembler or None
         The run's Newton-matrix assembler (dense or sparse, set by the
         driver); a dense one is made on first use when None.
+    regularization : float [1/kg]
+        The augmented formulation's epsilon (:meth:`Method.formulated`),
+        set by the driver; 0 for the Lagrange formulation.
     """
 
     system: object
@@ -89,6 +92,8 @@ class StepContext:
     h: float
     cache: dict = field(default_factory=dict)
     assembler: object = None
+    #: epsilon of the augmented formulation's multiplier block (0: Lagrange)
+    regularization: float = 0.0
 
     @property
     def last(self) -> StepState:
@@ -133,6 +138,61 @@ class Method(ABC):
     extras: tuple = ()
     #: further (m,) columns that :meth:`output_multipliers` adds to the output
     output_extras: tuple = ()
+    #: "lagrange" (the Newton matrix as derived) or "augmented" (see :meth:`formulated`)
+    formulation: str = "lagrange"
+    #: whether the method accepts the augmented formulation (index-3 methods
+    #: whose Newton matrix is ``common.index3_newton_matrix``)
+    accepts_augmented: bool = False
+    #: epsilon of the augmented formulation [1/kg] (0: Lagrange)
+    regularization: float = 0.0
+
+    #: epsilon = AUGMENTED_EPSILON / (largest body mass): small against the
+    #: smallest non-zero singular value of Phi_q M^-1 Phi_q^T of a mechanism
+    #: away from a singular position (so a full-rank step converges as with
+    #: Lagrange), and it keeps the Newton matrix invertible at one
+    AUGMENTED_EPSILON = 1e-10
+
+    def formulated(self, formulation: str, system) -> "Method":
+        """This method with the constraint formulation ``formulation``.
+
+        ``"lagrange"``: the Newton matrix as derived (the default).
+        ``"augmented"``: the index-3 augmented Lagrangian iteration. The
+        multiplier block of the Newton matrix, 0 for Lagrange, is -epsilon I:
+        eliminating the multiplier increment gives the Newton step of the
+        augmented Lagrangian with penalty 1/epsilon,
+
+            (A + Phi_q^T Phi_q / epsilon) da = -r_1 - Phi_q^T r_2 / epsilon,
+            dlambda = (Phi_q da + r_2) / epsilon,
+
+        A the kinematic block, and lambda is updated by it every iteration
+        (lambda_{k+1} = lambda_k + dlambda: the augmented Lagrangian's
+        multiplier update, Bayo & Ledesma 1996). The residual is unchanged,
+        so a converged step solves the same equations as Lagrange; the matrix
+        is invertible where Phi_q loses rank (singular positions, redundant
+        joints), where Lagrange's is singular. There the multipliers are not
+        unique (only Phi_q^T lambda is), so Newton judges convergence on the
+        kinematic unknowns alone.
+
+        Raises
+        ------
+        ValueError
+            An unknown formulation, or ``"augmented"`` for a method that
+            does not accept it (the index-2 and HHT-ADD methods).
+        """
+        if formulation not in ("lagrange", "augmented"):
+            raise ValueError(f"unknown formulation '{formulation}'; "
+                             "formulations are lagrange, augmented")
+        if formulation == "lagrange":
+            return self
+        if not self.accepts_augmented:
+            raise ValueError(f"{self.name} does not take the augmented formulation; "
+                             "newmark, hht-i3, nstiff and genalpha do")
+        import copy
+        out = copy.copy(self)
+        out.formulation = "augmented"
+        masses = [b.mass for b in system.model.bodies] or [1.0]
+        out.regularization = self.AUGMENTED_EPSILON / max(masses)
+        return out
 
     @abstractmethod
     def order(self) -> int:

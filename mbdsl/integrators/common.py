@@ -175,7 +175,9 @@ def index3_newton_matrix(ctx, q, v, a, lam, c_mass: float, c_q: float, c_v: floa
          [Phi_q,                                                              0      ]]
 
     with c_q = dq/da and c_v = dv/da of the method's integration formulas
-    (constraint rows already divided by c_q).
+    (constraint rows already divided by c_q). In the augmented formulation
+    (``ctx.regularization`` = epsilon > 0) the multiplier block is
+    -epsilon I (``Method.formulated``).
 
     Returns
     -------
@@ -185,6 +187,9 @@ def index3_newton_matrix(ctx, q, v, a, lam, c_mass: float, c_q: float, c_v: floa
     T = Terms(system).mass(q, coef=c_mass)
     T.stiffness(t, q, v, lam, c_q=c_q, c_v=c_v, a=a, c_mass=c_mass)
     T.Phi_q(q, t, 0, n, transpose=True).Q_lam(t, q, v, lam, 0, n, -1.0).Phi_q(q, t, n, 0)
+    if ctx.regularization:
+        m = system.m
+        T.add((np.arange(m), np.arange(m)), np.full(m, -ctx.regularization), n, n)
     return assemble(ctx, T, n + system.m)
 
 

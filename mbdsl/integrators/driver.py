@@ -194,9 +194,14 @@ def _time_loop(system, method, solver, sol, history, kinds, assembler, t_start, 
                 t_new, new_carry = t_end, 0.0
             ctx = method.context(system, history, t_new, step)
             ctx.assembler = assembler
+            ctx.regularization = method.regularization
             w0 = method.predict(ctx)
+            scales = method.scales(system, step, ctx.last.q)
+            if method.formulation == "augmented":
+                # only Phi_q^T lambda is unique where Phi_q loses rank: converge on a
+                scales = np.where(kinds, 0.0, scales)
             res = solver.solve(lambda w: method.residual(w, ctx), lambda w: method.jacobian(w, ctx),
-                               w0, kinds, method.scales(system, step, ctx.last.q), key=step,
+                               w0, kinds, scales, key=step,
                                floor=method.roundoff_floor(system, step, ctx.last.q))
             if not res.converged:
                 if step / 2.0 >= h_min * (1.0 - 1e-12):
@@ -328,7 +333,9 @@ def _fail(sol, method, ctx, res, t, step, h):
             svd = _null_vector(method, ctx, method.predict(ctx))
     except (FloatingPointError, ValueError, np.linalg.LinAlgError):
         svd = None
-    near_singular = svd is not None and svd[0] < 1e-7
+    # 1e-6: a step failing next to a singular position (the N-four-bar's
+    # Newton matrix at its last accepted state: 2e-7) is told so
+    near_singular = svd is not None and svd[0] < 1e-6
     if res.status is NewtonStatus.SINGULAR or near_singular:
         null = svd[1] if svd is not None else None
         if near_singular and res.status is not NewtonStatus.SINGULAR:
@@ -342,8 +349,12 @@ def _fail(sol, method, ctx, res, t, step, h):
                 span = system.layout.span_of(elements[0]) or span
                 hint = (f"the equations of {', '.join(repr(e) for e in elements)} become "
                         "dependent here: a singular (dead-centre or locked) position of the "
-                        "linkage, e.g. a crank and rod in line; start elsewhere, drive past "
-                        "it with a motion, or check the joint geometry")
+                        "linkage, e.g. a crank and rod in line; "
+                        + ("--formulation augmented goes through such positions, or "
+                           if method.accepts_augmented and method.formulation == "lagrange"
+                           else "")
+                        + "start elsewhere, drive past it with a motion, or check the joint "
+                        "geometry")
             elif coords:
                 detail += "; the singular direction involves " + ", ".join(coords)
                 hint = ("no joint holds these coordinates: a body with no mass or inertia in "

@@ -94,6 +94,8 @@ def unsupported(system, method) -> str | None:
     """Why the compiled engine cannot run this model with this method, or None."""
     if method.kernel_recipe(1.0, False) is None:
         return f"the compiled engine has no recipe for {method.name}"
+    if getattr(method, "formulation", "lagrange") != "lagrange":
+        return "the augmented formulation runs on the numpy engine"
     if system.flexible_groups:
         return "the model has flexible beams"
     for g in system.constraint_groups:

@@ -140,6 +140,7 @@ class GenAlpha(_GenAlphaBase):
     """
 
     name = "genalpha"
+    accepts_augmented = True
     index = 3
 
     def blocks(self, system) -> list[Block]:

@@ -62,6 +62,7 @@ class HHTI3(Method):
     """
 
     name = "hht-i3"
+    accepts_augmented = True
     index = 3
     history_length = 1
 

@@ -48,6 +48,7 @@ class Newmark(Method):
     """
 
     name = "newmark"
+    accepts_augmented = True
     index = 3
     history_length = 1
 

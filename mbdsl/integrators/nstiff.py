@@ -44,6 +44,7 @@ class NStiff(Method):
     """
 
     name = "nstiff"
+    accepts_augmented = True
     index = 3
     history_length = 2
 
