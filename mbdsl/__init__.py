@@ -39,7 +39,7 @@ from .registry import DEFAULT_METHOD
 __version__ = "0.1.0"
 
 __all__ = [
-    "load", "load_text", "from_spec", "check", "assemble", "simulate", "METHODS",
+    "load", "load_text", "from_spec", "check", "redundant_policy", "assemble", "simulate", "METHODS",
     "Model", "Solution", "AssembledSystem", "InitialState", "NewtonOptions", "JacobianUpdate",
     "ModelSpec", "BodySpec", "BeamSpec", "JointSpec", "ForceSpec", "DriverSpec", "InitialSpec",
     "ParameterSpec", "PointSpec", "SettingSpec", "ArgSpec",
@@ -101,11 +101,25 @@ def from_spec(spec: ModelSpec, overrides: dict | None = None) -> Model:
     return check_spec(spec, overrides)
 
 
+def redundant_policy(model: Model, method: str | None = None,
+                     formulation: str | None = None) -> str:
+    """How the initial state treats redundant joints for a run: ``"accept"``
+    (W405, the run goes on with the augmented formulation) when the
+    formulation is augmented, or not chosen and the method takes it;
+    ``"error"`` (E401) otherwise."""
+    method = method or model.settings.get("method", DEFAULT_METHOD)
+    formulation = formulation or model.settings.get("formulation")
+    if formulation is not None:
+        return "accept" if formulation == "augmented" else "error"
+    return "accept" if METHODS[method].accepts_augmented else "error"
+
+
 def check(path, overrides: dict | None = None) -> list[Diagnostic]:
     """All diagnostics of a model file (errors and warnings); empty if clean.
 
     Beyond the language checks, assembles the initial configuration and
-    analyses it (redundant joints E401, loops that cannot close E503, a
+    analyses it (redundant joints: W405 when the run would go on with the
+    augmented formulation, else E401; loops that cannot close E503, a
     mechanism that cannot move W402), as ``mbdsl check`` does.
     """
     try:
@@ -113,7 +127,8 @@ def check(path, overrides: dict | None = None) -> list[Diagnostic]:
     except MbdError as err:
         return err.diagnostics
     try:
-        init = consistent_initial_state(assemble(model), float(model.settings.get("t_start", 0.0)))
+        init = consistent_initial_state(assemble(model), float(model.settings.get("t_start", 0.0)),
+                                        redundant=redundant_policy(model))
     except MbdError as err:
         return list(model.warnings) + err.diagnostics
     return list(model.warnings) + list(init.warnings)
@@ -156,7 +171,8 @@ def simulate(model: Model, method: str | None = None, h: float | None = None,
         The constraint formulation (``Method.formulated``); default: the
         ``simulate`` section's, else ``"lagrange"``. ``"augmented"`` runs
         through singular positions and redundant joints (newmark, hht-i3,
-        nstiff, genalpha; numpy engine).
+        nstiff, genalpha; numpy engine). Not given: a model with redundant
+        joints runs augmented (with W405) when the method takes it.
     **coefficients
         Method coefficients, e.g. ``alpha=-0.1``; default from the
         ``simulate`` section.
@@ -191,10 +207,17 @@ def simulate(model: Model, method: str | None = None, h: float | None = None,
     import time
     t0 = time.perf_counter()
     system = assemble(model)
-    m = m.formulated(formulation or s.get("formulation", "lagrange"), system)
+    t_start = float(s.get("t_start", 0.0))
+    chosen = formulation or s.get("formulation")
+    m.formulated(chosen or "lagrange", system)          # an unknown or refused one: now
+    initial = consistent_initial_state(system, t_start,
+                                       redundant=redundant_policy(model, method, chosen))
+    if chosen is None and any(d.code == "W405" for d in initial.warnings):
+        chosen = "augmented"         # redundant joints: the formulation that runs them
+    m = m.formulated(chosen or "lagrange", system)
     assembly_time = time.perf_counter() - t0
     try:
-        sol = integrate(system, m, float(t_end), float(h), t_start=float(s.get("t_start", 0.0)),
+        sol = integrate(system, m, float(t_end), float(h), t_start=t_start, initial=initial,
                         newton=newton, on_failure=on_failure, progress=progress,
                         writer=writer, engine=engine, output_every=output_every,
                         announce=announce, compile_policy=compile_policy)

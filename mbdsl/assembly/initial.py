@@ -24,6 +24,7 @@ sec. 3.6 (assembly) and 6.3 (initial conditions); ``methods.md``.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -228,7 +229,8 @@ QUASI_STATIC_ITERATIONS = 50
 
 
 def consistent_initial_state(system: AssembledSystem, t0: float = 0.0,
-                             tol: float = 1e-12, max_iter: int = 50) -> InitialState:
+                             tol: float = 1e-12, max_iter: int = 50,
+                             redundant: str = "error") -> InitialState:
     """Find q0, v0, a0, lambda0 consistent with all constraint levels.
 
     With flexible beams the elastic coordinates start at their quasi-static
@@ -254,6 +256,13 @@ def consistent_initial_state(system: AssembledSystem, t0: float = 0.0,
         itself runs until its correction is at round-off).
     max_iter : int
         Newton iterations allowed for closing the loops.
+    redundant : {"error", "accept"}
+        Redundant joints (rows of Phi_q dependent on others at the assembled
+        configuration, consistently): E401 ("error"), or W405 warnings naming
+        them and a start whose accelerations and multipliers are the
+        minimum-norm solution of the singular index-1 system ("accept", for
+        the augmented formulation; the multipliers of dependent rows are not
+        unique).
 
     Returns
     -------
@@ -267,10 +276,13 @@ def consistent_initial_state(system: AssembledSystem, t0: float = 0.0,
         velocities contradict the constraints, E505 when the index-1 matrix
         is singular (redundant constraints or a singular position).
     """
-    state = _consistent_state(system, t0, tol, max_iter, None)
+    if redundant not in ("error", "accept"):
+        raise ValueError(f"redundant must be 'error' or 'accept', got {redundant!r}")
+    state = _consistent_state(system, t0, tol, max_iter, None, redundant=redundant)
     if system.model.static:
         q = static_positions(system, t0, state.q, state.lam)
-        return _consistent_state(system, t0, tol, max_iter, None, q_start=q)
+        return _consistent_state(system, t0, tol, max_iter, None, q_start=q,
+                                 redundant=redundant)
     if not system.flexible_groups:
         return state
     cols = np.concatenate([b.elastic_columns() for b in system.model.flexible_bodies])
@@ -436,7 +448,7 @@ def static_positions(system, t0: float, q: np.ndarray, lam: np.ndarray) -> np.nd
     raise AssemblyError(d.message, [d])
 
 
-def _consistent_state(system, t0, tol, max_iter, elastic, q_start=None):
+def _consistent_state(system, t0, tol, max_iter, elastic, q_start=None, redundant="error"):
     """consistent_initial_state with the elastic coordinates started at
     ``elastic[elastic columns]`` (shape (n,)) instead of 0, or the whole
     configuration started at ``q_start`` (n,) (a static equilibrium)."""
@@ -508,7 +520,17 @@ def _consistent_state(system, t0, tol, max_iter, elastic, q_start=None):
     # here, by name, before the singular index-1 matrix could say less
     structure, warnings = None, []
     if system.m <= RANK_LIMIT:
-        structure = _check_structure(system, q, t0)     # E401 first: the cause, if any
+        structure = _check_structure(system, q, t0, redundant)  # E401 first: the cause, if any
+        if structure.redundant:
+            warnings += [dataclasses.replace(d, severity="warning", code="W405",
+                                             message=d.message.replace(
+                                                 "redundant constraints",
+                                                 "redundant constraints accepted by the "
+                                                 "augmented formulation"),
+                                             hint="their reactions are not unique (only "
+                                             "Phi_q^T lambda is); remove the joint for unique "
+                                             "reactions")
+                         for d in redundancy_diagnostics(structure, system.layout)]
     d = dof_diagnostic(model, structure.dof_rank if structure else n - system.m,
                        "rank" if structure else "count") if elastic is None else None
     if d is not None:
@@ -561,6 +583,13 @@ def _consistent_state(system, t0, tol, max_iter, elastic, q_start=None):
                 lu = scipy.sparse.linalg.splu(K)
                 sol = lu.solve(rhs)
                 d = np.abs(lu.U.diagonal())
+            elif structure is not None and structure.redundant:
+                # consistent but dependent rows: the minimum-norm solution (a
+                # unique; lambda one of many with the same Phi_q^T lambda)
+                K = _index1_matrix(system, q, t0)
+                sol = np.linalg.lstsq(K, rhs, rcond=None)[0]
+                d = np.ones(1)
+                lu = None
             else:
                 K = _index1_matrix(system, q, t0)
                 lu = scipy.linalg.lu_factor(K, check_finite=True)
@@ -579,6 +608,7 @@ def _consistent_state(system, t0, tol, max_iter, elastic, q_start=None):
         Q_start = None
         if system.multiplier_groups:        # friction: Q(lambda), at rest its Coulomb limit
             sol, Q_start = coulomb_start(system, t0, q, v, (
+                (lambda r: np.linalg.lstsq(K, r, rcond=None)[0]) if lu is None else
                 lu.solve if sparse else lambda r: scipy.linalg.lu_solve(lu, r)))
     except (np.linalg.LinAlgError, ValueError, RuntimeError, scipy.linalg.LinAlgWarning):
         if structure is None and system.m <= 4 * RANK_LIMIT:
@@ -719,9 +749,10 @@ def dof_diagnostic(model, dof: int, by: str):
     return None
 
 
-def _check_structure(system, q, t0) -> StructureReport:
-    """The structure report at q; AssemblyError (E401) naming redundant joints,
-    E506 when the constraint Jacobian is not finite."""
+def _check_structure(system, q, t0, redundant="error") -> StructureReport:
+    """The structure report at q; AssemblyError (E401) naming redundant joints
+    (unless ``redundant == "accept"``), E506 when the constraint Jacobian is
+    not finite."""
     try:
         report = analyse_structure(system, q, t0)
     except FloatingPointError as exc:
@@ -731,7 +762,7 @@ def _check_structure(system, q, t0) -> StructureReport:
                        "overflows here", hint="a point or length of extreme size: check the "
                        "units (SI: m) and the points this joint connects")
         raise AssemblyError(d.message, [d]) from None
-    if report.redundant:
+    if report.redundant and redundant != "accept":
         diags = redundancy_diagnostics(report, system.layout)
         raise AssemblyError(diags[0].message, diags, structure=report)
     return report

@@ -223,8 +223,10 @@ def _check(args) -> int:
     print(f"{args.model}: model {model.name}, {len(model.bodies)} bodies, "
           f"{model.n_coordinates} coordinates, {model.n_constraints} constraint equations")
     print(f"  DOF by count (Gruebler) = {model.dof}")
+    from .. import redundant_policy
     try:
-        init = consistent_initial_state(assemble(model), float(model.settings.get("t_start", 0.0)))
+        init = consistent_initial_state(assemble(model), float(model.settings.get("t_start", 0.0)),
+                                        redundant=redundant_policy(model))
     except MbdError as exc:
         _print_rank(getattr(exc, "structure", None))
         _print_diagnostics(exc.diagnostics)
