@@ -384,11 +384,13 @@ class _Checker:
                        f"{'s' if n_positional != 1 else ''}, got {len(pos)}",
                        el.kind_span or el.span, "wrong number of arguments")
             return None, kw
+        missing = False
         for name, default in allowed.items():
             if default is None and name not in kw:
                 self.error("E304", f"{context}: missing option '{name}'",
                            el.kind_span or el.span, f"'{name} = ...' is required")
-        return pos, kw
+                missing = True
+        return (None if missing else pos), kw       # no element without its required options
 
     # -- loops and indexed names ------------------------------------------------
     def resolve_name(self, name, env, span):
@@ -1283,6 +1285,8 @@ class _Checker:
             if any(self.is_particle(b) for b in j.bodies):
                 raise fail("the joint holds a particle, which does not turn")
             return OutputVariable(ref.text, "joint", field=attr, bodies=j.bodies)
+        if obj in self.element_spans or obj in self.broken_bodies:
+            raise _BrokenReference(ref.text, "E201", ref.span)     # its own error is reported
         raise fail(f"unknown body or joint '{obj}'", "E201",
                    _did_you_mean(str(obj), list(self.bodies) + list(self.joints)
                                  + list(self.OUTPUT_GROUPS)))
@@ -1310,6 +1314,8 @@ class _Checker:
                 continue
             try:
                 e = substitute(value, self.params, resolve)
+            except _BrokenReference:
+                continue                # a reference to a broken element: reported already
             except ExprError as err:
                 self.expr_error(err, o.span, f"output '{o.name}'")
                 continue

@@ -28,6 +28,7 @@ the last digit as the model written in SI numbers.
 from __future__ import annotations
 
 import functools
+import math
 import re
 from fractions import Fraction
 
@@ -220,6 +221,11 @@ def unit_text(dim: Dimension | None) -> str:
     return "*".join(f"{s}^{e}" if e != 1 else s for s, e in zip(("kg", "m", "s"), dim) if e)
 
 
+def _integer(x: float) -> bool:
+    """Whether x is a finite whole number of sensible size (an exponent)."""
+    return math.isfinite(x) and abs(x) < 1e6 and x == int(x)
+
+
 def dimension(expr, names: dict, references=None) -> Dimension | None:
     """The dimension of ``expr``, or None where it is not determined.
 
@@ -275,10 +281,10 @@ def dimension(expr, names: dict, references=None) -> Dimension | None:
             if a is None or a == NONE:
                 return a
             if isinstance(expr.right, Num) and expr.right.unit is None \
-                    and expr.right.value == int(expr.right.value):
+                    and _integer(expr.right.value):
                 return a ** int(expr.right.value)
             if isinstance(expr.right, Unary) and isinstance(expr.right.operand, Num) \
-                    and expr.right.operand.value == int(expr.right.operand.value):
+                    and _integer(expr.right.operand.value):
                 return a ** (-int(expr.right.operand.value) if expr.right.op == "-"
                              else int(expr.right.operand.value))
             return None
