@@ -182,6 +182,12 @@ def _time_loop(system, method, solver, sol, history, kinds, assembler, t_start, 
     # The limit is on the step size, not on consecutive failures: counting
     # failures lets a run creep towards a lock-up with ever smaller steps.
     h_min = h / 2.0 ** max_halvings
+    # Augmented formulation: a step that fails is first retried once JUMP
+    # times longer, to land past the singular position it failed next to,
+    # rather than halved, which aims the step end at it (every halving at a
+    # rank loss lands closer to it, where Newton converges slowest); the
+    # halvings follow only if the longer step fails too.
+    jumped = None                # the step size before a jump, while jumping
     try:
         while t < t_end - 1e-9 * h:
             step = min(h_cur, t_end - t)
@@ -204,12 +210,21 @@ def _time_loop(system, method, solver, sol, history, kinds, assembler, t_start, 
                                w0, kinds, scales, key=step,
                                floor=method.roundoff_floor(system, step, ctx.last.q))
             if not res.converged:
+                sol.stats_total.rejected += 1
+                if (method.formulation == "augmented" and jumped is None
+                        and t + JUMP * step < t_end - 1e-9 * h):
+                    jumped, h_cur = step, JUMP * step
+                    continue
+                if jumped is not None:
+                    step, jumped = jumped, None         # halve the step that failed first
                 if step / 2.0 >= h_min * (1.0 - 1e-12):
                     h_cur, good = step / 2.0, 0
-                    sol.stats_total.rejected += 1
                     continue
+                sol.stats_total.rejected -= 1           # the failure that ends the run
                 _fail(sol, method, ctx, res, t, step, h)
                 break
+            if jumped is not None:                      # landed past it: back to the size before
+                h_cur, jumped = jumped, None
             state = method.accept(res.w, ctx)
             history = (list(history) + [state])[-method.history_length:]
             sol.last_state = state
@@ -245,6 +260,10 @@ def _time_loop(system, method, solver, sol, history, kinds, assembler, t_start, 
         sol.status = "failed"
         sol.message = f"internal error at t = {t:.6g} s: {exc!r}"
         raise
+
+
+#: how much longer a failed step of the augmented formulation is retried first
+JUMP = 1.5
 
 
 def _finish(sol, writer, loop_start):
