@@ -780,7 +780,8 @@ class Solution:
         lines = [
             f"model {self.model.name}: {self.method_name} "
             + ", ".join(f"{k}={v:g}" for k, v in self.method_parameters.items())
-            + (", augmented Lagrangian formulation"
+            + (", augmented Lagrangian formulation (where Phi_q loses rank only "
+               "Phi_q^T lambda is unique)"
                if getattr(self, "formulation", "lagrange") == "augmented" else "")
             + f", h = {self.h:g} s, t = {self.t[0]:g} .. {self.t[-1]:g} s ({self.status})",
             f"  steps {tot.steps} (rejected {tot.rejected}) on the {self.engine} engine "

@@ -18,6 +18,8 @@ import scipy.special
 import mbdsl
 from mbdsl.errors import MbdModelError
 
+from .test_mechanisms import _zero_crossings      # the bottom passages, interpolated
+
 PENDULUM = """model particle_pendulum   # a point mass held 1 m from a pivot by a massless rod
 gravity (0, -9.81)
 particle bob { mass 1; shape circle(cm, 0.05) }
@@ -25,11 +27,6 @@ joint rod: distance(ground.origin, bob.cm, length = 1)
 initial bob.x = 1
 initial bob.vy = 0
 """
-
-
-def _zero_crossings(t, x):
-    i = np.flatnonzero(np.sign(x[:-1]) != np.sign(x[1:]))
-    return t[i] + (t[i + 1] - t[i]) * x[i] / (x[i] - x[i + 1])
 
 
 def test_a_particle_on_a_rod_has_the_exact_large_amplitude_period():
