@@ -209,12 +209,12 @@ def simulate(model: Model, method: str | None = None, h: float | None = None,
     system = assemble(model)
     t_start = float(s.get("t_start", 0.0))
     chosen = formulation or s.get("formulation")
-    m.formulated(chosen or "lagrange", system)          # an unknown or refused one: now
+    formulated = m.formulated(chosen or "lagrange", system)   # an unknown or refused one: now
     initial = consistent_initial_state(system, t_start,
                                        redundant=redundant_policy(model, method, chosen))
     if chosen is None and any(d.code == "W405" for d in initial.warnings):
-        chosen = "augmented"         # redundant joints: the formulation that runs them
-    m = m.formulated(chosen or "lagrange", system)
+        formulated = m.formulated("augmented", system)   # redundant joints: what runs them
+    m = formulated
     assembly_time = time.perf_counter() - t0
     try:
         sol = integrate(system, m, float(t_end), float(h), t_start=t_start, initial=initial,

@@ -676,14 +676,6 @@ class Solution:
                 out[name] = lam[name]
             elif name in outputs:
                 out[name] = outputs[name]
-            elif name.startswith("reaction.") or name.startswith("driver."):
-                out[name] = units.column_unit(name)
-            elif name.startswith("newton."):
-                out[name] = ""
-            elif name == "step.h":
-                out[name] = "s"
-            elif name.endswith(".deflection_mid"):
-                out[name] = "m"
             else:
                 out[name] = units.column_unit(name)
         return out

@@ -24,7 +24,6 @@ sec. 3.6 (assembly) and 6.3 (initial conditions); ``methods.md``.
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -522,15 +521,7 @@ def _consistent_state(system, t0, tol, max_iter, elastic, q_start=None, redundan
     if system.m <= RANK_LIMIT:
         structure = _check_structure(system, q, t0, redundant)  # E401 first: the cause, if any
         if structure.redundant:
-            warnings += [dataclasses.replace(d, severity="warning", code="W405",
-                                             message=d.message.replace(
-                                                 "redundant constraints",
-                                                 "redundant constraints accepted by the "
-                                                 "augmented formulation"),
-                                             hint="their reactions are not unique (only "
-                                             "Phi_q^T lambda is); remove the joint for unique "
-                                             "reactions")
-                         for d in redundancy_diagnostics(structure, system.layout)]
+            warnings += redundancy_diagnostics(structure, system.layout, accepted=True)
     d = dof_diagnostic(model, structure.dof_rank if structure else n - system.m,
                        "rank" if structure else "count") if elastic is None else None
     if d is not None:

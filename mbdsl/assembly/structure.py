@@ -162,8 +162,10 @@ def analyse_structure(system, q: np.ndarray, t: float) -> StructureReport:
     return report
 
 
-def redundancy_diagnostics(report: StructureReport, layout) -> list[Diagnostic]:
-    """E401 for each redundant joint, at its declaration."""
+def redundancy_diagnostics(report: StructureReport, layout,
+                           accepted: bool = False) -> list[Diagnostic]:
+    """E401 for each redundant joint, at its declaration; W405 instead when
+    ``accepted`` (the run goes on with the augmented formulation)."""
     out = []
     for r in report.redundant:
         rows = ", ".join(str(k) for k in r.rows)
@@ -173,10 +175,14 @@ def redundancy_diagnostics(report: StructureReport, layout) -> list[Diagnostic]:
                  else f"vanish{'es' if len(r.rows) == 1 else ''} at this configuration "
                       "(a zero Jacobian row: degenerate geometry)")
         out.append(Diagnostic(
-            "error", "E401",
-            f"redundant constraints: row{'s' if len(r.rows) > 1 else ''} {rows} of '{r.name}' "
+            "warning" if accepted else "error", "W405" if accepted else "E401",
+            "redundant constraints" + (" accepted by the augmented formulation" if accepted
+                                       else "")
+            + f": row{'s' if len(r.rows) > 1 else ''} {rows} of '{r.name}' "
             f"{what} ({report.summary()})", layout.span_of(r.name), "redundant",
-            hint=f"remove '{r.name}', or replace it by a joint that adds only what is missing "
+            hint="their reactions are not unique (only Phi_q^T lambda is); remove the joint "
+                 "for unique reactions" if accepted else
+                 f"remove '{r.name}', or replace it by a joint that adds only what is missing "
                  "(e.g. point_on_line instead of revolute); redundant rows make the "
                  "multipliers undetermined and the Newton matrix singular",
             notes=(f"{report.m} constraint equations, rank {report.rank}, "

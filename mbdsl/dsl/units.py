@@ -324,7 +324,8 @@ COLUMN_UNITS = {"t": "s", "x": "m", "y": "m", "phi": "rad", "vx": "m/s", "vy": "
                 "omega": "rad/s", "ax": "m/s^2", "ay": "m/s^2", "alpha": "rad/s^2",
                 "fx": "N", "fy": "N", "torque": "N*m", "force": "N", "kinetic": "J",
                 "potential": "J", "total": "J", "elastic": "J", "work": "J", "h": "s",
-                "angle": "rad", "rate": "rad/s", "distance": "m", "speed": "m/s"}
+                "angle": "rad", "rate": "rad/s", "distance": "m", "speed": "m/s",
+                "deflection_mid": "m"}
 
 
 def column_unit(name: str) -> str:
@@ -332,6 +333,6 @@ def column_unit(name: str) -> str:
     like the multipliers of a joint's rows and the constraint residuals)."""
     if name.startswith("energy."):
         return "J"
-    if name.startswith("lambda.") or name.startswith("drift.") or name.startswith("output."):
-        return ""
+    if name.startswith(("lambda.", "drift.", "output.", "newton.")):
+        return ""               # by the row or expression (Solution.column_units), or counts
     return COLUMN_UNITS.get(name.rsplit(".", 1)[-1], "")
