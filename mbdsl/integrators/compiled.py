@@ -70,11 +70,12 @@ __all__ = ["MODEL_SCHEMA", "MODEL_FIELDS", "residual", "jacobian_triplets", "for
 #: The recipe entries (``recipe.RECIPE_FIELDS``, checked below): literals here, so that
 #: numba's cache of this file never holds indices of another file's version.
 (FORM, HAS_Y, SPLIT, CQX, CQY, CVX, CVY, CM, CF, DM, DI, DV, SP, SV, SX, SY, MU_MOB, FLOOR,
- PQ0, PQ1, PV0, PV1, PA, VV0, VV1, VA, Y0V, KA1, KA2, KB, CQ, SM, PB, VB, BB, BA, BX) = range(37)
+ PQ0, PQ1, PV0, PV1, PA, VV0, VV1, VA, Y0V, KA1, KA2, KB, CQ, SM, PB, VB, BB, BA, BX,
+ REG) = range(38)
 _RECIPE = ("form", "has_y", "split", "cqx", "cqy", "cvx", "cvy", "cM", "cF", "dM", "dI", "dV",
            "sP", "sV", "sx", "sy", "mu_mob", "floor",
            "pq0", "pq1", "pv0", "pv1", "pa", "vv0", "vv1", "va", "y0v",
-           "ka1", "ka2", "kb", "cQ", "sm", "pb", "vb", "bb", "ba", "bx")
+           "ka1", "ka2", "kb", "cQ", "sm", "pb", "vb", "bb", "ba", "bx", "reg")
 _OPCODES = ("const", "t", "neg", "+", "-", "*", "/", "^", "sin", "cos", "tan", "asin", "acos",
             "atan", "sinh", "cosh", "tanh", "sqrt", "exp", "log", "abs", "sign", "x", "min",
             "max", "<", ">", "<=", ">=", "if")
@@ -1191,6 +1192,8 @@ def _jacobian_triplets(rec, I, Fl, t, q_pred, v_pred, qx_old, w, R, C, V, qx, vx
         p = _emit_friction_lam(I, Fl, n, qx, vx, lam, R, C, V, p, 0, l0, 1.0)
     if cqx != 0.0:
         p = _emit_phiq(I, Fl, n, qx, R, C, V, p, l0, 0, sP * cqx, False)
+    if rec[REG] != 0.0:                    # the augmented formulation: -epsilon I
+        p = _emit_identity(m, R, C, V, p, l0, l0, -rec[REG])
     if rec[HAS_Y] != 0.0:
         cqy, cvy, sV, dM, dI, dV = rec[CQY], rec[CVY], rec[SV], rec[DM], rec[DI], rec[DV]
         mu = w[u0:]
@@ -1403,6 +1406,9 @@ def _scales_weights(rec, I, Fl, q, w, opts, R, C, V, qx, weight, scratch):
         atol = max(atol_m if is_mult else atol_k, floor)
         sz = smax if is_mult else abs(scales[i] * w[i])
         weight[i] = scales[i] / (atol + rtol * sz)
+    if rec[REG] != 0.0:        # augmented: only Phi_q^T lambda is unique; converge on x
+        for i in range(m):
+            weight[l0 + i] = 0.0
 
 
 # --------------------------------------------------------------------------------------------
@@ -1654,7 +1660,8 @@ def triplet_bound(I) -> int:
     identity) blocks, four Hessian, two force, two G and six Phi_q blocks (a force
     block: 36 entries per spring-damper, 4 per rotational one, 1 per point
     force, 36 per partial derivative of a load of the state (6 rows by 6
-    columns) and 36 per load of the state (tau d^2 s of a joint force))."""
+    columns) and 36 per load of the state (tau d^2 s of a joint force)), and the
+    augmented formulation's multiplier diagonal."""
     def rows(k):
         """Instances of field k (the header's row count)."""
         return int(I[3 * k + 1])
@@ -1662,7 +1669,7 @@ def triplet_bound(I) -> int:
     kc, kp, kl, kd = rows(CROW), rows(PROW), rows(LROW), rows(DROW)
     ks, kr, kf = rows(SCOL1), rows(RCOL), rows(FCOL)
     phiq = 8 * kc + 6 * kp + 2 * kl + 6 * kd
-    return (6 * n + 6 * phiq + 4 * (2 * kc + 12 * kp + 36 * kd)
+    return (6 * n + rows(ROW_ELEMENT) + 6 * phiq + 4 * (2 * kc + 12 * kp + 36 * kd)
             + 2 * (36 * ks + 4 * kr + kf + 36 * rows(SDV) + 36 * rows(STQ) + 36 * rows(FRI))
             + 2 * (4 * kc + 6 * kp + 6 * kd) + 12 * rows(FRI))
 

@@ -31,7 +31,8 @@ rigid bodies; revolute, point_on_line, prismatic, fixed and distance joints; dri
 torques and point forces, constant or functions of time (compiled from the
 language's expressions); loads of the state (torques, joint torques and joint
 forces reading the motion); spring-dampers, rotational spring-dampers,
-friction in joints, gravity. Anything else runs on the numpy engine.
+friction in joints, gravity; both constraint formulations (Lagrange and
+augmented). Anything else runs on the numpy engine.
 """
 
 from __future__ import annotations
@@ -94,8 +95,6 @@ def unsupported(system, method) -> str | None:
     """Why the compiled engine cannot run this model with this method, or None."""
     if method.kernel_recipe(1.0, False) is None:
         return f"the compiled engine has no recipe for {method.name}"
-    if getattr(method, "formulation", "lagrange") != "lagrange":
-        return "the augmented formulation runs on the numpy engine"
     if system.flexible_groups:
         return "the model has flexible beams"
     for g in system.constraint_groups:
@@ -125,10 +124,20 @@ def newton_size(system, method) -> int:
     return sum(b.size for b in method.blocks(system))
 
 
+def recipe(method, h, first):
+    """The method's recipe at step size h [s] (``first``: a start-up step),
+    with its constraint formulation: ``reg`` = epsilon of the augmented
+    formulation (``Method.formulated``), 0 for Lagrange."""
+    from .recipe import RECIPE_FIELDS
+    rec = method.kernel_recipe(h, first)
+    rec[RECIPE_FIELDS.index("reg")] = getattr(method, "regularization", 0.0)
+    return rec
+
+
 def recipes(method, h):
     """(2, len(RECIPE_FIELDS)): the method's recipe at step size h [s] for a
     start-up step and for the steps after it (``compiled._run``)."""
-    return np.stack([method.kernel_recipe(h, True), method.kernel_recipe(h, False)])
+    return np.stack([recipe(method, h, True), recipe(method, h, False)])
 
 
 def _recipe_value(method, name, h=1e-3):
@@ -785,7 +794,7 @@ class SparseAdapter:
         predictors (``compiled._run``) for the kernels."""
         ctx = self._method.context(system, history, t, h)
         first = self._method.first_step(history, h)
-        rec = self._method.kernel_recipe(h, first)
+        rec = recipe(self._method, h, first)
         s = history[-1]
         p = history[-2] if len(history) >= 2 else s
         q_pred, v_pred = np.empty(system.n), np.empty(system.n)

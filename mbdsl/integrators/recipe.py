@@ -40,6 +40,12 @@ multiplier mobility for lambda, sy (times the mobility when ``mu_mob`` is
 (x, lambda) and (y, mu) diagonal blocks apart (``compiled``, "Linear
 solvers"): the coupling it leaves out must be O(h) against the blocks.
 
+The augmented formulation (``base.Method.formulated``) sets ``reg`` =
+epsilon: the Newton matrix's multiplier block is -epsilon I instead of 0,
+the residual is unchanged, and Newton judges convergence on x alone (the
+multipliers are not unique where Phi_q loses rank). The engine writes it
+(``engine.recipe``); the methods' own recipes leave it 0.
+
 Each method's ``kernel_recipe(h, first)`` (``base.Method``) fills one with
 :func:`make_recipe`; its equations are the ones its numpy ``residual``
 evaluates, and ``tests/integrators/test_engine.py`` checks the two against
@@ -74,7 +80,7 @@ LINEAR, ADDITIVE = 0, 1
 RECIPE_FIELDS = ("form", "has_y", "split", "cqx", "cqy", "cvx", "cvy", "cM", "cF", "dM", "dI",
                  "dV", "sP", "sV", "sx", "sy", "mu_mob", "floor",
                  "pq0", "pq1", "pv0", "pv1", "pa", "vv0", "vv1", "va", "y0v",
-                 "ka1", "ka2", "kb", "cQ", "sm", "pb", "vb", "bb", "ba", "bx")
+                 "ka1", "ka2", "kb", "cQ", "sm", "pb", "vb", "bb", "ba", "bx", "reg")
 
 
 def make_recipe(**values: float) -> np.ndarray:
