@@ -134,11 +134,32 @@ def check(path, overrides: dict | None = None) -> list[Diagnostic]:
     return list(model.warnings) + list(init.warnings)
 
 
+def step_control(settings: dict, rtol: float | None = None, atol: float | None = None):
+    """The run's :class:`~mbdsl.integrators.adaptive.StepControl`, or None for
+    fixed steps: rtol/atol given here first, then the ``simulate`` section's
+    ``rtol``, ``atol`` and ``tol`` (which sets both); one of the pair alone
+    sets the other to the same value.
+
+    Raises
+    ------
+    ValueError
+        A non-positive tolerance.
+    """
+    from .integrators.adaptive import StepControl
+    tol = settings.get("tol")
+    r = rtol if rtol is not None else settings.get("rtol", tol)
+    a = atol if atol is not None else settings.get("atol", tol)
+    if r is None and a is None:
+        return None
+    return StepControl(float(r if r is not None else a), float(a if a is not None else r))
+
+
 def simulate(model: Model, method: str | None = None, h: float | None = None,
              t_end: float | None = None, *, newton: NewtonOptions | None = None,
              on_failure: str = "raise", progress=None, writer=None, engine: str = "auto",
              output_every: int = 1, announce=None, compile_policy: str = "wait",
-             formulation: str | None = None, **coefficients) -> Solution:
+             formulation: str | None = None, rtol: float | None = None,
+             atol: float | None = None, **coefficients) -> Solution:
     """Simulate a model.
 
     Parameters
@@ -171,8 +192,14 @@ def simulate(model: Model, method: str | None = None, h: float | None = None,
         The constraint formulation (``Method.formulated``); default: the
         ``simulate`` section's, else ``"lagrange"``. ``"augmented"`` runs
         through singular positions and redundant joints (newmark, hht-i3,
-        nstiff, genalpha; numpy engine). Not given: a model with redundant
+        nstiff, genalpha). Not given: a model with redundant
         joints runs augmented (with W405) when the method takes it.
+    rtol, atol : float, optional
+        Error-controlled step sizes (``integrators.adaptive``): each step's
+        estimated local position error within atol + rtol |q| (atol in m
+        and rad), h the first step's size. Either one alone sets both;
+        default: the ``simulate`` section's ``rtol``, ``atol`` or ``tol``
+        (both), else fixed steps of h.
     **coefficients
         Method coefficients, e.g. ``alpha=-0.1``; default from the
         ``simulate`` section.
@@ -216,11 +243,12 @@ def simulate(model: Model, method: str | None = None, h: float | None = None,
         formulated = m.formulated("augmented", system)   # redundant joints: what runs them
     m = formulated
     assembly_time = time.perf_counter() - t0
+    control = step_control(s, rtol, atol)
     try:
         sol = integrate(system, m, float(t_end), float(h), t_start=t_start, initial=initial,
                         newton=newton, on_failure=on_failure, progress=progress,
                         writer=writer, engine=engine, output_every=output_every,
-                        announce=announce, compile_policy=compile_policy)
+                        announce=announce, compile_policy=compile_policy, control=control)
     except ConvergenceError as err:
         err.solution.timings["setup"] += assembly_time
         raise

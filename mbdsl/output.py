@@ -50,6 +50,9 @@ def metadata(solution, extra: dict | None = None) -> dict:
         "formulation": getattr(solution, "formulation", "lagrange"),
     }
     meta.update({f"method.{k}": repr(float(v)) for k, v in solution.method_parameters.items()})
+    control = getattr(solution, "control", None)
+    if control is not None:           # error-controlled steps; h is the first step's size
+        meta.update({"rtol": repr(control.rtol), "atol": repr(control.atol)})
     meta.update({"h": repr(solution.h), "t_end": repr(solution.t_end),
                  "status": solution.status, "message": solution.message.replace("\n", " ")})
     if model.parameters:

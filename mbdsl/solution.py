@@ -425,6 +425,9 @@ class Solution:
         self.method_parameters = method.parameters()
         #: the constraint formulation (``Method.formulated``)
         self.formulation = getattr(method, "formulation", "lagrange")
+        #: error-controlled steps (``integrators.adaptive.StepControl``), or None:
+        #: fixed steps of h
+        self.control = None
         # stored per step (the method's extras) and added on output (``output_extras``)
         self._stored_extras = tuple(method.extras)
         self.extra_names = self._stored_extras + tuple(getattr(method, "output_extras", ()))
@@ -775,7 +778,11 @@ class Solution:
             + (", augmented Lagrangian formulation (where Phi_q loses rank only "
                "Phi_q^T lambda is unique)"
                if getattr(self, "formulation", "lagrange") == "augmented" else "")
-            + f", h = {self.h:g} s, t = {self.t[0]:g} .. {self.t[-1]:g} s ({self.status})",
+            + (f", h = {self.h:g} s" if self.control is None else
+               f", error-controlled steps (rtol {self.control.rtol:g}, atol "
+               f"{self.control.atol:g}; h from {np.min(self.stats['h'][1:], initial=self.h):.3g} "
+               f"to {np.max(self.stats['h'][1:], initial=self.h):.3g} s)")
+            + f", t = {self.t[0]:g} .. {self.t[-1]:g} s ({self.status})",
             f"  steps {tot.steps} (rejected {tot.rejected}) on the {self.engine} engine "
             f"({self.linear_solver} linear solver"
             + (f"; not compiled: {self.engine_note}" if getattr(self, "engine_note", None) else "")

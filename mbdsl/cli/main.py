@@ -152,7 +152,12 @@ def _run_options(p):
                    help="constraint formulation (default: the model's simulate block, else "
                         "lagrange); augmented: the index-3 augmented Lagrangian, through "
                         "singular positions and redundant joints (newmark, hht-i3, nstiff, "
-                        "genalpha; numpy engine)")
+                        "genalpha)")
+    p.add_argument("--rtol", type=float, help="relative tolerance of each step's local position "
+                   "error: error-controlled step sizes starting from h (default: the model's "
+                   "simulate block, else fixed steps)")
+    p.add_argument("--atol", type=float, help="absolute tolerance of the local position error "
+                   "[m, rad] (default: rtol)")
     p.add_argument("--set", action="append", metavar="NAME=VALUE",
                    help="override a model parameter (repeatable)")
     p.add_argument("--newton", choices=["full", "modified"], default="modified",
@@ -301,6 +306,7 @@ def _run(args, model, writer=None):
                            progress=bar, writer=writer, alpha=args.alpha, beta=args.beta, gamma=args.gamma,
                            b=args.b, rho_inf=args.rho_inf, engine=args.engine, output_every=args.output_every,
                            announce=announce, formulation=getattr(args, "formulation", None),
+                           rtol=getattr(args, "rtol", None), atol=getattr(args, "atol", None),
                            compile_policy="background" if background_allowed() else "wait")
         sol.timings["setup"] += getattr(args, "load_time", 0.0)
     except AssemblyError as exc:

@@ -264,6 +264,28 @@ class Method(ABC):
         """
         return None
 
+    #: BDF2's coefficients follow the step ratio (error-controlled steps); set on
+    #: the copy that :meth:`with_variable_steps` returns
+    variable_steps: bool = False
+
+    def with_variable_steps(self) -> "Method":
+        """This method for a run whose step size changes every step (error
+        control, ``adaptive``): a copy with :attr:`variable_steps` set."""
+        import copy
+        out = copy.copy(self)
+        out.variable_steps = True
+        return out
+
+    def local_error(self, ctx: StepContext, new: StepState) -> np.ndarray:
+        """Estimated local error of the positions over the step from
+        ``ctx.last`` to ``new``, shape (n,) [m, rad] (``adaptive``: the
+        estimate of each method and its source).
+
+        The Newmark-type default: (beta - 1/6) h^2 (a_{n+1} - a_n)
+        (Zienkiewicz & Xie 1991), with the method's ``beta``.
+        """
+        return (self.beta - 1.0 / 6.0) * ctx.h ** 2 * (new.a - ctx.last.a)
+
     def first_step(self, history, h: float) -> bool:
         """Whether the step of size h after ``history`` is a start-up step
         (the recipe's ``first``); False for one-step methods."""

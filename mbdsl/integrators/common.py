@@ -193,7 +193,7 @@ def index3_newton_matrix(ctx, q, v, a, lam, c_mass: float, c_q: float, c_v: floa
     return assemble(ctx, T, n + system.m)
 
 
-def bdf_coefficients(history, h: float):
+def bdf_coefficients(history, h: float, variable: bool = False):
     """BDF derivative D x_{n+1} = c0 (x_{n+1} - xi(x)) for the given history.
 
     BDF2 (c0 = 3/(2h), xi = 4/3 x_n - 1/3 x_{n-1}) when two past states
@@ -201,6 +201,12 @@ def bdf_coefficients(history, h: float):
     start-up step, also taken after every change of the step size (BDF2's
     fixed-step coefficients would be wrong then). One BDF1 step has a local
     error O(h^2), which enters the global error once, so the order stays 2.
+
+    With ``variable`` (error-controlled steps, which change h every step)
+    a change of h keeps BDF2 with the coefficients of the step ratio
+    w = h / (t_n - t_{n-1}) (Hairer & Wanner, Solving ODEs II, sec. III.5):
+    c0 = (1 + 2w) / ((1 + w) h), xi = ((1 + w)^2 x_n - w^2 x_{n-1}) / (1 + 2w),
+    the fixed-step ones at w = 1.
 
     Returns
     -------
@@ -211,8 +217,15 @@ def bdf_coefficients(history, h: float):
         1 for the start-up step, 2 otherwise.
     """
     last = history[-1]
-    if len(history) >= 2 and abs((last.t - history[-2].t) - h) <= 1e-9 * h:
-        return 1.5 / h, ((4.0 / 3.0, last), (-1.0 / 3.0, history[-2])), 2
+    if len(history) >= 2:
+        spacing = last.t - history[-2].t
+        if abs(spacing - h) <= 1e-9 * h:
+            return 1.5 / h, ((4.0 / 3.0, last), (-1.0 / 3.0, history[-2])), 2
+        if variable and spacing > 0.0:
+            w = h / spacing
+            return ((1.0 + 2.0 * w) / ((1.0 + w) * h),
+                    (((1.0 + w) ** 2 / (1.0 + 2.0 * w), last),
+                     (-w * w / (1.0 + 2.0 * w), history[-2])), 2)
     return 1.0 / h, ((1.0, last),), 1
 
 

@@ -21,6 +21,7 @@ from ..assembly.initial import InitialState, consistent_initial_state
 from ..assembly.sparse import DENSE_LIMIT, JacobianAssembler
 from ..errors import ConvergenceError, Diagnostic
 from ..solution import Solution, StepStats
+from .adaptive import StepControl
 from .base import Method
 from .newton import Newton, NewtonOptions, NewtonStatus
 
@@ -41,7 +42,8 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
               initial: InitialState | None = None, newton: NewtonOptions | None = None,
               on_failure: str = "raise", max_halvings: int = 6, grow_after: int = 4,
               progress=None, writer=None, output_every: int = 1,
-              engine: str = "auto", announce=None, compile_policy: str = "wait") -> Solution:
+              engine: str = "auto", announce=None, compile_policy: str = "wait",
+              control: StepControl | None = None) -> Solution:
     """Integrate the equations of motion from t_start to t_end.
 
     Parameters
@@ -52,6 +54,7 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
     t_end : float [s]
     h : float [s]
         Nominal step size; the last step is shortened to land on t_end.
+        With ``control``: the first step's size.
 
     Other Parameters
     ----------------
@@ -91,6 +94,10 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
         this machine yet: compile them now ("wait"), or start building them
         in a detached process and run this model on the numpy engine
         ("background", what the command line does, announced).
+    control : StepControl, optional
+        Error-controlled step sizes (:mod:`.adaptive`): each step's local
+        error estimate within rtol and atol, on the numpy engine. None (the
+        default): fixed steps of h.
 
     Returns
     -------
@@ -100,7 +107,8 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
     ------
     ValueError
         For h <= 0, t_end <= t_start, output_every < 1, an unknown engine,
-        or ``engine="compiled"`` where it does not apply.
+        or ``engine="compiled"`` where it does not apply (also with
+        ``control``).
     ConvergenceError
         With ``on_failure="raise"`` when the run cannot go on.
     """
@@ -114,6 +122,12 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
         raise ValueError(f"output_every must be a positive integer, got {output_every!r}")
     output_every = int(output_every)
     from .engine import SparseAdapter, prepare_compiled, run_compiled, select_engine
+    if control is not None:
+        if engine == "compiled":
+            raise ValueError("the compiled engine takes fixed steps; error-controlled steps "
+                             "(rtol, atol) run on the numpy engine")
+        engine = "numpy"
+        method = method.with_variable_steps()
     which = select_engine(engine, system, method, compile_policy, announce)
     solver = Newton(newton)
     if which == "numpy" and solver.options.linear_solver == "banded":
@@ -151,9 +165,12 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
                                                (choice == "auto" and size > DENSE_LIMIT)))
     history = method.start(system, initial)
     sol = Solution(system, method, h, t_end, initial)
+    sol.control = control
     sol.engine = which
     from .engine import unsupported
-    sol.engine_note = unsupported(system, method) if engine == "auto" else None
+    sol.engine_note = (unsupported(system, method) if engine == "auto" else
+                       "error-controlled steps run on the numpy engine" if control is not None
+                       else None)
     sol.linear_solver = "sparse" if assembler.sparse else "dense"
     sol.append(history[-1], StepStats())
     sol.last_state = history[-1]
@@ -162,17 +179,18 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
     loop_start = clock()
     try:
         _time_loop(system, method, solver, sol, history, kinds, assembler, t_start, t_end, h,
-                   max_halvings, grow_after, output_every, progress, writer)
+                   max_halvings, grow_after, output_every, progress, writer, control)
     finally:
         _finish(sol, writer, loop_start)
     return _result(sol, on_failure)
 
 
 def _time_loop(system, method, solver, sol, history, kinds, assembler, t_start, t_end, h,
-               max_halvings, grow_after, output_every, progress, writer):
+               max_halvings, grow_after, output_every, progress, writer, control=None):
     """Step ``method`` from t_start to t_end with the Python Newton iteration,
     recording into ``sol`` (which holds the initial row); sets its status and
-    message (halving, regrowth and the failure report as in the module notes).
+    message (halving, regrowth and the failure report as in the module notes;
+    with ``control`` the step sizes of :mod:`.adaptive`).
     Ctrl-C ends the loop with status "interrupted"; any other exception is a
     bug: the status says so and the exception propagates."""
     pending = StepStats(steps=0)      # steps not yet recorded (output stride)
@@ -182,6 +200,11 @@ def _time_loop(system, method, solver, sol, history, kinds, assembler, t_start, 
     # The limit is on the step size, not on consecutive failures: counting
     # failures lets a run creep towards a lock-up with ever smaller steps.
     h_min = h / 2.0 ** max_halvings
+    adaptive = control is not None
+    if adaptive:
+        h_min = control.h_min or 1e-12 * (t_end - t_start)
+        h_max = min(control.h_max, t_end - t_start)
+        after_rejection = False
     # Augmented formulation: a step that fails is first retried once JUMP
     # times longer, to land past the singular position it failed next to,
     # rather than halved, which aims the step end at it (every halving at a
@@ -223,9 +246,21 @@ def _time_loop(system, method, solver, sol, history, kinds, assembler, t_start, 
                 sol.stats_total.rejected -= 1           # the failure that ends the run
                 _fail(sol, method, ctx, res, t, step, h)
                 break
+            state = method.accept(res.w, ctx)
+            if adaptive:
+                err = control.norm(method.local_error(ctx, state), ctx.last.q, state.q)
+                if err > 1.0:
+                    if step <= h_min * (1.0 + 1e-9):
+                        _fail_tolerance(sol, method, control, t, step, err)
+                        break
+                    sol.stats_total.rejected += 1
+                    h_cur = max(step * control.factor(err, True), h_min)
+                    after_rejection, jumped = True, None
+                    continue
+                h_cur = min(step * control.factor(err, after_rejection), h_max)
+                after_rejection, jumped = False, None
             if jumped is not None:                      # landed past it: back to the size before
                 h_cur, jumped = jumped, None
-            state = method.accept(res.w, ctx)
             history = (list(history) + [state])[-method.history_length:]
             sol.last_state = state
             n_steps += 1
@@ -239,7 +274,7 @@ def _time_loop(system, method, solver, sol, history, kinds, assembler, t_start, 
             if recorded:
                 sol.append(state, pending)
                 pending = StepStats(steps=0)
-            if h_cur < h:
+            if h_cur < h and not adaptive:
                 good += 1
                 if good >= grow_after:
                     h_cur, good = min(2.0 * h_cur, h), 0
@@ -329,6 +364,18 @@ def _stiff_elements(system, h):
             if period < 4.0 * h:
                 out.append((f.name, period))
     return sorted(out, key=lambda x: x[1])
+
+
+def _fail_tolerance(sol, method, control, t, step, err):
+    """Stop a run whose local error stays above the tolerance at the smallest step."""
+    msg = (f"the step from t = {t:.6g} s cannot meet the error tolerance with "
+           f"{method.describe()}: at the smallest step h = {step:.3g} s its local error is "
+           f"{err:.3g} times rtol = {control.rtol:g}, atol = {control.atol:g}")
+    sol.status, sol.message = "failed", msg
+    sol.diagnostics = [Diagnostic(
+        "error", "E602", msg, None, "",
+        hint="a force or driver with a jump or a kink at this time (the error does not "
+             "shrink with h there), or a tolerance below the round-off of q: loosen rtol/atol")]
 
 
 def _fail(sol, method, ctx, res, t, step, h):

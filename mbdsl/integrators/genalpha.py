@@ -93,6 +93,12 @@ class _GenAlphaBase(Method):
         return ((1.0 - self.alpha_f) * qdd + self.alpha_f * s.a
                 - self.alpha_m * s.extra["aux"]) / (1.0 - self.alpha_m)
 
+    def local_error(self, ctx, new):
+        """(beta - 1/6) h^2 (a_{n+1} - a_n) on the auxiliary acceleration a, the
+        one the Newmark formulas of generalized-alpha integrate (Zienkiewicz &
+        Xie 1991; ``adaptive``)."""
+        return (self.beta - 1.0 / 6.0) * ctx.h ** 2 * (new.extra["aux"] - ctx.last.extra["aux"])
+
 
 class GenAlpha(_GenAlphaBase):
     """Generalized-alpha for the index-3 equations of motion (Arnold & Bruls 2007).

@@ -87,9 +87,18 @@ class NStiffSI2(Method):
         """BDF2 (BDF1 when ``first``) in the unknowns of this class."""
         return bdf_recipe(h, first, index2=True)
 
+    def local_error(self, ctx, new):
+        """BDF2's error constant 2/9 times h^2 (a_{n+1} - a_n), which stands for
+        h^3 times the third derivative of q (Hairer & Wanner II, sec. III.2;
+        ``adaptive``); a BDF1 start-up step: h^2 a_{n+1} / 2, its own leading
+        term."""
+        if ctx.cache["bdf_order"] == 1:
+            return 0.5 * ctx.h ** 2 * new.a
+        return (2.0 / 9.0) * ctx.h ** 2 * (new.a - ctx.last.a)
+
     def first_step(self, history, h):
         """BDF1 when no two past states are h apart (``bdf_coefficients``)."""
-        return bdf_coefficients(history, h)[2] == 1
+        return bdf_coefficients(history, h, self.variable_steps)[2] == 1
 
     def start(self, system, initial) -> list[StepState]:
         """One state at t_0 (mu_0 = 0); the first step is BDF1."""
@@ -99,7 +108,7 @@ class NStiffSI2(Method):
 
     def context(self, system, history, t, h) -> StepContext:
         """BDF coefficients and the xi terms."""
-        c0, weights, order = bdf_coefficients(history, h)
+        c0, weights, order = bdf_coefficients(history, h, self.variable_steps)
         ctx = StepContext(system, tuple(history[-2:]), t, h)
         ctx.cache.update(c0=c0, bdf_order=order,
                          xi_q=sum(w * s.q for w, s in weights),
