@@ -15,6 +15,7 @@ rendered diagnostic on stderr and a non-zero exit status, never a traceback:
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from pathlib import Path
 
@@ -110,9 +111,11 @@ def build_parser() -> argparse.ArgumentParser:
                     "joint between two bodies)")
     st.add_argument("--at-h", type=float, help="step of the drift and cost studies "
                     "(default: the middle of the steps)")
-    st.add_argument("--tol", default="1e-3,1e-5,1e-7",
+    st.add_argument("--tol", default=None,
                     help="recommend: comma-separated target errors in the first quantity "
-                    "(default 1e-3,1e-5,1e-7)")
+                    "(default 1e-3,1e-5,1e-7); work-precision: tolerances of error-controlled "
+                    "runs instead of step sizes, FIRST:LAST by decades (1e-3:1e-8) or "
+                    "comma-separated, each run starting from the largest h")
     st.add_argument("--repeat", type=int, default=3,
                     help="timed repeats of the cost and work-precision runs (median; default 3)")
     st.add_argument("--jobs", type=int, help="worker processes (default: the number of cores)")
@@ -468,17 +471,30 @@ def _study_options(args, model):
         [m.strip() for m in args.methods.split(",") if m.strip()]
     if args.repeat < 1:
         raise ValueError("--repeat must be at least 1")
+    sweep = None
+    text = args.tol if args.tol is not None else "1e-3,1e-5,1e-7"
     try:
-        tols = tuple(float(x) for x in args.tol.split(",") if x.strip())
-    except ValueError:
-        raise ValueError(f"--tol expects comma-separated numbers, got '{args.tol}'") from None
+        if ":" in text:                      # FIRST:LAST, every decade between
+            first, _, last = text.partition(":")
+            a, b = float(first), float(last)
+            k = math.log10(max(a, b) / min(a, b))
+            if abs(k - round(k)) > 1e-9:
+                raise ValueError
+            tols = tuple(float(f"{max(a, b) / 10.0**i:.12g}") for i in range(int(round(k)) + 1))
+        else:
+            tols = tuple(float(x) for x in text.split(",") if x.strip())
+    except (ValueError, ZeroDivisionError):
+        raise ValueError(f"--tol expects comma-separated numbers or FIRST:LAST a whole number "
+                         f"of decades apart, got '{text}'") from None
     if not tols or any(not (x > 0) for x in tols):
-        raise ValueError("--tol: target errors must be positive")
+        raise ValueError("--tol: values must be positive")
+    if args.tol is not None and args.kind == "work-precision":
+        sweep = tols                     # the work-precision study sweeps tolerances
     return StudyOptions(methods=methods, hs=hs, t_end=float(t_end),
                         quantities=[x.strip() for x in args.quantity.split(",") if x.strip()],
                         reference=args.reference, repeat=args.repeat, joint=args.joint,
                         h_single=args.at_h, jobs=args.jobs, scheduler=args.scheduler,
-                        tols=tols)
+                        tols=tols, sweep_tols=sweep)
 
 
 def _study(args) -> int:

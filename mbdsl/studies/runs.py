@@ -93,6 +93,9 @@ class RunSpec:
         Return the total energy at every step.
     drift_joint : str or None
         Return that joint's velocity constraint rows at every step.
+    tol : float or None
+        Error-controlled steps with rtol = atol = tol (``h`` the first
+        step); None: fixed steps of h.
     """
 
     method: str
@@ -102,16 +105,19 @@ class RunSpec:
     repeat: int = 0
     energy: bool = False
     drift_joint: str | None = None
+    tol: float | None = None
 
     @property
     def key(self) -> tuple:
-        """(method, h, coefficients): runs with equal keys give equal results."""
-        return (self.method, self.h, self.coefficients)
+        """(method, h, coefficients[, tol]): runs with equal keys give equal results."""
+        base = (self.method, self.h, self.coefficients)
+        return base if self.tol is None else base + (self.tol,)
 
     def label(self) -> str:
         """``hht-i3 alpha=-0.3 h=2^-9``-style label for tables and messages."""
         coef = " ".join(f"{k}={v:g}" for k, v in self.coefficients)
-        return f"{self.method}{' ' + coef if coef else ''} h={format_h(self.h)}"
+        step = f"h={format_h(self.h)}" if self.tol is None else f"tol={self.tol:g}"
+        return f"{self.method}{' ' + coef if coef else ''} {step}"
 
 
 def format_h(h: float) -> str:
@@ -202,6 +208,8 @@ def execute_run(source: ModelSource, spec: RunSpec) -> RunData:
     from .. import ConvergenceError, simulate
     model = source.load()
     coef = dict(spec.coefficients)
+    if spec.tol is not None:
+        coef.update(rtol=spec.tol, atol=spec.tol)
     try:
         sol = simulate(model, method=spec.method, h=spec.h, t_end=spec.t_end, **coef)
         status, message = "completed", ""

@@ -139,6 +139,10 @@ class StudyOptions:
         Dask scheduler address.
     tols : tuple of float
         Target errors of ``recommend`` (in the first quantity's units).
+    sweep_tols : tuple of float or None
+        Tolerances (rtol = atol) of a work-precision sweep with
+        error-controlled steps, each run starting from the largest h;
+        None: the work-precision study sweeps the step sizes.
     """
 
     methods: list
@@ -152,6 +156,7 @@ class StudyOptions:
     jobs: int | None = None
     scheduler: str | None = None
     tols: tuple = (1e-3, 1e-5, 1e-7)
+    sweep_tols: tuple | None = None
 
     def __post_init__(self):
         self.hs = sorted({float(h) for h in self.hs}, reverse=True)
@@ -301,22 +306,25 @@ def _plan(kinds, o: StudyOptions, joint, model) -> list[RunSpec]:
     """
     wanted: dict = {}
 
-    def need(method, h, coefficients=(), repeat=0, energy=False, drift=None):
+    def need(method, h, coefficients=(), repeat=0, energy=False, drift=None, tol=None):
         """Add a run or widen an existing one with the same key."""
         plain = _effective(model, method)
         if all(plain.get(k) == v for k, v in coefficients):
             coefficients = ()
-        spec = RunSpec(method, h, o.t_end, tuple(coefficients), repeat, energy, drift)
+        spec = RunSpec(method, h, o.t_end, tuple(coefficients), repeat, energy, drift, tol)
         old = wanted.get(spec.key)
         if old is not None:
             spec = RunSpec(method, h, o.t_end, tuple(coefficients), max(repeat, old.repeat),
-                           energy or old.energy, drift or old.drift_joint)
+                           energy or old.energy, drift or old.drift_joint, tol)
         wanted[spec.key] = spec
 
     timed = o.repeat if ("work-precision" in kinds or "recommend" in kinds) else 0
     for kind in kinds:
         for m in o.methods:
-            if kind in ("convergence", "work-precision", "recommend"):
+            if kind == "work-precision" and o.sweep_tols:
+                for tol in o.sweep_tols:         # error-controlled, from the largest h
+                    need(m, o.hs[0], repeat=o.repeat, tol=tol)
+            elif kind in ("convergence", "work-precision", "recommend"):
                 for h in o.hs:
                     need(m, h, repeat=timed)
             elif kind == "energy":
@@ -676,7 +684,9 @@ def _cost(o, runs, ref, model, **_):
 
 
 def _work_precision(o, runs, ref, model, **_):
-    """Error against wall time, every method and h."""
+    """Error against wall time, every method and h (or tolerance)."""
+    if o.sweep_tols:
+        return _work_precision_tols(o, runs, ref, model)
     from ..plotting import Panel, Series
     q = o.quantities[0]
     table = Table("work_precision", f"Error in {q} at T against wall time (median of {o.repeat} "
@@ -699,6 +709,41 @@ def _work_precision(o, runs, ref, model, **_):
                "lower-left method gives the same error for less time.")
     return Section("work-precision", caption, [table],
                    [("work_precision", [panel], "Work-precision")])
+
+
+def _work_precision_tols(o, runs, ref, model):
+    """Error against wall time, every method and tolerance (error-controlled steps)."""
+    from ..plotting import Panel, Series
+    q = o.quantities[0]
+    table = Table("work_precision", f"Error in {q} at T against wall time with error-controlled "
+                  f"steps, rtol = atol = tol, from h = {o.hs[0]:g} s (median of {o.repeat} after "
+                  "a warm-up run)", ["method", "engine", "tol", "steps", "rejected",
+                                      f"error {q}", "time [s]", "status"])
+    panel = Panel(f"work-precision by tolerance ({q})", "wall time [s]", f"error in {q} at T",
+                  xscale="log", yscale="log")
+    achieved = Panel(f"achieved error against tolerance ({q})", "tol", f"error in {q} at T",
+                     xscale="log", yscale="log")
+    for m in o.methods:
+        xs, ys, ts = [], [], []
+        for tol in o.sweep_tols:
+            run = runs[(m, o.hs[0], (), tol)]
+            err = quantity_error(model, run, ref, q)[0] if run.completed else float("nan")
+            table.rows.append([m, run.engine, tol, run.stats.get("steps", 0),
+                               run.stats.get("rejected", 0), err, run.time,
+                               "completed" if run.completed
+                               else f"failed at t = {run.t_stop:.4g} s"])
+            if run.completed:
+                xs.append(run.time)
+                ys.append(err)
+                ts.append(tol)
+        panel.series.append(Series(m, np.array(xs), np.array(ys)))
+        achieved.series.append(Series(m, np.array(ts), np.array(ys)))
+    caption = ("What accuracy costs in time when the step size follows a tolerance: each line "
+               "is one method over the tolerances (rtol = atol); the lower-left method gives "
+               "the same error for less time. The second panel shows the error each "
+               "tolerance achieves.")
+    return Section("work-precision", caption, [table],
+                   [("work_precision", [panel, achieved], "Work-precision by tolerance")])
 
 
 #: The h a recommendation extrapolates to is this fraction of the one the fitted order

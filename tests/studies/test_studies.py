@@ -7,6 +7,7 @@ simulate), the velocity constraint (round-off for the index-2 methods), and
 determinism (--jobs 1 and --jobs 2 give identical numbers).
 """
 
+import csv
 import re
 
 import numpy as np
@@ -326,3 +327,20 @@ def test_recommend_picks_a_method_and_an_h_that_meet_each_target():
         sol = integrate(system, make_method(method), 0.5, h, initial=init)
         error = np.abs(sol.q[-1] - result.reference.q_end).max()
         assert error <= tol, (tol, method, h, basis, error)
+
+
+def test_work_precision_by_tolerance(tmp_path):
+    """--tol FIRST:LAST on the work-precision study: error-controlled runs, one
+    per decade, each starting from the largest h; the achieved error falls
+    with the tolerance (against the study's own DOP853 reference)."""
+    status = main(["study", "work-precision", str(PENDULUM), "--t-end", "1", "--h", "1e-2",
+                   "--methods", "hht-i3,nstiff", "--tol", "1e-4:1e-6", "--repeat", "1",
+                   "--jobs", "1", "--quantity", "rod.phi", "-q", "-o", str(tmp_path / "wp")])
+    assert status == 0
+    rows = list(csv.DictReader(open(tmp_path / "wp" / "work_precision.csv")))
+    assert [float(r["tol"]) for r in rows] == [1e-4, 1e-5, 1e-6] * 2
+    for method in ("hht-i3", "nstiff"):
+        errors = [float(r["error rod.phi"]) for r in rows if r["method"] == method]
+        steps = [int(r["steps"]) for r in rows if r["method"] == method]
+        assert errors[0] > 10 * errors[-1] and steps[0] < steps[1] < steps[2]
+        assert all(r["engine"] == "numpy/dense" for r in rows if r["method"] == method)
