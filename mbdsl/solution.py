@@ -472,17 +472,19 @@ class Solution:
         counts : ndarray of int, shape (k, 6)
             Per row: iterations, residuals, jacobians, factorizations, steps
             accepted at the round-off floor, steps (``StepStats``).
-        h : float [s]
-            The step size of these rows.
+        h : float or ndarray, shape (k,) [s]
+            The step size of these rows (one per row with error-controlled
+            steps); 0 for a row that records no new step.
         """
         k = len(t)
         seg = {"t": t, "q": q, "v": v, "a": a, "lam": lam, "iterations": counts[:, 0],
                "residuals": counts[:, 1], "jacobians": counts[:, 2],
-               "factorizations": counts[:, 3], "h": np.full(k, float(h))}
+               "factorizations": counts[:, 3],
+               "h": np.full(k, float(h)) if np.ndim(h) == 0 else np.asarray(h, float)}
         seg.update({x: extras[x] for x in self._stored_extras})
         self._rows.extend(seg)
         tot, sums = self.stats_total, counts.sum(axis=0)
-        if h > 0:
+        if np.all(np.asarray(h) > 0):
             tot.steps += int(sums[5])
         tot.iterations += int(sums[0])
         tot.residuals += int(sums[1])

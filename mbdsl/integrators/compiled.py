@@ -64,18 +64,18 @@ from .recipe import RECIPE_FIELDS
 
 __all__ = ["MODEL_SCHEMA", "MODEL_FIELDS", "residual", "jacobian_triplets", "force_term", "old_force",
            "predict", "state", "layout", "advance", "mobility",
-           "accumulate", "run", "triplet_bound", "pack", "unpack", "lapack_band_addresses",
+           "accumulate", "run", "run_adaptive", "triplet_bound", "pack", "unpack", "lapack_band_addresses",
            "DENSE", "BANDED"]
 
 #: The recipe entries (``recipe.RECIPE_FIELDS``, checked below): literals here, so that
 #: numba's cache of this file never holds indices of another file's version.
 (FORM, HAS_Y, SPLIT, CQX, CQY, CVX, CVY, CM, CF, DM, DI, DV, SP, SV, SX, SY, MU_MOB, FLOOR,
  PQ0, PQ1, PV0, PV1, PA, VV0, VV1, VA, Y0V, KA1, KA2, KB, CQ, SM, PB, VB, BB, BA, BX,
- REG) = range(38)
+ REG, ERR, EAUX) = range(40)
 _RECIPE = ("form", "has_y", "split", "cqx", "cqy", "cvx", "cvy", "cM", "cF", "dM", "dI", "dV",
            "sP", "sV", "sx", "sy", "mu_mob", "floor",
            "pq0", "pq1", "pv0", "pv1", "pa", "vv0", "vv1", "va", "y0v",
-           "ka1", "ka2", "kb", "cQ", "sm", "pb", "vb", "bb", "ba", "bx", "reg")
+           "ka1", "ka2", "kb", "cQ", "sm", "pb", "vb", "bb", "ba", "bx", "reg", "err", "eaux")
 _OPCODES = ("const", "t", "neg", "+", "-", "*", "/", "^", "sin", "cos", "tan", "asin", "acos",
             "atan", "sinh", "cosh", "tanh", "sqrt", "exp", "log", "abs", "sign", "x", "min",
             "max", "<", ">", "<=", ">=", "if")
@@ -89,8 +89,9 @@ DENSE, BANDED = 0, 1
 #: The two forms of a recipe: the linear family, and HHT with additive corrections.
 LINEAR, ADDITIVE = 0, 1
 
-#: Newton status codes (same meaning as ``NewtonStatus``).
-CONVERGED, MAX_ITER, DIVERGING, SINGULAR, NONFINITE = 0, 1, 2, 3, 4
+#: Newton status codes (same meaning as ``NewtonStatus``), and the error-controlled
+#: loop's: the tolerance not met at the smallest step.
+CONVERGED, MAX_ITER, DIVERGING, SINGULAR, NONFINITE, TOLERANCE = 0, 1, 2, 3, 4, 5
 
 #: The model data's schema, one entry per field: (name, "i" or "f", columns per
 #: instance; 0 for a 1-D field). Packing (``pack``), the kernels' named access (the
@@ -1782,6 +1783,158 @@ def _run(rec2, I, Fl, h, t0, n_steps, step0, every, q, v, a, b, lam, mu, q_prev,
     return CONVERGED, n_steps, rec
 
 
+@_jit
+def _recipe_at(mono, h, rec):
+    """The recipe at step size h from its monomials: rec[i] = mono[0, i] h^mono[1, i]
+    (``engine.recipe_monomials``: every entry of a one-step recipe is c h^k)."""
+    for i in range(rec.shape[0]):
+        c = mono[0, i]
+        rec[i] = c * h ** mono[1, i] if c != 0.0 else 0.0
+
+
+@_jit
+def _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, ctl, opts,
+                  solver, lin, lu_state, R, C, V, out_t, out_h, out_q, out_v, out_a, out_lam,
+                  out_mu, out_stats, counts, F0, state):
+    """The time loop with error-controlled steps (``adaptive``), from (t0, q, v,
+    a, b, lam, mu) towards t_end, until t_end or the out_* arrays are full.
+
+    ``mono`` (2, len(RECIPE_FIELDS)): the recipe's monomials (one-step
+    recipes only); ``ctl`` = (rtol, atol, safety, min_factor, max_factor,
+    h_min, h_max). After each converged step the local error estimate
+    e = err (x - x_n) (on b when ``eaux``) is measured in the weighted RMS
+    norm E; E > 1 rejects the step (retried with h max(min_factor, safety
+    E^(-1/3))), else it is accepted and h grows by min(max_factor, ...) (not
+    right after a rejection). A step Newton cannot converge is halved. Every
+    ``every``-th accepted step and the last one are recorded, with their step
+    size in out_h. ``state`` (3,) in/out: (t, h of the next step, rejected
+    steps); returns (status, steps, records): status TOLERANCE when the
+    error stays above 1 at h_min, a Newton status when a step at h_min
+    does not converge."""
+    n, m = _rows(I, MASS), _rows(I, ROW_ELEMENT)
+    rc = np.empty(mono.shape[1])
+    _recipe_at(mono, 1.0, rc)
+    size, l0, e0, a0 = _layout(rc, n, m)
+    has_extra = e0 < size
+    additive = rc[FORM] == ADDITIVE
+    rtol, atol, safety, fmin, fmax, h_min, h_max = (ctl[0], ctl[1], ctl[2], ctl[3], ctl[4],
+                                                    ctl[5], ctl[6])
+    r = np.empty(size)
+    dw = np.empty(size)
+    w = np.empty(size)
+    weight = np.empty(size)
+    qx = np.zeros(n + 3)
+    vx = np.zeros(n + 3)
+    work = np.zeros(n + 3)
+    q_pred = np.empty(n)
+    v_pred = np.empty(n)
+    qx_old = np.zeros(n + 3)
+    F = np.empty(n)
+    b_new = np.empty(n)
+    scratch = np.empty(m + I[_HEADER - 1] + 2 * size)
+    F[:] = 0.0
+    if mono[0, CF] != 0.0:
+        if F0.shape[0] == n and not math.isnan(F0[0]):
+            F[:] = F0
+        else:
+            _old_force(rc, I, Fl, t0, q, v, lam, F, qx, vx, work)
+    t = t0
+    h_factored = -1.0                   # the step size of the stored factorization
+    after_rejection = False
+    rec = 0
+    k = 0
+    while t < t_end - 1e-12 * (t_end - t0) and rec < out_t.shape[0]:
+        step = min(h, t_end - t)
+        if t_end - (t + step) < 1e-6 * step:      # land on t_end, never leave a sliver
+            step = t_end - t
+        _recipe_at(mono, step, rc)
+        if step != h_factored:          # the Newton matrix depends on h
+            lu_state[0] = 0.0
+            h_factored = step
+        predict(rc, True, q, v, a, b, q, v, q_pred, v_pred)
+        w[:] = 0.0
+        w[a0:a0 + n] = a
+        w[l0:l0 + m] = lam
+        if additive:
+            for j in range(n):
+                w[j] = rc[KA1] * a[j]
+                w[n + j] = rc[KA2] * a[j]
+            w[e0:e0 + m] = lam
+        elif has_extra:
+            for j in range(n):
+                w[n + j] = rc[Y0V] * v[j]
+        qx_old[:n] = q
+        _scales_weights(rc, I, Fl, q, w, opts, R, C, V, qx, weight, scratch)
+        status = _newton(rc, I, Fl, t + step, q_pred, v_pred, F, qx_old, w, weight, opts, solver,
+                         lin, lu_state, R, C, V, r, dw, qx, vx, work, counts)
+        if status != CONVERGED:
+            if step <= h_min * (1.0 + 1e-9):
+                state[0], state[1] = t, step
+                return status, k, rec
+            state[2] += 1.0
+            h = max(0.5 * step, h_min)
+            after_rejection = True
+            continue
+        _state(rc, n, w, q_pred, v_pred, qx, vx)
+        # the local error estimate and its weighted RMS norm
+        if rc[EAUX] != 0.0:
+            b_new[:] = b
+            _advance(rc, b_new, a, w[a0:a0 + n])
+        acc = 0.0
+        for j in range(n):
+            d = (b_new[j] - b[j]) if rc[EAUX] != 0.0 else (w[a0 + j] - a[j])
+            e = rc[ERR] * d / (atol + rtol * max(abs(q[j]), abs(qx[j])))
+            acc += e * e
+        err = math.sqrt(acc / n) if n > 0 else 0.0
+        if err == 0.0:
+            factor = fmax
+        elif not np.isfinite(err):
+            factor = fmin
+        else:
+            factor = min(fmax, max(fmin, safety * err ** (-1.0 / 3.0)))
+        if err > 1.0:
+            if step <= h_min * (1.0 + 1e-9):
+                state[0], state[1] = t, step
+                return TOLERANCE, k, rec
+            state[2] += 1.0
+            h = max(step * min(factor, 1.0), h_min)
+            after_rejection = True
+            continue
+        if after_rejection:
+            factor = min(factor, 1.0)
+        after_rejection = False
+        q[:] = qx[:n]
+        v[:] = vx[:n]
+        if rc[EAUX] != 0.0:
+            b[:] = b_new
+        else:
+            _advance(rc, b, a, w[a0:a0 + n])
+        a[:] = w[a0:a0 + n]
+        lam[:] = w[l0:l0 + m]
+        if has_extra:
+            mu[:] = w[e0:e0 + m]
+        t = t + step
+        if rc[CF] != 0.0:
+            _old_force(rc, I, Fl, t, q, v, lam, F, qx, vx, work)
+        counts[5] += 1
+        k += 1
+        h = min(step * factor, h_max)
+        if (step0 + k) % every == 0 or t >= t_end - 1e-12 * (t_end - t0):
+            out_t[rec] = t
+            out_h[rec] = step
+            out_q[rec] = q
+            out_v[rec] = v
+            out_a[rec] = a
+            out_lam[rec] = lam
+            out_mu[rec] = mu
+            for i in range(6):
+                out_stats[rec, i] = counts[i]
+            counts[:] = 0
+            rec += 1
+    state[0], state[1] = t, h
+    return CONVERGED, k, rec
+
+
 # --------------------------------------------------------------------------------------------
 # Packing, and the public entry points on the packed model data
 #
@@ -1871,6 +2024,16 @@ def force_term(I, Fl, t, q, v, lam, out, qx, vx, work):
 def mobility(I, Fl, q, out, R, C, V, qx):
     """Multiplier mobility per constraint row into out (m,)."""
     _mobility(I, Fl, q, out, R, C, V, qx, np.empty(I[_HEADER - 1]))
+
+
+@_jit
+def run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, ctl, opts,
+                 solver, lin, lu_state, R, C, V, out_t, out_h, out_q, out_v, out_a, out_lam,
+                 out_mu, out_stats, counts, F0, state):
+    """The time loop with error-controlled steps; see ``_run_adaptive``."""
+    return _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, ctl, opts,
+                         solver, lin, lu_state, R, C, V, out_t, out_h, out_q, out_v, out_a,
+                         out_lam, out_mu, out_stats, counts, F0, state)
 
 
 @_jit

@@ -96,8 +96,9 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
         ("background", what the command line does, announced).
     control : StepControl, optional
         Error-controlled step sizes (:mod:`.adaptive`): each step's local
-        error estimate within rtol and atol, on the numpy engine. None (the
-        default): fixed steps of h.
+        error estimate within rtol and atol (NSTIFF and NSTIFF-SI2 on the
+        numpy engine, the others on either). None (the default): fixed
+        steps of h.
 
     Returns
     -------
@@ -121,13 +122,17 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
     if not (isinstance(output_every, (int, np.integer)) and output_every >= 1):
         raise ValueError(f"output_every must be a positive integer, got {output_every!r}")
     output_every = int(output_every)
-    from .engine import SparseAdapter, prepare_compiled, run_compiled, select_engine
+    from .engine import (SparseAdapter, prepare_compiled, run_compiled, run_compiled_adaptive,
+                         select_engine)
     if control is not None:
-        if engine == "compiled":
-            raise ValueError("the compiled engine takes fixed steps; error-controlled steps "
-                             "(rtol, atol) run on the numpy engine")
-        engine = "numpy"
         method = method.with_variable_steps()
+        from .engine import recipe_monomials
+        if method.kernel_recipe(1.0, False) is not None and recipe_monomials(method) is None:
+            # BDF2's coefficients follow the step ratio: the numpy engine's
+            if engine == "compiled":
+                raise ValueError(f"the compiled engine takes error-controlled steps with the "
+                                 f"one-step methods; {method.name} runs them on the numpy engine")
+            engine = "numpy"
     which = select_engine(engine, system, method, compile_policy, announce)
     solver = Newton(newton)
     if which == "numpy" and solver.options.linear_solver == "banded":
@@ -145,13 +150,21 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
         if plan.kind != "sparse":
             sol = Solution(system, method, h, t_end, initial)
             sol.engine, sol.linear_solver = "compiled", plan.kind
+            sol.control = control
             sol.append(method.start(system, initial)[-1], StepStats())
             sol.timings = timings
             loop_start = clock()
             try:
-                run_compiled(system, method, t_end, h, t_start, initial, solver.options, sol,
-                             plan, output_every=output_every, progress=progress, writer=writer,
-                             max_halvings=max_halvings, grow_after=grow_after, cm=cm)
+                if control is not None:
+                    run_compiled_adaptive(system, method, t_end, h, t_start, initial,
+                                          solver.options, sol, plan, control,
+                                          output_every=output_every, progress=progress,
+                                          writer=writer, cm=cm)
+                else:
+                    run_compiled(system, method, t_end, h, t_start, initial, solver.options,
+                                 sol, plan, output_every=output_every, progress=progress,
+                                 writer=writer, max_halvings=max_halvings,
+                                 grow_after=grow_after, cm=cm)
             finally:
                 _finish(sol, writer, loop_start)
             return _result(sol, on_failure)
@@ -168,8 +181,10 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
     sol.control = control
     sol.engine = which
     from .engine import unsupported
-    sol.engine_note = (unsupported(system, method) if engine == "auto" else
-                       "error-controlled steps run on the numpy engine" if control is not None
+    sol.engine_note = (unsupported(system, method) if engine == "auto" and
+                       unsupported(system, method) else
+                       "BDF2 with variable steps runs on the numpy engine"
+                       if control is not None and which == "numpy" and engine != "numpy"
                        else None)
     sol.linear_solver = "sparse" if assembler.sparse else "dense"
     sol.append(history[-1], StepStats())

@@ -134,6 +134,26 @@ def recipe(method, h, first):
     return rec
 
 
+def recipe_monomials(method):
+    """(2, len(RECIPE_FIELDS)): the method's recipe as monomials c h^k (row 0
+    the coefficients c, row 1 the powers k), which the error-controlled
+    compiled loop evaluates at any h (``compiled._recipe_at``); None for a
+    recipe that is not (BDF2: its start-up step differs, and with variable
+    steps its coefficients follow the step ratio)."""
+    r1, r2 = recipe(method, 1.0, False), recipe(method, 2.0, False)
+    if not np.array_equal(r1, recipe(method, 1.0, True)):
+        return None
+    k = np.zeros_like(r1)
+    nz = r1 != 0.0
+    if np.any(r2[~nz] != 0.0):
+        return None
+    k[nz] = np.round(np.log2(np.abs(r2[nz] / r1[nz])))
+    ok = np.allclose(r1 * 2.0 ** k, r2, rtol=1e-12, atol=0.0)
+    r3 = recipe(method, 0.37, False)
+    ok = ok and np.allclose(r1 * 0.37 ** k, r3, rtol=1e-12, atol=0.0)
+    return np.stack([r1, k]) if ok else None
+
+
 def recipes(method, h):
     """(2, len(RECIPE_FIELDS)): the method's recipe at step size h [s] for a
     start-up step and for the steps after it (``compiled._run``)."""
@@ -593,6 +613,94 @@ def _step_plan(t_start, t_end, h):
     if rest < 1e-6 * h and full:
         return [(full - 1, h), (1, h + rest)] if full > 1 else [(1, h + rest)]
     return ([(full, h)] if full else []) + [(1, rest)]
+
+
+def run_compiled_adaptive(system, method, t_end, h, t_start, initial, newton_options, sol, plan,
+                          control, *, output_every=1, progress=None, writer=None, cm=None):
+    """Integrate into ``sol`` with error-controlled steps (``control``, a
+    :class:`~.adaptive.StepControl`) in the compiled loop
+    (``compiled._run_adaptive``); a step that cannot go on (Newton at the
+    smallest step, or the tolerance out of reach) hands the rest of the run
+    to the numpy engine, which reports it in the model's words. Sets
+    sol.status and sol.message."""
+    from .driver import integrate as numpy_integrate
+    K = _kernels()
+    cm = cm or CompiledModel(system)
+    I, Fl, n, m = cm.ints, cm.floats, system.n, system.m
+    size = newton_size(system, method)
+    mono = recipe_monomials(method)
+    start = method.start(system, initial)[-1]
+    q, v, a = start.q.copy(), start.v.copy(), start.a.copy()
+    b = np.array(start.extra["aux"], dtype=float) if "aux" in start.extra else np.zeros(n)
+    lam = start.lam.copy()
+    mu = np.zeros(m)
+    extra = method.extras[0] if method.extras else None
+    if extra is not None and extra in start.extra:
+        mu[:] = start.extra[extra]
+    opt = newton_options
+    opts = np.array([opt.rtol, opt.atol_kinematic, opt.atol_multiplier, opt.max_iter,
+                     opt.refresh_rate(plan.factorization_is_expensive(size)),
+                     1.0 if opt.jacobian.value == "full" else 0.0])
+    h_min = control.h_min or 1e-12 * (t_end - t_start)
+    ctl = np.array([control.rtol, control.atol, control.safety, control.min_factor,
+                    control.max_factor, h_min, min(control.h_max, t_end - t_start)])
+    solver = K.DENSE if plan.kind == "dense" else K.BANDED
+    lin = plan.workspace(size, cm.bound)
+    lu_state = np.array([0.0, 0.5, 0.0])
+    R, C, V = np.empty(cm.bound, np.int64), np.empty(cm.bound, np.int64), np.empty(cm.bound)
+    counts = np.zeros(6, np.int64)
+    out_t, out_h = np.empty(CHUNK), np.empty(CHUNK)
+    out_q, out_v, out_a = (np.empty((CHUNK, n)) for _ in range(3))
+    out_lam, out_mu = np.empty((CHUNK, m)), np.empty((CHUNK, m))
+    out_stats = np.empty((CHUNK, 6), np.int64)
+    F_start = np.full(n, np.nan)
+    if getattr(initial, "Q", None) is not None:
+        from .common import start_force_term
+        from .recipe import ADDITIVE, RECIPE_FIELDS
+        additive = mono[0, RECIPE_FIELDS.index("form")] == ADDITIVE
+        F_start = -initial.Q if additive else start_force_term(system, initial)
+    state = np.array([t_start, h, 0.0])
+    step_no, t = 0, t_start
+    try:
+        while t < t_end - 1e-12 * (t_end - t_start):
+            status, taken, nrec = K.run_adaptive(
+                mono, I, Fl, state[1], t, t_end, step_no, output_every, q, v, a, b, lam, mu,
+                ctl, opts, solver, lin, lu_state, R, C, V, out_t, out_h, out_q, out_v, out_a,
+                out_lam, out_mu, out_stats, counts, F_start if step_no == 0 else
+                np.full(n, np.nan), state)
+            if nrec:
+                sol.append_block(out_t[:nrec].copy(), out_q[:nrec].copy(), out_v[:nrec].copy(),
+                                 out_a[:nrec].copy(), out_lam[:nrec].copy(),
+                                 {extra: out_mu[:nrec].copy()} if extra is not None else {},
+                                 out_stats[:nrec].copy(), out_h[:nrec].copy())
+            sol.stats_total.rejected += int(state[2])
+            state[2] = 0.0
+            step_no += taken
+            t = float(state[0])
+            if status != 0:
+                if counts[5]:          # accepted steps since the last record: keep the last
+                    sol.append_block(np.array([t]), q[None].copy(), v[None].copy(),
+                                     a[None].copy(), lam[None].copy(),
+                                     {extra: mu[None].copy()} if extra is not None else {},
+                                     counts[None].copy(), np.array([float(state[1])]))
+                    counts[:] = 0
+                part = numpy_integrate(
+                    system, method, t_end, float(state[1]), t_start=t,
+                    initial=_resume_state(system, t, q, v, a, lam, {"aux": b.copy()}),
+                    newton=opt, on_failure="return", engine="numpy", control=control)
+                sol.extend(part, start=1)
+                sol.status, sol.message = part.status, part.message
+                sol.diagnostics = part.diagnostics
+                return sol
+            if progress is not None:
+                progress(t, float(state[1]), int(sol.stats_total.iterations))
+            if writer is not None:
+                writer.append(sol)
+        sol.status, sol.message = "completed", f"reached t_end = {t_end:g} s"
+    except KeyboardInterrupt:
+        sol.status = "interrupted"
+        sol.message = f"interrupted by the user at t = {t:.6g} s; every accepted step is kept"
+    return sol
 
 
 def _resume_state(system, t, q, v, a, lam, method_state=None):

@@ -150,8 +150,9 @@ def warm_up(groups=GROUPS) -> None:
     by running a two-link pendulum two steps through them, with the
     argument types of every real run:
 
-    * "dense": the compiled time loop with the explicit inverse (``run``);
-    * "banded": the same loop with the band LU (``run``, and
+    * "dense": the compiled time loops with the explicit inverse (``run``,
+      and ``run_adaptive`` for error-controlled steps);
+    * "banded": the same loops with the band LU (``run``, ``run_adaptive``, and
       ``jacobian_triplets`` for the band ordering);
     * "sparse": the compiled residuals and triplets under the Python Newton
       loop (``residual``, ``jacobian_triplets``, ``accumulate``,
@@ -166,9 +167,13 @@ def warm_up(groups=GROUPS) -> None:
     system = assemble(load_text(_PENDULUM, file="<kernel warm-up>"))
     groups = [g for g in groups if g != "banded" or lapack_band_addresses() is not None]
     _loaded.update(groups)           # integrate below must not warm up again
+    from .adaptive import StepControl
     for solver in groups:
         integrate(system, HHTI3(), 2e-3, 1e-3, engine="compiled",
                   newton=NewtonOptions(linear_solver=solver))
+        if solver != "sparse":       # the loop with error-controlled steps (run_adaptive)
+            integrate(system, HHTI3(), 2e-3, 1e-3, engine="compiled",
+                      newton=NewtonOptions(linear_solver=solver), control=StepControl(1e-6, 1e-6))
 
 
 def ensure_loaded(group: str | None = None, announce=None) -> float:

@@ -46,6 +46,11 @@ the residual is unchanged, and Newton judges convergence on x alone (the
 multipliers are not unique where Phi_q loses rank). The engine writes it
 (``engine.recipe``); the methods' own recipes leave it 0.
 
+``err`` is the coefficient of the local error estimate of error-controlled
+steps (``adaptive``): e = err (x_{n+1} - x_n), err = (beta - 1/6) h^2 for
+the Newmark formulas (Zienkiewicz & Xie 1991), on the auxiliary
+acceleration b instead of x when ``eaux`` is 1 (generalized-alpha).
+
 Each method's ``kernel_recipe(h, first)`` (``base.Method``) fills one with
 :func:`make_recipe`; its equations are the ones its numpy ``residual``
 evaluates, and ``tests/integrators/test_engine.py`` checks the two against
@@ -80,7 +85,8 @@ LINEAR, ADDITIVE = 0, 1
 RECIPE_FIELDS = ("form", "has_y", "split", "cqx", "cqy", "cvx", "cvy", "cM", "cF", "dM", "dI",
                  "dV", "sP", "sV", "sx", "sy", "mu_mob", "floor",
                  "pq0", "pq1", "pv0", "pv1", "pa", "vv0", "vv1", "va", "y0v",
-                 "ka1", "ka2", "kb", "cQ", "sm", "pb", "vb", "bb", "ba", "bx", "reg")
+                 "ka1", "ka2", "kb", "cQ", "sm", "pb", "vb", "bb", "ba", "bx", "reg",
+                 "err", "eaux")
 
 
 def make_recipe(**values: float) -> np.ndarray:
@@ -106,7 +112,7 @@ def newmark_recipe(h: float, beta: float, gamma: float, **values: float) -> np.n
     """
     return make_recipe(cqx=beta * h * h, cvx=gamma * h, sx=gamma * h,
                        pq0=1.0, pv0=h, pa=0.5 * h * h * (1.0 - 2.0 * beta),
-                       vv0=1.0, va=h * (1.0 - gamma), **values)
+                       vv0=1.0, va=h * (1.0 - gamma), err=(beta - 1.0 / 6.0) * h * h, **values)
 
 
 def bdf_recipe(h: float, first: bool, index2: bool) -> np.ndarray:
@@ -136,7 +142,7 @@ def additive_recipe(h: float, alpha: float, beta: float, gamma: float, b: float)
                        ka1=beta, ka2=gamma, kb=b, sP=1.0 / (h * h), sV=1.0 / h,
                        sx=h, sy=gamma * h, sm=0.5 * h, floor=1.0 / h,
                        pq0=1.0, pv0=h, pa=0.5 * h * h * (1.0 - 2.0 * beta),
-                       vv0=1.0, va=h * (1.0 - gamma))
+                       vv0=1.0, va=h * (1.0 - gamma), err=(beta - 1.0 / 6.0) * h * h)
 
 
 def genalpha_recipe(h: float, alpha_m: float, alpha_f: float, beta: float, gamma: float,
@@ -159,7 +165,8 @@ def genalpha_recipe(h: float, alpha_m: float, alpha_f: float, beta: float, gamma
                        pq0=1.0, pv0=h, pa=beta * alpha_f * d * h * h,
                        pb=(0.5 - beta - beta * alpha_m * d) * h * h,
                        vv0=1.0, va=gamma * alpha_f * d * h, vb=(1.0 - gamma - gamma * alpha_m * d) * h,
-                       bb=-alpha_m * d, ba=alpha_f * d, bx=(1.0 - alpha_f) * d, **values)
+                       bb=-alpha_m * d, ba=alpha_f * d, bx=(1.0 - alpha_f) * d,
+                       err=(beta - 1.0 / 6.0) * h * h, eaux=1.0, **values)
 
 
 def uses_auxiliary(rec) -> bool:
