@@ -344,8 +344,7 @@ def consistent_initial_state(system: AssembledSystem, t0: float = 0.0,
         state.warnings.append(_not_quasi_static(system, elastic_acceleration(state)))
         return state
     for b in system.model.flexible_bodies:
-        translations = [i for i, name in zip(b.elastic_columns(), b.mesh.names) if name[0] in "uv"]
-        largest = float(np.max(np.abs(state.q[translations])))
+        largest = b.mesh.max_translation(state.q[b.elastic_columns()])
         if largest > LARGE_DEFLECTION * b.length:
             state.warnings.append(Diagnostic(
                 "warning", "W403", f"flexible beam '{b.name}' starts with a quasi-static deflection "

@@ -770,7 +770,8 @@ class _Checker:
     #: flexible beam properties -> (unit, must be an integer)
     BEAM_PROPERTIES = {"length": ("m", False), "E": ("Pa", False), "area": ("m^2", False),
                        "second_moment": ("m^4", False), "elements": ("", True),
-                       "mass": ("kg", False), "density": ("kg/m^3", False)}
+                       "mass": ("kg", False), "density": ("kg/m^3", False),
+                       "modes": ("", True)}
 
     def check_beam(self, b: BeamSpec):
         """Check a flexible beam: positive properties, mass or density (one),
@@ -812,7 +813,8 @@ class _Checker:
                            sp, "not positive")
                 continue
             if integer and v != int(v):
-                self.error("E301", f"the number of elements of {ctx} must be an integer, got {v:g}",
+                what = "number of elements" if key == "elements" else "number of modes"
+                self.error("E301", f"the {what} of {ctx} must be an integer, got {v:g}",
                            sp, "not an integer")
                 continue
             values[key] = v
@@ -854,6 +856,14 @@ class _Checker:
             self.broken_bodies.add(b.name)
             return
         mass = float(mass)
+        modes = int(values.get("modes", 0))
+        nf = 3 * int(values["elements"])         # 3 per node, less the frame's three
+        if modes > nf:
+            self.error("E303", f"{ctx}: {modes} modes, but its {int(values['elements'])} "
+                       f"elements have {nf} elastic coordinates", props["modes"].span,
+                       "too many modes", hint=f"give at most {nf} modes, or more elements")
+            self.broken_bodies.add(b.name)
+            return
         points = {"start": 0.0, "end": length}
         for p in b.points:
             if p.name in points:
@@ -878,7 +888,7 @@ class _Checker:
         self.bodies[b.name] = FlexibleBeam(b.name, len(self.bodies), mass, length, values["E"],
                                            values["area"], values["second_moment"],
                                            int(values["elements"]), frame, points, span=b.span,
-                                           stiffening=stiffening)
+                                           stiffening=stiffening, modes=modes)
 
     def check_joints(self):
         """Resolve joint points and options; reject joints of a body to itself."""

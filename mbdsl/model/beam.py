@@ -43,7 +43,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["BeamMesh", "ShapeIntegrals", "FRAMES"]
+__all__ = ["BeamMesh", "ModalMesh", "ShapeIntegrals", "FRAMES"]
 
 #: reference conditions: frame name -> removed nodal dofs as (node, component)
 #: with component 0 = u, 1 = v, 2 = theta, node -1 the last node
@@ -247,6 +247,11 @@ class BeamMesh:
             S_tilde=np.einsum("g,gai,gaj->ij", mu, S, IS),
         )
 
+    def max_translation(self, qf) -> float:
+        """Largest nodal translation |u|, |v| [m] of the elastic state qf (nf,)."""
+        rows = [i for i, name in enumerate(self.names) if name[0] in "uv"]
+        return float(np.max(np.abs(np.asarray(qf)[rows]), initial=0.0))
+
     def deflection_mid(self, qf) -> np.ndarray:
         """Mid-span transverse deflection relative to the deformed beam's chord [m].
 
@@ -272,3 +277,131 @@ class BeamMesh:
         mid = p[..., 1, :] - p[..., 0, :]
         cross = chord[..., 0] * mid[..., 1] - chord[..., 1] * mid[..., 0]
         return cross / np.hypot(chord[..., 0], chord[..., 1])
+
+
+class ModalMesh:
+    """A beam mesh whose transverse (bending) coordinates are reduced to modes:
+    q_f = Phi eta.
+
+    The modes are the lowest eigenvectors of K Phi = M_ff Phi Omega^2 of the
+    full mesh (its linear stiffness and the elastic mass block of
+    :meth:`BeamMesh.shape_integrals`) under the frame's reference
+    conditions, computed once at build: with the ``first_node`` frame the
+    clamped (cantilever) modes, with ``chord`` those with both ends on the
+    chord; the frame's reference conditions play the part of the fixed
+    interface of a Craig-Bampton reduction, without its constraint modes
+    (Craig & Bampton, AIAA J. 6 (1968) 1313; Shabana, Dynamics of Multibody
+    Systems, sec. 5.7: modal coordinates in the floating frame). Each mode is
+    scaled so that its largest nodal displacement (a translation, or a slope
+    theta times the element length l) is +1 m: eta_i is that amplitude [m].
+
+    Axial (u) and transverse (v, theta) coordinates do not couple in K and
+    M_ff, so every mode is one or the other. Without geometric stiffening the
+    K lowest modes are kept, whichever they are. With it, the K lowest
+    bending modes are kept and the axial nodal coordinates stay as they are:
+    the nonlinear axial strain u' + v'^2 / 2 needs an axial displacement that
+    follows the foreshortening of every bending shape, which a few axial
+    modes cannot (measured on the spin-up beam: with its one static axial
+    shape the tip lagged a third of the nodal mesh's lag; with the quartic
+    term dropped the beam buckled).
+
+    Every quantity the floating frame needs follows by the same
+    transformation, so the formulation is unchanged: S(x) Phi, Phi^T K Phi,
+    Phi^T M_ff Phi, Bu Phi and Phi^T G Phi.
+
+    Parameters
+    ----------
+    mesh : BeamMesh
+    modes : int
+        K, 1 <= K <= the number of candidate modes (mesh.nf, or its
+        transverse coordinates with ``keep_axial``).
+    mass_per_length : float [kg/m]
+    EA, EI : float [N, N m^2]
+    keep_axial : bool
+        Reduce the bending coordinates only (geometric stiffening).
+
+    Attributes
+    ----------
+    nf : int
+        K, plus the axial coordinates with ``keep_axial``.
+    names : list of str
+        ``eta1`` .. ``etaK`` (then ``u1`` .. with ``keep_axial``).
+    Phi : ndarray, shape (mesh.nf, nf)
+    frequencies : ndarray, shape (K,) [rad/s]
+        The modes' natural frequencies (of the linear beam in its frame).
+
+    Raises
+    ------
+    ValueError
+        K outside its range.
+    """
+
+    def __init__(self, mesh: BeamMesh, modes: int, mass_per_length: float, EA: float,
+                 EI: float, keep_axial: bool = False):
+        import scipy.linalg
+        axial = np.array([name[0] == "u" for name in mesh.names])
+        candidates = np.flatnonzero(~axial) if keep_axial else np.arange(mesh.nf)
+        if int(modes) != modes or not 1 <= modes <= len(candidates):
+            raise ValueError(f"this beam has 1 to {len(candidates)} modes, got {modes}")
+        self.mesh = mesh
+        self.length, self.elements, self.frame, self.l = (mesh.length, mesh.elements,
+                                                          mesh.frame, mesh.l)
+        K = mesh.stiffness(EA, EI)
+        M = mesh.shape_integrals(mass_per_length).M_ff
+        sub = np.ix_(candidates, candidates)
+        w2, Vc = scipy.linalg.eigh(K[sub], M[sub], subset_by_index=(0, int(modes) - 1))
+        V = np.zeros((mesh.nf, int(modes)))
+        V[candidates] = Vc
+        # the largest nodal displacement +1 m, a slope theta counting as theta l
+        # (some modes of the chord frame are slopes alone, with no translation)
+        measure = np.array([mesh.l if name[0] == "t" else 1.0 for name in mesh.names])
+        for i in range(V.shape[1]):
+            t = V[:, i] * measure
+            V[:, i] /= t[np.argmax(np.abs(t))]
+        self.frequencies = np.sqrt(np.maximum(w2, 0.0))
+        self.names = [f"eta{i + 1}" for i in range(int(modes))]
+        if keep_axial:
+            kept = np.flatnonzero(axial)
+            unit = np.zeros((mesh.nf, len(kept)))
+            unit[kept, np.arange(len(kept))] = 1.0
+            V = np.column_stack([V, unit])
+            self.names += [mesh.names[i] for i in kept]
+        self.Phi = V
+        self.nf = V.shape[1]
+
+    def shape(self, x) -> np.ndarray:
+        """S(x) Phi, shape (k, 2, nf) for k arc lengths [m]."""
+        return self.mesh.shape(x) @ self.Phi
+
+    def stiffness(self, EA: float, EI: float) -> np.ndarray:
+        """Phi^T K Phi, shape (nf, nf) [N/m]."""
+        return self.Phi.T @ self.mesh.stiffness(EA, EI) @ self.Phi
+
+    def strain_gradients(self):
+        """(Bu Phi, Phi^T G Phi) of :meth:`BeamMesh.strain_gradients`."""
+        Bu, G = self.mesh.strain_gradients()
+        return Bu @ self.Phi, np.einsum("ia,eij,jb->eab", self.Phi, G, self.Phi)
+
+    def quadrature(self):
+        """The full mesh's Gauss points and weights."""
+        return self.mesh.quadrature()
+
+    def shape_integrals(self, mass_per_length: float) -> ShapeIntegrals:
+        """The inertia shape integrals in the reduced coordinates."""
+        s = self.mesh.shape_integrals(mass_per_length)
+        P = self.Phi
+        return ShapeIntegrals(mass=s.mass, s0=s.s0, I0=s.I0, S_bar=s.S_bar @ P,
+                              M_ff=P.T @ s.M_ff @ P, a_u=P.T @ s.a_u, a_I=P.T @ s.a_I,
+                              S_tilde=P.T @ s.S_tilde @ P)
+
+    def nodal(self, eta) -> np.ndarray:
+        """The full mesh's elastic coordinates Phi eta, shape (..., mesh.nf)."""
+        return np.asarray(eta, dtype=float) @ self.Phi.T
+
+    def max_translation(self, eta) -> float:
+        """Largest nodal translation |u|, |v| [m] of the elastic state eta (nf,)."""
+        return self.mesh.max_translation(self.nodal(eta))
+
+    def deflection_mid(self, eta) -> np.ndarray:
+        """:meth:`BeamMesh.deflection_mid` of the nodal state Phi eta [m]."""
+        return self.mesh.deflection_mid(self.nodal(eta))

@@ -349,6 +349,16 @@ class Shape:
     radius: float = 0.0
 
 
+@functools.lru_cache(maxsize=64)
+def _mesh(length, elements, frame, modes, mass_per_length, EA, EI, stiffening):
+    """A beam's mesh, cached on its data (the modal one solves an eigenproblem);
+    with geometric stiffening only the bending coordinates are reduced."""
+    from .beam import BeamMesh, ModalMesh
+    mesh = BeamMesh(length, elements, frame)
+    return mesh if not modes else ModalMesh(mesh, modes, mass_per_length, EA, EI,
+                                            keep_axial=stiffening)
+
+
 @dataclass(frozen=True)
 class FlexibleBeam:
     """A planar Euler-Bernoulli beam in the floating frame of reference.
@@ -375,6 +385,11 @@ class FlexibleBeam:
     stiffening : bool
         Geometric stiffening (the nonlinear axial strain, ``assembly/ffr.py``);
         False: the linear floating-frame beam (``stiffening off``).
+    modes : int
+        K > 0: the elastic coordinates are the amplitudes of the K lowest
+        modes of the mesh (``modes K``, :class:`~mbdsl.model.beam.ModalMesh`;
+        with geometric stiffening the K lowest bending modes and the axial
+        nodal coordinates); 0: the nodal coordinates.
     """
 
     name: str
@@ -390,17 +405,21 @@ class FlexibleBeam:
     elastic_offset: int = 0
     span: Span | None = None
     stiffening: bool = True
+    modes: int = 0
 
     @property
     def mesh(self):
-        """The :class:`~mbdsl.model.beam.BeamMesh` (built on each call: cheap)."""
-        from .beam import BeamMesh
-        return BeamMesh(self.length, self.elements, self.frame)
+        """The :class:`~mbdsl.model.beam.BeamMesh`, or with ``modes`` K its
+        :class:`~mbdsl.model.beam.ModalMesh` (built once per beam data)."""
+        return _mesh(self.length, self.elements, self.frame, self.modes,
+                     self.mass / self.length, self.E * self.area, self.E * self.second_moment,
+                     self.stiffening)
 
     @property
     def n_elastic(self) -> int:
-        """n_f, the number of elastic coordinates (3 per element)."""
-        return 3 * self.elements
+        """n_f, the number of elastic coordinates (3 per element, less the
+        frame's three; K with ``modes``)."""
+        return self.mesh.nf
 
     @property
     def inertia(self) -> float:
