@@ -13,6 +13,7 @@ import numpy as np
 from ..assembly.sparse import JacobianAssembler, Term
 
 __all__ = ["newmark_predictor", "force_term", "index3_newton_matrix", "bdf_coefficients",
+           "bdf_local_error",
            "roundoff_floor", "EPS", "Terms", "assemble", "hht_coefficients",
            "acceleration_scales", "si2_blocks", "si2_scales", "si2_residual",
            "si2_newton_matrix"]
@@ -227,6 +228,17 @@ def bdf_coefficients(history, h: float, variable: bool = False):
                     (((1.0 + w) ** 2 / (1.0 + 2.0 * w), last),
                      (-w * w / (1.0 + 2.0 * w), history[-2])), 2)
     return 1.0 / h, ((1.0, last),), 1
+
+
+def bdf_local_error(ctx, new) -> np.ndarray:
+    """Local position error estimate of a BDF step (``adaptive``), shape (n,):
+    BDF2's error constant 2/9 times h^2 (a_{n+1} - a_n), which stands for h^3
+    times the third derivative of q (Hairer & Wanner II, sec. III.2); a BDF1
+    start-up step (``ctx.cache["bdf_order"]`` 1): h^2 a_{n+1} / 2, its own
+    leading term."""
+    if ctx.cache["bdf_order"] == 1:
+        return 0.5 * ctx.h ** 2 * new.a
+    return (2.0 / 9.0) * ctx.h ** 2 * (new.a - ctx.last.a)
 
 
 def roundoff_floor(system, q: np.ndarray, velocity_per_metre: float, n_kinematic: int,

@@ -1676,6 +1676,61 @@ def triplet_bound(I) -> int:
 
 
 @_jit
+def _workspace(n, m, size, I):
+    """The time loops' scratch arrays, allocated once per call: (r, dw, w,
+    weight, qx, vx, work, q_pred, v_pred, qx_old, F, scratch)."""
+    return (np.empty(size), np.empty(size), np.empty(size), np.empty(size), np.zeros(n + 3),
+            np.zeros(n + 3), np.zeros(n + 3), np.empty(n), np.empty(n), np.zeros(n + 3),
+            np.zeros(n), np.empty(m + I[_HEADER - 1] + 2 * size))
+
+
+@_jit
+def _start_force(rc, I, Fl, t0, q, v, lam, F0, F, qx, vx, work):
+    """F_n at t0 into F (recipes with cF != 0): F0 when given (not NaN),
+    else the law's at (q, v, lambda)."""
+    if rc[CF] != 0.0:
+        if F0.shape[0] == F.shape[0] and not math.isnan(F0[0]):
+            F[:] = F0
+        else:
+            _old_force(rc, I, Fl, t0, q, v, lam, F, qx, vx, work)
+
+
+@_jit
+def _start_w(rc, n, m, a, v, lam, w):
+    """Newton's start: x = a_n, lambda_n (the additive form: dq, dv at the
+    Newmark predictor with a = a_n and psi_I = lambda_n; y = y0v v_n)."""
+    size, l0, e0, a0 = _layout(rc, n, m)
+    w[:] = 0.0
+    w[a0:a0 + n] = a
+    w[l0:l0 + m] = lam
+    if rc[FORM] == ADDITIVE:
+        for j in range(n):
+            w[j] = rc[KA1] * a[j]
+            w[n + j] = rc[KA2] * a[j]
+        w[e0:e0 + m] = lam
+    elif e0 < size:
+        for j in range(n):
+            w[n + j] = rc[Y0V] * v[j]
+
+
+@_jit
+def _record(rec, t, q, v, a, lam, mu, counts, out_t, out_q, out_v, out_a, out_lam, out_mu,
+            out_stats):
+    """Row ``rec`` of the out_* arrays: the state, and the Newton counts
+    since the last record (then zeroed); returns rec + 1."""
+    out_t[rec] = t
+    out_q[rec] = q
+    out_v[rec] = v
+    out_a[rec] = a
+    out_lam[rec] = lam
+    out_mu[rec] = mu
+    for i in range(6):
+        out_stats[rec, i] = counts[i]
+    counts[:] = 0
+    return rec + 1
+
+
+@_jit
 def _run(rec2, I, Fl, h, t0, n_steps, step0, every, q, v, a, b, lam, mu, q_prev, v_prev, opts,
          solver, lin, lu_state, R, C, V, out_t, out_q, out_v, out_a, out_lam, out_mu, out_stats,
          counts, F0):
@@ -1707,45 +1762,18 @@ def _run(rec2, I, Fl, h, t0, n_steps, step0, every, q, v, a, b, lam, mu, q_prev,
     n, m = _rows(I, MASS), _rows(I, ROW_ELEMENT)
     size, l0, e0, a0 = _layout(rec2[0], n, m)
     has_extra = e0 < size
-    additive = rec2[0, FORM] == ADDITIVE
     differ = False
     for i in range(rec2.shape[1]):
         differ = differ or rec2[0, i] != rec2[1, i]
-    r = np.empty(size)
-    dw = np.empty(size)
-    w = np.empty(size)
-    weight = np.empty(size)
-    qx = np.zeros(n + 3)
-    vx = np.zeros(n + 3)
-    work = np.zeros(n + 3)
-    q_pred = np.empty(n)
-    v_pred = np.empty(n)
-    qx_old = np.zeros(n + 3)
-    F = np.empty(n)
-    scratch = np.empty(m + I[_HEADER - 1] + 2 * size)
-    F[:] = 0.0                             # F_n, used only by recipes with cF != 0
-    if rec2[0, CF] != 0.0:
-        if F0.shape[0] == n and not math.isnan(F0[0]):
-            F[:] = F0
-        else:
-            _old_force(rec2[0], I, Fl, t0, q, v, lam, F, qx, vx, work)
+    r, dw, w, weight, qx, vx, work, q_pred, v_pred, qx_old, F, scratch = _workspace(n, m, size, I)
+    _start_force(rec2[0], I, Fl, t0, q, v, lam, F0, F, qx, vx, work)   # F_n: only through cF
     rec = 0
     for k in range(n_steps):
         t = t0 + (k + 1) * h               # t_{n+1}
         first = lu_state[2] == 0.0
         rc = rec2[0] if first else rec2[1]
         predict(rc, first, q, v, a, b, q_prev, v_prev, q_pred, v_pred)
-        w[:] = 0.0
-        w[a0:a0 + n] = a
-        w[l0:l0 + m] = lam
-        if additive:                  # dq, dv at the Newmark predictor with a = a_n; psi_I = lambda_n
-            for j in range(n):
-                w[j] = rc[KA1] * a[j]
-                w[n + j] = rc[KA2] * a[j]
-            w[e0:e0 + m] = lam
-        elif has_extra:
-            for j in range(n):
-                w[n + j] = rc[Y0V] * v[j]
+        _start_w(rc, n, m, a, v, lam, w)
         qx_old[:n] = q
         _scales_weights(rc, I, Fl, q, w, opts, R, C, V, qx, weight, scratch)
         status = _newton(rc, I, Fl, t, q_pred, v_pred, F, qx_old, w, weight, opts, solver, lin,
@@ -1770,16 +1798,8 @@ def _run(rec2, I, Fl, h, t0, n_steps, step0, every, q, v, a, b, lam, mu, q_prev,
             _old_force(rc, I, Fl, t, q, v, lam, F, qx, vx, work)
         counts[5] += 1
         if (step0 + k + 1) % every == 0:
-            out_t[rec] = t0 + (k + 1) * h
-            out_q[rec] = q
-            out_v[rec] = v
-            out_a[rec] = a
-            out_lam[rec] = lam
-            out_mu[rec] = mu
-            for i in range(6):
-                out_stats[rec, i] = counts[i]
-            counts[:] = 0
-            rec += 1
+            rec = _record(rec, t0 + (k + 1) * h, q, v, a, lam, mu, counts, out_t, out_q, out_v,
+                          out_a, out_lam, out_mu, out_stats)
     return CONVERGED, n_steps, rec
 
 
@@ -1816,28 +1836,11 @@ def _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, 
     _recipe_at(mono, 1.0, rc)
     size, l0, e0, a0 = _layout(rc, n, m)
     has_extra = e0 < size
-    additive = rc[FORM] == ADDITIVE
     rtol, atol, safety, fmin, fmax, h_min, h_max = (ctl[0], ctl[1], ctl[2], ctl[3], ctl[4],
                                                     ctl[5], ctl[6])
-    r = np.empty(size)
-    dw = np.empty(size)
-    w = np.empty(size)
-    weight = np.empty(size)
-    qx = np.zeros(n + 3)
-    vx = np.zeros(n + 3)
-    work = np.zeros(n + 3)
-    q_pred = np.empty(n)
-    v_pred = np.empty(n)
-    qx_old = np.zeros(n + 3)
-    F = np.empty(n)
+    r, dw, w, weight, qx, vx, work, q_pred, v_pred, qx_old, F, scratch = _workspace(n, m, size, I)
     b_new = np.empty(n)
-    scratch = np.empty(m + I[_HEADER - 1] + 2 * size)
-    F[:] = 0.0
-    if mono[0, CF] != 0.0:
-        if F0.shape[0] == n and not math.isnan(F0[0]):
-            F[:] = F0
-        else:
-            _old_force(rc, I, Fl, t0, q, v, lam, F, qx, vx, work)
+    _start_force(rc, I, Fl, t0, q, v, lam, F0, F, qx, vx, work)
     t = t0
     h_factored = -1.0                   # the step size of the stored factorization
     after_rejection = False
@@ -1852,17 +1855,7 @@ def _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, 
             lu_state[0] = 0.0
             h_factored = step
         predict(rc, True, q, v, a, b, q, v, q_pred, v_pred)
-        w[:] = 0.0
-        w[a0:a0 + n] = a
-        w[l0:l0 + m] = lam
-        if additive:
-            for j in range(n):
-                w[j] = rc[KA1] * a[j]
-                w[n + j] = rc[KA2] * a[j]
-            w[e0:e0 + m] = lam
-        elif has_extra:
-            for j in range(n):
-                w[n + j] = rc[Y0V] * v[j]
+        _start_w(rc, n, m, a, v, lam, w)
         qx_old[:n] = q
         _scales_weights(rc, I, Fl, q, w, opts, R, C, V, qx, weight, scratch)
         status = _newton(rc, I, Fl, t + step, q_pred, v_pred, F, qx_old, w, weight, opts, solver,
@@ -1920,17 +1913,9 @@ def _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, 
         k += 1
         h = min(step * factor, h_max)
         if (step0 + k) % every == 0 or t >= t_end - 1e-12 * (t_end - t0):
-            out_t[rec] = t
             out_h[rec] = step
-            out_q[rec] = q
-            out_v[rec] = v
-            out_a[rec] = a
-            out_lam[rec] = lam
-            out_mu[rec] = mu
-            for i in range(6):
-                out_stats[rec, i] = counts[i]
-            counts[:] = 0
-            rec += 1
+            rec = _record(rec, t, q, v, a, lam, mu, counts, out_t, out_q, out_v, out_a, out_lam,
+                          out_mu, out_stats)
     state[0], state[1] = t, h
     return CONVERGED, k, rec
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from .base import Block, Method, StepContext, StepState
-from .common import (acceleration_scales, bdf_coefficients, force_term,
+from .common import (acceleration_scales, bdf_coefficients, bdf_local_error, force_term,
                      index3_newton_matrix, roundoff_floor)
 from .recipe import bdf_recipe
 
@@ -73,13 +73,8 @@ class NStiff(Method):
         return bdf_recipe(h, first, index2=False)
 
     def local_error(self, ctx, new):
-        """BDF2's error constant 2/9 times h^2 (a_{n+1} - a_n), which stands for
-        h^3 times the third derivative of q (Hairer & Wanner II, sec. III.2;
-        ``adaptive``); a BDF1 start-up step: h^2 a_{n+1} / 2, its own leading
-        term."""
-        if ctx.cache["bdf_order"] == 1:
-            return 0.5 * ctx.h ** 2 * new.a
-        return (2.0 / 9.0) * ctx.h ** 2 * (new.a - ctx.last.a)
+        """BDF2's estimate (``common.bdf_local_error``)."""
+        return bdf_local_error(ctx, new)
 
     def first_step(self, history, h):
         """BDF1 when no two past states are h apart (``bdf_coefficients``)."""
