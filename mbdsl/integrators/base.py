@@ -276,6 +276,13 @@ class Method(ABC):
         out.variable_steps = True
         return out
 
+    def kernel_recipe_at(self, h: float, first: bool, c0: float, w0: float,
+                         w1: float) -> np.ndarray:
+        """The recipe at step size h with a two-step method's coefficients
+        c0, w0, w1 for unequal steps (``common.bdf_coefficients``); one-step
+        methods have none and return ``kernel_recipe(h, first)``."""
+        return self.kernel_recipe(h, first)
+
     def local_error(self, ctx: StepContext, new: StepState) -> np.ndarray:
         """Estimated local error of the positions over the step from
         ``ctx.last`` to ``new``, shape (n,) [m, rad] (``adaptive``: the

@@ -71,11 +71,12 @@ __all__ = ["MODEL_SCHEMA", "MODEL_FIELDS", "residual", "jacobian_triplets", "for
 #: numba's cache of this file never holds indices of another file's version.
 (FORM, HAS_Y, SPLIT, CQX, CQY, CVX, CVY, CM, CF, DM, DI, DV, SP, SV, SX, SY, MU_MOB, FLOOR,
  PQ0, PQ1, PV0, PV1, PA, VV0, VV1, VA, Y0V, KA1, KA2, KB, CQ, SM, PB, VB, BB, BA, BX,
- REG, ERR, EAUX) = range(40)
+ REG, ERR, EAUX, EABS) = range(41)
 _RECIPE = ("form", "has_y", "split", "cqx", "cqy", "cvx", "cvy", "cM", "cF", "dM", "dI", "dV",
            "sP", "sV", "sx", "sy", "mu_mob", "floor",
            "pq0", "pq1", "pv0", "pv1", "pa", "vv0", "vv1", "va", "y0v",
-           "ka1", "ka2", "kb", "cQ", "sm", "pb", "vb", "bb", "ba", "bx", "reg", "err", "eaux")
+           "ka1", "ka2", "kb", "cQ", "sm", "pb", "vb", "bb", "ba", "bx", "reg", "err", "eaux",
+           "eabs")
 _OPCODES = ("const", "t", "neg", "+", "-", "*", "/", "^", "sin", "cos", "tan", "asin", "acos",
             "atan", "sinh", "cosh", "tanh", "sqrt", "exp", "log", "abs", "sign", "x", "min",
             "max", "<", ">", "<=", ">=", "if")
@@ -1804,37 +1805,48 @@ def _run(rec2, I, Fl, h, t0, n_steps, step0, every, q, v, a, b, lam, mu, q_prev,
 
 
 @_jit
-def _recipe_at(mono, h, rec):
-    """The recipe at step size h from its monomials: rec[i] = mono[0, i] h^mono[1, i]
-    (``engine.recipe_monomials``: every entry of a one-step recipe is c h^k)."""
+def _recipe_at(mono, h, c0, w0, w1, rec):
+    """The recipe at step size h and BDF coefficients c0, w0, w1 from its
+    monomials (``engine.recipe_monomials``, mono (5, F)): rec[i] =
+    c h^a c0^b w0^c w1^d."""
     for i in range(rec.shape[0]):
         c = mono[0, i]
-        rec[i] = c * h ** mono[1, i] if c != 0.0 else 0.0
+        rec[i] = (c * h ** mono[1, i] * c0 ** mono[2, i] * w0 ** mono[3, i] * w1 ** mono[4, i]
+                  if c != 0.0 else 0.0)
 
 
 @_jit
-def _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, ctl, opts,
-                  solver, lin, lu_state, R, C, V, out_t, out_h, out_q, out_v, out_a, out_lam,
-                  out_mu, out_stats, counts, F0, state):
+def _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v_prev,
+                  ctl, opts, solver, lin, lu_state, R, C, V, out_t, out_h, out_q, out_v, out_a,
+                  out_lam, out_mu, out_stats, counts, F0, state):
     """The time loop with error-controlled steps (``adaptive``), from (t0, q, v,
     a, b, lam, mu) towards t_end, until t_end or the out_* arrays are full.
 
-    ``mono`` (2, len(RECIPE_FIELDS)): the recipe's monomials (one-step
-    recipes only); ``ctl`` = (rtol, atol, safety, min_factor, max_factor,
-    h_min, h_max). After each converged step the local error estimate
-    e = err (x - x_n) (on b when ``eaux``) is measured in the weighted RMS
+    ``mono`` (2, 5, len(RECIPE_FIELDS)): the recipe's monomials for a
+    start-up step and the steps after it; a recipe that reads c0, w0, w1
+    (BDF2) takes them from the ratio w = h / h_prev of this step to the last
+    one, c0 = (1 + 2w)/((1 + w) h), w0 = (1 + w)^2/(1 + 2w),
+    w1 = -w^2/(1 + 2w), and its start-up coefficients (BDF1: 1/h, 1, 0)
+    while there is no last step; ``q_prev``, ``v_prev`` the state before
+    (q, v). ``ctl`` = (rtol, atol, safety, min_factor, max_factor, h_min,
+    h_max). After each converged step the local error estimate
+    e = err (x - x_n) (on b when ``eaux``; err x when ``eabs``) is measured in the weighted RMS
     norm E; E > 1 rejects the step (retried with h max(min_factor, safety
     E^(-1/3))), else it is accepted and h grows by min(max_factor, ...) (not
     right after a rejection). A step Newton cannot converge is halved. Every
     ``every``-th accepted step and the last one are recorded, with their step
-    size in out_h. ``state`` (3,) in/out: (t, h of the next step, rejected
-    steps); returns (status, steps, records): status TOLERANCE when the
+    size in out_h. ``state`` (4,) in/out: (t, h of the next step, rejected
+    steps, h of the last step or 0); returns (status, steps, records): status TOLERANCE when the
     error stays above 1 at h_min, a Newton status when a step at h_min
     does not converge."""
     n, m = _rows(I, MASS), _rows(I, ROW_ELEMENT)
-    rc = np.empty(mono.shape[1])
-    _recipe_at(mono, 1.0, rc)
+    rc = np.empty(mono.shape[2])
+    _recipe_at(mono[1], 1.0, 1.0, 1.0, 1.0, rc)
     size, l0, e0, a0 = _layout(rc, n, m)
+    two_step = False                    # a recipe reading c0, w0, w1
+    for i in range(mono.shape[2]):
+        two_step = two_step or mono[1, 2, i] != 0.0 or mono[1, 3, i] != 0.0 \
+            or mono[1, 4, i] != 0.0
     has_extra = e0 < size
     rtol, atol, safety, fmin, fmax, h_min, h_max = (ctl[0], ctl[1], ctl[2], ctl[3], ctl[4],
                                                     ctl[5], ctl[6])
@@ -1842,7 +1854,7 @@ def _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, 
     b_new = np.empty(n)
     _start_force(rc, I, Fl, t0, q, v, lam, F0, F, qx, vx, work)
     t = t0
-    h_factored = -1.0                   # the step size of the stored factorization
+    h_factored, c0_factored = -1.0, -1.0   # the step (and c0) of the stored factorization
     after_rejection = False
     rec = 0
     k = 0
@@ -1850,11 +1862,21 @@ def _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, 
         step = min(h, t_end - t)
         if t_end - (t + step) < 1e-6 * step:      # land on t_end, never leave a sliver
             step = t_end - t
-        _recipe_at(mono, step, rc)
-        if step != h_factored:          # the Newton matrix depends on h
+        first = two_step and state[3] == 0.0
+        c0, w0, w1 = 1.0, 1.0, 1.0
+        if two_step:
+            if first:                   # BDF1
+                c0, w0, w1 = 1.0 / step, 1.0, 0.0
+            else:
+                wr = step / state[3]
+                c0 = (1.0 + 2.0 * wr) / ((1.0 + wr) * step)
+                w0 = (1.0 + wr) ** 2 / (1.0 + 2.0 * wr)
+                w1 = -wr * wr / (1.0 + 2.0 * wr)
+        _recipe_at(mono[0] if first else mono[1], step, c0, w0, w1, rc)
+        if step != h_factored or c0 != c0_factored:     # the Newton matrix depends on them
             lu_state[0] = 0.0
-            h_factored = step
-        predict(rc, True, q, v, a, b, q, v, q_pred, v_pred)
+            h_factored, c0_factored = step, c0
+        predict(rc, first, q, v, a, b, q_prev, v_prev, q_pred, v_pred)
         _start_w(rc, n, m, a, v, lam, w)
         qx_old[:n] = q
         _scales_weights(rc, I, Fl, q, w, opts, R, C, V, qx, weight, scratch)
@@ -1875,7 +1897,12 @@ def _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, 
             _advance(rc, b_new, a, w[a0:a0 + n])
         acc = 0.0
         for j in range(n):
-            d = (b_new[j] - b[j]) if rc[EAUX] != 0.0 else (w[a0 + j] - a[j])
+            if rc[EAUX] != 0.0:
+                d = b_new[j] - b[j]
+            elif rc[EABS] != 0.0:
+                d = w[a0 + j]
+            else:
+                d = w[a0 + j] - a[j]
             e = rc[ERR] * d / (atol + rtol * max(abs(q[j]), abs(qx[j])))
             acc += e * e
         err = math.sqrt(acc / n) if n > 0 else 0.0
@@ -1896,6 +1923,9 @@ def _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, 
         if after_rejection:
             factor = min(factor, 1.0)
         after_rejection = False
+        q_prev[:] = q
+        v_prev[:] = v
+        state[3] = step
         q[:] = qx[:n]
         v[:] = vx[:n]
         if rc[EAUX] != 0.0:
@@ -2012,13 +2042,13 @@ def mobility(I, Fl, q, out, R, C, V, qx):
 
 
 @_jit
-def run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, ctl, opts,
-                 solver, lin, lu_state, R, C, V, out_t, out_h, out_q, out_v, out_a, out_lam,
-                 out_mu, out_stats, counts, F0, state):
+def run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v_prev,
+                 ctl, opts, solver, lin, lu_state, R, C, V, out_t, out_h, out_q, out_v, out_a,
+                 out_lam, out_mu, out_stats, counts, F0, state):
     """The time loop with error-controlled steps; see ``_run_adaptive``."""
-    return _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, ctl, opts,
-                         solver, lin, lu_state, R, C, V, out_t, out_h, out_q, out_v, out_a,
-                         out_lam, out_mu, out_stats, counts, F0, state)
+    return _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev,
+                         v_prev, ctl, opts, solver, lin, lu_state, R, C, V, out_t, out_h, out_q,
+                         out_v, out_a, out_lam, out_mu, out_stats, counts, F0, state)
 
 
 @_jit

@@ -96,9 +96,8 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
         ("background", what the command line does, announced).
     control : StepControl, optional
         Error-controlled step sizes (:mod:`.adaptive`): each step's local
-        error estimate within rtol and atol (NSTIFF and NSTIFF-SI2 on the
-        numpy engine, the others on either). None (the default): fixed
-        steps of h.
+        error estimate within rtol and atol, on either engine. None (the
+        default): fixed steps of h.
 
     Returns
     -------
@@ -127,11 +126,10 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
     if control is not None:
         method = method.with_variable_steps()
         from .engine import recipe_monomials
-        if method.kernel_recipe(1.0, False) is not None and recipe_monomials(method) is None:
-            # BDF2's coefficients follow the step ratio: the numpy engine's
+        if (engine != "numpy" and method.kernel_recipe(1.0, False) is not None
+                and recipe_monomials(method) is None):   # a recipe the loop cannot vary
             if engine == "compiled":
-                raise ValueError(f"the compiled engine takes error-controlled steps with the "
-                                 f"one-step methods; {method.name} runs them on the numpy engine")
+                raise ValueError(f"the compiled engine cannot vary the step of {method.name}")
             engine = "numpy"
     which = select_engine(engine, system, method, compile_policy, announce)
     solver = Newton(newton)
@@ -181,11 +179,7 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
     sol.control = control
     sol.engine = which
     from .engine import unsupported
-    sol.engine_note = (unsupported(system, method) if engine == "auto" and
-                       unsupported(system, method) else
-                       "BDF2 with variable steps runs on the numpy engine"
-                       if control is not None and which == "numpy" and engine != "numpy"
-                       else None)
+    sol.engine_note = unsupported(system, method) if engine == "auto" else None
     sol.linear_solver = "sparse" if assembler.sparse else "dense"
     sol.append(history[-1], StepStats())
     sol.last_state = history[-1]

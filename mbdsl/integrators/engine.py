@@ -135,23 +135,42 @@ def recipe(method, h, first):
 
 
 def recipe_monomials(method):
-    """(2, len(RECIPE_FIELDS)): the method's recipe as monomials c h^k (row 0
-    the coefficients c, row 1 the powers k), which the error-controlled
-    compiled loop evaluates at any h (``compiled._recipe_at``); None for a
-    recipe that is not (BDF2: its start-up step differs, and with variable
-    steps its coefficients follow the step ratio)."""
-    r1, r2 = recipe(method, 1.0, False), recipe(method, 2.0, False)
-    if not np.array_equal(r1, recipe(method, 1.0, True)):
-        return None
-    k = np.zeros_like(r1)
-    nz = r1 != 0.0
-    if np.any(r2[~nz] != 0.0):
-        return None
-    k[nz] = np.round(np.log2(np.abs(r2[nz] / r1[nz])))
-    ok = np.allclose(r1 * 2.0 ** k, r2, rtol=1e-12, atol=0.0)
-    r3 = recipe(method, 0.37, False)
-    ok = ok and np.allclose(r1 * 0.37 ** k, r3, rtol=1e-12, atol=0.0)
-    return np.stack([r1, k]) if ok else None
+    """(2, 5, len(RECIPE_FIELDS)): the method's recipe for a start-up step
+    (0) and the steps after it (1) as monomials c h^a c0^b w0^c w1^d in the
+    step size h and a two-step method's coefficients c0, w0, w1 (rows: c, a,
+    b, c, d; ``Method.kernel_recipe_at``), which the error-controlled compiled
+    loop evaluates at every step (``compiled._recipe_at``); None for a recipe
+    that is not of that form."""
+    from .recipe import RECIPE_FIELDS
+    reg = RECIPE_FIELDS.index("reg")
+
+    def at(first, *x):
+        """The recipe at (h, c0, w0, w1), with the formulation's epsilon."""
+        rec = method.kernel_recipe_at(x[0], first, x[1], x[2], x[3])
+        rec[reg] = getattr(method, "regularization", 0.0)
+        return rec
+
+    out = []
+    for first in (True, False):
+        base = at(first, 1.0, 1.0, 1.0, 1.0)
+        powers = []
+        for j in range(4):
+            x = [1.0, 1.0, 1.0, 1.0]
+            x[j] = 2.0
+            r = at(first, *x)
+            if np.any(r[base == 0.0] != 0.0):
+                return None
+            k = np.zeros_like(base)
+            nz = base != 0.0
+            k[nz] = np.round(np.log2(np.abs(r[nz] / base[nz])))
+            powers.append(k)
+        mono = np.stack([base] + powers)
+        x = np.array([0.37, 1.9, 1.3, -0.41])     # a check away from the fitting points
+        value = mono[0] * np.prod(x[:, None] ** mono[1:], axis=0)
+        if not np.allclose(value, at(first, *x), rtol=1e-12, atol=0.0):
+            return None
+        out.append(mono)
+    return np.stack(out)
 
 
 def recipes(method, h):
@@ -657,16 +676,17 @@ def run_compiled_adaptive(system, method, t_end, h, t_start, initial, newton_opt
     if getattr(initial, "Q", None) is not None:
         from .common import start_force_term
         from .recipe import ADDITIVE, RECIPE_FIELDS
-        additive = mono[0, RECIPE_FIELDS.index("form")] == ADDITIVE
+        additive = mono[0, 0, RECIPE_FIELDS.index("form")] == ADDITIVE
         F_start = -initial.Q if additive else start_force_term(system, initial)
-    state = np.array([t_start, h, 0.0])
+    q_prev, v_prev = q.copy(), v.copy()
+    state = np.array([t_start, h, 0.0, 0.0])      # t, next h, rejected, previous h (none)
     step_no, t = 0, t_start
     try:
         while t < t_end - 1e-12 * (t_end - t_start):
             status, taken, nrec = K.run_adaptive(
                 mono, I, Fl, state[1], t, t_end, step_no, output_every, q, v, a, b, lam, mu,
-                ctl, opts, solver, lin, lu_state, R, C, V, out_t, out_h, out_q, out_v, out_a,
-                out_lam, out_mu, out_stats, counts, F_start if step_no == 0 else
+                q_prev, v_prev, ctl, opts, solver, lin, lu_state, R, C, V, out_t, out_h, out_q,
+                out_v, out_a, out_lam, out_mu, out_stats, counts, F_start if step_no == 0 else
                 np.full(n, np.nan), state)
             if nrec:
                 sol.append_block(out_t[:nrec].copy(), out_q[:nrec].copy(), out_v[:nrec].copy(),

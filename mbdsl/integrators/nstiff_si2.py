@@ -88,6 +88,10 @@ class NStiffSI2(Method):
         """BDF2 (BDF1 when ``first``) in the unknowns of this class."""
         return bdf_recipe(h, first, index2=True)
 
+    def kernel_recipe_at(self, h, first, c0, w0, w1):
+        """The recipe with the BDF coefficients c0, w0, w1 (variable steps)."""
+        return bdf_recipe(h, first, index2=True, c0=c0, w0=w0, w1=w1)
+
     def local_error(self, ctx, new):
         """BDF2's estimate (``common.bdf_local_error``)."""
         return bdf_local_error(ctx, new)

@@ -49,7 +49,8 @@ multipliers are not unique where Phi_q loses rank). The engine writes it
 ``err`` is the coefficient of the local error estimate of error-controlled
 steps (``adaptive``): e = err (x_{n+1} - x_n), err = (beta - 1/6) h^2 for
 the Newmark formulas (Zienkiewicz & Xie 1991), on the auxiliary
-acceleration b instead of x when ``eaux`` is 1 (generalized-alpha).
+acceleration b instead of x when ``eaux`` is 1 (generalized-alpha), and
+e = err x when ``eabs`` is 1 (a BDF1 start-up step: err = h^2 / 2).
 
 Each method's ``kernel_recipe(h, first)`` (``base.Method``) fills one with
 :func:`make_recipe`; its equations are the ones its numpy ``residual``
@@ -86,7 +87,7 @@ RECIPE_FIELDS = ("form", "has_y", "split", "cqx", "cqy", "cvx", "cvy", "cM", "cF
                  "dV", "sP", "sV", "sx", "sy", "mu_mob", "floor",
                  "pq0", "pq1", "pv0", "pv1", "pa", "vv0", "vv1", "va", "y0v",
                  "ka1", "ka2", "kb", "cQ", "sm", "pb", "vb", "bb", "ba", "bx", "reg",
-                 "err", "eaux")
+                 "err", "eaux", "eabs")
 
 
 def make_recipe(**values: float) -> np.ndarray:
@@ -115,20 +116,23 @@ def newmark_recipe(h: float, beta: float, gamma: float, **values: float) -> np.n
                        vv0=1.0, va=h * (1.0 - gamma), err=(beta - 1.0 / 6.0) * h * h, **values)
 
 
-def bdf_recipe(h: float, first: bool, index2: bool) -> np.ndarray:
+def bdf_recipe(h: float, first: bool, index2: bool, c0: float | None = None,
+               w0: float | None = None, w1: float | None = None) -> np.ndarray:
     """The recipe of BDF2 on the index-3 (NSTIFF) or stabilized index-2
     (NSTIFF-SI2) DAE; ``first``: the start-up step, BDF1 (``common.bdf_coefficients``).
 
     With D x = c0 (x_{n+1} - xi(x)), xi(x) = 4/3 x_n - 1/3 x_{n-1} (BDF1: x_n):
     NSTIFF has x = D v, q = xi(q) + xi(v)/c0 + x/c0^2; NSTIFF-SI2 has x = D v,
     y = D q, q = xi(q) + y/c0, v = xi(v) + x/c0 (``nstiff.py``, ``nstiff_si2.py``).
+    c0, w0, w1 given: xi(x) = w0 x_n + w1 x_{n-1} with that c0 (the
+    variable-step coefficients). Error estimate: 2/9 h^2 (x - x_n); BDF1
+    h^2 / 2 x (``common.bdf_local_error``).
     """
-    if first:
-        c0, w0, w1 = 1.0 / h, 1.0, 0.0
-    else:
-        c0, w0, w1 = 1.5 / h, 4.0 / 3.0, -1.0 / 3.0
+    if c0 is None:
+        c0, w0, w1 = (1.0 / h, 1.0, 0.0) if first else (1.5 / h, 4.0 / 3.0, -1.0 / 3.0)
     common = dict(cvx=1.0 / c0, cM=1.0, sx=2.0 * h / 3.0, floor=1.0 / h,
-                  pq0=w0, pq1=w1, vv0=w0, vv1=w1)
+                  pq0=w0, pq1=w1, vv0=w0, vv1=w1,
+                  err=(0.5 if first else 2.0 / 9.0) * h * h, eabs=1.0 if first else 0.0)
     if not index2:
         return make_recipe(cqx=1.0 / c0 ** 2, sP=c0 * c0, pv0=w0 / c0, pv1=w1 / c0, **common)
     return make_recipe(has_y=1.0, cqy=1.0 / c0, dI=1.0, dV=-1.0, sP=c0, sV=c0, sy=1.0,

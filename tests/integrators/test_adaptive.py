@@ -46,8 +46,7 @@ def test_error_falls_with_the_tolerance(method, slider_crank, slider_crank_refer
         sol = integrate(system, make_method(method), 2.0, 1e-3, initial=init,
                         control=StepControl(tol, tol))
         assert sol.status == "completed" and sol.t[-1] == 2.0
-        # BDF2's variable-step coefficients run on the numpy engine, the rest compiled
-        assert sol.engine == ("numpy" if method.startswith("nstiff") else "compiled")
+        assert sol.engine == "compiled"
         assert sol.control.rtol == tol
         steps = np.diff(sol.t)
         assert np.all(steps > 0) and np.ptp(steps) > 0          # the steps do vary
@@ -123,18 +122,12 @@ def test_a_tolerance_below_reach_stops_with_e602(slider_crank, engine):
     assert "error tolerance" in sol.message and len(sol.t) >= 1
 
 
-def test_compiled_engine_refuses_variable_step_bdf2(slider_crank):
-    system, init = slider_crank
-    with pytest.raises(ValueError, match="nstiff runs them on the numpy engine"):
-        integrate(system, make_method("nstiff"), 0.1, 1e-3, initial=init, engine="compiled",
-                  control=StepControl(1e-6, 1e-6))
-
-
-@pytest.mark.parametrize("method", ["hht-i3", "hht-si2", "hht-add", "genalpha"])
+@pytest.mark.parametrize("method", ["hht-i3", "hht-si2", "hht-add", "genalpha", "nstiff",
+                                    "nstiff-si2"])
 def test_both_engines_take_the_same_error_controlled_steps(method, slider_crank,
                                                            slider_crank_reference):
-    """The compiled loop (recipe monomials, the error estimate in the kernel)
-    against the numpy driver: the same rule gives about the same steps and
+    """The compiled loop (recipe monomials in h and BDF2's variable-step
+    coefficients, the error estimate in the kernel) against the numpy driver: the same rule gives about the same steps and
     the same error against the reference (steps within 10 %, errors within
     25 %; the step
     sequences part at round-off and then differ slightly)."""
