@@ -718,8 +718,14 @@ def run_compiled_adaptive(system, method, t_end, h, t_start, initial, newton_opt
                 writer.append(sol)
         sol.status, sol.message = "completed", f"reached t_end = {t_end:g} s"
     except KeyboardInterrupt:
+        if counts[5]:               # accepted steps since the last record
+            sol.append_block(np.array([float(state[0])]), q[None].copy(), v[None].copy(),
+                             a[None].copy(), lam[None].copy(),
+                             {extra: mu[None].copy()} if extra is not None else {},
+                             counts[None].copy(), np.array([float(state[3]) or h]))
         sol.status = "interrupted"
-        sol.message = f"interrupted by the user at t = {t:.6g} s; every accepted step is kept"
+        sol.message = (f"interrupted by the user at t = {float(state[0]):.6g} s; "
+                       "every accepted step is kept")
     return sol
 
 
