@@ -37,7 +37,11 @@ def metadata(solution, extra: dict | None = None) -> dict:
     ``method``, ``formulation``, ``method.<coefficient>``, ``h``, ``t_end``, ``status``,
     ``message``, ``extras`` (JSON list), ``units`` (JSON object: column ->
     SI unit, "" for none or mixed), ``stats_total`` (JSON object),
-    ``wall_time``, ``engine``, ``linear_solver``, ``timings`` (JSON object).
+    ``wall_time``, ``engine``, ``linear_solver``, ``timings`` (JSON object);
+    for a model with contacts or joint limits ``events`` (JSON list of [t [s],
+    gap, "closed" or "opened", speed [m/s or rad/s]]: when and which gap of a
+    contact or limit closed or opened, with its approach or separation
+    speed) and ``event_cuts`` (steps retaken to land on them).
     """
     from . import __version__
     model = solution.model
@@ -65,6 +69,10 @@ def metadata(solution, extra: dict | None = None) -> dict:
     meta["engine"] = solution.engine
     meta["linear_solver"] = solution.linear_solver
     meta["timings"] = json.dumps(solution.timings)
+    if getattr(solution.system, "contact_group", None) is not None:
+        meta["events"] = json.dumps([[float(t), name, kind, float(speed)]
+                                     for t, name, kind, speed in solution.events])
+        meta["event_cuts"] = str(int(solution.event_cuts))
     meta["model_source"] = json.dumps(model.source)      # one line: newlines escaped
     meta.update(extra or {})
     return meta
@@ -211,6 +219,8 @@ class CsvStream:
         buf = io.StringIO()
         self._late = {}
         for k, v in metadata(sol).items():
+            if k in ("events", "event_cuts"):          # known at the end: written there
+                continue
             if k in self._LATE_FIELDS:
                 buf.write(f"# {k}: ")
                 self._late[k] = len(buf.getvalue().encode("utf-8"))
@@ -269,8 +279,10 @@ class CsvStream:
                                     for k in self._derived[0]}
             sol.timings["output"] = self.elapsed
             meta = metadata(sol)
-            for k in ("status", "message", "stats_total", "wall_time", "timings"):
-                self._file.write(f"# {k}: {meta[k]}\n")
+            for k in ("status", "message", "stats_total", "wall_time", "timings", "events",
+                      "event_cuts"):
+                if k in meta:
+                    self._file.write(f"# {k}: {meta[k]}\n")
             self._file.close()
             self._rewrite_late_fields(meta)
         return self.path

@@ -195,7 +195,7 @@ class _Reactions:
 _ROW_CHUNK = 1024
 
 
-def energy_flows(system, t, q, v, lam, total, phi_t=None, start=None) -> dict:
+def energy_flows(system, t, q, v, lam, total, phi_t=None, start=None, contact_log=None) -> dict:
     """``energy.work``, ``energy.dissipated`` and ``energy.balance`` of rows.
 
     work(t) = int_0^t p_in, dissipated(t) = int_0^t p_dissipated
@@ -213,8 +213,14 @@ def energy_flows(system, t, q, v, lam, total, phi_t=None, start=None) -> dict:
         The state after the rows before these (:func:`energy_end`): a run
         written chunk by chunk integrates on from it; None: the rows start
         the run.
+    contact_log : list, optional
+        The run's contact state changes (``Solution.contact_log``); None: those
+        of the run under way (``ContactGroup.log``).
     """
-    p_in, p_diss = system.power(t, q, v, lam, phi_t)
+    group = getattr(system, "contact_group", None)
+    if contact_log is None:
+        contact_log = group.log if group is not None else ()
+    p_in, p_diss = system.power(t, q, v, lam, phi_t, contact_log=contact_log)
     if start is None:
         start = {"t": t[0], "p_in": p_in[0], "p_dissipated": p_diss[0], "work": 0.0,
                  "dissipated": 0.0, "E0": total[0]}
@@ -310,7 +316,8 @@ def output_columns(system, t, q, v, a, derived) -> dict:
     return out
 
 
-def derived_columns(system, t, q, v, lam, start=None, end=None, a=None) -> dict:
+def derived_columns(system, t, q, v, lam, start=None, end=None, a=None,
+                    contact_log=None) -> dict:
     """Energies, constraint norms and joint reactions of stored rows.
 
     Every element is evaluated for all rows at once (the element groups
@@ -327,6 +334,8 @@ def derived_columns(system, t, q, v, lam, start=None, end=None, a=None) -> dict:
         The energy integrals carried from the rows before (``start``, None
         when these rows begin the run) and to the rows after (``end`` is
         filled): see :func:`energy_flows`.
+    contact_log : list, optional
+        See :func:`energy_flows`.
 
     Returns
     -------
@@ -354,7 +363,7 @@ def derived_columns(system, t, q, v, lam, start=None, end=None, a=None) -> dict:
             if reactions is not None:
                 reac[sl] = reactions(qs, ts, lam[sl])
     out = {"energy.kinetic": kin, "energy.potential": pot, "energy.total": kin + pot}
-    flows = energy_flows(system, t, q, v, lam, kin + pot, phi_t, start)
+    flows = energy_flows(system, t, q, v, lam, kin + pot, phi_t, start, contact_log)
     carry = flows.pop("_end")
     out.update(flows)
     out.update({"constraint.position": cpos, "constraint.velocity": cvel})
@@ -445,6 +454,14 @@ class Solution:
         self._rows = _RowStore(system.n, system.m, self._stored_extras)
         self.last_state = None
         self.energy_start, self.energy_end = None, {}
+        #: Contact and limit events: (t [s], gap name, "closed" or "opened",
+        #: approach speed [m/s or rad/s]) in time order.
+        self.events = []
+        #: The contact state changes behind them, (t, gap index, impact speed;
+        #: 0 for an opening), for the dissipated energy (``ContactGroup.speeds_at``).
+        self.contact_log = []
+        #: Steps retaken to end on an event (``integrators.events``).
+        self.event_cuts = 0
 
     # -- building ---------------------------------------------------------------------
     def append(self, state, stats: StepStats) -> None:
@@ -638,7 +655,8 @@ class Solution:
             return self._derived
         self._derived = derived_columns(self.system, self.t, self.q, self.v, self.lam,
                                         start=getattr(self, "energy_start", None),
-                                        end=self.energy_end, a=self.a)
+                                        end=self.energy_end, a=self.a,
+                                        contact_log=getattr(self, "contact_log", None))
         return self._derived
 
     @property
@@ -800,6 +818,13 @@ class Solution:
             f"{d['energy.work'][-1]:+.4g} J, dissipated {d['energy.dissipated'][-1]:.4g} J; "
             f"balance max {np.max(np.abs(d['energy.balance'])):.2e} J)",
         ]
+        if getattr(self.system, "contact_group", None) is not None:
+            closed = sum(1 for e in self.events if e[2] == "closed")
+            lines.append(f"  events: {len(self.events)} ({closed} closed, "
+                         f"{len(self.events) - closed} opened"
+                         + (f"; last: {self.events[-1][1]} {self.events[-1][2]} at t = "
+                            f"{self.events[-1][0]:.6g} s" if self.events else "")
+                         + f"); {self.event_cuts} steps retaken to land on them")
         if self.status != "completed":
             lines.append(f"  stopped: {self.message}")
         return "\n".join(lines)

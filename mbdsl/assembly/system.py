@@ -246,6 +246,13 @@ class AssembledSystem:
                 [geometry(f.joint) for f in frictions], [reaction_rows(f.joint) for f in frictions],
                 [(f.mu, f.mu_static, f.v_stribeck, f.viscous, f.v_reg, f.radius)
                  for f in frictions]))
+        from ..model.contact import Contact
+        from .contact import ContactGroup
+        contacts = [f for f in model.forces if isinstance(f, Contact)]
+        #: Contacts and joint limits (one gap per instance, with events), or None.
+        self.contact_group = ContactGroup(cmap, contacts) if contacts else None
+        if contacts:
+            self.force_groups.append(self.contact_group)
         self.force_groups.extend(self.flexible_groups)
         #: Groups whose loads read lambda (friction): Q(t, q, v, lambda).
         self.multiplier_groups = [g for g in self.force_groups
@@ -614,7 +621,7 @@ class AssembledSystem:
                 e[i] += 0.5 * np.einsum("ki,kij,kj->", vb, g.mass_blocks(qx[i]), vb)
         return e
 
-    def power(self, t, q, v, lam, phi_t=None):
+    def power(self, t, q, v, lam, phi_t=None, contact_log=()):
         """Power put in and power dissipated, per row [W].
 
         Put in: the applied loads that are not potential forces (torques,
@@ -632,6 +639,9 @@ class AssembledSystem:
         lam : ndarray, shape (N, m)
         phi_t : ndarray, shape (N, m), optional
             Phi_t at the rows, when already computed.
+        contact_log : sequence of (t, gap, speed), optional
+            The run's contact state changes (``Solution.contact_log``): the
+            damping of a contact depends on its impact speed.
 
         Returns
         -------
@@ -646,6 +656,8 @@ class AssembledSystem:
             elif isinstance(g, (TorqueGroup, StateTorqueGroup, PointForceGroup)):
                 for i in range(N):
                     p_in[i] += np.sum(g.forces(qx[i], vx[i], t[i]) * vx[i][g.cols])
+            elif g is self.contact_group:
+                p_diss += g.dissipation(qx, vx, g.speeds_at(t, contact_log))
             elif isinstance(g, FrictionGroup):
                 for i in range(N):
                     p_diss[i] += np.sum(g.dissipation(qx[i], vx[i], t[i], lam[i]))

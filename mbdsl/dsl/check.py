@@ -59,7 +59,14 @@ FORCE_KINDS = {
     "friction": {"mu": None, "radius": _UNSET, "mu_static": _UNSET, "v_stribeck": 0.0,
                  "viscous": 0.0, "v_reg": 1e-4},
     "force": {},
+    # a circle against a line or in a hole (``model.contact``); line/circle: one of them
+    "contact": {"radius": None, "line": _UNSET, "circle": _UNSET, "k": None, "exponent": 1.5,
+                "restitution": 1.0},
+    # a revolute's angle or a sliding joint's distance between bounds (one of them or both)
+    "limit": {"lower": _UNSET, "upper": _UNSET, "k": None, "exponent": 1.0, "restitution": 1.0},
 }
+#: keywords whose value is a geometry, read by the element, not a number
+_GEOMETRY_OPTIONS = ("line", "circle")
 #: What a force expression may read of the motion: body field -> (level, coordinate),
 #: and revolute-joint field -> level (angle, rate: phi2 - phi1 and its rate).
 BODY_STATE = {"x": (0, 0), "y": (0, 1), "phi": (0, 2), "vx": (1, 0), "vy": (1, 1),
@@ -1005,7 +1012,10 @@ class _Checker:
                    ("spring_damper", "length"): "m", ("rotational_spring_damper", "k"): "N*m/rad",
                    ("rotational_spring_damper", "c"): "N*m*s/rad",
                    ("rotational_spring_damper", "angle"): "rad", ("friction", "mu"): "1",
-                   ("friction", "mu_static"): "1", ("friction", "radius"): "m"}
+                   ("friction", "mu_static"): "1", ("friction", "radius"): "m",
+                   ("contact", "radius"): "m", ("contact", "exponent"): "1",
+                   ("contact", "restitution"): "1", ("limit", "exponent"): "1",
+                   ("limit", "restitution"): "1"}
 
     def check_forces(self):
         """Check force options (required, non-negative) and build force elements."""
@@ -1020,13 +1030,16 @@ class _Checker:
                 continue
             allowed = FORCE_KINDS[f.kind]
             npos = {"spring_damper": 2, "rotational_spring_damper": 1, "torque": 2,
-                    "joint_torque": 2, "joint_force": 2, "force": 2, "friction": 1}[f.kind]
+                    "joint_torque": 2, "joint_force": 2, "force": 2, "friction": 1,
+                    "contact": 1, "limit": 1}[f.kind]
             pos, kw = self.split_args(f, allowed, npos, ctx)
             if pos is None:
                 continue
             opts = {}
             for name, default in allowed.items():
-                if name in kw:
+                if name in kw and name in _GEOMETRY_OPTIONS:
+                    opts[name] = kw[name]
+                elif name in kw:
                     v = (self.angle if name == "angle" else self.number)(
                         kw[name].value, kw[name].span, f"{ctx}: {name}",
                         unit=self.FORCE_UNITS.get((f.kind, name)))
@@ -1058,6 +1071,115 @@ class _Checker:
                 el = self.force_element(f, pos, opts, ctx)
                 if el is not None and ok:
                     self.forces.append(el)
+
+    def contact_element(self, f, pos, opts, ctx):
+        """A ``contact`` (a circle against a line or in a hole) or a ``limit``
+        (a joint's angle or distance between bounds): one-sided gaps of
+        :mod:`mbdsl.model.contact`; None after reporting."""
+        from ..model.contact import Contact, contact_geometry_circle, contact_geometry_line
+        for name, hint in (("restitution", "a coefficient of restitution is in (0, 1]: 1 keeps "
+                            "the energy, 0.8 is a hard ball, small values a dead impact"),
+                           ("exponent", "1 for a linear law, 1.5 for Hertz's sphere")):
+            v = opts[name]
+            bad = not (0.0 < v <= 1.0) if name == "restitution" else not v >= 1.0
+            if bad:
+                span = next((a.span for a in f.args if a.keyword == name), f.span)
+                self.error("E303", f"{ctx}: '{name}' = {v:g} is out of range", span,
+                           "out of range", hint=hint)
+                return None
+        if not opts["k"] > 0:
+            self.error("E303", f"{ctx}: the contact stiffness 'k' must be positive",
+                       next((a.span for a in f.args if a.keyword == "k"), f.span), "not positive")
+            return None
+        common = (opts["k"], opts["exponent"], opts["restitution"], f.span)
+        if f.kind == "limit":
+            joint = self.joint_argument(pos[0], f, ctx)
+            if joint is None:
+                return None
+            lower, upper = opts["lower"], opts["upper"]
+            if math.isnan(lower) and math.isnan(upper):
+                self.error("E305", f"{ctx}: a limit needs 'lower', 'upper' or both", f.span,
+                           "no bound", hint="e.g. limit(O, lower = -pi/4, upper = pi/4, k = 1e5)")
+                return None
+            if not (math.isnan(lower) or math.isnan(upper)) and not lower < upper:
+                self.error("E303", f"{ctx}: 'lower' ({lower:g}) must be below 'upper' ({upper:g})",
+                           f.span, "empty range")
+                return None
+            if joint.kind == "revolute":
+                if not self.turning(joint.bodies, ctx, f.span, "a limit on an angle turns bodies"):
+                    return None
+                pair = (joint.first.body, None, joint.second.body, None)
+                gaps = tuple(("angle", pair + (b, sign), label)
+                             for b, sign, label in ((lower, 1.0, "lower"), (upper, -1.0, "upper"))
+                             if not math.isnan(b))
+            elif joint.kind in ("prismatic", "point_on_line"):
+                try:
+                    line = self.sliding_line(joint)
+                except ExprError as err:
+                    self.expr_error(err, f.span, ctx)
+                    return None
+                gaps = tuple(("slide", line + (b, sign), label)
+                             for b, sign, label in ((lower, 1.0, "lower"), (upper, -1.0, "upper"))
+                             if not math.isnan(b))
+            else:
+                self.error("E305", f"{ctx}: a limit acts on a revolute's angle or a prismatic or "
+                           f"point_on_line joint's distance; '{joint.name}' is a {joint.kind} joint",
+                           getattr(pos[0].value, "span", None) or f.span, "no motion to limit")
+                return None
+            return Contact(f.name, "limit", gaps, *common)
+        centre = self.point(pos[0].value, pos[0].span or f.span, ctx)
+        if centre is None:
+            return None
+        given = [g for g in _GEOMETRY_OPTIONS if not isinstance(opts[g], float)]
+        if len(given) != 1:
+            self.error("E305", f"{ctx}: a contact needs one of 'line = (point, (dx, dy))' or "
+                       "'circle = (point, radius)'", f.span,
+                       "no geometry" if not given else "two geometries",
+                       hint="a circle against a line: line = (ground.origin, (1, 0)); "
+                       "in a hole: circle = (slot.c, 0.0105)")
+            return None
+        arg = opts[given[0]]
+        val = arg.value
+        shape_ok = isinstance(val, Vec) and (isinstance(val.y, Vec) == (given[0] == "line"))
+        if not shape_ok:
+            self.error("E305", f"{ctx}: expected {given[0]} = "
+                       + ("(point, (dx, dy))" if given[0] == "line" else "(point, radius)"),
+                       arg.span or f.span, "not a " + given[0])
+            return None
+        other = self.point(val.x, arg.span or f.span, ctx)
+        if other is None:
+            return None
+        for p in (centre, other):
+            if p.body != GROUND and isinstance(self.model_body(p.body), FlexibleBeam):
+                self.error("E304", f"{ctx}: contacts act between rigid bodies; '{p.text}' is on "
+                           "a flexible beam", f.span, "flexible beam",
+                           hint="attach a rigid body to the beam and put the contact on it")
+                return None
+        if centre.body == other.body:
+            self.error("E402", f"{ctx} puts a body in contact with itself", f.span, "no effect")
+            return None
+        radius = opts["radius"]
+        if given[0] == "line":
+            dx = self.number(val.y.x, arg.span or f.span, ctx)
+            dy = self.number(val.y.y, arg.span or f.span, ctx)
+            if dx is None or dy is None:
+                return None
+            if dx == 0.0 and dy == 0.0:
+                self.error("E303", f"{ctx}: the line's direction is zero", arg.span or f.span,
+                           "zero direction")
+                return None
+            return Contact(f.name, "contact",
+                           (contact_geometry_line(centre, radius, other, (dx, dy)),), *common)
+        hole = self.number(val.y, arg.span or f.span, ctx, unit="m")
+        if hole is None:
+            return None
+        if not hole > radius:
+            self.error("E303", f"{ctx}: the hole's radius ({hole:g} m) must exceed the pin's "
+                       f"({radius:g} m)", arg.span or f.span, "no clearance",
+                       hint="a pin as large as its hole is a revolute joint")
+            return None
+        return Contact(f.name, "contact",
+                       (contact_geometry_circle(centre, radius, other, hole),), *common)
 
     def joint_argument(self, arg, f, ctx) -> Joint | None:
         """The joint a force names as its first argument; None after reporting
@@ -1141,6 +1263,8 @@ class _Checker:
             return JointForce(f.name, joint, fn, f.span) if fn else None
         if f.kind == "friction":
             return self.friction_element(f, pos, opts, ctx)
+        if f.kind in ("contact", "limit"):
+            return self.contact_element(f, pos, opts, ctx)
         # point force
         p = self.point(pos[0].value, pos[0].span or f.span, ctx)
         vec = pos[1].value
@@ -1454,7 +1578,12 @@ class _Checker:
         # more equations than coordinates is not decided here: the rows may be
         # redundant (E401) or inconsistent (E503), which the assembly tells apart
         # and names the joints (assembly/structure.py)
+        from ..model.contact import Contact
+        touching = {data[k] for f in model.forces if isinstance(f, Contact)
+                    for _, data, _ in f.gaps for k in (0, 2)}
         for body_index in graph.bodies_not_connected_to_ground(model):
+            if body_index in touching:          # held by a contact: free between impacts
+                continue
             b = model.bodies[body_index]
             self.warning("W401", f"body '{b.name}' is not connected to the ground by joints",
                          b.span, "floats freely",

@@ -34,10 +34,12 @@ __all__ = [
 
 
 def _vec(value) -> Vec:
+    """(x, y) -> Vec; a pair whose second item is a pair (a point and a
+    direction, ``line = ("ground.origin", (1, 0))``) nests."""
     if isinstance(value, Vec):
         return value
     x, y = value
-    return Vec(as_expr(x), as_expr(y))
+    return Vec(as_expr(x), _vec(y) if isinstance(y, (tuple, list, Vec)) else as_expr(y))
 
 
 def _ref(value) -> Dotted:
@@ -263,7 +265,8 @@ class JointSpec:
 @dataclass(frozen=True)
 class ForceSpec:
     """``force NAME: kind(args)``; kinds: spring_damper,
-    rotational_spring_damper, torque, force."""
+    rotational_spring_damper, torque, joint_torque, joint_force, force,
+    friction, contact, limit."""
 
     name: str
     kind: str

@@ -134,6 +134,13 @@ class Method(ABC):
     name: str = ""
     index: int = 3
     history_length: int = 1
+    #: The largest ratio of successive step sizes the formulas stay stable for
+    #: (error-controlled steps cap their growth at it): None for one-step
+    #: methods; variable-step BDF2 is zero-stable for ratios below 1 + sqrt(2)
+    #: (Grigorieff 1983; Hairer & Wanner, Solving ODEs II, sec. III.5).
+    max_step_ratio: float | None = None
+    #: whether the compiled loop can take error-controlled steps of this method
+    compiled_adaptive: bool = True
     #: names of StepState.extra arrays of length m written to the output (e.g. "mu")
     extras: tuple = ()
     #: further (m,) columns that :meth:`output_multipliers` adds to the output

@@ -123,15 +123,27 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
     output_every = int(output_every)
     from .engine import (SparseAdapter, prepare_compiled, run_compiled, run_compiled_adaptive,
                          select_engine)
-    if control is not None:
+    if control is not None or getattr(system, "contact_group", None) is not None:
+        # error control changes h every step, and events cut steps: a two-step
+        # method keeps its order with the coefficients of unequal steps
         method = method.with_variable_steps()
-        from .engine import recipe_monomials
+    if control is not None and method.max_step_ratio is not None \
+            and control.max_factor > method.max_step_ratio:
+        import dataclasses
+        control = dataclasses.replace(control, max_factor=method.max_step_ratio)
+    engine_note = None
+    if control is not None:
+        from .engine import recipe_monomials, unsupported
         if (engine != "numpy" and method.kernel_recipe(1.0, False) is not None
-                and recipe_monomials(method) is None):   # a recipe the loop cannot vary
+                and (recipe_monomials(method) is None          # a recipe the loop cannot vary
+                     or not method.compiled_adaptive)):
             if engine == "compiled":
                 raise ValueError(f"the compiled engine cannot vary the step of {method.name}")
-            engine = "numpy"
-    which = select_engine(engine, system, method, compile_policy, announce)
+            if unsupported(system, method) is None:
+                engine_note = f"error-controlled steps of {method.name} run on numpy"
+            engine = "auto_numpy"
+    which = select_engine("numpy" if engine == "auto_numpy" else engine, system, method,
+                          compile_policy, announce)
     solver = Newton(newton)
     if which == "numpy" and solver.options.linear_solver == "banded":
         raise ValueError("linear_solver='banded' is a solver of the compiled engine, which "
@@ -179,7 +191,8 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
     sol.control = control
     sol.engine = which
     from .engine import unsupported
-    sol.engine_note = unsupported(system, method) if engine == "auto" else None
+    sol.engine_note = (engine_note or unsupported(system, method)
+                       if engine in ("auto", "auto_numpy") else None)
     sol.linear_solver = "sparse" if assembler.sparse else "dense"
     sol.append(history[-1], StepStats())
     sol.last_state = history[-1]
@@ -220,6 +233,12 @@ def _time_loop(system, method, solver, sol, history, kinds, assembler, t_start, 
     # rank loss lands closer to it, where Newton converges slowest); the
     # halvings follow only if the longer step fails too.
     jumped = None                # the step size before a jump, while jumping
+    events = None
+    if getattr(system, "contact_group", None) is not None:
+        from .events import EventLocator
+        events = EventLocator(system, h, sol)
+        events.start(t_start, history[-1])
+    resume = None                # the step size planned before a step was cut for an event
     try:
         while t < t_end - 1e-9 * h:
             step = min(h_cur, t_end - t)
@@ -256,6 +275,15 @@ def _time_loop(system, method, solver, sol, history, kinds, assembler, t_start, 
                 _fail(sol, method, ctx, res, t, step, h)
                 break
             state = method.accept(res.w, ctx)
+            if events is not None:
+                # first whether it ends on its events: a step into a stiff
+                # contact is cut to the closing, not rejected for its error
+                cut = events.check(t, step, ctx.last, state)
+                if cut is not None:
+                    resume = resume or max(h_cur, step)
+                    h_cur = cut
+                    sol.event_cuts += 1
+                    continue
             if adaptive:
                 err = control.norm(method.local_error(ctx, state), ctx.last.q, state.q)
                 if err > 1.0:
@@ -268,9 +296,24 @@ def _time_loop(system, method, solver, sol, history, kinds, assembler, t_start, 
                     continue
                 h_cur = min(step * control.factor(err, after_rejection), h_max)
                 after_rejection, jumped = False, None
+            if events is not None:
+                events.commit()
+                if resume is not None:                  # landed on it: back to the size planned
+                    h_cur, resume = max(h_cur, resume) if adaptive else resume, None
+                if adaptive:
+                    h_cur = min(h_cur, events.step_limit())
             if jumped is not None:                      # landed past it: back to the size before
                 h_cur, jumped = jumped, None
             history = (list(history) + [state])[-method.history_length:]
+            if events is not None and events.happened and method.history_length > 1:
+                # an event is a kink in the motion: a two-step method starts
+                # afresh from it rather than reach back across it, with a
+                # short one-step (BDF1) start: its numerical damping of the
+                # contact mode grows as h^2
+                history = [state]
+                if adaptive:
+                    h_cur = min(h_cur, RESTART_FRACTION * events.changed_limit)
+
             sol.last_state = state
             n_steps += 1
             pending = StepStats(pending.iterations + res.n_iter, pending.residuals + res.n_residual,
@@ -308,6 +351,9 @@ def _time_loop(system, method, solver, sol, history, kinds, assembler, t_start, 
 
 #: how much longer a failed step of the augmented formulation is retried first
 JUMP = 1.5
+#: a two-step method's first step after an event, as a fraction of the
+#: contact's step limit (``events.EventLocator.step_limit``)
+RESTART_FRACTION = 0.05
 
 
 def _finish(sol, writer, loop_start):

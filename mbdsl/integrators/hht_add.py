@@ -77,6 +77,9 @@ class HHTADD(Method):
     """
 
     name = "hht-add"
+    #: the compiled loop's error estimate reads the recipe's x, here the
+    #: applied forces' acceleration only: error-controlled steps run on numpy
+    compiled_adaptive = False
     index = 2
     history_length = 1
     extras = ("psi1",)
@@ -143,7 +146,25 @@ class HHTADD(Method):
         s = StepState(initial.t, initial.q, initial.v, f0, initial.lam)
         s.extra["psi1"] = initial.lam.copy()
         s.extra["f"] = s.a.copy()
+        s.extra["acc"] = np.asarray(initial.a, dtype=float).copy()
         return [s]
+
+    def local_error(self, ctx, new):
+        """(beta - 1/6) h^2 times the change of the total acceleration a + R_II
+        over the step (Zienkiewicz & Xie 1991; ``adaptive``): a alone is the
+        acceleration of the applied forces, which misses what the constraint
+        forces do (on a pendulum under gravity a does not change at all)."""
+        prev = ctx.last.extra.get("acc")
+        if prev is None:
+            prev = ctx.last.a + self._r(ctx.system, ctx.last.q, ctx.last.lam)
+        return (self.beta - 1.0 / 6.0) * ctx.h ** 2 * (new.extra["acc"] - prev)
+
+    @staticmethod
+    def _r(system, q, psi):
+        """r(q, psi) = -M(q)^{-1} Phi_q(q)^T psi [m/s^2]."""
+        if not system.m:
+            return np.zeros(system.n)
+        return -system.mass_solve(q, system.PhiqT_times(q, 0.0, psi))
 
     def context(self, system, history, t, h) -> StepContext:
         """Predictors, f_n and B_n = M(q_n)^{-1} Phi_q(q_n)^T (fixed within the step)."""
@@ -259,4 +280,5 @@ class HHTADD(Method):
         s = StepState(ctx.t, q, v, a.copy(), p2.copy())
         s.extra["psi1"] = p1.copy()
         s.extra["f"] = self._f(ctx.system, ctx.t, q, v, p2)
+        s.extra["acc"] = a + self._r(ctx.system, q, p2)
         return s

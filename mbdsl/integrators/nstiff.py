@@ -47,6 +47,7 @@ class NStiff(Method):
     accepts_augmented = True
     index = 3
     history_length = 2
+    max_step_ratio = 2.0        # BDF2: below 1 + sqrt(2), with a margin
 
     def order(self) -> int:
         """2."""

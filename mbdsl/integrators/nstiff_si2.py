@@ -57,6 +57,7 @@ class NStiffSI2(Method):
     name = "nstiff-si2"
     index = 2
     history_length = 2
+    max_step_ratio = 2.0        # BDF2: below 1 + sqrt(2), with a margin
     extras = ("mu",)
 
     def order(self) -> int:

@@ -32,9 +32,9 @@ def _row_by_row(system, t, q, v, lam):
     for i in range(len(t)):
         out["energy.kinetic"].append(system.kinetic_energy(q[i], v[i]))
         out["energy.potential"].append(system.potential_energy(q[i]))
-        out["constraint.position"].append(np.max(np.abs(system.Phi(q[i], t[i]))))
+        out["constraint.position"].append(np.max(np.abs(system.Phi(q[i], t[i])), initial=0.0))
         vel = system.Phiq_times(q[i], t[i], v[i]) + system.Phi_t(q[i], t[i])
-        out["constraint.velocity"].append(np.max(np.abs(vel)))
+        out["constraint.velocity"].append(np.max(np.abs(vel), initial=0.0))
         if reactions is not None:
             out["reactions"].append(reactions(q[i], t[i], lam[i]))
     return out

@@ -1,0 +1,195 @@
+"""Events: contacts and joint limits closing and opening, located within a step.
+
+After each accepted step the time loop asks :class:`EventLocator` whether a
+gap of the model's contacts and limits (:class:`~mbdsl.assembly.contact.
+ContactGroup`) changed sign. If one did, the root of the gap along the step
+is estimated with Brent's method on the step's cubic Hermite interpolant of q
+(from q and v at both ends, third order), or for a closing gap on the
+Taylor expansion q + tau v + tau^2 a / 2 from the step's start (the motion up
+to a closing is free of the contact, while the end of a step past it already
+feels its force and bends the interpolant), and unless it lies within the event
+tolerance of the step's start, the step is discarded and retaken with the
+size that ends it just past the root (by half the tolerance). A retaken step
+lands when its end is within the tolerance past the root, judged by the end's
+own gap and gap rate; if it is not, the next retake corrects its size by
+Newton's rule on that gap (g + dg/dt dt = 0). The
+tolerance is ``EVENT_TOL`` times the nominal step size. A step is cut at most
+``MAX_CUTS`` times for one event (the retaken step's own interpolant moves
+the root a little each time); then it is accepted as it is.
+
+When a step ends on an event the contact's state changes there: a closing
+gap remembers its approach speed (from the interpolant's velocity at the
+root), which sets the damping of its force law
+(:mod:`mbdsl.model.contact`); an opening gap forgets it. Every event is
+recorded in ``Solution.events``.
+
+Locating the closing matters for the law, not only for accuracy: the impact
+speed is measured where the gap closes, and a step that jumps deep into a
+stiff contact would also ask Newton to converge on a force that is not yet
+small.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["EventLocator", "EVENT_TOL", "MAX_CUTS", "STEPS_PER_CONTACT"]
+
+#: Event location tolerance, as a fraction of the nominal step size h.
+EVENT_TOL = 1e-6
+#: At most this many retakes of a step to land on one event.
+MAX_CUTS = 8
+#: Error-controlled steps while a gap is closed are at most its estimated
+#: impact duration over this (``ContactGroup.duration``).
+STEPS_PER_CONTACT = 50
+
+
+def _hermite(theta, step, qa, va, qb, vb):
+    """q and dq/dt at theta in [0, 1] on the cubic Hermite interpolant."""
+    t2, t3 = theta * theta, theta ** 3
+    h00, h10, h01, h11 = 2 * t3 - 3 * t2 + 1, t3 - 2 * t2 + theta, -2 * t3 + 3 * t2, t3 - t2
+    d00, d10, d01, d11 = 6 * t2 - 6 * theta, 3 * t2 - 4 * theta + 1, -6 * t2 + 6 * theta, \
+        3 * t2 - 2 * theta
+    q = h00 * qa + h10 * step * va + h01 * qb + h11 * step * vb
+    v = (d00 * qa + d01 * qb) / step + d10 * va + d11 * vb
+    return q, v
+
+
+class EventLocator:
+    """Locates the closing and opening of a model's contact gaps in the time loop.
+
+    Parameters
+    ----------
+    system : AssembledSystem
+        With ``contact_group`` set.
+    h : float [s]
+        The nominal step size (the tolerance's scale).
+    sol : Solution
+        Receives the events (``events``) and the contact log (``contact_log``).
+    """
+
+    def __init__(self, system, h, sol):
+        self.system = system
+        self.group = system.contact_group
+        self.tol = EVENT_TOL * h
+        self.sol = sol
+        self.cuts = 0           # retakes for the event now being landed on
+        self.caps = np.full(len(self.group.names), np.inf)   # step limits of closed gaps
+        self._mass = system.mass_diag
+        self.happened = False   # the step just checked ended with events
+        self.g = None
+
+    def step_limit(self) -> float:
+        """The largest error-controlled step while gaps are closed [s]: their
+        estimated impact duration over ``STEPS_PER_CONTACT`` (inf when all
+        are open). The error estimates of the methods see a contact's onset
+        only as a change of acceleration over the step; resolving the
+        contact's own time scale is what keeps its energy (measured on the
+        pendulum against a stop, docs/contact.md)."""
+        return float(np.min(self.caps, initial=np.inf))
+
+    def start(self, t, state):
+        """The run starts: every gap open, those closed at the start armed with
+        their approach speed (or the floor speed at rest)."""
+        g = self.group
+        g.reset()
+        qx, vx = self.system._ext(state.q), self.system._ext(state.v)
+        self.g = g.gaps(qx)
+        rates = g.gap_rates(qx, vx)
+        for i in np.flatnonzero(self.g <= 0.0):
+            g.arm(i, -rates[i], t)
+            self.caps[i] = g.duration(i, qx, g.impact_speed[i], self._mass) / STEPS_PER_CONTACT
+            self.sol.events.append((float(t), g.names[i], "closed", float(g.impact_speed[i])))
+        self.sol.contact_log = g.log
+
+    def check(self, t, step, last, state):
+        """After a step from ``last`` (at t) to ``state`` (at t + step) that
+        Newton converged on: does it end on its events? Changes nothing until
+        :meth:`commit` (the error control may still reject the step).
+
+        Returns
+        -------
+        float or None
+            The size to retake the step with, to end it on an event; None:
+            the step may be kept.
+        """
+        g = self.group
+        gb = g.gaps(self.system._ext(state.q))
+        crossed = np.flatnonzero((self.g > 0.0) != (gb > 0.0))
+        self._pending = (t, step, last, state, gb, {})
+        if not crossed.size:
+            return None
+        from scipy.optimize import brentq
+        n = self.system.n
+        ext = np.zeros(self.system.nx)
+
+        def gap_at(theta, i):
+            ext[:n] = _hermite(theta, step, last.q, last.v, state.q, state.v)[0]
+            return g.gaps_one(i, ext)
+
+        def free_gap_at(theta, i):
+            tau = theta * step
+            ext[:n] = last.q + tau * last.v + 0.5 * tau * tau * last.a
+            return g.gaps_one(i, ext)
+
+        roots = self._pending[5]
+        for i in crossed:
+            if (gap_at(0.0, i) > 0.0) == (gb[i] > 0.0):
+                roots[i] = 0.0                  # at the start (round-off in the interpolant)
+            elif self.g[i] > 0.0 and free_gap_at(1.0, i) <= 0.0:
+                # a closing: the motion up to it is free of the contact, and
+                # its Taylor expansion from the step's start is not bent by
+                # the contact force that the step's end state already feels
+                roots[i] = brentq(free_gap_at, 0.0, 1.0, args=(i,),
+                                  xtol=1e-3 * self.tol / step)
+            else:
+                roots[i] = brentq(gap_at, 0.0, 1.0, args=(i,), xtol=1e-3 * self.tol / step)
+        interior = {i: th for i, th in roots.items() if th * step > self.tol}
+        if not interior or self.cuts >= MAX_CUTS:
+            return None
+        i = min(interior, key=interior.get)
+        # where the step ends: within the tolerance past the root, by the
+        # gap's own rate there (the retaken step's end is the method's, not
+        # the interpolant's)
+        ext[:n] = state.q
+        vext = np.zeros(self.system.nx)
+        vext[:n] = state.v
+        rate = g.gap_rate_one(i, ext, vext)
+        past = gb[i] / rate if rate != 0.0 else np.inf       # time since the root [s]
+        if 0.0 <= past <= self.tol:
+            return None
+        self.cuts += 1
+        if self.cuts > 1 and 0.0 < past < step:
+            # a retake that did not land: Newton on the end's gap, g + rate dt = 0
+            return step - past + 0.5 * self.tol
+        return interior[i] * step + 0.5 * self.tol
+
+    def commit(self):
+        """The step last checked is kept: record its events and change the
+        contacts' states (:attr:`happened` says whether it had any)."""
+        t, step, last, state, gb, roots = self._pending
+        g = self.group
+        n = self.system.n
+        self.happened = bool(roots)
+        self.g = gb
+        #: the step limit of the gaps that changed, before an opening clears it
+        self.changed_limit = float(np.min(self.caps[list(roots)], initial=np.inf))
+        if not roots:
+            return
+        self.cuts = 0
+        qx, vx = np.zeros(self.system.nx), np.zeros(self.system.nx)
+        for i, th in sorted(roots.items(), key=lambda x: x[1]):
+            t_event = t + th * step
+            qx[:n], vx[:n] = _hermite(th, step, last.q, last.v, state.q, state.v)
+            rate = g.gap_rate_one(i, qx, vx)
+            if gb[i] <= 0.0:
+                g.arm(i, -rate, t_event)
+                self.caps[i] = g.duration(i, qx, g.impact_speed[i], self._mass) \
+                    / STEPS_PER_CONTACT
+                self.changed_limit = min(self.changed_limit, self.caps[i])
+                self.sol.events.append((t_event, g.names[i], "closed",
+                                        float(g.impact_speed[i])))
+            else:
+                g.release(i, t_event)
+                self.caps[i] = np.inf
+                self.sol.events.append((t_event, g.names[i], "opened", float(rate)))

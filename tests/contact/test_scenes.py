@@ -1,0 +1,183 @@
+"""Contact scenes stepped through with events and error-controlled steps.
+
+Oracles: free flight between impacts (a rebound's apex follows from the
+state at the opening exactly, y + vy^2 / 2g) against e^2 of the drop height
+the restitution promises; energy conservation for a stop with e = 1; the
+stop's own restitution from the speeds at its closing and opening.
+"""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+import mbdsl
+from mbdsl.errors import MbdModelError
+from pathlib import Path
+
+MODELS = Path(__file__).resolve().parents[2] / "models"
+ALL = ["newmark", "hht-i3", "nstiff", "nstiff-si2", "hht-add", "hht-si2", "genalpha",
+       "genalpha-si2"]
+SECOND_ORDER = ALL[1:]
+G = 9.81
+
+
+def apexes(sol, radius):
+    """Heights of the centre above contact at each rebound's apex, from the
+    first stored row after each opening (free flight from there)."""
+    y, vy = sol.q[:, 1], sol.v[:, 1]
+    out = []
+    for t_event, _, kind, _ in sol.events:
+        if kind == "opened":
+            i = np.searchsorted(sol.t, t_event)
+            out.append(y[i] + vy[i] ** 2 / (2 * G) - radius)
+    return np.array(out)
+
+
+@pytest.mark.parametrize("method", ALL)
+def test_bouncing_ball(method):
+    """Dropped from 1 m (0.95 m above contact), e = 0.8: the first rebound
+    rises to e^2 = 0.64 of the drop within 3 %; no impact adds energy."""
+    sol = mbdsl.simulate(mbdsl.load(MODELS / "bouncing_ball.mbd"), method=method,
+                         rtol=1e-6, atol=1e-6)
+    assert sol.completed and sol.engine == "numpy"
+    kinds = [e[2] for e in sol.events]
+    assert kinds[:4] == ["closed", "opened", "closed", "opened"]
+    assert sol.events[0][3] == pytest.approx(math.sqrt(2 * G * 0.95), rel=2e-5)  # impact speed
+    apex = apexes(sol, 0.05)
+    assert apex[0] / (0.64 * 0.95) == pytest.approx(1.0, abs=0.03)
+    E = sol.column("energy.total")
+    for k in range(0, len(sol.events) - 1, 2):
+        before = E[np.searchsorted(sol.t, sol.events[k][0]) - 1]
+        after = E[np.searchsorted(sol.t, sol.events[k + 1][0])]
+        assert after <= before + 1e-9
+    # the step sizes follow the scene: long in flight, short in contact
+    h = sol.stats["h"][1:]
+    assert h.max() > 100 * h.min()
+
+
+def test_bouncing_ball_fixed_steps_land_on_the_impacts():
+    """Without a tolerance the steps are h, except those cut to land on an event."""
+    text = (MODELS / "bouncing_ball.mbd").read_text().replace("; tol 1e-6", "")
+    sol = mbdsl.simulate(mbdsl.load_text(text), method="hht-i3", h=1e-4, t_end=0.6)
+    assert sol.control is None
+    closing = sol.events[0]
+    assert closing[0] == pytest.approx(math.sqrt(2 * 0.95 / G), abs=1e-9)
+    i = np.searchsorted(sol.t, closing[0])
+    assert sol.q[i, 1] - 0.05 == pytest.approx(0.0, abs=1e-8)     # a row on the closing
+    assert sol.event_cuts >= 2
+    assert np.median(sol.stats["h"][1:]) == pytest.approx(1e-4)
+    assert apexes(sol, 0.05)[0] / (0.64 * 0.95) == pytest.approx(1.0, abs=0.03)
+
+
+def swing_energy(sol):
+    """Total energy above the rest state (hanging: CM 0.5 m below the pivot)."""
+    return sol.column("energy.total") + G * 0.5
+
+
+@pytest.mark.parametrize("method", SECOND_ORDER)
+def test_pendulum_against_a_stop_keeps_its_energy(method):
+    """Restitution 1 and no other dissipation: after ten impacts the energy of
+    the swing is within 1e-3 of its initial 4.17 J (rtol 1e-6)."""
+    sol = mbdsl.simulate(mbdsl.load(MODELS / "pendulum_stop.mbd", {"e": 1.0}), method=method,
+                         rtol=1e-6, atol=1e-6)
+    assert sol.completed
+    opened = [e for e in sol.events if e[2] == "opened"]
+    assert len(opened) >= 10
+    E = swing_energy(sol)
+    assert E[0] == pytest.approx(0.5 / 3 * 25, rel=1e-12)
+    after_ten = E[np.searchsorted(sol.t, opened[9][0])]
+    assert abs(after_ten - E[0]) < 1e-3 * E[0]
+
+
+def test_pendulum_stop_restitution():
+    """e = 0.5: each bounce off a stop leaves with half the approach speed
+    (gravity acts over the 6 ms of contact: 2 %)."""
+    sol = mbdsl.simulate(mbdsl.load(MODELS / "pendulum_stop.mbd"), method="hht-si2",
+                         rtol=1e-7, atol=1e-7)
+    ev = sol.events
+    assert ev[0][1] in ("stop.upper", "stop.lower") and ev[0][2] == "closed"
+    for k in range(0, 6, 2):
+        assert ev[k][1] == ev[k + 1][1] and ev[k + 1][2] == "opened"
+        assert ev[k + 1][3] / ev[k][3] == pytest.approx(0.5, abs=0.02)
+
+
+@pytest.mark.parametrize("method", ALL)
+def test_clearance_slider_crank_short(method):
+    """The first 0.1 s of the clearance slider crank: no failed step, the pin
+    stays near its hole's wall (penetration well below the clearance), and
+    the summary counts the events and rejected steps."""
+    sol = mbdsl.simulate(mbdsl.load(MODELS / "slider_crank_clearance.mbd"), method=method,
+                         t_end=0.1)
+    assert sol.completed
+    assert len(sol.events) >= 1
+    text = sol.summary()
+    assert "events:" in text and "rejected" in text
+    g = sol.system.contact_group
+    qx = sol.system._ext(sol.q)
+    worst = min(g.gaps_one(0, row) for row in qx)
+    assert -1e-4 < worst < 0          # in contact, by less than a fifth of the 0.5 mm clearance
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("method", ALL)
+def test_clearance_slider_crank_two_seconds(method):
+    sol = mbdsl.simulate(mbdsl.load(MODELS / "slider_crank_clearance.mbd"), method=method)
+    assert sol.completed and sol.t[-1] == pytest.approx(2.0)
+
+
+def test_events_are_written(tmp_path):
+    out = tmp_path / "ball.csv"
+    from mbdsl.cli.main import main
+    assert main(["simulate", str(MODELS / "bouncing_ball.mbd"), "-o", str(out),
+                 "--t-end", "1"]) == 0
+    from mbdsl.output import read_csv_metadata
+    meta, _, _ = read_csv_metadata(out)
+    events = json.loads(meta["events"])
+    assert [e[1:3] for e in events[:2]] == [["floor", "closed"], ["floor", "opened"]]
+    assert int(meta["event_cuts"]) >= 1
+
+
+@pytest.mark.parametrize("text, code, words", [
+    ("force f: contact(b.cm, radius = 0.05, k = 1e6)", "E305", "needs one of"),
+    ("force f: contact(b.cm, radius = 0.05, line = (ground.origin, 1), k = 1e6)", "E305",
+     "expected line"),
+    ("force f: contact(b.cm, radius = 0.05, circle = (ground.origin, 0.04), k = 1e6)", "E303",
+     "must exceed"),
+    ("force f: contact(b.cm, radius = 0.05, line = (ground.origin, (1, 0)), k = 1e6, "
+     "restitution = 1.2)", "E303", "restitution"),
+    ("force f: contact(b.cm, radius = 0.05, line = (ground.origin, (1, 0)), k = 0)", "E303",
+     "stiffness"),
+    ("force f: limit(O, k = 1e5)", "E305", "needs 'lower', 'upper'"),
+    ("force f: limit(O, lower = 1, upper = 0, k = 1e5)", "E303", "below"),
+    ("force f: limit(D, lower = 0, k = 1e5)", "E305", "distance joint"),
+])
+def test_contact_errors(text, code, words):
+    src = f"""model m
+body b {{ mass 1; inertia 0.1; point P (0.1, 0) }}
+body c {{ mass 1; inertia 0.1 }}
+joint O: revolute(ground.origin, b.P)
+joint D: distance(b.cm, c.cm, length = 1)
+{text}
+"""
+    with pytest.raises(MbdModelError) as err:
+        mbdsl.load_text(src)
+    d = err.value.diagnostics[0]
+    assert d.code == code and words in d.message
+    assert d.span is not None and d.span.line >= 6
+
+
+def test_contact_from_python():
+    """The same ball built from spec objects: the nested (point, direction)
+    pair and the run's events as from the file."""
+    from mbdsl import BodySpec, ForceSpec, InitialSpec, ModelSpec, from_spec
+    spec = ModelSpec(
+        "ball", gravity=(0, -9.81),
+        bodies=(BodySpec.rigid("ball", mass=1, inertia=1e-3),),
+        forces=(ForceSpec("floor", "contact", ("ball.cm",),
+                          {"radius": 0.05, "line": ("ground.origin", (1, 0)), "k": 1e7,
+                           "restitution": 0.8}),),
+        initials=(InitialSpec("ball.x", 0), InitialSpec("ball.y", 1), InitialSpec("ball.phi", 0)))
+    sol = mbdsl.simulate(from_spec(spec), method="hht-i3", h=1e-3, t_end=0.6, rtol=1e-6)
+    assert sol.events[0][:3] == pytest.approx((math.sqrt(2 * 0.95 / G), "floor", "closed"))
