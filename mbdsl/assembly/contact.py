@@ -8,7 +8,11 @@ limit), with the Hunt-Crossley law of that module:
     f = K delta^n (1 + chi ddelta/dt / v_impact)   (delta > 0, cut at f >= 0),
     Q = f grad g,
 
-and its exact derivatives for the Newton matrix:
+with, at a contact with a friction coefficient mu, the regularised Coulomb
+force F_t = -mu f tanh(v_t / v_reg) along the contact's tangent (v_t the
+slip speed of the two bodies' material points at the contact point, w(q) . v:
+:func:`~mbdsl.model.contact.slip`), in generalized form F_t w; and the
+exact derivatives for the Newton matrix:
 
     Q_q = grad g (df/dq)^T + f H_g,   Q_v = grad g (df/dv)^T,
     df/dq = -(K n delta^(n-1) (1 + chi ddelta/dt / v_impact)) grad g
@@ -24,7 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..model.contact import SPEED_FLOOR, gap, gap_columns
+from ..model.contact import SPEED_FLOOR, gap, gap_columns, slip
 
 __all__ = ["ContactGroup"]
 
@@ -50,9 +54,11 @@ class ContactGroup:
     def __init__(self, cmap, contacts):
         self.cmap = cmap
         self.geometry, self.names, self.elements = [], [], []
-        cols, K, n, chi = [], [], [], []
+        cols, K, n, chi, mu, v_reg = [], [], [], [], [], []
         for c in contacts:
             for geometry, data, label in c.gaps:
+                mu.append(c.mu)
+                v_reg.append(c.v_reg)
                 self.geometry.append((geometry, data))
                 self.names.append(c.name + ("." + label if label else ""))
                 self.elements.append(c.name)
@@ -62,7 +68,8 @@ class ContactGroup:
                 chi.append(c.damping)
         self.cols = np.array(cols, dtype=np.intp).reshape(-1, 6)
         self.k_, self.n_, self.chi = (np.array(x, float) for x in (K, n, chi))
-        self.damped = bool(np.any(self.chi > 0.0))
+        self.mu, self.v_reg = np.array(mu, float), np.array(v_reg, float)
+        self.damped = bool(np.any(self.chi > 0.0) or np.any(self.mu > 0.0))
         self.impact_speed = np.zeros(len(self.names))
         #: (t, gap, speed) of every arm and release of the run under way
         self.log = []
@@ -143,13 +150,26 @@ class ContactGroup:
         f = elastic * (1.0 + self.chi[i] * ddelta / v_imp)
         return g, grad, H, delta, ddelta, max(f, 0.0), elastic
 
+    def _friction(self, i, qx, vx, f):
+        """(F_t, w, dw, v_t, T) of gap i under normal force f: F_t = -mu f
+        tanh(v_t / v_reg) along the contact's tangent, v_t = w . v
+        (:func:`~mbdsl.model.contact.slip`), T = tanh(v_t / v_reg)."""
+        w, dw = slip(*self.geometry[i], qx, self.cmap)
+        vt = w @ vx[self.cols[i]]
+        T = np.tanh(vt / self.v_reg[i])
+        return -self.mu[i] * f * T, w, dw, vt, T
+
     def forces(self, qx, vx, t):
-        """Local Q, shape (k, 6) [N, N m]."""
+        """Local Q, shape (k, 6) [N, N m]: the normal force f grad g and, with
+        friction, F_t w (the tangential force's generalized form)."""
         out = np.zeros(self.cols.shape)
         for i in range(len(self.names)):
             _, grad, _, _, _, f, _ = self._law(i, qx, vx, self.impact_speed[i])
             if f > 0.0:
                 out[i] = f * grad
+                if self.mu[i] > 0.0:
+                    Ft, w, _, _, _ = self._friction(i, qx, vx, f)
+                    out[i] += Ft * w
         return out
 
     def derivatives(self, qx, vx, t):
@@ -173,6 +193,16 @@ class ContactGroup:
             dfdv = -damp * grad
             Qq[i] = np.outer(grad, dfdq) + f * H
             Qv[i] = np.outer(grad, dfdv)
+            if self.mu[i] > 0.0:
+                # Q = F_t w, F_t = -mu f T(v_t): Q_q = w dF_t/dq^T + F_t dw/dq,
+                # Q_v = w dF_t/dv^T, dv_t/dq = (dw/dq)^T v, dv_t/dv = w
+                Ft, w, dw, vt, T = self._friction(i, qx, vx, f)
+                dT = (1.0 - T * T) / self.v_reg[i]
+                dvt_dq = dw.T @ v
+                dFt_dq = -self.mu[i] * (T * dfdq + f * dT * dvt_dq)
+                dFt_dv = -self.mu[i] * (T * dfdv + f * dT * w)
+                Qq[i] += np.outer(w, dFt_dq) + Ft * dw
+                Qv[i] += np.outer(w, dFt_dv)
         return Qq, Qv
 
     def energy(self, qx):
@@ -198,6 +228,9 @@ class ContactGroup:
                 _, _, _, delta, ddelta, f, elastic = self._law(i, qx[r], vx[r], speeds[r, i])
                 if delta > 0.0:
                     out[r] += (f - elastic) * ddelta
+                    if self.mu[i] > 0.0 and f > 0.0:       # friction: -F_t v_t >= 0
+                        Ft, _, _, vt, _ = self._friction(i, qx[r], vx[r], f)
+                        out[r] -= Ft * vt
         return out
 
     def speeds_at(self, t, log):

@@ -61,7 +61,7 @@ FORCE_KINDS = {
     "force": {},
     # a circle against a line or in a hole (``model.contact``); line/circle: one of them
     "contact": {"radius": None, "line": _UNSET, "circle": _UNSET, "k": None, "exponent": 1.5,
-                "restitution": 1.0},
+                "restitution": 1.0, "mu": 0.0, "v_reg": 1e-4},
     # a revolute's angle or a sliding joint's distance between bounds (one of them or both)
     "limit": {"lower": _UNSET, "upper": _UNSET, "k": None, "exponent": 1.0, "restitution": 1.0},
 }
@@ -1014,7 +1014,8 @@ class _Checker:
                    ("rotational_spring_damper", "angle"): "rad", ("friction", "mu"): "1",
                    ("friction", "mu_static"): "1", ("friction", "radius"): "m",
                    ("contact", "radius"): "m", ("contact", "exponent"): "1",
-                   ("contact", "restitution"): "1", ("limit", "exponent"): "1",
+                   ("contact", "restitution"): "1", ("contact", "mu"): "1",
+                   ("contact", "v_reg"): "m/s", ("limit", "exponent"): "1",
                    ("limit", "restitution"): "1"}
 
     def check_forces(self):
@@ -1169,7 +1170,8 @@ class _Checker:
                            "zero direction")
                 return None
             return Contact(f.name, "contact",
-                           (contact_geometry_line(centre, radius, other, (dx, dy)),), *common)
+                           (contact_geometry_line(centre, radius, other, (dx, dy)),), *common,
+                           mu=opts["mu"], v_reg=opts["v_reg"])
         hole = self.number(val.y, arg.span or f.span, ctx, unit="m")
         if hole is None:
             return None
@@ -1179,7 +1181,8 @@ class _Checker:
                        hint="a pin as large as its hole is a revolute joint")
             return None
         return Contact(f.name, "contact",
-                       (contact_geometry_circle(centre, radius, other, hole),), *common)
+                       (contact_geometry_circle(centre, radius, other, hole),), *common,
+                       mu=opts["mu"], v_reg=opts["v_reg"])
 
     def joint_argument(self, arg, f, ctx) -> Joint | None:
         """The joint a force names as its first argument; None after reporting

@@ -56,7 +56,7 @@ import numpy as np
 from ..errors import Span
 from .elements import GROUND, line_distance
 
-__all__ = ["Contact", "damping_factor", "gap", "gap_columns",
+__all__ = ["Contact", "damping_factor", "gap", "gap_columns", "slip",
            "SPEED_FLOOR"]
 
 #: Approach speeds below this [m/s or rad/s] are taken as this speed in the
@@ -85,6 +85,11 @@ class Contact:
     restitution : float
         Coefficient of restitution e in (0, 1].
     span : Span or None
+    mu : float
+        Coulomb friction coefficient at a contact (0: frictionless; limits
+        have none).
+    v_reg : float [m/s]
+        Regularisation speed of the friction law -mu f tanh(v_t / v_reg).
     """
 
     name: str
@@ -94,6 +99,8 @@ class Contact:
     exponent: float
     restitution: float
     span: Span | None = None
+    mu: float = 0.0
+    v_reg: float = 1e-4
 
     @property
     def damping(self) -> float:
@@ -159,7 +166,7 @@ def gap(geometry: str, data, qx, cmap):
     geometry : {"line", "circle", "angle", "slide"}
     data : tuple
         ``line``: (body L, s_L, body P, s_P, n0, r); ``circle``: (body C, s_C,
-        body P, s_P, clearance); ``angle``: (body 1, None, body 2, None, bound,
+        body P, s_P, clearance, r); ``angle``: (body 1, None, body 2, None, bound,
         sign); ``slide``: (body L, s_L, body P, s_P, u0, bound, sign).
     qx : ndarray, shape (n + 3,)
         q extended by the ground's three zero coordinates.
@@ -185,7 +192,7 @@ def gap(geometry: str, data, qx, cmap):
         grad[2], grad[5] = -sign, sign
         return sign * (q[5] - q[2] - bound), grad, np.zeros((6, 6))
     # circle: g = c - |d|, d = p_P - p_C = r_P + A_P s_P - r_C - A_C s_C
-    _, sC, _, sP, clearance = data
+    _, sC, _, sP, clearance = data[:5]
     aC, aP = _rot(q[2], sC), _rot(q[5], sP)
     BaC, BaP = np.array([-aC[1], aC[0]]), np.array([-aP[1], aP[0]])
     d = q[3:5] + aP - q[0:2] - aC
@@ -216,7 +223,74 @@ def contact_geometry_line(centre, radius, line_point, direction):
 def contact_geometry_circle(pin, radius, hole_centre, hole_radius):
     """Gap data of a pin (PointRef, radius [m]) in a hole (PointRef, radius [m])."""
     return ("circle", (hole_centre.body, tuple(hole_centre.local), pin.body,
-                       tuple(pin.local), float(hole_radius) - float(radius)), "")
+                       tuple(pin.local), float(hole_radius) - float(radius), float(radius)), "")
 
 
 __all__ += ["contact_geometry_line", "contact_geometry_circle", "GROUND"]
+
+
+def slip(geometry: str, data, qx, cmap):
+    """The tangential slip speed at a contact, v_t = w(q) . v, and dw/dq.
+
+    The contact normal nu (unit, from the first body's surface toward the
+    circle's centre: the line's normal, or -e from the pin's centre towards
+    the hole's for a pin in a hole), the contact point c = p_P - r nu and the
+    tangent tau = (-nu_y, nu_x); v_t = tau . (v_c2 - v_c1), the velocities of
+    the two bodies' material points at c. With tau . (omega k x d) = omega
+    nu . d:
+
+        w = (-tau, -nu . (c - r_1), tau, nu . (A_2 s_P) - r)
+
+    over (x, y, phi of the first body, then of the second). dnu/dq: B(phi_1)
+    n0 = J nu on phi_1 for a line; -(I - e e^T) D / l for a hole (D = dd/dq
+    of d = p_P - p_C).
+
+    Parameters
+    ----------
+    geometry : {"line", "circle"}
+    data, qx, cmap : as for :func:`gap`
+
+    Returns
+    -------
+    w : ndarray, shape (6,)
+    dw : ndarray, shape (6, 6)
+        dw[i, j] = dw_i / dq_j.
+    """
+    q = qx[gap_columns(geometry, data, cmap)]
+    a2 = _rot(q[5], data[3])
+    B2 = np.array([-a2[1], a2[0]])
+    J = np.array([[0.0, -1.0], [1.0, 0.0]])
+    if geometry == "line":
+        r = data[5]
+        nu = _rot(q[2], data[4])
+        dnu = np.zeros((2, 6))
+        dnu[:, 2] = J @ nu
+    else:
+        a1 = _rot(q[2], data[1])
+        d = q[3:5] + a2 - q[0:2] - a1
+        l = math.hypot(d[0], d[1])
+        r = data[5]
+        if l == 0.0:
+            return np.zeros(6), np.zeros((6, 6))
+        e = d / l
+        D = np.zeros((2, 6))
+        D[:, 0:2], D[:, 2], D[:, 3:5], D[:, 5] = -np.eye(2), -np.array([-a1[1], a1[0]]), \
+            np.eye(2), B2
+        nu = -e
+        dnu = -((np.eye(2) - np.outer(e, e)) / l) @ D
+    tau = J @ nu
+    dtau = J @ dnu
+    # c - r_1 = (p_P - r nu) - r_1 = (q2 + a2 - r nu) - q1
+    c1 = q[3:5] + a2 - r * nu - q[0:2]
+    dc1 = np.zeros((2, 6))
+    dc1[:, 0:2], dc1[:, 3:5] = -np.eye(2), np.eye(2)
+    dc1[:, 5] = B2
+    dc1 -= r * dnu
+    w = np.array([-tau[0], -tau[1], -(nu @ c1), tau[0], tau[1], nu @ a2 - r])
+    dw = np.zeros((6, 6))
+    dw[0], dw[1] = -dtau[0], -dtau[1]
+    dw[2] = -(dnu.T @ c1 + dc1.T @ nu)
+    dw[3], dw[4] = dtau[0], dtau[1]
+    dw[5] = dnu.T @ a2
+    dw[5, 5] += nu @ B2
+    return w, dw

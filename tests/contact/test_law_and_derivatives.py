@@ -57,8 +57,9 @@ body s { mass 1; inertia 0.01; point S (0, 0) }
 joint O: revolute(ground.origin, b.Q)
 joint G: prismatic(s.S, ground.origin, direction = (1, 0.2))
 force line: contact(a.P, radius = 0.05, line = (b.L, (1, 0.3)), k = 1e6, exponent = 1.5,
-                    restitution = 0.7)
-force pin: contact(a.C, radius = 0.01, circle = (b.L, 0.0105), k = 1e8, restitution = 0.6)
+                    restitution = 0.7, mu = 0.3, v_reg = 0.5)
+force pin: contact(a.C, radius = 0.01, circle = (b.L, 0.0105), k = 1e8, restitution = 0.6,
+                   mu = 0.2, v_reg = 0.5)
 force stop: limit(O, lower = -0.3, upper = 0.2, k = 1e4, exponent = 1.0, restitution = 0.5)
 force end: limit(G, upper = 0.1, k = 2e5, exponent = 1.5, restitution = 0.8)
 """
@@ -97,7 +98,8 @@ def test_forces_and_their_derivatives(system, name, armed):
     """A penetrated, moving gap with its impact speed armed (or not yet: a
     trial step into a closing, where the approach speed stands for it): Q_q
     and Q_v against central differences of Q (the damping, the chi/v_impact
-    term, the Hessian of the gap all enter)."""
+    term, the Hessian of the gap and, on the two contacts, friction all
+    enter)."""
     g = system.contact_group
     i = g.names.index(name)
     rng = np.random.default_rng(5)
@@ -115,7 +117,7 @@ def test_forces_and_their_derivatives(system, name, armed):
         raise AssertionError(f"no configuration penetrates '{name}'")
     Q = g.forces(qx, vx, 0.0)
     Qq, Qv = g.derivatives(qx, vx, 0.0)
-    assert np.any(Qv[i]) == (g.chi[i] > 0 and armed)
+    assert np.any(Qv[i]) == ((g.chi[i] > 0 and armed) or g.mu[i] > 0)
     eps = 1e-7
     cols = g.cols[i]
     keep = cols < n
@@ -131,6 +133,44 @@ def test_forces_and_their_derivatives(system, name, armed):
                                    err_msg=f"{name} Q_q column {j}")
         np.testing.assert_allclose(Qv[i][keep, j], fd_v[keep], atol=1e-6 * scale, rtol=1e-5,
                                    err_msg=f"{name} Q_v column {j}")
+
+
+@pytest.mark.parametrize("name", ["line", "pin"])
+def test_slip_is_the_material_points_relative_speed(system, name):
+    """v_t = w . v against the motion of the two bodies' material points that
+    sit at the contact point c: fix them in each body's frame, move q by v dt,
+    and difference their positions (projected on the tangent)."""
+    from mbdsl.model.contact import slip
+    g = system.contact_group
+    i = g.names.index(name)
+    geo, data = g.geometry[i]
+    rng = np.random.default_rng(11)
+    n, nx = system.n, system.nx
+    qx, vx = np.zeros(nx), np.zeros(nx)
+    qx[:n] = rng.normal(scale=0.4, size=n)
+    vx[:n] = rng.normal(size=n)
+    cols = g.cols[i]
+    q = qx[cols]
+
+    def rot(phi):
+        return np.array([[math.cos(phi), -math.sin(phi)], [math.sin(phi), math.cos(phi)]])
+
+    a2 = rot(q[5]) @ np.array(data[3])
+    p_pin = q[3:5] + a2
+    if geo == "line":
+        nu = rot(q[2]) @ np.array(data[4])
+        r = data[5]
+    else:
+        d = p_pin - q[0:2] - rot(q[2]) @ np.array(data[1])
+        nu, r = -d / np.linalg.norm(d), data[5]
+    c = p_pin - r * nu
+    tau = np.array([-nu[1], nu[0]])
+    s1, s2 = rot(q[2]).T @ (c - q[0:2]), rot(q[5]).T @ (c - q[3:5])   # body-fixed
+    dt = 1e-7
+    qn = qx[cols] + dt * vx[cols]
+    moved = (qn[3:5] + rot(qn[5]) @ s2) - (qn[0:2] + rot(qn[2]) @ s1)
+    w, _ = slip(geo, data, qx, system.cmap)
+    assert w @ vx[cols] == pytest.approx(tau @ moved / dt, rel=1e-5, abs=1e-6)
 
 
 def test_force_is_along_the_gap_and_never_pulls(system):
@@ -152,6 +192,11 @@ def test_force_is_along_the_gap_and_never_pulls(system):
             if value >= 0:
                 assert not np.any(Q[i])
                 continue
+            if g.mu[i] > 0:             # the normal part only
+                from mbdsl.model.contact import slip
+                w, _ = slip(geo, data, qx, system.cmap)
+                _, _, _, _, _, fn, _ = g._law(i, qx, vx, g.impact_speed[i])
+                Q[i] = Q[i] - g._friction(i, qx, vx, fn)[0] * w
             f = Q[i] @ grad / (grad @ grad)
             assert f >= 0.0
             np.testing.assert_allclose(Q[i], f * grad, atol=1e-12 * (1 + abs(f)))

@@ -149,6 +149,8 @@ def test_events_are_written(tmp_path):
      "restitution = 1.2)", "E303", "restitution"),
     ("force f: contact(b.cm, radius = 0.05, line = (ground.origin, (1, 0)), k = 0)", "E303",
      "stiffness"),
+    ("force f: contact(b.cm, radius = 0.05, line = (ground.origin, (1, 0)), k = 1e6, "
+     "mu = -0.1)", "E303", "must not be negative"),
     ("force f: limit(O, k = 1e5)", "E305", "needs 'lower', 'upper'"),
     ("force f: limit(O, lower = 1, upper = 0, k = 1e5)", "E303", "below"),
     ("force f: limit(D, lower = 0, k = 1e5)", "E305", "distance joint"),
@@ -181,3 +183,36 @@ def test_contact_from_python():
         initials=(InitialSpec("ball.x", 0), InitialSpec("ball.y", 1), InitialSpec("ball.phi", 0)))
     sol = mbdsl.simulate(from_spec(spec), method="hht-i3", h=1e-3, t_end=0.6, rtol=1e-6)
     assert sol.events[0][:3] == pytest.approx((math.sqrt(2 * 0.95 / G), "floor", "closed"))
+
+
+ROLLING = """model rolling_disk
+parameter r = 0.05
+parameter m = 1
+gravity (0, -9.81)
+body disk { mass m; inertia m*r^2/2 }
+force floor: contact(disk.cm, radius = r, line = (ground.origin, (1, 0)), k = 1e7,
+                     restitution = 0.8, mu = 0.2)
+initial disk.x = 0
+initial disk.y = r - (m*9.81/1e7)^(2/3)     # resting on the floor under its weight
+initial disk.phi = 0
+initial disk.vx = 2
+initial disk.vy = 0
+initial disk.omega = 0
+"""
+
+
+@pytest.mark.parametrize("method", ALL)
+def test_friction_at_a_contact_rolls_a_sliding_disk(method):
+    """A disk thrown along a floor without spin (mu = 0.2): it slides at
+    deceleration mu g while friction spins it up, until v = -omega r at t =
+    v0 / (3 mu g); then it rolls at v0 / (1 + I / (m r^2)) = 2/3 v0. The
+    energy friction takes, 2 - 4/3 = 2/3 J, is in energy.dissipated."""
+    sol = mbdsl.simulate(mbdsl.load_text(ROLLING), method=method, h=1e-3, t_end=0.6,
+                         rtol=1e-6, atol=1e-6)
+    assert sol.completed
+    vx, omega = sol.v[:, 0], sol.v[:, 2]
+    i = np.searchsorted(sol.t, 0.2)
+    assert vx[i] == pytest.approx(2.0 - 0.2 * G * sol.t[i], abs=1e-3)
+    assert vx[-1] == pytest.approx(4.0 / 3.0, rel=1e-6)
+    assert -omega[-1] * 0.05 == pytest.approx(4.0 / 3.0, rel=1e-6)
+    assert sol.column("energy.dissipated")[-1] == pytest.approx(2.0 / 3.0, rel=0.01)
