@@ -545,6 +545,10 @@ class Solution:
     def run_warnings(self) -> list:
         """Warnings about the computed motion (not its start), from the stored rows.
 
+        W406: a spring-damper with a free length whose two points passed
+        each other between stored rows without an event landing on it (the
+        compiled engine does not locate events): its force jumps there.
+
         W404: a flexible beam whose elastic displacement (the largest
         |S(x) q_f| over its nodes, in its floating frame) passes
         ``DEFLECTION_LIMIT`` of its length: the linear elasticity of the
@@ -580,6 +584,26 @@ class Solution:
                 hint="a beam spinning faster than its first bending frequency softens without "
                 "geometric stiffening; check E, the second moment and the loads, or use more "
                 "bodies"))
+        flipping = getattr(self.system, "flipping_springs", None)
+        if flipping is not None:
+            group, which = flipping
+            d = group.pair.difference(*group.pair.split(self.system._ext(q)))
+            landed = {e[1] for e in self.events if e[2] == "passed"}
+            for k, name in which:
+                dk = d[:, k]
+                flips = np.flatnonzero(np.einsum("na,na->n", dk[1:], dk[:-1]) < 0.0)
+                if len(flips) == 0 or name in landed:
+                    continue
+                spring = next(f for f in self.model.forces if f.name == name)
+                out.append(Diagnostic(
+                    "warning", "W406",
+                    f"the points of spring-damper '{name}' pass each other near t = "
+                    f"{self.t[flips[0] + 1]:.6g} s ({len(flips)} pass{'es' if len(flips) > 1 else ''}): its force of "
+                    f"{spring.k * spring.length:.3g} N flips direction there, and the "
+                    f"{self.engine} engine stepped across the jump (first order there)",
+                    spring.span, "force flips",
+                    hint="--engine numpy lands a step on each pass (an event); or give the "
+                    "spring a free length of 0, whose force k d is smooth"))
         return out
 
     def finalize(self) -> None:
@@ -818,10 +842,12 @@ class Solution:
             f"{d['energy.work'][-1]:+.4g} J, dissipated {d['energy.dissipated'][-1]:.4g} J; "
             f"balance max {np.max(np.abs(d['energy.balance'])):.2e} J)",
         ]
-        if getattr(self.system, "contact_group", None) is not None:
+        if self.events or getattr(self.system, "contact_group", None) is not None:
             closed = sum(1 for e in self.events if e[2] == "closed")
-            lines.append(f"  events: {len(self.events)} ({closed} closed, "
-                         f"{len(self.events) - closed} opened"
+            opened = sum(1 for e in self.events if e[2] == "opened")
+            passed = len(self.events) - closed - opened
+            lines.append(f"  events: {len(self.events)} ({closed} closed, {opened} opened"
+                         + (f", {passed} springs passing through zero length" if passed else "")
                          + (f"; last: {self.events[-1][1]} {self.events[-1][2]} at t = "
                             f"{self.events[-1][0]:.6g} s" if self.events else "")
                          + f"); {self.event_cuts} steps retaken to land on them")

@@ -423,7 +423,9 @@ class SpringDamperGroup:
         G = self.pair.difference_jac(q1, q2)
         ddot = np.einsum("kaj,kj->ka", G, v)
         l = np.sqrt(np.einsum("ka,ka->k", d, d))
-        e = d / l[:, None]
+        # two coincident points: no direction, and no force along it (the
+        # time loop lands a step there as an event, docs/contact.md)
+        e = np.divide(d, l[:, None], out=np.zeros_like(d), where=l[:, None] > 0.0)
         return q1, q2, v, d, G, ddot, l, e
 
     def lengths(self, qx):
@@ -444,7 +446,8 @@ class SpringDamperGroup:
         q1, q2, v, d, G, ddot, l, e = self._kin(qx, vx)
         Hd = self.pair.difference_hess(q1, q2)          # (k, 2, c, c)
         Hv = np.einsum("kaij,kj->kai", Hd, v)           # d(ddot)/dq
-        P = (np.eye(2)[None] - e[:, :, None] * e[:, None, :]) / l[:, None, None]
+        inv_l = np.divide(1.0, l, out=np.zeros_like(l), where=l > 0.0)
+        P = (np.eye(2)[None] - e[:, :, None] * e[:, None, :]) * inv_l[:, None, None]
         de = np.einsum("kab,kbj->kaj", P, G)            # de/dq, (k, 2, c)
         ldot = np.einsum("ka,ka->k", e, ddot)
         dl = np.einsum("ka,kaj->kj", e, G)              # dl/dq, (k, c)
@@ -473,7 +476,8 @@ class SpringDamperGroup:
         d = self.pair.difference(q1, q2)                           # (N, k, 2)
         G = self.pair.difference_jac(q1, q2)                       # (N, k, 2, c)
         ddot = np.einsum("nkaj,nkj->nka", G, vx[:, self.cols])
-        e = d / np.sqrt(np.einsum("nka,nka->nk", d, d))[..., None]
+        l = np.sqrt(np.einsum("nka,nka->nk", d, d))[..., None]
+        e = np.divide(d, l, out=np.zeros_like(d), where=l > 0.0)
         ldot = np.einsum("nka,nka->nk", e, ddot)
         return np.sum(self.c * ldot ** 2, axis=-1)
 

@@ -203,10 +203,17 @@ class AssembledSystem:
                          or (isinstance(f, Torque) and not isinstance(f.function, TimeFunction))]
         pforces = [f for f in model.forces if isinstance(f, PointForce)]
         self.force_groups = []
+        #: Spring-dampers with a free length whose force direction flips when
+        #: their two points pass each other (events): (group, [(index, name)]).
+        self.flipping_springs = None
         if springs:
-            self.force_groups.append(SpringDamperGroup(
+            group = SpringDamperGroup(
                 cmap, [s.first for s in springs], [s.second for s in springs],
-                [s.k for s in springs], [s.c for s in springs], [s.length for s in springs]))
+                [s.k for s in springs], [s.c for s in springs], [s.length for s in springs])
+            self.force_groups.append(group)
+            flipping = [(i, s.name) for i, s in enumerate(springs) if s.length > 0.0]
+            if flipping:
+                self.flipping_springs = (group, flipping)
         if rsprings:
             self.force_groups.append(RotationalSpringGroup(
                 cmap, [s.joint.first.body for s in rsprings], [s.joint.second.body for s in rsprings],

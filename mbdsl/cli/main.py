@@ -348,7 +348,7 @@ def _simulate(args) -> int:
         return status
     if sol.initial is not None and sol.initial.warnings:
         _print_diagnostics(sol.initial.warnings)
-    if sol.model.flexible_bodies:
+    if sol.model.flexible_bodies or getattr(sol.system, "flipping_springs", None) is not None:
         _print_diagnostics(sol.run_warnings())
     if not args.quiet:
         print(sol.initial.report())

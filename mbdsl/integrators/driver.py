@@ -123,7 +123,8 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
     output_every = int(output_every)
     from .engine import (SparseAdapter, prepare_compiled, run_compiled, run_compiled_adaptive,
                          select_engine)
-    if control is not None or getattr(system, "contact_group", None) is not None:
+    if control is not None or getattr(system, "contact_group", None) is not None \
+            or getattr(system, "flipping_springs", None) is not None:
         # error control changes h every step, and events cut steps: a two-step
         # method keeps its order with the coefficients of unequal steps
         method = method.with_variable_steps()
@@ -234,8 +235,8 @@ def _time_loop(system, method, solver, sol, history, kinds, assembler, t_start, 
     # halvings follow only if the longer step fails too.
     jumped = None                # the step size before a jump, while jumping
     events = None
-    if getattr(system, "contact_group", None) is not None:
-        from .events import EventLocator
+    from .events import EventLocator
+    if EventLocator.needed(system):
         events = EventLocator(system, h, sol)
         events.start(t_start, history[-1])
     resume = None                # the step size planned before a step was cut for an event

@@ -71,13 +71,29 @@ class EventLocator:
     def __init__(self, system, h, sol):
         self.system = system
         self.group = system.contact_group
+        self.springs = system.flipping_springs
         self.tol = EVENT_TOL * h
         self.sol = sol
         self.cuts = 0           # retakes for the event now being landed on
-        self.caps = np.full(len(self.group.names), np.inf)   # step limits of closed gaps
+        n_gaps = len(self.group.names) if self.group is not None else 0
+        self.caps = np.full(n_gaps, np.inf)                  # step limits of closed gaps
         self._mass = system.mass_diag
         self.happened = False   # the step just checked ended with events
         self.g = None
+
+    @staticmethod
+    def needed(system) -> bool:
+        """Whether a model has anything to locate: contacts or limits, or
+        spring-dampers with a free length (their force flips direction when
+        their two points pass each other)."""
+        return system.contact_group is not None or system.flipping_springs is not None
+
+    def _spring_d(self, q):
+        """d = p2 - p1 of the flipping springs, shape (k, 2)."""
+        group, which = self.springs
+        qx = self.system._ext(q)
+        d = group.pair.difference(*group.pair.split(qx))
+        return d[[i for i, _ in which]]
 
     def step_limit(self) -> float:
         """The largest error-controlled step while gaps are closed [s]: their
@@ -92,6 +108,9 @@ class EventLocator:
         """The run starts: every gap open, those closed at the start armed with
         their approach speed (or the floor speed at rest)."""
         g = self.group
+        if g is None:
+            self.g = np.zeros(0)
+            return
         g.reset()
         qx, vx = self.system._ext(state.q), self.system._ext(state.v)
         self.g = g.gaps(qx)
@@ -114,10 +133,17 @@ class EventLocator:
             the step may be kept.
         """
         g = self.group
-        gb = g.gaps(self.system._ext(state.q))
-        crossed = np.flatnonzero((self.g > 0.0) != (gb > 0.0))
+        gb = g.gaps(self.system._ext(state.q)) if g is not None else np.zeros(0)
+        crossed = list(np.flatnonzero((self.g > 0.0) != (gb > 0.0)))
         self._pending = (t, step, last, state, gb, {})
-        if not crossed.size:
+        passing = {}
+        if self.springs is not None:
+            # a spring's points pass each other: d turns against its direction
+            # at the step's start, s = d . d_start changes sign
+            d0, d1 = self._spring_d(last.q), self._spring_d(state.q)
+            for k in np.flatnonzero(np.einsum("ka,ka->k", d0, d1) < 0.0):
+                passing[("spring", int(k))] = d0[k]
+        if not crossed and not passing:
             return None
         from scipy.optimize import brentq
         n = self.system.n
@@ -133,6 +159,14 @@ class EventLocator:
             return g.gaps_one(i, ext)
 
         roots = self._pending[5]
+        for key, ref in passing.items():
+            k = key[1]
+
+            def along(theta, k=k, ref=ref):
+                return _hermite(theta, step, last.q, last.v, state.q, state.v)[0]
+
+            roots[key] = brentq(lambda th: self._spring_d(along(th))[k] @ ref, 0.0, 1.0,
+                                xtol=1e-3 * self.tol / step)
         for i in crossed:
             if (gap_at(0.0, i) > 0.0) == (gb[i] > 0.0):
                 roots[i] = 0.0                  # at the start (round-off in the interpolant)
@@ -149,13 +183,19 @@ class EventLocator:
             return None
         i = min(interior, key=interior.get)
         # where the step ends: within the tolerance past the root, by the
-        # gap's own rate there (the retaken step's end is the method's, not
-        # the interpolant's)
-        ext[:n] = state.q
-        vext = np.zeros(self.system.nx)
-        vext[:n] = state.v
-        rate = g.gap_rate_one(i, ext, vext)
-        past = gb[i] / rate if rate != 0.0 else np.inf       # time since the root [s]
+        # event function's own value and rate there (the retaken step's end
+        # is the method's, not the interpolant's)
+        if isinstance(i, tuple):            # a spring: s = d . d_start, ds/dt by difference
+            ref, k = passing[i], i[1]
+            value = self._spring_d(state.q)[k] @ ref
+            eps = 1e-7 * step
+            rate = (value - self._spring_d(state.q - eps * state.v)[k] @ ref) / eps
+        else:
+            ext[:n] = state.q
+            vext = np.zeros(self.system.nx)
+            vext[:n] = state.v
+            value, rate = gb[i], g.gap_rate_one(i, ext, vext)
+        past = value / rate if rate != 0.0 else np.inf       # time since the root [s]
         if 0.0 <= past <= self.tol:
             return None
         self.cuts += 1
@@ -173,13 +213,18 @@ class EventLocator:
         self.happened = bool(roots)
         self.g = gb
         #: the step limit of the gaps that changed, before an opening clears it
-        self.changed_limit = float(np.min(self.caps[list(roots)], initial=np.inf))
+        gaps = [i for i in roots if not isinstance(i, tuple)]
+        self.changed_limit = float(np.min(self.caps[gaps], initial=np.inf)) if gaps else np.inf
         if not roots:
             return
         self.cuts = 0
         qx, vx = np.zeros(self.system.nx), np.zeros(self.system.nx)
         for i, th in sorted(roots.items(), key=lambda x: x[1]):
             t_event = t + th * step
+            if isinstance(i, tuple):        # a spring's points passed each other
+                name = self.springs[1][i[1]][1]
+                self.sol.events.append((t_event, name, "passed", 0.0))
+                continue
             qx[:n], vx[:n] = _hermite(th, step, last.q, last.v, state.q, state.v)
             rate = g.gap_rate_one(i, qx, vx)
             if gb[i] <= 0.0:

@@ -216,3 +216,32 @@ def test_friction_at_a_contact_rolls_a_sliding_disk(method):
     assert vx[-1] == pytest.approx(4.0 / 3.0, rel=1e-6)
     assert -omega[-1] * 0.05 == pytest.approx(4.0 / 3.0, rel=1e-6)
     assert sol.column("energy.dissipated")[-1] == pytest.approx(2.0 / 3.0, rel=0.01)
+
+
+THROUGH_ZERO = """model through_zero
+body b { mass 1; inertia 0.1 }
+joint P: prismatic(b.cm, ground.origin, direction = (1, 0))
+force sp: spring_damper(ground.origin, b.cm, k = 100, c = 0, length = 0.5)
+initial b.x = 0.3
+initial b.vx = -6
+"""
+
+
+def test_spring_through_zero_length_is_an_event():
+    """The spring pushes its points apart (free length 0.5 m) until they pass
+    each other; its 50 N force flips there. From x = 0.5 - 0.2 cos 10t - 0.6
+    sin 10t the pass is at t = (atan2(0.6, 0.2) - acos(0.5 / sqrt(0.4))) / 10;
+    the numpy engine lands a step on it and keeps the energy 20x better than
+    stepping across; the compiled engine steps across and warns (W406)."""
+    t_pass = (math.atan2(0.6, 0.2) - math.acos(0.5 / math.sqrt(0.4))) / 10
+    model = mbdsl.load_text(THROUGH_ZERO)
+    landed = mbdsl.simulate(model, method="hht-i3", h=1e-3, t_end=0.2, engine="numpy")
+    assert [e[1:3] for e in landed.events] == [("sp", "passed")]
+    assert landed.events[0][0] == pytest.approx(t_pass, abs=2e-6)   # the run's own error at h
+    assert landed.run_warnings() == []
+    across = mbdsl.simulate(model, method="hht-i3", h=1e-3, t_end=0.2, engine="compiled")
+    assert across.events == []
+    assert [d.code for d in across.run_warnings()] == ["W406"]
+    error = {k: abs(s.column("energy.total")[-1] - 20.0) for k, s in
+             (("landed", landed), ("across", across))}
+    assert error["landed"] < error["across"] / 20, error
