@@ -843,14 +843,21 @@ class Solution:
             f"balance max {np.max(np.abs(d['energy.balance'])):.2e} J)",
         ]
         if self.events or getattr(self.system, "contact_group", None) is not None:
-            closed = sum(1 for e in self.events if e[2] == "closed")
-            opened = sum(1 for e in self.events if e[2] == "opened")
-            passed = len(self.events) - closed - opened
-            lines.append(f"  events: {len(self.events)} ({closed} closed, {opened} opened"
-                         + (f", {passed} springs passing through zero length" if passed else "")
+            words = {"closed": "closed", "opened": "opened",
+                     "passed": "springs through zero length", "switched": "function switches"}
+            counts = {k: sum(1 for e in self.events if e[2] == k) for k in words}
+            lines.append(f"  events: {len(self.events)} ("
+                         + ", ".join(f"{n} {words[k]}" for k, n in counts.items()
+                                     if n or k in ("closed", "opened"))
                          + (f"; last: {self.events[-1][1]} {self.events[-1][2]} at t = "
                             f"{self.events[-1][0]:.6g} s" if self.events else "")
                          + f"); {self.event_cuts} steps retaken to land on them")
+        if self.engine == "compiled":
+            from .integrators.events import time_switches
+            if time_switches(self.system):
+                lines.append("  the compiled engine steps across the switches of if/min/max/"
+                             "clip/abs/sign in the functions of time (first order at a jump); "
+                             "--engine numpy lands a step on each")
         if self.status != "completed":
             lines.append(f"  stopped: {self.message}")
         return "\n".join(lines)

@@ -238,3 +238,72 @@ class EventLocator:
                 g.release(i, t_event)
                 self.caps[i] = np.inf
                 self.sol.events.append((t_event, g.names[i], "opened", float(rate)))
+
+
+def _unparse(expr) -> str:
+    """An expression as text, for the event's name."""
+    from ..dsl.unparse import expr_text
+    return expr_text(expr)
+
+
+def _switches(expr):
+    """The switching functions of a piecewise expression: a - b for every
+    min(a, b), max(a, b) and comparison a < b (``if`` tests are comparisons
+    or such expressions), the argument of abs and sign."""
+    from ..dsl.expressions import COMPARISONS, PAIR_FUNCTIONS, Binary, Call, Cond, Unary
+    out = []
+    if isinstance(expr, Binary):
+        if expr.op in PAIR_FUNCTIONS or expr.op in COMPARISONS:
+            out.append(Binary("-", expr.left, expr.right))
+        out += _switches(expr.left) + _switches(expr.right)
+    elif isinstance(expr, Call):
+        if expr.func in ("abs", "sign"):
+            out.append(expr.arg)
+        out += _switches(expr.arg)
+    elif isinstance(expr, Unary):
+        out += _switches(expr.operand)
+    elif isinstance(expr, Cond):
+        out += _switches(expr.test) + _switches(expr.then) + _switches(expr.other)
+    return out
+
+
+def time_switches(system):
+    """Kinks and jumps of the model's functions of time (drivers, torques,
+    point forces): [(text, s(t))], s changing sign where the function
+    switches branch (``min``, ``max``, ``clip``, ``if``, comparisons, ``abs``,
+    ``sign``). Known in advance, so a step is shortened to end on them
+    before it is taken (:func:`next_switch`)."""
+    from ..dsl.expressions import compile_function
+    functions = [f for g in system.constraint_groups for f in getattr(g, "functions", ()) or ()
+                 if f is not None]
+    for g in system.force_groups:
+        functions += [f for f in getattr(g, "functions", ()) or () if f is not None]
+        functions += list(getattr(g, "fx", ())) + list(getattr(g, "fy", ()))
+    out, seen = [], set()
+    for f in functions:
+        expr = getattr(f, "expr", None)
+        if expr is None or getattr(f, "variables", None) or getattr(f, "constant", False):
+            continue            # state functions switch with the motion: not known in advance
+        text = f.text or _unparse(expr)
+        for s in _switches(expr):
+            key = (text, repr(s))
+            if key not in seen:
+                seen.add(key)
+                out.append((text, compile_function(s)))
+    return out
+
+
+def next_switch(switches, t, t_new):
+    """The first switch in (t, t_new]: (time, text), or None. Brent's method on
+    each switching function whose sign differs at the two ends (a switch
+    crossed twice within one step is not seen)."""
+    from scipy.optimize import brentq
+    best = None
+    for text, s in switches:
+        a, b = s(t), s(t_new)
+        if not (np.isfinite(a) and np.isfinite(b)) or (a > 0.0) == (b > 0.0) or a == 0.0:
+            continue
+        root = brentq(s, t, t_new, xtol=1e-14 * max(1.0, abs(t_new)), rtol=1e-15)
+        if best is None or root < best[0]:
+            best = (root, text)
+    return best
