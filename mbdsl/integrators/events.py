@@ -150,10 +150,12 @@ class EventLocator:
         ext = np.zeros(self.system.nx)
 
         def gap_at(theta, i):
+            """Gap i on the step's Hermite interpolant at theta in [0, 1]."""
             ext[:n] = _hermite(theta, step, last.q, last.v, state.q, state.v)[0]
             return g.gaps_one(i, ext)
 
         def free_gap_at(theta, i):
+            """Gap i on the Taylor expansion from the step's start."""
             tau = theta * step
             ext[:n] = last.q + tau * last.v + 0.5 * tau * tau * last.a
             return g.gaps_one(i, ext)
@@ -162,11 +164,12 @@ class EventLocator:
         for key, ref in passing.items():
             k = key[1]
 
-            def along(theta, k=k, ref=ref):
-                return _hermite(theta, step, last.q, last.v, state.q, state.v)[0]
+            def passing_at(theta, k=k, ref=ref):
+                """d . d_start of spring k on the step's Hermite interpolant."""
+                q = _hermite(theta, step, last.q, last.v, state.q, state.v)[0]
+                return self._spring_d(q)[k] @ ref
 
-            roots[key] = brentq(lambda th: self._spring_d(along(th))[k] @ ref, 0.0, 1.0,
-                                xtol=1e-3 * self.tol / step)
+            roots[key] = brentq(passing_at, 0.0, 1.0, xtol=1e-3 * self.tol / step)
         for i in crossed:
             if (gap_at(0.0, i) > 0.0) == (gb[i] > 0.0):
                 roots[i] = 0.0                  # at the start (round-off in the interpolant)

@@ -141,6 +141,7 @@ def damping_factor(restitution: float, exponent: float = 1.5) -> float:
     # in s = -ln(1 - chi e), so that a small e (chi -> 1/e, 1 - chi e below
     # round-off) stays representable: chi = (1 - exp(-s)) / e
     def f(s):
+        """The relation in s = -ln(1 - chi e); zero at the root."""
         chi = -math.expm1(-s) / e
         return chi * (1.0 + e) - math.log1p(chi) - s
     s = brentq(f, 1e-3 * (1.0 - e) * e, (1.0 + e) / e + 50.0, xtol=1e-15, rtol=1e-13)
