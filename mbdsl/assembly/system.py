@@ -568,18 +568,31 @@ class AssembledSystem:
         """
         t = np.atleast_1d(np.asarray(t, dtype=float))
         q, v = np.atleast_2d(q), np.atleast_2d(v)
-        n, m = self.n, self.m
-        out = np.empty((len(t), m))
-        K = np.zeros((n + m, n + m))
+        out = np.empty((len(t), self.m))
         for i in range(len(t)):
-            K[:n, :n] = self.mass_matrix(q[i])
-            P = self.Phi_q(q[i], t[i])
-            K[:n, n:], K[n:, :n] = P.T, P
             try:
-                out[i] = self.index1_solve(K, t[i], q[i], v[i])[n:]
+                out[i] = self.index1_state(t[i], q[i], v[i])[1]
             except np.linalg.LinAlgError:
                 out[i] = np.nan
         return out
+
+    def index1_state(self, t, q, v):
+        """(a, lambda) of the index-1 system at one state (t, q, v), shapes
+        (n,) and (m,) [m/s^2, rad/s^2; N, N m]: [[M(q), Phi_q^T], [Phi_q, 0]]
+        [a; lambda] = [Q; gamma] (Haug, sec. 6.3).
+
+        Raises
+        ------
+        numpy.linalg.LinAlgError
+            At a singular configuration (see :meth:`index1_solve`).
+        """
+        n, m = self.n, self.m
+        K = np.zeros((n + m, n + m))
+        K[:n, :n] = self.mass_matrix(q)
+        P = self.Phi_q(q, t)
+        K[:n, n:], K[n:, :n] = P.T, P
+        sol = self.index1_solve(K, t, q, v)
+        return sol[:n], sol[n:]
 
     #: Fixed-point iterations on lambda of the index-1 solve with friction.
     FRICTION_ITERATIONS = 100

@@ -240,27 +240,15 @@ def _time_loop(system, method, solver, sol, history, kinds, assembler, t_start, 
         events = EventLocator(system, h, sol)
         events.start(t_start, history[-1])
     resume = None                # the step size planned before a step was cut for an event
-    from .events import next_switch, time_switches
-    switches = time_switches(system)     # kinks of the functions of time, known in advance
-    switch_resume, pending_switch = None, None
     try:
         while t < t_end - 1e-9 * h:
             step = min(h_cur, t_end - t)
             if t_end - (t + step) < 1e-6 * step:   # land on t_end, never leave a sliver
                 step = t_end - t
-            if switches:
-                hit = next_switch(switches, t, t + step)
-                if hit is not None and hit[0] - t > 1e-8 * h:
-                    # end the step on the switch, just before it: this step
-                    # integrates the old branch, the next one the new
-                    step = min(step, hit[0] - t - 1e-10 * h)
-                    switch_resume = switch_resume or h_cur
-                    if not sol.events or sol.events[-1][:2] != (hit[0], hit[1]):
-                        pending_switch = (hit[0], hit[1])
-                    else:
-                        pending_switch = None
-                else:
-                    pending_switch = None
+            if events is not None:
+                shorter = events.before_switch(t, step)     # a switch of a function of time
+                if shorter < step:
+                    step, resume = shorter, resume or h_cur
             y = step - carry
             t_new = t + y
             new_carry = (t_new - t) - y
@@ -339,18 +327,13 @@ def _time_loop(system, method, solver, sol, history, kinds, assembler, t_start, 
                                 pending.multipliers_stalled + int(res.multipliers_stalled),
                                 pending.steps + 1)
             t, carry = t_new, new_carry
-            if pending_switch is not None and t >= pending_switch[0] - 2e-10 * h:
-                # the step ended just before a function of time switches: the
-                # method starts afresh just after it, with the acceleration and
-                # multipliers of the new branch (a one-step method's carried a_n
-                # and force term would hold the old one's for a whole step)
-                sol.events.append((pending_switch[0], pending_switch[1], "switched", 0.0))
-                t, carry = pending_switch[0] + 1e-10 * h, 0.0
-                state = _restart_state(system, method, state, t)
-                history, sol.last_state = [state], state
-                pending_switch = None
-                if switch_resume is not None:
-                    h_cur, switch_resume = max(h_cur, switch_resume), None
+            if events is not None:
+                switched = events.after_switch(t, method, state)
+                if switched is not None:        # restarted just after it, on the new branch
+                    t, state = switched
+                    carry, history, sol.last_state = 0.0, [state], state
+                    if resume is not None:
+                        h_cur, resume = max(h_cur, resume), None
             recorded = n_steps % output_every == 0 or t >= t_end - 1e-9 * h
             if recorded:
                 sol.append(state, pending)
@@ -376,22 +359,6 @@ def _time_loop(system, method, solver, sol, history, kinds, assembler, t_start, 
         sol.status = "failed"
         sol.message = f"internal error at t = {t:.6g} s: {exc!r}"
         raise
-
-
-def _restart_state(system, method, state, t):
-    """The method's start state at time t from an accepted state's q and v,
-    with a and lambda from the index-1 system at t (``Method.start``)."""
-    n, m = system.n, system.m
-    K = np.zeros((n + m, n + m))
-    K[:n, :n] = system.mass_matrix(state.q)
-    P = system.Phi_q(state.q, t)
-    K[:n, n:], K[n:, :n] = P.T, P
-    try:
-        sol = system.index1_solve(K, t, state.q, state.v)
-    except np.linalg.LinAlgError:          # a singular configuration: keep the state
-        return state
-    initial = InitialState(t, state.q.copy(), state.v.copy(), sol[:n], sol[n:], 0.0, 0.0, 0.0)
-    return method.start(system, initial)[-1]
 
 
 #: how much longer a failed step of the augmented formulation is retried first

@@ -23,6 +23,12 @@ root), which sets the damping of its force law
 (:mod:`mbdsl.model.contact`); an opening gap forgets it. Every event is
 recorded in ``Solution.events``.
 
+Functions of time that switch branch (``if``, ``min``, ``max``, ``clip``,
+comparisons, ``abs``, ``sign``: :func:`time_switches`) are known in advance:
+the step that would cross a switch is shortened to end just before it
+(:meth:`EventLocator.before_switch`), and the method restarts just after it
+on the new branch (:meth:`EventLocator.after_switch`).
+
 Locating the closing matters for the law, not only for accuracy: the impact
 speed is measured where the gap closes, and a step that jumps deep into a
 stiff contact would also ask Newton to converge on a force that is not yet
@@ -56,7 +62,8 @@ def _hermite(theta, step, qa, va, qb, vb):
 
 
 class EventLocator:
-    """Locates the closing and opening of a model's contact gaps in the time loop.
+    """Locates a model's events in the time loop: contact gaps closing and
+    opening, springs passing through zero length, switches of functions of time.
 
     Parameters
     ----------
@@ -80,13 +87,52 @@ class EventLocator:
         self._mass = system.mass_diag
         self.happened = False   # the step just checked ended with events
         self.g = None
+        self.h = h
+        self.switches = time_switches(system)
+        self._switch = None     # (time, text) of the switch the step planned ends before
 
     @staticmethod
     def needed(system) -> bool:
-        """Whether a model has anything to locate: contacts or limits, or
+        """Whether a model has anything to locate: contacts or limits,
         spring-dampers with a free length (their force flips direction when
-        their two points pass each other)."""
-        return system.contact_group is not None or system.flipping_springs is not None
+        their two points pass each other), or functions of time that switch
+        (:func:`time_switches`)."""
+        return (system.contact_group is not None or system.flipping_springs is not None
+                or bool(time_switches(system)))
+
+    def before_switch(self, t, step) -> float:
+        """The step from t shortened to end just before the first switch of a
+        function of time in (t, t + step] (by 1e-10 h: this step integrates
+        the old branch, the next one the new); ``step`` when none."""
+        self._switch = None
+        if not self.switches:
+            return step
+        hit = next_switch(self.switches, t, t + step)
+        if hit is None or hit[0] - t <= 1e-8 * self.h:
+            return step
+        self._switch = hit
+        return min(step, hit[0] - t - 1e-10 * self.h)
+
+    def after_switch(self, t, method, state):
+        """After an accepted step ending at t: if it ended on the planned
+        switch, record it and return (t', start state of ``method`` at t'),
+        t' just past the switch, with a and lambda of the new branch from the
+        index-1 system (a one-step method's carried a_n and force term would
+        hold the old branch's for a whole step; BDF2 restarts with BDF1);
+        else None."""
+        if self._switch is None or t < self._switch[0] - 2e-10 * self.h:
+            return None
+        t_switch, text = self._switch
+        self._switch = None
+        self.sol.events.append((t_switch, text, "switched", 0.0))
+        t_new = t_switch + 1e-10 * self.h
+        try:
+            a, lam = self.system.index1_state(t_new, state.q, state.v)
+        except np.linalg.LinAlgError:           # a singular configuration: keep the state
+            return t_new, state
+        from ..assembly.initial import InitialState
+        initial = InitialState(t_new, state.q.copy(), state.v.copy(), a, lam, 0.0, 0.0, 0.0)
+        return t_new, method.start(self.system, initial)[-1]
 
     def _spring_d(self, q):
         """d = p2 - p1 of the flipping springs, shape (k, 2)."""
