@@ -1590,7 +1590,10 @@ def _newton(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, weight, opts, solve
     """
     max_iter, rate_refresh, full = int(opts[3]), opts[4], opts[5] != 0.0
     size = w.shape[0]
-    valid = lu_state[0] != 0.0 and not full
+    # the augmented formulation factors a Newton matrix of its own every step
+    # (``Method.formulated``: near a singular position one from an earlier step
+    # ends the iteration away from the step's solution)
+    valid = lu_state[0] != 0.0 and not full and rec[REG] == 0.0
     age = 1 << 30
     prev = -1.0
     best = np.inf

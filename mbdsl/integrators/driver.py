@@ -259,11 +259,14 @@ def _time_loop(system, method, solver, sol, history, kinds, assembler, t_start, 
             ctx.regularization = method.regularization
             w0 = method.predict(ctx)
             scales = method.scales(system, step, ctx.last.q)
+            key = step
             if method.formulation == "augmented":
-                # only Phi_q^T lambda is unique where Phi_q loses rank: converge on a
+                # only Phi_q^T lambda is unique where Phi_q loses rank: converge on a;
+                # a Newton matrix of its own every step (Method.formulated)
                 scales = np.where(kinds, 0.0, scales)
+                key = (step, t_new)
             res = solver.solve(lambda w: method.residual(w, ctx), lambda w: method.jacobian(w, ctx),
-                               w0, kinds, scales, key=step,
+                               w0, kinds, scales, key=key,
                                floor=method.roundoff_floor(system, step, ctx.last.q))
             if not res.converged:
                 sol.stats_total.rejected += 1
