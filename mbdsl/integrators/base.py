@@ -139,8 +139,6 @@ class Method(ABC):
     #: methods; variable-step BDF2 is zero-stable for ratios below 1 + sqrt(2)
     #: (Grigorieff 1983; Hairer & Wanner, Solving ODEs II, sec. III.5).
     max_step_ratio: float | None = None
-    #: whether the compiled loop can take error-controlled steps of this method
-    compiled_adaptive: bool = True
     #: names of StepState.extra arrays of length m written to the output (e.g. "mu")
     extras: tuple = ()
     #: further (m,) columns that :meth:`output_multipliers` adds to the output

@@ -1808,6 +1808,17 @@ def _run(rec2, I, Fl, h, t0, n_steps, step0, every, q, v, a, b, lam, mu, q_prev,
 
 
 @_jit
+def _total_acceleration(I, Fl, n, qx, a, psi, R, C, V, out):
+    """a - M^{-1} Phi_q(q)^T psi into out (n,) [m/s^2 or rad/s^2] at qx: the
+    additive form's total acceleration a + R (``HHTADD.local_error``), M the
+    rigid bodies' diagonal mass; R, C, V: triplet scratch."""
+    out[:] = a
+    p = _emit_phiq(I, Fl, n, qx, R, C, V, 0, 0, 0, 1.0, True)
+    for i in range(p):
+        out[R[i]] -= V[i] * psi[C[i]] / _f(I, Fl, MASS, R[i], 0)
+
+
+@_jit
 def _recipe_at(mono, h, c0, w0, w1, rec):
     """The recipe at step size h and BDF coefficients c0, w0, w1 from its
     monomials (``engine.recipe_monomials``, mono (5, F)): rec[i] =
@@ -1855,6 +1866,7 @@ def _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, 
                                                     ctl[5], ctl[6])
     r, dw, w, weight, qx, vx, work, q_pred, v_pred, qx_old, F, scratch = _workspace(n, m, size, I)
     b_new = np.empty(n)
+    acc_old, acc_new = np.empty(n), np.empty(n)     # the additive form's a + R
     _start_force(rc, I, Fl, t0, q, v, lam, F0, F, qx, vx, work)
     t = t0
     h_factored, c0_factored = -1.0, -1.0   # the step (and c0) of the stored factorization
@@ -1898,10 +1910,16 @@ def _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, 
         if rc[EAUX] != 0.0:
             b_new[:] = b
             _advance(rc, b_new, a, w[a0:a0 + n])
+        additive = rc[FORM] == ADDITIVE
+        if additive:    # HHT-ADD: the change of a + R_II, which sees the constraint forces
+            _total_acceleration(I, Fl, n, qx_old, a, lam, R, C, V, acc_old)
+            _total_acceleration(I, Fl, n, qx, w[a0:a0 + n], w[l0:l0 + m], R, C, V, acc_new)
         acc = 0.0
         for j in range(n):
             if rc[EAUX] != 0.0:
                 d = b_new[j] - b[j]
+            elif additive:
+                d = acc_new[j] - acc_old[j]
             elif rc[EABS] != 0.0:
                 d = w[a0 + j]
             else:

@@ -136,8 +136,7 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
     if control is not None:
         from .engine import recipe_monomials, unsupported
         if (engine != "numpy" and method.kernel_recipe(1.0, False) is not None
-                and (recipe_monomials(method) is None          # a recipe the loop cannot vary
-                     or not method.compiled_adaptive)):
+                and recipe_monomials(method) is None):          # a recipe the loop cannot vary
             if engine == "compiled":
                 raise ValueError(f"the compiled engine cannot vary the step of {method.name}")
             if unsupported(system, method) is None:

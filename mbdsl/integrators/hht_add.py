@@ -77,9 +77,6 @@ class HHTADD(Method):
     """
 
     name = "hht-add"
-    #: the compiled loop's error estimate reads the recipe's x, here the
-    #: applied forces' acceleration only: error-controlled steps run on numpy
-    compiled_adaptive = False
     index = 2
     history_length = 1
     extras = ("psi1",)
