@@ -1866,7 +1866,11 @@ def _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, 
                                                     ctl[5], ctl[6])
     r, dw, w, weight, qx, vx, work, q_pred, v_pred, qx_old, F, scratch = _workspace(n, m, size, I)
     b_new = np.empty(n)
-    acc_old, acc_new = np.empty(n), np.empty(n)     # the additive form's a + R
+    additive = rc[FORM] == ADDITIVE
+    acc_old, acc_new = np.empty(n), np.empty(n)     # the additive form's a + R_II
+    if additive:                                    # at the last accepted state, then carried
+        qx_old[:n] = q
+        _total_acceleration(I, Fl, n, qx_old, a, lam, R, C, V, acc_old)
     _start_force(rc, I, Fl, t0, q, v, lam, F0, F, qx, vx, work)
     t = t0
     h_factored, c0_factored = -1.0, -1.0   # the step (and c0) of the stored factorization
@@ -1910,9 +1914,7 @@ def _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, 
         if rc[EAUX] != 0.0:
             b_new[:] = b
             _advance(rc, b_new, a, w[a0:a0 + n])
-        additive = rc[FORM] == ADDITIVE
         if additive:    # HHT-ADD: the change of a + R_II, which sees the constraint forces
-            _total_acceleration(I, Fl, n, qx_old, a, lam, R, C, V, acc_old)
             _total_acceleration(I, Fl, n, qx, w[a0:a0 + n], w[l0:l0 + m], R, C, V, acc_new)
         acc = 0.0
         for j in range(n):
@@ -1953,6 +1955,8 @@ def _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, 
             b[:] = b_new
         else:
             _advance(rc, b, a, w[a0:a0 + n])
+        if additive:
+            acc_old[:] = acc_new
         a[:] = w[a0:a0 + n]
         lam[:] = w[l0:l0 + m]
         if has_extra:
