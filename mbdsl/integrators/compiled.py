@@ -1,4 +1,4 @@
-"""Compiled kernels (numba): the recipe methods (``recipe.py``) on rigid planar models.
+"""Compiled kernels (numba): the recipe methods (``recipe.py``) on planar rigid and flexible models.
 
 The only module of mbdsl that imports numba. It is imported lazily, when a
 run asks for the compiled engine (:mod:`mbdsl.integrators.engine`), so that
@@ -33,6 +33,10 @@ Systems, ch. 4): a body point is at r + A(phi) s, with d/dphi (A s) = B s =
 * constant point forces, and constant forces (gravity, torques) in Q0
 * friction in joints: tau = -N mu(z) tanh(z/v_reg) - c z along w (``FrictionGroup``),
   N from the joint's multipliers: Q reads lambda, Q_lambda beside Phi_q^T
+* flexible beams in the floating frame of reference: M(q), (M x)_q, the
+  quadratic velocity vector, elastic forces with geometric stiffening and
+  gravity (``assembly/ffr.py``), and the elastic columns of coincidence and
+  point-on-line joints on beam points ("Joint points on flexible beams")
 
 The Newton iteration is the one of :mod:`mbdsl.integrators.newton`
 (weighted velocity-equivalent norm, contraction-based stopping, modified
@@ -71,12 +75,12 @@ __all__ = ["MODEL_SCHEMA", "MODEL_FIELDS", "residual", "jacobian_triplets", "for
 #: numba's cache of this file never holds indices of another file's version.
 (FORM, HAS_Y, SPLIT, CQX, CQY, CVX, CVY, CM, CF, DM, DI, DV, SP, SV, SX, SY, MU_MOB, FLOOR,
  PQ0, PQ1, PV0, PV1, PA, VV0, VV1, VA, Y0V, KA1, KA2, KB, CQ, SM, PB, VB, BB, BA, BX,
- REG, ERR, EAUX, EABS) = range(41)
+ REG, ERR, EAUX, EABS, MH) = range(42)
 _RECIPE = ("form", "has_y", "split", "cqx", "cqy", "cvx", "cvy", "cM", "cF", "dM", "dI", "dV",
            "sP", "sV", "sx", "sy", "mu_mob", "floor",
            "pq0", "pq1", "pv0", "pv1", "pa", "vv0", "vv1", "va", "y0v",
            "ka1", "ka2", "kb", "cQ", "sm", "pb", "vb", "bb", "ba", "bx", "reg", "err", "eaux",
-           "eabs")
+           "eabs", "mh")
 _OPCODES = ("const", "t", "neg", "+", "-", "*", "/", "^", "sin", "cos", "tan", "asin", "acos",
             "atan", "sinh", "cosh", "tanh", "sqrt", "exp", "log", "abs", "sign", "x", "min",
             "max", "<", ">", "<=", ">=", "if")
@@ -126,6 +130,11 @@ MODEL_SCHEMA = (
                                                                        # line, row, rows; law
     ("drow", "i", 0), ("dcol1", "i", 3), ("ds1", "f", 2),              # distance joints
     ("dcol2", "i", 3), ("ds2", "f", 2), ("dlen", "f", 0),
+    ("mrig", "f", 0),                                                  # M's rigid diagonal (0 at beams)
+    ("beam", "i", 4), ("bcol", "i", 0), ("bdat", "f", 0),              # FFR beams: (first column,
+    ("grav", "f", 0),                                                  # nf, first float, elements)
+    ("cel", "i", 4), ("pel", "i", 4),                                  # elastic terms of joint points:
+    ("ecol", "i", 0), ("eshp", "f", 2),                                # spans; column, shape (S_x, S_y)
 )
 #: The field names, and the scalar "n_elements" (the header's last entry).
 MODEL_FIELDS = tuple(name for name, _, _ in MODEL_SCHEMA) + ("n_elements",)
@@ -144,7 +153,8 @@ _inline = numba.njit(cache=True, nogil=True, inline="always")
  LROW, LCOL, LCOEF, LOFF, SCOL1, SS1, SCOL2, SS2, SPAR, RCOL, RPAR,
  FCOL, FS, FF, ROW_ELEMENT, CODE, CONSTS, PROG, LFN, TCOL, TFN, FFN, STACK,
  VAR, VARC, XVAL, STQ, SDV, PFN, GEO, GEOF, FRI, FRP,
- DROW, DCOL1, DS1, DCOL2, DS2, DLEN) = range(52)
+ DROW, DCOL1, DS1, DCOL2, DS2, DLEN, MRIG, BEAM, BCOL, BDAT, GRAV, CEL, PEL, ECOL,
+ ESHP) = range(61)
 if any(globals()[name.upper()] != k for k, (name, _, _) in enumerate(MODEL_SCHEMA)):
     raise ImportError("compiled.py's field indices differ from MODEL_SCHEMA")   # pragma: no cover
 
@@ -191,11 +201,48 @@ def _As(I, Fl, qx, cols, s, i):
     return c * s0 - sn * s1, sn * s0 + c * s1
 
 
+@_inline
+def _span(I, el, i, side):
+    """(first, end) of the elastic terms of point ``side`` (0, 1) of instance i
+    of a joint whose spans are field ``el`` (CEL, PEL); (0, 0) when the model
+    has no point on a flexible beam (the field is then empty)."""
+    if _rows(I, el) == 0:
+        return 0, 0
+    return _i(I, el, i, 2 * side), _i(I, el, i, 2 * side + 1)
+
+
+@_jit
+def _Au(I, Fl, qx, cols, s, el, side, i):
+    """A(phi) u of point ``side`` of joint instance i, u = s + sum_k S_k q_k:
+    s its undeformed local position (field ``s``), S_k (2,) the shape column
+    of elastic coordinate q_k of a point on a flexible beam (``PointSet``;
+    none on a rigid body). Returns (x, y)."""
+    ph = qx[_i(I, cols, i, 2)]
+    ux, uy = _f(I, Fl, s, i, 0), _f(I, Fl, s, i, 1)
+    k0, k1 = _span(I, el, i, side)
+    for k in range(k0, k1):
+        qk = qx[_i(I, ECOL, k, 0)]
+        ux += _f(I, Fl, ESHP, k, 0) * qk
+        uy += _f(I, Fl, ESHP, k, 1) * qk
+    c, sn = math.cos(ph), math.sin(ph)
+    return c * ux - sn * uy, sn * ux + c * uy
+
+
+@_inline
+def _eshape(I, Fl, k, ph):
+    """A S_k and B S_k = d(A S_k)/dphi of elastic term k on a body at angle ph:
+    (Ax, Ay, Bx, By)."""
+    sx, sy = _f(I, Fl, ESHP, k, 0), _f(I, Fl, ESHP, k, 1)
+    c, sn = math.cos(ph), math.sin(ph)
+    ax, ay = c * sx - sn * sy, sn * sx + c * sy
+    return ax, ay, -ay, ax
+
+
 @_jit
 def _pol(I, Fl, qx, i):
-    """Point-on-line parts: n, d = p_P - p_L, A s_L, A s_P."""
-    axL, ayL = _As(I, Fl, qx, PCOLL, PSL, i)
-    axP, ayP = _As(I, Fl, qx, PCOLP, PSP, i)
+    """Point-on-line parts: n, d = p_P - p_L, A u_L, A u_P."""
+    axL, ayL = _Au(I, Fl, qx, PCOLL, PSL, PEL, 0, i)
+    axP, ayP = _Au(I, Fl, qx, PCOLP, PSP, PEL, 1, i)
     dx = (qx[_i(I, PCOLP, i, 0)] - qx[_i(I, PCOLL, i, 0)]) + (axP - axL)
     dy = (qx[_i(I, PCOLP, i, 1)] - qx[_i(I, PCOLL, i, 1)]) + (ayP - ayL)
     nx, ny = _As(I, Fl, qx, PCOLL, PN0, i)
@@ -479,8 +526,8 @@ def _phi_t_add(I, Fl, t, out):
 def phi(I, Fl, t, qx, out):
     """Phi(q) into out (m,) [m or rad]."""
     for i in range(_rows(I, CROW)):
-        ax1, ay1 = _As(I, Fl, qx, CCOL1, CS1, i)
-        ax2, ay2 = _As(I, Fl, qx, CCOL2, CS2, i)
+        ax1, ay1 = _Au(I, Fl, qx, CCOL1, CS1, CEL, 0, i)
+        ax2, ay2 = _Au(I, Fl, qx, CCOL2, CS2, CEL, 1, i)
         out[_i(I, CROW, i, 0)] = (qx[_i(I, CCOL2, i, 0)] - qx[_i(I, CCOL1, i, 0)]) + (ax2 - ax1)
         out[_i(I, CROW, i, 1)] = (qx[_i(I, CCOL2, i, 1)] - qx[_i(I, CCOL1, i, 1)]) + (ay2 - ay1)
     for i in range(_rows(I, PROW)):
@@ -506,8 +553,8 @@ def phiqT_add(I, Fl, qx, lam, coef, out):
     """out[:n+3] += coef Phi_q^T lambda."""
     for i in range(_rows(I, CROW)):
         l0, l1 = coef * lam[_i(I, CROW, i, 0)], coef * lam[_i(I, CROW, i, 1)]
-        ax1, ay1 = _As(I, Fl, qx, CCOL1, CS1, i)
-        ax2, ay2 = _As(I, Fl, qx, CCOL2, CS2, i)
+        ax1, ay1 = _Au(I, Fl, qx, CCOL1, CS1, CEL, 0, i)
+        ax2, ay2 = _Au(I, Fl, qx, CCOL2, CS2, CEL, 1, i)
         out[_i(I, CCOL1, i, 0)] -= l0
         out[_i(I, CCOL1, i, 1)] -= l1
         out[_i(I, CCOL1, i, 2)] -= -ay1 * l0 + ax1 * l1
@@ -535,14 +582,16 @@ def phiqT_add(I, Fl, qx, lam, coef, out):
             lv = coef * lam[_i(I, DROW, i, 0)]
             for j in range(6):
                 out[_dist_col(I, i, j)] += lv * g[j]
+    if _rows(I, ECOL) > 0:
+        _elastic_phiqT_add(I, Fl, qx, lam, coef, out)
 
 
 @_jit
 def phiq_times(I, Fl, qx, vx, out):
     """Phi_q v into out (m,)."""
     for i in range(_rows(I, CROW)):
-        ax1, ay1 = _As(I, Fl, qx, CCOL1, CS1, i)
-        ax2, ay2 = _As(I, Fl, qx, CCOL2, CS2, i)
+        ax1, ay1 = _Au(I, Fl, qx, CCOL1, CS1, CEL, 0, i)
+        ax2, ay2 = _Au(I, Fl, qx, CCOL2, CS2, CEL, 1, i)
         w1, w2 = vx[_i(I, CCOL1, i, 2)], vx[_i(I, CCOL2, i, 2)]
         out[_i(I, CROW, i, 0)] = (vx[_i(I, CCOL2, i, 0)] - vx[_i(I, CCOL1, i, 0)]) + (-ay2 * w2 + ay1 * w1)
         out[_i(I, CROW, i, 1)] = (vx[_i(I, CCOL2, i, 1)] - vx[_i(I, CCOL1, i, 1)]) + (ax2 * w2 - ax1 * w1)
@@ -561,6 +610,8 @@ def phiq_times(I, Fl, qx, vx, out):
             for j in range(6):
                 acc += g[j] * vx[_dist_col(I, i, j)]
             out[_i(I, DROW, i, 0)] = acc
+    if _rows(I, ECOL) > 0:
+        _elastic_phiq_times(I, Fl, qx, vx, out)
 
 
 @_jit
@@ -698,6 +749,388 @@ def forces(I, Fl, t, qx, vx, lam, out):
             tau, dz, dN, Rn = _friction_law(I, Fl, i, z, lam)
             for a in range(2 if g < 0 else 6):
                 out[_friction_col(I, i, g, a)] += tau * grad[a]
+    if _rows(I, BEAM) > 0:                         # flexible beams
+        _ffr_forces_add(I, Fl, qx, vx, out)
+
+
+# --------------------------------------------------------------------------------------------
+# Joint points on flexible beams: the elastic terms of Phi_q (``PointSet``)
+#
+# A point of a flexible beam is at r + A(phi) u, u = s + sum_k S_k q_k. Its
+# position's derivative by q_k is A S_k, and the only second derivatives the
+# elastic terms add are d^2/dphi dq_k = B S_k (Shabana, Dynamics of Multibody
+# Systems, sec. 5.3). The rigid kernels above already read u (``_Au``) where
+# they read s; the functions below add the entries of the elastic columns.
+# Coincidence: Phi = p2 - p1, sign -1 for point 1. Point on line: Phi = n . (p_P
+# - p_L), n = A_L n0: d/dq_k = +-n . (A S_k), and for a term of P the mixed
+# entries (phi_L, q_k) = (B_L n0) . (A_P S_k) and (phi_P, q_k) = n . (B_P S_k);
+# a term of L has the constant gradient -n0 . S_k and no second derivative.
+# --------------------------------------------------------------------------------------------
+
+@_jit
+def _elastic_phiqT_add(I, Fl, qx, lam, coef, out):
+    """out += coef Phi_q^T lambda in the elastic columns."""
+    for i in range(_rows(I, CROW)):
+        l0, l1 = coef * lam[_i(I, CROW, i, 0)], coef * lam[_i(I, CROW, i, 1)]
+        for sd in range(2):
+            sg, ph = (-1.0 if sd == 0 else 1.0), qx[_i(I, CCOL1 if sd == 0 else CCOL2, i, 2)]
+            k0, k1 = _span(I, CEL, i, sd)
+            for k in range(k0, k1):
+                ax, ay, bx, by = _eshape(I, Fl, k, ph)
+                out[_i(I, ECOL, k, 0)] += sg * (l0 * ax + l1 * ay)
+    for i in range(_rows(I, PROW)):
+        nx, ny, dx, dy, axL, ayL, axP, ayP = _pol(I, Fl, qx, i)
+        lv = coef * lam[_i(I, PROW, i, 0)]
+        for sd in range(2):
+            sg, ph = (-1.0 if sd == 0 else 1.0), qx[_i(I, PCOLL if sd == 0 else PCOLP, i, 2)]
+            k0, k1 = _span(I, PEL, i, sd)
+            for k in range(k0, k1):
+                ax, ay, bx, by = _eshape(I, Fl, k, ph)
+                out[_i(I, ECOL, k, 0)] += lv * sg * (nx * ax + ny * ay)
+
+
+@_jit
+def _elastic_phiq_times(I, Fl, qx, vx, out):
+    """out += Phi_q v of the elastic columns."""
+    for i in range(_rows(I, CROW)):
+        for sd in range(2):
+            sg, ph = (-1.0 if sd == 0 else 1.0), qx[_i(I, CCOL1 if sd == 0 else CCOL2, i, 2)]
+            k0, k1 = _span(I, CEL, i, sd)
+            for k in range(k0, k1):
+                ax, ay, bx, by = _eshape(I, Fl, k, ph)
+                vk = vx[_i(I, ECOL, k, 0)]
+                out[_i(I, CROW, i, 0)] += sg * ax * vk
+                out[_i(I, CROW, i, 1)] += sg * ay * vk
+    for i in range(_rows(I, PROW)):
+        nx, ny, dx, dy, axL, ayL, axP, ayP = _pol(I, Fl, qx, i)
+        for sd in range(2):
+            sg, ph = (-1.0 if sd == 0 else 1.0), qx[_i(I, PCOLL if sd == 0 else PCOLP, i, 2)]
+            k0, k1 = _span(I, PEL, i, sd)
+            for k in range(k0, k1):
+                ax, ay, bx, by = _eshape(I, Fl, k, ph)
+                out[_i(I, PROW, i, 0)] += sg * (nx * ax + ny * ay) * vx[_i(I, ECOL, k, 0)]
+
+
+@_jit
+def _emit_elastic_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose):
+    """The elastic columns of coef Phi_q at (r0, c0) (or of Phi_q^T)."""
+    for i in range(_rows(I, CROW)):
+        for sd in range(2):
+            sg, ph = (-1.0 if sd == 0 else 1.0), qx[_i(I, CCOL1 if sd == 0 else CCOL2, i, 2)]
+            k0, k1 = _span(I, CEL, i, sd)
+            for k in range(k0, k1):
+                ax, ay, bx, by = _eshape(I, Fl, k, ph)
+                col = _i(I, ECOL, k, 0)
+                for a in range(2):
+                    g = coef * sg * (ax if a == 0 else ay)
+                    if transpose:
+                        p = _put(R, C, V, p, r0 + col, c0 + _i(I, CROW, i, a), g)
+                    else:
+                        p = _put(R, C, V, p, r0 + _i(I, CROW, i, a), c0 + col, g)
+    for i in range(_rows(I, PROW)):
+        nx, ny, dx, dy, axL, ayL, axP, ayP = _pol(I, Fl, qx, i)
+        row = _i(I, PROW, i, 0)
+        for sd in range(2):
+            sg, ph = (-1.0 if sd == 0 else 1.0), qx[_i(I, PCOLL if sd == 0 else PCOLP, i, 2)]
+            k0, k1 = _span(I, PEL, i, sd)
+            for k in range(k0, k1):
+                ax, ay, bx, by = _eshape(I, Fl, k, ph)
+                col, g = _i(I, ECOL, k, 0), coef * sg * (nx * ax + ny * ay)
+                if transpose:
+                    p = _put(R, C, V, p, r0 + col, c0 + row, g)
+                else:
+                    p = _put(R, C, V, p, r0 + row, c0 + col, g)
+    return p
+
+
+@_jit
+def _emit_elastic_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef):
+    """The elastic entries of coef (Phi_q^T lambda)_q at (r0, c0): the mixed
+    (phi, q_k) second derivatives, both triangles."""
+    for i in range(_rows(I, CROW)):
+        l0, l1 = coef * lam[_i(I, CROW, i, 0)], coef * lam[_i(I, CROW, i, 1)]
+        for sd in range(2):
+            cph = _i(I, CCOL1 if sd == 0 else CCOL2, i, 2)
+            sg, ph = (-1.0 if sd == 0 else 1.0), qx[cph]
+            k0, k1 = _span(I, CEL, i, sd)
+            for k in range(k0, k1):
+                ax, ay, bx, by = _eshape(I, Fl, k, ph)
+                col, val = _i(I, ECOL, k, 0), sg * (l0 * bx + l1 * by)
+                if cph < n:
+                    p = _put(R, C, V, p, r0 + cph, c0 + col, val)
+                    p = _put(R, C, V, p, r0 + col, c0 + cph, val)
+    for i in range(_rows(I, PROW)):
+        nx, ny, dx, dy, axL, ayL, axP, ayP = _pol(I, Fl, qx, i)
+        lv = coef * lam[_i(I, PROW, i, 0)]
+        cL, cP = _i(I, PCOLL, i, 2), _i(I, PCOLP, i, 2)
+        k0, k1 = _span(I, PEL, i, 1)
+        for k in range(k0, k1):
+            ax, ay, bx, by = _eshape(I, Fl, k, qx[cP])
+            col = _i(I, ECOL, k, 0)
+            hL, hP = -ny * ax + nx * ay, nx * bx + ny * by
+            if cL < n:
+                p = _put(R, C, V, p, r0 + cL, c0 + col, lv * hL)
+                p = _put(R, C, V, p, r0 + col, c0 + cL, lv * hL)
+            if cP < n:
+                p = _put(R, C, V, p, r0 + cP, c0 + col, lv * hP)
+                p = _put(R, C, V, p, r0 + col, c0 + cP, lv * hP)
+    return p
+
+
+@_jit
+def _emit_elastic_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef):
+    """The elastic entries of coef (Phi_q v)_q at (r0, c0)."""
+    for i in range(_rows(I, CROW)):
+        for sd in range(2):
+            cph = _i(I, CCOL1 if sd == 0 else CCOL2, i, 2)
+            sg, ph, w = (-1.0 if sd == 0 else 1.0), qx[cph], vx[cph]
+            k0, k1 = _span(I, CEL, i, sd)
+            for k in range(k0, k1):
+                ax, ay, bx, by = _eshape(I, Fl, k, ph)
+                col, vk = _i(I, ECOL, k, 0), vx[_i(I, ECOL, k, 0)]
+                for a in range(2):
+                    row, b = _i(I, CROW, i, a), (bx if a == 0 else by)
+                    if cph < n:
+                        p = _put(R, C, V, p, r0 + row, c0 + cph, coef * sg * b * vk)
+                    p = _put(R, C, V, p, r0 + row, c0 + col, coef * sg * b * w)
+    for i in range(_rows(I, PROW)):
+        nx, ny, dx, dy, axL, ayL, axP, ayP = _pol(I, Fl, qx, i)
+        row = _i(I, PROW, i, 0)
+        cL, cP = _i(I, PCOLL, i, 2), _i(I, PCOLP, i, 2)
+        k0, k1 = _span(I, PEL, i, 1)
+        for k in range(k0, k1):
+            ax, ay, bx, by = _eshape(I, Fl, k, qx[cP])
+            col, vk = _i(I, ECOL, k, 0), vx[_i(I, ECOL, k, 0)]
+            hL, hP = -ny * ax + nx * ay, nx * bx + ny * by
+            if cL < n:
+                p = _put(R, C, V, p, r0 + row, c0 + cL, coef * hL * vk)
+            if cP < n:
+                p = _put(R, C, V, p, r0 + row, c0 + cP, coef * hP * vk)
+            p = _put(R, C, V, p, r0 + row, c0 + col, coef * (hL * vx[cL] + hP * vx[cP]))
+    return p
+
+
+# --------------------------------------------------------------------------------------------
+# Flexible beams in the floating frame of reference (``assembly/ffr.py``)
+#
+# Beam b's local coordinates (x, y, phi, q_f), c = 3 + nf, are columns
+# bcol[k0:k0 + c] of q; its shape integrals are floats bdat[f0:] in the order
+# m, s0 (2), I0, S_bar (2 x nf), a_u (nf), a_I (nf), M_ff, S_tilde, K (nf x nf
+# each), and for ne elements with geometric stiffening k_e = EA l / 2 (ne),
+# Bu (ne x nf), G (ne x nf x nf). ``_ffr_local`` evaluates the beam's dense
+# local blocks (Shabana, Dynamics of Multibody Systems, ch. 5; Sharf 1995 for
+# the stiffening), the scatter functions below it place them.
+# --------------------------------------------------------------------------------------------
+
+#: What ``_ffr_local`` evaluates (bits): M, Q, (Q_q, Q_v), (M x)_q.
+FFR_M, FFR_Q, FFR_DQ, FFR_MXQ = 1, 2, 4, 8
+
+
+@_inline
+def _bd(I, Fl, k):
+    """Float k of the beams' data."""
+    return Fl[I[3 * BDAT] + k]
+
+
+@_jit
+def _ffr_local(I, Fl, b, qx, vx, x, what, M, Q, Qq, Qv, Mxq):
+    """Local blocks of beam b (c = 3 + nf): M(q) into M (c, c), Q = Q_v - K
+    q_f (- dU_G/dq_f) + Q_gravity into Q (c,), Q_q, Q_v into Qq, Qv (c, c),
+    (M(q) x)_q into Mxq (c, c) for the extended vector x, as ``what`` asks
+    (FFR_* bits); (q, v) from qx, vx."""
+    k0, nf, f0, ne = _i(I, BEAM, b, 0), _i(I, BEAM, b, 1), _i(I, BEAM, b, 2), _i(I, BEAM, b, 3)
+    sb_, au_ = f0 + 4, f0 + 4 + 2 * nf
+    ai_, mff_ = au_ + nf, au_ + 2 * nf
+    st_, kk_ = mff_ + nf * nf, mff_ + 2 * nf * nf
+    kea_ = mff_ + 3 * nf * nf
+    bu_, gg_ = kea_ + ne, kea_ + ne + ne * nf
+    qf, qd = np.empty(nf), np.empty(nf)
+    for j in range(nf):
+        col = _i(I, BCOL, k0 + 3 + j, 0)
+        qf[j], qd[j] = qx[col], vx[col]
+    cph = _i(I, BCOL, k0 + 2, 0)
+    cs, sn, w = math.cos(qx[cph]), math.sin(qx[cph]), vx[cph]
+    m = _bd(I, Fl, f0)
+    # s_bar = s0 + S_bar q_f, a_U = a_u + M_ff q_f, a_T = a_I + S_tilde q_f
+    sbx, sby = _bd(I, Fl, f0 + 1), _bd(I, Fl, f0 + 2)
+    aU, aT = np.empty(nf), np.empty(nf)
+    ASb, BSb = np.empty((2, nf)), np.empty((2, nf))
+    for i in range(nf):
+        s0i, s1i = _bd(I, Fl, sb_ + i), _bd(I, Fl, sb_ + nf + i)
+        sbx += s0i * qf[i]
+        sby += s1i * qf[i]
+        ASb[0, i], ASb[1, i] = cs * s0i - sn * s1i, sn * s0i + cs * s1i
+        BSb[0, i], BSb[1, i] = -ASb[1, i], ASb[0, i]
+        u, tt = _bd(I, Fl, au_ + i), _bd(I, Fl, ai_ + i)
+        for j in range(nf):
+            u += _bd(I, Fl, mff_ + i * nf + j) * qf[j]
+            tt += _bd(I, Fl, st_ + i * nf + j) * qf[j]
+        aU[i], aT[i] = u, tt
+    Asx, Asy = cs * sbx - sn * sby, sn * sbx + cs * sby          # A s_bar
+    Bsx, Bsy = -Asy, Asx                                         # B s_bar
+    if what & FFR_M:
+        M[:, :] = 0.0
+        M[0, 0] = M[1, 1] = m
+        M[0, 2] = M[2, 0] = Bsx
+        M[1, 2] = M[2, 1] = Bsy
+        mpp = _bd(I, Fl, f0 + 3)
+        for j in range(nf):
+            mpp += (2.0 * _bd(I, Fl, au_ + j) + (aU[j] - _bd(I, Fl, au_ + j))) * qf[j]
+            M[0, 3 + j] = M[3 + j, 0] = ASb[0, j]
+            M[1, 3 + j] = M[3 + j, 1] = ASb[1, j]
+            M[2, 3 + j] = M[3 + j, 2] = aT[j]
+            for i in range(nf):
+                M[3 + i, 3 + j] = _bd(I, Fl, mff_ + i * nf + j)
+        M[2, 2] = mpp
+    if what & (FFR_Q | FFR_DQ):
+        Bqd0, Bqd1, Aqd0, Aqd1, aUqd = 0.0, 0.0, 0.0, 0.0, 0.0
+        for j in range(nf):
+            Bqd0 += BSb[0, j] * qd[j]
+            Bqd1 += BSb[1, j] * qd[j]
+            Aqd0 += ASb[0, j] * qd[j]
+            Aqd1 += ASb[1, j] * qd[j]
+            aUqd += aU[j] * qd[j]
+        w2 = w * w
+        gx, gy = 0.0, 0.0
+        if _rows(I, GRAV) > 0:
+            gx, gy = _f(I, Fl, GRAV, 0, 0), _f(I, Fl, GRAV, 1, 0)
+        if what & FFR_Q:
+            Q[0] = w2 * Asx - 2.0 * w * Bqd0 + m * gx
+            Q[1] = w2 * Asy - 2.0 * w * Bqd1 + m * gy
+            Q[2] = -2.0 * w * aUqd + Bsx * gx + Bsy * gy
+            for i in range(nf):
+                acc = w2 * aU[i] + ASb[0, i] * gx + ASb[1, i] * gy
+                for j in range(nf):
+                    acc -= (2.0 * w * _bd(I, Fl, st_ + i * nf + j) * qd[j]
+                            + _bd(I, Fl, kk_ + i * nf + j) * qf[j])
+                Q[3 + i] = acc
+        if what & FFR_DQ:
+            Qq[:, :] = 0.0
+            Qv[:, :] = 0.0
+            Qq[0, 2], Qq[1, 2] = w2 * Bsx + 2.0 * w * Aqd0, w2 * Bsy + 2.0 * w * Aqd1
+            Qv[0, 2], Qv[1, 2] = 2.0 * w * Asx - 2.0 * Bqd0, 2.0 * w * Asy - 2.0 * Bqd1
+            Qv[2, 2] = -2.0 * aUqd
+            Qq[2, 2] = -(Asx * gx + Asy * gy)
+            for j in range(nf):
+                for a in range(2):
+                    Qq[a, 3 + j] = w2 * ASb[a, j]
+                    Qv[a, 3 + j] = -2.0 * w * BSb[a, j]
+                mq, sq = 0.0, 0.0
+                for k in range(nf):
+                    mq += _bd(I, Fl, mff_ + j * nf + k) * qd[k]
+                    sq += _bd(I, Fl, st_ + j * nf + k) * qd[k]
+                Qq[2, 3 + j] = -2.0 * w * mq + BSb[0, j] * gx + BSb[1, j] * gy
+                Qq[3 + j, 2] = BSb[0, j] * gx + BSb[1, j] * gy
+                Qv[2, 3 + j] = -2.0 * w * aU[j]
+                Qv[3 + j, 2] = 2.0 * w * aU[j] - 2.0 * sq
+                for i in range(nf):
+                    Qq[3 + j, 3 + i] = (w2 * _bd(I, Fl, mff_ + j * nf + i)
+                                        - _bd(I, Fl, kk_ + j * nf + i))
+                    Qv[3 + j, 3 + i] = -2.0 * w * _bd(I, Fl, st_ + j * nf + i)
+        if ne > 0:          # geometric stiffening: - dU_G/dq_f, - d^2U_G/dq_f^2
+            g = np.empty(nf)
+            for e in range(ne):
+                ke = _bd(I, Fl, kea_ + e)
+                ae, ce = 0.0, 0.0
+                for i in range(nf):
+                    ae += _bd(I, Fl, bu_ + e * nf + i) * qf[i]
+                    gi = 0.0
+                    for j in range(nf):
+                        gi += _bd(I, Fl, gg_ + (e * nf + i) * nf + j) * qf[j]
+                    g[i] = gi
+                for i in range(nf):
+                    ce += g[i] * qf[i]
+                for i in range(nf):
+                    bui = _bd(I, Fl, bu_ + e * nf + i)
+                    if what & FFR_Q:
+                        Q[3 + i] -= ke * (ce * bui + (2.0 * ae + ce) * g[i])
+                    if what & FFR_DQ:
+                        for j in range(nf):
+                            buj = _bd(I, Fl, bu_ + e * nf + j)
+                            Qq[3 + i, 3 + j] -= ke * (2.0 * (bui * g[j] + g[i] * buj)
+                                                      + 2.0 * g[i] * g[j]
+                                                      + (2.0 * ae + ce)
+                                                      * _bd(I, Fl, gg_ + (e * nf + i) * nf + j))
+    if what & FFR_MXQ:
+        xR0, xR1 = x[_i(I, BCOL, k0, 0)], x[_i(I, BCOL, k0 + 1, 0)]
+        xp = x[cph]
+        Mxq[:, :] = 0.0
+        Mxq[0, 2], Mxq[1, 2] = -Asx * xp, -Asy * xp
+        Mxq[2, 2] = -(Asx * xR0 + Asy * xR1)
+        for j in range(nf):
+            xj = x[_i(I, BCOL, k0 + 3 + j, 0)]
+            Mxq[0, 2] += BSb[0, j] * xj
+            Mxq[1, 2] += BSb[1, j] * xj
+            Mxq[0, 3 + j], Mxq[1, 3 + j] = BSb[0, j] * xp, BSb[1, j] * xp
+            bx = BSb[0, j] * xR0 + BSb[1, j] * xR1
+            Mxq[3 + j, 2] = bx
+            sx = 0.0
+            for k in range(nf):
+                sx += _bd(I, Fl, st_ + j * nf + k) * x[_i(I, BCOL, k0 + 3 + k, 0)]
+                Mxq[3 + j, 3 + k] = _bd(I, Fl, st_ + j * nf + k) * xp
+            Mxq[2, 3 + j] = bx + 2.0 * aU[j] * xp - sx
+
+
+@_jit
+def _ffr_scratch(I):
+    """Scratch blocks (M, Q, Qq, Qv, Mxq) for the largest beam of the model."""
+    c = 3
+    for b in range(_rows(I, BEAM)):
+        c = max(c, 3 + _i(I, BEAM, b, 1))
+    return (np.empty((c, c)), np.empty(c), np.empty((c, c)), np.empty((c, c)),
+            np.empty((c, c)))
+
+
+@_jit
+def _ffr_forces_add(I, Fl, qx, vx, out):
+    """out += Q of every beam (``FlexibleBeamGroup.forces``)."""
+    M, Q, Qq, Qv, Mxq = _ffr_scratch(I)
+    for b in range(_rows(I, BEAM)):
+        _ffr_local(I, Fl, b, qx, vx, qx, FFR_Q, M, Q, Qq, Qv, Mxq)
+        k0 = _i(I, BEAM, b, 0)
+        for a in range(3 + _i(I, BEAM, b, 1)):
+            out[_i(I, BCOL, k0 + a, 0)] += Q[a]
+
+
+@_jit
+def _mass_add(I, Fl, qM, x, coef, out):
+    """out[:n] += coef M(qM) x: the rigid diagonal, and every beam's block at
+    qM (extended; x of size n or more)."""
+    for j in range(_rows(I, MRIG)):
+        out[j] += coef * _f(I, Fl, MRIG, j, 0) * x[j]
+    if _rows(I, BEAM) > 0:
+        M, Q, Qq, Qv, Mxq = _ffr_scratch(I)
+        for b in range(_rows(I, BEAM)):
+            _ffr_local(I, Fl, b, qM, qM, qM, FFR_M, M, Q, Qq, Qv, Mxq)
+            k0, c = _i(I, BEAM, b, 0), 3 + _i(I, BEAM, b, 1)
+            for a in range(c):
+                acc = 0.0
+                for d in range(c):
+                    acc += M[a, d] * x[_i(I, BCOL, k0 + d, 0)]
+                out[_i(I, BCOL, k0 + a, 0)] += coef * acc
+
+
+@_jit
+def _emit_beams(I, Fl, qx, vx, x, what, R, C, V, p, r0, c0, c1, c2):
+    """Every beam's local block(s) at (r0, c0): c1 M (FFR_M), c1 (M x)_q
+    (FFR_MXQ), or -(c1 Q_q + c2 Q_v) (FFR_DQ); all c x c entries, so that
+    the pattern is fixed."""
+    M, Q, Qq, Qv, Mxq = _ffr_scratch(I)
+    for b in range(_rows(I, BEAM)):
+        _ffr_local(I, Fl, b, qx, vx, x, what, M, Q, Qq, Qv, Mxq)
+        k0, c = _i(I, BEAM, b, 0), 3 + _i(I, BEAM, b, 1)
+        for a in range(c):
+            ra = r0 + _i(I, BCOL, k0 + a, 0)
+            for d in range(c):
+                cd = c0 + _i(I, BCOL, k0 + d, 0)
+                if what == FFR_M:
+                    val = c1 * M[a, d]
+                elif what == FFR_MXQ:
+                    val = c1 * Mxq[a, d]
+                else:
+                    val = -(c1 * Qq[a, d] + c2 * Qv[a, d])
+                p = _put(R, C, V, p, ra, cd, val)
+    return p
 
 
 # --------------------------------------------------------------------------------------------
@@ -713,9 +1146,13 @@ def _put(R, C, V, p, r, c, v):
 
 
 @_jit
-def _emit_mass(I, Fl, n, R, C, V, p, r0, c0, coef):
+def _emit_mass(I, Fl, n, qM, R, C, V, p, r0, c0, coef):
+    """coef M(qM) at (r0, c0): the rigid diagonal, and every beam's block."""
     for j in range(n):
-        p = _put(R, C, V, p, r0 + j, c0 + j, coef * _f(I, Fl, MASS, j, 0))
+        if _f(I, Fl, MRIG, j, 0) != 0.0:
+            p = _put(R, C, V, p, r0 + j, c0 + j, coef * _f(I, Fl, MRIG, j, 0))
+    if _rows(I, BEAM) > 0:
+        p = _emit_beams(I, Fl, qM, qM, qM, FFR_M, R, C, V, p, r0, c0, coef, 0.0)
     return p
 
 
@@ -723,8 +1160,8 @@ def _emit_mass(I, Fl, n, R, C, V, p, r0, c0, coef):
 def _emit_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose):
     """coef Phi_q at (r0, c0), or coef Phi_q^T when transpose."""
     for i in range(_rows(I, CROW)):
-        ax1, ay1 = _As(I, Fl, qx, CCOL1, CS1, i)
-        ax2, ay2 = _As(I, Fl, qx, CCOL2, CS2, i)
+        ax1, ay1 = _Au(I, Fl, qx, CCOL1, CS1, CEL, 0, i)
+        ax2, ay2 = _Au(I, Fl, qx, CCOL2, CS2, CEL, 1, i)
         for a in range(2):
             row = _i(I, CROW, i, a)
             # d(p2 - p1)_a / d(x1, y1, phi1, x2, y2, phi2): -e_a, -(B s1)_a, e_a, (B s2)_a
@@ -772,6 +1209,8 @@ def _emit_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose):
                     p = _put(R, C, V, p, r0 + col, c0 + row, coef * g[j])
                 else:
                     p = _put(R, C, V, p, r0 + row, c0 + col, coef * g[j])
+    if _rows(I, ECOL) > 0:
+        p = _emit_elastic_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose)
     return p
 
 
@@ -780,8 +1219,8 @@ def _emit_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef):
     """coef (Phi_q^T lambda)_q at (r0, c0)."""
     for i in range(_rows(I, CROW)):
         l0, l1 = lam[_i(I, CROW, i, 0)], lam[_i(I, CROW, i, 1)]
-        ax1, ay1 = _As(I, Fl, qx, CCOL1, CS1, i)
-        ax2, ay2 = _As(I, Fl, qx, CCOL2, CS2, i)
+        ax1, ay1 = _Au(I, Fl, qx, CCOL1, CS1, CEL, 0, i)
+        ax2, ay2 = _Au(I, Fl, qx, CCOL2, CS2, CEL, 1, i)
         c1, c2 = _i(I, CCOL1, i, 2), _i(I, CCOL2, i, 2)
         if c1 < n:
             p = _put(R, C, V, p, r0 + c1, c0 + c1, coef * (l0 * ax1 + l1 * ay1))
@@ -815,6 +1254,8 @@ def _emit_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef):
                     cb = _dist_col(I, i, b)
                     if ca < n and cb < n:
                         p = _put(R, C, V, p, r0 + ca, c0 + cb, lv * H[a, b])
+    if _rows(I, ECOL) > 0:
+        p = _emit_elastic_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef)
     return p
 
 
@@ -822,8 +1263,8 @@ def _emit_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef):
 def _emit_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef):
     """coef (Phi_q v)_q at (r0, c0) (Phi_qt = 0 for these constraints)."""
     for i in range(_rows(I, CROW)):
-        ax1, ay1 = _As(I, Fl, qx, CCOL1, CS1, i)
-        ax2, ay2 = _As(I, Fl, qx, CCOL2, CS2, i)
+        ax1, ay1 = _Au(I, Fl, qx, CCOL1, CS1, CEL, 0, i)
+        ax2, ay2 = _Au(I, Fl, qx, CCOL2, CS2, CEL, 1, i)
         c1, c2 = _i(I, CCOL1, i, 2), _i(I, CCOL2, i, 2)
         w1, w2 = vx[c1], vx[c2]
         for a in range(2):
@@ -870,6 +1311,8 @@ def _emit_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef):
                     for b in range(6):
                         hv += H[a, b] * v6[b]
                     p = _put(R, C, V, p, r0 + row, c0 + col, coef * hv)
+    if _rows(I, ECOL) > 0:
+        p = _emit_elastic_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef)
     return p
 
 
@@ -1043,6 +1486,8 @@ def _emit_force(I, Fl, t, n, qx, vx, lam, R, C, V, p, r0, c0, cq, cv):
                         p = _put(R, C, V, p, r0 + row, c0 + col, -w * gk * val)
     if _rows(I, FRI) > 0:
         p = _emit_friction(I, Fl, n, qx, vx, lam, R, C, V, p, r0, c0, cq, cv)
+    if _rows(I, BEAM) > 0:
+        p = _emit_beams(I, Fl, qx, vx, qx, FFR_DQ, R, C, V, p, r0, c0, cq, cv)
     return p
 
 
@@ -1128,7 +1573,8 @@ def _residual(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work):
     (stabilized index 2) or 3 n + 2 m (additive form).
 
     ``qx``, ``vx``, ``work`` are scratch vectors of size n + 3 (ground entries
-    zero); ``qx_old`` the extended q_n (the additive form's Phi_q(q_n)). The
+    zero); ``qx_old`` the extended q_n + mh v_n (the additive form's q_n of
+    Phi_q(q_n), or where a held Mhat is evaluated). The
     same equations as each method's numpy ``residual`` (the additive form's
     rows 1, 2 and 5 multiplied by M).
     """
@@ -1139,12 +1585,14 @@ def _residual(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work):
     size, l0, u0, a0 = _layout(rec, n, m)
     _state(rec, n, w, q_pred, v_pred, qx, vx)
     cM, cF = rec[CM], rec[CF]
+    qM = qx_old if rec[MH] != 0.0 else qx      # M held at q_n + mh v_n, or M(q)
     forces(I, Fl, t, qx, vx, w[l0:l0 + m], work)
     for j in range(n):
         work[j] = -work[j]
     phiqT_add(I, Fl, qx, w[l0:l0 + m], 1.0, work)
     for j in range(n):
-        r[j] = cM * _f(I, Fl, MASS, j, 0) * w[j] + work[j] - cF * F_old[j]
+        r[j] = work[j] - cF * F_old[j]
+    _mass_add(I, Fl, qM, w, cM, r)
     phi(I, Fl, t, qx, r[l0:l0 + m])
     sP = rec[SP]
     for i in range(m):
@@ -1154,7 +1602,9 @@ def _residual(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work):
         work[:] = 0.0
         phiqT_add(I, Fl, qx, w[u0:], 1.0, work)
         for j in range(n):
-            r[n + j] = (dM * _f(I, Fl, MASS, j, 0) + dI) * w[n + j] + dV * vx[j] + work[j]
+            r[n + j] = dI * w[n + j] + dV * vx[j] + work[j]
+        if dM != 0.0:
+            _mass_add(I, Fl, qM, w[n:2 * n], dM, r[n:2 * n])
         phiq_times(I, Fl, qx, vx, r[u0:])
         _phi_t_add(I, Fl, t, r[u0:])
         sV = rec[SV]
@@ -1174,6 +1624,8 @@ def _jacobian_triplets(rec, I, Fl, t, q_pred, v_pred, qx_old, w, R, C, V, qx, vx
     cqy, cvy; d R2/dx = cqx K(mu) + dV cvx I, d R2/dy = dM M + (dI + dV cvy) I
     + cqy K(mu); d R3/d(x, y) = sP (cqx, cqy) Phi_q; d R4/d(x, y) = sV (cvx
     Phi_q + cqx G, cvy Phi_q + cqy G); Phi_q^T in the multiplier columns.
+    With flexible beams and M(q) not held (mh = 0) d R1/dx gains cM cqx (M
+    x)_q, d R1/dy cM cqy (M x)_q, and d R2/d(x, y) dM (cqx, cqy) (M y)_q.
     Zero coefficients are structural (the same for every h of a method) and
     emit nothing.
     """
@@ -1184,8 +1636,12 @@ def _jacobian_triplets(rec, I, Fl, t, q_pred, v_pred, qx_old, w, R, C, V, qx, vx
     _state(rec, n, w, q_pred, v_pred, qx, vx)
     cqx, cvx, sP = rec[CQX], rec[CVX], rec[SP]
     lam = w[l0:l0 + m]
+    held = rec[MH] != 0.0                  # M held at q_n + mh v_n: no (M x)_q
+    beams = _rows(I, BEAM) > 0 and not held
     p = 0
-    p = _emit_mass(I, Fl, n, R, C, V, p, 0, 0, rec[CM])
+    p = _emit_mass(I, Fl, n, qx_old if held else qx, R, C, V, p, 0, 0, rec[CM])
+    if beams and cqx != 0.0:               # (M(q) x)_q
+        p = _emit_beams(I, Fl, qx, vx, w, FFR_MXQ, R, C, V, p, 0, 0, rec[CM] * cqx, 0.0)
     if cqx != 0.0:
         p = _emit_hess(I, Fl, n, qx, lam, R, C, V, p, 0, 0, cqx)
     p = _emit_force(I, Fl, t, n, qx, vx, lam, R, C, V, p, 0, 0, cqx, cvx)
@@ -1199,6 +1655,14 @@ def _jacobian_triplets(rec, I, Fl, t, q_pred, v_pred, qx_old, w, R, C, V, qx, vx
     if rec[HAS_Y] != 0.0:
         cqy, cvy, sV, dM, dI, dV = rec[CQY], rec[CVY], rec[SV], rec[DM], rec[DI], rec[DV]
         mu = w[u0:]
+        y = w[n:2 * n]
+        if beams and cqy != 0.0:
+            p = _emit_beams(I, Fl, qx, vx, w, FFR_MXQ, R, C, V, p, 0, n, rec[CM] * cqy, 0.0)
+        if beams and dM != 0.0:
+            if cqx != 0.0:
+                p = _emit_beams(I, Fl, qx, vx, y, FFR_MXQ, R, C, V, p, n, 0, dM * cqx, 0.0)
+            if cqy != 0.0:
+                p = _emit_beams(I, Fl, qx, vx, y, FFR_MXQ, R, C, V, p, n, n, dM * cqy, 0.0)
         if cqy != 0.0:
             p = _emit_hess(I, Fl, n, qx, lam, R, C, V, p, 0, n, cqy)
         if cqy != 0.0 or cvy != 0.0:
@@ -1208,7 +1672,7 @@ def _jacobian_triplets(rec, I, Fl, t, q_pred, v_pred, qx_old, w, R, C, V, qx, vx
         if dV * cvx != 0.0:
             p = _emit_identity(n, R, C, V, p, n, 0, dV * cvx)
         if dM != 0.0:
-            p = _emit_mass(I, Fl, n, R, C, V, p, n, n, dM)
+            p = _emit_mass(I, Fl, n, qx_old if held else qx, R, C, V, p, n, n, dM)
         if dI + dV * cvy != 0.0:
             p = _emit_identity(n, R, C, V, p, n, n, dI + dV * cvy)
         if cqy != 0.0:
@@ -1285,22 +1749,22 @@ def _jacobian_additive(rec, I, Fl, t, q_pred, v_pred, qx_old, w, R, C, V, qx, vx
     psi2 = w[l0:l0 + m]
     r5 = 2 * n + 2 * m
     p = 0
-    p = _emit_mass(I, Fl, n, R, C, V, p, 0, 0, 1.0)
+    p = _emit_mass(I, Fl, n, qx, R, C, V, p, 0, 0, 1.0)
     if kb != 0.0:
         p = _emit_hess(I, Fl, n, qx, psi2, R, C, V, p, 0, 0, 0.5 * kb * cqx)
         p = _emit_phiq(I, Fl, n, qx, R, C, V, p, 0, l0, 0.5 * kb, True)
-    p = _emit_mass(I, Fl, n, R, C, V, p, 0, a0, -ka1)
+    p = _emit_mass(I, Fl, n, qx, R, C, V, p, 0, a0, -ka1)
     if kb != 1.0:
         p = _emit_phiq(I, Fl, n, qx_old, R, C, V, p, 0, e0, 0.5 * (1.0 - kb), True)
     p = _emit_hess(I, Fl, n, qx, psi2, R, C, V, p, n, 0, 0.5 * cqx)
-    p = _emit_mass(I, Fl, n, R, C, V, p, n, n, 1.0)
-    p = _emit_mass(I, Fl, n, R, C, V, p, n, a0, -ka2)
+    p = _emit_mass(I, Fl, n, qx, R, C, V, p, n, n, 1.0)
+    p = _emit_mass(I, Fl, n, qx, R, C, V, p, n, a0, -ka2)
     p = _emit_phiq(I, Fl, n, qx_old, R, C, V, p, n, e0, 0.5, True)
     p = _emit_phiq(I, Fl, n, qx, R, C, V, p, n, l0, 0.5, True)
     p = _emit_phiq(I, Fl, n, qx, R, C, V, p, 2 * n, 0, rec[SP] * cqx, False)
     p = _emit_G(I, Fl, n, qx, vx, R, C, V, p, 2 * n + m, 0, rec[SV] * cqx)
     p = _emit_phiq(I, Fl, n, qx, R, C, V, p, 2 * n + m, n, rec[SV] * cvy, False)
-    p = _emit_mass(I, Fl, n, R, C, V, p, r5, a0, 1.0)
+    p = _emit_mass(I, Fl, n, qx, R, C, V, p, r5, a0, 1.0)
     p = _emit_force(I, Fl, t, n, qx, vx, psi2, R, C, V, p, r5, 0, rec[CQ] * cqx, 0.0)
     p = _emit_force(I, Fl, t, n, qx, vx, psi2, R, C, V, p, r5, n, 0.0, rec[CQ] * cvy)
     if _rows(I, FRI) > 0:
@@ -1666,7 +2130,9 @@ def triplet_bound(I) -> int:
     block: 36 entries per spring-damper, 4 per rotational one, 1 per point
     force, 36 per partial derivative of a load of the state (6 rows by 6
     columns) and 36 per load of the state (tau d^2 s of a joint force)), and the
-    augmented formulation's multiplier diagonal."""
+    augmented formulation's multiplier diagonal; per flexible beam 12 blocks of
+    (3 + nf)^2 (mass, (M x)_q and force blocks), per elastic term of a joint
+    point 40 entries."""
     def rows(k):
         """Instances of field k (the header's row count)."""
         return int(I[3 * k + 1])
@@ -1674,9 +2140,13 @@ def triplet_bound(I) -> int:
     kc, kp, kl, kd = rows(CROW), rows(PROW), rows(LROW), rows(DROW)
     ks, kr, kf = rows(SCOL1), rows(RCOL), rows(FCOL)
     phiq = 8 * kc + 6 * kp + 2 * kl + 6 * kd
+    beams = 0
+    for b in range(rows(BEAM)):
+        c = 3 + int(I[int(I[3 * BEAM]) + 4 * b + 1])
+        beams += 12 * c * c
     return (6 * n + rows(ROW_ELEMENT) + 6 * phiq + 4 * (2 * kc + 12 * kp + 36 * kd)
             + 2 * (36 * ks + 4 * kr + kf + 36 * rows(SDV) + 36 * rows(STQ) + 36 * rows(FRI))
-            + 2 * (4 * kc + 6 * kp + 6 * kd) + 12 * rows(FRI))
+            + 2 * (4 * kc + 6 * kp + 6 * kd) + 12 * rows(FRI) + beams + 40 * rows(ECOL))
 
 
 @_jit
@@ -1778,7 +2248,8 @@ def _run(rec2, I, Fl, h, t0, n_steps, step0, every, q, v, a, b, lam, mu, q_prev,
         rc = rec2[0] if first else rec2[1]
         predict(rc, first, q, v, a, b, q_prev, v_prev, q_pred, v_pred)
         _start_w(rc, n, m, a, v, lam, w)
-        qx_old[:n] = q
+        for j in range(n):                 # q_n (the additive form), or Mhat's q_n + mh v_n
+            qx_old[j] = q[j] + rc[MH] * v[j]
         _scales_weights(rc, I, Fl, q, w, opts, R, C, V, qx, weight, scratch)
         status = _newton(rc, I, Fl, t, q_pred, v_pred, F, qx_old, w, weight, opts, solver, lin,
                          lu_state, R, C, V, r, dw, qx, vx, work, counts)
@@ -1897,7 +2368,8 @@ def _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, 
             h_factored, c0_factored = step, c0
         predict(rc, first, q, v, a, b, q_prev, v_prev, q_pred, v_pred)
         _start_w(rc, n, m, a, v, lam, w)
-        qx_old[:n] = q
+        for j in range(n):                 # q_n (the additive form), or Mhat's q_n + mh v_n
+            qx_old[j] = q[j] + rc[MH] * v[j]
         _scales_weights(rc, I, Fl, q, w, opts, R, C, V, qx, weight, scratch)
         status = _newton(rc, I, Fl, t + step, q_pred, v_pred, F, qx_old, w, weight, opts, solver,
                          lin, lu_state, R, C, V, r, dw, qx, vx, work, counts)

@@ -95,16 +95,25 @@ def unsupported(system, method) -> str | None:
     """Why the compiled engine cannot run this model with this method, or None."""
     if method.kernel_recipe(1.0, False) is None:
         return f"the compiled engine has no recipe for {method.name}"
-    if system.flexible_groups:
-        return "the model has flexible beams"
+    from ..assembly.ffr import FlexibleBeamGroup
+    if system.flexible_groups and _recipe_value(method, "form") != 0.0:
+        return (f"the compiled form of {method.name} multiplies its rows by a constant "
+                f"diagonal mass matrix, and the model has flexible beams")
     for g in system.constraint_groups:
         if not isinstance(g, (CoincidenceGroup, PointOnLineGroup, LinearConstraintGroup,
                               DistanceGroup)):
             return f"no kernel for {type(g).__name__}"
+        if isinstance(g, DistanceGroup) and (g.pair.P1.e or g.pair.P2.e):
+            return "no kernel for a distance joint on a flexible beam's point"
     for g in system.force_groups:
         if not isinstance(g, (SpringDamperGroup, RotationalSpringGroup, TorqueGroup,
-                              PointForceGroup, StateTorqueGroup, FrictionGroup)):
+                              PointForceGroup, StateTorqueGroup, FrictionGroup,
+                              FlexibleBeamGroup)):
             return f"no kernel for {type(g).__name__}"
+        points = [getattr(g, "points", None)] + [getattr(getattr(g, "pair", None), k, None)
+                                                 for k in ("P1", "P2")]
+        if any(P is not None and P.e for P in points):
+            return f"no kernel for a {type(g).__name__} on a flexible beam's point"
     functions = [f for g in system.constraint_groups
                  if isinstance(g, (LinearConstraintGroup, PointOnLineGroup))
                  for f in g.functions if f is not None]
@@ -273,7 +282,10 @@ class CompiledModel:
                  "fs": np.zeros((0, 2)), "fF": np.zeros((0, 2)),
                  "fri": np.zeros((0, 5), i8), "frp": np.zeros((0, 6)),
                  "drow": np.zeros(0, i8), "dcol1": np.zeros((0, 3), i8), "ds1": np.zeros((0, 2)),
-                 "dcol2": np.zeros((0, 3), i8), "ds2": np.zeros((0, 2)), "dlen": np.zeros(0)}
+                 "dcol2": np.zeros((0, 3), i8), "ds2": np.zeros((0, 2)), "dlen": np.zeros(0),
+                 "beam": np.zeros((0, 4), i8), "bcol": np.zeros(0, i8), "bdat": np.zeros(0),
+                 "grav": np.zeros(0), "cel": np.zeros((0, 4), i8), "pel": np.zeros((0, 4), i8),
+                 "ecol": np.zeros(0, i8), "eshp": np.zeros((0, 2))}
         d = dict(empty)
         from ..dsl.expressions import OPCODES, Num, diff, postfix
         from ..model.elements import line_columns
@@ -321,16 +333,16 @@ class CompiledModel:
 
         for g in system.constraint_groups:
             if isinstance(g, CoincidenceGroup):
-                d.update(crow=g.rows.astype(i8), ccol1=g.pair.P1.cols.astype(i8),
-                         cs1=g.pair.P1.s.astype(f8), ccol2=g.pair.P2.cols.astype(i8),
+                d.update(crow=g.rows.astype(i8), ccol1=g.pair.P1.cols[:, :3].astype(i8),
+                         cs1=g.pair.P1.s.astype(f8), ccol2=g.pair.P2.cols[:, :3].astype(i8),
                          cs2=g.pair.P2.s.astype(f8))
             elif isinstance(g, DistanceGroup):
                 d.update(drow=g.rows[:, 0].astype(i8), dcol1=g.pair.P1.cols.astype(i8),
                          ds1=g.pair.P1.s.astype(f8), dcol2=g.pair.P2.cols.astype(i8),
                          ds2=g.pair.P2.s.astype(f8), dlen=g.L.astype(f8))
             elif isinstance(g, PointOnLineGroup):
-                d.update(prow=g.rows[:, 0].astype(i8), pcolL=g.pair.P1.cols.astype(i8),
-                         psL=g.pair.P1.s.astype(f8), pcolP=g.pair.P2.cols.astype(i8),
+                d.update(prow=g.rows[:, 0].astype(i8), pcolL=g.pair.P1.cols[:, :3].astype(i8),
+                         psL=g.pair.P1.s.astype(f8), pcolP=g.pair.P2.cols[:, :3].astype(i8),
                          psP=g.pair.P2.s.astype(f8), pn0=g.n0.astype(f8))
                 pfn = np.array([(-1, -1) if f is None else
                                 (program(f.expr), program(diff(f.expr))) if f.expr is not None
@@ -413,6 +425,10 @@ class CompiledModel:
                  sdv=np.array(sdv, i8).reshape(-1, 3),
                  pfn=pfn if len(pfn) == len(d["prow"]) else np.full((len(d["prow"]), 2), -1, i8))
         d["mass"] = system.mass_diag.astype(f8)
+        d["mrig"] = np.zeros(n)
+        d["mrig"][system._rigid_cols] = system.mass_diag[system._rigid_cols]
+        d.update(_beam_fields(system))
+        d.update(_elastic_point_fields(system))
         d["Q0"] = Q0
         d["row_element"] = system.layout.row_element.astype(i8)
         d["n_elements"] = int(system.layout.n_elements)
@@ -420,6 +436,58 @@ class CompiledModel:
         self.ints, self.floats = pack(d)
         self.n, self.m = n, system.m
         self.bound = triplet_bound(self.ints)
+
+
+def _beam_fields(system) -> dict:
+    """The flexible beams' model data (``compiled``, "Flexible beams"): per
+    beam (first entry in bcol, nf, first float in bdat, elements with
+    geometric stiffening), its columns, its shape integrals, and gravity."""
+    beam, bcol, bdat, grav = [], [], [], np.zeros(0)
+    for g in system.flexible_groups:
+        if g.gravity is not None:
+            grav = np.asarray(g.gravity, dtype=float)
+        for k in range(len(g.beams)):
+            ne = int(g.Bu.shape[1]) if g.stiffening[k] else 0
+            start = sum(len(x) for x in bdat)
+            beam.append((len(bcol), g.nf, start, ne))
+            bcol.extend(int(c) for c in g.cols[k])
+            parts = [np.atleast_1d(g.m[k]), g.s0[k], np.atleast_1d(g.I0[k]), g.S_bar[k].ravel(),
+                     g.a_u[k], g.a_I[k], g.M_ff[k].ravel(), g.S_tilde[k].ravel(), g.K[k].ravel()]
+            if ne:
+                parts += [g.kEA[k], g.Bu[k].ravel(), g.G[k].ravel()]
+            bdat.append(np.concatenate([np.asarray(x, dtype=float).ravel() for x in parts]))
+    return {"beam": np.array(beam, np.int64).reshape(-1, 4),
+            "bcol": np.array(bcol, np.int64),
+            "bdat": np.concatenate(bdat) if bdat else np.zeros(0), "grav": grav}
+
+
+def _elastic_point_fields(system) -> dict:
+    """The elastic terms of the coincidence and point-on-line joints' points
+    on flexible beams (``PointSet``: u = s + S q_e): per instance the spans
+    (first, end) of each point's terms, and per term its column and shape
+    column (S_x, S_y); empty when no joint point is on a flexible beam."""
+    n = system.n
+    ecol, eshp, spans = [], [], {}
+    for g in system.constraint_groups:
+        if not isinstance(g, (CoincidenceGroup, PointOnLineGroup)):
+            continue
+        rows = []
+        for i in range(len(g.pair.cols)):
+            span = []
+            for P in (g.pair.P1, g.pair.P2):
+                start = len(ecol)
+                for j in range(P.e):
+                    if P.cols[i, 3 + j] < n:
+                        ecol.append(int(P.cols[i, 3 + j]))
+                        eshp.append(P.S[i, :, j])
+                span += [start, len(ecol)]
+            rows.append(span)
+        spans[type(g)] = np.array(rows, np.int64).reshape(-1, 4)
+    if not ecol:
+        return {}
+    return {"cel": spans.get(CoincidenceGroup, np.zeros((0, 4), np.int64)),
+            "pel": spans.get(PointOnLineGroup, np.zeros((0, 4), np.int64)),
+            "ecol": np.array(ecol, np.int64), "eshp": np.array(eshp, float).reshape(-1, 2)}
 
 
 class LinearSolverPlan:
@@ -938,8 +1006,8 @@ class SparseAdapter:
         F = np.empty(system.n)
         self._K.old_force(rec, self._cm.ints, self._cm.floats, s.t, s.q, s.v, s.lam, F, self._qx,
                           self._vx, self._work)
-        qx_old = np.zeros(system.n + 3)
-        qx_old[:system.n] = s.q
+        qx_old = np.zeros(system.n + 3)          # q_n, or Mhat's q_n + mh v_n
+        qx_old[:system.n] = s.q + self._get(rec, "mh") * s.v
         ctx.cache.update(recipe=rec, kq_pred=q_pred, kv_pred=v_pred, kF=F, kqx_old=qx_old,
                          kb=b, ka=s.a)
         return ctx

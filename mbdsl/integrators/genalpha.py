@@ -282,11 +282,11 @@ class GenAlphaSI2(_GenAlphaBase):
 
     def kernel_recipe(self, h, first):
         """The generalized-alpha formulas plus h^2/2 abar in q; residual as in the
-        class docstring (rigid bodies: Mhat = M). Split for the band LU as HHT-SI2."""
+        class docstring, Mhat = M(q_n + h v_n) (``mh``). Split for the band LU as HHT-SI2."""
         return genalpha_recipe(h, self.alpha_m, self.alpha_f, self.beta, self.gamma,
                                has_y=1.0, split=1.0, cqy=0.5 * h * h, cM=1.0, dM=1.0,
                                sP=1.0 / (h * h), sV=1.0 / h, sy=0.5 * h, mu_mob=1.0,
-                               floor=1.0 / h)
+                               floor=1.0 / h, mh=h)
 
     def start(self, system, initial) -> list[StepState]:
         """One state at t_0: qdd_0, lambda_0, a_0 = qdd_0, mu_0 = 0."""

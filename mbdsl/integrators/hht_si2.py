@@ -86,12 +86,13 @@ class HHTSI2(Method):
 
     def kernel_recipe(self, h, first):
         """The Newmark formulas plus h^2/2 abar in q; residual as in the class
-        docstring (rigid bodies: Mhat = M). The band LU may split it: the
-        coupling it leaves out is h^2/2 K and h/2 d(Phi_q v)/dq."""
+        docstring, Mhat = M(q_n + (1 + alpha) h v_n) (``mh``). The band LU may
+        split it: the coupling it leaves out is h^2/2 K and h/2 d(Phi_q v)/dq."""
         c = 1.0 / (1.0 + self.alpha)
         return newmark_recipe(h, self.beta, self.gamma, has_y=1.0, split=1.0, cqy=0.5 * h * h,
                               cM=c, cF=self.alpha * c, dM=1.0, sP=1.0 / (h * h), sV=1.0 / h,
-                              sy=0.5 * h, mu_mob=1.0, floor=1.0 / h)
+                              sy=0.5 * h, mu_mob=1.0, floor=1.0 / h,
+                              mh=(1.0 + self.alpha) * h)
 
     def start(self, system, initial) -> list[StepState]:
         """One state at t_0: a_0 = q''(t_0), mu_0 = 0, the old force term cached."""

@@ -30,6 +30,11 @@ and the residual has up to four blocks (F := Phi_q^T lambda - Q)::
     R3 = sP Phi(q, t)                                           (m rows)
     R4 = sV (Phi_q v + Phi_t)                                   (m rows, has_y)
 
+M is M(q) at the step's end (with flexible beams its (M x)_q and (M y)_q
+enter the Newton matrix), or, when ``mh`` is not 0, Mhat = M(q_n + mh v_n)
+held for the step (HHT-SI2: mh = (1 + alpha) h; GENALPHA-SI2: mh = h). For
+rigid bodies M is a constant diagonal and ``mh`` changes nothing.
+
 Their Newton matrix follows by the chain rule (``compiled._jacobian_triplets``):
 d/dx of a term in q is its q-derivative times cqx, and so on. After
 convergence a_{n+1} = x. Newton starts from x = a_n, y = y0v v_n, lambda_n,
@@ -87,7 +92,7 @@ RECIPE_FIELDS = ("form", "has_y", "split", "cqx", "cqy", "cvx", "cvy", "cM", "cF
                  "dV", "sP", "sV", "sx", "sy", "mu_mob", "floor",
                  "pq0", "pq1", "pv0", "pv1", "pa", "vv0", "vv1", "va", "y0v",
                  "ka1", "ka2", "kb", "cQ", "sm", "pb", "vb", "bb", "ba", "bx", "reg",
-                 "err", "eaux", "eabs")
+                 "err", "eaux", "eabs", "mh")
 
 
 def make_recipe(**values: float) -> np.ndarray:
