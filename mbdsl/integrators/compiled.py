@@ -67,7 +67,7 @@ from ..dsl.expressions import OPCODES
 from .recipe import RECIPE_FIELDS
 
 __all__ = ["MODEL_SCHEMA", "MODEL_FIELDS", "residual", "jacobian_triplets", "force_term", "old_force",
-           "predict", "state", "layout", "advance", "mobility",
+           "predict", "state", "layout", "advance", "mobility", "index1_multipliers",
            "accumulate", "run", "run_adaptive", "triplet_bound", "pack", "unpack", "lapack_band_addresses",
            "DENSE", "BANDED"]
 
@@ -116,7 +116,7 @@ MODEL_SCHEMA = (
     ("row_element", "i", 0),                                           # constraint row -> element
     ("code", "i", 0), ("consts", "f", 0),                              # time-function programs
     ("prog", "i", 2),                                                  # program: (start, end)
-    ("lfn", "i", 2),                                                   # linear row: f, f' programs
+    ("lfn", "i", 3),                                                   # linear row: f, f', f'' programs
     ("tcol", "i", 0), ("tfn", "i", 0),                                 # torque of t: column, f
     ("ffn", "i", 2),                                                   # point force: fx, fy programs
     ("stack", "f", 0),                                                 # the programs' stack
@@ -124,7 +124,7 @@ MODEL_SCHEMA = (
     ("xval", "f", 0),                                                  # 2 (column, coef), line; values
     ("stq", "i", 4),                                                   # loads of the state: f,
     ("sdv", "i", 3),                                                   # +col, -col, line; dtau/dx
-    ("pfn", "i", 2),                                                   # point on line: f, f'
+    ("pfn", "i", 3),                                                   # point on line: f, f', f''
     ("geo", "i", 6), ("geof", "f", 6),                                 # sliding joints' lines
     ("fri", "i", 5), ("frp", "f", 6),                                  # friction: +col, -col,
                                                                        # line, row, rows; law
@@ -520,6 +520,17 @@ def _phi_t_add(I, Fl, t, out):
     for i in range(_rows(I, PROW)):
         if _i(I, PFN, i, 1) >= 0:
             out[_i(I, PROW, i, 0)] -= _eval(I, Fl, _i(I, PFN, i, 1), t)
+
+
+@_jit
+def _phi_tt_add(I, Fl, t, out):
+    """out (m,) += Phi_tt: -f''(t) in the rows of drivers f(t)."""
+    for i in range(_rows(I, LROW)):
+        if _i(I, LFN, i, 2) >= 0:
+            out[_i(I, LROW, i, 0)] -= _eval(I, Fl, _i(I, LFN, i, 2), t)
+    for i in range(_rows(I, PROW)):
+        if _i(I, PFN, i, 2) >= 0:
+            out[_i(I, PROW, i, 0)] -= _eval(I, Fl, _i(I, PFN, i, 2), t)
 
 
 @_jit
@@ -1810,6 +1821,59 @@ def _force_term(I, Fl, t, q, v, lam, out, qx, vx, work):
 
 
 @_jit
+def _index1_multipliers(I, Fl, t, q, v, out, R, C, V, iterations):
+    """The Lagrange multipliers of the index-1 system at each row into out
+    (N, m): [[M(q), Phi_q^T], [Phi_q, 0]] [a; lambda] = [Q(t, q, v,
+    lambda); gamma], gamma = -(Phi_q v)_q v - Phi_tt (Haug, sec. 6.3;
+    ``AssembledSystem.index1_multipliers``). With friction Q reads lambda:
+    up to ``iterations`` fixed-point sweeps from lambda = 0, to a change of
+    1e-13 relative (``AssembledSystem.index1_solve``). A singular matrix, or
+    friction that does not settle, gives NaN for that row. Rows: t (N,), q,
+    v (N, n); R, C, V triplet scratch of ``triplet_bound`` entries."""
+    n, m = q.shape[1], out.shape[1]
+    size = n + m
+    qx, vx, work = np.zeros(n + 3), np.zeros(n + 3), np.zeros(n + 3)
+    K, rhs, gam, lam = np.empty((size, size)), np.empty(size), np.empty(m), np.zeros(m)
+    friction = _rows(I, FRI) > 0
+    for row in range(q.shape[0]):
+        for j in range(n):
+            qx[j], vx[j] = q[row, j], v[row, j]
+        p = _emit_mass(I, Fl, n, qx, R, C, V, 0, 0, 0, 1.0)
+        p = _emit_phiq(I, Fl, n, qx, R, C, V, p, 0, n, 1.0, True)
+        p = _emit_phiq(I, Fl, n, qx, R, C, V, p, n, 0, 1.0, False)
+        K[:, :] = 0.0
+        for i in range(p):
+            K[R[i], C[i]] += V[i]
+        gam[:] = 0.0
+        _phi_tt_add(I, Fl, t[row], gam)
+        p = _emit_G(I, Fl, n, qx, vx, R, C, V, 0, 0, 0, 1.0)
+        for i in range(p):
+            gam[R[i]] += V[i] * vx[C[i]]
+        lam[:] = 0.0
+        ok = False
+        for sweep in range(iterations if friction else 1):
+            forces(I, Fl, t[row], qx, vx, lam, work)
+            for j in range(n):
+                rhs[j] = work[j]
+            for i in range(m):
+                rhs[n + i] = -gam[i]
+            try:
+                sol = np.linalg.solve(K, rhs)
+            except Exception:       # a singular configuration
+                break
+            change, big = 0.0, 0.0
+            for i in range(m):
+                change = max(change, abs(sol[n + i] - lam[i]))
+                big = max(big, abs(sol[n + i]))
+                lam[i] = sol[n + i]
+            if not friction or change <= 1e-13 * (1.0 + big):
+                ok = True
+                break
+        for i in range(m):
+            out[row, i] = lam[i] if ok else np.nan
+
+
+@_jit
 def _mobility(I, Fl, q, out, R, C, V, qx, per):
     """Multiplier mobility per constraint row into out (m,)
     (``AssembledSystem.multiplier_mobility``): max over the element's
@@ -2530,6 +2594,12 @@ def old_force(rec, I, Fl, t, q, v, lam, out, qx, vx, work):
 def force_term(I, Fl, t, q, v, lam, out, qx, vx, work):
     """Phi_q^T lambda - Q(q, v) into out (n,)."""
     _force_term(I, Fl, t, q, v, lam, out, qx, vx, work)
+
+
+@_jit
+def index1_multipliers(I, Fl, t, q, v, out, R, C, V, iterations):
+    """Entry point of ``_index1_multipliers``."""
+    _index1_multipliers(I, Fl, t, q, v, out, R, C, V, iterations)
 
 
 @_jit

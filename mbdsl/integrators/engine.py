@@ -95,10 +95,15 @@ def unsupported(system, method) -> str | None:
     """Why the compiled engine cannot run this model with this method, or None."""
     if method.kernel_recipe(1.0, False) is None:
         return f"the compiled engine has no recipe for {method.name}"
-    from ..assembly.ffr import FlexibleBeamGroup
     if system.flexible_groups and _recipe_value(method, "form") != 0.0:
         return (f"the compiled form of {method.name} multiplies its rows by a constant "
                 f"diagonal mass matrix, and the model has flexible beams")
+    return _unsupported_elements(system)
+
+
+def _unsupported_elements(system) -> str | None:
+    """Why the kernels cannot evaluate this model's elements, or None."""
+    from ..assembly.ffr import FlexibleBeamGroup
     for g in system.constraint_groups:
         if not isinstance(g, (CoincidenceGroup, PointOnLineGroup, LinearConstraintGroup,
                               DistanceGroup)):
@@ -126,6 +131,28 @@ def unsupported(system, method) -> str | None:
     if any(not f.constant and f.expr is None for f in functions):
         return "a function of time has no expression to compile"
     return None
+
+
+def index1_multipliers(system, t, q, v) -> np.ndarray:
+    """The Lagrange multipliers of the index-1 system at stored rows, shape
+    (N, m): ``AssembledSystem.index1_multipliers``, evaluated by the kernels
+    (``compiled.index1_multipliers``) when this process has loaded them and
+    they cover the model (a run on the compiled engine), else by the numpy
+    groups. Rows: t (N,) [s], q and v (N, n)."""
+    from .kernel_cache import loaded
+    if not loaded() or _unsupported_elements(system) is not None:
+        return system.index1_multipliers(t, q, v)
+    cm = getattr(system, "_compiled_model", None)
+    if cm is None:
+        cm = system._compiled_model = CompiledModel(system)
+    t = np.ascontiguousarray(np.atleast_1d(t), dtype=float)
+    q = np.ascontiguousarray(np.atleast_2d(q), dtype=float)
+    v = np.ascontiguousarray(np.atleast_2d(v), dtype=float)
+    out = np.empty((len(t), system.m))
+    R, C = np.empty(cm.bound, np.int64), np.empty(cm.bound, np.int64)
+    _kernels().index1_multipliers(cm.ints, cm.floats, t, q, v, out, R, C, np.empty(cm.bound),
+                                  system.FRICTION_ITERATIONS)
+    return out
 
 
 def newton_size(system, method) -> int:
@@ -317,8 +344,8 @@ class CompiledModel:
             """Whether f is a function of time (compiled as a program)."""
             return f is not None and not f.constant
 
-        lfn, tcol, tfn, ffn = np.zeros((0, 2), i8), [], [], np.zeros((0, 2), i8)
-        pfn = np.zeros((0, 2), i8)
+        lfn, tcol, tfn, ffn = np.zeros((0, 3), i8), [], [], np.zeros((0, 2), i8)
+        pfn = np.zeros((0, 3), i8)
         var, varc, var_row = [], [], {}      # the state variables the torques read
         geo, geof, geo_row = [], [], {}      # sliding joints' lines (model.elements.line_distance)
         stq, sdv = [], []
@@ -344,17 +371,19 @@ class CompiledModel:
                 d.update(prow=g.rows[:, 0].astype(i8), pcolL=g.pair.P1.cols[:, :3].astype(i8),
                          psL=g.pair.P1.s.astype(f8), pcolP=g.pair.P2.cols[:, :3].astype(i8),
                          psP=g.pair.P2.s.astype(f8), pn0=g.n0.astype(f8))
-                pfn = np.array([(-1, -1) if f is None else
-                                (program(f.expr), program(diff(f.expr))) if f.expr is not None
-                                else (program(Num(f.f(0.0))), -1)      # a constant
-                                for f in g.functions], dtype=i8).reshape(-1, 2)
+                pfn = np.array([(-1, -1, -1) if f is None else
+                                (program(f.expr), program(diff(f.expr)),
+                                 program(diff(diff(f.expr)))) if f.expr is not None
+                                else (program(Num(f.f(0.0))), -1, -1)      # a constant
+                                for f in g.functions], dtype=i8).reshape(-1, 3)
             else:
                 off = g.offset + np.array([f.f(0.0) if f is not None and f.constant else 0.0
                                            for f in g.functions])
                 d.update(lrow=g.rows[:, 0].astype(i8), lcol=g.cols.astype(i8),
                          lcoef=g.coefs.astype(f8), loff=off.astype(f8))
-                lfn = np.array([(program(f.expr), program(diff(f.expr))) if timed(f) else (-1, -1)
-                                for f in g.functions], dtype=i8).reshape(-1, 2)
+                lfn = np.array([(program(f.expr), program(diff(f.expr)),
+                                 program(diff(diff(f.expr)))) if timed(f) else (-1, -1, -1)
+                                for f in g.functions], dtype=i8).reshape(-1, 3)
         for g in system.force_groups:
             if isinstance(g, SpringDamperGroup):
                 d.update(scol1=g.pair.P1.cols.astype(i8), ss1=g.pair.P1.s.astype(f8),
@@ -415,7 +444,7 @@ class CompiledModel:
                                 for fx, fy in zip(g.fx, g.fy)], dtype=i8).reshape(-1, 2)
         d.update(code=np.array(code, i8), consts=np.array(consts, f8),
                  prog=np.array(prog, i8).reshape(-1, 2),
-                 lfn=lfn if len(lfn) == len(d["lrow"]) else np.full((len(d["lrow"]), 2), -1, i8),
+                 lfn=lfn if len(lfn) == len(d["lrow"]) else np.full((len(d["lrow"]), 3), -1, i8),
                  tcol=np.array(tcol, i8), tfn=np.array(tfn, i8),
                  ffn=ffn if len(ffn) == len(d["fcol"]) else np.full((len(d["fcol"]), 2), -1, i8),
                  stack=np.zeros(depth[0]),
@@ -423,7 +452,7 @@ class CompiledModel:
                  xval=np.zeros(len(var)), stq=np.array(stq, i8).reshape(-1, 4),
                  geo=np.array(geo, i8).reshape(-1, 6), geof=np.array(geof, f8).reshape(-1, 6),
                  sdv=np.array(sdv, i8).reshape(-1, 3),
-                 pfn=pfn if len(pfn) == len(d["prow"]) else np.full((len(d["prow"]), 2), -1, i8))
+                 pfn=pfn if len(pfn) == len(d["prow"]) else np.full((len(d["prow"]), 3), -1, i8))
         d["mass"] = system.mass_diag.astype(f8)
         d["mrig"] = np.zeros(n)
         d["mrig"][system._rigid_cols] = system.mass_diag[system._rigid_cols]

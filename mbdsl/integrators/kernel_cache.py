@@ -34,7 +34,9 @@ import threading
 import time
 from pathlib import Path
 
-__all__ = ["kernels_ready", "ensure_loaded", "start_background_build", "build_in_progress",
+import numpy as np
+
+__all__ = ["kernels_ready", "ensure_loaded", "loaded", "start_background_build", "build_in_progress",
            "background_allowed", "warm_up"]
 
 #: Environment variable: "0" makes the command line compile in the process
@@ -45,6 +47,13 @@ BACKGROUND_ENV = "MBDSL_BACKGROUND_COMPILE"
 _STALE_LOCK = 900.0
 
 _loaded: set = set()          # entry-point groups loaded in this process (GROUPS)
+
+
+def loaded() -> bool:
+    """Whether this process has loaded (or compiled) the kernels of a group:
+    output that can use them (``engine.index1_multipliers``) then does,
+    without ever starting a compilation of its own."""
+    return bool(_loaded)
 
 
 def _compiled_source() -> Path:
@@ -145,7 +154,7 @@ initial b.phi = 0.3
 GROUPS = ("dense", "banded", "sparse")
 
 
-def warm_up(groups=GROUPS) -> None:
+def warm_up(groups=GROUPS, output: bool = True) -> None:
     """Load (compiling if needed) the kernels of each group of entry points
     by running a two-link pendulum two steps through them, with the
     argument types of every real run:
@@ -156,7 +165,11 @@ def warm_up(groups=GROUPS) -> None:
       ``jacobian_triplets`` for the band ordering);
     * "sparse": the compiled residuals and triplets under the Python Newton
       loop (``residual``, ``jacobian_triplets``, ``accumulate``,
-      ``mobility``, ``force_term``).
+      ``mobility``, ``force_term``);
+
+    and with ``output`` the kernel of the output's index-1 multipliers
+    (``index1_multipliers``), which a run with warm kernels loads when its
+    output first needs it.
 
     Every method shares every signature (the method is a recipe array,
     ``recipe.py``), so one of them loads what all use.
@@ -174,6 +187,9 @@ def warm_up(groups=GROUPS) -> None:
         if solver != "sparse":       # the loop with error-controlled steps (run_adaptive)
             integrate(system, HHTI3(), 2e-3, 1e-3, engine="compiled",
                       newton=NewtonOptions(linear_solver=solver), control=StepControl(1e-6, 1e-6))
+    if output:                 # the output's multipliers (HHT-ADD)
+        from .engine import index1_multipliers
+        index1_multipliers(system, np.zeros(1), np.zeros((1, system.n)), np.zeros((1, system.n)))
 
 
 def ensure_loaded(group: str | None = None, announce=None) -> float:
@@ -215,7 +231,7 @@ def ensure_loaded(group: str | None = None, announce=None) -> float:
         timer.daemon = True
         timer.start()
     try:
-        warm_up(GROUPS if not ready else (group,))
+        warm_up(GROUPS if not ready else (group,), output=not ready)
     finally:
         if timer is not None:
             timer.cancel()

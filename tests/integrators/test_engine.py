@@ -270,6 +270,34 @@ def test_flexible_beams_run_compiled_as_on_the_numpy_engine(path, overrides, met
     assert np.abs(a.lam - b.lam).max() < 1e-7 * max(1.0, np.abs(a.lam).max())
 
 
+@pytest.mark.parametrize("path", [MODELS / "slider_crank_driven.mbd", MODELS / "double_pendulum.mbd",
+                                  VALID / "all_elements.mbd", VALID / "friction_elements.mbd",
+                                  VALID / "flexible_joints.mbd"])
+def test_index1_multipliers_of_the_kernels_are_the_numpy_groups(path):
+    # the output's Lagrange multipliers of HHT-ADD: [[M, Phi_q^T], [Phi_q, 0]] [a; lambda]
+    # = [Q; gamma] row by row in a kernel, against the numpy groups' per-row solve on the
+    # rows of a run (drivers' Phi_tt, friction's fixed point on lambda, beams' M(q))
+    from mbdsl.integrators import compiled, kernel_cache
+    from mbdsl.integrators.engine import index1_multipliers
+    kernel_cache.ensure_loaded("dense")
+    system, init = _system(path)
+    sol = integrate(system, make_method("hht-i3"), 0.05, 1e-3, initial=init, engine="numpy",
+                    output_every=5)
+    a = system.index1_multipliers(sol.t, sol.q, sol.v)
+    b = index1_multipliers(system, sol.t, sol.q, sol.v)
+    assert np.isfinite(a).all()
+    assert np.abs(a - b).max() < 1e-10 * max(1.0, np.abs(a).max())
+    # and they are the multipliers the index-3 run converged to, to its O(h^2) accuracy
+    assert np.abs(b - sol.lam).max() < 1e-2 * max(1.0, np.abs(sol.lam).max())
+    # a singular matrix gives NaN for its row, not an exception
+    cm = CompiledModel(system)
+    out = np.empty((1, system.m))
+    R, C = np.empty(cm.bound, np.int64), np.empty(cm.bound, np.int64)
+    compiled.index1_multipliers(cm.ints, cm.floats, np.zeros(1), np.full((1, system.n), np.nan),
+                                np.zeros((1, system.n)), out, R, C, np.empty(cm.bound), 5)
+    assert np.isnan(out).all()
+
+
 def test_output_stride_keeps_every_kth_step_and_the_last():
     system, init = _system(MODELS / "double_pendulum.mbd")
     for engine in ("compiled", "numpy"):
@@ -330,7 +358,7 @@ def test_packed_model_data_round_trips():
     assert set(fields) == set(compiled.MODEL_FIELDS)
     assert np.array_equal(fields["mass"], system.mass_diag)
     assert fields["crow"].shape == (3, 2) and fields["prow"].shape == (4,)
-    assert [list(r) for r in fields["pfn"]].count([-1, -1]) == 3    # D3 is the fourth row
+    assert [list(r) for r in fields["pfn"]].count([-1, -1, -1]) == 3    # D3 is the fourth row
     assert fields["spar"].shape == (3, 3) and fields["n_elements"] == system.layout.n_elements
     # T2 reads J6.angle, J6.rate, a.omega, c.phi; T3 d.omega, b.x, e.vy: 7 variables,
     # 2 torques of the state with one partial derivative per variable they read
