@@ -103,7 +103,7 @@ CONVERGED, MAX_ITER, DIVERGING, SINGULAR, NONFINITE, TOLERANCE = 0, 1, 2, 3, 4, 
 #: index constants below, checked against it) and ``triplet_bound`` derive from it.
 #: Body columns index the extended coordinate vector q_ext = [q, 0, 0, 0].
 MODEL_SCHEMA = (
-    ("mass", "f", 0), ("Q0", "f", 0),                                  # diagonal M; constant Q
+    ("mass", "f", 0), ("Q0", "f", 0),                                  # diag of M (beams: M(0)); Q const
     ("crow", "i", 2), ("ccol1", "i", 3), ("cs1", "f", 2),              # coincidence: rows,
     ("ccol2", "i", 3), ("cs2", "f", 2),                                # bodies, local points
     ("prow", "i", 0), ("pcolL", "i", 3), ("psL", "f", 2),              # point on line
@@ -1624,7 +1624,7 @@ def _residual(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work):
 
 
 @_jit
-def _jacobian_triplets(rec, I, Fl, t, q_pred, v_pred, qx_old, w, R, C, V, qx, vx):
+def _jacobian_triplets(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, R, C, V, qx, vx):
     """Newton matrix entries (R, C, V) of the recipe ``rec``, in an order and
     pattern fixed by the model and the method; returns their count.
     Duplicates are summed by the caller.
@@ -1641,7 +1641,8 @@ def _jacobian_triplets(rec, I, Fl, t, q_pred, v_pred, qx_old, w, R, C, V, qx, vx
     emit nothing.
     """
     if rec[FORM] == ADDITIVE:
-        return _jacobian_additive(rec, I, Fl, t, q_pred, v_pred, qx_old, w, R, C, V, qx, vx)
+        return _jacobian_additive(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, R, C, V, qx,
+                                  vx)
     n, m = _rows(I, MASS), _rows(I, ROW_ELEMENT)
     size, l0, u0, a0 = _layout(rec, n, m)
     _state(rec, n, w, q_pred, v_pred, qx, vx)
@@ -1703,27 +1704,75 @@ def _jacobian_triplets(rec, I, Fl, t, q_pred, v_pred, qx_old, w, R, C, V, qx, vx
 
 
 @_jit
+def _mass_solve(I, Fl, qM, x, out):
+    """out[:n] = M(qM)^-1 x[:n]: a division on the rigid diagonal, a dense
+    solve per flexible beam block (``AssembledSystem.mass_solve``)."""
+    for j in range(_rows(I, MRIG)):
+        if _f(I, Fl, MRIG, j, 0) != 0.0:
+            out[j] = x[j] / _f(I, Fl, MRIG, j, 0)
+    if _rows(I, BEAM) > 0:
+        M, Q, Qq, Qv, Mxq = _ffr_scratch(I)
+        for b in range(_rows(I, BEAM)):
+            _ffr_local(I, Fl, b, qM, qM, qM, FFR_M, M, Q, Qq, Qv, Mxq)
+            k0, c = _i(I, BEAM, b, 0), 3 + _i(I, BEAM, b, 1)
+            rhs = np.empty(c)
+            for a in range(c):
+                rhs[a] = x[_i(I, BCOL, k0 + a, 0)]
+            y = np.linalg.solve(M[:c, :c], rhs)
+            for a in range(c):
+                out[_i(I, BCOL, k0 + a, 0)] = y[a]
+
+
+@_jit
+def _additive_parts(rec, I, Fl, t, F_old, qx_old, w, qx, vx, z1, z2, z5):
+    """The vectors M(q) multiplies in HHT-ADD's scaled rows 1, 2 and 5 (the
+    state (qx, vx) already set): z1 = dq - ka1 a + (1 - kb)/2 y, z2 = dv -
+    ka2 a + y/2, z5 = a - cF F_n, y = M(q_n)^-1 Phi_q(q_n)^T psi_I."""
+    n, m = _rows(I, MASS), _rows(I, ROW_ELEMENT)
+    size, l0, e0, a0 = _layout(rec, n, m)
+    ka1, ka2, kb, cF = rec[KA1], rec[KA2], rec[KB], rec[CF]
+    y = np.zeros(n + 3)
+    phiqT_add(I, Fl, qx_old, w[e0:e0 + m], 1.0, y)
+    _mass_solve(I, Fl, qx_old, y, y)
+    for j in range(n):
+        a = w[a0 + j]
+        z1[j] = w[j] - ka1 * a + 0.5 * (1.0 - kb) * y[j]
+        z2[j] = w[n + j] - ka2 * a + 0.5 * y[j]
+        z5[j] = a - cF * F_old[j]
+
+
+@_jit
 def _residual_additive(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work):
     """Upsilon(w) of HHT-ADD (``hht_add.py``) with its rows 1, 2 and 5
-    multiplied by M (rigid bodies: a constant diagonal, so that Newton's
-    iterates are those of the unscaled system and no M^-1 is formed)::
+    multiplied by M(q) (for rigid bodies a constant diagonal: Newton's
+    iterates are those of the unscaled system, and the rows are the M dq -
+    ka1 M a + (1 - kb)/2 Phi_q(q_n)^T psi_I ... of ``recipe.py``)::
 
-        M dq - ka1 M a + (1 - kb)/2 Phi_q(q_n)^T psi_I + kb/2 Phi_q^T psi_II
-        M dv - ka2 M a + 1/2 Phi_q(q_n)^T psi_I + 1/2 Phi_q^T psi_II
+        M(q) z1 + kb/2 Phi_q^T psi_II,   M(q) z2 + 1/2 Phi_q^T psi_II
         sP Phi,   sV (Phi_q v + Phi_t)
-        M a - cQ Q(q, v) - cF F_n          (F_n = -Q_n)
+        M(q) z5 - cQ Q(q, v)
 
-    with q = q_pred + cqx dq, v = v_pred + cvy dv.
+    z1, z2, z5 of ``_additive_parts``, F_n = -M(q_n)^-1 Q_n (``_old_force``),
+    q = q_pred + cqx dq, v = v_pred + cvy dv. With flexible beams M(q_n)
+    and M(q) differ and y = M(q_n)^-1 Phi_q(q_n)^T psi_I is a block solve;
+    a beam's rows are then left unscaled (M_b(q)^-1 times the above, the
+    rows of ``hht_add.py`` themselves): scaled by M(q), whose q moves with
+    the iterate, Newton converged poorly from the predictor (measured on
+    tests/dsl/valid/flexible_joints.mbd: 5 to 12 iterations a step and
+    steps 3e-5 m off the converged solution, against 5 to 8 unscaled).
     """
     n, m = _rows(I, MASS), _rows(I, ROW_ELEMENT)
     size, l0, e0, a0 = _layout(rec, n, m)
     _state(rec, n, w, q_pred, v_pred, qx, vx)
-    ka1, ka2, kb = rec[KA1], rec[KA2], rec[KB]
-    work[:] = 0.0
-    phiqT_add(I, Fl, qx_old, w[e0:e0 + m], 1.0, work)            # Phi_q(q_n)^T psi_I
-    for j in range(n):
-        r[j] = _f(I, Fl, MASS, j, 0) * (w[j] - ka1 * w[a0 + j]) + 0.5 * (1.0 - kb) * work[j]
-        r[n + j] = _f(I, Fl, MASS, j, 0) * (w[n + j] - ka2 * w[a0 + j]) + 0.5 * work[j]
+    kb = rec[KB]
+    z1, z2, z5 = np.empty(n), np.empty(n), np.empty(n)
+    _additive_parts(rec, I, Fl, t, F_old, qx_old, w, qx, vx, z1, z2, z5)
+    r5 = 2 * n + 2 * m
+    r[:2 * n] = 0.0
+    r[r5:] = 0.0
+    _mass_add(I, Fl, qx, z1, 1.0, r[:n])
+    _mass_add(I, Fl, qx, z2, 1.0, r[n:2 * n])
+    _mass_add(I, Fl, qx, z5, 1.0, r[r5:])
     work[:] = 0.0
     phiqT_add(I, Fl, qx, w[l0:l0 + m], 1.0, work)                # Phi_q(q)^T psi_II
     for j in range(n):
@@ -1737,21 +1786,99 @@ def _residual_additive(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, r, qx, v
         r[2 * n + i] *= sP
         r[2 * n + m + i] *= sV
     forces(I, Fl, t, qx, vx, w[l0:l0 + m], work)              # friction reads psi_II
-    cQ, cF, r5 = rec[CQ], rec[CF], 2 * n + 2 * m
+    cQ = rec[CQ]
     for j in range(n):
-        r[r5 + j] = _f(I, Fl, MASS, j, 0) * w[a0 + j] - cQ * work[j] - cF * F_old[j]
+        r[r5 + j] -= cQ * work[j]
+    if _rows(I, BEAM) > 0:         # a beam's rows unscaled: M_b(q)^-1 times them
+        _beam_rows_solve(I, Fl, qx, r, n, r5)
 
 
 @_jit
-def _jacobian_additive(rec, I, Fl, t, q_pred, v_pred, qx_old, w, R, C, V, qx, vx):
-    """Newton matrix of ``_residual_additive`` (the one of ``HHTADD`` with
-    rows 1, 2 and 5 multiplied by M), K(u) = (Phi_q^T u)_q, G = (Phi_q v)_q::
+def _beam_inverses(I, Fl, qx):
+    """M_b(q)^-1 of every beam, shape (beams, c_max, c_max)."""
+    nb, cmax = _rows(I, BEAM), 3
+    for b in range(nb):
+        cmax = max(cmax, 3 + _i(I, BEAM, b, 1))
+    out = np.zeros((nb, cmax, cmax))
+    M, Q, Qq, Qv, Mxq = _ffr_scratch(I)
+    for b in range(nb):
+        c = 3 + _i(I, BEAM, b, 1)
+        _ffr_local(I, Fl, b, qx, qx, qx, FFR_M, M, Q, Qq, Qv, Mxq)
+        out[b, :c, :c] = np.linalg.inv(M[:c, :c].copy())
+    return out
 
-        [[M + kb/2 cqx K(psi_II), 0, -ka1 M, (1-kb)/2 Phi_q(q_n)^T, kb/2 Phi_q^T],
-         [cqx/2 K(psi_II),        M, -ka2 M, 1/2 Phi_q(q_n)^T,      1/2 Phi_q^T ],
-         [sP cqx Phi_q,           0, 0,      0,                     0           ],
-         [sV cqx G,      sV cvy Phi_q, 0,    0,                     0           ],
-         [-cQ cqx Q_q,   -cQ cvy Q_v,  M,    0,                     0           ]]
+
+@_jit
+def _beam_rows_solve(I, Fl, qx, r, n, r5):
+    """r's rows 1, 2 and 5 of the additive form (offsets 0, n, r5) on each
+    beam's columns replaced by M_b(q)^-1 times them: one solve with three
+    right-hand sides per beam."""
+    M, Q, Qq, Qv, Mxq = _ffr_scratch(I)
+    for b in range(_rows(I, BEAM)):
+        k0, c = _i(I, BEAM, b, 0), 3 + _i(I, BEAM, b, 1)
+        _ffr_local(I, Fl, b, qx, qx, qx, FFR_M, M, Q, Qq, Qv, Mxq)
+        rhs = np.empty((c, 3))
+        for a in range(c):
+            col = _i(I, BCOL, k0 + a, 0)
+            rhs[a, 0], rhs[a, 1], rhs[a, 2] = r[col], r[n + col], r[r5 + col]
+        y = np.linalg.solve(M[:c, :c].copy(), rhs)
+        for a in range(c):
+            col = _i(I, BCOL, k0 + a, 0)
+            r[col], r[n + col], r[r5 + col] = y[a, 0], y[a, 1], y[a, 2]
+
+
+@_jit
+def _emit_mass_ratio_phiqT(I, Fl, n, qx, qx_old, R, C, V, p, r0, c0, coef):
+    """coef M(q) M(q_n)^-1 Phi_q(q_n)^T at (r0, c0): Phi_q(q_n)^T on the
+    rigid columns; on a beam's columns its block T = M_b(q) M_b(q_n)^-1
+    times the beam's rows of Phi_q(q_n)^T."""
+    if _rows(I, BEAM) == 0:
+        return _emit_phiq(I, Fl, n, qx_old, R, C, V, p, r0, c0, coef, True)
+    nb, cmax = _rows(I, BEAM), 3
+    for b in range(nb):
+        cmax = max(cmax, 3 + _i(I, BEAM, b, 1))
+    beam_of, local = np.full(n, -1, np.int64), np.zeros(n, np.int64)
+    T = np.zeros((nb, cmax, cmax))
+    M, Q, Qq, Qv, Mxq = _ffr_scratch(I)
+    for b in range(nb):
+        k0, c = _i(I, BEAM, b, 0), 3 + _i(I, BEAM, b, 1)
+        for a in range(c):
+            beam_of[_i(I, BCOL, k0 + a, 0)] = b
+            local[_i(I, BCOL, k0 + a, 0)] = a
+        _ffr_local(I, Fl, b, qx_old, qx_old, qx_old, FFR_M, M, Q, Qq, Qv, Mxq)
+        Mn = M[:c, :c].copy()
+        _ffr_local(I, Fl, b, qx, qx, qx, FFR_M, M, Q, Qq, Qv, Mxq)
+        X = np.linalg.solve(Mn, M[:c, :c].copy())        # M_n^-1 M(q); T = X^T (M symmetric)
+        for a in range(c):
+            for d in range(c):
+                T[b, a, d] = X[d, a]
+    k = 8 * _rows(I, CROW) + 6 * _rows(I, PROW) + 2 * _rows(I, LROW) + 6 * _rows(I, DROW) \
+        + 2 * _rows(I, ECOL)
+    Rs, Cs, Vs = np.empty(k, np.int64), np.empty(k, np.int64), np.empty(k)
+    ks = _emit_phiq(I, Fl, n, qx_old, Rs, Cs, Vs, 0, 0, 0, 1.0, True)
+    for i in range(ks):
+        j, row, g = Rs[i], Cs[i], coef * Vs[i]
+        b = beam_of[j]
+        if b < 0:
+            p = _put(R, C, V, p, r0 + j, c0 + row, g)
+            continue
+        k0, c = _i(I, BEAM, b, 0), 3 + _i(I, BEAM, b, 1)
+        for a in range(c):
+            p = _put(R, C, V, p, r0 + _i(I, BCOL, k0 + a, 0), c0 + row, T[b, a, local[j]] * g)
+    return p
+
+
+@_jit
+def _jacobian_additive(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, R, C, V, qx, vx):
+    """Newton matrix of ``_residual_additive``, K(u) = (Phi_q^T u)_q, G =
+    (Phi_q v)_q, B = M(q) M(q_n)^-1 Phi_q(q_n)^T, and with flexible beams
+    Z_i = (M z_i)_q (zero for rigid bodies)::
+
+        [[M + cqx (Z1 + kb/2 K(psi_II)), 0,  -ka1 M, (1-kb)/2 B, kb/2 Phi_q^T],
+         [cqx (Z2 + 1/2 K(psi_II)),      M,  -ka2 M, 1/2 B,      1/2 Phi_q^T ],
+         [sP cqx Phi_q,                  0,  0,      0,          0           ],
+         [sV cqx G,             sV cvy Phi_q, 0,     0,          0           ],
+         [cqx (Z5 - cQ Q_q),    -cQ cvy Q_v,  M,     0,          0           ]]
     """
     n, m = _rows(I, MASS), _rows(I, ROW_ELEMENT)
     size, l0, e0, a0 = _layout(rec, n, m)
@@ -1761,16 +1888,22 @@ def _jacobian_additive(rec, I, Fl, t, q_pred, v_pred, qx_old, w, R, C, V, qx, vx
     r5 = 2 * n + 2 * m
     p = 0
     p = _emit_mass(I, Fl, n, qx, R, C, V, p, 0, 0, 1.0)
+    if _rows(I, BEAM) > 0:         # d(M z_i)/dq: the scaled rows' own q-dependence
+        z1, z2, z5 = np.empty(n), np.empty(n), np.empty(n)
+        _additive_parts(rec, I, Fl, t, F_old, qx_old, w, qx, vx, z1, z2, z5)
+        p = _emit_beams(I, Fl, qx, vx, z1, FFR_MXQ, R, C, V, p, 0, 0, cqx, 0.0)
+        p = _emit_beams(I, Fl, qx, vx, z2, FFR_MXQ, R, C, V, p, n, 0, cqx, 0.0)
+        p = _emit_beams(I, Fl, qx, vx, z5, FFR_MXQ, R, C, V, p, r5, 0, cqx, 0.0)
     if kb != 0.0:
         p = _emit_hess(I, Fl, n, qx, psi2, R, C, V, p, 0, 0, 0.5 * kb * cqx)
         p = _emit_phiq(I, Fl, n, qx, R, C, V, p, 0, l0, 0.5 * kb, True)
     p = _emit_mass(I, Fl, n, qx, R, C, V, p, 0, a0, -ka1)
     if kb != 1.0:
-        p = _emit_phiq(I, Fl, n, qx_old, R, C, V, p, 0, e0, 0.5 * (1.0 - kb), True)
+        p = _emit_mass_ratio_phiqT(I, Fl, n, qx, qx_old, R, C, V, p, 0, e0, 0.5 * (1.0 - kb))
     p = _emit_hess(I, Fl, n, qx, psi2, R, C, V, p, n, 0, 0.5 * cqx)
     p = _emit_mass(I, Fl, n, qx, R, C, V, p, n, n, 1.0)
     p = _emit_mass(I, Fl, n, qx, R, C, V, p, n, a0, -ka2)
-    p = _emit_phiq(I, Fl, n, qx_old, R, C, V, p, n, e0, 0.5, True)
+    p = _emit_mass_ratio_phiqT(I, Fl, n, qx, qx_old, R, C, V, p, n, e0, 0.5)
     p = _emit_phiq(I, Fl, n, qx, R, C, V, p, n, l0, 0.5, True)
     p = _emit_phiq(I, Fl, n, qx, R, C, V, p, 2 * n, 0, rec[SP] * cqx, False)
     p = _emit_G(I, Fl, n, qx, vx, R, C, V, p, 2 * n + m, 0, rec[SV] * cqx)
@@ -1780,20 +1913,79 @@ def _jacobian_additive(rec, I, Fl, t, q_pred, v_pred, qx_old, w, R, C, V, qx, vx
     p = _emit_force(I, Fl, t, n, qx, vx, psi2, R, C, V, p, r5, n, 0.0, rec[CQ] * cvy)
     if _rows(I, FRI) > 0:
         p = _emit_friction_lam(I, Fl, n, qx, vx, psi2, R, C, V, p, r5, l0, rec[CQ])
+    if _rows(I, BEAM) > 0:
+        p = _unscale_beam_rows(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, R, C, V, p,
+                               qx, vx)
+    return p
+
+
+@_jit
+def _unscale_beam_rows(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, R, C, V, p, qx, vx):
+    """The Newton matrix of the beams' unscaled rows from the scaled one's
+    triplets R, C, V[:p]: with r = M_b(q) u on a beam's rows, du/dw =
+    M_b^-1 (dr/dw - cqx (M_b u)_q). Adds -cqx (M u)_q, gathers the triplets
+    on a beam's rows into dense rows (the originals kept at zero, so that
+    the pattern is fixed) and emits M_b^-1 times them on their structural
+    columns; returns the new count."""
+    n, m = _rows(I, MASS), _rows(I, ROW_ELEMENT)
+    size, l0, e0, a0 = _layout(rec, n, m)
+    r5 = 2 * n + 2 * m
+    u = np.empty(size)
+    _residual_additive(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, u, qx, vx, np.zeros(n + 3))
+    _state(rec, n, w, q_pred, v_pred, qx, vx)
+    cqx = rec[CQX]
+    p = _emit_beams(I, Fl, qx, vx, u[:n], FFR_MXQ, R, C, V, p, 0, 0, -cqx, 0.0)
+    p = _emit_beams(I, Fl, qx, vx, u[n:2 * n], FFR_MXQ, R, C, V, p, n, 0, -cqx, 0.0)
+    p = _emit_beams(I, Fl, qx, vx, u[r5:], FFR_MXQ, R, C, V, p, r5, 0, -cqx, 0.0)
+    Minv = _beam_inverses(I, Fl, qx)
+    beam_of, local = np.full(n, -1, np.int64), np.zeros(n, np.int64)
+    for b in range(_rows(I, BEAM)):
+        k0 = _i(I, BEAM, b, 0)
+        for a in range(3 + _i(I, BEAM, b, 1)):
+            beam_of[_i(I, BCOL, k0 + a, 0)] = b
+            local[_i(I, BCOL, k0 + a, 0)] = a
+    nb, cmax = Minv.shape[0], Minv.shape[1]
+    rows_of = np.zeros((3, nb, cmax, size))        # the beams' rows, by block, dense
+    used = np.zeros((3, nb, size), np.bool_)       # their structural columns
+    for i in range(p):
+        row = R[i]
+        k = 0 if row < n else (1 if row < 2 * n else (2 if row >= r5 else -1))
+        if k < 0:
+            continue
+        j = row - (0, n, r5)[k]
+        b = beam_of[j]
+        if b < 0:
+            continue
+        rows_of[k, b, local[j], C[i]] += V[i]
+        used[k, b, C[i]] = True
+        V[i] = 0.0
+    for k in range(3):
+        off = (0, n, r5)[k]
+        for b in range(nb):
+            k0, c = _i(I, BEAM, b, 0), 3 + _i(I, BEAM, b, 1)
+            for col in range(size):
+                if not used[k, b, col]:
+                    continue
+                for d in range(c):
+                    acc = 0.0
+                    for a in range(c):
+                        acc += Minv[b, d, a] * rows_of[k, b, a, col]
+                    p = _put(R, C, V, p, off + _i(I, BCOL, k0 + d, 0), col, acc)
     return p
 
 
 @_jit
 def _old_force(rec, I, Fl, t, q, v, lam, out, qx, vx, work):
-    """F_n of the recipe into out (n,): Phi_q^T lambda - Q (linear form), -Q
-    (additive form)."""
+    """F_n of the recipe into out (n,): Phi_q^T lambda - Q (linear form),
+    -M(q)^-1 Q (additive form: minus HHT-ADD's f_n)."""
     if rec[FORM] == ADDITIVE:
         n = q.shape[0]
         qx[:n] = q
         vx[:n] = v
         forces(I, Fl, t, qx, vx, lam, work)
         for j in range(n):
-            out[j] = -work[j]
+            work[j] = -work[j]
+        _mass_solve(I, Fl, qx, work, out)
     else:
         _force_term(I, Fl, t, q, v, lam, out, qx, vx, work)
 
@@ -2131,7 +2323,8 @@ def _newton(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, weight, opts, solve
     n_jac = 0
     for _ in range(max_iter):
         if not valid:
-            p = _jacobian_triplets(rec, I, Fl, t, q_pred, v_pred, qx_old, w, R, C, V, qx, vx)
+            p = _jacobian_triplets(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, R, C, V, qx,
+                                   vx)
             counts[2] += 1
             n_jac += 1
             status = _factor(solver, lin, R, C, V, p)
@@ -2194,9 +2387,10 @@ def triplet_bound(I) -> int:
     block: 36 entries per spring-damper, 4 per rotational one, 1 per point
     force, 36 per partial derivative of a load of the state (6 rows by 6
     columns) and 36 per load of the state (tau d^2 s of a joint force)), and the
-    augmented formulation's multiplier diagonal; per flexible beam 12 blocks of
+    augmented formulation's multiplier diagonal; per flexible beam 15 blocks of
     (3 + nf)^2 (mass, (M x)_q and force blocks), per elastic term of a joint
-    point 40 entries."""
+    point 40 entries; and 3 + nf per column of the additive form's three
+    blocks of each beam's rows (``_unscale_beam_rows``)."""
     def rows(k):
         """Instances of field k (the header's row count)."""
         return int(I[3 * k + 1])
@@ -2204,13 +2398,16 @@ def triplet_bound(I) -> int:
     kc, kp, kl, kd = rows(CROW), rows(PROW), rows(LROW), rows(DROW)
     ks, kr, kf = rows(SCOL1), rows(RCOL), rows(FCOL)
     phiq = 8 * kc + 6 * kp + 2 * kl + 6 * kd
-    beams = 0
-    for b in range(rows(BEAM)):
+    beams, csum = 0, 0
+    for b in range(rows(BEAM)):     # blocks, and the additive form's M M_n^-1 Phi_q^T (twice)
         c = 3 + int(I[int(I[3 * BEAM]) + 4 * b + 1])
-        beams += 12 * c * c
-    return (6 * n + rows(ROW_ELEMENT) + 6 * phiq + 4 * (2 * kc + 12 * kp + 36 * kd)
+        beams += 15 * c * c + 2 * c * (phiq + 2 * rows(ECOL))
+        csum += c
+    base = (6 * n + rows(ROW_ELEMENT) + 6 * phiq + 4 * (2 * kc + 12 * kp + 36 * kd)
             + 2 * (36 * ks + 4 * kr + kf + 36 * rows(SDV) + 36 * rows(STQ) + 36 * rows(FRI))
             + 2 * (4 * kc + 6 * kp + 6 * kd) + 12 * rows(FRI) + beams + 40 * rows(ECOL))
+    # the additive form's unscaled beam rows: c entries per structural column, 3 blocks
+    return base + 3 * (3 * n + 2 * rows(ROW_ELEMENT)) * csum
 
 
 @_jit
@@ -2344,13 +2541,14 @@ def _run(rec2, I, Fl, h, t0, n_steps, step0, every, q, v, a, b, lam, mu, q_prev,
 
 @_jit
 def _total_acceleration(I, Fl, n, qx, a, psi, R, C, V, out):
-    """a - M^{-1} Phi_q(q)^T psi into out (n,) [m/s^2 or rad/s^2] at qx: the
-    additive form's total acceleration a + R (``HHTADD.local_error``), M the
-    rigid bodies' diagonal mass; R, C, V: triplet scratch."""
-    out[:] = a
-    p = _emit_phiq(I, Fl, n, qx, R, C, V, 0, 0, 0, 1.0, True)
-    for i in range(p):
-        out[R[i]] -= V[i] * psi[C[i]] / _f(I, Fl, MASS, R[i], 0)
+    """a - M(q)^{-1} Phi_q(q)^T psi into out (n,) [m/s^2 or rad/s^2] at qx:
+    the additive form's total acceleration a + R (``HHTADD.local_error``);
+    R, C, V: triplet scratch (unused)."""
+    y = np.zeros(n + 3)
+    phiqT_add(I, Fl, qx, psi, 1.0, y)
+    _mass_solve(I, Fl, qx, y, y)
+    for j in range(n):
+        out[j] = a[j] - y[j]
 
 
 @_jit
@@ -2579,9 +2777,9 @@ def residual(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work):
 
 
 @_jit
-def jacobian_triplets(rec, I, Fl, t, q_pred, v_pred, qx_old, w, R, C, V, qx, vx):
+def jacobian_triplets(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, R, C, V, qx, vx):
     """Newton-matrix triplets; see ``_jacobian_triplets``. Returns their count."""
-    return _jacobian_triplets(rec, I, Fl, t, q_pred, v_pred, qx_old, w, R, C, V, qx, vx)
+    return _jacobian_triplets(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, R, C, V, qx, vx)
 
 
 @_jit

@@ -95,9 +95,6 @@ def unsupported(system, method) -> str | None:
     """Why the compiled engine cannot run this model with this method, or None."""
     if method.kernel_recipe(1.0, False) is None:
         return f"the compiled engine has no recipe for {method.name}"
-    if system.flexible_groups and _recipe_value(method, "form") != 0.0:
-        return (f"the compiled form of {method.name} multiplies its rows by a constant "
-                f"diagonal mass matrix, and the model has flexible beams")
     return _unsupported_elements(system)
 
 
@@ -592,7 +589,7 @@ def newton_pattern(system, method, q, cm=None):
     qx = np.zeros(n + 3)
     qx[:n] = q
     p = K.jacobian_triplets(method.kernel_recipe(1e-3, False), cm.ints, cm.floats, 0.0,
-                            np.asarray(q, dtype=float), np.zeros(n), qx, np.zeros(size),
+                            np.asarray(q, dtype=float), np.zeros(n), np.zeros(n), qx, np.zeros(size),
                             R, C, V, np.zeros(n + 3), np.zeros(n + 3))
     return R[:p], C[:p]
 
@@ -774,7 +771,8 @@ def run_compiled_adaptive(system, method, t_end, h, t_start, initial, newton_opt
         from .common import start_force_term
         from .recipe import ADDITIVE, RECIPE_FIELDS
         additive = mono[0, 0, RECIPE_FIELDS.index("form")] == ADDITIVE
-        F_start = -initial.Q if additive else start_force_term(system, initial)
+        F_start = (-system.mass_solve(initial.q, initial.Q) if additive
+                   else start_force_term(system, initial))
     q_prev, v_prev = q.copy(), v.copy()
     state = np.array([t_start, h, 0.0, 0.0])      # t, next h, rejected, previous h (none)
     step_no, t = 0, t_start
@@ -887,7 +885,8 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
         from .common import start_force_term
         from .recipe import ADDITIVE, RECIPE_FIELDS
         additive = method.kernel_recipe(h, True)[RECIPE_FIELDS.index("form")] == ADDITIVE
-        F_start = -initial.Q if additive else start_force_term(system, initial)
+        F_start = (-system.mass_solve(initial.q, initial.Q) if additive
+                   else start_force_term(system, initial))
     t = t_start
     step_no = 0           # global step count, for the output stride
     last_h = h
@@ -1054,7 +1053,8 @@ class SparseAdapter:
         """Newton matrix as CSC on the fixed pattern."""
         K, c = self._K, ctx.cache
         p = K.jacobian_triplets(c["recipe"], self._cm.ints, self._cm.floats, ctx.t, c["kq_pred"],
-                                c["kv_pred"], c["kqx_old"], w, self._R, self._C, self._V, self._qx, self._vx)
+                                c["kv_pred"], c["kF"], c["kqx_old"], w, self._R, self._C, self._V,
+                                self._qx, self._vx)
         if self._pattern is None or self._pattern[0] != p:
             key = self._C[:p] * self.size + self._R[:p]
             uniq, position = np.unique(key, return_inverse=True)

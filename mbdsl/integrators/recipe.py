@@ -64,14 +64,17 @@ each other and the Newton matrix against differences of the residual.
 
 The additive form (HHT-ADD, ``hht_add.py``): unknowns (dq, dv, a, psi_I,
 psi_II), q = q_pred + cqx dq, v = v_pred + cvy dv (Newmark predictor), and
-the residual of HHT-ADD with its rows 1, 2 and 5 multiplied by M (for rigid
-bodies a constant diagonal: Newton's iterates are unchanged and no M^-1 is
-formed)::
+the residual of HHT-ADD with its rows 1, 2 and 5 multiplied by M(q) (for
+rigid bodies a constant diagonal: Newton's iterates are unchanged and no
+M^-1 is formed)::
 
-    M dq - ka1 M a + (1 - kb)/2 Phi_q(q_n)^T psi_I + kb/2 Phi_q(q)^T psi_II
-    M dv - ka2 M a + 1/2 Phi_q(q_n)^T psi_I + 1/2 Phi_q(q)^T psi_II
+    M dq - ka1 M a + (1 - kb)/2 M M_n^-1 Phi_q(q_n)^T psi_I + kb/2 Phi_q(q)^T psi_II
+    M dv - ka2 M a + 1/2 M M_n^-1 Phi_q(q_n)^T psi_I + 1/2 Phi_q(q)^T psi_II
     sP Phi(q, t),   sV (Phi_q v + Phi_t)
-    M a - cQ Q(t, q, v) + cF Q_n
+    M a - cQ Q(t, q, v) + cF M f_n
+
+with M = M(q), M_n = M(q_n) and f_n = M_n^-1 Q_n (for rigid bodies M M_n^-1 = I;
+with flexible beams a block solve per beam).
 
 Scales: sx for dq and dv, sy for a, sm times the mobility for psi_I and
 psi_II. lambda := psi_II; psi_I is the method's extra multiplier.
