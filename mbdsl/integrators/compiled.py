@@ -1724,14 +1724,35 @@ def _mass_solve(I, Fl, qM, x, out):
 
 
 @_jit
-def _additive_parts(rec, I, Fl, t, F_old, qx_old, w, qx, vx, z1, z2, z5):
+def _mass_times(I, Fl, qM, x):
+    """x[:n] = M(qM) x[:n] in place: the rigid diagonal, and every beam's block."""
+    for j in range(_rows(I, MRIG)):
+        if _f(I, Fl, MRIG, j, 0) != 0.0:
+            x[j] *= _f(I, Fl, MRIG, j, 0)
+    if _rows(I, BEAM) > 0:
+        M, Q, Qq, Qv, Mxq = _ffr_scratch(I)
+        for b in range(_rows(I, BEAM)):
+            _ffr_local(I, Fl, b, qM, qM, qM, FFR_M, M, Q, Qq, Qv, Mxq)
+            k0, c = _i(I, BEAM, b, 0), 3 + _i(I, BEAM, b, 1)
+            for a in range(c):
+                acc = 0.0
+                for d in range(c):
+                    acc += M[a, d] * x[_i(I, BCOL, k0 + d, 0)]
+                Q[a] = acc
+            for a in range(c):
+                x[_i(I, BCOL, k0 + a, 0)] = Q[a]
+
+
+@_jit
+def _additive_parts(rec, I, Fl, t, F_old, qx_old, w, qx, vx, z1, z2, z5, y):
     """The vectors M(q) multiplies in HHT-ADD's scaled rows 1, 2 and 5 (the
     state (qx, vx) already set): z1 = dq - ka1 a + (1 - kb)/2 y, z2 = dv -
-    ka2 a + y/2, z5 = a - cF F_n, y = M(q_n)^-1 Phi_q(q_n)^T psi_I."""
+    ka2 a + y/2, z5 = a - cF F_n, y = M(q_n)^-1 Phi_q(q_n)^T psi_I (y:
+    scratch of size n + 3)."""
     n, m = _rows(I, MASS), _rows(I, ROW_ELEMENT)
     size, l0, e0, a0 = _layout(rec, n, m)
     ka1, ka2, kb, cF = rec[KA1], rec[KA2], rec[KB], rec[CF]
-    y = np.zeros(n + 3)
+    y[:] = 0.0
     phiqT_add(I, Fl, qx_old, w[e0:e0 + m], 1.0, y)
     _mass_solve(I, Fl, qx_old, y, y)
     for j in range(n):
@@ -1764,15 +1785,12 @@ def _residual_additive(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, r, qx, v
     n, m = _rows(I, MASS), _rows(I, ROW_ELEMENT)
     size, l0, e0, a0 = _layout(rec, n, m)
     _state(rec, n, w, q_pred, v_pred, qx, vx)
-    kb = rec[KB]
-    z1, z2, z5 = np.empty(n), np.empty(n), np.empty(n)
-    _additive_parts(rec, I, Fl, t, F_old, qx_old, w, qx, vx, z1, z2, z5)
     r5 = 2 * n + 2 * m
-    r[:2 * n] = 0.0
-    r[r5:] = 0.0
-    _mass_add(I, Fl, qx, z1, 1.0, r[:n])
-    _mass_add(I, Fl, qx, z2, 1.0, r[n:2 * n])
-    _mass_add(I, Fl, qx, z5, 1.0, r[r5:])
+    _additive_parts(rec, I, Fl, t, F_old, qx_old, w, qx, vx, r[:n], r[n:2 * n], r[r5:], work)
+    _mass_times(I, Fl, qx, r[:n])          # the z_i in place of M z_i: no allocation
+    _mass_times(I, Fl, qx, r[n:2 * n])
+    _mass_times(I, Fl, qx, r[r5:])
+    kb = rec[KB]
     work[:] = 0.0
     phiqT_add(I, Fl, qx, w[l0:l0 + m], 1.0, work)                # Phi_q(q)^T psi_II
     for j in range(n):
@@ -1890,7 +1908,7 @@ def _jacobian_additive(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, R, C, V,
     p = _emit_mass(I, Fl, n, qx, R, C, V, p, 0, 0, 1.0)
     if _rows(I, BEAM) > 0:         # d(M z_i)/dq: the scaled rows' own q-dependence
         z1, z2, z5 = np.empty(n), np.empty(n), np.empty(n)
-        _additive_parts(rec, I, Fl, t, F_old, qx_old, w, qx, vx, z1, z2, z5)
+        _additive_parts(rec, I, Fl, t, F_old, qx_old, w, qx, vx, z1, z2, z5, np.empty(n + 3))
         p = _emit_beams(I, Fl, qx, vx, z1, FFR_MXQ, R, C, V, p, 0, 0, cqx, 0.0)
         p = _emit_beams(I, Fl, qx, vx, z2, FFR_MXQ, R, C, V, p, n, 0, cqx, 0.0)
         p = _emit_beams(I, Fl, qx, vx, z5, FFR_MXQ, R, C, V, p, r5, 0, cqx, 0.0)
