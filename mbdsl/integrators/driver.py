@@ -156,7 +156,8 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
     if which == "compiled":
         timings["setup"] = clock() - t0
         cm, plan, timings["kernels"] = prepare_compiled(system, method, solver.options,
-                                                        initial.q, announce)
+                                                        initial.q, announce,
+                                                        adaptive=control is not None)
         if plan.kind != "sparse":
             sol = Solution(system, method, h, t_end, initial)
             sol.engine, sol.linear_solver = "compiled", plan.kind

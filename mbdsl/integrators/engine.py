@@ -256,18 +256,19 @@ def select_engine(engine: str, system, method, compile_policy: str = "wait",
     return "compiled"
 
 
-def prepare_compiled(system, method, options, q, announce=None):
+def prepare_compiled(system, method, options, q, announce=None, adaptive=False):
     """(CompiledModel, LinearSolverPlan, seconds): the kernels' model data and
     linear solver for a run from configuration q (n,), with every kernel the
     run calls loaded (compiled first, announced, if not built for this
-    machine); the seconds are the time this took, never step time."""
+    machine; ``adaptive``: the run takes error-controlled steps); the
+    seconds are the time this took, never step time."""
     import time
     from .kernel_cache import ensure_loaded
     t0 = time.perf_counter()
     ensure_loaded(None, announce)         # compiles everything, announced, if not built
     cm = CompiledModel(system)
     plan = linear_solver_plan(system, method, options, q, cm)  # banded: calls a kernel
-    ensure_loaded(plan.kind, announce)    # the entry points of this linear solver
+    ensure_loaded(plan.kind, announce, adaptive)   # this linear solver's, this loop's
     return cm, plan, time.perf_counter() - t0
 
 

@@ -154,7 +154,12 @@ initial b.phi = 0.3
 GROUPS = ("dense", "banded", "sparse")
 
 
-def warm_up(groups=GROUPS, output: bool = True) -> None:
+def _key_of(group: str, adaptive: bool) -> str:
+    """The entry of ``_loaded`` for a group's fixed-step or error-controlled loop."""
+    return group + ("-adaptive" if adaptive and group != "sparse" else "")
+
+
+def warm_up(groups=GROUPS, output: bool = True, loops=(False, True)) -> None:
     """Load (compiling if needed) the kernels of each group of entry points
     by running a two-link pendulum two steps through them, with the
     argument types of every real run:
@@ -169,7 +174,10 @@ def warm_up(groups=GROUPS, output: bool = True) -> None:
 
     and with ``output`` the kernel of the output's index-1 multipliers
     (``index1_multipliers``), which a run with warm kernels loads when its
-    output first needs it.
+    output first needs it. ``loops``: the fixed-step loop (False), the
+    error-controlled one (True), or both: a run with warm kernels loads the
+    one it takes (each is a third of a second from numba's cache on two
+    cores; measured on the slider crank's command, 0.75 s for both).
 
     Every method shares every signature (the method is a recipe array,
     ``recipe.py``), so one of them loads what all use.
@@ -179,12 +187,13 @@ def warm_up(groups=GROUPS, output: bool = True) -> None:
     from .compiled import lapack_band_addresses
     system = assemble(load_text(_PENDULUM, file="<kernel warm-up>"))
     groups = [g for g in groups if g != "banded" or lapack_band_addresses() is not None]
-    _loaded.update(groups)           # integrate below must not warm up again
+    _loaded.update(_key_of(g, a) for g in groups for a in loops)   # integrate: no warm-up again
     from .adaptive import StepControl
     for solver in groups:
-        integrate(system, HHTI3(), 2e-3, 1e-3, engine="compiled",
-                  newton=NewtonOptions(linear_solver=solver))
-        if solver != "sparse":       # the loop with error-controlled steps (run_adaptive)
+        if False in loops:
+            integrate(system, HHTI3(), 2e-3, 1e-3, engine="compiled",
+                      newton=NewtonOptions(linear_solver=solver))
+        if True in loops and solver != "sparse":    # error-controlled steps (run_adaptive)
             integrate(system, HHTI3(), 2e-3, 1e-3, engine="compiled",
                       newton=NewtonOptions(linear_solver=solver), control=StepControl(1e-6, 1e-6))
     if output:                 # the output's multipliers (HHT-ADD)
@@ -192,7 +201,7 @@ def warm_up(groups=GROUPS, output: bool = True) -> None:
         index1_multipliers(system, np.zeros(1), np.zeros((1, system.n)), np.zeros((1, system.n)))
 
 
-def ensure_loaded(group: str | None = None, announce=None) -> float:
+def ensure_loaded(group: str | None = None, announce=None, adaptive: bool = False) -> float:
     """Load the kernels a run needs, compiling them if they are not cached.
 
     Parameters
@@ -205,13 +214,15 @@ def ensure_loaded(group: str | None = None, announce=None) -> float:
     announce : callable (str) -> None, optional
         Told before a compilation starts (or, when the marker was wrong,
         once loading has taken more than 5 s), and when it ends.
+    adaptive : bool
+        The run takes error-controlled steps (its loop is ``run_adaptive``).
 
     Returns
     -------
     float [s]
         Time spent loading or compiling (0 when already loaded here).
     """
-    if group in _loaded or (group is None and _loaded):
+    if (group is not None and _key_of(group, adaptive) in _loaded) or (group is None and _loaded):
         return 0.0
     t0 = time.perf_counter()
     ready = kernels_ready()
@@ -231,7 +242,10 @@ def ensure_loaded(group: str | None = None, announce=None) -> float:
         timer.daemon = True
         timer.start()
     try:
-        warm_up(GROUPS if not ready else (group,), output=not ready)
+        if ready:
+            warm_up((group,), output=False, loops=(adaptive,))
+        else:
+            warm_up(GROUPS)
     finally:
         if timer is not None:
             timer.cancel()
