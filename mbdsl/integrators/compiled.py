@@ -512,25 +512,15 @@ def _state_values(I, Fl, qx, vx, grad, H):
 
 
 @_jit
-def _phi_t_add(I, Fl, t, out):
-    """out (m,) += Phi_t: -f'(t) in the rows of drivers f(t)."""
+def _phi_time_add(I, Fl, t, out, order):
+    """out (m,) += the order-th partial time derivative of Phi (1: Phi_t,
+    2: Phi_tt): -f'(t) or -f''(t) in the rows of drivers f(t)."""
     for i in range(_rows(I, LROW)):
-        if _i(I, LFN, i, 1) >= 0:
-            out[_i(I, LROW, i, 0)] -= _eval(I, Fl, _i(I, LFN, i, 1), t)
+        if _i(I, LFN, i, order) >= 0:
+            out[_i(I, LROW, i, 0)] -= _eval(I, Fl, _i(I, LFN, i, order), t)
     for i in range(_rows(I, PROW)):
-        if _i(I, PFN, i, 1) >= 0:
-            out[_i(I, PROW, i, 0)] -= _eval(I, Fl, _i(I, PFN, i, 1), t)
-
-
-@_jit
-def _phi_tt_add(I, Fl, t, out):
-    """out (m,) += Phi_tt: -f''(t) in the rows of drivers f(t)."""
-    for i in range(_rows(I, LROW)):
-        if _i(I, LFN, i, 2) >= 0:
-            out[_i(I, LROW, i, 0)] -= _eval(I, Fl, _i(I, LFN, i, 2), t)
-    for i in range(_rows(I, PROW)):
-        if _i(I, PFN, i, 2) >= 0:
-            out[_i(I, PROW, i, 0)] -= _eval(I, Fl, _i(I, PFN, i, 2), t)
+        if _i(I, PFN, i, order) >= 0:
+            out[_i(I, PROW, i, 0)] -= _eval(I, Fl, _i(I, PFN, i, order), t)
 
 
 @_jit
@@ -1104,21 +1094,18 @@ def _ffr_forces_add(I, Fl, qx, vx, out):
 
 
 @_jit
-def _mass_add(I, Fl, qM, x, coef, out):
-    """out[:n] += coef M(qM) x: the rigid diagonal, and every beam's block at
-    qM (extended; x of size n or more)."""
-    for j in range(_rows(I, MRIG)):
-        out[j] += coef * _f(I, Fl, MRIG, j, 0) * x[j]
-    if _rows(I, BEAM) > 0:
-        M, Q, Qq, Qv, Mxq = _ffr_scratch(I)
-        for b in range(_rows(I, BEAM)):
-            _ffr_local(I, Fl, b, qM, qM, qM, FFR_M, M, Q, Qq, Qv, Mxq)
-            k0, c = _i(I, BEAM, b, 0), 3 + _i(I, BEAM, b, 1)
-            for a in range(c):
-                acc = 0.0
-                for d in range(c):
-                    acc += M[a, d] * x[_i(I, BCOL, k0 + d, 0)]
-                out[_i(I, BCOL, k0 + a, 0)] += coef * acc
+def _beam_mass_add(I, Fl, qM, x, coef, out):
+    """out += coef M_b(qM) x on every beam's columns (x, out indexed by
+    column; the rigid diagonal is the caller's, in its own expression)."""
+    M, Q, Qq, Qv, Mxq = _ffr_scratch(I)
+    for b in range(_rows(I, BEAM)):
+        _ffr_local(I, Fl, b, qM, qM, qM, FFR_M, M, Q, Qq, Qv, Mxq)
+        k0, c = _i(I, BEAM, b, 0), 3 + _i(I, BEAM, b, 1)
+        for a in range(c):
+            acc = 0.0
+            for d in range(c):
+                acc += M[a, d] * x[_i(I, BCOL, k0 + d, 0)]
+            out[_i(I, BCOL, k0 + a, 0)] += coef * acc
 
 
 @_jit
@@ -1602,8 +1589,9 @@ def _residual(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work):
         work[j] = -work[j]
     phiqT_add(I, Fl, qx, w[l0:l0 + m], 1.0, work)
     for j in range(n):
-        r[j] = work[j] - cF * F_old[j]
-    _mass_add(I, Fl, qM, w, cM, r)
+        r[j] = cM * _f(I, Fl, MRIG, j, 0) * w[j] + work[j] - cF * F_old[j]
+    if _rows(I, BEAM) > 0:
+        _beam_mass_add(I, Fl, qM, w, cM, r)
     phi(I, Fl, t, qx, r[l0:l0 + m])
     sP = rec[SP]
     for i in range(m):
@@ -1613,11 +1601,11 @@ def _residual(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work):
         work[:] = 0.0
         phiqT_add(I, Fl, qx, w[u0:], 1.0, work)
         for j in range(n):
-            r[n + j] = dI * w[n + j] + dV * vx[j] + work[j]
-        if dM != 0.0:
-            _mass_add(I, Fl, qM, w[n:2 * n], dM, r[n:2 * n])
+            r[n + j] = (dM * _f(I, Fl, MRIG, j, 0) + dI) * w[n + j] + dV * vx[j] + work[j]
+        if dM != 0.0 and _rows(I, BEAM) > 0:
+            _beam_mass_add(I, Fl, qM, w[n:2 * n], dM, r[n:2 * n])
         phiq_times(I, Fl, qx, vx, r[u0:])
-        _phi_t_add(I, Fl, t, r[u0:])
+        _phi_time_add(I, Fl, t, r[u0:], 1)
         sV = rec[SV]
         for i in range(m):
             r[u0 + i] *= sV
@@ -1726,21 +1714,16 @@ def _mass_solve(I, Fl, qM, x, out):
 @_jit
 def _mass_times(I, Fl, qM, x):
     """x[:n] = M(qM) x[:n] in place: the rigid diagonal, and every beam's block."""
+    if _rows(I, BEAM) > 0:           # beams: M_b x_b from a copy (MRIG is 0 there)
+        xb = x.copy()
+        _beam_mass_add(I, Fl, qM, xb, 1.0, x)
+        for b in range(_rows(I, BEAM)):
+            k0 = _i(I, BEAM, b, 0)
+            for a in range(3 + _i(I, BEAM, b, 1)):
+                x[_i(I, BCOL, k0 + a, 0)] -= xb[_i(I, BCOL, k0 + a, 0)]
     for j in range(_rows(I, MRIG)):
         if _f(I, Fl, MRIG, j, 0) != 0.0:
             x[j] *= _f(I, Fl, MRIG, j, 0)
-    if _rows(I, BEAM) > 0:
-        M, Q, Qq, Qv, Mxq = _ffr_scratch(I)
-        for b in range(_rows(I, BEAM)):
-            _ffr_local(I, Fl, b, qM, qM, qM, FFR_M, M, Q, Qq, Qv, Mxq)
-            k0, c = _i(I, BEAM, b, 0), 3 + _i(I, BEAM, b, 1)
-            for a in range(c):
-                acc = 0.0
-                for d in range(c):
-                    acc += M[a, d] * x[_i(I, BCOL, k0 + d, 0)]
-                Q[a] = acc
-            for a in range(c):
-                x[_i(I, BCOL, k0 + a, 0)] = Q[a]
 
 
 @_jit
@@ -1798,7 +1781,7 @@ def _residual_additive(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, r, qx, v
         r[n + j] += 0.5 * work[j]
     phi(I, Fl, t, qx, r[2 * n:2 * n + m])
     phiq_times(I, Fl, qx, vx, r[2 * n + m:2 * n + 2 * m])
-    _phi_t_add(I, Fl, t, r[2 * n + m:2 * n + 2 * m])
+    _phi_time_add(I, Fl, t, r[2 * n + m:2 * n + 2 * m], 1)
     sP, sV = rec[SP], rec[SV]
     for i in range(m):
         r[2 * n + i] *= sP
@@ -2055,7 +2038,7 @@ def _index1_multipliers(I, Fl, t, q, v, out, R, C, V, iterations):
         for i in range(p):
             K[R[i], C[i]] += V[i]
         gam[:] = 0.0
-        _phi_tt_add(I, Fl, t[row], gam)
+        _phi_time_add(I, Fl, t[row], gam, 2)
         p = _emit_G(I, Fl, n, qx, vx, R, C, V, 0, 0, 0, 1.0)
         for i in range(p):
             gam[R[i]] += V[i] * vx[C[i]]
