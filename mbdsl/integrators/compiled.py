@@ -769,78 +769,62 @@ def forces(I, Fl, t, qx, vx, lam, out):
 # --------------------------------------------------------------------------------------------
 
 @_jit
-def _elastic_phiqT_add(I, Fl, qx, lam, coef, out):
-    """out += coef Phi_q^T lambda in the elastic columns."""
+def _elastic_grad(I, Fl, qx, rows, cols, vals):
+    """The elastic entries of Phi_q: (constraint row, column, value) into rows,
+    cols, vals (each of 2 x the elastic terms); returns their count.
+    Coincidence: +-A S_k per row; point on line: +-n . (A S_k)."""
+    p = 0
     for i in range(_rows(I, CROW)):
-        l0, l1 = coef * lam[_i(I, CROW, i, 0)], coef * lam[_i(I, CROW, i, 1)]
         for sd in range(2):
             sg, ph = (-1.0 if sd == 0 else 1.0), qx[_i(I, CCOL1 if sd == 0 else CCOL2, i, 2)]
             k0, k1 = _span(I, CEL, i, sd)
             for k in range(k0, k1):
                 ax, ay, bx, by = _eshape(I, Fl, k, ph)
-                out[_i(I, ECOL, k, 0)] += sg * (l0 * ax + l1 * ay)
+                for a in range(2):
+                    rows[p], cols[p] = _i(I, CROW, i, a), _i(I, ECOL, k, 0)
+                    vals[p] = sg * (ax if a == 0 else ay)
+                    p += 1
     for i in range(_rows(I, PROW)):
         nx, ny, dx, dy, axL, ayL, axP, ayP = _pol(I, Fl, qx, i)
-        lv = coef * lam[_i(I, PROW, i, 0)]
         for sd in range(2):
             sg, ph = (-1.0 if sd == 0 else 1.0), qx[_i(I, PCOLL if sd == 0 else PCOLP, i, 2)]
             k0, k1 = _span(I, PEL, i, sd)
             for k in range(k0, k1):
                 ax, ay, bx, by = _eshape(I, Fl, k, ph)
-                out[_i(I, ECOL, k, 0)] += lv * sg * (nx * ax + ny * ay)
+                rows[p], cols[p] = _i(I, PROW, i, 0), _i(I, ECOL, k, 0)
+                vals[p] = sg * (nx * ax + ny * ay)
+                p += 1
+    return p
+
+
+@_jit
+def _elastic_phiqT_add(I, Fl, qx, lam, coef, out):
+    """out += coef Phi_q^T lambda in the elastic columns."""
+    k = 2 * _rows(I, ECOL)
+    rows, cols, vals = np.empty(k, np.int64), np.empty(k, np.int64), np.empty(k)
+    for e in range(_elastic_grad(I, Fl, qx, rows, cols, vals)):
+        out[cols[e]] += coef * lam[rows[e]] * vals[e]
 
 
 @_jit
 def _elastic_phiq_times(I, Fl, qx, vx, out):
     """out += Phi_q v of the elastic columns."""
-    for i in range(_rows(I, CROW)):
-        for sd in range(2):
-            sg, ph = (-1.0 if sd == 0 else 1.0), qx[_i(I, CCOL1 if sd == 0 else CCOL2, i, 2)]
-            k0, k1 = _span(I, CEL, i, sd)
-            for k in range(k0, k1):
-                ax, ay, bx, by = _eshape(I, Fl, k, ph)
-                vk = vx[_i(I, ECOL, k, 0)]
-                out[_i(I, CROW, i, 0)] += sg * ax * vk
-                out[_i(I, CROW, i, 1)] += sg * ay * vk
-    for i in range(_rows(I, PROW)):
-        nx, ny, dx, dy, axL, ayL, axP, ayP = _pol(I, Fl, qx, i)
-        for sd in range(2):
-            sg, ph = (-1.0 if sd == 0 else 1.0), qx[_i(I, PCOLL if sd == 0 else PCOLP, i, 2)]
-            k0, k1 = _span(I, PEL, i, sd)
-            for k in range(k0, k1):
-                ax, ay, bx, by = _eshape(I, Fl, k, ph)
-                out[_i(I, PROW, i, 0)] += sg * (nx * ax + ny * ay) * vx[_i(I, ECOL, k, 0)]
+    k = 2 * _rows(I, ECOL)
+    rows, cols, vals = np.empty(k, np.int64), np.empty(k, np.int64), np.empty(k)
+    for e in range(_elastic_grad(I, Fl, qx, rows, cols, vals)):
+        out[rows[e]] += vals[e] * vx[cols[e]]
 
 
 @_jit
 def _emit_elastic_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose):
     """The elastic columns of coef Phi_q at (r0, c0) (or of Phi_q^T)."""
-    for i in range(_rows(I, CROW)):
-        for sd in range(2):
-            sg, ph = (-1.0 if sd == 0 else 1.0), qx[_i(I, CCOL1 if sd == 0 else CCOL2, i, 2)]
-            k0, k1 = _span(I, CEL, i, sd)
-            for k in range(k0, k1):
-                ax, ay, bx, by = _eshape(I, Fl, k, ph)
-                col = _i(I, ECOL, k, 0)
-                for a in range(2):
-                    g = coef * sg * (ax if a == 0 else ay)
-                    if transpose:
-                        p = _put(R, C, V, p, r0 + col, c0 + _i(I, CROW, i, a), g)
-                    else:
-                        p = _put(R, C, V, p, r0 + _i(I, CROW, i, a), c0 + col, g)
-    for i in range(_rows(I, PROW)):
-        nx, ny, dx, dy, axL, ayL, axP, ayP = _pol(I, Fl, qx, i)
-        row = _i(I, PROW, i, 0)
-        for sd in range(2):
-            sg, ph = (-1.0 if sd == 0 else 1.0), qx[_i(I, PCOLL if sd == 0 else PCOLP, i, 2)]
-            k0, k1 = _span(I, PEL, i, sd)
-            for k in range(k0, k1):
-                ax, ay, bx, by = _eshape(I, Fl, k, ph)
-                col, g = _i(I, ECOL, k, 0), coef * sg * (nx * ax + ny * ay)
-                if transpose:
-                    p = _put(R, C, V, p, r0 + col, c0 + row, g)
-                else:
-                    p = _put(R, C, V, p, r0 + row, c0 + col, g)
+    k = 2 * _rows(I, ECOL)
+    rows, cols, vals = np.empty(k, np.int64), np.empty(k, np.int64), np.empty(k)
+    for e in range(_elastic_grad(I, Fl, qx, rows, cols, vals)):
+        if transpose:
+            p = _put(R, C, V, p, r0 + cols[e], c0 + rows[e], coef * vals[e])
+        else:
+            p = _put(R, C, V, p, r0 + rows[e], c0 + cols[e], coef * vals[e])
     return p
 
 
