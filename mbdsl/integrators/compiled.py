@@ -1873,12 +1873,6 @@ def _jacobian_additive(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, R, C, V,
     r5 = 2 * n + 2 * m
     p = 0
     p = _emit_mass(I, Fl, n, qx, R, C, V, p, 0, 0, 1.0)
-    if _rows(I, BEAM) > 0:         # d(M z_i)/dq: the scaled rows' own q-dependence
-        z1, z2, z5 = np.empty(n), np.empty(n), np.empty(n)
-        _additive_parts(rec, I, Fl, t, F_old, qx_old, w, qx, vx, z1, z2, z5, np.empty(n + 3))
-        p = _emit_beams(I, Fl, qx, vx, z1, FFR_MXQ, R, C, V, p, 0, 0, cqx, 0.0)
-        p = _emit_beams(I, Fl, qx, vx, z2, FFR_MXQ, R, C, V, p, n, 0, cqx, 0.0)
-        p = _emit_beams(I, Fl, qx, vx, z5, FFR_MXQ, R, C, V, p, r5, 0, cqx, 0.0)
     if kb != 0.0:
         p = _emit_hess(I, Fl, n, qx, psi2, R, C, V, p, 0, 0, 0.5 * kb * cqx)
         p = _emit_phiq(I, Fl, n, qx, R, C, V, p, 0, l0, 0.5 * kb, True)
@@ -1907,8 +1901,10 @@ def _jacobian_additive(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, R, C, V,
 @_jit
 def _unscale_beam_rows(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, R, C, V, p, qx, vx):
     """The Newton matrix of the beams' unscaled rows from the scaled one's
-    triplets R, C, V[:p]: with r = M_b(q) u on a beam's rows, du/dw =
-    M_b^-1 (dr/dw - cqx (M_b u)_q). Adds -cqx (M u)_q, gathers the triplets
+    triplets R, C, V[:p] (M(q) held in them): the scaled rows are r = M(q) z
+    + (terms without M), so with r = M_b(q) u on a beam's rows, du/dw =
+    M_b^-1 (dr/dw|_M + cqx (M_b (z - u))_q). Adds the last term (z of
+    ``_additive_parts``, u the unscaled residual), gathers the triplets
     on a beam's rows into dense rows (the originals kept at zero, so that
     the pattern is fixed) and emits M_b^-1 times them on their structural
     columns; returns the new count."""
@@ -1918,10 +1914,14 @@ def _unscale_beam_rows(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, R, C, V,
     u = np.empty(size)
     _residual_additive(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, u, qx, vx, np.zeros(n + 3))
     _state(rec, n, w, q_pred, v_pred, qx, vx)
+    z = np.empty((3, n))
+    _additive_parts(rec, I, Fl, t, F_old, qx_old, w, qx, vx, z[0], z[1], z[2], np.empty(n + 3))
     cqx = rec[CQX]
-    p = _emit_beams(I, Fl, qx, vx, u[:n], FFR_MXQ, R, C, V, p, 0, 0, -cqx, 0.0)
-    p = _emit_beams(I, Fl, qx, vx, u[n:2 * n], FFR_MXQ, R, C, V, p, n, 0, -cqx, 0.0)
-    p = _emit_beams(I, Fl, qx, vx, u[r5:], FFR_MXQ, R, C, V, p, r5, 0, -cqx, 0.0)
+    for k in range(3):
+        off = (0, n, r5)[k]
+        for j in range(n):
+            z[k, j] -= u[off + j]
+        p = _emit_beams(I, Fl, qx, vx, z[k], FFR_MXQ, R, C, V, p, off, 0, cqx, 0.0)
     Minv = _beam_inverses(I, Fl, qx)
     beam_of, local = np.full(n, -1, np.int64), np.zeros(n, np.int64)
     for b in range(_rows(I, BEAM)):
