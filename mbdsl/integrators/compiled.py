@@ -131,8 +131,9 @@ MODEL_SCHEMA = (
     ("drow", "i", 0), ("dcol1", "i", 3), ("ds1", "f", 2),              # distance joints
     ("dcol2", "i", 3), ("ds2", "f", 2), ("dlen", "f", 0),
     ("mrig", "f", 0),                                                  # M's rigid diagonal (0 at beams)
-    ("beam", "i", 4), ("bcol", "i", 0), ("bdat", "f", 0),              # FFR beams: (first column,
-    ("grav", "f", 0),                                                  # nf, first float, elements)
+    ("beam", "i", 6), ("bcol", "i", 0), ("bdat", "f", 0),              # FFR beams: (first column,
+    ("bdof", "i", 0), ("grav", "f", 0),                                # nf, first float, elements,
+                                                                       # first dof, dofs/element)
     ("cel", "i", 4), ("pel", "i", 4),                                  # elastic terms of joint points:
     ("ecol", "i", 0), ("eshp", "f", 2),                                # spans; column, shape (S_x, S_y)
 )
@@ -153,8 +154,8 @@ _inline = numba.njit(cache=True, nogil=True, inline="always")
  LROW, LCOL, LCOEF, LOFF, SCOL1, SS1, SCOL2, SS2, SPAR, RCOL, RPAR,
  FCOL, FS, FF, ROW_ELEMENT, CODE, CONSTS, PROG, LFN, TCOL, TFN, FFN, STACK,
  VAR, VARC, XVAL, STQ, SDV, PFN, GEO, GEOF, FRI, FRP,
- DROW, DCOL1, DS1, DCOL2, DS2, DLEN, MRIG, BEAM, BCOL, BDAT, GRAV, CEL, PEL, ECOL,
- ESHP) = range(61)
+ DROW, DCOL1, DS1, DCOL2, DS2, DLEN, MRIG, BEAM, BCOL, BDAT, BDOF, GRAV, CEL, PEL, ECOL,
+ ESHP) = range(62)
 if any(globals()[name.upper()] != k for k, (name, _, _) in enumerate(MODEL_SCHEMA)):
     raise ImportError("compiled.py's field indices differ from MODEL_SCHEMA")   # pragma: no cover
 
@@ -902,7 +903,10 @@ def _emit_elastic_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef):
 # bcol[k0:k0 + c] of q; its shape integrals are floats bdat[f0:] in the order
 # m, s0 (2), I0, S_bar (2 x nf), a_u (nf), a_I (nf), M_ff, S_tilde, K (nf x nf
 # each), and for ne elements with geometric stiffening k_e = EA l / 2 (ne),
-# Bu (ne x nf), G (ne x nf x nf). ``_ffr_local`` evaluates the beam's dense
+# Bu (ne x dm), G (ne x dm x dm) on each element's dm elastic coordinates,
+# bdof[d0:d0 + ne dm] (an element's strain reads only its own nodes: without
+# this restriction a force evaluation costs ne nf^2, 313 000 products for a
+# 32-element beam; padding entries are 0 with zero data). ``_ffr_local`` evaluates the beam's dense
 # local blocks (Shabana, Dynamics of Multibody Systems, ch. 5; Sharf 1995 for
 # the stiffening), the scatter functions below it place them.
 # --------------------------------------------------------------------------------------------
@@ -924,11 +928,12 @@ def _ffr_local(I, Fl, b, qx, vx, x, what, M, Q, Qq, Qv, Mxq):
     (M(q) x)_q into Mxq (c, c) for the extended vector x, as ``what`` asks
     (FFR_* bits); (q, v) from qx, vx."""
     k0, nf, f0, ne = _i(I, BEAM, b, 0), _i(I, BEAM, b, 1), _i(I, BEAM, b, 2), _i(I, BEAM, b, 3)
+    d0, dm = _i(I, BEAM, b, 4), _i(I, BEAM, b, 5)
     sb_, au_ = f0 + 4, f0 + 4 + 2 * nf
     ai_, mff_ = au_ + nf, au_ + 2 * nf
     st_, kk_ = mff_ + nf * nf, mff_ + 2 * nf * nf
     kea_ = mff_ + 3 * nf * nf
-    bu_, gg_ = kea_ + ne, kea_ + ne + ne * nf
+    bu_, gg_ = kea_ + ne, kea_ + ne + ne * dm
     qf, qd = np.empty(nf), np.empty(nf)
     for j in range(nf):
         col = _i(I, BCOL, k0 + 3 + j, 0)
@@ -1013,29 +1018,30 @@ def _ffr_local(I, Fl, b, qx, vx, x, what, M, Q, Qq, Qv, Mxq):
                                         - _bd(I, Fl, kk_ + j * nf + i))
                     Qv[3 + j, 3 + i] = -2.0 * w * _bd(I, Fl, st_ + j * nf + i)
         if ne > 0:          # geometric stiffening: - dU_G/dq_f, - d^2U_G/dq_f^2
-            g = np.empty(nf)
+            g, dof = np.empty(dm), np.empty(dm, np.int64)
             for e in range(ne):
                 ke = _bd(I, Fl, kea_ + e)
+                for i in range(dm):
+                    dof[i] = _i(I, BDOF, d0 + e * dm + i, 0)
                 ae, ce = 0.0, 0.0
-                for i in range(nf):
-                    ae += _bd(I, Fl, bu_ + e * nf + i) * qf[i]
+                for i in range(dm):
+                    ae += _bd(I, Fl, bu_ + e * dm + i) * qf[dof[i]]
                     gi = 0.0
-                    for j in range(nf):
-                        gi += _bd(I, Fl, gg_ + (e * nf + i) * nf + j) * qf[j]
+                    for j in range(dm):
+                        gi += _bd(I, Fl, gg_ + (e * dm + i) * dm + j) * qf[dof[j]]
                     g[i] = gi
-                for i in range(nf):
-                    ce += g[i] * qf[i]
-                for i in range(nf):
-                    bui = _bd(I, Fl, bu_ + e * nf + i)
+                for i in range(dm):
+                    ce += g[i] * qf[dof[i]]
+                for i in range(dm):
+                    bui = _bd(I, Fl, bu_ + e * dm + i)
                     if what & FFR_Q:
-                        Q[3 + i] -= ke * (ce * bui + (2.0 * ae + ce) * g[i])
+                        Q[3 + dof[i]] -= ke * (ce * bui + (2.0 * ae + ce) * g[i])
                     if what & FFR_DQ:
-                        for j in range(nf):
-                            buj = _bd(I, Fl, bu_ + e * nf + j)
-                            Qq[3 + i, 3 + j] -= ke * (2.0 * (bui * g[j] + g[i] * buj)
-                                                      + 2.0 * g[i] * g[j]
-                                                      + (2.0 * ae + ce)
-                                                      * _bd(I, Fl, gg_ + (e * nf + i) * nf + j))
+                        for j in range(dm):
+                            buj = _bd(I, Fl, bu_ + e * dm + j)
+                            Qq[3 + dof[i], 3 + dof[j]] -= ke * (
+                                2.0 * (bui * g[j] + g[i] * buj) + 2.0 * g[i] * g[j]
+                                + (2.0 * ae + ce) * _bd(I, Fl, gg_ + (e * dm + i) * dm + j))
     if what & FFR_MXQ:
         xR0, xR1 = x[_i(I, BCOL, k0, 0)], x[_i(I, BCOL, k0 + 1, 0)]
         xp = x[cph]
@@ -2385,7 +2391,7 @@ def triplet_bound(I) -> int:
     phiq = 8 * kc + 6 * kp + 2 * kl + 6 * kd
     beams, csum = 0, 0
     for b in range(rows(BEAM)):     # blocks, and the additive form's M M_n^-1 Phi_q^T (twice)
-        c = 3 + int(I[int(I[3 * BEAM]) + 4 * b + 1])
+        c = 3 + int(I[int(I[3 * BEAM]) + 6 * b + 1])
         beams += 15 * c * c + 2 * c * (phiq + 2 * rows(ECOL))
         csum += c
     base = (6 * n + rows(ROW_ELEMENT) + 6 * phiq + 4 * (2 * kc + 12 * kp + 36 * kd)

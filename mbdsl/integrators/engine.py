@@ -308,7 +308,8 @@ class CompiledModel:
                  "fri": np.zeros((0, 5), i8), "frp": np.zeros((0, 6)),
                  "drow": np.zeros(0, i8), "dcol1": np.zeros((0, 3), i8), "ds1": np.zeros((0, 2)),
                  "dcol2": np.zeros((0, 3), i8), "ds2": np.zeros((0, 2)), "dlen": np.zeros(0),
-                 "beam": np.zeros((0, 4), i8), "bcol": np.zeros(0, i8), "bdat": np.zeros(0),
+                 "beam": np.zeros((0, 6), i8), "bcol": np.zeros(0, i8), "bdat": np.zeros(0),
+                 "bdof": np.zeros(0, i8),
                  "grav": np.zeros(0), "cel": np.zeros((0, 4), i8), "pel": np.zeros((0, 4), i8),
                  "ecol": np.zeros(0, i8), "eshp": np.zeros((0, 2))}
         d = dict(empty)
@@ -468,23 +469,38 @@ class CompiledModel:
 def _beam_fields(system) -> dict:
     """The flexible beams' model data (``compiled``, "Flexible beams"): per
     beam (first entry in bcol, nf, first float in bdat, elements with
-    geometric stiffening), its columns, its shape integrals, and gravity."""
-    beam, bcol, bdat, grav = [], [], [], np.zeros(0)
+    geometric stiffening, first entry in bdof, elastic coordinates per
+    element), its columns, its shape integrals, each element's strain data
+    on its own elastic coordinates, and gravity."""
+    beam, bcol, bdat, bdof, grav = [], [], [], [], np.zeros(0)
     for g in system.flexible_groups:
         if g.gravity is not None:
             grav = np.asarray(g.gravity, dtype=float)
         for k in range(len(g.beams)):
             ne = int(g.Bu.shape[1]) if g.stiffening[k] else 0
             start = sum(len(x) for x in bdat)
-            beam.append((len(bcol), g.nf, start, ne))
-            bcol.extend(int(c) for c in g.cols[k])
             parts = [np.atleast_1d(g.m[k]), g.s0[k], np.atleast_1d(g.I0[k]), g.S_bar[k].ravel(),
                      g.a_u[k], g.a_I[k], g.M_ff[k].ravel(), g.S_tilde[k].ravel(), g.K[k].ravel()]
+            dofs = []
+            if ne:            # each element's coordinates: where its Bu or G is nonzero
+                Bu, G = g.Bu[k], g.G[k]
+                dofs = [np.flatnonzero((Bu[e] != 0) | (np.abs(G[e]).sum(0) != 0)
+                                       | (np.abs(G[e]).sum(1) != 0)) for e in range(ne)]
+            dm = max((len(d) for d in dofs), default=0)
+            beam.append((len(bcol), g.nf, start, ne, len(bdof), dm))
+            bcol.extend(int(c) for c in g.cols[k])
             if ne:
-                parts += [g.kEA[k], g.Bu[k].ravel(), g.G[k].ravel()]
+                idx = np.zeros((ne, dm), np.int64)
+                Bu_e, G_e = np.zeros((ne, dm)), np.zeros((ne, dm, dm))
+                for e, d in enumerate(dofs):
+                    idx[e, :len(d)] = d
+                    Bu_e[e, :len(d)] = Bu[e, d]
+                    G_e[e, :len(d), :len(d)] = G[e][np.ix_(d, d)]
+                parts += [g.kEA[k], Bu_e.ravel(), G_e.ravel()]
+                bdof.extend(int(x) for x in idx.ravel())
             bdat.append(np.concatenate([np.asarray(x, dtype=float).ravel() for x in parts]))
-    return {"beam": np.array(beam, np.int64).reshape(-1, 4),
-            "bcol": np.array(bcol, np.int64),
+    return {"beam": np.array(beam, np.int64).reshape(-1, 6),
+            "bcol": np.array(bcol, np.int64), "bdof": np.array(bdof, np.int64),
             "bdat": np.concatenate(bdat) if bdat else np.zeros(0), "grav": grav}
 
 
