@@ -1819,6 +1819,19 @@ def _beam_rows_solve(I, Fl, qx, r, n, r5):
 
 
 @_jit
+def _beam_map(I, n):
+    """(beam, local index) of each of the n columns: the beam whose
+    coordinates it is (-1 for a rigid body's), and its place among them."""
+    beam_of, local = np.full(n, -1, np.int64), np.zeros(n, np.int64)
+    for b in range(_rows(I, BEAM)):
+        k0 = _i(I, BEAM, b, 0)
+        for a in range(3 + _i(I, BEAM, b, 1)):
+            beam_of[_i(I, BCOL, k0 + a, 0)] = b
+            local[_i(I, BCOL, k0 + a, 0)] = a
+    return beam_of, local
+
+
+@_jit
 def _emit_mass_ratio_phiqT(I, Fl, n, qx, qx_old, R, C, V, p, r0, c0, coef):
     """coef M(q) M(q_n)^-1 Phi_q(q_n)^T at (r0, c0): Phi_q(q_n)^T on the
     rigid columns; on a beam's columns its block T = M_b(q) M_b(q_n)^-1
@@ -1828,14 +1841,11 @@ def _emit_mass_ratio_phiqT(I, Fl, n, qx, qx_old, R, C, V, p, r0, c0, coef):
     nb, cmax = _rows(I, BEAM), 3
     for b in range(nb):
         cmax = max(cmax, 3 + _i(I, BEAM, b, 1))
-    beam_of, local = np.full(n, -1, np.int64), np.zeros(n, np.int64)
+    beam_of, local = _beam_map(I, n)
     T = np.zeros((nb, cmax, cmax))
     M, Q, Qq, Qv, Mxq = _ffr_scratch(I)
     for b in range(nb):
-        k0, c = _i(I, BEAM, b, 0), 3 + _i(I, BEAM, b, 1)
-        for a in range(c):
-            beam_of[_i(I, BCOL, k0 + a, 0)] = b
-            local[_i(I, BCOL, k0 + a, 0)] = a
+        c = 3 + _i(I, BEAM, b, 1)
         _ffr_local(I, Fl, b, qx_old, qx_old, qx_old, FFR_M, M, Q, Qq, Qv, Mxq)
         Mn = M[:c, :c].copy()
         _ffr_local(I, Fl, b, qx, qx, qx, FFR_M, M, Q, Qq, Qv, Mxq)
@@ -1929,12 +1939,7 @@ def _unscale_beam_rows(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, R, C, V,
             z[k, j] -= u[off + j]
         p = _emit_beams(I, Fl, qx, vx, z[k], FFR_MXQ, R, C, V, p, off, 0, cqx, 0.0)
     Minv = _beam_inverses(I, Fl, qx)
-    beam_of, local = np.full(n, -1, np.int64), np.zeros(n, np.int64)
-    for b in range(_rows(I, BEAM)):
-        k0 = _i(I, BEAM, b, 0)
-        for a in range(3 + _i(I, BEAM, b, 1)):
-            beam_of[_i(I, BCOL, k0 + a, 0)] = b
-            local[_i(I, BCOL, k0 + a, 0)] = a
+    beam_of, local = _beam_map(I, n)
     nb, cmax = Minv.shape[0], Minv.shape[1]
     rows_of = np.zeros((3, nb, cmax, size))        # the beams' rows, by block, dense
     used = np.zeros((3, nb, size), np.bool_)       # their structural columns
