@@ -2427,17 +2427,25 @@ def _start_force(rc, I, Fl, t0, q, v, lam, F0, F, qx, vx, work):
 
 
 @_jit
-def _start_w(rc, n, m, a, v, lam, w):
-    """Newton's start: x = a_n, lambda_n (the additive form: dq, dv at the
-    Newmark predictor with a = a_n and psi_I = lambda_n; y = y0v v_n)."""
+def _start_w(rc, I, Fl, q, a, v, lam, w, qx, y):
+    """Newton's start: x = a_n, lambda_n; y = y0v v_n. The additive form:
+    a = a_n, psi_I = psi_II = lambda_n, and dq, dv with the corrections of
+    the step before, R_n = -M(q_n)^-1 Phi_q(q_n)^T lambda_n, in place of R_I
+    and R_II (``HHTADD.predict``): dq = ka1 a_n + R_n / 2, dv = ka2 a_n +
+    R_n. ``qx``, ``y``: scratch of size n + 3."""
+    n, m = _rows(I, MASS), _rows(I, ROW_ELEMENT)
     size, l0, e0, a0 = _layout(rc, n, m)
     w[:] = 0.0
     w[a0:a0 + n] = a
     w[l0:l0 + m] = lam
     if rc[FORM] == ADDITIVE:
+        qx[:n] = q
+        y[:] = 0.0
+        phiqT_add(I, Fl, qx, lam, 1.0, y)
+        _mass_solve(I, Fl, qx, y, y)                  # y = -R_n
         for j in range(n):
-            w[j] = rc[KA1] * a[j]
-            w[n + j] = rc[KA2] * a[j]
+            w[j] = rc[KA1] * a[j] - 0.5 * y[j]
+            w[n + j] = rc[KA2] * a[j] - y[j]
         w[e0:e0 + m] = lam
     elif e0 < size:
         for j in range(n):
@@ -2504,7 +2512,7 @@ def _run(rec2, I, Fl, h, t0, n_steps, step0, every, q, v, a, b, lam, mu, q_prev,
         first = lu_state[2] == 0.0
         rc = rec2[0] if first else rec2[1]
         predict(rc, first, q, v, a, b, q_prev, v_prev, q_pred, v_pred)
-        _start_w(rc, n, m, a, v, lam, w)
+        _start_w(rc, I, Fl, q, a, v, lam, w, qx, work)
         for j in range(n):                 # q_n (the additive form), or Mhat's q_n + mh v_n
             qx_old[j] = q[j] + rc[MH] * v[j]
         _scales_weights(rc, I, Fl, q, w, opts, R, C, V, qx, weight, scratch)
@@ -2625,7 +2633,7 @@ def _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, 
             lu_state[0] = 0.0
             h_factored, c0_factored = step, c0
         predict(rc, first, q, v, a, b, q_prev, v_prev, q_pred, v_pred)
-        _start_w(rc, n, m, a, v, lam, w)
+        _start_w(rc, I, Fl, q, a, v, lam, w, qx, work)
         for j in range(n):                 # q_n (the additive form), or Mhat's q_n + mh v_n
             qx_old[j] = q[j] + rc[MH] * v[j]
         _scales_weights(rc, I, Fl, q, w, opts, R, C, V, qx, weight, scratch)

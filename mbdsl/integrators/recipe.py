@@ -77,7 +77,9 @@ with M = M(q), M_n = M(q_n) and f_n = M_n^-1 Q_n (for rigid bodies M M_n^-1 = I;
 with flexible beams a block solve per beam).
 
 Scales: sx for dq and dv, sy for a, sm times the mobility for psi_I and
-psi_II. lambda := psi_II; psi_I is the method's extra multiplier.
+psi_II. lambda := psi_II; psi_I is the method's extra multiplier. Newton
+starts from a = a_n, psi_I = psi_II = lambda_n, dq = ka1 a_n + R_n/2 and
+dv = ka2 a_n + R_n, R_n = -M(q_n)^-1 Phi_q(q_n)^T lambda_n.
 """
 
 from __future__ import annotations
