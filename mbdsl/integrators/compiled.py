@@ -68,6 +68,7 @@ from .recipe import RECIPE_FIELDS
 
 __all__ = ["MODEL_SCHEMA", "MODEL_FIELDS", "residual", "jacobian_triplets", "force_term", "old_force",
            "predict", "state", "layout", "advance", "mobility", "index1_multipliers",
+           "index1_multipliers_band",
            "accumulate", "run", "run_adaptive", "triplet_bound", "pack", "unpack", "lapack_band_addresses",
            "DENSE", "BANDED"]
 
@@ -2025,6 +2026,106 @@ def _force_term(I, Fl, t, q, v, lam, out, qx, vx, work):
 
 
 @_jit
+def _index1_gamma(I, Fl, t, qx, vx, gam, R, C, V):
+    """-gamma = (Phi_q v)_q v + Phi_tt into gam (m,) at (t, qx, vx) (Haug, sec. 6.3)."""
+    n = _rows(I, MASS)
+    gam[:] = 0.0
+    _phi_time_add(I, Fl, t, gam, 2)
+    p = _emit_G(I, Fl, n, qx, vx, R, C, V, 0, 0, 0, 1.0)
+    for i in range(p):
+        gam[R[i]] += V[i] * vx[C[i]]
+
+
+@_jit
+def _index1_multipliers_band(I, Fl, t, q, v, out, R, C, V, iterations, order, kd, addr):
+    """The index-1 multipliers of ``_index1_multipliers`` for rigid bodies
+    (M a constant diagonal) from the Schur complement
+
+        A lambda = Phi_q M^-1 Q - gamma,    A = Phi_q M^-1 Phi_q^T (m x m, SPD),
+
+    the constraint rows reordered by ``order`` (position k holds row
+    order[k]) so that A is a band of half-width kd, factored by LAPACK's
+    band Cholesky (dpbtrf, dpbtrs at ``addr``). A chain of N links costs
+    O(N) per row instead of the O((n + m)^3) of the dense index-1 matrix.
+    Friction: the fixed point of ``_index1_multipliers`` on the same
+    factorization. A matrix that is not positive definite, or whose
+    Cholesky pivots (U_kk^2) fall below 1e-13 of the largest (redundant
+    joints, a singular position), gives NaN for that row."""
+    n, m = q.shape[1], out.shape[1]
+    qx, vx, work = np.zeros(n + 3), np.zeros(n + 3), np.zeros(n + 3)
+    ldab = kd + 1
+    AB, b, gam, lam = np.empty((m, ldab)), np.empty(m), np.empty(m), np.zeros(m)
+    place = np.empty(m, np.int64)
+    for k in range(m):
+        place[order[k]] = k
+    ints = np.array([m, kd, ldab, 1, 0], np.int32)    # n, kd, ldab, nrhs, info
+    uplo = np.array([ord("U")], np.uint8)
+    minv = np.empty(n)
+    for j in range(n):
+        minv[j] = 1.0 / _f(I, Fl, MASS, j, 0)
+    friction = _rows(I, FRI) > 0
+    by_col = np.empty(0, np.int64)
+    start = np.zeros(n + 1, np.int64)
+    for row in range(q.shape[0]):
+        for j in range(n):
+            qx[j], vx[j] = q[row, j], v[row, j]
+        _index1_gamma(I, Fl, t[row], qx, vx, gam, R, C, V)    # before R, C, V hold Phi_q
+        p = _emit_phiq(I, Fl, n, qx, R, C, V, 0, 0, 0, 1.0, False)
+        if row == 0:               # the pattern is fixed: entries grouped by column once
+            by_col = np.argsort(C[:p], kind="mergesort")
+            for i in range(p):
+                start[C[i] + 1] += 1
+            for j in range(n):
+                start[j + 1] += start[j]
+        AB[:, :] = 0.0             # A(i, j), i <= j, at AB[j, kd + i - j] (LAPACK "U")
+        ok = True
+        for col in range(n):
+            for x in range(start[col], start[col + 1]):
+                ex = by_col[x]
+                i = place[R[ex]]
+                for y in range(start[col], start[col + 1]):
+                    ey = by_col[y]
+                    j = place[R[ey]]
+                    if i <= j:
+                        if j - i > kd:
+                            ok = False
+                        else:
+                            AB[j, kd + i - j] += V[ex] * V[ey] * minv[col]
+        if ok:
+            ints[4] = 0
+            _fortran_call(addr[0], (uplo, ints[0:1], ints[1:2], AB, ints[2:3], ints[4:5]))
+            ok = ints[4] == 0
+            # dependent rows leave a pivot of round-off (3e-15 of the largest on a
+            # parallelogram with a redundant link), which dpbtrf accepts
+            dmin, dmax = np.inf, 0.0
+            for k in range(m):
+                d = AB[k, kd] * AB[k, kd]
+                dmin, dmax = min(dmin, d), max(dmax, d)
+            ok = ok and dmin >= 1e-13 * dmax
+        lam[:] = 0.0
+        settled = False
+        for sweep in range(iterations if (friction and ok) else (1 if ok else 0)):
+            forces(I, Fl, t[row], qx, vx, lam, work)
+            for k in range(m):
+                b[k] = gam[order[k]]            # Phi_q M^-1 Q - gamma, reordered
+            for e in range(p):
+                b[place[R[e]]] += V[e] * minv[C[e]] * work[C[e]]
+            _fortran_call(addr[1], (uplo, ints[0:1], ints[1:2], ints[3:4], AB, ints[2:3], b,
+                                    ints[0:1], ints[4:5]))
+            change, big = 0.0, 0.0
+            for k in range(m):
+                xk = b[place[k]]
+                change = max(change, abs(xk - lam[k]))
+                big = max(big, abs(xk))
+                lam[k] = xk
+            if not friction or change <= 1e-13 * (1.0 + big):
+                settled = True
+                break
+        for k in range(m):
+            out[row, k] = lam[k] if settled and np.isfinite(lam[k]) else np.nan
+
+
+@_jit
 def _index1_multipliers(I, Fl, t, q, v, out, R, C, V, iterations):
     """The Lagrange multipliers of the index-1 system at each row into out
     (N, m): [[M(q), Phi_q^T], [Phi_q, 0]] [a; lambda] = [Q(t, q, v,
@@ -2048,11 +2149,7 @@ def _index1_multipliers(I, Fl, t, q, v, out, R, C, V, iterations):
         K[:, :] = 0.0
         for i in range(p):
             K[R[i], C[i]] += V[i]
-        gam[:] = 0.0
-        _phi_time_add(I, Fl, t[row], gam, 2)
-        p = _emit_G(I, Fl, n, qx, vx, R, C, V, 0, 0, 0, 1.0)
-        for i in range(p):
-            gam[R[i]] += V[i] * vx[C[i]]
+        _index1_gamma(I, Fl, t[row], qx, vx, gam, R, C, V)
         lam[:] = 0.0
         ok = False
         for sweep in range(iterations if friction else 1):
@@ -2197,8 +2294,9 @@ def _fortran_call(typingctx, address, args):
     return sig, codegen
 
 
-def lapack_band_addresses():
-    """int64 array (2,): the addresses of LAPACK's dgbtrf and dgbtrs in
+def lapack_band_addresses(names=("dgbtrf", "dgbtrs")):
+    """int64 array: the addresses of LAPACK's routines ``names`` (default the
+    band LU, dgbtrf and dgbtrs; the band Cholesky is dpbtrf, dpbtrs) in
     scipy.linalg.cython_lapack (the LAPACK scipy itself links), or None when
     that build uses 64-bit integers (the kernels pass 32-bit ones)."""
     import scipy
@@ -2210,7 +2308,7 @@ def lapack_band_addresses():
     except Exception:       # noqa: BLE001 - an older scipy without the dict: LP64 builds only
         pass
     return np.array([get_cython_function_address("scipy.linalg.cython_lapack", name)
-                     for name in ("dgbtrf", "dgbtrs")], np.int64)
+                     for name in names], np.int64)
 
 
 @_jit
@@ -2824,6 +2922,12 @@ def force_term(I, Fl, t, q, v, lam, out, qx, vx, work):
 def index1_multipliers(I, Fl, t, q, v, out, R, C, V, iterations):
     """Entry point of ``_index1_multipliers``."""
     _index1_multipliers(I, Fl, t, q, v, out, R, C, V, iterations)
+
+
+@_jit
+def index1_multipliers_band(I, Fl, t, q, v, out, R, C, V, iterations, order, kd, addr):
+    """Entry point of ``_index1_multipliers_band``."""
+    _index1_multipliers_band(I, Fl, t, q, v, out, R, C, V, iterations, order, kd, addr)
 
 
 @_jit

@@ -133,9 +133,12 @@ def _unsupported_elements(system) -> str | None:
 def index1_multipliers(system, t, q, v) -> np.ndarray:
     """The Lagrange multipliers of the index-1 system at stored rows, shape
     (N, m): ``AssembledSystem.index1_multipliers``, evaluated by the kernels
-    (``compiled.index1_multipliers``) when this process has loaded them and
-    they cover the model (a run on the compiled engine), else by the numpy
-    groups. Rows: t (N,) [s], q and v (N, n)."""
+    when this process has loaded them and they cover the model (a run on the
+    compiled engine), else by the numpy groups. Rigid bodies: the Schur
+    complement Phi_q M^-1 Phi_q^T in a band Cholesky
+    (``compiled.index1_multipliers_band``, ``_index1_band``; linear in the
+    size of a chain); flexible beams: the dense index-1 matrix
+    (``compiled.index1_multipliers``). Rows: t (N,) [s], q and v (N, n)."""
     from .kernel_cache import loaded
     if not loaded() or _unsupported_elements(system) is not None:
         return system.index1_multipliers(t, q, v)
@@ -147,9 +150,42 @@ def index1_multipliers(system, t, q, v) -> np.ndarray:
     v = np.ascontiguousarray(np.atleast_2d(v), dtype=float)
     out = np.empty((len(t), system.m))
     R, C = np.empty(cm.bound, np.int64), np.empty(cm.bound, np.int64)
-    _kernels().index1_multipliers(cm.ints, cm.floats, t, q, v, out, R, C, np.empty(cm.bound),
-                                  system.FRICTION_ITERATIONS)
+    band = _index1_band(system)
+    if band is None:
+        _kernels().index1_multipliers(cm.ints, cm.floats, t, q, v, out, R, C, np.empty(cm.bound),
+                                      system.FRICTION_ITERATIONS)
+    else:
+        _kernels().index1_multipliers_band(cm.ints, cm.floats, t, q, v, out, R, C,
+                                           np.empty(cm.bound), system.FRICTION_ITERATIONS, *band)
     return out
+
+
+def _index1_band(system):
+    """(order, kd, addresses) of ``compiled.index1_multipliers_band`` for a
+    model of rigid bodies (constant diagonal M): the reverse Cuthill-McKee
+    order of the constraint rows on the pattern of Phi_q M^-1 Phi_q^T and its
+    half-bandwidth kd there, and LAPACK's dpbtrf and dpbtrs; None for
+    flexible beams (M(q) is not diagonal: the dense index-1 matrix) or where
+    the LAPACK routines cannot be called (an ILP64 build). Cached on the
+    system."""
+    if hasattr(system, "_index1_band_plan"):
+        return system._index1_band_plan
+    plan = None
+    addresses = _kernels().lapack_band_addresses(("dpbtrf", "dpbtrs"))
+    if system.mass_is_constant and system.m and addresses is not None:
+        import scipy.sparse
+        from scipy.sparse.csgraph import reverse_cuthill_mckee
+        rows, cols = system.pattern_Phi_q
+        B = scipy.sparse.csr_matrix((np.ones(len(rows)), (rows, cols)),
+                                    shape=(system.m, system.n))
+        A = (B @ B.T).tocoo()
+        order = np.asarray(reverse_cuthill_mckee(A.tocsr(), symmetric_mode=True), np.int64)
+        place = np.empty(system.m, np.int64)
+        place[order] = np.arange(system.m)
+        kd = int(np.max(np.abs(place[A.row] - place[A.col]), initial=0))
+        plan = (order, kd, addresses)
+    system._index1_band_plan = plan
+    return plan
 
 
 def newton_size(system, method) -> int:

@@ -12,6 +12,7 @@ import pytest
 
 import mbdsl
 from mbdsl.integrators import NewtonOptions, integrate, make_method
+from mbdsl.integrators import engine as engine_module
 from mbdsl.integrators.common import force_term
 from mbdsl.integrators.engine import (CompiledModel, SparseAdapter, band_ordering,
                                      linear_solver_plan, select_engine, unsupported)
@@ -290,21 +291,58 @@ def test_index1_multipliers_of_the_kernels_are_the_numpy_groups(path):
     from mbdsl.integrators import compiled, kernel_cache
     from mbdsl.integrators.engine import index1_multipliers
     kernel_cache.ensure_loaded("dense")
+    # Rigid bodies take the Schur complement Phi_q M^-1 Phi_q^T in LAPACK's band Cholesky
+    # (``engine._index1_band``), beams the dense index-1 matrix; both are checked here.
     system, init = _system(path)
     sol = integrate(system, make_method("hht-i3"), 0.05, 1e-3, initial=init, engine="numpy",
                     output_every=5)
     a = system.index1_multipliers(sol.t, sol.q, sol.v)
     b = index1_multipliers(system, sol.t, sol.q, sol.v)
+    assert (engine_module._index1_band(system) is None) == ("flexible" in path.name)
     assert np.isfinite(a).all()
     assert np.abs(a - b).max() < 1e-10 * max(1.0, np.abs(a).max())
     # and they are the multipliers the index-3 run converged to, to its O(h^2) accuracy
     assert np.abs(b - sol.lam).max() < 1e-2 * max(1.0, np.abs(sol.lam).max())
-    # a singular matrix gives NaN for its row, not an exception
     cm = CompiledModel(system)
-    out = np.empty((1, system.m))
     R, C = np.empty(cm.bound, np.int64), np.empty(cm.bound, np.int64)
-    compiled.index1_multipliers(cm.ints, cm.floats, np.zeros(1), np.full((1, system.n), np.nan),
-                                np.zeros((1, system.n)), out, R, C, np.empty(cm.bound), 5)
+    if system.mass_is_constant:    # the dense kernel on rigid bodies too: the same multipliers
+        dense = np.empty_like(b)
+        compiled.index1_multipliers(cm.ints, cm.floats, sol.t, sol.q, sol.v, dense, R, C,
+                                    np.empty(cm.bound), system.FRICTION_ITERATIONS)
+        assert np.abs(dense - b).max() < 1e-10 * max(1.0, np.abs(a).max())
+    # a singular matrix gives NaN for its row, not an exception (both kernels)
+    bad_q, zero_v = np.full((1, system.n), np.nan), np.zeros((1, system.n))
+    out = np.empty((1, system.m))
+    compiled.index1_multipliers(cm.ints, cm.floats, np.zeros(1), bad_q, zero_v, out, R, C,
+                                np.empty(cm.bound), 5)
+    assert np.isnan(out).all()
+    if system.mass_is_constant:
+        out[:] = 0.0
+        compiled.index1_multipliers_band(cm.ints, cm.floats, np.zeros(1), bad_q, zero_v, out, R,
+                                         C, np.empty(cm.bound), 5,
+                                         *engine_module._index1_band(system))
+        assert np.isnan(out).all()
+
+
+def test_index1_multipliers_of_redundant_joints_are_nan_in_the_band_kernel():
+    # Phi_q M^-1 Phi_q^T of a parallelogram with a redundant link is singular, but round-off
+    # leaves its last Cholesky pivot at 3e-15 of the largest, which LAPACK accepts: the
+    # kernel must refuse it (NaN rows), not return one of the many lambda
+    from mbdsl.integrators import compiled, kernel_cache
+    kernel_cache.ensure_loaded("dense")
+    model = mbdsl.load(MODELS / "parallelogram_redundant.mbd")
+    system = mbdsl.assemble(model)
+    rows, cols = system.pattern_Phi_q
+    q = mbdsl.consistent_initial_state(system, redundant="accept").q
+    Pq = np.zeros((system.m, system.n))
+    np.add.at(Pq, (rows, cols), system.Phi_q_values(q, 0.0))
+    assert np.linalg.matrix_rank(Pq) < system.m          # the premise: redundant rows
+    cm = CompiledModel(system)
+    R, C = np.empty(cm.bound, np.int64), np.empty(cm.bound, np.int64)
+    out = np.zeros((1, system.m))
+    compiled.index1_multipliers_band(cm.ints, cm.floats, np.zeros(1), q[None, :],
+                                     np.zeros((1, system.n)), out, R, C, np.empty(cm.bound),
+                                     5, *engine_module._index1_band(system))
     assert np.isnan(out).all()
 
 
