@@ -284,18 +284,6 @@ class Method(ABC):
         """
         return None
 
-    #: BDF2's coefficients follow the step ratio (error-controlled steps); set on
-    #: the copy that :meth:`with_variable_steps` returns
-    variable_steps: bool = False
-
-    def with_variable_steps(self) -> "Method":
-        """This method for a run whose step size changes every step (error
-        control, ``adaptive``): a copy with :attr:`variable_steps` set."""
-        import copy
-        out = copy.copy(self)
-        out.variable_steps = True
-        return out
-
     def kernel_recipe_at(self, h: float, first: bool, c0: float, w0: float,
                          w1: float) -> np.ndarray:
         """The recipe at step size h with a two-step method's coefficients

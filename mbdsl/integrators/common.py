@@ -12,7 +12,7 @@ import numpy as np
 
 from ..assembly.sparse import JacobianAssembler, Term
 
-__all__ = ["newmark_predictor", "force_term", "index3_newton_matrix", "bdf_coefficients",
+__all__ = ["newmark_predictor", "force_term", "index3_newton_matrix", "bdf_coefficients", "bdf_ratio_coefficients",
            "bdf_local_error",
            "roundoff_floor", "EPS", "Terms", "assemble", "hht_coefficients",
            "acceleration_scales", "si2_blocks", "si2_scales", "si2_residual",
@@ -194,20 +194,28 @@ def index3_newton_matrix(ctx, q, v, a, lam, c_mass: float, c_q: float, c_v: floa
     return assemble(ctx, T, n + system.m)
 
 
-def bdf_coefficients(history, h: float, variable: bool = False):
+def bdf_ratio_coefficients(h: float, spacing: float) -> tuple[float, float, float]:
+    """(c0, w0, w1) of BDF2 with unequal steps: D x_{n+1} = c0 (x_{n+1} -
+    w0 x_n - w1 x_{n-1}) for a step h after one of length ``spacing`` [s],
+    w = h / spacing (Hairer & Wanner, Solving ODEs II, sec. III.5):
+    c0 = (1 + 2w) / ((1 + w) h), w0 = (1 + w)^2 / (1 + 2w), w1 = -w^2 / (1 + 2w);
+    the fixed-step 3/(2h), 4/3, -1/3 at w = 1."""
+    w = h / spacing
+    return (1.0 + 2.0 * w) / ((1.0 + w) * h), (1.0 + w) ** 2 / (1.0 + 2.0 * w), \
+        -w * w / (1.0 + 2.0 * w)
+
+
+def bdf_coefficients(history, h: float):
     """BDF derivative D x_{n+1} = c0 (x_{n+1} - xi(x)) for the given history.
 
-    BDF2 (c0 = 3/(2h), xi = 4/3 x_n - 1/3 x_{n-1}) when two past states
-    with spacing h are available; otherwise BDF1 (c0 = 1/h, xi = x_n), the
-    start-up step, also taken after every change of the step size (BDF2's
-    fixed-step coefficients would be wrong then). One BDF1 step has a local
-    error O(h^2), which enters the global error once, so the order stays 2.
-
-    With ``variable`` (error-controlled steps, which change h every step)
-    a change of h keeps BDF2 with the coefficients of the step ratio
-    w = h / (t_n - t_{n-1}) (Hairer & Wanner, Solving ODEs II, sec. III.5):
-    c0 = (1 + 2w) / ((1 + w) h), xi = ((1 + w)^2 x_n - w^2 x_{n-1}) / (1 + 2w),
-    the fixed-step ones at w = 1.
+    BDF2 when two past states are available: c0 = 3/(2h), xi = 4/3 x_n -
+    1/3 x_{n-1} when they are h apart, else the coefficients of the step
+    ratio (``bdf_ratio_coefficients``: error-controlled steps, a halved or
+    regrown step, the last step shortened to land on t_end). Otherwise
+    BDF1 (c0 = 1/h, xi = x_n), the start-up step (also after an event,
+    where the driver drops the history): its local error O(h^2) enters the
+    global error once, so the order stays 2, but the velocities of an
+    index-3 BDF1 step are only O(h) accurate, in that step's row.
 
     Returns
     -------
@@ -222,11 +230,9 @@ def bdf_coefficients(history, h: float, variable: bool = False):
         spacing = last.t - history[-2].t
         if abs(spacing - h) <= 1e-9 * h:
             return 1.5 / h, ((4.0 / 3.0, last), (-1.0 / 3.0, history[-2])), 2
-        if variable and spacing > 0.0:
-            w = h / spacing
-            return ((1.0 + 2.0 * w) / ((1.0 + w) * h),
-                    (((1.0 + w) ** 2 / (1.0 + 2.0 * w), last),
-                     (-w * w / (1.0 + 2.0 * w), history[-2])), 2)
+        if spacing > 0.0:
+            c0, w0, w1 = bdf_ratio_coefficients(h, spacing)
+            return c0, ((w0, last), (w1, history[-2])), 2
     return 1.0 / h, ((1.0, last),), 1
 
 

@@ -123,11 +123,6 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
     output_every = int(output_every)
     from .engine import (SparseAdapter, prepare_compiled, run_compiled, run_compiled_adaptive,
                          select_engine)
-    if control is not None or getattr(system, "contact_group", None) is not None \
-            or getattr(system, "flipping_springs", None) is not None:
-        # error control changes h every step, and events cut steps: a two-step
-        # method keeps its order with the coefficients of unequal steps
-        method = method.with_variable_steps()
     if control is not None and method.max_step_ratio is not None \
             and control.max_factor > method.max_step_ratio:
         import dataclasses

@@ -248,6 +248,30 @@ def recipes(method, h):
     return np.stack([recipe(method, h, True), recipe(method, h, False)])
 
 
+def ratio_recipe(method, h, spacing):
+    """The recipe of a two-step method's step of size h [s] after one of
+    length ``spacing`` [s]: BDF2 with the coefficients of the step ratio
+    (``common.bdf_ratio_coefficients``), with the constraint formulation's
+    ``reg`` as in :func:`recipe`."""
+    from .common import bdf_ratio_coefficients
+    from .recipe import RECIPE_FIELDS
+    rec = method.kernel_recipe_at(h, False, *bdf_ratio_coefficients(h, spacing))
+    rec[RECIPE_FIELDS.index("reg")] = getattr(method, "regularization", 0.0)
+    return rec
+
+
+def step_recipe(method, history, h):
+    """(recipe, first) of the step of size h [s] after ``history`` (a list of
+    StepState): the start-up recipe, the steady one, or for a two-step
+    method whose last two states are not h apart :func:`ratio_recipe`."""
+    first = method.first_step(history, h)
+    if not first and method.history_length > 1 and len(history) >= 2:
+        spacing = history[-1].t - history[-2].t
+        if abs(spacing - h) > 1e-9 * h:
+            return ratio_recipe(method, h, spacing), first
+    return recipe(method, h, first), first
+
+
 def _recipe_value(method, name, h=1e-3):
     from .recipe import RECIPE_FIELDS
     return float(method.kernel_recipe(h, False)[RECIPE_FIELDS.index(name)])
@@ -964,17 +988,28 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
         schedule = _step_plan(t_start, t_end, h)
         for g, (n_steps, step_h) in enumerate(schedule):
             rec2 = recipes(method, step_h)
-            lu_state[0] = lu_state[2] = 0.0       # a new h: a new Newton matrix, a start-up step
+            lu_state[0] = 0.0                    # a new h: a new Newton matrix
+            # a two-step method with a history of the previous h: its first step is
+            # BDF2 of the step ratio (a BDF1 restart would leave O(h) velocities there)
+            ratio = None
+            if lu_state[2] == 1.0 and method.history_length > 1 and step_h != last_h:
+                ratio = np.stack([ratio_recipe(method, step_h, last_h)] * 2)
+            else:
+                lu_state[2] = 0.0
             last_h = step_h
             done = 0
             while done < n_steps and t < t_end - 1e-9 * h:
-                chunk = min(CHUNK, n_steps - done)
+                chunk = 1 if ratio is not None else min(CHUNK, n_steps - done)
                 t0 = t
                 status, taken, nrec = K.run(
-                    rec2, I, Fl, step_h, t0, chunk, step_no, output_every, q, v, a, b, lam, mu,
+                    rec2 if ratio is None else ratio, I, Fl, step_h, t0, chunk, step_no,
+                    output_every, q, v, a, b, lam, mu,
                     q_prev, v_prev, opts, solver, lin, lu_state, R, C, V, out_t, out_q, out_v,
                     out_a, out_lam, out_mu, out_stats, counts,
                     F_start if step_no == 0 else no_F)
+                if ratio is not None:            # then the steady recipe's Newton matrix
+                    ratio = None
+                    lu_state[0] = 0.0
                 add_rows(nrec, step_h)
                 step_no += taken
                 done += taken
@@ -1076,8 +1111,7 @@ class SparseAdapter:
         """The wrapped method's context, with the recipe of this step and its
         predictors (``compiled._run``) for the kernels."""
         ctx = self._method.context(system, history, t, h)
-        first = self._method.first_step(history, h)
-        rec = recipe(self._method, h, first)
+        rec, first = step_recipe(self._method, history, h)
         s = history[-1]
         p = history[-2] if len(history) >= 2 else s
         q_pred, v_pred = np.empty(system.n), np.empty(system.n)

@@ -26,11 +26,12 @@ class NStiff(Method):
     9/(4 h^2) Phi = 0; Newton matrix [[M + P, Phi_q^T], [Phi_q, 0]] with
     P = 4/9 h^2 ((M a)_q + (Phi_q^T lambda)_q - Q_q) - 2/3 h Q_v.
 
-    Start-up: two-step, so the first step (and the first step after any
-    change of h) is one backward-Euler (BDF1) step in the same unknowns,
-    c0 = 1/h, xi(x) = x_n (see :func:`~mbdsl.integrators.common.bdf_coefficients`):
-    its O(h^2) local error enters the global error once, so the method is of
-    order 2 from the first step.
+    Start-up: two-step, so the first step (and the first after an event) is
+    one backward-Euler (BDF1) step in the same unknowns, c0 = 1/h, xi(x) =
+    x_n (see :func:`~mbdsl.integrators.common.bdf_coefficients`): its O(h^2)
+    local error enters the global error once, so the method is of order 2
+    from the first step. A change of h keeps BDF2, with the coefficients of
+    the step ratio.
 
     Notes
     -----
@@ -83,7 +84,7 @@ class NStiff(Method):
 
     def first_step(self, history, h):
         """BDF1 when no two past states are h apart (``bdf_coefficients``)."""
-        return bdf_coefficients(history, h, self.variable_steps)[2] == 1
+        return bdf_coefficients(history, h)[2] == 1
 
     def start(self, system, initial) -> list[StepState]:
         """One state at t_0; the first step is BDF1."""
@@ -91,7 +92,7 @@ class NStiff(Method):
 
     def context(self, system, history, t, h) -> StepContext:
         """BDF coefficients (BDF2, or BDF1 at start-up) and the xi terms."""
-        c0, weights, order = bdf_coefficients(history, h, self.variable_steps)
+        c0, weights, order = bdf_coefficients(history, h)
         ctx = StepContext(system, tuple(history[-2:]), t, h)
         ctx.cache["c0"] = c0
         ctx.cache["xi_q"] = sum(w * s.q for w, s in weights)

@@ -38,9 +38,10 @@ class NStiffSI2(Method):
     independent constraints: the scaling c0 of the constraint rows keeps it
     well conditioned (choosing q, v themselves as unknowns would not).
 
-    Start-up: the first step (and the first after a change of h) is BDF1 in
-    the same unknowns (c0 = 1/h, xi(x) = x_n); its O(h^2) local error enters
-    once, so the order is 2 from the first step.
+    Start-up: the first step (and the first after an event) is BDF1 in the
+    same unknowns (c0 = 1/h, xi(x) = x_n); its O(h^2) local error enters
+    once, so the order is 2 from the first step. A change of h keeps BDF2,
+    with the coefficients of the step ratio.
 
     Notes
     -----
@@ -99,7 +100,7 @@ class NStiffSI2(Method):
 
     def first_step(self, history, h):
         """BDF1 when no two past states are h apart (``bdf_coefficients``)."""
-        return bdf_coefficients(history, h, self.variable_steps)[2] == 1
+        return bdf_coefficients(history, h)[2] == 1
 
     def start(self, system, initial) -> list[StepState]:
         """One state at t_0 (mu_0 = 0); the first step is BDF1."""
@@ -109,7 +110,7 @@ class NStiffSI2(Method):
 
     def context(self, system, history, t, h) -> StepContext:
         """BDF coefficients and the xi terms."""
-        c0, weights, order = bdf_coefficients(history, h, self.variable_steps)
+        c0, weights, order = bdf_coefficients(history, h)
         ctx = StepContext(system, tuple(history[-2:]), t, h)
         ctx.cache.update(c0=c0, bdf_order=order,
                          xi_q=sum(w * s.q for w, s in weights),
