@@ -115,7 +115,8 @@ class NewtonOptions:
         the compiled engine, whose iteration is a residual and a product
         with the stored inverse). Measured on the chain of N = 100 links,
         HHT-I3: 0.47 factorizations and 5.6 iterations per step at 0.1,
-        0.18 and 7.6 at 0.3, 25% less time per step.
+        0.18 and 7.6 at 0.3, 25% less time per step. 0.5 for HHT-ADD on
+        flexible beams, whose Newton matrix costs some 18 iterations.
     linear_solver : {"auto", "dense", "sparse", "banded"}
         LU of the Newton matrix: LAPACK on a dense array, or SuperLU
         (scipy.sparse.linalg.splu) on a CSC matrix assembled on the
@@ -135,12 +136,14 @@ class NewtonOptions:
     rate_refresh: float | None = None
     linear_solver: str = "auto"
 
-    def refresh_rate(self, expensive: bool) -> float:
-        """``rate_refresh``, or its default for a cheap (False) or an
-        expensive (True) factorization."""
+    def refresh_rate(self, cost: int) -> float:
+        """``rate_refresh``, or its default for a Newton matrix whose renewal
+        is cheap (0 or False: 0.1), expensive (1 or True: 0.3), or costs more
+        than a dozen iterations (2: 0.5, where a stalling iteration asks for
+        a new one anyway; ``engine.newton_matrix_cost``)."""
         if self.rate_refresh is not None:
             return float(self.rate_refresh)
-        return 0.3 if expensive else 0.1
+        return (0.1, 0.3, 0.5)[int(cost)]
 
     def __post_init__(self):
         if self.linear_solver not in ("auto", "dense", "sparse", "banded"):
