@@ -56,6 +56,12 @@ def loaded() -> bool:
     return bool(_loaded)
 
 
+def package_root() -> Path:
+    """The folder that holds the ``mbdsl`` package this process imported
+    (site-packages, or a source checkout)."""
+    return Path(__file__).resolve().parents[2]
+
+
 def _compiled_source() -> Path:
     return Path(__file__).with_name("compiled.py")
 
@@ -131,9 +137,15 @@ def start_background_build() -> bool:
         return False
     os.close(fd)
     try:
+        # run from the folder that holds this very package: ``-m`` puts the
+        # working directory first on the path, and from a source checkout
+        # (``pip install . && mbdsl simulate ...``, run where the README
+        # says) the child would otherwise build the checkout's copy, whose
+        # numba cache the installed command never reads
         subprocess.Popen([sys.executable, "-m", "mbdsl.integrators.kernel_cache"],
-                         stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-                         stderr=subprocess.DEVNULL, start_new_session=True, close_fds=True)
+                         cwd=package_root(), stdin=subprocess.DEVNULL,
+                         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                         start_new_session=True, close_fds=True)
     except OSError:
         lock.unlink(missing_ok=True)
         return False

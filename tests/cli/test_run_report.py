@@ -4,6 +4,7 @@ the wall time went, which engine ran, and how the compiled kernels are built."""
 import json
 import os
 import time
+from pathlib import Path
 
 import h5py
 import numpy as np
@@ -130,6 +131,11 @@ def test_background_policy_runs_numpy_and_starts_one_build(cache_dir, monkeypatc
         def __init__(self, cmd, **kw):
             started.append(cmd)
             assert kw.get("start_new_session")
+            # the child, run as ``-m`` from its working directory, imports this very
+            # package (not a source checkout's copy in the user's directory, whose
+            # numba cache the installed command would never read)
+            assert (Path(kw["cwd"]) / "mbdsl" / "__init__.py").resolve() == \
+                Path(mbdsl.__file__).resolve()
 
     monkeypatch.setattr("subprocess.Popen", FakePopen)
     system = mbdsl.assemble(mbdsl.load(MODELS / "slider_crank.mbd"))
