@@ -327,7 +327,7 @@ def select_engine(engine: str, system, method, compile_policy: str = "wait",
         if not kernels_ready() and start_background_build():
             if announce is not None:
                 announce("the compiled kernels are being built for this machine in the "
-                         "background (once, about two minutes); this run uses the numpy engine")
+                         "background (once, about four minutes); this run uses the numpy engine")
             return "numpy"
     return "compiled"
 

@@ -243,7 +243,7 @@ def ensure_loaded(group: str | None = None, announce=None, adaptive: bool = Fals
     timer = None
     if not ready:
         if announce is not None:
-            announce("compiling the kernels for this machine (once; about two minutes on two "
+            announce("compiling the kernels for this machine (once; about four minutes on two "
                      "cores, then cached) ...")
     elif announce is not None:
         def late():
