@@ -1703,6 +1703,15 @@ def _mass_solve(I, Fl, qM, x, out):
 
 
 @_jit
+def _minus_correction(I, Fl, qx, psi, y):
+    """y[:n] = M(q)^-1 Phi_q(q)^T psi at qx: minus the additive form's
+    correction r(q, psi) (``HHTADD._r``); y of size n + 3, overwritten."""
+    y[:] = 0.0
+    phiqT_add(I, Fl, qx, psi, 1.0, y)
+    _mass_solve(I, Fl, qx, y, y)
+
+
+@_jit
 def _rigid_mass_times(I, Fl, x):
     """x[:n] = M x[:n] on the rigid bodies' rows (the constant diagonal), 0
     on the beams' rows."""
@@ -1724,9 +1733,7 @@ def _additive_parts(rec, I, Fl, t, F_old, qx_old, w, qx, vx, z1, z2, z5, y):
     n, m = _rows(I, MASS), _rows(I, ROW_ELEMENT)
     size, l0, e0, a0 = _layout(rec, n, m)
     ka1, ka2, kb, cF = rec[KA1], rec[KA2], rec[KB], rec[CF]
-    y[:] = 0.0
-    phiqT_add(I, Fl, qx_old, w[e0:e0 + m], 1.0, y)
-    _mass_solve(I, Fl, qx_old, y, y)
+    _minus_correction(I, Fl, qx_old, w[e0:e0 + m], y)
     for j in range(n):
         a = w[a0 + j]
         z1[j] = w[j] - ka1 * a + 0.5 * (1.0 - kb) * y[j]
@@ -2560,9 +2567,7 @@ def _start_w(rc, I, Fl, q, a, v, lam, w, qx, y):
     w[l0:l0 + m] = lam
     if rc[FORM] == ADDITIVE:
         qx[:n] = q
-        y[:] = 0.0
-        phiqT_add(I, Fl, qx, lam, 1.0, y)
-        _mass_solve(I, Fl, qx, y, y)                  # y = -R_n
+        _minus_correction(I, Fl, qx, lam, y)          # y = -R_n
         for j in range(n):
             w[j] = rc[KA1] * a[j] - 0.5 * y[j]
             w[n + j] = rc[KA2] * a[j] - y[j]
@@ -2668,9 +2673,8 @@ def _total_acceleration(I, Fl, n, qx, a, psi, R, C, V, out):
     """a - M(q)^{-1} Phi_q(q)^T psi into out (n,) [m/s^2 or rad/s^2] at qx:
     the additive form's total acceleration a + R (``HHTADD.local_error``);
     R, C, V: triplet scratch (unused)."""
-    y = np.zeros(n + 3)
-    phiqT_add(I, Fl, qx, psi, 1.0, y)
-    _mass_solve(I, Fl, qx, y, y)
+    y = np.empty(n + 3)
+    _minus_correction(I, Fl, qx, psi, y)
     for j in range(n):
         out[j] = a[j] - y[j]
 
