@@ -852,7 +852,8 @@ class Solution:
                          + (f"; last: {self.events[-1][1]} {self.events[-1][2]} at t = "
                             f"{self.events[-1][0]:.6g} s" if self.events else "")
                          + f"); {self.event_cuts} steps retaken to land on them")
-        if self.engine == "compiled":
+        if self.engine == "compiled" and self.system.contact_group is None:
+            # (with contacts too, the compiled engine runs the driver's loop, which lands them)
             from .integrators.events import time_switches
             if time_switches(self.system):
                 lines.append("  the compiled engine steps across the switches of if/min/max/"

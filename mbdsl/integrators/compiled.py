@@ -64,6 +64,7 @@ from llvmlite import ir
 from numba.extending import intrinsic
 
 from ..dsl.expressions import OPCODES
+from ..model.contact import SPEED_FLOOR as _CONTACT_SPEED_FLOOR
 from .recipe import RECIPE_FIELDS
 
 __all__ = ["MODEL_SCHEMA", "MODEL_FIELDS", "residual", "jacobian_triplets", "force_term", "old_force",
@@ -98,6 +99,13 @@ LINEAR, ADDITIVE = 0, 1
 #: Newton status codes (same meaning as ``NewtonStatus``), and the error-controlled
 #: loop's: the tolerance not met at the smallest step.
 CONVERGED, MAX_ITER, DIVERGING, SINGULAR, NONFINITE, TOLERANCE = 0, 1, 2, 3, 4, 5
+#: The error-controlled loop's returns at contact events: a converged step that
+#: changes the sign of a gap, not taken (its end in ``trial``); in a single-attempt
+#: mode, a step its error estimate rejects (``_run_adaptive``).
+EVENT, REJECTED = 6, 7
+#: Modes of ``_run_adaptive`` (``state[4]``): run on, returning at an event; one
+#: attempt, returning at an event; one attempt, taken whatever its gaps do.
+RUN, ATTEMPT, LAND = 0, 1, 2
 
 #: The model data's schema, one entry per field: (name, "i" or "f", columns per
 #: instance; 0 for a 1-D field). Packing (``pack``), the kernels' named access (the
@@ -137,6 +145,8 @@ MODEL_SCHEMA = (
                                                                        # first dof, dofs/element)
     ("cel", "i", 4), ("pel", "i", 4),                                  # elastic terms of joint points:
     ("ecol", "i", 0), ("eshp", "f", 2),                                # spans; column, shape (S_x, S_y)
+    ("kgi", "i", 2), ("kcol", "i", 6),                                 # contact gaps: kind, line row;
+    ("kpar", "f", 14), ("kimp", "f", 0),                               # columns; data, law; impact speed
 )
 #: The field names, and the scalar "n_elements" (the header's last entry).
 MODEL_FIELDS = tuple(name for name, _, _ in MODEL_SCHEMA) + ("n_elements",)
@@ -156,7 +166,7 @@ _inline = numba.njit(cache=True, nogil=True, inline="always")
  FCOL, FS, FF, ROW_ELEMENT, CODE, CONSTS, PROG, LFN, TCOL, TFN, FFN, STACK,
  VAR, VARC, XVAL, STQ, SDV, PFN, GEO, GEOF, FRI, FRP,
  DROW, DCOL1, DS1, DCOL2, DS2, DLEN, MRIG, BEAM, BCOL, BDAT, BDOF, GRAV, CEL, PEL, ECOL,
- ESHP) = range(62)
+ ESHP, KGI, KCOL, KPAR, KIMP) = range(66)
 if any(globals()[name.upper()] != k for k, (name, _, _) in enumerate(MODEL_SCHEMA)):
     raise ImportError("compiled.py's field indices differ from MODEL_SCHEMA")   # pragma: no cover
 
@@ -691,6 +701,255 @@ def _friction_col(I, i, g, a):
     return _i(I, FRI, i, a) if g < 0 else _i(I, GEO, g, a)
 
 
+# --------------------------------------------------------------------------------------------
+# Contacts and joint limits: one-sided gaps g(q) and the Hunt-Crossley law
+#
+# One instance per gap (``assembly.contact.ContactGroup``'s instances, in its
+# order). KGI: (kind, line row in GEO or -1); KCOL: the six columns (x, y, phi
+# of the first body, then of the second); KPAR: (offset, sign, s1 (2), s2 (2),
+# n0 (2), r, K, n, chi, mu, v_reg); KIMP: the impact speed of each closed gap
+# (0 while open), the contact's state, written by the time loop at its events.
+# The geometries and the law are those of ``model.contact`` (its module notes):
+# line  g = n . (p_P - p_L) - r            (``_line`` with the normal as direction)
+# slide g = sign (s - bound)                (``_line``)
+# angle g = sign (phi_2 - phi_1 - bound)
+# circle g = (R - r) - |p_P - p_C|
+# f = K delta^n (1 + chi ddelta/dt / v_impact) >= 0, delta = -g, Q = f grad g
+# plus, with mu > 0, the regularised Coulomb force -mu f tanh(v_t / v_reg) w.
+# --------------------------------------------------------------------------------------------
+
+#: ``model.contact.SPEED_FLOOR`` as a literal (checked at import, as the recipe indices are)
+SPEED_FLOOR = 1e-3
+if SPEED_FLOOR != _CONTACT_SPEED_FLOOR:     # pragma: no cover (a developer's error)
+    raise ImportError("compiled.SPEED_FLOOR differs from model.contact.SPEED_FLOOR")
+#: gap kinds (KGI's first column), as ``engine.CompiledModel`` writes them
+GAP_LINE, GAP_SLIDE, GAP_ANGLE, GAP_CIRCLE = 0, 1, 2, 3
+
+
+@_jit
+def _gap(I, Fl, qx, i, grad, H):
+    """g of gap i [m or rad], dg/dq into grad (6,) and d^2 g/dq^2 into H (6, 6)
+    over its KCOL columns: ``model.contact.gap``."""
+    kind = _i(I, KGI, i, 0)
+    off, sgn = _f(I, Fl, KPAR, i, 0), _f(I, Fl, KPAR, i, 1)
+    if kind == GAP_LINE or kind == GAP_SLIDE:
+        s = _line(I, Fl, qx, _i(I, KGI, i, 1), grad, H)
+        if sgn != 1.0:
+            for a in range(6):
+                grad[a] *= sgn
+                for b in range(6):
+                    H[a, b] *= sgn
+        return sgn * (s - off)
+    H[:, :] = 0.0
+    grad[:] = 0.0
+    if kind == GAP_ANGLE:
+        grad[2], grad[5] = -sgn, sgn
+        return sgn * (qx[_i(I, KCOL, i, 5)] - qx[_i(I, KCOL, i, 2)] - off)
+    # circle: g = c - |d|, d = p_P - p_C
+    phC, phP = qx[_i(I, KCOL, i, 2)], qx[_i(I, KCOL, i, 5)]
+    cC, sC, cP, sP = math.cos(phC), math.sin(phC), math.cos(phP), math.sin(phP)
+    s1x, s1y, s2x, s2y = (_f(I, Fl, KPAR, i, 2), _f(I, Fl, KPAR, i, 3), _f(I, Fl, KPAR, i, 4),
+                          _f(I, Fl, KPAR, i, 5))
+    aCx, aCy = cC * s1x - sC * s1y, sC * s1x + cC * s1y
+    aPx, aPy = cP * s2x - sP * s2y, sP * s2x + cP * s2y
+    dx = qx[_i(I, KCOL, i, 3)] + aPx - qx[_i(I, KCOL, i, 0)] - aCx
+    dy = qx[_i(I, KCOL, i, 4)] + aPy - qx[_i(I, KCOL, i, 1)] - aCy
+    l = math.sqrt(dx * dx + dy * dy)
+    if l == 0.0:                   # centred: open by the clearance, no normal
+        return off
+    ex, ey = dx / l, dy / l
+    D = np.zeros((2, 6))           # dd/dq
+    D[0, 0], D[1, 1], D[0, 3], D[1, 4] = -1.0, -1.0, 1.0, 1.0
+    D[0, 2], D[1, 2] = aCy, -aCx   # -B(phi_C) s_C
+    D[0, 5], D[1, 5] = -aPy, aPx   # B(phi_P) s_P
+    P00, P01, P11 = (1.0 - ex * ex) / l, -ex * ey / l, (1.0 - ey * ey) / l
+    for a in range(6):
+        grad[a] = -(ex * D[0, a] + ey * D[1, a])
+        pa0 = P00 * D[0, a] + P01 * D[1, a]
+        pa1 = P01 * D[0, a] + P11 * D[1, a]
+        for b in range(6):
+            H[a, b] = -(pa0 * D[0, b] + pa1 * D[1, b])
+    H[2, 2] -= ex * aCx + ey * aCy
+    H[5, 5] += ex * aPx + ey * aPy
+    return off - l
+
+
+@_jit
+def _slip(I, Fl, qx, i, w, dw):
+    """The slip direction w (6,) of gap i's contact, v_t = w . v, and dw/dq
+    into dw (6, 6): ``model.contact.slip`` (a line or a hole)."""
+    c = np.empty(6, np.int64)
+    for a in range(6):
+        c[a] = _i(I, KCOL, i, a)
+    w[:] = 0.0
+    dw[:, :] = 0.0
+    r = _f(I, Fl, KPAR, i, 8)
+    ph1, ph2 = qx[c[2]], qx[c[5]]
+    c1, s1, c2, s2 = math.cos(ph1), math.sin(ph1), math.cos(ph2), math.sin(ph2)
+    a2x = c2 * _f(I, Fl, KPAR, i, 4) - s2 * _f(I, Fl, KPAR, i, 5)
+    a2y = s2 * _f(I, Fl, KPAR, i, 4) + c2 * _f(I, Fl, KPAR, i, 5)
+    B2x, B2y = -a2y, a2x
+    dnu = np.zeros((2, 6))
+    if _i(I, KGI, i, 0) == GAP_LINE:
+        n0x, n0y = _f(I, Fl, KPAR, i, 6), _f(I, Fl, KPAR, i, 7)
+        nux, nuy = c1 * n0x - s1 * n0y, s1 * n0x + c1 * n0y
+        dnu[0, 2], dnu[1, 2] = -nuy, nux
+    else:
+        a1x = c1 * _f(I, Fl, KPAR, i, 2) - s1 * _f(I, Fl, KPAR, i, 3)
+        a1y = s1 * _f(I, Fl, KPAR, i, 2) + c1 * _f(I, Fl, KPAR, i, 3)
+        dx = qx[c[3]] + a2x - qx[c[0]] - a1x
+        dy = qx[c[4]] + a2y - qx[c[1]] - a1y
+        l = math.sqrt(dx * dx + dy * dy)
+        if l == 0.0:
+            return
+        ex, ey = dx / l, dy / l
+        D = np.zeros((2, 6))
+        D[0, 0], D[1, 1], D[0, 3], D[1, 4] = -1.0, -1.0, 1.0, 1.0
+        D[0, 2], D[1, 2] = a1y, -a1x
+        D[0, 5], D[1, 5] = B2x, B2y
+        nux, nuy = -ex, -ey
+        P00, P01, P11 = (1.0 - ex * ex) / l, -ex * ey / l, (1.0 - ey * ey) / l
+        for b in range(6):
+            dnu[0, b] = -(P00 * D[0, b] + P01 * D[1, b])
+            dnu[1, b] = -(P01 * D[0, b] + P11 * D[1, b])
+    taux, tauy = -nuy, nux
+    # c - r_1 = q_2 + A_2 s_P - r nu - q_1
+    cx = qx[c[3]] + a2x - r * nux - qx[c[0]]
+    cy = qx[c[4]] + a2y - r * nuy - qx[c[1]]
+    w[0], w[1], w[3], w[4] = -taux, -tauy, taux, tauy
+    w[2] = -(nux * cx + nuy * cy)
+    w[5] = nux * a2x + nuy * a2y - r
+    for b in range(6):
+        dtx, dty = -dnu[1, b], dnu[0, b]        # dtau = J dnu
+        dcx, dcy = -r * dnu[0, b], -r * dnu[1, b]
+        if b == 0:
+            dcx -= 1.0
+        elif b == 1:
+            dcy -= 1.0
+        elif b == 3:
+            dcx += 1.0
+        elif b == 4:
+            dcy += 1.0
+        elif b == 5:
+            dcx += B2x
+            dcy += B2y
+        dw[0, b], dw[1, b], dw[3, b], dw[4, b] = -dtx, -dty, dtx, dty
+        dw[2, b] = -(dnu[0, b] * cx + dnu[1, b] * cy + dcx * nux + dcy * nuy)
+        dw[5, b] = dnu[0, b] * a2x + dnu[1, b] * a2y
+    dw[5, 5] += nux * B2x + nuy * B2y
+
+
+@_jit
+def _contact_law(I, Fl, qx, vx, i, grad, H):
+    """Gap i's normal force under the Hunt-Crossley law (module notes of
+    ``assembly.contact``), with grad, H of ``_gap``: returns (g, delta,
+    ddelta/dt, f, K delta^n, v_impact, armed); f = 0 where the gap is open
+    or the force is cut."""
+    g = _gap(I, Fl, qx, i, grad, H)
+    if g >= 0.0:
+        return g, 0.0, 0.0, 0.0, 0.0, 0.0, False
+    delta = -g
+    ddelta = 0.0
+    for a in range(6):
+        ddelta -= grad[a] * vx[_i(I, KCOL, i, a)]
+    elastic = _f(I, Fl, KPAR, i, 9) * delta ** _f(I, Fl, KPAR, i, 10)
+    imp = _f(I, Fl, KIMP, i, 0)
+    # not armed yet (a trial step into a contact its event has not closed): the
+    # approach speed now stands for the impact speed
+    speed = imp if imp > 0.0 else max(ddelta, SPEED_FLOOR)
+    armed = imp > 0.0 or ddelta <= SPEED_FLOOR
+    f = elastic * (1.0 + _f(I, Fl, KPAR, i, 11) * ddelta / speed)
+    return g, delta, ddelta, max(f, 0.0), elastic, speed, armed
+
+
+@_jit
+def _contacts_add(I, Fl, qx, vx, out):
+    """The contacts' generalized forces f grad g (+ F_t w with friction) added
+    to out (n+3,) [N, N m]."""
+    grad, H = np.empty(6), np.empty((6, 6))
+    w, dw = np.empty(6), np.empty((6, 6))
+    for i in range(_rows(I, KGI)):
+        g, delta, ddelta, f, elastic, speed, armed = _contact_law(I, Fl, qx, vx, i, grad, H)
+        if f <= 0.0:
+            continue
+        for a in range(6):
+            out[_i(I, KCOL, i, a)] += f * grad[a]
+        mu = _f(I, Fl, KPAR, i, 12)
+        if mu > 0.0:
+            _slip(I, Fl, qx, i, w, dw)
+            vt = 0.0
+            for a in range(6):
+                vt += w[a] * vx[_i(I, KCOL, i, a)]
+            Ft = -mu * f * math.tanh(vt / _f(I, Fl, KPAR, i, 13))
+            for a in range(6):
+                out[_i(I, KCOL, i, a)] += Ft * w[a]
+
+
+@_jit
+def _emit_contacts(I, Fl, n, qx, vx, R, C, V, p, r0, c0, cq, cv):
+    """The contacts' -(cq Q_q + cv Q_v) at (r0, c0) (``ContactGroup.
+    derivatives``): all 36 entries of every gap whose bodies are not the
+    ground's, zeros while it is open, so that the pattern stays fixed."""
+    grad, H = np.empty(6), np.empty((6, 6))
+    w, dw = np.empty(6), np.empty((6, 6))
+    dfdq, dfdv, Hv = np.empty(6), np.empty(6), np.empty(6)
+    Qq, Qv = np.empty((6, 6)), np.empty((6, 6))
+    v = np.empty(6)
+    for i in range(_rows(I, KGI)):
+        g, delta, ddelta, f, elastic, speed, armed = _contact_law(I, Fl, qx, vx, i, grad, H)
+        Qq[:, :] = 0.0
+        Qv[:, :] = 0.0
+        if f > 0.0:
+            K, ex, chi = _f(I, Fl, KPAR, i, 9), _f(I, Fl, KPAR, i, 10), _f(I, Fl, KPAR, i, 11)
+            for a in range(6):
+                v[a] = vx[_i(I, KCOL, i, a)]
+            # df/d(delta) and the damping's df/d(ddelta); unarmed, f = K delta^n
+            # (1 + chi) does not depend on ddelta
+            damp = elastic * chi / speed if armed else 0.0
+            df_ddelta = ex * K * delta ** (ex - 1.0) * (1.0 + chi * ddelta / speed)
+            for a in range(6):
+                Hv[a] = 0.0
+                for b in range(6):
+                    Hv[a] += H[a, b] * v[b]
+            for a in range(6):
+                dfdq[a] = -df_ddelta * grad[a] - damp * Hv[a]
+                dfdv[a] = -damp * grad[a]
+            for a in range(6):
+                for b in range(6):
+                    Qq[a, b] = grad[a] * dfdq[b] + f * H[a, b]
+                    Qv[a, b] = grad[a] * dfdv[b]
+            mu = _f(I, Fl, KPAR, i, 12)
+            if mu > 0.0:
+                # Q = F_t w, F_t = -mu f T(v_t): Q_q = w dF_t/dq^T + F_t dw/dq,
+                # Q_v = w dF_t/dv^T; dv_t/dq = (dw/dq)^T v, dv_t/dv = w
+                _slip(I, Fl, qx, i, w, dw)
+                vreg = _f(I, Fl, KPAR, i, 13)
+                vt = 0.0
+                for a in range(6):
+                    vt += w[a] * v[a]
+                T = math.tanh(vt / vreg)
+                dT = (1.0 - T * T) / vreg
+                Ft = -mu * f * T
+                for b in range(6):
+                    dvt = 0.0
+                    for a in range(6):
+                        dvt += dw[a, b] * v[a]
+                    dFq = -mu * (T * dfdq[b] + f * dT * dvt)
+                    dFv = -mu * (T * dfdv[b] + f * dT * w[b])
+                    for a in range(6):
+                        Qq[a, b] += w[a] * dFq + Ft * dw[a, b]
+                        Qv[a, b] += w[a] * dFv
+        for a in range(6):
+            ra = _i(I, KCOL, i, a)
+            if ra >= n:
+                continue
+            for b in range(6):
+                cb = _i(I, KCOL, i, b)
+                if cb < n:
+                    p = _put(R, C, V, p, r0 + ra, c0 + cb, -(cq * Qq[a, b] + cv * Qv[a, b]))
+    return p
+
+
 @_jit
 def forces(I, Fl, t, qx, vx, lam, out):
     """Q(q, v, lambda) into out (n+3,) [N, N m] (overwritten); lambda (m,) is
@@ -752,6 +1011,8 @@ def forces(I, Fl, t, qx, vx, lam, out):
             tau, dz, dN, Rn = _friction_law(I, Fl, i, z, lam)
             for a in range(2 if g < 0 else 6):
                 out[_friction_col(I, i, g, a)] += tau * grad[a]
+    if _rows(I, KGI) > 0:                          # contacts and joint limits
+        _contacts_add(I, Fl, qx, vx, out)
     if _rows(I, BEAM) > 0:                         # flexible beams
         _ffr_forces_add(I, Fl, qx, vx, out)
 
@@ -1475,6 +1736,8 @@ def _emit_force(I, Fl, t, n, qx, vx, lam, R, C, V, p, r0, c0, cq, cv):
                         p = _put(R, C, V, p, r0 + row, c0 + col, -w * gk * val)
     if _rows(I, FRI) > 0:
         p = _emit_friction(I, Fl, n, qx, vx, lam, R, C, V, p, r0, c0, cq, cv)
+    if _rows(I, KGI) > 0:
+        p = _emit_contacts(I, Fl, n, qx, vx, R, C, V, p, r0, c0, cq, cv)
     if _rows(I, BEAM) > 0:
         p = _emit_beams(I, Fl, qx, vx, qx, FFR_DQ, R, C, V, p, r0, c0, cq, cv)
     return p
@@ -2507,7 +2770,7 @@ def triplet_bound(I) -> int:
     """An upper bound of the Newton-matrix triplets any recipe emits for the
     packed model data ``I`` (its header's row counts): up to five mass (and
     identity) blocks, four Hessian, two force, two G and six Phi_q blocks (a force
-    block: 36 entries per spring-damper, 4 per rotational one, 1 per point
+    block: 36 entries per spring-damper and per contact gap, 4 per rotational one, 1 per point
     force, 36 per partial derivative of a load of the state (6 rows by 6
     columns) and 36 per load of the state (tau d^2 s of a joint force)), and the
     augmented formulation's multiplier diagonal; per flexible beam 15 blocks of
@@ -2527,7 +2790,8 @@ def triplet_bound(I) -> int:
         beams += 15 * c * c + 2 * c * (phiq + 2 * rows(ECOL))
         csum += c
     base = (6 * n + rows(ROW_ELEMENT) + 6 * phiq + 4 * (2 * kc + 12 * kp + 36 * kd)
-            + 2 * (36 * ks + 4 * kr + kf + 36 * rows(SDV) + 36 * rows(STQ) + 36 * rows(FRI))
+            + 2 * (36 * ks + 4 * kr + kf + 36 * rows(SDV) + 36 * rows(STQ) + 36 * rows(FRI)
+                   + 36 * rows(KGI))
             + 2 * (4 * kc + 6 * kp + 6 * kd) + 12 * rows(FRI) + beams + 40 * rows(ECOL))
     # the additive form's unscaled beam rows: c entries per structural column, 3 blocks
     return base + 3 * (3 * n + 2 * rows(ROW_ELEMENT)) * csum
@@ -2693,7 +2957,7 @@ def _recipe_at(mono, h, c0, w0, w1, rec):
 @_jit
 def _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v_prev,
                   ctl, opts, solver, lin, lu_state, R, C, V, out_t, out_h, out_q, out_v, out_a,
-                  out_lam, out_mu, out_stats, counts, F0, state):
+                  out_lam, out_mu, out_stats, counts, F0, state, trial):
     """The time loop with error-controlled steps (``adaptive``), from (t0, q, v,
     a, b, lam, mu) towards t_end, until t_end or the out_* arrays are full.
 
@@ -2710,10 +2974,25 @@ def _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, 
     E^(-1/3))), else it is accepted and h grows by min(max_factor, ...) (not
     right after a rejection). A step Newton cannot converge is halved. Every
     ``every``-th accepted step and the last one are recorded, with their step
-    size in out_h. ``state`` (4,) in/out: (t, h of the next step, rejected
-    steps, h of the last step or 0); returns (status, steps, records): status TOLERANCE when the
-    error stays above 1 at h_min, a Newton status when a step at h_min
-    does not converge."""
+    size in out_h. ``state`` (6,) in/out: (t, h of the next step, rejected
+    steps, h of the last step or 0, mode, steps since a halving); returns
+    (status, steps, records): status TOLERANCE when the error stays above 1
+    at h_min, a Newton status when a step at h_min does not converge.
+
+    Fixed steps (ctl[7] = grow_after > 0): no error estimate; steps of
+    h_max (the last one shortened to land on t_end), halved while Newton
+    fails, doubled back after grow_after steps at a reduced size (the
+    driver's rule, ``driver.integrate``): the loop of fixed-step runs with
+    contacts, whose events change the step grid.
+
+    Contacts and joint limits (KGI): a converged step that changes the sign
+    of a gap is not taken; the loop returns EVENT with its end (q, v) in
+    ``trial`` (2, n) and its size in state[1], for the time loop to land a
+    step on the event (``events.EventLocator``). Mode (state[4]) RUN goes on
+    until t_end, an event or a full output; ATTEMPT and LAND make one attempt
+    at a step of h (halved while Newton fails) and return: EVENT (ATTEMPT
+    only), REJECTED (its error estimate: the next h in state[1]) or
+    CONVERGED with the step taken; LAND takes a step across an event."""
     n, m = _rows(I, MASS), _rows(I, ROW_ELEMENT)
     rc = np.empty(mono.shape[2])
     _recipe_at(mono[1], 1.0, 1.0, 1.0, 1.0, rc)
@@ -2725,8 +3004,12 @@ def _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, 
     has_extra = e0 < size
     rtol, atol, safety, fmin, fmax, h_min, h_max = (ctl[0], ctl[1], ctl[2], ctl[3], ctl[4],
                                                     ctl[5], ctl[6])
+    grow_after = int(ctl[7])
     r, dw, w, weight, qx, vx, work, q_pred, v_pred, qx_old, F, scratch = _workspace(n, m, size, I)
     b_new = np.empty(n)
+    mode = int(state[4])
+    gaps = _rows(I, KGI) > 0 and mode != LAND
+    qs, grad6, H6 = np.zeros(n + 3), np.empty(6), np.empty((6, 6))
     additive = rc[FORM] == ADDITIVE
     acc_old, acc_new = np.empty(n), np.empty(n)     # the additive form's a + R_II
     if additive:                                    # at the last accepted state, then carried
@@ -2770,8 +3053,17 @@ def _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, 
             state[2] += 1.0
             h = max(0.5 * step, h_min)
             after_rejection = True
+            state[5] = 0.0
             continue
         _state(rc, n, w, q_pred, v_pred, qx, vx)
+        if gaps:                  # a gap opens or closes within the step: the caller lands it
+            qs[:n] = q
+            for i in range(_rows(I, KGI)):
+                if (_gap(I, Fl, qs, i, grad6, H6) > 0.0) != (_gap(I, Fl, qx, i, grad6, H6) > 0.0):
+                    trial[0, :] = qx[:n]
+                    trial[1, :] = vx[:n]
+                    state[0], state[1] = t, step
+                    return EVENT, k, rec
         # the local error estimate and its weighted RMS norm
         if rc[EAUX] != 0.0:
             b_new[:] = b
@@ -2790,7 +3082,7 @@ def _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, 
                 d = w[a0 + j] - a[j]
             e = rc[ERR] * d / (atol + rtol * max(abs(q[j]), abs(qx[j])))
             acc += e * e
-        err = math.sqrt(acc / n) if n > 0 else 0.0
+        err = math.sqrt(acc / n) if n > 0 and grow_after == 0 else 0.0
         if err == 0.0:
             factor = fmax
         elif not np.isfinite(err):
@@ -2804,6 +3096,9 @@ def _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, 
             state[2] += 1.0
             h = max(step * min(factor, 1.0), h_min)
             after_rejection = True
+            if mode != RUN:
+                state[0], state[1] = t, h
+                return REJECTED, k, rec
             continue
         if after_rejection:
             factor = min(factor, 1.0)
@@ -2828,11 +3123,20 @@ def _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, 
             _old_force(rc, I, Fl, t, q, v, lam, F, qx, vx, work)
         counts[5] += 1
         k += 1
-        h = min(step * factor, h_max)
+        if grow_after == 0:
+            h = min(step * factor, h_max)
+        elif h < h_max and mode == RUN:     # fixed steps: back to h_max after grow_after
+            # (after an attempt, the caller plans the next step as the driver does)
+            state[5] += 1.0
+            if state[5] >= grow_after:
+                h = min(2.0 * h, h_max)
+                state[5] = 0.0
         if (step0 + k) % every == 0 or t >= t_end - 1e-12 * (t_end - t0):
             out_h[rec] = step
             rec = _record(rec, t, q, v, a, lam, mu, counts, out_t, out_q, out_v, out_a, out_lam,
                           out_mu, out_stats)
+        if mode != RUN:
+            break
     state[0], state[1] = t, h
     return CONVERGED, k, rec
 
@@ -2943,11 +3247,11 @@ def mobility(I, Fl, q, out, R, C, V, qx):
 @_jit
 def run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v_prev,
                  ctl, opts, solver, lin, lu_state, R, C, V, out_t, out_h, out_q, out_v, out_a,
-                 out_lam, out_mu, out_stats, counts, F0, state):
+                 out_lam, out_mu, out_stats, counts, F0, state, trial):
     """The time loop with error-controlled steps; see ``_run_adaptive``."""
     return _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev,
                          v_prev, ctl, opts, solver, lin, lu_state, R, C, V, out_t, out_h, out_q,
-                         out_v, out_a, out_lam, out_mu, out_stats, counts, F0, state)
+                         out_v, out_a, out_lam, out_mu, out_stats, counts, F0, state, trial)
 
 
 @_jit

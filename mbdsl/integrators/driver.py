@@ -23,6 +23,7 @@ from ..errors import ConvergenceError, Diagnostic
 from ..solution import Solution, StepStats
 from .adaptive import StepControl
 from .base import Method
+from .events import time_switches
 from .newton import Newton, NewtonOptions, NewtonStatus
 
 __all__ = ["integrate"]
@@ -121,15 +122,15 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
     if not (isinstance(output_every, (int, np.integer)) and output_every >= 1):
         raise ValueError(f"output_every must be a positive integer, got {output_every!r}")
     output_every = int(output_every)
-    from .engine import (SparseAdapter, prepare_compiled, run_compiled, run_compiled_adaptive,
-                         select_engine)
+    from .engine import (SparseAdapter, prepare_compiled, recipe_monomials, run_compiled,
+                         run_compiled_adaptive, select_engine)
     if control is not None and method.max_step_ratio is not None \
             and control.max_factor > method.max_step_ratio:
         import dataclasses
         control = dataclasses.replace(control, max_factor=method.max_step_ratio)
     engine_note = None
     if control is not None:
-        from .engine import recipe_monomials, unsupported
+        from .engine import unsupported
         if (engine != "numpy" and method.kernel_recipe(1.0, False) is not None
                 and recipe_monomials(method) is None):          # a recipe the loop cannot vary
             if engine == "compiled":
@@ -150,10 +151,19 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
         initial = consistent_initial_state(system, t_start)
     if which == "compiled":
         timings["setup"] = clock() - t0
+        # Contacts: the error-controlled loop (with fixed steps too), which returns at
+        # each event for a step to be landed on it (run_compiled_adaptive). Contacts
+        # with other events (time switches, springs whose points pass) take this
+        # module's time loop on the kernels' evaluation.
+        contacts = system.contact_group is not None
+        python_loop = contacts and (system.flipping_springs is not None
+                                    or bool(time_switches(system))
+                                    or recipe_monomials(method) is None)
         cm, plan, timings["kernels"] = prepare_compiled(system, method, solver.options,
                                                         initial.q, announce,
-                                                        adaptive=control is not None)
-        if plan.kind != "sparse":
+                                                        adaptive=control is not None or contacts,
+                                                        python_loop=python_loop)
+        if plan.kind != "sparse" and not python_loop:
             sol = Solution(system, method, h, t_end, initial)
             sol.engine, sol.linear_solver = "compiled", plan.kind
             sol.control = control
@@ -161,11 +171,12 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
             sol.timings = timings
             loop_start = clock()
             try:
-                if control is not None:
+                if control is not None or contacts:
                     run_compiled_adaptive(system, method, t_end, h, t_start, initial,
                                           solver.options, sol, plan, control,
                                           output_every=output_every, progress=progress,
-                                          writer=writer, cm=cm)
+                                          writer=writer, cm=cm, max_halvings=max_halvings,
+                                          grow_after=grow_after)
                 else:
                     run_compiled(system, method, t_end, h, t_start, initial, solver.options,
                                  sol, plan, output_every=output_every, progress=progress,
@@ -175,13 +186,14 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
                 _finish(sol, writer, loop_start)
             return _result(sol, on_failure)
         t0 = clock()
-        method = SparseAdapter(system, method)
     blocks = method.blocks(system)
     kinds = np.concatenate([np.full(b.size, b.kind == "multiplier") for b in blocks])
     size = len(kinds)
     choice = solver.options.linear_solver
     assembler = JacobianAssembler(size, sparse=(choice == "sparse" or
                                                (choice == "auto" and size > DENSE_LIMIT)))
+    if which == "compiled":
+        method = SparseAdapter(system, method, cm, dense=not assembler.sparse)
     history = method.start(system, initial)
     sol = Solution(system, method, h, t_end, initial)
     sol.control = control

@@ -100,6 +100,7 @@ def unsupported(system, method) -> str | None:
 
 def _unsupported_elements(system) -> str | None:
     """Why the kernels cannot evaluate this model's elements, or None."""
+    from ..assembly.contact import ContactGroup
     from ..assembly.ffr import FlexibleBeamGroup
     for g in system.constraint_groups:
         if not isinstance(g, (CoincidenceGroup, PointOnLineGroup, LinearConstraintGroup,
@@ -110,7 +111,7 @@ def _unsupported_elements(system) -> str | None:
     for g in system.force_groups:
         if not isinstance(g, (SpringDamperGroup, RotationalSpringGroup, TorqueGroup,
                               PointForceGroup, StateTorqueGroup, FrictionGroup,
-                              FlexibleBeamGroup)):
+                              FlexibleBeamGroup, ContactGroup)):
             return f"no kernel for {type(g).__name__}"
         points = [getattr(g, "points", None)] + [getattr(getattr(g, "pair", None), k, None)
                                                  for k in ("P1", "P2")]
@@ -140,7 +141,8 @@ def index1_multipliers(system, t, q, v) -> np.ndarray:
     size of a chain); flexible beams: the dense index-1 matrix
     (``compiled.index1_multipliers``). Rows: t (N,) [s], q and v (N, n)."""
     from .kernel_cache import loaded
-    if not loaded() or _unsupported_elements(system) is not None:
+    if (not loaded() or _unsupported_elements(system) is not None
+            or system.contact_group is not None):   # its impact speeds change along the run
         return system.index1_multipliers(t, q, v)
     cm = getattr(system, "_compiled_model", None)
     if cm is None:
@@ -332,19 +334,22 @@ def select_engine(engine: str, system, method, compile_policy: str = "wait",
     return "compiled"
 
 
-def prepare_compiled(system, method, options, q, announce=None, adaptive=False):
+def prepare_compiled(system, method, options, q, announce=None, adaptive=False,
+                     python_loop=False):
     """(CompiledModel, LinearSolverPlan, seconds): the kernels' model data and
     linear solver for a run from configuration q (n,), with every kernel the
     run calls loaded (compiled first, announced, if not built for this
-    machine; ``adaptive``: the run takes error-controlled steps); the
-    seconds are the time this took, never step time."""
+    machine; ``adaptive``: the run takes error-controlled steps;
+    ``python_loop``: the driver's time loop on the kernels' residual and
+    Newton matrix, ``SparseAdapter``); the seconds are the time this took,
+    never step time."""
     import time
     from .kernel_cache import ensure_loaded
     t0 = time.perf_counter()
     ensure_loaded(None, announce)         # compiles everything, announced, if not built
     cm = CompiledModel(system)
     plan = linear_solver_plan(system, method, options, q, cm)  # banded: calls a kernel
-    ensure_loaded(plan.kind, announce, adaptive)   # this linear solver's, this loop's
+    ensure_loaded("sparse" if python_loop else plan.kind, announce, adaptive)  # this loop's
     return cm, plan, time.perf_counter() - t0
 
 
@@ -387,7 +392,9 @@ class CompiledModel:
                  "beam": np.zeros((0, 6), i8), "bcol": np.zeros(0, i8), "bdat": np.zeros(0),
                  "bdof": np.zeros(0, i8),
                  "grav": np.zeros(0), "cel": np.zeros((0, 4), i8), "pel": np.zeros((0, 4), i8),
-                 "ecol": np.zeros(0, i8), "eshp": np.zeros((0, 2))}
+                 "ecol": np.zeros(0, i8), "eshp": np.zeros((0, 2)),
+                 "kgi": np.zeros((0, 2), i8), "kcol": np.zeros((0, 6), i8),
+                 "kpar": np.zeros((0, 14)), "kimp": np.zeros(0)}
         d = dict(empty)
         from ..dsl.expressions import OPCODES, Num, diff, postfix
         from ..model.elements import line_columns
@@ -517,6 +524,8 @@ class CompiledModel:
                 ffn = np.array([(program(fx.expr) if timed(fx) else -1,
                                  program(fy.expr) if timed(fy) else -1)
                                 for fx, fy in zip(g.fx, g.fy)], dtype=i8).reshape(-1, 2)
+        if system.contact_group is not None:
+            d.update(_contact_fields(system.contact_group, line_row))
         d.update(code=np.array(code, i8), consts=np.array(consts, f8),
                  prog=np.array(prog, i8).reshape(-1, 2),
                  lfn=lfn if len(lfn) == len(d["lrow"]) else np.full((len(d["lrow"]), 3), -1, i8),
@@ -536,10 +545,44 @@ class CompiledModel:
         d["Q0"] = Q0
         d["row_element"] = system.layout.row_element.astype(i8)
         d["n_elements"] = int(system.layout.n_elements)
-        from .compiled import pack, triplet_bound
+        from .compiled import pack, triplet_bound, unpack
         self.ints, self.floats = pack(d)
         self.n, self.m = n, system.m
         self.bound = triplet_bound(self.ints)
+        #: the contacts' impact speeds (k,) [m/s or rad/s]: a view into the packed
+        #: floats, the contact state the kernels read, written at events
+        self.impact_speed = unpack(self.ints, self.floats)["kimp"]
+
+
+def _contact_fields(group, line_row) -> dict:
+    """The kernels' fields of the contacts and joint limits (``ContactGroup``,
+    one instance per gap; ``compiled``'s contact section): kind and line row,
+    columns, (offset, sign, s1, s2, n0, r, K, n, chi, mu, v_reg), impact
+    speeds. ``line_row(line)``: the row of a sliding line in GEO."""
+    from .compiled import GAP_ANGLE, GAP_CIRCLE, GAP_LINE, GAP_SLIDE
+    kgi, kpar = [], []
+    for i, (geometry, data) in enumerate(group.geometry):
+        s1 = s2 = n0 = (0.0, 0.0)
+        r, row = 0.0, -1
+        if geometry == "line":          # (body L, s_L, body P, s_P, n0, r)
+            kind, row, off, sign = GAP_LINE, line_row(tuple(data[:5])), data[5], 1.0
+            s1, s2, n0, r = data[1], data[3], data[4], data[5]
+        elif geometry == "slide":       # (body L, s_L, body P, s_P, u0, bound, sign)
+            kind, row, off, sign = GAP_SLIDE, line_row(tuple(data[:5])), data[5], data[6]
+        elif geometry == "angle":       # (body 1, None, body 2, None, bound, sign)
+            kind, off, sign = GAP_ANGLE, data[4], data[5]
+        elif geometry == "circle":      # (body C, s_C, body P, s_P, clearance, r)
+            kind, off, sign = GAP_CIRCLE, data[4], 1.0
+            s1, s2, r = data[1], data[3], data[5]
+        else:                           # pragma: no cover (model.contact lists four)
+            raise ValueError(f"no kernel for the gap geometry {geometry!r}")
+        kgi.append((kind, row))
+        kpar.append((off, sign, *s1, *s2, *n0, r, group.k_[i], group.n_[i], group.chi[i],
+                     group.mu[i], group.v_reg[i]))
+    return {"kgi": np.array(kgi, np.int64).reshape(-1, 2),
+            "kcol": group.cols.astype(np.int64).reshape(-1, 6),
+            "kpar": np.array(kpar, np.float64).reshape(-1, 14),
+            "kimp": group.impact_speed.astype(np.float64)}
 
 
 def _beam_fields(system) -> dict:
@@ -822,13 +865,20 @@ def _step_plan(t_start, t_end, h):
 
 
 def run_compiled_adaptive(system, method, t_end, h, t_start, initial, newton_options, sol, plan,
-                          control, *, output_every=1, progress=None, writer=None, cm=None):
+                          control, *, output_every=1, progress=None, writer=None, cm=None,
+                          max_halvings=6, grow_after=4):
     """Integrate into ``sol`` with error-controlled steps (``control``, a
     :class:`~.adaptive.StepControl`) in the compiled loop
     (``compiled._run_adaptive``); a step that cannot go on (Newton at the
     smallest step, or the tolerance out of reach) hands the rest of the run
     to the numpy engine, which reports it in the model's words. Sets
-    sol.status and sol.message."""
+    sol.status and sol.message.
+
+    Contacts and joint limits: the loop returns at each step that crosses
+    an event, and this function lands a step on it as the driver's loop
+    does (``events.EventLocator``; ``land`` below). ``control`` None: fixed
+    steps of h with the driver's halving and regrowth (``max_halvings``,
+    ``grow_after``), for contacts, whose events change the step grid."""
     from .driver import integrate as numpy_integrate
     K = _kernels()
     cm = cm or CompiledModel(system)
@@ -847,9 +897,13 @@ def run_compiled_adaptive(system, method, t_end, h, t_start, initial, newton_opt
     opts = np.array([opt.rtol, opt.atol_kinematic, opt.atol_multiplier, opt.max_iter,
                      opt.refresh_rate(newton_matrix_cost(plan, size, system, method)),
                      1.0 if opt.jacobian.value == "full" else 0.0])
-    h_min = control.h_min or 1e-12 * (t_end - t_start)
-    ctl = np.array([control.rtol, control.atol, control.safety, control.min_factor,
-                    control.max_factor, h_min, min(control.h_max, t_end - t_start)])
+    if control is not None:
+        h_min = control.h_min or 1e-12 * (t_end - t_start)
+        ctl = np.array([control.rtol, control.atol, control.safety, control.min_factor,
+                        control.max_factor, h_min, min(control.h_max, t_end - t_start), 0.0])
+    else:                   # fixed steps: no error estimate; halving and regrowth
+        ctl = np.array([1.0, 1.0, 1.0, 1.0, 1.0, h / 2.0 ** max_halvings, h,
+                        float(max(grow_after, 1))])
     solver = K.DENSE if plan.kind == "dense" else K.BANDED
     lin = plan.workspace(size, cm.bound)
     lu_state = np.array([0.0, 0.5, 0.0])
@@ -867,24 +921,98 @@ def run_compiled_adaptive(system, method, t_end, h, t_start, initial, newton_opt
         F_start = (-system.mass_solve(initial.q, initial.Q) if additive
                    else start_force_term(system, initial))
     q_prev, v_prev = q.copy(), v.copy()
-    state = np.array([t_start, h, 0.0, 0.0])      # t, next h, rejected, previous h (none)
+    # t, next h, rejected, previous h (none), mode (compiled.RUN), steps since a halving
+    state = np.array([t_start, h, 0.0, 0.0, K.RUN, 0.0])
+    trial = np.empty((2, n))              # the end of a step that crossed an event
+    no_F = np.full(n, np.nan)
     step_no, t = 0, t_start
+    events = None
+    if system.contact_group is not None:     # no other events (driver.integrate)
+        from .events import EventLocator
+        events = EventLocator(system, h, sol)
+        events.start(t_start, start)
+        cm.impact_speed[:] = system.contact_group.impact_speed
+    h_max = ctl[6]
+
+    def attempt(mode, h_try):
+        """Run the kernels' loop in ``mode`` from (t, q, v, ...) with a first
+        step of h_try, appending the rows it records; returns its status."""
+        nonlocal step_no, t
+        state[1], state[4] = h_try, mode
+        status, taken, nrec = K.run_adaptive(
+            mono, I, Fl, state[1], t, t_end, step_no, output_every, q, v, a, b, lam, mu,
+            q_prev, v_prev, ctl, opts, solver, lin, lu_state, R, C, V, out_t, out_h, out_q,
+            out_v, out_a, out_lam, out_mu, out_stats, counts, F_start if step_no == 0 else no_F,
+            state, trial)
+        if nrec:
+            sol.append_block(out_t[:nrec].copy(), out_q[:nrec].copy(), out_v[:nrec].copy(),
+                             out_a[:nrec].copy(), out_lam[:nrec].copy(),
+                             {extra: out_mu[:nrec].copy()} if extra is not None else {},
+                             out_stats[:nrec].copy(), out_h[:nrec].copy())
+        sol.stats_total.rejected += int(state[2])
+        state[2] = 0.0
+        step_no += taken
+        t = float(state[0])
+        return status
+
+    def land():
+        """The loop stopped at a step that crosses an event (a gap opening or
+        closing, its end in ``trial``): retake it with the size that ends it
+        just past the event (``EventLocator.check``), until one lands; take
+        that step; then change the contact's state (``commit``) and plan the
+        next step as the driver's loop does (back to the size before the
+        cut, within the closed gaps' step limit; a two-step method restarts
+        with BDF1). Returns the status of the last attempt."""
+        t0, step = t, float(state[1])
+        resume = step                 # the size planned, to go back to once landed
+        last = StepState(t0, q.copy(), v.copy(), a.copy(), lam.copy())
+        # the gaps at the step's start: the loop took the steps since the last event
+        events.g = system.contact_group.gaps(system._ext(q))
+        ctl[6] = h_max                # the step limit of the gaps after the event, below
+        h_try = step
+        mode = None
+        while True:
+            if mode is None:          # where to end the step that crossed
+                cut = events.check(t0, step, last, StepState(t0 + step, trial[0].copy(),
+                                                             trial[1].copy(), None, None))
+                mode, h_try = (K.LAND, step) if cut is None else (K.ATTEMPT, cut)
+                sol.event_cuts += cut is not None
+            status = attempt(mode, h_try)
+            if status == K.EVENT:         # the retaken step crossed too: look again
+                step, mode = float(state[1]), None
+            elif status == K.REJECTED:    # its error estimate: again, shorter
+                mode, h_try = K.ATTEMPT, float(state[1])
+            else:
+                break
+        if status != 0:
+            return status
+        # the step taken: its events (none, if it ended before them) from its own ends
+        events.check(t0, t - t0, last, StepState(t, q.copy(), v.copy(), a.copy(), lam.copy()))
+        events.commit()
+        cm.impact_speed[:] = system.contact_group.impact_speed
+        if control is None:           # fixed steps: back to the size planned, and regrowth
+            h_next = resume
+            if h_next < h:
+                state[5] += 1.0
+                if state[5] >= ctl[7]:
+                    h_next, state[5] = min(2.0 * h_next, h), 0.0
+        else:
+            h_next = min(max(float(state[1]), resume), events.step_limit())
+        if events.happened and method.history_length > 1:
+            state[3] = 0.0            # BDF1 from the event (driver: RESTART_FRACTION)
+            if control is not None:
+                from .driver import RESTART_FRACTION
+                h_next = min(h_next, RESTART_FRACTION * events.changed_limit)
+        state[1] = h_next
+        return status
+
     try:
         while t < t_end - 1e-12 * (t_end - t_start):
-            status, taken, nrec = K.run_adaptive(
-                mono, I, Fl, state[1], t, t_end, step_no, output_every, q, v, a, b, lam, mu,
-                q_prev, v_prev, ctl, opts, solver, lin, lu_state, R, C, V, out_t, out_h, out_q,
-                out_v, out_a, out_lam, out_mu, out_stats, counts, F_start if step_no == 0 else
-                np.full(n, np.nan), state)
-            if nrec:
-                sol.append_block(out_t[:nrec].copy(), out_q[:nrec].copy(), out_v[:nrec].copy(),
-                                 out_a[:nrec].copy(), out_lam[:nrec].copy(),
-                                 {extra: out_mu[:nrec].copy()} if extra is not None else {},
-                                 out_stats[:nrec].copy(), out_h[:nrec].copy())
-            sol.stats_total.rejected += int(state[2])
-            state[2] = 0.0
-            step_no += taken
-            t = float(state[0])
+            if events is not None and control is not None:    # the closed gaps' step limit
+                ctl[6] = min(h_max, events.step_limit())
+            status = attempt(K.RUN, float(state[1]))
+            if status == K.EVENT:
+                status = land()
             if status != 0:
                 if counts[5]:          # accepted steps since the last record: keep the last
                     sol.append_block(np.array([t]), q[None].copy(), v[None].copy(),
@@ -893,9 +1021,10 @@ def run_compiled_adaptive(system, method, t_end, h, t_start, initial, newton_opt
                                      counts[None].copy(), np.array([float(state[1])]))
                     counts[:] = 0
                 part = numpy_integrate(
-                    system, method, t_end, float(state[1]), t_start=t,
-                    initial=_resume_state(system, t, q, v, a, lam, {"aux": b.copy()}),
-                    newton=opt, on_failure="return", engine="numpy", control=control)
+                    system, method, t_end, float(state[1]) if control is not None else h,
+                    t_start=t, initial=_resume_state(system, t, q, v, a, lam, {"aux": b.copy()}),
+                    newton=opt, on_failure="return", engine="numpy", control=control,
+                    max_halvings=max_halvings, grow_after=grow_after)
                 sol.extend(part, start=1)
                 sol.status, sol.message = part.status, part.message
                 sol.diagnostics = part.diagnostics
@@ -1098,16 +1227,21 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
 
 class SparseAdapter:
     """A recipe method whose residual, Newton matrix, scales and force term
-    are evaluated by the kernels; everything else is the wrapped method's.
-    The Newton matrix is a CSC matrix on a pattern fixed at the first
-    evaluation (values refilled in place)."""
+    are evaluated by the kernels; everything else is the wrapped method's:
+    the driver's time loop on the compiled evaluation (large models, for
+    SuperLU; contacts whose events the compiled loops do not land). The
+    Newton matrix is a CSC matrix on a pattern fixed at the first evaluation
+    (values refilled in place), or with ``dense`` its ndarray. The contacts'
+    impact speeds (the state the driver's events change) are copied into
+    the kernels' model data at each step's context."""
 
-    def __init__(self, system, method):
+    def __init__(self, system, method, cm=None, dense=False):
         from .recipe import RECIPE_FIELDS
         self._method = method
         self._system = system
         self._K = _kernels()
-        self._cm = CompiledModel(system)
+        self._cm = cm or CompiledModel(system)
+        self._dense = bool(dense)
         self._field = {k: i for i, k in enumerate(RECIPE_FIELDS)}
         n = system.n
         self.size = newton_size(system, method)
@@ -1127,6 +1261,8 @@ class SparseAdapter:
         """The wrapped method's context, with the recipe of this step and its
         predictors (``compiled._run``) for the kernels."""
         ctx = self._method.context(system, history, t, h)
+        if system.contact_group is not None:
+            self._cm.impact_speed[:] = system.contact_group.impact_speed
         rec, first = step_recipe(self._method, history, h)
         s = history[-1]
         p = history[-2] if len(history) >= 2 else s
@@ -1153,7 +1289,7 @@ class SparseAdapter:
         return r
 
     def jacobian(self, w, ctx):
-        """Newton matrix as CSC on the fixed pattern."""
+        """The Newton matrix on the fixed pattern: CSC, or its ndarray (``dense``)."""
         K, c = self._K, ctx.cache
         p = K.jacobian_triplets(c["recipe"], self._cm.ints, self._cm.floats, ctx.t, c["kq_pred"],
                                 c["kv_pred"], c["kF"], c["kqx_old"], w, self._R, self._C, self._V,
@@ -1167,7 +1303,8 @@ class SparseAdapter:
         _, position, indices, indptr, nnz = self._pattern
         data = np.empty(nnz)
         K.accumulate(self._V, p, position, data)
-        return scipy.sparse.csc_matrix((data, indices, indptr), shape=(self.size, self.size))
+        J = scipy.sparse.csc_matrix((data, indices, indptr), shape=(self.size, self.size))
+        return J.toarray() if self._dense else J
 
     def scales(self, system, h, q):
         """The recipe's scales (as the wrapped method's), with the mobility
