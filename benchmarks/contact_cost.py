@@ -1,7 +1,7 @@
 """What contact scenes cost per method: the three shipped contact models, every
 method, error-controlled steps at the model's tolerance.
 
-Per model and method: wall time of the time loop [s], accepted and rejected
+Per model and method: the engine, wall time of the time loop [s], accepted and rejected
 steps, steps retaken to land on events, events, us per step, and the
 model's own accuracy measure:
 
@@ -63,8 +63,8 @@ def main(argv=None):
     ap.add_argument("--methods", default=",".join(METHODS))
     ap.add_argument("--markdown", type=Path)
     args = ap.parse_args(argv)
-    rows = ["| model | method | loop [s] | steps | rejected | retaken | events | us/step | accuracy |",
-            "|---|---|---|---|---|---|---|---|---|"]
+    rows = ["| model | method | engine | loop [s] | steps | rejected | retaken | events | us/step "
+            "| accuracy |", "|---|---|---|---|---|---|---|---|---|---|"]
     for name, overrides, measure in (("bouncing_ball", None, _ball),
                                      ("pendulum_stop", {"e": 1.0}, _stop),
                                      ("slider_crank_clearance", None, None)):
@@ -79,7 +79,8 @@ def main(argv=None):
                 acc = measure(sol)
             tot = sol.stats_total
             loop = sol.timings["integration"]
-            rows.append(f"| {name} | {method} | {loop:.2f} | {tot.steps} | {tot.rejected} | "
+            rows.append(f"| {name} | {method} | {sol.engine} | {loop:.2f} | {tot.steps} | "
+                        f"{tot.rejected} | "
                         f"{sol.event_cuts} | {len(sol.events)} | "
                         f"{1e6 * loop / max(tot.steps, 1):.0f} | {acc} |")
             print(rows[-1], flush=True)

@@ -73,6 +73,11 @@ class ContactGroup:
         self.impact_speed = np.zeros(len(self.names))
         #: (t, gap, speed) of every arm and release of the run under way
         self.log = []
+        #: The kernels' evaluation of :meth:`energy` and :meth:`dissipation`
+        #: over rows, (qx (N, nx), vx (N, nx), speeds (N, k)) -> (energy,
+        #: dissipation), each (N,), installed by a run that loaded them
+        #: (``engine.prepare_compiled``); None: the loops below.
+        self.row_kernel = None
 
     # -- the contact state (set by the time loop) ------------------------------------------
     def reset(self):
@@ -209,6 +214,10 @@ class ContactGroup:
         """Elastic energy of the contacts, K delta^(n+1) / (n+1) [J]: a float,
         or shape (N,) for rows qx (N, nx)."""
         rows = np.atleast_2d(qx)
+        if self.row_kernel is not None:
+            zero = np.zeros((len(rows), len(self.names)))
+            out = self.row_kernel(rows, np.zeros_like(rows), zero)[0]
+            return float(out[0]) if np.ndim(qx) == 1 else out
         out = np.zeros(len(rows))
         for r, row in enumerate(rows):
             for i, (geo, data) in enumerate(self.geometry):
@@ -222,6 +231,8 @@ class ContactGroup:
         (N, nx) and the impact speeds in force at each row (N, k)
         (:meth:`speeds_at`): (f - K delta^n) ddelta/dt, the damping's power
         and, where the force is cut at zero, the elastic power it leaves out."""
+        if self.row_kernel is not None:
+            return self.row_kernel(qx, vx, speeds)[1]
         out = np.zeros(len(qx))
         for r in range(len(qx)):
             for i in range(len(self.names)):

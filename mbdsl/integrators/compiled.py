@@ -70,7 +70,7 @@ from .recipe import RECIPE_FIELDS
 __all__ = ["MODEL_SCHEMA", "MODEL_FIELDS", "residual", "jacobian_triplets", "force_term", "old_force",
            "predict", "state", "layout", "advance", "mobility", "index1_multipliers",
            "index1_multipliers_band",
-           "accumulate", "run", "run_adaptive", "triplet_bound", "pack", "unpack", "lapack_band_addresses",
+           "accumulate", "contact_rows", "run", "run_adaptive", "triplet_bound", "pack", "unpack", "lapack_band_addresses",
            "DENSE", "BANDED"]
 
 #: The recipe entries (``recipe.RECIPE_FIELDS``, checked below): literals here, so that
@@ -840,11 +840,11 @@ def _slip(I, Fl, qx, i, w, dw):
 
 
 @_jit
-def _contact_law(I, Fl, qx, vx, i, grad, H):
+def _contact_law(I, Fl, qx, vx, i, imp, grad, H):
     """Gap i's normal force under the Hunt-Crossley law (module notes of
-    ``assembly.contact``), with grad, H of ``_gap``: returns (g, delta,
-    ddelta/dt, f, K delta^n, v_impact, armed); f = 0 where the gap is open
-    or the force is cut."""
+    ``assembly.contact``) at impact speed ``imp`` (0: not armed), with grad,
+    H of ``_gap``: returns (g, delta, ddelta/dt, f, K delta^n, v_impact,
+    armed); f = 0 where the gap is open or the force is cut."""
     g = _gap(I, Fl, qx, i, grad, H)
     if g >= 0.0:
         return g, 0.0, 0.0, 0.0, 0.0, 0.0, False
@@ -853,7 +853,6 @@ def _contact_law(I, Fl, qx, vx, i, grad, H):
     for a in range(6):
         ddelta -= grad[a] * vx[_i(I, KCOL, i, a)]
     elastic = _f(I, Fl, KPAR, i, 9) * delta ** _f(I, Fl, KPAR, i, 10)
-    imp = _f(I, Fl, KIMP, i, 0)
     # not armed yet (a trial step into a contact its event has not closed): the
     # approach speed now stands for the impact speed
     speed = imp if imp > 0.0 else max(ddelta, SPEED_FLOOR)
@@ -869,7 +868,8 @@ def _contacts_add(I, Fl, qx, vx, out):
     grad, H = np.empty(6), np.empty((6, 6))
     w, dw = np.empty(6), np.empty((6, 6))
     for i in range(_rows(I, KGI)):
-        g, delta, ddelta, f, elastic, speed, armed = _contact_law(I, Fl, qx, vx, i, grad, H)
+        g, delta, ddelta, f, elastic, speed, armed = _contact_law(
+            I, Fl, qx, vx, i, _f(I, Fl, KIMP, i, 0), grad, H)
         if f <= 0.0:
             continue
         for a in range(6):
@@ -896,7 +896,8 @@ def _emit_contacts(I, Fl, n, qx, vx, R, C, V, p, r0, c0, cq, cv):
     Qq, Qv = np.empty((6, 6)), np.empty((6, 6))
     v = np.empty(6)
     for i in range(_rows(I, KGI)):
-        g, delta, ddelta, f, elastic, speed, armed = _contact_law(I, Fl, qx, vx, i, grad, H)
+        g, delta, ddelta, f, elastic, speed, armed = _contact_law(
+            I, Fl, qx, vx, i, _f(I, Fl, KIMP, i, 0), grad, H)
         Qq[:, :] = 0.0
         Qv[:, :] = 0.0
         if f > 0.0:
@@ -948,6 +949,40 @@ def _emit_contacts(I, Fl, n, qx, vx, R, C, V, p, r0, c0, cq, cv):
                 if cb < n:
                     p = _put(R, C, V, p, r0 + ra, c0 + cb, -(cq * Qq[a, b] + cv * Qv[a, b]))
     return p
+
+
+@_jit
+def contact_rows(I, Fl, q, v, speeds, energy, dissipation):
+    """The contacts' elastic energy K delta^(n+1) / (n+1) [J] into energy
+    (N,) and the power they dissipate [W] into dissipation (N,), per row of
+    q, v (N, n), with the impact speeds in force at each row, speeds (N, k):
+    (f - K delta^n) ddelta/dt, the damping's power (and, where the force is
+    cut at zero, the elastic power it leaves out), and -F_t v_t of friction
+    (``ContactGroup.energy``, ``ContactGroup.dissipation``)."""
+    N, n = q.shape
+    qx, vx = np.zeros(n + 3), np.zeros(n + 3)
+    grad, H = np.empty(6), np.empty((6, 6))
+    w, dw = np.empty(6), np.empty((6, 6))
+    for r in range(N):
+        qx[:n] = q[r]
+        vx[:n] = v[r]
+        e, p = 0.0, 0.0
+        for i in range(_rows(I, KGI)):
+            g, delta, ddelta, f, elastic, speed, armed = _contact_law(
+                I, Fl, qx, vx, i, speeds[r, i], grad, H)
+            if delta > 0.0:
+                ex = _f(I, Fl, KPAR, i, 10)
+                e += _f(I, Fl, KPAR, i, 9) * delta ** (ex + 1.0) / (ex + 1.0)
+                p += (f - elastic) * ddelta
+                mu = _f(I, Fl, KPAR, i, 12)
+                if mu > 0.0 and f > 0.0:
+                    _slip(I, Fl, qx, i, w, dw)
+                    vt = 0.0
+                    for a in range(6):
+                        vt += w[a] * vx[_i(I, KCOL, i, a)]
+                    p += mu * f * math.tanh(vt / _f(I, Fl, KPAR, i, 13)) * vt
+        energy[r] = e
+        dissipation[r] = p
 
 
 @_jit

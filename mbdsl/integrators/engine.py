@@ -350,7 +350,26 @@ def prepare_compiled(system, method, options, q, announce=None, adaptive=False,
     cm = CompiledModel(system)
     plan = linear_solver_plan(system, method, options, q, cm)  # banded: calls a kernel
     ensure_loaded("sparse" if python_loop else plan.kind, announce, adaptive)  # this loop's
+    if system.contact_group is not None:     # the output's energy and dissipation
+        system.contact_group.row_kernel = contact_row_kernel(cm)
     return cm, plan, time.perf_counter() - t0
+
+
+def contact_row_kernel(cm):
+    """``ContactGroup.row_kernel`` on the kernels (``compiled.contact_rows``)
+    of the model data ``cm``: (qx, vx (N, n + 3), speeds (N, k)) -> (elastic
+    energy [J], dissipated power [W]), each (N,)."""
+    K, n = _kernels(), cm.n
+
+    def rows(qx, vx, speeds):
+        """The contacts' energy and dissipated power at rows (qx, vx)."""
+        qx, vx = np.atleast_2d(qx), np.atleast_2d(vx)
+        energy, dissipation = np.empty(len(qx)), np.empty(len(qx))
+        K.contact_rows(cm.ints, cm.floats, np.ascontiguousarray(qx[:, :n], dtype=float),
+                       np.ascontiguousarray(vx[:, :n], dtype=float),
+                       np.ascontiguousarray(speeds, dtype=float), energy, dissipation)
+        return energy, dissipation
+    return rows
 
 
 class CompiledModel:

@@ -184,9 +184,10 @@ def warm_up(groups=GROUPS, output: bool = True, loops=(False, True)) -> None:
       loop (``residual``, ``jacobian_triplets``, ``accumulate``,
       ``mobility``, ``force_term``);
 
-    and with ``output`` the kernel of the output's index-1 multipliers
-    (``index1_multipliers``), which a run with warm kernels loads when its
-    output first needs it. ``loops``: the fixed-step loop (False), the
+    and with ``output`` the kernels of the output's index-1 multipliers
+    (``index1_multipliers``) and of the contacts' energy and dissipated power
+    (``contact_rows``), which a run with warm kernels loads when its output
+    first needs them. ``loops``: the fixed-step loop (False), the
     error-controlled one (True), or both: a run with warm kernels loads the
     one it takes (each is a third of a second from numba's cache on two
     cores; measured on the slider crank's command, 0.75 s for both).
@@ -208,9 +209,11 @@ def warm_up(groups=GROUPS, output: bool = True, loops=(False, True)) -> None:
         if True in loops and solver != "sparse":    # error-controlled steps (run_adaptive)
             integrate(system, HHTI3(), 2e-3, 1e-3, engine="compiled",
                       newton=NewtonOptions(linear_solver=solver), control=StepControl(1e-6, 1e-6))
-    if output:                 # the output's multipliers (HHT-ADD)
-        from .engine import index1_multipliers
+    if output:                 # the output's multipliers (HHT-ADD), contacts' energy and power
+        from .engine import CompiledModel, contact_row_kernel, index1_multipliers
         index1_multipliers(system, np.zeros(1), np.zeros((1, system.n)), np.zeros((1, system.n)))
+        rows = np.zeros((1, system.nx))
+        contact_row_kernel(CompiledModel(system))(rows, rows, np.zeros((1, 0)))
 
 
 def ensure_loaded(group: str | None = None, announce=None, adaptive: bool = False) -> float:

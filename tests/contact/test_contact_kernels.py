@@ -18,6 +18,7 @@ import mbdsl
 from mbdsl.assembly.initial import InitialState
 from mbdsl.assembly.system import assemble
 from mbdsl.integrators import compiled, make_method
+from mbdsl.integrators import engine as engine_module
 from mbdsl.integrators.engine import CompiledModel, SparseAdapter, unsupported
 
 from .test_law_and_derivatives import MODEL
@@ -162,3 +163,30 @@ def test_fixed_steps_with_contacts_run_compiled_as_on_the_numpy_engine(method):
     np.testing.assert_allclose(b.q, a.q, rtol=0, atol=1e-8)
     np.testing.assert_allclose([e[0] for e in b.events], [e[0] for e in a.events], rtol=0,
                                atol=1e-9)
+
+
+def test_kernel_energy_and_dissipation_over_rows_are_the_contact_group_s(system):
+    """The output's elastic energy and dissipated power per row, by the
+    kernels (``ContactGroup.row_kernel``), equal the group's own loops, over
+    rows where every gap is penetrated somewhere, armed and not (speeds 0)."""
+    g = system.contact_group
+    rng = np.random.default_rng(9)
+    N, n = 200, system.n
+    q = rng.normal(scale=0.4, size=(N, n))
+    v = rng.normal(scale=0.5, size=(N, n))
+    qx, vx = system._ext(q), system._ext(v)
+    speeds = np.where(rng.random((N, len(g.names))) < 0.5, 0.0,
+                      rng.uniform(0.1, 3.0, (N, len(g.names))))
+    g.row_kernel = None
+    energy, power = g.energy(qx), g.dissipation(qx, vx, speeds)
+    assert np.count_nonzero(energy) > N // 2
+    assert np.count_nonzero(power) > N // 2
+    kernel = engine_module.contact_row_kernel(CompiledModel(system))
+    try:
+        g.row_kernel = kernel
+        np.testing.assert_allclose(g.energy(qx), energy, rtol=1e-12, atol=0)
+        np.testing.assert_allclose(g.dissipation(qx, vx, speeds), power, rtol=1e-11,
+                                   atol=1e-12 * np.abs(power).max())
+        assert g.energy(qx[3]) == pytest.approx(energy[3], rel=1e-12)
+    finally:
+        g.row_kernel = None
