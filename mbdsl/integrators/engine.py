@@ -139,26 +139,49 @@ def index1_multipliers(system, t, q, v) -> np.ndarray:
     complement Phi_q M^-1 Phi_q^T in a band Cholesky
     (``compiled.index1_multipliers_band``, ``_index1_band``; linear in the
     size of a chain); flexible beams: the dense index-1 matrix
-    (``compiled.index1_multipliers``). Rows: t (N,) [s], q and v (N, n)."""
+    (``compiled.index1_multipliers``). Rows: t (N,) [s], q and v (N, n).
+
+    Contacts: each row with the impact speeds in force at its time, from the
+    contact log of the model's last run (``ContactGroup.log``,
+    ``speeds_at``), a block of rows per contact state."""
     from .kernel_cache import loaded
-    if (not loaded() or _unsupported_elements(system) is not None
-            or system.contact_group is not None):   # its impact speeds change along the run
-        return system.index1_multipliers(t, q, v)
-    cm = getattr(system, "_compiled_model", None)
-    if cm is None:
-        cm = system._compiled_model = CompiledModel(system)
     t = np.ascontiguousarray(np.atleast_1d(t), dtype=float)
     q = np.ascontiguousarray(np.atleast_2d(q), dtype=float)
     v = np.ascontiguousarray(np.atleast_2d(v), dtype=float)
+    group = system.contact_group
+    blocks, speeds = [(0, len(t))], None
+    if group is not None and len(t):
+        speeds = group.speeds_at(t, group.log)
+        change = np.flatnonzero(np.any(speeds[1:] != speeds[:-1], axis=1)) + 1
+        edges = [0, *change.tolist(), len(t)]
+        blocks = list(zip(edges[:-1], edges[1:]))
+    if not loaded() or _unsupported_elements(system) is not None:
+        if group is None:
+            return system.index1_multipliers(t, q, v)
+        kept = group.impact_speed.copy()
+        try:
+            out = np.empty((len(t), system.m))
+            for i0, i1 in blocks:
+                group.impact_speed[:] = speeds[i0]
+                out[i0:i1] = system.index1_multipliers(t[i0:i1], q[i0:i1], v[i0:i1])
+            return out
+        finally:
+            group.impact_speed[:] = kept
+    cm = getattr(system, "_compiled_model", None)
+    if cm is None:
+        cm = system._compiled_model = CompiledModel(system)
     out = np.empty((len(t), system.m))
     R, C = np.empty(cm.bound, np.int64), np.empty(cm.bound, np.int64)
     band = _index1_band(system)
-    if band is None:
-        _kernels().index1_multipliers(cm.ints, cm.floats, t, q, v, out, R, C, np.empty(cm.bound),
-                                      system.FRICTION_ITERATIONS)
-    else:
-        _kernels().index1_multipliers_band(cm.ints, cm.floats, t, q, v, out, R, C,
-                                           np.empty(cm.bound), system.FRICTION_ITERATIONS, *band)
+    for i0, i1 in blocks:
+        if speeds is not None:
+            cm.impact_speed[:] = speeds[i0]
+        rows = (t[i0:i1], q[i0:i1], v[i0:i1], out[i0:i1], R, C, np.empty(cm.bound),
+                system.FRICTION_ITERATIONS)
+        if band is None:
+            _kernels().index1_multipliers(cm.ints, cm.floats, *rows)
+        else:
+            _kernels().index1_multipliers_band(cm.ints, cm.floats, *rows, *band)
     return out
 
 

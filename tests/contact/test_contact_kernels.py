@@ -190,3 +190,26 @@ def test_kernel_energy_and_dissipation_over_rows_are_the_contact_group_s(system)
         assert g.energy(qx[3]) == pytest.approx(energy[3], rel=1e-12)
     finally:
         g.row_kernel = None
+
+
+def test_hht_add_output_multipliers_take_each_row_s_impact_speeds():
+    """HHT-ADD writes the index-1 multipliers at its rows; in a stop's
+    contact the damping depends on the impact speed of that contact (the
+    contact log), not on the one in force at the end of the run. The
+    kernels' rows against the numpy index-1 solve, row by row, with each
+    row's impact speeds."""
+    model = mbdsl.load(MODELS / "pendulum_stop.mbd")
+    sol = mbdsl.simulate(model, method="hht-add", t_end=1.0, engine="compiled")
+    system, g = sol.system, sol.system.contact_group
+    assert sol.engine == "compiled" and len(sol.events) >= 4
+    speeds = g.speeds_at(sol.t, sol.contact_log)
+    inside = np.flatnonzero(np.any(speeds > 0, axis=1))
+    assert len(inside) > 20 and len(set(map(tuple, speeds[inside]))) >= 2
+    kept = g.impact_speed.copy()
+    try:
+        for i in inside[::5]:
+            g.impact_speed[:] = speeds[i]
+            ref = system.index1_state(sol.t[i], sol.q[i], sol.v[i])[1]
+            np.testing.assert_allclose(sol.lam[i], ref, rtol=1e-9, atol=1e-9 * np.abs(ref).max())
+    finally:
+        g.impact_speed[:] = kept
