@@ -147,7 +147,8 @@ MODEL_SCHEMA = (
     ("ecol", "i", 0), ("eshp", "f", 2),                                # spans; column, shape (S_x, S_y)
     ("kgi", "i", 2), ("kcol", "i", 6),                                 # contact gaps: kind, line row;
     ("kpar", "f", 14), ("kimp", "f", 0),                               # columns; data, law; impact speed
-)
+    ("sel", "i", 4), ("fel", "i", 2),                                  # elastic terms of spring and
+)                                                                      # point-force points: spans
 #: The field names, and the scalar "n_elements" (the header's last entry).
 MODEL_FIELDS = tuple(name for name, _, _ in MODEL_SCHEMA) + ("n_elements",)
 
@@ -166,7 +167,7 @@ _inline = numba.njit(cache=True, nogil=True, inline="always")
  FCOL, FS, FF, ROW_ELEMENT, CODE, CONSTS, PROG, LFN, TCOL, TFN, FFN, STACK,
  VAR, VARC, XVAL, STQ, SDV, PFN, GEO, GEOF, FRI, FRP,
  DROW, DCOL1, DS1, DCOL2, DS2, DLEN, MRIG, BEAM, BCOL, BDAT, BDOF, GRAV, CEL, PEL, ECOL,
- ESHP, KGI, KCOL, KPAR, KIMP) = range(66)
+ ESHP, KGI, KCOL, KPAR, KIMP, SEL, FEL) = range(68)
 if any(globals()[name.upper()] != k for k, (name, _, _) in enumerate(MODEL_SCHEMA)):
     raise ImportError("compiled.py's field indices differ from MODEL_SCHEMA")   # pragma: no cover
 
@@ -216,8 +217,8 @@ def _As(I, Fl, qx, cols, s, i):
 @_inline
 def _span(I, el, i, side):
     """(first, end) of the elastic terms of point ``side`` (0, 1) of instance i
-    of a joint whose spans are field ``el`` (CEL, PEL); (0, 0) when the model
-    has no point on a flexible beam (the field is then empty)."""
+    of an element whose spans are field ``el`` (CEL, PEL, SEL, FEL); (0, 0)
+    when the model has no point on a flexible beam (the field is then empty)."""
     if _rows(I, el) == 0:
         return 0, 0
     return _i(I, el, i, 2 * side), _i(I, el, i, 2 * side + 1)
@@ -992,9 +993,10 @@ def forces(I, Fl, t, qx, vx, lam, out):
     for j in range(out.shape[0]):       # a loop: numba's array-to-array slice copy checks overlap
         out[j] = _f(I, Fl, Q0, j, 0)
     for i in range(_rows(I, SCOL1)):
-        # the kinematics of ``_spring`` in scalars (no scratch array on this hot path)
-        ax1, ay1 = _As(I, Fl, qx, SCOL1, SS1, i)
-        ax2, ay2 = _As(I, Fl, qx, SCOL2, SS2, i)
+        # the kinematics of ``_spring`` in scalars (no scratch array on this hot path);
+        # a point on a flexible beam at A u, u = s + S q_e (``_Au``; its terms below)
+        ax1, ay1 = _Au(I, Fl, qx, SCOL1, SS1, SEL, 0, i)
+        ax2, ay2 = _Au(I, Fl, qx, SCOL2, SS2, SEL, 1, i)
         dx = (qx[_i(I, SCOL2, i, 0)] - qx[_i(I, SCOL1, i, 0)]) + (ax2 - ax1)
         dy = (qx[_i(I, SCOL2, i, 1)] - qx[_i(I, SCOL1, i, 1)]) + (ay2 - ay1)
         l = math.sqrt(dx * dx + dy * dy)
@@ -1004,6 +1006,15 @@ def forces(I, Fl, t, qx, vx, lam, out):
             w1, w2 = vx[_i(I, SCOL1, i, 2)], vx[_i(I, SCOL2, i, 2)]
             ddx = (vx[_i(I, SCOL2, i, 0)] - vx[_i(I, SCOL1, i, 0)]) + (-ay2 * w2 + ay1 * w1)
             ddy = (vx[_i(I, SCOL2, i, 1)] - vx[_i(I, SCOL1, i, 1)]) + (ax2 * w2 - ax1 * w1)
+            for side in range(2):          # the elastic terms' velocities: -+ A S_k v_k
+                k0, k1 = _span(I, SEL, i, side)
+                ph = qx[_i(I, SCOL1 if side == 0 else SCOL2, i, 2)]
+                sg = -1.0 if side == 0 else 1.0
+                for k in range(k0, k1):
+                    Ax, Ay, Bx, By = _eshape(I, Fl, k, ph)
+                    vk = vx[_i(I, ECOL, k, 0)]
+                    ddx += sg * Ax * vk
+                    ddy += sg * Ay * vk
             f = f + _f(I, Fl, SPAR, i, 1) * (ex * ddx + ey * ddy)
         fx, fy = f * ex, f * ey
         # Q = -D^T (f e), D = dd/dq_local (``_spring``'s G)
@@ -1013,17 +1024,28 @@ def forces(I, Fl, t, qx, vx, lam, out):
         out[_i(I, SCOL2, i, 0)] -= fx
         out[_i(I, SCOL2, i, 1)] -= fy
         out[_i(I, SCOL2, i, 2)] -= -ay2 * fx + ax2 * fy
+        for side in range(2):              # elastic terms: -+ (A S_k) . (f e)
+            k0, k1 = _span(I, SEL, i, side)
+            ph = qx[_i(I, SCOL1 if side == 0 else SCOL2, i, 2)]
+            sg = 1.0 if side == 0 else -1.0
+            for k in range(k0, k1):
+                Ax, Ay, Bx, By = _eshape(I, Fl, k, ph)
+                out[_i(I, ECOL, k, 0)] += sg * (Ax * fx + Ay * fy)
     for i in range(_rows(I, RCOL)):
         tau = (_f(I, Fl, RPAR, i, 0) * (qx[_i(I, RCOL, i, 1)] - qx[_i(I, RCOL, i, 0)] - _f(I, Fl, RPAR, i, 2))
                + _f(I, Fl, RPAR, i, 1) * (vx[_i(I, RCOL, i, 1)] - vx[_i(I, RCOL, i, 0)]))
         out[_i(I, RCOL, i, 0)] += tau
         out[_i(I, RCOL, i, 1)] -= tau
     for i in range(_rows(I, FCOL)):
-        ax, ay = _As(I, Fl, qx, FCOL, FS, i)
+        ax, ay = _Au(I, Fl, qx, FCOL, FS, FEL, 0, i)
         fx, fy = _point_force(I, Fl, t, i)
         out[_i(I, FCOL, i, 0)] += fx
         out[_i(I, FCOL, i, 1)] += fy
         out[_i(I, FCOL, i, 2)] += -ay * fx + ax * fy
+        k0, k1 = _span(I, FEL, i, 0)
+        for k in range(k0, k1):            # a point on a flexible beam: (A S_k) . F
+            Ax, Ay, Bx, By = _eshape(I, Fl, k, qx[_i(I, FCOL, i, 2)])
+            out[_i(I, ECOL, k, 0)] += Ax * fx + Ay * fy
     for i in range(_rows(I, TCOL)):                # torques of t (constant ones are in Q0)
         out[_i(I, TCOL, i, 0)] += _eval(I, Fl, _i(I, TFN, i, 0), t)
     if _rows(I, STQ) > 0:                          # loads of the state, in joints
@@ -1651,6 +1673,82 @@ def _emit_friction_lam(I, Fl, n, qx, vx, lam, R, C, V, p, r0, c0, coef):
 
 
 @_jit
+def _emit_spring_elastic(I, Fl, n, qx, vx, i, R, C, V, p, r0, c0, cq, cv):
+    """-(cq Q_q + cv Q_v) at (r0, c0) of spring-damper i with a point on a
+    flexible beam (``SpringDamperGroup.derivatives``) over its local columns:
+    x, y, phi of both bodies, then the elastic terms of each point (u = s +
+    S q_e). With D = dd/dq_local and Hd = d^2 d/dq_local^2 (d^2 p/dphi^2 = -A u,
+    d^2 p/dphi dq_k = B S_k; Shabana, sec. 5.3): Q_q = -D^T d(f e)/dq - (f e)
+    . Hd, Q_v = -c (D^T e)(D^T e)^T."""
+    a0, a1 = _span(I, SEL, i, 0)
+    b0, b1 = _span(I, SEL, i, 1)
+    nc = 6 + (a1 - a0) + (b1 - b0)
+    cols = np.empty(nc, np.int64)
+    D, Hd = np.zeros((2, nc)), np.zeros((2, nc, nc))
+    v, de, Hv = np.empty(nc), np.empty((2, nc)), np.empty((2, nc))
+    for j in range(3):
+        cols[j] = _i(I, SCOL1, i, j)
+        cols[3 + j] = _i(I, SCOL2, i, j)
+    ph1, ph2 = qx[cols[2]], qx[cols[5]]
+    ax1, ay1 = _Au(I, Fl, qx, SCOL1, SS1, SEL, 0, i)
+    ax2, ay2 = _Au(I, Fl, qx, SCOL2, SS2, SEL, 1, i)
+    D[0, 0], D[1, 1], D[0, 3], D[1, 4] = -1.0, -1.0, 1.0, 1.0
+    D[0, 2], D[1, 2], D[0, 5], D[1, 5] = ay1, -ax1, -ay2, ax2
+    Hd[0, 2, 2], Hd[1, 2, 2], Hd[0, 5, 5], Hd[1, 5, 5] = ax1, ay1, -ax2, -ay2
+    j = 6
+    for side in range(2):
+        k0, k1 = (a0, a1) if side == 0 else (b0, b1)
+        sg, cph = (-1.0, 2) if side == 0 else (1.0, 5)
+        for k in range(k0, k1):
+            cols[j] = _i(I, ECOL, k, 0)
+            Ax, Ay, Bx, By = _eshape(I, Fl, k, ph1 if side == 0 else ph2)
+            D[0, j], D[1, j] = sg * Ax, sg * Ay
+            Hd[0, cph, j], Hd[1, cph, j] = sg * Bx, sg * By
+            Hd[0, j, cph], Hd[1, j, cph] = sg * Bx, sg * By
+            j += 1
+    for j in range(nc):
+        v[j] = vx[cols[j]]
+    k, c, l0 = _f(I, Fl, SPAR, i, 0), _f(I, Fl, SPAR, i, 1), _f(I, Fl, SPAR, i, 2)
+    dx = (qx[cols[3]] - qx[cols[0]]) + (ax2 - ax1)
+    dy = (qx[cols[4]] - qx[cols[1]]) + (ay2 - ay1)
+    l = math.sqrt(dx * dx + dy * dy)
+    ex, ey = dx / l, dy / l
+    ddx, ddy = 0.0, 0.0
+    for j in range(nc):
+        ddx += D[0, j] * v[j]
+        ddy += D[1, j] * v[j]
+    P00, P01, P11 = (1.0 - ex * ex) / l, -ex * ey / l, (1.0 - ey * ey) / l
+    for j in range(nc):
+        de[0, j] = P00 * D[0, j] + P01 * D[1, j]
+        de[1, j] = P01 * D[0, j] + P11 * D[1, j]
+        for a in range(2):
+            acc = 0.0
+            for m2 in range(nc):
+                acc += Hd[a, j, m2] * v[m2]
+            Hv[a, j] = acc
+    ldot = ex * ddx + ey * ddy
+    f = k * (l - l0) + c * ldot
+    Fx, Fy = f * ex, f * ey
+    for a in range(nc):
+        ra = cols[a]
+        if ra >= n:
+            continue
+        Ge_a = D[0, a] * ex + D[1, a] * ey
+        for b in range(nc):
+            cb = cols[b]
+            if cb >= n:
+                continue
+            dl = ex * D[0, b] + ey * D[1, b]
+            dldot = ddx * de[0, b] + ddy * de[1, b] + ex * Hv[0, b] + ey * Hv[1, b]
+            df = k * dl + c * dldot
+            dFx, dFy = ex * df + f * de[0, b], ey * df + f * de[1, b]
+            qq = -(D[0, a] * dFx + D[1, a] * dFy) - (Fx * Hd[0, a, b] + Fy * Hd[1, a, b])
+            qv = -c * Ge_a * (D[0, b] * ex + D[1, b] * ey)
+            p = _put(R, C, V, p, r0 + ra, c0 + cb, -(cq * qq + cv * qv))
+    return p
+
+
+@_jit
 def _emit_force(I, Fl, t, n, qx, vx, lam, R, C, V, p, r0, c0, cq, cv):
     """-(cq Q_q + cv Q_v) at (r0, c0) (``SpringDamperGroup.derivatives``)."""
     G = np.empty((2, 6))
@@ -1661,6 +1759,11 @@ def _emit_force(I, Fl, t, n, qx, vx, lam, R, C, V, p, r0, c0, cq, cv):
     dldot = np.empty(6)
     cols = np.empty(6, np.int64)
     for i in range(_rows(I, SCOL1)):
+        a0, a1 = _span(I, SEL, i, 0)
+        b0, b1 = _span(I, SEL, i, 1)
+        if a1 > a0 or b1 > b0:            # a point on a flexible beam
+            p = _emit_spring_elastic(I, Fl, n, qx, vx, i, R, C, V, p, r0, c0, cq, cv)
+            continue
         k, c, l0 = _f(I, Fl, SPAR, i, 0), _f(I, Fl, SPAR, i, 1), _f(I, Fl, SPAR, i, 2)
         dx, dy, ddx, ddy, l, ax1, ay1, ax2, ay2 = _spring(I, Fl, qx, vx, i, G, v6)
         ex, ey = dx / l, dy / l
@@ -1706,11 +1809,19 @@ def _emit_force(I, Fl, t, n, qx, vx, lam, R, C, V, p, r0, c0, cq, cv):
                     val = sgn * (cq * _f(I, Fl, RPAR, i, 0) + cv * _f(I, Fl, RPAR, i, 1))
                     p = _put(R, C, V, p, r0 + _i(I, RCOL, i, a), c0 + _i(I, RCOL, i, b), -val)
     for i in range(_rows(I, FCOL)):
-        if _i(I, FCOL, i, 2) < n:
-            ax, ay = _As(I, Fl, qx, FCOL, FS, i)
+        cph = _i(I, FCOL, i, 2)
+        if cph < n:
+            ax, ay = _Au(I, Fl, qx, FCOL, FS, FEL, 0, i)
             fx, fy = _point_force(I, Fl, t, i)
             val = cq * -(ax * fx + ay * fy)
-            p = _put(R, C, V, p, r0 + _i(I, FCOL, i, 2), c0 + _i(I, FCOL, i, 2), -val)
+            p = _put(R, C, V, p, r0 + cph, c0 + cph, -val)
+            k0, k1 = _span(I, FEL, i, 0)
+            for k in range(k0, k1):        # d2p/dphi dq_k = B S_k
+                Ax, Ay, Bx, By = _eshape(I, Fl, k, qx[cph])
+                val = cq * (Bx * fx + By * fy)
+                ck = _i(I, ECOL, k, 0)
+                p = _put(R, C, V, p, r0 + cph, c0 + ck, -val)
+                p = _put(R, C, V, p, r0 + ck, c0 + cph, -val)
     if _rows(I, STQ) > 0:      # loads of the state: Q = tau w, w = +-e_phi or grad s
         grad, H = np.empty(6), np.empty((6, 6))
         wg, wH = np.empty(6), np.empty((6, 6))
@@ -2810,8 +2921,10 @@ def triplet_bound(I) -> int:
     columns) and 36 per load of the state (tau d^2 s of a joint force)), and the
     augmented formulation's multiplier diagonal; per flexible beam 15 blocks of
     (3 + nf)^2 (mass, (M x)_q and force blocks), per elastic term of a joint
-    point 40 entries; and 3 + nf per column of the additive form's three
-    blocks of each beam's rows (``_unscale_beam_rows``)."""
+    point 40 entries, per spring-damper with points on beams (6 + e)^2
+    instead of 36, per point force on a beam 1 + 2 e; and 3 + nf per column
+    of the additive form's three blocks of each beam's rows
+    (``_unscale_beam_rows``)."""
     def rows(k):
         """Instances of field k (the header's row count)."""
         return int(I[3 * k + 1])
@@ -2828,8 +2941,18 @@ def triplet_bound(I) -> int:
             + 2 * (36 * ks + 4 * kr + kf + 36 * rows(SDV) + 36 * rows(STQ) + 36 * rows(FRI)
                    + 36 * rows(KGI))
             + 2 * (4 * kc + 6 * kp + 6 * kd) + 12 * rows(FRI) + beams + 40 * rows(ECOL))
+    # springs and point forces on beam points: (6 + e)^2 and 1 + 2 e entries, e their
+    # elastic terms (spans into ECOL), in each of the two force blocks
+    ecs = 0
+    for i in range(rows(SEL)):
+        o = int(I[3 * SEL]) + 4 * i
+        c = 6 + int(I[o + 1] - I[o] + I[o + 3] - I[o + 2])
+        ecs += c * c - 36
+    for i in range(rows(FEL)):
+        o = int(I[3 * FEL]) + 2 * i
+        ecs += 2 * int(I[o + 1] - I[o])
     # the additive form's unscaled beam rows: c entries per structural column, 3 blocks
-    return base + 3 * (3 * n + 2 * rows(ROW_ELEMENT)) * csum
+    return base + 2 * ecs + 3 * (3 * n + 2 * rows(ROW_ELEMENT)) * csum
 
 
 @_jit

@@ -27,12 +27,15 @@ the compiled loop resumes after it. Both engines compute the same equations;
 
 What the kernels cover (:func:`unsupported` says why a model or method is not):
 the methods with a recipe;
-rigid bodies; revolute, point_on_line, prismatic, fixed and distance joints; drivers,
-torques and point forces, constant or functions of time (compiled from the
-language's expressions); loads of the state (torques, joint torques and joint
-forces reading the motion); spring-dampers, rotational spring-dampers,
-friction in joints, gravity; both constraint formulations (Lagrange and
-augmented). Anything else runs on the numpy engine.
+rigid bodies and flexible beams (the floating frame of reference); revolute,
+point_on_line, prismatic, fixed and distance joints (all but distance joints
+also on beam points); drivers, torques and point forces, constant or
+functions of time (compiled from the language's expressions); loads of the
+state (torques, joint torques and joint forces reading the motion);
+spring-dampers (also between beam points), rotational spring-dampers,
+friction in joints, contacts and joint limits (with their events: see
+``run_compiled_adaptive``), gravity; both constraint formulations (Lagrange
+and augmented). Anything else runs on the numpy engine.
 """
 
 from __future__ import annotations
@@ -113,6 +116,8 @@ def _unsupported_elements(system) -> str | None:
                               PointForceGroup, StateTorqueGroup, FrictionGroup,
                               FlexibleBeamGroup, ContactGroup)):
             return f"no kernel for {type(g).__name__}"
+        if isinstance(g, (SpringDamperGroup, PointForceGroup)):
+            continue                    # their points may be on flexible beams
         points = [getattr(g, "points", None)] + [getattr(getattr(g, "pair", None), k, None)
                                                  for k in ("P1", "P2")]
         if any(P is not None and P.e for P in points):
@@ -436,7 +441,8 @@ class CompiledModel:
                  "grav": np.zeros(0), "cel": np.zeros((0, 4), i8), "pel": np.zeros((0, 4), i8),
                  "ecol": np.zeros(0, i8), "eshp": np.zeros((0, 2)),
                  "kgi": np.zeros((0, 2), i8), "kcol": np.zeros((0, 6), i8),
-                 "kpar": np.zeros((0, 14)), "kimp": np.zeros(0)}
+                 "kpar": np.zeros((0, 14)), "kimp": np.zeros(0),
+                 "sel": np.zeros((0, 4), i8), "fel": np.zeros((0, 2), i8)}
         d = dict(empty)
         from ..dsl.expressions import OPCODES, Num, diff, postfix
         from ..model.elements import line_columns
@@ -510,8 +516,8 @@ class CompiledModel:
                                 for f in g.functions], dtype=i8).reshape(-1, 3)
         for g in system.force_groups:
             if isinstance(g, SpringDamperGroup):
-                d.update(scol1=g.pair.P1.cols.astype(i8), ss1=g.pair.P1.s.astype(f8),
-                         scol2=g.pair.P2.cols.astype(i8), ss2=g.pair.P2.s.astype(f8),
+                d.update(scol1=g.pair.P1.cols[:, :3].astype(i8), ss1=g.pair.P1.s.astype(f8),
+                         scol2=g.pair.P2.cols[:, :3].astype(i8), ss2=g.pair.P2.s.astype(f8),
                          spar=np.stack([g.k, g.c, g.l0], axis=1).astype(f8))
             elif isinstance(g, RotationalSpringGroup):
                 d.update(rcol=g.cols.astype(i8),
@@ -559,7 +565,7 @@ class CompiledModel:
                         fri.append((n + 2, n + 2, line_row(line), rows[0], len(rows)))
                 d.update(fri=np.array(fri, i8).reshape(-1, 5), frp=g.params.astype(f8))
             elif isinstance(g, PointForceGroup):
-                d.update(fcol=g.points.cols.astype(i8), fs=g.points.s.astype(f8),
+                d.update(fcol=g.points.cols[:, :3].astype(i8), fs=g.points.s.astype(f8),
                          fF=np.array([[0.0 if timed(fx) else fx.f(0.0),
                                        0.0 if timed(fy) else fy.f(0.0)]
                                       for fx, fy in zip(g.fx, g.fy)], dtype=f8).reshape(-1, 2))
@@ -666,19 +672,22 @@ def _beam_fields(system) -> dict:
 
 
 def _elastic_point_fields(system) -> dict:
-    """The elastic terms of the coincidence and point-on-line joints' points
-    on flexible beams (``PointSet``: u = s + S q_e): per instance the spans
-    (first, end) of each point's terms, and per term its column and shape
-    column (S_x, S_y); empty when no joint point is on a flexible beam."""
+    """The elastic terms of the points on flexible beams (``PointSet``: u = s
+    + S q_e) of coincidence and point-on-line joints, spring-dampers and
+    point forces: per instance the spans (first, end) of each point's terms,
+    and per term its column and shape column (S_x, S_y); empty when no such
+    point is on a flexible beam."""
     n = system.n
     ecol, eshp, spans = [], [], {}
-    for g in system.constraint_groups:
-        if not isinstance(g, (CoincidenceGroup, PointOnLineGroup)):
+    for g in system.constraint_groups + system.force_groups:
+        if not isinstance(g, (CoincidenceGroup, PointOnLineGroup, SpringDamperGroup,
+                              PointForceGroup)):
             continue
+        points = (g.points,) if isinstance(g, PointForceGroup) else (g.pair.P1, g.pair.P2)
         rows = []
-        for i in range(len(g.pair.cols)):
+        for i in range(len(points[0].cols)):
             span = []
-            for P in (g.pair.P1, g.pair.P2):
+            for P in points:
                 start = len(ecol)
                 for j in range(P.e):
                     if P.cols[i, 3 + j] < n:
@@ -686,11 +695,13 @@ def _elastic_point_fields(system) -> dict:
                         eshp.append(P.S[i, :, j])
                 span += [start, len(ecol)]
             rows.append(span)
-        spans[type(g)] = np.array(rows, np.int64).reshape(-1, 4)
+        spans[type(g)] = np.array(rows, np.int64).reshape(-1, 2 * len(points))
     if not ecol:
         return {}
     return {"cel": spans.get(CoincidenceGroup, np.zeros((0, 4), np.int64)),
             "pel": spans.get(PointOnLineGroup, np.zeros((0, 4), np.int64)),
+            "sel": spans.get(SpringDamperGroup, np.zeros((0, 4), np.int64)),
+            "fel": spans.get(PointForceGroup, np.zeros((0, 2), np.int64)),
             "ecol": np.array(ecol, np.int64), "eshp": np.array(eshp, float).reshape(-1, 2)}
 
 
