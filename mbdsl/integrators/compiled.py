@@ -148,7 +148,8 @@ MODEL_SCHEMA = (
     ("kgi", "i", 2), ("kcol", "i", 6),                                 # contact gaps: kind, line row;
     ("kpar", "f", 14), ("kimp", "f", 0),                               # columns; data, law; impact speed
     ("sel", "i", 4), ("fel", "i", 2),                                  # elastic terms of spring and
-)                                                                      # point-force points: spans
+    ("dsp", "i", 4),                                                   # point-force points, distance
+)                                                                      # joints' points: spans
 #: The field names, and the scalar "n_elements" (the header's last entry).
 MODEL_FIELDS = tuple(name for name, _, _ in MODEL_SCHEMA) + ("n_elements",)
 
@@ -167,7 +168,7 @@ _inline = numba.njit(cache=True, nogil=True, inline="always")
  FCOL, FS, FF, ROW_ELEMENT, CODE, CONSTS, PROG, LFN, TCOL, TFN, FFN, STACK,
  VAR, VARC, XVAL, STQ, SDV, PFN, GEO, GEOF, FRI, FRP,
  DROW, DCOL1, DS1, DCOL2, DS2, DLEN, MRIG, BEAM, BCOL, BDAT, BDOF, GRAV, CEL, PEL, ECOL,
- ESHP, KGI, KCOL, KPAR, KIMP, SEL, FEL) = range(68)
+ ESHP, KGI, KCOL, KPAR, KIMP, SEL, FEL, DSP) = range(69)
 if any(globals()[name.upper()] != k for k, (name, _, _) in enumerate(MODEL_SCHEMA)):
     raise ImportError("compiled.py's field indices differ from MODEL_SCHEMA")   # pragma: no cover
 
@@ -217,7 +218,7 @@ def _As(I, Fl, qx, cols, s, i):
 @_inline
 def _span(I, el, i, side):
     """(first, end) of the elastic terms of point ``side`` (0, 1) of instance i
-    of an element whose spans are field ``el`` (CEL, PEL, SEL, FEL); (0, 0)
+    of an element whose spans are field ``el`` (CEL, PEL, SEL, FEL, DSP); (0, 0)
     when the model has no point on a flexible beam (the field is then empty)."""
     if _rows(I, el) == 0:
         return 0, 0
@@ -264,11 +265,12 @@ def _pol(I, Fl, qx, i):
 
 @_jit
 def _dist(I, Fl, qx, i, g):
-    """Distance joint i: d = p2 - p1 and A1 s1, A2 s2, its length L; the
-    gradient of Phi over (x1, y1, phi1, x2, y2, phi2) into g (6,).
+    """Distance joint i: d = p2 - p1 and A1 u1, A2 u2 (u = s + S q_e on a
+    flexible beam), its length L; the gradient of Phi over (x1, y1, phi1,
+    x2, y2, phi2) into g (6,) (the elastic columns: ``_dist_local``).
     Returns (dx, dy, ax1, ay1, ax2, ay2, L)."""
-    ax1, ay1 = _As(I, Fl, qx, DCOL1, DS1, i)
-    ax2, ay2 = _As(I, Fl, qx, DCOL2, DS2, i)
+    ax1, ay1 = _Au(I, Fl, qx, DCOL1, DS1, DSP, 0, i)
+    ax2, ay2 = _Au(I, Fl, qx, DCOL2, DS2, DSP, 1, i)
     dx = (qx[_i(I, DCOL2, i, 0)] - qx[_i(I, DCOL1, i, 0)]) + (ax2 - ax1)
     dy = (qx[_i(I, DCOL2, i, 1)] - qx[_i(I, DCOL1, i, 1)]) + (ay2 - ay1)
     L = _f(I, Fl, DLEN, i, 0)
@@ -1114,7 +1116,67 @@ def _elastic_grad(I, Fl, qx, rows, cols, vals):
                 rows[p], cols[p] = _i(I, PROW, i, 0), _i(I, ECOL, k, 0)
                 vals[p] = sg * (nx * ax + ny * ay)
                 p += 1
+    if _rows(I, DSP) > 0:
+        g = np.empty(6)
+        for i in range(_rows(I, DROW)):
+            dx, dy, ax1, ay1, ax2, ay2, L = _dist(I, Fl, qx, i, g)
+            for sd in range(2):
+                sg, ph = (-1.0 if sd == 0 else 1.0), qx[_i(I, DCOL1 if sd == 0 else DCOL2, i, 2)]
+                k0, k1 = _span(I, DSP, i, sd)
+                for k in range(k0, k1):
+                    ax, ay, bx, by = _eshape(I, Fl, k, ph)
+                    rows[p], cols[p] = _i(I, DROW, i, 0), _i(I, ECOL, k, 0)
+                    vals[p] = sg * (dx * ax + dy * ay) / L
+                    p += 1
     return p
+
+
+@_jit
+def _dist_local(I, Fl, qx, i, cols, D, Hd):
+    """Distance joint i with points on flexible beams over its local
+    columns (x, y, phi of both bodies, then each point's elastic terms):
+    their columns into cols, D = dd/dq_local (2, nc) and Hd = d^2 d/dq_local^2
+    (2, nc, nc) into D, Hd (zeroed; d^2 p/dphi^2 = -A u, d^2 p/dphi dq_k =
+    B S_k). Returns (nc, dx, dy, L); Phi's Hessian is (D^T D + d . Hd) / L."""
+    g = np.empty(6)
+    dx, dy, ax1, ay1, ax2, ay2, L = _dist(I, Fl, qx, i, g)
+    D[:, :] = 0.0
+    Hd[:, :, :] = 0.0
+    for j in range(3):
+        cols[j] = _i(I, DCOL1, i, j)
+        cols[3 + j] = _i(I, DCOL2, i, j)
+    D[0, 0], D[1, 1], D[0, 3], D[1, 4] = -1.0, -1.0, 1.0, 1.0
+    D[0, 2], D[1, 2], D[0, 5], D[1, 5] = ay1, -ax1, -ay2, ax2
+    Hd[0, 2, 2], Hd[1, 2, 2], Hd[0, 5, 5], Hd[1, 5, 5] = ax1, ay1, -ax2, -ay2
+    j = 6
+    for sd in range(2):
+        sg, cph = (-1.0, 2) if sd == 0 else (1.0, 5)
+        k0, k1 = _span(I, DSP, i, sd)
+        for k in range(k0, k1):
+            cols[j] = _i(I, ECOL, k, 0)
+            ax, ay, bx, by = _eshape(I, Fl, k, qx[cols[cph]])
+            D[0, j], D[1, j] = sg * ax, sg * ay
+            Hd[0, cph, j], Hd[1, cph, j] = sg * bx, sg * by
+            Hd[0, j, cph], Hd[1, j, cph] = sg * bx, sg * by
+            j += 1
+    return j, dx, dy, L
+
+
+@_jit
+def _dist_columns(I):
+    """The most local columns of a distance joint (``_dist_local``)."""
+    out = 6
+    for i in range(_rows(I, DROW)):
+        a0, a1 = _span(I, DSP, i, 0)
+        b0, b1 = _span(I, DSP, i, 1)
+        out = max(out, 6 + (a1 - a0) + (b1 - b0))
+    return out
+
+
+@_inline
+def _dist_h(D, Hd, dx, dy, L, a, b):
+    """Entry (a, b) of a distance row's Hessian (``_dist_local``)."""
+    return (D[0, a] * D[0, b] + D[1, a] * D[1, b] + dx * Hd[0, a, b] + dy * Hd[1, a, b]) / L
 
 
 @_jit
@@ -1179,6 +1241,18 @@ def _emit_elastic_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef):
             if cP < n:
                 p = _put(R, C, V, p, r0 + cP, c0 + col, lv * hP)
                 p = _put(R, C, V, p, r0 + col, c0 + cP, lv * hP)
+    if _rows(I, DSP) > 0:      # distance rows: every entry with an elastic column
+        nmax = _dist_columns(I)
+        cols = np.empty(nmax, np.int64)
+        D, Hd = np.empty((2, nmax)), np.empty((2, nmax, nmax))
+        for i in range(_rows(I, DROW)):
+            nc, dx, dy, L = _dist_local(I, Fl, qx, i, cols, D, Hd)
+            lv = coef * lam[_i(I, DROW, i, 0)]
+            for a in range(nc):
+                for b in range(nc):
+                    if (a >= 6 or b >= 6) and cols[a] < n and cols[b] < n:
+                        p = _put(R, C, V, p, r0 + cols[a], c0 + cols[b],
+                                 lv * _dist_h(D, Hd, dx, dy, L, a, b))
     return p
 
 
@@ -1212,6 +1286,22 @@ def _emit_elastic_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef):
             if cP < n:
                 p = _put(R, C, V, p, r0 + row, c0 + cP, coef * hP * vk)
             p = _put(R, C, V, p, r0 + row, c0 + col, coef * (hL * vx[cL] + hP * vx[cP]))
+    if _rows(I, DSP) > 0:      # distance rows: v^T Hess, the terms with an elastic column
+        nmax = _dist_columns(I)
+        cols = np.empty(nmax, np.int64)
+        D, Hd = np.empty((2, nmax)), np.empty((2, nmax, nmax))
+        for i in range(_rows(I, DROW)):
+            nc, dx, dy, L = _dist_local(I, Fl, qx, i, cols, D, Hd)
+            row = _i(I, DROW, i, 0)
+            for b in range(nc):
+                if cols[b] >= n:
+                    continue
+                acc = 0.0
+                for a in range(nc):
+                    if a >= 6 or b >= 6:
+                        acc += _dist_h(D, Hd, dx, dy, L, a, b) * vx[cols[a]]
+                if nc > 6:
+                    p = _put(R, C, V, p, r0 + row, c0 + cols[b], coef * acc)
     return p
 
 
@@ -2922,7 +3012,8 @@ def triplet_bound(I) -> int:
     augmented formulation's multiplier diagonal; per flexible beam 15 blocks of
     (3 + nf)^2 (mass, (M x)_q and force blocks), per elastic term of a joint
     point 40 entries, per spring-damper with points on beams (6 + e)^2
-    instead of 36, per point force on a beam 1 + 2 e; and 3 + nf per column
+    instead of 36, per point force on a beam 1 + 2 e, per distance joint on
+    beams four (6 + e)^2 Hessian and two 6 + e G blocks; and 3 + nf per column
     of the additive form's three blocks of each beam's rows
     (``_unscale_beam_rows``)."""
     def rows(k):
@@ -2951,6 +3042,10 @@ def triplet_bound(I) -> int:
     for i in range(rows(FEL)):
         o = int(I[3 * FEL]) + 2 * i
         ecs += 2 * int(I[o + 1] - I[o])
+    for i in range(rows(DSP)):          # distance joints: four Hessian and two G blocks
+        o = int(I[3 * DSP]) + 4 * i
+        c = 6 + int(I[o + 1] - I[o] + I[o + 3] - I[o + 2])
+        ecs += 2 * c * c + c
     # the additive form's unscaled beam rows: c entries per structural column, 3 blocks
     return base + 2 * ecs + 3 * (3 * n + 2 * rows(ROW_ELEMENT)) * csum
 

@@ -28,8 +28,7 @@ the compiled loop resumes after it. Both engines compute the same equations;
 What the kernels cover (:func:`unsupported` says why a model or method is not):
 the methods with a recipe;
 rigid bodies and flexible beams (the floating frame of reference); revolute,
-point_on_line, prismatic, fixed and distance joints (all but distance joints
-also on beam points); drivers, torques and point forces, constant or
+point_on_line, prismatic, fixed and distance joints (also on beam points); drivers, torques and point forces, constant or
 functions of time (compiled from the language's expressions); loads of the
 state (torques, joint torques and joint forces reading the motion);
 spring-dampers (also between beam points), rotational spring-dampers,
@@ -109,8 +108,6 @@ def _unsupported_elements(system) -> str | None:
         if not isinstance(g, (CoincidenceGroup, PointOnLineGroup, LinearConstraintGroup,
                               DistanceGroup)):
             return f"no kernel for {type(g).__name__}"
-        if isinstance(g, DistanceGroup) and (g.pair.P1.e or g.pair.P2.e):
-            return "no kernel for a distance joint on a flexible beam's point"
     for g in system.force_groups:
         if not isinstance(g, (SpringDamperGroup, RotationalSpringGroup, TorqueGroup,
                               PointForceGroup, StateTorqueGroup, FrictionGroup,
@@ -442,7 +439,8 @@ class CompiledModel:
                  "ecol": np.zeros(0, i8), "eshp": np.zeros((0, 2)),
                  "kgi": np.zeros((0, 2), i8), "kcol": np.zeros((0, 6), i8),
                  "kpar": np.zeros((0, 14)), "kimp": np.zeros(0),
-                 "sel": np.zeros((0, 4), i8), "fel": np.zeros((0, 2), i8)}
+                 "sel": np.zeros((0, 4), i8), "fel": np.zeros((0, 2), i8),
+                 "dsp": np.zeros((0, 4), i8)}
         d = dict(empty)
         from ..dsl.expressions import OPCODES, Num, diff, postfix
         from ..model.elements import line_columns
@@ -494,8 +492,9 @@ class CompiledModel:
                          cs1=g.pair.P1.s.astype(f8), ccol2=g.pair.P2.cols[:, :3].astype(i8),
                          cs2=g.pair.P2.s.astype(f8))
             elif isinstance(g, DistanceGroup):
-                d.update(drow=g.rows[:, 0].astype(i8), dcol1=g.pair.P1.cols.astype(i8),
-                         ds1=g.pair.P1.s.astype(f8), dcol2=g.pair.P2.cols.astype(i8),
+                d.update(drow=g.rows[:, 0].astype(i8),
+                         dcol1=g.pair.P1.cols[:, :3].astype(i8), ds1=g.pair.P1.s.astype(f8),
+                         dcol2=g.pair.P2.cols[:, :3].astype(i8),
                          ds2=g.pair.P2.s.astype(f8), dlen=g.L.astype(f8))
             elif isinstance(g, PointOnLineGroup):
                 d.update(prow=g.rows[:, 0].astype(i8), pcolL=g.pair.P1.cols[:, :3].astype(i8),
@@ -673,15 +672,15 @@ def _beam_fields(system) -> dict:
 
 def _elastic_point_fields(system) -> dict:
     """The elastic terms of the points on flexible beams (``PointSet``: u = s
-    + S q_e) of coincidence and point-on-line joints, spring-dampers and
-    point forces: per instance the spans (first, end) of each point's terms,
+    + S q_e) of coincidence, point-on-line and distance joints,
+    spring-dampers and point forces: per instance the spans (first, end) of each point's terms,
     and per term its column and shape column (S_x, S_y); empty when no such
     point is on a flexible beam."""
     n = system.n
     ecol, eshp, spans = [], [], {}
     for g in system.constraint_groups + system.force_groups:
-        if not isinstance(g, (CoincidenceGroup, PointOnLineGroup, SpringDamperGroup,
-                              PointForceGroup)):
+        if not isinstance(g, (CoincidenceGroup, PointOnLineGroup, DistanceGroup,
+                              SpringDamperGroup, PointForceGroup)):
             continue
         points = (g.points,) if isinstance(g, PointForceGroup) else (g.pair.P1, g.pair.P2)
         rows = []
@@ -702,6 +701,7 @@ def _elastic_point_fields(system) -> dict:
             "pel": spans.get(PointOnLineGroup, np.zeros((0, 4), np.int64)),
             "sel": spans.get(SpringDamperGroup, np.zeros((0, 4), np.int64)),
             "fel": spans.get(PointForceGroup, np.zeros((0, 2), np.int64)),
+            "dsp": spans.get(DistanceGroup, np.zeros((0, 4), np.int64)),
             "ecol": np.array(ecol, np.int64), "eshp": np.array(eshp, float).reshape(-1, 2)}
 
 
