@@ -1108,26 +1108,30 @@ def _elastic_grad(I, Fl, qx, rows, cols, vals):
                     p += 1
     for i in range(_rows(I, PROW)):
         nx, ny, dx, dy, axL, ayL, axP, ayP = _pol(I, Fl, qx, i)
-        for sd in range(2):
-            sg, ph = (-1.0 if sd == 0 else 1.0), qx[_i(I, PCOLL if sd == 0 else PCOLP, i, 2)]
-            k0, k1 = _span(I, PEL, i, sd)
-            for k in range(k0, k1):
-                ax, ay, bx, by = _eshape(I, Fl, k, ph)
-                rows[p], cols[p] = _i(I, PROW, i, 0), _i(I, ECOL, k, 0)
-                vals[p] = sg * (nx * ax + ny * ay)
-                p += 1
+        p = _scalar_row_terms(I, Fl, qx, PCOLL, PCOLP, PEL, i, _i(I, PROW, i, 0), nx, ny,
+                              rows, cols, vals, p)
     if _rows(I, DSP) > 0:
         g = np.empty(6)
         for i in range(_rows(I, DROW)):
             dx, dy, ax1, ay1, ax2, ay2, L = _dist(I, Fl, qx, i, g)
-            for sd in range(2):
-                sg, ph = (-1.0 if sd == 0 else 1.0), qx[_i(I, DCOL1 if sd == 0 else DCOL2, i, 2)]
-                k0, k1 = _span(I, DSP, i, sd)
-                for k in range(k0, k1):
-                    ax, ay, bx, by = _eshape(I, Fl, k, ph)
-                    rows[p], cols[p] = _i(I, DROW, i, 0), _i(I, ECOL, k, 0)
-                    vals[p] = sg * (dx * ax + dy * ay) / L
-                    p += 1
+            p = _scalar_row_terms(I, Fl, qx, DCOL1, DCOL2, DSP, i, _i(I, DROW, i, 0), dx / L,
+                                  dy / L, rows, cols, vals, p)
+    return p
+
+
+@_jit
+def _scalar_row_terms(I, Fl, qx, col1, col2, el, i, row, nx, ny, rows, cols, vals, p):
+    """The elastic entries of a scalar row whose gradient is n . dd/dq (a point
+    on a line: its normal; a distance joint: d / L): -+n . (A S_k) of the
+    terms of instance i's first and second point, from p on; returns p."""
+    for sd in range(2):
+        sg, ph = (-1.0 if sd == 0 else 1.0), qx[_i(I, col1 if sd == 0 else col2, i, 2)]
+        k0, k1 = _span(I, el, i, sd)
+        for k in range(k0, k1):
+            ax, ay, bx, by = _eshape(I, Fl, k, ph)
+            rows[p], cols[p] = row, _i(I, ECOL, k, 0)
+            vals[p] = sg * (nx * ax + ny * ay)
+            p += 1
     return p
 
 
