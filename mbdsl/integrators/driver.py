@@ -84,9 +84,10 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
         Newton counts are the sums over the steps it stands for.
     engine : {"auto", "numpy", "compiled"}
         "compiled" runs the methods with a kernel recipe (``recipe.py``)
-        on rigid models through the numba kernels of :mod:`.engine` (an
-        error when the model or method is not covered); "numpy" the vectorised numpy assembly; "auto" the
-        compiled engine where it applies.
+        through the numba kernels of :mod:`.engine` (an error when the
+        model or method is not covered: see ``engine.unsupported``);
+        "numpy" the vectorised numpy assembly; "auto" the compiled engine
+        where it applies.
     announce : callable (str) -> None, optional
         Told when the compiled kernels are being compiled for this machine
         (once; see :mod:`.kernel_cache`).
