@@ -1019,8 +1019,7 @@ def run_compiled_adaptive(system, method, t_end, h, t_start, initial, newton_opt
         t0, step = t, float(state[1])
         resume = step                 # the size planned, to go back to once landed
         last = StepState(t0, q.copy(), v.copy(), a.copy(), lam.copy())
-        # the gaps at the step's start: the loop took the steps since the last event
-        events.g = system.contact_group.gaps(system._ext(q))
+        events.resume_at(q)           # the loop took the steps since the last event
         ctl[6] = h_max                # the step limit of the gaps after the event, below
         h_try = step
         mode = None

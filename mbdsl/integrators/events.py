@@ -167,6 +167,14 @@ class EventLocator:
             self.sol.events.append((float(t), g.names[i], "closed", float(g.impact_speed[i])))
         self.sol.contact_log = g.log
 
+    def resume_at(self, q):
+        """The gaps at configuration q (n,), where the next step starts: for
+        a time loop that took steps without :meth:`check` and :meth:`commit`
+        (the compiled loop, which returns only at a step that changes the
+        sign of a gap: ``engine.run_compiled_adaptive``)."""
+        if self.group is not None:
+            self.g = self.group.gaps(self.system._ext(q))
+
     def check(self, t, step, last, state):
         """After a step from ``last`` (at t) to ``state`` (at t + step) that
         Newton converged on: does it end on its events? Changes nothing until
