@@ -843,6 +843,19 @@ def _slip(I, Fl, qx, i, w, dw):
 
 
 @_jit
+def _contact_friction(I, Fl, qx, vx, i, f, w, dw):
+    """Friction at gap i's contact under normal force f: its slip direction
+    and dw/dq into w, dw (``_slip``); returns (F_t, v_t, T) with v_t = w . v,
+    T = tanh(v_t / v_reg), F_t = -mu f T."""
+    _slip(I, Fl, qx, i, w, dw)
+    vt = 0.0
+    for a in range(6):
+        vt += w[a] * vx[_i(I, KCOL, i, a)]
+    T = math.tanh(vt / _f(I, Fl, KPAR, i, 13))
+    return -_f(I, Fl, KPAR, i, 12) * f * T, vt, T
+
+
+@_jit
 def _contact_law(I, Fl, qx, vx, i, imp, grad, H):
     """Gap i's normal force under the Hunt-Crossley law (module notes of
     ``assembly.contact``) at impact speed ``imp`` (0: not armed), with grad,
@@ -877,13 +890,8 @@ def _contacts_add(I, Fl, qx, vx, out):
             continue
         for a in range(6):
             out[_i(I, KCOL, i, a)] += f * grad[a]
-        mu = _f(I, Fl, KPAR, i, 12)
-        if mu > 0.0:
-            _slip(I, Fl, qx, i, w, dw)
-            vt = 0.0
-            for a in range(6):
-                vt += w[a] * vx[_i(I, KCOL, i, a)]
-            Ft = -mu * f * math.tanh(vt / _f(I, Fl, KPAR, i, 13))
+        if _f(I, Fl, KPAR, i, 12) > 0.0:
+            Ft, vt, T = _contact_friction(I, Fl, qx, vx, i, f, w, dw)
             for a in range(6):
                 out[_i(I, KCOL, i, a)] += Ft * w[a]
 
@@ -926,14 +934,8 @@ def _emit_contacts(I, Fl, n, qx, vx, R, C, V, p, r0, c0, cq, cv):
             if mu > 0.0:
                 # Q = F_t w, F_t = -mu f T(v_t): Q_q = w dF_t/dq^T + F_t dw/dq,
                 # Q_v = w dF_t/dv^T; dv_t/dq = (dw/dq)^T v, dv_t/dv = w
-                _slip(I, Fl, qx, i, w, dw)
-                vreg = _f(I, Fl, KPAR, i, 13)
-                vt = 0.0
-                for a in range(6):
-                    vt += w[a] * v[a]
-                T = math.tanh(vt / vreg)
-                dT = (1.0 - T * T) / vreg
-                Ft = -mu * f * T
+                Ft, vt, T = _contact_friction(I, Fl, qx, vx, i, f, w, dw)
+                dT = (1.0 - T * T) / _f(I, Fl, KPAR, i, 13)
                 for b in range(6):
                     dvt = 0.0
                     for a in range(6):
@@ -977,13 +979,9 @@ def contact_rows(I, Fl, q, v, speeds, energy, dissipation):
                 ex = _f(I, Fl, KPAR, i, 10)
                 e += _f(I, Fl, KPAR, i, 9) * delta ** (ex + 1.0) / (ex + 1.0)
                 p += (f - elastic) * ddelta
-                mu = _f(I, Fl, KPAR, i, 12)
-                if mu > 0.0 and f > 0.0:
-                    _slip(I, Fl, qx, i, w, dw)
-                    vt = 0.0
-                    for a in range(6):
-                        vt += w[a] * vx[_i(I, KCOL, i, a)]
-                    p += mu * f * math.tanh(vt / _f(I, Fl, KPAR, i, 13)) * vt
+                if _f(I, Fl, KPAR, i, 12) > 0.0 and f > 0.0:
+                    Ft, vt, T = _contact_friction(I, Fl, qx, vx, i, f, w, dw)
+                    p -= Ft * vt
         energy[r] = e
         dissipation[r] = p
 
