@@ -122,8 +122,14 @@ class _RowStore:
 
     def set_last_t(self, t: float) -> None:
         """Move the last row's time to t [s] (the end of a run, exactly)."""
+        self.set_last(t=t)
+
+    def set_last(self, **values) -> None:
+        """Overwrite entries of the last row: a key of a segment (class
+        docstring) and its new value (a float for "t", an array for the others)."""
         self._flush()
-        self._segments[-1]["t"][-1] = t
+        for key, value in values.items():
+            self._segments[-1][key][-1] = value
 
 
 class _Reactions:
@@ -512,10 +518,12 @@ class Solution:
     def extend(self, other: "Solution", start: int = 0) -> None:
         """Record the rows of another run of the same method (its rows as
         stored, before any output mapping) from row ``start`` on, with its
-        totals (rejected steps included)."""
+        totals (rejected steps included) and its events."""
         k = other.n_rows - start
         if k > 0:
             self._rows.extend(other._rows.get(start, other.n_rows))
+        self.events += other.events
+        self.event_cuts += other.event_cuts
         tot, o = self.stats_total, other.stats_total
         for name in ("steps", "iterations", "residuals", "jacobians", "factorizations",
                      "rejected", "multipliers_stalled"):
@@ -544,10 +552,6 @@ class Solution:
 
     def run_warnings(self) -> list:
         """Warnings about the computed motion (not its start), from the stored rows.
-
-        W406: a spring-damper with a free length whose two points passed
-        each other between stored rows without an event landing on it (the
-        compiled engine does not locate events): its force jumps there.
 
         W404: a flexible beam whose elastic displacement (the largest
         |S(x) q_f| over its nodes, in its floating frame) passes
@@ -584,26 +588,6 @@ class Solution:
                 hint="a beam spinning faster than its first bending frequency softens without "
                 "geometric stiffening; check E, the second moment and the loads, or use more "
                 "bodies"))
-        flipping = getattr(self.system, "flipping_springs", None)
-        if flipping is not None:
-            group, which = flipping
-            d = group.pair.difference(*group.pair.split(self.system._ext(q)))
-            landed = {e[1] for e in self.events if e[2] == "passed"}
-            for k, name in which:
-                dk = d[:, k]
-                flips = np.flatnonzero(np.einsum("na,na->n", dk[1:], dk[:-1]) < 0.0)
-                if len(flips) == 0 or name in landed:
-                    continue
-                spring = next(f for f in self.model.forces if f.name == name)
-                out.append(Diagnostic(
-                    "warning", "W406",
-                    f"the points of spring-damper '{name}' pass each other near t = "
-                    f"{self.t[flips[0] + 1]:.6g} s ({len(flips)} pass{'es' if len(flips) > 1 else ''}): its force of "
-                    f"{spring.k * spring.length:.3g} N flips direction there, and the "
-                    f"{self.engine} engine stepped across the jump (first order there)",
-                    spring.span, "force flips",
-                    hint="--engine numpy lands a step on each pass (an event); or give the "
-                    "spring a free length of 0, whose force k d is smooth"))
         return out
 
     def finalize(self) -> None:
@@ -846,19 +830,13 @@ class Solution:
             words = {"closed": "closed", "opened": "opened",
                      "passed": "springs through zero length", "switched": "function switches"}
             counts = {k: sum(1 for e in self.events if e[2] == k) for k in words}
+            contacts = getattr(self.system, "contact_group", None) is not None
             lines.append(f"  events: {len(self.events)} ("
                          + ", ".join(f"{n} {words[k]}" for k, n in counts.items()
-                                     if n or k in ("closed", "opened"))
+                                     if n or (contacts and k in ("closed", "opened")))
                          + (f"; last: {self.events[-1][1]} {self.events[-1][2]} at t = "
                             f"{self.events[-1][0]:.6g} s" if self.events else "")
                          + f"); {self.event_cuts} steps retaken to land on them")
-        if self.engine == "compiled" and self.system.contact_group is None:
-            # (with contacts too, the compiled engine runs the driver's loop, which lands them)
-            from .integrators.events import time_switches
-            if time_switches(self.system):
-                lines.append("  the compiled engine steps across the switches of if/min/max/"
-                             "clip/abs/sign in the functions of time (first order at a jump); "
-                             "--engine numpy lands a step on each")
         if self.status != "completed":
             lines.append(f"  stopped: {self.message}")
         return "\n".join(lines)

@@ -631,13 +631,22 @@ def phiq_times(I, Fl, qx, vx, out):
 
 
 @_jit
+def _spring_points(I, Fl, qx, i):
+    """(d_x, d_y, (A u)_1, (A u)_2) of spring-damper i at qx: d = p2 - p1 [m]
+    and its points' offsets from their frames (A u, u = s + S q_e on a
+    flexible beam: ``_Au``); the kinematics of ``_spring`` in scalars."""
+    ax1, ay1 = _Au(I, Fl, qx, SCOL1, SS1, SEL, 0, i)
+    ax2, ay2 = _Au(I, Fl, qx, SCOL2, SS2, SEL, 1, i)
+    dx = (qx[_i(I, SCOL2, i, 0)] - qx[_i(I, SCOL1, i, 0)]) + (ax2 - ax1)
+    dy = (qx[_i(I, SCOL2, i, 1)] - qx[_i(I, SCOL1, i, 1)]) + (ay2 - ay1)
+    return dx, dy, ax1, ay1, ax2, ay2
+
+
+@_jit
 def _spring(I, Fl, qx, vx, i, G, v6):
     """Kinematics of spring i: D = dd/dq_local into G (2, 6), local v into v6;
     returns (d, ddot, l, A s1, A s2)."""
-    ax1, ay1 = _As(I, Fl, qx, SCOL1, SS1, i)
-    ax2, ay2 = _As(I, Fl, qx, SCOL2, SS2, i)
-    dx = (qx[_i(I, SCOL2, i, 0)] - qx[_i(I, SCOL1, i, 0)]) + (ax2 - ax1)
-    dy = (qx[_i(I, SCOL2, i, 1)] - qx[_i(I, SCOL1, i, 1)]) + (ay2 - ay1)
+    dx, dy, ax1, ay1, ax2, ay2 = _spring_points(I, Fl, qx, i)
     G[:] = 0.0
     G[0, 0] = -1.0
     G[1, 1] = -1.0
@@ -987,18 +996,28 @@ def contact_rows(I, Fl, q, v, speeds, energy, dissipation):
 
 
 @_jit
+def _spring_passed(I, Fl, qa, qb):
+    """Whether the points of a spring-damper with a free length passed each
+    other between configurations qa and qb (n+3,): d_a . d_b < 0, where its
+    force k (l - l0) e flips direction (``events.EventLocator``)."""
+    for i in range(_rows(I, SCOL1)):
+        if _f(I, Fl, SPAR, i, 2) > 0.0:
+            dxa, dya, _, _, _, _ = _spring_points(I, Fl, qa, i)
+            dxb, dyb, _, _, _, _ = _spring_points(I, Fl, qb, i)
+            if dxa * dxb + dya * dyb < 0.0:
+                return True
+    return False
+
+
+@_jit
 def forces(I, Fl, t, qx, vx, lam, out):
     """Q(q, v, lambda) into out (n+3,) [N, N m] (overwritten); lambda (m,) is
     read by friction only."""
     for j in range(out.shape[0]):       # a loop: numba's array-to-array slice copy checks overlap
         out[j] = _f(I, Fl, Q0, j, 0)
     for i in range(_rows(I, SCOL1)):
-        # the kinematics of ``_spring`` in scalars (no scratch array on this hot path);
-        # a point on a flexible beam at A u, u = s + S q_e (``_Au``; its terms below)
-        ax1, ay1 = _Au(I, Fl, qx, SCOL1, SS1, SEL, 0, i)
-        ax2, ay2 = _Au(I, Fl, qx, SCOL2, SS2, SEL, 1, i)
-        dx = (qx[_i(I, SCOL2, i, 0)] - qx[_i(I, SCOL1, i, 0)]) + (ax2 - ax1)
-        dy = (qx[_i(I, SCOL2, i, 1)] - qx[_i(I, SCOL1, i, 1)]) + (ay2 - ay1)
+        # (no scratch array on this hot path); a point on a flexible beam at A u (its terms below)
+        dx, dy, ax1, ay1, ax2, ay2 = _spring_points(I, Fl, qx, i)
         l = math.sqrt(dx * dx + dy * dy)
         ex, ey = dx / l, dy / l
         f = _f(I, Fl, SPAR, i, 0) * (l - _f(I, Fl, SPAR, i, 2))
@@ -3229,8 +3248,9 @@ def _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, 
     E^(-1/3))), else it is accepted and h grows by min(max_factor, ...) (not
     right after a rejection). A step Newton cannot converge is halved. Every
     ``every``-th accepted step and the last one are recorded, with their step
-    size in out_h. ``state`` (6,) in/out: (t, h of the next step, rejected
-    steps, h of the last step or 0, mode, steps since a halving); returns
+    size in out_h. ``state`` (7,) in/out: (t, h of the next step, rejected
+    steps, h of the last step or 0, mode, steps since a halving, the
+    compensation of the sum t); returns
     (status, steps, records): status TOLERANCE when the error stays above 1
     at h_min, a Newton status when a step at h_min does not converge.
 
@@ -3240,8 +3260,10 @@ def _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, 
     driver's rule, ``driver.integrate``): the loop of fixed-step runs with
     contacts, whose events change the step grid.
 
-    Contacts and joint limits (KGI): a converged step that changes the sign
-    of a gap is not taken; the loop returns EVENT with its end (q, v) in
+    Events: a converged step that changes the sign of a gap of the contacts
+    and joint limits (KGI), or across which the points of a spring-damper
+    with a free length pass each other, is not taken; the loop returns EVENT
+    with its end (q, v) in
     ``trial`` (2, n) and its size in state[1], for the time loop to land a
     step on the event (``events.EventLocator``). Mode (state[4]) RUN goes on
     until t_end, an event or a full output; ATTEMPT and LAND make one attempt
@@ -3264,6 +3286,9 @@ def _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, 
     b_new = np.empty(n)
     mode = int(state[4])
     gaps = _rows(I, KGI) > 0 and mode != LAND
+    springs = False                     # spring-dampers with a free length
+    for i in range(_rows(I, SCOL1)):
+        springs = springs or (_f(I, Fl, SPAR, i, 2) > 0.0 and mode != LAND)
     qs, grad6, H6 = np.zeros(n + 3), np.empty(6), np.empty((6, 6))
     additive = rc[FORM] == ADDITIVE
     acc_old, acc_new = np.empty(n), np.empty(n)     # the additive form's a + R_II
@@ -3280,6 +3305,14 @@ def _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, 
         step = min(h, t_end - t)
         if t_end - (t + step) < 1e-6 * step:      # land on t_end, never leave a sliver
             step = t_end - t
+        # the step's end time, a compensated (Kahan) sum with the carry in state[6], as
+        # the driver's loop keeps t: exact to round-off over 1e6 steps
+        if step == t_end - t:
+            t_new, carry = t_end, 0.0
+        else:
+            y = step - state[6]
+            t_new = t + y
+            carry = (t_new - t) - y
         first = two_step and state[3] == 0.0
         c0, w0, w1 = 1.0, 1.0, 1.0
         if two_step:
@@ -3299,7 +3332,7 @@ def _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, 
         for j in range(n):                 # q_n (the additive form), or Mhat's q_n + mh v_n
             qx_old[j] = q[j] + rc[MH] * v[j]
         _scales_weights(rc, I, Fl, q, w, opts, R, C, V, qx, weight, scratch)
-        status = _newton(rc, I, Fl, t + step, q_pred, v_pred, F, qx_old, w, weight, opts, solver,
+        status = _newton(rc, I, Fl, t_new, q_pred, v_pred, F, qx_old, w, weight, opts, solver,
                          lin, lu_state, R, C, V, r, dw, qx, vx, work, counts)
         if status != CONVERGED:
             if step <= h_min * (1.0 + 1e-9):
@@ -3311,14 +3344,17 @@ def _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, 
             state[5] = 0.0
             continue
         _state(rc, n, w, q_pred, v_pred, qx, vx)
-        if gaps:                  # a gap opens or closes within the step: the caller lands it
+        if gaps or springs:       # an event within the step: the caller lands a step on it
             qs[:n] = q
-            for i in range(_rows(I, KGI)):
-                if (_gap(I, Fl, qs, i, grad6, H6) > 0.0) != (_gap(I, Fl, qx, i, grad6, H6) > 0.0):
-                    trial[0, :] = qx[:n]
-                    trial[1, :] = vx[:n]
-                    state[0], state[1] = t, step
-                    return EVENT, k, rec
+            crossed = springs and _spring_passed(I, Fl, qs, qx)
+            for i in range(_rows(I, KGI) if gaps else 0):   # a gap opens or closes
+                crossed = crossed or \
+                    (_gap(I, Fl, qs, i, grad6, H6) > 0.0) != (_gap(I, Fl, qx, i, grad6, H6) > 0.0)
+            if crossed:
+                trial[0, :] = qx[:n]
+                trial[1, :] = vx[:n]
+                state[0], state[1] = t, step
+                return EVENT, k, rec
         # the local error estimate and its weighted RMS norm
         if rc[EAUX] != 0.0:
             b_new[:] = b
@@ -3373,13 +3409,16 @@ def _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, 
         lam[:] = w[l0:l0 + m]
         if has_extra:
             mu[:] = w[e0:e0 + m]
-        t = t + step
+        t = t_new
+        state[6] = carry
         if rc[CF] != 0.0:
             _old_force(rc, I, Fl, t, q, v, lam, F, qx, vx, work)
         counts[5] += 1
         k += 1
         if grow_after == 0:
-            h = min(step * factor, h_max)
+            # a step shortened to land on t_end (a segment's end: a switch of a function
+            # of time) leaves the size planned before it (the driver's ``resume``)
+            h = max(min(step * factor, h_max), h if t >= t_end - 1e-12 * (t_end - t0) else 0.0)
         elif h < h_max and mode == RUN:     # fixed steps: back to h_max after grow_after
             # (after an attempt, the caller plans the next step as the driver does)
             state[5] += 1.0

@@ -23,7 +23,7 @@ from ..errors import ConvergenceError, Diagnostic
 from ..solution import Solution, StepStats
 from .adaptive import StepControl
 from .base import Method
-from .events import time_switches
+from .events import switch_times, time_switches
 from .newton import Newton, NewtonOptions, NewtonStatus
 
 __all__ = ["integrate"]
@@ -152,17 +152,18 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
         initial = consistent_initial_state(system, t_start)
     if which == "compiled":
         timings["setup"] = clock() - t0
-        # Contacts: the error-controlled loop (with fixed steps too), which returns at
-        # each event for a step to be landed on it (run_compiled_adaptive). Contacts
-        # with other events (time switches, springs whose points pass) take this
-        # module's time loop on the kernels' evaluation.
-        contacts = system.contact_group is not None
-        python_loop = contacts and (system.flipping_springs is not None
-                                    or bool(time_switches(system))
-                                    or recipe_monomials(method) is None)
+        # Events: contacts and springs whose points pass take the error-controlled
+        # loop (with fixed steps too), which returns at each one for a step to be
+        # landed on it (run_compiled_adaptive); with a recipe that loop cannot vary,
+        # this module's time loop on the kernels' evaluation. Both compiled loops
+        # run from switch to switch of the functions of time.
+        events = system.contact_group is not None or system.flipping_springs is not None
+        python_loop = events and recipe_monomials(method) is None
+        functions = time_switches(system)
+        switches = switch_times(functions, t_start, t_end, h) if functions else ()
         cm, plan, timings["kernels"] = prepare_compiled(system, method, solver.options,
                                                         initial.q, announce,
-                                                        adaptive=control is not None or contacts,
+                                                        adaptive=control is not None or events,
                                                         python_loop=python_loop)
         if plan.kind != "sparse" and not python_loop:
             sol = Solution(system, method, h, t_end, initial)
@@ -172,17 +173,17 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
             sol.timings = timings
             loop_start = clock()
             try:
-                if control is not None or contacts:
+                if control is not None or events:
                     run_compiled_adaptive(system, method, t_end, h, t_start, initial,
                                           solver.options, sol, plan, control,
                                           output_every=output_every, progress=progress,
                                           writer=writer, cm=cm, max_halvings=max_halvings,
-                                          grow_after=grow_after)
+                                          grow_after=grow_after, switches=switches)
                 else:
                     run_compiled(system, method, t_end, h, t_start, initial, solver.options,
                                  sol, plan, output_every=output_every, progress=progress,
                                  writer=writer, max_halvings=max_halvings,
-                                 grow_after=grow_after, cm=cm)
+                                 grow_after=grow_after, cm=cm, switches=switches)
             finally:
                 _finish(sol, writer, loop_start)
             return _result(sol, on_failure)
@@ -254,7 +255,7 @@ def _time_loop(system, method, solver, sol, history, kinds, assembler, t_start, 
             if t_end - (t + step) < 1e-6 * step:   # land on t_end, never leave a sliver
                 step = t_end - t
             if events is not None:
-                shorter = events.before_switch(t, step)     # a switch of a function of time
+                shorter = events.before_switch(t, step, t_end)  # a switch of a function of time
                 if shorter < step:
                     step, resume = shorter, resume or h_cur
             y = step - carry

@@ -51,6 +51,7 @@ from ..assembly.groups import (CoincidenceGroup, DistanceGroup, FrictionGroup,
                                StateTorqueGroup, TorqueGroup)
 from ..assembly.sparse import DENSE_LIMIT
 from .base import StepState
+from .events import SWITCH_GAP, restart_after_switch
 
 __all__ = ["ENGINES", "unsupported", "CompiledModel", "select_engine", "prepare_compiled",
            "run_compiled",
@@ -903,23 +904,62 @@ def linear_solver_plan(system, method, options, q, cm=None, split_si2=True) -> L
 # The compiled time loop (small systems)
 # ---------------------------------------------------------------------------------------------
 
-def _step_plan(t_start, t_end, h):
+def _step_plan(t_start, t_end, h, exact=False):
     """[(steps, step size)] covering [t_start, t_end] as the driver does: steps
     of h, the last one shortened to land on t_end (or lengthened when the
-    remainder is below 1e-6 h)."""
+    remainder is below 1e-6 h). A remainder within 1e-9 h of a whole step
+    is round-off: steps of h, ending within it of t_end; with ``exact`` (a
+    segment ending ``SWITCH_GAP`` h before a switch, which that would
+    cross) the last of them ends on t_end."""
     span = t_end - t_start
     full = int(math.floor(span / h + 1e-9))
     rest = span - full * h
     if rest <= 1e-9 * h:
+        if exact and rest != 0.0 and full:
+            return ([(full - 1, h)] if full > 1 else []) + [(1, h + rest)]
         return [(full, h)] if full else []
     if rest < 1e-6 * h and full:
         return [(full - 1, h), (1, h + rest)] if full > 1 else [(1, h + rest)]
     return ([(full, h)] if full else []) + [(1, rest)]
 
 
+def _segments(t_start, t_end, h, switches):
+    """[(start, end, switch or None)]: the stretches of [t_start, t_end] between
+    the switches of functions of time (``events.switch_times``): each ends
+    ``SWITCH_GAP`` h before its switch (time, text), the next starts as far
+    after it."""
+    out, start = [], t_start
+    for t_switch, text in switches:
+        out.append((start, t_switch - SWITCH_GAP * h, (t_switch, text)))
+        start = t_switch + SWITCH_GAP * h
+    return out + [(start, t_end, None)]
+
+
+def _restart_at_switch(system, method, sol, switch, h, q, v, a, lam, b, mu, extra) -> float:
+    """A compiled loop ended a segment ``SWITCH_GAP`` h before ``switch``
+    (time, text), with a row there: record the event, put the new branch's
+    state just past it (``events.restart_after_switch``) into a, lam, b
+    (auxiliary acceleration) and mu (the method's ``extra`` multipliers), in
+    place, and into that row, as the driver's loop records a switch.
+    Returns the restart's time [s]."""
+    t_switch, text = switch
+    sol.events.append((t_switch, text, "switched", 0.0))
+    t_new = t_switch + SWITCH_GAP * h
+    new = restart_after_switch(system, method, t_new, q, v)
+    if new is not None:
+        a[:], lam[:] = new.a, new.lam
+        if "aux" in new.extra:
+            b[:] = new.extra["aux"]
+        if extra is not None and extra in new.extra:
+            mu[:] = new.extra[extra]
+    sol._rows.set_last(t=t_new, a=a.copy(), lam=lam.copy(),
+                       **({extra: mu.copy()} if extra in sol._stored_extras else {}))
+    return t_new
+
+
 def run_compiled_adaptive(system, method, t_end, h, t_start, initial, newton_options, sol, plan,
                           control, *, output_every=1, progress=None, writer=None, cm=None,
-                          max_halvings=6, grow_after=4):
+                          max_halvings=6, grow_after=4, switches=()):
     """Integrate into ``sol`` with error-controlled steps (``control``, a
     :class:`~.adaptive.StepControl`) in the compiled loop
     (``compiled._run_adaptive``); a step that cannot go on (Newton at the
@@ -931,7 +971,16 @@ def run_compiled_adaptive(system, method, t_end, h, t_start, initial, newton_opt
     an event, and this function lands a step on it as the driver's loop
     does (``events.EventLocator``; ``land`` below). ``control`` None: fixed
     steps of h with the driver's halving and regrowth (``max_halvings``,
-    ``grow_after``), for contacts, whose events change the step grid."""
+    ``grow_after``), for contacts, whose events change the step grid.
+
+    ``switches``: the switches of functions of time, each landed on as
+    :func:`run_compiled` lands them; the step after one is the larger of the
+    error control's next and the one planned before the segment's shortened
+    last step (the driver's ``resume``).
+
+    Springs whose points pass each other (a free length: the force flips
+    direction) are events too: the loop returns at the step across, and
+    ``land`` lands a step on the pass as on a contact's."""
     from .driver import integrate as numpy_integrate
     K = _kernels()
     cm = cm or CompiledModel(system)
@@ -974,18 +1023,22 @@ def run_compiled_adaptive(system, method, t_end, h, t_start, initial, newton_opt
         F_start = (-system.mass_solve(initial.q, initial.Q) if additive
                    else start_force_term(system, initial))
     q_prev, v_prev = q.copy(), v.copy()
-    # t, next h, rejected, previous h (none), mode (compiled.RUN), steps since a halving
-    state = np.array([t_start, h, 0.0, 0.0, K.RUN, 0.0])
+    # t, next h, rejected, previous h (none), mode (compiled.RUN), steps since a halving,
+    # the compensation of the sum t (as the driver's loop keeps t)
+    state = np.array([t_start, h, 0.0, 0.0, K.RUN, 0.0, 0.0])
     trial = np.empty((2, n))              # the end of a step that crossed an event
     no_F = np.full(n, np.nan)
     step_no, t = 0, t_start
     events = None
-    if system.contact_group is not None:     # no other events (driver.integrate)
+    contacts = system.contact_group is not None
+    if contacts or system.flipping_springs is not None:
         from .events import EventLocator
         events = EventLocator(system, h, sol)
         events.start(t_start, start)
+    if contacts:
         cm.impact_speed[:] = system.contact_group.impact_speed
     h_max = ctl[6]
+    seg_end = t_end             # the kernels' loop runs to the end of the segment
 
     def attempt(mode, h_try):
         """Run the kernels' loop in ``mode`` from (t, q, v, ...) with a first
@@ -993,7 +1046,7 @@ def run_compiled_adaptive(system, method, t_end, h, t_start, initial, newton_opt
         nonlocal step_no, t
         state[1], state[4] = h_try, mode
         status, taken, nrec = K.run_adaptive(
-            mono, I, Fl, state[1], t, t_end, step_no, output_every, q, v, a, b, lam, mu,
+            mono, I, Fl, state[1], t, seg_end, step_no, output_every, q, v, a, b, lam, mu,
             q_prev, v_prev, ctl, opts, solver, lin, lu_state, R, C, V, out_t, out_h, out_q,
             out_v, out_a, out_lam, out_mu, out_stats, counts, F_start if step_no == 0 else no_F,
             state, trial)
@@ -1010,7 +1063,7 @@ def run_compiled_adaptive(system, method, t_end, h, t_start, initial, newton_opt
 
     def land():
         """The loop stopped at a step that crosses an event (a gap opening or
-        closing, its end in ``trial``): retake it with the size that ends it
+        closing, a spring's points passing; its end in ``trial``): retake it with the size that ends it
         just past the event (``EventLocator.check``), until one lands; take
         that step; then change the contact's state (``commit``) and plan the
         next step as the driver's loop does (back to the size before the
@@ -1041,7 +1094,8 @@ def run_compiled_adaptive(system, method, t_end, h, t_start, initial, newton_opt
         # the step taken: its events (none, if it ended before them) from its own ends
         events.check(t0, t - t0, last, StepState(t, q.copy(), v.copy(), a.copy(), lam.copy()))
         events.commit()
-        cm.impact_speed[:] = system.contact_group.impact_speed
+        if contacts:
+            cm.impact_speed[:] = system.contact_group.impact_speed
         if control is None:           # fixed steps: back to the size planned, and regrowth
             h_next = resume
             if h_next < h:
@@ -1058,8 +1112,10 @@ def run_compiled_adaptive(system, method, t_end, h, t_start, initial, newton_opt
         state[1] = h_next
         return status
 
+    segments = _segments(t_start, t_end, h, switches)
     try:
         while t < t_end - 1e-12 * (t_end - t_start):
+            seg_end, switch = segments[0][1:]
             if events is not None and control is not None:    # the closed gaps' step limit
                 ctl[6] = min(h_max, events.step_limit())
             status = attempt(K.RUN, float(state[1]))
@@ -1081,6 +1137,11 @@ def run_compiled_adaptive(system, method, t_end, h, t_start, initial, newton_opt
                 sol.status, sol.message = part.status, part.message
                 sol.diagnostics = part.diagnostics
                 return sol
+            if t >= seg_end - 1e-12 * (t_end - t_start) and switch is not None:
+                t = _restart_at_switch(system, method, sol, switch, h, q, v, a, lam, b, mu,
+                                       extra)
+                state[0], state[3], state[6] = t, 0.0, 0.0    # BDF restarts with BDF1
+                segments.pop(0)
             if progress is not None:
                 progress(t, float(state[1]), int(sol.stats_total.iterations))
             if writer is not None:
@@ -1111,11 +1172,18 @@ def _resume_state(system, t, q, v, a, lam, method_state=None):
 
 def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol, plan, *,
                  output_every=1, progress=None, writer=None, max_halvings=6, grow_after=4,
-                 cm=None):
+                 cm=None, switches=()):
     """Integrate into ``sol`` (already holding the initial row) with the
     compiled time loop and the linear solver of ``plan`` ("dense" or
     "banded"); sets sol.status and sol.message. Other parameters as for
-    ``integrate``."""
+    ``integrate``.
+
+    ``switches``: [(time, text)] of the functions of time
+    (``events.switch_times``). The loop runs from switch to switch: a
+    segment ends ``SWITCH_GAP`` h before a switch, with a row there; the
+    method restarts as far past it on the new branch
+    (``events.restart_after_switch``), which that row then holds, as the
+    driver's loop lands on a switch."""
     from dataclasses import replace
 
     from .driver import integrate as numpy_integrate
@@ -1182,88 +1250,93 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
         counts[:] = 0
 
     try:
-        schedule = _step_plan(t_start, t_end, h)
-        for g, (n_steps, step_h) in enumerate(schedule):
-            rec2 = recipes(method, step_h)
-            lu_state[0] = 0.0                    # a new h: a new Newton matrix
-            # a two-step method with a history of the previous h: its first step is
-            # BDF2 of the step ratio (a BDF1 restart would leave O(h) velocities there)
-            ratio = None
-            if lu_state[2] == 1.0 and method.history_length > 1 and step_h != last_h:
-                ratio = np.stack([ratio_recipe(method, step_h, last_h)] * 2)
-            else:
-                lu_state[2] = 0.0
-            last_h = step_h
-            done = 0
-            while done < n_steps and t < t_end - 1e-9 * h:
-                chunk = 1 if ratio is not None else min(CHUNK, n_steps - done)
-                t0 = t
-                status, taken, nrec = K.run(
-                    rec2 if ratio is None else ratio, I, Fl, step_h, t0, chunk, step_no,
-                    output_every, q, v, a, b, lam, mu,
-                    q_prev, v_prev, opts, solver, lin, lu_state, R, C, V, out_t, out_q, out_v,
-                    out_a, out_lam, out_mu, out_stats, counts,
-                    F_start if step_no == 0 else no_F)
-                if ratio is not None:            # then the steady recipe's Newton matrix
-                    ratio = None
-                    lu_state[0] = 0.0
-                add_rows(nrec, step_h)
-                step_no += taken
-                done += taken
-                t = t0 + taken * step_h
-                if taken < chunk:
-                    # The failing step goes to the numpy engine (smaller steps, and the
-                    # diagnosis in the model's words if the run cannot go on), for a
-                    # window of 8 steps of the nominal grid, or to t_end.
-                    if plan.kind == "banded" and plan.blocks == 2:
-                        # the split Newton matrix leaves out O(h) terms; where they matter
-                        # (stiff forces, fast rotation), go on with the whole band matrix
-                        why = f"{plan.why}; whole band matrix after a failed step at t = {t:.6g} s"
-                        plan = band_plan(system, method, q, False, plan.addresses, cm)
-                        plan.why = why
-                        lin = plan.workspace(size, cm.bound)
-                        opts[4] = opt.refresh_rate(newton_matrix_cost(plan, size, system, method))
-                        sol.linear_solver_note = plan.why
-                    if counts[5]:
-                        add_row(t, step_h)
-                    end = t_end if t + 9 * step_h >= t_end - 1e-9 * h else t + 8 * step_h
-                    part = numpy_integrate(
-                        system, method, end, step_h, t_start=t,
-                        initial=_resume_state(system, t, q, v, a, lam, {"aux": b.copy()}),
-                        newton=numpy_opt, on_failure="return", max_halvings=max_halvings,
-                        grow_after=grow_after, engine="numpy")
-                    sol.extend(part, start=1)
-                    if part.status != "completed":
-                        sol.status, sol.message = part.status, part.message
-                        sol.diagnostics = part.diagnostics
-                        return sol
-                    q[:], v[:], a[:], lam[:] = part.q[-1], part.v[-1], part.a[-1], part.lam[-1]
-                    if "aux" in part.last_state.extra:
-                        b[:] = part.last_state.extra["aux"]
-                    if extra is not None:
-                        mu[:] = part.extras[extra][-1]
-                    # the history of a two-step method: the numpy part's last step, if of size h
+        for seg_start, seg_end, switch in _segments(t_start, t_end, h, switches):
+            schedule = _step_plan(seg_start, seg_end, h, exact=switch is not None)
+            for g, (n_steps, step_h) in enumerate(schedule):
+                rec2 = recipes(method, step_h)
+                lu_state[0] = 0.0                    # a new h: a new Newton matrix
+                # a two-step method with a history of the previous h: its first step is
+                # BDF2 of the step ratio (a BDF1 restart would leave O(h) velocities there)
+                ratio = None
+                if lu_state[2] == 1.0 and method.history_length > 1 and step_h != last_h:
+                    ratio = np.stack([ratio_recipe(method, step_h, last_h)] * 2)
+                else:
                     lu_state[2] = 0.0
-                    if len(part.t) >= 2 and abs((part.t[-1] - part.t[-2]) - step_h) <= 1e-9 * step_h:
-                        q_prev[:], v_prev[:] = part.q[-2], part.v[-2]
-                        lu_state[2] = 1.0
-                    covered = int(round((part.t[-1] - t) / step_h))
-                    t = float(part.t[-1])
-                    done += covered
-                    step_no += covered
-                    lu_state[0] = 0.0
-                if g == len(schedule) - 1 and done >= n_steps:
-                    # the last step lands on t_end: record it (exactly at t_end)
-                    # before the writer sees it, also when the stride skipped it
-                    if counts[5]:
-                        add_row(t_end, last_h)
-                    elif abs(sol.rows(sol.n_rows - 1, sol.n_rows)["t"][0] - t_end) <= 1e-9 * h:
-                        sol._rows.set_last_t(t_end)
-                    t = t_end
-                if progress is not None:
-                    progress(t, step_h, int(sol.stats_total.iterations))
-                if writer is not None:
-                    writer.append(sol)
+                last_h = step_h
+                done = 0
+                while done < n_steps and t < seg_end - 1e-9 * h:
+                    chunk = 1 if ratio is not None else min(CHUNK, n_steps - done)
+                    t0 = t
+                    status, taken, nrec = K.run(
+                        rec2 if ratio is None else ratio, I, Fl, step_h, t0, chunk, step_no,
+                        output_every, q, v, a, b, lam, mu,
+                        q_prev, v_prev, opts, solver, lin, lu_state, R, C, V, out_t, out_q, out_v,
+                        out_a, out_lam, out_mu, out_stats, counts,
+                        F_start if step_no == 0 else no_F)
+                    if ratio is not None:            # then the steady recipe's Newton matrix
+                        ratio = None
+                        lu_state[0] = 0.0
+                    add_rows(nrec, step_h)
+                    step_no += taken
+                    done += taken
+                    t = t0 + taken * step_h
+                    if taken < chunk:
+                        # The failing step goes to the numpy engine (smaller steps, and the
+                        # diagnosis in the model's words if the run cannot go on), for a
+                        # window of 8 steps of the nominal grid, or to the segment's end.
+                        if plan.kind == "banded" and plan.blocks == 2:
+                            # the split Newton matrix leaves out O(h) terms; where they matter
+                            # (stiff forces, fast rotation), go on with the whole band matrix
+                            why = f"{plan.why}; whole band matrix after a failed step at t = {t:.6g} s"
+                            plan = band_plan(system, method, q, False, plan.addresses, cm)
+                            plan.why = why
+                            lin = plan.workspace(size, cm.bound)
+                            opts[4] = opt.refresh_rate(newton_matrix_cost(plan, size, system, method))
+                            sol.linear_solver_note = plan.why
+                        if counts[5]:
+                            add_row(t, step_h)
+                        end = seg_end if t + 9 * step_h >= seg_end - 1e-9 * h else t + 8 * step_h
+                        part = numpy_integrate(
+                            system, method, end, step_h, t_start=t,
+                            initial=_resume_state(system, t, q, v, a, lam, {"aux": b.copy()}),
+                            newton=numpy_opt, on_failure="return", max_halvings=max_halvings,
+                            grow_after=grow_after, engine="numpy")
+                        sol.extend(part, start=1)
+                        if part.status != "completed":
+                            sol.status, sol.message = part.status, part.message
+                            sol.diagnostics = part.diagnostics
+                            return sol
+                        q[:], v[:], a[:], lam[:] = part.q[-1], part.v[-1], part.a[-1], part.lam[-1]
+                        if "aux" in part.last_state.extra:
+                            b[:] = part.last_state.extra["aux"]
+                        if extra is not None:
+                            mu[:] = part.extras[extra][-1]
+                        # the history of a two-step method: the numpy part's last step, if of size h
+                        lu_state[2] = 0.0
+                        if len(part.t) >= 2 and abs((part.t[-1] - part.t[-2]) - step_h) <= 1e-9 * step_h:
+                            q_prev[:], v_prev[:] = part.q[-2], part.v[-2]
+                            lu_state[2] = 1.0
+                        covered = int(round((part.t[-1] - t) / step_h))
+                        t = float(part.t[-1])
+                        done += covered
+                        step_no += covered
+                        lu_state[0] = 0.0
+                    if (g == len(schedule) - 1 and done >= n_steps) or t >= seg_end - 1e-9 * h:
+                        # the segment's last step lands on its end: record it (exactly
+                        # there) before the writer sees it, also when the stride skipped it
+                        if counts[5]:
+                            add_row(seg_end, last_h)
+                        elif abs(sol.rows(sol.n_rows - 1, sol.n_rows)["t"][0] - seg_end) <= 1e-9 * h:
+                            sol._rows.set_last_t(seg_end)
+                        t = seg_end
+                        if switch is not None:      # BDF restarts with BDF1
+                            t = _restart_at_switch(system, method, sol, switch, h, q, v, a,
+                                                   lam, b, mu, extra)
+                            lu_state[2] = 0.0
+                    if progress is not None:
+                        progress(t, step_h, int(sol.stats_total.iterations))
+                    if writer is not None:
+                        writer.append(sol)
         sol.status, sol.message = "completed", f"reached t_end = {t_end:g} s"
     except KeyboardInterrupt:
         if counts[5]:

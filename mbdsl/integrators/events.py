@@ -27,7 +27,10 @@ Functions of time that switch branch (``if``, ``min``, ``max``, ``clip``,
 comparisons, ``abs``, ``sign``: :func:`time_switches`) are known in advance:
 the step that would cross a switch is shortened to end just before it
 (:meth:`EventLocator.before_switch`), and the method restarts just after it
-on the new branch (:meth:`EventLocator.after_switch`).
+on the new branch (:meth:`EventLocator.after_switch`). The compiled loops,
+which do not stop after each step, take the run's switches before it starts
+(:func:`switch_times`) and run from one to the next
+(``engine.run_compiled``, ``engine.run_compiled_adaptive``).
 
 Locating the closing matters for the law, not only for accuracy: the impact
 speed is measured where the gap closes, and a step that jumps deep into a
@@ -37,14 +40,20 @@ small.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-__all__ = ["EventLocator", "EVENT_TOL", "MAX_CUTS", "STEPS_PER_CONTACT"]
+__all__ = ["EventLocator", "EVENT_TOL", "MAX_CUTS", "STEPS_PER_CONTACT", "SWITCH_GAP",
+           "restart_after_switch", "switch_times", "time_switches"]
 
 #: Event location tolerance, as a fraction of the nominal step size h.
 EVENT_TOL = 1e-6
 #: At most this many retakes of a step to land on one event.
 MAX_CUTS = 8
+#: A step ends this fraction of the nominal step size h before a switch of a
+#: function of time, and the next starts as far after it.
+SWITCH_GAP = 1e-10
 #: Error-controlled steps while a gap is closed are at most its estimated
 #: impact duration over this (``ContactGroup.duration``).
 STEPS_PER_CONTACT = 50
@@ -100,39 +109,33 @@ class EventLocator:
         return (system.contact_group is not None or system.flipping_springs is not None
                 or bool(time_switches(system)))
 
-    def before_switch(self, t, step) -> float:
+    def before_switch(self, t, step, t_end=math.inf) -> float:
         """The step from t shortened to end just before the first switch of a
-        function of time in (t, t + step] (by 1e-10 h: this step integrates
-        the old branch, the next one the new); ``step`` when none."""
+        function of time in (t, t + step] (by ``SWITCH_GAP`` h: this step
+        integrates the old branch, the next one the new); ``step`` when none,
+        or when the switch is within 1e-8 h of t or of the run's end t_end."""
         self._switch = None
         if not self.switches:
             return step
         hit = next_switch(self.switches, t, t + step)
-        if hit is None or hit[0] - t <= 1e-8 * self.h:
+        if hit is None or hit[0] - t <= 1e-8 * self.h or hit[0] >= t_end - 1e-8 * self.h:
             return step
         self._switch = hit
-        return min(step, hit[0] - t - 1e-10 * self.h)
+        return min(step, hit[0] - t - SWITCH_GAP * self.h)
 
     def after_switch(self, t, method, state):
         """After an accepted step ending at t: if it ended on the planned
         switch, record it and return (t', start state of ``method`` at t'),
-        t' just past the switch, with a and lambda of the new branch from the
-        index-1 system (a one-step method's carried a_n and force term would
-        hold the old branch's for a whole step; BDF2 restarts with BDF1);
+        t' just past the switch, on the new branch (:func:`restart_after_switch`);
         else None."""
-        if self._switch is None or t < self._switch[0] - 2e-10 * self.h:
+        if self._switch is None or t < self._switch[0] - 2 * SWITCH_GAP * self.h:
             return None
         t_switch, text = self._switch
         self._switch = None
         self.sol.events.append((t_switch, text, "switched", 0.0))
-        t_new = t_switch + 1e-10 * self.h
-        try:
-            a, lam = self.system.index1_state(t_new, state.q, state.v)
-        except np.linalg.LinAlgError:           # a singular configuration: keep the state
-            return t_new, state
-        from ..assembly.initial import InitialState
-        initial = InitialState(t_new, state.q.copy(), state.v.copy(), a, lam, 0.0, 0.0, 0.0)
-        return t_new, method.start(self.system, initial)[-1]
+        t_new = t_switch + SWITCH_GAP * self.h
+        restarted = restart_after_switch(self.system, method, t_new, state.q, state.v)
+        return t_new, state if restarted is None else restarted
 
     def _spring_d(self, q):
         """d = p2 - p1 of the flipping springs, shape (k, 2)."""
@@ -326,10 +329,11 @@ def _switches(expr):
 
 def time_switches(system):
     """Kinks and jumps of the model's functions of time (drivers, torques,
-    point forces): [(text, s(t))], s changing sign where the function
-    switches branch (``min``, ``max``, ``clip``, ``if``, comparisons, ``abs``,
-    ``sign``). Known in advance, so a step is shortened to end on them
-    before it is taken (:func:`next_switch`)."""
+    point forces): [(text, s, expr)], the switching function s(t) (and its
+    expression) changing sign where the function switches branch (``min``,
+    ``max``, ``clip``, ``if``, comparisons, ``abs``, ``sign``). Known in
+    advance, so a step is shortened to end on them before it is taken
+    (:func:`next_switch`, :func:`switch_times`)."""
     from ..dsl.expressions import compile_function
     functions = [f for g in system.constraint_groups for f in getattr(g, "functions", ()) or ()
                  if f is not None]
@@ -346,21 +350,101 @@ def time_switches(system):
             key = (text, repr(s))
             if key not in seen:
                 seen.add(key)
-                out.append((text, compile_function(s)))
+                out.append((text, compile_function(s), s))
     return out
 
 
 def next_switch(switches, t, t_new):
     """The first switch in (t, t_new]: (time, text), or None. Brent's method on
-    each switching function whose sign differs at the two ends (a switch
-    crossed twice within one step is not seen)."""
+    each switching function whose sign differs at the two ends, or t_new
+    where it is zero there (a switch on a step's end, either way it turns;
+    one at t, zero there, was the step before's; a switch crossed twice
+    within one step is not seen)."""
     from scipy.optimize import brentq
     best = None
-    for text, s in switches:
+    for text, s, _ in switches:
         a, b = s(t), s(t_new)
-        if not (np.isfinite(a) and np.isfinite(b)) or (a > 0.0) == (b > 0.0) or a == 0.0:
+        if not (np.isfinite(a) and np.isfinite(b)) or a == 0.0 or (b != 0.0 and (a > 0.0) == (b > 0.0)):
             continue
-        root = brentq(s, t, t_new, xtol=1e-14 * max(1.0, abs(t_new)), rtol=1e-15)
+        root = t_new if b == 0.0 else brentq(s, t, t_new, xtol=1e-14 * max(1.0, abs(t_new)),
+                                             rtol=1e-15)
         if best is None or root < best[0]:
             best = (root, text)
     return best
+
+
+def switch_times(switches, t_start, t_end, h):
+    """Every switch of :func:`time_switches` in (t_start, t_end), found as the
+    driver's loop finds them step by step (:func:`next_switch`): a sign
+    change of a switching function between two nodes of the grid of steps of
+    h (a zero on a node, between nodes of opposite signs, is a switch
+    there), then Brent's method. For a loop that runs from switch to switch
+    (the compiled engine's), whose steps need not fall on that grid
+    (events, error control): a switch on one of its nodes is landed on too.
+
+    Parameters
+    ----------
+    switches : list
+        :func:`time_switches` of the model.
+    t_start, t_end, h : float [s]
+
+    Returns
+    -------
+    list of (float, str)
+        (time, text) in time order; a switch within 1e-8 h of the one before
+        (or of t_start, or of t_end) is left out, as the driver's loop
+        leaves it (:meth:`EventLocator.before_switch`).
+    """
+    from scipy.optimize import brentq
+
+    from ..dsl.expressions import evaluate_rows
+    k = max(int(math.ceil((t_end - t_start) / h - 1e-9)), 1)
+    grid = np.minimum(t_start + h * np.arange(k + 1), t_end)
+    grid[-1] = t_end
+    hits = []
+    for text, s, expr in switches:
+        values = evaluate_rows(expr, {}, grid)
+        finite = np.isfinite(values)
+        nodes = np.flatnonzero(finite & (values != 0.0))       # nodes with a sign
+        sign = values[nodes] > 0.0
+        for k in np.flatnonzero(sign[1:] != sign[:-1]):
+            i, j = nodes[k], nodes[k + 1]                      # zeros only between them
+            fa, fb = s(grid[i]), s(grid[j])        # (the closure's own values, for Brent)
+            if not finite[i:j + 1].all() or (fa > 0.0) == (fb > 0.0) or 0.0 in (fa, fb):
+                continue
+            hits.append((brentq(s, grid[i], grid[j], xtol=1e-14 * max(1.0, abs(grid[j])),
+                                rtol=1e-15), text))
+    out, last = [], t_start
+    for time, text in sorted(hits):
+        if time - last > 1e-8 * h and time < t_end - 1e-8 * h:
+            out.append((time, text))
+            last = time
+    return out
+
+
+def restart_after_switch(system, method, t, q, v):
+    """The start state of ``method`` at t, just past a switch of a function of
+    time, on the new branch: a and lambda from the index-1 system at (t, q, v)
+    (a one-step method's carried a_n and force term would hold the old
+    branch's for a whole step; a two-step method restarts from it with
+    BDF1). None where the index-1 system is singular (the state is kept).
+
+    Parameters
+    ----------
+    system : AssembledSystem
+    method : Method
+    t : float [s]
+    q, v : ndarray, shape (n,)
+
+    Returns
+    -------
+    StepState or None
+    """
+    try:
+        a, lam = system.index1_state(t, q, v)
+    except np.linalg.LinAlgError:           # a singular configuration: keep the state
+        return None
+    from ..assembly.initial import InitialState
+    initial = InitialState(t, np.array(q, dtype=float), np.array(v, dtype=float), a, lam,
+                           0.0, 0.0, 0.0)
+    return method.start(system, initial)[-1]

@@ -7,6 +7,10 @@ checks that can fail: a wrong sign, a missing term or a mis-scattered entry
 moves the results by far more than the tolerances below.
 """
 
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -504,3 +508,20 @@ force T: torque(b, {expr})
                             np.zeros(6), np.zeros(6))
         assert np.array_equal(-out[2], fn.f(t), equal_nan=True) or \
             -out[2] == pytest.approx(fn.f(t), rel=1e-14, abs=1e-15)
+
+
+def test_the_warm_up_loads_the_loop_a_fixed_step_run_takes():
+    """``kernel_cache.warm_up`` runs a model through the fixed-step loop
+    (``compiled.run``) and not the error-controlled one: a model with an
+    event (a spring with a free length) would take the other, and the first
+    fixed-step run of every process would then load ``run`` from numba's
+    cache inside its integration time (0.2 s on the slider crank's 0.014)."""
+    from mbdsl.integrators import kernel_cache
+    kernel_cache.ensure_loaded("dense")          # built, so that the child only loads
+    code = ("from mbdsl.integrators import compiled, kernel_cache\n"
+            "kernel_cache.warm_up(('dense',), output=False, loops=(False,))\n"
+            "print(len(compiled.run.signatures), len(compiled.run_adaptive.signatures))\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         timeout=600, cwd=Path(mbdsl.__file__).parents[1])
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["1", "0"]
