@@ -518,12 +518,15 @@ class Solution:
     def extend(self, other: "Solution", start: int = 0) -> None:
         """Record the rows of another run of the same method (its rows as
         stored, before any output mapping) from row ``start`` on, with its
-        totals (rejected steps included) and its events."""
+        totals (rejected steps included), its events and its contact log
+        (the other run started its own: ``EventLocator.start``)."""
         k = other.n_rows - start
         if k > 0:
             self._rows.extend(other._rows.get(start, other.n_rows))
         self.events += other.events
         self.event_cuts += other.event_cuts
+        if other.contact_log is not self.contact_log:
+            self.contact_log = list(self.contact_log) + list(other.contact_log)
         tot, o = self.stats_total, other.stats_total
         for name in ("steps", "iterations", "residuals", "jacobians", "factorizations",
                      "rejected", "multipliers_stalled"):
