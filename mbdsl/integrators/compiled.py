@@ -648,6 +648,23 @@ def _spring_points(I, Fl, qx, i):
 
 
 @_jit
+def _direction(dx, dy, l):
+    """e = d / l of a spring-damper, (0, 0) at l = 0: two coincident points
+    have no direction, and no force along it (``SpringDamperGroup._kin``)."""
+    if l > 0.0:
+        return dx / l, dy / l
+    return 0.0, 0.0
+
+
+@_jit
+def _direction_derivative(ex, ey, l):
+    """(P00, P01, P11) of de/dd = (I - e e^T) / l, 0 at l = 0."""
+    if l > 0.0:
+        return (1.0 - ex * ex) / l, -ex * ey / l, (1.0 - ey * ey) / l
+    return 0.0, 0.0, 0.0
+
+
+@_jit
 def _spring(I, Fl, qx, vx, i, G, v6):
     """Kinematics of spring i: D = dd/dq_local into G (2, 6), local v into v6;
     returns (d, ddot, l, A s1, A s2)."""
@@ -774,12 +791,12 @@ def _gap(I, Fl, qx, i, grad, H):
     l = math.sqrt(dx * dx + dy * dy)
     if l == 0.0:                   # centred: open by the clearance, no normal
         return off
-    ex, ey = dx / l, dy / l
+    ex, ey = _direction(dx, dy, l)
     D = np.zeros((2, 6))           # dd/dq
     D[0, 0], D[1, 1], D[0, 3], D[1, 4] = -1.0, -1.0, 1.0, 1.0
     D[0, 2], D[1, 2] = aCy, -aCx   # -B(phi_C) s_C
     D[0, 5], D[1, 5] = -aPy, aPx   # B(phi_P) s_P
-    P00, P01, P11 = (1.0 - ex * ex) / l, -ex * ey / l, (1.0 - ey * ey) / l
+    P00, P01, P11 = _direction_derivative(ex, ey, l)
     for a in range(6):
         grad[a] = -(ex * D[0, a] + ey * D[1, a])
         pa0 = P00 * D[0, a] + P01 * D[1, a]
@@ -819,13 +836,13 @@ def _slip(I, Fl, qx, i, w, dw):
         l = math.sqrt(dx * dx + dy * dy)
         if l == 0.0:
             return
-        ex, ey = dx / l, dy / l
+        ex, ey = _direction(dx, dy, l)
         D = np.zeros((2, 6))
         D[0, 0], D[1, 1], D[0, 3], D[1, 4] = -1.0, -1.0, 1.0, 1.0
         D[0, 2], D[1, 2] = a1y, -a1x
         D[0, 5], D[1, 5] = B2x, B2y
         nux, nuy = -ex, -ey
-        P00, P01, P11 = (1.0 - ex * ex) / l, -ex * ey / l, (1.0 - ey * ey) / l
+        P00, P01, P11 = _direction_derivative(ex, ey, l)
         for b in range(6):
             dnu[0, b] = -(P00 * D[0, b] + P01 * D[1, b])
             dnu[1, b] = -(P01 * D[0, b] + P11 * D[1, b])
@@ -1024,7 +1041,7 @@ def forces(I, Fl, t, qx, vx, lam, out):
         # (no scratch array on this hot path); a point on a flexible beam at A u (its terms below)
         dx, dy, ax1, ay1, ax2, ay2 = _spring_points(I, Fl, qx, i)
         l = math.sqrt(dx * dx + dy * dy)
-        ex, ey = dx / l, dy / l
+        ex, ey = _direction(dx, dy, l)
         f = _f(I, Fl, SPAR, i, 0) * (l - _f(I, Fl, SPAR, i, 2))
         if _f(I, Fl, SPAR, i, 1) != 0.0:
             w1, w2 = vx[_i(I, SCOL1, i, 2)], vx[_i(I, SCOL2, i, 2)]
@@ -1828,12 +1845,12 @@ def _emit_spring_elastic(I, Fl, n, qx, vx, i, R, C, V, p, r0, c0, cq, cv):
     dx = (qx[cols[3]] - qx[cols[0]]) + (ax2 - ax1)
     dy = (qx[cols[4]] - qx[cols[1]]) + (ay2 - ay1)
     l = math.sqrt(dx * dx + dy * dy)
-    ex, ey = dx / l, dy / l
+    ex, ey = _direction(dx, dy, l)
     ddx, ddy = 0.0, 0.0
     for j in range(nc):
         ddx += D[0, j] * v[j]
         ddy += D[1, j] * v[j]
-    P00, P01, P11 = (1.0 - ex * ex) / l, -ex * ey / l, (1.0 - ey * ey) / l
+    P00, P01, P11 = _direction_derivative(ex, ey, l)
     for j in range(nc):
         de[0, j] = P00 * D[0, j] + P01 * D[1, j]
         de[1, j] = P01 * D[0, j] + P11 * D[1, j]
@@ -1882,8 +1899,8 @@ def _emit_force(I, Fl, t, n, qx, vx, lam, R, C, V, p, r0, c0, cq, cv):
             continue
         k, c, l0 = _f(I, Fl, SPAR, i, 0), _f(I, Fl, SPAR, i, 1), _f(I, Fl, SPAR, i, 2)
         dx, dy, ddx, ddy, l, ax1, ay1, ax2, ay2 = _spring(I, Fl, qx, vx, i, G, v6)
-        ex, ey = dx / l, dy / l
-        P00, P01, P11 = (1.0 - ex * ex) / l, -ex * ey / l, (1.0 - ey * ey) / l
+        ex, ey = _direction(dx, dy, l)
+        P00, P01, P11 = _direction_derivative(ex, ey, l)
         ldot = ex * ddx + ey * ddy
         f = k * (l - l0) + c * ldot
         for j in range(6):
