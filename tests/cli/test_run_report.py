@@ -209,3 +209,21 @@ def test_the_solved_for_line_is_short_and_prints_round_off_as_zero():
     # a model's own output: the slider crank's crank.x is zero to round-off
     system = mbdsl.assemble(mbdsl.load(MODELS / "slider_crank.mbd"))
     assert "crank.x = 0," in mbdsl.consistent_initial_state(system).report()
+
+
+@pytest.mark.parametrize("out", ["x.csv", "x.h5"])
+def test_the_console_script_leaves_its_output_whole(out, tmp_path):
+    """``python -m mbdsl`` (as the ``mbdsl`` script) ends the process without the
+    interpreter's teardown (``cli.main.run``): the summary on stdout, the
+    file's every row and the exit status must all be there, on a pipe."""
+    import subprocess
+    import sys
+    proc = subprocess.run([sys.executable, "-m", "mbdsl", "simulate", str(MODELS / "pendulum.mbd"),
+                           "--t-end", "0.3", "-o", str(tmp_path / out)], capture_output=True,
+                          text=True, timeout=600, cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert "Traceback" not in proc.stderr
+    rows = int(proc.stdout.split("wrote ")[1].split("(")[1].split(" rows")[0])
+    sol = mbdsl.load_solution(tmp_path / out)
+    assert len(sol.t) == rows and sol.t[-1] == pytest.approx(0.3)
+    assert proc.stdout.rstrip().splitlines()[-1].startswith(f"wrote {tmp_path / out} ({rows} rows")
