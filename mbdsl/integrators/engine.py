@@ -971,7 +971,7 @@ def run_compiled_adaptive(system, method, t_end, h, t_start, initial, newton_opt
     an event, and this function lands a step on it as the driver's loop
     does (``events.EventLocator``; ``land`` below). ``control`` None: fixed
     steps of h with the driver's halving and regrowth (``max_halvings``,
-    ``grow_after``), for contacts, whose events change the step grid.
+    ``grow_after``), for models with events, which change the step grid.
 
     ``switches``: the switches of functions of time, each landed on as
     :func:`run_compiled` lands them; the step after one is the larger of the
@@ -1063,9 +1063,10 @@ def run_compiled_adaptive(system, method, t_end, h, t_start, initial, newton_opt
 
     def land():
         """The loop stopped at a step that crosses an event (a gap opening or
-        closing, a spring's points passing; its end in ``trial``): retake it with the size that ends it
-        just past the event (``EventLocator.check``), until one lands; take
-        that step; then change the contact's state (``commit``) and plan the
+        closing, a spring's points passing; its end in ``trial``): retake it
+        with the size that ends it just past the event
+        (``EventLocator.check``), until one lands; take that step; then
+        change the contact's state (``commit``) and plan the
         next step as the driver's loop does (back to the size before the
         cut, within the closed gaps' step limit; a two-step method restarts
         with BDF1). Returns the status of the last attempt."""
@@ -1287,11 +1288,13 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
                         if plan.kind == "banded" and plan.blocks == 2:
                             # the split Newton matrix leaves out O(h) terms; where they matter
                             # (stiff forces, fast rotation), go on with the whole band matrix
-                            why = f"{plan.why}; whole band matrix after a failed step at t = {t:.6g} s"
+                            why = (f"{plan.why}; whole band matrix after a failed step at "
+                                   f"t = {t:.6g} s")
                             plan = band_plan(system, method, q, False, plan.addresses, cm)
                             plan.why = why
                             lin = plan.workspace(size, cm.bound)
-                            opts[4] = opt.refresh_rate(newton_matrix_cost(plan, size, system, method))
+                            opts[4] = opt.refresh_rate(newton_matrix_cost(plan, size, system,
+                                                                          method))
                             sol.linear_solver_note = plan.why
                         if counts[5]:
                             add_row(t, step_h)
@@ -1313,7 +1316,8 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
                             mu[:] = part.extras[extra][-1]
                         # the history of a two-step method: the numpy part's last step, if of size h
                         lu_state[2] = 0.0
-                        if len(part.t) >= 2 and abs((part.t[-1] - part.t[-2]) - step_h) <= 1e-9 * step_h:
+                        if len(part.t) >= 2 and \
+                                abs((part.t[-1] - part.t[-2]) - step_h) <= 1e-9 * step_h:
                             q_prev[:], v_prev[:] = part.q[-2], part.v[-2]
                             lu_state[2] = 1.0
                         covered = int(round((part.t[-1] - t) / step_h))
@@ -1326,7 +1330,8 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
                         # there) before the writer sees it, also when the stride skipped it
                         if counts[5]:
                             add_row(seg_end, last_h)
-                        elif abs(sol.rows(sol.n_rows - 1, sol.n_rows)["t"][0] - seg_end) <= 1e-9 * h:
+                        elif abs(sol.rows(sol.n_rows - 1, sol.n_rows)["t"][0]
+                                 - seg_end) <= 1e-9 * h:
                             sol._rows.set_last_t(seg_end)
                         t = seg_end
                         if switch is not None:      # BDF restarts with BDF1

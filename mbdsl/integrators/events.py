@@ -364,7 +364,8 @@ def next_switch(switches, t, t_new):
     best = None
     for text, s, _ in switches:
         a, b = s(t), s(t_new)
-        if not (np.isfinite(a) and np.isfinite(b)) or a == 0.0 or (b != 0.0 and (a > 0.0) == (b > 0.0)):
+        if not (np.isfinite(a) and np.isfinite(b)) or a == 0.0 \
+                or (b != 0.0 and (a > 0.0) == (b > 0.0)):
             continue
         root = t_new if b == 0.0 else brentq(s, t, t_new, xtol=1e-14 * max(1.0, abs(t_new)),
                                              rtol=1e-15)
