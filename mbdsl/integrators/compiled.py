@@ -3381,20 +3381,21 @@ def _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, 
         if rc[EAUX] != 0.0:
             b_new[:] = b
             _advance(rc, b_new, a, w[a0:a0 + n])
-        if additive:    # HHT-ADD: the change of a + R_II, which sees the constraint forces
-            _total_acceleration(I, Fl, n, qx, w[a0:a0 + n], w[l0:l0 + m], R, C, V, acc_new)
         acc = 0.0
-        for j in range(n):
-            if rc[EAUX] != 0.0:
-                d = b_new[j] - b[j]
-            elif additive:
-                d = acc_new[j] - acc_old[j]
-            elif rc[EABS] != 0.0:
-                d = w[a0 + j]
-            else:
-                d = w[a0 + j] - a[j]
-            e = rc[ERR] * d / (atol + rtol * max(abs(q[j]), abs(qx[j])))
-            acc += e * e
+        if grow_after == 0:       # (fixed steps take no error estimate)
+            if additive:    # HHT-ADD: the change of a + R_II, which sees the constraint forces
+                _total_acceleration(I, Fl, n, qx, w[a0:a0 + n], w[l0:l0 + m], R, C, V, acc_new)
+            for j in range(n):
+                if rc[EAUX] != 0.0:
+                    d = b_new[j] - b[j]
+                elif additive:
+                    d = acc_new[j] - acc_old[j]
+                elif rc[EABS] != 0.0:
+                    d = w[a0 + j]
+                else:
+                    d = w[a0 + j] - a[j]
+                e = rc[ERR] * d / (atol + rtol * max(abs(q[j]), abs(qx[j])))
+                acc += e * e
         err = math.sqrt(acc / n) if n > 0 and grow_after == 0 else 0.0
         if err == 0.0:
             factor = fmax
