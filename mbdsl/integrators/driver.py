@@ -23,7 +23,7 @@ from ..errors import ConvergenceError, Diagnostic
 from ..solution import Solution, StepStats
 from .adaptive import StepControl
 from .base import Method
-from .events import switch_times, time_switches
+from .events import EventLocator, switch_times, time_switches
 from .newton import Newton, NewtonOptions, NewtonStatus
 
 __all__ = ["integrate"]
@@ -157,7 +157,7 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
         # landed on it (run_compiled_adaptive); with a recipe that loop cannot vary,
         # this module's time loop on the kernels' evaluation. Both compiled loops
         # run from switch to switch of the functions of time.
-        events = system.contact_group is not None or system.flipping_springs is not None
+        events = EventLocator.found_by_steps(system)
         python_loop = events and recipe_monomials(method) is None
         functions = time_switches(system)
         switches = switch_times(functions, t_start, t_end, h) if functions else ()
@@ -244,7 +244,6 @@ def _time_loop(system, method, solver, sol, history, kinds, assembler, t_start, 
     # halvings follow only if the longer step fails too.
     jumped = None                # the step size before a jump, while jumping
     events = None
-    from .events import EventLocator
     if EventLocator.needed(system):
         events = EventLocator(system, h, sol)
         events.start(t_start, history[-1])

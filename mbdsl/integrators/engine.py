@@ -1031,8 +1031,8 @@ def run_compiled_adaptive(system, method, t_end, h, t_start, initial, newton_opt
     step_no, t = 0, t_start
     events = None
     contacts = system.contact_group is not None
-    if contacts or system.flipping_springs is not None:
-        from .events import EventLocator
+    from .events import EventLocator
+    if EventLocator.found_by_steps(system):
         events = EventLocator(system, h, sol)
         events.start(t_start, start)
     if contacts:

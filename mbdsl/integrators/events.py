@@ -106,8 +106,15 @@ class EventLocator:
         spring-dampers with a free length (their force flips direction when
         their two points pass each other), or functions of time that switch
         (:func:`time_switches`)."""
-        return (system.contact_group is not None or system.flipping_springs is not None
-                or bool(time_switches(system)))
+        return EventLocator.found_by_steps(system) or bool(time_switches(system))
+
+    @staticmethod
+    def found_by_steps(system) -> bool:
+        """Whether a model has events that only the ends of a step reveal
+        (contacts and limits, springs with a free length), as against the
+        switches of functions of time, known before the run: a loop must
+        stop at each step that crosses one (:meth:`check`)."""
+        return system.contact_group is not None or system.flipping_springs is not None
 
     def before_switch(self, t, step, t_end=math.inf) -> float:
         """The step from t shortened to end just before the first switch of a
