@@ -180,7 +180,7 @@ def simulate(model: Model, method: str | None = None, h: float | None = None,
         ``progress(t, h, iterations)`` after each step.
     writer : mbdsl.output.CsvStream, optional
         Writes the accepted steps to a file as the run goes.
-    engine : {"auto", "numpy", "compiled"}
+    engine : {"auto", "numpy", "compiled", "uncompiled"}
         See :func:`mbdsl.integrators.integrate`.
     output_every : int
         Record every K-th step and the last one.

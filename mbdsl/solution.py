@@ -415,7 +415,8 @@ class Solution:
         time loop, output excluded) and ``output`` (derived columns and the
         file written as the run went).
     engine, linear_solver : str
-        What ran: "compiled" or "numpy"; "dense", "banded" or "sparse".
+        What ran: "compiled", "uncompiled" or "numpy"; "dense", "banded" or
+        "sparse".
     method_name : str
     method_parameters : dict
     h, t_end : float [s]

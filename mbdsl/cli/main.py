@@ -166,11 +166,14 @@ def _run_options(p):
                    help="override a model parameter (repeatable)")
     p.add_argument("--newton", choices=["full", "modified"], default="modified",
                    help="Jacobian policy of the Newton iteration (default modified)")
-    p.add_argument("--engine", choices=["auto", "numpy", "compiled"], default="auto",
-                   help="compiled: numba kernels, every method on rigid models (drivers and "
-                        "loads constant or functions of time); numpy: the vectorised assembly "
-                        "(models with flexible beams always); auto (default): compiled where "
-                        "it applies")
+    # the names of integrators.engine.ENGINES, not imported here: that module
+    # loads scipy and the assembly, which `mbdsl check` never needs
+    p.add_argument("--engine", choices=["auto", "numpy", "compiled", "uncompiled"],
+                   default="auto",
+                   help="compiled: the numba kernels, every method and element; uncompiled: "
+                        "the same kernels run by the Python interpreter, for debugging them "
+                        "(slow, nothing compiled); numpy: the vectorised numpy assembly; auto "
+                        "(default): compiled, or numpy while the kernels are being built")
     p.add_argument("--output-every", type=_positive_int, default=1, metavar="K",
                    help="record every K-th step (and the last): less memory on long runs")
 

@@ -82,12 +82,13 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
         Record every K-th step (and the last one), so that a long run of a
         large model does not hold every step in memory; a recorded row's
         Newton counts are the sums over the steps it stands for.
-    engine : {"auto", "numpy", "compiled"}
+    engine : {"auto", "numpy", "compiled", "uncompiled"}
         "compiled" runs the methods with a kernel recipe (``recipe.py``)
         through the numba kernels of :mod:`.engine` (an error when the
         model or method is not covered: see ``engine.unsupported``);
-        "numpy" the vectorised numpy assembly; "auto" the compiled engine
-        where it applies.
+        "uncompiled" the same kernels and loops run by the interpreter
+        (for debugging a kernel; slow); "numpy" the vectorised numpy
+        assembly; "auto" the compiled engine where it applies.
     announce : callable (str) -> None, optional
         Told when the compiled kernels are being compiled for this machine
         (once; see :mod:`.kernel_cache`).
@@ -109,7 +110,7 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
     ------
     ValueError
         For h <= 0, t_end <= t_start, output_every < 1, an unknown engine,
-        or ``engine="compiled"`` where it does not apply (also with
+        or ``engine="compiled"`` or ``"uncompiled"`` where it does not apply (also with
         ``control``).
     ConvergenceError
         With ``on_failure="raise"`` when the run cannot go on.
@@ -134,8 +135,8 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
         from .engine import unsupported
         if (engine != "numpy" and method.kernel_recipe(1.0, False) is not None
                 and recipe_monomials(method) is None):          # a recipe the loop cannot vary
-            if engine == "compiled":
-                raise ValueError(f"the compiled engine cannot vary the step of {method.name}")
+            if engine in ("compiled", "uncompiled"):
+                raise ValueError(f"the {engine} engine cannot vary the step of {method.name}")
             if unsupported(system, method) is None:
                 engine_note = f"error-controlled steps of {method.name} run on numpy"
             engine = "auto_numpy"
@@ -150,7 +151,8 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
     t0 = clock()
     if initial is None:
         initial = consistent_initial_state(system, t_start)
-    if which == "compiled":
+    uncompiled = which == "uncompiled"
+    if which in ("compiled", "uncompiled"):
         timings["setup"] = clock() - t0
         # Events: contacts and springs whose points pass take the error-controlled
         # loop (with fixed steps too), which returns at each one for a step to be
@@ -164,10 +166,11 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
         cm, plan, timings["kernels"] = prepare_compiled(system, method, solver.options,
                                                         initial.q, announce,
                                                         adaptive=control is not None or events,
-                                                        python_loop=python_loop)
+                                                        python_loop=python_loop,
+                                                        uncompiled=uncompiled)
         if plan.kind != "sparse" and not python_loop:
             sol = Solution(system, method, h, t_end, initial)
-            sol.engine, sol.linear_solver = "compiled", plan.kind
+            sol.engine, sol.linear_solver = which, plan.kind
             sol.control = control
             sol.append(method.start(system, initial)[-1], StepStats())
             sol.timings = timings
@@ -194,7 +197,7 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
     choice = solver.options.linear_solver
     assembler = JacobianAssembler(size, sparse=(choice == "sparse" or
                                                (choice == "auto" and size > DENSE_LIMIT)))
-    if which == "compiled":
+    if which in ("compiled", "uncompiled"):
         method = SparseAdapter(system, method, cm, dense=not assembler.sparse)
     history = method.start(system, initial)
     sol = Solution(system, method, h, t_end, initial)

@@ -59,7 +59,7 @@ __all__ = ["ENGINES", "unsupported", "CompiledModel", "select_engine", "prepare_
            "band_ordering"]
 
 #: Engine names accepted by ``integrate(..., engine=...)`` and ``--engine``.
-ENGINES = ("auto", "numpy", "compiled")
+ENGINES = ("auto", "numpy", "compiled", "uncompiled")
 
 #: Steps per call of the compiled loop (output, progress and Ctrl-C between calls).
 CHUNK = 2000
@@ -79,8 +79,13 @@ BAND_LIMIT = 32
 BAND_MIN_SIZE = 30
 
 
-def _kernels():
-    """The compiled module (imports numba, loads the cached kernels)."""
+def _kernels(uncompiled: bool = False):
+    """The kernels: the compiled module (imports numba, loads the cached
+    kernels), or with ``uncompiled`` the same source run by the interpreter
+    (:func:`.kernel_cache.uncompiled_kernels`)."""
+    if uncompiled:
+        from .kernel_cache import uncompiled_kernels
+        return uncompiled_kernels()
     from . import compiled
     return compiled
 
@@ -323,7 +328,11 @@ def _recipe_value(method, name, h=1e-3):
 
 def select_engine(engine: str, system, method, compile_policy: str = "wait",
                   announce=None) -> str:
-    """'numpy' or 'compiled' for a requested engine.
+    """'numpy', 'compiled' or 'uncompiled' for a requested engine.
+
+    "uncompiled" is taken only when asked for: the compiled engine's kernels
+    and loops run by the interpreter (:func:`.kernel_cache.uncompiled_kernels`),
+    for debugging them.
 
     ``compile_policy`` "background" (with ``engine="auto"``): when the
     kernels are not built for this machine yet, start building them in a
@@ -333,9 +342,9 @@ def select_engine(engine: str, system, method, compile_policy: str = "wait",
     Raises
     ------
     ValueError
-        Unknown engine name or compile policy, or ``"compiled"`` for a model
-        or method the kernels do not cover (the message says why), or
-        without numba.
+        Unknown engine name or compile policy, or ``"compiled"`` or
+        ``"uncompiled"`` for a model or method the kernels do not cover (the
+        message says why), or without numba.
     """
     if engine not in ENGINES:
         raise ValueError(f"unknown engine '{engine}'; available: {', '.join(ENGINES)}")
@@ -347,9 +356,11 @@ def select_engine(engine: str, system, method, compile_policy: str = "wait",
     if reason is None and not numba_available():
         reason = "numba is not installed"
     if reason is not None:
-        if engine == "compiled":
-            raise ValueError(f"the compiled engine cannot run this model: {reason}")
+        if engine in ("compiled", "uncompiled"):
+            raise ValueError(f"the {engine} engine cannot run this model: {reason}")
         return "numpy"
+    if engine == "uncompiled":
+        return "uncompiled"
     if engine == "auto" and compile_policy == "background":
         from .kernel_cache import kernels_ready, start_background_build
         if not kernels_ready() and start_background_build():
@@ -361,17 +372,24 @@ def select_engine(engine: str, system, method, compile_policy: str = "wait",
 
 
 def prepare_compiled(system, method, options, q, announce=None, adaptive=False,
-                     python_loop=False):
+                     python_loop=False, uncompiled=False):
     """(CompiledModel, LinearSolverPlan, seconds): the kernels' model data and
     linear solver for a run from configuration q (n,), with every kernel the
     run calls loaded (compiled first, announced, if not built for this
     machine; ``adaptive``: the run takes error-controlled steps;
     ``python_loop``: the driver's time loop on the kernels' residual and
-    Newton matrix, ``SparseAdapter``); the seconds are the time this took,
-    never step time."""
+    Newton matrix, ``SparseAdapter``; ``uncompiled``: the kernels run by the
+    interpreter, nothing compiled or loaded); the seconds are the time this
+    took, never step time."""
     import time
     from .kernel_cache import ensure_loaded
     t0 = time.perf_counter()
+    if uncompiled:
+        cm = CompiledModel(system, _kernels(uncompiled=True))
+        plan = linear_solver_plan(system, method, options, q, cm)
+        if system.contact_group is not None:
+            system.contact_group.row_kernel = contact_row_kernel(cm)
+        return cm, plan, time.perf_counter() - t0
     ensure_loaded(None, announce)         # compiles everything, announced, if not built
     cm = CompiledModel(system)
     plan = linear_solver_plan(system, method, options, q, cm)  # banded: calls a kernel
@@ -385,7 +403,7 @@ def contact_row_kernel(cm):
     """``ContactGroup.row_kernel`` on the kernels (``compiled.contact_rows``)
     of the model data ``cm``: (qx, vx (N, n + 3), speeds (N, k)) -> (elastic
     energy [J], dissipated power [W]), each (N,)."""
-    K, n = _kernels(), cm.n
+    K, n = cm.K, cm.n
 
     def rows(qx, vx, speeds):
         """The contacts' energy and dissipated power at rows (qx, vx)."""
@@ -412,9 +430,17 @@ class CompiledModel:
     ----------
     system : AssembledSystem
         A model :func:`unsupported` accepts.
+    kernels : module, optional
+        The kernels the model data are for and the run calls (``K``):
+        :mod:`.compiled` (the default) or its uncompiled copy
+        (``_kernels(uncompiled=True)``).
     """
 
-    def __init__(self, system):
+    def __init__(self, system, kernels=None):
+        self.K = K = kernels if kernels is not None else _kernels()
+        #: True when the kernels are the interpreter's copy (no LAPACK band routines)
+        from .kernel_cache import UNCOMPILED_MODULE
+        self.uncompiled = K.__name__ == UNCOMPILED_MODULE
         n = system.n
         i8, f8 = np.int64, np.float64
         Q0 = np.zeros(n + 3)
@@ -593,13 +619,12 @@ class CompiledModel:
         d["Q0"] = Q0
         d["row_element"] = system.layout.row_element.astype(i8)
         d["n_elements"] = int(system.layout.n_elements)
-        from .compiled import pack, triplet_bound, unpack
-        self.ints, self.floats = pack(d)
+        self.ints, self.floats = K.pack(d)
         self.n, self.m = n, system.m
-        self.bound = triplet_bound(self.ints)
+        self.bound = K.triplet_bound(self.ints)
         #: the contacts' impact speeds (k,) [m/s or rad/s]: a view into the packed
         #: floats, the contact state the kernels read, written at events
-        self.impact_speed = unpack(self.ints, self.floats)["kimp"]
+        self.impact_speed = K.unpack(self.ints, self.floats)["kimp"]
 
 
 def _contact_fields(group, line_row) -> dict:
@@ -771,8 +796,8 @@ def newton_pattern(system, method, q, cm=None):
     """(rows, cols) of the Newton matrix's triplets, evaluated at configuration
     q (n,) [m, rad] at rest (h = 1e-3 s); the pattern is the model's, fixed
     at build, whatever the configuration."""
-    K = _kernels()
     cm = cm or CompiledModel(system)
+    K = cm.K
     size = newton_size(system, method)
     n = system.n
     R, C, V = (np.empty(cm.bound, np.int64), np.empty(cm.bound, np.int64), np.empty(cm.bound))
@@ -883,13 +908,18 @@ def linear_solver_plan(system, method, options, q, cm=None, split_si2=True) -> L
         return dense
     if choice == "sparse":
         return LinearSolverPlan("sparse", "SuperLU, as asked")
-    addresses = _kernels().lapack_band_addresses()
+    uncompiled = cm is not None and cm.uncompiled
+    addresses = None if uncompiled else _kernels().lapack_band_addresses()
     if addresses is None:
+        if choice == "banded" and uncompiled:
+            raise ValueError("linear_solver='banded' calls LAPACK from compiled kernels; "
+                             "the uncompiled engine takes 'dense' or 'sparse'")
         if choice == "banded":
             raise ValueError("linear_solver='banded' needs a LAPACK with 32-bit integers; "
                              "this scipy is built with ILP64")
         return dense if size <= DENSE_LIMIT else LinearSolverPlan(
-            "sparse", "SuperLU (the LAPACK band routines use 64-bit integers here)")
+            "sparse", "SuperLU (uncompiled kernels: no LAPACK band routines)" if uncompiled
+            else "SuperLU (the LAPACK band routines use 64-bit integers here)")
     plan = band_plan(system, method, q, _recipe_value(method, "split") != 0.0 and split_si2,
                      addresses, cm)
     kl, ku = plan.kl, plan.ku
@@ -982,8 +1012,8 @@ def run_compiled_adaptive(system, method, t_end, h, t_start, initial, newton_opt
     direction) are events too: the loop returns at the step across, and
     ``land`` lands a step on the pass as on a contact's."""
     from .driver import integrate as numpy_integrate
-    K = _kernels()
     cm = cm or CompiledModel(system)
+    K = cm.K
     I, Fl, n, m = cm.ints, cm.floats, system.n, system.m
     size = newton_size(system, method)
     mono = recipe_monomials(method)
@@ -1191,8 +1221,8 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
     opt = newton_options
     # the numpy engine's solver for the steps handed to it ("banded" is the kernels' own)
     numpy_opt = replace(opt, linear_solver="auto") if opt.linear_solver == "banded" else opt
-    K = _kernels()
     cm = cm or CompiledModel(system)
+    K = cm.K
     I, Fl, n, m = cm.ints, cm.floats, system.n, system.m
     size = newton_size(system, method)
     start = method.start(system, initial)[-1]
@@ -1369,8 +1399,8 @@ class SparseAdapter:
         from .recipe import RECIPE_FIELDS
         self._method = method
         self._system = system
-        self._K = _kernels()
         self._cm = cm or CompiledModel(system)
+        self._K = self._cm.K
         self._dense = bool(dense)
         self._field = {k: i for i, k in enumerate(RECIPE_FIELDS)}
         n = system.n

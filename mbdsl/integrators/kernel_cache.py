@@ -37,7 +37,7 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ["kernels_ready", "ensure_loaded", "loaded", "start_background_build", "build_in_progress",
-           "background_allowed", "warm_up"]
+           "background_allowed", "warm_up", "uncompiled_kernels"]
 
 #: Environment variable: "0" makes the command line compile in the process
 #: (announced) instead of in the background.
@@ -277,6 +277,73 @@ def ensure_loaded(group: str | None = None, announce=None, adaptive: bool = Fals
             announce(f"compiled the kernels in {elapsed:.0f} s; later runs load them from "
                      "the cache")
     return elapsed
+
+
+#: The module name of the kernels' uncompiled copy (:func:`uncompiled_kernels`).
+UNCOMPILED_MODULE = "mbdsl.integrators._uncompiled"
+
+
+def uncompiled_kernels():
+    """The kernels of :mod:`.compiled` as plain Python functions: the same
+    source executed a second time, as the module ``UNCOMPILED_MODULE``,
+    with numba's JIT disabled while its decorators run (numba's
+    ``DISABLE_JIT``: ``njit`` then returns the function itself). This
+    process's compiled kernels are untouched.
+
+    This is the uncompiled engine (``engine="uncompiled"``): the one
+    implementation of the physics and the methods, runnable under pdb and
+    print, with no compilation at all. The interpreter loops over every
+    element, entry and unknown: on small rigid models it runs about as
+    fast as a vectorised numpy evaluation, on a flexible beam several
+    times slower.
+
+    Two helpers differ from the compiled module, neither of them physics:
+    the dense solve ``_solve`` takes numpy's matrix product (the
+    interpreter would otherwise loop over all n^2 products of the stored
+    inverse: 40 % of a run of Andrews' mechanism), and LAPACK's band routines
+    cannot be called (``_fortran_call`` is a numba intrinsic): an
+    uncompiled run takes the dense inverse or SuperLU.
+
+    Returns
+    -------
+    module
+        Cached in ``sys.modules`` for the rest of the process.
+    """
+    module = sys.modules.get(UNCOMPILED_MODULE)
+    if module is not None:
+        return module
+    import importlib.util
+
+    import numba
+    spec = importlib.util.spec_from_file_location(UNCOMPILED_MODULE, _compiled_source())
+    module = importlib.util.module_from_spec(spec)
+    before = numba.config.DISABLE_JIT
+    numba.config.DISABLE_JIT = True
+    sys.modules[UNCOMPILED_MODULE] = module
+    try:
+        spec.loader.exec_module(module)
+    except BaseException:
+        del sys.modules[UNCOMPILED_MODULE]
+        raise
+    finally:
+        numba.config.DISABLE_JIT = before
+    dense_solve = module._solve
+
+    def _solve(solver, lin, r, dw):
+        """dw = J^-1 r: numpy's product with the stored transposed inverse for
+        the dense solver (``compiled._solve`` loops), else the kernel."""
+        if solver == module.DENSE:
+            size = r.shape[0]
+            np.matmul(r, lin[1][:size, :size], out=dw[:size])
+            return
+        dense_solve(solver, lin, r, dw)
+
+    def _fortran_call(address, args):
+        raise RuntimeError("the uncompiled kernels cannot call LAPACK's band routines")
+
+    module._solve = _solve
+    module._fortran_call = _fortran_call
+    return module
 
 
 def _main() -> int:

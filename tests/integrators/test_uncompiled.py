@@ -1,0 +1,124 @@
+"""The uncompiled engine: the compiled engine's kernels and loops run by the interpreter.
+
+``engine="uncompiled"`` executes the source of ``integrators/compiled.py`` a
+second time with numba's JIT disabled (``kernel_cache.uncompiled_kernels``),
+so that a kernel can be debugged with pdb or print. These tests check that
+it is the same implementation and needs nothing compiled: its runs reach the
+independent DOP853 reference of the slider crank with the method's order,
+and agree with the compiled engine's to round-off on every method (where
+Python's semantics and numba's differ, say integer wrap-around, a typed
+container or a float32 temporary, they part by far more), with contacts,
+error control and a flexible beam; a process that runs it never imports the
+compiled module.
+"""
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import mbdsl
+from mbdsl.integrators import NewtonOptions, integrate, make_method
+from mbdsl.integrators.adaptive import StepControl
+from mbdsl.integrators.kernel_cache import UNCOMPILED_MODULE, uncompiled_kernels
+
+from ..conftest import MODELS
+
+METHODS = ["newmark", "hht-i3", "nstiff", "nstiff-si2", "hht-add", "hht-si2", "genalpha",
+           "genalpha-si2"]
+
+
+def _pair(path, method, T, h=1e-3, **kwargs):
+    system = mbdsl.assemble(mbdsl.load(path))
+    init = mbdsl.consistent_initial_state(system)
+    return [integrate(system, make_method(method), T, h, initial=init, engine=engine, **kwargs)
+            for engine in ("uncompiled", "compiled")]
+
+
+def test_the_uncompiled_kernels_are_python_functions():
+    K = uncompiled_kernels()
+    assert K.__name__ == UNCOMPILED_MODULE and uncompiled_kernels() is K
+    for name in ("forces", "phi", "_newton", "_run", "_run_adaptive", "_emit_force"):
+        assert type(getattr(K, name)).__name__ == "function", name
+
+
+def test_second_order_to_the_independent_reference(slider_crank_reference):
+    """HHT-I3 uncompiled against the 1-DOF Lagrange reference (DOP853 1e-13)
+    at t = 0.5 s: errors of h = 2 ms and 1 ms in the ratio of a second-order
+    method, both small."""
+    ref = next(r for r in slider_crank_reference["cases"]["damped_x0_zero"]["table"]
+               if abs(r["t"] - 0.5) < 1e-12)
+    model = mbdsl.load(MODELS / "slider_crank.mbd")
+    errors = []
+    for h in (2e-3, 1e-3):
+        sol = mbdsl.simulate(model, method="hht-i3", h=h, t_end=0.5, engine="uncompiled")
+        assert sol.engine == "uncompiled" and sol.status == "completed"
+        errors.append(abs(sol.column("crank.phi")[-1] - ref["theta1"]))
+    assert errors[1] < 1e-3
+    assert 3.4 < errors[0] / errors[1] < 4.6, errors
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_every_method_runs_as_compiled(method):
+    a, b = _pair(MODELS / "slider_crank.mbd", method, 0.1)
+    assert a.engine == "uncompiled" and b.engine == "compiled"
+    assert a.status == b.status == "completed"
+    assert np.array_equal(a.t, b.t)
+    # the dense solve of the uncompiled copy is numpy's matrix product, summed in
+    # another order than the compiled loop's: round-off (measured 2e-15)
+    assert np.abs(a.q - b.q).max() < 1e-11
+    assert np.abs(a.lam - b.lam).max() < 1e-8 * np.abs(b.lam).max()
+
+
+def test_events_and_error_control_as_compiled():
+    """The bouncing ball: impacts located by the same EventLocator on the
+    uncompiled kernels' steps, with error-controlled steps."""
+    control = StepControl(rtol=1e-4, atol=1e-6)
+    a, b = _pair(MODELS / "bouncing_ball.mbd", "hht-i3", 0.5, h=1e-3, control=control,
+                 newton=NewtonOptions(rate_refresh=0.1))
+    assert a.engine == "uncompiled" and a.status == b.status == "completed"
+    assert [e[1:3] for e in a.events] == [e[1:3] for e in b.events] and len(a.events) >= 2
+    assert np.allclose([e[0] for e in a.events], [e[0] for e in b.events], rtol=0, atol=1e-9)
+    assert len(a.t) == len(b.t) and np.abs(a.q[-1] - b.q[-1]).max() < 1e-8
+
+
+def test_a_flexible_beam_as_compiled():
+    a, b = _pair(MODELS / "flexible_slider_crank.mbd", "hht-si2", 0.01, h=5e-4)
+    assert a.engine == "uncompiled" and a.status == b.status == "completed"
+    assert np.abs(a.q - b.q).max() < 1e-11
+
+
+def test_band_solver_is_refused_with_a_reason():
+    system = mbdsl.assemble(mbdsl.load(MODELS / "slider_crank.mbd"))
+    with pytest.raises(ValueError, match="uncompiled engine takes 'dense' or 'sparse'"):
+        integrate(system, make_method("hht-i3"), 0.01, 1e-3, engine="uncompiled",
+                  newton=NewtonOptions(linear_solver="banded"))
+
+
+def test_a_large_model_takes_superlu_uncompiled():
+    """A pendulum chain above the dense limit: the band LU it would take
+    compiled is LAPACK's, out of the interpreter's reach; SuperLU instead."""
+    model = mbdsl.load(MODELS / "pendulum_chain.mbd", overrides={"N": 100})
+    sol = mbdsl.simulate(model, method="hht-i3", h=1e-3, t_end=0.005, engine="uncompiled")
+    ref = mbdsl.simulate(model, method="hht-i3", h=1e-3, t_end=0.005, engine="compiled")
+    assert sol.linear_solver == "sparse" and ref.linear_solver == "banded"
+    assert np.abs(sol.q - ref.q).max() < 1e-11
+
+
+def test_an_uncompiled_run_imports_nothing_compiled(tmp_path):
+    """The whole command on the uncompiled engine: the compiled module is never
+    imported, so nothing is compiled or loaded."""
+    code = (
+        "import sys\n"
+        "from mbdsl.cli.main import main\n"
+        f"status = main(['simulate', {str(MODELS / 'slider_crank.mbd')!r}, '--t-end', '0.05',"
+        f" '--engine', 'uncompiled', '-o', {str(tmp_path / 'out.csv')!r}, '--quiet'])\n"
+        "assert status == 0, status\n"
+        "assert 'mbdsl.integrators.compiled' not in sys.modules\n"
+        f"assert {UNCOMPILED_MODULE!r} in sys.modules\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=300)
+    assert done.returncode == 0, done.stderr
+    text = (tmp_path / "out.csv").read_text()
+    assert "# engine: uncompiled" in text
