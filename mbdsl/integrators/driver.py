@@ -44,7 +44,7 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
               on_failure: str = "raise", max_halvings: int = 6, grow_after: int = 4,
               progress=None, writer=None, output_every: int = 1,
               engine: str = "auto", announce=None, compile_policy: str = "wait",
-              control: StepControl | None = None) -> Solution:
+              control: StepControl | None = None, python_loop: bool = False) -> Solution:
     """Integrate the equations of motion from t_start to t_end.
 
     Parameters
@@ -101,6 +101,13 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
         Error-controlled step sizes (:mod:`.adaptive`): each step's local
         error estimate within rtol and atol, on either engine. None (the
         default): fixed steps of h.
+    python_loop : bool
+        On the compiled or uncompiled engine, run this module's time loop and
+        Newton iteration on the kernels' residual and Newton matrix
+        (``engine.SparseAdapter``) where the kernels' own loop would apply:
+        what a step the compiled loop cannot converge is handed to, with its
+        halvings, the augmented formulation's jump and the failure's
+        diagnosis.
 
     Returns
     -------
@@ -160,7 +167,7 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
         # this module's time loop on the kernels' evaluation. Both compiled loops
         # run from switch to switch of the functions of time.
         events = EventLocator.found_by_steps(system)
-        python_loop = events and recipe_monomials(method) is None
+        python_loop = python_loop or (events and recipe_monomials(method) is None)
         functions = time_switches(system)
         switches = switch_times(functions, t_start, t_end, h) if functions else ()
         cm, plan, timings["kernels"] = prepare_compiled(system, method, solver.options,

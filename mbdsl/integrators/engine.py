@@ -1,4 +1,4 @@
-"""The compiled engine: the recipe methods on rigid models through numba kernels.
+"""The compiled engine: the recipe methods through numba kernels.
 
 Every method that states itself as a recipe (``Method.kernel_recipe``,
 :mod:`.recipe`: all eight) runs here;
@@ -19,11 +19,14 @@ matrix (:func:`linear_solver_plan`):
   (:mod:`.driver`, :mod:`.newton`) with compiled residuals, Newton
   matrices assembled on a CSC pattern fixed at the start, and SuperLU.
 
-A step the compiled loop cannot converge is handed to the numpy engine,
-which retries it with smaller steps and, if the run cannot go on, writes the
-failure in the model's words exactly as it would have without compilation;
-the compiled loop resumes after it. Both engines compute the same equations;
-``tests/integrators/test_engine.py`` checks that they agree.
+A step the compiled loop cannot converge is handed to the driver's time loop
+on the same kernels (``integrate(..., python_loop=True)``: its Newton, its
+halvings, the augmented formulation's jump), which retries it with smaller
+steps and, if the run cannot go on, writes the failure in the model's words;
+the compiled loop resumes after it. The same source runs uncompiled
+(``engine="uncompiled"``, :func:`.kernel_cache.uncompiled_kernels`) for
+debugging. The numpy engine computes the same equations with independent
+code; ``tests/integrators/test_engine.py`` checks that they agree.
 
 What the kernels cover (:func:`unsupported` says why a model or method is not):
 the methods with a recipe;
@@ -994,7 +997,8 @@ def run_compiled_adaptive(system, method, t_end, h, t_start, initial, newton_opt
     :class:`~.adaptive.StepControl`) in the compiled loop
     (``compiled._run_adaptive``); a step that cannot go on (Newton at the
     smallest step, or the tolerance out of reach) hands the rest of the run
-    to the numpy engine, which reports it in the model's words. Sets
+    to the driver's time loop on the same kernels, which reports it in the
+    model's words. Sets
     sol.status and sol.message.
 
     Contacts and joint limits: the loop returns at each step that crosses
@@ -1011,7 +1015,7 @@ def run_compiled_adaptive(system, method, t_end, h, t_start, initial, newton_opt
     Springs whose points pass each other (a free length: the force flips
     direction) are events too: the loop returns at the step across, and
     ``land`` lands a step on the pass as on a contact's."""
-    from .driver import integrate as numpy_integrate
+    from .driver import integrate as driver_integrate
     cm = cm or CompiledModel(system)
     K = cm.K
     I, Fl, n, m = cm.ints, cm.floats, system.n, system.m
@@ -1159,11 +1163,11 @@ def run_compiled_adaptive(system, method, t_end, h, t_start, initial, newton_opt
                                      {extra: mu[None].copy()} if extra is not None else {},
                                      counts[None].copy(), np.array([float(state[1])]))
                     counts[:] = 0
-                part = numpy_integrate(
+                part = driver_integrate(
                     system, method, t_end, float(state[1]) if control is not None else h,
                     t_start=t, initial=_resume_state(system, t, q, v, a, lam, {"aux": b.copy()}),
-                    newton=opt, on_failure="return", engine="numpy", control=control,
-                    max_halvings=max_halvings, grow_after=grow_after)
+                    newton=opt, on_failure="return", engine=sol.engine, python_loop=True,
+                    control=control, max_halvings=max_halvings, grow_after=grow_after)
                 sol.extend(part, start=1)
                 sol.status, sol.message = part.status, part.message
                 sol.diagnostics = part.diagnostics
@@ -1217,10 +1221,10 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
     driver's loop lands on a switch."""
     from dataclasses import replace
 
-    from .driver import integrate as numpy_integrate
+    from .driver import integrate as driver_integrate
     opt = newton_options
-    # the numpy engine's solver for the steps handed to it ("banded" is the kernels' own)
-    numpy_opt = replace(opt, linear_solver="auto") if opt.linear_solver == "banded" else opt
+    # the driver loop's solver for the steps handed to it ("banded" is the compiled loop's)
+    driver_opt = replace(opt, linear_solver="auto") if opt.linear_solver == "banded" else opt
     cm = cm or CompiledModel(system)
     K = cm.K
     I, Fl, n, m = cm.ints, cm.floats, system.n, system.m
@@ -1312,9 +1316,10 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
                     done += taken
                     t = t0 + taken * step_h
                     if taken < chunk:
-                        # The failing step goes to the numpy engine (smaller steps, and the
-                        # diagnosis in the model's words if the run cannot go on), for a
-                        # window of 8 steps of the nominal grid, or to the segment's end.
+                        # The failing step goes to the driver's loop on the same kernels
+                        # (smaller steps, and the diagnosis in the model's words if the run
+                        # cannot go on), for a window of 8 steps of the nominal grid, or to
+                        # the segment's end.
                         if plan.kind == "banded" and plan.blocks == 2:
                             # the split Newton matrix leaves out O(h) terms; where they matter
                             # (stiff forces, fast rotation), go on with the whole band matrix
@@ -1329,11 +1334,11 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
                         if counts[5]:
                             add_row(t, step_h)
                         end = seg_end if t + 9 * step_h >= seg_end - 1e-9 * h else t + 8 * step_h
-                        part = numpy_integrate(
+                        part = driver_integrate(
                             system, method, end, step_h, t_start=t,
                             initial=_resume_state(system, t, q, v, a, lam, {"aux": b.copy()}),
-                            newton=numpy_opt, on_failure="return", max_halvings=max_halvings,
-                            grow_after=grow_after, engine="numpy")
+                            newton=driver_opt, on_failure="return", max_halvings=max_halvings,
+                            grow_after=grow_after, engine=sol.engine, python_loop=True)
                         sol.extend(part, start=1)
                         if part.status != "completed":
                             sol.status, sol.message = part.status, part.message
@@ -1344,7 +1349,7 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
                             b[:] = part.last_state.extra["aux"]
                         if extra is not None:
                             mu[:] = part.extras[extra][-1]
-                        # the history of a two-step method: the numpy part's last step, if of size h
+                        # the history of a two-step method: the handed part's last step, if of size h
                         lu_state[2] = 0.0
                         if len(part.t) >= 2 and \
                                 abs((part.t[-1] - part.t[-2]) - step_h) <= 1e-9 * step_h:

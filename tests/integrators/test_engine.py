@@ -402,15 +402,31 @@ def test_output_stride_keeps_every_kth_step_and_the_last():
         assert part.stats["iterations"][1:].sum() == full.stats["iterations"][1:].sum()
 
 
-def test_a_failing_compiled_step_is_handed_to_the_numpy_engine():
+@pytest.mark.parametrize("control", [None, StepControl(rtol=1e-9, atol=1e-9, h_min=0.01)])
+def test_a_failing_compiled_step_is_handed_to_the_driver_loop_on_the_kernels(monkeypatch,
+                                                                             control):
     # one full-Newton iteration cannot take the first step of the released pendulum:
-    # the compiled loop stops, the numpy engine halves the step, the compiled loop resumes
+    # the compiled loop stops, the driver's loop halves the step on the kernels'
+    # residual, the compiled loop resumes; the numpy engine's run is the reference
     system, init = _system(MODELS / "pendulum.mbd")
     opt = NewtonOptions(max_iter=2, jacobian="full")
     a = integrate(system, make_method("hht-i3"), 1.0, 0.05, initial=init, engine="numpy",
-                  newton=opt, on_failure="return")
+                  newton=opt, on_failure="return", control=control)
+    calls = []
+    residual = SparseAdapter.residual
+
+    def counted(self, w, ctx):
+        calls.append(1)
+        return residual(self, w, ctx)
+    monkeypatch.setattr(SparseAdapter, "residual", counted)
     b = integrate(system, make_method("hht-i3"), 1.0, 0.05, initial=init, engine="compiled",
-                  newton=opt, on_failure="return")
+                  newton=opt, on_failure="return", control=control)
+    assert calls, "the failed step was not handed to the driver's loop on the kernels"
+    assert b.engine == "compiled"
+    if control is not None:   # out of reach at h_min: the driver's loop says why, as numpy's
+        assert b.status == a.status == "failed" and b.message == a.message
+        assert b.diagnostics[0].code == "E602"
+        return
     assert a.stats_total.rejected > 0 and b.stats_total.rejected > 0
     assert b.status == a.status == "completed"
     assert np.any(b.stats["h"][1:] < 0.05)
