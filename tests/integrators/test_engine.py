@@ -1,10 +1,14 @@
-"""The compiled engine (numba kernels) against the numpy engine and finite differences.
+"""The compiled engine (numba kernels) against DOP853, finite differences and the numpy engine.
 
-The two engines evaluate the same equations with independent code (scalar
-kernels vs vectorised groups), so agreement to round-off over a run, and a
-kernel Newton matrix equal to finite differences of the kernel residual, are
-checks that can fail: a wrong sign, a missing term or a mis-scattered entry
-moves the results by far more than the tolerances below.
+Every method on the rigid element models converges to an independent DOP853
+solution of the index-1 equations with its order (a 0.1 % error in the
+forces leaves an error that does not fall with h: measured ratio 1.00
+against 4.00); the kernel Newton matrix equals finite differences of the
+kernel residual; where no DOP853 reference is cheap (flexible beams, which
+make it crawl, and the linear solvers' paths) the numpy engine, independent
+code over the same equations (scalar kernels vs vectorised groups), agrees
+to round-off. Each check can fail: a wrong sign, a missing term or a
+mis-scattered entry moves the results by far more than the tolerances below.
 """
 
 import subprocess
@@ -65,28 +69,54 @@ def _system(path, **overrides):
     return system, mbdsl.consistent_initial_state(system)
 
 
+#: Rigid models whose elements the kernels evaluate, with the end time of the
+#: convergence runs: the slider crank, every joint, driver and force kernel
+#: (constant and functions of time), the loads of the state, friction in joints
+#: and distance joints.
+RIGID = [(MODELS / "slider_crank.mbd", 0.5), (VALID / "compiled_elements.mbd", 0.3),
+         (VALID / "all_elements.mbd", 0.3), (VALID / "friction_elements.mbd", 0.3),
+         (VALID / "distance_elements.mbd", 0.3)]
+
+
+@pytest.fixture(scope="module")
+def dop853_references():
+    """{path: (system, initial state, q, v, lambda at T)}: the index-1 equations
+    integrated by scipy's DOP853 at rtol = atol = 1e-12 (``mbdsl.reference``),
+    lambda from the index-1 system at the reference's (q, v); none of the
+    methods' formulas, and the vectorised numpy assembly, not the kernels."""
+    from mbdsl.reference import index1_reference
+    refs = {}
+    for path, T in RIGID:
+        system, init = _system(path)
+        ref = index1_reference(system, [T], initial=init)
+        lam = system.index1_multipliers(np.array([T]), ref.q[-1:], ref.v[-1:])[0]
+        refs[path] = (system, init, ref.q[-1], ref.v[-1], lam)
+    return refs
+
+
 @pytest.mark.parametrize("method", RECIPE_METHODS)
-@pytest.mark.parametrize("path, T", [(MODELS / "slider_crank.mbd", 0.5),
-                                     (VALID / "compiled_elements.mbd", 0.3),
-                                     (VALID / "all_elements.mbd", 0.3),
-                                     (VALID / "friction_elements.mbd", 0.3),
-                                     (VALID / "distance_elements.mbd", 0.3)])
-def test_compiled_loop_matches_numpy_engine(path, T, method):
-    system, init = _system(path)
-    a = integrate(system, make_method(method), T, 1e-3, initial=init, engine="numpy", newton=SAME)
-    b = integrate(system, make_method(method), T, 1e-3, initial=init, engine="compiled",
-                  newton=SAME)
-    assert b.engine == "compiled" and a.engine == "numpy" and b.status == "completed"
-    assert np.array_equal(a.t, b.t)
-    assert np.abs(a.q - b.q).max() < 1e-10
-    assert np.abs(a.v - b.v).max() < 1e-8
-    assert np.abs(a.lam - b.lam).max() < 1e-7 * max(1.0, np.abs(a.lam).max())
-    # the same Newton matrix, but a refresh of a Jacobian kept for ~50 steps is decided
-    # by a contraction rate that round-off moves: measured on compiled_elements,
-    # nstiff-si2, 1472 (numpy) against 1412 (kernels) iterations in 300 steps
-    assert a.stats_total.iterations == pytest.approx(b.stats_total.iterations, rel=0.05)
-    for extra in make_method(method).extras:        # mu (SI2), psi1 (HHT-ADD)
-        assert np.abs(a.extras[extra] - b.extras[extra]).max() < 1e-7 * max(1.0, np.abs(a.lam).max())
+@pytest.mark.parametrize("path, T", RIGID)
+def test_compiled_engine_converges_to_the_dop853_reference(dop853_references, path, T, method):
+    """Each method on the compiled engine against the DOP853 reference at T:
+    q, v and lambda at h = 1 ms and 0.5 ms, their errors falling by 2^p, p
+    the method's order (2; NEWMARK's default gamma = 0.6 and HHT-ADD with
+    friction, whose normal load is psi_II, are of order 1: docs/methods.md).
+    Measured ratios 3.83-4.05 (order 2) and 1.95-2.09 (order 1), errors at
+    0.5 ms from 3e-7 to 1.3e-3 (q). A wrong sign or a missing term in a kernel
+    leaves an error that does not fall with h."""
+    system, init, q_ref, v_ref, lam_ref = dop853_references[path]
+    order = 1 if method == "newmark" or (method == "hht-add" and "friction" in path.name) else 2
+    errors = []
+    for h in (1e-3, 5e-4):
+        sol = integrate(system, make_method(method), T, h, initial=init, engine="compiled")
+        assert sol.engine == "compiled" and sol.status == "completed"
+        errors.append(np.array([np.abs(sol.q[-1] - q_ref).max(),
+                                np.abs(sol.v[-1] - v_ref).max(),
+                                np.abs(sol.lam[-1] - lam_ref).max() / np.abs(lam_ref).max()]))
+    ratio = errors[0] / errors[1]
+    low, high = (1.7, 2.4) if order == 1 else (3.5, 4.5)
+    assert np.all((ratio > low) & (ratio < high)), (errors, ratio)
+    assert errors[1][0] < 3e-3 and errors[1][1] < 2e-2, errors[1]
 
 
 @pytest.mark.parametrize("method", RECIPE_METHODS)
