@@ -1015,7 +1015,6 @@ def run_compiled_adaptive(system, method, t_end, h, t_start, initial, newton_opt
     Springs whose points pass each other (a free length: the force flips
     direction) are events too: the loop returns at the step across, and
     ``land`` lands a step on the pass as on a contact's."""
-    from .driver import integrate as driver_integrate
     cm = cm or CompiledModel(system)
     K = cm.K
     I, Fl, n, m = cm.ints, cm.floats, system.n, system.m
@@ -1163,14 +1162,11 @@ def run_compiled_adaptive(system, method, t_end, h, t_start, initial, newton_opt
                                      {extra: mu[None].copy()} if extra is not None else {},
                                      counts[None].copy(), np.array([float(state[1])]))
                     counts[:] = 0
-                part = driver_integrate(
-                    system, method, t_end, float(state[1]) if control is not None else h,
-                    t_start=t, initial=_resume_state(system, t, q, v, a, lam, {"aux": b.copy()}),
-                    newton=opt, on_failure="return", engine=sol.engine, python_loop=True,
-                    control=control, max_halvings=max_halvings, grow_after=grow_after)
-                sol.extend(part, start=1)
+                part = _hand_over(system, method, sol, t, t_end,
+                                  float(state[1]) if control is not None else h,
+                                  (q, v, a, lam, b), opt, control=control,
+                                  max_halvings=max_halvings, grow_after=grow_after)
                 sol.status, sol.message = part.status, part.message
-                sol.diagnostics = part.diagnostics
                 return sol
             if t >= seg_end - 1e-12 * (t_end - t_start) and switch is not None:
                 t = _restart_at_switch(system, method, sol, switch, h, q, v, a, lam, b, mu,
@@ -1194,9 +1190,31 @@ def run_compiled_adaptive(system, method, t_end, h, t_start, initial, newton_opt
     return sol
 
 
+def _hand_over(system, method, sol, t, end, h, state, newton, **options):
+    """Run from t to end [s] (first step h [s]) from the accepted state
+    (q, v, a, lambda, aux) in the driver's time loop on the same kernels
+    (``integrate(..., python_loop=True)``, on ``sol``'s engine), and append
+    its rows to ``sol``; a part that did not complete sets ``sol``'s status,
+    message and diagnostics (the failure in the model's words). Returns the
+    part (a :class:`~mbdsl.solution.Solution`). ``options``: of
+    ``integrate``."""
+    from .driver import integrate
+    q, v, a, lam, aux = state
+    part = integrate(system, method, end, h, t_start=t,
+                     initial=_resume_state(system, t, q, v, a, lam, {"aux": aux.copy()}),
+                     newton=newton, on_failure="return", engine=sol.engine, python_loop=True,
+                     **options)
+    sol.extend(part, start=1)
+    if part.status != "completed":
+        sol.status, sol.message = part.status, part.message
+        sol.diagnostics = part.diagnostics
+    return part
+
+
 def _resume_state(system, t, q, v, a, lam, method_state=None):
-    """An accepted state as the start of a numpy-engine run (its residuals
-    measured); ``method_state``: the method's carried values (``aux``)."""
+    """An accepted state as the start of a run of the driver's loop (its
+    residuals measured); ``method_state``: the method's carried values
+    (``aux``)."""
     from ..assembly.initial import InitialState
     return InitialState(t, q.copy(), v.copy(), a.copy(), lam.copy(),
                         float(np.max(np.abs(system.Phi(q, t)), initial=0.0)),
@@ -1221,7 +1239,6 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
     driver's loop lands on a switch."""
     from dataclasses import replace
 
-    from .driver import integrate as driver_integrate
     opt = newton_options
     # the driver loop's solver for the steps handed to it ("banded" is the compiled loop's)
     driver_opt = replace(opt, linear_solver="auto") if opt.linear_solver == "banded" else opt
@@ -1334,15 +1351,10 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
                         if counts[5]:
                             add_row(t, step_h)
                         end = seg_end if t + 9 * step_h >= seg_end - 1e-9 * h else t + 8 * step_h
-                        part = driver_integrate(
-                            system, method, end, step_h, t_start=t,
-                            initial=_resume_state(system, t, q, v, a, lam, {"aux": b.copy()}),
-                            newton=driver_opt, on_failure="return", max_halvings=max_halvings,
-                            grow_after=grow_after, engine=sol.engine, python_loop=True)
-                        sol.extend(part, start=1)
+                        part = _hand_over(system, method, sol, t, end, step_h,
+                                          (q, v, a, lam, b), driver_opt,
+                                          max_halvings=max_halvings, grow_after=grow_after)
                         if part.status != "completed":
-                            sol.status, sol.message = part.status, part.message
-                            sol.diagnostics = part.diagnostics
                             return sol
                         q[:], v[:], a[:], lam[:] = part.q[-1], part.v[-1], part.a[-1], part.lam[-1]
                         if "aux" in part.last_state.extra:
