@@ -445,182 +445,27 @@ class CompiledModel:
         from .kernel_cache import UNCOMPILED_MODULE
         self.uncompiled = K.__name__ == UNCOMPILED_MODULE
         n = system.n
-        i8, f8 = np.int64, np.float64
         Q0 = np.zeros(n + 3)
         if system.gravity_force is not None:
             Q0[:n] += system.gravity_force
-        empty = {"crow": np.zeros((0, 2), i8), "ccol1": np.zeros((0, 3), i8),
-                 "cs1": np.zeros((0, 2)), "ccol2": np.zeros((0, 3), i8), "cs2": np.zeros((0, 2)),
-                 "prow": np.zeros(0, i8), "pcolL": np.zeros((0, 3), i8), "psL": np.zeros((0, 2)),
-                 "pcolP": np.zeros((0, 3), i8), "psP": np.zeros((0, 2)), "pn0": np.zeros((0, 2)),
-                 "lrow": np.zeros(0, i8), "lcol": np.zeros((0, 2), i8),
-                 "lcoef": np.zeros((0, 2)), "loff": np.zeros(0),
-                 "scol1": np.zeros((0, 3), i8), "ss1": np.zeros((0, 2)),
-                 "scol2": np.zeros((0, 3), i8), "ss2": np.zeros((0, 2)),
-                 "spar": np.zeros((0, 3)), "rcol": np.zeros((0, 2), i8),
-                 "rpar": np.zeros((0, 3)), "fcol": np.zeros((0, 3), i8),
-                 "fs": np.zeros((0, 2)), "fF": np.zeros((0, 2)),
-                 "fri": np.zeros((0, 5), i8), "frp": np.zeros((0, 6)),
-                 "drow": np.zeros(0, i8), "dcol1": np.zeros((0, 3), i8), "ds1": np.zeros((0, 2)),
-                 "dcol2": np.zeros((0, 3), i8), "ds2": np.zeros((0, 2)), "dlen": np.zeros(0),
-                 "beam": np.zeros((0, 6), i8), "bcol": np.zeros(0, i8), "bdat": np.zeros(0),
-                 "bdof": np.zeros(0, i8),
-                 "grav": np.zeros(0), "cel": np.zeros((0, 4), i8), "pel": np.zeros((0, 4), i8),
-                 "ecol": np.zeros(0, i8), "eshp": np.zeros((0, 2)),
-                 "kgi": np.zeros((0, 2), i8), "kcol": np.zeros((0, 6), i8),
-                 "kpar": np.zeros((0, 14)), "kimp": np.zeros(0),
-                 "sel": np.zeros((0, 4), i8), "fel": np.zeros((0, 2), i8),
-                 "dsp": np.zeros((0, 4), i8)}
-        d = dict(empty)
-        from ..dsl.expressions import OPCODES, Num, diff, postfix
-        from ..model.elements import line_columns
-        STATE_OP = OPCODES.index("x")
-        code, consts, prog, depth = [], [], [], [1]
-
-        def program(expr, variables=None):
-            """Index of a new program for expr (a function of t and, with
-            ``variables`` (name -> row of "var"), of the state)."""
-            c, k, dep = postfix(expr, variables=variables)
-            start = len(code)
-            j = 0
-            while j < len(c):            # constant indices are local to the program
-                if c[j] == 0:
-                    code.extend((0, c[j + 1] + len(consts)))
-                    j += 2
-                elif c[j] == STATE_OP:   # a state variable: its row follows
-                    code.extend((c[j], c[j + 1]))
-                    j += 2
-                else:
-                    code.append(c[j])
-                    j += 1
-            consts.extend(k)
-            prog.append((start, len(code)))
-            depth[0] = max(depth[0], dep)
-            return len(prog) - 1
-
-        def timed(f):
-            """Whether f is a function of time (compiled as a program)."""
-            return f is not None and not f.constant
-
-        lfn, tcol, tfn, ffn = np.zeros((0, 3), i8), [], [], np.zeros((0, 2), i8)
-        pfn = np.zeros((0, 3), i8)
-        var, varc, var_row = [], [], {}      # the state variables the torques read
-        geo, geof, geo_row = [], [], {}      # sliding joints' lines (model.elements.line_distance)
-        stq, sdv = [], []
-
-        def line_row(line):
-            """Row of a sliding joint's line in geo/geof (shared by every use)."""
-            if line not in geo_row:
-                geo_row[line] = len(geo)
-                geo.append(line_columns(line, system.cmap))
-                geof.append([*line[1], *line[3], *line[4]])
-            return geo_row[line]
-
-        for g in system.constraint_groups:
-            if isinstance(g, CoincidenceGroup):
-                d.update(crow=g.rows.astype(i8), ccol1=g.pair.P1.cols[:, :3].astype(i8),
-                         cs1=g.pair.P1.s.astype(f8), ccol2=g.pair.P2.cols[:, :3].astype(i8),
-                         cs2=g.pair.P2.s.astype(f8))
-            elif isinstance(g, DistanceGroup):
-                d.update(drow=g.rows[:, 0].astype(i8),
-                         dcol1=g.pair.P1.cols[:, :3].astype(i8), ds1=g.pair.P1.s.astype(f8),
-                         dcol2=g.pair.P2.cols[:, :3].astype(i8),
-                         ds2=g.pair.P2.s.astype(f8), dlen=g.L.astype(f8))
-            elif isinstance(g, PointOnLineGroup):
-                d.update(prow=g.rows[:, 0].astype(i8), pcolL=g.pair.P1.cols[:, :3].astype(i8),
-                         psL=g.pair.P1.s.astype(f8), pcolP=g.pair.P2.cols[:, :3].astype(i8),
-                         psP=g.pair.P2.s.astype(f8), pn0=g.n0.astype(f8))
-                pfn = np.array([(-1, -1, -1) if f is None else
-                                (program(f.expr), program(diff(f.expr)),
-                                 program(diff(diff(f.expr)))) if f.expr is not None
-                                else (program(Num(f.f(0.0))), -1, -1)      # a constant
-                                for f in g.functions], dtype=i8).reshape(-1, 3)
-            else:
-                off = g.offset + np.array([f.f(0.0) if f is not None and f.constant else 0.0
-                                           for f in g.functions])
-                d.update(lrow=g.rows[:, 0].astype(i8), lcol=g.cols.astype(i8),
-                         lcoef=g.coefs.astype(f8), loff=off.astype(f8))
-                lfn = np.array([(program(f.expr), program(diff(f.expr)),
-                                 program(diff(diff(f.expr)))) if timed(f) else (-1, -1, -1)
-                                for f in g.functions], dtype=i8).reshape(-1, 3)
-        for g in system.force_groups:
-            if isinstance(g, SpringDamperGroup):
-                d.update(scol1=g.pair.P1.cols[:, :3].astype(i8), ss1=g.pair.P1.s.astype(f8),
-                         scol2=g.pair.P2.cols[:, :3].astype(i8), ss2=g.pair.P2.s.astype(f8),
-                         spar=np.stack([g.k, g.c, g.l0], axis=1).astype(f8))
-            elif isinstance(g, RotationalSpringGroup):
-                d.update(rcol=g.cols.astype(i8),
-                         rpar=np.stack([g.k, g.c, g.angle], axis=1).astype(f8))
-            elif isinstance(g, TorqueGroup):
-                for col, f in zip(g.cols[:, 0], g.functions):
-                    if timed(f):
-                        tcol.append(col)
-                        tfn.append(program(f.expr))
-                    else:
-                        Q0[col] += f.f(0.0)
-            elif isinstance(g, StateTorqueGroup):
-                for i, (f, line) in enumerate(zip(g.functions, g.lines)):
-                    names = {}
-                    for v in getattr(f, "variables", ()):
-                        if v.line is not None:
-                            key = (v.level, "line", v.line)
-                            row = (v.level, n + 2, n + 2, line_row(v.line))
-                            coefs = [0.0, 0.0]
-                        else:
-                            cols = (v.columns(system.cmap) + [n + 2] * (2 - len(v.terms)))
-                            coefs = [c for _, _, c in v.terms] + [0.0] * (2 - len(v.terms))
-                            key = (v.level, *cols, *coefs)
-                            row = (v.level, *cols, -1)
-                        if key not in var_row:
-                            var_row[key] = len(var)
-                            var.append(row)
-                            varc.append(coefs)
-                        names[v.name] = var_row[key]
-                    expr = f.expr if f.expr is not None else Num(f.f(0.0))
-                    if line is None:
-                        a, b = (int(g.cols[i, j]) for j in g.targets[i])
-                        stq.append((program(expr, names), a, b, -1))
-                    else:
-                        stq.append((program(expr, names), n + 2, n + 2, line_row(line)))
-                    for v, ge in zip(getattr(f, "variables", ()), getattr(f, "grad_exprs", ())):
-                        sdv.append((len(stq) - 1, names[v.name], program(ge, names)))
-            elif isinstance(g, FrictionGroup):
-                fri = []
-                for i, line in enumerate(g.lines):
-                    rows = [int(r) for r in g.rows[i]]
-                    if line is None:
-                        fri.append((int(g.cols[i, 0]), int(g.cols[i, 1]), -1, rows[0], len(rows)))
-                    else:
-                        fri.append((n + 2, n + 2, line_row(line), rows[0], len(rows)))
-                d.update(fri=np.array(fri, i8).reshape(-1, 5), frp=g.params.astype(f8))
-            elif isinstance(g, PointForceGroup):
-                d.update(fcol=g.points.cols[:, :3].astype(i8), fs=g.points.s.astype(f8),
-                         fF=np.array([[0.0 if timed(fx) else fx.f(0.0),
-                                       0.0 if timed(fy) else fy.f(0.0)]
-                                      for fx, fy in zip(g.fx, g.fy)], dtype=f8).reshape(-1, 2))
-                ffn = np.array([(program(fx.expr) if timed(fx) else -1,
-                                 program(fy.expr) if timed(fy) else -1)
-                                for fx, fy in zip(g.fx, g.fy)], dtype=i8).reshape(-1, 2)
+        # every field of the schema, empty unless the model has the element
+        d = {name: np.zeros((0, columns) if columns else 0,
+                            np.int64 if kind == "i" else np.float64)
+             for name, kind, columns in K.MODEL_SCHEMA}
+        tables = _Tables(system)
+        d.update(_constraint_fields(system, tables))
+        d.update(_force_fields(system, tables, Q0))
         if system.contact_group is not None:
-            d.update(_contact_fields(system.contact_group, line_row))
-        d.update(code=np.array(code, i8), consts=np.array(consts, f8),
-                 prog=np.array(prog, i8).reshape(-1, 2),
-                 lfn=lfn if len(lfn) == len(d["lrow"]) else np.full((len(d["lrow"]), 3), -1, i8),
-                 tcol=np.array(tcol, i8), tfn=np.array(tfn, i8),
-                 ffn=ffn if len(ffn) == len(d["fcol"]) else np.full((len(d["fcol"]), 2), -1, i8),
-                 stack=np.zeros(depth[0]),
-                 var=np.array(var, i8).reshape(-1, 4), varc=np.array(varc, f8).reshape(-1, 2),
-                 xval=np.zeros(len(var)), stq=np.array(stq, i8).reshape(-1, 4),
-                 geo=np.array(geo, i8).reshape(-1, 6), geof=np.array(geof, f8).reshape(-1, 6),
-                 sdv=np.array(sdv, i8).reshape(-1, 3),
-                 pfn=pfn if len(pfn) == len(d["prow"]) else np.full((len(d["prow"]), 3), -1, i8))
+            d.update(_contact_fields(system.contact_group, tables.line_row, K))
+        d.update(tables.fields())
+        f8 = np.float64
         d["mass"] = system.mass_diag.astype(f8)
         d["mrig"] = np.zeros(n)
         d["mrig"][system._rigid_cols] = system.mass_diag[system._rigid_cols]
         d.update(_beam_fields(system))
         d.update(_elastic_point_fields(system))
         d["Q0"] = Q0
-        d["row_element"] = system.layout.row_element.astype(i8)
+        d["row_element"] = system.layout.row_element.astype(np.int64)
         d["n_elements"] = int(system.layout.n_elements)
         self.ints, self.floats = K.pack(d)
         self.n, self.m = n, system.m
@@ -630,12 +475,199 @@ class CompiledModel:
         self.impact_speed = K.unpack(self.ints, self.floats)["kimp"]
 
 
-def _contact_fields(group, line_row) -> dict:
+class _Tables:
+    """The model data shared by several elements: the postfix programs of the
+    functions of time and of the state (``dsl.expressions.postfix``; fields
+    code, consts, prog, stack), the sliding joints' lines (geo, geof;
+    ``model.elements.line_distance``) and the state variables the loads read
+    (var, varc, xval), each entry stored once however many elements use it."""
+
+    def __init__(self, system):
+        from ..dsl.expressions import OPCODES
+        self.system = system
+        self.state_op = OPCODES.index("x")
+        self.code, self.consts, self.prog, self.depth = [], [], [], 1
+        self.geo, self.geof, self.geo_row = [], [], {}
+        self.var, self.varc, self.var_row = [], [], {}
+
+    def program(self, expr, variables=None) -> int:
+        """Index of a new program for expr (a function of t and, with
+        ``variables`` (name -> row of "var"), of the state)."""
+        from ..dsl.expressions import postfix
+        c, k, dep = postfix(expr, variables=variables)
+        start = len(self.code)
+        j = 0
+        while j < len(c):            # constant indices are local to the program
+            if c[j] == 0:
+                self.code.extend((0, c[j + 1] + len(self.consts)))
+                j += 2
+            elif c[j] == self.state_op:   # a state variable: its row follows
+                self.code.extend((c[j], c[j + 1]))
+                j += 2
+            else:
+                self.code.append(c[j])
+                j += 1
+        self.consts.extend(k)
+        self.prog.append((start, len(self.code)))
+        self.depth = max(self.depth, dep)
+        return len(self.prog) - 1
+
+    def programs(self, f) -> tuple:
+        """(f, f', f'') programs of a function of time f, or (-1, -1, -1)."""
+        from ..dsl.expressions import diff
+        if not _timed(f):
+            return (-1, -1, -1)
+        return (self.program(f.expr), self.program(diff(f.expr)),
+                self.program(diff(diff(f.expr))))
+
+    def line_row(self, line) -> int:
+        """Row of a sliding joint's line in geo/geof (shared by every use)."""
+        from ..model.elements import line_columns
+        if line not in self.geo_row:
+            self.geo_row[line] = len(self.geo)
+            self.geo.append(line_columns(line, self.system.cmap))
+            self.geof.append([*line[1], *line[3], *line[4]])
+        return self.geo_row[line]
+
+    def variable_rows(self, f) -> dict:
+        """{name: row of "var"} of the state variables a load f reads."""
+        n, names = self.system.n, {}
+        for v in getattr(f, "variables", ()):
+            if v.line is not None:
+                key = (v.level, "line", v.line)
+                row = (v.level, n + 2, n + 2, self.line_row(v.line))
+                coefs = [0.0, 0.0]
+            else:
+                cols = (v.columns(self.system.cmap) + [n + 2] * (2 - len(v.terms)))
+                coefs = [c for _, _, c in v.terms] + [0.0] * (2 - len(v.terms))
+                key = (v.level, *cols, *coefs)
+                row = (v.level, *cols, -1)
+            if key not in self.var_row:
+                self.var_row[key] = len(self.var)
+                self.var.append(row)
+                self.varc.append(coefs)
+            names[v.name] = self.var_row[key]
+        return names
+
+    def fields(self) -> dict:
+        """The shared tables as model data fields."""
+        i8, f8 = np.int64, np.float64
+        return dict(code=np.array(self.code, i8), consts=np.array(self.consts, f8),
+                    prog=np.array(self.prog, i8).reshape(-1, 2), stack=np.zeros(self.depth),
+                    var=np.array(self.var, i8).reshape(-1, 4),
+                    varc=np.array(self.varc, f8).reshape(-1, 2), xval=np.zeros(len(self.var)),
+                    geo=np.array(self.geo, i8).reshape(-1, 6),
+                    geof=np.array(self.geof, f8).reshape(-1, 6))
+
+
+def _timed(f) -> bool:
+    """Whether f is a function of time (compiled as a program)."""
+    return f is not None and not f.constant
+
+
+def _constraint_fields(system, tables) -> dict:
+    """The joints' and drivers' model data: coincidence, distance, point on
+    line (its driver's f, f', f'' programs) and linear rows (constant driver
+    values folded into the offsets, functions of time as programs)."""
+    from ..dsl.expressions import Num, diff
+    i8, f8 = np.int64, np.float64
+    d = {}
+    for g in system.constraint_groups:
+        if isinstance(g, CoincidenceGroup):
+            d.update(crow=g.rows.astype(i8), ccol1=g.pair.P1.cols[:, :3].astype(i8),
+                     cs1=g.pair.P1.s.astype(f8), ccol2=g.pair.P2.cols[:, :3].astype(i8),
+                     cs2=g.pair.P2.s.astype(f8))
+        elif isinstance(g, DistanceGroup):
+            d.update(drow=g.rows[:, 0].astype(i8),
+                     dcol1=g.pair.P1.cols[:, :3].astype(i8), ds1=g.pair.P1.s.astype(f8),
+                     dcol2=g.pair.P2.cols[:, :3].astype(i8),
+                     ds2=g.pair.P2.s.astype(f8), dlen=g.L.astype(f8))
+        elif isinstance(g, PointOnLineGroup):
+            d.update(prow=g.rows[:, 0].astype(i8), pcolL=g.pair.P1.cols[:, :3].astype(i8),
+                     psL=g.pair.P1.s.astype(f8), pcolP=g.pair.P2.cols[:, :3].astype(i8),
+                     psP=g.pair.P2.s.astype(f8), pn0=g.n0.astype(f8))
+            program = tables.program
+            d["pfn"] = np.array([(-1, -1, -1) if f is None else
+                                 (program(f.expr), program(diff(f.expr)),
+                                  program(diff(diff(f.expr)))) if f.expr is not None
+                                 else (program(Num(f.f(0.0))), -1, -1)      # a constant
+                                 for f in g.functions], dtype=i8).reshape(-1, 3)
+        else:
+            off = g.offset + np.array([f.f(0.0) if f is not None and f.constant else 0.0
+                                       for f in g.functions])
+            d.update(lrow=g.rows[:, 0].astype(i8), lcol=g.cols.astype(i8),
+                     lcoef=g.coefs.astype(f8), loff=off.astype(f8),
+                     lfn=np.array([tables.programs(f) for f in g.functions],
+                                  dtype=i8).reshape(-1, 3))
+    return d
+
+
+def _force_fields(system, tables, Q0) -> dict:
+    """The applied loads' model data: spring-dampers, rotational
+    spring-dampers, torques (constant ones added into Q0 (n + 3,) in place,
+    functions of time as programs), loads of the state, friction in joints
+    and point forces."""
+    from ..dsl.expressions import Num
+    i8, f8 = np.int64, np.float64
+    n = system.n
+    d = {}
+    tcol, tfn, stq, sdv = [], [], [], []
+    for g in system.force_groups:
+        if isinstance(g, SpringDamperGroup):
+            d.update(scol1=g.pair.P1.cols[:, :3].astype(i8), ss1=g.pair.P1.s.astype(f8),
+                     scol2=g.pair.P2.cols[:, :3].astype(i8), ss2=g.pair.P2.s.astype(f8),
+                     spar=np.stack([g.k, g.c, g.l0], axis=1).astype(f8))
+        elif isinstance(g, RotationalSpringGroup):
+            d.update(rcol=g.cols.astype(i8),
+                     rpar=np.stack([g.k, g.c, g.angle], axis=1).astype(f8))
+        elif isinstance(g, TorqueGroup):
+            for col, f in zip(g.cols[:, 0], g.functions):
+                if _timed(f):
+                    tcol.append(col)
+                    tfn.append(tables.program(f.expr))
+                else:
+                    Q0[col] += f.f(0.0)
+        elif isinstance(g, StateTorqueGroup):
+            for i, (f, line) in enumerate(zip(g.functions, g.lines)):
+                names = tables.variable_rows(f)
+                expr = f.expr if f.expr is not None else Num(f.f(0.0))
+                if line is None:
+                    a, b = (int(g.cols[i, j]) for j in g.targets[i])
+                    stq.append((tables.program(expr, names), a, b, -1))
+                else:
+                    stq.append((tables.program(expr, names), n + 2, n + 2,
+                                tables.line_row(line)))
+                for v, ge in zip(getattr(f, "variables", ()), getattr(f, "grad_exprs", ())):
+                    sdv.append((len(stq) - 1, names[v.name], tables.program(ge, names)))
+        elif isinstance(g, FrictionGroup):
+            fri = []
+            for i, line in enumerate(g.lines):
+                rows = [int(r) for r in g.rows[i]]
+                if line is None:
+                    fri.append((int(g.cols[i, 0]), int(g.cols[i, 1]), -1, rows[0], len(rows)))
+                else:
+                    fri.append((n + 2, n + 2, tables.line_row(line), rows[0], len(rows)))
+            d.update(fri=np.array(fri, i8).reshape(-1, 5), frp=g.params.astype(f8))
+        elif isinstance(g, PointForceGroup):
+            d.update(fcol=g.points.cols[:, :3].astype(i8), fs=g.points.s.astype(f8),
+                     fF=np.array([[0.0 if _timed(fx) else fx.f(0.0),
+                                   0.0 if _timed(fy) else fy.f(0.0)]
+                                  for fx, fy in zip(g.fx, g.fy)], dtype=f8).reshape(-1, 2),
+                     ffn=np.array([(tables.program(fx.expr) if _timed(fx) else -1,
+                                    tables.program(fy.expr) if _timed(fy) else -1)
+                                   for fx, fy in zip(g.fx, g.fy)], dtype=i8).reshape(-1, 2))
+    d.update(tcol=np.array(tcol, i8), tfn=np.array(tfn, i8), stq=np.array(stq, i8).reshape(-1, 4),
+             sdv=np.array(sdv, i8).reshape(-1, 3))
+    return d
+
+
+def _contact_fields(group, line_row, K) -> dict:
     """The kernels' fields of the contacts and joint limits (``ContactGroup``,
     one instance per gap; ``compiled``'s contact section): kind and line row,
     columns, (offset, sign, s1, s2, n0, r, K, n, chi, mu, v_reg), impact
-    speeds. ``line_row(line)``: the row of a sliding line in GEO."""
-    from .compiled import GAP_ANGLE, GAP_CIRCLE, GAP_LINE, GAP_SLIDE
+    speeds. ``line_row(line)``: the row of a sliding line in GEO; ``K``:
+    the kernels (their gap kinds)."""
+    GAP_ANGLE, GAP_CIRCLE, GAP_LINE, GAP_SLIDE = K.GAP_ANGLE, K.GAP_CIRCLE, K.GAP_LINE, K.GAP_SLIDE
     kgi, kpar = [], []
     for i, (geometry, data) in enumerate(group.geometry):
         s1 = s2 = n0 = (0.0, 0.0)
