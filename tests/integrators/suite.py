@@ -34,3 +34,24 @@ def eps_energy(sol):
 def slider_crank():
     """The paper's damped slider crank."""
     return mbdsl.load(MODELS / "slider_crank.mbd")
+
+
+def dop853_error_ratios(system, init, methods, T, steps=(1e-3, 5e-4)):
+    """{method name: (errors, ratios)} of compiled runs against the DOP853
+    solution of the index-1 equations at T (``mbdsl.reference``, rtol = atol
+    = 1e-12, numpy assembly): errors max |q(T) - q_ref| at each h of steps,
+    ratios of consecutive errors (2^p for a method of order p). ``methods``:
+    Method instances."""
+    from mbdsl.integrators import integrate
+    from mbdsl.reference import index1_reference
+    q_ref = index1_reference(system, [T], initial=init).q[-1]
+    out = {}
+    for method in methods:
+        errors = []
+        for h in steps:
+            sol = integrate(system, method, T, h, initial=init, engine="compiled")
+            assert sol.engine == "compiled" and sol.status == "completed"
+            errors.append(np.abs(sol.q[-1] - q_ref).max())
+        errors = np.array(errors)
+        out[method.name] = (errors, errors[:-1] / errors[1:])
+    return out
