@@ -297,12 +297,14 @@ def uncompiled_kernels():
     fast as a vectorised numpy evaluation, on a flexible beam several
     times slower.
 
-    Two helpers differ from the compiled module, neither of them physics:
-    the dense solve ``_solve`` takes numpy's matrix product (the
-    interpreter would otherwise loop over all n^2 products of the stored
-    inverse: 40 % of a run of Andrews' mechanism), and LAPACK's band routines
-    cannot be called (``_fortran_call`` is a numba intrinsic): an
-    uncompiled run takes the dense inverse or SuperLU.
+    The dense linear algebra differs from the compiled module, none of it
+    physics: the dense factorization (``_factor``: the triplets scattered by
+    ``np.add.at``; ``_invert``: the finiteness test and the condition
+    estimate on whole arrays) and solve (``_solve``: numpy's matrix product)
+    are numpy's, where the interpreter would loop over every triplet and all
+    n^2 entries (70 % of a run of the four-bar chain, 40 % of Andrews'
+    mechanism). LAPACK's band routines cannot be called (``_fortran_call`` is
+    a numba intrinsic): an uncompiled run takes the dense inverse or SuperLU.
 
     Returns
     -------
@@ -341,7 +343,38 @@ def uncompiled_kernels():
     def _fortran_call(address, args):
         raise RuntimeError("the uncompiled kernels cannot call LAPACK's band routines")
 
+    def _invert(J, Jinv):
+        """``compiled._invert`` on whole arrays: Jinv = (J^-1)^T, False when
+        J is not finite, singular or its 1-norm condition number above 1e15."""
+        if not np.all(np.isfinite(J)):
+            return False
+        try:
+            inv = np.linalg.inv(J)
+        except np.linalg.LinAlgError:
+            return False
+        na = np.max(np.sum(np.abs(J), axis=0))
+        ni = np.max(np.sum(np.abs(inv), axis=0))
+        if not np.isfinite(ni) or na * ni > 1e15:
+            return False
+        Jinv[:, :] = inv.T
+        return True
+
+    banded_factor = module._factor
+
+    def _factor(solver, lin, R, C, V, p):
+        """``compiled._factor`` for the dense solver on whole arrays, else the kernel."""
+        if solver != module.DENSE:
+            return banded_factor(solver, lin, R, C, V, p)
+        if not np.all(np.isfinite(V[:p])):
+            return module.NONFINITE
+        J = lin[0]
+        J[:, :] = 0.0
+        np.add.at(J, (R[:p], C[:p]), V[:p])
+        return module.CONVERGED if _invert(J, lin[1]) else module.SINGULAR
+
     module._solve = _solve
+    module._invert = _invert
+    module._factor = _factor
     module._fortran_call = _fortran_call
     return module
 
