@@ -2865,9 +2865,8 @@ def _invert(J, Jinv):
     """Jinv = (J^-1)^T, the inverse stored transposed (``_solve`` then reads
     it along memory); False when J is singular or too ill-conditioned to use
     (1-norm condition number above 1e15)."""
-    for x in J.ravel():
-        if not np.isfinite(x):
-            return False
+    if not np.all(np.isfinite(J)):    # whole-array: also the uncompiled copy's speed
+        return False
     try:
         inv = np.linalg.inv(J)
     except Exception:      # noqa: BLE001 - numba raises LinAlgError for an exactly singular J

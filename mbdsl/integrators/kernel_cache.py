@@ -298,9 +298,8 @@ def uncompiled_kernels():
     times slower.
 
     The dense linear algebra differs from the compiled module, none of it
-    physics: the dense factorization (``_factor``: the triplets scattered by
-    ``np.add.at``; ``_invert``: the finiteness test and the condition
-    estimate on whole arrays) and solve (``_solve``: numpy's matrix product)
+    physics: the dense factorization's scatter of the triplets (``_factor``:
+    ``np.add.at``) and the dense solve (``_solve``: numpy's matrix product)
     are numpy's, where the interpreter would loop over every triplet and all
     n^2 entries (70 % of a run of the four-bar chain, 40 % of Andrews'
     mechanism). LAPACK's band routines cannot be called (``_fortran_call`` is
@@ -329,7 +328,7 @@ def uncompiled_kernels():
         raise
     finally:
         numba.config.DISABLE_JIT = before
-    dense_solve = module._solve
+    kernel_solve = module._solve
 
     def _solve(solver, lin, r, dw):
         """dw = J^-1 r: numpy's product with the stored transposed inverse for
@@ -338,42 +337,25 @@ def uncompiled_kernels():
             size = r.shape[0]
             np.matmul(r, lin[1][:size, :size], out=dw[:size])
             return
-        dense_solve(solver, lin, r, dw)
+        kernel_solve(solver, lin, r, dw)
 
     def _fortran_call(address, args):
         raise RuntimeError("the uncompiled kernels cannot call LAPACK's band routines")
 
-    def _invert(J, Jinv):
-        """``compiled._invert`` on whole arrays: Jinv = (J^-1)^T, False when
-        J is not finite, singular or its 1-norm condition number above 1e15."""
-        if not np.all(np.isfinite(J)):
-            return False
-        try:
-            inv = np.linalg.inv(J)
-        except np.linalg.LinAlgError:
-            return False
-        na = np.max(np.sum(np.abs(J), axis=0))
-        ni = np.max(np.sum(np.abs(inv), axis=0))
-        if not np.isfinite(ni) or na * ni > 1e15:
-            return False
-        Jinv[:, :] = inv.T
-        return True
-
-    banded_factor = module._factor
+    kernel_factor = module._factor
 
     def _factor(solver, lin, R, C, V, p):
         """``compiled._factor`` for the dense solver on whole arrays, else the kernel."""
         if solver != module.DENSE:
-            return banded_factor(solver, lin, R, C, V, p)
+            return kernel_factor(solver, lin, R, C, V, p)
         if not np.all(np.isfinite(V[:p])):
             return module.NONFINITE
         J = lin[0]
         J[:, :] = 0.0
         np.add.at(J, (R[:p], C[:p]), V[:p])
-        return module.CONVERGED if _invert(J, lin[1]) else module.SINGULAR
+        return module.CONVERGED if module._invert(J, lin[1]) else module.SINGULAR
 
     module._solve = _solve
-    module._invert = _invert
     module._factor = _factor
     module._fortran_call = _fortran_call
     return module
