@@ -215,8 +215,11 @@ class Method(ABC):
         return out
 
     @abstractmethod
-    def order(self) -> int:
-        """Global order of accuracy in q and v."""
+    def order(self, system=None) -> int:
+        """Global order of accuracy in q and v, on the model of ``system``
+        (an AssembledSystem; None: a rigid model without friction, where
+        every method has its nominal order). docs/methods.md gives the
+        measured orders."""
 
     @abstractmethod
     def parameters(self) -> dict:

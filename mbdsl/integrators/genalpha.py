@@ -60,7 +60,7 @@ class _GenAlphaBase(Method):
         self.beta_p = self.beta * (1.0 - self.alpha_f) * d
         self.gamma_p = self.gamma * (1.0 - self.alpha_f) * d
 
-    def order(self) -> int:
+    def order(self, system=None) -> int:
         """2."""
         return 2
 

@@ -87,8 +87,13 @@ class HHTADD(Method):
         self.b = check_range("b", b, abs(b - 0.5) > 1e-12, "b != 1/2",
                              "with b = 1/2 the Newton matrix is singular as h -> 0")
 
-    def order(self) -> int:
-        """2."""
+    def order(self, system=None) -> int:
+        """2; 1 on a model with friction in joints, whose normal load is then
+        psi_II, an O(h) approximation of the reaction (docs/methods.md,
+        "Friction")."""
+        from ..model.elements import Friction
+        if system is not None and any(isinstance(f, Friction) for f in system.model.forces):
+            return 1
         return 2
 
     def parameters(self) -> dict:

@@ -63,7 +63,7 @@ class HHTSI2(Method):
     def __init__(self, alpha: float = -0.05):
         self.alpha, self.beta, self.gamma = hht_coefficients(alpha)
 
-    def order(self) -> int:
+    def order(self, system=None) -> int:
         """2."""
         return 2
 

@@ -60,7 +60,7 @@ class Newmark(Method):
                                 f"beta >= (gamma + 1/2)^2 / 4 = {limit:g}",
                                 "unconditional stability of the linear test problem")
 
-    def order(self) -> int:
+    def order(self, system=None) -> int:
         """2 when gamma = 1/2, otherwise 1."""
         return 2 if abs(self.gamma - 0.5) < 1e-14 else 1
 

@@ -50,7 +50,7 @@ class NStiff(Method):
     history_length = 2
     max_step_ratio = 2.0        # BDF2: below 1 + sqrt(2), with a margin
 
-    def order(self) -> int:
+    def order(self, system=None) -> int:
         """2."""
         return 2
 

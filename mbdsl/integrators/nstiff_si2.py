@@ -61,7 +61,7 @@ class NStiffSI2(Method):
     max_step_ratio = 2.0        # BDF2: below 1 + sqrt(2), with a margin
     extras = ("mu",)
 
-    def order(self) -> int:
+    def order(self, system=None) -> int:
         """2."""
         return 2
 

@@ -38,11 +38,16 @@ __all__ = ["StudyReference", "build_reference", "method_order"]
 DOP853_BUDGET = 200_000
 
 
-def method_order(method: str, coefficients: dict) -> int:
-    """Global order of a method: 1 for NEWMARK with gamma != 1/2, else 2 (paper, Sect. 2)."""
-    if method == "newmark" and abs(coefficients.get("gamma", 0.6) - 0.5) > 1e-14:
-        return 1
-    return 2
+def method_order(method: str, coefficients: dict, system=None) -> int:
+    """Global order of a method with these coefficients on the model of
+    ``system`` (``Method.order``: 1 for NEWMARK with gamma != 1/2, HHT-I3
+    with alpha != 0 on flexible beams and HHT-ADD with friction, else 2;
+    None: a rigid model without friction). Derived coefficients stored with
+    a result (HHT's beta and gamma) are ignored."""
+    from ..integrators import make_method, method_parameters
+    accepted = method_parameters(method)
+    return make_method(method, **{k: v for k, v in coefficients.items()
+                                  if k in accepted}).order(system)
 
 
 @dataclass
@@ -184,7 +189,7 @@ def _method(model, method, coefficients, t_end, h):
     from .. import simulate
     fine = simulate(model, method=method, h=h, t_end=t_end, **coefficients)
     coarse = simulate(model, method=method, h=2 * h, t_end=t_end, **coefficients)
-    p = method_order(method, fine.method_parameters)
+    p = method_order(method, fine.method_parameters, fine.system)
     return StudyReference(
         f"{method} at h = {h:.4g} s (16 times below the smallest step), error by Richardson "
         f"against h = {2 * h:.4g} s (order {p})", t_end, fine.q[-1], fine.v[-1],
@@ -210,7 +215,7 @@ def _file(path, model, t_end):
     accepted = method_parameters(sol.method_name)     # HHT stores its derived beta, gamma too
     coarse = simulate(sol.model, method=sol.method_name, h=2 * sol.h, t_end=t_end,
                       **{k: v for k, v in sol.method_parameters.items() if k in accepted})
-    p = method_order(sol.method_name, sol.method_parameters)
+    p = method_order(sol.method_name, sol.method_parameters, sol.system)
     return StudyReference(
         f"file {path}: {sol.method_name} at h = {sol.h:.4g} s, error by Richardson against "
         f"h = {2 * sol.h:.4g} s (order {p})", t_end, sol.q[i], sol.v[i],

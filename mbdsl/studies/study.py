@@ -501,7 +501,7 @@ def _usable(run, err, ref_err):
     return run.completed and np.isfinite(err) and err > REFERENCE_MARGIN * ref_err
 
 
-def _convergence(o, runs, ref, model, **_):
+def _convergence(o, runs, ref, model, system=None, **_):
     """Error at T per method and h, fitted orders (Figs. 3-6)."""
     from ..plotting import Panel, Series
     errors = Table("convergence", f"Error at T = {o.t_end:g} s against the reference",
@@ -528,7 +528,7 @@ def _convergence(o, runs, ref, model, **_):
                     flagged = True
             status = "completed" if run.completed else f"failed at t = {run.t_stop:.4g} s"
             errors.rows.append([m, h] + cells + ["; ".join([status] + marks)])
-        exp = method_order(m, runs[(m, o.hs[0], ())].coefficients)
+        exp = method_order(m, runs[(m, o.hs[0], ())].coefficients, system)
         orders.rows.append([m, exp] + [fitted_order(*per_q[q]) for q in o.quantities]
                            + [min(len(per_q[q][0]) for q in o.quantities)])
         for panel, q in zip(panels, o.quantities):
@@ -581,7 +581,7 @@ def _energy(o, runs, ref, model, system, **_):
                 table.rows.append([m, h, eps, "completed"])
             else:
                 table.rows.append([m, h, float("nan"), f"failed at t = {run.t_stop:.4g} s"])
-        orders.rows.append([m, method_order(m, runs[(m, o.hs[0], ())].coefficients),
+        orders.rows.append([m, method_order(m, runs[(m, o.hs[0], ())].coefficients, system),
                             fitted_order(hs_ok, eps_ok)])
         eps_panel.series.append(Series(m, np.array(hs_ok), np.array(eps_ok)))
     diss = Table("energy_dissipation", "Numerical dissipation against HHT's alpha: eps(T) at "
@@ -776,7 +776,7 @@ def recommend_h(hs, errors, tol, order, h_max):
     return h, e_s * (h / h_s) ** order, "extrapolated"
 
 
-def _recommend(o, runs, ref, model, source=None, **_):
+def _recommend(o, runs, ref, model, source=None, system=None, **_):
     """For each target error, the cheapest method and the h it needs.
 
     Candidates come from the sweep (``recommend_h``); an extrapolated one is
@@ -799,7 +799,7 @@ def _recommend(o, runs, ref, model, source=None, **_):
             if not hs:
                 continue
             errs = [quantity_error(model, runs[(m, h, ())], ref, q)[0] for h in hs]
-            order = method_order(m, runs[(m, hs[0], ())].coefficients)
+            order = method_order(m, runs[(m, hs[0], ())].coefficients, system)
             h, err, basis = recommend_h(hs, errs, tol, order, max(o.hs))
             if not np.isfinite(h):
                 continue
