@@ -48,15 +48,13 @@ def test_rod_pendulum_has_the_exact_large_amplitude_period():
 def check_rod_pendulum(model):
     """A 1 kg bob ``bob`` held 1 m from the origin by the distance joint
     ``rod``, released horizontally: the period to 1e-6 relative at h = 1e-4
-    (HHT-I3, compiled), the numpy engine's run to 1e-10, the rod's tension
+    (HHT-I3, compiled), the rod's tension
     3 m g at the bottom and its length held to 1e-10. Returns the run."""
     exact = 4.0 * math.sqrt(1.0 / 9.81) * scipy.special.ellipk(math.sin(math.pi / 4) ** 2)
     sol = mbdsl.simulate(model, method="hht-i3", h=1e-4, t_end=0.8 * exact)
     assert sol.engine == "compiled"               # distance joints are kernels too
     t1, t2 = _zero_crossings(sol.t, sol.column("bob.x"))[:2]
     assert abs(2 * (t2 - t1) - exact) < 1e-6 * exact
-    ref = mbdsl.simulate(model, method="hht-i3", h=1e-4, t_end=0.8 * exact, engine="numpy")
-    assert np.abs(ref.q - sol.q).max() < 1e-10
     # the multiplier is the rod's tension: 3 m g at the bottom (energy: v^2 = 2 g L)
     k = int(np.argmin(np.abs(sol.t - t1)))
     assert sol.column("lambda.rod.0")[k] == pytest.approx(3 * 9.81, rel=1e-3)
