@@ -169,7 +169,9 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
         events = EventLocator.found_by_steps(system)
         python_loop = python_loop or (events and recipe_monomials(method) is None)
         functions = time_switches(system)
-        switches = switch_times(functions, t_start, t_end, h) if functions else ()
+        # the driver's own loop lands each switch as it comes (EventLocator.before_switch)
+        switches = (switch_times(functions, t_start, t_end, h) if functions and not python_loop
+                    else ())
         cm, plan, timings["kernels"] = prepare_compiled(system, method, solver.options,
                                                         initial.q, announce,
                                                         adaptive=control is not None or events,

@@ -54,7 +54,7 @@ from ..assembly.groups import (CoincidenceGroup, DistanceGroup, FrictionGroup,
                                StateTorqueGroup, TorqueGroup)
 from ..assembly.sparse import DENSE_LIMIT
 from .base import StepState
-from .events import SWITCH_GAP, restart_after_switch
+from .events import restart_after_switch, switch_gap
 
 __all__ = ["ENGINES", "unsupported", "CompiledModel", "select_engine", "prepare_compiled",
            "run_compiled",
@@ -991,12 +991,12 @@ def _step_plan(t_start, t_end, h, exact=False):
 def _segments(t_start, t_end, h, switches):
     """[(start, end, switch or None)]: the stretches of [t_start, t_end] between
     the switches of functions of time (``events.switch_times``): each ends
-    ``SWITCH_GAP`` h before its switch (time, text), the next starts as far
-    after it."""
+    ``events.switch_gap`` (SWITCH_GAP h) before its switch (time, text), the
+    next starts as far after it."""
     out, start = [], t_start
     for t_switch, text in switches:
-        out.append((start, t_switch - SWITCH_GAP * h, (t_switch, text)))
-        start = t_switch + SWITCH_GAP * h
+        out.append((start, t_switch - switch_gap(h, t_switch), (t_switch, text)))
+        start = t_switch + switch_gap(h, t_switch)
     return out + [(start, t_end, None)]
 
 
@@ -1009,7 +1009,7 @@ def _restart_at_switch(system, method, sol, switch, h, q, v, a, lam, b, mu, extr
     Returns the restart's time [s]."""
     t_switch, text = switch
     sol.events.append((t_switch, text, "switched", 0.0))
-    t_new = t_switch + SWITCH_GAP * h
+    t_new = t_switch + switch_gap(h, t_switch)
     new = restart_after_switch(system, method, t_new, q, v)
     if new is not None:
         a[:], lam[:] = new.a, new.lam

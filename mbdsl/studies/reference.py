@@ -40,8 +40,8 @@ DOP853_BUDGET = 200_000
 
 def method_order(method: str, coefficients: dict, system=None) -> int:
     """Global order of a method with these coefficients on the model of
-    ``system`` (``Method.order``: 1 for NEWMARK with gamma != 1/2, HHT-I3
-    with alpha != 0 on flexible beams and HHT-ADD with friction, else 2;
+    ``system`` (``Method.order``: 1 for NEWMARK with gamma != 1/2 and for
+    HHT-ADD with friction, else 2;
     None: a rigid model without friction). Derived coefficients stored with
     a result (HHT's beta and gamma) are ignored."""
     from ..integrators import make_method, method_parameters

@@ -67,6 +67,37 @@ initial d.omega = 0
         assert np.max(np.abs(omega - exact)) < 1e-9
 
 
+def test_an_error_controlled_run_from_a_tiny_first_step_finds_the_switch():
+    """The switches of the functions of time are found before a compiled run
+    on the grid of its first step; a first step of 1e-12 s over 2 s would be
+    2e12 nodes: the grid is coarsened to ``SWITCH_GRID_LIMIT`` steps, and the
+    switch at t = 1 is still found and landed on. The step before it ends
+    ``events.switch_gap`` before it: 1e-10 h would be 1e-22 s, below t's
+    round-off, and the step would end on the switch and see the new branch
+    (measured 6e-3 rad and rad/s at t = 2 s on both engines before)."""
+    from mbdsl.integrators.events import switch_times, time_switches
+    text = """model switch
+body d { mass 1; inertia 0.5 }
+joint O: revolute(ground.origin, d.cm)
+force m: torque(d, if(t < 1, 2, -1))
+initial d.phi = 0
+initial d.omega = 0
+"""
+    model = mbdsl.load_text(text)
+    found = switch_times(time_switches(mbdsl.assemble(model)), 0.0, 2.0, 1e-12)
+    assert len(found) == 1 and abs(found[0][0] - 1.0) < 1e-12
+    sol = mbdsl.simulate(model, method="hht-i3", h=1e-12, t_end=2.0, rtol=1e-6, atol=1e-6)
+    assert sol.engine == "compiled" and sol.status == "completed"
+    assert [e[2] for e in sol.events] == ["switched"] and abs(sol.events[0][0] - 1.0) < 1e-9
+    for engine in ("compiled", "numpy"):
+        sol = mbdsl.simulate(model, method="hht-i3", h=1e-12, t_end=2.0, rtol=1e-6, atol=1e-6,
+                             engine=engine)
+        t = sol.t
+        exact = np.where(t <= 1.0, 2 * t**2, 2 + 4 * (t - 1) - (t - 1) ** 2)
+        assert np.max(np.abs(sol.column("d.phi") - exact)) < 1e-10, engine
+        assert abs(sol.column("d.omega")[-1] - 2.0) < 1e-10, engine
+
+
 def test_comparisons_and_if_evaluate_differentiate_and_write_back():
     e = parse_expression("if(t < 2, t^2/2, 2*t - 2) + (t >= 1)*0.5")
     f = compile_function(substitute(e, {}))

@@ -403,9 +403,6 @@ def test_hht_i3_is_of_order_one_on_flexible_beams_unless_alpha_is_zero(soft_refe
     soft flexible_elements: alpha = 0 ratios 4.00, 4.01; alpha = -0.3 1.90,
     1.95."""
     system, init, q_ref = soft_references[VALID / "flexible_elements.mbd"]
-    assert make_method("hht-i3", alpha=-0.3).order(system) == 1
-    assert make_method("hht-i3", alpha=0.0).order(system) == 2
-    assert make_method("hht-i3").order(None) == 2          # rigid: its nominal order
     steps = (1e-3, 5e-4, 2.5e-4)
     e0 = _errors(system, init, q_ref, make_method("hht-i3", alpha=0.0), steps)
     e3 = _errors(system, init, q_ref, make_method("hht-i3", alpha=-0.3), steps)
