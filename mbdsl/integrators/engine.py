@@ -389,14 +389,12 @@ def prepare_compiled(system, method, options, q, announce=None, adaptive=False,
     t0 = time.perf_counter()
     if uncompiled:
         cm = CompiledModel(system, _kernels(uncompiled=True))
-        plan = linear_solver_plan(system, method, options, q, cm)
-        if system.contact_group is not None:
-            system.contact_group.row_kernel = contact_row_kernel(cm)
-        return cm, plan, time.perf_counter() - t0
-    ensure_loaded(None, announce)         # compiles everything, announced, if not built
-    cm = CompiledModel(system)
+    else:
+        ensure_loaded(None, announce)         # compiles everything, announced, if not built
+        cm = CompiledModel(system)
     plan = linear_solver_plan(system, method, options, q, cm)  # banded: calls a kernel
-    ensure_loaded("sparse" if python_loop else plan.kind, announce, adaptive)  # this loop's
+    if not uncompiled:                        # this loop's entry points
+        ensure_loaded("sparse" if python_loop else plan.kind, announce, adaptive)
     if system.contact_group is not None:     # the output's energy and dissipation
         system.contact_group.row_kernel = contact_row_kernel(cm)
     return cm, plan, time.perf_counter() - t0

@@ -54,6 +54,9 @@ MAX_CUTS = 8
 #: A step ends this fraction of the nominal step size h before a switch of a
 #: function of time, and the next starts as far after it (:func:`switch_gap`).
 SWITCH_GAP = 1e-10
+#: Error-controlled steps while a gap is closed are at most its estimated
+#: impact duration over this (``ContactGroup.duration``).
+STEPS_PER_CONTACT = 50
 
 
 def switch_gap(h, t_switch) -> float:
@@ -64,9 +67,6 @@ def switch_gap(h, t_switch) -> float:
     error-controlled run started with h = 1e-9 s did: 6e-3 rad at t = 2 s
     on a torque switched at t = 1 s, against 4e-16 from h = 1e-6 s)."""
     return max(SWITCH_GAP * h, 64.0 * np.finfo(float).eps * max(1.0, abs(t_switch)))
-#: Error-controlled steps while a gap is closed are at most its estimated
-#: impact duration over this (``ContactGroup.duration``).
-STEPS_PER_CONTACT = 50
 
 
 def _hermite(theta, step, qa, va, qb, vb):

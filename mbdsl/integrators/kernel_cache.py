@@ -301,7 +301,7 @@ def uncompiled_kernels():
     physics: the dense factorization's scatter of the triplets (``_factor``:
     ``np.add.at``) and the dense solve (``_solve``: numpy's matrix product)
     are numpy's, where the interpreter would loop over every triplet and all
-    n^2 entries (70 % of a run of the four-bar chain, 40 % of Andrews'
+    n^2 entries (half of a run of the four-bar chain, 40 % of Andrews'
     mechanism). LAPACK's band routines cannot be called (``_fortran_call`` is
     a numba intrinsic): an uncompiled run takes the dense inverse or SuperLU.
 
