@@ -456,8 +456,7 @@ class CompiledModel:
         if system.contact_group is not None:
             d.update(_contact_fields(system.contact_group, tables.line_row, K))
         d.update(tables.fields())
-        f8 = np.float64
-        d["mass"] = system.mass_diag.astype(f8)
+        d["mass"] = system.mass_diag.astype(np.float64)
         d["mrig"] = np.zeros(n)
         d["mrig"][system._rigid_cols] = system.mass_diag[system._rigid_cols]
         d.update(_beam_fields(system))
@@ -665,20 +664,19 @@ def _contact_fields(group, line_row, K) -> dict:
     columns, (offset, sign, s1, s2, n0, r, K, n, chi, mu, v_reg), impact
     speeds. ``line_row(line)``: the row of a sliding line in GEO; ``K``:
     the kernels (their gap kinds)."""
-    GAP_ANGLE, GAP_CIRCLE, GAP_LINE, GAP_SLIDE = K.GAP_ANGLE, K.GAP_CIRCLE, K.GAP_LINE, K.GAP_SLIDE
     kgi, kpar = [], []
     for i, (geometry, data) in enumerate(group.geometry):
         s1 = s2 = n0 = (0.0, 0.0)
         r, row = 0.0, -1
         if geometry == "line":          # (body L, s_L, body P, s_P, n0, r)
-            kind, row, off, sign = GAP_LINE, line_row(tuple(data[:5])), data[5], 1.0
+            kind, row, off, sign = K.GAP_LINE, line_row(tuple(data[:5])), data[5], 1.0
             s1, s2, n0, r = data[1], data[3], data[4], data[5]
         elif geometry == "slide":       # (body L, s_L, body P, s_P, u0, bound, sign)
-            kind, row, off, sign = GAP_SLIDE, line_row(tuple(data[:5])), data[5], data[6]
+            kind, row, off, sign = K.GAP_SLIDE, line_row(tuple(data[:5])), data[5], data[6]
         elif geometry == "angle":       # (body 1, None, body 2, None, bound, sign)
-            kind, off, sign = GAP_ANGLE, data[4], data[5]
+            kind, off, sign = K.GAP_ANGLE, data[4], data[5]
         elif geometry == "circle":      # (body C, s_C, body P, s_P, clearance, r)
-            kind, off, sign = GAP_CIRCLE, data[4], 1.0
+            kind, off, sign = K.GAP_CIRCLE, data[4], 1.0
             s1, s2, r = data[1], data[3], data[5]
         else:                           # pragma: no cover (model.contact lists four)
             raise ValueError(f"no kernel for the gap geometry {geometry!r}")
