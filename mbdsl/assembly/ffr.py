@@ -53,9 +53,18 @@ Source: Shabana, Dynamics of Multibody Systems, 4th ed., ch. 5 (the planar
 FFR: eqs. for the mass matrix, the inertia shape integrals and the quadratic
 velocity vector). A is the rotation matrix, B = dA/dphi, I~ = [[0,-1],[1,0]].
 
-Beams with the same number of elastic coordinates are stacked (struct of
-arrays, shape (k, ...)) and evaluated with one set of einsums; beams of
-different sizes form separate groups.
+A :class:`FlexibleBeamGroup` holds the data of the beams with the same
+number of elastic coordinates, stacked (struct of arrays, shape (k, ...)):
+columns, shape integrals, stiffness and strain data, which
+``integrators.engine.CompiledModel`` packs for the kernels. The physics
+above is evaluated once, by the kernels of ``integrators/compiled.py``
+(``_ffr_local``, ``_ffr_energy``): the compiled time loops call them
+directly, and everything else (the driver's loop, the initial conditions,
+the output's energies) through this group's methods, on the compiled
+kernels when this process can call them without compiling, else on their
+uncompiled copy (``AssembledSystem.kernel_model``). An independent numpy
+evaluation of the same equations is the tests' oracle
+(``tests/flexible/ffr_oracle.py``).
 """
 
 from __future__ import annotations
@@ -66,13 +75,9 @@ from .groups import body_columns
 
 __all__ = ["FlexibleBeamGroup"]
 
-
-def _AB(phi):
-    """A(phi) and B(phi) = dA/dphi, each shape (k, 2, 2)."""
-    c, s = np.cos(phi), np.sin(phi)
-    A = np.stack([np.stack([c, -s], -1), np.stack([s, c], -1)], -2)
-    B = np.stack([np.stack([-s, -c], -1), np.stack([c, -s], -1)], -2)
-    return A, B
+#: ``compiled._ffr_local``'s bits (M, Q, (Q_q, Q_v), (M x)_q), repeated here so
+#: that building a model never imports numba.
+FFR_M, FFR_Q, FFR_DQ, FFR_MXQ = 1, 2, 4, 8
 
 
 class FlexibleBeamGroup:
@@ -88,6 +93,12 @@ class FlexibleBeamGroup:
     beams : sequence of FlexibleBeam
     gravity : ndarray, shape (2,), or None
         [m/s^2]; None: no gravity term.
+
+    Notes
+    -----
+    The evaluations (``mass_blocks``, ``forces``, ...) call the kernels
+    through the model data :meth:`bind` gives the group; the group's beams
+    are the kernels' beams ``first`` .. ``first + k - 1``.
     """
 
     def __init__(self, cmap, beams, gravity=None):
@@ -124,168 +135,70 @@ class FlexibleBeamGroup:
         self.gravity = None if gravity is None else np.asarray(gravity, float)
         self.damped = True          # the quadratic velocity vector depends on v
         k, c = len(beams), self.c
-        self._M = np.zeros((k, c, c))
-        self._M[:, 0, 0] = self._M[:, 1, 1] = self.m
-        self._M[:, 3:, 3:] = self.M_ff
         #: mass-matrix pattern in q: (rows, cols), each shape (k * c * c,)
         self.pattern = (np.repeat(self.cols, c, axis=1).ravel(),
                         np.tile(self.cols, (1, c)).ravel())
+        #: the diagonal of M at q = 0 (the mass of the frame's translation, I0,
+        #: diag M_ff), shape (k, c): the scaling of the unknowns
+        self.mass_diagonal = np.concatenate([self.m[:, None], self.m[:, None], self.I0[:, None],
+                                             np.diagonal(self.M_ff, axis1=1, axis2=2)], axis=1)
+        self._kernel_model, self.first = None, 0
 
-    # -- kinematic parts ------------------------------------------------------------------
-    def _parts(self, q):
-        """Local q (k, c) -> phi, q_f, A, B, s_bar, a_U, a_T."""
-        phi, qf = q[:, 2], q[:, 3:]
-        A, B = _AB(phi)
-        s_bar = self.s0 + np.einsum("kaj,kj->ka", self.S_bar, qf)
-        a_U = self.a_u + np.einsum("kij,kj->ki", self.M_ff, qf)
-        a_T = self.a_I + np.einsum("kij,kj->ki", self.S_tilde, qf)
-        return phi, qf, A, B, s_bar, a_U, a_T
+    def bind(self, kernel_model, first: int) -> None:
+        """Evaluate through ``kernel_model()`` (a callable returning the
+        model's ``CompiledModel``), this group's beams being the kernels'
+        ``first`` .. ``first + k - 1``."""
+        self._kernel_model, self.first = kernel_model, first
+
+    def _blocks(self, qx, vx, x, what):
+        """The kernels' local blocks of the group's beams (``compiled.beam_blocks``):
+        M, Q, Q_q, Q_v, (M x)_q, shapes (k, c, c), (k, c), (k, c, c) x 3."""
+        cm = self._kernel_model()
+        k, c = len(self.beams), self.c
+        M, Qq, Qv, Mxq = (np.zeros((k, c, c)) for _ in range(4))
+        Q = np.zeros((k, c))
+
+        def vec(y):
+            return np.ascontiguousarray(y, dtype=np.float64)
+
+        qx = vec(qx)
+        cm.K.beam_blocks(cm.ints, cm.floats, self.first, qx, qx if vx is None else vec(vx),
+                         qx if x is None else vec(x), what, M, Q, Qq, Qv, Mxq)
+        return M, Q, Qq, Qv, Mxq
 
     # -- mass --------------------------------------------------------------------------------
     def mass_blocks(self, qx) -> np.ndarray:
-        """M(q) of every beam, shape (k, c, c) [kg, kg m, kg m^2] (a reused buffer)."""
-        q = qx[self.cols]
-        phi, qf, A, B, s_bar, a_U, a_T = self._parts(q)
-        M = self._M
-        Bs = np.einsum("kab,kb->ka", B, s_bar)
-        M[:, 0:2, 2] = M[:, 2, 0:2] = Bs
-        ASb = np.einsum("kab,kbj->kaj", A, self.S_bar)
-        M[:, 0:2, 3:] = ASb
-        M[:, 3:, 0:2] = ASb.transpose(0, 2, 1)
-        M[:, 2, 2] = (self.I0 + 2.0 * np.einsum("ki,ki->k", self.a_u, qf)
-                      + np.einsum("ki,kij,kj->k", qf, self.M_ff, qf))
-        M[:, 2, 3:] = M[:, 3:, 2] = a_T
-        return M
+        """M(q) of every beam, shape (k, c, c) [kg, kg m, kg m^2]; qx (n,) or (n + 3,)."""
+        return self._blocks(qx, None, None, FFR_M)[0]
 
     def Ma_q(self, qx, ax) -> np.ndarray:
         """(M(q) a)_q of every beam, shape (k, c, c), local rows and columns."""
-        q, a = qx[self.cols], ax[self.cols]
-        phi, qf, A, B, s_bar, a_U, a_T = self._parts(q)
-        aR, aphi, af = a[:, 0:2], a[:, 2], a[:, 3:]
-        BSb = np.einsum("kab,kbj->kaj", B, self.S_bar)            # (k, 2, nf)
-        out = np.zeros((len(q), self.c, self.c))
-        # rows R: d/dphi (B s_bar aphi + A S_bar af) and d/dq_f (B S_bar aphi)
-        out[:, 0:2, 2] = (-np.einsum("kab,kb->ka", A, s_bar) * aphi[:, None]
-                          + np.einsum("kaj,kj->ka", BSb, af))
-        out[:, 0:2, 3:] = BSb * aphi[:, None, None]
-        # row phi: (B s_bar) . aR + m_phiphi aphi + a_T . af
-        out[:, 2, 2] = -np.einsum("kab,kb,ka->k", A, s_bar, aR)
-        out[:, 2, 3:] = (np.einsum("kaj,ka->kj", BSb, aR) + 2.0 * a_U * aphi[:, None]
-                         - np.einsum("kij,kj->ki", self.S_tilde, af))
-        # rows f: S_bar^T A^T aR + a_T aphi + M_ff af
-        out[:, 3:, 2] = np.einsum("kaj,ka->kj", BSb, aR)
-        out[:, 3:, 3:] = self.S_tilde * aphi[:, None, None]
-        return out
-
-    # -- geometric stiffening ---------------------------------------------------------------
-    def _strains(self, qf):
-        """a_e, g_e = G_e q_f and c_e per element: shapes (..., k, N_e),
-        (..., k, N_e, nf), (..., k, N_e)."""
-        a = np.einsum("kej,...kj->...ke", self.Bu, qf)
-        g = np.einsum("keij,...kj->...kei", self.G, qf)
-        return a, g, np.einsum("...kei,...ki->...ke", g, qf)
-
-    def _stiffening_force(self, qf):
-        """dU_G/dq_f, shape (k, nf) (module docstring)."""
-        a, g, c = self._strains(qf)
-        return (np.einsum("ke,kej->kj", self.kEA * c, self.Bu)
-                + np.einsum("ke,kej->kj", self.kEA * (2.0 * a + c), g))
-
-    def _stiffening_matrix(self, qf):
-        """d^2U_G/dq_f^2, shape (k, nf, nf)."""
-        a, g, c = self._strains(qf)
-        cross = np.einsum("ke,kei,kej->kij", self.kEA, self.Bu, g)
-        return (2.0 * (cross + cross.transpose(0, 2, 1))
-                + 2.0 * np.einsum("ke,kei,kej->kij", self.kEA, g, g)
-                + np.einsum("ke,keij->kij", self.kEA * (2.0 * a + c), self.G))
-
-    def tangent_stiffness(self, qx) -> np.ndarray:
-        """K (+ d^2U_G/dq_f^2 with geometric stiffening) of every beam at q,
-        shape (k, nf, nf) [N/m, N, N m]."""
-        if not self.stiffening.any():
-            return self.K
-        return self.K + self._stiffening_matrix(qx[self.cols][:, 3:])
-
-    def _stiffening_energy(self, qf):
-        """U_G of every beam, shape (..., k)."""
-        a, _, c = self._strains(qf)
-        return np.einsum("ke,...ke->...k", self.kEA, a * c + 0.25 * c * c)
+        return self._blocks(qx, None, ax, FFR_MXQ)[4]
 
     # -- forces ------------------------------------------------------------------------------
     def forces(self, qx, vx, t):
-        """Local Q = Q_v - K q_f + Q_gravity, shape (k, c) [N, N m]."""
-        q, v = qx[self.cols], vx[self.cols]
-        phi, qf, A, B, s_bar, a_U, a_T = self._parts(q)
-        w, qd = v[:, 2], v[:, 3:]
-        w2 = (w * w)[:, None]
-        out = np.empty((len(q), self.c))
-        out[:, 0:2] = (w2 * np.einsum("kab,kb->ka", A, s_bar)
-                       - 2.0 * w[:, None] * np.einsum("kab,kbj,kj->ka", B, self.S_bar, qd))
-        out[:, 2] = -2.0 * w * np.einsum("ki,ki->k", a_U, qd)
-        out[:, 3:] = (w2 * a_U - 2.0 * w[:, None] * np.einsum("kij,kj->ki", self.S_tilde, qd)
-                      - np.einsum("kij,kj->ki", self.K, qf))
-        if self.stiffening.any():
-            out[:, 3:] -= self._stiffening_force(qf)
-        if self.gravity is not None:
-            g = self.gravity
-            out[:, 0:2] += self.m[:, None] * g
-            out[:, 2] += np.einsum("kab,kb,a->k", B, s_bar, g)
-            out[:, 3:] += np.einsum("kaj,kba,b->kj", self.S_bar, A, g)   # S_bar^T A^T g
-        return out
+        """Local Q = Q_v - K q_f (- dU_G/dq_f) + Q_gravity, shape (k, c) [N, N m]."""
+        return self._blocks(qx, vx, None, FFR_Q)[1]
 
     def derivatives(self, qx, vx, t):
         """Local (Q_q, Q_v), each shape (k, c, c)."""
-        q, v = qx[self.cols], vx[self.cols]
-        phi, qf, A, B, s_bar, a_U, a_T = self._parts(q)
-        w, qd = v[:, 2], v[:, 3:]
-        kk, c = len(q), self.c
-        w1, w2 = w[:, None], (w * w)[:, None]
-        As = np.einsum("kab,kb->ka", A, s_bar)
-        Bs = np.einsum("kab,kb->ka", B, s_bar)
-        ASb = np.einsum("kab,kbj->kaj", A, self.S_bar)
-        BSb = np.einsum("kab,kbj->kaj", B, self.S_bar)
-        Sq = np.einsum("kij,kj->ki", self.S_tilde, qd)
-        Qq, Qv = np.zeros((kk, c, c)), np.zeros((kk, c, c))
-        # Q_R = w^2 A s_bar - 2 w B S_bar qd
-        Qq[:, 0:2, 2] = w2 * Bs + 2.0 * w1 * np.einsum("kaj,kj->ka", ASb, qd)
-        Qq[:, 0:2, 3:] = w2[:, :, None] * ASb
-        Qv[:, 0:2, 2] = 2.0 * w1 * As - 2.0 * np.einsum("kaj,kj->ka", BSb, qd)
-        Qv[:, 0:2, 3:] = -2.0 * w1[:, :, None] * BSb
-        # Q_phi = -2 w a_U . qd
-        Qq[:, 2, 3:] = -2.0 * w1 * np.einsum("kij,kj->ki", self.M_ff, qd)
-        Qv[:, 2, 2] = -2.0 * np.einsum("ki,ki->k", a_U, qd)
-        Qv[:, 2, 3:] = -2.0 * w1 * a_U
-        # Q_f = w^2 a_U - 2 w S_tilde qd - K q_f
-        Qq[:, 3:, 3:] = w2[:, :, None] * self.M_ff - self.K
-        if self.stiffening.any():
-            Qq[:, 3:, 3:] -= self._stiffening_matrix(qf)
-        Qv[:, 3:, 2] = 2.0 * w1 * a_U - 2.0 * Sq
-        Qv[:, 3:, 3:] = -2.0 * w1[:, :, None] * self.S_tilde
-        if self.gravity is not None:
-            g = self.gravity
-            Qq[:, 2, 2] += -np.einsum("ka,a->k", As, g)
-            Qq[:, 2, 3:] += np.einsum("kaj,a->kj", BSb, g)
-            Qq[:, 3:, 2] += np.einsum("kaj,a->kj", BSb, g)
+        M, Q, Qq, Qv, Mxq = self._blocks(qx, vx, None, FFR_DQ)
         return Qq, Qv
 
-    # -- energy and momentum -------------------------------------------------------------------
-    def energy(self, qx):
-        """Strain energy plus gravity potential energy of all beams [J]: a
-        float, or shape (...) for rows qx of shape (..., nx)."""
-        q = qx[..., self.cols]
-        qf = q[..., 3:]
-        e = 0.5 * np.einsum("...ki,kij,...kj->...", qf, self.K, qf)
-        if self.stiffening.any():
-            e = e + np.sum(self._stiffening_energy(qf), axis=-1)
-        if self.gravity is not None:
-            A, _ = _AB(q[..., 2])
-            s_bar = self.s0 + np.einsum("kaj,...kj->...ka", self.S_bar, qf)
-            e = e - np.sum(self.m * (q[..., 0:2] @ self.gravity), axis=-1)
-            e = e - np.einsum("a,...kab,...kb->...", self.gravity, A, s_bar)
-        return e
+    def tangent_stiffness(self, qx) -> np.ndarray:
+        """K (+ d^2U_G/dq_f^2 with geometric stiffening) of every beam at q,
+        shape (k, nf, nf) [N/m, N, N m]: -Q_q's elastic block at rest."""
+        Qq = self.derivatives(qx, np.zeros(len(qx)), 0.0)[0]
+        return -Qq[:, 3:, 3:]
 
-    def strain_energy(self, qx) -> np.ndarray:
-        """q_f^T K q_f / 2 (+ U_G with geometric stiffening) of each beam, shape (k,) [J]."""
-        qf = qx[self.cols][:, 3:]
-        e = 0.5 * np.einsum("ki,kij,kj->k", qf, self.K, qf)
-        return e + self._stiffening_energy(qf) if self.stiffening.any() else e
+    # -- energy ------------------------------------------------------------------------------
+    def energy(self, qx, gravity: bool = True):
+        """Strain energy (+ with ``gravity`` the gravity potential energy) of
+        all beams [J]: a float, or shape (...) for rows qx of shape (..., n
+        or n + 3) (``compiled.beam_energies``)."""
+        cm = self._kernel_model()
+        rows = np.ascontiguousarray(np.reshape(qx, (-1, np.shape(qx)[-1])), dtype=np.float64)
+        out = np.empty(len(rows))
+        cm.K.beam_energies(cm.ints, cm.floats, self.first, self.first + len(self.beams), rows,
+                           bool(gravity), out)
+        return float(out[0]) if np.ndim(qx) == 1 else out.reshape(np.shape(qx)[:-1])

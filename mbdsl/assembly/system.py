@@ -96,9 +96,13 @@ class AssembledSystem:
             else None
         self.flexible_groups = [FlexibleBeamGroup(cmap, beams, gravity) for beams in by_size.values()]
         rigid = np.ones(n, dtype=bool)
+        first = 0
         for g in self.flexible_groups:
-            mass[g.cols] = np.diagonal(g.mass_blocks(np.zeros(n)), axis1=1, axis2=2)
+            mass[g.cols] = g.mass_diagonal
             rigid[g.cols.ravel()] = False
+            g.bind(self.kernel_model, first)
+            first += len(g.beams)
+        self._kernel_models = {}
         self.mass_diag = mass
         self._rigid_cols = np.flatnonzero(rigid)
         self.mass_is_constant = not self.flexible_groups
@@ -294,6 +298,34 @@ class AssembledSystem:
         self.pattern_diagonal = (np.arange(self.n), np.arange(self.n))
         self.pattern_mass = _concat_pattern([rc] + [g.pattern[0] for g in self.flexible_groups],
                                             [rc] + [g.pattern[1] for g in self.flexible_groups])
+
+    # -- kernels ------------------------------------------------------------------
+    def kernel_model(self):
+        """The model data packed for the kernels (``integrators.engine.CompiledModel``),
+        on the kernels this process can call without compiling: the compiled
+        ones once it has loaded them or the machine's cache holds them
+        (``kernel_cache``), else their uncompiled copy. Built once per
+        kind and kept; the elements whose physics the kernels alone evaluate
+        (the flexible beams) call them through it."""
+        from ..integrators import kernel_cache
+        cm = self._kernel_models.get(True)
+        if cm is not None:
+            return cm
+        if "ready" not in self._kernel_models:
+            self._kernel_models["ready"] = kernel_cache.kernels_ready()
+        compiled = kernel_cache.loaded() or self._kernel_models["ready"]
+        cm = self._kernel_models.get(compiled)
+        if cm is None:
+            from ..integrators.engine import CompiledModel, _kernels
+            cm = self._kernel_models[compiled] = CompiledModel(self, _kernels(not compiled))
+        return cm
+
+    def __getstate__(self):
+        """Pickled without the kernel models (they hold a module)."""
+        state = self.__dict__.copy()
+        state["_kernel_models"] = {}
+        state.pop("_compiled_model", None)
+        return state
 
     # -- helpers ------------------------------------------------------------------
     def _ext(self, x):

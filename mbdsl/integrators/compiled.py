@@ -1551,6 +1551,73 @@ def _beam_mass_add(I, Fl, qM, x, coef, out):
 
 
 @_jit
+def _ffr_energy(I, Fl, b, qx, gravity):
+    """Potential energy of beam b at qx [J]: the strain energy q_f^T K q_f / 2
+    (+ U_G = sum_e k_e (a_e c_e + c_e^2 / 4) with geometric stiffening) and,
+    with ``gravity`` and a gravity field g, - m g . R - g . A s_bar
+    (``ffr`` module notes; zero at y = 0 and an undeformed beam)."""
+    k0, nf, f0, ne = _i(I, BEAM, b, 0), _i(I, BEAM, b, 1), _i(I, BEAM, b, 2), _i(I, BEAM, b, 3)
+    d0, dm = _i(I, BEAM, b, 4), _i(I, BEAM, b, 5)
+    sb_ = f0 + 4
+    kk_ = f0 + 4 + 4 * nf + 2 * nf * nf
+    kea_ = kk_ + nf * nf
+    bu_, gg_ = kea_ + ne, kea_ + ne + ne * dm
+    qf = np.empty(nf)
+    for j in range(nf):
+        qf[j] = qx[_i(I, BCOL, k0 + 3 + j, 0)]
+    e = 0.0
+    for i in range(nf):
+        acc = 0.0
+        for j in range(nf):
+            acc += _bd(I, Fl, kk_ + i * nf + j) * qf[j]
+        e += 0.5 * qf[i] * acc
+    for el in range(ne):
+        ae, ce = 0.0, 0.0
+        for i in range(dm):
+            fi = qf[_i(I, BDOF, d0 + el * dm + i, 0)]
+            ae += _bd(I, Fl, bu_ + el * dm + i) * fi
+            for j in range(dm):
+                fj = qf[_i(I, BDOF, d0 + el * dm + j, 0)]
+                ce += fi * _bd(I, Fl, gg_ + (el * dm + i) * dm + j) * fj
+        e += _bd(I, Fl, kea_ + el) * (ae * ce + 0.25 * ce * ce)
+    if gravity and _rows(I, GRAV) > 0:
+        gx, gy = _f(I, Fl, GRAV, 0, 0), _f(I, Fl, GRAV, 1, 0)
+        sbx, sby = _bd(I, Fl, f0 + 1), _bd(I, Fl, f0 + 2)
+        for i in range(nf):
+            sbx += _bd(I, Fl, sb_ + i) * qf[i]
+            sby += _bd(I, Fl, sb_ + nf + i) * qf[i]
+        ph = qx[_i(I, BCOL, k0 + 2, 0)]
+        cs, sn = math.cos(ph), math.sin(ph)
+        m = _bd(I, Fl, f0)
+        e -= (m * (gx * qx[_i(I, BCOL, k0, 0)] + gy * qx[_i(I, BCOL, k0 + 1, 0)])
+              + gx * (cs * sbx - sn * sby) + gy * (sn * sbx + cs * sby))
+    return e
+
+
+@_jit
+def beam_blocks(I, Fl, b0, qx, vx, x, what, M, Q, Qq, Qv, Mxq):
+    """The local blocks of beams b0 .. b0 + k - 1 (k = len(M), all of one size
+    c = 3 + nf), as ``_ffr_local`` evaluates them: M(q) into M (k, c, c),
+    Q into Q (k, c), Q_q and Q_v into Qq, Qv (k, c, c), (M(q) x)_q into Mxq
+    (k, c, c), as the FFR_* bits of ``what`` ask; qx, vx and x extended
+    vectors (nx,). The one evaluation of the beams' physics that Python
+    calls (``assembly.ffr.FlexibleBeamGroup``)."""
+    for k in range(M.shape[0]):
+        _ffr_local(I, Fl, b0 + k, qx, vx, x, what, M[k], Q[k], Qq[k], Qv[k], Mxq[k])
+
+
+@_jit
+def beam_energies(I, Fl, b0, b1, qx, gravity, out):
+    """out[r] = the potential energy of beams b0 .. b1 - 1 at row qx[r]
+    (``_ffr_energy``; qx (N, nx), out (N,) [J])."""
+    for r in range(qx.shape[0]):
+        e = 0.0
+        for b in range(b0, b1):
+            e += _ffr_energy(I, Fl, b, qx[r], gravity)
+        out[r] = e
+
+
+@_jit
 def _emit_beams(I, Fl, qx, vx, x, what, R, C, V, p, r0, c0, c1, c2):
     """Every beam's local block(s) at (r0, c0): c1 M (FFR_M), c1 (M x)_q
     (FFR_MXQ), or -(c1 Q_q + c2 Q_v) (FFR_DQ); all c x c entries, so that

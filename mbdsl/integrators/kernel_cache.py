@@ -188,9 +188,11 @@ def warm_up(groups=GROUPS, output: bool = True, loops=(False, True)) -> None:
       ``mobility``, ``force_term``);
 
     and with ``output`` the kernels of the output's index-1 multipliers
-    (``index1_multipliers``) and of the contacts' energy and dissipated power
+    (``index1_multipliers``), of the contacts' energy and dissipated power
     (``contact_rows``), which a run with warm kernels loads when its output
-    first needs them. ``loops``: the fixed-step loop (False), the
+    first needs them, and of the flexible beams' blocks and energies
+    (``beam_blocks``, ``beam_energies``), which every evaluation of a beam
+    outside the compiled loops calls. ``loops``: the fixed-step loop (False), the
     error-controlled one (True), or both: a run with warm kernels loads the
     one it takes (each is a third of a second from numba's cache on two
     cores; measured on the slider crank's command, 0.75 s for both).
@@ -216,7 +218,13 @@ def warm_up(groups=GROUPS, output: bool = True, loops=(False, True)) -> None:
         from .engine import CompiledModel, contact_row_kernel, index1_multipliers
         index1_multipliers(system, np.zeros(1), np.zeros((1, system.n)), np.zeros((1, system.n)))
         rows = np.zeros((1, system.nx))
-        contact_row_kernel(CompiledModel(system))(rows, rows, np.zeros((1, 0)))
+        cm = CompiledModel(system)
+        contact_row_kernel(cm)(rows, rows, np.zeros((1, 0)))
+        # the flexible beams' evaluations from Python (``FlexibleBeamGroup``),
+        # with the argument types it passes: no beam here, the signatures only
+        blocks = [np.zeros((0, 3, 3)), np.zeros((0, 3))] + [np.zeros((0, 3, 3))] * 3
+        cm.K.beam_blocks(cm.ints, cm.floats, 0, rows[0], rows[0], rows[0], 1, *blocks)
+        cm.K.beam_energies(cm.ints, cm.floats, 0, 0, rows, True, np.zeros(1))
 
 
 def ensure_loaded(group: str | None = None, announce=None, adaptive: bool = False) -> float:

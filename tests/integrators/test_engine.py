@@ -294,11 +294,13 @@ def test_kernel_newton_matrix_is_the_derivative_of_the_kernel_residual(method, f
 def test_kernel_newton_matrix_of_flexible_beams(method, first, path, overrides):
     # The FFR beam's M(q), (M x)_q, Q, Q_q and Q_v, and the elastic columns of the
     # joints on beam points: the kernel Newton matrix against differences of the
-    # kernel residual, and both against the numpy engine's (independent vectorised
-    # groups, ``assembly/ffr.py``). The second comparison is the sharp one: a sign
-    # flipped in one mixed (phi, q_f) entry of a joint's Hessian moves the matrix by
-    # 1e-7 of its largest entry, inside the differences' tolerance, 1e10 times the
-    # round-off the two engines agree to.
+    # kernel residual, and both against the numpy engine's (the methods' numpy
+    # assembly; the joints' vectorised groups; the beams' blocks from the kernels,
+    # which ``tests/flexible/test_beam_kernels.py`` checks against an independent
+    # oracle). The second comparison is the sharp one: a sign flipped in one mixed
+    # (phi, q_f) entry of a joint's Hessian moves the matrix by 1e-7 of its largest
+    # entry, inside the differences' tolerance, 1e10 times the round-off the two
+    # engines agree to.
     system, init = _system(path, **overrides)
     m = make_method(method)
     ad = SparseAdapter(system, m)
