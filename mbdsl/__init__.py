@@ -234,6 +234,8 @@ def simulate(model: Model, method: str | None = None, h: float | None = None,
     import time
     t0 = time.perf_counter()
     system = assemble(model)
+    if engine == "uncompiled":       # nothing compiled is imported, not even outside the loop
+        system.kernels = "uncompiled"
     t_start = float(s.get("t_start", 0.0))
     chosen = formulation or s.get("formulation")
     formulated = m.formulated(chosen or "lagrange", system)   # an unknown or refused one: now

@@ -1,16 +1,16 @@
-"""Element groups: every instance of one element type evaluated at once.
+"""Element groups: every instance of one element type at once.
 
 Each group stores its instances as a struct of arrays (body columns,
-body-fixed vectors, parameters) built once, and evaluates with vectorised
-numpy. A constraint group returns *local* arrays over the ``c`` coordinates
-it touches (columns ``cols``, shape (k, c), into the extended coordinate
-vector q_ext = [q, 0, 0, 0], where the three trailing zeros are the ground):
-
-* ``phi``  (k, r)        constraint values
-* ``jac``  (k, r, c)     d phi / d q_local
-* ``hess`` (k, r, c, c)  d^2 phi / d q_local^2 (None for linear groups)
-
-and the system scatters them. All formulas are in absolute planar
+body-fixed vectors, parameters) built once: the model data
+``integrators.engine.CompiledModel`` packs for the kernels. A constraint
+group (rows ``rows`` (k, r), columns ``cols`` (k, c) into the extended
+coordinate vector q_ext = [q, 0, 0, 0], where the three trailing zeros are
+the ground) holds data only: the kernels of ``integrators/compiled.py`` are
+the one evaluation of Phi and its derivatives (``AssembledSystem.Phi`` and
+the functions after it), and ``tests/assembly/constraint_oracle.py`` an
+independent numpy one they are tested against. The force groups still
+evaluate their loads here, vectorised (local Q (k, c), Q_q and Q_v (k, c,
+c), scattered by the system). All formulas are in absolute planar
 coordinates (Haug, Computer-Aided Kinematics and Dynamics of Mechanical
 Systems, ch. 3; Nikravesh, Computer-Aided Analysis of Mechanical Systems,
 ch. 4): A(phi) is the rotation matrix, B(phi) = dA/dphi, and
@@ -185,24 +185,13 @@ class CoincidenceGroup:
     """
 
     r = 2
+    nonlinear = True
 
     def __init__(self, cmap, rows, first, second):
         self.rows = np.asarray(rows, dtype=np.intp).reshape(-1, 2)
         self.pair = _PointPair(cmap, first, second)
         self.cols = self.pair.cols
         self.time_dependent = False
-
-    def phi(self, qx, t):
-        """Constraint values, shape (..., k, 2) [m]."""
-        return self.pair.difference(*self.pair.split(qx))
-
-    def jac(self, qx):
-        """Local Jacobian, shape (..., k, 2, c)."""
-        return self.pair.difference_jac(*self.pair.split(qx))
-
-    def hess(self, qx):
-        """Local Hessian, shape (k, 2, c, c)."""
-        return self.pair.difference_hess(*self.pair.split(qx))
 
 
 class DistanceGroup:
@@ -218,6 +207,7 @@ class DistanceGroup:
     """
 
     r = 1
+    nonlinear = True
 
     def __init__(self, cmap, rows, first, second, lengths):
         self.rows = np.asarray(rows, dtype=np.intp).reshape(-1, 1)
@@ -225,45 +215,6 @@ class DistanceGroup:
         self.cols = self.pair.cols
         self.L = np.asarray(lengths, float).reshape(-1)
         self.time_dependent = False
-        k, c = self.cols.shape
-        self._hess = np.zeros((k, 1, c, c))
-
-    def phi(self, qx, t):
-        """Constraint values, shape (..., k, 1) [m]."""
-        d = self.pair.difference(*self.pair.split(qx))
-        return ((np.einsum("...a,...a->...", d, d) - self.L ** 2) / (2.0 * self.L))[..., None]
-
-    def jac(self, qx):
-        """Local Jacobian, shape (..., k, 1, c)."""
-        q1, q2 = self.pair.split(qx)
-        d = self.pair.difference(q1, q2)
-        D = self.pair.difference_jac(q1, q2)
-        return (np.einsum("...a,...aj->...j", d, D) / self.L[:, None])[..., None, :]
-
-    def hess(self, qx):
-        """Local Hessian, shape (k, 1, c, c)."""
-        q1, q2 = self.pair.split(qx)
-        d = self.pair.difference(q1, q2)
-        D = self.pair.difference_jac(q1, q2)
-        DD = self.pair.difference_hess(q1, q2)
-        H = self._hess
-        H[:, 0] = (np.einsum("kai,kaj->kij", D, D) + np.einsum("ka,kaij->kij", d, DD)) \
-            / self.L[:, None, None]
-        return H
-
-
-def _time_functions(functions, t, which):
-    """f(t) (``which`` "f", "df" or "ddf") of every instance (None: 0), shape
-    (k,), or (..., k) for an array of times."""
-    if np.ndim(t) == 0:
-        return np.array([0.0 if f is None else getattr(f, which)(t) for f in functions])
-    t = np.asarray(t, dtype=float)
-    out = np.zeros(t.shape + (len(functions),))
-    for i, f in enumerate(functions):
-        if f is not None:
-            g = getattr(f, which)
-            out[..., i] = np.fromiter((g(x) for x in t.ravel()), float, t.size).reshape(t.shape)
-    return out
 
 
 class PointOnLineGroup:
@@ -286,63 +237,16 @@ class PointOnLineGroup:
     """
 
     r = 1
+    nonlinear = True
 
     def __init__(self, cmap, rows, point, line, normal, functions=None):
         self.rows = np.asarray(rows, dtype=np.intp).reshape(-1, 1)
         self.pair = _PointPair(cmap, line, point)          # d = p_P - p_L
         self.cols = self.pair.cols
         self.n0 = np.asarray(normal, float).reshape(-1, 2)
-        k, c = self.cols.shape
-        self._jac = np.zeros((k, 1, c))
-        self._hess = np.zeros((k, 1, c, c))
+        k = len(self.rows)
         self.functions = list(functions) if functions is not None else [None] * k
         self.time_dependent = any(f is not None for f in self.functions)
-
-    def _f(self, t, which):
-        """f(t) (or a derivative) of every instance, shape (k,) or (..., k)."""
-        return _time_functions(self.functions, t, which)
-
-    def phi_t(self, t):
-        """d Phi / dt, shape (..., k, 1) (t a scalar or an array of shape (...))."""
-        return -self._f(t, "df")[..., None]
-
-    def phi_tt(self, t):
-        """d^2 Phi / dt^2, shape (..., k, 1)."""
-        return -self._f(t, "ddf")[..., None]
-
-    def _parts(self, qx):
-        qL, qP = self.pair.split(qx)
-        phiL = qL[..., 2]
-        return qL, qP, rot(phiL, self.n0), drot(phiL, self.n0), self.pair.difference(qL, qP)
-
-    def phi(self, qx, t):
-        """Constraint values, shape (..., k, 1) [m]; t a scalar or, for several
-        rows qx (..., nx), an array of shape (...)."""
-        _, _, nvec, _, d = self._parts(qx)
-        val = np.einsum("...a,...a->...", nvec, d)
-        if self.time_dependent:
-            val = val - self._f(t, "f")
-        return val[..., None]
-
-    def jac(self, qx):
-        """Local Jacobian, shape (..., k, 1, c) (for one row a reused buffer)."""
-        qL, qP, nvec, Bn, d = self._parts(qx)
-        J = self._jac if qx.ndim == 1 else np.empty(qL.shape[:-1] + self._jac.shape[1:])
-        J[..., 0, :] = np.einsum("...a,...aj->...j", nvec, self.pair.difference_jac(qL, qP))
-        J[..., 0, 2] += np.einsum("...a,...a->...", Bn, d)
-        return J
-
-    def hess(self, qx):
-        """Local Hessian, shape (k, 1, c, c)."""
-        qL, qP, nvec, Bn, d = self._parts(qx)
-        D = self.pair.difference_jac(qL, qP)
-        H = self._hess
-        H[:, 0] = np.einsum("ka,kaij->kij", nvec, self.pair.difference_hess(qL, qP))
-        BnD = np.einsum("ka,kaj->kj", Bn, D)
-        H[:, 0, 2, :] += BnD
-        H[:, 0, :, 2] += BnD
-        H[:, 0, 2, 2] -= np.einsum("ka,ka->k", nvec, d)
-        return H
 
 
 class LinearConstraintGroup:
@@ -358,7 +262,7 @@ class LinearConstraintGroup:
     """
 
     r = 1
-    hess = None
+    nonlinear = False
 
     def __init__(self, cmap, rows, cols, coefs, offset, functions):
         self.rows = np.asarray(rows, dtype=np.intp).reshape(-1, 1)
@@ -366,33 +270,7 @@ class LinearConstraintGroup:
         self.coefs = np.asarray(coefs, float).reshape(-1, 2)
         self.offset = np.asarray(offset, float)
         self.functions = list(functions)
-        self._jac = self.coefs[:, None, :].copy()
         self.time_dependent = any(f is not None for f in self.functions)
-
-    def _f(self, t, which):
-        """f(t) (or a derivative) of every instance, shape (k,), or (..., k)
-        for an array of times."""
-        return _time_functions(self.functions, t, which)
-
-    def phi(self, qx, t):
-        """Constraint values, shape (..., k, 1) [m or rad]; t a scalar or,
-        for several rows qx (..., nx), an array of shape (...)."""
-        val = np.einsum("kj,...kj->...k", self.coefs, qx[..., self.cols]) - self.offset
-        if self.time_dependent:
-            val = val - self._f(t, "f")
-        return val[..., None]
-
-    def jac(self, qx):
-        """Constant local Jacobian, shape (k, 1, 2)."""
-        return self._jac
-
-    def phi_t(self, t):
-        """d Phi / dt, shape (..., k, 1) (t a scalar or an array of shape (...))."""
-        return -self._f(t, "df")[..., None]
-
-    def phi_tt(self, t):
-        """d^2 Phi / dt^2, shape (..., k, 1)."""
-        return -self._f(t, "ddf")[..., None]
 
 
 # ---------------------------------------------------------------------------

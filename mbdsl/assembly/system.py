@@ -15,11 +15,17 @@ declaration order, then driver rows). Sign convention:
 ``M a + Phi_q^T lambda = Q``, so lambda is the negative of the constraint
 force in the joint's row direction. SI units.
 
-Every matrix term also exists as values on a sparsity pattern fixed at build
-(``pattern_*`` attributes and ``*_values`` methods), which is what the Newton
-matrices are assembled from (``assembly/sparse.py``); the dense ``Phi_q``,
-``PhiqT_lam_q``, ... are built from the same patterns. Residuals use the
-matrix-free products ``PhiqT_times`` and ``Phiq_times``.
+Every matrix term also exists as values on a sparsity pattern fixed by the
+model (``pattern_*`` attributes and ``*_values`` methods), which is what the
+Newton matrices are assembled from (``assembly/sparse.py``); the dense
+``Phi_q``, ``PhiqT_lam_q``, ... are built from the same patterns. Residuals use
+the matrix-free products ``PhiqT_times`` and ``Phiq_times``.
+
+The physics of the joints, drivers and flexible beams is evaluated by the
+kernels of ``integrators/compiled.py`` (their one implementation; the
+constraint patterns are the kernels' triplets), through
+:meth:`AssembledSystem.kernel_model`; the applied loads by the force groups
+of ``groups.py``.
 
 Only what the model declares is built and evaluated: a model without gravity
 has no gravity vector, a model without springs no spring group, and the
@@ -162,32 +168,11 @@ class AssembledSystem:
         if dist:
             r, p1, p2, lengths = zip(*dist)
             self.constraint_groups.append(DistanceGroup(cmap, r, p1, p2, lengths))
-        self.nonlinear_groups = [g for g in self.constraint_groups if g.hess is not None]
+        self.nonlinear_groups = [g for g in self.constraint_groups if g.nonlinear]
         self.timed_groups = [g for g in self.constraint_groups if g.time_dependent]
-        # Sparsity patterns fixed here, once: Phi_q-shaped blocks (row, col) and
-        # the n x n Hessian contractions (col, col); entries in the ground's
-        # dummy columns (index >= n) are masked out.
-        n = self.n
-        self._jac_mask, rows, cols = [], [], []
-        for g in self.constraint_groups:
-            rr = np.broadcast_to(g.rows[:, :, None], (len(g.rows), g.r, g.cols.shape[1]))
-            cc = np.broadcast_to(g.cols[:, None, :], rr.shape)
-            mask = cc < n
-            self._jac_mask.append(mask)
-            rows.append(rr[mask])
-            cols.append(cc[mask])
-        self.pattern_Phi_q = _concat_pattern(rows, cols)
-        nl = [i for i, g in enumerate(self.constraint_groups) if g.hess is not None]
-        self.pattern_Phiq_v_q = _concat_pattern([rows[i] for i in nl], [cols[i] for i in nl])
-        self._hess_mask, hr, hc = [], [], []
-        for g in self.nonlinear_groups:
-            ci = np.broadcast_to(g.cols[:, :, None], (len(g.cols),) + (g.cols.shape[1],) * 2)
-            cj = np.broadcast_to(g.cols[:, None, :], ci.shape)
-            mask = (ci < n) & (cj < n)
-            self._hess_mask.append(mask)
-            hr.append(ci[mask])
-            hc.append(cj[mask])
-        self.pattern_hessian = _concat_pattern(hr, hc)
+        # the constraints' sparsity patterns are the kernels' triplets, fixed by
+        # the model: read once, on first use (``_constraint_pattern``)
+        self._patterns = {}
 
     def _build_forces(self, model):
         n, cmap = self.n, self.cmap
@@ -300,20 +285,27 @@ class AssembledSystem:
                                             [rc] + [g.pattern[1] for g in self.flexible_groups])
 
     # -- kernels ------------------------------------------------------------------
+    #: Which kernels evaluate this system outside the compiled loops: "auto" (see
+    #: :meth:`kernel_model`) or "uncompiled" (the uncompiled engine's runs: nothing
+    #: compiled is imported).
+    kernels = "auto"
+
     def kernel_model(self):
         """The model data packed for the kernels (``integrators.engine.CompiledModel``),
         on the kernels this process can call without compiling: the compiled
         ones once it has loaded them or the machine's cache holds them
-        (``kernel_cache``), else their uncompiled copy. Built once per
-        kind and kept; the elements whose physics the kernels alone evaluate
-        (the flexible beams) call them through it."""
+        (``kernel_cache``), else their uncompiled copy (always with
+        ``kernels = "uncompiled"``). Built once per kind and kept; the joints,
+        drivers and flexible beams, whose physics the kernels alone evaluate,
+        call them through it."""
         from ..integrators import kernel_cache
-        cm = self._kernel_models.get(True)
-        if cm is not None:
-            return cm
-        if "ready" not in self._kernel_models:
-            self._kernel_models["ready"] = kernel_cache.kernels_ready()
-        compiled = kernel_cache.loaded() or self._kernel_models["ready"]
+        compiled = False
+        if self.kernels != "uncompiled":
+            if True in self._kernel_models:
+                return self._kernel_models[True]
+            if "ready" not in self._kernel_models:      # the marker: read once per system
+                self._kernel_models["ready"] = kernel_cache.kernels_ready()
+            compiled = kernel_cache.loaded() or self._kernel_models["ready"]
         cm = self._kernel_models.get(compiled)
         if cm is None:
             from ..integrators.engine import CompiledModel, _kernels
@@ -489,28 +481,93 @@ class AssembledSystem:
                 None if Qv is None else self._dense(self.pattern_force, Qv, shape))
 
     # -- constraints ------------------------------------------------------------------
+    # Evaluated by the kernels (``compiled.constraint_rows``, ``constraint_products``,
+    # ``constraint_matrix_rows``), the one implementation of the joints and drivers;
+    # every function takes one state or rows of a stored solution.
+    def _ext_rows(self, x):
+        """x (n,) or (..., n) -> contiguous rows (N, nx) with the ground's three
+        zeros, and the leading shape (...)."""
+        x = np.asarray(x, dtype=float)
+        lead = x.shape[:-1]
+        rows = np.zeros((int(np.prod(lead, dtype=int)), self.nx))
+        rows[:, : self.n] = x.reshape(-1, self.n)
+        return rows, lead
+
+    @staticmethod
+    def _times(t, lead) -> np.ndarray:
+        """t (a scalar or shape lead) as contiguous rows (N,), a writable copy (one
+        argument type for the compiled kernels, not a read-only broadcast view)."""
+        return np.array(np.broadcast_to(np.asarray(t, dtype=float), lead).reshape(-1))
+
+    def _constraint_pattern(self, what: int):
+        """(rows, cols) of the triplets of Phi_q (``what`` 0), (Phi_q^T lambda)_q
+        (1) or (Phi_q v)_q (2), each shape (nnz,), fixed by the model."""
+        pattern = self._patterns.get(what)
+        if pattern is None:
+            cm = self.kernel_model()
+            R, C = np.empty(cm.bound, np.int64), np.empty(cm.bound, np.int64)
+            V = np.empty((1, cm.bound))
+            p = cm.K.constraint_matrix_rows(cm.ints, cm.floats, np.zeros((1, self.nx)),
+                                            np.zeros((1, self.nx + self.m)), what, R, C, V)
+            pattern = self._patterns[what] = (R[:p].astype(np.intp), C[:p].astype(np.intp))
+        return pattern
+
+    @property
+    def pattern_Phi_q(self):
+        """(rows, cols) of ``Phi_q_values``, each shape (nnz,), in (m, n)."""
+        return self._constraint_pattern(0)
+
+    @property
+    def pattern_hessian(self):
+        """(rows, cols) of ``PhiqT_lam_q_values``, each shape (nnz,), in (n, n)."""
+        return self._constraint_pattern(1)
+
+    @property
+    def pattern_Phiq_v_q(self):
+        """(rows, cols) of ``Phiq_v_q_values``, each shape (nnz,), in (m, n)."""
+        return self._constraint_pattern(2)
+
+    def _constraint_values(self, what, q, y, width):
+        """Values of a constraint matrix (``_constraint_pattern``) at rows q
+        (..., n) with y (..., width) (lambda or v; ``width`` nx pads v with the
+        ground's zeros), shape (..., nnz)."""
+        rows, lead = self._ext_rows(q)
+        nnz = len(self._constraint_pattern(what)[0])
+        yr = np.zeros((len(rows), max(width, 1)))
+        if y is not None:
+            yy = np.asarray(y, dtype=float)
+            yr[:, : yy.shape[-1]] = np.broadcast_to(yy, lead + yy.shape[-1:]).reshape(len(rows), -1)
+        V = np.empty((len(rows), nnz))
+        if nnz and len(rows):
+            cm = self.kernel_model()
+            R, C = np.empty(nnz, np.int64), np.empty(nnz, np.int64)
+            cm.K.constraint_matrix_rows(cm.ints, cm.floats, rows, yr, what, R, C, V)
+        return V.reshape(lead + (nnz,))
+
+    def _constraint_rows(self, what, q, t, lead=None):
+        """Phi (``what`` 0), Phi_t (1) or Phi_tt (2) at rows, shape (..., m)."""
+        if lead is None:
+            rows, lead = self._ext_rows(q)
+        else:                                     # Phi_t, Phi_tt: q is not read
+            rows = np.zeros((int(np.prod(lead, dtype=int)), self.nx))
+        out = np.empty((len(rows), self.m))
+        if self.m and len(rows):
+            cm = self.kernel_model()
+            cm.K.constraint_rows(cm.ints, cm.floats, self._times(t, lead), rows, what, out)
+        return out.reshape(lead + (self.m,))
+
     def Phi(self, q, t) -> np.ndarray:
         """Constraint values Phi(q, t), shape (m,) [m or rad].
 
         Rows of a stored solution at once: q of shape (N, n) and t of shape
-        (N,) give shape (N, m) (the same element code, vectorised over rows).
+        (N,) give shape (N, m).
         """
-        qx = self._ext(q)
-        out = np.empty(qx.shape[:-1] + (self.m,))
-        for g in self.constraint_groups:
-            out[..., g.rows] = g.phi(qx, t)
-        return out
+        return self._constraint_rows(0, q, t)
 
     def Phi_q_values(self, q, t=0.0) -> np.ndarray:
         """Values of Phi_q on ``pattern_Phi_q``, shape (nnz,), or (N, nnz)
         for rows q of shape (N, n)."""
-        qx = self._ext(q)
-        if qx.ndim == 1:
-            return _concat([g.jac(qx)[mask] for g, mask in zip(self.constraint_groups,
-                                                                 self._jac_mask)])
-        parts = [np.broadcast_to(g.jac(qx), qx.shape[:-1] + mask.shape)[..., mask]
-                 for g, mask in zip(self.constraint_groups, self._jac_mask)]
-        return np.concatenate(parts, axis=-1) if parts else np.zeros(qx.shape[:-1] + (0,))
+        return self._constraint_values(0, q, None, 0)
 
     def Phi_q(self, q, t=0.0) -> np.ndarray:
         """Constraint Jacobian, shape (m, n)."""
@@ -518,35 +575,34 @@ class AssembledSystem:
 
     def PhiqT_times(self, q, t, lam) -> np.ndarray:
         """Phi_q^T lambda, shape (n,), without forming Phi_q."""
-        qx = self._ext(q)
-        out = np.zeros(self.nx)
-        for g in self.constraint_groups:
-            np.add.at(out, g.cols, np.einsum("krc,kr->kc", g.jac(qx), lam[g.rows]))
-        return out[: self.n]
+        rows, _ = self._ext_rows(q)
+        out = np.zeros((1, self.nx))
+        if self.m:
+            cm = self.kernel_model()
+            cm.K.constraint_products(cm.ints, cm.floats, rows,
+                                     np.ascontiguousarray(np.reshape(lam, (1, self.m)), dtype=float),
+                                     1, out)
+        return out[0, : self.n]
 
     def Phiq_times(self, q, t, v) -> np.ndarray:
         """Phi_q v, shape (m,), without forming Phi_q; (N, m) for rows q, v
         of shape (N, n)."""
-        qx, vx = self._ext(q), self._ext(v)
-        out = np.empty(qx.shape[:-1] + (self.m,))
-        for g in self.constraint_groups:
-            out[..., g.rows] = np.einsum("...krc,...kc->...kr", g.jac(qx), vx[..., g.cols])
-        return out
+        rows, lead = self._ext_rows(q)
+        vrows, _ = self._ext_rows(np.broadcast_to(v, lead + (self.n,)))
+        out = np.empty((len(rows), self.m))
+        if self.m and len(rows):
+            cm = self.kernel_model()
+            cm.K.constraint_products(cm.ints, cm.floats, rows, vrows, 0, out)
+        return out.reshape(lead + (self.m,))
 
     def Phi_t(self, q, t) -> np.ndarray:
         """Partial time derivative of Phi, shape (m,), or (N, m) for times t
         of shape (N,)."""
-        out = np.zeros(np.shape(t) + (self.m,))
-        for g in self.timed_groups:
-            out[..., g.rows] = g.phi_t(t)
-        return out
+        return self._constraint_rows(1, None, t, lead=np.shape(t))
 
     def Phi_tt(self, q, t) -> np.ndarray:
         """Second partial time derivative of Phi, shape (m,)."""
-        out = np.zeros(self.m)
-        for g in self.timed_groups:
-            out[g.rows] = g.phi_tt(t)
-        return out
+        return self._constraint_rows(2, None, t, lead=np.shape(t))
 
     def Phi_qt(self, q, t) -> np.ndarray:
         """Mixed derivative Phi_qt, shape (m, n).
@@ -560,10 +616,7 @@ class AssembledSystem:
 
     def Phiq_v_q_values(self, q, v) -> np.ndarray:
         """Values of (Phi_q v)_q on ``pattern_Phiq_v_q``."""
-        qx, vx = self._ext(q), self._ext(v)
-        masks = [m for g, m in zip(self.constraint_groups, self._jac_mask) if g.hess is not None]
-        return _concat([np.einsum("krij,kj->kri", g.hess(qx), vx[g.cols])[mask]
-                        for g, mask in zip(self.nonlinear_groups, masks)])
+        return self._constraint_values(2, q, v, self.nx)
 
     def Phiq_v_q(self, q, v) -> np.ndarray:
         """(Phi_q v)_q, shape (m, n)."""
@@ -571,24 +624,19 @@ class AssembledSystem:
 
     def PhiqT_lam_q_values(self, q, lam) -> np.ndarray:
         """Values of (Phi_q^T lambda)_q on ``pattern_hessian``."""
-        qx = self._ext(q)
-        return _concat([np.einsum("krij,kr->kij", g.hess(qx), lam[g.rows])[mask]
-                        for g, mask in zip(self.nonlinear_groups, self._hess_mask)])
+        return self._constraint_values(1, q, lam, self.m)
 
     def PhiqT_lam_q(self, q, lam) -> np.ndarray:
         """(Phi_q^T lambda)_q, shape (n, n), symmetric."""
         return self._dense(self.pattern_hessian, self.PhiqT_lam_q_values(q, lam), (self.n, self.n))
 
     def gamma(self, q, v, t) -> np.ndarray:
-        """Acceleration right side gamma = -(Phi_q v)_q v - 2 Phi_qt v - Phi_tt, shape (m,)."""
-        qx, vx = self._ext(q), self._ext(v)
-        out = np.zeros(self.m)
-        for g in self.nonlinear_groups:
-            vl = vx[g.cols]
-            out[g.rows] = -np.einsum("kj,krij,ki->kr", vl, g.hess(qx), vl)
-        for g in self.timed_groups:
-            out[g.rows] -= g.phi_tt(t)
-        return out
+        """Acceleration right side gamma = -(Phi_q v)_q v - 2 Phi_qt v - Phi_tt,
+        shape (m,) (Phi_qt = 0: :meth:`Phi_qt`)."""
+        rows, cols = self.pattern_Phiq_v_q
+        v = np.asarray(v, dtype=float)
+        out = -np.bincount(rows, weights=self.Phiq_v_q_values(q, v) * v[cols], minlength=self.m)
+        return out - self.Phi_tt(q, t)
 
     def index1_multipliers(self, t, q, v) -> np.ndarray:
         """lambda from the index-1 system at each state, shape (N, m).
@@ -730,10 +778,6 @@ class AssembledSystem:
             qx = self._ext(q)
             e = e + sum(g.energy(qx) for g in self.potential_groups)
         return float(e) if np.ndim(q) == 1 else e
-
-
-def _concat(arrays) -> np.ndarray:
-    return np.concatenate(arrays) if arrays else np.zeros(0)
 
 
 def _concat_pattern(rows, cols):

@@ -636,6 +636,36 @@ def phiq_times(I, Fl, qx, vx, out):
 
 
 @_jit
+def constraint_rows(I, Fl, t, qx, what, out):
+    """Phi (``what`` 0), Phi_t (1) or Phi_tt (2) at the rows t (N,) [s], qx
+    (N, nx) into out (N, m): the constraints' one evaluation that Python
+    calls (``AssembledSystem.Phi``, ``Phi_t``, ``Phi_tt``)."""
+    for r in range(qx.shape[0]):
+        row = out[r]
+        if what == 0:
+            phi(I, Fl, t[r], qx[r], row)
+        else:
+            for j in range(row.shape[0]):
+                row[j] = 0.0
+            _phi_time_add(I, Fl, t[r], row, what)
+
+
+@_jit
+def constraint_products(I, Fl, qx, y, what, out):
+    """Phi_q y (``what`` 0: y (N, nx), out (N, m)) or Phi_q^T y (1: y (N, m),
+    out (N, nx)) at the rows qx (N, nx), without forming Phi_q
+    (``AssembledSystem.Phiq_times``, ``PhiqT_times``)."""
+    for r in range(qx.shape[0]):
+        if what == 0:
+            phiq_times(I, Fl, qx[r], y[r], out[r])
+        else:
+            row = out[r]
+            for j in range(row.shape[0]):
+                row[j] = 0.0
+            phiqT_add(I, Fl, qx[r], y[r], 1.0, row)
+
+
+@_jit
 def _spring_points(I, Fl, qx, i):
     """(d_x, d_y, (A u)_1, (A u)_2) of spring-damper i at qx: d = p2 - p1 [m]
     and its points' offsets from their frames (A u, u = s + S q_e on a
@@ -1820,6 +1850,25 @@ def _emit_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef):
                     p = _put(R, C, V, p, r0 + row, c0 + col, coef * hv)
     if _rows(I, ECOL) > 0:
         p = _emit_elastic_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef)
+    return p
+
+
+@_jit
+def constraint_matrix_rows(I, Fl, qx, y, what, R, C, V):
+    """The triplets of Phi_q (``what`` 0), (Phi_q^T y)_q (1; y (N, m)) or
+    (Phi_q y)_q (2; y (N, nx)) at the rows qx (N, nx): their rows and
+    columns into R, C, the values of row r into V[r]; returns the count of
+    triplets, the same at every state (the pattern is fixed by the model).
+    ``AssembledSystem.Phi_q_values``, ``PhiqT_lam_q_values``, ``Phiq_v_q_values``."""
+    n = _rows(I, MASS)
+    p = 0
+    for r in range(qx.shape[0]):
+        if what == 0:
+            p = _emit_phiq(I, Fl, n, qx[r], R, C, V[r], 0, 0, 0, 1.0, False)
+        elif what == 1:
+            p = _emit_hess(I, Fl, n, qx[r], y[r], R, C, V[r], 0, 0, 0, 1.0)
+        else:
+            p = _emit_G(I, Fl, n, qx[r], y[r], R, C, V[r], 0, 0, 0, 1.0)
     return p
 
 

@@ -1,0 +1,181 @@
+"""An independent, vectorised numpy evaluation of the joints and drivers:
+the oracle the constraint kernels of ``mbdsl.integrators.compiled``
+(``phi``, ``phiq_times``, ``phiqT_add``, ``_emit_phiq``, ``_emit_hess``,
+``_emit_G``, ``_phi_time_add``) are tested against. Not part of the
+package: mbdsl evaluates its constraints with the kernels only.
+
+Each group's *local* arrays over the c coordinates it touches (columns
+``cols`` (k, c) into q_ext = [q, 0, 0, 0]) are scattered into dense
+matrices:
+
+* ``phi``  (k, r)        constraint values
+* ``jac``  (k, r, c)     d phi / d q_local
+* ``hess`` (k, r, c, c)  d^2 phi / d q_local^2 (linear groups: none)
+
+All formulas in absolute planar coordinates (Haug, Computer-Aided
+Kinematics and Dynamics of Mechanical Systems, ch. 3; Nikravesh,
+Computer-Aided Analysis of Mechanical Systems, ch. 4); a point of a flexible
+beam at r + A (s + S q_e) (Shabana, Dynamics of Multibody Systems, sec. 5.3).
+The groups' docstrings (``mbdsl.assembly.groups``) state each constraint.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mbdsl.assembly.groups import (CoincidenceGroup, DistanceGroup, LinearConstraintGroup,
+                                   PointOnLineGroup, drot, rot)
+
+__all__ = ["ConstraintOracle"]
+
+
+def _local(P, q):
+    """u = s + S q_e of a PointSet, shape (k, 2), from local coordinates (k, c)."""
+    return P.s + np.einsum("kaj,kj->ka", P.S, q[:, 3:]) if P.flexible else P.s
+
+
+def _point_jac(P, q):
+    """d position / d q_local of a PointSet, shape (k, 2, c)."""
+    J = np.zeros((len(q), 2, P.c))
+    J[:, 0, 0] = J[:, 1, 1] = 1.0
+    J[:, :, 2] = drot(q[:, 2], _local(P, q))
+    if P.flexible:
+        c, si = np.cos(q[:, 2])[:, None], np.sin(q[:, 2])[:, None]
+        J[:, 0, 3:] = c * P.S[:, 0] - si * P.S[:, 1]
+        J[:, 1, 3:] = si * P.S[:, 0] + c * P.S[:, 1]
+    return J
+
+
+def _point_hess(P, q):
+    """d^2 position / d q_local^2 of a PointSet, shape (k, 2, c, c)."""
+    H = np.zeros((len(q), 2, P.c, P.c))
+    H[:, :, 2, 2] = -rot(q[:, 2], _local(P, q))
+    if P.flexible:
+        c, si = np.cos(q[:, 2]), np.sin(q[:, 2])
+        BS = np.stack([-si[:, None] * P.S[:, 0] - c[:, None] * P.S[:, 1],
+                       c[:, None] * P.S[:, 0] - si[:, None] * P.S[:, 1]], axis=1)
+        H[:, :, 2, 3:] = BS
+        H[:, :, 3:, 2] = BS
+    return H
+
+
+def _pair(g, qx):
+    """Local coordinates of both points, d = p2 - p1, D = dd/dq, DD = d^2d/dq^2."""
+    pair = g.pair
+    q = qx[pair.cols]
+    q1, q2 = q[:, :pair.c1], q[:, pair.c1:]
+    d = (q2[:, 0:2] - q1[:, 0:2]) + (rot(q2[:, 2], _local(pair.P2, q2))
+                                     - rot(q1[:, 2], _local(pair.P1, q1)))
+    k, c = pair.cols.shape
+    D = np.zeros((k, 2, c))
+    D[:, :, :pair.c1] = -_point_jac(pair.P1, q1)
+    D[:, :, pair.c1:] = _point_jac(pair.P2, q2)
+    DD = np.zeros((k, 2, c, c))
+    DD[:, :, :pair.c1, :pair.c1] = -_point_hess(pair.P1, q1)
+    DD[:, :, pair.c1:, pair.c1:] = _point_hess(pair.P2, q2)
+    return q1, d, D, DD
+
+
+def _functions(g, t, which):
+    """f(t), f'(t) or f''(t) (``which`` "f", "df", "ddf") per instance (None: 0)."""
+    return np.array([0.0 if f is None else getattr(f, which)(t) for f in g.functions])
+
+
+def local(g, qx, t):
+    """(phi (k, r), jac (k, r, c), hess (k, r, c, c) or None) of one group."""
+    if isinstance(g, LinearConstraintGroup):
+        phi = np.einsum("kj,kj->k", g.coefs, qx[g.cols]) - g.offset - _functions(g, t, "f")
+        return phi[:, None], g.coefs[:, None, :].copy(), None
+    q1, d, D, DD = _pair(g, qx)
+    if isinstance(g, CoincidenceGroup):
+        return d, D, DD
+    if isinstance(g, DistanceGroup):
+        L = g.L
+        phi = (np.einsum("ka,ka->k", d, d) - L ** 2) / (2.0 * L)
+        jac = np.einsum("ka,kaj->kj", d, D) / L[:, None]
+        hess = (np.einsum("kai,kaj->kij", D, D) + np.einsum("ka,kaij->kij", d, DD)) \
+            / L[:, None, None]
+        return phi[:, None], jac[:, None], hess[:, None]
+    assert isinstance(g, PointOnLineGroup)
+    nvec, Bn = rot(q1[:, 2], g.n0), drot(q1[:, 2], g.n0)
+    phi = np.einsum("ka,ka->k", nvec, d) - _functions(g, t, "f")
+    jac = np.einsum("ka,kaj->kj", nvec, D)
+    jac[:, 2] += np.einsum("ka,ka->k", Bn, d)
+    hess = np.einsum("ka,kaij->kij", nvec, DD)
+    BnD = np.einsum("ka,kaj->kj", Bn, D)
+    hess[:, 2, :] += BnD
+    hess[:, :, 2] += BnD
+    hess[:, 2, 2] -= np.einsum("ka,ka->k", nvec, d)
+    return phi[:, None], jac[:, None], hess[:, None]
+
+
+class ConstraintOracle:
+    """Phi and its derivatives of an ``AssembledSystem``'s constraint groups,
+    dense, from the groups' data; one state at a time.
+
+    Parameters
+    ----------
+    system : mbdsl.assembly.system.AssembledSystem
+    """
+
+    def __init__(self, system):
+        self.system = system
+        self.n, self.m, self.nx = system.n, system.m, system.nx
+
+    def _ext(self, x):
+        out = np.zeros(self.nx)
+        out[: self.n] = x
+        return out
+
+    def _each(self, q, t):
+        qx = self._ext(q)
+        for g in self.system.constraint_groups:
+            yield g, local(g, qx, t)
+
+    def Phi(self, q, t):
+        """Phi, shape (m,)."""
+        out = np.zeros(self.m)
+        for g, (phi, _, _) in self._each(q, t):
+            out[g.rows] = phi
+        return out
+
+    def Phi_q(self, q, t=0.0):
+        """Phi_q, shape (m, n) (the ground's columns dropped)."""
+        out = np.zeros((self.m, self.nx))
+        for g, (_, jac, _) in self._each(q, t):
+            for i in range(len(g.rows)):
+                np.add.at(out, (g.rows[i][:, None], g.cols[i][None, :]), jac[i])
+        return out[:, : self.n]
+
+    def hessians(self, q):
+        """d^2 Phi_r / dq^2 of every row r, shape (m, n, n)."""
+        out = np.zeros((self.m, self.nx, self.nx))
+        for g, (_, _, hess) in self._each(q, 0.0):
+            if hess is None:
+                continue
+            for i in range(len(g.rows)):
+                c = g.cols[i]
+                for r, row in enumerate(g.rows[i]):
+                    np.add.at(out[row], (c[:, None], c[None, :]), hess[i, r])
+        return out[:, : self.n, : self.n]
+
+    def PhiqT_lam_q(self, q, lam):
+        """(Phi_q^T lambda)_q, shape (n, n)."""
+        return np.einsum("r,rij->ij", lam, self.hessians(q))
+
+    def Phiq_v_q(self, q, v):
+        """(Phi_q v)_q, shape (m, n)."""
+        return np.einsum("rij,j->ri", self.hessians(q), v)
+
+    def Phi_t(self, t, order=1):
+        """d^order Phi / dt^order (order 1 or 2), shape (m,)."""
+        out = np.zeros(self.m)
+        which = "df" if order == 1 else "ddf"
+        for g in self.system.constraint_groups:
+            if g.time_dependent:
+                out[g.rows[:, 0]] = -_functions(g, t, which)
+        return out
+
+    def gamma(self, q, v, t):
+        """-(Phi_q v)_q v - Phi_tt, shape (m,)."""
+        return -self.Phiq_v_q(q, v) @ v - self.Phi_t(t, 2)
