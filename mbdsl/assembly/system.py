@@ -481,9 +481,11 @@ class AssembledSystem:
                 None if Qv is None else self._dense(self.pattern_force, Qv, shape))
 
     # -- constraints ------------------------------------------------------------------
-    # Evaluated by the kernels (``compiled.constraint_rows``, ``constraint_products``,
-    # ``constraint_matrix_rows``), the one implementation of the joints and drivers;
-    # every function takes one state or rows of a stored solution.
+    # Evaluated by the kernels (``compiled.constraints``), the one implementation of
+    # the joints and drivers; every function takes one state or rows of a stored
+    # solution.
+    _EMPTY_I, _EMPTY_F = np.zeros(0, np.int64), np.zeros((0, 0))
+
     def _ext_rows(self, x):
         """x (n,) or (..., n) -> contiguous rows (N, nx) with the ground's three
         zeros, and the leading shape (...)."""
@@ -493,44 +495,52 @@ class AssembledSystem:
         rows[:, : self.n] = x.reshape(-1, self.n)
         return rows, lead
 
-    @staticmethod
-    def _times(t, lead) -> np.ndarray:
-        """t (a scalar or shape lead) as contiguous rows (N,), a writable copy (one
-        argument type for the compiled kernels, not a read-only broadcast view)."""
-        return np.array(np.broadcast_to(np.asarray(t, dtype=float), lead).reshape(-1))
+    def _constraints(self, what, rows, t, y, out, R=None, C=None, V=None):
+        """``compiled.constraints`` at the rows (N, nx), with one argument type
+        per slot: t (N,) a writable copy (not a read-only broadcast view), y
+        2-D, unused slots empty arrays."""
+        cm = self.kernel_model()
+        t = np.array(np.broadcast_to(np.asarray(t, dtype=float), (len(rows),)))
+        y = self._EMPTY_F if y is None else np.ascontiguousarray(y, dtype=float)
+        return cm.K.constraints(cm.ints, cm.floats, what, t, rows, y,
+                                self._EMPTY_F if out is None else out,
+                                self._EMPTY_I if R is None else R,
+                                self._EMPTY_I if C is None else C,
+                                self._EMPTY_F if V is None else V)
 
     def _constraint_pattern(self, what: int):
-        """(rows, cols) of the triplets of Phi_q (``what`` 0), (Phi_q^T lambda)_q
-        (1) or (Phi_q v)_q (2), each shape (nnz,), fixed by the model."""
+        """(rows, cols) of the triplets of Phi_q (``what`` C_PHIQ = 5),
+        (Phi_q^T lambda)_q (6) or (Phi_q v)_q (7), each shape (nnz,), fixed by
+        the model."""
         pattern = self._patterns.get(what)
         if pattern is None:
-            cm = self.kernel_model()
-            R, C = np.empty(cm.bound, np.int64), np.empty(cm.bound, np.int64)
-            V = np.empty((1, cm.bound))
-            p = cm.K.constraint_matrix_rows(cm.ints, cm.floats, np.zeros((1, self.nx)),
-                                            np.zeros((1, self.nx + self.m)), what, R, C, V)
+            bound = self.kernel_model().bound
+            R, C = np.empty(bound, np.int64), np.empty(bound, np.int64)
+            p = self._constraints(what, np.zeros((1, self.nx)), 0.0,
+                                  np.zeros((1, self.nx + self.m)), None, R, C,
+                                  np.empty((1, bound)))
             pattern = self._patterns[what] = (R[:p].astype(np.intp), C[:p].astype(np.intp))
         return pattern
 
     @property
     def pattern_Phi_q(self):
         """(rows, cols) of ``Phi_q_values``, each shape (nnz,), in (m, n)."""
-        return self._constraint_pattern(0)
+        return self._constraint_pattern(_C_PHIQ)
 
     @property
     def pattern_hessian(self):
         """(rows, cols) of ``PhiqT_lam_q_values``, each shape (nnz,), in (n, n)."""
-        return self._constraint_pattern(1)
+        return self._constraint_pattern(_C_PHIQT_Y_Q)
 
     @property
     def pattern_Phiq_v_q(self):
         """(rows, cols) of ``Phiq_v_q_values``, each shape (nnz,), in (m, n)."""
-        return self._constraint_pattern(2)
+        return self._constraint_pattern(_C_PHIQ_Y_Q)
 
     def _constraint_values(self, what, q, y, width):
         """Values of a constraint matrix (``_constraint_pattern``) at rows q
-        (..., n) with y (..., width) (lambda or v; ``width`` nx pads v with the
-        ground's zeros), shape (..., nnz)."""
+        (..., n) with y (..., width) (lambda, or v padded with the ground's
+        zeros to nx), shape (..., nnz)."""
         rows, lead = self._ext_rows(q)
         nnz = len(self._constraint_pattern(what)[0])
         yr = np.zeros((len(rows), max(width, 1)))
@@ -539,21 +549,19 @@ class AssembledSystem:
             yr[:, : yy.shape[-1]] = np.broadcast_to(yy, lead + yy.shape[-1:]).reshape(len(rows), -1)
         V = np.empty((len(rows), nnz))
         if nnz and len(rows):
-            cm = self.kernel_model()
-            R, C = np.empty(nnz, np.int64), np.empty(nnz, np.int64)
-            cm.K.constraint_matrix_rows(cm.ints, cm.floats, rows, yr, what, R, C, V)
+            self._constraints(what, rows, 0.0, yr, None, np.empty(nnz, np.int64),
+                              np.empty(nnz, np.int64), V)
         return V.reshape(lead + (nnz,))
 
     def _constraint_rows(self, what, q, t, lead=None):
-        """Phi (``what`` 0), Phi_t (1) or Phi_tt (2) at rows, shape (..., m)."""
+        """Phi, Phi_t or Phi_tt (``what`` _C_PHI, _C_PHI_T, _C_PHI_TT) at rows, shape (..., m)."""
         if lead is None:
             rows, lead = self._ext_rows(q)
         else:                                     # Phi_t, Phi_tt: q is not read
             rows = np.zeros((int(np.prod(lead, dtype=int)), self.nx))
         out = np.empty((len(rows), self.m))
         if self.m and len(rows):
-            cm = self.kernel_model()
-            cm.K.constraint_rows(cm.ints, cm.floats, self._times(t, lead), rows, what, out)
+            self._constraints(what, rows, np.reshape(t, -1), None, out)
         return out.reshape(lead + (self.m,))
 
     def Phi(self, q, t) -> np.ndarray:
@@ -562,12 +570,12 @@ class AssembledSystem:
         Rows of a stored solution at once: q of shape (N, n) and t of shape
         (N,) give shape (N, m).
         """
-        return self._constraint_rows(0, q, t)
+        return self._constraint_rows(_C_PHI, q, t)
 
     def Phi_q_values(self, q, t=0.0) -> np.ndarray:
         """Values of Phi_q on ``pattern_Phi_q``, shape (nnz,), or (N, nnz)
         for rows q of shape (N, n)."""
-        return self._constraint_values(0, q, None, 0)
+        return self._constraint_values(_C_PHIQ, q, None, 0)
 
     def Phi_q(self, q, t=0.0) -> np.ndarray:
         """Constraint Jacobian, shape (m, n)."""
@@ -578,10 +586,7 @@ class AssembledSystem:
         rows, _ = self._ext_rows(q)
         out = np.zeros((1, self.nx))
         if self.m:
-            cm = self.kernel_model()
-            cm.K.constraint_products(cm.ints, cm.floats, rows,
-                                     np.ascontiguousarray(np.reshape(lam, (1, self.m)), dtype=float),
-                                     1, out)
+            self._constraints(_C_PHIQT_Y, rows, t, np.reshape(lam, (1, self.m)), out)
         return out[0, : self.n]
 
     def Phiq_times(self, q, t, v) -> np.ndarray:
@@ -591,18 +596,17 @@ class AssembledSystem:
         vrows, _ = self._ext_rows(np.broadcast_to(v, lead + (self.n,)))
         out = np.empty((len(rows), self.m))
         if self.m and len(rows):
-            cm = self.kernel_model()
-            cm.K.constraint_products(cm.ints, cm.floats, rows, vrows, 0, out)
+            self._constraints(_C_PHIQ_Y, rows, t, vrows, out)
         return out.reshape(lead + (self.m,))
 
     def Phi_t(self, q, t) -> np.ndarray:
         """Partial time derivative of Phi, shape (m,), or (N, m) for times t
         of shape (N,)."""
-        return self._constraint_rows(1, None, t, lead=np.shape(t))
+        return self._constraint_rows(_C_PHI_T, None, t, lead=np.shape(t))
 
     def Phi_tt(self, q, t) -> np.ndarray:
         """Second partial time derivative of Phi, shape (m,)."""
-        return self._constraint_rows(2, None, t, lead=np.shape(t))
+        return self._constraint_rows(_C_PHI_TT, None, t, lead=np.shape(t))
 
     def Phi_qt(self, q, t) -> np.ndarray:
         """Mixed derivative Phi_qt, shape (m, n).
@@ -616,7 +620,7 @@ class AssembledSystem:
 
     def Phiq_v_q_values(self, q, v) -> np.ndarray:
         """Values of (Phi_q v)_q on ``pattern_Phiq_v_q``."""
-        return self._constraint_values(2, q, v, self.nx)
+        return self._constraint_values(_C_PHIQ_Y_Q, q, v, self.nx)
 
     def Phiq_v_q(self, q, v) -> np.ndarray:
         """(Phi_q v)_q, shape (m, n)."""
@@ -624,7 +628,7 @@ class AssembledSystem:
 
     def PhiqT_lam_q_values(self, q, lam) -> np.ndarray:
         """Values of (Phi_q^T lambda)_q on ``pattern_hessian``."""
-        return self._constraint_values(1, q, lam, self.m)
+        return self._constraint_values(_C_PHIQT_Y_Q, q, lam, self.m)
 
     def PhiqT_lam_q(self, q, lam) -> np.ndarray:
         """(Phi_q^T lambda)_q, shape (n, n), symmetric."""
@@ -778,6 +782,11 @@ class AssembledSystem:
             qx = self._ext(q)
             e = e + sum(g.energy(qx) for g in self.potential_groups)
         return float(e) if np.ndim(q) == 1 else e
+
+
+#: ``compiled.constraints``' evaluations (its C_* constants, repeated here so
+#: that building a model never imports numba)
+_C_PHI, _C_PHI_T, _C_PHI_TT, _C_PHIQ_Y, _C_PHIQT_Y, _C_PHIQ, _C_PHIQT_Y_Q, _C_PHIQ_Y_Q = range(8)
 
 
 def _concat_pattern(rows, cols):

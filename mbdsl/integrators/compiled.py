@@ -636,36 +636,6 @@ def phiq_times(I, Fl, qx, vx, out):
 
 
 @_jit
-def constraint_rows(I, Fl, t, qx, what, out):
-    """Phi (``what`` 0), Phi_t (1) or Phi_tt (2) at the rows t (N,) [s], qx
-    (N, nx) into out (N, m): the constraints' one evaluation that Python
-    calls (``AssembledSystem.Phi``, ``Phi_t``, ``Phi_tt``)."""
-    for r in range(qx.shape[0]):
-        row = out[r]
-        if what == 0:
-            phi(I, Fl, t[r], qx[r], row)
-        else:
-            for j in range(row.shape[0]):
-                row[j] = 0.0
-            _phi_time_add(I, Fl, t[r], row, what)
-
-
-@_jit
-def constraint_products(I, Fl, qx, y, what, out):
-    """Phi_q y (``what`` 0: y (N, nx), out (N, m)) or Phi_q^T y (1: y (N, m),
-    out (N, nx)) at the rows qx (N, nx), without forming Phi_q
-    (``AssembledSystem.Phiq_times``, ``PhiqT_times``)."""
-    for r in range(qx.shape[0]):
-        if what == 0:
-            phiq_times(I, Fl, qx[r], y[r], out[r])
-        else:
-            row = out[r]
-            for j in range(row.shape[0]):
-                row[j] = 0.0
-            phiqT_add(I, Fl, qx[r], y[r], 1.0, row)
-
-
-@_jit
 def _spring_points(I, Fl, qx, i):
     """(d_x, d_y, (A u)_1, (A u)_2) of spring-damper i at qx: d = p2 - p1 [m]
     and its points' offsets from their frames (A u, u = s + S q_e on a
@@ -1853,19 +1823,43 @@ def _emit_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef):
     return p
 
 
+#: What ``constraints`` evaluates at each row: Phi, Phi_t, Phi_tt into out (N, m);
+#: Phi_q y into out (N, m); Phi_q^T y into out (N, nx); the triplets of Phi_q,
+#: (Phi_q^T y)_q and (Phi_q y)_q into R, C and V (N, nnz).
+(C_PHI, C_PHI_T, C_PHI_TT, C_PHIQ_Y, C_PHIQT_Y,
+ C_PHIQ, C_PHIQT_Y_Q, C_PHIQ_Y_Q) = range(8)
+
+
 @_jit
-def constraint_matrix_rows(I, Fl, qx, y, what, R, C, V):
-    """The triplets of Phi_q (``what`` 0), (Phi_q^T y)_q (1; y (N, m)) or
-    (Phi_q y)_q (2; y (N, nx)) at the rows qx (N, nx): their rows and
-    columns into R, C, the values of row r into V[r]; returns the count of
-    triplets, the same at every state (the pattern is fixed by the model).
-    ``AssembledSystem.Phi_q_values``, ``PhiqT_lam_q_values``, ``Phiq_v_q_values``."""
+def constraints(I, Fl, what, t, qx, y, out, R, C, V):
+    """The joints' and drivers' evaluations Python asks for
+    (``AssembledSystem.Phi`` and the functions after it), at the rows t (N,)
+    [s], qx (N, nx) and y (N, m or nx: lambda or v), as ``what`` (C_*) says:
+    values into out, or triplets (their rows and columns into R, C, the
+    values of row r into V[r]; the count returned, the same at every state:
+    the pattern is fixed by the model). One entry point, so that a process
+    loads one library for all of them (numba's cache loads each entry point
+    on its own, some 60 ms each on two cores)."""
     n = _rows(I, MASS)
     p = 0
     for r in range(qx.shape[0]):
-        if what == 0:
+        if what == C_PHI:
+            phi(I, Fl, t[r], qx[r], out[r])
+        elif what == C_PHI_T or what == C_PHI_TT:
+            row = out[r]
+            for j in range(row.shape[0]):
+                row[j] = 0.0
+            _phi_time_add(I, Fl, t[r], row, what)
+        elif what == C_PHIQ_Y:
+            phiq_times(I, Fl, qx[r], y[r], out[r])
+        elif what == C_PHIQT_Y:
+            row = out[r]
+            for j in range(row.shape[0]):
+                row[j] = 0.0
+            phiqT_add(I, Fl, qx[r], y[r], 1.0, row)
+        elif what == C_PHIQ:
             p = _emit_phiq(I, Fl, n, qx[r], R, C, V[r], 0, 0, 0, 1.0, False)
-        elif what == 1:
+        elif what == C_PHIQT_Y_Q:
             p = _emit_hess(I, Fl, n, qx[r], y[r], R, C, V[r], 0, 0, 0, 1.0)
         else:
             p = _emit_G(I, Fl, n, qx[r], y[r], R, C, V[r], 0, 0, 0, 1.0)

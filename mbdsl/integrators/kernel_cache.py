@@ -192,7 +192,7 @@ def warm_up(groups=GROUPS, output: bool = True, loops=(False, True)) -> None:
     (``contact_rows``), which a run with warm kernels loads when its output
     first needs them, and of the flexible beams' blocks and energies
     (``beam_blocks``, ``beam_energies``) and of the constraints
-    (``constraint_rows``, ``constraint_products``, ``constraint_matrix_rows``),
+    (``constraints``),
     which every evaluation of a beam or a joint outside the compiled loops
     calls. ``loops``: the fixed-step loop (False), the
     error-controlled one (True), or both: a run with warm kernels loads the

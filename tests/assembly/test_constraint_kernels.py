@@ -95,13 +95,27 @@ def test_patterns_are_fixed_by_the_model(kernels):
     system = _system(ROOT / "tests" / "dsl" / "valid" / "flexible_joints.mbd", kernels)
     K, cm = kernels, system.kernel_model()
     rng = np.random.default_rng(7)
-    for what, width in ((0, 1), (1, system.m), (2, system.nx)):
+    for what, width in ((K.C_PHIQ, 1), (K.C_PHIQT_Y_Q, system.m), (K.C_PHIQ_Y_Q, system.nx)):
         rows, cols = system._constraint_pattern(what)
+        assert len(rows) > 0
         for _ in range(2):
             qx = np.zeros((1, system.nx))
             qx[0, :system.n] = rng.normal(size=system.n)
             R, C = np.empty(cm.bound, np.int64), np.empty(cm.bound, np.int64)
-            p = K.constraint_matrix_rows(cm.ints, cm.floats, qx, rng.normal(size=(1, width)),
-                                         what, R, C, np.empty((1, cm.bound)))
+            p = K.constraints(cm.ints, cm.floats, what, np.zeros(1), qx,
+                              rng.normal(size=(1, width)), np.zeros((0, 0)), R, C,
+                              np.empty((1, cm.bound)))
             assert p == len(rows)
             assert np.array_equal(R[:p], rows) and np.array_equal(C[:p], cols)
+
+
+def test_the_packages_copies_of_the_kernels_constants_agree(kernels):
+    # system.py and ffr.py repeat the kernels' selectors so that building a
+    # model never imports numba; they must be the kernels' own.
+    from mbdsl.assembly import ffr, system
+    assert (system._C_PHI, system._C_PHI_T, system._C_PHI_TT, system._C_PHIQ_Y,
+            system._C_PHIQT_Y, system._C_PHIQ, system._C_PHIQT_Y_Q, system._C_PHIQ_Y_Q) == (
+        kernels.C_PHI, kernels.C_PHI_T, kernels.C_PHI_TT, kernels.C_PHIQ_Y, kernels.C_PHIQT_Y,
+        kernels.C_PHIQ, kernels.C_PHIQT_Y_Q, kernels.C_PHIQ_Y_Q)
+    assert (ffr.FFR_M, ffr.FFR_Q, ffr.FFR_DQ, ffr.FFR_MXQ) == (
+        kernels.FFR_M, kernels.FFR_Q, kernels.FFR_DQ, kernels.FFR_MXQ)
