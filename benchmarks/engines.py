@@ -2,9 +2,10 @@
 
 The uncompiled engine runs the compiled engine's kernels and loops in the
 interpreter (numba's JIT disabled; ``--engine uncompiled``): the one
-implementation, for debugging a kernel. The numpy engine evaluates the same
-equations with vectorised groups and runs a model's first run on a machine
-whose kernels are still being built. This table is what decides which of the
+implementation, for debugging a kernel. The numpy engine runs the methods'
+numpy residuals over the kernels' joints, drivers and beams (uncompiled until
+the kernels are built) and the groups' vectorised applied loads, and runs a
+model's first run on a machine whose kernels are still being built. This table is what decides which of the
 two interpreted engines a first run takes: the per-step time of each, with
 the compiled engine's for scale.
 

@@ -326,8 +326,9 @@ def derived_columns(system, t, q, v, lam, start=None, end=None, a=None,
                     contact_log=None) -> dict:
     """Energies, constraint norms and joint reactions of stored rows.
 
-    Every element is evaluated for all rows at once (the element groups
-    broadcast over leading axes), in chunks of ``_ROW_CHUNK`` rows.
+    Every element is evaluated for all rows at once (the kernels loop over
+    the rows for the joints, drivers and beams; the force groups broadcast
+    over leading axes), in chunks of ``_ROW_CHUNK`` rows.
 
     Parameters
     ----------

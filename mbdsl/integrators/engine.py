@@ -146,8 +146,8 @@ def index1_multipliers(system, t, q, v) -> np.ndarray:
     """The Lagrange multipliers of the index-1 system at stored rows, shape
     (N, m): ``AssembledSystem.index1_multipliers``, evaluated by the kernels
     when this process has loaded them and they cover the model (a run on the
-    compiled engine), else by the numpy groups. Rigid bodies: the Schur
-    complement Phi_q M^-1 Phi_q^T in a band Cholesky
+    compiled engine), else row by row by the system's dense index-1 matrix.
+    Rigid bodies: the Schur complement Phi_q M^-1 Phi_q^T in a band Cholesky
     (``compiled.index1_multipliers_band``, ``_index1_band``; linear in the
     size of a chain); flexible beams: the dense index-1 matrix
     (``compiled.index1_multipliers``). Rows: t (N,) [s], q and v (N, n).

@@ -135,7 +135,7 @@ class HHTADD(Method):
         index-1 multipliers at (q, v) inherit the order of q and v.
         Evaluated by the compiled kernels after a compiled run
         (``engine.index1_multipliers``: a few us per row on small models,
-        against about 0.3 ms per row by the numpy groups; rigid bodies by a
+        against about 0.3 ms per row by the system's dense index-1 matrix; rigid bodies by a
         band Cholesky of Phi_q M^-1 Phi_q^T, linear in a chain's length).
         """
         from .engine import index1_multipliers
