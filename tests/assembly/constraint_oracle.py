@@ -34,28 +34,32 @@ def _local(P, q):
     return P.s + np.einsum("kaj,kj->ka", P.S, q[:, 3:]) if P.flexible else P.s
 
 
+def _AB(phi):
+    """Rotation matrices A(phi) and B(phi) = dA/dphi, each shape (k, 2, 2)."""
+    c, s = np.cos(phi), np.sin(phi)
+    return (np.stack([np.stack([c, -s], -1), np.stack([s, c], -1)], -2),
+            np.stack([np.stack([-s, -c], -1), np.stack([c, -s], -1)], -2))
+
+
 def _point_jac(P, q):
-    """d position / d q_local of a PointSet, shape (k, 2, c)."""
-    J = np.zeros((len(q), 2, P.c))
-    J[:, 0, 0] = J[:, 1, 1] = 1.0
-    J[:, :, 2] = drot(q[:, 2], _local(P, q))
+    """d position / d q_local of a PointSet, [I, B u, A S], shape (k, 2, c)."""
+    A, B = _AB(q[:, 2])
+    eye = np.broadcast_to(np.eye(2), (len(q), 2, 2))
+    parts = [eye, np.einsum("kab,kb->ka", B, _local(P, q))[:, :, None]]
     if P.flexible:
-        c, si = np.cos(q[:, 2])[:, None], np.sin(q[:, 2])[:, None]
-        J[:, 0, 3:] = c * P.S[:, 0] - si * P.S[:, 1]
-        J[:, 1, 3:] = si * P.S[:, 0] + c * P.S[:, 1]
-    return J
+        parts.append(np.einsum("kab,kbj->kaj", A, P.S))
+    return np.concatenate(parts, axis=2)
 
 
 def _point_hess(P, q):
-    """d^2 position / d q_local^2 of a PointSet, shape (k, 2, c, c)."""
+    """d^2 position / d q_local^2 of a PointSet, shape (k, 2, c, c): -A u in
+    (phi, phi), B S in (phi, q_e) and (q_e, phi)."""
+    A, B = _AB(q[:, 2])
     H = np.zeros((len(q), 2, P.c, P.c))
-    H[:, :, 2, 2] = -rot(q[:, 2], _local(P, q))
+    H[:, :, 2, 2] = -np.einsum("kab,kb->ka", A, _local(P, q))
     if P.flexible:
-        c, si = np.cos(q[:, 2]), np.sin(q[:, 2])
-        BS = np.stack([-si[:, None] * P.S[:, 0] - c[:, None] * P.S[:, 1],
-                       c[:, None] * P.S[:, 0] - si[:, None] * P.S[:, 1]], axis=1)
-        H[:, :, 2, 3:] = BS
-        H[:, :, 3:, 2] = BS
+        BS = np.einsum("kab,kbj->kaj", B, P.S)
+        H[:, :, 2, 3:] = H[:, :, 3:, 2] = BS
     return H
 
 

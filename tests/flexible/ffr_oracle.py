@@ -4,63 +4,11 @@ the floating frame of reference: the oracle the kernels of
 against. Not part of the package: mbdsl evaluates its beams with the kernels
 only.
 
-
-For a beam with reference coordinates (R, phi) (R = (x, y) the frame
-origin) and elastic coordinates q_f, a material point at arc length x is at
-
-    r = R + A(phi) u_bar,    u_bar = u_bar0(x) + S(x) q_f
-
-(``model/beam.py``). With the inertia shape integrals of ``ShapeIntegrals``
-(m, s0, I0, S_bar, M_ff, a_u, a_I, S_tilde; all computed once at build) and
-
-    s_bar = s0 + S_bar q_f       (first moment of mass in the frame)
-    a_U   = a_u + M_ff q_f       (int mu S^T u_bar)
-    a_T   = a_I + S_tilde q_f    (int mu S^T I~ u_bar)
-
-the mass matrix in local coordinates (x, y, phi, q_f) is
-
-    M = [[m I2,         B s_bar,                                  A S_bar],
-         [.,            I0 + 2 a_u.q_f + q_f^T M_ff q_f,          a_T^T  ],
-         [sym,          a_T,                                      M_ff   ]]
-
-and the quadratic velocity vector (M a = Q + Q_v, w = phi', qd = q_f'):
-
-    Q_v,R   = w^2 A s_bar - 2 w B S_bar qd
-    Q_v,phi = -2 w a_U . qd
-    Q_v,f   = w^2 a_U - 2 w S_tilde qd
-
-Applied: the elastic force -K q_f (minus, with geometric stiffening, the
-gradient of the nonlinear part of the axial strain energy, below) and, with
-gravity g, the generalized
-gravity force (m g, (B s_bar) . g, S_bar^T A^T g). Potential energy
-q_f^T K q_f / 2 - m g . R - g . A s_bar. Every q- and v-derivative the
-Newton matrices need is below, analytic: Q_q, Q_v, and (M a)_q.
-
-Geometric stiffening (on unless the beam says ``stiffening off``): the axial
-strain of element e is eps_e = a_e + c_e / 2 (the foreshortening of a bent
-beam) instead of a_e, with a_e = Bu_e q_f its u' and c_e = q_f^T G_e q_f the
-element mean of v'^2 (``BeamMesh.strain_gradients``: averaged, so that a bent
-beam is not locked). The strain energy gains, with k_e = EA l / 2,
-
-    U_G = sum_e k_e (a_e c_e + c_e^2 / 4)
-    dU_G/dq_f = sum_e k_e [c_e Bu_e + (2 a_e + c_e) G_e q_f]
-    d^2U_G/dq_f^2 = sum_e k_e [2 Bu_e g_e^T + 2 g_e Bu_e^T + 2 g_e g_e^T
-                               + (2 a_e + c_e) G_e],   g_e = G_e q_f
-
-so an axial force EA a_e (centrifugal or applied) stiffens bending by
-EA a_e l G_e, the geometric stiffness, which the linear floating frame
-misses (a spinning cantilever softens and diverges above its first
-frequency). Sharf, "Geometric stiffening in multibody dynamics
-formulations", J. Guidance, Control, and Dynamics 18 (1995) 882-890, and
-Sharf (1996), Multibody System Dynamics; Kane, Ryan & Banerjee (1987).
-
-Source: Shabana, Dynamics of Multibody Systems, 4th ed., ch. 5 (the planar
-FFR: eqs. for the mass matrix, the inertia shape integrals and the quadratic
-velocity vector). A is the rotation matrix, B = dA/dphi, I~ = [[0,-1],[1,0]].
-
-Beams with the same number of elastic coordinates are stacked (struct of
-arrays, shape (k, ...)) and evaluated with one set of einsums, from the
-data of the package's ``FlexibleBeamGroup``.
+The equations are those of ``mbdsl.assembly.ffr``'s module notes (Shabana,
+Dynamics of Multibody Systems, 4th ed., ch. 5; Sharf 1995 for the geometric
+stiffening), written here with einsums over the stacked beams of a group,
+from the data of the package's ``FlexibleBeamGroup`` (shape integrals,
+stiffness and strain data).
 """
 
 from __future__ import annotations
