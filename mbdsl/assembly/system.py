@@ -32,7 +32,9 @@ has no gravity vector, a model without springs no spring group, and the
 force derivatives are ``None`` when no declared force depends on q or v.
 
 The :class:`AssembledSystem` never changes once built (model/data split):
-per-step values live in the integrators' state.
+per-step values live in the integrators' state. What it derives on first use
+(the kernels' packed model data, the constraint patterns) is a cache of
+things fixed by the model.
 """
 
 from __future__ import annotations
