@@ -95,7 +95,7 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
     compile_policy : {"wait", "background"}
         With ``engine="auto"``, when the compiled kernels are not built for
         this machine yet: compile them now ("wait"), or start building them
-        in a detached process and run this model on the numpy engine
+        in a detached process and run this model on the uncompiled engine
         ("background", what the command line does, announced).
     control : StepControl, optional
         Error-controlled step sizes (:mod:`.adaptive`): each step's local

@@ -339,8 +339,11 @@ def select_engine(engine: str, system, method, compile_policy: str = "wait",
 
     ``compile_policy`` "background" (with ``engine="auto"``): when the
     kernels are not built for this machine yet, start building them in a
-    detached process (:mod:`.kernel_cache`) and choose 'numpy' for this run,
-    telling ``announce``.
+    detached process (:mod:`.kernel_cache`) and choose 'uncompiled' for this
+    run (the same kernels and loops, run by the interpreter; per step about
+    as fast as the numpy engine with its joints on the uncompiled kernels,
+    twice as fast on the slider crank: ``benchmarks/engines.py``), telling
+    ``announce``.
 
     Raises
     ------
@@ -369,8 +372,9 @@ def select_engine(engine: str, system, method, compile_policy: str = "wait",
         if not kernels_ready() and start_background_build():
             if announce is not None:
                 announce("the compiled kernels are being built for this machine in the "
-                         "background (once, about four minutes); this run uses the numpy engine")
-            return "numpy"
+                         "background (once, about four minutes); this run uses the uncompiled "
+                         "kernels")
+            return "uncompiled"
     return "compiled"
 
 

@@ -12,7 +12,8 @@ cost:
   line therefore asks :func:`kernels_ready` first; when the kernels are not
   built yet it starts :func:`start_background_build` (a detached process
   running ``python -m mbdsl.integrators.kernel_cache``) and runs this one
-  model on the numpy engine, saying so. Where waiting is wanted (the Python
+  model on the same kernels uncompiled (:func:`uncompiled_kernels`), saying
+  so. Where waiting is wanted (the Python
   API, ``MBDSL_BACKGROUND_COMPILE=0``), :func:`ensure_loaded` compiles in
   the process and announces it first.
 
