@@ -412,22 +412,29 @@ def test_hht_i3_is_of_order_one_on_flexible_beams_unless_alpha_is_zero(soft_refe
     assert np.all((e3[:-1] / e3[1:] > 1.7) & (e3[:-1] / e3[1:] < 2.3)), e3
 
 
-@pytest.mark.parametrize("method", RECIPE_METHODS)
-@pytest.mark.parametrize("path, overrides", [(VALID / "flexible_distance.mbd", {})])
-def test_flexible_beams_run_compiled_as_on_the_numpy_engine(path, overrides, method):
-    system, init = _system(path, **overrides)
-    a = integrate(system, make_method(method), 0.1, 1e-3, initial=init, engine="numpy", newton=SAME)
-    b = integrate(system, make_method(method), 0.1, 1e-3, initial=init, engine="compiled",
-                  newton=SAME)
-    assert b.engine == "compiled" and b.status == "completed"
-    # no failed step, but NSTIFF's first (BDF1) step on flexible_distance, halved on both
-    # engines (the compiled loop hands it to the numpy engine, then goes on)
-    assert b.stats_total.rejected == a.stats_total.rejected
-    assert b.stats_total.rejected == (1 if "distance" in path.name and method == "nstiff" else 0)
-    assert len(a.t) == len(b.t) and np.abs(a.t - b.t).max() < 1e-15
-    assert np.abs(a.q - b.q).max() < 1e-10
-    assert np.abs(a.v - b.v).max() < 1e-8
-    assert np.abs(a.lam - b.lam).max() < 1e-7 * max(1.0, np.abs(a.lam).max())
+@pytest.fixture(scope="module")
+def soft_distance_reference():
+    """(system, initial state, q at T = 0.1 s) of flexible_distance with its
+    beams' E / 1e4: DOP853 at 1e-12 on the index-1 equations."""
+    from mbdsl.reference import index1_reference
+    system, init = _soft_system(VALID / "flexible_distance.mbd")
+    return system, init, index1_reference(system, [0.1], initial=init).q[-1]
+
+
+@pytest.mark.parametrize("method", [m for m in RECIPE_METHODS if m != "hht-i3"])
+def test_distance_joints_on_beams_converge_to_the_dop853_reference(soft_distance_reference,
+                                                                   method):
+    """Distance joints between beam points (their elastic Hessian and G
+    blocks) against DOP853, as the test above, at h = 0.5 and 0.25 ms: at 1
+    and 0.5 ms the soft model is not yet in the asymptotic range (ratios
+    3.49-3.58). Measured: order 2 ratios 3.70-4.08, NEWMARK 1.97; errors at
+    0.25 ms 0.9e-3 to 5e-3 (NEWMARK 0.04)."""
+    system, init, q_ref = soft_distance_reference
+    m = make_method(method)
+    e = _errors(system, init, q_ref, m, steps=(5e-4, 2.5e-4))
+    low, high = (1.6, 2.6) if m.order(system) == 1 else (3.5, 4.5)
+    assert low < e[0] / e[1] < high, e
+    assert e[1] < (0.08 if m.order(system) == 1 else 1e-2), e
 
 
 @pytest.mark.parametrize("path", [MODELS / "slider_crank_driven.mbd", MODELS / "double_pendulum.mbd",
