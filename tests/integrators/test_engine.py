@@ -29,8 +29,6 @@ from mbdsl.integrators.engine import (CompiledModel, SparseAdapter, band_orderin
 from ..conftest import MODELS
 
 VALID = MODELS.parent / "tests" / "dsl" / "valid"
-# the same refresh policy in both engines, so that they take the same iterations
-SAME = NewtonOptions(rate_refresh=0.1)
 #: The methods the kernels run from their recipes.
 RECIPE_METHODS = ["newmark", "hht-i3", "nstiff", "nstiff-si2", "hht-add", "hht-si2", "genalpha",
                   "genalpha-si2"]
