@@ -219,22 +219,6 @@ def test_energy_balance_on_the_incline(method):
         assert 3.5 < worst[0] / worst[1] < 4.5, worst
 
 
-@pytest.mark.parametrize("method", METHODS)
-def test_friction_runs_compiled_as_on_the_numpy_engine(method):
-    """The kernels evaluate the same law, Q_q, Q_v and Q_lambda (their Newton
-    matrix against differences: ``test_engine.py`` on friction_elements.mbd),
-    and take the same Coulomb start: the pendulum agrees to 1e-10; the stuck
-    block (creeping 3e-5 m, its law's slope mu N / v_reg = 1.2e5 N s/m) to
-    within Newton's tolerance of its creep, measured 1.5e-10 to 8e-10 m."""
-    for model, T, tol in ((mbdsl.load(INCLINE, overrides={"mu": 0.7}), 0.3, 3e-9),
-                          (mbdsl.load_text(PENDULUM), 0.5, 1e-10)):
-        a = mbdsl.simulate(model, method=method, h=1e-3, t_end=T, engine="numpy")
-        b = mbdsl.simulate(model, method=method, h=1e-3, t_end=T)
-        assert b.engine == "compiled"
-        assert np.abs(a.q[-1] - b.q[-1]).max() < tol
-        assert np.abs(a.v[-1] - b.v[-1]).max() < 1e3 * tol
-
-
 def test_the_summary_says_why_a_model_runs_on_the_numpy_engine(monkeypatch):
     from ..conftest import MODELS
     # every element of the language has a kernel: one without, as a new one would be
