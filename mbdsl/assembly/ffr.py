@@ -157,13 +157,10 @@ class FlexibleBeamGroup:
         k, c = len(self.beams), self.c
         M, Qq, Qv, Mxq = (np.zeros((k, c, c)) for _ in range(4))
         Q = np.zeros((k, c))
-
-        def vec(y):
-            return np.ascontiguousarray(y, dtype=np.float64)
-
-        qx = vec(qx)
-        cm.K.beam_blocks(cm.ints, cm.floats, self.first, qx, qx if vx is None else vec(vx),
-                         qx if x is None else vec(x), what, M, Q, Qq, Qv, Mxq)
+        qx, vx, x = (None if y is None else np.ascontiguousarray(y, dtype=np.float64)
+                     for y in (qx, vx, x))
+        cm.K.beam_blocks(cm.ints, cm.floats, self.first, qx, qx if vx is None else vx,
+                         qx if x is None else x, what, M, Q, Qq, Qv, Mxq)
         return M, Q, Qq, Qv, Mxq
 
     # -- mass --------------------------------------------------------------------------------

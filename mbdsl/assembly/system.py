@@ -110,7 +110,7 @@ class AssembledSystem:
             rigid[g.cols.ravel()] = False
             g.bind(self.kernel_model, first)
             first += len(g.beams)
-        self._kernel_models = {}
+        self._kernel_models, self._kernels_built = {}, None    # {compiled: CompiledModel}
         self.mass_diag = mass
         self._rigid_cols = np.flatnonzero(rigid)
         self.mass_is_constant = not self.flexible_groups
@@ -305,9 +305,9 @@ class AssembledSystem:
         if self.kernels != "uncompiled":
             if True in self._kernel_models:
                 return self._kernel_models[True]
-            if "ready" not in self._kernel_models:      # the marker: read once per system
-                self._kernel_models["ready"] = kernel_cache.kernels_ready()
-            compiled = kernel_cache.loaded() or self._kernel_models["ready"]
+            if self._kernels_built is None:              # the marker: read once per system
+                self._kernels_built = kernel_cache.kernels_ready()
+            compiled = kernel_cache.loaded() or self._kernels_built
         cm = self._kernel_models.get(compiled)
         if cm is None:
             from ..integrators.engine import CompiledModel, _kernels
@@ -317,7 +317,7 @@ class AssembledSystem:
     def __getstate__(self):
         """Pickled without the kernel models (they hold a module)."""
         state = self.__dict__.copy()
-        state["_kernel_models"] = {}
+        state["_kernel_models"], state["_kernels_built"] = {}, None
         state.pop("_compiled_model", None)
         return state
 

@@ -98,3 +98,16 @@ def test_a_system_evaluates_its_beams_on_the_kernels_it_can_call():
     q = np.zeros(system.n)
     M = system.mass_matrix(q)
     np.testing.assert_allclose(np.diag(M), system.mass_diag, rtol=1e-14)
+
+
+def test_a_pickled_system_evaluates_as_the_original():
+    # The kernel models hold a module and are not pickled; a copy builds its own
+    # (process pools ship systems and solutions).
+    import pickle
+    system = mbdsl.assemble(mbdsl.load(MODELS[0]))
+    q = np.full(system.n, 0.01)
+    before = (system.mass_matrix(q), system.Phi_q(q), system.Q(0.0, q, q))
+    copy = pickle.loads(pickle.dumps(system))
+    assert copy._kernel_models == {}
+    for a, b in zip(before, (copy.mass_matrix(q), copy.Phi_q(q), copy.Q(0.0, q, q))):
+        np.testing.assert_array_equal(a, b)
