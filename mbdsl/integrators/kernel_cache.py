@@ -192,10 +192,10 @@ def warm_up(groups=GROUPS, output: bool = True, loops=(False, True)) -> None:
     (``index1_multipliers``), of the contacts' energy and dissipated power
     (``contact_rows``), which a run with warm kernels loads when its output
     first needs them, and of the flexible beams' blocks and energies
-    (``beam_blocks``, ``beam_energies``) and of the constraints
-    (``constraints``),
-    which every evaluation of a beam or a joint outside the compiled loops
-    calls. ``loops``: the fixed-step loop (False), the
+    (``beam_blocks``, ``beam_energies``), which every evaluation of a beam
+    outside the compiled loops calls (the joints' ``constraints``, which the
+    initial conditions call, the pendulum's run loads). ``loops``: the
+    fixed-step loop (False), the
     error-controlled one (True), or both: a run with warm kernels loads the
     one it takes (each is a third of a second from numba's cache on two
     cores; measured on the slider crank's command, 0.75 s for both).
@@ -228,12 +228,6 @@ def warm_up(groups=GROUPS, output: bool = True, loops=(False, True)) -> None:
         blocks = [np.zeros((0, 3, 3)), np.zeros((0, 3))] + [np.zeros((0, 3, 3))] * 3
         cm.K.beam_blocks(cm.ints, cm.floats, 0, rows[0], rows[0], rows[0], 1, *blocks)
         cm.K.beam_energies(cm.ints, cm.floats, 0, 0, rows, True, np.zeros(1))
-        # the constraints' evaluations from Python (``AssembledSystem.Phi`` ...)
-        q, t = np.full(system.n, 0.1), 0.0
-        lam = np.ones(system.m)
-        system.Phi(q, t), system.Phi_t(q, t), system.Phi_q_values(q, t)
-        system.PhiqT_lam_q_values(q, lam), system.gamma(q, q, t)
-        system.Phiq_times(q, t, q), system.PhiqT_times(q, t, lam)
 
 
 def ensure_loaded(group: str | None = None, announce=None, adaptive: bool = False) -> float:
