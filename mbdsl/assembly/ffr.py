@@ -143,6 +143,7 @@ class FlexibleBeamGroup:
         self.mass_diagonal = np.concatenate([self.m[:, None], self.m[:, None], self.I0[:, None],
                                              np.diagonal(self.M_ff, axis1=1, axis2=2)], axis=1)
         self._kernel_model, self.first = None, 0
+        self._nx = cmap.n + 3           # the kernels read extended vectors (ground: 3 zeros)
 
     def bind(self, kernel_model, first: int) -> None:
         """Evaluate through ``kernel_model()`` (a callable returning the
@@ -157,11 +158,16 @@ class FlexibleBeamGroup:
         k, c = len(self.beams), self.c
         M, Qq, Qv, Mxq = (np.zeros((k, c, c)) for _ in range(4))
         Q = np.zeros((k, c))
-        qx, vx, x = (None if y is None else np.ascontiguousarray(y, dtype=np.float64)
-                     for y in (qx, vx, x))
+        qx, vx, x = (None if y is None else self._extended(y) for y in (qx, vx, x))
         cm.K.beam_blocks(cm.ints, cm.floats, self.first, qx, qx if vx is None else vx,
                          qx if x is None else x, what, M, Q, Qq, Qv, Mxq)
         return M, Q, Qq, Qv, Mxq
+
+    def _extended(self, y) -> np.ndarray:
+        """y (n,) or (n + 3,) as a contiguous extended vector (n + 3,)."""
+        out = np.zeros(self._nx)
+        out[: len(y)] = y
+        return out
 
     # -- mass --------------------------------------------------------------------------------
     def mass_blocks(self, qx) -> np.ndarray:
@@ -194,7 +200,9 @@ class FlexibleBeamGroup:
         all beams [J]: a float, or shape (...) for rows qx of shape (..., n
         or n + 3) (``compiled.beam_energies``)."""
         cm = self._kernel_model()
-        rows = np.ascontiguousarray(np.reshape(qx, (-1, np.shape(qx)[-1])), dtype=np.float64)
+        qx = np.asarray(qx, dtype=float)
+        rows = np.zeros((int(np.prod(qx.shape[:-1], dtype=int)), self._nx))
+        rows[:, : qx.shape[-1]] = qx.reshape(len(rows), -1)
         out = np.empty(len(rows))
         cm.K.beam_energies(cm.ints, cm.floats, self.first, self.first + len(self.beams), rows,
                            bool(gravity), out)
