@@ -164,9 +164,10 @@ class FlexibleBeamGroup:
         return M, Q, Qq, Qv, Mxq
 
     def _extended(self, y) -> np.ndarray:
-        """y (n,) or (n + 3,) as a contiguous extended vector (n + 3,)."""
-        out = np.zeros(self._nx)
-        out[: len(y)] = y
+        """y (..., n) or (..., n + 3) as contiguous extended vectors (..., n + 3)."""
+        y = np.asarray(y, dtype=float)
+        out = np.zeros(y.shape[:-1] + (self._nx,))
+        out[..., : y.shape[-1]] = y
         return out
 
     # -- mass --------------------------------------------------------------------------------
@@ -200,9 +201,7 @@ class FlexibleBeamGroup:
         all beams [J]: a float, or shape (...) for rows qx of shape (..., n
         or n + 3) (``compiled.beam_energies``)."""
         cm = self._kernel_model()
-        qx = np.asarray(qx, dtype=float)
-        rows = np.zeros((int(np.prod(qx.shape[:-1], dtype=int)), self._nx))
-        rows[:, : qx.shape[-1]] = qx.reshape(len(rows), -1)
+        rows = self._extended(qx).reshape(-1, self._nx)
         out = np.empty(len(rows))
         cm.K.beam_energies(cm.ints, cm.floats, self.first, self.first + len(self.beams), rows,
                            bool(gravity), out)

@@ -491,11 +491,8 @@ class AssembledSystem:
     def _ext_rows(self, x):
         """x (n,) or (..., n) -> contiguous rows (N, nx) with the ground's three
         zeros, and the leading shape (...)."""
-        x = np.asarray(x, dtype=float)
-        lead = x.shape[:-1]
-        rows = np.zeros((int(np.prod(lead, dtype=int)), self.nx))
-        rows[:, : self.n] = x.reshape(-1, self.n)
-        return rows, lead
+        qx = self._ext(np.asarray(x, dtype=float))       # a fresh contiguous array
+        return qx.reshape(-1, self.nx), qx.shape[:-1]
 
     def _constraints(self, what, rows, t, y, out, R=None, C=None, V=None):
         """``compiled.constraints`` at the rows (N, nx), with one argument type
