@@ -22,13 +22,20 @@ exact derivatives for the Newton matrix:
 (zero where the gap is open or the force is cut). v_impact is the state of
 the contact, set by the time loop when the gap closes (``arm``, the event
 that lands a step on the closing) and cleared when it opens (``release``).
+
+The group holds the contacts' data and state; the kernels of
+``integrators/compiled.py`` evaluate the law (``_contact_law``,
+``_contacts_add``, ``_emit_contacts``) and the gaps (``_gap``), the latter
+through the evaluation :meth:`ContactGroup.bind` gives the group
+(``AssembledSystem.contact_gaps``). ``tests/contact/contact_oracle.py`` is
+an independent numpy evaluation they are tested against.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from ..model.contact import SPEED_FLOOR, gap, gap_columns, slip
+from ..model.contact import SPEED_FLOOR, gap_columns
 
 __all__ = ["ContactGroup"]
 
@@ -50,6 +57,7 @@ class ContactGroup:
     """
 
     damped = True
+    state_dependent = True
 
     def __init__(self, cmap, contacts):
         self.cmap = cmap
@@ -73,11 +81,12 @@ class ContactGroup:
         self.impact_speed = np.zeros(len(self.names))
         #: (t, gap, speed) of every arm and release of the run under way
         self.log = []
-        #: The kernels' evaluation of :meth:`energy` and :meth:`dissipation`
-        #: over rows, (qx (N, nx), vx (N, nx), speeds (N, k)) -> (energy,
-        #: dissipation), each (N,), installed by a run that loaded them
-        #: (``engine.prepare_compiled``); None: the loops below.
-        self.row_kernel = None
+        self._gaps = None
+
+    def bind(self, gaps) -> None:
+        """Evaluate the gaps through ``gaps``: qx (nx,) -> (g (k,), dg/dq over
+        each gap's columns (k, 6)) (``AssembledSystem.contact_gaps``)."""
+        self._gaps = gaps
 
     # -- the contact state (set by the time loop) ------------------------------------------
     def reset(self):
@@ -97,10 +106,23 @@ class ContactGroup:
         self.impact_speed[i] = 0.0
         self.log.append((float(t), int(i), 0.0))
 
-    # -- evaluation ----------------------------------------------------------------------
+    # -- evaluation (the kernels') --------------------------------------------------------
     def gaps(self, qx) -> np.ndarray:
         """g per gap, shape (k,) [m or rad], from q_ext (nx,)."""
-        return np.array([gap(geo, data, qx, self.cmap)[0] for geo, data in self.geometry])
+        return self._gaps(qx)[0]
+
+    def gaps_one(self, i, qx) -> float:
+        """g of gap i [m or rad]."""
+        return float(self._gaps(qx)[0][i])
+
+    def gap_rates(self, qx, vx) -> np.ndarray:
+        """dg/dt per gap, shape (k,)."""
+        grad = self._gaps(qx)[1]
+        return np.einsum("ka,ka->k", grad, vx[self.cols])
+
+    def gap_rate_one(self, i, qx, vx) -> float:
+        """dg/dt of gap i."""
+        return float(self.gap_rates(qx, vx)[i])
 
     def duration(self, i, qx, speed, mass_diag) -> float:
         """Estimated duration [s] of an impact of gap i at approach speed
@@ -117,7 +139,7 @@ class ContactGroup:
             The rigid bodies' diagonal mass matrix [kg, kg m^2].
         """
         n_q = len(mass_diag)
-        _, grad, _ = gap(*self.geometry[i], qx, self.cmap)
+        grad = self._gaps(qx)[1][i]
         inv = sum(gj * gj / mass_diag[c] for gj, c in zip(grad, self.cols[i])
                   if c < n_q and mass_diag[c] > 0.0)
         if not inv > 0.0:
@@ -126,123 +148,6 @@ class ContactGroup:
         ex = self.n_[i]
         delta_max = ((ex + 1.0) * v * v / (2.0 * self.k_[i] * inv)) ** (1.0 / (ex + 1.0))
         return 3.0 * delta_max / v
-
-    def gaps_one(self, i, qx) -> float:
-        """g of gap i [m or rad]."""
-        return gap(*self.geometry[i], qx, self.cmap)[0]
-
-    def gap_rate_one(self, i, qx, vx) -> float:
-        """dg/dt of gap i."""
-        return float(gap(*self.geometry[i], qx, self.cmap)[1] @ vx[self.cols[i]])
-
-    def gap_rates(self, qx, vx) -> np.ndarray:
-        """dg/dt per gap, shape (k,)."""
-        return np.array([gap(geo, data, qx, self.cmap)[1] @ vx[c]
-                         for (geo, data), c in zip(self.geometry, self.cols)])
-
-    def _law(self, i, qx, vx, speed):
-        """(g, grad, H, delta, ddelta, f, elastic part K delta^n) of gap i."""
-        geo, data = self.geometry[i]
-        g, grad, H = gap(geo, data, qx, self.cmap)
-        if g >= 0.0:
-            return g, grad, H, 0.0, 0.0, 0.0, 0.0
-        delta = -g
-        ddelta = -(grad @ vx[self.cols[i]])
-        elastic = self.k_[i] * delta ** self.n_[i]
-        # not armed yet (a trial step into a contact the event has not closed):
-        # the approach speed now stands for the impact speed
-        v_imp = speed if speed > 0.0 else max(ddelta, SPEED_FLOOR)
-        f = elastic * (1.0 + self.chi[i] * ddelta / v_imp)
-        return g, grad, H, delta, ddelta, max(f, 0.0), elastic
-
-    def _friction(self, i, qx, vx, f):
-        """(F_t, w, dw, v_t, T) of gap i under normal force f: F_t = -mu f
-        tanh(v_t / v_reg) along the contact's tangent, v_t = w . v
-        (:func:`~mbdsl.model.contact.slip`), T = tanh(v_t / v_reg)."""
-        w, dw = slip(*self.geometry[i], qx, self.cmap)
-        vt = w @ vx[self.cols[i]]
-        T = np.tanh(vt / self.v_reg[i])
-        return -self.mu[i] * f * T, w, dw, vt, T
-
-    def forces(self, qx, vx, t):
-        """Local Q, shape (k, 6) [N, N m]: the normal force f grad g and, with
-        friction, F_t w (the tangential force's generalized form)."""
-        out = np.zeros(self.cols.shape)
-        for i in range(len(self.names)):
-            _, grad, _, _, _, f, _ = self._law(i, qx, vx, self.impact_speed[i])
-            if f > 0.0:
-                out[i] = f * grad
-                if self.mu[i] > 0.0:
-                    Ft, w, _, _, _ = self._friction(i, qx, vx, f)
-                    out[i] += Ft * w
-        return out
-
-    def derivatives(self, qx, vx, t):
-        """Local (Q_q, Q_v), each shape (k, 6, 6) (module notes)."""
-        k = len(self.names)
-        Qq, Qv = np.zeros((k, 6, 6)), np.zeros((k, 6, 6))
-        for i in range(k):
-            g, grad, H, delta, ddelta, f, elastic = self._law(i, qx, vx, self.impact_speed[i])
-            if f <= 0.0:
-                continue
-            n, chi = self.n_[i], self.chi[i]
-            armed = self.impact_speed[i] > 0.0 or ddelta <= SPEED_FLOOR
-            speed = self.impact_speed[i] if self.impact_speed[i] > 0.0 else max(ddelta,
-                                                                                 SPEED_FLOOR)
-            # df/d(ddelta): K delta^n chi / v_impact; unarmed, f = K delta^n (1 + chi)
-            # does not depend on ddelta
-            damp = elastic * chi / speed if armed else 0.0
-            df_ddelta = n * self.k_[i] * delta ** (n - 1.0) * (1.0 + chi * ddelta / speed)
-            v = vx[self.cols[i]]
-            dfdq = -df_ddelta * grad - damp * (H @ v)
-            dfdv = -damp * grad
-            Qq[i] = np.outer(grad, dfdq) + f * H
-            Qv[i] = np.outer(grad, dfdv)
-            if self.mu[i] > 0.0:
-                # Q = F_t w, F_t = -mu f T(v_t): Q_q = w dF_t/dq^T + F_t dw/dq,
-                # Q_v = w dF_t/dv^T, dv_t/dq = (dw/dq)^T v, dv_t/dv = w
-                Ft, w, dw, vt, T = self._friction(i, qx, vx, f)
-                dT = (1.0 - T * T) / self.v_reg[i]
-                dvt_dq = dw.T @ v
-                dFt_dq = -self.mu[i] * (T * dfdq + f * dT * dvt_dq)
-                dFt_dv = -self.mu[i] * (T * dfdv + f * dT * w)
-                Qq[i] += np.outer(w, dFt_dq) + Ft * dw
-                Qv[i] += np.outer(w, dFt_dv)
-        return Qq, Qv
-
-    def energy(self, qx):
-        """Elastic energy of the contacts, K delta^(n+1) / (n+1) [J]: a float,
-        or shape (N,) for rows qx (N, nx)."""
-        rows = np.atleast_2d(qx)
-        if self.row_kernel is not None:
-            zero = np.zeros((len(rows), len(self.names)))
-            out = self.row_kernel(rows, np.zeros_like(rows), zero)[0]
-            return float(out[0]) if np.ndim(qx) == 1 else out
-        out = np.zeros(len(rows))
-        for r, row in enumerate(rows):
-            for i, (geo, data) in enumerate(self.geometry):
-                g = gap(geo, data, row, self.cmap)[0]
-                if g < 0.0:
-                    out[r] += self.k_[i] * (-g) ** (self.n_[i] + 1.0) / (self.n_[i] + 1.0)
-        return float(out[0]) if np.ndim(qx) == 1 else out
-
-    def dissipation(self, qx, vx, speeds):
-        """Power the contacts dissipate [W], shape (N,), for rows qx, vx
-        (N, nx) and the impact speeds in force at each row (N, k)
-        (:meth:`speeds_at`): (f - K delta^n) ddelta/dt, the damping's power
-        and, where the force is cut at zero, the elastic power it leaves out."""
-        if self.row_kernel is not None:
-            return self.row_kernel(qx, vx, speeds)[1]
-        out = np.zeros(len(qx))
-        for r in range(len(qx)):
-            for i in range(len(self.names)):
-                _, _, _, delta, ddelta, f, elastic = self._law(i, qx[r], vx[r], speeds[r, i])
-                if delta > 0.0:
-                    out[r] += (f - elastic) * ddelta
-                    if self.mu[i] > 0.0 and f > 0.0:       # friction: -F_t v_t >= 0
-                        Ft, _, _, vt, _ = self._friction(i, qx[r], vx[r], f)
-                        out[r] -= Ft * vt
-        return out
 
     def speeds_at(self, t, log):
         """Impact speeds in force at times t (N,), from a run's contact log

@@ -134,6 +134,7 @@ class FlexibleBeamGroup:
                                  for b, s in zip(beams, self.stiffening)])
         self.gravity = None if gravity is None else np.asarray(gravity, float)
         self.damped = True          # the quadratic velocity vector depends on v
+        self.state_dependent = True
         k, c = len(beams), self.c
         #: mass-matrix pattern in q: (rows, cols), each shape (k * c * c,)
         self.pattern = (np.repeat(self.cols, c, axis=1).ravel(),

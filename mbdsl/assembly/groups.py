@@ -2,15 +2,15 @@
 
 Each group stores its instances as a struct of arrays (body columns,
 body-fixed vectors, parameters) built once: the model data
-``integrators.engine.CompiledModel`` packs for the kernels. A constraint
-group (rows ``rows`` (k, r), columns ``cols`` (k, c) into the extended
+``integrators.engine.CompiledModel`` packs for the kernels. A group (rows
+``rows`` (k, r) of a constraint, columns ``cols`` (k, c) into the extended
 coordinate vector q_ext = [q, 0, 0, 0], where the three trailing zeros are
-the ground) holds data only: the kernels of ``integrators/compiled.py`` are
-the one evaluation of Phi and its derivatives (``AssembledSystem.Phi`` and
-the functions after it), and ``tests/assembly/constraint_oracle.py`` an
-independent numpy one they are tested against. The force groups still
-evaluate their loads here, vectorised (local Q (k, c), Q_q and Q_v (k, c,
-c), scattered by the system). All formulas are in absolute planar
+the ground) holds data only, and states its element's equations: the
+kernels of ``integrators/compiled.py`` are the one evaluation of Phi, Q and
+their derivatives (``AssembledSystem.Phi``, ``AssembledSystem.Q`` and the
+functions after them), and ``tests/assembly/constraint_oracle.py`` and
+``tests/assembly/force_oracle.py`` independent numpy ones they are tested
+against. All formulas are in absolute planar
 coordinates (Haug, Computer-Aided Kinematics and Dynamics of Mechanical
 Systems, ch. 3; Nikravesh, Computer-Aided Analysis of Mechanical Systems,
 ch. 4): A(phi) is the rotation matrix, B(phi) = dA/dphi, and
@@ -23,9 +23,9 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["rot", "drot", "body_columns", "PointSet", "point_difference", "CoincidenceGroup", "PointOnLineGroup", "LinearConstraintGroup",
-           "SpringDamperGroup", "RotationalSpringGroup",
-           "TorqueGroup", "StateTorqueGroup", "PointForceGroup"]
+__all__ = ["rot", "drot", "body_columns", "PointSet", "CoincidenceGroup", "PointOnLineGroup",
+           "LinearConstraintGroup", "DistanceGroup", "SpringDamperGroup", "RotationalSpringGroup",
+           "TorqueGroup", "StateTorqueGroup", "PointForceGroup", "FrictionGroup"]
 
 
 def rot(phi: np.ndarray, s: np.ndarray) -> np.ndarray:
@@ -67,8 +67,11 @@ class PointSet:
     rigid formulas cost.
 
     * position: r + A u                                   (k, 2)
-    * jac:      [I, B u, A S]                             (k, 2, 3 + e)
-    * hess:     d2/dphi2 = -A u, d2/dphi dq_e = B S       (k, 2, 3 + e, 3 + e)
+    * jacobian: [I, B u, A S]                             (k, 2, 3 + e)
+    * Hessian:  d2/dphi2 = -A u, d2/dphi dq_e = B S       (k, 2, 3 + e, 3 + e)
+
+    (the jacobian and Hessian are the kernels', ``compiled._Au`` and the
+    elastic terms of the joints and loads)
 
     (Shabana, Dynamics of Multibody Systems, sec. 5.3: the position of an
     arbitrary point of a deformable body in the floating frame.)
@@ -89,9 +92,6 @@ class PointSet:
         self.cols = np.concatenate([body_columns(cmap, [p.body for p in points]), ecols], axis=1)
         self.s = np.array([p.local for p in points], dtype=float).reshape(-1, 2)
         self.flexible = self.e > 0
-        self._jac = np.zeros((k, 2, self.c))
-        self._jac[:, 0, 0] = self._jac[:, 1, 1] = 1.0
-        self._hess = np.zeros((k, 2, self.c, self.c))
 
     def local(self, q) -> np.ndarray:
         """u = s + S q_e in the body frame, shape (k, 2), from local coordinates q (k, c)."""
@@ -103,77 +103,15 @@ class PointSet:
         """Global positions, shape (..., k, 2) for q of shape (..., k, c)."""
         return q[..., 0:2] + rot(q[..., 2], self.local(q))
 
-    def jac(self, q) -> np.ndarray:
-        """d position / d q_local, shape (..., k, 2, c) (for one row, q of
-        shape (k, c), a reused buffer)."""
-        J = self._jac if q.ndim == 2 else np.broadcast_to(self._jac, q.shape[:-2] + self._jac.shape).copy()
-        J[..., 2] = drot(q[..., 2], self.local(q))
-        if self.flexible:
-            c, si = np.cos(q[..., 2])[..., None], np.sin(q[..., 2])[..., None]
-            J[..., 0, 3:] = c * self.S[:, 0] - si * self.S[:, 1]
-            J[..., 1, 3:] = si * self.S[:, 0] + c * self.S[:, 1]
-        return J
-
-    def hess(self, q) -> np.ndarray:
-        """d2 position / d q_local2, shape (k, 2, c, c) (a reused buffer)."""
-        H = self._hess
-        H[:, :, 2, 2] = -rot(q[:, 2], self.local(q))
-        if self.flexible:
-            c, si = np.cos(q[:, 2]), np.sin(q[:, 2])
-            BS = np.stack([-si[:, None] * self.S[:, 0] - c[:, None] * self.S[:, 1],
-                           c[:, None] * self.S[:, 0] - si[:, None] * self.S[:, 1]], axis=1)
-            H[:, :, 2, 3:] = BS
-            H[:, :, 3:, 2] = BS
-        return H
-
-
-def point_difference(P1: PointSet, q1, P2: PointSet, q2) -> np.ndarray:
-    """d = p2 - p1, shape (k, 2), from the local coordinates of both sets.
-
-    Reference coordinates are subtracted first: exact when the two bodies
-    are within a factor 2 of each other (Sterbenz), so the round-off is eps
-    times the point offsets, not eps |r|. Index-3 methods divide Phi by
-    beta h^2, so this round-off reaches the velocities.
-    """
-    return (q2[..., 0:2] - q1[..., 0:2]) + (rot(q2[..., 2], P2.local(q2))
-                                            - rot(q1[..., 2], P1.local(q1)))
-
 
 class _PointPair:
-    """Two point sets side by side, local coordinates (q_1 [c1], q_2 [c2]),
-    and the derivatives of their difference d = p2 - p1."""
+    """Two point sets side by side, local coordinates (q_1 [c1], q_2 [c2]):
+    d = p2 - p1 of a joint or a spring-damper."""
 
     def __init__(self, cmap, first, second):
         self.P1, self.P2 = PointSet(cmap, first), PointSet(cmap, second)
         self.c1 = self.P1.c
         self.cols = np.concatenate([self.P1.cols, self.P2.cols], axis=1)
-        k, c = self.cols.shape
-        self._D = np.zeros((k, 2, c))
-        self._DD = np.zeros((k, 2, c, c))
-
-    def split(self, qx):
-        """Local coordinates of both points, (..., k, c1) and (..., k, c2)."""
-        q = qx[..., self.cols]
-        return q[..., :self.c1], q[..., self.c1:]
-
-    def difference(self, q1, q2):
-        """d = p2 - p1, shape (..., k, 2)."""
-        return point_difference(self.P1, q1, self.P2, q2)
-
-    def difference_jac(self, q1, q2):
-        """dd/dq_local = [-J1, J2], shape (..., k, 2, c1 + c2) (for one row a
-        reused buffer)."""
-        D = self._D if q1.ndim == 2 else np.empty(q1.shape[:-2] + self._D.shape)
-        D[..., :self.c1] = -self.P1.jac(q1)
-        D[..., self.c1:] = self.P2.jac(q2)
-        return D
-
-    def difference_hess(self, q1, q2):
-        """d2d/dq_local2 = -H1 (+) H2, shape (k, 2, c, c) (a reused buffer)."""
-        c1, DD = self.c1, self._DD
-        DD[:, :, :c1, :c1] = -self.P1.hess(q1)
-        DD[:, :, c1:, c1:] = self.P2.hess(q2)
-        return DD
 
 
 class CoincidenceGroup:
@@ -284,9 +222,14 @@ class SpringDamperGroup:
     d = p2 - p1, l = |d|, e = d / l, ldot = e . d', tension
     f = k (l - l0) + c ldot, generalized force Q = -D^T (f e) with
     D = dd/dq_local. Q_q follows from the chain rule through e, l, ldot and
-    the Hessians of d; Q_v = -c (D^T e)(D^T e)^T. The points may lie on
-    flexible beams (``PointSet``).
+    the Hessians of d; Q_v = -c (D^T e)(D^T e)^T. Two coincident points have
+    no direction and no force along it (the time loop lands a step there as
+    an event, docs/contact.md). The points may lie on flexible beams
+    (``PointSet``). Evaluated by ``compiled._springs_add`` and
+    ``_emit_force``.
     """
+
+    state_dependent = True
 
     def __init__(self, cmap, first, second, k, c, length):
         self.pair = _PointPair(cmap, first, second)
@@ -294,121 +237,32 @@ class SpringDamperGroup:
         self.k, self.c, self.l0 = (np.asarray(x, float) for x in (k, c, length))
         self.damped = bool(np.any(self.c != 0.0))
 
-    def _kin(self, qx, vx):
-        q1, q2 = self.pair.split(qx)
-        v = vx[self.cols]
-        d = self.pair.difference(q1, q2)
-        G = self.pair.difference_jac(q1, q2)
-        ddot = np.einsum("kaj,kj->ka", G, v)
-        l = np.sqrt(np.einsum("ka,ka->k", d, d))
-        # two coincident points: no direction, and no force along it (the
-        # time loop lands a step there as an event, docs/contact.md)
-        e = np.divide(d, l[:, None], out=np.zeros_like(d), where=l[:, None] > 0.0)
-        return q1, q2, v, d, G, ddot, l, e
-
-    def lengths(self, qx):
-        """Current lengths l, shape (..., k) [m]."""
-        d = self.pair.difference(*self.pair.split(qx))
-        return np.sqrt(np.einsum("...a,...a->...", d, d))
-
-    def forces(self, qx, vx, t):
-        """Local Q, shape (k, c) [N, N m]."""
-        _, _, _, d, G, ddot, l, e = self._kin(qx, vx)
-        f = self.k * (l - self.l0)
-        if self.damped:
-            f = f + self.c * np.einsum("ka,ka->k", e, ddot)
-        return -np.einsum("kaj,ka->kj", G, f[:, None] * e)
-
-    def derivatives(self, qx, vx, t):
-        """Local (Q_q, Q_v), each shape (k, c, c)."""
-        q1, q2, v, d, G, ddot, l, e = self._kin(qx, vx)
-        Hd = self.pair.difference_hess(q1, q2)          # (k, 2, c, c)
-        Hv = np.einsum("kaij,kj->kai", Hd, v)           # d(ddot)/dq
-        inv_l = np.divide(1.0, l, out=np.zeros_like(l), where=l > 0.0)
-        P = (np.eye(2)[None] - e[:, :, None] * e[:, None, :]) * inv_l[:, None, None]
-        de = np.einsum("kab,kbj->kaj", P, G)            # de/dq, (k, 2, c)
-        ldot = np.einsum("ka,ka->k", e, ddot)
-        dl = np.einsum("ka,kaj->kj", e, G)              # dl/dq, (k, c)
-        f = self.k * (l - self.l0) + self.c * ldot
-        dldot = np.einsum("ka,kaj->kj", ddot, de) + np.einsum("ka,kaj->kj", e, Hv)
-        df = self.k[:, None] * dl + self.c[:, None] * dldot
-        dF = e[:, :, None] * df[:, None, :] + f[:, None, None] * de   # d(f e)/dq
-        F = f[:, None] * e
-        Q_q = -np.einsum("kaj,kai->kji", G, dF) - np.einsum("ka,kaij->kij", F, Hd)
-        Ge = np.einsum("kaj,ka->kj", G, e)
-        Q_v = -self.c[:, None, None] * Ge[:, :, None] * Ge[:, None, :]
-        return Q_q, Q_v
-
-    def energy(self, qx):
-        """Potential energy of all springs [J]: a float, or shape (...) for
-        rows qx (..., nx)."""
-        l = self.lengths(qx)
-        return 0.5 * np.sum(self.k * (l - self.l0) ** 2, axis=-1)
-
-    def dissipation(self, qx, vx):
-        """Power the dampers dissipate, sum of c ldot^2 [W], shape (N,) for
-        rows qx, vx (N, nx)."""
-        if not self.damped:
-            return np.zeros(qx.shape[0])
-        q1, q2 = self.pair.split(qx)
-        d = self.pair.difference(q1, q2)                           # (N, k, 2)
-        G = self.pair.difference_jac(q1, q2)                       # (N, k, 2, c)
-        ddot = np.einsum("nkaj,nkj->nka", G, vx[:, self.cols])
-        l = np.sqrt(np.einsum("nka,nka->nk", d, d))[..., None]
-        e = np.divide(d, l, out=np.zeros_like(d), where=l > 0.0)
-        ldot = np.einsum("nka,nka->nk", e, ddot)
-        return np.sum(self.c * ldot ** 2, axis=-1)
-
 
 class RotationalSpringGroup:
     """Torsional spring-dampers on relative angles theta = phi2 - phi1 - angle.
 
     Torque -(k theta + c theta') on body 2, the opposite on body 1. Linear:
-    Q_q and Q_v are constant. Local coordinates (phi1, phi2).
+    Q_q = k [[-1, 1], [1, -1]] and Q_v = c [[-1, 1], [1, -1]] over the local
+    coordinates (phi1, phi2).
     """
+
+    state_dependent = True
 
     def __init__(self, cmap, body1, body2, k, c, angle):
         self.cols = np.stack([body_columns(cmap, body1)[:, 2], body_columns(cmap, body2)[:, 2]], axis=1)
         self.k, self.c, self.angle = (np.asarray(x, float) for x in (k, c, angle))
-        pattern = np.array([[-1.0, 1.0], [1.0, -1.0]])  # d(Q1, Q2)/d(phi1, phi2) / k
-        self._Q_q = self.k[:, None, None] * pattern[None]
-        self._Q_v = self.c[:, None, None] * pattern[None]
         self.damped = bool(np.any(self.c != 0.0))
-
-    def forces(self, qx, vx, t):
-        """Local Q, shape (k, 2) [N m]."""
-        q, v = qx[self.cols], vx[self.cols]
-        tau = self.k * (q[:, 1] - q[:, 0] - self.angle) + self.c * (v[:, 1] - v[:, 0])
-        return np.stack([tau, -tau], axis=1)
-
-    def derivatives(self, qx, vx, t):
-        """Local (Q_q, Q_v), constant, shape (k, 2, 2)."""
-        return self._Q_q, self._Q_v
-
-    def energy(self, qx):
-        """Potential energy [J]: a float, or shape (...) for rows qx (..., nx)."""
-        q = qx[..., self.cols]
-        return 0.5 * np.sum(self.k * (q[..., 1] - q[..., 0] - self.angle) ** 2, axis=-1)
-
-    def dissipation(self, qx, vx):
-        """Power the dampers dissipate, sum of c theta'^2 [W], shape (N,) for
-        rows vx (N, nx)."""
-        v = vx[:, self.cols]
-        return np.sum(self.c * (v[..., 1] - v[..., 0]) ** 2, axis=-1)
 
 
 class TorqueGroup:
-    """Applied torques tau(t) on bodies. No q or v dependence."""
+    """Applied torques tau(t) on bodies (functions of time, or constant). No
+    q or v dependence."""
+
+    state_dependent = False
 
     def __init__(self, cmap, body, functions):
         self.cols = body_columns(cmap, body)[:, 2:3]
         self.functions = list(functions)
-
-    def forces(self, qx, vx, t):
-        """Local Q, shape (k, 1) [N m]."""
-        return np.array([[f.f(t)] for f in self.functions])
-
-    derivatives = None
 
 
 class StateTorqueGroup:
@@ -426,11 +280,11 @@ class StateTorqueGroup:
         Q = tau w,  Q_q = w (dtau/dq)^T + tau dw/dq,  Q_v = w (dtau/dv)^T
 
     with dtau/dq = sum_k dtau/dx_k dx_k/dq (the expression's partial
-    derivatives, symbolic: ``StateFunction.grads``; dx/dq of a distance is
-    grad s, of a speed grad s . v is (d^2 s) v and dx/dv = grad s), and dw/dq
-    = d^2 s for a force, 0 for a torque. Local coordinates per instance: the
-    coordinates of its direction, then those its variables read, padded by
-    the ground's dummy column.
+    derivatives, symbolic: ``StateFunction.grad_exprs``; dx/dq of a distance
+    is grad s, of a speed grad s . v is (d^2 s) v and dx/dv = grad s), and
+    dw/dq = d^2 s for a force, 0 for a torque. Local coordinates per
+    instance: the coordinates of its direction, then those its variables
+    read, padded by the ground's dummy column.
 
     Attributes
     ----------
@@ -440,6 +294,8 @@ class StateTorqueGroup:
         ground's dummy column for a torque on one body); None for a force.
     """
 
+    state_dependent = True
+
     def __init__(self, cmap, plus, minus, functions, lines=None):
         n = cmap.n
         from ..model.elements import line_columns
@@ -447,7 +303,7 @@ class StateTorqueGroup:
         self.functions = list(functions)
         self.lines = list(lines) if lines is not None else [None] * len(self.functions)
         ground_phi = n + 2
-        per, self.targets, self._line_cols, self._vars = [], [], [], []
+        per, self.targets, self.line_cols, self.variables = [], [], [], []
         for p, m, f, line in zip(plus, minus, self.functions, self.lines):
             if line is None:
                 own = [int(c) for c in cmap([p, m])[:, 2]]
@@ -459,69 +315,13 @@ class StateTorqueGroup:
             cols = list(dict.fromkeys(cols))
             where = {c: a for a, c in enumerate(cols)}
             self.targets.append((where[own[0]], where[own[1]]) if line is None else None)
-            self._line_cols.append([where[c] for c in own] if line is not None else None)
-            self._vars.append([(var, [where[c] for c in var.columns(cmap)])
-                               for var in getattr(f, "variables", ())])
+            self.line_cols.append([where[c] for c in own] if line is not None else None)
+            self.variables.append([(var, [where[c] for c in var.columns(cmap)])
+                                   for var in getattr(f, "variables", ())])
             per.append(cols)
         width = max(len(c) for c in per)
         self.cols = np.array([c + [ground_phi] * (width - len(c)) for c in per], dtype=np.intp)
-        self.damped = any(var.level == 1 for v in self._vars for var, _ in v)
-
-    def _tau(self, f, qx, vx, t):
-        """tau and, for a state function, the variables' values."""
-        if hasattr(f, "variables"):
-            x = f.values(qx, vx, self.cmap)
-            return f.f(t, x), x
-        return f.f(t), None
-
-    def _direction(self, i, qx):
-        """(local columns, w, dw/dq or None) of instance i."""
-        if self.lines[i] is None:
-            a, b = self.targets[i]
-            return [a, b], np.array([1.0, -1.0]), None
-        from ..model.elements import line_distance
-        _, grad, H = line_distance(self.lines[i], qx, self.cmap)
-        return self._line_cols[i], grad, H
-
-    def forces(self, qx, vx, t):
-        """Local Q, shape (k, c) [N, N m]."""
-        out = np.zeros(self.cols.shape)
-        for i, f in enumerate(self.functions):
-            tau, _ = self._tau(f, qx, vx, t)
-            cols, w, _ = self._direction(i, qx)
-            np.add.at(out[i], cols, tau * w)
-        return out
-
-    def derivatives(self, qx, vx, t):
-        """Local (Q_q, Q_v), shape (k, c, c)."""
-        from ..model.elements import line_distance
-        k, c = self.cols.shape
-        Qq, Qv = np.zeros((k, c, c)), np.zeros((k, c, c))
-        for i, f in enumerate(self.functions):
-            tau, x = self._tau(f, qx, vx, t)
-            cols, w, dw = self._direction(i, qx)
-            if dw is not None:
-                Qq[i][np.ix_(cols, cols)] += tau * dw
-            if x is None:
-                continue
-            dq, dv = np.zeros(c), np.zeros(c)
-            for grad, (var, local) in zip(f.grads, self._vars[i]):
-                g = grad(t, x)
-                if var.line is None:
-                    target = dq if var.level == 0 else dv
-                    for a, (_, _, coef) in zip(local, var.terms):
-                        target[a] += g * coef
-                    continue
-                _, gs, Hs = line_distance(var.line, qx, self.cmap)
-                if var.level == 0:
-                    np.add.at(dq, local, g * gs)
-                else:
-                    np.add.at(dq, local, g * (Hs @ vx[var.columns(self.cmap)]))
-                    np.add.at(dv, local, g * gs)
-            for a, wa in zip(cols, w):
-                Qq[i, a] += wa * dq
-                Qv[i, a] += wa * dv
-        return Qq, Qv
+        self.damped = any(var.level == 1 for v in self.variables for var, _ in v)
 
 
 class PointForceGroup:
@@ -532,21 +332,12 @@ class PointForceGroup:
     entry d/dphi (B s . F) = -(A s) . F).
     """
 
+    state_dependent = True
+
     def __init__(self, cmap, points, fx, fy):
         self.points = PointSet(cmap, points)
         self.cols = self.points.cols
         self.fx, self.fy = list(fx), list(fy)
-
-    def _F(self, t):
-        return np.array([[fx.f(t), fy.f(t)] for fx, fy in zip(self.fx, self.fy)])
-
-    def forces(self, qx, vx, t):
-        """Local Q, shape (k, c) [N, N m]."""
-        return np.einsum("kaj,ka->kj", self.points.jac(qx[self.cols]), self._F(t))
-
-    def derivatives(self, qx, vx, t):
-        """Local (Q_q, None), Q_q shape (k, c, c)."""
-        return np.einsum("ka,kaij->kij", self._F(t), self.points.hess(qx[self.cols])), None
 
 
 class FrictionGroup:
@@ -606,13 +397,14 @@ class FrictionGroup:
 
     damped = True
     uses_multipliers = True
+    state_dependent = True
 
     def __init__(self, cmap, plus, minus, lines, rows, params):
         n = cmap.n
         from ..model.elements import line_columns
         self.n, self.cmap, self.lines = n, cmap, list(lines)
         ground_phi = n + 2
-        per, self._dir = [], []
+        per = []
         for p, m, line in zip(plus, minus, self.lines):
             if line is None:
                 cols = [int(c) for c in cmap([p, m])[:, 2]]
@@ -624,91 +416,6 @@ class FrictionGroup:
         self.rows = [np.asarray(r, dtype=np.intp) for r in rows]
         self.params = np.asarray(params, float).reshape(-1, 6)
 
-    def _kinematics(self, i, qx, vx):
-        """(local columns, w, dw/dq or None, z, dz/dq local) of instance i."""
-        if self.lines[i] is None:
-            w = np.array([1.0, -1.0])
-            return [0, 1], w, None, float(w @ vx[self.cols[i, :2]]), np.zeros(2)
-        from ..model.elements import line_distance
-        _, grad, H = line_distance(self.lines[i], qx, self.cmap)
-        v = vx[self.cols[i, :6]]
-        return list(range(6)), grad, H, float(grad @ v), H @ v
-
-    def law(self, i, z, lam_J, slip=None):
-        """(tau, dtau/dz, dtau/dlambda_J) of instance i at speed z and
-        reaction multipliers lam_J; ``slip`` in [-1, 1] replaces tanh(z/v_reg)
-        (and mu(z) is mu_static) for the Coulomb limit at rest (``initial``)."""
-        mu_k, mu_s, v_s, c, v_reg, r = self.params[i]
-        e = np.exp(-(z / v_s) ** 2) if v_s > 0 else 0.0
-        mu = mu_k + (mu_s - mu_k) * e
-        dmu = (mu_s - mu_k) * e * (-2.0 * z / v_s ** 2) if v_s > 0 else 0.0
-        th = np.tanh(z / v_reg)
-        if slip is not None and not np.isnan(slip):
-            th, mu, dmu = slip, mu_s, 0.0
-        R = float(np.sqrt(lam_J @ lam_J))
-        N = r * R
-        dN = r * lam_J / R if R > 0.0 else np.zeros_like(lam_J)
-        tau = -N * mu * th - c * z
-        dz = -N * (dmu * th + mu * (1.0 - th * th) / v_reg) - c
-        return tau, dz, -mu * th * dN
-
-    def forces(self, qx, vx, t, lam, slip=None):
-        """Local Q, shape (k, c) [N, N m]; ``slip`` (k,) as in :meth:`law`
-        (NaN: the law itself)."""
-        out = np.zeros(self.cols.shape)
-        for i in range(len(self.lines)):
-            cols, w, _, z, _ = self._kinematics(i, qx, vx)
-            tau, _, _ = self.law(i, z, lam[self.rows[i]], None if slip is None else slip[i])
-            out[i, cols] += tau * w
-        return out
-
-    def speeds(self, qx, vx, ax=None):
-        """Per instance the joint speed z, or with accelerations ``ax`` its
-        rate dz/dt = w . a + (dw/dq v) . v, shape (k,)."""
-        out = np.zeros(len(self.lines))
-        for i in range(len(self.lines)):
-            cols, w, dw, z, _ = self._kinematics(i, qx, vx)
-            if ax is None:
-                out[i] = z
-                continue
-            c = self.cols[i, cols]
-            out[i] = w @ ax[c] + (0.0 if dw is None else vx[c] @ dw @ vx[c])
-        return out
-
     def regularisation(self):
         """v_reg per instance, shape (k,)."""
         return self.params[:, 4].copy()
-
-    def derivatives(self, qx, vx, t, lam):
-        """Local (Q_q, Q_v), shape (k, c, c)."""
-        k, c = self.cols.shape
-        Qq, Qv = np.zeros((k, c, c)), np.zeros((k, c, c))
-        for i in range(k):
-            cols, w, dw, z, dzq = self._kinematics(i, qx, vx)
-            tau, dz, _ = self.law(i, z, lam[self.rows[i]])
-            ix = np.ix_(cols, cols)
-            if dw is not None:
-                Qq[i][ix] += tau * dw
-            Qq[i][ix] += dz * np.outer(w, dzq)
-            Qv[i][ix] += dz * np.outer(w, w)
-        return Qq, Qv
-
-    def multiplier_derivatives(self, qx, vx, t, lam):
-        """Per instance, dQ_local/dlambda_J, shape (c, len(rows_J))."""
-        out = []
-        for i in range(len(self.lines)):
-            cols, w, _, z, _ = self._kinematics(i, qx, vx)
-            _, _, dl = self.law(i, z, lam[self.rows[i]])
-            block = np.zeros((self.cols.shape[1], len(self.rows[i])))
-            block[cols] = np.outer(w, dl)
-            out.append(block)
-        return out
-
-    def dissipation(self, qx, vx, t, lam):
-        """Power dissipated, -tau z >= 0, per instance, shape (k,) [W]."""
-        out = np.zeros(len(self.lines))
-        for i in range(len(self.lines)):
-            _, _, _, z, _ = self._kinematics(i, qx, vx)
-            tau, _, _ = self.law(i, z, lam[self.rows[i]])
-            out[i] = -tau * z
-        return out

@@ -653,8 +653,7 @@ def coulomb_start(system, t0, q, v, solve):
     """
     n = system.n
     g = system.multiplier_groups[0]
-    qx, vx = system._ext(q), system._ext(v)
-    rest = np.abs(g.speeds(qx, vx)) <= 1e-3 * g.regularisation()
+    rest = np.abs(system.friction_speeds(q, v)) <= 1e-3 * g.regularisation()
     if not rest.any():
         return system.index1_solve(None, t0, q, v, solve), None
     slip = np.where(rest, 0.0, np.nan)
@@ -662,7 +661,7 @@ def coulomb_start(system, t0, q, v, solve):
     def rate(s):
         """(dz/dt per friction joint, (a, lambda)) with slips s (NaN: the law)."""
         sol = system.index1_solve(None, t0, q, v, solve, slip=s)
-        return g.speeds(qx, vx, system._ext(sol[:n])), sol
+        return system.friction_speeds(q, v, sol[:n]), sol
 
     for _ in range(20):
         before = slip.copy()

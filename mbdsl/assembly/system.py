@@ -21,11 +21,12 @@ Newton matrices are assembled from (``assembly/sparse.py``); the dense
 ``Phi_q``, ``PhiqT_lam_q``, ... are built from the same patterns. Residuals use
 the matrix-free products ``PhiqT_times`` and ``Phiq_times``.
 
-The physics of the joints, drivers and flexible beams is evaluated by the
-kernels of ``integrators/compiled.py`` (their one implementation; the
-constraint patterns are the kernels' triplets), through
-:meth:`AssembledSystem.kernel_model`; the applied loads by the force groups
-of ``groups.py``.
+The physics of every element (joints, drivers, applied loads, contacts,
+flexible beams) is evaluated by the kernels of ``integrators/compiled.py``,
+its one implementation, through :meth:`AssembledSystem.kernel_model`; the
+groups of ``groups.py``, ``contact.py`` and ``ffr.py`` hold the elements'
+data. The constraint patterns are the kernels' triplets; the loads'
+patterns are the pairs of their instances' columns.
 
 Only what the model declares is built and evaluated: a model without gravity
 has no gravity vector, a model without springs no spring group, and the
@@ -197,6 +198,8 @@ class AssembledSystem:
         #: Spring-dampers with a free length whose force direction flips when
         #: their two points pass each other (events): (group, [(index, name)]).
         self.flipping_springs = None
+        #: The number of spring-dampers (``spring_separations``).
+        self.spring_count = len(springs)
         if springs:
             group = SpringDamperGroup(
                 cmap, [s.first for s in springs], [s.second for s in springs],
@@ -251,12 +254,11 @@ class AssembledSystem:
         self.contact_group = ContactGroup(cmap, contacts) if contacts else None
         if contacts:
             self.force_groups.append(self.contact_group)
+            self.contact_group.bind(self.contact_gaps)
         self.force_groups.extend(self.flexible_groups)
         #: Groups whose loads read lambda (friction): Q(t, q, v, lambda).
         self.multiplier_groups = [g for g in self.force_groups
                                   if getattr(g, "uses_multipliers", False)]
-        # decided once here, not per evaluation: which groups' loads take lambda
-        self._force_reads_lam = [g in self.multiplier_groups for g in self.force_groups]
         fr, fc = [], []
         for g in self.multiplier_groups:
             for cols, rows in zip(g.cols, g.rows):
@@ -265,22 +267,24 @@ class AssembledSystem:
                 keep = r < n
                 fr.append(r[keep])
                 fc.append(c[keep])
-        #: Pattern (row of Q, row of lambda) of Q_lambda; None without friction.
-        self.pattern_force_lam = _concat_pattern(fr, fc) if fr else None
-        self.potential_groups = [g for g in self.force_groups if hasattr(g, "energy")]
-        self.derivative_groups = [g for g in self.force_groups if g.derivatives is not None]
-        self._derivative_reads_lam = [g in self.multiplier_groups for g in self.derivative_groups]
-        self.has_Q_v = any(getattr(g, "damped", False) for g in self.derivative_groups)
-        self.has_Q_q = bool(self.derivative_groups)
-        self._force_mask, fr, fc = [], [], []
-        for g in self.derivative_groups:
+        #: Pattern (row of Q, row of lambda) of Q_lambda, unique pairs sorted;
+        #: None without friction.
+        self.pattern_force_lam = _unique_pattern(fr, fc, self.m) if fr else None
+        # the loads that depend on the state: every entry of their local
+        # columns may be one of Q_q, Q_v (the kernels' triplets are summed
+        # into this pattern: ``_load_values``)
+        derivative_groups = [g for g in self.force_groups if g.state_dependent]
+        self.has_Q_v = any(getattr(g, "damped", False) for g in derivative_groups)
+        self.has_Q_q = bool(derivative_groups)
+        fr, fc = [], []
+        for g in derivative_groups:
             ci = np.broadcast_to(g.cols[:, :, None], (len(g.cols),) + (g.cols.shape[1],) * 2)
             cj = np.broadcast_to(g.cols[:, None, :], ci.shape)
             mask = (ci < self.n) & (cj < self.n)
-            self._force_mask.append(mask)
             fr.append(ci[mask])
             fc.append(cj[mask])
-        self.pattern_force = _concat_pattern(fr, fc)
+        #: Pattern (row, column) of Q_q and Q_v in (n, n), unique pairs sorted.
+        self.pattern_force = _unique_pattern(fr, fc, self.n)
         rc = self._rigid_cols
         self.pattern_diagonal = (np.arange(self.n), np.arange(self.n))
         self.pattern_mass = _concat_pattern([rc] + [g.pattern[0] for g in self.flexible_groups],
@@ -409,15 +413,62 @@ class AssembledSystem:
         return per_element[element]
 
     # -- forces -------------------------------------------------------------------------
+    # Evaluated by the kernels (``compiled.loads``), the one implementation of the
+    # applied loads (gravity, spring-dampers, torques, point forces, loads of the
+    # state, friction, contacts, flexible beams).
     def _needs(self, lam):
         if lam is None and self.multiplier_groups:
             raise ValueError("the model has friction: its forces need the multipliers lambda")
+
+    def _loads(self, what, rows, t, vx, y, out, slip=None, speeds=None, R=None, C=None,
+               V=None):
+        """``compiled.loads`` at the rows (N, nx), one argument type per slot
+        (as :meth:`_constraints`): y (N, m or nx), slip (k,) and speeds (N, k)
+        empty when not given. The contacts' impact speeds in force are the
+        contact group's (its state)."""
+        cm = self.kernel_model()
+        if self.contact_group is not None:
+            cm.impact_speed[:] = self.contact_group.impact_speed
+        N = len(rows)
+        t = np.array(np.broadcast_to(np.asarray(t, dtype=float), (N,)))
+        vx = np.zeros_like(rows) if vx is None else np.ascontiguousarray(vx, dtype=float)
+        y = np.zeros((N, self.m)) if y is None else np.ascontiguousarray(
+            np.broadcast_to(np.asarray(y, dtype=float), (N, np.shape(y)[-1])))
+        slip = np.zeros(0) if slip is None else np.ascontiguousarray(slip, dtype=float)
+        speeds = np.zeros((N, 0)) if speeds is None else np.ascontiguousarray(speeds, dtype=float)
+        return cm.K.loads(cm.ints, cm.floats, what, t, rows, vx, y, slip, speeds,
+                          self._EMPTY_F if out is None else out,
+                          self._EMPTY_I if R is None else R,
+                          self._EMPTY_I if C is None else C,
+                          self._EMPTY_F if V is None else V)
+
+    def _load_values(self, what, pattern, width, t, q, v, lam):
+        """Values of Q_q, Q_v (``what`` _L_QQ, _L_QV) or Q_lambda (_L_QLAM)
+        on ``pattern`` ((rows, cols) in (n, width), unique pairs sorted by
+        row, then column): the kernels' triplets summed into it.
+
+        Raises
+        ------
+        RuntimeError
+            A triplet outside the pattern (the group data and the kernels
+            disagree: a developer's error).
+        """
+        keys = pattern[0].astype(np.int64) * width + pattern[1]
+        bound = self.kernel_model().bound
+        R, C, V = np.empty(bound, np.int64), np.empty(bound, np.int64), np.empty((1, bound))
+        p = self._loads(what, self._ext(q)[None], t, self._ext(v)[None],
+                        None if lam is None else np.asarray(lam)[None], None, R=R, C=C, V=V)
+        got = R[:p] * width + C[:p]
+        where = np.minimum(np.searchsorted(keys, got), max(len(keys) - 1, 0))
+        if p and (not len(keys) or np.any(keys[where] != got)):
+            raise RuntimeError("the kernels' load derivatives leave the model's pattern")
+        return np.bincount(where, weights=V[0, :p], minlength=len(keys))
 
     def Q(self, t, q, v, lam=None, slip=None) -> np.ndarray:
         """Generalized applied forces Q(t, q, v[, lambda]), shape (n,) [N, N m].
 
         ``slip``: friction's tanh(z/v_reg) replaced, per friction instance
-        (NaN: not), for the Coulomb limit at rest (``FrictionGroup.law``).
+        (NaN: not), for the Coulomb limit at rest (``compiled._friction_law``).
 
         Raises
         ------
@@ -425,30 +476,20 @@ class AssembledSystem:
             ``lam`` (m,) not given for a model with friction (its normal
             loads are reactions).
         """
-        out = np.zeros(self.nx)
-        if self.gravity_force is not None:
-            out[: self.n] += self.gravity_force
-        if self.force_groups:
-            self._needs(lam)
-            qx, vx = self._ext(q), self._ext(v)
-            for g, reads_lam in zip(self.force_groups, self._force_reads_lam):
-                if reads_lam:
-                    np.add.at(out, g.cols, g.forces(qx, vx, t, lam, slip))
-                else:
-                    np.add.at(out, g.cols, g.forces(qx, vx, t))
-        return out[: self.n]
+        if not self.force_groups:
+            return np.zeros(self.n) if self.gravity_force is None else self.gravity_force.copy()
+        self._needs(lam)
+        out = np.empty((1, self.nx))
+        self._loads(_L_Q, self._ext(q)[None], t, self._ext(v)[None],
+                    None if lam is None else np.asarray(lam)[None], out, slip=slip)
+        return out[0, : self.n]
 
     def Q_lam_values(self, t, q, v, lam):
         """dQ/dlambda values on ``pattern_force_lam`` (friction), or None
         without friction."""
         if not self.multiplier_groups:
             return None
-        qx, vx = self._ext(q), self._ext(v)
-        out = []
-        for g in self.multiplier_groups:
-            for cols, block in zip(g.cols, g.multiplier_derivatives(qx, vx, t, lam)):
-                out.append(block[cols < self.n].ravel())
-        return np.concatenate(out)
+        return self._load_values(_L_QLAM, self.pattern_force_lam, self.m, t, q, v, lam)
 
     def Q_lam(self, t, q, v, lam):
         """dQ/dlambda, shape (n, m), or None without friction."""
@@ -462,17 +503,10 @@ class AssembledSystem:
         if not self.has_Q_q:
             return None, None
         self._needs(lam)
-        qx, vx = self._ext(q), self._ext(v)
-        Qq, Qv = [], []
-        for g, mask, reads_lam in zip(self.derivative_groups, self._force_mask,
-                                      self._derivative_reads_lam):
-            if reads_lam:
-                a, b = g.derivatives(qx, vx, t, lam)
-            else:
-                a, b = g.derivatives(qx, vx, t)
-            Qq.append(a[mask])
-            Qv.append(b[mask] if b is not None else np.zeros(int(mask.sum())))
-        return np.concatenate(Qq), (np.concatenate(Qv) if self.has_Q_v else None)
+        Qq = self._load_values(_L_QQ, self.pattern_force, self.n, t, q, v, lam)
+        Qv = self._load_values(_L_QV, self.pattern_force, self.n, t, q, v, lam) \
+            if self.has_Q_v else None
+        return Qq, Qv
 
     def force_derivatives(self, t, q, v, lam=None):
         """(Q_q, Q_v), each shape (n, n), or None where no declared force
@@ -481,6 +515,33 @@ class AssembledSystem:
         shape = (self.n, self.n)
         return (None if Qq is None else self._dense(self.pattern_force, Qq, shape),
                 None if Qv is None else self._dense(self.pattern_force, Qv, shape))
+
+    def spring_separations(self, q) -> np.ndarray:
+        """d = p2 - p1 of every spring-damper at q (n,), shape (k, 2) [m]."""
+        k = self.spring_count
+        out = np.empty((1, 2 * k))
+        if k:
+            self._loads(_L_SPRINGS, self._ext(q)[None], 0.0, None, None, out)
+        return out[0].reshape(k, 2)
+
+    def contact_gaps(self, qx):
+        """The contacts' gaps g, shape (k,) [m or rad], and their gradients
+        over each gap's six columns (``ContactGroup.cols``), shape (k, 6), at
+        the extended configuration qx (nx,)."""
+        k = len(self.contact_group.names)
+        out = np.empty((1, 7 * k))
+        self._loads(_L_GAPS, np.ascontiguousarray(qx, dtype=float)[None], 0.0, None, None, out)
+        return out[0, :k], out[0, k:].reshape(k, 6)
+
+    def friction_speeds(self, q, v, a=None):
+        """Per friction joint its speed z (omega_2 - omega_1 or ds/dt), or
+        with accelerations ``a`` (n,) its rate dz/dt = w . a + v^T (d^2 s) v,
+        shape (k,)."""
+        k = len(self.multiplier_groups[0].lines)
+        out = np.empty((1, 2 * k))
+        acc = self._ext(np.zeros(self.n) if a is None else a)[None]
+        self._loads(_L_SLIP, self._ext(q)[None], 0.0, self._ext(v)[None], acc, out)
+        return out[0, :k] if a is None else out[0, k:]
 
     # -- constraints ------------------------------------------------------------------
     # Evaluated by the kernels (``compiled.constraints``), the one implementation of
@@ -728,12 +789,13 @@ class AssembledSystem:
         """Power put in and power dissipated, per row [W].
 
         Put in: the applied loads that are not potential forces (torques,
-        joint torques, point forces; Q_group . v) and the drivers (lambda .
+        joint torques, point forces; Q_load . v) and the drivers (lambda .
         Phi_t, the power of the rheonomic constraint forces -Phi_q^T lambda
         on a motion with Phi_q v + Phi_t = 0). Dissipated: the dampers of
-        spring-dampers and rotational spring-dampers, and friction. Gravity, springs and
-        beam strain are in :meth:`potential_energy`. Only what the model
-        declares is evaluated.
+        spring-dampers and rotational spring-dampers, friction and the
+        contacts (``compiled._power``). Gravity, springs and beam strain are
+        in :meth:`potential_energy`. Only what the model declares is
+        evaluated.
 
         Parameters
         ----------
@@ -752,18 +814,14 @@ class AssembledSystem:
         """
         N = len(t)
         p_in, p_diss = np.zeros(N), np.zeros(N)
-        qx, vx = self._ext(q), self._ext(v)
-        for g in self.force_groups:
-            if isinstance(g, (SpringDamperGroup, RotationalSpringGroup)):
-                p_diss += g.dissipation(qx, vx)
-            elif isinstance(g, (TorqueGroup, StateTorqueGroup, PointForceGroup)):
-                for i in range(N):
-                    p_in[i] += np.sum(g.forces(qx[i], vx[i], t[i]) * vx[i][g.cols])
-            elif g is self.contact_group:
-                p_diss += g.dissipation(qx, vx, g.speeds_at(t, contact_log))
-            elif isinstance(g, FrictionGroup):
-                for i in range(N):
-                    p_diss[i] += np.sum(g.dissipation(qx[i], vx[i], t[i], lam[i]))
+        if self.force_groups and N:
+            rows, _ = self._ext_rows(q)
+            out = np.empty((N, 2))
+            g = self.contact_group
+            speeds = g.speeds_at(t, contact_log) if g is not None else None
+            self._loads(_L_POWER, rows, t, self._ext_rows(v)[0],
+                        np.reshape(lam, (N, self.m)), out, speeds=speeds)
+            p_in, p_diss = out[:, 0].copy(), out[:, 1].copy()
         if self.m and any(f is not None and not f.constant for g in self.timed_groups
                           for f in g.functions):
             pt = self.Phi_t(q, t) if phi_t is None else phi_t
@@ -771,18 +829,23 @@ class AssembledSystem:
         return p_in, p_diss
 
     def potential_energy(self, q):
-        """Gravity, spring and strain potential energy [J] (zero at y = 0,
-        unstretched springs, undeformed beams): a float, or shape (N,) for
-        rows q of shape (N, n)."""
+        """Gravity, spring, contact and strain potential energy [J] (zero at y
+        = 0, unstretched springs, open contacts, undeformed beams): a float,
+        or shape (N,) for rows q of shape (N, n)."""
         e = np.zeros(np.shape(q)[:-1])
         if self.gravity_force is not None:
             e = e - np.asarray(q) @ self.gravity_force
-        if self.potential_groups:
-            qx = self._ext(q)
-            e = e + sum(g.energy(qx) for g in self.potential_groups)
+        if self.force_groups:
+            rows, lead = self._ext_rows(q)
+            out = np.empty((len(rows), 1))
+            if len(rows):
+                self._loads(_L_ENERGY, rows, 0.0, None, None, out)
+            e = e + out[:, 0].reshape(lead)
         return float(e) if np.ndim(q) == 1 else e
 
 
+#: ``compiled.loads``' evaluations (its L_* constants, repeated as the C_* below)
+(_L_Q, _L_QQ, _L_QV, _L_QLAM, _L_ENERGY, _L_POWER, _L_GAPS, _L_SPRINGS, _L_SLIP) = range(9)
 #: ``compiled.constraints``' evaluations (its C_* constants, repeated here so
 #: that building a model never imports numba)
 _C_PHI, _C_PHI_T, _C_PHI_TT, _C_PHIQ_Y, _C_PHIQT_Y, _C_PHIQ, _C_PHIQT_Y_Q, _C_PHIQ_Y_Q = range(8)
@@ -792,6 +855,14 @@ def _concat_pattern(rows, cols):
     """(rows, cols) int arrays of a pattern made of several groups."""
     return (np.concatenate(rows).astype(np.intp) if rows else np.zeros(0, np.intp),
             np.concatenate(cols).astype(np.intp) if cols else np.zeros(0, np.intp))
+
+
+def _unique_pattern(rows, cols, width):
+    """(rows, cols) int arrays of the distinct pairs of several groups'
+    patterns in (., width), sorted by row, then column."""
+    keys = np.unique(np.concatenate(rows).astype(np.int64) * width
+                     + np.concatenate(cols)) if rows else np.zeros(0, np.int64)
+    return (keys // width).astype(np.intp), (keys % width).astype(np.intp)
 
 
 def assemble(model: Model) -> AssembledSystem:

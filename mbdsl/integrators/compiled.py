@@ -30,7 +30,8 @@ Systems, ch. 4): a body point is at r + A(phi) s, with d/dphi (A s) = B s =
 * linear rows: c1 q[i1] + c2 q[i2] - offset (locked angles)
 * spring-damper: Q = -D^T (f e), f = k (l - l0) + c ldot
 * rotational spring-damper: tau = k (phi2 - phi1 - angle) + c (w2 - w1)
-* constant point forces, and constant forces (gravity, torques) in Q0
+* point forces F(t) and torques tau(t) (a constant one as a constant program),
+  gravity in the constant vector Q0
 * friction in joints: tau = -N mu(z) tanh(z/v_reg) - c z along w (``FrictionGroup``),
   N from the joint's multipliers: Q reads lambda, Q_lambda beside Phi_q^T
 * flexible beams in the floating frame of reference: M(q), (M x)_q, the
@@ -70,7 +71,7 @@ from .recipe import RECIPE_FIELDS
 __all__ = ["MODEL_SCHEMA", "MODEL_FIELDS", "residual", "jacobian_triplets", "force_term", "old_force",
            "predict", "state", "layout", "advance", "mobility", "index1_multipliers",
            "index1_multipliers_band",
-           "accumulate", "contact_rows", "run", "run_adaptive", "triplet_bound", "pack", "unpack", "lapack_band_addresses",
+           "accumulate", "loads", "constraints", "beam_blocks", "beam_energies", "run", "run_adaptive", "triplet_bound", "pack", "unpack", "lapack_band_addresses",
            "DENSE", "BANDED"]
 
 #: The recipe entries (``recipe.RECIPE_FIELDS``, checked below): literals here, so that
@@ -650,7 +651,7 @@ def _spring_points(I, Fl, qx, i):
 @_jit
 def _direction(dx, dy, l):
     """e = d / l of a spring-damper, (0, 0) at l = 0: two coincident points
-    have no direction, and no force along it (``SpringDamperGroup._kin``)."""
+    have no direction, and no force along it (``SpringDamperGroup``)."""
     if l > 0.0:
         return dx / l, dy / l
     return 0.0, 0.0
@@ -690,10 +691,12 @@ def _spring(I, Fl, qx, vx, i, G, v6):
 
 
 @_jit
-def _friction_law(I, Fl, i, z, lam):
-    """(tau, dtau/dz, dtau/dN_raw, R) of friction instance i at joint speed z:
-    ``FrictionGroup.law`` with R = |lambda_J| (N = r R). dtau/dlambda_J =
-    dtau/dN_raw lambda_J / R (0 at R = 0)."""
+def _friction_law(I, Fl, i, z, lam, slip):
+    """(tau, dtau/dz, dtau/dN_raw, R) of friction instance i at joint speed z,
+    the law of the ``FrictionGroup`` notes, with R = |lambda_J| (N = r R).
+    dtau/dlambda_J = dtau/dN_raw lambda_J / R (0 at R = 0). ``slip`` (k,),
+    read where it is not NaN, replaces tanh(z/v_reg) (and mu(z) by mu_s):
+    the Coulomb limit at rest of the initial conditions; empty: the law."""
     mu_k, mu_s, v_s = _f(I, Fl, FRP, i, 0), _f(I, Fl, FRP, i, 1), _f(I, Fl, FRP, i, 2)
     c, v_reg, rad = _f(I, Fl, FRP, i, 3), _f(I, Fl, FRP, i, 4), _f(I, Fl, FRP, i, 5)
     e, dmu = 0.0, 0.0
@@ -702,6 +705,8 @@ def _friction_law(I, Fl, i, z, lam):
         dmu = (mu_s - mu_k) * e * (-2.0 * z / (v_s * v_s))
     mu = mu_k + (mu_s - mu_k) * e
     th = math.tanh(z / v_reg)
+    if i < slip.shape[0] and not math.isnan(slip[i]):
+        th, mu, dmu = slip[i], mu_s, 0.0
     row, nr = _i(I, FRI, i, 3), _i(I, FRI, i, 4)
     R2 = 0.0
     for k in range(nr):
@@ -763,7 +768,7 @@ GAP_LINE, GAP_SLIDE, GAP_ANGLE, GAP_CIRCLE = 0, 1, 2, 3
 @_jit
 def _gap(I, Fl, qx, i, grad, H):
     """g of gap i [m or rad], dg/dq into grad (6,) and d^2 g/dq^2 into H (6, 6)
-    over its KCOL columns: ``model.contact.gap``."""
+    over its KCOL columns (the geometries of ``model.contact``)."""
     kind = _i(I, KGI, i, 0)
     off, sgn = _f(I, Fl, KPAR, i, 0), _f(I, Fl, KPAR, i, 1)
     if kind == GAP_LINE or kind == GAP_SLIDE:
@@ -811,7 +816,7 @@ def _gap(I, Fl, qx, i, grad, H):
 @_jit
 def _slip(I, Fl, qx, i, w, dw):
     """The slip direction w (6,) of gap i's contact, v_t = w . v, and dw/dq
-    into dw (6, 6): ``model.contact.slip`` (a line or a hole)."""
+    into dw (6, 6) (a line or a hole; ``model.contact``'s notes)."""
     c = np.empty(6, np.int64)
     for a in range(6):
         c[a] = _i(I, KCOL, i, a)
@@ -929,8 +934,8 @@ def _contacts_add(I, Fl, qx, vx, out):
 
 @_jit
 def _emit_contacts(I, Fl, n, qx, vx, R, C, V, p, r0, c0, cq, cv):
-    """The contacts' -(cq Q_q + cv Q_v) at (r0, c0) (``ContactGroup.
-    derivatives``): all 36 entries of every gap whose bodies are not the
+    """The contacts' -(cq Q_q + cv Q_v) at (r0, c0) (``assembly.contact``'s
+    notes): all 36 entries of every gap whose bodies are not the
     ground's, zeros while it is open, so that the pattern stays fixed."""
     grad, H = np.empty(6), np.empty((6, 6))
     w, dw = np.empty(6), np.empty((6, 6))
@@ -988,36 +993,6 @@ def _emit_contacts(I, Fl, n, qx, vx, R, C, V, p, r0, c0, cq, cv):
 
 
 @_jit
-def contact_rows(I, Fl, q, v, speeds, energy, dissipation):
-    """The contacts' elastic energy K delta^(n+1) / (n+1) [J] into energy
-    (N,) and the power they dissipate [W] into dissipation (N,), per row of
-    q, v (N, n), with the impact speeds in force at each row, speeds (N, k):
-    (f - K delta^n) ddelta/dt, the damping's power (and, where the force is
-    cut at zero, the elastic power it leaves out), and -F_t v_t of friction
-    (``ContactGroup.energy``, ``ContactGroup.dissipation``)."""
-    N, n = q.shape
-    qx, vx = np.zeros(n + 3), np.zeros(n + 3)
-    grad, H = np.empty(6), np.empty((6, 6))
-    w, dw = np.empty(6), np.empty((6, 6))
-    for r in range(N):
-        qx[:n] = q[r]
-        vx[:n] = v[r]
-        e, p = 0.0, 0.0
-        for i in range(_rows(I, KGI)):
-            g, delta, ddelta, f, elastic, speed, armed = _contact_law(
-                I, Fl, qx, vx, i, speeds[r, i], grad, H)
-            if delta > 0.0:
-                ex = _f(I, Fl, KPAR, i, 10)
-                e += _f(I, Fl, KPAR, i, 9) * delta ** (ex + 1.0) / (ex + 1.0)
-                p += (f - elastic) * ddelta
-                if _f(I, Fl, KPAR, i, 12) > 0.0 and f > 0.0:
-                    Ft, vt, T = _contact_friction(I, Fl, qx, vx, i, f, w, dw)
-                    p -= Ft * vt
-        energy[r] = e
-        dissipation[r] = p
-
-
-@_jit
 def _spring_passed(I, Fl, qa, qb):
     """Whether the points of a spring-damper with a free length passed each
     other between configurations qa and qb (n+3,): d_a . d_b < 0, where its
@@ -1032,11 +1007,29 @@ def _spring_passed(I, Fl, qa, qb):
 
 
 @_jit
-def forces(I, Fl, t, qx, vx, lam, out):
-    """Q(q, v, lambda) into out (n+3,) [N, N m] (overwritten); lambda (m,) is
-    read by friction only."""
-    for j in range(out.shape[0]):       # a loop: numba's array-to-array slice copy checks overlap
-        out[j] = _f(I, Fl, Q0, j, 0)
+def _spring_rate(I, Fl, qx, vx, i, ex, ey, ax1, ay1, ax2, ay2):
+    """ldot = e . d' of spring-damper i, its points' offsets A u from
+    ``_spring_points`` (with the elastic terms' velocities -+ A S_k v_k of a
+    point on a flexible beam)."""
+    w1, w2 = vx[_i(I, SCOL1, i, 2)], vx[_i(I, SCOL2, i, 2)]
+    ddx = (vx[_i(I, SCOL2, i, 0)] - vx[_i(I, SCOL1, i, 0)]) + (-ay2 * w2 + ay1 * w1)
+    ddy = (vx[_i(I, SCOL2, i, 1)] - vx[_i(I, SCOL1, i, 1)]) + (ax2 * w2 - ax1 * w1)
+    for side in range(2):
+        k0, k1 = _span(I, SEL, i, side)
+        ph = qx[_i(I, SCOL1 if side == 0 else SCOL2, i, 2)]
+        sg = -1.0 if side == 0 else 1.0
+        for k in range(k0, k1):
+            Ax, Ay, Bx, By = _eshape(I, Fl, k, ph)
+            vk = vx[_i(I, ECOL, k, 0)]
+            ddx += sg * Ax * vk
+            ddy += sg * Ay * vk
+    return ex * ddx + ey * ddy
+
+
+@_jit
+def _springs_add(I, Fl, qx, vx, out):
+    """The spring-dampers' Q = -D^T (f e), f = k (l - l0) + c ldot, added to
+    out (n+3,) [N, N m]."""
     for i in range(_rows(I, SCOL1)):
         # (no scratch array on this hot path); a point on a flexible beam at A u (its terms below)
         dx, dy, ax1, ay1, ax2, ay2 = _spring_points(I, Fl, qx, i)
@@ -1044,19 +1037,8 @@ def forces(I, Fl, t, qx, vx, lam, out):
         ex, ey = _direction(dx, dy, l)
         f = _f(I, Fl, SPAR, i, 0) * (l - _f(I, Fl, SPAR, i, 2))
         if _f(I, Fl, SPAR, i, 1) != 0.0:
-            w1, w2 = vx[_i(I, SCOL1, i, 2)], vx[_i(I, SCOL2, i, 2)]
-            ddx = (vx[_i(I, SCOL2, i, 0)] - vx[_i(I, SCOL1, i, 0)]) + (-ay2 * w2 + ay1 * w1)
-            ddy = (vx[_i(I, SCOL2, i, 1)] - vx[_i(I, SCOL1, i, 1)]) + (ax2 * w2 - ax1 * w1)
-            for side in range(2):          # the elastic terms' velocities: -+ A S_k v_k
-                k0, k1 = _span(I, SEL, i, side)
-                ph = qx[_i(I, SCOL1 if side == 0 else SCOL2, i, 2)]
-                sg = -1.0 if side == 0 else 1.0
-                for k in range(k0, k1):
-                    Ax, Ay, Bx, By = _eshape(I, Fl, k, ph)
-                    vk = vx[_i(I, ECOL, k, 0)]
-                    ddx += sg * Ax * vk
-                    ddy += sg * Ay * vk
-            f = f + _f(I, Fl, SPAR, i, 1) * (ex * ddx + ey * ddy)
+            f = f + _f(I, Fl, SPAR, i, 1) * _spring_rate(I, Fl, qx, vx, i, ex, ey, ax1, ay1,
+                                                         ax2, ay2)
         fx, fy = f * ex, f * ey
         # Q = -D^T (f e), D = dd/dq_local (``_spring``'s G)
         out[_i(I, SCOL1, i, 0)] += fx
@@ -1072,11 +1054,13 @@ def forces(I, Fl, t, qx, vx, lam, out):
             for k in range(k0, k1):
                 Ax, Ay, Bx, By = _eshape(I, Fl, k, ph)
                 out[_i(I, ECOL, k, 0)] += sg * (Ax * fx + Ay * fy)
-    for i in range(_rows(I, RCOL)):
-        tau = (_f(I, Fl, RPAR, i, 0) * (qx[_i(I, RCOL, i, 1)] - qx[_i(I, RCOL, i, 0)] - _f(I, Fl, RPAR, i, 2))
-               + _f(I, Fl, RPAR, i, 1) * (vx[_i(I, RCOL, i, 1)] - vx[_i(I, RCOL, i, 0)]))
-        out[_i(I, RCOL, i, 0)] += tau
-        out[_i(I, RCOL, i, 1)] -= tau
+
+
+@_jit
+def _inputs_add(I, Fl, t, qx, vx, out):
+    """The loads that put work in, added to out (n+3,) [N, N m]: point
+    forces F(t) (J^T F), torques tau(t) and loads of the state tau(t, x) w
+    (+-tau on a joint's bodies, or tau grad s along a sliding line)."""
     for i in range(_rows(I, FCOL)):
         ax, ay = _Au(I, Fl, qx, FCOL, FS, FEL, 0, i)
         fx, fy = _point_force(I, Fl, t, i)
@@ -1087,7 +1071,7 @@ def forces(I, Fl, t, qx, vx, lam, out):
         for k in range(k0, k1):            # a point on a flexible beam: (A S_k) . F
             Ax, Ay, Bx, By = _eshape(I, Fl, k, qx[_i(I, FCOL, i, 2)])
             out[_i(I, ECOL, k, 0)] += Ax * fx + Ay * fy
-    for i in range(_rows(I, TCOL)):                # torques of t (constant ones are in Q0)
+    for i in range(_rows(I, TCOL)):
         out[_i(I, TCOL, i, 0)] += _eval(I, Fl, _i(I, TFN, i, 0), t)
     if _rows(I, STQ) > 0:                          # loads of the state, in joints
         grad, H = np.empty(6), np.empty((6, 6))
@@ -1102,17 +1086,41 @@ def forces(I, Fl, t, qx, vx, lam, out):
                 _line(I, Fl, qx, g, grad, H)
                 for j in range(6):
                     out[_i(I, GEO, g, j)] += tau * grad[j]
+
+
+@_jit
+def _forces(I, Fl, t, qx, vx, lam, slip, out):
+    """Q(q, v, lambda) into out (n+3,) [N, N m] (overwritten): gravity (Q0),
+    spring-dampers, rotational spring-dampers, the loads that put work in,
+    friction (reading lambda (m,), and ``slip`` as ``_friction_law``),
+    contacts and flexible beams."""
+    for j in range(out.shape[0]):       # a loop: numba's array-to-array slice copy checks overlap
+        out[j] = _f(I, Fl, Q0, j, 0)
+    _springs_add(I, Fl, qx, vx, out)
+    for i in range(_rows(I, RCOL)):
+        tau = (_f(I, Fl, RPAR, i, 0) * (qx[_i(I, RCOL, i, 1)] - qx[_i(I, RCOL, i, 0)] - _f(I, Fl, RPAR, i, 2))
+               + _f(I, Fl, RPAR, i, 1) * (vx[_i(I, RCOL, i, 1)] - vx[_i(I, RCOL, i, 0)]))
+        out[_i(I, RCOL, i, 0)] += tau
+        out[_i(I, RCOL, i, 1)] -= tau
+    _inputs_add(I, Fl, t, qx, vx, out)
     if _rows(I, FRI) > 0:                          # friction: tau w
         grad, H = np.empty(6), np.empty((6, 6))
         for i in range(_rows(I, FRI)):
             z, g = _friction_kin(I, Fl, i, qx, vx, grad, H)
-            tau, dz, dN, Rn = _friction_law(I, Fl, i, z, lam)
+            tau, dz, dN, Rn = _friction_law(I, Fl, i, z, lam, slip)
             for a in range(2 if g < 0 else 6):
                 out[_friction_col(I, i, g, a)] += tau * grad[a]
     if _rows(I, KGI) > 0:                          # contacts and joint limits
         _contacts_add(I, Fl, qx, vx, out)
     if _rows(I, BEAM) > 0:                         # flexible beams
         _ffr_forces_add(I, Fl, qx, vx, out)
+
+
+@_jit
+def forces(I, Fl, t, qx, vx, lam, out):
+    """Q(q, v, lambda) into out (n+3,) [N, N m] (overwritten), friction by its
+    law: ``_forces``, the time loops' evaluation."""
+    _forces(I, Fl, t, qx, vx, lam, Fl[:0], out)
 
 
 # --------------------------------------------------------------------------------------------
@@ -1869,12 +1877,12 @@ def constraints(I, Fl, what, t, qx, y, out, R, C, V):
 @_jit
 def _emit_friction(I, Fl, n, qx, vx, lam, R, C, V, p, r0, c0, cq, cv):
     """Friction's -(cq Q_q + cv Q_v) at (r0, c0): Q_q = tau d^2 s + w dtau/dz
-    (d^2 s v)^T, Q_v = w dtau/dz w^T (``FrictionGroup.derivatives``)."""
+    (d^2 s v)^T, Q_v = w dtau/dz w^T (``FrictionGroup`` notes)."""
     w, H = np.empty(6), np.empty((6, 6))
     Hv = np.empty(6)
     for i in range(_rows(I, FRI)):
         z, g = _friction_kin(I, Fl, i, qx, vx, w, H)
-        tau, dz, dN, Rn = _friction_law(I, Fl, i, z, lam)
+        tau, dz, dN, Rn = _friction_law(I, Fl, i, z, lam, Fl[:0])
         k = 2 if g < 0 else 6
         for b in range(k):
             Hv[b] = 0.0
@@ -1899,11 +1907,11 @@ def _emit_friction(I, Fl, n, qx, vx, lam, R, C, V, p, r0, c0, cq, cv):
 @_jit
 def _emit_friction_lam(I, Fl, n, qx, vx, lam, R, C, V, p, r0, c0, coef):
     """-coef Q_lambda at (r0, c0), Q_lambda = w (dtau/dlambda_J)^T over the
-    joint's reaction rows (``FrictionGroup.multiplier_derivatives``)."""
+    joint's reaction rows (``FrictionGroup`` notes)."""
     w, H = np.empty(6), np.empty((6, 6))
     for i in range(_rows(I, FRI)):
         z, g = _friction_kin(I, Fl, i, qx, vx, w, H)
-        tau, dz, dN, Rn = _friction_law(I, Fl, i, z, lam)
+        tau, dz, dN, Rn = _friction_law(I, Fl, i, z, lam, Fl[:0])
         row, nr = _i(I, FRI, i, 3), _i(I, FRI, i, 4)
         for a in range(2 if g < 0 else 6):
             ra = _friction_col(I, i, g, a)
@@ -1918,7 +1926,7 @@ def _emit_friction_lam(I, Fl, n, qx, vx, lam, R, C, V, p, r0, c0, coef):
 @_jit
 def _emit_spring_elastic(I, Fl, n, qx, vx, i, R, C, V, p, r0, c0, cq, cv):
     """-(cq Q_q + cv Q_v) at (r0, c0) of spring-damper i with a point on a
-    flexible beam (``SpringDamperGroup.derivatives``) over its local columns:
+    flexible beam (``SpringDamperGroup`` notes) over its local columns:
     x, y, phi of both bodies, then the elastic terms of each point (u = s +
     S q_e). With D = dd/dq_local and Hd = d^2 d/dq_local^2 (d^2 p/dphi^2 = -A u,
     d^2 p/dphi dq_k = B S_k; Shabana, sec. 5.3): Q_q = -D^T d(f e)/dq - (f e)
@@ -1993,7 +2001,7 @@ def _emit_spring_elastic(I, Fl, n, qx, vx, i, R, C, V, p, r0, c0, cq, cv):
 
 @_jit
 def _emit_force(I, Fl, t, n, qx, vx, lam, R, C, V, p, r0, c0, cq, cv):
-    """-(cq Q_q + cv Q_v) at (r0, c0) (``SpringDamperGroup.derivatives``)."""
+    """-(cq Q_q + cv Q_v) at (r0, c0) of every applied load (the groups' notes)."""
     G = np.empty((2, 6))
     v6 = np.empty(6)
     de = np.empty((2, 6))
@@ -2129,6 +2137,150 @@ def _emit_force(I, Fl, t, n, qx, vx, lam, R, C, V, p, r0, c0, cq, cv):
         p = _emit_contacts(I, Fl, n, qx, vx, R, C, V, p, r0, c0, cq, cv)
     if _rows(I, BEAM) > 0:
         p = _emit_beams(I, Fl, qx, vx, qx, FFR_DQ, R, C, V, p, r0, c0, cq, cv)
+    return p
+
+
+#: What ``loads`` evaluates at each row: Q into out (N, nx); the triplets of
+#: Q_q, Q_v, Q_lambda into R, C and V (N, nnz); the potential energy of the
+#: loads into out[:, 0]; the power put in and dissipated into out[:, :2]; the
+#: contacts' gaps and their gradients, the spring-dampers' d = p2 - p1 and the
+#: friction joints' speeds and their rates into out (see ``loads``).
+(L_Q, L_QQ, L_QV, L_QLAM, L_ENERGY, L_POWER, L_GAPS, L_SPRINGS, L_SLIP) = range(9)
+
+
+@_jit
+def _potential(I, Fl, qx):
+    """The loads' potential energy at qx [J]: springs k (l - l0)^2 / 2,
+    rotational springs k theta^2 / 2, contacts K delta^(n+1) / (n+1), beams'
+    strain and gravity (``_ffr_energy``); the rigid bodies' gravity is
+    -Q0 . q, the caller's."""
+    e = 0.0
+    for i in range(_rows(I, SCOL1)):
+        dx, dy, ax1, ay1, ax2, ay2 = _spring_points(I, Fl, qx, i)
+        s = math.sqrt(dx * dx + dy * dy) - _f(I, Fl, SPAR, i, 2)
+        e += 0.5 * _f(I, Fl, SPAR, i, 0) * s * s
+    for i in range(_rows(I, RCOL)):
+        th = qx[_i(I, RCOL, i, 1)] - qx[_i(I, RCOL, i, 0)] - _f(I, Fl, RPAR, i, 2)
+        e += 0.5 * _f(I, Fl, RPAR, i, 0) * th * th
+    if _rows(I, KGI) > 0:
+        grad, H = np.empty(6), np.empty((6, 6))
+        for i in range(_rows(I, KGI)):
+            g = _gap(I, Fl, qx, i, grad, H)
+            if g < 0.0:
+                ex = _f(I, Fl, KPAR, i, 10)
+                e += _f(I, Fl, KPAR, i, 9) * (-g) ** (ex + 1.0) / (ex + 1.0)
+    for b in range(_rows(I, BEAM)):
+        e += _ffr_energy(I, Fl, b, qx, True)
+    return e
+
+
+@_jit
+def _power(I, Fl, t, qx, vx, lam, speeds, work):
+    """(put in, dissipated) [W] at (t, qx, vx, lambda): Q . v of the loads
+    that put work in (``_inputs_add``, work (nx,) its scratch); c ldot^2 of
+    the spring-dampers, c theta'^2 of the rotational ones, -tau z of
+    friction, and of the contacts, at the impact speeds ``speeds`` (k,),
+    (f - K delta^n) ddelta/dt (the damping's power and, where the force is
+    cut at zero, the elastic power it leaves out) and -F_t v_t."""
+    for j in range(work.shape[0]):
+        work[j] = 0.0
+    _inputs_add(I, Fl, t, qx, vx, work)
+    p_in = 0.0
+    for j in range(work.shape[0]):
+        p_in += work[j] * vx[j]
+    p = 0.0
+    for i in range(_rows(I, SCOL1)):
+        c = _f(I, Fl, SPAR, i, 1)
+        if c != 0.0:
+            dx, dy, ax1, ay1, ax2, ay2 = _spring_points(I, Fl, qx, i)
+            l = math.sqrt(dx * dx + dy * dy)
+            ex, ey = _direction(dx, dy, l)
+            ld = _spring_rate(I, Fl, qx, vx, i, ex, ey, ax1, ay1, ax2, ay2)
+            p += c * ld * ld
+    for i in range(_rows(I, RCOL)):
+        w = vx[_i(I, RCOL, i, 1)] - vx[_i(I, RCOL, i, 0)]
+        p += _f(I, Fl, RPAR, i, 1) * w * w
+    grad, H = np.empty(6), np.empty((6, 6))
+    for i in range(_rows(I, FRI)):
+        z, g = _friction_kin(I, Fl, i, qx, vx, grad, H)
+        tau, dz, dN, Rn = _friction_law(I, Fl, i, z, lam, Fl[:0])
+        p -= tau * z
+    if _rows(I, KGI) > 0:
+        w, dw = np.empty(6), np.empty((6, 6))
+        for i in range(_rows(I, KGI)):
+            g, delta, ddelta, f, elastic, speed, armed = _contact_law(
+                I, Fl, qx, vx, i, speeds[i], grad, H)
+            if delta > 0.0:
+                p += (f - elastic) * ddelta
+                if _f(I, Fl, KPAR, i, 12) > 0.0 and f > 0.0:
+                    Ft, vt, T = _contact_friction(I, Fl, qx, vx, i, f, w, dw)
+                    p -= Ft * vt
+    return p_in, p
+
+
+@_jit
+def loads(I, Fl, what, t, qx, vx, y, slip, speeds, out, R, C, V):
+    """The applied loads' evaluations Python asks for (``AssembledSystem.Q``
+    and the functions after it; the contacts' and springs' events), at the
+    rows t (N,) [s], qx, vx (N, nx) and y (N, m: lambda; N, nx:
+    accelerations for L_SLIP), as ``what`` (L_*) says:
+
+    * L_Q: Q into out (N, nx), friction with ``slip`` (``_friction_law``);
+    * L_QQ, L_QV, L_QLAM: the triplets of Q_q, Q_v (N, n) and Q_lambda
+      (n, m) into R, C and the values of row r into V[r]; the count returned
+      (entries that are zero at a state may be left out: a caller sums
+      them into a pattern of its own);
+    * L_ENERGY: the loads' potential energy into out[:, 0] (``_potential``);
+    * L_POWER: the power put in and dissipated into out[:, 0], out[:, 1],
+      the contacts at the impact speeds speeds (N, k) (``_power``);
+    * L_GAPS: the contacts' gaps g into out[:, :k] and their gradients over
+      their six columns into out[:, k + 6 i: k + 6 i + 6];
+    * L_SPRINGS: d = p2 - p1 of spring-damper i into out[:, 2 i: 2 i + 2];
+    * L_SLIP: the friction joints' speeds z into out[:, :k] and their rates
+      dz/dt = w . a + v^T (d^2 s) v, a = y, into out[:, k:].
+
+    The contacts' impact speeds of L_Q, L_QQ and L_QV are the model's state
+    (KIMP). One entry point: one library to load (as ``constraints``)."""
+    n = _rows(I, MASS)
+    p = 0
+    nx = qx.shape[1]
+    work = np.empty(nx)
+    grad, H = np.empty(6), np.empty((6, 6))
+    for r in range(qx.shape[0]):
+        if what == L_Q:
+            _forces(I, Fl, t[r], qx[r], vx[r], y[r], slip, out[r])
+        elif what == L_QQ:
+            p = _emit_force(I, Fl, t[r], n, qx[r], vx[r], y[r], R, C, V[r], 0, 0, 0, -1.0, 0.0)
+        elif what == L_QV:
+            p = _emit_force(I, Fl, t[r], n, qx[r], vx[r], y[r], R, C, V[r], 0, 0, 0, 0.0, -1.0)
+        elif what == L_QLAM:
+            p = _emit_friction_lam(I, Fl, n, qx[r], vx[r], y[r], R, C, V[r], 0, 0, 0, -1.0)
+        elif what == L_ENERGY:
+            out[r, 0] = _potential(I, Fl, qx[r])
+        elif what == L_POWER:
+            out[r, 0], out[r, 1] = _power(I, Fl, t[r], qx[r], vx[r], y[r], speeds[r], work)
+        elif what == L_GAPS:
+            k = _rows(I, KGI)
+            for i in range(k):
+                out[r, i] = _gap(I, Fl, qx[r], i, grad, H)
+                for a in range(6):
+                    out[r, k + 6 * i + a] = grad[a]
+        elif what == L_SPRINGS:
+            for i in range(_rows(I, SCOL1)):
+                dx, dy, ax1, ay1, ax2, ay2 = _spring_points(I, Fl, qx[r], i)
+                out[r, 2 * i], out[r, 2 * i + 1] = dx, dy
+        else:
+            k = _rows(I, FRI)
+            for i in range(k):
+                z, g = _friction_kin(I, Fl, i, qx[r], vx[r], grad, H)
+                rate = 0.0
+                for a in range(2 if g < 0 else 6):
+                    col = _friction_col(I, i, g, a)
+                    rate += grad[a] * y[r, col]
+                    if g >= 0:
+                        for b in range(6):
+                            rate += vx[r, col] * H[a, b] * vx[r, _i(I, GEO, g, b)]
+                out[r, i], out[r, k + i] = z, rate
     return p
 
 

@@ -399,26 +399,7 @@ def prepare_compiled(system, method, options, q, announce=None, adaptive=False,
     plan = linear_solver_plan(system, method, options, q, cm)  # banded: calls a kernel
     if not uncompiled:                        # this loop's entry points
         ensure_loaded("sparse" if python_loop else plan.kind, announce, adaptive)
-    if system.contact_group is not None:     # the output's energy and dissipation
-        system.contact_group.row_kernel = contact_row_kernel(cm)
     return cm, plan, time.perf_counter() - t0
-
-
-def contact_row_kernel(cm):
-    """``ContactGroup.row_kernel`` on the kernels (``compiled.contact_rows``)
-    of the model data ``cm``: (qx, vx (N, n + 3), speeds (N, k)) -> (elastic
-    energy [J], dissipated power [W]), each (N,)."""
-    K, n = cm.K, cm.n
-
-    def rows(qx, vx, speeds):
-        """The contacts' energy and dissipated power at rows (qx, vx)."""
-        qx, vx = np.atleast_2d(qx), np.atleast_2d(vx)
-        energy, dissipation = np.empty(len(qx)), np.empty(len(qx))
-        K.contact_rows(cm.ints, cm.floats, np.ascontiguousarray(qx[:, :n], dtype=float),
-                       np.ascontiguousarray(vx[:, :n], dtype=float),
-                       np.ascontiguousarray(speeds, dtype=float), energy, dissipation)
-        return energy, dissipation
-    return rows
 
 
 class CompiledModel:
@@ -456,7 +437,7 @@ class CompiledModel:
              for name, kind, columns in K.MODEL_SCHEMA}
         tables = _Tables(system)
         d.update(_constraint_fields(system, tables))
-        d.update(_force_fields(system, tables, Q0))
+        d.update(_force_fields(system, tables))
         if system.contact_group is not None:
             d.update(_contact_fields(system.contact_group, tables.line_row, K))
         d.update(tables.fields())
@@ -603,11 +584,10 @@ def _constraint_fields(system, tables) -> dict:
     return d
 
 
-def _force_fields(system, tables, Q0) -> dict:
+def _force_fields(system, tables) -> dict:
     """The applied loads' model data: spring-dampers, rotational
-    spring-dampers, torques (constant ones added into Q0 (n + 3,) in place,
-    functions of time as programs), loads of the state, friction in joints
-    and point forces."""
+    spring-dampers, torques (programs of time, constant or not), loads of
+    the state, friction in joints and point forces."""
     from ..dsl.expressions import Num
     i8, f8 = np.int64, np.float64
     n = system.n
@@ -622,12 +602,11 @@ def _force_fields(system, tables, Q0) -> dict:
             d.update(rcol=g.cols.astype(i8),
                      rpar=np.stack([g.k, g.c, g.angle], axis=1).astype(f8))
         elif isinstance(g, TorqueGroup):
+            # a constant torque too is a (constant) program, not a term of Q0:
+            # the power it puts in is that of the loads of ``compiled._inputs_add``
             for col, f in zip(g.cols[:, 0], g.functions):
-                if _timed(f):
-                    tcol.append(col)
-                    tfn.append(tables.program(f.expr))
-                else:
-                    Q0[col] += f.f(0.0)
+                tcol.append(col)
+                tfn.append(tables.program(f.expr if _timed(f) else Num(f.f(0.0))))
         elif isinstance(g, StateTorqueGroup):
             for i, (f, line) in enumerate(zip(g.functions, g.lines)):
                 names = tables.variable_rows(f)

@@ -156,10 +156,8 @@ class EventLocator:
 
     def _spring_d(self, q):
         """d = p2 - p1 of the flipping springs, shape (k, 2)."""
-        group, which = self.springs
-        qx = self.system._ext(q)
-        d = group.pair.difference(*group.pair.split(qx))
-        return d[[i for i, _ in which]]
+        which = self.springs[1]
+        return self.system.spring_separations(q)[[i for i, _ in which]]
 
     def step_limit(self) -> float:
         """The largest error-controlled step while gaps are closed [s]: their

@@ -189,12 +189,12 @@ def warm_up(groups=GROUPS, output: bool = True, loops=(False, True)) -> None:
       ``mobility``, ``force_term``);
 
     and with ``output`` the kernels of the output's index-1 multipliers
-    (``index1_multipliers``), of the contacts' energy and dissipated power
-    (``contact_rows``), which a run with warm kernels loads when its output
-    first needs them, and of the flexible beams' blocks and energies
+    (``index1_multipliers``), which a run with warm kernels loads when its
+    output first needs them, and of the flexible beams' blocks and energies
     (``beam_blocks``, ``beam_energies``), which every evaluation of a beam
-    outside the compiled loops calls (the joints' ``constraints``, which the
-    initial conditions call, the pendulum's run loads). ``loops``: the
+    outside the compiled loops calls (the joints' ``constraints`` and the
+    applied loads' ``loads``, which the initial conditions call, the
+    pendulum's run loads). ``loops``: the
     fixed-step loop (False), the
     error-controlled one (True), or both: a run with warm kernels loads the
     one it takes (each is a third of a second from numba's cache on two
@@ -218,11 +218,14 @@ def warm_up(groups=GROUPS, output: bool = True, loops=(False, True)) -> None:
             integrate(system, HHTI3(), 2e-3, 1e-3, engine="compiled",
                       newton=NewtonOptions(linear_solver=solver), control=StepControl(1e-6, 1e-6))
     if output:                 # the output's multipliers (HHT-ADD), contacts' energy and power
-        from .engine import CompiledModel, contact_row_kernel, index1_multipliers
+        from .engine import CompiledModel, index1_multipliers
         index1_multipliers(system, np.zeros(1), np.zeros((1, system.n)), np.zeros((1, system.n)))
         rows = np.zeros((1, system.nx))
         cm = CompiledModel(system)
-        contact_row_kernel(cm)(rows, rows, np.zeros((1, 0)))
+        # the applied loads' evaluations from Python (``AssembledSystem.Q`` and
+        # after it; the initial conditions call Q already): the energies and power
+        system.power(np.zeros(1), rows[:, :system.n], rows[:, :system.n],
+                     np.zeros((1, system.m)))
         # the flexible beams' evaluations from Python (``FlexibleBeamGroup``),
         # with the argument types it passes: no beam here, the signatures only
         blocks = [np.zeros((0, 3, 3)), np.zeros((0, 3))] + [np.zeros((0, 3, 3))] * 3

@@ -43,6 +43,18 @@ limit for e -> 1 and Flores et al.'s chi = 8 (1 - e) / (5 e) a fit of it
 (7 % high at e = 0.8, 30 % at e = 0.2). A contact in a mechanism deviates from
 the one-body impact only through the other forces acting during the
 millisecond of contact.
+
+A friction coefficient mu adds the regularised Coulomb force -mu f
+tanh(v_t / v_reg) along the contact's tangent, v_t = w(q) . v the slip speed
+of the two bodies' material points at the contact point c = p_P - r nu (nu
+the unit normal from the first body's surface: the line's normal, or -e from
+the pin's centre towards the hole's), tau = (-nu_y, nu_x) and
+
+    w = (-tau, -nu . (c - r_1), tau, nu . (A_2 s_P) - r)
+
+over (x, y, phi of the first body, then of the second). The kernels of
+``integrators/compiled.py`` evaluate the gaps and the law (``_gap``,
+``_slip``, ``_contact_law``).
 """
 
 from __future__ import annotations
@@ -54,10 +66,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import Span
-from .elements import GROUND, line_distance
+from .elements import GROUND
 
-__all__ = ["Contact", "damping_factor", "gap", "gap_columns", "slip",
-           "SPEED_FLOOR"]
+__all__ = ["Contact", "damping_factor", "gap_columns", "SPEED_FLOOR"]
 
 #: Approach speeds below this [m/s or rad/s] are taken as this speed in the
 #: damping term chi ddelta/dt / v_impact: a contact that closes at rest (a body
@@ -76,7 +87,10 @@ class Contact:
     kind : {"contact", "limit"}
     gaps : tuple of (geometry, data, label)
         One-sided gaps (module notes): geometry in {"line", "circle",
-        "angle", "slide"}; data as :func:`gap` reads it; label names the gap
+        "angle", "slide"}; data: ``line`` (body L, s_L, body P, s_P, n0, r),
+        ``circle`` (body C, s_C, body P, s_P, clearance, r), ``angle`` (body
+        1, None, body 2, None, bound, sign), ``slide`` (body L, s_L, body P,
+        s_P, u0, bound, sign); label names the gap
         in events (``"lower"``/``"upper"`` for a limit, ``""`` for a contact).
     k : float
         Stiffness K [N/m^n; N m/rad^n for an angle].
@@ -154,63 +168,6 @@ def gap_columns(geometry: str, data, cmap) -> list[int]:
     return [int(c) for c in cmap([data[0], data[2]]).ravel()]
 
 
-def _rot(phi, v):
-    c, s = math.cos(phi), math.sin(phi)
-    return np.array([c * v[0] - s * v[1], s * v[0] + c * v[1]])
-
-
-def gap(geometry: str, data, qx, cmap):
-    """A one-sided gap and its derivatives over :func:`gap_columns`.
-
-    Parameters
-    ----------
-    geometry : {"line", "circle", "angle", "slide"}
-    data : tuple
-        ``line``: (body L, s_L, body P, s_P, n0, r); ``circle``: (body C, s_C,
-        body P, s_P, clearance, r); ``angle``: (body 1, None, body 2, None, bound,
-        sign); ``slide``: (body L, s_L, body P, s_P, u0, bound, sign).
-    qx : ndarray, shape (n + 3,)
-        q extended by the ground's three zero coordinates.
-    cmap : CoordinateMap
-
-    Returns
-    -------
-    g : float [m or rad]
-    grad : ndarray, shape (6,)
-    hess : ndarray, shape (6, 6)
-    """
-    if geometry == "line":
-        s, grad, H = line_distance(data[:5], qx, cmap)
-        return s - data[5], grad, H
-    if geometry == "slide":
-        s, grad, H = line_distance(data[:5], qx, cmap)
-        sign = data[6]
-        return sign * (s - data[5]), sign * grad, sign * H
-    q = qx[gap_columns(geometry, data, cmap)]
-    if geometry == "angle":
-        _, _, _, _, bound, sign = data
-        grad = np.zeros(6)
-        grad[2], grad[5] = -sign, sign
-        return sign * (q[5] - q[2] - bound), grad, np.zeros((6, 6))
-    # circle: g = c - |d|, d = p_P - p_C = r_P + A_P s_P - r_C - A_C s_C
-    _, sC, _, sP, clearance = data[:5]
-    aC, aP = _rot(q[2], sC), _rot(q[5], sP)
-    BaC, BaP = np.array([-aC[1], aC[0]]), np.array([-aP[1], aP[0]])
-    d = q[3:5] + aP - q[0:2] - aC
-    l = math.hypot(d[0], d[1])
-    D = np.zeros((2, 6))                     # dd/dq
-    D[:, 0:2], D[:, 2], D[:, 3:5], D[:, 5] = -np.eye(2), -BaC, np.eye(2), BaP
-    if l == 0.0:                             # centred: the gap is open by c, no normal
-        return clearance, np.zeros(6), np.zeros((6, 6))
-    e = d / l
-    dl = e @ D
-    P = (np.eye(2) - np.outer(e, e)) / l
-    H = D.T @ P @ D
-    H[2, 2] += e @ aC                        # d2d/dphi_C^2 = +A_C s_C
-    H[5, 5] -= e @ aP                        # d2d/dphi_P^2 = -A_P s_P
-    return clearance - l, -dl, -H
-
-
 def contact_geometry_line(centre, radius, line_point, direction):
     """Gap data of a circle (PointRef ``centre``, radius [m]) against a line
     through the PointRef ``line_point`` along ``direction`` (body frame)."""
@@ -228,70 +185,3 @@ def contact_geometry_circle(pin, radius, hole_centre, hole_radius):
 
 
 __all__ += ["contact_geometry_line", "contact_geometry_circle", "GROUND"]
-
-
-def slip(geometry: str, data, qx, cmap):
-    """The tangential slip speed at a contact, v_t = w(q) . v, and dw/dq.
-
-    The contact normal nu (unit, from the first body's surface toward the
-    circle's centre: the line's normal, or -e from the pin's centre towards
-    the hole's for a pin in a hole), the contact point c = p_P - r nu and the
-    tangent tau = (-nu_y, nu_x); v_t = tau . (v_c2 - v_c1), the velocities of
-    the two bodies' material points at c. With tau . (omega k x d) = omega
-    nu . d:
-
-        w = (-tau, -nu . (c - r_1), tau, nu . (A_2 s_P) - r)
-
-    over (x, y, phi of the first body, then of the second). dnu/dq: B(phi_1)
-    n0 = J nu on phi_1 for a line; -(I - e e^T) D / l for a hole (D = dd/dq
-    of d = p_P - p_C).
-
-    Parameters
-    ----------
-    geometry : {"line", "circle"}
-    data, qx, cmap : as for :func:`gap`
-
-    Returns
-    -------
-    w : ndarray, shape (6,)
-    dw : ndarray, shape (6, 6)
-        dw[i, j] = dw_i / dq_j.
-    """
-    q = qx[gap_columns(geometry, data, cmap)]
-    a2 = _rot(q[5], data[3])
-    B2 = np.array([-a2[1], a2[0]])
-    J = np.array([[0.0, -1.0], [1.0, 0.0]])
-    if geometry == "line":
-        r = data[5]
-        nu = _rot(q[2], data[4])
-        dnu = np.zeros((2, 6))
-        dnu[:, 2] = J @ nu
-    else:
-        a1 = _rot(q[2], data[1])
-        d = q[3:5] + a2 - q[0:2] - a1
-        l = math.hypot(d[0], d[1])
-        r = data[5]
-        if l == 0.0:
-            return np.zeros(6), np.zeros((6, 6))
-        e = d / l
-        D = np.zeros((2, 6))
-        D[:, 0:2], D[:, 2], D[:, 3:5], D[:, 5] = -np.eye(2), -np.array([-a1[1], a1[0]]), \
-            np.eye(2), B2
-        nu = -e
-        dnu = -((np.eye(2) - np.outer(e, e)) / l) @ D
-    tau = J @ nu
-    dtau = J @ dnu
-    # c - r_1 = (p_P - r nu) - r_1 = (q2 + a2 - r nu) - q1
-    c1 = q[3:5] + a2 - r * nu - q[0:2]
-    dc1 = np.zeros((2, 6))
-    dc1[:, 0:2], dc1[:, 3:5] = -np.eye(2), np.eye(2)
-    dc1[:, 5] = B2
-    dc1 -= r * dnu
-    w = np.array([-tau[0], -tau[1], -(nu @ c1), tau[0], tau[1], nu @ a2 - r])
-    dw = np.zeros((6, 6))
-    dw[0], dw[1] = -dtau[0], -dtau[1]
-    dw[2] = -(dnu.T @ c1 + dc1.T @ nu)
-    dw[3], dw[4] = dtau[0], dtau[1]
-    dw[5] = dnu.T @ a2
-    dw[5, 5] += nu @ B2
-    return w, dw

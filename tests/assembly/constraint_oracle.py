@@ -24,9 +24,19 @@ from __future__ import annotations
 import numpy as np
 
 from mbdsl.assembly.groups import (CoincidenceGroup, DistanceGroup, LinearConstraintGroup,
-                                   PointOnLineGroup, drot, rot)
+                                   PointOnLineGroup)
 
 __all__ = ["ConstraintOracle"]
+
+
+def rot(phi, s):
+    """A(phi) s, phi (k,), s (k, 2) -> (k, 2)."""
+    return np.einsum("kab,kb->ka", _AB(phi)[0], np.broadcast_to(s, np.shape(phi) + (2,)))
+
+
+def drot(phi, s):
+    """B(phi) s = dA/dphi s, as :func:`rot`."""
+    return np.einsum("kab,kb->ka", _AB(phi)[1], np.broadcast_to(s, np.shape(phi) + (2,)))
 
 
 def _local(P, q):

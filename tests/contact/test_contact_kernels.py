@@ -1,9 +1,9 @@
 """Contacts and joint limits on the compiled engine.
 
-The kernels' gaps, forces and Newton-matrix entries against the numpy
-contact group (itself checked against finite differences and the one-body
-impact in ``test_law_and_derivatives``) and against central differences of
-the kernels' own residual; runs whose compiled loop returns at each event
+The kernels' gaps, forces, energy, power and Newton-matrix entries against
+the numpy oracle (``contact_oracle``, itself checked against finite
+differences and the one-body impact in ``test_law_and_derivatives``) and
+against central differences of the kernels' own residual; runs whose compiled loop returns at each event
 for the driver to land a step on it, against the numpy engine's runs of the
 same model (the same events at the same times) and the restitution the law
 promises.
@@ -18,10 +18,11 @@ import mbdsl
 from mbdsl.assembly.initial import InitialState
 from mbdsl.assembly.system import assemble
 from mbdsl.integrators import compiled, make_method
-from mbdsl.integrators import engine as engine_module
 from mbdsl.integrators.engine import CompiledModel, SparseAdapter, unsupported
 
+from ..assembly.force_oracle import ForceOracle
 from ..integrators.test_engine import residual_differences, rigid_residual_in_kernel_rows
+from .contact_oracle import ContactOracle
 from .test_law_and_derivatives import MODEL
 
 MODELS = Path(__file__).resolve().parents[2] / "models"
@@ -59,7 +60,7 @@ def _penetrating(system, name, armed, seed=5):
         v = rng.normal(scale=0.5, size=n)
         v -= np.linalg.lstsq(system.Phi_q(q), system.Phi_q(q) @ v, rcond=None)[0]
         qx, vx = system._ext(q), system._ext(v)
-        if g.gaps_one(i, qx) < -1e-4 and g.forces(qx, vx, 0.0)[i].any():
+        if g.gaps_one(i, qx) < -1e-4 and ContactOracle(g).forces(qx, vx, 0.0)[i].any():
             assert np.abs(system.Phi(q, 0.0)).max() < 1e-12
             return q, v
     raise AssertionError(f"no configuration penetrates '{name}'")
@@ -71,10 +72,12 @@ def test_every_gap_geometry_has_a_kernel(system):
 
 @pytest.mark.parametrize("armed", [True, False])
 @pytest.mark.parametrize("name", GAPS)
-def test_kernel_forces_are_the_contact_group_s(system, name, armed):
+def test_kernel_forces_are_the_oracle_s(system, name, armed):
     """Q(q, v) of the kernels (the contact's normal force along the gap's
-    gradient, its damping and, on the two contacts, friction) equals the
-    numpy group's; the impact speed is the kernels' contact state."""
+    gradient, its damping and, on the two contacts, friction), in the time
+    loops' ``force_term`` and from Python (``AssembledSystem.Q``), equals
+    the numpy oracle's, and so do Q_q and Q_v; the impact speed is the
+    kernels' contact state."""
     q, v = _penetrating(system, name, armed)
     g = system.contact_group
     cm = CompiledModel(system)
@@ -82,9 +85,13 @@ def test_kernel_forces_are_the_contact_group_s(system, name, armed):
     out = np.empty(system.n)
     compiled.force_term(cm.ints, cm.floats, 0.0, q, v, np.zeros(system.m), out,
                         np.zeros(system.nx), np.zeros(system.nx), np.zeros(system.nx))
-    Q = system.Q(0.0, q, v, np.zeros(system.m))
+    o = ForceOracle(system)
+    Q = o.Q(0.0, q, v, np.zeros(system.m))
     assert np.abs(Q).max() > 1.0                  # the contact pushes
     np.testing.assert_allclose(-out, Q, rtol=0, atol=1e-12 * np.abs(Q).max())
+    np.testing.assert_allclose(system.Q(0.0, q, v), Q, rtol=0, atol=1e-12 * np.abs(Q).max())
+    for got, want in zip(system.force_derivatives(0.0, q, v), o.derivatives(0.0, q, v)):
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-12 * np.abs(want).max())
 
 
 @pytest.mark.parametrize("armed", [True, False])
@@ -158,31 +165,36 @@ def test_fixed_steps_with_contacts_run_compiled_as_on_the_numpy_engine(method):
                                atol=1e-9)
 
 
-def test_kernel_energy_and_dissipation_over_rows_are_the_contact_group_s(system):
-    """The output's elastic energy and dissipated power per row, by the
-    kernels (``ContactGroup.row_kernel``), equal the group's own loops, over
-    rows where every gap is penetrated somewhere, armed and not (speeds 0)."""
+def test_kernel_energy_and_dissipation_over_rows_are_the_oracle_s(system):
+    """The output's potential energy and dissipated power per row, by the
+    kernels (``AssembledSystem.potential_energy``, ``power``: each row with
+    the impact speeds of the contact log at its time), equal the oracle's,
+    over rows where every gap is penetrated somewhere, armed and not (speeds
+    0)."""
     g = system.contact_group
+    o = ForceOracle(system)
     rng = np.random.default_rng(9)
     N, n = 200, system.n
     q = rng.normal(scale=0.4, size=(N, n))
     v = rng.normal(scale=0.5, size=(N, n))
-    qx, vx = system._ext(q), system._ext(v)
+    t = np.arange(N, dtype=float)
     speeds = np.where(rng.random((N, len(g.names))) < 0.5, 0.0,
                       rng.uniform(0.1, 3.0, (N, len(g.names))))
-    g.row_kernel = None
-    energy, power = g.energy(qx), g.dissipation(qx, vx, speeds)
-    assert np.count_nonzero(energy) > N // 2
-    assert np.count_nonzero(power) > N // 2
-    kernel = engine_module.contact_row_kernel(CompiledModel(system))
-    try:
-        g.row_kernel = kernel
-        np.testing.assert_allclose(g.energy(qx), energy, rtol=1e-12, atol=0)
-        np.testing.assert_allclose(g.dissipation(qx, vx, speeds), power, rtol=1e-11,
-                                   atol=1e-12 * np.abs(power).max())
-        assert g.energy(qx[3]) == pytest.approx(energy[3], rel=1e-12)
-    finally:
-        g.row_kernel = None
+    log = [(t[r], i, speeds[r, i]) for r in range(N) for i in range(len(g.names))]
+    np.testing.assert_array_equal(g.speeds_at(t, log), speeds)
+    contact = np.array([ContactOracle(g).energy(system._ext(row)) for row in q])
+    assert np.count_nonzero(contact) > N // 2
+    energy = np.array([o.potential(row) for row in q])
+    np.testing.assert_allclose(system.potential_energy(q), energy, rtol=1e-12,
+                               atol=1e-12 * np.abs(energy).max())
+    assert system.potential_energy(q[3]) == pytest.approx(energy[3], rel=1e-12)
+    lam = np.zeros((N, system.m))
+    power = np.array([o.power(t[r], q[r], v[r], lam[r], speeds[r]) for r in range(N)])
+    assert np.count_nonzero(power[:, 1]) > N // 2
+    p_in, p_diss = system.power(t, q, v, lam, contact_log=log)
+    np.testing.assert_allclose(p_in, power[:, 0], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(p_diss, power[:, 1], rtol=1e-11,
+                               atol=1e-12 * np.abs(power[:, 1]).max())
 
 
 def test_hht_add_output_multipliers_take_each_row_s_impact_speeds():

@@ -3,7 +3,10 @@
 Oracles: the one-body impact of the Hunt-Crossley law integrated with scipy's
 solve_ivp (its exit speed is the restitution the damping factor was solved
 for), the Lankarani-Nikravesh limit for e -> 1, and central differences of
-the gaps and of the generalized forces (the Newton matrix's Q_q and Q_v).
+the gaps and of the generalized forces (the Newton matrix's Q_q and Q_v): of
+the kernels (through the system) and of the numpy oracle
+(``contact_oracle``) the kernels are compared with in
+``test_contact_kernels``.
 """
 
 import math
@@ -14,7 +17,9 @@ from scipy.integrate import solve_ivp
 
 import mbdsl
 from mbdsl.assembly.system import assemble
-from mbdsl.model.contact import damping_factor, gap
+from mbdsl.model.contact import damping_factor
+
+from .contact_oracle import ContactOracle, gap, slip
 
 
 def exit_speed(chi, n):
@@ -77,8 +82,10 @@ def test_gaps_and_their_derivatives(system):
     qx = np.zeros(system.nx)
     qx[:system.n] = rng.normal(scale=0.3, size=system.n)
     eps = 1e-6
-    for (geo, data), cols in zip(g.geometry, g.cols):
+    values, grads = system.contact_gaps(qx)          # the kernels'
+    for i, ((geo, data), cols) in enumerate(zip(g.geometry, g.cols)):
         value, grad, hess = gap(geo, data, qx, system.cmap)
+        assert values[i] == pytest.approx(value, abs=1e-15)
         for j, c in enumerate(cols):
             if c >= system.n:
                 continue
@@ -87,6 +94,9 @@ def test_gaps_and_their_derivatives(system):
             gp, gradp, _ = gap(geo, data, qx + dq, system.cmap)
             gm, gradm, _ = gap(geo, data, qx - dq, system.cmap)
             assert grad[j] == pytest.approx((gp - gm) / (2 * eps), abs=1e-7), (geo, j)
+            fd = (system.contact_gaps(qx + dq)[0][i] - system.contact_gaps(qx - dq)[0][i]) \
+                / (2 * eps)
+            assert grads[i, j] == pytest.approx(fd, abs=1e-7), (geo, j)
             keep = cols < system.n
             np.testing.assert_allclose(hess[keep, j], ((gradp - gradm) / (2 * eps))[keep],
                                        atol=1e-6, err_msg=geo)
@@ -101,6 +111,7 @@ def test_forces_and_their_derivatives(system, name, armed):
     term, the Hessian of the gap and, on the two contacts, friction all
     enter)."""
     g = system.contact_group
+    o = ContactOracle(g)
     i = g.names.index(name)
     rng = np.random.default_rng(5)
     n, nx = system.n, system.nx
@@ -111,12 +122,12 @@ def test_forces_and_their_derivatives(system, name, armed):
         qx, vx = np.zeros(nx), np.zeros(nx)
         qx[:n] = rng.normal(scale=0.4, size=n)
         vx[:n] = rng.normal(scale=0.5, size=n)
-        if g.gaps_one(i, qx) < -1e-4 and g.forces(qx, vx, 0.0)[i].any():
+        if o.gap(i, qx)[0] < -1e-4 and o.forces(qx, vx, 0.0)[i].any():
             break
     else:
         raise AssertionError(f"no configuration penetrates '{name}'")
-    Q = g.forces(qx, vx, 0.0)
-    Qq, Qv = g.derivatives(qx, vx, 0.0)
+    Q = o.forces(qx, vx, 0.0)
+    Qq, Qv = o.derivatives(qx, vx, 0.0)
     assert np.any(Qv[i]) == ((g.chi[i] > 0 and armed) or g.mu[i] > 0)
     eps = 1e-7
     cols = g.cols[i]
@@ -127,12 +138,27 @@ def test_forces_and_their_derivatives(system, name, armed):
             continue
         d = np.zeros(nx)
         d[c] = eps
-        fd_q = (g.forces(qx + d, vx, 0.0)[i] - g.forces(qx - d, vx, 0.0)[i]) / (2 * eps)
-        fd_v = (g.forces(qx, vx + d, 0.0)[i] - g.forces(qx, vx - d, 0.0)[i]) / (2 * eps)
+        fd_q = (o.forces(qx + d, vx, 0.0)[i] - o.forces(qx - d, vx, 0.0)[i]) / (2 * eps)
+        fd_v = (o.forces(qx, vx + d, 0.0)[i] - o.forces(qx, vx - d, 0.0)[i]) / (2 * eps)
         np.testing.assert_allclose(Qq[i][keep, j], fd_q[keep], atol=1e-6 * scale, rtol=1e-5,
                                    err_msg=f"{name} Q_q column {j}")
         np.testing.assert_allclose(Qv[i][keep, j], fd_v[keep], atol=1e-6 * scale, rtol=1e-5,
                                    err_msg=f"{name} Q_v column {j}")
+    # the kernels' (every load of the model: gravity and all five gaps) against
+    # central differences of their own Q
+    q, v = qx[:n], vx[:n]
+    KQ = system.Q(0.0, q, v)
+    KQq, KQv = system.force_derivatives(0.0, q, v)
+    scale = 1.0 + np.max(np.abs(KQ))
+    for c in range(n):
+        d = np.zeros(n)
+        d[c] = eps
+        fd_q = (system.Q(0.0, q + d, v) - system.Q(0.0, q - d, v)) / (2 * eps)
+        fd_v = (system.Q(0.0, q, v + d) - system.Q(0.0, q, v - d)) / (2 * eps)
+        np.testing.assert_allclose(KQq[:, c], fd_q, atol=1e-6 * scale, rtol=1e-5,
+                                   err_msg=f"{name} kernels' Q_q column {c}")
+        np.testing.assert_allclose(KQv[:, c], fd_v, atol=1e-6 * scale, rtol=1e-5,
+                                   err_msg=f"{name} kernels' Q_v column {c}")
 
 
 @pytest.mark.parametrize("name", ["line", "pin"])
@@ -140,7 +166,6 @@ def test_slip_is_the_material_points_relative_speed(system, name):
     """v_t = w . v against the motion of the two bodies' material points that
     sit at the contact point c: fix them in each body's frame, move q by v dt,
     and difference their positions (projected on the tangent)."""
-    from mbdsl.model.contact import slip
     g = system.contact_group
     i = g.names.index(name)
     geo, data = g.geometry[i]
@@ -177,6 +202,7 @@ def test_force_is_along_the_gap_and_never_pulls(system):
     """Q = f grad g with f >= 0: separating faster than the damping allows
     cuts the force at zero, and an open gap has none."""
     g = system.contact_group
+    o = ContactOracle(g)
     n, nx = system.n, system.nx
     qx = np.zeros(nx)
     qx[:n] = np.random.default_rng(7).normal(scale=0.3, size=n)
@@ -186,17 +212,16 @@ def test_force_is_along_the_gap_and_never_pulls(system):
     for sign in (1.0, -1.0):
         vx = np.zeros(nx)
         vx[:n] = sign * np.random.default_rng(8).normal(size=n)
-        Q = g.forces(qx, vx, 0.0)
+        Q = o.forces(qx, vx, 0.0)
         for i, (geo, data) in enumerate(g.geometry):
             value, grad, _ = gap(geo, data, qx, system.cmap)
             if value >= 0:
                 assert not np.any(Q[i])
                 continue
             if g.mu[i] > 0:             # the normal part only
-                from mbdsl.model.contact import slip
                 w, _ = slip(geo, data, qx, system.cmap)
-                _, _, _, _, _, fn, _ = g._law(i, qx, vx, g.impact_speed[i])
-                Q[i] = Q[i] - g._friction(i, qx, vx, fn)[0] * w
+                _, _, _, _, _, fn, _ = o.law(i, qx, vx, g.impact_speed[i])
+                Q[i] = Q[i] - o.friction(i, qx, vx, fn)[0] * w
             f = Q[i] @ grad / (grad @ grad)
             assert f >= 0.0
             np.testing.assert_allclose(Q[i], f * grad, atol=1e-12 * (1 + abs(f)))

@@ -438,10 +438,11 @@ def test_distance_joints_on_beams_converge_to_the_dop853_reference(soft_distance
 @pytest.mark.parametrize("path", [MODELS / "slider_crank_driven.mbd", MODELS / "double_pendulum.mbd",
                                   VALID / "all_elements.mbd", VALID / "friction_elements.mbd",
                                   VALID / "flexible_joints.mbd"])
-def test_index1_multipliers_of_the_kernels_are_the_numpy_groups(path):
+def test_index1_multipliers_of_the_kernels_are_the_systems_dense_solves(path):
     # the output's Lagrange multipliers of HHT-ADD: [[M, Phi_q^T], [Phi_q, 0]] [a; lambda]
-    # = [Q; gamma] row by row in a kernel, against the numpy groups' per-row solve on the
-    # rows of a run (drivers' Phi_tt, friction's fixed point on lambda, beams' M(q))
+    # = [Q; gamma] row by row in a kernel, against the system's per-row dense solve
+    # (numpy's LU) on the rows of a run (drivers' Phi_tt, friction's fixed point on
+    # lambda, beams' M(q))
     from mbdsl.integrators import compiled, kernel_cache
     from mbdsl.integrators.engine import index1_multipliers
     kernel_cache.ensure_loaded("dense")
@@ -669,7 +670,7 @@ initial rod.phi = 0.3
 def test_a_spring_between_coincident_points_has_no_force_in_the_kernels(monkeypatch):
     """A spring-damper whose points coincide (on the revolute joint's pin,
     exactly at the consistent start) has no direction: no force, as in the
-    numpy group (``SpringDamperGroup._kin``). The kernels divided by l = 0,
+    numpy oracle (``tests/assembly/force_oracle.py``). The kernels divided by l = 0,
     and the NaN sent every step to the numpy engine (1267 us/step against 6)."""
     from mbdsl.integrators import compiled, driver
     system = mbdsl.assemble(mbdsl.load_text(COINCIDENT))
@@ -679,7 +680,10 @@ def test_a_spring_between_coincident_points_has_no_force_in_the_kernels(monkeypa
     qx[:system.n] = init.q
     Q = np.empty(system.n + 3)
     compiled.forces(cm.ints, cm.floats, 0.0, qx, vx, init.lam, Q)
-    assert np.array_equal(Q[:system.n], system.Q(0.0, init.q, np.zeros(system.n), init.lam))
+    from ..assembly.force_oracle import ForceOracle
+    want = ForceOracle(system).Q(0.0, init.q, np.zeros(system.n), init.lam)
+    assert np.all(np.isfinite(Q)) and np.abs(Q[:system.n] - want).max() < 1e-12
+    assert np.allclose(want, system.gravity_force)        # the spring: no force
     handed = []
     numpy_integrate = driver.integrate
 

@@ -1,0 +1,174 @@
+"""The applied loads' one implementation, the kernels (called from Python
+through ``AssembledSystem.Q``, ``force_derivatives``, ``Q_lam``,
+``potential_energy``, ``power``, ``spring_separations``, ``contact_gaps``
+and ``friction_speeds``), against an independent numpy evaluation of the
+same equations (``force_oracle.ForceOracle``) at random states, on every
+shipped model and every valid test model with loads, on the compiled
+kernels and on their uncompiled copy.
+
+The finite-difference checks of Q_q, Q_v and Q_lambda against Q are in
+``test_derivatives.py`` and ``tests/contact``; this test pins the values
+themselves (a wrong stiffness, sign or missing term that every derivative
+shares).
+"""
+
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import mbdsl
+from mbdsl.integrators.engine import CompiledModel, _kernels
+
+from .force_oracle import ForceOracle
+
+ROOT = Path(__file__).resolve().parents[2]
+FILES = sorted([*ROOT.glob("models/*.mbd"), *ROOT.glob("tests/dsl/valid/*.mbd"),
+                *ROOT.glob("tests/flexible/*.mbd")])
+
+
+def _system(path, kernels):
+    """The model's system, evaluating on the given kernel module."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        system = mbdsl.assemble(mbdsl.load(path))
+    cm = CompiledModel(system, kernels)
+    system.kernel_model = lambda: cm
+    return system
+
+
+@pytest.fixture(scope="module", params=["compiled", "uncompiled"])
+def kernels(request):
+    return _kernels(uncompiled=request.param == "uncompiled")
+
+
+def _close(got, want, rel=1e-12):
+    scale = max(1.0, float(np.abs(want).max(initial=0.0)))
+    assert np.shape(got) == np.shape(want)
+    assert np.abs(np.asarray(got) - want).max(initial=0.0) <= rel * scale
+
+
+def _with_loads(path):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return bool(mbdsl.assemble(mbdsl.load(path)).force_groups)
+
+
+LOADED = [p for p in FILES if _with_loads(p)]
+
+
+def _drivers_power(system, q, t, lam):
+    """lambda . Phi_t: the power the drivers put in (``AssembledSystem.power``
+    adds it to the loads')."""
+    return float(lam @ system.Phi_t(q, t)) if system.m else 0.0
+
+
+@pytest.mark.parametrize("path", LOADED, ids=lambda p: f"{p.parent.name}/{p.stem}")
+def test_load_kernels_match_the_numpy_oracle(path, kernels):
+    system = _system(path, kernels)
+    o = ForceOracle(system)
+    g = system.contact_group
+    rng = np.random.default_rng(len(path.stem))
+    n, m = system.n, system.m
+    for t in (0.0, 0.37, 1.9):
+        q = rng.normal(scale=0.4, size=n)
+        v, a = rng.normal(size=(2, n))
+        lam = rng.normal(size=m)
+        speeds = None
+        if g is not None:          # some gaps armed, some not
+            k = len(g.names)
+            g.impact_speed[:] = np.where(rng.random(k) < 0.5, 0.0, rng.uniform(0.1, 3.0, k))
+            speeds = g.impact_speed.copy()
+        _close(system.Q(t, q, v, lam), o.Q(t, q, v, lam))
+        Qq, Qv = system.force_derivatives(t, q, v, lam)
+        Oq, Ov = o.derivatives(t, q, v, lam)
+        if Qq is None:
+            assert not np.any(Oq)
+        else:
+            _close(Qq, Oq)
+        if Qv is None:
+            assert not np.any(Ov)
+        else:
+            _close(Qv, Ov)
+        _close(system.potential_energy(q), o.potential(q))
+        log = [] if g is None else [(t, i, s) for i, s in enumerate(speeds)]
+        p_in, p_diss = system.power(np.array([t]), q[None], v[None], lam[None],
+                                    contact_log=log)
+        want_in, want_diss = o.power(t, q, v, lam, speeds)
+        _close(p_in[0], want_in + _drivers_power(system, q, t, lam))
+        _close(p_diss[0], want_diss)
+        if system.spring_count:
+            _close(system.spring_separations(q), o.spring_separations(q))
+        if g is not None:
+            for got, want in zip(system.contact_gaps(system._ext(q)), o.gaps(system._ext(q))):
+                _close(got, want)
+        if system.multiplier_groups:
+            _close(system.Q_lam(t, q, v, lam), o.Q_lam(t, q, v, lam))
+            _close(system.friction_speeds(q, v), o.friction_speeds(q, v))
+            _close(system.friction_speeds(q, v, a), o.friction_speeds(q, v, a))
+            k = len(system.multiplier_groups[0].lines)
+            slip = np.where(rng.random(k) < 0.3, np.nan, rng.uniform(-1.0, 1.0, k))
+            _close(system.Q(t, q, v, lam, slip), o.Q(t, q, v, lam, slip))
+    # rows of a stored solution at once, as the output evaluates them
+    Q, V = rng.normal(scale=0.4, size=(2, 4, n))
+    T, L = np.array([0.0, 0.5, 1.5, 2.0]), rng.normal(size=(4, m))
+    _close(system.potential_energy(Q), np.array([o.potential(q) for q in Q]))
+    p_in, p_diss = system.power(T, Q, V, L, contact_log=[] if g is None else [
+        (0.0, i, s) for i, s in enumerate(g.impact_speed)])
+    want = np.array([o.power(t, q, v, lam, None if g is None else g.impact_speed)
+                     for t, q, v, lam in zip(T, Q, V, L)])
+    _close(p_in, want[:, 0] + np.array([_drivers_power(system, q, t, lam)
+                                        for t, q, lam in zip(T, Q, L)]))
+    _close(p_diss, want[:, 1])
+
+
+def test_the_oracle_sees_a_wrong_stiffness(kernels):
+    # Sharp: a spring-damper's stiffness off by one part in 10^6 moves Q far
+    # above the tolerance of the comparison above.
+    system = _system(ROOT / "models" / "andrews.mbd", kernels)
+    q, v = np.random.default_rng(4).normal(scale=0.4, size=(2, system.n))
+    want = ForceOracle(system).Q(0.0, q, v)
+    spring = next(g for g in system.force_groups if hasattr(g, "l0"))
+    spring.k = spring.k * (1.0 + 1e-6)
+    assert np.abs(ForceOracle(system).Q(0.0, q, v) - want).max() > 1e3 * 1e-12 * max(
+        1.0, np.abs(want).max())
+
+
+def test_a_load_derivative_outside_the_pattern_is_refused(kernels):
+    # The loads' patterns come from the groups' columns; the kernels' triplets
+    # are summed into them. A pattern that misses an entry is an error, not a
+    # silently dropped term.
+    system = _system(ROOT / "models" / "andrews.mbd", kernels)
+    q, v = np.random.default_rng(5).normal(scale=0.4, size=(2, system.n))
+    rows, cols = system.pattern_force
+    system.pattern_force = (rows[1:], cols[1:])
+    with pytest.raises(RuntimeError, match="pattern"):
+        system.force_derivatives(0.0, q, v)
+
+
+def test_the_packages_copies_of_the_kernels_constants_agree(kernels):
+    # system.py repeats the kernels' selectors so that building a model never
+    # imports numba; they must be the kernels' own.
+    from mbdsl.assembly import system
+    assert (system._L_Q, system._L_QQ, system._L_QV, system._L_QLAM, system._L_ENERGY,
+            system._L_POWER, system._L_GAPS, system._L_SPRINGS, system._L_SLIP) == (
+        kernels.L_Q, kernels.L_QQ, kernels.L_QV, kernels.L_QLAM, kernels.L_ENERGY,
+        kernels.L_POWER, kernels.L_GAPS, kernels.L_SPRINGS, kernels.L_SLIP)
+
+
+@pytest.mark.parametrize("name", ["tests/dsl/valid/friction_elements.mbd",
+                                  "models/incline_friction.mbd"])
+def test_friction_Q_lambda_is_the_derivative_of_Q(name, kernels):
+    # dQ/dlambda of friction (its normal loads are reactions) against central
+    # differences of the kernels' own Q
+    system = _system(ROOT / name, kernels)
+    rng = np.random.default_rng(2)
+    q = rng.normal(scale=0.4, size=system.n)
+    v, lam = rng.normal(size=system.n), rng.normal(size=system.m)
+    Ql = system.Q_lam(0.2, q, v, lam)
+    eps = 1e-6
+    fd = np.stack([(system.Q(0.2, q, v, lam + eps * e) - system.Q(0.2, q, v, lam - eps * e))
+                   / (2 * eps) for e in np.eye(system.m)], axis=1)
+    assert np.any(Ql)
+    np.testing.assert_allclose(Ql, fd, rtol=1e-6, atol=1e-8 * np.abs(fd).max())
