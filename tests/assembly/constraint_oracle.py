@@ -123,9 +123,9 @@ def local(g, qx, t):
     return phi[:, None], jac[:, None], hess[:, None]
 
 
-class ConstraintOracle:
-    """Phi and its derivatives of an ``AssembledSystem``'s constraint groups,
-    dense, from the groups' data; one state at a time.
+class SystemOracle:
+    """An oracle of an ``AssembledSystem``'s groups, from their data; one
+    state at a time.
 
     Parameters
     ----------
@@ -140,6 +140,11 @@ class ConstraintOracle:
         out = np.zeros(self.nx)
         out[: self.n] = x
         return out
+
+
+class ConstraintOracle(SystemOracle):
+    """Phi and its derivatives of an ``AssembledSystem``'s constraint groups,
+    dense."""
 
     def _each(self, q, t):
         qx = self._ext(q)

@@ -26,7 +26,7 @@ from mbdsl.model.elements import line_distance
 
 from ..contact.contact_oracle import ContactOracle
 from ..flexible.ffr_oracle import BeamOracle
-from .constraint_oracle import _pair, _point_hess, _point_jac
+from .constraint_oracle import SystemOracle, _pair, _point_hess, _point_jac
 
 __all__ = ["ForceOracle"]
 
@@ -223,24 +223,9 @@ def friction_speeds(g, qx, vx, ax=None):
     return out
 
 
-class ForceOracle:
+class ForceOracle(SystemOracle):
     """Q, its derivatives, the loads' energy and power of an
-    ``AssembledSystem``'s force groups, dense, from the groups' data; one
-    state at a time.
-
-    Parameters
-    ----------
-    system : mbdsl.assembly.system.AssembledSystem
-    """
-
-    def __init__(self, system):
-        self.system = system
-        self.n, self.m, self.nx = system.n, system.m, system.nx
-
-    def _ext(self, x):
-        out = np.zeros(self.nx)
-        out[: self.n] = x
-        return out
+    ``AssembledSystem``'s force groups, dense."""
 
     def _local(self, g, qx, vx, t, lam, slip=None):
         """Local Q of group g."""

@@ -11,36 +11,13 @@ differentiates are in ``test_derivatives.py``; this test pins the values
 themselves (a wrong offset, length or sign that every derivative shares).
 """
 
-import warnings
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-import mbdsl
-from mbdsl.integrators.engine import CompiledModel, _kernels
 
 from .constraint_oracle import ConstraintOracle
-
-ROOT = Path(__file__).resolve().parents[2]
-FILES = sorted([*ROOT.glob("models/*.mbd"), *ROOT.glob("tests/dsl/valid/*.mbd"),
-                *ROOT.glob("tests/flexible/*.mbd")])
-
-
-def _system(path, kernels):
-    """The model's system, evaluating on the given kernel module."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        system = mbdsl.assemble(mbdsl.load(path))
-    cm = CompiledModel(system, kernels)
-    system.kernel_model = lambda: cm
-    return system
-
-
-@pytest.fixture(scope="module", params=["compiled", "uncompiled"])
-def kernels(request):
-    return _kernels(uncompiled=request.param == "uncompiled")
-
+from .kernel_models import FILES, ROOT, kernels, system_on  # noqa: F401 (a fixture)
 
 def _close(got, want):
     scale = max(1.0, float(np.abs(want).max(initial=0.0)))
@@ -50,7 +27,7 @@ def _close(got, want):
 
 @pytest.mark.parametrize("path", FILES, ids=lambda p: f"{p.parent.name}/{p.stem}")
 def test_constraint_kernels_match_the_numpy_oracle(path, kernels):
-    system = _system(path, kernels)
+    system = system_on(path, kernels)
     o = ConstraintOracle(system)
     rng = np.random.default_rng(len(path.stem))
     for t in (0.0, 0.37, 1.9):
@@ -78,7 +55,7 @@ def test_constraint_kernels_match_the_numpy_oracle(path, kernels):
 def test_the_oracle_sees_a_wrong_length(kernels):
     # Sharp: a distance joint's length off by one part in 10^9 moves Phi far
     # above the tolerance of the comparison above.
-    system = _system(ROOT / "tests" / "dsl" / "valid" / "distance_elements.mbd", kernels)
+    system = system_on(ROOT / "tests" / "dsl" / "valid" / "distance_elements.mbd", kernels)
     o = ConstraintOracle(system)
     q = np.random.default_rng(4).normal(size=system.n)
     want = o.Phi(q, 0.0)
@@ -92,7 +69,7 @@ def test_the_oracle_sees_a_wrong_length(kernels):
 def test_patterns_are_fixed_by_the_model(kernels):
     # The triplets' (row, column) pattern is the same at any state: the
     # numpy engine's Newton matrices and the reactions are built on it once.
-    system = _system(ROOT / "tests" / "dsl" / "valid" / "flexible_joints.mbd", kernels)
+    system = system_on(ROOT / "tests" / "dsl" / "valid" / "flexible_joints.mbd", kernels)
     K, cm = kernels, system.kernel_model()
     rng = np.random.default_rng(7)
     for what, width in ((K.C_PHIQ, 1), (K.C_PHIQT_Y_Q, system.m), (K.C_PHIQ_Y_Q, system.nx)):

@@ -13,35 +13,14 @@ shares).
 """
 
 import warnings
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 import mbdsl
-from mbdsl.integrators.engine import CompiledModel, _kernels
 
 from .force_oracle import ForceOracle
-
-ROOT = Path(__file__).resolve().parents[2]
-FILES = sorted([*ROOT.glob("models/*.mbd"), *ROOT.glob("tests/dsl/valid/*.mbd"),
-                *ROOT.glob("tests/flexible/*.mbd")])
-
-
-def _system(path, kernels):
-    """The model's system, evaluating on the given kernel module."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        system = mbdsl.assemble(mbdsl.load(path))
-    cm = CompiledModel(system, kernels)
-    system.kernel_model = lambda: cm
-    return system
-
-
-@pytest.fixture(scope="module", params=["compiled", "uncompiled"])
-def kernels(request):
-    return _kernels(uncompiled=request.param == "uncompiled")
-
+from .kernel_models import FILES, ROOT, kernels, system_on  # noqa: F401 (a fixture)
 
 def _close(got, want, rel=1e-12):
     scale = max(1.0, float(np.abs(want).max(initial=0.0)))
@@ -66,7 +45,7 @@ def _drivers_power(system, q, t, lam):
 
 @pytest.mark.parametrize("path", LOADED, ids=lambda p: f"{p.parent.name}/{p.stem}")
 def test_load_kernels_match_the_numpy_oracle(path, kernels):
-    system = _system(path, kernels)
+    system = system_on(path, kernels)
     o = ForceOracle(system)
     g = system.contact_group
     rng = np.random.default_rng(len(path.stem))
@@ -126,7 +105,7 @@ def test_load_kernels_match_the_numpy_oracle(path, kernels):
 def test_the_oracle_sees_a_wrong_stiffness(kernels):
     # Sharp: a spring-damper's stiffness off by one part in 10^6 moves Q far
     # above the tolerance of the comparison above.
-    system = _system(ROOT / "models" / "andrews.mbd", kernels)
+    system = system_on(ROOT / "models" / "andrews.mbd", kernels)
     q, v = np.random.default_rng(4).normal(scale=0.4, size=(2, system.n))
     want = ForceOracle(system).Q(0.0, q, v)
     spring = next(g for g in system.force_groups if hasattr(g, "l0"))
@@ -139,7 +118,7 @@ def test_a_load_derivative_outside_the_pattern_is_refused(kernels):
     # The loads' patterns come from the groups' columns; the kernels' triplets
     # are summed into them. A pattern that misses an entry is an error, not a
     # silently dropped term.
-    system = _system(ROOT / "models" / "andrews.mbd", kernels)
+    system = system_on(ROOT / "models" / "andrews.mbd", kernels)
     q, v = np.random.default_rng(5).normal(scale=0.4, size=(2, system.n))
     rows, cols = system.pattern_force
     system.pattern_force = (rows[1:], cols[1:])
@@ -162,7 +141,7 @@ def test_the_packages_copies_of_the_kernels_constants_agree(kernels):
 def test_friction_Q_lambda_is_the_derivative_of_Q(name, kernels):
     # dQ/dlambda of friction (its normal loads are reactions) against central
     # differences of the kernels' own Q
-    system = _system(ROOT / name, kernels)
+    system = system_on(ROOT / name, kernels)
     rng = np.random.default_rng(2)
     q = rng.normal(scale=0.4, size=system.n)
     v, lam = rng.normal(size=system.n), rng.normal(size=system.m)

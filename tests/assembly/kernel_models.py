@@ -1,0 +1,31 @@
+"""The models and kernel modules the kernel-against-oracle tests run on:
+every shipped model and every valid test model, its system evaluating on
+the compiled kernels or on their uncompiled copy."""
+
+import warnings
+from pathlib import Path
+
+import pytest
+
+import mbdsl
+from mbdsl.integrators.engine import CompiledModel, _kernels
+
+ROOT = Path(__file__).resolve().parents[2]
+FILES = sorted([*ROOT.glob("models/*.mbd"), *ROOT.glob("tests/dsl/valid/*.mbd"),
+                *ROOT.glob("tests/flexible/*.mbd")])
+
+
+def system_on(path, kernels):
+    """The model's system, evaluating on the given kernel module."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        system = mbdsl.assemble(mbdsl.load(path))
+    cm = CompiledModel(system, kernels)
+    system.kernel_model = lambda: cm
+    return system
+
+
+@pytest.fixture(scope="module", params=["compiled", "uncompiled"])
+def kernels(request):
+    """The compiled kernels, or their uncompiled copy."""
+    return _kernels(uncompiled=request.param == "uncompiled")
