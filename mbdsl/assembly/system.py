@@ -413,34 +413,39 @@ class AssembledSystem:
         return per_element[element]
 
     # -- forces -------------------------------------------------------------------------
-    # Evaluated by the kernels (``compiled.loads``), the one implementation of the
+    # Evaluated by the kernels (``compiled.elements``), the one implementation of the
     # applied loads (gravity, spring-dampers, torques, point forces, loads of the
     # state, friction, contacts, flexible beams).
+    _EMPTY_I, _EMPTY_1, _EMPTY_F = np.zeros(0, np.int64), np.zeros(0), np.zeros((0, 0))
+
     def _needs(self, lam):
         if lam is None and self.multiplier_groups:
             raise ValueError("the model has friction: its forces need the multipliers lambda")
 
-    def _loads(self, what, rows, t, vx, y, out, slip=None, speeds=None, R=None, C=None,
-               V=None):
-        """``compiled.loads`` at the rows (N, nx), one argument type per slot
-        (as :meth:`_constraints`): y (N, m or nx), slip (k,) and speeds (N, k)
-        empty when not given. The contacts' impact speeds in force are the
-        contact group's (its state)."""
+    def _elements(self, what, rows, t, vx, y, out, slip=None, speeds=None, R=None, C=None,
+                  V=None):
+        """``compiled.elements`` at the rows (N, nx) (joints and drivers:
+        ``what`` a C_*; applied loads: an L_*), one argument type per slot:
+        t (N,), vx (N, nx) and y (N, m or nx) zeros when not given, slip (k,)
+        and speeds (N, k) empty, unused outputs empty arrays. The contacts'
+        impact speeds in force are the contact group's (its state)."""
         cm = self.kernel_model()
         if self.contact_group is not None:
             cm.impact_speed[:] = self.contact_group.impact_speed
         N = len(rows)
+        # fresh, writable copies (numba types a read-only view, as np.broadcast_to
+        # gives, as another signature: one more library to load)
         t = np.array(np.broadcast_to(np.asarray(t, dtype=float), (N,)))
-        vx = np.zeros_like(rows) if vx is None else np.ascontiguousarray(vx, dtype=float)
-        y = np.zeros((N, self.m)) if y is None else np.ascontiguousarray(
+        vx = np.zeros_like(rows) if vx is None else np.require(vx, float, ("C", "W"))
+        y = np.zeros((N, self.m)) if y is None else np.array(
             np.broadcast_to(np.asarray(y, dtype=float), (N, np.shape(y)[-1])))
-        slip = np.zeros(0) if slip is None else np.ascontiguousarray(slip, dtype=float)
-        speeds = np.zeros((N, 0)) if speeds is None else np.ascontiguousarray(speeds, dtype=float)
-        return cm.K.loads(cm.ints, cm.floats, what, t, rows, vx, y, slip, speeds,
-                          self._EMPTY_F if out is None else out,
-                          self._EMPTY_I if R is None else R,
-                          self._EMPTY_I if C is None else C,
-                          self._EMPTY_F if V is None else V)
+        slip = self._EMPTY_1 if slip is None else np.array(slip, dtype=float)
+        speeds = np.zeros((N, 0)) if speeds is None else np.array(speeds, dtype=float)
+        return cm.K.elements(cm.ints, cm.floats, what, t, rows, vx, y, slip, speeds,
+                             self._EMPTY_F if out is None else out,
+                             self._EMPTY_I if R is None else R,
+                             self._EMPTY_I if C is None else C,
+                             self._EMPTY_F if V is None else V)
 
     def _load_values(self, what, pattern, width, t, q, v, lam):
         """Values of Q_q, Q_v (``what`` _L_QQ, _L_QV) or Q_lambda (_L_QLAM)
@@ -456,7 +461,7 @@ class AssembledSystem:
         keys = pattern[0].astype(np.int64) * width + pattern[1]
         bound = self.kernel_model().bound
         R, C, V = np.empty(bound, np.int64), np.empty(bound, np.int64), np.empty((1, bound))
-        p = self._loads(what, self._ext(q)[None], t, self._ext(v)[None],
+        p = self._elements(what, self._ext(q)[None], t, self._ext(v)[None],
                         None if lam is None else np.asarray(lam)[None], None, R=R, C=C, V=V)
         got = R[:p] * width + C[:p]
         where = np.minimum(np.searchsorted(keys, got), max(len(keys) - 1, 0))
@@ -480,7 +485,7 @@ class AssembledSystem:
             return np.zeros(self.n) if self.gravity_force is None else self.gravity_force.copy()
         self._needs(lam)
         out = np.empty((1, self.nx))
-        self._loads(_L_Q, self._ext(q)[None], t, self._ext(v)[None],
+        self._elements(_L_Q, self._ext(q)[None], t, self._ext(v)[None],
                     None if lam is None else np.asarray(lam)[None], out, slip=slip)
         return out[0, : self.n]
 
@@ -521,7 +526,7 @@ class AssembledSystem:
         k = self.spring_count
         out = np.empty((1, 2 * k))
         if k:
-            self._loads(_L_SPRINGS, self._ext(q)[None], 0.0, None, None, out)
+            self._elements(_L_SPRINGS, self._ext(q)[None], 0.0, None, None, out)
         return out[0].reshape(k, 2)
 
     def contact_gaps(self, qx):
@@ -530,7 +535,7 @@ class AssembledSystem:
         the extended configuration qx (nx,)."""
         k = len(self.contact_group.names)
         out = np.empty((1, 7 * k))
-        self._loads(_L_GAPS, np.ascontiguousarray(qx, dtype=float)[None], 0.0, None, None, out)
+        self._elements(_L_GAPS, np.ascontiguousarray(qx, dtype=float)[None], 0.0, None, None, out)
         return out[0, :k], out[0, k:].reshape(k, 6)
 
     def friction_speeds(self, q, v, a=None):
@@ -540,14 +545,13 @@ class AssembledSystem:
         k = len(self.multiplier_groups[0].lines)
         out = np.empty((1, 2 * k))
         acc = self._ext(np.zeros(self.n) if a is None else a)[None]
-        self._loads(_L_SLIP, self._ext(q)[None], 0.0, self._ext(v)[None], acc, out)
+        self._elements(_L_SLIP, self._ext(q)[None], 0.0, self._ext(v)[None], acc, out)
         return out[0, :k] if a is None else out[0, k:]
 
     # -- constraints ------------------------------------------------------------------
-    # Evaluated by the kernels (``compiled.constraints``), the one implementation of
+    # Evaluated by the kernels (``compiled.elements``), the one implementation of
     # the joints and drivers; every function takes one state or rows of a stored
     # solution.
-    _EMPTY_I, _EMPTY_F = np.zeros(0, np.int64), np.zeros((0, 0))
 
     def _ext_rows(self, x):
         """x (n,) or (..., n) -> contiguous rows (N, nx) with the ground's three
@@ -556,17 +560,8 @@ class AssembledSystem:
         return qx.reshape(-1, self.nx), qx.shape[:-1]
 
     def _constraints(self, what, rows, t, y, out, R=None, C=None, V=None):
-        """``compiled.constraints`` at the rows (N, nx), with one argument type
-        per slot: t (N,) a writable copy (not a read-only broadcast view), y
-        2-D, unused slots empty arrays."""
-        cm = self.kernel_model()
-        t = np.array(np.broadcast_to(np.asarray(t, dtype=float), (len(rows),)))
-        y = self._EMPTY_F if y is None else np.ascontiguousarray(y, dtype=float)
-        return cm.K.constraints(cm.ints, cm.floats, what, t, rows, y,
-                                self._EMPTY_F if out is None else out,
-                                self._EMPTY_I if R is None else R,
-                                self._EMPTY_I if C is None else C,
-                                self._EMPTY_F if V is None else V)
+        """:meth:`_elements` for the joints and drivers (``what`` a C_*)."""
+        return self._elements(what, rows, t, None, y, out, R=R, C=C, V=V)
 
     def _constraint_pattern(self, what: int):
         """(rows, cols) of the triplets of Phi_q (``what`` C_PHIQ = 5),
@@ -819,7 +814,7 @@ class AssembledSystem:
             out = np.empty((N, 2))
             g = self.contact_group
             speeds = g.speeds_at(t, contact_log) if g is not None else None
-            self._loads(_L_POWER, rows, t, self._ext_rows(v)[0],
+            self._elements(_L_POWER, rows, t, self._ext_rows(v)[0],
                         np.reshape(lam, (N, self.m)), out, speeds=speeds)
             p_in, p_diss = out[:, 0].copy(), out[:, 1].copy()
         if self.m and any(f is not None and not f.constant for g in self.timed_groups
@@ -839,14 +834,14 @@ class AssembledSystem:
             rows, lead = self._ext_rows(q)
             out = np.empty((len(rows), 1))
             if len(rows):
-                self._loads(_L_ENERGY, rows, 0.0, None, None, out)
+                self._elements(_L_ENERGY, rows, 0.0, None, None, out)
             e = e + out[:, 0].reshape(lead)
         return float(e) if np.ndim(q) == 1 else e
 
 
-#: ``compiled.loads``' evaluations (its L_* constants, repeated as the C_* below)
-(_L_Q, _L_QQ, _L_QV, _L_QLAM, _L_ENERGY, _L_POWER, _L_GAPS, _L_SPRINGS, _L_SLIP) = range(9)
-#: ``compiled.constraints``' evaluations (its C_* constants, repeated here so
+#: ``compiled.elements``' evaluations (its L_* constants, repeated as the C_* below)
+(_L_Q, _L_QQ, _L_QV, _L_QLAM, _L_ENERGY, _L_POWER, _L_GAPS, _L_SPRINGS, _L_SLIP) = range(8, 17)
+#: ``compiled.elements``' evaluations (its C_* constants, repeated here so
 #: that building a model never imports numba)
 _C_PHI, _C_PHI_T, _C_PHI_TT, _C_PHIQ_Y, _C_PHIQT_Y, _C_PHIQ, _C_PHIQT_Y_Q, _C_PHIQ_Y_Q = range(8)
 

@@ -7,11 +7,14 @@ per machine and cached on disk (``cache=True``, numba's ``__pycache__``).
 
 Why compiled code here: on small mechanisms the numpy formulation is
 dominated by call overhead (about a microsecond per numpy call, dozens of
-calls per Newton iteration), not by arithmetic. The kernels evaluate the same
-element formulas as :mod:`mbdsl.assembly.groups` with scalar loops over the
-instances of each element type (struct of arrays, fixed at build), and for
+calls per Newton iteration), not by arithmetic. The kernels evaluate the
+element formulas the groups of :mod:`mbdsl.assembly` state, with scalar loops
+over the instances of each element type (struct of arrays, fixed at build), and for
 systems of up to ``DENSE_LIMIT`` unknowns run the whole time loop, Newton
-iteration included, without returning to Python.
+iteration included, without returning to Python. They are the one
+evaluation of every element: Python asks for Phi, Q, their derivatives,
+energies and power through ``elements``, ``beam_blocks`` and
+``beam_energies`` (``AssembledSystem``).
 
 Model data: the fields of :data:`MODEL_SCHEMA` packed into two flat arrays
 (integers ``I``, floats ``Fl``; built by ``engine.CompiledModel``) and read
@@ -71,7 +74,7 @@ from .recipe import RECIPE_FIELDS
 __all__ = ["MODEL_SCHEMA", "MODEL_FIELDS", "residual", "jacobian_triplets", "force_term", "old_force",
            "predict", "state", "layout", "advance", "mobility", "index1_multipliers",
            "index1_multipliers_band",
-           "accumulate", "loads", "constraints", "beam_blocks", "beam_energies", "run", "run_adaptive", "triplet_bound", "pack", "unpack", "lapack_band_addresses",
+           "accumulate", "elements", "beam_blocks", "beam_energies", "run", "run_adaptive", "triplet_bound", "pack", "unpack", "lapack_band_addresses",
            "DENSE", "BANDED"]
 
 #: The recipe entries (``recipe.RECIPE_FIELDS``, checked below): literals here, so that
@@ -1831,46 +1834,40 @@ def _emit_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef):
     return p
 
 
-#: What ``constraints`` evaluates at each row: Phi, Phi_t, Phi_tt into out (N, m);
-#: Phi_q y into out (N, m); Phi_q^T y into out (N, nx); the triplets of Phi_q,
-#: (Phi_q^T y)_q and (Phi_q y)_q into R, C and V (N, nnz).
+#: What ``elements`` evaluates at each row for the joints and drivers: Phi,
+#: Phi_t, Phi_tt into out (N, m); Phi_q y into out (N, m); Phi_q^T y into out
+#: (N, nx); the triplets of Phi_q, (Phi_q^T y)_q and (Phi_q y)_q into R, C and
+#: V (N, nnz).
 (C_PHI, C_PHI_T, C_PHI_TT, C_PHIQ_Y, C_PHIQT_Y,
  C_PHIQ, C_PHIQT_Y_Q, C_PHIQ_Y_Q) = range(8)
 
 
 @_jit
-def constraints(I, Fl, what, t, qx, y, out, R, C, V):
-    """The joints' and drivers' evaluations Python asks for
-    (``AssembledSystem.Phi`` and the functions after it), at the rows t (N,)
-    [s], qx (N, nx) and y (N, m or nx: lambda or v), as ``what`` (C_*) says:
-    values into out, or triplets (their rows and columns into R, C, the
-    values of row r into V[r]; the count returned, the same at every state:
-    the pattern is fixed by the model). One entry point, so that a process
-    loads one library for all of them (numba's cache loads each entry point
-    on its own, some 60 ms each on two cores)."""
-    n = _rows(I, MASS)
+def _constraints_row(I, Fl, n, what, r, t, qx, y, out, R, C, V):
+    """The joints' and drivers' evaluation ``what`` (C_*) at row r of t,
+    qx, y, into out[r] or R, C, V[r] (see ``elements``); returns the
+    triplets' count (0 for a vector)."""
     p = 0
-    for r in range(qx.shape[0]):
-        if what == C_PHI:
-            phi(I, Fl, t[r], qx[r], out[r])
-        elif what == C_PHI_T or what == C_PHI_TT:
-            row = out[r]
-            for j in range(row.shape[0]):
-                row[j] = 0.0
-            _phi_time_add(I, Fl, t[r], row, what)
-        elif what == C_PHIQ_Y:
-            phiq_times(I, Fl, qx[r], y[r], out[r])
-        elif what == C_PHIQT_Y:
-            row = out[r]
-            for j in range(row.shape[0]):
-                row[j] = 0.0
-            phiqT_add(I, Fl, qx[r], y[r], 1.0, row)
-        elif what == C_PHIQ:
-            p = _emit_phiq(I, Fl, n, qx[r], R, C, V[r], 0, 0, 0, 1.0, False)
-        elif what == C_PHIQT_Y_Q:
-            p = _emit_hess(I, Fl, n, qx[r], y[r], R, C, V[r], 0, 0, 0, 1.0)
-        else:
-            p = _emit_G(I, Fl, n, qx[r], y[r], R, C, V[r], 0, 0, 0, 1.0)
+    if what == C_PHI:
+        phi(I, Fl, t[r], qx[r], out[r])
+    elif what == C_PHI_T or what == C_PHI_TT:
+        row = out[r]
+        for j in range(row.shape[0]):
+            row[j] = 0.0
+        _phi_time_add(I, Fl, t[r], row, what)
+    elif what == C_PHIQ_Y:
+        phiq_times(I, Fl, qx[r], y[r], out[r])
+    elif what == C_PHIQT_Y:
+        row = out[r]
+        for j in range(row.shape[0]):
+            row[j] = 0.0
+        phiqT_add(I, Fl, qx[r], y[r], 1.0, row)
+    elif what == C_PHIQ:
+        p = _emit_phiq(I, Fl, n, qx[r], R, C, V[r], 0, 0, 0, 1.0, False)
+    elif what == C_PHIQT_Y_Q:
+        p = _emit_hess(I, Fl, n, qx[r], y[r], R, C, V[r], 0, 0, 0, 1.0)
+    else:
+        p = _emit_G(I, Fl, n, qx[r], y[r], R, C, V[r], 0, 0, 0, 1.0)
     return p
 
 
@@ -2140,12 +2137,13 @@ def _emit_force(I, Fl, t, n, qx, vx, lam, R, C, V, p, r0, c0, cq, cv):
     return p
 
 
-#: What ``loads`` evaluates at each row: Q into out (N, nx); the triplets of
-#: Q_q, Q_v, Q_lambda into R, C and V (N, nnz); the potential energy of the
-#: loads into out[:, 0]; the power put in and dissipated into out[:, :2]; the
-#: contacts' gaps and their gradients, the spring-dampers' d = p2 - p1 and the
-#: friction joints' speeds and their rates into out (see ``loads``).
-(L_Q, L_QQ, L_QV, L_QLAM, L_ENERGY, L_POWER, L_GAPS, L_SPRINGS, L_SLIP) = range(9)
+#: What ``elements`` evaluates at each row for the applied loads: Q into out
+#: (N, nx); the triplets of Q_q, Q_v, Q_lambda into R, C and V (N, nnz); the
+#: potential energy of the loads into out[:, 0]; the power put in and
+#: dissipated into out[:, :2]; the contacts' gaps and their gradients, the
+#: spring-dampers' d = p2 - p1 and the friction joints' speeds and their
+#: rates into out (see ``elements``). Numbered after the C_*.
+(L_Q, L_QQ, L_QV, L_QLAM, L_ENERGY, L_POWER, L_GAPS, L_SPRINGS, L_SLIP) = range(8, 17)
 
 
 @_jit
@@ -2219,17 +2217,22 @@ def _power(I, Fl, t, qx, vx, lam, speeds, work):
 
 
 @_jit
-def loads(I, Fl, what, t, qx, vx, y, slip, speeds, out, R, C, V):
-    """The applied loads' evaluations Python asks for (``AssembledSystem.Q``
-    and the functions after it; the contacts' and springs' events), at the
-    rows t (N,) [s], qx, vx (N, nx) and y (N, m: lambda; N, nx:
-    accelerations for L_SLIP), as ``what`` (L_*) says:
+def elements(I, Fl, what, t, qx, vx, y, slip, speeds, out, R, C, V):
+    """The elements' evaluations Python asks for (``AssembledSystem.Phi``,
+    ``AssembledSystem.Q`` and the functions after them; the contacts' and
+    springs' events), at the rows t (N,) [s], qx, vx (N, nx) and y (N, m:
+    lambda; N, nx: v for C_PHIQ_Y and C_PHIQ_Y_Q, accelerations for L_SLIP),
+    as ``what`` says. The joints and drivers (C_*, ``_constraints_row``, vx
+    unread): Phi, Phi_t, Phi_tt, Phi_q y into out (N, m), Phi_q^T y into out
+    (N, nx), the triplets of Phi_q, (Phi_q^T y)_q and (Phi_q y)_q (their
+    rows and columns into R, C, the values of row r into V[r]; the count
+    returned, the same at every state: the pattern is fixed by the model).
+    The applied loads (L_*):
 
     * L_Q: Q into out (N, nx), friction with ``slip`` (``_friction_law``);
     * L_QQ, L_QV, L_QLAM: the triplets of Q_q, Q_v (N, n) and Q_lambda
-      (n, m) into R, C and the values of row r into V[r]; the count returned
-      (entries that are zero at a state may be left out: a caller sums
-      them into a pattern of its own);
+      (n, m) into R, C and V; the count returned (entries that are zero at
+      a state may be left out: a caller sums them into a pattern of its own);
     * L_ENERGY: the loads' potential energy into out[:, 0] (``_potential``);
     * L_POWER: the power put in and dissipated into out[:, 0], out[:, 1],
       the contacts at the impact speeds speeds (N, k) (``_power``);
@@ -2240,14 +2243,18 @@ def loads(I, Fl, what, t, qx, vx, y, slip, speeds, out, R, C, V):
       dz/dt = w . a + v^T (d^2 s) v, a = y, into out[:, k:].
 
     The contacts' impact speeds of L_Q, L_QQ and L_QV are the model's state
-    (KIMP). One entry point: one library to load (as ``constraints``)."""
+    (KIMP). One entry point, so that a process loads one library for all of
+    them (numba's cache loads each entry point and each signature on its
+    own, 20-70 ms each on two cores)."""
     n = _rows(I, MASS)
     p = 0
     nx = qx.shape[1]
     work = np.empty(nx)
     grad, H = np.empty(6), np.empty((6, 6))
     for r in range(qx.shape[0]):
-        if what == L_Q:
+        if what < L_Q:
+            p = _constraints_row(I, Fl, n, what, r, t, qx, y, out, R, C, V)
+        elif what == L_Q:
             _forces(I, Fl, t[r], qx[r], vx[r], y[r], slip, out[r])
         elif what == L_QQ:
             p = _emit_force(I, Fl, t[r], n, qx[r], vx[r], y[r], R, C, V[r], 0, 0, 0, -1.0, 0.0)

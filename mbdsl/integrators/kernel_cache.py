@@ -192,9 +192,8 @@ def warm_up(groups=GROUPS, output: bool = True, loops=(False, True)) -> None:
     (``index1_multipliers``), which a run with warm kernels loads when its
     output first needs them, and of the flexible beams' blocks and energies
     (``beam_blocks``, ``beam_energies``), which every evaluation of a beam
-    outside the compiled loops calls (the joints' ``constraints`` and the
-    applied loads' ``loads``, which the initial conditions call, the
-    pendulum's run loads). ``loops``: the
+    outside the compiled loops calls (the other elements' ``elements``,
+    which the initial conditions call, the pendulum's run loads). ``loops``: the
     fixed-step loop (False), the
     error-controlled one (True), or both: a run with warm kernels loads the
     one it takes (each is a third of a second from numba's cache on two

@@ -79,9 +79,9 @@ def test_patterns_are_fixed_by_the_model(kernels):
             qx = np.zeros((1, system.nx))
             qx[0, :system.n] = rng.normal(size=system.n)
             R, C = np.empty(cm.bound, np.int64), np.empty(cm.bound, np.int64)
-            p = K.constraints(cm.ints, cm.floats, what, np.zeros(1), qx,
-                              rng.normal(size=(1, width)), np.zeros((0, 0)), R, C,
-                              np.empty((1, cm.bound)))
+            p = K.elements(cm.ints, cm.floats, what, np.zeros(1), qx, qx,
+                           rng.normal(size=(1, width)), np.zeros(0), np.zeros((0, 0)),
+                           np.zeros((0, 0)), R, C, np.empty((1, cm.bound)))
             assert p == len(rows)
             assert np.array_equal(R[:p], rows) and np.array_equal(C[:p], cols)
 
