@@ -151,3 +151,42 @@ def test_friction_Q_lambda_is_the_derivative_of_Q(name, kernels):
                    / (2 * eps) for e in np.eye(system.m)], axis=1)
     assert np.any(Ql)
     np.testing.assert_allclose(Ql, fd, rtol=1e-6, atol=1e-8 * np.abs(fd).max())
+
+
+def test_every_evaluation_from_python_takes_one_signature():
+    # numba's cache loads each signature of an entry point as a library of its
+    # own (20-70 ms each): every evaluation Python asks of the elements, on
+    # models with every kind of element, one state or rows, passes the same
+    # argument types
+    import subprocess
+    import sys
+    from mbdsl.integrators import kernel_cache
+    kernel_cache.ensure_loaded("dense")          # built, so that the child only loads
+    code = """
+import numpy as np, mbdsl
+from mbdsl.integrators import compiled
+for path in ("models/slider_crank_clearance.mbd", "tests/dsl/valid/friction_elements.mbd",
+             "tests/dsl/valid/all_elements.mbd", "tests/dsl/valid/flexible_elements.mbd"):
+    s = mbdsl.assemble(mbdsl.load(path))
+    q, v = np.random.default_rng(1).normal(scale=0.3, size=(2, s.n))
+    lam, t = np.zeros(s.m), np.array([0.0, 0.1])
+    s.Q(0.1, q, v, lam)
+    s.force_derivatives(0.1, q, v, lam)
+    s.potential_energy(q), s.potential_energy(np.stack([q, v]))
+    s.power(t, np.stack([q, v]), np.stack([v, q]), np.stack([lam, lam]))
+    s.Phi(q, 0.1), s.Phi_q(q, 0.1), s.gamma(q, v, 0.1), s.Phi_t(q, t)
+    s.PhiqT_lam_q(q, lam), s.Phiq_v_q(q, v), s.PhiqT_times(q, 0.1, lam)
+    if s.multiplier_groups:
+        s.Q_lam(0.1, q, v, lam)
+        s.friction_speeds(q, v), s.friction_speeds(q, v, q)
+        s.Q(0.1, q, v, lam, np.zeros(len(s.multiplier_groups[0].lines)))
+    if s.contact_group is not None:
+        s.contact_group.gaps(s._ext(q))
+    if s.spring_count:
+        s.spring_separations(q)
+print(len(compiled.elements.signatures))
+"""
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         timeout=600, cwd=ROOT)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["1"]
