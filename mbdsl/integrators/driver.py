@@ -122,33 +122,10 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
     ConvergenceError
         With ``on_failure="raise"`` when the run cannot go on.
     """
-    if not (h > 0 and math.isfinite(h)):
-        raise ValueError(f"h must be positive and finite, got {h}")
-    if not (t_end > t_start):
-        raise ValueError(f"t_end ({t_end}) must be after t_start ({t_start})")
-    if on_failure not in ("raise", "return"):
-        raise ValueError("on_failure must be 'raise' or 'return'")
-    if not (isinstance(output_every, (int, np.integer)) and output_every >= 1):
-        raise ValueError(f"output_every must be a positive integer, got {output_every!r}")
-    output_every = int(output_every)
-    from .engine import (SparseAdapter, prepare_compiled, recipe_monomials, run_compiled,
-                         run_compiled_adaptive, select_engine)
-    if control is not None and method.max_step_ratio is not None \
-            and control.max_factor > method.max_step_ratio:
-        import dataclasses
-        control = dataclasses.replace(control, max_factor=method.max_step_ratio)
-    engine_note = None
-    if control is not None:
-        from .engine import unsupported
-        if (engine != "numpy" and method.kernel_recipe(1.0, False) is not None
-                and recipe_monomials(method) is None):          # a recipe the loop cannot vary
-            if engine in ("compiled", "uncompiled"):
-                raise ValueError(f"the {engine} engine cannot vary the step of {method.name}")
-            if unsupported(system, method) is None:
-                engine_note = f"error-controlled steps of {method.name} run on numpy"
-            engine = "auto_numpy"
-    which = select_engine("numpy" if engine == "auto_numpy" else engine, system, method,
-                          compile_policy, announce)
+    output_every, control = _checked(h, t_start, t_end, on_failure, output_every, method,
+                                     control)
+    which, engine, engine_note = _engine_for(system, method, engine, control,
+                                             compile_policy, announce)
     solver = Newton(newton)
     if which == "numpy" and solver.options.linear_solver == "banded":
         raise ValueError("linear_solver='banded' is a solver of the compiled engine, which "
@@ -158,48 +135,116 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
     t0 = clock()
     if initial is None:
         initial = consistent_initial_state(system, t_start)
-    uncompiled = which == "uncompiled"
+    loop = dict(output_every=output_every, progress=progress, writer=writer,
+                max_halvings=max_halvings, grow_after=grow_after)
+    cm = None
     if which in ("compiled", "uncompiled"):
         timings["setup"] = clock() - t0
-        # Events: contacts and springs whose points pass take the error-controlled
-        # loop (with fixed steps too), which returns at each one for a step to be
-        # landed on it (run_compiled_adaptive); with a recipe that loop cannot vary,
-        # this module's time loop on the kernels' evaluation. Both compiled loops
-        # run from switch to switch of the functions of time.
-        events = EventLocator.found_by_steps(system)
-        python_loop = python_loop or (events and recipe_monomials(method) is None)
-        functions = time_switches(system)
-        # the driver's own loop lands each switch as it comes (EventLocator.before_switch)
-        switches = (switch_times(functions, t_start, t_end, h) if functions and not python_loop
-                    else ())
-        cm, plan, timings["kernels"] = prepare_compiled(system, method, solver.options,
-                                                        initial.q, announce,
-                                                        adaptive=control is not None or events,
-                                                        python_loop=python_loop,
-                                                        uncompiled=uncompiled)
-        if plan.kind != "sparse" and not python_loop:
-            sol = Solution(system, method, h, t_end, initial)
-            sol.engine, sol.linear_solver = which, plan.kind
-            sol.control = control
-            sol.append(method.start(system, initial)[-1], StepStats())
-            sol.timings = timings
-            loop_start = clock()
-            try:
-                if control is not None or events:
-                    run_compiled_adaptive(system, method, t_end, h, t_start, initial,
-                                          solver.options, sol, plan, control,
-                                          output_every=output_every, progress=progress,
-                                          writer=writer, cm=cm, max_halvings=max_halvings,
-                                          grow_after=grow_after, switches=switches)
-                else:
-                    run_compiled(system, method, t_end, h, t_start, initial, solver.options,
-                                 sol, plan, output_every=output_every, progress=progress,
-                                 writer=writer, max_halvings=max_halvings,
-                                 grow_after=grow_after, cm=cm, switches=switches)
-            finally:
-                _finish(sol, writer, loop_start)
+        sol, cm = _compiled_loop(system, method, t_start, t_end, h, initial, solver, which,
+                                 control, python_loop, announce, timings, loop)
+        if sol is not None:
             return _result(sol, on_failure)
         t0 = clock()
+    sol = _driver_loop(system, method, t_start, t_end, h, initial, solver, which, cm,
+                       control, timings, t0, loop,
+                       engine_note=(engine_note or _unsupported(system, method)
+                                    if engine in ("auto", "auto_numpy") else None))
+    return _result(sol, on_failure)
+
+
+def _unsupported(system, method):
+    """Why the compiled engine cannot run this (``engine.unsupported``), or None."""
+    from .engine import unsupported
+    return unsupported(system, method)
+
+
+def _checked(h, t_start, t_end, on_failure, output_every, method, control):
+    """(output_every, control) of :func:`integrate` checked: its ValueErrors,
+    and the step control's growth limited to the method's largest step ratio."""
+    if not (h > 0 and math.isfinite(h)):
+        raise ValueError(f"h must be positive and finite, got {h}")
+    if not (t_end > t_start):
+        raise ValueError(f"t_end ({t_end}) must be after t_start ({t_start})")
+    if on_failure not in ("raise", "return"):
+        raise ValueError("on_failure must be 'raise' or 'return'")
+    if not (isinstance(output_every, (int, np.integer)) and output_every >= 1):
+        raise ValueError(f"output_every must be a positive integer, got {output_every!r}")
+    if control is not None and method.max_step_ratio is not None \
+            and control.max_factor > method.max_step_ratio:
+        import dataclasses
+        control = dataclasses.replace(control, max_factor=method.max_step_ratio)
+    return int(output_every), control
+
+
+def _engine_for(system, method, engine, control, compile_policy, announce):
+    """(the engine that runs, the engine asked for, the note why not the
+    compiled one or None): ``engine.select_engine``, after error control
+    sent a method whose recipe the compiled loops cannot vary to numpy
+    ("auto_numpy")."""
+    from .engine import recipe_monomials, select_engine
+    engine_note = None
+    if control is not None:
+        if (engine != "numpy" and method.kernel_recipe(1.0, False) is not None
+                and recipe_monomials(method) is None):          # a recipe the loop cannot vary
+            if engine in ("compiled", "uncompiled"):
+                raise ValueError(f"the {engine} engine cannot vary the step of {method.name}")
+            if _unsupported(system, method) is None:
+                engine_note = f"error-controlled steps of {method.name} run on numpy"
+            engine = "auto_numpy"
+    which = select_engine("numpy" if engine == "auto_numpy" else engine, system, method,
+                          compile_policy, announce)
+    return which, engine, engine_note
+
+
+def _compiled_loop(system, method, t_start, t_end, h, initial, solver, which, control,
+                   python_loop, announce, timings, loop):
+    """Run on the kernels' own time loop where it applies: (the Solution,
+    None), or (None, the kernels' model data) for the driver's loop on the
+    kernels (SuperLU-sized systems, ``python_loop``, a recipe with events
+    that the error-controlled loop cannot vary)."""
+    from .engine import prepare_compiled, recipe_monomials, run_compiled, run_compiled_adaptive
+    # Events: contacts and springs whose points pass take the error-controlled
+    # loop (with fixed steps too), which returns at each one for a step to be
+    # landed on it (run_compiled_adaptive); with a recipe that loop cannot vary,
+    # this module's time loop on the kernels' evaluation. Both compiled loops
+    # run from switch to switch of the functions of time.
+    events = EventLocator.found_by_steps(system)
+    python_loop = python_loop or (events and recipe_monomials(method) is None)
+    functions = time_switches(system)
+    # the driver's own loop lands each switch as it comes (EventLocator.before_switch)
+    switches = (switch_times(functions, t_start, t_end, h) if functions and not python_loop
+                else ())
+    cm, plan, timings["kernels"] = prepare_compiled(system, method, solver.options,
+                                                    initial.q, announce,
+                                                    adaptive=control is not None or events,
+                                                    python_loop=python_loop,
+                                                    uncompiled=which == "uncompiled")
+    if plan.kind == "sparse" or python_loop:
+        return None, cm
+    sol = Solution(system, method, h, t_end, initial)
+    sol.engine, sol.linear_solver = which, plan.kind
+    sol.control = control
+    sol.append(method.start(system, initial)[-1], StepStats())
+    sol.timings = timings
+    loop_start = _time.perf_counter()
+    try:
+        if control is not None or events:
+            run_compiled_adaptive(system, method, t_end, h, t_start, initial, solver.options,
+                                  sol, plan, control, cm=cm, switches=switches, **loop)
+        else:
+            run_compiled(system, method, t_end, h, t_start, initial, solver.options, sol, plan,
+                         cm=cm, switches=switches, **loop)
+    finally:
+        _finish(sol, loop["writer"], loop_start)
+    return sol, None
+
+
+def _driver_loop(system, method, t_start, t_end, h, initial, solver, which, cm, control,
+                 timings, t0, loop, engine_note):
+    """Run this module's time loop (:func:`_time_loop`): the numpy engine's
+    methods, or the kernels' residual and Newton matrix (``SparseAdapter``)
+    on the compiled or uncompiled engine with model data ``cm``."""
+    from .engine import SparseAdapter
     blocks = method.blocks(system)
     kinds = np.concatenate([np.full(b.size, b.kind == "multiplier") for b in blocks])
     size = len(kinds)
@@ -212,21 +257,20 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
     sol = Solution(system, method, h, t_end, initial)
     sol.control = control
     sol.engine = which
-    from .engine import unsupported
-    sol.engine_note = (engine_note or unsupported(system, method)
-                       if engine in ("auto", "auto_numpy") else None)
+    sol.engine_note = engine_note
     sol.linear_solver = "sparse" if assembler.sparse else "dense"
     sol.append(history[-1], StepStats())
     sol.last_state = history[-1]
-    timings["setup"] += clock() - t0
+    timings["setup"] += _time.perf_counter() - t0
     sol.timings = timings
-    loop_start = clock()
+    loop_start = _time.perf_counter()
     try:
         _time_loop(system, method, solver, sol, history, kinds, assembler, t_start, t_end, h,
-                   max_halvings, grow_after, output_every, progress, writer, control)
+                   loop["max_halvings"], loop["grow_after"], loop["output_every"],
+                   loop["progress"], loop["writer"], control)
     finally:
-        _finish(sol, writer, loop_start)
-    return _result(sol, on_failure)
+        _finish(sol, loop["writer"], loop_start)
+    return sol
 
 
 def _time_loop(system, method, solver, sol, history, kinds, assembler, t_start, t_end, h,
