@@ -979,26 +979,132 @@ def _segments(t_start, t_end, h, switches):
     return out + [(start, t_end, None)]
 
 
-def _restart_at_switch(system, method, sol, switch, h, q, v, a, lam, b, mu, extra) -> float:
+def _restart_at_switch(system, method, sol, switch, h, ls) -> float:
     """A compiled loop ended a segment ``SWITCH_GAP`` h before ``switch``
     (time, text), with a row there: record the event, put the new branch's
-    state just past it (``events.restart_after_switch``) into a, lam, b
-    (auxiliary acceleration) and mu (the method's ``extra`` multipliers), in
-    place, and into that row, as the driver's loop records a switch.
-    Returns the restart's time [s]."""
+    state just past it (``events.restart_after_switch``) into the loop's
+    a, lam, b (auxiliary acceleration) and mu (the method's ``extra``
+    multipliers) (``ls``, a :class:`_LoopState`), in place, and into that
+    row, as the driver's loop records a switch. Returns the restart's time
+    [s]."""
     t_switch, text = switch
     sol.events.append((t_switch, text, "switched", 0.0))
     t_new = t_switch + switch_gap(h, t_switch)
-    new = restart_after_switch(system, method, t_new, q, v)
+    new = restart_after_switch(system, method, t_new, ls.q, ls.v)
+    extra = ls.extra
     if new is not None:
-        a[:], lam[:] = new.a, new.lam
+        ls.a[:], ls.lam[:] = new.a, new.lam
         if "aux" in new.extra:
-            b[:] = new.extra["aux"]
+            ls.b[:] = new.extra["aux"]
         if extra is not None and extra in new.extra:
-            mu[:] = new.extra[extra]
-    sol._rows.set_last(t=t_new, a=a.copy(), lam=lam.copy(),
-                       **({extra: mu.copy()} if extra in sol._stored_extras else {}))
+            ls.mu[:] = new.extra[extra]
+    sol._rows.set_last(t=t_new, a=ls.a.copy(), lam=ls.lam.copy(),
+                       **({extra: ls.mu.copy()} if extra in sol._stored_extras else {}))
     return t_new
+
+
+class _LoopState:
+    """The state and buffers both compiled time loops (``compiled._run``,
+    ``compiled._run_adaptive``) work in, for one run: the method's state at
+    the start, the Newton options and linear solver as the kernels take
+    them, the triplet and output buffers, and the rows they record appended
+    to the Solution.
+
+    Attributes
+    ----------
+    start : StepState
+        The method's state at the start (``Method.start``).
+    q, v, a, b : ndarray, shape (n,)
+        The accepted state the loops advance in place; ``b`` the auxiliary
+        acceleration of the recipes that carry one (generalized-alpha).
+    lam, mu : ndarray, shape (m,)
+        The multipliers and the method's extra ones (mu of the SI2 methods,
+        psi_I of HHT-ADD; name ``extra``, or None).
+    q_prev, v_prev : ndarray, shape (n,)
+        A two-step method's previous state.
+    counts : ndarray of int, shape (6,)
+        The ``StepStats`` counts since the last recorded row.
+    F_start : ndarray, shape (n,)
+        F_n of the first step when the start's forces are not the law's at
+        (q, v, lambda) (friction's Coulomb limit at rest, ``InitialState.Q``);
+        NaN (``no_F``): the kernels compute it.
+    """
+
+    def __init__(self, system, method, cm, plan, opt, initial, h):
+        n, m = system.n, system.m
+        start = self.start = method.start(system, initial)[-1]
+        self.q, self.v, self.a = start.q.copy(), start.v.copy(), start.a.copy()
+        self.b = (np.array(start.extra["aux"], dtype=float) if "aux" in start.extra
+                  else np.zeros(n))
+        self.lam, self.mu = start.lam.copy(), np.zeros(m)
+        self.extra = method.extras[0] if method.extras else None
+        if self.extra is not None and self.extra in start.extra:
+            self.mu[:] = start.extra[self.extra]
+        self.q_prev, self.v_prev = self.q.copy(), self.v.copy()
+        size = newton_size(system, method)
+        self.opts = np.array([opt.rtol, opt.atol_kinematic, opt.atol_multiplier, opt.max_iter,
+                              opt.refresh_rate(newton_matrix_cost(plan, size, system, method)),
+                              1.0 if opt.jacobian.value == "full" else 0.0])
+        self.solver = cm.K.DENSE if plan.kind == "dense" else cm.K.BANDED
+        self.lin = plan.workspace(size, cm.bound)
+        self.lu_state = np.array([0.0, 0.5, 0.0])   # factorization valid, rate, history valid
+        self.R, self.C = np.empty(cm.bound, np.int64), np.empty(cm.bound, np.int64)
+        self.V = np.empty(cm.bound)
+        self.counts = np.zeros(6, np.int64)
+        self.out_t, self.out_h = np.empty(CHUNK), np.empty(CHUNK)
+        self.out_q, self.out_v, self.out_a = (np.empty((CHUNK, n)) for _ in range(3))
+        self.out_lam, self.out_mu = np.empty((CHUNK, m)), np.empty((CHUNK, m))
+        self.out_stats = np.empty((CHUNK, 6), np.int64)
+        self.no_F = np.full(n, np.nan)
+        self.F_start = self.no_F
+        if getattr(initial, "Q", None) is not None:
+            from .common import start_force_term
+            from .recipe import ADDITIVE, RECIPE_FIELDS
+            additive = method.kernel_recipe(h, True)[RECIPE_FIELDS.index("form")] == ADDITIVE
+            self.F_start = (-system.mass_solve(initial.q, initial.Q) if additive
+                            else start_force_term(system, initial))
+
+    def state(self):
+        """(q, v, a, lambda, aux): the accepted state, as ``_hand_over`` takes it."""
+        return self.q, self.v, self.a, self.lam, self.b
+
+    def take(self, part, h):
+        """Go on from the last state of ``part``, a Solution of the driver's
+        loop (``_hand_over``): the state and the method's carried values;
+        a two-step method's history when the part's last step was of size
+        h [s]; a new Newton matrix."""
+        self.q[:], self.v[:], self.a[:] = part.q[-1], part.v[-1], part.a[-1]
+        self.lam[:] = part.lam[-1]
+        if "aux" in part.last_state.extra:
+            self.b[:] = part.last_state.extra["aux"]
+        if self.extra is not None:
+            self.mu[:] = part.extras[self.extra][-1]
+        self.lu_state[2] = 0.0
+        if len(part.t) >= 2 and abs((part.t[-1] - part.t[-2]) - h) <= 1e-9 * h:
+            self.q_prev[:], self.v_prev[:] = part.q[-2], part.v[-2]
+            self.lu_state[2] = 1.0
+        self.lu_state[0] = 0.0
+
+    def add_rows(self, sol, k, h):
+        """Append the first k rows the loop recorded in the out_* buffers to
+        ``sol``; h [s]: their step size, one or one per row."""
+        if k:
+            x = self.extra
+            sol.append_block(self.out_t[:k].copy(), self.out_q[:k].copy(),
+                             self.out_v[:k].copy(), self.out_a[:k].copy(),
+                             self.out_lam[:k].copy(),
+                             {x: self.out_mu[:k].copy()} if x is not None else {},
+                             self.out_stats[:k].copy(), h)
+
+    def add_row(self, sol, t, h):
+        """Append the current state at t [s], with the counts since the last
+        record (then zero), to ``sol``; h [s]: its step size."""
+        x = self.extra
+        sol.append_block(np.array([float(t)]), self.q[None].copy(), self.v[None].copy(),
+                         self.a[None].copy(), self.lam[None].copy(),
+                         {x: self.mu[None].copy()} if x is not None else {},
+                         self.counts[None].copy(), np.atleast_1d(np.asarray(h, float)))
+        self.counts[:] = 0
 
 
 def run_compiled_adaptive(system, method, t_end, h, t_start, initial, newton_options, sol, plan,
@@ -1028,21 +1134,11 @@ def run_compiled_adaptive(system, method, t_end, h, t_start, initial, newton_opt
     ``land`` lands a step on the pass as on a contact's."""
     cm = cm or CompiledModel(system)
     K = cm.K
-    I, Fl, n, m = cm.ints, cm.floats, system.n, system.m
-    size = newton_size(system, method)
+    I, Fl = cm.ints, cm.floats
     mono = recipe_monomials(method)
-    start = method.start(system, initial)[-1]
-    q, v, a = start.q.copy(), start.v.copy(), start.a.copy()
-    b = np.array(start.extra["aux"], dtype=float) if "aux" in start.extra else np.zeros(n)
-    lam = start.lam.copy()
-    mu = np.zeros(m)
-    extra = method.extras[0] if method.extras else None
-    if extra is not None and extra in start.extra:
-        mu[:] = start.extra[extra]
+    ls = _LoopState(system, method, cm, plan, newton_options, initial, h)
+    q, v, a, b, lam, mu, counts = ls.q, ls.v, ls.a, ls.b, ls.lam, ls.mu, ls.counts
     opt = newton_options
-    opts = np.array([opt.rtol, opt.atol_kinematic, opt.atol_multiplier, opt.max_iter,
-                     opt.refresh_rate(newton_matrix_cost(plan, size, system, method)),
-                     1.0 if opt.jacobian.value == "full" else 0.0])
     if control is not None:
         h_min = control.h_min or 1e-12 * (t_end - t_start)
         ctl = np.array([control.rtol, control.atol, control.safety, control.min_factor,
@@ -1050,35 +1146,17 @@ def run_compiled_adaptive(system, method, t_end, h, t_start, initial, newton_opt
     else:                   # fixed steps: no error estimate; halving and regrowth
         ctl = np.array([1.0, 1.0, 1.0, 1.0, 1.0, h / 2.0 ** max_halvings, h,
                         float(max(grow_after, 1))])
-    solver = K.DENSE if plan.kind == "dense" else K.BANDED
-    lin = plan.workspace(size, cm.bound)
-    lu_state = np.array([0.0, 0.5, 0.0])
-    R, C, V = np.empty(cm.bound, np.int64), np.empty(cm.bound, np.int64), np.empty(cm.bound)
-    counts = np.zeros(6, np.int64)
-    out_t, out_h = np.empty(CHUNK), np.empty(CHUNK)
-    out_q, out_v, out_a = (np.empty((CHUNK, n)) for _ in range(3))
-    out_lam, out_mu = np.empty((CHUNK, m)), np.empty((CHUNK, m))
-    out_stats = np.empty((CHUNK, 6), np.int64)
-    F_start = np.full(n, np.nan)
-    if getattr(initial, "Q", None) is not None:
-        from .common import start_force_term
-        from .recipe import ADDITIVE, RECIPE_FIELDS
-        additive = mono[0, 0, RECIPE_FIELDS.index("form")] == ADDITIVE
-        F_start = (-system.mass_solve(initial.q, initial.Q) if additive
-                   else start_force_term(system, initial))
-    q_prev, v_prev = q.copy(), v.copy()
     # t, next h, rejected, previous h (none), mode (compiled.RUN), steps since a halving,
     # the compensation of the sum t (as the driver's loop keeps t)
     state = np.array([t_start, h, 0.0, 0.0, K.RUN, 0.0, 0.0])
-    trial = np.empty((2, n))              # the end of a step that crossed an event
-    no_F = np.full(n, np.nan)
+    trial = np.empty((2, system.n))       # the end of a step that crossed an event
     step_no, t = 0, t_start
     events = None
     contacts = system.contact_group is not None
     from .events import EventLocator
     if EventLocator.found_by_steps(system):
         events = EventLocator(system, h, sol)
-        events.start(t_start, start)
+        events.start(t_start, ls.start)
     if contacts:
         cm.impact_speed[:] = system.contact_group.impact_speed
     h_max = ctl[6]
@@ -1091,14 +1169,10 @@ def run_compiled_adaptive(system, method, t_end, h, t_start, initial, newton_opt
         state[1], state[4] = h_try, mode
         status, taken, nrec = K.run_adaptive(
             mono, I, Fl, state[1], t, seg_end, step_no, output_every, q, v, a, b, lam, mu,
-            q_prev, v_prev, ctl, opts, solver, lin, lu_state, R, C, V, out_t, out_h, out_q,
-            out_v, out_a, out_lam, out_mu, out_stats, counts, F_start if step_no == 0 else no_F,
-            state, trial)
-        if nrec:
-            sol.append_block(out_t[:nrec].copy(), out_q[:nrec].copy(), out_v[:nrec].copy(),
-                             out_a[:nrec].copy(), out_lam[:nrec].copy(),
-                             {extra: out_mu[:nrec].copy()} if extra is not None else {},
-                             out_stats[:nrec].copy(), out_h[:nrec].copy())
+            ls.q_prev, ls.v_prev, ctl, ls.opts, ls.solver, ls.lin, ls.lu_state, ls.R, ls.C,
+            ls.V, ls.out_t, ls.out_h, ls.out_q, ls.out_v, ls.out_a, ls.out_lam, ls.out_mu,
+            ls.out_stats, counts, ls.F_start if step_no == 0 else ls.no_F, state, trial)
+        ls.add_rows(sol, nrec, ls.out_h[:nrec].copy())
         sol.stats_total.rejected += int(state[2])
         state[2] = 0.0
         step_no += taken
@@ -1168,20 +1242,15 @@ def run_compiled_adaptive(system, method, t_end, h, t_start, initial, newton_opt
                 status = land()
             if status != 0:
                 if counts[5]:          # accepted steps since the last record: keep the last
-                    sol.append_block(np.array([t]), q[None].copy(), v[None].copy(),
-                                     a[None].copy(), lam[None].copy(),
-                                     {extra: mu[None].copy()} if extra is not None else {},
-                                     counts[None].copy(), np.array([float(state[1])]))
-                    counts[:] = 0
+                    ls.add_row(sol, t, float(state[1]))
                 part = _hand_over(system, method, sol, t, t_end,
                                   float(state[1]) if control is not None else h,
-                                  (q, v, a, lam, b), opt, control=control,
+                                  ls.state(), opt, control=control,
                                   max_halvings=max_halvings, grow_after=grow_after)
                 sol.status, sol.message = part.status, part.message
                 return sol
             if t >= seg_end - 1e-12 * (t_end - t_start) and switch is not None:
-                t = _restart_at_switch(system, method, sol, switch, h, q, v, a, lam, b, mu,
-                                       extra)
+                t = _restart_at_switch(system, method, sol, switch, h, ls)
                 state[0], state[3], state[6] = t, 0.0, 0.0    # BDF restarts with BDF1
                 segments.pop(0)
             if progress is not None:
@@ -1191,10 +1260,7 @@ def run_compiled_adaptive(system, method, t_end, h, t_start, initial, newton_opt
         sol.status, sol.message = "completed", f"reached t_end = {t_end:g} s"
     except KeyboardInterrupt:
         if counts[5]:               # accepted steps since the last record
-            sol.append_block(np.array([float(state[0])]), q[None].copy(), v[None].copy(),
-                             a[None].copy(), lam[None].copy(),
-                             {extra: mu[None].copy()} if extra is not None else {},
-                             counts[None].copy(), np.array([float(state[3]) or h]))
+            ls.add_row(sol, float(state[0]), float(state[3]) or h)
         sol.status = "interrupted"
         sol.message = (f"interrupted by the user at t = {float(state[0]):.6g} s; "
                        "every accepted step is kept")
@@ -1255,62 +1321,13 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
     driver_opt = replace(opt, linear_solver="auto") if opt.linear_solver == "banded" else opt
     cm = cm or CompiledModel(system)
     K = cm.K
-    I, Fl, n, m = cm.ints, cm.floats, system.n, system.m
-    size = newton_size(system, method)
-    start = method.start(system, initial)[-1]
-    q, v, a = start.q.copy(), start.v.copy(), start.a.copy()
-    # the auxiliary acceleration of the recipes that carry one (generalized-alpha)
-    b = np.array(start.extra["aux"], dtype=float) if "aux" in start.extra else np.zeros(n)
-    lam = start.lam.copy()
-    mu = np.zeros(m)
-    q_prev, v_prev = q.copy(), v.copy()
-    # the method's extra multipliers (mu of the SI2 methods, psi_I of HHT-ADD)
-    extra = method.extras[0] if method.extras else None
-    if extra is not None and extra in start.extra:
-        mu[:] = start.extra[extra]
-    opts = np.array([opt.rtol, opt.atol_kinematic, opt.atol_multiplier, opt.max_iter,
-                     opt.refresh_rate(newton_matrix_cost(plan, size, system, method)),
-                     1.0 if opt.jacobian.value == "full" else 0.0])
-    solver = K.DENSE if plan.kind == "dense" else K.BANDED
-    lin = plan.workspace(size, cm.bound)
-    lu_state = np.array([0.0, 0.5, 0.0])     # factorization valid, rate, history valid
-    R = np.empty(cm.bound, np.int64)
-    C = np.empty(cm.bound, np.int64)
-    V = np.empty(cm.bound)
-    counts = np.zeros(6, np.int64)
-    out_t = np.empty(CHUNK)
-    out_q, out_v, out_a = (np.empty((CHUNK, n)) for _ in range(3))
-    out_lam, out_mu = np.empty((CHUNK, m)), np.empty((CHUNK, m))
-    out_stats = np.empty((CHUNK, 6), np.int64)
-    # F_n of the first step when the start's forces are not the law's at (q, v, lambda)
-    # (friction's Coulomb limit at rest, InitialState.Q); NaN: the kernels compute it
-    no_F = np.full(n, np.nan)
-    F_start = no_F
-    if getattr(initial, "Q", None) is not None:
-        from .common import start_force_term
-        from .recipe import ADDITIVE, RECIPE_FIELDS
-        additive = method.kernel_recipe(h, True)[RECIPE_FIELDS.index("form")] == ADDITIVE
-        F_start = (-system.mass_solve(initial.q, initial.Q) if additive
-                   else start_force_term(system, initial))
+    I, Fl, size = cm.ints, cm.floats, newton_size(system, method)
+    ls = _LoopState(system, method, cm, plan, opt, initial, h)
+    q, v, a, b, lam, mu, counts = ls.q, ls.v, ls.a, ls.b, ls.lam, ls.mu, ls.counts
+    lu_state, opts = ls.lu_state, ls.opts
     t = t_start
     step_no = 0           # global step count, for the output stride
     last_h = h
-
-    def add_rows(k, step_h):
-        """Append the first k recorded rows of the out_* arrays to sol, as arrays."""
-        if k:
-            sol.append_block(out_t[:k].copy(), out_q[:k].copy(), out_v[:k].copy(),
-                             out_a[:k].copy(), out_lam[:k].copy(),
-                             {extra: out_mu[:k].copy()} if extra is not None else {},
-                             out_stats[:k].copy(), step_h)
-
-    def add_row(t_row, step_h):
-        """Append the current state with the counts since the last record to sol."""
-        sol.append_block(np.array([float(t_row)]), q[None].copy(), v[None].copy(),
-                         a[None].copy(), lam[None].copy(),
-                         {extra: mu[None].copy()} if extra is not None else {},
-                         counts[None].copy(), step_h)
-        counts[:] = 0
 
     try:
         for seg_start, seg_end, switch in _segments(t_start, t_end, h, switches):
@@ -1332,14 +1349,14 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
                     t0 = t
                     status, taken, nrec = K.run(
                         rec2 if ratio is None else ratio, I, Fl, step_h, t0, chunk, step_no,
-                        output_every, q, v, a, b, lam, mu,
-                        q_prev, v_prev, opts, solver, lin, lu_state, R, C, V, out_t, out_q, out_v,
-                        out_a, out_lam, out_mu, out_stats, counts,
-                        F_start if step_no == 0 else no_F)
+                        output_every, q, v, a, b, lam, mu, ls.q_prev, ls.v_prev, opts,
+                        ls.solver, ls.lin, lu_state, ls.R, ls.C, ls.V, ls.out_t, ls.out_q,
+                        ls.out_v, ls.out_a, ls.out_lam, ls.out_mu, ls.out_stats, counts,
+                        ls.F_start if step_no == 0 else ls.no_F)
                     if ratio is not None:            # then the steady recipe's Newton matrix
                         ratio = None
                         lu_state[0] = 0.0
-                    add_rows(nrec, step_h)
+                    ls.add_rows(sol, nrec, step_h)
                     step_no += taken
                     done += taken
                     t = t0 + taken * step_h
@@ -1355,46 +1372,34 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
                                    f"t = {t:.6g} s")
                             plan = band_plan(system, method, q, False, plan.addresses, cm)
                             plan.why = why
-                            lin = plan.workspace(size, cm.bound)
+                            ls.lin = plan.workspace(size, cm.bound)
                             opts[4] = opt.refresh_rate(newton_matrix_cost(plan, size, system,
                                                                           method))
                             sol.linear_solver_note = plan.why
                         if counts[5]:
-                            add_row(t, step_h)
+                            ls.add_row(sol, t, step_h)
                         end = seg_end if t + 9 * step_h >= seg_end - 1e-9 * h else t + 8 * step_h
                         part = _hand_over(system, method, sol, t, end, step_h,
-                                          (q, v, a, lam, b), driver_opt,
+                                          ls.state(), driver_opt,
                                           max_halvings=max_halvings, grow_after=grow_after)
                         if part.status != "completed":
                             return sol
-                        q[:], v[:], a[:], lam[:] = part.q[-1], part.v[-1], part.a[-1], part.lam[-1]
-                        if "aux" in part.last_state.extra:
-                            b[:] = part.last_state.extra["aux"]
-                        if extra is not None:
-                            mu[:] = part.extras[extra][-1]
-                        # the history of a two-step method: the handed part's last step, if of size h
-                        lu_state[2] = 0.0
-                        if len(part.t) >= 2 and \
-                                abs((part.t[-1] - part.t[-2]) - step_h) <= 1e-9 * step_h:
-                            q_prev[:], v_prev[:] = part.q[-2], part.v[-2]
-                            lu_state[2] = 1.0
+                        ls.take(part, step_h)
                         covered = int(round((part.t[-1] - t) / step_h))
                         t = float(part.t[-1])
                         done += covered
                         step_no += covered
-                        lu_state[0] = 0.0
                     if (g == len(schedule) - 1 and done >= n_steps) or t >= seg_end - 1e-9 * h:
                         # the segment's last step lands on its end: record it (exactly
                         # there) before the writer sees it, also when the stride skipped it
                         if counts[5]:
-                            add_row(seg_end, last_h)
+                            ls.add_row(sol, seg_end, last_h)
                         elif abs(sol.rows(sol.n_rows - 1, sol.n_rows)["t"][0]
                                  - seg_end) <= 1e-9 * h:
                             sol._rows.set_last_t(seg_end)
                         t = seg_end
                         if switch is not None:      # BDF restarts with BDF1
-                            t = _restart_at_switch(system, method, sol, switch, h, q, v, a,
-                                                   lam, b, mu, extra)
+                            t = _restart_at_switch(system, method, sol, switch, h, ls)
                             lu_state[2] = 0.0
                     if progress is not None:
                         progress(t, step_h, int(sol.stats_total.iterations))
@@ -1403,7 +1408,7 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
         sol.status, sol.message = "completed", f"reached t_end = {t_end:g} s"
     except KeyboardInterrupt:
         if counts[5]:
-            add_row(t, last_h)
+            ls.add_row(sol, t, last_h)
         sol.status = "interrupted"
         sol.message = f"interrupted by the user at t = {t:.6g} s; every accepted step is kept"
     return sol
