@@ -169,6 +169,14 @@ _jit = numba.njit(cache=True, nogil=True, error_model="numpy")
 #: The accessors of the packed model data are inlined in numba's IR (see "Named access").
 _inline = numba.njit(cache=True, nogil=True, inline="always", error_model="numpy")
 
+#: 0, True and False as run-time values, for the offsets, positions and flags a kernel
+#: passes to the emitting kernels. numba types a Python constant argument by its value
+#: (Literal[int](0), Literal[bool](True)) and compiles the callee once per value and call
+#: site: the time loop's library held 11 copies of ``_emit_beams``, 6 of ``_emit_phiq``,
+#: 4 of ``_emit_force``, 7.9 MB of IR in all, which every process parses when it loads
+#: the library from the cache (and compiles, once). numpy scalars are typed by type.
+_0, _YES, _NO = np.int64(0), np.bool_(True), np.bool_(False)
+
 
 #: The model data's fields (``MODEL_FIELDS``) by name: literals, checked against the
 #: schema below, so that numba's cache of this file never holds another version's indices.
@@ -477,8 +485,10 @@ def _point_force(I, Fl, t, i):
 def _line(I, Fl, qx, g, grad, H):
     """Distance s along sliding line g (fields GEO, GEOF: columns of the line's
     body and of the point's body, s_L, s_P, u0) with ds/dq into grad (6,) and
-    d^2 s/dq^2 into H (6, 6) over (x_L, y_L, phi_L, x_P, y_P, phi_P): the
-    formulas of ``model.elements.line_distance``. Returns s."""
+    d^2 s/dq^2 into H (6, 6) over (x_L, y_L, phi_L, x_P, y_P, phi_P):
+    s = u . (p_P - p_L), u = A(phi_L) u0, p = r + A(phi) s_body (as
+    ``model.elements.line_distance``, which gives the output columns s and
+    its rate). Returns s."""
     phL, phP = qx[_i(I, GEO, g, 2)], qx[_i(I, GEO, g, 5)]
     cL, sL_, cP, sP_ = math.cos(phL), math.sin(phL), math.cos(phP), math.sin(phP)
     u0x, u0y = _f(I, Fl, GEOF, g, 4), _f(I, Fl, GEOF, g, 5)
@@ -1374,8 +1384,9 @@ def _emit_elastic_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef):
 # the stiffening), the scatter functions below it place them.
 # --------------------------------------------------------------------------------------------
 
-#: What ``_ffr_local`` evaluates (bits): M, Q, (Q_q, Q_v), (M x)_q.
-FFR_M, FFR_Q, FFR_DQ, FFR_MXQ = 1, 2, 4, 8
+#: What ``_ffr_local`` evaluates (bits): M, Q, (Q_q, Q_v), (M x)_q; numpy integers, so
+#: that passing one does not compile a kernel per value (see ``_0``)
+FFR_M, FFR_Q, FFR_DQ, FFR_MXQ = np.int64(1), np.int64(2), np.int64(4), np.int64(8)
 
 
 @_inline
@@ -1863,11 +1874,11 @@ def _constraints_row(I, Fl, n, what, r, t, qx, y, out, R, C, V):
             row[j] = 0.0
         phiqT_add(I, Fl, qx[r], y[r], 1.0, row)
     elif what == C_PHIQ:
-        p = _emit_phiq(I, Fl, n, qx[r], R, C, V[r], 0, 0, 0, 1.0, False)
+        p = _emit_phiq(I, Fl, n, qx[r], R, C, V[r], _0, _0, _0, 1.0, _NO)
     elif what == C_PHIQT_Y_Q:
-        p = _emit_hess(I, Fl, n, qx[r], y[r], R, C, V[r], 0, 0, 0, 1.0)
+        p = _emit_hess(I, Fl, n, qx[r], y[r], R, C, V[r], _0, _0, _0, 1.0)
     else:
-        p = _emit_G(I, Fl, n, qx[r], y[r], R, C, V[r], 0, 0, 0, 1.0)
+        p = _emit_G(I, Fl, n, qx[r], y[r], R, C, V[r], _0, _0, _0, 1.0)
     return p
 
 
@@ -2168,7 +2179,7 @@ def _potential(I, Fl, qx):
                 ex = _f(I, Fl, KPAR, i, 10)
                 e += _f(I, Fl, KPAR, i, 9) * (-g) ** (ex + 1.0) / (ex + 1.0)
     for b in range(_rows(I, BEAM)):
-        e += _ffr_energy(I, Fl, b, qx, True)
+        e += _ffr_energy(I, Fl, b, qx, _YES)
     return e
 
 
@@ -2257,11 +2268,11 @@ def elements(I, Fl, what, t, qx, vx, y, slip, speeds, out, R, C, V):
         elif what == L_Q:
             _forces(I, Fl, t[r], qx[r], vx[r], y[r], slip, out[r])
         elif what == L_QQ:
-            p = _emit_force(I, Fl, t[r], n, qx[r], vx[r], y[r], R, C, V[r], 0, 0, 0, -1.0, 0.0)
+            p = _emit_force(I, Fl, t[r], n, qx[r], vx[r], y[r], R, C, V[r], _0, _0, _0, -1.0, 0.0)
         elif what == L_QV:
-            p = _emit_force(I, Fl, t[r], n, qx[r], vx[r], y[r], R, C, V[r], 0, 0, 0, 0.0, -1.0)
+            p = _emit_force(I, Fl, t[r], n, qx[r], vx[r], y[r], R, C, V[r], _0, _0, _0, 0.0, -1.0)
         elif what == L_QLAM:
-            p = _emit_friction_lam(I, Fl, n, qx[r], vx[r], y[r], R, C, V[r], 0, 0, 0, -1.0)
+            p = _emit_friction_lam(I, Fl, n, qx[r], vx[r], y[r], R, C, V[r], _0, _0, _0, -1.0)
         elif what == L_ENERGY:
             out[r, 0] = _potential(I, Fl, qx[r])
         elif what == L_POWER:
@@ -2441,17 +2452,17 @@ def _jacobian_triplets(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, R, C, V,
     held = rec[MH] != 0.0                  # M held at q_n + mh v_n: no (M x)_q
     beams = _rows(I, BEAM) > 0 and not held
     p = 0
-    p = _emit_mass(I, Fl, n, qx_old if held else qx, R, C, V, p, 0, 0, rec[CM])
+    p = _emit_mass(I, Fl, n, qx_old if held else qx, R, C, V, p, _0, _0, rec[CM])
     if beams and cqx != 0.0:               # (M(q) x)_q
-        p = _emit_beams(I, Fl, qx, vx, w, FFR_MXQ, R, C, V, p, 0, 0, rec[CM] * cqx, 0.0)
+        p = _emit_beams(I, Fl, qx, vx, w, FFR_MXQ, R, C, V, p, _0, _0, rec[CM] * cqx, 0.0)
     if cqx != 0.0:
-        p = _emit_hess(I, Fl, n, qx, lam, R, C, V, p, 0, 0, cqx)
-    p = _emit_force(I, Fl, t, n, qx, vx, lam, R, C, V, p, 0, 0, cqx, cvx)
-    p = _emit_phiq(I, Fl, n, qx, R, C, V, p, 0, l0, 1.0, True)
+        p = _emit_hess(I, Fl, n, qx, lam, R, C, V, p, _0, _0, cqx)
+    p = _emit_force(I, Fl, t, n, qx, vx, lam, R, C, V, p, _0, _0, cqx, cvx)
+    p = _emit_phiq(I, Fl, n, qx, R, C, V, p, _0, l0, 1.0, _YES)
     if _rows(I, FRI) > 0:                  # Phi_q^T - Q_lambda: friction reads lambda
-        p = _emit_friction_lam(I, Fl, n, qx, vx, lam, R, C, V, p, 0, l0, 1.0)
+        p = _emit_friction_lam(I, Fl, n, qx, vx, lam, R, C, V, p, _0, l0, 1.0)
     if cqx != 0.0:
-        p = _emit_phiq(I, Fl, n, qx, R, C, V, p, l0, 0, sP * cqx, False)
+        p = _emit_phiq(I, Fl, n, qx, R, C, V, p, l0, _0, sP * cqx, _NO)
     if rec[REG] != 0.0:                    # the augmented formulation: -epsilon I
         p = _emit_identity(m, R, C, V, p, l0, l0, -rec[REG])
     if rec[HAS_Y] != 0.0:
@@ -2459,35 +2470,35 @@ def _jacobian_triplets(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, R, C, V,
         mu = w[u0:]
         y = w[n:2 * n]
         if beams and cqy != 0.0:
-            p = _emit_beams(I, Fl, qx, vx, w, FFR_MXQ, R, C, V, p, 0, n, rec[CM] * cqy, 0.0)
+            p = _emit_beams(I, Fl, qx, vx, w, FFR_MXQ, R, C, V, p, _0, n, rec[CM] * cqy, 0.0)
         if beams and dM != 0.0:
             if cqx != 0.0:
-                p = _emit_beams(I, Fl, qx, vx, y, FFR_MXQ, R, C, V, p, n, 0, dM * cqx, 0.0)
+                p = _emit_beams(I, Fl, qx, vx, y, FFR_MXQ, R, C, V, p, n, _0, dM * cqx, 0.0)
             if cqy != 0.0:
                 p = _emit_beams(I, Fl, qx, vx, y, FFR_MXQ, R, C, V, p, n, n, dM * cqy, 0.0)
         if cqy != 0.0:
-            p = _emit_hess(I, Fl, n, qx, lam, R, C, V, p, 0, n, cqy)
+            p = _emit_hess(I, Fl, n, qx, lam, R, C, V, p, _0, n, cqy)
         if cqy != 0.0 or cvy != 0.0:
-            p = _emit_force(I, Fl, t, n, qx, vx, lam, R, C, V, p, 0, n, cqy, cvy)
+            p = _emit_force(I, Fl, t, n, qx, vx, lam, R, C, V, p, _0, n, cqy, cvy)
         if cqx != 0.0:
-            p = _emit_hess(I, Fl, n, qx, mu, R, C, V, p, n, 0, cqx)
+            p = _emit_hess(I, Fl, n, qx, mu, R, C, V, p, n, _0, cqx)
         if dV * cvx != 0.0:
-            p = _emit_identity(n, R, C, V, p, n, 0, dV * cvx)
+            p = _emit_identity(n, R, C, V, p, n, _0, dV * cvx)
         if dM != 0.0:
             p = _emit_mass(I, Fl, n, qx_old if held else qx, R, C, V, p, n, n, dM)
         if dI + dV * cvy != 0.0:
             p = _emit_identity(n, R, C, V, p, n, n, dI + dV * cvy)
         if cqy != 0.0:
             p = _emit_hess(I, Fl, n, qx, mu, R, C, V, p, n, n, cqy)
-        p = _emit_phiq(I, Fl, n, qx, R, C, V, p, n, u0, 1.0, True)
+        p = _emit_phiq(I, Fl, n, qx, R, C, V, p, n, u0, 1.0, _YES)
         if cqy != 0.0:
-            p = _emit_phiq(I, Fl, n, qx, R, C, V, p, l0, n, sP * cqy, False)
+            p = _emit_phiq(I, Fl, n, qx, R, C, V, p, l0, n, sP * cqy, _NO)
         if cvx != 0.0:
-            p = _emit_phiq(I, Fl, n, qx, R, C, V, p, u0, 0, sV * cvx, False)
+            p = _emit_phiq(I, Fl, n, qx, R, C, V, p, u0, _0, sV * cvx, _NO)
         if cqx != 0.0:
-            p = _emit_G(I, Fl, n, qx, vx, R, C, V, p, u0, 0, sV * cqx)
+            p = _emit_G(I, Fl, n, qx, vx, R, C, V, p, u0, _0, sV * cqx)
         if cvy != 0.0:
-            p = _emit_phiq(I, Fl, n, qx, R, C, V, p, u0, n, sV * cvy, False)
+            p = _emit_phiq(I, Fl, n, qx, R, C, V, p, u0, n, sV * cvy, _NO)
         if cqy != 0.0:
             p = _emit_G(I, Fl, n, qx, vx, R, C, V, p, u0, n, sV * cqy)
     return p
@@ -2668,9 +2679,9 @@ def _emit_mass_ratio_phiqT(I, Fl, n, qx, qx_old, R, C, V, p, c0, coef0, coef1):
     for both blocks."""
     if _rows(I, BEAM) == 0:
         if coef0 != 0.0:
-            p = _emit_phiq(I, Fl, n, qx_old, R, C, V, p, 0, c0, coef0, True)
+            p = _emit_phiq(I, Fl, n, qx_old, R, C, V, p, _0, c0, coef0, _YES)
         if coef1 != 0.0:
-            p = _emit_phiq(I, Fl, n, qx_old, R, C, V, p, n, c0, coef1, True)
+            p = _emit_phiq(I, Fl, n, qx_old, R, C, V, p, n, c0, coef1, _YES)
         return p
     nb, cmax = _rows(I, BEAM), 3
     for b in range(nb):
@@ -2690,7 +2701,7 @@ def _emit_mass_ratio_phiqT(I, Fl, n, qx, qx_old, R, C, V, p, c0, coef0, coef1):
     k = 8 * _rows(I, CROW) + 6 * _rows(I, PROW) + 2 * _rows(I, LROW) + 6 * _rows(I, DROW) \
         + 2 * _rows(I, ECOL)
     Rs, Cs, Vs = np.empty(k, np.int64), np.empty(k, np.int64), np.empty(k)
-    ks = _emit_phiq(I, Fl, n, qx_old, Rs, Cs, Vs, 0, 0, 0, 1.0, True)
+    ks = _emit_phiq(I, Fl, n, qx_old, Rs, Cs, Vs, _0, _0, _0, 1.0, _YES)
     for r0, coef in ((0, coef0), (n, coef1)):
         if coef == 0.0:
             continue
@@ -2725,21 +2736,21 @@ def _jacobian_additive(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, R, C, V,
     psi2 = w[l0:l0 + m]
     r5 = 2 * n + 2 * m
     p = 0
-    p = _emit_mass(I, Fl, n, qx, R, C, V, p, 0, 0, 1.0)
+    p = _emit_mass(I, Fl, n, qx, R, C, V, p, _0, _0, 1.0)
     if kb != 0.0:
-        p = _emit_hess(I, Fl, n, qx, psi2, R, C, V, p, 0, 0, 0.5 * kb * cqx)
-        p = _emit_phiq(I, Fl, n, qx, R, C, V, p, 0, l0, 0.5 * kb, True)
-    p = _emit_mass(I, Fl, n, qx, R, C, V, p, 0, a0, -ka1)
+        p = _emit_hess(I, Fl, n, qx, psi2, R, C, V, p, _0, _0, 0.5 * kb * cqx)
+        p = _emit_phiq(I, Fl, n, qx, R, C, V, p, _0, l0, 0.5 * kb, _YES)
+    p = _emit_mass(I, Fl, n, qx, R, C, V, p, _0, a0, -ka1)
     p = _emit_mass_ratio_phiqT(I, Fl, n, qx, qx_old, R, C, V, p, e0, 0.5 * (1.0 - kb), 0.5)
-    p = _emit_hess(I, Fl, n, qx, psi2, R, C, V, p, n, 0, 0.5 * cqx)
+    p = _emit_hess(I, Fl, n, qx, psi2, R, C, V, p, n, _0, 0.5 * cqx)
     p = _emit_mass(I, Fl, n, qx, R, C, V, p, n, n, 1.0)
     p = _emit_mass(I, Fl, n, qx, R, C, V, p, n, a0, -ka2)
-    p = _emit_phiq(I, Fl, n, qx, R, C, V, p, n, l0, 0.5, True)
-    p = _emit_phiq(I, Fl, n, qx, R, C, V, p, 2 * n, 0, rec[SP] * cqx, False)
-    p = _emit_G(I, Fl, n, qx, vx, R, C, V, p, 2 * n + m, 0, rec[SV] * cqx)
-    p = _emit_phiq(I, Fl, n, qx, R, C, V, p, 2 * n + m, n, rec[SV] * cvy, False)
+    p = _emit_phiq(I, Fl, n, qx, R, C, V, p, n, l0, 0.5, _YES)
+    p = _emit_phiq(I, Fl, n, qx, R, C, V, p, 2 * n, _0, rec[SP] * cqx, _NO)
+    p = _emit_G(I, Fl, n, qx, vx, R, C, V, p, 2 * n + m, _0, rec[SV] * cqx)
+    p = _emit_phiq(I, Fl, n, qx, R, C, V, p, 2 * n + m, n, rec[SV] * cvy, _NO)
     p = _emit_mass(I, Fl, n, qx, R, C, V, p, r5, a0, 1.0)
-    p = _emit_force(I, Fl, t, n, qx, vx, psi2, R, C, V, p, r5, 0, rec[CQ] * cqx, 0.0)
+    p = _emit_force(I, Fl, t, n, qx, vx, psi2, R, C, V, p, r5, _0, rec[CQ] * cqx, 0.0)
     p = _emit_force(I, Fl, t, n, qx, vx, psi2, R, C, V, p, r5, n, 0.0, rec[CQ] * cvy)
     if _rows(I, FRI) > 0:
         p = _emit_friction_lam(I, Fl, n, qx, vx, psi2, R, C, V, p, r5, l0, rec[CQ])
@@ -2772,7 +2783,7 @@ def _unscale_beam_rows(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, R, C, V,
         off = (0, n, r5)[k]
         for j in range(n):
             z[k, j] -= u[off + j]
-        p = _emit_beams(I, Fl, qx, vx, z[k], FFR_MXQ, R, C, V, p, off, 0, cqx, 0.0)
+        p = _emit_beams(I, Fl, qx, vx, z[k], FFR_MXQ, R, C, V, p, off, _0, cqx, 0.0)
     Minv = _beam_inverses(I, Fl, qx)
     beam_of, local = _beam_map(I, n)
     nb, cmax = Minv.shape[0], Minv.shape[1]
@@ -2849,7 +2860,7 @@ def _index1_gamma(I, Fl, t, qx, vx, gam, R, C, V):
     n = _rows(I, MASS)
     gam[:] = 0.0
     _phi_time_add(I, Fl, t, gam, 2)
-    p = _emit_G(I, Fl, n, qx, vx, R, C, V, 0, 0, 0, 1.0)
+    p = _emit_G(I, Fl, n, qx, vx, R, C, V, _0, _0, _0, 1.0)
     for i in range(p):
         gam[R[i]] += V[i] * vx[C[i]]
 
@@ -2888,7 +2899,7 @@ def _index1_multipliers_band(I, Fl, t, q, v, out, R, C, V, iterations, order, kd
         for j in range(n):
             qx[j], vx[j] = q[row, j], v[row, j]
         _index1_gamma(I, Fl, t[row], qx, vx, gam, R, C, V)    # before R, C, V hold Phi_q
-        p = _emit_phiq(I, Fl, n, qx, R, C, V, 0, 0, 0, 1.0, False)
+        p = _emit_phiq(I, Fl, n, qx, R, C, V, _0, _0, _0, 1.0, _NO)
         if row == 0:               # the pattern is fixed: entries grouped by column once
             by_col = np.argsort(C[:p], kind="mergesort")
             for i in range(p):
@@ -2961,9 +2972,9 @@ def _index1_multipliers(I, Fl, t, q, v, out, R, C, V, iterations):
     for row in range(q.shape[0]):
         for j in range(n):
             qx[j], vx[j] = q[row, j], v[row, j]
-        p = _emit_mass(I, Fl, n, qx, R, C, V, 0, 0, 0, 1.0)
-        p = _emit_phiq(I, Fl, n, qx, R, C, V, p, 0, n, 1.0, True)
-        p = _emit_phiq(I, Fl, n, qx, R, C, V, p, n, 0, 1.0, False)
+        p = _emit_mass(I, Fl, n, qx, R, C, V, _0, _0, _0, 1.0)
+        p = _emit_phiq(I, Fl, n, qx, R, C, V, p, _0, n, 1.0, _YES)
+        p = _emit_phiq(I, Fl, n, qx, R, C, V, p, n, _0, 1.0, _NO)
         K[:, :] = 0.0
         for i in range(p):
             K[R[i], C[i]] += V[i]
@@ -2999,7 +3010,7 @@ def _mobility(I, Fl, q, out, R, C, V, qx, per):
     Phi_q entries of |Phi_q[k, j]| / M_jj; ``per``: scratch of n_elements."""
     n = _rows(I, MASS)
     qx[:n] = q
-    p = _emit_phiq(I, Fl, n, qx, R, C, V, 0, 0, 0, 1.0, False)
+    p = _emit_phiq(I, Fl, n, qx, R, C, V, _0, _0, _0, 1.0, _NO)
     per[:] = 0.0
     for i in range(p):
         ratio = abs(V[i]) / _f(I, Fl, MASS, C[i], 0)

@@ -190,3 +190,37 @@ print(len(compiled.elements.signatures))
                          timeout=600, cwd=ROOT)
     assert out.returncode == 0, out.stderr
     assert out.stdout.split() == ["1"]
+
+
+def test_no_kernel_is_compiled_once_per_constant_argument():
+    # numba types a Python int or bool passed to a kernel by its value
+    # (Literal[int](0)) and compiles the kernel once per value and call site:
+    # the time loop's library held 11 copies of _emit_beams, 6 of _emit_phiq, 4
+    # of _emit_force (7.9 MB of IR, which every process parses as it loads the
+    # library; 5.4 MB with each kernel once). Kernels pass compiled._0, _YES,
+    # _NO or numpy integers. Left as constants: the model data's field indices
+    # (a copy per element kind of the accessors _Au, _As, _scalar_row_terms,
+    # their offsets folded), the side of _Au's point (0 or 1, 16 kB a copy) and
+    # _phi_time_add's derivative order (1 or 2).
+    import ast
+    import inspect
+    from mbdsl.integrators import compiled
+    tree = ast.parse(inspect.getsource(compiled))
+    kernels = {f.name for f in tree.body if isinstance(f, ast.FunctionDef)
+               and any(ast.unparse(d) == "_jit" for d in f.decorator_list)}
+    exempt = {"_Au", "_phi_time_add"}
+    assert exempt <= kernels and len(kernels) > 100
+    fields = {name.upper() for name, _, _ in compiled.MODEL_SCHEMA}
+
+    def constant(a):
+        if isinstance(a, ast.Constant):
+            return type(a.value) in (int, bool)
+        if isinstance(a, ast.UnaryOp) and isinstance(a.operand, ast.Constant):
+            return type(a.operand.value) is int
+        return (isinstance(a, ast.Name) and a.id not in fields
+                and type(getattr(compiled, a.id, None)) in (int, bool))
+
+    calls = [(node.func.id, node.lineno) for node in ast.walk(tree)
+             if isinstance(node, ast.Call) and isinstance(node.func, ast.Name)
+             and node.func.id in kernels - exempt and any(map(constant, node.args))]
+    assert calls == []
