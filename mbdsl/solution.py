@@ -295,7 +295,7 @@ def output_columns(system, t, q, v, a, derived) -> dict:
                 cols = line_columns(var.line, cmap)
                 vals = np.empty(N)
                 for r in range(N):
-                    s, grad, _ = line_distance(var.line, qx[r], cmap)
+                    s, grad = line_distance(var.line, qx[r], cmap)
                     vals[r] = s if var.field == "distance" else grad @ vx[r, cols]
                 env[var.name] = vals
             elif var.kind == "joint":

@@ -174,17 +174,17 @@ def line_columns(line, cmap: "CoordinateMap") -> list[int]:
 
 
 def line_distance(line, qx, cmap: "CoordinateMap"):
-    """Distance along a sliding joint and its derivatives: s = u . (p_P - p_L),
+    """Distance along a sliding joint and its gradient: s = u . (p_P - p_L),
     u = A(phi_L) u0, p = r + A(phi) s_body, for the rigid bodies (or ground)
-    of ``line`` = (body L, s_L, body P, s_P, u0).
+    of ``line`` = (body L, s_L, body P, s_P, u0), at one state (the output
+    columns of a sliding joint's distance and speed; the kernels evaluate it
+    for the loads that read it, ``compiled._line_distance``).
 
     Returns
     -------
     s : float [m]
     grad : ndarray, shape (6,)
         ds/d(x_L, y_L, phi_L, x_P, y_P, phi_P).
-    hess : ndarray, shape (6, 6)
-        d^2 s / d(...)^2 (as ``PointOnLineGroup.hess`` with n0 = u0).
     """
     q = qx[line_columns(line, cmap)]
     _, sL, _, sP, u0 = line
@@ -198,14 +198,7 @@ def line_distance(line, qx, cmap: "CoordinateMap"):
     BaL, BaP = np.array([-aL[1], aL[0]]), np.array([-aP[1], aP[0]])
     d = q[3:5] + aP - q[0:2] - aL
     s = float(u @ d)
-    grad = np.array([-u[0], -u[1], Bu @ d - u @ BaL, u[0], u[1], u @ BaP])
-    H = np.zeros((6, 6))
-    row = np.array([-Bu[0], -Bu[1], -Bu @ BaL, Bu[0], Bu[1], Bu @ BaP])   # (B u)^T D
-    H[2, :] += row
-    H[:, 2] += row
-    H[2, 2] += u @ aL - s
-    H[5, 5] -= u @ aP
-    return s, grad, H
+    return s, np.array([-u[0], -u[1], Bu @ d - u @ BaL, u[0], u[1], u @ BaP])
 
 
 @dataclass(frozen=True)
@@ -233,19 +226,6 @@ class StateFunction:
     grad_exprs: tuple = ()
     text: str = ""
     constant: bool = False
-
-    def values(self, qx, vx, cmap: CoordinateMap) -> np.ndarray:
-        """The state variables' values at (q, v) extended by the ground's zeros,
-        shape (len(variables),)."""
-        out = np.empty(len(self.variables))
-        for k, var in enumerate(self.variables):
-            if var.line is not None:          # distance or speed along a sliding joint
-                s, grad, _ = line_distance(var.line, qx, cmap)
-                out[k] = s if var.level == 0 else float(grad @ vx[var.columns(cmap)])
-                continue
-            src = qx if var.level == 0 else vx
-            out[k] = var.offset + sum(c * src[cmap.column(b, j)] for b, j, c in var.terms)
-        return out
 
 
 @dataclass(frozen=True)

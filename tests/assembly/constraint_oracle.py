@@ -25,8 +25,9 @@ import numpy as np
 
 from mbdsl.assembly.groups import (CoincidenceGroup, DistanceGroup, LinearConstraintGroup,
                                    PointOnLineGroup)
+from mbdsl.model.elements import line_columns
 
-__all__ = ["ConstraintOracle"]
+__all__ = ["ConstraintOracle", "line_distance"]
 
 
 def rot(phi, s):
@@ -198,3 +199,32 @@ class ConstraintOracle(SystemOracle):
     def gamma(self, q, v, t):
         """-(Phi_q v)_q v - Phi_tt, shape (m,)."""
         return -self.Phiq_v_q(q, v) @ v - self.Phi_t(t, 2)
+
+
+# -- a sliding joint's distance (loads of the state, sliding limits) --------------------------
+def _A(phi):
+    """The rotation matrix A(phi) and its derivative A'(phi), each (2, 2)."""
+    c, s = np.cos(phi), np.sin(phi)
+    return np.array([[c, -s], [s, c]]), np.array([[-s, -c], [c, -s]])
+
+
+def line_distance(line, qx, cmap):
+    """A sliding joint's distance s = u . d, u = A(phi_L) u0,
+    d = r_P + A(phi_P) s_P - r_L - A(phi_L) s_L, with its gradient (6,) and
+    Hessian (6, 6) over (x_L, y_L, phi_L, x_P, y_P, phi_P), by A'' = -A."""
+    q = qx[line_columns(line, cmap)]
+    _, sL, _, sP, u0 = line
+    sL, sP, u0 = (np.asarray(x, float) for x in (sL, sP, u0))
+    AL, dAL = _A(q[2])
+    AP, dAP = _A(q[5])
+    u, du = AL @ u0, dAL @ u0
+    d = q[3:5] + AP @ sP - q[0:2] - AL @ sL
+    s = float(u @ d)
+    grad = np.concatenate([-u, [du @ d - u @ (dAL @ sL)], u, [u @ (dAP @ sP)]])
+    H = np.zeros((6, 6))
+    H[2, 0:2], H[2, 3:5] = -du, du
+    H[2, 2] = -s - 2.0 * du @ (dAL @ sL) + u @ (AL @ sL)
+    H[2, 5] = du @ (dAP @ sP)
+    H[5, 5] = -u @ (AP @ sP)
+    H[0:2, 2], H[3:5, 2], H[5, 2] = H[2, 0:2], H[2, 3:5], H[2, 5]
+    return s, grad, H

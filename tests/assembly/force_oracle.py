@@ -22,11 +22,10 @@ from mbdsl.assembly.contact import ContactGroup
 from mbdsl.assembly.ffr import FlexibleBeamGroup
 from mbdsl.assembly.groups import (FrictionGroup, PointForceGroup, RotationalSpringGroup,
                                    SpringDamperGroup, StateTorqueGroup, TorqueGroup)
-from mbdsl.model.elements import line_distance
 
 from ..contact.contact_oracle import ContactOracle
 from ..flexible.ffr_oracle import BeamOracle
-from .constraint_oracle import SystemOracle, _pair, _point_hess, _point_jac
+from .constraint_oracle import SystemOracle, _pair, _point_hess, _point_jac, line_distance
 
 __all__ = ["ForceOracle"]
 
@@ -90,10 +89,25 @@ def rotational_derivatives(g):
 
 
 # -- loads of the state ------------------------------------------------------------------------
+def state_values(f, qx, vx, cmap):
+    """The state variables' values of the state function f at (q, v) extended
+    by the ground's zeros, shape (len(f.variables),): a coordinate or rate
+    combination, or a sliding joint's distance or speed (``line_distance``)."""
+    out = np.empty(len(f.variables))
+    for k, var in enumerate(f.variables):
+        if var.line is not None:
+            s, grad, _ = line_distance(var.line, qx, cmap)
+            out[k] = s if var.level == 0 else float(grad @ vx[var.columns(cmap)])
+            continue
+        src = qx if var.level == 0 else vx
+        out[k] = var.offset + sum(c * src[cmap.column(b, j)] for b, j, c in var.terms)
+    return out
+
+
 def _tau(g, f, qx, vx, t):
     """tau and, for a state function, the variables' values."""
     if hasattr(f, "variables"):
-        x = f.values(qx, vx, g.cmap)
+        x = state_values(f, qx, vx, g.cmap)
         return f.f(t, x), x
     return f.f(t), None
 

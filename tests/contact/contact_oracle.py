@@ -19,7 +19,8 @@ import math
 import numpy as np
 
 from mbdsl.model.contact import SPEED_FLOOR, gap_columns
-from mbdsl.model.elements import line_distance
+
+from ..assembly.constraint_oracle import line_distance
 
 __all__ = ["gap", "slip", "ContactOracle"]
 
