@@ -120,10 +120,6 @@ class _RowStore:
         """The last row, as a one-row segment."""
         return self.get(self._count - 1, self._count)
 
-    def set_last_t(self, t: float) -> None:
-        """Move the last row's time to t [s] (the end of a run, exactly)."""
-        self.set_last(t=t)
-
     def set_last(self, **values) -> None:
         """Overwrite entries of the last row: a key of a segment (class
         docstring) and its new value (a float for "t", an array for the others)."""
@@ -533,6 +529,30 @@ class Solution:
         for name in ("steps", "iterations", "residuals", "jacobians", "factorizations",
                      "rejected", "multipliers_stalled"):
             setattr(tot, name, getattr(tot, name) + getattr(o, name))
+
+    def amend_last(self, t: float | None = None, a=None, lam=None,
+                   extras: dict | None = None) -> None:
+        """Overwrite the last recorded row: its time t [s] (a segment of the
+        compiled loop that ends exactly on a switch of a function of time),
+        and the state a restart just past a switch puts there: a (n,),
+        lam (m,), and the method's extra multipliers (``extras``: name ->
+        (m,); those this solution does not store are left out).
+
+        Raises
+        ------
+        IndexError
+            No row recorded yet.
+        """
+        if not self.n_rows:
+            raise IndexError("no row recorded yet")
+        values = {} if t is None else {"t": float(t)}
+        if a is not None:
+            values["a"] = np.array(a, dtype=float)
+        if lam is not None:
+            values["lam"] = np.array(lam, dtype=float)
+        values.update({k: np.array(x, dtype=float) for k, x in (extras or {}).items()
+                       if k in self._stored_extras})
+        self._rows.set_last(**values)
 
     @property
     def n_rows(self) -> int:

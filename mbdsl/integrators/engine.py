@@ -998,8 +998,8 @@ def _restart_at_switch(system, method, sol, switch, h, ls) -> float:
             ls.b[:] = new.extra["aux"]
         if extra is not None and extra in new.extra:
             ls.mu[:] = new.extra[extra]
-    sol._rows.set_last(t=t_new, a=ls.a.copy(), lam=ls.lam.copy(),
-                       **({extra: ls.mu.copy()} if extra in sol._stored_extras else {}))
+    sol.amend_last(t=t_new, a=ls.a, lam=ls.lam,
+                   extras={extra: ls.mu} if extra is not None else None)
     return t_new
 
 
@@ -1396,7 +1396,7 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
                             ls.add_row(sol, seg_end, last_h)
                         elif abs(sol.rows(sol.n_rows - 1, sol.n_rows)["t"][0]
                                  - seg_end) <= 1e-9 * h:
-                            sol._rows.set_last_t(seg_end)
+                            sol.amend_last(t=seg_end)
                         t = seg_end
                         if switch is not None:      # BDF restarts with BDF1
                             t = _restart_at_switch(system, method, sol, switch, h, ls)

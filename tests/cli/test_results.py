@@ -341,3 +341,24 @@ def test_beams_are_drawn_deformed_by_the_deform_scale(tmp_path):
         assert im.n_frames == 3
     with pytest.raises(ValueError, match="deformation scale"):
         animate_solution(sol, tmp_path / "x.gif", deform_scale=-1)
+
+
+def test_amending_the_last_row_changes_it_alone():
+    """Solution.amend_last (a compiled segment ending on a switch, the
+    restart past it): the last row's t, a, lambda and mu, nothing else."""
+    from mbdsl.solution import Solution
+    model = mbdsl.load(MODELS / "slider_crank.mbd")
+    sol = mbdsl.simulate(model, method="hht-si2", h=1e-3, t_end=0.01)
+    before = sol.rows(0, sol.n_rows)
+    a, lam, mu = (np.arange(before[k].shape[1], dtype=float) for k in ("a", "lam", "mu"))
+    sol.amend_last(t=0.0105, a=a, lam=lam, extras={"mu": mu, "not stored": lam})
+    after = sol.rows(0, sol.n_rows)
+    assert after["t"][-1] == 0.0105
+    assert np.array_equal(after["t"][:-1], before["t"][:-1])
+    assert np.array_equal(after["q"], before["q"]) and np.array_equal(after["v"], before["v"])
+    for key, value in (("a", a), ("lam", lam), ("mu", mu)):
+        assert np.array_equal(after[key][-1], value)
+        assert np.array_equal(after[key][:-1], before[key][:-1])
+    with pytest.raises(IndexError, match="no row"):
+        method = mbdsl.integrators.make_method("hht-si2")
+        Solution(sol.system, method, sol.h, sol.t_end, None).amend_last(t=0.0)
