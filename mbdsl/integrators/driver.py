@@ -12,6 +12,8 @@ and the :class:`~mbdsl.solution.Solution` keeps every accepted step.
 
 from __future__ import annotations
 
+import dataclasses
+import functools
 import math
 import time as _time
 
@@ -171,7 +173,6 @@ def _checked(h, t_start, t_end, on_failure, output_every, method, control):
         raise ValueError(f"output_every must be a positive integer, got {output_every!r}")
     if control is not None and method.max_step_ratio is not None \
             and control.max_factor > method.max_step_ratio:
-        import dataclasses
         control = dataclasses.replace(control, max_factor=method.max_step_ratio)
     return int(output_every), control
 
@@ -226,17 +227,50 @@ def _compiled_loop(system, method, t_start, t_end, h, initial, solver, which, co
     sol.control = control
     sol.append(method.start(system, initial)[-1], StepStats())
     sol.timings = timings
+    fallback = functools.partial(_fallback, system, method, solver.options, control, loop)
     loop_start = _time.perf_counter()
     try:
         if control is not None or events:
             run_compiled_adaptive(system, method, t_end, h, t_start, initial, solver.options,
-                                  sol, plan, control, cm=cm, switches=switches, **loop)
+                                  sol, plan, control, fallback, cm=cm, switches=switches, **loop)
         else:
             run_compiled(system, method, t_end, h, t_start, initial, solver.options, sol, plan,
-                         cm=cm, switches=switches, **loop)
+                         fallback, cm=cm, switches=switches, output_every=loop["output_every"],
+                         progress=loop["progress"], writer=loop["writer"])
     finally:
         _finish(sol, loop["writer"], loop_start)
     return sol, None
+
+
+def _fallback(system, method, newton, control, loop, sol, t, end, h, state):
+    """Take over from a compiled loop whose step failed: run this module's
+    time loop on the same kernels (``python_loop``, on ``sol``'s engine),
+    from t to end [s] with a first step h [s], from the loop's accepted
+    state (q, v, a, lambda, aux): smaller steps, and the diagnosis in the
+    model's words if the run cannot go on. Appends the part's rows to
+    ``sol``; a part that did not complete sets ``sol``'s status, message
+    and diagnostics. Returns the part (a Solution).
+
+    ``newton``, ``control``, ``loop``: the run's Newton options, step control
+    and loop options (:func:`integrate`); "banded", the compiled loop's
+    linear solver, becomes this loop's own choice ("auto")."""
+    if newton.linear_solver == "banded":
+        newton = dataclasses.replace(newton, linear_solver="auto")
+    q, v, a, lam, aux = state
+    # the accepted state as a start, its residuals measured
+    start = InitialState(t, q.copy(), v.copy(), a.copy(), lam.copy(),
+                         float(np.max(np.abs(system.Phi(q, t)), initial=0.0)),
+                         float(np.max(np.abs(system.Phiq_times(q, t, v) + system.Phi_t(q, t)),
+                                      initial=0.0)),
+                         float("nan"), method_state={"aux": aux.copy()})
+    part = integrate(system, method, end, h, t_start=t, initial=start, newton=newton,
+                     on_failure="return", engine=sol.engine, python_loop=True, control=control,
+                     max_halvings=loop["max_halvings"], grow_after=loop["grow_after"])
+    sol.extend(part, start=1)
+    if part.status != "completed":
+        sol.status, sol.message = part.status, part.message
+        sol.diagnostics = part.diagnostics
+    return part
 
 
 def _driver_loop(system, method, t_start, t_end, h, initial, solver, which, cm, control,
@@ -543,7 +577,7 @@ def _fail(sol, method, ctx, res, t, step, h):
         if null is not None:
             coords, elements = involved_names(system, method, null)
             if elements:
-                detail += (f"; the singular direction involves the rows of "
+                detail += ("; the singular direction involves the rows of "
                            + ", ".join(f"'{e}'" for e in elements)
                            + (" and the coordinates " + ", ".join(coords) if coords else ""))
                 span = system.layout.span_of(elements[0]) or span

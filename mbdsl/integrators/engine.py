@@ -20,8 +20,9 @@ matrix (:func:`linear_solver_plan`):
   matrices assembled on a CSC pattern fixed at the start, and SuperLU.
 
 A step the compiled loop cannot converge is handed to the driver's time loop
-on the same kernels (``integrate(..., python_loop=True)``: its Newton, its
-halvings, the augmented formulation's jump), which retries it with smaller
+on the same kernels, the ``fallback`` the driver gives the compiled loops
+(``driver._fallback``: its Newton, its halvings, the augmented formulation's
+jump), which retries it with smaller
 steps and, if the run cannot go on, writes the failure in the model's words;
 the compiled loop resumes after it. The same source runs uncompiled
 (``engine="uncompiled"``, :func:`.kernel_cache.uncompiled_kernels`) for
@@ -1065,12 +1066,12 @@ class _LoopState:
                             else start_force_term(system, initial))
 
     def state(self):
-        """(q, v, a, lambda, aux): the accepted state, as ``_hand_over`` takes it."""
+        """(q, v, a, lambda, aux): the accepted state, as the fallback takes it."""
         return self.q, self.v, self.a, self.lam, self.b
 
     def take(self, part, h):
         """Go on from the last state of ``part``, a Solution of the driver's
-        loop (``_hand_over``): the state and the method's carried values;
+        loop (the fallback): the state and the method's carried values;
         a two-step method's history when the part's last step was of size
         h [s]; a new Newton matrix."""
         self.q[:], self.v[:], self.a[:] = part.q[-1], part.v[-1], part.a[-1]
@@ -1108,15 +1109,16 @@ class _LoopState:
 
 
 def run_compiled_adaptive(system, method, t_end, h, t_start, initial, newton_options, sol, plan,
-                          control, *, output_every=1, progress=None, writer=None, cm=None,
-                          max_halvings=6, grow_after=4, switches=()):
+                          control, fallback, *, output_every=1, progress=None, writer=None,
+                          cm=None, max_halvings=6, grow_after=4, switches=()):
     """Integrate into ``sol`` with error-controlled steps (``control``, a
     :class:`~.adaptive.StepControl`) in the compiled loop
     (``compiled._run_adaptive``); a step that cannot go on (Newton at the
     smallest step, or the tolerance out of reach) hands the rest of the run
-    to the driver's time loop on the same kernels, which reports it in the
-    model's words. Sets
-    sol.status and sol.message.
+    to ``fallback(sol, t, end, h, (q, v, a, lambda, aux))``, the driver's
+    time loop on the same kernels (``driver._fallback``), which appends its
+    rows and reports a failure in the model's words. Sets sol.status and
+    sol.message.
 
     Contacts and joint limits: the loop returns at each step that crosses
     an event, and this function lands a step on it as the driver's loop
@@ -1138,7 +1140,6 @@ def run_compiled_adaptive(system, method, t_end, h, t_start, initial, newton_opt
     mono = recipe_monomials(method)
     ls = _LoopState(system, method, cm, plan, newton_options, initial, h)
     q, v, a, b, lam, mu, counts = ls.q, ls.v, ls.a, ls.b, ls.lam, ls.mu, ls.counts
-    opt = newton_options
     if control is not None:
         h_min = control.h_min or 1e-12 * (t_end - t_start)
         ctl = np.array([control.rtol, control.atol, control.safety, control.min_factor,
@@ -1243,10 +1244,8 @@ def run_compiled_adaptive(system, method, t_end, h, t_start, initial, newton_opt
             if status != 0:
                 if counts[5]:          # accepted steps since the last record: keep the last
                     ls.add_row(sol, t, float(state[1]))
-                part = _hand_over(system, method, sol, t, t_end,
-                                  float(state[1]) if control is not None else h,
-                                  ls.state(), opt, control=control,
-                                  max_halvings=max_halvings, grow_after=grow_after)
+                part = fallback(sol, t, t_end, float(state[1]) if control is not None else h,
+                                ls.state())
                 sol.status, sol.message = part.status, part.message
                 return sol
             if t >= seg_end - 1e-12 * (t_end - t_start) and switch is not None:
@@ -1267,45 +1266,15 @@ def run_compiled_adaptive(system, method, t_end, h, t_start, initial, newton_opt
     return sol
 
 
-def _hand_over(system, method, sol, t, end, h, state, newton, **options):
-    """Run from t to end [s] (first step h [s]) from the accepted state
-    (q, v, a, lambda, aux) in the driver's time loop on the same kernels
-    (``integrate(..., python_loop=True)``, on ``sol``'s engine), and append
-    its rows to ``sol``; a part that did not complete sets ``sol``'s status,
-    message and diagnostics (the failure in the model's words). Returns the
-    part (a :class:`~mbdsl.solution.Solution`). ``options``: of
-    ``integrate``."""
-    from .driver import integrate
-    q, v, a, lam, aux = state
-    part = integrate(system, method, end, h, t_start=t,
-                     initial=_resume_state(system, t, q, v, a, lam, {"aux": aux.copy()}),
-                     newton=newton, on_failure="return", engine=sol.engine, python_loop=True,
-                     **options)
-    sol.extend(part, start=1)
-    if part.status != "completed":
-        sol.status, sol.message = part.status, part.message
-        sol.diagnostics = part.diagnostics
-    return part
-
-
-def _resume_state(system, t, q, v, a, lam, method_state=None):
-    """An accepted state as the start of a run of the driver's loop (its
-    residuals measured); ``method_state``: the method's carried values
-    (``aux``)."""
-    from ..assembly.initial import InitialState
-    return InitialState(t, q.copy(), v.copy(), a.copy(), lam.copy(),
-                        float(np.max(np.abs(system.Phi(q, t)), initial=0.0)),
-                        float(np.max(np.abs(system.Phiq_times(q, t, v) + system.Phi_t(q, t)),
-                                     initial=0.0)),
-                        float("nan"), method_state=dict(method_state or {}))
-
-
-def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol, plan, *,
-                 output_every=1, progress=None, writer=None, max_halvings=6, grow_after=4,
-                 cm=None, switches=()):
+def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol, plan,
+                 fallback, *, output_every=1, progress=None, writer=None, cm=None, switches=()):
     """Integrate into ``sol`` (already holding the initial row) with the
     compiled time loop and the linear solver of ``plan`` ("dense" or
-    "banded"); sets sol.status and sol.message. Other parameters as for
+    "banded"); sets sol.status and sol.message. A step the loop cannot take
+    goes to ``fallback(sol, t, end, h, (q, v, a, lambda, aux))``, the
+    driver's time loop on the same kernels (``driver._fallback``), for a
+    window of 8 steps or to the segment's end; the loop resumes from the
+    part's end, or the run ends with its report. Other parameters as for
     ``integrate``.
 
     ``switches``: [(time, text)] of the functions of time
@@ -1314,11 +1283,7 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
     method restarts as far past it on the new branch
     (``events.restart_after_switch``), which that row then holds, as the
     driver's loop lands on a switch."""
-    from dataclasses import replace
-
     opt = newton_options
-    # the driver loop's solver for the steps handed to it ("banded" is the compiled loop's)
-    driver_opt = replace(opt, linear_solver="auto") if opt.linear_solver == "banded" else opt
     cm = cm or CompiledModel(system)
     K = cm.K
     I, Fl, size = cm.ints, cm.floats, newton_size(system, method)
@@ -1379,9 +1344,7 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
                         if counts[5]:
                             ls.add_row(sol, t, step_h)
                         end = seg_end if t + 9 * step_h >= seg_end - 1e-9 * h else t + 8 * step_h
-                        part = _hand_over(system, method, sol, t, end, step_h,
-                                          ls.state(), driver_opt,
-                                          max_halvings=max_halvings, grow_after=grow_after)
+                        part = fallback(sol, t, end, step_h, ls.state())
                         if part.status != "completed":
                             return sol
                         ls.take(part, step_h)
