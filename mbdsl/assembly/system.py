@@ -462,7 +462,7 @@ class AssembledSystem:
         bound = self.kernel_model().bound
         R, C, V = np.empty(bound, np.int64), np.empty(bound, np.int64), np.empty((1, bound))
         p = self._elements(what, self._ext(q)[None], t, self._ext(v)[None],
-                        None if lam is None else np.asarray(lam)[None], None, R=R, C=C, V=V)
+                           None if lam is None else np.asarray(lam)[None], None, R=R, C=C, V=V)
         got = R[:p] * width + C[:p]
         where = np.minimum(np.searchsorted(keys, got), max(len(keys) - 1, 0))
         if p and (not len(keys) or np.any(keys[where] != got)):
@@ -486,7 +486,7 @@ class AssembledSystem:
         self._needs(lam)
         out = np.empty((1, self.nx))
         self._elements(_L_Q, self._ext(q)[None], t, self._ext(v)[None],
-                    None if lam is None else np.asarray(lam)[None], out, slip=slip)
+                       None if lam is None else np.asarray(lam)[None], out, slip=slip)
         return out[0, : self.n]
 
     def Q_lam_values(self, t, q, v, lam):
@@ -815,7 +815,7 @@ class AssembledSystem:
             g = self.contact_group
             speeds = g.speeds_at(t, contact_log) if g is not None else None
             self._elements(_L_POWER, rows, t, self._ext_rows(v)[0],
-                        np.reshape(lam, (N, self.m)), out, speeds=speeds)
+                           np.reshape(lam, (N, self.m)), out, speeds=speeds)
             p_in, p_diss = out[:, 0].copy(), out[:, 1].copy()
         if self.m and any(f is not None and not f.constant for g in self.timed_groups
                           for f in g.functions):
