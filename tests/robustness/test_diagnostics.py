@@ -197,3 +197,33 @@ def test_a_stiff_failure_s_hint_never_repeats_advice_already_followed(alpha):
     assert "'elbow' oscillates" in d.hint
     assert ("alpha = -0.3" in d.hint) == (alpha != -0.3)
     assert "Newton norms" in d.message and d.message.count("e+") <= 3
+
+
+@pytest.mark.parametrize("engine, control", [("compiled", False), ("compiled", True),
+                                             ("uncompiled", False)])
+def test_an_interrupted_compiled_run_keeps_every_accepted_step(engine, control):
+    """Ctrl-C reaches a compiled run between the kernels' chunks of steps
+    (here raised by its progress callback once t >= 1 s, deterministic):
+    status interrupted, its time in the message, and every recorded row is
+    the uninterrupted run's, bit for bit."""
+    from mbdsl.integrators import integrate, make_method
+    from mbdsl.integrators.adaptive import StepControl
+    system = mbdsl.assemble(mbdsl.load(MODELS / "slider_crank.mbd"))
+    init = mbdsl.consistent_initial_state(system)
+    options = dict(initial=init, engine=engine,
+                   control=StepControl(rtol=1e-6, atol=1e-8) if control else None)
+    full = integrate(system, make_method("hht-i3"), 3.0, 1e-3, **options)
+
+    def progress(t, h, iterations):
+        if t >= 1.0:
+            raise KeyboardInterrupt
+
+    cut = integrate(system, make_method("hht-i3"), 3.0, 1e-3, progress=progress,
+                    on_failure="return", **options)
+    assert full.status == "completed" and cut.status == "interrupted"
+    assert cut.engine == engine
+    k = len(cut.t)
+    assert 1.0 <= cut.t[-1] < 3.0 and k < len(full.t)
+    assert f"at t = {cut.t[-1]:.6g} s" in cut.message
+    assert np.array_equal(cut.t, full.t[:k]) and np.array_equal(cut.q, full.q[:k])
+    assert np.array_equal(cut.lam, full.lam[:k])
