@@ -559,6 +559,11 @@ class Solution:
         """Rows recorded so far."""
         return len(self._rows)
 
+    @property
+    def last_t(self) -> float:
+        """The time of the last row recorded so far [s] (NaN before any)."""
+        return float(self._rows.last()["t"][0]) if self.n_rows else float("nan")
+
     def rows(self, i0: int, i1: int) -> dict:
         """Rows i0..i1-1 recorded so far, as arrays ("t", "q", "v", "a",
         "lam", the extra names and the ``STAT_NAMES``), with the method's

@@ -237,6 +237,8 @@ def _compiled_loop(system, method, t_start, t_end, h, initial, solver, which, co
             run_compiled(system, method, t_end, h, t_start, initial, solver.options, sol, plan,
                          fallback, cm=cm, switches=switches, output_every=loop["output_every"],
                          progress=loop["progress"], writer=loop["writer"])
+    except KeyboardInterrupt:
+        _interrupted(sol)
     finally:
         _finish(sol, loop["writer"], loop_start)
     return sol, None
@@ -302,6 +304,8 @@ def _driver_loop(system, method, t_start, t_end, h, initial, solver, which, cm, 
         _time_loop(system, method, solver, sol, history, kinds, assembler, t_start, t_end, h,
                    loop["max_halvings"], loop["grow_after"], loop["output_every"],
                    loop["progress"], loop["writer"], control)
+    except KeyboardInterrupt:
+        _interrupted(sol)
     finally:
         _finish(sol, loop["writer"], loop_start)
     return sol
@@ -313,8 +317,9 @@ def _time_loop(system, method, solver, sol, history, kinds, assembler, t_start, 
     recording into ``sol`` (which holds the initial row); sets its status and
     message (halving, regrowth and the failure report as in the module notes;
     with ``control`` the step sizes of :mod:`.adaptive`).
-    Ctrl-C ends the loop with status "interrupted"; any other exception is a
-    bug: the status says so and the exception propagates."""
+    Ctrl-C (KeyboardInterrupt) records the last accepted state and goes on
+    to the caller (:func:`_interrupted`); any other exception is a bug: the
+    status says so and the exception propagates."""
     pending = StepStats(steps=0)      # steps not yet recorded (output stride)
     n_steps = 0
     t, h_cur, good = t_start, h, 0
@@ -451,11 +456,10 @@ def _time_loop(system, method, solver, sol, history, kinds, assembler, t_start, 
             sol.status, sol.message = "completed", f"reached t_end = {t_end:g} s"
         if pending.steps:          # a failure after unrecorded steps: keep the last state
             sol.append(history[-1], pending)
-    except KeyboardInterrupt:
+    except KeyboardInterrupt:         # the driver marks the run interrupted (_interrupted)
         if pending.steps:
             sol.append(history[-1], pending)
-        sol.status = "interrupted"
-        sol.message = f"interrupted by the user at t = {t:.6g} s; every accepted step is kept"
+        raise
     except Exception as exc:          # a bug: keep what was computed, then let it surface
         sol.status = "failed"
         sol.message = f"internal error at t = {t:.6g} s: {exc!r}"
@@ -467,6 +471,14 @@ JUMP = 1.5
 #: a two-step method's first step after an event, as a fraction of the
 #: contact's step limit (``events.EventLocator.step_limit``)
 RESTART_FRACTION = 0.05
+
+
+def _interrupted(sol):
+    """Ctrl-C ended the run (the loop recorded its last accepted state):
+    status "interrupted", at the time of that state."""
+    sol.status = "interrupted"
+    sol.message = (f"interrupted by the user at t = {sol.last_t:.6g} s; every accepted step "
+                   "is kept")
 
 
 def _finish(sol, writer, loop_start):

@@ -1118,7 +1118,9 @@ def run_compiled_adaptive(system, method, t_end, h, t_start, initial, newton_opt
     to ``fallback(sol, t, end, h, (q, v, a, lambda, aux))``, the driver's
     time loop on the same kernels (``driver._fallback``), which appends its
     rows and reports a failure in the model's words. Sets sol.status and
-    sol.message.
+    sol.message. Ctrl-C (KeyboardInterrupt, seen between the kernels' calls):
+    the last accepted state is recorded and the interrupt goes on to the
+    driver.
 
     Contacts and joint limits: the loop returns at each step that crosses
     an event, and this function lands a step on it as the driver's loop
@@ -1257,12 +1259,10 @@ def run_compiled_adaptive(system, method, t_end, h, t_start, initial, newton_opt
             if writer is not None:
                 writer.append(sol)
         sol.status, sol.message = "completed", f"reached t_end = {t_end:g} s"
-    except KeyboardInterrupt:
+    except KeyboardInterrupt:       # the driver marks the run interrupted
         if counts[5]:               # accepted steps since the last record
             ls.add_row(sol, float(state[0]), float(state[3]) or h)
-        sol.status = "interrupted"
-        sol.message = (f"interrupted by the user at t = {float(state[0]):.6g} s; "
-                       "every accepted step is kept")
+        raise
     return sol
 
 
@@ -1274,8 +1274,10 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
     goes to ``fallback(sol, t, end, h, (q, v, a, lambda, aux))``, the
     driver's time loop on the same kernels (``driver._fallback``), for a
     window of 8 steps or to the segment's end; the loop resumes from the
-    part's end, or the run ends with its report. Other parameters as for
-    ``integrate``.
+    part's end, or the run ends with its report. Ctrl-C (KeyboardInterrupt,
+    seen between the kernels' chunks of steps): the last accepted state is
+    recorded and the interrupt goes on to the driver. Other parameters as
+    for ``integrate``.
 
     ``switches``: [(time, text)] of the functions of time
     (``events.switch_times``). The loop runs from switch to switch: a
@@ -1357,8 +1359,7 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
                         # there) before the writer sees it, also when the stride skipped it
                         if counts[5]:
                             ls.add_row(sol, seg_end, last_h)
-                        elif abs(sol.rows(sol.n_rows - 1, sol.n_rows)["t"][0]
-                                 - seg_end) <= 1e-9 * h:
+                        elif abs(sol.last_t - seg_end) <= 1e-9 * h:
                             sol.amend_last(t=seg_end)
                         t = seg_end
                         if switch is not None:      # BDF restarts with BDF1
@@ -1369,11 +1370,10 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
                     if writer is not None:
                         writer.append(sol)
         sol.status, sol.message = "completed", f"reached t_end = {t_end:g} s"
-    except KeyboardInterrupt:
-        if counts[5]:
+    except KeyboardInterrupt:       # the driver marks the run interrupted
+        if counts[5]:               # accepted steps since the last record
             ls.add_row(sol, t, last_h)
-        sol.status = "interrupted"
-        sol.message = f"interrupted by the user at t = {t:.6g} s; every accepted step is kept"
+        raise
     return sol
 
 
