@@ -61,9 +61,11 @@ class InitialState:
         DOF by count and by rank at q (None above ``RANK_LIMIT`` rows).
     warnings : list of Diagnostic
         E.g. W402, a mechanism that cannot move.
-    method_state : dict of str -> ndarray
+    method_state : dict
         Values a method carries between steps, when a run resumes from an
-        accepted step rather than from t_0 (generalized-alpha's ``aux``);
+        accepted step rather than from t_0: generalized-alpha's ``aux``
+        (ndarray, shape (n,)), and ``previous``, the accepted state before
+        (a StepState whose t, q and v a two-step method reads, or None);
         empty for a start.
     Q : ndarray, shape (n,), or None
         The applied forces a_0 and lambda_0 were solved with, when they are

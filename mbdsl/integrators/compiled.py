@@ -74,7 +74,7 @@ from .recipe import RECIPE_FIELDS
 __all__ = ["MODEL_SCHEMA", "MODEL_FIELDS", "residual", "jacobian_triplets", "force_term", "old_force",
            "predict", "state", "layout", "advance", "mobility", "index1_multipliers",
            "index1_multipliers_band",
-           "accumulate", "elements", "beam_blocks", "beam_energies", "run", "run_adaptive", "triplet_bound", "pack", "unpack", "lapack_band_addresses",
+           "accumulate", "elements", "beam_blocks", "beam_energies", "run", "triplet_bound", "pack", "unpack", "lapack_band_addresses",
            "DENSE", "BANDED"]
 
 #: The recipe entries (``recipe.RECIPE_FIELDS``, checked below): literals here, so that
@@ -100,14 +100,14 @@ DENSE, BANDED = 0, 1
 #: The two forms of a recipe: the linear family, and HHT with additive corrections.
 LINEAR, ADDITIVE = 0, 1
 
-#: Newton status codes (same meaning as ``NewtonStatus``), and the error-controlled
-#: loop's: the tolerance not met at the smallest step.
+#: Newton status codes (same meaning as ``NewtonStatus``), and the time loop's with
+#: error control: the tolerance not met at the smallest step.
 CONVERGED, MAX_ITER, DIVERGING, SINGULAR, NONFINITE, TOLERANCE = 0, 1, 2, 3, 4, 5
-#: The error-controlled loop's returns at contact events: a converged step that
+#: The time loop's returns at contact events: a converged step that
 #: changes the sign of a gap, not taken (its end in ``trial``); in a single-attempt
-#: mode, a step its error estimate rejects (``_run_adaptive``).
+#: mode, a step its error estimate rejects (``_run``).
 EVENT, REJECTED = 6, 7
-#: Modes of ``_run_adaptive`` (``state[4]``): run on, returning at an event; one
+#: Modes of ``_run`` (``state[4]``): run on, returning at an event; one
 #: attempt, returning at an event; one attempt, taken whatever its gaps do.
 RUN, ATTEMPT, LAND = 0, 1, 2
 
@@ -3434,80 +3434,6 @@ def _record(rec, t, q, v, a, lam, mu, counts, out_t, out_q, out_v, out_a, out_la
 
 
 @_jit
-def _run(rec2, I, Fl, h, t0, n_steps, step0, every, q, v, a, b, lam, mu, q_prev, v_prev, opts,
-         solver, lin, lu_state, R, C, V, out_t, out_q, out_v, out_a, out_lam, out_mu, out_stats,
-         counts, F0):
-    """Take up to n_steps steps of size h from (t0, q, v, a, b, lam, mu); ``mu``
-    (m,) holds the method's extra multipliers (mu, or HHT-ADD's psi_I), ``b``
-    (n,) the auxiliary acceleration of the recipes that carry one.
-
-    ``rec2`` (2, len(RECIPE_FIELDS)): the method's recipe for a start-up
-    step (row 0) and for the steps after it (row 1) at this h. ``q_prev``,
-    ``v_prev``: the state h before (q, v), valid when lu_state[2] is 1 (set
-    after the first step; the caller resets it at a change of h).
-    ``lu_state`` = (factorization valid, contraction rate, history valid).
-
-    The state arrays are updated in place after every accepted step, so that they hold the last accepted
-    state when a step fails. Every step whose global number (step0 + k + 1)
-    is a multiple of ``every`` is recorded in the out_* arrays with the
-    Newton counts summed since the previous record (out_stats columns:
-    iterations, residuals, jacobians, factorizations, stalled steps, steps);
-    ``counts`` (6,) carries those sums between records and calls. R, C, V
-    are triplet buffers of ``triplet_bound(md)`` entries. ``F0`` (n,): F_n at
-    t0 when F0[0] is not NaN (a start whose forces are not the law's at
-    (q, v, lambda): friction's Coulomb limit, ``InitialState.Q``).
-
-    Returns
-    -------
-    (status, steps_taken, records) : status 0 when all steps converged, else
-    the failing step's Newton status.
-    """
-    n, m = _rows(I, MASS), _rows(I, ROW_ELEMENT)
-    size, l0, e0, a0 = _layout(rec2[0], n, m)
-    has_extra = e0 < size
-    differ = False
-    for i in range(rec2.shape[1]):
-        differ = differ or rec2[0, i] != rec2[1, i]
-    r, dw, w, weight, qx, vx, work, q_pred, v_pred, qx_old, F, scratch = _workspace(n, m, size, I)
-    _start_force(rec2[0], I, Fl, t0, q, v, lam, F0, F, qx, vx, work)   # F_n: only through cF
-    rec = 0
-    for k in range(n_steps):
-        t = t0 + (k + 1) * h               # t_{n+1}
-        first = lu_state[2] == 0.0
-        rc = rec2[0] if first else rec2[1]
-        predict(rc, first, q, v, a, b, q_prev, v_prev, q_pred, v_pred)
-        _start_w(rc, I, Fl, q, a, v, lam, w, qx, work)
-        for j in range(n):                 # q_n (the additive form), or Mhat's q_n + mh v_n
-            qx_old[j] = q[j] + rc[MH] * v[j]
-        _scales_weights(rc, I, Fl, q, w, opts, R, C, V, qx, weight, scratch)
-        status = _newton(rc, I, Fl, t, q_pred, v_pred, F, qx_old, w, weight, opts, solver, lin,
-                         lu_state, R, C, V, r, dw, qx, vx, work, counts)
-        if status != CONVERGED:
-            return status, k, rec
-        q_prev[:] = q
-        v_prev[:] = v
-        _state(rc, n, w, q_pred, v_pred, qx, vx)
-        q[:] = qx[:n]
-        v[:] = vx[:n]
-        _advance(rc, b, a, w[a0:a0 + n])
-        a[:] = w[a0:a0 + n]
-        lam[:] = w[l0:l0 + m]
-        if has_extra:
-            mu[:] = w[e0:e0 + m]
-        if first:
-            lu_state[2] = 1.0
-            if differ:                       # the steady recipe has another Newton matrix
-                lu_state[0] = 0.0
-        if rc[CF] != 0.0:                  # F_n enters the next residual only through cF
-            _old_force(rc, I, Fl, t, q, v, lam, F, qx, vx, work)
-        counts[5] += 1
-        if (step0 + k + 1) % every == 0:
-            rec = _record(rec, t0 + (k + 1) * h, q, v, a, lam, mu, counts, out_t, out_q, out_v,
-                          out_a, out_lam, out_mu, out_stats)
-    return CONVERGED, n_steps, rec
-
-
-@_jit
 def _total_acceleration(I, Fl, n, qx, a, psi, R, C, V, out):
     """a - M(q)^{-1} Phi_q(q)^T psi into out (n,) [m/s^2 or rad/s^2] at qx:
     the additive form's total acceleration a + R (``HHTADD.local_error``);
@@ -3530,47 +3456,67 @@ def _recipe_at(mono, h, c0, w0, w1, rec):
 
 
 @_jit
-def _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v_prev,
-                  ctl, opts, solver, lin, lu_state, R, C, V, out_t, out_h, out_q, out_v, out_a,
-                  out_lam, out_mu, out_stats, counts, F0, state, trial):
-    """The time loop with error-controlled steps (``adaptive``), from (t0, q, v,
-    a, b, lam, mu) towards t_end, until t_end or the out_* arrays are full.
+def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v_prev,
+         ctl, opts, solver, lin, lu_state, R, C, V, out_t, out_h, out_q, out_v, out_a,
+         out_lam, out_mu, out_stats, counts, F0, state, trial):
+    """The compiled time loop: steps of every method, fixed or error-controlled,
+    from (t0, q, v, a, b, lam, mu) towards t_end, until t_end, a step that
+    fails, an event, or the out_* arrays are full.
+
+    ``mu`` (m,) holds the method's extra multipliers (mu, or HHT-ADD's
+    psi_I), ``b`` (n,) the auxiliary acceleration of the recipes that carry
+    one (generalized-alpha). The state arrays are updated in place after
+    every accepted step, so that they hold the last accepted state when
+    the loop returns.
 
     ``mono`` (2, 5, len(RECIPE_FIELDS)): the recipe's monomials for a
-    start-up step and the steps after it; a recipe that reads c0, w0, w1
-    (BDF2) takes them from the ratio w = h / h_prev of this step to the last
-    one, c0 = (1 + 2w)/((1 + w) h), w0 = (1 + w)^2/(1 + 2w),
-    w1 = -w^2/(1 + 2w), and its start-up coefficients (BDF1: 1/h, 1, 0)
-    while there is no last step; ``q_prev``, ``v_prev`` the state before
-    (q, v). ``ctl`` = (rtol, atol, safety, min_factor, max_factor, h_min,
-    h_max). After each converged step the local error estimate
-    e = err (x - x_n) (on b when ``eaux``; err x when ``eabs``) is measured in the weighted RMS
-    norm E; E > 1 rejects the step (retried with h max(min_factor, safety
-    E^(-1/3))), else it is accepted and h grows by min(max_factor, ...) (not
-    right after a rejection). A step Newton cannot converge is halved. Every
-    ``every``-th accepted step and the last one are recorded, with their step
-    size in out_h. ``state`` (7,) in/out: (t, h of the next step, rejected
-    steps, h of the last step or 0, mode, steps since a halving, the
-    compensation of the sum t); returns
-    (status, steps, records): status TOLERANCE when the error stays above 1
-    at h_min, a Newton status when a step at h_min does not converge.
+    start-up step and the steps after it (``engine.recipe_monomials``); a
+    recipe that reads c0, w0, w1 (BDF2) takes them from the ratio
+    w = h / h_prev of this step to the last one, c0 = (1 + 2w)/((1 + w) h),
+    w0 = (1 + w)^2/(1 + 2w), w1 = -w^2/(1 + 2w), and its start-up
+    coefficients (BDF1: 1/h, 1, 0) while there is no last step;
+    ``q_prev``, ``v_prev`` the state before (q, v). The recipe is evaluated
+    again only when h or these coefficients change. ``lu_state`` (4,) =
+    (factorization valid, contraction rate (``_newton``), the step h and c0
+    it was made for): a step of another h or c0 takes a new Newton matrix.
 
-    Fixed steps (ctl[7] = grow_after > 0): no error estimate; steps of
-    h_max (the last one shortened to land on t_end), halved while Newton
-    fails, doubled back after grow_after steps at a reduced size (the
-    driver's rule, ``driver.integrate``): the loop of fixed-step runs with
-    contacts, whose events change the step grid.
+    ``ctl`` = (rtol, atol, safety, min_factor, max_factor, h_min, h_max,
+    fixed). Error control (fixed = 0): after each converged step the local
+    error estimate e = err (x - x_n) (on b when ``eaux``; err x when
+    ``eabs``; HHT-ADD's the change of a + R_II) is measured in the weighted
+    RMS norm E; E > 1 rejects the step (retried with h max(min_factor,
+    safety E^(-1/3))), else it is accepted and h grows by min(max_factor,
+    ...) (not right after a rejection); a step Newton cannot converge is
+    halved, down to h_min. Fixed steps (fixed = 1): steps of h_max, the last
+    one shortened to land on t_end; no error estimate; a step Newton
+    cannot converge ends the call at once (its Newton status), the caller
+    owning what follows (``engine.run_compiled``: the driver's halvings).
+
+    Every ``every``-th accepted step (global number step0 + k) and the last
+    one are recorded in the out_* arrays with their step size in out_h and
+    the Newton counts summed since the previous record (out_stats columns:
+    iterations, residuals, jacobians, factorizations, stalled steps,
+    steps); ``counts`` (6,) carries those sums between records and calls.
+    R, C, V are triplet buffers of ``triplet_bound(md)`` entries. ``F0``
+    (n,): F_n at t0 when F0[0] is not NaN (a start whose forces are not the
+    law's at (q, v, lambda): friction's Coulomb limit, ``InitialState.Q``).
+
+    ``state`` (6,) in/out: (t, h of the next step, rejected steps, h of the
+    last step or 0, mode, the compensation of the sum t). Returns
+    (status, steps, records): CONVERGED, a Newton status (a fixed step, or
+    an error-controlled one at h_min, that does not converge), TOLERANCE
+    (the error above 1 at h_min), EVENT or REJECTED below.
 
     Events: a converged step that changes the sign of a gap of the contacts
     and joint limits (KGI), or across which the points of a spring-damper
     with a free length pass each other, is not taken; the loop returns EVENT
-    with its end (q, v) in
-    ``trial`` (2, n) and its size in state[1], for the time loop to land a
-    step on the event (``events.EventLocator``). Mode (state[4]) RUN goes on
-    until t_end, an event or a full output; ATTEMPT and LAND make one attempt
-    at a step of h (halved while Newton fails) and return: EVENT (ATTEMPT
-    only), REJECTED (its error estimate: the next h in state[1]) or
-    CONVERGED with the step taken; LAND takes a step across an event."""
+    with its end (q, v) in ``trial`` (2, n) and its size in state[1], for
+    the time loop to land a step on the event (``events.EventLocator``).
+    Mode (state[4]) RUN goes on until t_end, an event, a failure or a full
+    output; ATTEMPT and LAND make one attempt at a step of h (with error
+    control halved while Newton fails) and return: EVENT (ATTEMPT only),
+    REJECTED (its error estimate: the next h in state[1]) or CONVERGED with
+    the step taken; LAND takes a step across an event."""
     n, m = _rows(I, MASS), _rows(I, ROW_ELEMENT)
     rc = np.empty(mono.shape[2])
     _recipe_at(mono[1], 1.0, 1.0, 1.0, 1.0, rc)
@@ -3582,7 +3528,7 @@ def _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, 
     has_extra = e0 < size
     rtol, atol, safety, fmin, fmax, h_min, h_max = (ctl[0], ctl[1], ctl[2], ctl[3], ctl[4],
                                                     ctl[5], ctl[6])
-    grow_after = int(ctl[7])
+    fixed = ctl[7] != 0.0
     r, dw, w, weight, qx, vx, work, q_pred, v_pred, qx_old, F, scratch = _workspace(n, m, size, I)
     b_new = np.empty(n)
     mode = int(state[4])
@@ -3593,12 +3539,13 @@ def _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, 
     qs, grad6, H6 = np.zeros(n + 3), np.empty(6), np.empty((6, 6))
     additive = rc[FORM] == ADDITIVE
     acc_old, acc_new = np.empty(n), np.empty(n)     # the additive form's a + R_II
-    if additive:                                    # at the last accepted state, then carried
+    if additive and not fixed:                      # at the last accepted state, then carried
         qx_old[:n] = q
         _total_acceleration(I, Fl, n, qx_old, a, lam, R, C, V, acc_old)
     _start_force(rc, I, Fl, t0, q, v, lam, F0, F, qx, vx, work)
     t = t0
-    h_factored, c0_factored = -1.0, -1.0   # the step (and c0) of the stored factorization
+    # the step, start-up flag and c0, w0, w1 of the recipe in rc
+    h_rc, first_rc, c0_rc, w0_rc, w1_rc = -1.0, False, -1.0, -1.0, -1.0
     after_rejection = False
     rec = 0
     k = 0
@@ -3606,12 +3553,12 @@ def _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, 
         step = min(h, t_end - t)
         if t_end - (t + step) < 1e-6 * step:      # land on t_end, never leave a sliver
             step = t_end - t
-        # the step's end time, a compensated (Kahan) sum with the carry in state[6], as
+        # the step's end time, a compensated (Kahan) sum with the carry in state[5], as
         # the driver's loop keeps t: exact to round-off over 1e6 steps
         if step == t_end - t:
             t_new, carry = t_end, 0.0
         else:
-            y = step - state[6]
+            y = step - state[5]
             t_new = t + y
             carry = (t_new - t) - y
         first = two_step and state[3] == 0.0
@@ -3624,10 +3571,12 @@ def _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, 
                 c0 = (1.0 + 2.0 * wr) / ((1.0 + wr) * step)
                 w0 = (1.0 + wr) ** 2 / (1.0 + 2.0 * wr)
                 w1 = -wr * wr / (1.0 + 2.0 * wr)
-        _recipe_at(mono[0] if first else mono[1], step, c0, w0, w1, rc)
-        if step != h_factored or c0 != c0_factored:     # the Newton matrix depends on them
+        if step != h_rc or first != first_rc or c0 != c0_rc or w0 != w0_rc or w1 != w1_rc:
+            _recipe_at(mono[0] if first else mono[1], step, c0, w0, w1, rc)
+            h_rc, first_rc, c0_rc, w0_rc, w1_rc = step, first, c0, w0, w1
+        if step != lu_state[2] or c0 != lu_state[3]:    # the Newton matrix depends on them
             lu_state[0] = 0.0
-            h_factored, c0_factored = step, c0
+            lu_state[2], lu_state[3] = step, c0
         predict(rc, first, q, v, a, b, q_prev, v_prev, q_pred, v_pred)
         _start_w(rc, I, Fl, q, a, v, lam, w, qx, work)
         for j in range(n):                 # q_n (the additive form), or Mhat's q_n + mh v_n
@@ -3636,13 +3585,12 @@ def _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, 
         status = _newton(rc, I, Fl, t_new, q_pred, v_pred, F, qx_old, w, weight, opts, solver,
                          lin, lu_state, R, C, V, r, dw, qx, vx, work, counts)
         if status != CONVERGED:
-            if step <= h_min * (1.0 + 1e-9):
+            if fixed or step <= h_min * (1.0 + 1e-9):
                 state[0], state[1] = t, step
                 return status, k, rec
             state[2] += 1.0
             h = max(0.5 * step, h_min)
             after_rejection = True
-            state[5] = 0.0
             continue
         _state(rc, n, w, q_pred, v_pred, qx, vx)
         if gaps or springs:       # an event within the step: the caller lands a step on it
@@ -3660,8 +3608,9 @@ def _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, 
         if rc[EAUX] != 0.0:
             b_new[:] = b
             _advance(rc, b_new, a, w[a0:a0 + n])
-        acc = 0.0
-        if grow_after == 0:       # (fixed steps take no error estimate)
+        err, factor = 0.0, fmax
+        if not fixed:
+            acc = 0.0
             if additive:    # HHT-ADD: the change of a + R_II, which sees the constraint forces
                 _total_acceleration(I, Fl, n, qx, w[a0:a0 + n], w[l0:l0 + m], R, C, V, acc_new)
             for j in range(n):
@@ -3675,13 +3624,13 @@ def _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, 
                     d = w[a0 + j] - a[j]
                 e = rc[ERR] * d / (atol + rtol * max(abs(q[j]), abs(qx[j])))
                 acc += e * e
-        err = math.sqrt(acc / n) if n > 0 and grow_after == 0 else 0.0
-        if err == 0.0:
-            factor = fmax
-        elif not np.isfinite(err):
-            factor = fmin
-        else:
-            factor = min(fmax, max(fmin, safety * err ** (-1.0 / 3.0)))
+            err = math.sqrt(acc / n) if n > 0 else 0.0
+            if err == 0.0:
+                factor = fmax
+            elif not np.isfinite(err):
+                factor = fmin
+            else:
+                factor = min(fmax, max(fmin, safety * err ** (-1.0 / 3.0)))
         if err > 1.0:
             if step <= h_min * (1.0 + 1e-9):
                 state[0], state[1] = t, step
@@ -3712,21 +3661,15 @@ def _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, 
         if has_extra:
             mu[:] = w[e0:e0 + m]
         t = t_new
-        state[6] = carry
-        if rc[CF] != 0.0:
+        state[5] = carry
+        if rc[CF] != 0.0:                  # F_n enters the next residual only through cF
             _old_force(rc, I, Fl, t, q, v, lam, F, qx, vx, work)
         counts[5] += 1
         k += 1
-        if grow_after == 0:
+        if not fixed:
             # a step shortened to land on t_end (a segment's end: a switch of a function
             # of time) leaves the size planned before it (the driver's ``resume``)
             h = max(min(step * factor, h_max), h if t >= t_end - 1e-12 * (t_end - t0) else 0.0)
-        elif h < h_max and mode == RUN:     # fixed steps: back to h_max after grow_after
-            # (after an attempt, the caller plans the next step as the driver does)
-            state[5] += 1.0
-            if state[5] >= grow_after:
-                h = min(2.0 * h, h_max)
-                state[5] = 0.0
         if (step0 + k) % every == 0 or t >= t_end - 1e-12 * (t_end - t0):
             out_h[rec] = step
             rec = _record(rec, t, q, v, a, lam, mu, counts, out_t, out_q, out_v, out_a, out_lam,
@@ -3841,20 +3784,10 @@ def mobility(I, Fl, q, out, R, C, V, qx):
 
 
 @_jit
-def run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v_prev,
-                 ctl, opts, solver, lin, lu_state, R, C, V, out_t, out_h, out_q, out_v, out_a,
-                 out_lam, out_mu, out_stats, counts, F0, state, trial):
-    """The time loop with error-controlled steps; see ``_run_adaptive``."""
-    return _run_adaptive(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev,
-                         v_prev, ctl, opts, solver, lin, lu_state, R, C, V, out_t, out_h, out_q,
-                         out_v, out_a, out_lam, out_mu, out_stats, counts, F0, state, trial)
-
-
-@_jit
-def run(rec2, I, Fl, h, t0, n_steps, step0, every, q, v, a, b, lam, mu, q_prev, v_prev, opts,
-        solver, lin, lu_state, R, C, V, out_t, out_q, out_v, out_a, out_lam, out_mu, out_stats,
-        counts, F0):
+def run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v_prev,
+        ctl, opts, solver, lin, lu_state, R, C, V, out_t, out_h, out_q, out_v, out_a,
+        out_lam, out_mu, out_stats, counts, F0, state, trial):
     """The compiled time loop; see ``_run``."""
-    return _run(rec2, I, Fl, h, t0, n_steps, step0, every, q, v, a, b, lam, mu,
-                q_prev, v_prev, opts, solver, lin, lu_state, R, C, V, out_t, out_q, out_v, out_a,
-                out_lam, out_mu, out_stats, counts, F0)
+    return _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev,
+                v_prev, ctl, opts, solver, lin, lu_state, R, C, V, out_t, out_h, out_q,
+                out_v, out_a, out_lam, out_mu, out_stats, counts, F0, state, trial)

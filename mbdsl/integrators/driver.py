@@ -180,7 +180,7 @@ def _checked(h, t_start, t_end, on_failure, output_every, method, control):
 def _engine_for(system, method, engine, control, compile_policy, announce):
     """(the engine that runs, the engine asked for, the note why not the
     compiled one or None): ``engine.select_engine``, after error control
-    sent a method whose recipe the compiled loops cannot vary to numpy
+    sent a method whose recipe the compiled loop cannot vary to numpy
     ("auto_numpy")."""
     from .engine import recipe_monomials, select_engine
     engine_note = None
@@ -201,23 +201,19 @@ def _compiled_loop(system, method, t_start, t_end, h, initial, solver, which, co
                    python_loop, announce, timings, loop):
     """Run on the kernels' own time loop where it applies: (the Solution,
     None), or (None, the kernels' model data) for the driver's loop on the
-    kernels (SuperLU-sized systems, ``python_loop``, a recipe with events
-    that the error-controlled loop cannot vary)."""
-    from .engine import prepare_compiled, recipe_monomials, run_compiled, run_compiled_adaptive
-    # Events: contacts and springs whose points pass take the error-controlled
-    # loop (with fixed steps too), which returns at each one for a step to be
-    # landed on it (run_compiled_adaptive); with a recipe that loop cannot vary,
-    # this module's time loop on the kernels' evaluation. Both compiled loops
-    # run from switch to switch of the functions of time.
-    events = EventLocator.found_by_steps(system)
-    python_loop = python_loop or (events and recipe_monomials(method) is None)
+    kernels (SuperLU-sized systems, ``python_loop``, a recipe the compiled
+    loop cannot evaluate at a step size, ``engine.recipe_monomials``)."""
+    from .engine import prepare_compiled, recipe_monomials, run_compiled
+    # The compiled loop runs from switch to switch of the functions of time and
+    # returns at each event (contacts, springs whose points pass) for a step to be
+    # landed on it; the driver's own loop lands each switch as it comes
+    # (EventLocator.before_switch).
+    python_loop = python_loop or recipe_monomials(method) is None
     functions = time_switches(system)
-    # the driver's own loop lands each switch as it comes (EventLocator.before_switch)
     switches = (switch_times(functions, t_start, t_end, h) if functions and not python_loop
                 else ())
     cm, plan, timings["kernels"] = prepare_compiled(system, method, solver.options,
                                                     initial.q, announce,
-                                                    adaptive=control is not None or events,
                                                     python_loop=python_loop,
                                                     uncompiled=which == "uncompiled")
     if plan.kind == "sparse" or python_loop:
@@ -227,16 +223,13 @@ def _compiled_loop(system, method, t_start, t_end, h, initial, solver, which, co
     sol.control = control
     sol.append(method.start(system, initial)[-1], StepStats())
     sol.timings = timings
-    fallback = functools.partial(_fallback, system, method, solver.options, control, loop)
+    fallback = functools.partial(_fallback, system, method, solver.options, control, loop, cm)
     loop_start = _time.perf_counter()
     try:
-        if control is not None or events:
-            run_compiled_adaptive(system, method, t_end, h, t_start, initial, solver.options,
-                                  sol, plan, control, fallback, cm=cm, switches=switches, **loop)
-        else:
-            run_compiled(system, method, t_end, h, t_start, initial, solver.options, sol, plan,
-                         fallback, cm=cm, switches=switches, output_every=loop["output_every"],
-                         progress=loop["progress"], writer=loop["writer"])
+        run_compiled(system, method, t_end, h, t_start, initial, solver.options, sol, plan,
+                     control, fallback, cm=cm, switches=switches,
+                     output_every=loop["output_every"], progress=loop["progress"],
+                     writer=loop["writer"])
     except KeyboardInterrupt:
         _interrupted(sol)
     finally:
@@ -244,30 +237,42 @@ def _compiled_loop(system, method, t_start, t_end, h, initial, solver, which, co
     return sol, None
 
 
-def _fallback(system, method, newton, control, loop, sol, t, end, h, state):
+def _fallback(system, method, newton, control, loop, cm, sol, t, end, h, state, events=None):
     """Take over from a compiled loop whose step failed: run this module's
-    time loop on the same kernels (``python_loop``, on ``sol``'s engine),
-    from t to end [s] with a first step h [s], from the loop's accepted
-    state (q, v, a, lambda, aux): smaller steps, and the diagnosis in the
-    model's words if the run cannot go on. Appends the part's rows to
-    ``sol``; a part that did not complete sets ``sol``'s status, message
-    and diagnostics. Returns the part (a Solution).
+    time loop on the same kernels (``SparseAdapter`` on the model data
+    ``cm``, on ``sol``'s engine), from t towards end [s] with a first step
+    h [s], from the loop's accepted state (q, v, a, lambda, aux, previous;
+    ``engine._LoopState.state``: a two-step method goes on from its
+    previous state, not with a start-up step): its halvings, regrowth and
+    the augmented formulation's jump, and the diagnosis in the model's
+    words if the run cannot go on. With fixed steps (``control`` None) it
+    hands the run back as soon as its step is back to h after an accepted
+    step (``hand_back``), so that the compiled loop takes every step of the
+    nominal size and this loop the halved ones; with error control it runs
+    to end. ``events``: the compiled loop's ``EventLocator``, which this
+    loop goes on with (the contacts' state, armed gaps and impact speeds,
+    as they are: a new one would start them afresh and log the closed
+    gaps again); None when the loop has none. Appends the part's rows to ``sol``; a part that did not
+    complete sets ``sol``'s status, message and diagnostics. Returns the
+    part (a Solution).
 
     ``newton``, ``control``, ``loop``: the run's Newton options, step control
     and loop options (:func:`integrate`); "banded", the compiled loop's
     linear solver, becomes this loop's own choice ("auto")."""
     if newton.linear_solver == "banded":
         newton = dataclasses.replace(newton, linear_solver="auto")
-    q, v, a, lam, aux = state
+    q, v, a, lam, aux, previous = state
     # the accepted state as a start, its residuals measured
     start = InitialState(t, q.copy(), v.copy(), a.copy(), lam.copy(),
                          float(np.max(np.abs(system.Phi(q, t)), initial=0.0)),
                          float(np.max(np.abs(system.Phiq_times(q, t, v) + system.Phi_t(q, t)),
                                       initial=0.0)),
-                         float("nan"), method_state={"aux": aux.copy()})
-    part = integrate(system, method, end, h, t_start=t, initial=start, newton=newton,
-                     on_failure="return", engine=sol.engine, python_loop=True, control=control,
-                     max_halvings=loop["max_halvings"], grow_after=loop["grow_after"])
+                         float("nan"), method_state={"aux": aux.copy(), "previous": previous})
+    part_loop = dict(loop, output_every=1, progress=None, writer=None,
+                     hand_back=control is None, events=events)
+    timings = dict.fromkeys(Solution.TIMING_NAMES, 0.0)
+    part = _driver_loop(system, method, t, end, h, start, Newton(newton), sol.engine, cm,
+                        control, timings, _time.perf_counter(), part_loop, engine_note=None)
     sol.extend(part, start=1)
     if part.status != "completed":
         sol.status, sol.message = part.status, part.message
@@ -290,6 +295,9 @@ def _driver_loop(system, method, t_start, t_end, h, initial, solver, which, cm, 
     if which in ("compiled", "uncompiled"):
         method = SparseAdapter(system, method, cm, dense=not assembler.sparse)
     history = method.start(system, initial)
+    previous = initial.method_state.get("previous")
+    if previous is not None and method.history_length > 1:    # resuming a two-step method
+        history = [previous] + history
     sol = Solution(system, method, h, t_end, initial)
     sol.control = control
     sol.engine = which
@@ -303,7 +311,8 @@ def _driver_loop(system, method, t_start, t_end, h, initial, solver, which, cm, 
     try:
         _time_loop(system, method, solver, sol, history, kinds, assembler, t_start, t_end, h,
                    loop["max_halvings"], loop["grow_after"], loop["output_every"],
-                   loop["progress"], loop["writer"], control)
+                   loop["progress"], loop["writer"], control, loop.get("hand_back", False),
+                   loop.get("events"))
     except KeyboardInterrupt:
         _interrupted(sol)
     finally:
@@ -312,11 +321,15 @@ def _driver_loop(system, method, t_start, t_end, h, initial, solver, which, cm, 
 
 
 def _time_loop(system, method, solver, sol, history, kinds, assembler, t_start, t_end, h,
-               max_halvings, grow_after, output_every, progress, writer, control=None):
+               max_halvings, grow_after, output_every, progress, writer, control=None,
+               hand_back=False, resume_events=None):
     """Step ``method`` from t_start to t_end with the Python Newton iteration,
     recording into ``sol`` (which holds the initial row); sets its status and
     message (halving, regrowth and the failure report as in the module notes;
-    with ``control`` the step sizes of :mod:`.adaptive`).
+    with ``control`` the step sizes of :mod:`.adaptive`). ``hand_back``
+    (fixed steps, the compiled loop's fallback): stop, completed, after the
+    first accepted step from which the next is of the nominal h again;
+    ``resume_events``: the compiled loop's EventLocator, gone on with.
     Ctrl-C (KeyboardInterrupt) records the last accepted state and goes on
     to the caller (:func:`_interrupted`); any other exception is a bug: the
     status says so and the exception propagates."""
@@ -339,7 +352,11 @@ def _time_loop(system, method, solver, sol, history, kinds, assembler, t_start, 
     # halvings follow only if the longer step fails too.
     jumped = None                # the step size before a jump, while jumping
     events = None
-    if EventLocator.needed(system):
+    if resume_events is not None:     # taking over from the compiled loop: its contacts' state
+        events = resume_events
+        events.sol = sol
+        events.resume_at(history[-1].q)
+    elif EventLocator.needed(system):
         events = EventLocator(system, h, sol)
         events.start(t_start, history[-1])
     resume = None                # the step size planned before a step was cut for an event
@@ -452,6 +469,10 @@ def _time_loop(system, method, solver, sol, history, kinds, assembler, t_start, 
                 progress(t, step, res.n_iter)
             if writer is not None and recorded:
                 writer.append(sol)
+            if hand_back and h_cur >= h and jumped is None and resume is None \
+                    and (events is None or not events.happened) and t < t_end - 1e-9 * h:
+                sol.status, sol.message = "completed", f"handed back at t = {t:g} s"
+                break
         else:
             sol.status, sol.message = "completed", f"reached t_end = {t_end:g} s"
         if pending.steps:          # a failure after unrecorded steps: keep the last state

@@ -8,9 +8,10 @@ Three ways of running, chosen by the size and structure of the Newton
 matrix (:func:`linear_solver_plan`):
 
 * up to ``DENSE_LIMIT`` unknowns, the whole time loop runs compiled
-  (:func:`mbdsl.integrators.compiled.run`) with an explicit inverse, in
-  chunks between which Python records output, reports progress and handles
-  Ctrl-C;
+  (:func:`mbdsl.integrators.compiled.run`: one loop for fixed and
+  error-controlled steps) with an explicit inverse, in chunks between
+  which Python (:func:`run_compiled`) records output, reports progress,
+  lands steps on events and switches, and lets Ctrl-C through;
 * above it, when a bandwidth-reducing ordering (reverse Cuthill-McKee,
   scipy.sparse.csgraph) makes the Newton matrix narrow-banded (chains,
   linkages built link by link), the same compiled loop with LAPACK's band
@@ -20,7 +21,7 @@ matrix (:func:`linear_solver_plan`):
   matrices assembled on a CSC pattern fixed at the start, and SuperLU.
 
 A step the compiled loop cannot converge is handed to the driver's time loop
-on the same kernels, the ``fallback`` the driver gives the compiled loops
+on the same kernels, the ``fallback`` the driver gives the compiled loop
 (``driver._fallback``: its Newton, its halvings, the augmented formulation's
 jump), which retries it with smaller
 steps and, if the run cannot go on, writes the failure in the model's words;
@@ -37,13 +38,12 @@ functions of time (compiled from the language's expressions); loads of the
 state (torques, joint torques and joint forces reading the motion);
 spring-dampers (also between beam points), rotational spring-dampers,
 friction in joints, contacts and joint limits (with their events: see
-``run_compiled_adaptive``), gravity; both constraint formulations (Lagrange
+``run_compiled``), gravity; both constraint formulations (Lagrange
 and augmented). Anything else runs on the numpy engine.
 """
 
 from __future__ import annotations
 
-import math
 
 import numpy as np
 import scipy
@@ -295,12 +295,6 @@ def newton_matrix_cost(plan, size, system, method) -> int:
     return int(plan.factorization_is_expensive(size))
 
 
-def recipes(method, h):
-    """(2, len(RECIPE_FIELDS)): the method's recipe at step size h [s] for a
-    start-up step and for the steps after it (``compiled._run``)."""
-    return np.stack([recipe(method, h, True), recipe(method, h, False)])
-
-
 def ratio_recipe(method, h, spacing):
     """The recipe of a two-step method's step of size h [s] after one of
     length ``spacing`` [s]: BDF2 with the coefficients of the step ratio
@@ -379,13 +373,12 @@ def select_engine(engine: str, system, method, compile_policy: str = "wait",
     return "compiled"
 
 
-def prepare_compiled(system, method, options, q, announce=None, adaptive=False,
-                     python_loop=False, uncompiled=False):
+def prepare_compiled(system, method, options, q, announce=None, python_loop=False,
+                     uncompiled=False):
     """(CompiledModel, LinearSolverPlan, seconds): the kernels' model data and
     linear solver for a run from configuration q (n,), with every kernel the
     run calls loaded (compiled first, announced, if not built for this
-    machine; ``adaptive``: the run takes error-controlled steps;
-    ``python_loop``: the driver's time loop on the kernels' residual and
+    machine; ``python_loop``: the driver's time loop on the kernels' residual and
     Newton matrix, ``SparseAdapter``; ``uncompiled``: the kernels run by the
     interpreter, nothing compiled or loaded); the seconds are the time this
     took, never step time."""
@@ -399,7 +392,7 @@ def prepare_compiled(system, method, options, q, announce=None, adaptive=False,
         cm = CompiledModel(system)
     plan = linear_solver_plan(system, method, options, q, cm)  # banded: calls a kernel
     if not uncompiled:                        # this loop's entry points
-        ensure_loaded("sparse" if python_loop else plan.kind, announce, adaptive)
+        ensure_loaded("sparse" if python_loop else plan.kind, announce)
     return cm, plan, time.perf_counter() - t0
 
 
@@ -949,25 +942,6 @@ def linear_solver_plan(system, method, options, q, cm=None, split_si2=True) -> L
 # The compiled time loop (small systems)
 # ---------------------------------------------------------------------------------------------
 
-def _step_plan(t_start, t_end, h, exact=False):
-    """[(steps, step size)] covering [t_start, t_end] as the driver does: steps
-    of h, the last one shortened to land on t_end (or lengthened when the
-    remainder is below 1e-6 h). A remainder within 1e-9 h of a whole step
-    is round-off: steps of h, ending within it of t_end; with ``exact`` (a
-    segment ending ``SWITCH_GAP`` h before a switch, which that would
-    cross) the last of them ends on t_end."""
-    span = t_end - t_start
-    full = int(math.floor(span / h + 1e-9))
-    rest = span - full * h
-    if rest <= 1e-9 * h:
-        if exact and rest != 0.0 and full:
-            return ([(full - 1, h)] if full > 1 else []) + [(1, h + rest)]
-        return [(full, h)] if full else []
-    if rest < 1e-6 * h and full:
-        return [(full - 1, h), (1, h + rest)] if full > 1 else [(1, h + rest)]
-    return ([(full, h)] if full else []) + [(1, rest)]
-
-
 def _segments(t_start, t_end, h, switches):
     """[(start, end, switch or None)]: the stretches of [t_start, t_end] between
     the switches of functions of time (``events.switch_times``): each ends
@@ -1005,8 +979,8 @@ def _restart_at_switch(system, method, sol, switch, h, ls) -> float:
 
 
 class _LoopState:
-    """The state and buffers both compiled time loops (``compiled._run``,
-    ``compiled._run_adaptive``) work in, for one run: the method's state at
+    """The state and buffers the compiled time loop (``compiled.run``, driven
+    by :func:`run_compiled`) works in, for one run: the method's state at
     the start, the Newton options and linear solver as the kernels take
     them, the triplet and output buffers, and the rows they record appended
     to the Solution.
@@ -1016,7 +990,7 @@ class _LoopState:
     start : StepState
         The method's state at the start (``Method.start``).
     q, v, a, b : ndarray, shape (n,)
-        The accepted state the loops advance in place; ``b`` the auxiliary
+        The accepted state the loop advances in place; ``b`` the auxiliary
         acceleration of the recipes that carry one (generalized-alpha).
     lam, mu : ndarray, shape (m,)
         The multipliers and the method's extra ones (mu of the SI2 methods,
@@ -1048,7 +1022,8 @@ class _LoopState:
                               1.0 if opt.jacobian.value == "full" else 0.0])
         self.solver = cm.K.DENSE if plan.kind == "dense" else cm.K.BANDED
         self.lin = plan.workspace(size, cm.bound)
-        self.lu_state = np.array([0.0, 0.5, 0.0])   # factorization valid, rate, history valid
+        # factorization valid, contraction rate, the step and c0 it was made for
+        self.lu_state = np.array([0.0, 0.5, 0.0, 0.0])
         self.R, self.C = np.empty(cm.bound, np.int64), np.empty(cm.bound, np.int64)
         self.V = np.empty(cm.bound)
         self.counts = np.zeros(6, np.int64)
@@ -1065,26 +1040,39 @@ class _LoopState:
             self.F_start = (-system.mass_solve(initial.q, initial.Q) if additive
                             else start_force_term(system, initial))
 
-    def state(self):
-        """(q, v, a, lambda, aux): the accepted state, as the fallback takes it."""
-        return self.q, self.v, self.a, self.lam, self.b
+    def state(self, t, h_last):
+        """(q, v, a, lambda, aux, previous): the accepted state at t [s], as
+        the fallback takes it; ``previous``, the state h_last [s] before it
+        (q_prev, v_prev), a StepState for a two-step method to go on with
+        (its a and lambda NaN: BDF2 reads q and v), or None when h_last is 0
+        (none: the next step starts the method afresh)."""
+        previous = None
+        if h_last > 0.0:
+            previous = StepState(t - h_last, self.q_prev.copy(), self.v_prev.copy(),
+                                 np.full_like(self.a, np.nan), np.full_like(self.lam, np.nan))
+        return self.q, self.v, self.a, self.lam, self.b, previous
 
-    def take(self, part, h):
+    def take(self, part):
         """Go on from the last state of ``part``, a Solution of the driver's
-        loop (the fallback): the state and the method's carried values;
-        a two-step method's history when the part's last step was of size
-        h [s]; a new Newton matrix."""
+        loop (the fallback): the state and the method's carried values, and
+        a new Newton matrix. Returns the size [s] of the part's last step,
+        with q_prev, v_prev the state before it (a two-step method's
+        history), or 0 when its last row does not follow a step (a restart
+        at a switch) or it has none."""
         self.q[:], self.v[:], self.a[:] = part.q[-1], part.v[-1], part.a[-1]
         self.lam[:] = part.lam[-1]
         if "aux" in part.last_state.extra:
             self.b[:] = part.last_state.extra["aux"]
         if self.extra is not None:
             self.mu[:] = part.extras[self.extra][-1]
-        self.lu_state[2] = 0.0
-        if len(part.t) >= 2 and abs((part.t[-1] - part.t[-2]) - h) <= 1e-9 * h:
-            self.q_prev[:], self.v_prev[:] = part.q[-2], part.v[-2]
-            self.lu_state[2] = 1.0
         self.lu_state[0] = 0.0
+        if len(part.t) < 2:
+            return 0.0
+        spacing, step = part.t[-1] - part.t[-2], part.stats["h"][-1]
+        if abs(spacing - step) > 1e-9 * step:
+            return 0.0
+        self.q_prev[:], self.v_prev[:] = part.q[-2], part.v[-2]
+        return float(spacing)
 
     def add_rows(self, sol, k, h):
         """Append the first k rows the loop recorded in the out_* buffers to
@@ -1108,50 +1096,59 @@ class _LoopState:
         self.counts[:] = 0
 
 
-def run_compiled_adaptive(system, method, t_end, h, t_start, initial, newton_options, sol, plan,
-                          control, fallback, *, output_every=1, progress=None, writer=None,
-                          cm=None, max_halvings=6, grow_after=4, switches=()):
-    """Integrate into ``sol`` with error-controlled steps (``control``, a
-    :class:`~.adaptive.StepControl`) in the compiled loop
-    (``compiled._run_adaptive``); a step that cannot go on (Newton at the
-    smallest step, or the tolerance out of reach) hands the rest of the run
-    to ``fallback(sol, t, end, h, (q, v, a, lambda, aux))``, the driver's
-    time loop on the same kernels (``driver._fallback``), which appends its
-    rows and reports a failure in the model's words. Sets sol.status and
-    sol.message. Ctrl-C (KeyboardInterrupt, seen between the kernels' calls):
-    the last accepted state is recorded and the interrupt goes on to the
-    driver.
+def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol, plan,
+                 control, fallback, *, output_every=1, progress=None, writer=None, cm=None,
+                 switches=()):
+    """Integrate into ``sol`` (already holding the initial row) with the
+    compiled time loop (``compiled.run``) and the linear solver of ``plan``
+    ("dense" or "banded"): fixed steps of h, or with ``control`` (a
+    :class:`~.adaptive.StepControl`) error-controlled steps with h the
+    first; sets sol.status and sol.message. Other parameters as for
+    ``driver.integrate``.
 
-    Contacts and joint limits: the loop returns at each step that crosses
-    an event, and this function lands a step on it as the driver's loop
-    does (``events.EventLocator``; ``land`` below). ``control`` None: fixed
-    steps of h with the driver's halving and regrowth (``max_halvings``,
-    ``grow_after``), for models with events, which change the step grid.
+    A step the loop cannot take (a fixed step Newton cannot converge; with
+    error control, Newton or the tolerance at the smallest step) goes to
+    ``fallback(sol, t, end, h, ls.state(...), events)``, the driver's time
+    loop on the same kernels (``driver._fallback``: its halvings and
+    regrowth, the augmented formulation's jump, and the diagnosis in the
+    model's words if the run cannot go on), which appends its rows. With
+    fixed steps it hands the run back once its step is back to h (or at the
+    segment's end), and the loop resumes from the part's end: the compiled
+    loop takes the steps of size h, the driver's the halved ones. With
+    error control it takes the rest of the run. Ctrl-C (KeyboardInterrupt, seen between the kernels' calls): the
+    last accepted state is recorded and the interrupt goes on to the driver.
 
-    ``switches``: the switches of functions of time, each landed on as
-    :func:`run_compiled` lands them; the step after one is the larger of the
-    error control's next and the one planned before the segment's shortened
-    last step (the driver's ``resume``).
+    ``switches``: [(time, text)] of the functions of time
+    (``events.switch_times``). The loop runs from switch to switch: a
+    segment ends ``SWITCH_GAP`` h before a switch, with a row there; the
+    method restarts as far past it on the new branch
+    (``events.restart_after_switch``), which that row then holds, as the
+    driver's loop lands on a switch. With error control the step after one
+    is the larger of the control's next and the one planned before the
+    segment's shortened last step (the driver's ``resume``).
 
-    Springs whose points pass each other (a free length: the force flips
-    direction) are events too: the loop returns at the step across, and
-    ``land`` lands a step on the pass as on a contact's."""
+    Contacts, joint limits and springs whose points pass each other (a
+    free length: the force flips direction) are events: the loop returns
+    at each step that crosses one, and this function lands a step on it as
+    the driver's loop does (``events.EventLocator``; ``land`` below)."""
+    opt = newton_options
     cm = cm or CompiledModel(system)
     K = cm.K
-    I, Fl = cm.ints, cm.floats
+    I, Fl, size = cm.ints, cm.floats, newton_size(system, method)
     mono = recipe_monomials(method)
-    ls = _LoopState(system, method, cm, plan, newton_options, initial, h)
+    ls = _LoopState(system, method, cm, plan, opt, initial, h)
     q, v, a, b, lam, mu, counts = ls.q, ls.v, ls.a, ls.b, ls.lam, ls.mu, ls.counts
-    if control is not None:
-        h_min = control.h_min or 1e-12 * (t_end - t_start)
+    span = t_end - t_start
+    fixed = control is None
+    if fixed:
+        ctl = np.array([1.0, 1.0, 1.0, 1.0, 1.0, h, h, 1.0])
+    else:
         ctl = np.array([control.rtol, control.atol, control.safety, control.min_factor,
-                        control.max_factor, h_min, min(control.h_max, t_end - t_start), 0.0])
-    else:                   # fixed steps: no error estimate; halving and regrowth
-        ctl = np.array([1.0, 1.0, 1.0, 1.0, 1.0, h / 2.0 ** max_halvings, h,
-                        float(max(grow_after, 1))])
-    # t, next h, rejected, previous h (none), mode (compiled.RUN), steps since a halving,
-    # the compensation of the sum t (as the driver's loop keeps t)
-    state = np.array([t_start, h, 0.0, 0.0, K.RUN, 0.0, 0.0])
+                        control.max_factor, control.h_min or 1e-12 * span,
+                        min(control.h_max, span), 0.0])
+    # t, next h, rejected, previous h (none), mode (compiled.RUN), the compensation of
+    # the sum t (as the driver's loop keeps t)
+    state = np.array([t_start, h, 0.0, 0.0, K.RUN, 0.0])
     trial = np.empty((2, system.n))       # the end of a step that crossed an event
     step_no, t = 0, t_start
     events = None
@@ -1170,7 +1167,10 @@ def run_compiled_adaptive(system, method, t_end, h, t_start, initial, newton_opt
         step of h_try, appending the rows it records; returns its status."""
         nonlocal step_no, t
         state[1], state[4] = h_try, mode
-        status, taken, nrec = K.run_adaptive(
+        # a new Newton matrix at each call: between calls an event may have changed the
+        # contact law (``commit``), a switch the branch, the fallback the state
+        ls.lu_state[0] = 0.0
+        status, taken, nrec = K.run(
             mono, I, Fl, state[1], t, seg_end, step_no, output_every, q, v, a, b, lam, mu,
             ls.q_prev, ls.v_prev, ctl, ls.opts, ls.solver, ls.lin, ls.lu_state, ls.R, ls.C,
             ls.V, ls.out_t, ls.out_h, ls.out_q, ls.out_v, ls.out_a, ls.out_lam, ls.out_mu,
@@ -1218,41 +1218,70 @@ def run_compiled_adaptive(system, method, t_end, h, t_start, initial, newton_opt
         events.commit()
         if contacts:
             cm.impact_speed[:] = system.contact_group.impact_speed
-        if control is None:           # fixed steps: back to the size planned, and regrowth
-            h_next = resume
-            if h_next < h:
-                state[5] += 1.0
-                if state[5] >= ctl[7]:
-                    h_next, state[5] = min(2.0 * h_next, h), 0.0
+        if fixed:                     # back to the nominal step
+            h_next = h
         else:
             h_next = min(max(float(state[1]), resume), events.step_limit())
         if events.happened and method.history_length > 1:
             state[3] = 0.0            # BDF1 from the event (driver: RESTART_FRACTION)
-            if control is not None:
+            if not fixed:
                 from .driver import RESTART_FRACTION
                 h_next = min(h_next, RESTART_FRACTION * events.changed_limit)
         state[1] = h_next
         return status
 
+    def hand_over():
+        """The step from t failed: the driver's loop on the same kernels
+        takes over (``fallback``), with fixed steps until its step is back
+        to h (its halvings and regrowth), with error control for the rest
+        of the run; returns its part, the loop's state taken from the part's
+        end."""
+        nonlocal plan, step_no, t
+        sol.stats_total.rejected += 1       # the compiled loop's attempt at the step
+        if fixed and plan.kind == "banded" and plan.blocks == 2:
+            # the split Newton matrix leaves out O(h) terms; where they matter (stiff
+            # forces, fast rotation), go on with the whole band matrix
+            why = f"{plan.why}; whole band matrix after a failed step at t = {t:.6g} s"
+            plan = band_plan(system, method, q, False, plan.addresses, cm)
+            plan.why = why
+            ls.lin = plan.workspace(size, cm.bound)
+            ls.opts[4] = opt.refresh_rate(newton_matrix_cost(plan, size, system, method))
+            sol.linear_solver_note = plan.why
+        if counts[5]:          # accepted steps since the last record: keep the last
+            ls.add_row(sol, t, float(state[3]) or h)
+        previous = ls.state(t, float(state[3]))
+        if fixed:           # handed back at the segment's end or once back at h
+            part = fallback(sol, t, seg_end, h, previous, events)
+        else:
+            part = fallback(sol, t, t_end, float(state[1]), previous, events)
+        if events is not None:
+            events.sol = sol
+        if part.status == "completed" and fixed:
+            t0 = t
+            t = float(part.t[-1])
+            state[0], state[1], state[3], state[5] = t, h, ls.take(part), 0.0
+            step_no += int(round((t - t0) / h))
+            if contacts:
+                cm.impact_speed[:] = system.contact_group.impact_speed
+        return part
+
     segments = _segments(t_start, t_end, h, switches)
     try:
-        while t < t_end - 1e-12 * (t_end - t_start):
+        while t < t_end - 1e-12 * span:
             seg_end, switch = segments[0][1:]
-            if events is not None and control is not None:    # the closed gaps' step limit
+            if events is not None and not fixed:    # the closed gaps' step limit
                 ctl[6] = min(h_max, events.step_limit())
             status = attempt(K.RUN, float(state[1]))
             if status == K.EVENT:
                 status = land()
             if status != 0:
-                if counts[5]:          # accepted steps since the last record: keep the last
-                    ls.add_row(sol, t, float(state[1]))
-                part = fallback(sol, t, t_end, float(state[1]) if control is not None else h,
-                                ls.state())
-                sol.status, sol.message = part.status, part.message
-                return sol
-            if t >= seg_end - 1e-12 * (t_end - t_start) and switch is not None:
+                part = hand_over()
+                if part.status != "completed" or not fixed:
+                    sol.status, sol.message = part.status, part.message
+                    return sol
+            if t >= seg_end - 1e-12 * span and switch is not None:
                 t = _restart_at_switch(system, method, sol, switch, h, ls)
-                state[0], state[3], state[6] = t, 0.0, 0.0    # BDF restarts with BDF1
+                state[0], state[3], state[5] = t, 0.0, 0.0    # BDF restarts with BDF1
                 segments.pop(0)
             if progress is not None:
                 progress(t, float(state[1]), int(sol.stats_total.iterations))
@@ -1266,117 +1295,6 @@ def run_compiled_adaptive(system, method, t_end, h, t_start, initial, newton_opt
     return sol
 
 
-def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol, plan,
-                 fallback, *, output_every=1, progress=None, writer=None, cm=None, switches=()):
-    """Integrate into ``sol`` (already holding the initial row) with the
-    compiled time loop and the linear solver of ``plan`` ("dense" or
-    "banded"); sets sol.status and sol.message. A step the loop cannot take
-    goes to ``fallback(sol, t, end, h, (q, v, a, lambda, aux))``, the
-    driver's time loop on the same kernels (``driver._fallback``), for a
-    window of 8 steps or to the segment's end; the loop resumes from the
-    part's end, or the run ends with its report. Ctrl-C (KeyboardInterrupt,
-    seen between the kernels' chunks of steps): the last accepted state is
-    recorded and the interrupt goes on to the driver. Other parameters as
-    for ``integrate``.
-
-    ``switches``: [(time, text)] of the functions of time
-    (``events.switch_times``). The loop runs from switch to switch: a
-    segment ends ``SWITCH_GAP`` h before a switch, with a row there; the
-    method restarts as far past it on the new branch
-    (``events.restart_after_switch``), which that row then holds, as the
-    driver's loop lands on a switch."""
-    opt = newton_options
-    cm = cm or CompiledModel(system)
-    K = cm.K
-    I, Fl, size = cm.ints, cm.floats, newton_size(system, method)
-    ls = _LoopState(system, method, cm, plan, opt, initial, h)
-    q, v, a, b, lam, mu, counts = ls.q, ls.v, ls.a, ls.b, ls.lam, ls.mu, ls.counts
-    lu_state, opts = ls.lu_state, ls.opts
-    t = t_start
-    step_no = 0           # global step count, for the output stride
-    last_h = h
-
-    try:
-        for seg_start, seg_end, switch in _segments(t_start, t_end, h, switches):
-            schedule = _step_plan(seg_start, seg_end, h, exact=switch is not None)
-            for g, (n_steps, step_h) in enumerate(schedule):
-                rec2 = recipes(method, step_h)
-                lu_state[0] = 0.0                    # a new h: a new Newton matrix
-                # a two-step method with a history of the previous h: its first step is
-                # BDF2 of the step ratio (a BDF1 restart would leave O(h) velocities there)
-                ratio = None
-                if lu_state[2] == 1.0 and method.history_length > 1 and step_h != last_h:
-                    ratio = np.stack([ratio_recipe(method, step_h, last_h)] * 2)
-                else:
-                    lu_state[2] = 0.0
-                last_h = step_h
-                done = 0
-                while done < n_steps and t < seg_end - 1e-9 * h:
-                    chunk = 1 if ratio is not None else min(CHUNK, n_steps - done)
-                    t0 = t
-                    status, taken, nrec = K.run(
-                        rec2 if ratio is None else ratio, I, Fl, step_h, t0, chunk, step_no,
-                        output_every, q, v, a, b, lam, mu, ls.q_prev, ls.v_prev, opts,
-                        ls.solver, ls.lin, lu_state, ls.R, ls.C, ls.V, ls.out_t, ls.out_q,
-                        ls.out_v, ls.out_a, ls.out_lam, ls.out_mu, ls.out_stats, counts,
-                        ls.F_start if step_no == 0 else ls.no_F)
-                    if ratio is not None:            # then the steady recipe's Newton matrix
-                        ratio = None
-                        lu_state[0] = 0.0
-                    ls.add_rows(sol, nrec, step_h)
-                    step_no += taken
-                    done += taken
-                    t = t0 + taken * step_h
-                    if taken < chunk:
-                        # The failing step goes to the driver's loop on the same kernels
-                        # (smaller steps, and the diagnosis in the model's words if the run
-                        # cannot go on), for a window of 8 steps of the nominal grid, or to
-                        # the segment's end.
-                        if plan.kind == "banded" and plan.blocks == 2:
-                            # the split Newton matrix leaves out O(h) terms; where they matter
-                            # (stiff forces, fast rotation), go on with the whole band matrix
-                            why = (f"{plan.why}; whole band matrix after a failed step at "
-                                   f"t = {t:.6g} s")
-                            plan = band_plan(system, method, q, False, plan.addresses, cm)
-                            plan.why = why
-                            ls.lin = plan.workspace(size, cm.bound)
-                            opts[4] = opt.refresh_rate(newton_matrix_cost(plan, size, system,
-                                                                          method))
-                            sol.linear_solver_note = plan.why
-                        if counts[5]:
-                            ls.add_row(sol, t, step_h)
-                        end = seg_end if t + 9 * step_h >= seg_end - 1e-9 * h else t + 8 * step_h
-                        part = fallback(sol, t, end, step_h, ls.state())
-                        if part.status != "completed":
-                            return sol
-                        ls.take(part, step_h)
-                        covered = int(round((part.t[-1] - t) / step_h))
-                        t = float(part.t[-1])
-                        done += covered
-                        step_no += covered
-                    if (g == len(schedule) - 1 and done >= n_steps) or t >= seg_end - 1e-9 * h:
-                        # the segment's last step lands on its end: record it (exactly
-                        # there) before the writer sees it, also when the stride skipped it
-                        if counts[5]:
-                            ls.add_row(sol, seg_end, last_h)
-                        elif abs(sol.last_t - seg_end) <= 1e-9 * h:
-                            sol.amend_last(t=seg_end)
-                        t = seg_end
-                        if switch is not None:      # BDF restarts with BDF1
-                            t = _restart_at_switch(system, method, sol, switch, h, ls)
-                            lu_state[2] = 0.0
-                    if progress is not None:
-                        progress(t, step_h, int(sol.stats_total.iterations))
-                    if writer is not None:
-                        writer.append(sol)
-        sol.status, sol.message = "completed", f"reached t_end = {t_end:g} s"
-    except KeyboardInterrupt:       # the driver marks the run interrupted
-        if counts[5]:               # accepted steps since the last record
-            ls.add_row(sol, t, last_h)
-        raise
-    return sol
-
-
 # ---------------------------------------------------------------------------------------------
 # Large systems: compiled evaluation, Python Newton with SuperLU
 # ---------------------------------------------------------------------------------------------
@@ -1385,7 +1303,7 @@ class SparseAdapter:
     """A recipe method whose residual, Newton matrix, scales and force term
     are evaluated by the kernels; everything else is the wrapped method's:
     the driver's time loop on the compiled evaluation (large models, for
-    SuperLU; contacts whose events the compiled loops do not land). The
+    SuperLU; a recipe the compiled loop cannot evaluate at a step size). The
     Newton matrix is a CSC matrix on a pattern fixed at the first evaluation
     (values refilled in place), or with ``dense`` its ndarray. The contacts'
     impact speeds (the state the driver's events change) are copied into

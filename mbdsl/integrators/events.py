@@ -27,10 +27,10 @@ Functions of time that switch branch (``if``, ``min``, ``max``, ``clip``,
 comparisons, ``abs``, ``sign``: :func:`time_switches`) are known in advance:
 the step that would cross a switch is shortened to end just before it
 (:meth:`EventLocator.before_switch`), and the method restarts just after it
-on the new branch (:meth:`EventLocator.after_switch`). The compiled loops,
-which do not stop after each step, take the run's switches before it starts
+on the new branch (:meth:`EventLocator.after_switch`). The compiled loop,
+which does not stop after each step, take the run's switches before it starts
 (:func:`switch_times`) and run from one to the next
-(``engine.run_compiled``, ``engine.run_compiled_adaptive``).
+(``engine.run_compiled``).
 
 Locating the closing matters for the law, not only for accuracy: the impact
 speed is measured where the gap closes, and a step that jumps deep into a
@@ -189,7 +189,7 @@ class EventLocator:
         """The gaps at configuration q (n,), where the next step starts: for
         a time loop that took steps without :meth:`check` and :meth:`commit`
         (the compiled loop, which returns only at a step that changes the
-        sign of a gap: ``engine.run_compiled_adaptive``)."""
+        sign of a gap: ``engine.run_compiled``)."""
         if self.group is not None:
             self.g = self.group.gaps(self.system._ext(q))
 

@@ -163,26 +163,18 @@ initial b.phi = 0.3
 """
 
 
-# (The spring's free length is 0: one with a length is an event of the
-# error-controlled loop, which would then warm up in place of the fixed-step one.)
-
 #: Groups of entry points, one per linear solver of the compiled engine.
 GROUPS = ("dense", "banded", "sparse")
 
 
-def _key_of(group: str, adaptive: bool) -> str:
-    """The entry of ``_loaded`` for a group's fixed-step or error-controlled loop."""
-    return group + ("-adaptive" if adaptive and group != "sparse" else "")
-
-
-def warm_up(groups=GROUPS, output: bool = True, loops=(False, True)) -> None:
+def warm_up(groups=GROUPS, output: bool = True) -> None:
     """Load (compiling if needed) the kernels of each group of entry points
     by running a two-link pendulum two steps through them, with the
     argument types of every real run:
 
-    * "dense": the compiled time loops with the explicit inverse (``run``,
-      and ``run_adaptive`` for error-controlled steps);
-    * "banded": the same loops with the band LU (``run``, ``run_adaptive``, and
+    * "dense": the compiled time loop with the explicit inverse (``run``,
+      which takes fixed and error-controlled steps);
+    * "banded": the same loop with the band LU (``run``, and
       ``jacobian_triplets`` for the band ordering);
     * "sparse": the compiled residuals and triplets under the Python Newton
       loop (``residual``, ``jacobian_triplets``, ``accumulate``,
@@ -193,11 +185,7 @@ def warm_up(groups=GROUPS, output: bool = True, loops=(False, True)) -> None:
     output first needs them, and of the flexible beams' blocks and energies
     (``beam_blocks``, ``beam_energies``), which every evaluation of a beam
     outside the compiled loops calls (the other elements' ``elements``,
-    which the initial conditions call, the pendulum's run loads). ``loops``: the
-    fixed-step loop (False), the
-    error-controlled one (True), or both: a run with warm kernels loads the
-    one it takes (each is a third of a second from numba's cache on two
-    cores; measured on the slider crank's command, 0.75 s for both).
+    which the initial conditions call, the pendulum's run loads).
 
     Every method shares every signature (the method is a recipe array,
     ``recipe.py``), so one of them loads what all use.
@@ -207,15 +195,10 @@ def warm_up(groups=GROUPS, output: bool = True, loops=(False, True)) -> None:
     from .compiled import lapack_band_addresses
     system = assemble(load_text(_PENDULUM, file="<kernel warm-up>"))
     groups = [g for g in groups if g != "banded" or lapack_band_addresses() is not None]
-    _loaded.update(_key_of(g, a) for g in groups for a in loops)   # integrate: no warm-up again
-    from .adaptive import StepControl
+    _loaded.update(groups)                  # integrate: no warm-up again
     for solver in groups:
-        if False in loops:
-            integrate(system, HHTI3(), 2e-3, 1e-3, engine="compiled",
-                      newton=NewtonOptions(linear_solver=solver))
-        if True in loops and solver != "sparse":    # error-controlled steps (run_adaptive)
-            integrate(system, HHTI3(), 2e-3, 1e-3, engine="compiled",
-                      newton=NewtonOptions(linear_solver=solver), control=StepControl(1e-6, 1e-6))
+        integrate(system, HHTI3(), 2e-3, 1e-3, engine="compiled",
+                  newton=NewtonOptions(linear_solver=solver))
     if output:                 # the output's multipliers (HHT-ADD), contacts' energy and power
         from .engine import CompiledModel, index1_multipliers
         index1_multipliers(system, np.zeros(1), np.zeros((1, system.n)), np.zeros((1, system.n)))
@@ -232,7 +215,7 @@ def warm_up(groups=GROUPS, output: bool = True, loops=(False, True)) -> None:
         cm.K.beam_energies(cm.ints, cm.floats, 0, 0, rows, True, np.zeros(1))
 
 
-def ensure_loaded(group: str | None = None, announce=None, adaptive: bool = False) -> float:
+def ensure_loaded(group: str | None = None, announce=None) -> float:
     """Load the kernels a run needs, compiling them if they are not cached.
 
     Parameters
@@ -245,15 +228,13 @@ def ensure_loaded(group: str | None = None, announce=None, adaptive: bool = Fals
     announce : callable (str) -> None, optional
         Told before a compilation starts (or, when the marker was wrong,
         once loading has taken more than 5 s), and when it ends.
-    adaptive : bool
-        The run takes error-controlled steps (its loop is ``run_adaptive``).
 
     Returns
     -------
     float [s]
         Time spent loading or compiling (0 when already loaded here).
     """
-    if (group is not None and _key_of(group, adaptive) in _loaded) or (group is None and _loaded):
+    if (group is not None and group in _loaded) or (group is None and _loaded):
         return 0.0
     t0 = time.perf_counter()
     ready = kernels_ready()
@@ -274,7 +255,7 @@ def ensure_loaded(group: str | None = None, announce=None, adaptive: bool = Fals
         timer.start()
     try:
         if ready:
-            warm_up((group,), output=False, loops=(adaptive,))
+            warm_up((group,), output=False)
         else:
             warm_up(GROUPS)
     finally:

@@ -39,7 +39,7 @@ def _pair(path, method, T, h=1e-3, **kwargs):
 def test_the_uncompiled_kernels_are_python_functions():
     K = uncompiled_kernels()
     assert K.__name__ == UNCOMPILED_MODULE and uncompiled_kernels() is K
-    for name in ("forces", "phi", "_newton", "_run", "_run_adaptive", "_emit_force"):
+    for name in ("forces", "phi", "_newton", "_run", "_emit_force"):
         assert type(getattr(K, name)).__name__ == "function", name
 
 
