@@ -21,3 +21,18 @@ os.environ["MBDSL_BACKGROUND_COMPILE"] = "0"
 def slider_crank_reference():
     """Independent reference solutions of the rigid slider crank (provenance in the file)."""
     return json.loads((REFERENCE / "slider_crank.json").read_text())
+
+
+@pytest.fixture
+def handed_over(monkeypatch):
+    """The times [s] at which a compiled loop handed a step to the driver's
+    loop (``driver._fallback``), in a list that fills as runs go."""
+    from mbdsl.integrators import driver
+    times = []
+    fallback = driver._fallback
+
+    def counted(*args):
+        times.append(args[7])          # (system, method, newton, control, loop, cm, sol, t, ...)
+        return fallback(*args)
+    monkeypatch.setattr(driver, "_fallback", counted)
+    return times
