@@ -107,9 +107,9 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
         On the compiled or uncompiled engine, run this module's time loop and
         Newton iteration on the kernels' residual and Newton matrix
         (``engine.SparseAdapter``) where the kernels' own loop would apply:
-        what a step the compiled loop cannot converge is handed to, with its
-        halvings, the augmented formulation's jump and the failure's
-        diagnosis.
+        the loop a step the compiled loop cannot converge is handed to
+        (``_fallback``), with its halvings, the augmented formulation's jump
+        and the failure's diagnosis, run alone (to compare the two loops).
 
     Returns
     -------
@@ -252,9 +252,9 @@ def _fallback(system, method, newton, control, loop, cm, sol, t, end, h, state, 
     to end. ``events``: the compiled loop's ``EventLocator``, which this
     loop goes on with (the contacts' state, armed gaps and impact speeds,
     as they are: a new one would start them afresh and log the closed
-    gaps again); None when the loop has none. Appends the part's rows to ``sol``; a part that did not
-    complete sets ``sol``'s status, message and diagnostics. Returns the
-    part (a Solution).
+    gaps again); None when the loop has none. Appends the part's rows to
+    ``sol``; a part that did not complete sets ``sol``'s status, message
+    and diagnostics. Returns the part (a Solution).
 
     ``newton``, ``control``, ``loop``: the run's Newton options, step control
     and loop options (:func:`integrate`); "banded", the compiled loop's
