@@ -3456,6 +3456,59 @@ def _recipe_at(mono, h, c0, w0, w1, rec):
 
 
 @_jit
+def _bdf_ratio(two_step, h, h_last):
+    """(c0 [1/s], w0, w1) of a two-step recipe's step of size h [s] after one
+    of h_last [s] (BDF2 of the ratio w = h / h_last: c0 = (1 + 2w)/((1 + w) h),
+    w0 = (1 + w)^2/(1 + 2w), w1 = -w^2/(1 + 2w); BDF1, (1/h, 1, 0), when
+    h_last is 0); (1, 1, 1) for a one-step recipe, which reads none of them."""
+    if not two_step:
+        return 1.0, 1.0, 1.0
+    if h_last == 0.0:
+        return 1.0 / h, 1.0, 0.0
+    wr = h / h_last
+    return ((1.0 + 2.0 * wr) / ((1.0 + wr) * h), (1.0 + wr) ** 2 / (1.0 + 2.0 * wr),
+            -wr * wr / (1.0 + 2.0 * wr))
+
+
+@_jit
+def _crossed(I, Fl, n, q, qx, gaps, springs, qs, grad6, H6):
+    """Whether the step from q (n,) to qx (n + 3,) changes the sign of a gap
+    of the contacts and joint limits (``gaps``) or takes the points of a
+    spring-damper with a free length past each other (``springs``): an
+    event. qs (n + 3,), grad6 (6,), H6 (6, 6): scratch."""
+    qs[:n] = q
+    if springs and _spring_passed(I, Fl, qs, qx):
+        return True
+    for i in range(_rows(I, KGI) if gaps else 0):        # a gap opens or closes
+        if (_gap(I, Fl, qs, i, grad6, H6) > 0.0) != (_gap(I, Fl, qx, i, grad6, H6) > 0.0):
+            return True
+    return False
+
+
+@_jit
+def _error_norm(rc, n, q, qx, a_new, a, b, b_new, additive, acc_old, acc_new, rtol, atol):
+    """The weighted RMS norm of a step's local error estimate e = err d
+    (``adaptive``: Hairer, Norsett & Wanner I, sec. II.4): d the change of the
+    auxiliary acceleration b -> b_new when the recipe's ``eaux``, of HHT-ADD's
+    a + R_II (acc_old -> acc_new) for the additive form, a_new itself when
+    ``eabs``, else a -> a_new; each entry over atol + rtol max(|q|, |q_new|)
+    with q_new = qx[:n]."""
+    acc = 0.0
+    for j in range(n):
+        if rc[EAUX] != 0.0:
+            d = b_new[j] - b[j]
+        elif additive:
+            d = acc_new[j] - acc_old[j]
+        elif rc[EABS] != 0.0:
+            d = a_new[j]
+        else:
+            d = a_new[j] - a[j]
+        e = rc[ERR] * d / (atol + rtol * max(abs(q[j]), abs(qx[j])))
+        acc += e * e
+    return math.sqrt(acc / n) if n > 0 else 0.0
+
+
+@_jit
 def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v_prev,
          ctl, opts, solver, lin, lu_state, R, C, V, out_t, out_h, out_q, out_v, out_a,
          out_lam, out_mu, out_stats, counts, F0, state, trial):
@@ -3562,15 +3615,7 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
             t_new = t + y
             carry = (t_new - t) - y
         first = two_step and state[3] == 0.0
-        c0, w0, w1 = 1.0, 1.0, 1.0
-        if two_step:
-            if first:                   # BDF1
-                c0, w0, w1 = 1.0 / step, 1.0, 0.0
-            else:
-                wr = step / state[3]
-                c0 = (1.0 + 2.0 * wr) / ((1.0 + wr) * step)
-                w0 = (1.0 + wr) ** 2 / (1.0 + 2.0 * wr)
-                w1 = -wr * wr / (1.0 + 2.0 * wr)
+        c0, w0, w1 = _bdf_ratio(two_step, step, state[3])
         if step != h_rc or first != first_rc or c0 != c0_rc or w0 != w0_rc or w1 != w1_rc:
             _recipe_at(mono[0] if first else mono[1], step, c0, w0, w1, rc)
             h_rc, first_rc, c0_rc, w0_rc, w1_rc = step, first, c0, w0, w1
@@ -3593,13 +3638,8 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
             after_rejection = True
             continue
         _state(rc, n, w, q_pred, v_pred, qx, vx)
-        if gaps or springs:       # an event within the step: the caller lands a step on it
-            qs[:n] = q
-            crossed = springs and _spring_passed(I, Fl, qs, qx)
-            for i in range(_rows(I, KGI) if gaps else 0):   # a gap opens or closes
-                crossed = crossed or \
-                    (_gap(I, Fl, qs, i, grad6, H6) > 0.0) != (_gap(I, Fl, qx, i, grad6, H6) > 0.0)
-            if crossed:
+        # an event within the step: the caller lands a step on it
+        if (gaps or springs) and _crossed(I, Fl, n, q, qx, gaps, springs, qs, grad6, H6):
                 trial[0, :] = qx[:n]
                 trial[1, :] = vx[:n]
                 state[0], state[1] = t, step
@@ -3610,21 +3650,10 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
             _advance(rc, b_new, a, w[a0:a0 + n])
         err, factor = 0.0, fmax
         if not fixed:
-            acc = 0.0
             if additive:    # HHT-ADD: the change of a + R_II, which sees the constraint forces
                 _total_acceleration(I, Fl, n, qx, w[a0:a0 + n], w[l0:l0 + m], R, C, V, acc_new)
-            for j in range(n):
-                if rc[EAUX] != 0.0:
-                    d = b_new[j] - b[j]
-                elif additive:
-                    d = acc_new[j] - acc_old[j]
-                elif rc[EABS] != 0.0:
-                    d = w[a0 + j]
-                else:
-                    d = w[a0 + j] - a[j]
-                e = rc[ERR] * d / (atol + rtol * max(abs(q[j]), abs(qx[j])))
-                acc += e * e
-            err = math.sqrt(acc / n) if n > 0 else 0.0
+            err = _error_norm(rc, n, q, qx, w[a0:a0 + n], a, b, b_new, additive, acc_old,
+                              acc_new, rtol, atol)
             if err == 0.0:
                 factor = fmax
             elif not np.isfinite(err):
