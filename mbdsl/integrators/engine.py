@@ -1115,8 +1115,9 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
     fixed steps it hands the run back once its step is back to h (or at the
     segment's end), and the loop resumes from the part's end: the compiled
     loop takes the steps of size h, the driver's the halved ones. With
-    error control it takes the rest of the run. Ctrl-C (KeyboardInterrupt, seen between the kernels' calls): the
-    last accepted state is recorded and the interrupt goes on to the driver.
+    error control it takes the rest of the run. Ctrl-C (KeyboardInterrupt,
+    seen between the kernels' calls): the last accepted state is recorded
+    and the interrupt goes on to the driver.
 
     ``switches``: [(time, text)] of the functions of time
     (``events.switch_times``). The loop runs from switch to switch: a
@@ -1129,60 +1130,115 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
 
     Contacts, joint limits and springs whose points pass each other (a
     free length: the force flips direction) are events: the loop returns
-    at each step that crosses one, and this function lands a step on it as
-    the driver's loop does (``events.EventLocator``; ``land`` below)."""
-    opt = newton_options
-    cm = cm or CompiledModel(system)
-    K = cm.K
-    I, Fl, size = cm.ints, cm.floats, newton_size(system, method)
-    mono = recipe_monomials(method)
-    ls = _LoopState(system, method, cm, plan, opt, initial, h)
-    q, v, a, b, lam, mu, counts = ls.q, ls.v, ls.a, ls.b, ls.lam, ls.mu, ls.counts
-    span = t_end - t_start
-    fixed = control is None
-    if fixed:
-        ctl = np.array([1.0, 1.0, 1.0, 1.0, 1.0, h, h, 1.0])
-    else:
-        ctl = np.array([control.rtol, control.atol, control.safety, control.min_factor,
-                        control.max_factor, control.h_min or 1e-12 * span,
-                        min(control.h_max, span), 0.0])
-    # t, next h, rejected, previous h (none), mode (compiled.RUN), the compensation of
-    # the sum t (as the driver's loop keeps t)
-    state = np.array([t_start, h, 0.0, 0.0, K.RUN, 0.0])
-    trial = np.empty((2, system.n))       # the end of a step that crossed an event
-    step_no, t = 0, t_start
-    events = None
-    contacts = system.contact_group is not None
-    from .events import EventLocator
-    if EventLocator.found_by_steps(system):
-        events = EventLocator(system, h, sol)
-        events.start(t_start, ls.start)
-    if contacts:
-        cm.impact_speed[:] = system.contact_group.impact_speed
-    h_max = ctl[6]
-    seg_end = t_end             # the kernels' loop runs to the end of the segment
+    at each step that crosses one, and a step is landed on it as the
+    driver's loop does (``events.EventLocator``; :meth:`_CompiledRun.land`)."""
+    run = _CompiledRun(system, method, t_end, h, t_start, initial, newton_options, sol, plan,
+                       control, fallback, output_every, cm or CompiledModel(system))
+    return run.run(switches, progress, writer)
 
-    def attempt(mode, h_try):
+
+class _CompiledRun:
+    """One run of the compiled time loop (:func:`run_compiled`): the loop's
+    state and buffers (``ls``, a :class:`_LoopState`), the kernel's step
+    control and its in/out ``state`` (t, next h, rejected, previous h,
+    mode, the compensation of the sum t), the event locator, and the run's
+    time ``t`` and step count ``step_no`` (for the output stride)."""
+
+    def __init__(self, system, method, t_end, h, t_start, initial, newton_options, sol, plan,
+                 control, fallback, output_every, cm):
+        self.system, self.method, self.sol, self.plan, self.cm = system, method, sol, plan, cm
+        self.t_start, self.t_end, self.h = t_start, t_end, h
+        self.opt, self.fallback, self.every = newton_options, fallback, output_every
+        self.K = cm.K
+        self.size = newton_size(system, method)
+        self.mono = recipe_monomials(method)
+        self.ls = _LoopState(system, method, cm, plan, newton_options, initial, h)
+        span = t_end - t_start
+        self.fixed = control is None
+        if self.fixed:
+            self.ctl = np.array([1.0, 1.0, 1.0, 1.0, 1.0, h, h, 1.0])
+        else:
+            self.ctl = np.array([control.rtol, control.atol, control.safety,
+                                 control.min_factor, control.max_factor,
+                                 control.h_min or 1e-12 * span, min(control.h_max, span), 0.0])
+        self.h_max = self.ctl[6]
+        # t, next h, rejected, previous h (none), mode (compiled.RUN), the compensation of
+        # the sum t (as the driver's loop keeps t)
+        self.state = np.array([t_start, h, 0.0, 0.0, self.K.RUN, 0.0])
+        self.trial = np.empty((2, system.n))     # the end of a step that crossed an event
+        self.step_no, self.t = 0, t_start
+        self.seg_end = t_end         # the kernels' loop runs to the end of the segment
+        self.events = None
+        self.contacts = system.contact_group is not None
+        from .events import EventLocator
+        if EventLocator.found_by_steps(system):
+            self.events = EventLocator(system, h, sol)
+            self.events.start(t_start, self.ls.start)
+        self._impact_speeds()
+
+    def _impact_speeds(self):
+        """The contacts' impact speeds (set by the event locator) into the kernels' data."""
+        if self.contacts:
+            self.cm.impact_speed[:] = self.system.contact_group.impact_speed
+
+    def run(self, switches, progress, writer):
+        """From switch to switch to t_end, landing events and handing failed
+        steps over; returns the Solution."""
+        sol, ls, state, K = self.sol, self.ls, self.state, self.K
+        span = self.t_end - self.t_start
+        segments = _segments(self.t_start, self.t_end, self.h, switches)
+        try:
+            while self.t < self.t_end - 1e-12 * span:
+                self.seg_end, switch = segments[0][1:]
+                if self.events is not None and not self.fixed:  # the closed gaps' step limit
+                    self.ctl[6] = min(self.h_max, self.events.step_limit())
+                status = self.attempt(K.RUN, float(state[1]))
+                if status == K.EVENT:
+                    status = self.land()
+                if status != 0:
+                    part = self.hand_over()
+                    if part.status != "completed" or not self.fixed:
+                        sol.status, sol.message = part.status, part.message
+                        return sol
+                if self.t >= self.seg_end - 1e-12 * span and switch is not None:
+                    self.t = _restart_at_switch(self.system, self.method, sol, switch, self.h,
+                                                ls)
+                    state[0], state[3], state[5] = self.t, 0.0, 0.0   # BDF restarts: BDF1
+                    segments.pop(0)
+                if progress is not None:
+                    progress(self.t, float(state[1]), int(sol.stats_total.iterations))
+                if writer is not None:
+                    writer.append(sol)
+            sol.status, sol.message = "completed", f"reached t_end = {self.t_end:g} s"
+        except KeyboardInterrupt:       # the driver marks the run interrupted
+            if ls.counts[5]:            # accepted steps since the last record
+                ls.add_row(sol, float(state[0]), float(state[3]) or self.h)
+            raise
+        return sol
+
+    def attempt(self, mode, h_try):
         """Run the kernels' loop in ``mode`` from (t, q, v, ...) with a first
         step of h_try, appending the rows it records; returns its status."""
-        nonlocal step_no, t
+        ls, state = self.ls, self.state
         state[1], state[4] = h_try, mode
         # a new Newton matrix at each call: between calls an event may have changed the
         # contact law (``commit``), a switch the branch, the fallback the state
         ls.lu_state[0] = 0.0
-        status, taken, nrec = K.run(
-            mono, I, Fl, state[1], t, seg_end, step_no, output_every, q, v, a, b, lam, mu,
-            ls.q_prev, ls.v_prev, ctl, ls.opts, ls.solver, ls.lin, ls.lu_state, ls.R, ls.C,
-            ls.V, ls.out_t, ls.out_h, ls.out_q, ls.out_v, ls.out_a, ls.out_lam, ls.out_mu,
-            ls.out_stats, counts, ls.F_start if step_no == 0 else ls.no_F, state, trial)
-        ls.add_rows(sol, nrec, ls.out_h[:nrec].copy())
-        sol.stats_total.rejected += int(state[2])
+        status, taken, nrec = self.K.run(
+            self.mono, self.cm.ints, self.cm.floats, state[1], self.t, self.seg_end,
+            self.step_no, self.every, ls.q, ls.v, ls.a, ls.b, ls.lam, ls.mu, ls.q_prev,
+            ls.v_prev, self.ctl, ls.opts, ls.solver, ls.lin, ls.lu_state, ls.R, ls.C, ls.V,
+            ls.out_t, ls.out_h, ls.out_q, ls.out_v, ls.out_a, ls.out_lam, ls.out_mu,
+            ls.out_stats, ls.counts, ls.F_start if self.step_no == 0 else ls.no_F, state,
+            self.trial)
+        ls.add_rows(self.sol, nrec, ls.out_h[:nrec].copy())
+        self.sol.stats_total.rejected += int(state[2])
         state[2] = 0.0
-        step_no += taken
-        t = float(state[0])
+        self.step_no += taken
+        self.t = float(state[0])
         return status
 
-    def land():
+    def land(self):
         """The loop stopped at a step that crosses an event (a gap opening or
         closing, a spring's points passing; its end in ``trial``): retake it
         with the size that ends it just past the event
@@ -1191,20 +1247,21 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
         next step as the driver's loop does (back to the size before the
         cut, within the closed gaps' step limit; a two-step method restarts
         with BDF1). Returns the status of the last attempt."""
-        t0, step = t, float(state[1])
+        ls, state, events, K = self.ls, self.state, self.events, self.K
+        t0, step = self.t, float(state[1])
         resume = step                 # the size planned, to go back to once landed
-        last = StepState(t0, q.copy(), v.copy(), a.copy(), lam.copy())
-        events.resume_at(q)           # the loop took the steps since the last event
-        ctl[6] = h_max                # the step limit of the gaps after the event, below
+        last = StepState(t0, ls.q.copy(), ls.v.copy(), ls.a.copy(), ls.lam.copy())
+        events.resume_at(ls.q)        # the loop took the steps since the last event
+        self.ctl[6] = self.h_max      # the step limit of the gaps after the event, below
         h_try = step
         mode = None
         while True:
             if mode is None:          # where to end the step that crossed
-                cut = events.check(t0, step, last, StepState(t0 + step, trial[0].copy(),
-                                                             trial[1].copy(), None, None))
+                cut = events.check(t0, step, last, StepState(t0 + step, self.trial[0].copy(),
+                                                             self.trial[1].copy(), None, None))
                 mode, h_try = (K.LAND, step) if cut is None else (K.ATTEMPT, cut)
-                sol.event_cuts += cut is not None
-            status = attempt(mode, h_try)
+                self.sol.event_cuts += cut is not None
+            status = self.attempt(mode, h_try)
             if status == K.EVENT:         # the retaken step crossed too: look again
                 step, mode = float(state[1]), None
             elif status == K.REJECTED:    # its error estimate: again, shorter
@@ -1214,85 +1271,60 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
         if status != 0:
             return status
         # the step taken: its events (none, if it ended before them) from its own ends
-        events.check(t0, t - t0, last, StepState(t, q.copy(), v.copy(), a.copy(), lam.copy()))
+        t = self.t
+        events.check(t0, t - t0, last,
+                     StepState(t, ls.q.copy(), ls.v.copy(), ls.a.copy(), ls.lam.copy()))
         events.commit()
-        if contacts:
-            cm.impact_speed[:] = system.contact_group.impact_speed
-        if fixed:                     # back to the nominal step
-            h_next = h
+        self._impact_speeds()
+        if self.fixed:                # back to the nominal step
+            h_next = self.h
         else:
             h_next = min(max(float(state[1]), resume), events.step_limit())
-        if events.happened and method.history_length > 1:
+        if events.happened and self.method.history_length > 1:
             state[3] = 0.0            # BDF1 from the event (driver: RESTART_FRACTION)
-            if not fixed:
+            if not self.fixed:
                 from .driver import RESTART_FRACTION
                 h_next = min(h_next, RESTART_FRACTION * events.changed_limit)
         state[1] = h_next
         return status
 
-    def hand_over():
+    def hand_over(self):
         """The step from t failed: the driver's loop on the same kernels
         takes over (``fallback``), with fixed steps until its step is back
         to h (its halvings and regrowth), with error control for the rest
         of the run; returns its part, the loop's state taken from the part's
         end."""
-        nonlocal plan, step_no, t
+        sol, ls, state, h, t = self.sol, self.ls, self.state, self.h, self.t
         sol.stats_total.rejected += 1       # the compiled loop's attempt at the step
-        if fixed and plan.kind == "banded" and plan.blocks == 2:
-            # the split Newton matrix leaves out O(h) terms; where they matter (stiff
-            # forces, fast rotation), go on with the whole band matrix
-            why = f"{plan.why}; whole band matrix after a failed step at t = {t:.6g} s"
-            plan = band_plan(system, method, q, False, plan.addresses, cm)
-            plan.why = why
-            ls.lin = plan.workspace(size, cm.bound)
-            ls.opts[4] = opt.refresh_rate(newton_matrix_cost(plan, size, system, method))
-            sol.linear_solver_note = plan.why
-        if counts[5]:          # accepted steps since the last record: keep the last
+        if self.fixed and self.plan.kind == "banded" and self.plan.blocks == 2:
+            self._whole_band()
+        if ls.counts[5]:       # accepted steps since the last record: keep the last
             ls.add_row(sol, t, float(state[3]) or h)
         previous = ls.state(t, float(state[3]))
-        if fixed:           # handed back at the segment's end or once back at h
-            part = fallback(sol, t, seg_end, h, previous, events)
+        if self.fixed:      # handed back at the segment's end or once back at h
+            part = self.fallback(sol, t, self.seg_end, h, previous, self.events)
         else:
-            part = fallback(sol, t, t_end, float(state[1]), previous, events)
-        if events is not None:
-            events.sol = sol
-        if part.status == "completed" and fixed:
-            t0 = t
-            t = float(part.t[-1])
-            state[0], state[1], state[3], state[5] = t, h, ls.take(part), 0.0
-            step_no += int(round((t - t0) / h))
-            if contacts:
-                cm.impact_speed[:] = system.contact_group.impact_speed
+            part = self.fallback(sol, t, self.t_end, float(state[1]), previous, self.events)
+        if self.events is not None:
+            self.events.sol = sol
+        if part.status == "completed" and self.fixed:
+            self.t = float(part.t[-1])
+            state[0], state[1], state[3], state[5] = self.t, h, ls.take(part), 0.0
+            self.step_no += int(round((self.t - t) / h))
+            self._impact_speeds()
         return part
 
-    segments = _segments(t_start, t_end, h, switches)
-    try:
-        while t < t_end - 1e-12 * span:
-            seg_end, switch = segments[0][1:]
-            if events is not None and not fixed:    # the closed gaps' step limit
-                ctl[6] = min(h_max, events.step_limit())
-            status = attempt(K.RUN, float(state[1]))
-            if status == K.EVENT:
-                status = land()
-            if status != 0:
-                part = hand_over()
-                if part.status != "completed" or not fixed:
-                    sol.status, sol.message = part.status, part.message
-                    return sol
-            if t >= seg_end - 1e-12 * span and switch is not None:
-                t = _restart_at_switch(system, method, sol, switch, h, ls)
-                state[0], state[3], state[5] = t, 0.0, 0.0    # BDF restarts with BDF1
-                segments.pop(0)
-            if progress is not None:
-                progress(t, float(state[1]), int(sol.stats_total.iterations))
-            if writer is not None:
-                writer.append(sol)
-        sol.status, sol.message = "completed", f"reached t_end = {t_end:g} s"
-    except KeyboardInterrupt:       # the driver marks the run interrupted
-        if counts[5]:               # accepted steps since the last record
-            ls.add_row(sol, float(state[0]), float(state[3]) or h)
-        raise
-    return sol
+    def _whole_band(self):
+        """The split band Newton matrix (HHT-SI2's two blocks) leaves out
+        O(h) terms; where they matter (stiff forces, fast rotation: a step
+        failed), go on with the whole band matrix."""
+        system, method, plan, size = self.system, self.method, self.plan, self.size
+        why = f"{plan.why}; whole band matrix after a failed step at t = {self.t:.6g} s"
+        plan = self.plan = band_plan(system, method, self.ls.q, False, plan.addresses, self.cm)
+        plan.why = why
+        self.ls.lin = plan.workspace(size, self.cm.bound)
+        self.ls.opts[4] = self.opt.refresh_rate(newton_matrix_cost(plan, size, system, method))
+        self.sol.linear_solver_note = plan.why
 
 
 # ---------------------------------------------------------------------------------------------
