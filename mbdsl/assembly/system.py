@@ -291,7 +291,7 @@ class AssembledSystem:
                                             [rc] + [g.pattern[1] for g in self.flexible_groups])
 
     # -- kernels ------------------------------------------------------------------
-    #: Which kernels evaluate this system outside the compiled loops: "auto" (see
+    #: Which kernels evaluate this system outside the compiled loop: "auto" (see
     #: :meth:`kernel_model`) or "uncompiled" (the uncompiled engine's runs: nothing
     #: compiled is imported).
     kernels = "auto"

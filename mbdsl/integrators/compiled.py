@@ -164,7 +164,7 @@ EPS = 2.220446049250313e-16
 # language's functions (``expressions.compile_function``), which Newton's NaN test and the
 # failure report catch; numba's default ("python") would raise ZeroDivisionError from
 # inside a time loop, an exception in place of the report in the model's words. (It is
-# not for speed: the fixed-step loop's object code 3.36 -> 3.35 MB, the same us/step.)
+# not for speed: the time loop's object code 3.36 -> 3.35 MB, the same us/step.)
 _jit = numba.njit(cache=True, nogil=True, error_model="numpy")
 #: The accessors of the packed model data are inlined in numba's IR (see "Named access").
 _inline = numba.njit(cache=True, nogil=True, inline="always", error_model="numpy")

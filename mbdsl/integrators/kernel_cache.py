@@ -184,7 +184,7 @@ def warm_up(groups=GROUPS, output: bool = True) -> None:
     (``index1_multipliers``), which a run with warm kernels loads when its
     output first needs them, and of the flexible beams' blocks and energies
     (``beam_blocks``, ``beam_energies``), which every evaluation of a beam
-    outside the compiled loops calls (the other elements' ``elements``,
+    outside the compiled loop calls (the other elements' ``elements``,
     which the initial conditions call, the pendulum's run loads).
 
     Every method shares every signature (the method is a recipe array,
