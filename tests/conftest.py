@@ -31,8 +31,8 @@ def handed_over(monkeypatch):
     times = []
     fallback = driver._fallback
 
-    def counted(*args):
+    def counted(*args, **kwargs):
         times.append(args[7])          # (system, method, newton, control, loop, cm, sol, t, ...)
-        return fallback(*args)
+        return fallback(*args, **kwargs)
     monkeypatch.setattr(driver, "_fallback", counted)
     return times

@@ -3540,10 +3540,12 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
     RMS norm E; E > 1 rejects the step (retried with h max(min_factor,
     safety E^(-1/3))), else it is accepted and h grows by min(max_factor,
     ...) (not right after a rejection); a step Newton cannot converge is
-    halved, down to h_min. Fixed steps (fixed = 1): steps of h_max, the last
-    one shortened to land on t_end; no error estimate; a step Newton
-    cannot converge ends the call at once (its Newton status), the caller
-    owning what follows (``engine.run_compiled``: the driver's halvings).
+    not halved here. Fixed steps (fixed = 1): steps of h, the last one
+    shortened to land on t_end; no error estimate. Either way a step Newton
+    cannot converge ends the call at once (its Newton status, with the
+    step's size in state[1]): halving, the augmented formulation's jump and
+    any hand-over are the driver's (``driver.StepSizes``, through
+    ``engine._CompiledRun``).
 
     Every ``every``-th accepted step (global number step0 + k) and the last
     one are recorded in the out_* arrays with their step size in out_h and
@@ -3554,11 +3556,13 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
     (n,): F_n at t0 when F0[0] is not NaN (a start whose forces are not the
     law's at (q, v, lambda): friction's Coulomb limit, ``InitialState.Q``).
 
-    ``state`` (6,) in/out: (t, h of the next step, rejected steps, h of the
-    last step or 0, mode, the compensation of the sum t). Returns
-    (status, steps, records): CONVERGED, a Newton status (a fixed step, or
-    an error-controlled one at h_min, that does not converge), TOLERANCE
-    (the error above 1 at h_min), EVENT or REJECTED below.
+    ``state`` (8,) in/out: (t, h of the next step, rejected steps, h of the
+    last step or 0, mode, the compensation of the sum t, 1 when the last
+    attempt was rejected (the next accepted step does not grow h), the
+    number of accepted steps this call may take or 0 for no limit).
+    Returns (status, steps, records): CONVERGED, a Newton status (a step
+    that does not converge), TOLERANCE (the error above 1 at h_min), EVENT
+    or REJECTED below.
 
     Events: a converged step that changes the sign of a gap of the contacts
     and joint limits (KGI), or across which the points of a spring-damper
@@ -3599,7 +3603,8 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
     t = t0
     # the step, start-up flag and c0, w0, w1 of the recipe in rc
     h_rc, first_rc, c0_rc, w0_rc, w1_rc = -1.0, False, -1.0, -1.0, -1.0
-    after_rejection = False
+    after_rejection = state[6] != 0.0     # the last attempt, before this call, was rejected
+    limit = int(state[7])                 # accepted steps this call may take (0: no limit)
     rec = 0
     k = 0
     while t < t_end - 1e-12 * (t_end - t0) and rec < out_t.shape[0]:
@@ -3629,14 +3634,10 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
         _scales_weights(rc, I, Fl, q, w, opts, R, C, V, qx, weight, scratch)
         status = _newton(rc, I, Fl, t_new, q_pred, v_pred, F, qx_old, w, weight, opts, solver,
                          lin, lu_state, R, C, V, r, dw, qx, vx, work, counts)
-        if status != CONVERGED:
-            if fixed or step <= h_min * (1.0 + 1e-9):
-                state[0], state[1] = t, step
-                return status, k, rec
-            state[2] += 1.0
-            h = max(0.5 * step, h_min)
-            after_rejection = True
-            continue
+        if status != CONVERGED:       # the driver decides: halve, jump, or hand over
+            state[0], state[1] = t, step
+            state[6] = 1.0 if after_rejection else 0.0
+            return status, k, rec
         _state(rc, n, w, q_pred, v_pred, qx, vx)
         # an event within the step: the caller lands a step on it
         if (gaps or springs) and _crossed(I, Fl, n, q, qx, gaps, springs, qs, grad6, H6):
@@ -3668,7 +3669,7 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
             h = max(step * min(factor, 1.0), h_min)
             after_rejection = True
             if mode != RUN:
-                state[0], state[1] = t, h
+                state[0], state[1], state[6] = t, h, 1.0
                 return REJECTED, k, rec
             continue
         if after_rejection:
@@ -3703,9 +3704,9 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
             out_h[rec] = step
             rec = _record(rec, t, q, v, a, lam, mu, counts, out_t, out_q, out_v, out_a, out_lam,
                           out_mu, out_stats)
-        if mode != RUN:
+        if mode != RUN or k == limit:
             break
-    state[0], state[1] = t, h
+    state[0], state[1], state[6] = t, h, 1.0 if after_rejection else 0.0
     return CONVERGED, k, rec
 
 

@@ -138,7 +138,9 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
     if initial is None:
         initial = consistent_initial_state(system, t_start)
     loop = dict(output_every=output_every, progress=progress, writer=writer,
-                max_halvings=max_halvings, grow_after=grow_after)
+                max_halvings=max_halvings, grow_after=grow_after,
+                sizes=StepSizes.of_run(method, h, t_start, t_end, control, max_halvings,
+                                       grow_after))
     cm = None
     if which in ("compiled", "uncompiled"):
         timings["setup"] = clock() - t0
@@ -227,7 +229,7 @@ def _compiled_loop(system, method, t_start, t_end, h, initial, solver, which, co
     loop_start = _time.perf_counter()
     try:
         run_compiled(system, method, t_end, h, t_start, initial, solver.options, sol, plan,
-                     control, fallback, cm=cm, switches=switches,
+                     control, fallback, loop["sizes"], cm=cm, switches=switches,
                      output_every=loop["output_every"], progress=loop["progress"],
                      writer=loop["writer"])
     except KeyboardInterrupt:
@@ -237,22 +239,26 @@ def _compiled_loop(system, method, t_start, t_end, h, initial, solver, which, co
     return sol, None
 
 
-def _fallback(system, method, newton, control, loop, cm, sol, t, end, h, state, events=None):
-    """Take over from a compiled loop whose step failed: run this module's
-    time loop on the same kernels (``SparseAdapter`` on the model data
-    ``cm``, on ``sol``'s engine), from t towards end [s] with a first step
-    h [s], from the loop's accepted state (q, v, a, lambda, aux, previous;
-    ``engine._LoopState.state``: a two-step method goes on from its
-    previous state, not with a start-up step): its halvings, regrowth and
-    the augmented formulation's jump, and the diagnosis in the model's
-    words if the run cannot go on. With fixed steps (``control`` None) it
-    hands the run back as soon as its step is back to h after an accepted
-    step (``hand_back``), so that the compiled loop takes every step of the
-    nominal size and this loop the halved ones; with error control it runs
-    to end. ``events``: the compiled loop's ``EventLocator``, which this
-    loop goes on with (the contacts' state, armed gaps and impact speeds,
-    as they are: a new one would start them afresh and log the closed
-    gaps again); None when the loop has none. Appends the part's rows to
+def _fallback(system, method, newton, control, loop, cm, sol, t, end, h, state, events=None,
+              h_first=None):
+    """Take over from a compiled loop at a step it could not take (Newton
+    failed at the smallest step the run's :class:`StepSizes` allows, or on
+    a step landed on an event; with error control, the tolerance not met
+    at h_min): run this module's time loop on the same kernels
+    (``SparseAdapter`` on the model data ``cm``, on ``sol``'s engine) from
+    t towards end [s], from the loop's accepted state (q, v, a, lambda, aux,
+    previous; ``engine._LoopState.state``: a two-step method goes on from
+    its previous state, not with a start-up step), with a first step
+    h_first [s] (h when None), h [s] the run's nominal (fixed) or current
+    (error control) step, and the run's StepSizes (``loop["sizes"]``, as
+    the compiled loop left it). Its own Newton may take the step, or the
+    run ends with the diagnosis in the model's words. With fixed steps
+    (``control`` None) it hands the run back as soon as its step is back to
+    h after an accepted step (``hand_back``); with error control it runs to
+    end. ``events``: the compiled loop's ``EventLocator``, which this loop
+    goes on with (the contacts' state, armed gaps and impact speeds, as
+    they are: a new one would start them afresh and log the closed gaps
+    again); None when the loop has none. Appends the part's rows to
     ``sol``; a part that did not complete sets ``sol``'s status, message
     and diagnostics. Returns the part (a Solution).
 
@@ -269,7 +275,7 @@ def _fallback(system, method, newton, control, loop, cm, sol, t, end, h, state, 
                                       initial=0.0)),
                          float("nan"), method_state={"aux": aux.copy(), "previous": previous})
     part_loop = dict(loop, output_every=1, progress=None, writer=None,
-                     hand_back=control is None, events=events)
+                     hand_back=control is None, events=events, h_first=h_first)
     timings = dict.fromkeys(Solution.TIMING_NAMES, 0.0)
     part = _driver_loop(system, method, t, end, h, start, Newton(newton), sol.engine, cm,
                         control, timings, _time.perf_counter(), part_loop, engine_note=None)
@@ -312,7 +318,7 @@ def _driver_loop(system, method, t_start, t_end, h, initial, solver, which, cm, 
         _time_loop(system, method, solver, sol, history, kinds, assembler, t_start, t_end, h,
                    loop["max_halvings"], loop["grow_after"], loop["output_every"],
                    loop["progress"], loop["writer"], control, loop.get("hand_back", False),
-                   loop.get("events"))
+                   loop.get("events"), loop.get("sizes"), loop.get("h_first"))
     except KeyboardInterrupt:
         _interrupted(sol)
     finally:
@@ -322,35 +328,32 @@ def _driver_loop(system, method, t_start, t_end, h, initial, solver, which, cm, 
 
 def _time_loop(system, method, solver, sol, history, kinds, assembler, t_start, t_end, h,
                max_halvings, grow_after, output_every, progress, writer, control=None,
-               hand_back=False, resume_events=None):
+               hand_back=False, resume_events=None, sizes=None, h_first=None):
     """Step ``method`` from t_start to t_end with the Python Newton iteration,
     recording into ``sol`` (which holds the initial row); sets its status and
     message (halving, regrowth and the failure report as in the module notes;
     with ``control`` the step sizes of :mod:`.adaptive`). ``hand_back``
     (fixed steps, the compiled loop's fallback): stop, completed, after the
     first accepted step from which the next is of the nominal h again;
-    ``resume_events``: the compiled loop's EventLocator, gone on with.
+    ``resume_events``: the compiled loop's EventLocator, gone on with;
+    ``sizes``: the run's :class:`StepSizes` (a new one when None), the
+    first step h_first [s] (h when None).
     Ctrl-C (KeyboardInterrupt) records the last accepted state and goes on
     to the caller (:func:`_interrupted`); any other exception is a bug: the
     status says so and the exception propagates."""
     pending = StepStats(steps=0)      # steps not yet recorded (output stride)
     n_steps = 0
-    t, h_cur, good = t_start, h, 0
-    carry = 0.0          # Kahan compensation: t stays exact to round-off over 1e6 steps
     # The limit is on the step size, not on consecutive failures: counting
     # failures lets a run creep towards a lock-up with ever smaller steps.
-    h_min = h / 2.0 ** max_halvings
+    if sizes is None:
+        sizes = StepSizes.of_run(method, h, t_start, t_end, control, max_halvings, grow_after)
+    t, h_cur = t_start, h_first or h
+    carry = 0.0          # Kahan compensation: t stays exact to round-off over 1e6 steps
     adaptive = control is not None
     if adaptive:
-        h_min = control.h_min or 1e-12 * (t_end - t_start)
+        h_min = sizes.h_min
         h_max = min(control.h_max, t_end - t_start)
         after_rejection = False
-    # Augmented formulation: a step that fails is first retried once JUMP
-    # times longer, to land past the singular position it failed next to,
-    # rather than halved, which aims the step end at it (every halving at a
-    # rank loss lands closer to it, where Newton converges slowest); the
-    # halvings follow only if the longer step fails too.
-    jumped = None                # the step size before a jump, while jumping
     events = None
     if resume_events is not None:     # taking over from the compiled loop: its contacts' state
         events = resume_events
@@ -390,14 +393,9 @@ def _time_loop(system, method, solver, sol, history, kinds, assembler, t_start, 
                                floor=method.roundoff_floor(system, step, ctx.last.q))
             if not res.converged:
                 sol.stats_total.rejected += 1
-                if (method.formulation == "augmented" and jumped is None
-                        and t + JUMP * step < t_end - 1e-9 * h):
-                    jumped, h_cur = step, JUMP * step
-                    continue
-                if jumped is not None:
-                    step, jumped = jumped, None         # halve the step that failed first
-                if step / 2.0 >= h_min * (1.0 - 1e-12):
-                    h_cur, good = step / 2.0, 0
+                retry = sizes.failed(t, step, t_end)    # a jump, or half the step
+                if retry is not None:
+                    h_cur = retry
                     continue
                 sol.stats_total.rejected -= 1           # the failure that ends the run
                 _fail(sol, method, ctx, res, t, step, h)
@@ -420,18 +418,17 @@ def _time_loop(system, method, solver, sol, history, kinds, assembler, t_start, 
                         break
                     sol.stats_total.rejected += 1
                     h_cur = max(step * control.factor(err, True), h_min)
-                    after_rejection, jumped = True, None
+                    after_rejection, sizes.jumped = True, None
                     continue
                 h_cur = min(step * control.factor(err, after_rejection), h_max)
-                after_rejection, jumped = False, None
+                after_rejection, sizes.jumped = False, None
             if events is not None:
                 events.commit()
                 if resume is not None:                  # landed on it: back to the size planned
                     h_cur, resume = max(h_cur, resume) if adaptive else resume, None
                 if adaptive:
                     h_cur = min(h_cur, events.step_limit())
-            if jumped is not None:                      # landed past it: back to the size before
-                h_cur, jumped = jumped, None
+            h_cur = sizes.landed(h_cur)                 # past a jump: back to the size before
             history = (list(history) + [state])[-method.history_length:]
             if events is not None and events.happened and method.history_length > 1:
                 # an event is a kink in the motion: a two-step method starts
@@ -461,15 +458,12 @@ def _time_loop(system, method, solver, sol, history, kinds, assembler, t_start, 
             if recorded:
                 sol.append(state, pending)
                 pending = StepStats(steps=0)
-            if h_cur < h and not adaptive:
-                good += 1
-                if good >= grow_after:
-                    h_cur, good = min(2.0 * h_cur, h), 0
+            h_cur = sizes.grown(h_cur)
             if progress is not None:
                 progress(t, step, res.n_iter)
             if writer is not None and recorded:
                 writer.append(sol)
-            if hand_back and h_cur >= h and jumped is None and resume is None \
+            if hand_back and h_cur >= h and sizes.jumped is None and resume is None \
                     and (events is None or not events.happened) and t < t_end - 1e-9 * h:
                 sol.status, sol.message = "completed", f"handed back at t = {t:g} s"
                 break
@@ -492,6 +486,102 @@ JUMP = 1.5
 #: a two-step method's first step after an event, as a fraction of the
 #: contact's step limit (``events.EventLocator.step_limit``)
 RESTART_FRACTION = 0.05
+
+
+class StepSizes:
+    """What the driver does with a step Newton cannot converge, and when a
+    reduced step grows back: one policy for a run, whichever loop takes the
+    step (this module's :func:`_time_loop`, or the compiled loop through
+    ``engine._CompiledRun``, which returns at every such step), and carried
+    across a hand-over from one to the other.
+
+    A failed step is halved, down to ``h_min``; with the augmented
+    formulation it is first retried once ``JUMP`` times longer (see
+    :func:`failed`). With fixed steps, after ``grow_after`` accepted steps
+    at a reduced size the step doubles, back to h at most.
+
+    Parameters
+    ----------
+    h : float [s]
+        The nominal step (fixed steps) or the first one (error control).
+    h_min : float [s]
+        The smallest step tried: h / 2**max_halvings with fixed steps, the
+        control's ``h_min`` (default 1e-12 of the span) with error control.
+    grow_after : int
+    augmented : bool
+        The method's formulation is the augmented one.
+    adaptive : bool
+        Error-controlled steps: the control, not this policy, grows them.
+
+    Attributes
+    ----------
+    jumped : float or None
+        The size [s] of the step that failed before a jump, while jumping.
+    good : int
+        Accepted steps since the step was last reduced (fixed steps).
+    """
+
+    def __init__(self, h, h_min, grow_after, augmented, adaptive):
+        self.h, self.h_min, self.grow_after = h, h_min, grow_after
+        self.augmented, self.adaptive = augmented, adaptive
+        self.jumped = None
+        self.good = 0
+
+    @classmethod
+    def of_run(cls, method, h, t_start, t_end, control, max_halvings, grow_after):
+        """The policy of a run of ``method`` from t_start to t_end [s] with
+        nominal (or first) step h [s] and ``control`` (None: fixed steps)."""
+        h_min = (h / 2.0 ** max_halvings if control is None
+                 else control.h_min or 1e-12 * (t_end - t_start))
+        return cls(h, h_min, grow_after, getattr(method, "formulation", None) == "augmented",
+                   control is not None)
+
+    def failed(self, t, step, t_end):
+        """The size [s] to retry the step from t [s] of size ``step`` [s]
+        that Newton did not converge, or None when none is left (the run
+        ends there). The augmented formulation first retries once JUMP times
+        longer, to land past the singular position the step failed next to
+        rather than halve, which aims the step end at it (every halving at a
+        rank loss lands closer to it, where Newton converges slowest); the
+        halvings of the step that failed first follow if the longer one
+        fails too."""
+        if self.augmented and self.jumped is None and t + JUMP * step < t_end - 1e-9 * self.h:
+            self.jumped = step
+            return JUMP * step
+        if self.jumped is not None:
+            step, self.jumped = self.jumped, None
+        if step / 2.0 >= self.h_min * (1.0 - 1e-12):
+            self.good = 0
+            return step / 2.0
+        return None
+
+    def landed(self, h_next):
+        """The next step's size [s] after an accepted step planned at h_next
+        [s]: the size before a jump, if the step was one."""
+        if self.jumped is not None:
+            h_next, self.jumped = self.jumped, None
+        return h_next
+
+    def grown(self, h_cur, steps=1):
+        """The next step's size [s] after ``steps`` accepted fixed steps of
+        h_cur [s]: doubled (to h at most) once ``grow_after`` have been
+        taken at a reduced size."""
+        if self.adaptive or h_cur >= self.h:
+            return h_cur
+        self.good += steps
+        if self.good >= self.grow_after:
+            h_cur, self.good = min(2.0 * h_cur, self.h), 0
+        return h_cur
+
+    def steps_before_growth(self, h_cur):
+        """How many fixed steps of h_cur [s] the compiled loop may take before
+        this policy changes the size (a jump: one; a reduced size: until it
+        grows), or 0 for no limit."""
+        if self.jumped is not None:
+            return 1
+        if self.adaptive or h_cur >= self.h:
+            return 0
+        return max(self.grow_after - self.good, 1)
 
 
 def _interrupted(sol):

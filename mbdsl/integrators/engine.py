@@ -1097,8 +1097,8 @@ class _LoopState:
 
 
 def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol, plan,
-                 control, fallback, *, output_every=1, progress=None, writer=None, cm=None,
-                 switches=()):
+                 control, fallback, sizes, *, output_every=1, progress=None, writer=None,
+                 cm=None, switches=()):
     """Integrate into ``sol`` (already holding the initial row) with the
     compiled time loop (``compiled.run``) and the linear solver of ``plan``
     ("dense" or "banded"): fixed steps of h, or with ``control`` (a
@@ -1106,18 +1106,21 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
     first; sets sol.status and sol.message. Other parameters as for
     ``driver.integrate``.
 
-    A step the loop cannot take (a fixed step Newton cannot converge; with
-    error control, Newton or the tolerance at the smallest step) goes to
-    ``fallback(sol, t, end, h, ls.state(...), events)``, the driver's time
-    loop on the same kernels (``driver._fallback``: its halvings and
-    regrowth, the augmented formulation's jump, and the diagnosis in the
-    model's words if the run cannot go on), which appends its rows. With
-    fixed steps it hands the run back once its step is back to h (or at the
-    segment's end), and the loop resumes from the part's end: the compiled
-    loop takes the steps of size h, the driver's the halved ones. With
-    error control it takes the rest of the run. Ctrl-C (KeyboardInterrupt,
-    seen between the kernels' calls): the last accepted state is recorded
-    and the interrupt goes on to the driver.
+    The kernels' loop returns at every step Newton cannot converge, and
+    ``sizes`` (the driver's ``StepSizes``) says what follows: the step
+    retried halved (or, augmented, once longer), then, with fixed steps,
+    taken at the reduced size until it grows back. A step the loop cannot
+    take at all (Newton at the smallest step, or on a step landed on an
+    event; with error control, the tolerance at h_min) goes to
+    ``fallback(sol, t, end, h, ls.state(...), events, h_first=...)``, the
+    driver's time loop on the same kernels (``driver._fallback``), whose
+    own Newton may take it or which ends the run with the diagnosis in the
+    model's words, and which appends its rows. With fixed steps it hands
+    the run back once its step is back to h (or at the segment's end), and
+    the loop resumes from the part's end; with error control it takes the
+    rest of the run. Ctrl-C (KeyboardInterrupt, seen between the kernels'
+    calls): the last accepted state is recorded and the interrupt goes on
+    to the driver.
 
     ``switches``: [(time, text)] of the functions of time
     (``events.switch_times``). The loop runs from switch to switch: a
@@ -1133,7 +1136,7 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
     at each step that crosses one, and a step is landed on it as the
     driver's loop does (``events.EventLocator``; :meth:`_CompiledRun.land`)."""
     run = _CompiledRun(system, method, t_end, h, t_start, initial, newton_options, sol, plan,
-                       control, fallback, output_every, cm or CompiledModel(system))
+                       control, fallback, sizes, output_every, cm or CompiledModel(system))
     return run.run(switches, progress, writer)
 
 
@@ -1141,14 +1144,17 @@ class _CompiledRun:
     """One run of the compiled time loop (:func:`run_compiled`): the loop's
     state and buffers (``ls``, a :class:`_LoopState`), the kernel's step
     control and its in/out ``state`` (t, next h, rejected, previous h,
-    mode, the compensation of the sum t), the event locator, and the run's
-    time ``t`` and step count ``step_no`` (for the output stride)."""
+    mode, the compensation of the sum t, after a rejection, step limit),
+    the event locator, the driver's step-size policy ``sizes`` and, with
+    fixed steps, the current size ``h_cur``, and the run's time ``t`` and
+    step count ``step_no`` (for the output stride)."""
 
     def __init__(self, system, method, t_end, h, t_start, initial, newton_options, sol, plan,
-                 control, fallback, output_every, cm):
+                 control, fallback, sizes, output_every, cm):
         self.system, self.method, self.sol, self.plan, self.cm = system, method, sol, plan, cm
-        self.t_start, self.t_end, self.h = t_start, t_end, h
+        self.t_start, self.t_end, self.h, self.h_cur = t_start, t_end, h, h
         self.opt, self.fallback, self.every = newton_options, fallback, output_every
+        self.sizes = sizes
         self.K = cm.K
         self.size = newton_size(system, method)
         self.mono = recipe_monomials(method)
@@ -1163,8 +1169,8 @@ class _CompiledRun:
                                  control.h_min or 1e-12 * span, min(control.h_max, span), 0.0])
         self.h_max = self.ctl[6]
         # t, next h, rejected, previous h (none), mode (compiled.RUN), the compensation of
-        # the sum t (as the driver's loop keeps t)
-        self.state = np.array([t_start, h, 0.0, 0.0, self.K.RUN, 0.0])
+        # the sum t (as the driver's loop keeps t), after a rejection, step limit
+        self.state = np.array([t_start, h, 0.0, 0.0, self.K.RUN, 0.0, 0.0, 0.0])
         self.trial = np.empty((2, system.n))     # the end of a step that crossed an event
         self.step_no, self.t = 0, t_start
         self.seg_end = t_end         # the kernels' loop runs to the end of the segment
@@ -1192,9 +1198,7 @@ class _CompiledRun:
                 self.seg_end, switch = segments[0][1:]
                 if self.events is not None and not self.fixed:  # the closed gaps' step limit
                     self.ctl[6] = min(self.h_max, self.events.step_limit())
-                status = self.attempt(K.RUN, float(state[1]))
-                if status == K.EVENT:
-                    status = self.land()
+                status = self.step_on()
                 if status != 0:
                     part = self.hand_over()
                     if part.status != "completed" or not self.fixed:
@@ -1216,11 +1220,49 @@ class _CompiledRun:
             raise
         return sol
 
-    def attempt(self, mode, h_try):
+    def step_on(self):
+        """One call of the kernels' loop from t, at the step the policy has
+        (with fixed steps up to the next change of size), then what the
+        driver's policy makes of its return: the steps taken count towards
+        regrowth, an event is landed on (:meth:`land`), a step Newton did
+        not converge is retried at the size ``sizes.failed`` gives. Returns
+        0, or the status of a step the loop cannot take (for the
+        fallback)."""
+        state, K, sizes = self.state, self.K, self.sizes
+        h_try = self.h_cur if self.fixed else float(state[1])
+        limit = sizes.steps_before_growth(h_try) if self.fixed else int(sizes.jumped is not None)
+        status, taken = self.attempt(K.RUN, h_try, limit)
+        if taken:                   # (the limit stops the call where the size would change)
+            if self.fixed:
+                self.h_cur = sizes.grown(sizes.landed(self.h_cur), taken)
+            elif status == K.CONVERGED:
+                state[1] = sizes.landed(float(state[1]))
+        if status == K.EVENT:
+            return self.land()
+        if status == K.CONVERGED:
+            return 0
+        if status == K.TOLERANCE:
+            return status
+        if self.fixed and self.plan.kind == "banded" and self.plan.blocks == 2:
+            self._whole_band()
+        retry = sizes.failed(self.t, float(state[1]), self.t_end)   # Newton did not converge
+        if retry is None:
+            return status
+        self.sol.stats_total.rejected += 1
+        state[6] = 1.0                      # error control: no growth right after it
+        if self.fixed:
+            self.h_cur = retry
+        else:
+            state[1] = retry
+        return 0
+
+    def attempt(self, mode, h_try, limit=0):
         """Run the kernels' loop in ``mode`` from (t, q, v, ...) with a first
-        step of h_try, appending the rows it records; returns its status."""
+        step of h_try, at most ``limit`` accepted steps (0: no limit),
+        appending the rows it records; returns (its status, the steps it
+        took)."""
         ls, state = self.ls, self.state
-        state[1], state[4] = h_try, mode
+        state[1], state[4], state[7] = h_try, mode, limit
         # a new Newton matrix at each call: between calls an event may have changed the
         # contact law (``commit``), a switch the branch, the fallback the state
         ls.lu_state[0] = 0.0
@@ -1232,17 +1274,21 @@ class _CompiledRun:
             ls.out_stats, ls.counts, ls.F_start if self.step_no == 0 else ls.no_F, state,
             self.trial)
         ls.add_rows(self.sol, nrec, ls.out_h[:nrec].copy())
-        self.sol.stats_total.rejected += int(state[2])
+        if state[2]:                # the error control's rejections: no jump to return from
+            self.sol.stats_total.rejected += int(state[2])
+            self.sizes.jumped = None
         state[2] = 0.0
         self.step_no += taken
         self.t = float(state[0])
-        return status
+        return status, taken
 
     def land(self):
         """The loop stopped at a step that crosses an event (a gap opening or
         closing, a spring's points passing; its end in ``trial``): retake it
         with the size that ends it just past the event
-        (``EventLocator.check``), until one lands; take that step; then
+        (``EventLocator.check``), until one lands (a retake Newton cannot
+        converge retried at the size the driver's ``StepSizes`` gives, as
+        the driver's loop does); take that step; then
         change the contact's state (``commit``) and plan the
         next step as the driver's loop does (back to the size before the
         cut, within the closed gaps' step limit; a two-step method restarts
@@ -1255,19 +1301,28 @@ class _CompiledRun:
         self.ctl[6] = self.h_max      # the step limit of the gaps after the event, below
         h_try = step
         mode = None
+        landed = 0                    # steps taken (a cut one ending before the event, then on it)
         while True:
             if mode is None:          # where to end the step that crossed
                 cut = events.check(t0, step, last, StepState(t0 + step, self.trial[0].copy(),
                                                              self.trial[1].copy(), None, None))
                 mode, h_try = (K.LAND, step) if cut is None else (K.ATTEMPT, cut)
                 self.sol.event_cuts += cut is not None
-            status = self.attempt(mode, h_try)
+            status, taken = self.attempt(mode, h_try)
+            landed += taken
             if status == K.EVENT:         # the retaken step crossed too: look again
                 step, mode = float(state[1]), None
             elif status == K.REJECTED:    # its error estimate: again, shorter
                 mode, h_try = K.ATTEMPT, float(state[1])
-            else:
+            elif status in (K.CONVERGED, K.TOLERANCE):
                 break
+            else:                         # Newton did not converge: the driver's policy
+                retry = self.sizes.failed(self.t, float(state[1]), self.t_end)
+                if retry is None:
+                    break
+                self.sol.stats_total.rejected += 1
+                state[6] = 1.0
+                mode, h_try = K.ATTEMPT, retry
         if status != 0:
             return status
         # the step taken: its events (none, if it ended before them) from its own ends
@@ -1276,8 +1331,8 @@ class _CompiledRun:
                      StepState(t, ls.q.copy(), ls.v.copy(), ls.a.copy(), ls.lam.copy()))
         events.commit()
         self._impact_speeds()
-        if self.fixed:                # back to the nominal step
-            h_next = self.h
+        if self.fixed:                # back to the size before the cut, one step more at it
+            h_next = self.h_cur = self.sizes.grown(self.h_cur, landed)
         else:
             h_next = min(max(float(state[1]), resume), events.step_limit())
         if events.happened and self.method.history_length > 1:
@@ -1296,13 +1351,12 @@ class _CompiledRun:
         end."""
         sol, ls, state, h, t = self.sol, self.ls, self.state, self.h, self.t
         sol.stats_total.rejected += 1       # the compiled loop's attempt at the step
-        if self.fixed and self.plan.kind == "banded" and self.plan.blocks == 2:
-            self._whole_band()
         if ls.counts[5]:       # accepted steps since the last record: keep the last
             ls.add_row(sol, t, float(state[3]) or h)
         previous = ls.state(t, float(state[3]))
         if self.fixed:      # handed back at the segment's end or once back at h
-            part = self.fallback(sol, t, self.seg_end, h, previous, self.events)
+            part = self.fallback(sol, t, self.seg_end, h, previous, self.events,
+                                 h_first=self.h_cur)
         else:
             part = self.fallback(sol, t, self.t_end, float(state[1]), previous, self.events)
         if self.events is not None:
@@ -1310,6 +1364,7 @@ class _CompiledRun:
         if part.status == "completed" and self.fixed:
             self.t = float(part.t[-1])
             state[0], state[1], state[3], state[5] = self.t, h, ls.take(part), 0.0
+            self.h_cur = h
             self.step_no += int(round((self.t - t) / h))
             self._impact_speeds()
         return part

@@ -435,20 +435,44 @@ def test_distance_joints_on_beams_converge_to_the_dop853_reference(soft_distance
     assert e[1] < (0.08 if m.order(system) == 1 else 1e-2), e
 
 
-def test_a_two_step_method_handed_to_the_driver_loop_goes_on_with_bdf2(handed_over):
+def test_the_compiled_loop_halves_a_failed_step_as_the_driver_says(soft_distance_reference,
+                                                                   handed_over):
     """NSTIFF-SI2 on the soft flexible_distance at h = 0.5 ms: the compiled
-    loop's modified Newton fails at t = 0.073 s and hands the step to the
-    driver's loop, which takes it with its own Newton and hands the run
-    back. It goes on from the loop's previous state too (BDF2, as the
-    driver's loop run alone does): the whole run equals the driver's loop
-    on the same kernels to 1e-8 (measured 9e-11). Restarted with a BDF1
-    step there, as before, it ended 2e-3 away."""
-    system, init = _soft_system(VALID / "flexible_distance.mbd")
+    loop's modified Newton fails twice (t = 0.0725 and 0.0765 s); the kernels
+    return there and the driver's ``StepSizes`` halves the step, which the
+    compiled loop takes, at the reduced size, BDF2 going on at the ratio of
+    the steps, until it grows back: no step goes to the driver's loop, two
+    rejected, four rows more (measured). Its q(0.1 s) is as close to DOP853's
+    as the driver's loop's on the same kernels, whose own Newton took those
+    steps whole (measured 0.01345 against 0.01438)."""
+    system, init, q_ref = soft_distance_reference
     a = integrate(system, make_method("nstiff-si2"), 0.1, 5e-4, initial=init,
                   engine="compiled", python_loop=True)
     b = integrate(system, make_method("nstiff-si2"), 0.1, 5e-4, initial=init,
                   engine="compiled")
-    assert handed_over and b.linear_solver == "dense" and b.status == "completed"
+    assert not handed_over and b.engine == "compiled" and b.status == "completed"
+    assert b.stats_total.rejected == 2 and len(b.t) == len(a.t) + 4
+    halved = np.isclose(b.stats["h"], 2.5e-4)
+    assert halved.sum() == 8                # two halvings, four steps each before growing
+    assert np.abs(b.q[-1] - q_ref).max() < 1.05 * np.abs(a.q[-1] - q_ref).max()
+
+
+def test_a_two_step_method_handed_to_the_driver_loop_goes_on_with_bdf2(soft_distance_reference,
+                                                                       handed_over):
+    """The same run with no halving allowed (max_halvings = 0): each step
+    the compiled loop's modified Newton cannot converge goes to the driver's
+    loop, which takes it with its own Newton and hands the run back (three,
+    measured). It goes on from the loop's previous state too (BDF2, as the
+    driver's loop run alone does): the whole run equals the driver's loop
+    on the same kernels to 1e-8 (measured 1.6e-10). Restarted with a BDF1
+    step there, it ended 2e-3 away."""
+    system, init, _ = soft_distance_reference
+    a = integrate(system, make_method("nstiff-si2"), 0.1, 5e-4, initial=init,
+                  engine="compiled", python_loop=True, max_halvings=0)
+    b = integrate(system, make_method("nstiff-si2"), 0.1, 5e-4, initial=init,
+                  engine="compiled", max_halvings=0)
+    assert len(handed_over) == 3 and b.linear_solver == "dense" and b.status == "completed"
+    assert b.stats_total.rejected == a.stats_total.rejected + 3
     assert len(b.t) == len(a.t) and np.abs(b.q - a.q).max() < 1e-8
 
 
@@ -535,11 +559,13 @@ def test_output_stride_keeps_every_kth_step_and_the_last():
 
 
 @pytest.mark.parametrize("control", [None, StepControl(rtol=1e-9, atol=1e-9, h_min=0.01)])
-def test_a_failing_compiled_step_is_handed_to_the_driver_loop_on_the_kernels(monkeypatch,
-                                                                             control):
-    # one full-Newton iteration cannot take the first step of the released pendulum:
-    # the compiled loop stops, the driver's loop halves the step on the kernels'
-    # residual, the compiled loop resumes; the numpy engine's run is the reference
+def test_a_failing_compiled_step_is_halved_by_the_driver(monkeypatch, control):
+    # two full-Newton iterations cannot take the first step of the released pendulum:
+    # the compiled loop returns, the driver halves the step (StepSizes) and the
+    # compiled loop takes it at the reduced size, none handed to the driver's loop;
+    # the numpy engine's run, with the same halvings, is the reference. With error
+    # control and h_min = 0.01 s the step is out of reach: handed to the driver's
+    # loop on the kernels' residual, which says why
     system, init = _system(MODELS / "pendulum.mbd")
     opt = NewtonOptions(max_iter=2, jacobian="full")
     a = integrate(system, make_method("hht-i3"), 1.0, 0.05, initial=init, engine="numpy",
@@ -553,16 +579,18 @@ def test_a_failing_compiled_step_is_handed_to_the_driver_loop_on_the_kernels(mon
     monkeypatch.setattr(SparseAdapter, "residual", counted)
     b = integrate(system, make_method("hht-i3"), 1.0, 0.05, initial=init, engine="compiled",
                   newton=opt, on_failure="return", control=control)
-    assert calls, "the failed step was not handed to the driver's loop on the kernels"
     assert b.engine == "compiled"
     if control is not None:   # out of reach at h_min: the driver's loop says why, as numpy's
+        assert calls, "the failed step was not handed to the driver's loop on the kernels"
         assert b.status == a.status == "failed" and b.message == a.message
         assert b.diagnostics[0].code == "E602"
         return
-    assert a.stats_total.rejected > 0 and b.stats_total.rejected > 0
-    assert b.status == a.status == "completed"
+    assert not calls
+    assert b.stats_total.rejected == a.stats_total.rejected > 0
+    assert b.status == a.status == "completed" and len(b.t) == len(a.t)
     assert np.any(b.stats["h"][1:] < 0.05)
-    assert b.t[-1] == 1.0 and np.abs(a.q[-1] - b.q[-1]).max() < 1e-8
+    np.testing.assert_allclose(b.t, a.t, rtol=0, atol=1e-12)
+    assert b.t[-1] == 1.0 and np.abs(a.q - b.q).max() < 1e-8
 
 
 def test_engine_selection_says_why(monkeypatch):
