@@ -4,7 +4,9 @@ Each step: the method builds its :class:`StepContext`, predicts w(0), and the
 shared :class:`~mbdsl.integrators.newton.Newton` solves its residual. A step
 whose Newton iteration does not converge is never accepted: it is retried
 with h/2, up to ``max_halvings`` times; after ``grow_after`` successful steps
-at a reduced size the step doubles again, back to the nominal h. If the run
+at a reduced size the step doubles again, back to the nominal h
+(:class:`StepSizes`: the one policy, which the compiled loop follows too,
+returning at every step it cannot converge). If the run
 still cannot go on, it stops with a message in the model's words (time, step
 size, method, Newton norms, the joint with the largest constraint residual)
 and the :class:`~mbdsl.solution.Solution` keeps every accepted step.
@@ -252,10 +254,10 @@ def _fallback(system, method, newton, control, loop, cm, sol, t, end, h, state, 
     h_first [s] (h when None), h [s] the run's nominal (fixed) or current
     (error control) step, and the run's StepSizes (``loop["sizes"]``, as
     the compiled loop left it). Its own Newton may take the step, or the
-    run ends with the diagnosis in the model's words. With fixed steps
-    (``control`` None) it hands the run back as soon as its step is back to
-    h after an accepted step (``hand_back``); with error control it runs to
-    end. ``events``: the compiled loop's ``EventLocator``, which this loop
+    run ends with the diagnosis in the model's words. It hands the run back
+    after an accepted step (with fixed steps, ``control`` None, once its
+    step is back to h; ``hand_back``), the size it planned next in the
+    part's ``next_step``, or at end. ``events``: the compiled loop's ``EventLocator``, which this loop
     goes on with (the contacts' state, armed gaps and impact speeds, as
     they are: a new one would start them afresh and log the closed gaps
     again); None when the loop has none. Appends the part's rows to
@@ -275,7 +277,7 @@ def _fallback(system, method, newton, control, loop, cm, sol, t, end, h, state, 
                                       initial=0.0)),
                          float("nan"), method_state={"aux": aux.copy(), "previous": previous})
     part_loop = dict(loop, output_every=1, progress=None, writer=None,
-                     hand_back=control is None, events=events, h_first=h_first)
+                     hand_back=True, events=events, h_first=h_first)
     timings = dict.fromkeys(Solution.TIMING_NAMES, 0.0)
     part = _driver_loop(system, method, t, end, h, start, Newton(newton), sol.engine, cm,
                         control, timings, _time.perf_counter(), part_loop, engine_note=None)
@@ -333,8 +335,9 @@ def _time_loop(system, method, solver, sol, history, kinds, assembler, t_start, 
     recording into ``sol`` (which holds the initial row); sets its status and
     message (halving, regrowth and the failure report as in the module notes;
     with ``control`` the step sizes of :mod:`.adaptive`). ``hand_back``
-    (fixed steps, the compiled loop's fallback): stop, completed, after the
-    first accepted step from which the next is of the nominal h again;
+    (the compiled loop's fallback): stop, completed, after the first
+    accepted step (fixed steps: from which the next is of the nominal h
+    again), with the next step's size in ``sol.next_step``;
     ``resume_events``: the compiled loop's EventLocator, gone on with;
     ``sizes``: the run's :class:`StepSizes` (a new one when None), the
     first step h_first [s] (h when None).
@@ -463,9 +466,11 @@ def _time_loop(system, method, solver, sol, history, kinds, assembler, t_start, 
                 progress(t, step, res.n_iter)
             if writer is not None and recorded:
                 writer.append(sol)
-            if hand_back and h_cur >= h and sizes.jumped is None and resume is None \
-                    and (events is None or not events.happened) and t < t_end - 1e-9 * h:
+            if hand_back and (adaptive or h_cur >= h) and sizes.jumped is None \
+                    and resume is None and (events is None or not events.happened) \
+                    and t < t_end - 1e-9 * h:
                 sol.status, sol.message = "completed", f"handed back at t = {t:g} s"
+                sol.next_step = h_cur
                 break
         else:
             sol.status, sol.message = "completed", f"reached t_end = {t_end:g} s"

@@ -1115,10 +1115,10 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
     ``fallback(sol, t, end, h, ls.state(...), events, h_first=...)``, the
     driver's time loop on the same kernels (``driver._fallback``), whose
     own Newton may take it or which ends the run with the diagnosis in the
-    model's words, and which appends its rows. With fixed steps it hands
-    the run back once its step is back to h (or at the segment's end), and
-    the loop resumes from the part's end; with error control it takes the
-    rest of the run. Ctrl-C (KeyboardInterrupt, seen between the kernels'
+    model's words, and which appends its rows. It hands the run back after
+    a step accepted (with fixed steps, once its step is back to h) or at
+    the segment's end, and the loop resumes from the part's end (with error
+    control at the size the driver's loop planned next). Ctrl-C (KeyboardInterrupt, seen between the kernels'
     calls): the last accepted state is recorded and the interrupt goes on
     to the driver.
 
@@ -1201,7 +1201,7 @@ class _CompiledRun:
                 status = self.step_on()
                 if status != 0:
                     part = self.hand_over()
-                    if part.status != "completed" or not self.fixed:
+                    if part.status != "completed":
                         sol.status, sol.message = part.status, part.message
                         return sol
                 if self.t >= self.seg_end - 1e-12 * span and switch is not None:
@@ -1344,28 +1344,36 @@ class _CompiledRun:
         return status
 
     def hand_over(self):
-        """The step from t failed: the driver's loop on the same kernels
-        takes over (``fallback``), with fixed steps until its step is back
-        to h (its halvings and regrowth), with error control for the rest
-        of the run; returns its part, the loop's state taken from the part's
-        end."""
+        """The step from t cannot be taken here: the driver's loop on the
+        same kernels takes over (``fallback``) until it has accepted a step
+        (with fixed steps: until its step is back to h) or reached the
+        segment's end, and hands the run back; returns its part, the loop's
+        state taken from the part's end (with error control, the size the
+        driver's loop planned next)."""
         sol, ls, state, h, t = self.sol, self.ls, self.state, self.h, self.t
         sol.stats_total.rejected += 1       # the compiled loop's attempt at the step
         if ls.counts[5]:       # accepted steps since the last record: keep the last
             ls.add_row(sol, t, float(state[3]) or h)
         previous = ls.state(t, float(state[3]))
-        if self.fixed:      # handed back at the segment's end or once back at h
+        # handed back at the segment's end, or after a step accepted (fixed steps: once
+        # back at h)
+        if self.fixed:
             part = self.fallback(sol, t, self.seg_end, h, previous, self.events,
                                  h_first=self.h_cur)
         else:
-            part = self.fallback(sol, t, self.t_end, float(state[1]), previous, self.events)
+            part = self.fallback(sol, t, self.seg_end, float(state[1]), previous, self.events)
         if self.events is not None:
             self.events.sol = sol
-        if part.status == "completed" and self.fixed:
+        if part.status == "completed":
             self.t = float(part.t[-1])
-            state[0], state[1], state[3], state[5] = self.t, h, ls.take(part), 0.0
-            self.h_cur = h
-            self.step_no += int(round((self.t - t) / h))
+            state[0], state[3], state[5] = self.t, ls.take(part), 0.0
+            if self.fixed:
+                state[1] = self.h_cur = h
+                self.step_no += int(round((self.t - t) / h))
+            else:           # the step the driver's loop planned next
+                state[1] = getattr(part, "next_step", None) or float(part.stats["h"][-1])
+                state[6] = 0.0
+                self.step_no += len(part.t) - 1
             self._impact_speeds()
         return part
 

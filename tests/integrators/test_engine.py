@@ -476,6 +476,34 @@ def test_a_two_step_method_handed_to_the_driver_loop_goes_on_with_bdf2(soft_dist
     assert len(b.t) == len(a.t) and np.abs(b.q - a.q).max() < 1e-8
 
 
+def test_with_error_control_the_driver_loop_hands_the_run_back_after_one_step(
+        soft_distance_reference, monkeypatch):
+    """The same model and failures under error control with h_min = h_max =
+    0.5 ms (no smaller step to try): each step the compiled loop cannot
+    converge goes to the driver's loop, which takes it and hands the run
+    back after that one step with the size it planned next, instead of
+    taking the rest of the run (three parts of one step each, measured);
+    the run equals the driver's loop alone to 1e-8 (measured 1.6e-10)."""
+    system, init, _ = soft_distance_reference
+    from mbdsl.integrators import driver
+    parts = []
+    fallback = driver._fallback
+
+    def recorded(*args, **kwargs):
+        part = fallback(*args, **kwargs)
+        parts.append(len(part.t) - 1)
+        return part
+    monkeypatch.setattr(driver, "_fallback", recorded)
+    control = StepControl(rtol=1e-3, atol=1e-3, h_min=5e-4, h_max=5e-4)
+    a = integrate(system, make_method("nstiff-si2"), 0.1, 5e-4, initial=init,
+                  engine="compiled", python_loop=True, control=control)
+    assert not parts
+    b = integrate(system, make_method("nstiff-si2"), 0.1, 5e-4, initial=init,
+                  engine="compiled", control=control)
+    assert parts == [1, 1, 1] and b.engine == "compiled" and b.status == "completed"
+    assert len(b.t) == len(a.t) and np.abs(b.q - a.q).max() < 1e-8
+
+
 @pytest.mark.parametrize("path", [MODELS / "slider_crank_driven.mbd", MODELS / "double_pendulum.mbd",
                                   VALID / "all_elements.mbd", VALID / "friction_elements.mbd",
                                   VALID / "flexible_joints.mbd"])
