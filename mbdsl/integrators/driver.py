@@ -257,10 +257,10 @@ def _fallback(system, method, newton, control, loop, cm, sol, t, end, h, state, 
     run ends with the diagnosis in the model's words. It hands the run back
     after an accepted step (with fixed steps, ``control`` None, once its
     step is back to h; ``hand_back``), the size it planned next in the
-    part's ``next_step``, or at end. ``events``: the compiled loop's ``EventLocator``, which this loop
-    goes on with (the contacts' state, armed gaps and impact speeds, as
-    they are: a new one would start them afresh and log the closed gaps
-    again); None when the loop has none. Appends the part's rows to
+    part's ``next_step``, or at end. ``events``: the compiled loop's
+    ``EventLocator``, which this loop goes on with (the contacts' state,
+    armed gaps and impact speeds, as they are: a new one would start them
+    afresh and log the closed gaps again); None when the loop has none. Appends the part's rows to
     ``sol``; a part that did not complete sets ``sol``'s status, message
     and diagnostics. Returns the part (a Solution).
 
@@ -502,7 +502,7 @@ class StepSizes:
 
     A failed step is halved, down to ``h_min``; with the augmented
     formulation it is first retried once ``JUMP`` times longer (see
-    :func:`failed`). With fixed steps, after ``grow_after`` accepted steps
+    :meth:`failed`). With fixed steps, after ``grow_after`` accepted steps
     at a reduced size the step doubles, back to h at most.
 
     Parameters

@@ -1118,9 +1118,9 @@ def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol
     model's words, and which appends its rows. It hands the run back after
     a step accepted (with fixed steps, once its step is back to h) or at
     the segment's end, and the loop resumes from the part's end (with error
-    control at the size the driver's loop planned next). Ctrl-C (KeyboardInterrupt, seen between the kernels'
-    calls): the last accepted state is recorded and the interrupt goes on
-    to the driver.
+    control at the size the driver's loop planned next). Ctrl-C
+    (KeyboardInterrupt, seen between the kernels' calls): the last accepted
+    state is recorded and the interrupt goes on to the driver.
 
     ``switches``: [(time, text)] of the functions of time
     (``events.switch_times``). The loop runs from switch to switch: a
