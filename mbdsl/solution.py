@@ -420,9 +420,13 @@ class Solution:
         Nominal step size and requested end time.
     initial : InitialState
     last_state : StepState or None
-        The last accepted state of a numpy-engine run with the method's
-        carried values (``extra``), to continue it exactly (the compiled
-        engine resumes from it after a step handed to the numpy engine).
+        The last accepted state of a run of the driver's loop with the
+        method's carried values (``extra``), to continue it exactly (the
+        compiled loop resumes from it after a step handed to the driver's
+        loop).
+    next_step : float or None [s]
+        In a part of the driver's loop that handed the run back to the
+        compiled loop, the size it planned for the next step; else None.
     """
 
     #: Phases of a run's wall time (``timings``), in the order they happen.
@@ -457,6 +461,7 @@ class Solution:
         self.stats_total = RunStats()
         self._rows = _RowStore(system.n, system.m, self._stored_extras)
         self.last_state = None
+        self.next_step = None
         self.energy_start, self.energy_end = None, {}
         #: Contact and limit events: (t [s], gap name, "closed" or "opened",
         #: approach speed [m/s or rad/s]) in time order.
@@ -679,6 +684,7 @@ class Solution:
         self.stats = {k: np.asarray(stats[k]) for k in self.STAT_NAMES}
         self._derived = dict(derived) if derived else None
         self.last_state = None
+        self.next_step = None
         self.energy_start, self.energy_end = None, {}
         return self
 

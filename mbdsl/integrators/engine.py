@@ -1371,7 +1371,7 @@ class _CompiledRun:
                 state[1] = self.h_cur = h
                 self.step_no += int(round((self.t - t) / h))
             else:           # the step the driver's loop planned next
-                state[1] = getattr(part, "next_step", None) or float(part.stats["h"][-1])
+                state[1] = part.next_step or float(part.stats["h"][-1])
                 state[6] = 0.0
                 self.step_no += len(part.t) - 1
             self._impact_speeds()
