@@ -1230,8 +1230,7 @@ class _CompiledRun:
         fallback)."""
         state, K, sizes = self.state, self.K, self.sizes
         h_try = self.h_cur if self.fixed else float(state[1])
-        limit = sizes.steps_before_growth(h_try) if self.fixed else int(sizes.jumped is not None)
-        status, taken = self.attempt(K.RUN, h_try, limit)
+        status, taken = self.attempt(K.RUN, h_try, sizes.steps_before_growth(h_try))
         if taken:                   # (the limit stops the call where the size would change)
             if self.fixed:
                 self.h_cur = sizes.grown(sizes.landed(self.h_cur), taken)
@@ -1243,18 +1242,27 @@ class _CompiledRun:
             return 0
         if status == K.TOLERANCE:
             return status
-        if self.fixed and self.plan.kind == "banded" and self.plan.blocks == 2:
-            self._whole_band()
-        retry = sizes.failed(self.t, float(state[1]), self.t_end)   # Newton did not converge
+        retry = self._retry()
         if retry is None:
             return status
-        self.sol.stats_total.rejected += 1
-        state[6] = 1.0                      # error control: no growth right after it
         if self.fixed:
             self.h_cur = retry
         else:
             state[1] = retry
         return 0
+
+    def _retry(self):
+        """The step of size state[1] from t that Newton did not converge: the
+        size to retry it at (``sizes.failed``), counted as a rejected step,
+        with no growth right after it under error control; None when none is
+        left. HHT-SI2's split band goes on with the whole band matrix."""
+        if self.fixed and self.plan.kind == "banded" and self.plan.blocks == 2:
+            self._whole_band()
+        retry = self.sizes.failed(self.t, float(self.state[1]), self.t_end)
+        if retry is not None:
+            self.sol.stats_total.rejected += 1
+            self.state[6] = 1.0
+        return retry
 
     def attempt(self, mode, h_try, limit=0):
         """Run the kernels' loop in ``mode`` from (t, q, v, ...) with a first
@@ -1317,12 +1325,10 @@ class _CompiledRun:
             elif status in (K.CONVERGED, K.TOLERANCE):
                 break
             else:                         # Newton did not converge: the driver's policy
-                retry = self.sizes.failed(self.t, float(state[1]), self.t_end)
-                if retry is None:
+                h_try = self._retry()
+                if h_try is None:
                     break
-                self.sol.stats_total.rejected += 1
-                state[6] = 1.0
-                mode, h_try = K.ATTEMPT, retry
+                mode = K.ATTEMPT
         if status != 0:
             return status
         # the step taken: its events (none, if it ended before them) from its own ends
@@ -1356,12 +1362,9 @@ class _CompiledRun:
             ls.add_row(sol, t, float(state[3]) or h)
         previous = ls.state(t, float(state[3]))
         # handed back at the segment's end, or after a step accepted (fixed steps: once
-        # back at h)
-        if self.fixed:
-            part = self.fallback(sol, t, self.seg_end, h, previous, self.events,
-                                 h_first=self.h_cur)
-        else:
-            part = self.fallback(sol, t, self.seg_end, float(state[1]), previous, self.events)
+        # back at h, the first step the current size)
+        part = self.fallback(sol, t, self.seg_end, h if self.fixed else float(state[1]),
+                             previous, self.events, h_first=self.h_cur if self.fixed else None)
         if self.events is not None:
             self.events.sol = sol
         if part.status == "completed":
