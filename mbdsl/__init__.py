@@ -177,7 +177,8 @@ def simulate(model: Model, method: str | None = None, h: float | None = None,
     on_failure : {"raise", "return"}
         See :func:`mbdsl.integrators.integrate`.
     progress : callable, optional
-        ``progress(t, h, iterations)`` after each step.
+        ``progress(t, h, iterations)`` as the run goes; see
+        :func:`mbdsl.integrators.integrate`.
     writer : mbdsl.output.CsvStream, optional
         Writes the accepted steps to a file as the run goes.
     engine : {"auto", "numpy", "compiled", "uncompiled"}

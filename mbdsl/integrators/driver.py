@@ -77,11 +77,17 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
     grow_after : int
         Successful steps at a reduced size before the step doubles again.
     progress : callable (t, h, iterations) -> None, optional
+        Told the time t [s] reached, the step h [s] and the Newton
+        iterations: after each step of the driver's loop; the compiled loop
+        tells it at most every ``engine.FLUSH_INTERVAL`` s of wall time and
+        at the end, with its last step and the mean iterations per step
+        since it was last told.
     writer : object with ``append(solution)`` and ``finish(solution)``, optional
         Streams accepted steps to a file as the run goes
         (:class:`mbdsl.output.CsvStream`); ``finish`` runs on every exit,
         including Ctrl-C and an unexpected exception, so no step is lost.
-        Called after each recorded step.
+        Called after each recorded step (the compiled loop: when progress
+        is told).
     output_every : int
         Record every K-th step (and the last one), so that a long run of a
         large model does not hold every step in memory; a recorded row's

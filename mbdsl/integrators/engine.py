@@ -45,6 +45,8 @@ and augmented). Anything else runs on the numpy engine.
 from __future__ import annotations
 
 
+import time as _time
+
 import numpy as np
 import scipy
 
@@ -65,8 +67,15 @@ __all__ = ["ENGINES", "unsupported", "CompiledModel", "select_engine", "prepare_
 #: Engine names accepted by ``integrate(..., engine=...)`` and ``--engine``.
 ENGINES = ("auto", "numpy", "compiled", "uncompiled")
 
-#: Steps per call of the compiled loop (output, progress and Ctrl-C between calls).
+#: Rows the compiled loop's output buffers hold: the loop returns when they are full.
 CHUNK = 2000
+#: The buffered rows go to the Solution, the progress callback and the writer when
+#: the buffers are full, at a boundary of the run (an event landed, a hand-over, a
+#: switch, the end, Ctrl-C), or when this much wall time [s] has passed since they
+#: last went: a run whose steps fail often returns to Python at every failure (the
+#: driver halves), and appending each call's one or two rows to the Solution cost
+#: more than the kernel's step.
+FLUSH_INTERVAL = 0.2
 
 #: The band LU is taken when the reordered Newton matrix has at most this many sub-
 #: and super-diagonals and its band (2 kl + ku + 1 entries per unknown) is at most
@@ -999,6 +1008,9 @@ class _LoopState:
         A two-step method's previous state.
     counts : ndarray of int, shape (6,)
         The ``StepStats`` counts since the last recorded row.
+    buffered : int
+        Rows the loop recorded in the out_* buffers that are not yet in the
+        Solution (:meth:`flush`); the next call records after them.
     F_start : ndarray, shape (n,)
         F_n of the first step when the start's forces are not the law's at
         (q, v, lambda) (friction's Coulomb limit at rest, ``InitialState.Q``);
@@ -1031,6 +1043,7 @@ class _LoopState:
         self.out_q, self.out_v, self.out_a = (np.empty((CHUNK, n)) for _ in range(3))
         self.out_lam, self.out_mu = np.empty((CHUNK, m)), np.empty((CHUNK, m))
         self.out_stats = np.empty((CHUNK, 6), np.int64)
+        self.buffered = 0
         self.no_F = np.full(n, np.nan)
         self.F_start = self.no_F
         if getattr(initial, "Q", None) is not None:
@@ -1074,20 +1087,31 @@ class _LoopState:
         self.q_prev[:], self.v_prev[:] = part.q[-2], part.v[-2]
         return float(spacing)
 
-    def add_rows(self, sol, k, h):
-        """Append the first k rows the loop recorded in the out_* buffers to
-        ``sol``; h [s]: their step size, one or one per row."""
+    def outputs(self):
+        """The out_* buffers past the rows already buffered, for the next call
+        of the loop to record into: (t, h, q, v, a, lam, mu, stats)."""
+        k = self.buffered
+        return (self.out_t[k:], self.out_h[k:], self.out_q[k:], self.out_v[k:],
+                self.out_a[k:], self.out_lam[k:], self.out_mu[k:], self.out_stats[k:])
+
+    def flush(self, sol):
+        """Append the buffered rows (with the step size each was taken at) to
+        ``sol``; returns how many."""
+        k, self.buffered = self.buffered, 0
         if k:
             x = self.extra
             sol.append_block(self.out_t[:k].copy(), self.out_q[:k].copy(),
                              self.out_v[:k].copy(), self.out_a[:k].copy(),
                              self.out_lam[:k].copy(),
                              {x: self.out_mu[:k].copy()} if x is not None else {},
-                             self.out_stats[:k].copy(), h)
+                             self.out_stats[:k].copy(), self.out_h[:k].copy())
+        return k
 
     def add_row(self, sol, t, h):
         """Append the current state at t [s], with the counts since the last
-        record (then zero), to ``sol``; h [s]: its step size."""
+        record (then zero), to ``sol``, after the buffered rows; h [s]: its step
+        size."""
+        self.flush(sol)
         x = self.extra
         sol.append_block(np.array([float(t)]), self.q[None].copy(), self.v[None].copy(),
                          self.a[None].copy(), self.lam[None].copy(),
@@ -1175,6 +1199,8 @@ class _CompiledRun:
         self.step_no, self.t = 0, t_start
         self.seg_end = t_end         # the kernels' loop runs to the end of the segment
         self.events = None
+        self.progress = self.writer = None
+        self.told = (0, 0)           # steps and iterations the progress callback was told of
         self.contacts = system.contact_group is not None
         from .events import EventLocator
         if EventLocator.found_by_steps(system):
@@ -1190,9 +1216,12 @@ class _CompiledRun:
     def run(self, switches, progress, writer):
         """From switch to switch to t_end, landing events and handing failed
         steps over; returns the Solution."""
-        sol, ls, state, K = self.sol, self.ls, self.state, self.K
+        sol, ls, state = self.sol, self.ls, self.state
         span = self.t_end - self.t_start
         segments = _segments(self.t_start, self.t_end, self.h, switches)
+        self.progress, self.writer = progress, writer
+        clock = _time.perf_counter
+        flushed = clock()
         try:
             while self.t < self.t_end - 1e-12 * span:
                 self.seg_end, switch = segments[0][1:]
@@ -1205,20 +1234,39 @@ class _CompiledRun:
                         sol.status, sol.message = part.status, part.message
                         return sol
                 if self.t >= self.seg_end - 1e-12 * span and switch is not None:
+                    ls.flush(sol)
                     self.t = _restart_at_switch(self.system, self.method, sol, switch, self.h,
                                                 ls)
                     state[0], state[3], state[5] = self.t, 0.0, 0.0   # BDF restarts: BDF1
                     segments.pop(0)
-                if progress is not None:
-                    progress(self.t, float(state[1]), int(sol.stats_total.iterations))
-                if writer is not None:
-                    writer.append(sol)
+                if clock() - flushed >= FLUSH_INTERVAL:
+                    self.flush()
+                    flushed = clock()
+            self.flush()
             sol.status, sol.message = "completed", f"reached t_end = {self.t_end:g} s"
         except KeyboardInterrupt:       # the driver marks the run interrupted
+            ls.flush(sol)
             if ls.counts[5]:            # accepted steps since the last record
                 ls.add_row(sol, float(state[0]), float(state[3]) or self.h)
             raise
+        finally:                        # whatever ends the run, no recorded row is lost
+            ls.flush(sol)
         return sol
+
+    def flush(self):
+        """The buffered rows to the Solution, then the progress callback (the
+        mean Newton iterations per step since it was last told) and the
+        writer."""
+        sol = self.sol
+        self.ls.flush(sol)
+        if self.progress is not None:
+            tot = sol.stats_total
+            steps, iterations = tot.steps - self.told[0], tot.iterations - self.told[1]
+            if steps > 0:
+                self.told = (tot.steps, tot.iterations)
+                self.progress(self.t, float(self.state[1]), round(iterations / steps))
+        if self.writer is not None:
+            self.writer.append(sol)
 
     def step_on(self):
         """One call of the kernels' loop from t, at the step the policy has
@@ -1274,14 +1322,15 @@ class _CompiledRun:
         # a new Newton matrix at each call: between calls an event may have changed the
         # contact law (``commit``), a switch the branch, the fallback the state
         ls.lu_state[0] = 0.0
+        if ls.buffered == CHUNK:
+            self.flush()
         status, taken, nrec = self.K.run(
             self.mono, self.cm.ints, self.cm.floats, state[1], self.t, self.seg_end,
             self.step_no, self.every, ls.q, ls.v, ls.a, ls.b, ls.lam, ls.mu, ls.q_prev,
             ls.v_prev, self.ctl, ls.opts, ls.solver, ls.lin, ls.lu_state, ls.R, ls.C, ls.V,
-            ls.out_t, ls.out_h, ls.out_q, ls.out_v, ls.out_a, ls.out_lam, ls.out_mu,
-            ls.out_stats, ls.counts, ls.F_start if self.step_no == 0 else ls.no_F, state,
+            *ls.outputs(), ls.counts, ls.F_start if self.step_no == 0 else ls.no_F, state,
             self.trial)
-        ls.add_rows(self.sol, nrec, ls.out_h[:nrec].copy())
+        ls.buffered += nrec
         if state[2]:                # the error control's rejections: no jump to return from
             self.sol.stats_total.rejected += int(state[2])
             self.sizes.jumped = None
@@ -1358,6 +1407,7 @@ class _CompiledRun:
         driver's loop planned next)."""
         sol, ls, state, h, t = self.sol, self.ls, self.state, self.h, self.t
         sol.stats_total.rejected += 1       # the compiled loop's attempt at the step
+        ls.flush(sol)
         if ls.counts[5]:       # accepted steps since the last record: keep the last
             ls.add_row(sol, t, float(state[3]) or h)
         previous = ls.state(t, float(state[3]))

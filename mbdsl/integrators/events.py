@@ -166,7 +166,7 @@ class EventLocator:
         only as a change of acceleration over the step; resolving the
         contact's own time scale is what keeps its energy (measured on the
         pendulum against a stop, docs/contact.md)."""
-        return float(np.min(self.caps, initial=np.inf))
+        return min(self.caps.tolist(), default=np.inf)    # (np.min: 3 us on a few gaps)
 
     def start(self, t, state):
         """The run starts: every gap open, those closed at the start armed with

@@ -621,6 +621,33 @@ def test_a_failing_compiled_step_is_halved_by_the_driver(monkeypatch, control):
     assert b.t[-1] == 1.0 and np.abs(a.q - b.q).max() < 1e-8
 
 
+def test_the_compiled_loop_tells_progress_and_writer_what_it_recorded():
+    # the rows are buffered across the kernels' calls and go out together: the
+    # progress callback is told the mean Newton iterations per step of the steps
+    # since it was last called (the run's 10776 iterations over 2000 steps: 5),
+    # not the run's total so far, and the writer sees every row, in order
+    system, init = _system(MODELS / "slider_crank.mbd")
+    told, seen = [], []
+
+    class Writer:
+        def append(self, sol):
+            seen.append(sol.n_rows)
+
+        def finish(self, sol):
+            seen.append(len(sol.t))
+
+    sol = integrate(system, make_method("hht-i3"), 2.0, 1e-3, initial=init, engine="compiled",
+                    progress=lambda t, h, it: told.append((t, h, it)), writer=Writer())
+    assert sol.engine == "compiled" and sol.status == "completed"
+    tot = sol.stats_total
+    assert tot.steps == 2000 and 5.0 < tot.iterations / tot.steps < 6.0
+    assert told and told[-1][0] == 2.0 and told[-1][1] == pytest.approx(1e-3)
+    assert all(1 <= it <= 8 for _, _, it in told), told
+    if len(told) == 1:
+        assert told[0][2] == round(tot.iterations / tot.steps)
+    assert seen == sorted(seen) and seen[-1] == len(sol.t) == 2001
+
+
 def test_engine_selection_says_why(monkeypatch):
     flex, _ = _system(MODELS / "flexible_slider_crank.mbd")
     assert all(unsupported(flex, make_method(m)) is None for m in RECIPE_METHODS)
