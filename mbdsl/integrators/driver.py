@@ -27,6 +27,7 @@ from ..errors import ConvergenceError, Diagnostic
 from ..solution import Solution, StepStats
 from .adaptive import StepControl
 from .base import Method
+from .blas_threads import one_thread
 from .events import EventLocator, switch_times, time_switches
 from .newton import Newton, NewtonOptions, NewtonStatus
 
@@ -134,34 +135,35 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
     """
     output_every, control = _checked(h, t_start, t_end, on_failure, output_every, method,
                                      control)
-    which, engine, engine_note = _engine_for(system, method, engine, control,
-                                             compile_policy, announce)
-    solver = Newton(newton)
-    if which == "numpy" and solver.options.linear_solver == "banded":
-        raise ValueError("linear_solver='banded' is a solver of the compiled engine, which "
-                         "cannot run this model or was not asked for")
-    clock = _time.perf_counter
-    timings = dict.fromkeys(Solution.TIMING_NAMES, 0.0)
-    t0 = clock()
-    if initial is None:
-        initial = consistent_initial_state(system, t_start)
-    loop = dict(output_every=output_every, progress=progress, writer=writer,
-                max_halvings=max_halvings, grow_after=grow_after,
-                sizes=StepSizes.of_run(method, h, t_start, t_end, control, max_halvings,
-                                       grow_after))
-    cm = None
-    if which in ("compiled", "uncompiled"):
-        timings["setup"] = clock() - t0
-        sol, cm = _compiled_loop(system, method, t_start, t_end, h, initial, solver, which,
-                                 control, python_loop, announce, timings, loop)
-        if sol is not None:
-            return _result(sol, on_failure)
+    with one_thread():      # small matrices: a threaded BLAS only waits (blas_threads)
+        which, engine, engine_note = _engine_for(system, method, engine, control,
+                                                 compile_policy, announce)
+        solver = Newton(newton)
+        if which == "numpy" and solver.options.linear_solver == "banded":
+            raise ValueError("linear_solver='banded' is a solver of the compiled engine, which "
+                             "cannot run this model or was not asked for")
+        clock = _time.perf_counter
+        timings = dict.fromkeys(Solution.TIMING_NAMES, 0.0)
         t0 = clock()
-    sol = _driver_loop(system, method, t_start, t_end, h, initial, solver, which, cm,
-                       control, timings, t0, loop,
-                       engine_note=(engine_note or _unsupported(system, method)
-                                    if engine in ("auto", "auto_numpy") else None))
-    return _result(sol, on_failure)
+        if initial is None:
+            initial = consistent_initial_state(system, t_start)
+        loop = dict(output_every=output_every, progress=progress, writer=writer,
+                    max_halvings=max_halvings, grow_after=grow_after,
+                    sizes=StepSizes.of_run(method, h, t_start, t_end, control, max_halvings,
+                                           grow_after))
+        cm = None
+        if which in ("compiled", "uncompiled"):
+            timings["setup"] = clock() - t0
+            sol, cm = _compiled_loop(system, method, t_start, t_end, h, initial, solver, which,
+                                     control, python_loop, announce, timings, loop)
+            if sol is not None:
+                return _result(sol, on_failure)
+            t0 = clock()
+        sol = _driver_loop(system, method, t_start, t_end, h, initial, solver, which, cm,
+                           control, timings, t0, loop,
+                           engine_note=(engine_note or _unsupported(system, method)
+                                        if engine in ("auto", "auto_numpy") else None))
+        return _result(sol, on_failure)
 
 
 def _unsupported(system, method):

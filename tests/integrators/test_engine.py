@@ -648,6 +648,29 @@ def test_the_compiled_loop_tells_progress_and_writer_what_it_recorded():
     assert seen == sorted(seen) and seen[-1] == len(sol.t) == 2001
 
 
+@pytest.mark.parametrize("engine", ["compiled", "numpy"])
+def test_a_run_steps_on_one_blas_thread_and_gives_the_threads_back(engine):
+    # a threaded BLAS on a step's small Newton matrices only waits for cores
+    # (mbdsl.integrators.blas_threads): within the run every BLAS library runs one
+    # thread, seen from the run's own progress callback; after it, the count the
+    # caller had set
+    from threadpoolctl import threadpool_info, threadpool_limits
+    system, init = _system(MODELS / "slider_crank.mbd")
+    inside = []
+
+    def progress(t, h, iterations):
+        inside.extend(lib["num_threads"] for lib in threadpool_info()
+                      if lib["user_api"] == "blas")
+
+    with threadpool_limits(limits=2, user_api="blas"):
+        sol = integrate(system, make_method("hht-i3"), 0.05, 1e-3, initial=init,
+                        engine=engine, progress=progress)
+        after = [lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas"]
+    assert sol.status == "completed" and sol.engine == engine
+    assert inside and set(inside) == {1}
+    assert after and set(after) == {2}
+
+
 def test_engine_selection_says_why(monkeypatch):
     flex, _ = _system(MODELS / "flexible_slider_crank.mbd")
     assert all(unsupported(flex, make_method(m)) is None for m in RECIPE_METHODS)
