@@ -1096,7 +1096,7 @@ class _LoopState:
 
     def flush(self, sol):
         """Append the buffered rows (with the step size each was taken at) to
-        ``sol``; returns how many."""
+        ``sol``."""
         k, self.buffered = self.buffered, 0
         if k:
             x = self.extra
@@ -1105,7 +1105,6 @@ class _LoopState:
                              self.out_lam[:k].copy(),
                              {x: self.out_mu[:k].copy()} if x is not None else {},
                              self.out_stats[:k].copy(), self.out_h[:k].copy())
-        return k
 
     def add_row(self, sol, t, h):
         """Append the current state at t [s], with the counts since the last
@@ -1245,7 +1244,6 @@ class _CompiledRun:
             self.flush()
             sol.status, sol.message = "completed", f"reached t_end = {self.t_end:g} s"
         except KeyboardInterrupt:       # the driver marks the run interrupted
-            ls.flush(sol)
             if ls.counts[5]:            # accepted steps since the last record
                 ls.add_row(sol, float(state[0]), float(state[3]) or self.h)
             raise
@@ -1264,7 +1262,8 @@ class _CompiledRun:
             steps, iterations = tot.steps - self.told[0], tot.iterations - self.told[1]
             if steps > 0:
                 self.told = (tot.steps, tot.iterations)
-                self.progress(self.t, float(self.state[1]), round(iterations / steps))
+                h_last = float(self.state[3]) or float(self.state[1])  # 0: after a restart
+                self.progress(self.t, h_last, round(iterations / steps))
         if self.writer is not None:
             self.writer.append(sol)
 
