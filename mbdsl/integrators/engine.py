@@ -1008,9 +1008,12 @@ class _LoopState:
         A two-step method's previous state.
     counts : ndarray of int, shape (6,)
         The ``StepStats`` counts since the last recorded row.
-    buffered : int
-        Rows the loop recorded in the out_* buffers that are not yet in the
-        Solution (:meth:`flush`); the next call records after them.
+    buffered, sent : int
+        Rows the loop recorded in the out_* buffers, and how many of them are
+        in the Solution (:meth:`flush`); the next call records after them,
+        into the rest of the buffers, so where a call ends (and the next
+        starts a new Newton matrix) follows from the steps alone, never from
+        when the rows were sent.
     F_start : ndarray, shape (n,)
         F_n of the first step when the start's forces are not the law's at
         (q, v, lambda) (friction's Coulomb limit at rest, ``InitialState.Q``);
@@ -1043,7 +1046,7 @@ class _LoopState:
         self.out_q, self.out_v, self.out_a = (np.empty((CHUNK, n)) for _ in range(3))
         self.out_lam, self.out_mu = np.empty((CHUNK, m)), np.empty((CHUNK, m))
         self.out_stats = np.empty((CHUNK, 6), np.int64)
-        self.buffered = 0
+        self.buffered = self.sent = 0
         self.no_F = np.full(n, np.nan)
         self.F_start = self.no_F
         if getattr(initial, "Q", None) is not None:
@@ -1095,16 +1098,19 @@ class _LoopState:
                 self.out_a[k:], self.out_lam[k:], self.out_mu[k:], self.out_stats[k:])
 
     def flush(self, sol):
-        """Append the buffered rows (with the step size each was taken at) to
-        ``sol``."""
-        k, self.buffered = self.buffered, 0
-        if k:
+        """Append the buffered rows not yet sent (with the step size each was
+        taken at) to ``sol``; full buffers start again from their first row."""
+        i, k = self.sent, self.buffered
+        if k > i:
             x = self.extra
-            sol.append_block(self.out_t[:k].copy(), self.out_q[:k].copy(),
-                             self.out_v[:k].copy(), self.out_a[:k].copy(),
-                             self.out_lam[:k].copy(),
-                             {x: self.out_mu[:k].copy()} if x is not None else {},
-                             self.out_stats[:k].copy(), self.out_h[:k].copy())
+            sol.append_block(self.out_t[i:k].copy(), self.out_q[i:k].copy(),
+                             self.out_v[i:k].copy(), self.out_a[i:k].copy(),
+                             self.out_lam[i:k].copy(),
+                             {x: self.out_mu[i:k].copy()} if x is not None else {},
+                             self.out_stats[i:k].copy(), self.out_h[i:k].copy())
+        self.sent = k
+        if k == CHUNK:
+            self.buffered = self.sent = 0
 
     def add_row(self, sol, t, h):
         """Append the current state at t [s], with the counts since the last

@@ -648,6 +648,25 @@ def test_the_compiled_loop_tells_progress_and_writer_what_it_recorded():
     assert seen == sorted(seen) and seen[-1] == len(sol.t) == 2001
 
 
+def test_when_the_rows_go_out_does_not_change_them(monkeypatch):
+    # the compiled loop's rows go to the Solution every FLUSH_INTERVAL of wall
+    # time; the steps must not depend on it (a kernel call starts a new Newton
+    # matrix, so where the calls end must follow from the steps alone): the
+    # clearance slider crank, whose contact events make the loop return 40 times
+    # in 0.1 s, with rows sent after every call and never before the end
+    system, init = _system(MODELS / "slider_crank_clearance.mbd")
+    runs = []
+    for interval in (0.0, np.inf):
+        monkeypatch.setattr(engine_module, "FLUSH_INTERVAL", interval)
+        runs.append(integrate(system, make_method("hht-i3"), 0.1, 1e-4, initial=init,
+                              engine="compiled", control=StepControl(rtol=1e-6, atol=1e-6)))
+    a, b = runs
+    assert a.engine == b.engine == "compiled" and a.status == b.status == "completed"
+    assert len(a.events) > 5 and a.events == b.events
+    assert np.array_equal(a.t, b.t) and np.array_equal(a.q, b.q)
+    assert np.array_equal(a.stats["iterations"], b.stats["iterations"])
+
+
 @pytest.mark.parametrize("engine", ["compiled", "numpy"])
 def test_a_run_steps_on_one_blas_thread_and_gives_the_threads_back(engine):
     # a threaded BLAS on a step's small Newton matrices only waits for cores
