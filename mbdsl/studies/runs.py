@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["ModelSource", "RunSpec", "RunData", "execute_run", "total_energy",
+__all__ = ["ModelSource", "RunSpec", "RunData", "execute_run", "time_run", "total_energy",
            "joint_velocity_violation"]
 
 
@@ -217,8 +217,7 @@ def execute_run(source: ModelSource, spec: RunSpec) -> RunData:
         sol, status, message = err.solution, "failed", str(err)
     times = [sol.wall_time]
     if status == "completed" and spec.repeat:      # the first run was the warm-up
-        times = [simulate(model, method=spec.method, h=spec.h, t_end=spec.t_end,
-                          **coef).wall_time for _ in range(spec.repeat)]
+        times = [time_run(source, spec) for _ in range(spec.repeat)]
     tot = sol.stats_total
     stats = {k: int(getattr(tot, k)) for k in
              ("steps", "rejected", "iterations", "residuals", "jacobians", "factorizations")}
@@ -233,6 +232,17 @@ def execute_run(source: ModelSource, spec: RunSpec) -> RunData:
     if spec.drift_joint:
         data.drift = joint_velocity_violation(sol, spec.drift_joint)
     return data
+
+
+def time_run(source: ModelSource, spec: RunSpec) -> float:
+    """One more run of ``spec`` (one that completed before): the wall time of
+    its time loop [s] (``Solution.wall_time``)."""
+    from .. import simulate
+    coef = dict(spec.coefficients)
+    if spec.tol is not None:
+        coef.update(rtol=spec.tol, atol=spec.tol)
+    return simulate(source.load(), method=spec.method, h=spec.h, t_end=spec.t_end,
+                    **coef).wall_time
 
 
 def total_energy(system, q: np.ndarray, v: np.ndarray) -> np.ndarray:

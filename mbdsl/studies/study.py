@@ -134,7 +134,9 @@ class StudyOptions:
     h_single : float or None [s]
         Step of the drift and cost studies (default: the middle of ``hs``).
     jobs : int or None
-        Local worker processes (default: the number of cores).
+        Local worker processes for the runs that are not timed (default: the
+        number of cores); the timed ones run one at a time, after them
+        (``parallel.run_specs``).
     scheduler : str or None
         Dask scheduler address.
     tols : tuple of float
@@ -674,7 +676,8 @@ def _cost(o, runs, ref, model, **_):
                            s["iterations"] / steps, s["jacobians"], s["factorizations"],
                            s["residuals"], "completed" if run.completed else
                            f"failed at t = {run.t_stop:.4g} s"])
-    table.notes.append(f"{len(o.methods)} runs timed in {'a Dask cluster' if o.scheduler else 'worker processes' if (o.jobs or default_jobs()) > 1 else 'this process'}; "
+    where = "a Dask cluster" if o.scheduler else "this process, one at a time"
+    table.notes.append(f"{len(o.methods)} runs timed in {where}; "
                        f"machine: {platform.machine()}, {os.cpu_count()} cores")
     panel = Panel(f"CPU time relative to {base_m}", "method", "relative time",
                   [Series("relative time", np.array(o.methods), np.array(rel), "bar")])

@@ -344,3 +344,24 @@ def test_work_precision_by_tolerance(tmp_path):
         steps = [int(r["steps"]) for r in rows if r["method"] == method]
         assert errors[0] > 10 * errors[-1] and steps[0] < steps[1] < steps[2]
         assert all(r["engine"] == "compiled/dense" for r in rows if r["method"] == method)
+
+
+def test_timed_runs_go_one_at_a_time_after_the_others():
+    # two runs timed at once on shared cores disturb each other's time: with two
+    # workers the untimed runs share the pool, and the timed ones follow in this
+    # process, one at a time, each with its warm-up and its repeats; their results
+    # are those of a run alone
+    from mbdsl.studies.parallel import run_specs
+    from mbdsl.studies.runs import ModelSource, RunSpec
+    source = ModelSource(PENDULUM.read_text(), str(PENDULUM))
+    specs = [RunSpec("hht-i3", h, 0.2, repeat=r) for h, r in
+             ((0.01, 2), (0.02, 0), (0.005, 0), (0.04, 2), (0.0025, 0))]
+    order = []
+    out = run_specs(source, specs, jobs=2, on_done=lambda data: order.append(data.spec))
+    assert [d.spec for d in out] == specs
+    assert [s.repeat for s in order] == [0, 0, 0, 2, 2]       # the timed ones last
+    assert [s.h for s in order[3:]] == [0.01, 0.04]             # in the order given
+    for data in out:
+        assert data.completed and len(data.wall_times) == max(data.spec.repeat, 1)
+    alone = run_specs(source, [specs[0]], jobs=1)[0]
+    assert np.array_equal(alone.q_end, out[0].q_end) and alone.stats == out[0].stats
