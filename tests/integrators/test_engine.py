@@ -648,6 +648,27 @@ def test_the_compiled_loop_tells_progress_and_writer_what_it_recorded():
     assert seen == sorted(seen) and seen[-1] == len(sol.t) == 2001
 
 
+def test_ctrl_c_reaches_a_compiled_run_that_records_every_500th_step(monkeypatch):
+    # the compiled loop takes CHUNK (2000) steps in a call at most, whatever the
+    # output stride: an interrupt raised by the progress callback (told after
+    # every call here) once t >= 1 s ends the 6 s run at the first call's end,
+    # t = 2 s, not at t_end; the rows are the uninterrupted run's, bit for bit
+    monkeypatch.setattr(engine_module, "FLUSH_INTERVAL", 0.0)
+    system, init = _system(MODELS / "slider_crank.mbd")
+    options = dict(initial=init, engine="compiled", output_every=500)
+    full = integrate(system, make_method("hht-i3"), 6.0, 1e-3, **options)
+
+    def progress(t, h, iterations):
+        if t >= 1.0:
+            raise KeyboardInterrupt
+
+    cut = integrate(system, make_method("hht-i3"), 6.0, 1e-3, progress=progress,
+                    on_failure="return", **options)
+    assert full.status == "completed" and cut.status == "interrupted"
+    np.testing.assert_allclose(cut.t, [0.0, 0.5, 1.0, 1.5, 2.0], rtol=0, atol=1e-12)
+    assert np.array_equal(cut.q, full.q[:5]) and np.array_equal(cut.lam, full.lam[:5])
+
+
 def test_when_the_rows_go_out_does_not_change_them(monkeypatch):
     # the compiled loop's rows go to the Solution every FLUSH_INTERVAL of wall
     # time; the steps must not depend on it (a kernel call starts a new Newton
