@@ -207,11 +207,9 @@ def execute_run(source: ModelSource, spec: RunSpec) -> RunData:
     """
     from .. import ConvergenceError, simulate
     model = source.load()
-    coef = dict(spec.coefficients)
-    if spec.tol is not None:
-        coef.update(rtol=spec.tol, atol=spec.tol)
     try:
-        sol = simulate(model, method=spec.method, h=spec.h, t_end=spec.t_end, **coef)
+        sol = simulate(model, method=spec.method, h=spec.h, t_end=spec.t_end,
+                       **_coefficients(spec))
         status, message = "completed", ""
     except ConvergenceError as err:
         sol, status, message = err.solution, "failed", str(err)
@@ -238,11 +236,17 @@ def time_run(source: ModelSource, spec: RunSpec) -> float:
     """One more run of ``spec`` (one that completed before): the wall time of
     its time loop [s] (``Solution.wall_time``)."""
     from .. import simulate
+    return simulate(source.load(), method=spec.method, h=spec.h, t_end=spec.t_end,
+                    **_coefficients(spec)).wall_time
+
+
+def _coefficients(spec: RunSpec) -> dict:
+    """The keyword arguments of ``simulate`` for ``spec``'s method
+    coefficients and, with ``spec.tol``, its error-controlled steps."""
     coef = dict(spec.coefficients)
     if spec.tol is not None:
         coef.update(rtol=spec.tol, atol=spec.tol)
-    return simulate(source.load(), method=spec.method, h=spec.h, t_end=spec.t_end,
-                    **coef).wall_time
+    return coef
 
 
 def total_energy(system, q: np.ndarray, v: np.ndarray) -> np.ndarray:
