@@ -36,3 +36,19 @@ def handed_over(monkeypatch):
         return fallback(*args, **kwargs)
     monkeypatch.setattr(driver, "_fallback", counted)
     return times
+
+
+def interrupted_run(system, t_end, at, **options):
+    """(the uninterrupted run, the run interrupted): HHT-I3 at h = 1e-3 s from
+    0 to t_end [s] with ``options`` (``integrate``'s), and the same run whose
+    progress callback raises KeyboardInterrupt (Ctrl-C) once t >= at [s]."""
+    from mbdsl.integrators import integrate, make_method
+    full = integrate(system, make_method("hht-i3"), t_end, 1e-3, **options)
+
+    def progress(t, h, iterations):
+        if t >= at:
+            raise KeyboardInterrupt
+
+    cut = integrate(system, make_method("hht-i3"), t_end, 1e-3, progress=progress,
+                    on_failure="return", **options)
+    return full, cut

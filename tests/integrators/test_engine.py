@@ -26,7 +26,7 @@ from mbdsl.integrators.common import force_term
 from mbdsl.integrators.engine import (CompiledModel, SparseAdapter, band_ordering,
                                      linear_solver_plan, select_engine, unsupported)
 
-from ..conftest import MODELS
+from ..conftest import MODELS, interrupted_run
 
 VALID = MODELS.parent / "tests" / "dsl" / "valid"
 #: The methods the kernels run from their recipes.
@@ -655,15 +655,8 @@ def test_ctrl_c_reaches_a_compiled_run_that_records_every_500th_step(monkeypatch
     # t = 2 s, not at t_end; the rows are the uninterrupted run's, bit for bit
     monkeypatch.setattr(engine_module, "FLUSH_INTERVAL", 0.0)
     system, init = _system(MODELS / "slider_crank.mbd")
-    options = dict(initial=init, engine="compiled", output_every=500)
-    full = integrate(system, make_method("hht-i3"), 6.0, 1e-3, **options)
-
-    def progress(t, h, iterations):
-        if t >= 1.0:
-            raise KeyboardInterrupt
-
-    cut = integrate(system, make_method("hht-i3"), 6.0, 1e-3, progress=progress,
-                    on_failure="return", **options)
+    full, cut = interrupted_run(system, 6.0, 1.0, initial=init, engine="compiled",
+                                output_every=500)
     assert full.status == "completed" and cut.status == "interrupted"
     np.testing.assert_allclose(cut.t, [0.0, 0.5, 1.0, 1.5, 2.0], rtol=0, atol=1e-12)
     assert np.array_equal(cut.q, full.q[:5]) and np.array_equal(cut.lam, full.lam[:5])

@@ -15,7 +15,7 @@ import mbdsl
 from mbdsl.cli.main import main
 from mbdsl.output import read_csv_metadata
 
-from ..conftest import MODELS
+from ..conftest import MODELS, interrupted_run
 
 INVALID = Path(__file__).resolve().parents[1] / "dsl" / "invalid"
 
@@ -206,20 +206,11 @@ def test_an_interrupted_compiled_run_keeps_every_accepted_step(engine, control):
     (here raised by its progress callback once t >= 1 s, deterministic):
     status interrupted, its time in the message, and every recorded row is
     the uninterrupted run's, bit for bit."""
-    from mbdsl.integrators import integrate, make_method
     from mbdsl.integrators.adaptive import StepControl
     system = mbdsl.assemble(mbdsl.load(MODELS / "slider_crank.mbd"))
     init = mbdsl.consistent_initial_state(system)
-    options = dict(initial=init, engine=engine,
-                   control=StepControl(rtol=1e-6, atol=1e-8) if control else None)
-    full = integrate(system, make_method("hht-i3"), 3.0, 1e-3, **options)
-
-    def progress(t, h, iterations):
-        if t >= 1.0:
-            raise KeyboardInterrupt
-
-    cut = integrate(system, make_method("hht-i3"), 3.0, 1e-3, progress=progress,
-                    on_failure="return", **options)
+    full, cut = interrupted_run(system, 3.0, 1.0, initial=init, engine=engine,
+                                control=StepControl(rtol=1e-6, atol=1e-8) if control else None)
     assert full.status == "completed" and cut.status == "interrupted"
     assert cut.engine == engine
     k = len(cut.t)
