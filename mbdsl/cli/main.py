@@ -119,7 +119,8 @@ def build_parser() -> argparse.ArgumentParser:
                     "comma-separated, each run starting from the largest h")
     st.add_argument("--repeat", type=int, default=3,
                     help="timed repeats of the cost and work-precision runs (median; default 3)")
-    st.add_argument("--jobs", type=int, help="worker processes for the runs that are not timed (default: the "
+    st.add_argument("--jobs", type=int,
+                    help="worker processes for the runs that are not timed (default: the "
                          "number of cores); timed runs go one at a time")
     st.add_argument("--scheduler", help="address of a Dask scheduler (tcp://host:8786) to run "
                     "on instead of local processes (needs mbdsl[cluster])")

@@ -80,9 +80,9 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
     progress : callable (t, h, iterations) -> None, optional
         Told the time t [s] reached, the step h [s] and the Newton
         iterations: after each step of the driver's loop; the compiled loop
-        tells it at most every ``engine.FLUSH_INTERVAL`` s of wall time and
-        at the end, with its last step and the mean iterations per step
-        since it was last told.
+        tells it when its rows go out (full buffers, every
+        ``engine.FLUSH_INTERVAL`` s of wall time, the end), with its last
+        step and the mean iterations per step since it was last told.
     writer : object with ``append(solution)`` and ``finish(solution)``, optional
         Streams accepted steps to a file as the run goes
         (:class:`mbdsl.output.CsvStream`); ``finish`` runs on every exit,
