@@ -420,13 +420,10 @@ class Solution:
         Nominal step size and requested end time.
     initial : InitialState
     last_state : StepState or None
-        The last accepted state of a run of the driver's loop with the
-        method's carried values (``extra``), to continue it exactly (the
-        compiled loop resumes from it after a step handed to the driver's
-        loop).
-    next_step : float or None [s]
-        In a part of the driver's loop that handed the run back to the
-        compiled loop, the size it planned for the next step; else None.
+        The run's last accepted state with the method's carried values
+        (``extra``: its extra multipliers, generalized-alpha's auxiliary
+        acceleration ``aux``), to continue it exactly
+        (``InitialState.method_state``).
     """
 
     #: Phases of a run's wall time (``timings``), in the order they happen.
@@ -461,7 +458,6 @@ class Solution:
         self.stats_total = RunStats()
         self._rows = _RowStore(system.n, system.m, self._stored_extras)
         self.last_state = None
-        self.next_step = None
         self.energy_start, self.energy_end = None, {}
         #: Contact and limit events: (t [s], gap name, "closed" or "opened",
         #: approach speed [m/s or rad/s]) in time order.
@@ -517,23 +513,6 @@ class Solution:
         tot.jacobians += int(sums[2])
         tot.factorizations += int(sums[3])
         tot.multipliers_stalled += int(sums[4])
-
-    def extend(self, other: "Solution", start: int = 0) -> None:
-        """Record the rows of another run of the same method (its rows as
-        stored, before any output mapping) from row ``start`` on, with its
-        totals (rejected steps included), its events and its contact log
-        (the other run started its own: ``EventLocator.start``)."""
-        k = other.n_rows - start
-        if k > 0:
-            self._rows.extend(other._rows.get(start, other.n_rows))
-        self.events += other.events
-        self.event_cuts += other.event_cuts
-        if other.contact_log is not self.contact_log:
-            self.contact_log = list(self.contact_log) + list(other.contact_log)
-        tot, o = self.stats_total, other.stats_total
-        for name in ("steps", "iterations", "residuals", "jacobians", "factorizations",
-                     "rejected", "multipliers_stalled"):
-            setattr(tot, name, getattr(tot, name) + getattr(o, name))
 
     def amend_last(self, t: float | None = None, a=None, lam=None,
                    extras: dict | None = None) -> None:
@@ -684,7 +663,6 @@ class Solution:
         self.stats = {k: np.asarray(stats[k]) for k in self.STAT_NAMES}
         self._derived = dict(derived) if derived else None
         self.last_state = None
-        self.next_step = None
         self.energy_start, self.energy_end = None, {}
         return self
 

@@ -25,16 +25,19 @@ def slider_crank_reference():
 
 @pytest.fixture
 def handed_over(monkeypatch):
-    """The times [s] at which a compiled loop handed a step to the driver's
-    loop (``driver._fallback``), in a list that fills as runs go."""
-    from mbdsl.integrators import driver
+    """The times [s] at which the time loop handed a step the compiled loop
+    could not take to its fallback, the Python stepper
+    (``loop.TimeLoop._fall_back``), in a list that fills as runs go."""
+    from mbdsl.integrators.loop import TimeLoop
     times = []
-    fallback = driver._fallback
+    fall_back = TimeLoop._fall_back
 
-    def counted(*args, **kwargs):
-        times.append(args[7])          # (system, method, newton, control, loop, cm, sol, t, ...)
-        return fallback(*args, **kwargs)
-    monkeypatch.setattr(driver, "_fallback", counted)
+    def counted(self):
+        took = fall_back(self)
+        if took:
+            times.append(self.t)
+        return took
+    monkeypatch.setattr(TimeLoop, "_fall_back", counted)
     return times
 
 

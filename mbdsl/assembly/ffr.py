@@ -59,7 +59,7 @@ columns, shape integrals, stiffness and strain data, which
 ``integrators.engine.CompiledModel`` packs for the kernels. The physics
 above is evaluated once, by the kernels of ``integrators/compiled.py``
 (``_ffr_local``, ``_ffr_energy``): the compiled time loops call them
-directly, and everything else (the driver's loop, the initial conditions,
+directly, and everything else (the numpy engine, the initial conditions,
 the output's energies) through this group's methods, on the compiled
 kernels when this process can call them without compiling, else on their
 uncompiled copy (``AssembledSystem.kernel_model``). An independent numpy

@@ -69,6 +69,10 @@ from numba.extending import intrinsic
 
 from ..dsl.expressions import OPCODES
 from ..model.contact import SPEED_FLOOR as _CONTACT_SPEED_FLOOR
+# The time loop's modes and statuses (Newton's, the tolerance at h_min, an event, a
+# rejection in a single-attempt mode): one contract for every stepper (outcomes.py).
+from .outcomes import (ATTEMPT, CONVERGED, DIVERGING, EVENT, LAND, MAX_ITER,  # noqa: F401
+                       NONFINITE, REJECTED, RUN, SINGULAR, TOLERANCE)
 from .recipe import RECIPE_FIELDS
 
 __all__ = ["MODEL_SCHEMA", "MODEL_FIELDS", "residual", "jacobian_triplets", "force_term", "old_force",
@@ -100,16 +104,6 @@ DENSE, BANDED = 0, 1
 #: The two forms of a recipe: the linear family, and HHT with additive corrections.
 LINEAR, ADDITIVE = 0, 1
 
-#: Newton status codes (same meaning as ``NewtonStatus``), and the time loop's with
-#: error control: the tolerance not met at the smallest step.
-CONVERGED, MAX_ITER, DIVERGING, SINGULAR, NONFINITE, TOLERANCE = 0, 1, 2, 3, 4, 5
-#: The time loop's returns at contact events: a converged step that
-#: changes the sign of a gap, not taken (its end in ``trial``); in a single-attempt
-#: mode, a step its error estimate rejects (``_run``).
-EVENT, REJECTED = 6, 7
-#: Modes of ``_run`` (``state[4]``): run on, returning at an event; one
-#: attempt, returning at an event; one attempt, taken whatever its gaps do.
-RUN, ATTEMPT, LAND = 0, 1, 2
 
 #: The model data's schema, one entry per field: (name, "i" or "f", columns per
 #: instance; 0 for a 1-D field). Packing (``pack``), the kernels' named access (the
@@ -3544,8 +3538,8 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
     shortened to land on t_end; no error estimate. Either way a step Newton
     cannot converge ends the call at once (its Newton status, with the
     step's size in state[1]): halving, the augmented formulation's jump and
-    any hand-over are the driver's (``driver.StepSizes``, through
-    ``engine._CompiledRun``).
+    any hand-over are the time loop's (``loop.TimeLoop``, ``loop.StepSizes``;
+    this loop is its ``engine.KernelStepper``).
 
     Every ``every``-th accepted step (global number step0 + k) and the last
     one are recorded in the out_* arrays with their step size in out_h and
@@ -3612,7 +3606,7 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
         if t_end - (t + step) < 1e-6 * step:      # land on t_end, never leave a sliver
             step = t_end - t
         # the step's end time, a compensated (Kahan) sum with the carry in state[5], as
-        # the driver's loop keeps t: exact to round-off over 1e6 steps
+        # the Python stepper keeps t: exact to round-off over 1e6 steps
         if step == t_end - t:
             t_new, carry = t_end, 0.0
         else:

@@ -5,30 +5,29 @@ Every method that states itself as a recipe (``Method.kernel_recipe``,
 the kernels hold no method name.
 
 Three ways of running, chosen by the size and structure of the Newton
-matrix (:func:`linear_solver_plan`):
+matrix (:func:`linear_solver_plan`), each a stepper of the one time loop
+(``loop.TimeLoop``), which records output, reports progress, lands steps on
+events and switches, halves failed steps and lets Ctrl-C through:
 
-* up to ``DENSE_LIMIT`` unknowns, the whole time loop runs compiled
+* up to ``DENSE_LIMIT`` unknowns, the steps run compiled
   (:func:`mbdsl.integrators.compiled.run`: one loop for fixed and
-  error-controlled steps) with an explicit inverse, in chunks between
-  which Python (:func:`run_compiled`) records output, reports progress,
-  lands steps on events and switches, and lets Ctrl-C through;
+  error-controlled steps, up to ``loop.CHUNK`` steps a call;
+  :class:`KernelStepper`) with an explicit inverse;
 * above it, when a bandwidth-reducing ordering (reverse Cuthill-McKee,
   scipy.sparse.csgraph) makes the Newton matrix narrow-banded (chains,
   linkages built link by link), the same compiled loop with LAPACK's band
   LU (dgbtrf/dgbtrs, called from the kernels);
-* otherwise, the shared Python time loop and Newton iteration
-  (:mod:`.driver`, :mod:`.newton`) with compiled residuals, Newton
-  matrices assembled on a CSC pattern fixed at the start, and SuperLU.
+* otherwise, the Python Newton iteration (``loop.PythonStepper``,
+  :mod:`.newton`) on compiled residuals and Newton matrices assembled on a
+  CSC pattern fixed at the start (:class:`SparseAdapter`), with SuperLU.
 
-A step the compiled loop cannot converge is handed to the driver's time loop
-on the same kernels, the ``fallback`` the driver gives the compiled loop
-(``driver._fallback``: its Newton, its halvings, the augmented formulation's
-jump), which retries it with smaller
-steps and, if the run cannot go on, writes the failure in the model's words;
-the compiled loop resumes after it. The same source runs uncompiled
-(``engine="uncompiled"``, :func:`.kernel_cache.uncompiled_kernels`) for
-debugging. The numpy engine computes the same equations with independent
-code; ``tests/integrators/test_engine.py`` checks that they agree.
+A step the compiled loop cannot take at all goes to the Python stepper on
+the same kernels, the time loop's ``fallback``, whose own Newton may take
+it, or which writes the failure in the model's words; the compiled loop
+resumes after it. The same source runs uncompiled (``engine="uncompiled"``,
+:func:`.kernel_cache.uncompiled_kernels`) for debugging. The numpy engine
+computes the methods' residuals and Newton matrices with independent code;
+``tests/integrators/test_engine.py`` checks that they agree.
 
 What the kernels cover (:func:`unsupported` says why a model or method is not):
 the methods with a recipe;
@@ -37,15 +36,14 @@ point_on_line, prismatic, fixed and distance joints (also on beam points); drive
 functions of time (compiled from the language's expressions); loads of the
 state (torques, joint torques and joint forces reading the motion);
 spring-dampers (also between beam points), rotational spring-dampers,
-friction in joints, contacts and joint limits (with their events: see
-``run_compiled``), gravity; both constraint formulations (Lagrange
+friction in joints, contacts and joint limits (with their events:
+``loop.TimeLoop.land``), gravity; both constraint formulations (Lagrange
 and augmented). Anything else runs on the numpy engine.
 """
 
 from __future__ import annotations
 
 
-import time as _time
 
 import numpy as np
 import scipy
@@ -57,28 +55,14 @@ from ..assembly.groups import (CoincidenceGroup, DistanceGroup, FrictionGroup,
                                StateTorqueGroup, TorqueGroup)
 from ..assembly.sparse import DENSE_LIMIT
 from .base import StepState
-from .events import restart_after_switch, switch_gap
 
 __all__ = ["ENGINES", "unsupported", "CompiledModel", "select_engine", "prepare_compiled",
-           "run_compiled",
+           "KernelStepper",
            "newton_size", "SparseAdapter", "LinearSolverPlan", "linear_solver_plan", "band_plan",
            "band_ordering"]
 
 #: Engine names accepted by ``integrate(..., engine=...)`` and ``--engine``.
 ENGINES = ("auto", "numpy", "compiled", "uncompiled")
-
-#: Rows the compiled loop's output buffers hold, and the steps it takes in one call at
-#: most: it returns when either is reached. Ctrl-C and the progress callback are seen
-#: between calls, so with ``output_every`` K a call must not take CHUNK K steps
-#: (a chain of 1000 links, 1.6 ms a step, recording every 100th: 5 minutes).
-CHUNK = 2000
-#: The buffered rows go to the Solution, the progress callback and the writer when
-#: the buffers are full, at a boundary of the run (an event landed, a hand-over, a
-#: switch, the end, Ctrl-C), or when this much wall time [s] has passed since they
-#: last went: a run whose steps fail often returns to Python at every failure (the
-#: driver halves), and appending each call's one or two rows to the Solution cost
-#: more than the kernel's step.
-FLUSH_INTERVAL = 0.2
 
 #: The band LU is taken when the reordered Newton matrix has at most this many sub-
 #: and super-diagonals and its band (2 kl + ku + 1 entries per unknown) is at most
@@ -390,7 +374,7 @@ def prepare_compiled(system, method, options, q, announce=None, python_loop=Fals
     """(CompiledModel, LinearSolverPlan, seconds): the kernels' model data and
     linear solver for a run from configuration q (n,), with every kernel the
     run calls loaded (compiled first, announced, if not built for this
-    machine; ``python_loop``: the driver's time loop on the kernels' residual and
+    machine; ``python_loop``: the Python stepper on the kernels' residual and
     Newton matrix, ``SparseAdapter``; ``uncompiled``: the kernels run by the
     interpreter, nothing compiled or loaded); the seconds are the time this
     took, never step time."""
@@ -954,102 +938,45 @@ def linear_solver_plan(system, method, options, q, cm=None, split_si2=True) -> L
 # The compiled time loop (small systems)
 # ---------------------------------------------------------------------------------------------
 
-def _segments(t_start, t_end, h, switches):
-    """[(start, end, switch or None)]: the stretches of [t_start, t_end] between
-    the switches of functions of time (``events.switch_times``): each ends
-    ``events.switch_gap`` (SWITCH_GAP h) before its switch (time, text), the
-    next starts as far after it."""
-    out, start = [], t_start
-    for t_switch, text in switches:
-        out.append((start, t_switch - switch_gap(h, t_switch), (t_switch, text)))
-        start = t_switch + switch_gap(h, t_switch)
-    return out + [(start, t_end, None)]
+class KernelStepper:
+    """The compiled loop (``compiled.run``) as a stepper of ``loop.TimeLoop``:
+    up to CHUNK steps in one call, its own Newton iteration with the linear
+    solver of ``plan`` ("dense": explicit inverse; "banded": LAPACK's band
+    LU), recording into the loop's buffers.
 
-
-def _restart_at_switch(system, method, sol, switch, h, ls) -> float:
-    """A compiled loop ended a segment ``SWITCH_GAP`` h before ``switch``
-    (time, text), with a row there: record the event, put the new branch's
-    state just past it (``events.restart_after_switch``) into the loop's
-    a, lam, b (auxiliary acceleration) and mu (the method's ``extra``
-    multipliers) (``ls``, a :class:`_LoopState`), in place, and into that
-    row, as the driver's loop records a switch. Returns the restart's time
-    [s]."""
-    t_switch, text = switch
-    sol.events.append((t_switch, text, "switched", 0.0))
-    t_new = t_switch + switch_gap(h, t_switch)
-    new = restart_after_switch(system, method, t_new, ls.q, ls.v)
-    extra = ls.extra
-    if new is not None:
-        ls.a[:], ls.lam[:] = new.a, new.lam
-        if "aux" in new.extra:
-            ls.b[:] = new.extra["aux"]
-        if extra is not None and extra in new.extra:
-            ls.mu[:] = new.extra[extra]
-    sol.amend_last(t=t_new, a=ls.a, lam=ls.lam,
-                   extras={extra: ls.mu} if extra is not None else None)
-    return t_new
-
-
-class _LoopState:
-    """The state and buffers the compiled time loop (``compiled.run``, driven
-    by :func:`run_compiled`) works in, for one run: the method's state at
-    the start, the Newton options and linear solver as the kernels take
-    them, the triplet and output buffers, and the rows they record appended
-    to the Solution.
-
-    Attributes
+    Parameters
     ----------
-    start : StepState
-        The method's state at the start (``Method.start``).
-    q, v, a, b : ndarray, shape (n,)
-        The accepted state the loop advances in place; ``b`` the auxiliary
-        acceleration of the recipes that carry one (generalized-alpha).
-    lam, mu : ndarray, shape (m,)
-        The multipliers and the method's extra ones (mu of the SI2 methods,
-        psi_I of HHT-ADD; name ``extra``, or None).
-    q_prev, v_prev : ndarray, shape (n,)
-        A two-step method's previous state.
-    counts : ndarray of int, shape (6,)
-        The ``StepStats`` counts since the last recorded row.
-    buffered, sent : int
-        Rows the loop recorded in the out_* buffers, and how many of them are
-        in the Solution (:meth:`flush`); the next call records after them,
-        into the rest of the buffers, so where a call ends (and the next
-        starts a new Newton matrix) follows from the steps alone, never from
-        when the rows were sent.
-    F_start : ndarray, shape (n,)
-        F_n of the first step when the start's forces are not the law's at
-        (q, v, lambda) (friction's Coulomb limit at rest, ``InitialState.Q``);
-        NaN (``no_F``): the kernels compute it.
+    system : AssembledSystem
+    method : Method
+        With a recipe the loop can evaluate at any step (``recipe_monomials``).
+    cm : CompiledModel
+    plan : LinearSolverPlan
+    options : NewtonOptions
+    initial : InitialState
+        The run's start (its forces, ``InitialState.Q``, for the first step).
+    h : float [s]
+        The nominal or first step.
     """
 
-    def __init__(self, system, method, cm, plan, opt, initial, h):
-        n, m = system.n, system.m
-        start = self.start = method.start(system, initial)[-1]
-        self.q, self.v, self.a = start.q.copy(), start.v.copy(), start.a.copy()
-        self.b = (np.array(start.extra["aux"], dtype=float) if "aux" in start.extra
-                  else np.zeros(n))
-        self.lam, self.mu = start.lam.copy(), np.zeros(m)
-        self.extra = method.extras[0] if method.extras else None
-        if self.extra is not None and self.extra in start.extra:
-            self.mu[:] = start.extra[self.extra]
-        self.q_prev, self.v_prev = self.q.copy(), self.v.copy()
-        size = newton_size(system, method)
-        self.opts = np.array([opt.rtol, opt.atol_kinematic, opt.atol_multiplier, opt.max_iter,
-                              opt.refresh_rate(newton_matrix_cost(plan, size, system, method)),
-                              1.0 if opt.jacobian.value == "full" else 0.0])
+    def __init__(self, system, method, cm, plan, options, initial, h):
+        self.system, self.method, self.cm, self.plan, self.opt = system, method, cm, plan, options
+        self.K = cm.K
+        self.mono = recipe_monomials(method)
+        self.size = size = newton_size(system, method)
+        self.opts = np.array([options.rtol, options.atol_kinematic, options.atol_multiplier,
+                              options.max_iter,
+                              options.refresh_rate(newton_matrix_cost(plan, size, system, method)),
+                              1.0 if options.jacobian.value == "full" else 0.0])
         self.solver = cm.K.DENSE if plan.kind == "dense" else cm.K.BANDED
         self.lin = plan.workspace(size, cm.bound)
         # factorization valid, contraction rate, the step and c0 it was made for
         self.lu_state = np.array([0.0, 0.5, 0.0, 0.0])
         self.R, self.C = np.empty(cm.bound, np.int64), np.empty(cm.bound, np.int64)
         self.V = np.empty(cm.bound)
-        self.counts = np.zeros(6, np.int64)
-        self.out_t, self.out_h = np.empty(CHUNK), np.empty(CHUNK)
-        self.out_q, self.out_v, self.out_a = (np.empty((CHUNK, n)) for _ in range(3))
-        self.out_lam, self.out_mu = np.empty((CHUNK, m)), np.empty((CHUNK, m))
-        self.out_stats = np.empty((CHUNK, 6), np.int64)
-        self.buffered = self.sent = 0
+        n = system.n
+        # F_n of the first step when the start's forces are not the law's at
+        # (q, v, lambda) (friction's Coulomb limit at rest, InitialState.Q); NaN: the
+        # kernels compute it
         self.no_F = np.full(n, np.nan)
         self.F_start = self.no_F
         if getattr(initial, "Q", None) is not None:
@@ -1059,398 +986,53 @@ class _LoopState:
             self.F_start = (-system.mass_solve(initial.q, initial.Q) if additive
                             else start_force_term(system, initial))
 
-    def state(self, t, h_last):
-        """(q, v, a, lambda, aux, previous): the accepted state at t [s], as
-        the fallback takes it; ``previous``, the state h_last [s] before it
-        (q_prev, v_prev), a StepState for a two-step method to go on with
-        (its a and lambda NaN: BDF2 reads q and v), or None when h_last is 0
-        (none: the next step starts the method afresh)."""
-        previous = None
-        if h_last > 0.0:
-            previous = StepState(t - h_last, self.q_prev.copy(), self.v_prev.copy(),
-                                 np.full_like(self.a, np.nan), np.full_like(self.lam, np.nan))
-        return self.q, self.v, self.a, self.lam, self.b, previous
+    def resync(self):
+        """The loop's state was changed by another (the fallback, a restart at
+        a switch): the next call starts a new Newton matrix, as every call
+        does."""
 
-    def take(self, part):
-        """Go on from the last state of ``part``, a Solution of the driver's
-        loop (the fallback): the state and the method's carried values, and
-        a new Newton matrix. Returns the size [s] of the part's last step,
-        with q_prev, v_prev the state before it (a two-step method's
-        history), or 0 when its last row does not follow a step (a restart
-        at a switch) or it has none."""
-        self.q[:], self.v[:], self.a[:] = part.q[-1], part.v[-1], part.a[-1]
-        self.lam[:] = part.lam[-1]
-        if "aux" in part.last_state.extra:
-            self.b[:] = part.last_state.extra["aux"]
-        if self.extra is not None:
-            self.mu[:] = part.extras[self.extra][-1]
-        self.lu_state[0] = 0.0
-        if len(part.t) < 2:
-            return 0.0
-        spacing, step = part.t[-1] - part.t[-2], part.stats["h"][-1]
-        if abs(spacing - step) > 1e-9 * step:
-            return 0.0
-        self.q_prev[:], self.v_prev[:] = part.q[-2], part.v[-2]
-        return float(spacing)
-
-    def outputs(self):
-        """The out_* buffers past the rows already buffered, for the next call
-        of the loop to record into: (t, h, q, v, a, lam, mu, stats)."""
-        k = self.buffered
-        return (self.out_t[k:], self.out_h[k:], self.out_q[k:], self.out_v[k:],
-                self.out_a[k:], self.out_lam[k:], self.out_mu[k:], self.out_stats[k:])
-
-    def flush(self, sol):
-        """Append the buffered rows not yet sent (with the step size each was
-        taken at) to ``sol``; full buffers start again from their first row."""
-        i, k = self.sent, self.buffered
-        if k > i:
-            x = self.extra
-            sol.append_block(self.out_t[i:k].copy(), self.out_q[i:k].copy(),
-                             self.out_v[i:k].copy(), self.out_a[i:k].copy(),
-                             self.out_lam[i:k].copy(),
-                             {x: self.out_mu[i:k].copy()} if x is not None else {},
-                             self.out_stats[i:k].copy(), self.out_h[i:k].copy())
-        self.sent = k
-        if k == CHUNK:
-            self.buffered = self.sent = 0
-
-    def add_row(self, sol, t, h):
-        """Append the current state at t [s], with the counts since the last
-        record (then zero), to ``sol``, after the buffered rows; h [s]: its step
-        size."""
-        self.flush(sol)
-        x = self.extra
-        sol.append_block(np.array([float(t)]), self.q[None].copy(), self.v[None].copy(),
-                         self.a[None].copy(), self.lam[None].copy(),
-                         {x: self.mu[None].copy()} if x is not None else {},
-                         self.counts[None].copy(), np.atleast_1d(np.asarray(h, float)))
-        self.counts[:] = 0
-
-
-def run_compiled(system, method, t_end, h, t_start, initial, newton_options, sol, plan,
-                 control, fallback, sizes, *, output_every=1, progress=None, writer=None,
-                 cm=None, switches=()):
-    """Integrate into ``sol`` (already holding the initial row) with the
-    compiled time loop (``compiled.run``) and the linear solver of ``plan``
-    ("dense" or "banded"): fixed steps of h, or with ``control`` (a
-    :class:`~.adaptive.StepControl`) error-controlled steps with h the
-    first; sets sol.status and sol.message. Other parameters as for
-    ``driver.integrate``.
-
-    The kernels' loop returns at every step Newton cannot converge, and
-    ``sizes`` (the driver's ``StepSizes``) says what follows: the step
-    retried halved (or, augmented, once longer), then, with fixed steps,
-    taken at the reduced size until it grows back. A step the loop cannot
-    take at all (Newton at the smallest step, or on a step landed on an
-    event; with error control, the tolerance at h_min) goes to
-    ``fallback(sol, t, end, h, ls.state(...), events, h_first=...)``, the
-    driver's time loop on the same kernels (``driver._fallback``), whose
-    own Newton may take it or which ends the run with the diagnosis in the
-    model's words, and which appends its rows. It hands the run back after
-    a step accepted (with fixed steps, once its step is back to h) or at
-    the segment's end, and the loop resumes from the part's end (with error
-    control at the size the driver's loop planned next). Ctrl-C
-    (KeyboardInterrupt, seen between the kernels' calls): the last accepted
-    state is recorded and the interrupt goes on to the driver.
-
-    ``switches``: [(time, text)] of the functions of time
-    (``events.switch_times``). The loop runs from switch to switch: a
-    segment ends ``SWITCH_GAP`` h before a switch, with a row there; the
-    method restarts as far past it on the new branch
-    (``events.restart_after_switch``), which that row then holds, as the
-    driver's loop lands on a switch. With error control the step after one
-    is the larger of the control's next and the one planned before the
-    segment's shortened last step (the driver's ``resume``).
-
-    Contacts, joint limits and springs whose points pass each other (a
-    free length: the force flips direction) are events: the loop returns
-    at each step that crosses one, and a step is landed on it as the
-    driver's loop does (``events.EventLocator``; :meth:`_CompiledRun.land`)."""
-    run = _CompiledRun(system, method, t_end, h, t_start, initial, newton_options, sol, plan,
-                       control, fallback, sizes, output_every, cm or CompiledModel(system))
-    return run.run(switches, progress, writer)
-
-
-class _CompiledRun:
-    """One run of the compiled time loop (:func:`run_compiled`): the loop's
-    state and buffers (``ls``, a :class:`_LoopState`), the kernel's step
-    control and its in/out ``state`` (t, next h, rejected, previous h,
-    mode, the compensation of the sum t, after a rejection, step limit),
-    the event locator, the driver's step-size policy ``sizes`` and, with
-    fixed steps, the current size ``h_cur``, and the run's time ``t`` and
-    step count ``step_no`` (for the output stride)."""
-
-    def __init__(self, system, method, t_end, h, t_start, initial, newton_options, sol, plan,
-                 control, fallback, sizes, output_every, cm):
-        self.system, self.method, self.sol, self.plan, self.cm = system, method, sol, plan, cm
-        self.t_start, self.t_end, self.h, self.h_cur = t_start, t_end, h, h
-        self.opt, self.fallback, self.every = newton_options, fallback, output_every
-        self.sizes = sizes
-        self.K = cm.K
-        self.size = newton_size(system, method)
-        self.mono = recipe_monomials(method)
-        self.ls = _LoopState(system, method, cm, plan, newton_options, initial, h)
-        span = t_end - t_start
-        self.fixed = control is None
-        if self.fixed:
-            self.ctl = np.array([1.0, 1.0, 1.0, 1.0, 1.0, h, h, 1.0])
-        else:
-            self.ctl = np.array([control.rtol, control.atol, control.safety,
-                                 control.min_factor, control.max_factor,
-                                 control.h_min or 1e-12 * span, min(control.h_max, span), 0.0])
-        self.h_max = self.ctl[6]
-        # t, next h, rejected, previous h (none), mode (compiled.RUN), the compensation of
-        # the sum t (as the driver's loop keeps t), after a rejection, step limit
-        self.state = np.array([t_start, h, 0.0, 0.0, self.K.RUN, 0.0, 0.0, 0.0])
-        self.trial = np.empty((2, system.n))     # the end of a step that crossed an event
-        self.step_no, self.t = 0, t_start
-        self.seg_end = t_end         # the kernels' loop runs to the end of the segment
-        self.events = None
-        self.progress = self.writer = None
-        self.told = (0, 0)           # steps and iterations the progress callback was told of
-        self.contacts = system.contact_group is not None
-        from .events import EventLocator
-        if EventLocator.found_by_steps(system):
-            self.events = EventLocator(system, h, sol)
-            self.events.start(t_start, self.ls.start)
-        self._impact_speeds()
-
-    def _impact_speeds(self):
+    def events_changed(self, loop):
         """The contacts' impact speeds (set by the event locator) into the kernels' data."""
-        if self.contacts:
-            self.cm.impact_speed[:] = self.system.contact_group.impact_speed
+        group = self.system.contact_group
+        if group is not None:
+            self.cm.impact_speed[:] = group.impact_speed
 
-    def run(self, switches, progress, writer):
-        """From switch to switch to t_end, landing events and handing failed
-        steps over; returns the Solution."""
-        sol, ls, state = self.sol, self.ls, self.state
-        span = self.t_end - self.t_start
-        segments = _segments(self.t_start, self.t_end, self.h, switches)
-        self.progress, self.writer = progress, writer
-        clock = _time.perf_counter
-        flushed = clock()
-        try:
-            while self.t < self.t_end - 1e-12 * span:
-                self.seg_end, switch = segments[0][1:]
-                if self.events is not None and not self.fixed:  # the closed gaps' step limit
-                    self.ctl[6] = min(self.h_max, self.events.step_limit())
-                status = self.step_on()
-                if status != 0:
-                    part = self.hand_over()
-                    if part.status != "completed":
-                        sol.status, sol.message = part.status, part.message
-                        return sol
-                if self.t >= self.seg_end - 1e-12 * span and switch is not None:
-                    ls.flush(sol)
-                    self.t = _restart_at_switch(self.system, self.method, sol, switch, self.h,
-                                                ls)
-                    state[0], state[3], state[5] = self.t, 0.0, 0.0   # BDF restarts: BDF1
-                    segments.pop(0)
-                if clock() - flushed >= FLUSH_INTERVAL:
-                    self.flush()
-                    flushed = clock()
-            self.flush()
-            sol.status, sol.message = "completed", f"reached t_end = {self.t_end:g} s"
-        except KeyboardInterrupt:       # the driver marks the run interrupted
-            if ls.counts[5]:            # accepted steps since the last record
-                ls.add_row(sol, float(state[0]), float(state[3]) or self.h)
-            raise
-        finally:                        # whatever ends the run, no recorded row is lost
-            ls.flush(sol)
-        return sol
+    def newton_failed(self, loop):
+        """A fixed step Newton did not converge: HHT-SI2's split band Newton
+        matrix (two blocks) leaves out O(h) terms; where they matter (stiff
+        forces, fast rotation), go on with the whole band matrix."""
+        plan = self.plan
+        if plan.kind != "banded" or plan.blocks != 2:
+            return
+        system, method, size = self.system, self.method, self.size
+        why = f"{plan.why}; whole band matrix after a failed step at t = {loop.t:.6g} s"
+        plan = self.plan = band_plan(system, method, loop.ls.q, False, plan.addresses, self.cm)
+        plan.why = why
+        self.lin = plan.workspace(size, self.cm.bound)
+        self.opts[4] = self.opt.refresh_rate(newton_matrix_cost(plan, size, system, method))
+        loop.sol.linear_solver_note = plan.why
 
-    def flush(self):
-        """The buffered rows to the Solution, then the progress callback (the
-        mean Newton iterations per step since it was last told) and the
-        writer."""
-        sol = self.sol
-        self.ls.flush(sol)
-        if self.progress is not None:
-            tot = sol.stats_total
-            steps, iterations = tot.steps - self.told[0], tot.iterations - self.told[1]
-            if steps > 0:
-                self.told = (tot.steps, tot.iterations)
-                h_last = float(self.state[3]) or float(self.state[1])  # 0: after a restart
-                self.progress(self.t, h_last, round(iterations / steps))
-        if self.writer is not None:
-            self.writer.append(sol)
-
-    def step_on(self):
-        """One call of the kernels' loop from t, at the step the policy has
-        (with fixed steps up to the next change of size; CHUNK steps at
-        most), then what the
-        driver's policy makes of its return: the steps taken count towards
-        regrowth, an event is landed on (:meth:`land`), a step Newton did
-        not converge is retried at the size ``sizes.failed`` gives. Returns
-        0, or the status of a step the loop cannot take (for the
-        fallback)."""
-        state, K, sizes = self.state, self.K, self.sizes
-        h_try = self.h_cur if self.fixed else float(state[1])
-        limit = sizes.steps_before_growth(h_try)
-        status, taken = self.attempt(K.RUN, h_try, min(limit, CHUNK) if limit else CHUNK)
-        if taken:                   # (the limit stops the call where the size would change)
-            if self.fixed:
-                self.h_cur = sizes.grown(sizes.landed(self.h_cur), taken)
-            elif status == K.CONVERGED:
-                state[1] = sizes.landed(float(state[1]))
-        if status == K.EVENT:
-            return self.land()
-        if status == K.CONVERGED:
-            return 0
-        if status == K.TOLERANCE:
-            return status
-        retry = self._retry()
-        if retry is None:
-            return status
-        if self.fixed:
-            self.h_cur = retry
-        else:
-            state[1] = retry
-        return 0
-
-    def _retry(self):
-        """The step of size state[1] from t that Newton did not converge: the
-        size to retry it at (``sizes.failed``), counted as a rejected step,
-        with no growth right after it under error control; None when none is
-        left. HHT-SI2's split band goes on with the whole band matrix."""
-        if self.fixed and self.plan.kind == "banded" and self.plan.blocks == 2:
-            self._whole_band()
-        retry = self.sizes.failed(self.t, float(self.state[1]), self.t_end)
-        if retry is not None:
-            self.sol.stats_total.rejected += 1
-            self.state[6] = 1.0
-        return retry
-
-    def attempt(self, mode, h_try, limit=0):
-        """Run the kernels' loop in ``mode`` from (t, q, v, ...) with a first
-        step of h_try, at most ``limit`` accepted steps (0: no limit),
-        appending the rows it records; returns (its status, the steps it
-        took)."""
-        ls, state = self.ls, self.state
-        state[1], state[4], state[7] = h_try, mode, limit
-        # a new Newton matrix at each call: between calls an event may have changed the
-        # contact law (``commit``), a switch the branch, the fallback the state
-        ls.lu_state[0] = 0.0
-        if ls.buffered == CHUNK:
-            self.flush()
+    def advance(self, loop, mode, h, limit):
+        """One call of the compiled loop from the loop's state (in ``mode``,
+        first step h [s], at most ``limit`` steps, 0: no limit), with a new
+        Newton matrix (between calls an event may have changed the contact
+        law, a switch the branch, the fallback the state); returns (status,
+        steps taken)."""
+        ls, state = loop.ls, loop.state
+        self.lu_state[0] = 0.0
         status, taken, nrec = self.K.run(
-            self.mono, self.cm.ints, self.cm.floats, state[1], self.t, self.seg_end,
-            self.step_no, self.every, ls.q, ls.v, ls.a, ls.b, ls.lam, ls.mu, ls.q_prev,
-            ls.v_prev, self.ctl, ls.opts, ls.solver, ls.lin, ls.lu_state, ls.R, ls.C, ls.V,
-            *ls.outputs(), ls.counts, ls.F_start if self.step_no == 0 else ls.no_F, state,
-            self.trial)
+            self.mono, self.cm.ints, self.cm.floats, h, loop.t, loop.seg_end, loop.step_no,
+            loop.every, ls.q, ls.v, ls.a, ls.b, ls.lam, ls.mu, ls.q_prev, ls.v_prev, loop.ctl,
+            self.opts, self.solver, self.lin, self.lu_state, self.R, self.C, self.V,
+            *ls.outputs(), ls.counts, self.F_start if loop.step_no == 0 else self.no_F, state,
+            loop.trial)
         ls.buffered += nrec
-        if state[2]:                # the error control's rejections: no jump to return from
-            self.sol.stats_total.rejected += int(state[2])
-            self.sizes.jumped = None
-        state[2] = 0.0
-        self.step_no += taken
-        self.t = float(state[0])
         return status, taken
 
-    def land(self):
-        """The loop stopped at a step that crosses an event (a gap opening or
-        closing, a spring's points passing; its end in ``trial``): retake it
-        with the size that ends it just past the event
-        (``EventLocator.check``), until one lands (a retake Newton cannot
-        converge retried at the size the driver's ``StepSizes`` gives, as
-        the driver's loop does); take that step; then
-        change the contact's state (``commit``) and plan the
-        next step as the driver's loop does (back to the size before the
-        cut, within the closed gaps' step limit; a two-step method restarts
-        with BDF1). Returns the status of the last attempt."""
-        ls, state, events, K = self.ls, self.state, self.events, self.K
-        t0, step = self.t, float(state[1])
-        resume = step                 # the size planned, to go back to once landed
-        last = StepState(t0, ls.q.copy(), ls.v.copy(), ls.a.copy(), ls.lam.copy())
-        events.resume_at(ls.q)        # the loop took the steps since the last event
-        self.ctl[6] = self.h_max      # the step limit of the gaps after the event, below
-        h_try = step
-        mode = None
-        landed = 0                    # steps taken (a cut one ending before the event, then on it)
-        while True:
-            if mode is None:          # where to end the step that crossed
-                cut = events.check(t0, step, last, StepState(t0 + step, self.trial[0].copy(),
-                                                             self.trial[1].copy(), None, None))
-                mode, h_try = (K.LAND, step) if cut is None else (K.ATTEMPT, cut)
-                self.sol.event_cuts += cut is not None
-            status, taken = self.attempt(mode, h_try)
-            landed += taken
-            if status == K.EVENT:         # the retaken step crossed too: look again
-                step, mode = float(state[1]), None
-            elif status == K.REJECTED:    # its error estimate: again, shorter
-                mode, h_try = K.ATTEMPT, float(state[1])
-            elif status in (K.CONVERGED, K.TOLERANCE):
-                break
-            else:                         # Newton did not converge: the driver's policy
-                h_try = self._retry()
-                if h_try is None:
-                    break
-                mode = K.ATTEMPT
-        if status != 0:
-            return status
-        # the step taken: its events (none, if it ended before them) from its own ends
-        t = self.t
-        events.check(t0, t - t0, last,
-                     StepState(t, ls.q.copy(), ls.v.copy(), ls.a.copy(), ls.lam.copy()))
-        events.commit()
-        self._impact_speeds()
-        if self.fixed:                # back to the size before the cut, one step more at it
-            h_next = self.h_cur = self.sizes.grown(self.h_cur, landed)
-        else:
-            h_next = min(max(float(state[1]), resume), events.step_limit())
-        if events.happened and self.method.history_length > 1:
-            state[3] = 0.0            # BDF1 from the event (driver: RESTART_FRACTION)
-            if not self.fixed:
-                from .driver import RESTART_FRACTION
-                h_next = min(h_next, RESTART_FRACTION * events.changed_limit)
-        state[1] = h_next
-        return status
-
-    def hand_over(self):
-        """The step from t cannot be taken here: the driver's loop on the
-        same kernels takes over (``fallback``) until it has accepted a step
-        (with fixed steps: until its step is back to h) or reached the
-        segment's end, and hands the run back; returns its part, the loop's
-        state taken from the part's end (with error control, the size the
-        driver's loop planned next)."""
-        sol, ls, state, h, t = self.sol, self.ls, self.state, self.h, self.t
-        sol.stats_total.rejected += 1       # the compiled loop's attempt at the step
-        ls.flush(sol)
-        if ls.counts[5]:       # accepted steps since the last record: keep the last
-            ls.add_row(sol, t, float(state[3]) or h)
-        previous = ls.state(t, float(state[3]))
-        # handed back at the segment's end, or after a step accepted (fixed steps: once
-        # back at h, the first step the current size)
-        part = self.fallback(sol, t, self.seg_end, h if self.fixed else float(state[1]),
-                             previous, self.events, h_first=self.h_cur if self.fixed else None)
-        if self.events is not None:
-            self.events.sol = sol
-        if part.status == "completed":
-            self.t = float(part.t[-1])
-            state[0], state[3], state[5] = self.t, ls.take(part), 0.0
-            if self.fixed:
-                state[1] = self.h_cur = h
-                self.step_no += int(round((self.t - t) / h))
-            else:           # the step the driver's loop planned next
-                state[1] = part.next_step or float(part.stats["h"][-1])
-                state[6] = 0.0
-                self.step_no += len(part.t) - 1
-            self._impact_speeds()
-        return part
-
-    def _whole_band(self):
-        """The split band Newton matrix (HHT-SI2's two blocks) leaves out
-        O(h) terms; where they matter (stiff forces, fast rotation: a step
-        failed), go on with the whole band matrix."""
-        system, method, plan, size = self.system, self.method, self.plan, self.size
-        why = f"{plan.why}; whole band matrix after a failed step at t = {self.t:.6g} s"
-        plan = self.plan = band_plan(system, method, self.ls.q, False, plan.addresses, self.cm)
-        plan.why = why
-        self.ls.lin = plan.workspace(size, self.cm.bound)
-        self.ls.opts[4] = self.opt.refresh_rate(newton_matrix_cost(plan, size, system, method))
-        self.sol.linear_solver_note = plan.why
+    def diagnose(self, loop, status):
+        """Never the last word: a run on this stepper has the Python stepper
+        as its fallback, which takes the step or reports the failure."""
+        raise AssertionError("the compiled loop's failures go to its fallback")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -1460,11 +1042,12 @@ class _CompiledRun:
 class SparseAdapter:
     """A recipe method whose residual, Newton matrix, scales and force term
     are evaluated by the kernels; everything else is the wrapped method's:
-    the driver's time loop on the compiled evaluation (large models, for
-    SuperLU; a recipe the compiled loop cannot evaluate at a step size). The
-    Newton matrix is a CSC matrix on a pattern fixed at the first evaluation
-    (values refilled in place), or with ``dense`` its ndarray. The contacts'
-    impact speeds (the state the driver's events change) are copied into
+    the Python stepper (``loop.PythonStepper``) on the compiled evaluation
+    (large models, for SuperLU; the compiled loop's fallback; a recipe the
+    compiled loop cannot evaluate at a step size). The Newton matrix is a
+    CSC matrix on a pattern fixed at the first evaluation (values refilled
+    in place), or with ``dense`` its ndarray. The contacts' impact speeds
+    (the state the time loop's events change) are copied into
     the kernels' model data at each step's context."""
 
     def __init__(self, system, method, cm=None, dense=False):

@@ -1,8 +1,11 @@
 """Events: contacts and joint limits closing and opening, located within a step.
 
-After each accepted step the time loop asks :class:`EventLocator` whether a
-gap of the model's contacts and limits (:class:`~mbdsl.assembly.contact.
-ContactGroup`) changed sign. If one did, the root of the gap along the step
+A stepper returns at each step across which a gap of the model's contacts and
+limits (:class:`~mbdsl.assembly.contact.ContactGroup`) changed sign, or the
+points of a spring with a free length passed each other
+(:meth:`EventLocator.crosses`; the compiled loop's own test in its kernels),
+and the time loop (``loop.TimeLoop.land``) asks :class:`EventLocator` where
+to end it (:meth:`EventLocator.check`): the root of the gap along the step
 is estimated with Brent's method on the step's cubic Hermite interpolant of q
 (from q and v at both ends, third order), or for a closing gap on the
 Taylor expansion q + tau v + tau^2 a / 2 from the step's start (the motion up
@@ -24,13 +27,10 @@ root), which sets the damping of its force law
 recorded in ``Solution.events``.
 
 Functions of time that switch branch (``if``, ``min``, ``max``, ``clip``,
-comparisons, ``abs``, ``sign``: :func:`time_switches`) are known in advance:
-the step that would cross a switch is shortened to end just before it
-(:meth:`EventLocator.before_switch`), and the method restarts just after it
-on the new branch (:meth:`EventLocator.after_switch`). The compiled loop,
-which does not stop after each step, take the run's switches before it starts
-(:func:`switch_times`) and run from one to the next
-(``engine.run_compiled``).
+comparisons, ``abs``, ``sign``: :func:`time_switches`) are known in advance
+(:func:`switch_times`): the time loop runs from one to the next, each stretch
+ending just before its switch, and the method restarts just after it on the
+new branch (:func:`restart_after_switch`).
 
 Locating the closing matters for the law, not only for accuracy: the impact
 speed is measured where the gap closes, and a step that jumps deep into a
@@ -107,52 +107,14 @@ class EventLocator:
         self.happened = False   # the step just checked ended with events
         self.g = None
         self.h = h
-        self.switches = time_switches(system)
-        self._switch = None     # (time, text) of the switch the step planned ends before
-
-    @staticmethod
-    def needed(system) -> bool:
-        """Whether a model has anything to locate: contacts or limits,
-        spring-dampers with a free length (their force flips direction when
-        their two points pass each other), or functions of time that switch
-        (:func:`time_switches`)."""
-        return EventLocator.found_by_steps(system) or bool(time_switches(system))
 
     @staticmethod
     def found_by_steps(system) -> bool:
         """Whether a model has events that only the ends of a step reveal
         (contacts and limits, springs with a free length), as against the
         switches of functions of time, known before the run: a loop must
-        stop at each step that crosses one (:meth:`check`)."""
+        stop at each step that crosses one (:meth:`crosses`)."""
         return system.contact_group is not None or system.flipping_springs is not None
-
-    def before_switch(self, t, step, t_end=math.inf) -> float:
-        """The step from t shortened to end just before the first switch of a
-        function of time in (t, t + step] (by ``SWITCH_GAP`` h: this step
-        integrates the old branch, the next one the new); ``step`` when none,
-        or when the switch is within 1e-8 h of t or of the run's end t_end."""
-        self._switch = None
-        if not self.switches:
-            return step
-        hit = next_switch(self.switches, t, t + step)
-        if hit is None or hit[0] - t <= 1e-8 * self.h or hit[0] >= t_end - 1e-8 * self.h:
-            return step
-        self._switch = hit
-        return min(step, hit[0] - t - switch_gap(self.h, hit[0]))
-
-    def after_switch(self, t, method, state):
-        """After an accepted step ending at t: if it ended on the planned
-        switch, record it and return (t', start state of ``method`` at t'),
-        t' just past the switch, on the new branch (:func:`restart_after_switch`);
-        else None."""
-        if self._switch is None or t < self._switch[0] - 2 * switch_gap(self.h, self._switch[0]):
-            return None
-        t_switch, text = self._switch
-        self._switch = None
-        self.sol.events.append((t_switch, text, "switched", 0.0))
-        t_new = t_switch + switch_gap(self.h, t_switch)
-        restarted = restart_after_switch(self.system, method, t_new, state.q, state.v)
-        return t_new, state if restarted is None else restarted
 
     def _spring_d(self, q):
         """d = p2 - p1 of the flipping springs, shape (k, 2)."""
@@ -185,11 +147,25 @@ class EventLocator:
             self.sol.events.append((float(t), g.names[i], "closed", float(g.impact_speed[i])))
         self.sol.contact_log = g.log
 
+    def crosses(self, q0, q1) -> bool:
+        """Whether the step from configuration q0 to q1 (n,) crosses an event:
+        a gap changes sign, or a spring's points pass each other (d turns
+        against its direction at the step's start). Changes nothing: the
+        steppers' test (the compiled loop's is ``compiled._crossed``)."""
+        g = self.group
+        if g is not None and np.any((g.gaps(self.system._ext(q0)) > 0.0)
+                                    != (g.gaps(self.system._ext(q1)) > 0.0)):
+            return True
+        if self.springs is not None:
+            d0, d1 = self._spring_d(q0), self._spring_d(q1)
+            return bool(np.any(np.einsum("ka,ka->k", d0, d1) < 0.0))
+        return False
+
     def resume_at(self, q):
         """The gaps at configuration q (n,), where the next step starts: for
         a time loop that took steps without :meth:`check` and :meth:`commit`
-        (the compiled loop, which returns only at a step that changes the
-        sign of a gap: ``engine.run_compiled``)."""
+        (a stepper returns only at a step that changes the sign of a gap:
+        ``loop.TimeLoop.land``)."""
         if self.group is not None:
             self.g = self.group.gaps(self.system._ext(q))
 
@@ -348,7 +324,7 @@ def time_switches(system):
     expression) changing sign where the function switches branch (``min``,
     ``max``, ``clip``, ``if``, comparisons, ``abs``, ``sign``). Known in
     advance, so a step is shortened to end on them before it is taken
-    (:func:`next_switch`, :func:`switch_times`)."""
+    (:func:`switch_times`)."""
     from ..dsl.expressions import compile_function
     functions = [f for g in system.constraint_groups for f in getattr(g, "functions", ()) or ()
                  if f is not None]
@@ -369,26 +345,6 @@ def time_switches(system):
     return out
 
 
-def next_switch(switches, t, t_new):
-    """The first switch in (t, t_new]: (time, text), or None. Brent's method on
-    each switching function whose sign differs at the two ends, or t_new
-    where it is zero there (a switch on a step's end, either way it turns;
-    one at t, zero there, was the step before's; a switch crossed twice
-    within one step is not seen)."""
-    from scipy.optimize import brentq
-    best = None
-    for text, s, _ in switches:
-        a, b = s(t), s(t_new)
-        if not (np.isfinite(a) and np.isfinite(b)) or a == 0.0 \
-                or (b != 0.0 and (a > 0.0) == (b > 0.0)):
-            continue
-        root = t_new if b == 0.0 else brentq(s, t, t_new, xtol=1e-14 * max(1.0, abs(t_new)),
-                                             rtol=1e-15)
-        if best is None or root < best[0]:
-            best = (root, text)
-    return best
-
-
 #: At most this many steps of h in the grid :func:`switch_times` searches (16 MB of
 #: nodes); a finer grid (an error-controlled run started with a tiny step) is
 #: coarsened to it, which still brackets every sign change slower than the spacing.
@@ -396,13 +352,12 @@ SWITCH_GRID_LIMIT = 2_000_000
 
 
 def switch_times(switches, t_start, t_end, h):
-    """Every switch of :func:`time_switches` in (t_start, t_end), found as the
-    driver's loop finds them step by step (:func:`next_switch`): a sign
+    """Every switch of :func:`time_switches` in (t_start, t_end): a sign
     change of a switching function between two nodes of the grid of steps of
     h (a zero on a node, between nodes of opposite signs, is a switch
-    there), then Brent's method. For a loop that runs from switch to switch
-    (the compiled engine's), whose steps need not fall on that grid
-    (events, error control): a switch on one of its nodes is landed on too.
+    there), then Brent's method. For the time loop, which runs from switch
+    to switch and whose steps need not fall on that grid (events, error
+    control): a switch on one of its nodes is landed on too.
 
     Parameters
     ----------
@@ -415,8 +370,7 @@ def switch_times(switches, t_start, t_end, h):
     -------
     list of (float, str)
         (time, text) in time order; a switch within 1e-8 h of the one before
-        (or of t_start, or of t_end) is left out, as the driver's loop
-        leaves it (:meth:`EventLocator.before_switch`).
+        (or of t_start, or of t_end) is left out.
     """
     from scipy.optimize import brentq
 

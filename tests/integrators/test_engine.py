@@ -22,6 +22,7 @@ import mbdsl
 from mbdsl.integrators import NewtonOptions, integrate, make_method
 from mbdsl.integrators.adaptive import StepControl
 from mbdsl.integrators import engine as engine_module
+from mbdsl.integrators import loop as loop_module
 from mbdsl.integrators.common import force_term
 from mbdsl.integrators.engine import (CompiledModel, SparseAdapter, band_ordering,
                                      linear_solver_plan, select_engine, unsupported)
@@ -457,15 +458,16 @@ def test_the_compiled_loop_halves_a_failed_step_as_the_driver_says(soft_distance
     assert np.abs(b.q[-1] - q_ref).max() < 1.05 * np.abs(a.q[-1] - q_ref).max()
 
 
-def test_a_two_step_method_handed_to_the_driver_loop_goes_on_with_bdf2(soft_distance_reference,
-                                                                       handed_over):
+def test_a_two_step_method_handed_to_the_fallback_goes_on_with_bdf2(soft_distance_reference,
+                                                                    handed_over):
     """The same run with no halving allowed (max_halvings = 0): each step
-    the compiled loop's modified Newton cannot converge goes to the driver's
-    loop, which takes it with its own Newton and hands the run back (three,
-    measured). It goes on from the loop's previous state too (BDF2, as the
-    driver's loop run alone does): the whole run equals the driver's loop
-    on the same kernels to 1e-8 (measured 1.6e-10). Restarted with a BDF1
-    step there, it ended 2e-3 away."""
+    the compiled loop's modified Newton cannot converge goes to the Python
+    stepper on the same kernels, which takes it with its own Newton, and
+    the run goes back to the compiled loop (three, measured). It goes on
+    from the loop's previous state too (BDF2, as the Python stepper run
+    alone does): the whole run equals the Python stepper's on the same
+    kernels to 1e-8 (measured 1.6e-10). Restarted with a BDF1 step there,
+    it ended 2e-3 away."""
     system, init, _ = soft_distance_reference
     a = integrate(system, make_method("nstiff-si2"), 0.1, 5e-4, initial=init,
                   engine="compiled", python_loop=True, max_halvings=0)
@@ -476,31 +478,32 @@ def test_a_two_step_method_handed_to_the_driver_loop_goes_on_with_bdf2(soft_dist
     assert len(b.t) == len(a.t) and np.abs(b.q - a.q).max() < 1e-8
 
 
-def test_with_error_control_the_driver_loop_hands_the_run_back_after_one_step(
-        soft_distance_reference, monkeypatch):
+def test_with_error_control_the_fallback_takes_one_step_and_hands_the_run_back(
+        soft_distance_reference, handed_over, monkeypatch):
     """The same model and failures under error control with h_min = h_max =
     0.5 ms (no smaller step to try): each step the compiled loop cannot
-    converge goes to the driver's loop, which takes it and hands the run
-    back after that one step with the size it planned next, instead of
-    taking the rest of the run (three parts of one step each, measured);
-    the run equals the driver's loop alone to 1e-8 (measured 1.6e-10)."""
+    converge goes to the Python stepper, which takes that one step and
+    hands the run back with the size it planned next, instead of taking
+    the rest of the run (three hand-overs of one step each, measured); the
+    run equals the Python stepper alone to 1e-8 (measured 1.6e-10)."""
     system, init, _ = soft_distance_reference
-    from mbdsl.integrators import driver
-    parts = []
-    fallback = driver._fallback
+    from mbdsl.integrators.loop import PythonStepper
+    advance, steps = PythonStepper.advance, []
 
-    def recorded(*args, **kwargs):
-        part = fallback(*args, **kwargs)
-        parts.append(len(part.t) - 1)
-        return part
-    monkeypatch.setattr(driver, "_fallback", recorded)
+    def counted(self, loop, mode, h, limit):
+        status, taken = advance(self, loop, mode, h, limit)
+        if loop.stepper is loop.fallback:
+            steps.append(taken)
+        return status, taken
+    monkeypatch.setattr(PythonStepper, "advance", counted)
     control = StepControl(rtol=1e-3, atol=1e-3, h_min=5e-4, h_max=5e-4)
     a = integrate(system, make_method("nstiff-si2"), 0.1, 5e-4, initial=init,
                   engine="compiled", python_loop=True, control=control)
-    assert not parts
+    assert not steps and not handed_over
     b = integrate(system, make_method("nstiff-si2"), 0.1, 5e-4, initial=init,
                   engine="compiled", control=control)
-    assert parts == [1, 1, 1] and b.engine == "compiled" and b.status == "completed"
+    assert len(handed_over) == 3 and steps == [1, 1, 1]
+    assert b.engine == "compiled" and b.status == "completed"
     assert len(b.t) == len(a.t) and np.abs(b.q - a.q).max() < 1e-8
 
 
@@ -653,7 +656,7 @@ def test_ctrl_c_reaches_a_compiled_run_that_records_every_500th_step(monkeypatch
     # output stride: an interrupt raised by the progress callback (told after
     # every call here) once t >= 1 s ends the 6 s run at the first call's end,
     # t = 2 s, not at t_end; the rows are the uninterrupted run's, bit for bit
-    monkeypatch.setattr(engine_module, "FLUSH_INTERVAL", 0.0)
+    monkeypatch.setattr(loop_module, "FLUSH_INTERVAL", 0.0)
     system, init = _system(MODELS / "slider_crank.mbd")
     full, cut = interrupted_run(system, 6.0, 1.0, initial=init, engine="compiled",
                                 output_every=500)
@@ -671,7 +674,7 @@ def test_when_the_rows_go_out_does_not_change_them(monkeypatch):
     system, init = _system(MODELS / "slider_crank_clearance.mbd")
     runs = []
     for interval in (0.0, np.inf):
-        monkeypatch.setattr(engine_module, "FLUSH_INTERVAL", interval)
+        monkeypatch.setattr(loop_module, "FLUSH_INTERVAL", interval)
         runs.append(integrate(system, make_method("hht-i3"), 0.1, 1e-4, initial=init,
                               engine="compiled", control=StepControl(rtol=1e-6, atol=1e-6)))
     a, b = runs

@@ -259,7 +259,7 @@ def test_a_redundant_middle_crank_runs_with_a_warning():
 
 
 def test_a_failed_step_jumps_over_a_singular_position_rather_than_halving_into_it(monkeypatch):
-    """The rule (driver.JUMP): a failed step of the augmented formulation is
+    """The rule (loop.JUMP): a failed step of the augmented formulation is
     retried once 1.5 times longer, landing past the singular position, before
     any halving (halving aims the step's end at it). Measured when the numpy
     engine's Newton still failed there (N = 40, h = 1e-3, its Newton matrix

@@ -1,9 +1,9 @@
-"""The driver's step-size policy (``driver.StepSizes``), which the driver's
-loop and the compiled loop both follow: the sizes it gives, derived by hand."""
+"""The time loop's step-size policy (``loop.StepSizes``), which it follows
+whichever stepper takes the steps: the sizes it gives, derived by hand."""
 
 import pytest
 
-from mbdsl.integrators.driver import JUMP, StepSizes
+from mbdsl.integrators.loop import JUMP, StepSizes
 
 
 def test_a_failed_step_is_halved_down_to_the_smallest_then_the_run_ends():

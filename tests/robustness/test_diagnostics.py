@@ -110,8 +110,28 @@ def test_lock_up_names_the_joints_time_step_and_method_and_keeps_the_steps(tmp_p
     assert t[-1] == pytest.approx(t_fail, abs=1e-5) and len(t) > 500     # message has 6 digits
 
 
+@pytest.mark.parametrize("engine", ["compiled", "numpy"])
+def test_a_failed_run_recording_every_7th_step_keeps_its_last_accepted_state(engine):
+    """The lock-up above recording every 7th step: the run ends at the step
+    it cannot take, and its last row is the last accepted state (not the
+    last recorded row before it), the same as the run recording every step."""
+    from mbdsl.integrators import integrate, make_method
+    system = mbdsl.assemble(mbdsl.load_text(LOCK_UP))
+    init = mbdsl.consistent_initial_state(system)
+    runs = [integrate(system, make_method("hht-i3"), 2.0, 1e-3, initial=init, engine=engine,
+                      output_every=k, on_failure="return") for k in (1, 7)]
+    every, seventh = runs
+    assert every.status == seventh.status == "failed" and every.engine == engine
+    t_fail = float(every.message.split("the step from t = ")[1].split(" s")[0])
+    assert seventh.t[-1] == every.t[-1] == pytest.approx(t_fail, abs=1e-5)
+    assert (len(every.t) - 1) % 7 != 0         # the last accepted step is not a 7th
+    np.testing.assert_array_equal(seventh.q[-1], every.q[-1])
+    assert len(seventh.t) == 1 + (len(every.t) - 1) // 7 + 1
+    assert seventh.stats_total.steps == every.stats_total.steps == len(every.t) - 1
+
+
 def test_stiff_spring_hint_names_the_spring():
-    from mbdsl.integrators.driver import _stiff_elements
+    from mbdsl.integrators.loop import _stiff_elements
     system = mbdsl.assemble(mbdsl.load(MODELS / "double_pendulum_stiff.mbd"))
     (name, period), = _stiff_elements(system, 1e-3)
     assert name == "elbow" and period == pytest.approx(2 * math.pi * math.sqrt((1 / 12) / 1e7))

@@ -1,0 +1,913 @@
+"""The time loop: one driver for every engine, over steppers with one contract.
+
+:class:`TimeLoop` runs a run from t_start to t_end. It owns everything that is
+not a step: the stretches between switches of functions of time (the method
+restarts on the new branch past each), the step-size policy when Newton does
+not converge (:class:`StepSizes`: halving, the augmented formulation's jump,
+regrowth), landing a step on an event (contacts, joint limits, springs whose
+points pass; ``events.EventLocator``), the output stride and the buffers the
+rows go through to the :class:`~mbdsl.solution.Solution`, the progress callback
+and the writer, Ctrl-C, handing a step a stepper cannot take to the fallback,
+and the failure's report in the model's words.
+
+A stepper takes steps: ``advance(loop, mode, h, limit) -> (status, steps)``
+from the loop's state (``loop.ls``, a :class:`LoopState`; t and the step
+control in ``loop.state``), in a mode and with a status of
+:mod:`.outcomes`, recording every ``loop.every``-th step into the loop's
+buffers and updating the state after every step it accepts. Two exist:
+
+* ``engine.KernelStepper``: the compiled loop (``compiled.run``), which takes
+  up to 2000 steps (:data:`CHUNK`) in one call with its own Newton iteration
+  (explicit inverse or LAPACK band LU);
+* :class:`PythonStepper`: the Python Newton iteration (``newton.Newton``,
+  dense LU or SuperLU) on a method's own residual and Newton matrix (the
+  numpy engine) or on the kernels' (``engine.SparseAdapter``: systems too
+  large for the compiled loop's linear solvers, and the fallback of the
+  compiled loop at a step it cannot take).
+
+Error-control rejections stay inside a stepper's call (as scipy's
+``OdeSolver.step`` retries its own), counted in the state; a step Newton
+cannot converge always returns to this loop.
+"""
+
+from __future__ import annotations
+
+import time as _time
+
+import numpy as np
+
+from ..errors import Diagnostic
+from .base import StepState
+from .events import restart_after_switch, switch_gap
+from .newton import NewtonStatus
+from .outcomes import ATTEMPT, CONVERGED, EVENT, LAND, NEWTON_STATUS, REJECTED, RUN, TOLERANCE
+
+__all__ = ["TimeLoop", "LoopState", "PythonStepper", "StepSizes", "CHUNK", "FLUSH_INTERVAL",
+           "sparse_newton"]
+
+#: Rows the loop's output buffers hold, and the steps a stepper takes in one call at
+#: most: it returns when either is reached. Ctrl-C and the progress callback are seen
+#: between the compiled loop's calls, so with ``output_every`` K a call must not take
+#: CHUNK K steps (a chain of 1000 links, 1.6 ms a step, recording every 100th: 5
+#: minutes).
+CHUNK = 2000
+#: The buffered rows go to the Solution, the progress callback and the writer when
+#: the buffers are full, at a boundary of the run (an event landed, a hand-over, a
+#: switch, the end, Ctrl-C), or when this much wall time [s] has passed since they
+#: last went: a run whose steps fail often returns to the loop at every failure (it
+#: halves), and appending each call's one or two rows to the Solution cost more than
+#: the kernel's step. A Python stepper's call ends after as long.
+FLUSH_INTERVAL = 0.2
+#: how much longer a failed step of the augmented formulation is retried first
+JUMP = 1.5
+#: a two-step method's first step after an event, as a fraction of the
+#: contact's step limit (``events.EventLocator.step_limit``)
+RESTART_FRACTION = 0.05
+
+_HINTS = {
+    NewtonStatus.SINGULAR: "the Newton matrix is singular: the mechanism may be at a singular "
+                           "(dead-centre) position, or joints may be redundant",
+    NewtonStatus.DIVERGING: "Newton diverges: the step may be too large for the fastest motion "
+                            "(a stiff spring, a fast driver); try a smaller h",
+    NewtonStatus.MAX_ITER: "Newton converges too slowly: try a smaller h or full Newton",
+    NewtonStatus.NONFINITE: "a value became infinite or NaN: check stiffnesses, masses and "
+                            "driver functions for extreme values",
+}
+
+
+def sparse_newton(options, size) -> bool:
+    """Whether the Python Newton iteration factors a Newton matrix of ``size``
+    unknowns with SuperLU (asked for, or "auto" above ``DENSE_LIMIT``),
+    rather than dense LU."""
+    from ..assembly.sparse import DENSE_LIMIT
+    return options.linear_solver == "sparse" or (options.linear_solver == "auto"
+                                                  and size > DENSE_LIMIT)
+
+
+class StepSizes:
+    """What the loop does with a step Newton cannot converge, and when a
+    reduced step grows back: one policy for a run, whichever stepper takes
+    the step.
+
+    A failed step is halved, down to ``h_min``; with the augmented
+    formulation it is first retried once ``JUMP`` times longer (see
+    :meth:`failed`). With fixed steps, after ``grow_after`` accepted steps
+    at a reduced size the step doubles, back to h at most.
+
+    Parameters
+    ----------
+    h : float [s]
+        The nominal step (fixed steps) or the first one (error control).
+    h_min : float [s]
+        The smallest step tried: h / 2**max_halvings with fixed steps, the
+        control's ``h_min`` (default 1e-12 of the span) with error control.
+    grow_after : int
+    augmented : bool
+        The method's formulation is the augmented one.
+    adaptive : bool
+        Error-controlled steps: the control, not this policy, grows them.
+
+    Attributes
+    ----------
+    jumped : float or None
+        The size [s] of the step that failed before a jump, while jumping.
+    good : int
+        Accepted steps since the step was last reduced (fixed steps).
+    """
+
+    def __init__(self, h, h_min, grow_after, augmented, adaptive):
+        self.h, self.h_min, self.grow_after = h, h_min, grow_after
+        self.augmented, self.adaptive = augmented, adaptive
+        self.jumped = None
+        self.good = 0
+
+    @classmethod
+    def of_run(cls, method, h, t_start, t_end, control, max_halvings, grow_after):
+        """The policy of a run of ``method`` from t_start to t_end [s] with
+        nominal (or first) step h [s] and ``control`` (None: fixed steps)."""
+        h_min = (h / 2.0 ** max_halvings if control is None
+                 else control.h_min or 1e-12 * (t_end - t_start))
+        return cls(h, h_min, grow_after, getattr(method, "formulation", None) == "augmented",
+                   control is not None)
+
+    def failed(self, t, step, t_end):
+        """The size [s] to retry the step from t [s] of size ``step`` [s]
+        that Newton did not converge, or None when none is left (the run
+        ends there). The augmented formulation first retries once JUMP times
+        longer, to land past the singular position the step failed next to
+        rather than halve, which aims the step end at it (every halving at a
+        rank loss lands closer to it, where Newton converges slowest); the
+        halvings of the step that failed first follow if the longer one
+        fails too."""
+        if self.augmented and self.jumped is None and t + JUMP * step < t_end - 1e-9 * self.h:
+            self.jumped = step
+            return JUMP * step
+        if self.jumped is not None:
+            step, self.jumped = self.jumped, None
+        if step / 2.0 >= self.h_min * (1.0 - 1e-12):
+            self.good = 0
+            return step / 2.0
+        return None
+
+    def landed(self, h_next):
+        """The next step's size [s] after an accepted step planned at h_next
+        [s]: the size before a jump, if the step was one."""
+        if self.jumped is not None:
+            h_next, self.jumped = self.jumped, None
+        return h_next
+
+    def grown(self, h_cur, steps=1):
+        """The next step's size [s] after ``steps`` accepted fixed steps of
+        h_cur [s]: doubled (to h at most) once ``grow_after`` have been
+        taken at a reduced size."""
+        if self.adaptive or h_cur >= self.h:
+            return h_cur
+        self.good += steps
+        if self.good >= self.grow_after:
+            h_cur, self.good = min(2.0 * h_cur, self.h), 0
+        return h_cur
+
+    def steps_before_growth(self, h_cur):
+        """How many fixed steps of h_cur [s] a stepper may take before this
+        policy changes the size (a jump: one; a reduced size: until it
+        grows), or 0 for no limit."""
+        if self.jumped is not None:
+            return 1
+        if self.adaptive or h_cur >= self.h:
+            return 0
+        return max(self.grow_after - self.good, 1)
+
+
+def _segments(t_start, t_end, h, switches):
+    """[(start, end, switch or None)]: the stretches of [t_start, t_end] between
+    the switches of functions of time (``events.switch_times``): each ends
+    ``events.switch_gap`` (SWITCH_GAP h) before its switch (time, text), the
+    next starts as far after it."""
+    out, start = [], t_start
+    for t_switch, text in switches:
+        out.append((start, t_switch - switch_gap(h, t_switch), (t_switch, text)))
+        start = t_switch + switch_gap(h, t_switch)
+    return out + [(start, t_end, None)]
+
+
+def _restart_at_switch(system, method, sol, switch, h, ls) -> float:
+    """A stretch ended ``SWITCH_GAP`` h before ``switch`` (time, text), with a
+    row there: record the event, put the new branch's state just past it
+    (``events.restart_after_switch``) into the loop's a, lam, b (auxiliary
+    acceleration) and mu (the method's ``extra`` multipliers) (``ls``, a
+    :class:`LoopState`), in place, and into that row. Returns the restart's
+    time [s]."""
+    t_switch, text = switch
+    sol.events.append((t_switch, text, "switched", 0.0))
+    t_new = t_switch + switch_gap(h, t_switch)
+    new = restart_after_switch(system, method, t_new, ls.q, ls.v)
+    extra = ls.extra
+    if new is not None:
+        ls.a[:], ls.lam[:] = new.a, new.lam
+        if "aux" in new.extra:
+            ls.b[:] = new.extra["aux"]
+        if extra is not None and extra in new.extra:
+            ls.mu[:] = new.extra[extra]
+    sol.amend_last(t=t_new, a=ls.a, lam=ls.lam,
+                   extras={extra: ls.mu} if extra is not None else None)
+    return t_new
+
+
+class LoopState:
+    """The accepted state a run's steppers advance in place, and the buffers
+    their rows go through to the Solution.
+
+    Attributes
+    ----------
+    start : StepState
+        The method's state at the start (``Method.start``).
+    q, v, a, b : ndarray, shape (n,)
+        The accepted state; ``b`` the auxiliary acceleration of the methods
+        that carry one (generalized-alpha).
+    lam, mu : ndarray, shape (m,)
+        The multipliers and the method's extra ones (mu of the SI2 methods,
+        psi_I of HHT-ADD; name ``extra``, or None).
+    q_prev, v_prev : ndarray, shape (n,)
+        The state one step before (a two-step method's history).
+    counts : ndarray of int, shape (6,)
+        The Newton counts since the last recorded row: iterations,
+        residuals, Newton matrices, factorizations, steps whose multipliers
+        stalled at round-off, steps.
+    out_t, out_h, out_q, out_v, out_a, out_lam, out_mu, out_stats : ndarray
+        The output buffers, CHUNK rows: time, step size, state, counts.
+    buffered, sent : int
+        Rows recorded in the buffers, and how many of them are in the
+        Solution (:meth:`flush`); the next call records after them, into the
+        rest of the buffers, so where a compiled call ends (and the next
+        starts a new Newton matrix) follows from the steps alone, never from
+        when the rows were sent.
+    """
+
+    def __init__(self, system, method, initial):
+        n, m = system.n, system.m
+        start = self.start = method.start(system, initial)[-1]
+        self.q, self.v, self.a = start.q.copy(), start.v.copy(), start.a.copy()
+        self.carries_aux = "aux" in start.extra
+        self.b = (np.array(start.extra["aux"], dtype=float) if self.carries_aux
+                  else np.zeros(n))
+        self.lam, self.mu = start.lam.copy(), np.zeros(m)
+        self.extra = method.extras[0] if method.extras else None
+        if self.extra is not None and self.extra in start.extra:
+            self.mu[:] = start.extra[self.extra]
+        self.q_prev, self.v_prev = self.q.copy(), self.v.copy()
+        self.counts = np.zeros(6, np.int64)
+        self.out_t, self.out_h = np.empty(CHUNK), np.empty(CHUNK)
+        self.out_q, self.out_v, self.out_a = (np.empty((CHUNK, n)) for _ in range(3))
+        self.out_lam, self.out_mu = np.empty((CHUNK, m)), np.empty((CHUNK, m))
+        self.out_stats = np.empty((CHUNK, 6), np.int64)
+        self.buffered = self.sent = 0
+
+    def step_state(self, t) -> StepState:
+        """The accepted state at t [s] as a StepState (its ``extra``: the
+        method's extra multipliers and auxiliary acceleration), copied."""
+        s = StepState(float(t), self.q.copy(), self.v.copy(), self.a.copy(), self.lam.copy())
+        if self.carries_aux:
+            s.extra["aux"] = self.b.copy()
+        if self.extra is not None:
+            s.extra[self.extra] = self.mu.copy()
+        return s
+
+    def outputs(self):
+        """The out_* buffers past the rows already buffered, for the next call
+        of the compiled loop to record into: (t, h, q, v, a, lam, mu, stats)."""
+        k = self.buffered
+        return (self.out_t[k:], self.out_h[k:], self.out_q[k:], self.out_v[k:],
+                self.out_a[k:], self.out_lam[k:], self.out_mu[k:], self.out_stats[k:])
+
+    def record(self, t, h):
+        """Record the current state at t [s], taken with a step of h [s], and
+        the counts since the last record (then zero), into the next row of
+        the buffers (which must not be full)."""
+        k = self.buffered
+        self.out_t[k], self.out_h[k] = t, h
+        self.out_q[k], self.out_v[k], self.out_a[k] = self.q, self.v, self.a
+        self.out_lam[k], self.out_mu[k] = self.lam, self.mu
+        self.out_stats[k] = self.counts
+        self.counts[:] = 0
+        self.buffered = k + 1
+
+    def flush(self, sol):
+        """Append the buffered rows not yet sent (with the step size each was
+        taken at) to ``sol``; full buffers start again from their first row."""
+        i, k = self.sent, self.buffered
+        if k > i:
+            x = self.extra
+            sol.append_block(self.out_t[i:k].copy(), self.out_q[i:k].copy(),
+                             self.out_v[i:k].copy(), self.out_a[i:k].copy(),
+                             self.out_lam[i:k].copy(),
+                             {x: self.out_mu[i:k].copy()} if x is not None else {},
+                             self.out_stats[i:k].copy(), self.out_h[i:k].copy())
+        self.sent = k
+        if k == CHUNK:
+            self.buffered = self.sent = 0
+
+    def add_row(self, sol, t, h):
+        """Append the current state at t [s], with the counts since the last
+        record (then zero), to ``sol``, after the buffered rows; h [s]: its step
+        size."""
+        self.flush(sol)                 # (full buffers start again from their first row)
+        self.record(t, h)
+        self.flush(sol)
+
+
+class TimeLoop:
+    """One run: from t_start to t_end on ``stepper``, recording into ``sol``
+    (which holds the initial row); sets sol.status and sol.message.
+
+    Parameters
+    ----------
+    system : AssembledSystem
+    method : Method
+    sol : Solution
+    ls : LoopState
+    stepper : KernelStepper or PythonStepper
+        Takes the steps.
+    fallback : PythonStepper or None
+        Takes a step ``stepper`` cannot take at all (Newton failing at the
+        smallest step ``sizes`` allows, or on a step landed on an event;
+        with error control, the tolerance at h_min): its own Newton may
+        converge where the stepper's did not, or the run ends with its
+        diagnosis. The run goes back to ``stepper`` after a step accepted
+        (with fixed steps, once the step is back to h).
+    t_start, t_end, h : float [s]
+        h: the nominal (fixed) or first (``control``) step.
+    control : StepControl or None
+    sizes : StepSizes
+    output_every : int
+    events : EventLocator or None
+        Contacts, joint limits and springs with a free length: a stepper
+        returns EVENT at a step that crosses one, and this loop lands a step
+        on it (:meth:`land`).
+    """
+
+    def __init__(self, system, method, sol, ls, stepper, fallback, t_start, t_end, h, control,
+                 sizes, output_every, events):
+        self.system, self.method, self.sol, self.ls = system, method, sol, ls
+        self.stepper, self.primary, self.fallback = stepper, stepper, fallback
+        self.t_start, self.t_end, self.h, self.h_cur = t_start, t_end, h, h
+        self.control, self.sizes, self.every, self.events = control, sizes, output_every, events
+        span = t_end - t_start
+        self.fixed = control is None
+        if self.fixed:
+            self.ctl = np.array([1.0, 1.0, 1.0, 1.0, 1.0, h, h, 1.0])
+        else:
+            self.ctl = np.array([control.rtol, control.atol, control.safety,
+                                 control.min_factor, control.max_factor,
+                                 sizes.h_min, min(control.h_max, span), 0.0])
+        self.h_max = self.ctl[6]
+        # t, next h, rejected, previous h (none), mode (RUN), the compensation of the
+        # sum t (Kahan: t exact to round-off over 1e6 steps), after a rejection, limit
+        self.state = np.array([t_start, h, 0.0, 0.0, RUN, 0.0, 0.0, 0.0])
+        self.trial = np.empty((2, system.n))     # the end of a step that crossed an event
+        self.step_no, self.t = 0, t_start
+        self.seg_end = t_end         # the stepper runs to the end of the stretch
+        self.progress = self.writer = None
+        self.told = (0, 0)           # steps and iterations the progress callback was told of
+        self.landed_now = False      # the last call of step_on landed on an event
+        if events is not None:
+            events.start(t_start, ls.start)
+            stepper.events_changed(self)
+
+    def run(self, switches, progress, writer):
+        """From switch to switch to t_end, landing events and handing steps
+        the stepper cannot take to the fallback; returns the Solution."""
+        sol, ls, state = self.sol, self.ls, self.state
+        span = self.t_end - self.t_start
+        segments = _segments(self.t_start, self.t_end, self.h, switches)
+        self.progress, self.writer = progress, writer
+        clock = _time.perf_counter
+        flushed = clock()
+        try:
+            while self.t < self.t_end - 1e-12 * span:
+                self.seg_end, switch = segments[0][1:]
+                if self.events is not None and not self.fixed:  # the closed gaps' step limit
+                    self.ctl[6] = min(self.h_max, self.events.step_limit())
+                status = self.step_on()
+                if status != CONVERGED and not self._fall_back():
+                    if ls.counts[5]:    # accepted steps since the last record: keep the last
+                        ls.add_row(sol, self.t, float(state[3]) or self.h)
+                    self.flush()
+                    self.stepper.diagnose(self, status)
+                    break
+                if self.stepper is self.fallback and self._may_hand_back(status):
+                    self.stepper = self.primary
+                    self.primary.resync()
+                if self.t >= self.seg_end - 1e-12 * span and switch is not None:
+                    ls.flush(sol)
+                    self.t = _restart_at_switch(self.system, self.method, sol, switch, self.h,
+                                                ls)
+                    state[0], state[3], state[5] = self.t, 0.0, 0.0   # BDF restarts: BDF1
+                    self.stepper.resync()
+                    segments.pop(0)
+                if clock() - flushed >= FLUSH_INTERVAL:
+                    self.flush()
+                    flushed = clock()
+            else:
+                sol.status, sol.message = "completed", f"reached t_end = {self.t_end:g} s"
+            self.flush()
+        except KeyboardInterrupt:       # the driver marks the run interrupted
+            if ls.counts[5]:            # accepted steps since the last record
+                ls.add_row(sol, float(state[0]), float(state[3]) or self.h)
+            raise
+        except Exception as exc:        # a bug: keep what was computed, then let it surface
+            sol.status = "failed"
+            sol.message = f"internal error at t = {self.t:.6g} s: {exc!r}"
+            raise
+        finally:                        # whatever ends the run, no recorded row is lost
+            ls.flush(sol)
+            sol.last_state = ls.step_state(state[0])
+        return sol
+
+    def flush(self):
+        """The buffered rows to the Solution, then the progress callback (the
+        mean Newton iterations per step since it was last told) and the
+        writer."""
+        sol = self.sol
+        self.ls.flush(sol)
+        if self.progress is not None:
+            tot = sol.stats_total
+            steps, iterations = tot.steps - self.told[0], tot.iterations - self.told[1]
+            if steps > 0:
+                self.told = (tot.steps, tot.iterations)
+                h_last = float(self.state[3]) or float(self.state[1])  # 0: after a restart
+                self.progress(self.t, h_last, round(iterations / steps))
+        if self.writer is not None:
+            self.writer.append(sol)
+
+    def step_on(self):
+        """One call of the stepper from t, at the step the policy has (with
+        fixed steps up to the next change of size; CHUNK steps at most; the
+        fallback one step), then what the policy makes of its return: the
+        steps taken count towards regrowth, an event is landed on
+        (:meth:`land`), a step Newton did not converge is retried at the
+        size ``sizes.failed`` gives. Returns CONVERGED, or the status of a
+        step the stepper cannot take."""
+        state, sizes = self.state, self.sizes
+        self.landed_now = False
+        h_try = self.h_cur if self.fixed else float(state[1])
+        limit = sizes.steps_before_growth(h_try)
+        limit = min(limit, CHUNK) if limit else CHUNK
+        if self.stepper is self.fallback:
+            limit = 1
+        status, taken = self.attempt(RUN, h_try, limit)
+        if taken:                   # (the limit stops the call where the size would change)
+            if self.fixed:
+                self.h_cur = sizes.grown(sizes.landed(self.h_cur), taken)
+            elif status == CONVERGED:
+                state[1] = sizes.landed(float(state[1]))
+        if status == EVENT:
+            self.landed_now = True
+            return self.land()
+        if status in (CONVERGED, TOLERANCE):
+            return status
+        retry = self._retry()
+        if retry is None:
+            return status
+        if self.fixed:
+            self.h_cur = retry
+        else:
+            state[1] = retry
+        return CONVERGED
+
+    def _retry(self):
+        """The step of size state[1] from t that Newton did not converge: the
+        size to retry it at (``sizes.failed``), counted as a rejected step,
+        with no growth right after it under error control; None when none is
+        left."""
+        if self.fixed:
+            self.stepper.newton_failed(self)
+        retry = self.sizes.failed(self.t, float(self.state[1]), self.t_end)
+        if retry is not None:
+            self.sol.stats_total.rejected += 1
+            self.state[6] = 1.0
+        return retry
+
+    def _fall_back(self):
+        """A step the stepper cannot take: whether the fallback takes over
+        (counted as a rejected step; with fixed steps at the current size,
+        with error control at the step's), or there is none to."""
+        if self.fallback is None or self.stepper is self.fallback:
+            return False
+        self.sol.stats_total.rejected += 1       # the stepper's attempt at the step
+        self.stepper = self.fallback
+        self.fallback.resync()
+        return True
+
+    def _may_hand_back(self, status):
+        """After the fallback's call: whether the run goes back to the
+        stepper (a step accepted; with fixed steps at h again; not jumping
+        nor just landed on an event)."""
+        return (status == CONVERGED and (not self.fixed or self.h_cur >= self.h)
+                and self.sizes.jumped is None and not self.landed_now
+                and self.t < self.t_end - 1e-9 * self.h)
+
+    def attempt(self, mode, h_try, limit=0):
+        """Call the stepper in ``mode`` from (t, q, v, ...) with a first step
+        of h_try, at most ``limit`` accepted steps (0: no limit); returns (its
+        status, the steps it took)."""
+        ls, state = self.ls, self.state
+        state[1], state[4], state[7] = h_try, mode, limit
+        if ls.buffered == CHUNK:
+            self.flush()
+        status, taken = self.stepper.advance(self, mode, h_try, limit)
+        if state[2]:                # the error control's rejections: no jump to return from
+            self.sol.stats_total.rejected += int(state[2])
+            self.sizes.jumped = None
+        state[2] = 0.0
+        self.step_no += taken
+        self.t = float(state[0])
+        return status, taken
+
+    def land(self):
+        """The stepper stopped at a step that crosses an event (a gap opening
+        or closing, a spring's points passing; its end in ``trial``): retake
+        it with the size that ends it just past the event
+        (``EventLocator.check``), until one lands (a retake Newton cannot
+        converge retried at the size ``sizes`` gives); take that step; then
+        change the contact's state (``commit``) and plan the next step
+        (back to the size before the cut, within the closed gaps' step
+        limit; a two-step method restarts with BDF1). Returns the status of
+        the last attempt."""
+        ls, state, events = self.ls, self.state, self.events
+        t0, step = self.t, float(state[1])
+        resume = step                 # the size planned, to go back to once landed
+        last = StepState(t0, ls.q.copy(), ls.v.copy(), ls.a.copy(), ls.lam.copy())
+        events.resume_at(ls.q)        # the stepper took the steps since the last event
+        self.ctl[6] = self.h_max      # the step limit of the gaps after the event, below
+        h_try = step
+        mode = None
+        landed = 0                    # steps taken (a cut one ending before the event, then on it)
+        while True:
+            if mode is None:          # where to end the step that crossed
+                cut = events.check(t0, step, last, StepState(t0 + step, self.trial[0].copy(),
+                                                             self.trial[1].copy(), None, None))
+                mode, h_try = (LAND, step) if cut is None else (ATTEMPT, cut)
+                self.sol.event_cuts += cut is not None
+            status, taken = self.attempt(mode, h_try)
+            landed += taken
+            if status == EVENT:           # the retaken step crossed too: look again
+                step, mode = float(state[1]), None
+            elif status == REJECTED:      # its error estimate: again, shorter
+                mode, h_try = ATTEMPT, float(state[1])
+            elif status in (CONVERGED, TOLERANCE):
+                break
+            else:                         # Newton did not converge: the policy
+                h_try = self._retry()
+                if h_try is None:
+                    break
+                mode = ATTEMPT
+        if status != CONVERGED:
+            return status
+        # the step taken: its events (none, if it ended before them) from its own ends
+        t = self.t
+        events.check(t0, t - t0, last,
+                     StepState(t, ls.q.copy(), ls.v.copy(), ls.a.copy(), ls.lam.copy()))
+        events.commit()
+        self.stepper.events_changed(self)
+        if self.fixed:                # back to the size before the cut, one step more at it
+            h_next = self.h_cur = self.sizes.grown(self.h_cur, landed)
+        else:
+            h_next = min(max(float(state[1]), resume), events.step_limit())
+        if events.happened and self.method.history_length > 1:
+            state[3] = 0.0            # BDF1 from the event
+            if not self.fixed:
+                h_next = min(h_next, RESTART_FRACTION * events.changed_limit)
+        state[1] = h_next
+        return status
+
+
+class PythonStepper:
+    """Steps taken by the Python Newton iteration (``newton.Newton``: dense LU,
+    or SuperLU above ``DENSE_LIMIT`` unknowns or when asked) on a method's
+    residual and Newton matrix: the method's own (the numpy engine), or the
+    kernels' (``engine.SparseAdapter``). The stepper contract of
+    :class:`TimeLoop` (:mod:`.outcomes`); the steps of the compiled loop,
+    ``compiled._run``, in Python, with the method's own error estimate
+    (``Method.local_error``) and its carried state (the StepStates of its
+    history, with the force terms it caches).
+
+    Parameters
+    ----------
+    system : AssembledSystem
+    method : Method or SparseAdapter
+    newton : Newton
+    control : StepControl or None
+    initial : InitialState or None
+        The run's start, for the first step (None: a fallback, which starts
+        from the loop's state at each hand-over).
+    """
+
+    def __init__(self, system, method, newton, control, initial):
+        from ..assembly.sparse import JacobianAssembler
+        self.system, self.method, self.newton, self.control = system, method, newton, control
+        blocks = method.blocks(system)
+        self.kinds = np.concatenate([np.full(b.size, b.kind == "multiplier") for b in blocks])
+        self.assembler = JacobianAssembler(len(self.kinds),
+                                           sparse=sparse_newton(newton.options, len(self.kinds)))
+        self.history = None
+        if initial is not None:
+            self.history = method.start(system, initial)
+            previous = initial.method_state.get("previous")
+            if previous is not None and method.history_length > 1:   # resuming a two-step method
+                self.history = [previous] + self.history
+        self.failure = None          # (ctx, NewtonResult, t, step) or (None, err, t, step)
+        self.crossing = None         # (t, step, ctx, NewtonResult, StepState): EVENT's step
+
+    @property
+    def linear_solver(self) -> str:
+        """"sparse" (SuperLU) or "dense" (LAPACK's LU through scipy)."""
+        return "sparse" if self.assembler.sparse else "dense"
+
+    def resync(self):
+        """The loop's state was changed by another (the compiled loop's steps,
+        a restart at a switch): start the next step from it, with a new
+        Newton matrix."""
+        self.history = self.crossing = None
+        self.newton.invalidate()
+
+    def events_changed(self, loop):
+        """The contacts changed state (their law reads it from the system's
+        contact group, which the kernels' copy follows in ``SparseAdapter``)."""
+
+    def newton_failed(self, loop):
+        """Newton did not converge on a fixed step (nothing to change here)."""
+
+    def _from_loop(self, loop):
+        """The history the method steps from: the loop's accepted state as a
+        start of the method (its cached terms evaluated there), with its
+        extra multipliers and auxiliary acceleration, and for a two-step
+        method the state one step before (its a and lambda NaN: BDF2 reads
+        q and v) when the last step was a step (state[3] > 0)."""
+        from ..assembly.initial import InitialState
+        ls, system, t = loop.ls, self.system, loop.t
+        start = InitialState(t, ls.q.copy(), ls.v.copy(), ls.a.copy(), ls.lam.copy(),
+                             float(np.max(np.abs(system.Phi(ls.q, t)), initial=0.0)), 0.0,
+                             float("nan"),
+                             method_state={"aux": ls.b.copy()} if ls.carries_aux else {})
+        s = self.method.start(system, start)[-1]
+        if ls.extra is not None:
+            s.extra[ls.extra] = ls.mu.copy()
+        h_last = float(loop.state[3])
+        if h_last > 0.0 and self.method.history_length > 1:
+            previous = StepState(t - h_last, ls.q_prev.copy(), ls.v_prev.copy(),
+                                 np.full_like(ls.a, np.nan), np.full_like(ls.lam, np.nan))
+            return [previous, s]
+        return [s]
+
+    def advance(self, loop, mode, h, limit):
+        """Steps from the loop's state (the contract of :class:`TimeLoop`,
+        ``compiled._run``'s in Python); returns (status, steps taken)."""
+        system, method, ls, state = self.system, self.method, loop.ls, loop.state
+        if self.history is None:
+            self.history = self._from_loop(loop)
+        control, fixed = self.control, loop.fixed
+        h_min, h_max = loop.ctl[5], loop.ctl[6]
+        t0, t_end = loop.t, loop.seg_end
+        span = t_end - t0
+        events = loop.events if mode != LAND else None
+        augmented = method.formulation == "augmented"
+        after_rejection = state[6] != 0.0
+        clock = _time.perf_counter
+        started = clock()
+        t, taken = t0, 0
+        # the step that crossed an event, converged: LAND of that very step takes it as it is
+        crossing, self.crossing = (self.crossing if mode == LAND else None), None
+        while t < t_end - 1e-12 * span and ls.buffered < CHUNK:
+            step = min(h, t_end - t)
+            if t_end - (t + step) < 1e-6 * step:      # land on t_end, never leave a sliver
+                step = t_end - t
+            if step == t_end - t:
+                t_new, carry = t_end, 0.0
+            else:
+                y = step - state[5]
+                t_new = t + y
+                carry = (t_new - t) - y
+            history = self.history if state[3] != 0.0 else self.history[-1:]  # BDF1 start
+            c = ls.counts
+            if crossing is not None and crossing[:2] == (t, step):
+                ctx, res, new = crossing[2:]   # landing the step that crossed: solved already
+            else:
+                ctx, res = self._solve(history, t_new, step, augmented)
+                c[0] += res.n_iter
+                c[1] += res.n_residual
+                c[2] += res.n_jacobian
+                c[3] += res.n_factor
+                if not res.converged:
+                    self.failure = (ctx, res, t, step)
+                    state[0], state[1], state[6] = t, step, 1.0 if after_rejection else 0.0
+                    return NEWTON_STATUS[res.status.value], taken
+                new = method.accept(res.w, ctx)
+            crossing = None
+            if events is not None and events.crosses(ctx.last.q, new.q):
+                loop.trial[0], loop.trial[1] = new.q, new.v
+                state[0], state[1] = t, step
+                self.crossing = (t, step, ctx, res, new)
+                return EVENT, taken
+            if not fixed:
+                err = control.norm(method.local_error(ctx, new), ctx.last.q, new.q)
+                if err > 1.0:
+                    if step <= h_min * (1.0 + 1e-9):
+                        self.failure = (None, err, t, step)
+                        state[0], state[1] = t, step
+                        return TOLERANCE, taken
+                    state[2] += 1.0
+                    h = max(step * control.factor(err, True), h_min)
+                    after_rejection = True
+                    if mode != RUN:
+                        state[0], state[1], state[6] = t, h, 1.0
+                        return REJECTED, taken
+                    continue
+                factor = control.factor(err, after_rejection)
+                after_rejection = False
+            c[4] += int(res.multipliers_stalled)
+            self._accept(ls, new, step, t_new, carry, state, history)
+            t = t_new
+            taken += 1
+            if not fixed:
+                # a step shortened to land on the stretch's end (a switch of a function
+                # of time) leaves the size planned before it
+                h = max(min(step * factor, h_max), h if t >= t_end - 1e-12 * span else 0.0)
+            if (loop.step_no + taken) % loop.every == 0 or t >= t_end - 1e-12 * span:
+                ls.record(t, step)
+            if mode != RUN or taken == limit or clock() - started > FLUSH_INTERVAL:
+                break
+        state[0], state[1], state[6] = t, h, 1.0 if after_rejection else 0.0
+        return CONVERGED, taken
+
+    def _solve(self, history, t_new, step, augmented):
+        """Newton on the step of size ``step`` [s] to t_new [s] after
+        ``history``: (its StepContext, the NewtonResult)."""
+        system, method = self.system, self.method
+        ctx = method.context(system, history, t_new, step)
+        ctx.assembler = self.assembler
+        ctx.regularization = method.regularization
+        w0 = method.predict(ctx)
+        scales = method.scales(system, step, ctx.last.q)
+        key = step
+        if augmented:
+            # only Phi_q^T lambda is unique where Phi_q loses rank: converge on a;
+            # a Newton matrix of its own every step (Method.formulated)
+            scales = np.where(self.kinds, 0.0, scales)
+            key = (step, t_new)
+        res = self.newton.solve(lambda w: method.residual(w, ctx),
+                                lambda w: method.jacobian(w, ctx), w0, self.kinds, scales,
+                                key=key, floor=method.roundoff_floor(system, step, ctx.last.q))
+        return ctx, res
+
+    def _accept(self, ls, new, step, t_new, carry, state, history):
+        """The step to ``new`` (at t_new [s], of size ``step`` [s]) taken: the
+        loop's state and this stepper's history."""
+        self.history = (list(history) + [new])[-self.method.history_length:]
+        ls.q_prev[:], ls.v_prev[:] = ls.q, ls.v
+        ls.q[:], ls.v[:], ls.a[:], ls.lam[:] = new.q, new.v, new.a, new.lam
+        if ls.extra is not None:
+            ls.mu[:] = new.extra[ls.extra]
+        if ls.carries_aux:
+            ls.b[:] = new.extra["aux"]
+        state[3], state[5] = step, carry
+        state[0] = t_new
+        ls.counts[5] += 1
+
+    def diagnose(self, loop, status):
+        """The run ends at the step this stepper could not take: its status and
+        message in the model's words, and a diagnostic (E601, E602)."""
+        ctx, res, t, step = self.failure
+        if status == TOLERANCE:
+            _fail_tolerance(loop.sol, self.method, self.control, t, step, res)
+        else:
+            _fail(loop.sol, self.method, ctx, res, t, step, loop.h)
+
+
+def _null_vector(method, ctx, w):
+    """(s_min / s_max, right singular vector of s_min) of the Newton matrix at w
+    (dense SVD; None for matrices too large to decompose densely)."""
+    J = method.jacobian(w, ctx)
+    if hasattr(J, "toarray"):
+        if J.shape[0] > 3000:
+            return None
+        J = J.toarray()
+    J = np.asarray(J, dtype=float)
+    if not np.all(np.isfinite(J)):
+        return None
+    _, sv, vt = np.linalg.svd(J)
+    return sv[-1] / max(sv[0], 1e-300), vt[-1]
+
+
+def _stiff_elements(system, h):
+    """Springs whose natural period (sqrt of k over the attached mass or
+    inertia, a one-body estimate) is shorter than 4 h: (name, period [s])."""
+    out = []
+    model = system.model
+    for f in model.forces:
+        k = getattr(f, "k", None)
+        if not k:
+            continue
+        if hasattr(f, "joint"):                      # rotational: k [N m/rad] over inertia
+            bodies = [f.joint.first.body, f.joint.second.body]
+            inertia = [model.bodies[b].inertia for b in bodies if b >= 0]
+        else:
+            bodies = [f.first.body, f.second.body]
+            inertia = [model.bodies[b].mass for b in bodies if b >= 0]
+        if inertia:
+            period = 2.0 * np.pi * np.sqrt(min(inertia) / k)
+            if period < 4.0 * h:
+                out.append((f.name, period))
+    return sorted(out, key=lambda x: x[1])
+
+
+def _fail_tolerance(sol, method, control, t, step, err):
+    """Stop a run whose local error stays above the tolerance at the smallest step."""
+    msg = (f"the step from t = {t:.6g} s cannot meet the error tolerance with "
+           f"{method.describe()}: at the smallest step h = {step:.3g} s its local error is "
+           f"{err:.3g} times rtol = {control.rtol:g}, atol = {control.atol:g}")
+    sol.status, sol.message = "failed", msg
+    sol.diagnostics = [Diagnostic(
+        "error", "E602", msg, None, "",
+        hint="a force or driver with a jump or a kink at this time (the error does not "
+             "shrink with h there), or a tolerance below the round-off of q: loosen rtol/atol")]
+
+
+def _fail(sol, method, ctx, res, t, step, h):
+    from ..assembly.structure import involved_names
+    system = ctx.system
+    detail = ""
+    span = None
+    hint = _HINTS.get(res.status, "")
+    try:
+        with np.errstate(all="ignore"):
+            state = method.accept(res.w, ctx)
+            phi = system.Phi(state.q, ctx.t)
+        if np.all(np.isfinite(phi)) and system.m:
+            name, value = system.layout.worst_element(phi)
+            detail = f"; the largest constraint residual is at '{name}' ({value:.3g})"
+            span = system.layout.span_of(name)
+    except (FloatingPointError, ValueError, ZeroDivisionError, np.linalg.LinAlgError):
+        pass
+    try:
+        with np.errstate(all="ignore"):        # at the last accepted state: finite, meaningful
+            svd = _null_vector(method, ctx, method.predict(ctx))
+    except (FloatingPointError, ValueError, np.linalg.LinAlgError):
+        svd = None
+    # 1e-6: a step failing next to a singular position (the N-four-bar's
+    # Newton matrix at its last accepted state: 2e-7) is told so
+    near_singular = svd is not None and svd[0] < 1e-6
+    if res.status is NewtonStatus.SINGULAR or near_singular:
+        null = svd[1] if svd is not None else None
+        if near_singular and res.status is not NewtonStatus.SINGULAR:
+            detail += f"; the Newton matrix is nearly singular (s_min/s_max = {svd[0]:.1e})"
+        if null is not None:
+            coords, elements = involved_names(system, method, null)
+            if elements:
+                detail += ("; the singular direction involves the rows of "
+                           + ", ".join(f"'{e}'" for e in elements)
+                           + (" and the coordinates " + ", ".join(coords) if coords else ""))
+                span = system.layout.span_of(elements[0]) or span
+                hint = (f"the equations of {', '.join(repr(e) for e in elements)} become "
+                        "dependent here: a singular (dead-centre or locked) position of the "
+                        "linkage, e.g. a crank and rod in line; "
+                        + ("--formulation augmented goes through such positions, or "
+                           if method.accepts_augmented and method.formulation == "lagrange"
+                           else "")
+                        + "start elsewhere, drive past it with a motion, or check the joint "
+                        "geometry")
+            elif coords:
+                detail += "; the singular direction involves " + ", ".join(coords)
+                hint = ("no joint holds these coordinates: a body with no mass or inertia in "
+                        "that direction, or a free motion with nothing to resist it")
+    elif res.status in (NewtonStatus.DIVERGING, NewtonStatus.MAX_ITER):
+        stiff = _stiff_elements(system, step)
+        if stiff:
+            name, period = stiff[0]
+            alpha = getattr(method, "alpha", None)
+            rho_inf = getattr(method, "rho_inf", None)
+            if alpha is not None and alpha <= -0.3 + 1e-9:      # that advice is followed
+                remedy = ("use a smaller h (alpha is already -0.3, the most damping HHT "
+                          "allows), or nstiff / nstiff-si2, which damp such a mode more")
+            elif rho_inf is not None and rho_inf <= 1e-12:
+                remedy = ("use a smaller h (rho_inf is already 0: such a mode is removed in "
+                          "one step where the step resolves nothing of it)")
+            else:
+                remedy = ("use a smaller h, or a method with numerical damping "
+                          "(hht-i3/hht-si2 with alpha = -0.3, genalpha/genalpha-si2 with "
+                          "rho_inf = 0)")
+            hint = (f"'{name}' oscillates with a period of about {period:.2g} s, "
+                    f"shorter than the step can follow (h = {step:.2g} s): {remedy}")
+            span = span or next((f.span for f in system.model.forces if f.name == name), None)
+    k = len(res.norms)
+    if k == 0:
+        norms = "no Newton iteration"
+    elif k <= 2:
+        norms = "Newton norms " + ", ".join(f"{x:.2g}" for x in res.norms)
+    else:            # where it started and where it ended: the trend is what helps
+        norms = f"Newton norm {res.norms[0]:.2g} -> {res.norms[-1]:.2g} in {k} iterations"
+    msg = (f"the step from t = {t:.6g} s could not converge with {method.describe()} "
+           f"(h = {step:.3g} s after halving from {h:.3g} s): {res.status.value}; "
+           f"{norms}{detail}")
+    sol.status, sol.message = "failed", msg
+    sol.diagnostics = [Diagnostic("error", "E601", msg, span, "involved here" if span else "",
+                                  hint=hint)]
