@@ -3503,6 +3503,25 @@ def _error_norm(rc, n, q, qx, a_new, a, b, b_new, additive, acc_old, acc_new, rt
 
 
 @_jit
+def step_end(h, t, t_end, carry):
+    """The next step of the time loop from t [s] towards t_end [s], of size h
+    [s] at most: (step [s], its end time t_new [s], the new carry). The
+    last step lands on t_end exactly and never leaves a sliver (under 1e-6
+    of a step) before it; t_new is a compensated (Kahan) sum with
+    ``carry``, the rounding error of the sum so far, so that t stays exact
+    to round-off over 1e6 steps. Both steppers' rule (``_run``,
+    ``loop.PythonStepper``)."""
+    step = min(h, t_end - t)
+    if t_end - (t + step) < 1e-6 * step:
+        step = t_end - t
+    if step == t_end - t:
+        return step, t_end, 0.0
+    y = step - carry
+    t_new = t + y
+    return step, t_new, (t_new - t) - y
+
+
+@_jit
 def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v_prev,
          ctl, opts, solver, lin, lu_state, R, C, V, out_t, out_h, out_q, out_v, out_a,
          out_lam, out_mu, out_stats, counts, F0, state, trial):
@@ -3602,17 +3621,7 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
     rec = 0
     k = 0
     while t < t_end - 1e-12 * (t_end - t0) and rec < out_t.shape[0]:
-        step = min(h, t_end - t)
-        if t_end - (t + step) < 1e-6 * step:      # land on t_end, never leave a sliver
-            step = t_end - t
-        # the step's end time, a compensated (Kahan) sum with the carry in state[5], as
-        # the Python stepper keeps t: exact to round-off over 1e6 steps
-        if step == t_end - t:
-            t_new, carry = t_end, 0.0
-        else:
-            y = step - state[5]
-            t_new = t + y
-            carry = (t_new - t) - y
+        step, t_new, carry = step_end(h, t, t_end, state[5])
         first = two_step and state[3] == 0.0
         c0, w0, w1 = _bdf_ratio(two_step, step, state[3])
         if step != h_rc or first != first_rc or c0 != c0_rc or w0 != w0_rc or w1 != w1_rc:

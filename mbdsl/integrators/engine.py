@@ -1029,11 +1029,6 @@ class KernelStepper:
         ls.buffered += nrec
         return status, taken
 
-    def diagnose(self, loop, status):
-        """Never the last word: a run on this stepper has the Python stepper
-        as its fallback, which takes the step or reports the failure."""
-        raise AssertionError("the compiled loop's failures go to its fallback")
-
 
 # ---------------------------------------------------------------------------------------------
 # Large systems: compiled evaluation, Python Newton with SuperLU

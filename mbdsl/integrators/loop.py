@@ -392,6 +392,7 @@ class TimeLoop:
                     if ls.counts[5]:    # accepted steps since the last record: keep the last
                         ls.add_row(sol, self.t, float(state[3]) or self.h)
                     self.flush()
+                    # a Python stepper's word: the compiled loop always has one as fallback
                     self.stepper.diagnose(self, status)
                     break
                 if self.stepper is self.fallback and self._may_hand_back(status):
@@ -672,21 +673,14 @@ class PythonStepper:
         events = loop.events if mode != LAND else None
         augmented = method.formulation == "augmented"
         after_rejection = state[6] != 0.0
+        step_end = system.kernel_model().K.step_end    # the compiled loop's rule (compiled.py)
         clock = _time.perf_counter
         started = clock()
         t, taken = t0, 0
         # the step that crossed an event, converged: LAND of that very step takes it as it is
         crossing, self.crossing = (self.crossing if mode == LAND else None), None
         while t < t_end - 1e-12 * span and ls.buffered < CHUNK:
-            step = min(h, t_end - t)
-            if t_end - (t + step) < 1e-6 * step:      # land on t_end, never leave a sliver
-                step = t_end - t
-            if step == t_end - t:
-                t_new, carry = t_end, 0.0
-            else:
-                y = step - state[5]
-                t_new = t + y
-                carry = (t_new - t) - y
+            step, t_new, carry = step_end(h, t, t_end, float(state[5]))
             history = self.history if state[3] != 0.0 else self.history[-1:]  # BDF1 start
             c = ls.counts
             if crossing is not None and crossing[:2] == (t, step):
