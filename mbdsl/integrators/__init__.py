@@ -1,7 +1,9 @@
 """Integration methods of Negrut, Jay & Khude, the Newton engine and the time loop.
 
 ``METHODS`` maps the paper's method names to their classes; every entry
-shares one Newton loop (:mod:`.newton`) and one time loop (:mod:`.driver`).
+runs in one time loop (:mod:`.loop`, started by :func:`integrate`,
+:mod:`.driver`), its steps taken by the compiled loop (:mod:`.engine`,
+:mod:`.compiled`) or the Python Newton iteration (:mod:`.newton`).
 """
 
 from .base import Block, Method, StepContext, StepState

@@ -3701,7 +3701,7 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
         k += 1
         if not fixed:
             # a step shortened to land on t_end (a segment's end: a switch of a function
-            # of time) leaves the size planned before it (the driver's ``resume``)
+            # of time) leaves the size planned before it for the next stretch
             h = max(min(step * factor, h_max), h if t >= t_end - 1e-12 * (t_end - t0) else 0.0)
         if (step0 + k) % every == 0 or t >= t_end - 1e-12 * (t_end - t0):
             out_h[rec] = step
