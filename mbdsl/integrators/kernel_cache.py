@@ -78,10 +78,12 @@ def _cache_dir() -> Path:
 
 
 def _key() -> dict:
-    """What the cached kernels depend on: our source, numba, the host CPU."""
+    """What the cached kernels depend on: our source (the kernels, and the
+    warm-up that says which of them a build compiles), numba, the host CPU."""
     import llvmlite.binding as llvm
     import numba
-    return {"source": hashlib.sha256(_compiled_source().read_bytes()).hexdigest(),
+    source = _compiled_source().read_bytes() + Path(__file__).read_bytes()
+    return {"source": hashlib.sha256(source).hexdigest(),
             "numba": numba.__version__, "cpu": llvm.get_host_cpu_name(),
             "python": sys.version.split()[0]}
 
@@ -177,12 +179,16 @@ def warm_up(groups=GROUPS, output: bool = True) -> None:
     * "banded": the same loop with the band LU (``run``, and
       ``jacobian_triplets`` for the band ordering);
     * "sparse": the compiled residuals and triplets under the Python Newton
-      loop (``residual``, ``jacobian_triplets``, ``accumulate``,
-      ``mobility``, ``force_term``);
+      loop, which is also the compiled loop's fallback (``predict``,
+      ``old_force``, ``residual``, ``jacobian_triplets``, ``accumulate``,
+      ``mobility``, ``state``, ``layout``, ``step_end``, and
+      generalized-alpha's ``advance``: this group runs GENALPHA);
 
     and with ``output`` the kernels of the output's index-1 multipliers
-    (``index1_multipliers``), which a run with warm kernels loads when its
-    output first needs them, and of the flexible beams' blocks and energies
+    (``index1_multipliers_band`` for rigid bodies, ``index1_multipliers``
+    for flexible beams, the pendulum calling both), which a run with warm
+    kernels loads when its output first needs them, and of the flexible
+    beams' blocks and energies
     (``beam_blocks``, ``beam_energies``), which every evaluation of a beam
     outside the compiled loop calls (the other elements' ``elements``,
     which the initial conditions call, the pendulum's run loads).
@@ -191,19 +197,27 @@ def warm_up(groups=GROUPS, output: bool = True) -> None:
     ``recipe.py``), so one of them loads what all use.
     """
     from .. import assemble, load_text
-    from . import HHTI3, NewtonOptions, integrate
+    from . import HHTI3, GenAlpha, NewtonOptions, integrate
     from .compiled import lapack_band_addresses
     system = assemble(load_text(_PENDULUM, file="<kernel warm-up>"))
     groups = [g for g in groups if g != "banded" or lapack_band_addresses() is not None]
     _loaded.update(groups)                  # integrate: no warm-up again
     for solver in groups:
-        integrate(system, HHTI3(), 2e-3, 1e-3, engine="compiled",
+        method = GenAlpha() if solver == "sparse" else HHTI3()
+        integrate(system, method, 2e-3, 1e-3, engine="compiled",
                   newton=NewtonOptions(linear_solver=solver))
     if output:                 # the output's multipliers (HHT-ADD), contacts' energy and power
         from .engine import CompiledModel, index1_multipliers
         index1_multipliers(system, np.zeros(1), np.zeros((1, system.n)), np.zeros((1, system.n)))
         rows = np.zeros((1, system.nx))
         cm = CompiledModel(system)
+        # the dense index-1 system of flexible beams (M(q) not diagonal), with the
+        # argument types engine.index1_multipliers passes
+        q = np.zeros((1, system.n))
+        cm.K.index1_multipliers(cm.ints, cm.floats, np.zeros(1), q, q.copy(),
+                                np.empty((1, system.m)), np.empty(cm.bound, np.int64),
+                                np.empty(cm.bound, np.int64), np.empty(cm.bound),
+                                system.FRICTION_ITERATIONS)
         # the applied loads' evaluations from Python (``AssembledSystem.Q`` and
         # after it; the initial conditions call Q already): the energies and power
         system.power(np.zeros(1), rows[:, :system.n], rows[:, :system.n],

@@ -192,6 +192,31 @@ print(len(compiled.elements.signatures))
     assert out.stdout.split() == ["1"]
 
 
+def test_a_build_loads_every_kernel_a_run_may_call():
+    # kernel_cache.warm_up is what a build compiles: an entry point it does not call
+    # compiles, silently, in the middle of a user's run the first time one needs it
+    # (the dense index-1 multipliers of a flexible model's HHT-ADD output: 15 s;
+    # generalized-alpha's ``advance`` on the Python stepper). In a fresh process
+    # whose cache is built, the warm-up loads every entry point but the kernels'
+    # own building blocks and the tests' force_term.
+    import subprocess
+    import sys
+    from mbdsl.integrators import kernel_cache
+    kernel_cache.ensure_loaded(None)             # built, so that the child only loads
+    code = """
+import numba
+from mbdsl.integrators import compiled, kernel_cache
+kernel_cache.warm_up(kernel_cache.GROUPS, output=True)
+print(" ".join(sorted(name for name in dir(compiled) if not name.startswith("_")
+                      and isinstance(getattr(compiled, name), numba.core.registry.CPUDispatcher)
+                      and not getattr(compiled, name).signatures)))
+"""
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         timeout=600, cwd=ROOT)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["force_term", "forces", "phi", "phiqT_add", "phiq_times"]
+
+
 def test_no_kernel_is_compiled_once_per_constant_argument():
     # numba types a Python int or bool passed to a kernel by its value
     # (Literal[int](0)) and compiles the kernel once per value and call site:
