@@ -40,7 +40,7 @@ from ..errors import Diagnostic
 from .base import StepState
 from .events import restart_after_switch, switch_gap
 from .newton import NewtonStatus
-from .outcomes import ATTEMPT, CONVERGED, EVENT, LAND, NEWTON_STATUS, REJECTED, RUN, TOLERANCE
+from .outcomes import ATTEMPT, CONVERGED, EVENT, LAND, REJECTED, RUN, TOLERANCE
 
 __all__ = ["TimeLoop", "LoopState", "PythonStepper", "StepSizes", "CHUNK", "FLUSH_INTERVAL",
            "sparse_newton"]
@@ -694,7 +694,7 @@ class PythonStepper:
                 if not res.converged:
                     self.failure = (ctx, res, t, step)
                     state[0], state[1], state[6] = t, step, 1.0 if after_rejection else 0.0
-                    return NEWTON_STATUS[res.status.value], taken
+                    return res.status.code, taken
                 new = method.accept(res.w, ctx)
             crossing = None
             if events is not None and events.crosses(ctx.last.q, new.q):

@@ -88,6 +88,13 @@ class NewtonStatus(enum.Enum):
     SINGULAR = "singular Newton matrix"
     NONFINITE = "non-finite values"
 
+    @property
+    def code(self) -> int:
+        """The status as the time loop's steppers return it, and the
+        compiled Newton iteration its own (:mod:`.outcomes`)."""
+        from . import outcomes
+        return getattr(outcomes, self.name)
+
 
 @dataclass(frozen=True)
 class NewtonOptions:

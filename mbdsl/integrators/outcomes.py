@@ -23,8 +23,8 @@ Statuses
 CONVERGED
     The steps asked for were taken.
 MAX_ITER, DIVERGING, SINGULAR, NONFINITE
-    Newton did not converge on a step (``newton.NewtonStatus``, by
-    :data:`NEWTON_STATUS`); its size is in the loop state's next h.
+    Newton did not converge on a step (``newton.NewtonStatus.code``);
+    its size is in the loop state's next h.
 TOLERANCE
     With error control, the local error above the tolerance at h_min.
 EVENT
@@ -38,8 +38,3 @@ REJECTED
 CONVERGED, MAX_ITER, DIVERGING, SINGULAR, NONFINITE, TOLERANCE = 0, 1, 2, 3, 4, 5
 EVENT, REJECTED = 6, 7
 RUN, ATTEMPT, LAND = 0, 1, 2
-
-#: The Newton statuses by their ``newton.NewtonStatus`` values, and back.
-NEWTON_STATUS = {"converged": CONVERGED, "maximum number of iterations reached": MAX_ITER,
-                 "diverging": DIVERGING, "singular Newton matrix": SINGULAR,
-                 "non-finite values": NONFINITE}
