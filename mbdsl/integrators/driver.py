@@ -200,7 +200,8 @@ def _steppers(system, method, initial, solver, which, control, python_loop, anno
         return stepper, None, stepper.linear_solver
     from .engine import (KernelStepper, SparseAdapter, newton_size, prepare_compiled,
                          recipe_monomials)
-    python_loop = python_loop or recipe_monomials(method) is None
+    mono = recipe_monomials(method)
+    python_loop = python_loop or mono is None
     cm, plan, timings["kernels"] = prepare_compiled(system, method, solver.options, initial.q,
                                                     announce, python_loop=python_loop,
                                                     uncompiled=which == "uncompiled")
@@ -216,7 +217,7 @@ def _steppers(system, method, initial, solver, which, control, python_loop, anno
     dense = not sparse_newton(options, size)
     fallback = PythonStepper(system, SparseAdapter(system, method, cm, dense=dense),
                              Newton(options), control, None)
-    return KernelStepper(system, method, cm, plan, solver.options, initial, h), fallback, \
+    return KernelStepper(system, method, mono, cm, plan, solver.options, initial, h), fallback, \
         plan.kind
 
 
