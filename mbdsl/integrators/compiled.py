@@ -3294,7 +3294,7 @@ def _newton(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, weight, opts, solve
         if prev > 0.0:
             theta = norm / prev
         eta = max(theta / (1.0 - theta), 1e-2) if theta < 1.0 else np.inf
-        stuck = prev >= 0.0 and norm >= 0.5 * prev
+        stuck = prev >= 0.0 and norm >= max(0.5, rate_refresh) * prev   # newton.py's rule
         if current:
             stalls = stalls + 1 if norm >= 0.5 * best else 0
             best = min(best, norm)

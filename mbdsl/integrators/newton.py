@@ -50,7 +50,10 @@ Jacobian policies (:class:`JacobianUpdate`):
 * ``FULL``: a new Jacobian and factorization every iteration (Newton).
 * ``MODIFIED``: keep the factorization across iterations and steps while
   the contraction rate stays below ``rate_refresh`` and h is unchanged;
-  refresh it (and continue from the current iterate) when not.
+  refresh it (and continue from the current iterate) when not, and
+  whenever a correction is at least max(1/2, ``rate_refresh``) times the
+  last (the stall rule: a matrix that costs many iterations is kept
+  through a slower contraction).
 """
 
 from __future__ import annotations
@@ -122,8 +125,9 @@ class NewtonOptions:
         the compiled engine, whose iteration is a residual and a product
         with the stored inverse). Measured on the chain of N = 100 links,
         HHT-I3: 0.47 factorizations and 5.6 iterations per step at 0.1,
-        0.18 and 7.6 at 0.3, 25% less time per step. 0.5 for HHT-ADD on
-        flexible beams, whose Newton matrix costs some 18 iterations.
+        0.18 and 7.6 at 0.3, 25% less time per step. 0.8 for HHT-ADD on
+        flexible beams, whose Newton matrix costs some 10 iterations; above
+        1/2 it is also the stall rule's ratio (module docstring).
     linear_solver : {"auto", "dense", "sparse", "banded"}
         LU of the Newton matrix: LAPACK on a dense array, or SuperLU
         (scipy.sparse.linalg.splu) on a CSC matrix assembled on the
@@ -145,12 +149,12 @@ class NewtonOptions:
 
     def refresh_rate(self, cost: int) -> float:
         """``rate_refresh``, or its default for a Newton matrix whose renewal
-        is cheap (0 or False: 0.1), expensive (1 or True: 0.3), or costs more
-        than a dozen iterations (2: 0.5, where a stalling iteration asks for
-        a new one anyway; ``engine.newton_matrix_cost``)."""
+        is cheap (0 or False: 0.1), expensive (1 or True: 0.3), or costs
+        about ten iterations (2: 0.8, the stall rule's ratio too;
+        ``engine.newton_matrix_cost``)."""
         if self.rate_refresh is not None:
             return float(self.rate_refresh)
-        return (0.1, 0.3, 0.5)[int(cost)]
+        return (0.1, 0.3, 0.8)[int(cost)]
 
     def __post_init__(self):
         if self.linear_solver not in ("auto", "dense", "sparse", "banded"):
@@ -349,7 +353,8 @@ class Newton:
                 theta = norm / prev
                 res.rate = theta
             eta = max(theta / (1.0 - theta), 1e-2) if theta < 1.0 else np.inf
-            stuck = prev is not None and norm >= 0.5 * prev
+            rate = opt.refresh_rate(isinstance(lu, SparseLU))
+            stuck = prev is not None and norm >= max(0.5, rate) * prev
             if current:      # exact Newton: no halving of the best norm means round-off
                 stalls = stalls + 1 if norm >= 0.5 * best else 0
                 best = min(best, norm)
@@ -367,13 +372,14 @@ class Newton:
                 return self._fail(res, w)
             # A new Jacobian for the next iterate: always for full Newton. Modified
             # Newton keeps one from an earlier step while it contracts faster than
-            # rate_refresh, one of this solve while it contracts faster than 1/2.
+            # rate_refresh, one of this solve while it contracts faster than 1/2
+            # (or rate_refresh, when larger: a matrix that costs many iterations).
             # Within the round-off band a contraction slower than 1/4 also asks for
             # exact Newton, so that a plateau of round-off is recognised as one.
             from_earlier_step = res.n_jacobian == 0
             if (opt.jacobian is JacobianUpdate.FULL or stuck
                     or (from_earlier_step and prev is not None
-                        and theta > opt.refresh_rate(isinstance(lu, SparseLU)))
+                        and theta > rate)
                     or (norm <= ROUNDOFF_BAND and prev is not None and theta > 0.25)):
                 lu = None
             prev = norm

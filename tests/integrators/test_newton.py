@@ -5,7 +5,8 @@ import pytest
 
 import mbdsl
 from mbdsl.cli.main import main
-from mbdsl.integrators.newton import JacobianUpdate, Newton, NewtonOptions, NewtonStatus
+from mbdsl.integrators.newton import (ROUNDOFF_BAND, JacobianUpdate, Newton, NewtonOptions,
+                                      NewtonStatus)
 from mbdsl.output import read_csv_metadata
 
 from ..conftest import MODELS
@@ -36,6 +37,45 @@ def test_modified_newton_reuses_its_factorization():
                  max_iter=40)
     assert res.converged and res.n_factor == 1 and res.n_iter > 2
     assert abs(res.w[0] ** 3 + res.w[0] - 3.0) < 1e-10
+
+
+def test_the_stall_ratio_follows_a_rate_refresh_above_one_half():
+    """A linear system A w = b with a Newton matrix A / 0.4: each modified
+    Newton correction is exactly 0.6 times the last (the error goes as
+    (I - 0.4 I)^k). The stall rule (a correction at least 1/2 the last)
+    renews such a matrix at every iteration; with rate_refresh 0.8, the
+    class of a matrix that costs about ten iterations, 0.6 is contraction
+    enough and the one matrix is kept until the iteration reaches the
+    round-off band (ROUNDOFF_BAND tolerances), where the slow contraction
+    asks for exact Newton whatever the class (module docstring)."""
+    A = np.array([[4.0, 1.0], [1.0, 3.0]])
+    b = np.array([1.0, 2.0])
+    exact = np.linalg.solve(A, b)
+
+    def run(rate):
+        calls, at = [], []            # residuals evaluated; their count at each new matrix
+
+        def F(w):
+            calls.append(1)
+            return A @ w - b
+
+        def J(w):
+            at.append(len(calls))
+            return A / 0.4
+
+        res = _solve(F, J, [0.0, 0.0], jacobian="modified", rtol=1e-10, atol_kinematic=1e-10,
+                     max_iter=80, rate_refresh=rate)
+        assert res.converged and res.w == pytest.approx(exact, abs=1e-6)
+        # the matrices renewed outside the round-off band (after correction k - 1)
+        return res, [k for k in at if k == 0 or res.norms[k - 1] > ROUNDOFF_BAND]
+
+    kept, renewals = run(0.8)
+    assert renewals == [0]
+    ratios = np.array(kept.norms[1:8]) / np.array(kept.norms[:7])
+    assert ratios == pytest.approx(0.6, rel=1e-6)
+    renewed, renewals = run(0.3)
+    # the stall rule needs two corrections; from the second on, a new matrix after each
+    assert len(renewals) > 5 and renewals == [0] + list(range(2, len(renewals) + 1))
 
 
 def test_divergence_and_singularity_are_detected():
