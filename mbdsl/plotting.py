@@ -35,6 +35,11 @@ def _figure(width: float, height: float) -> Figure:
 
 
 def _lines(ax, t, sol, names):
+    """One line a column on ``ax``; a note in an empty panel (an angle panel
+    of a model whose bodies are all particles)."""
+    if not names:
+        ax.text(0.5, 0.5, "none: particles do not turn", transform=ax.transAxes,
+                ha="center", va="center", fontsize=8, color="0.4")
     for name in names:
         ax.plot(t, sol.column(name), label=name, lw=1.2)
     if 1 < len(names) <= 8:
@@ -106,11 +111,13 @@ def plot_solution(solution, y=None, x: str = "t", path=None, bodies=None) -> Fig
             shown = "" if len(sol.model.bodies) <= MAX_BODIES else \
                 f" (first {MAX_BODIES} of {len(sol.model.bodies)} bodies; choose with --bodies)"
         bodies = chosen
+        turning = [b for b in bodies if not getattr(b, "particle", False)]
         panels = {
             "position": ("[m]", [f"{b.name}.{c}" for b in bodies for c in ("x", "y")]),
-            "angle": ("[rad]", [f"{b.name}.phi" for b in bodies]),
+            # a particle (a point mass) has no angle: no line in the angle panels
+            "angle": ("[rad]", [f"{b.name}.phi" for b in turning]),
             "velocity": ("[m/s]", [f"{b.name}.{c}" for b in bodies for c in ("vx", "vy")]),
-            "angular velocity": ("[rad/s]", [f"{b.name}.omega" for b in bodies]),
+            "angular velocity": ("[rad/s]", [f"{b.name}.omega" for b in turning]),
             "energy": ("[J]", ["energy.kinetic", "energy.potential", "energy.total"]),
         }
         for ax, title in zip(axes, PANELS):

@@ -34,7 +34,7 @@ from ..model import graph
 from ..model.elements import GROUND
 from .groups import rot
 from .sparse import DENSE_LIMIT, issparse
-from .structure import (RANK_LIMIT, StructureReport, analyse_structure, miss_diagnosis,
+from .structure import (RANK_LIMIT, StructureReport, analyse_structure, joint_miss, miss_diagnosis,
                         redundancy_diagnostics)
 from .system import AssembledSystem
 
@@ -71,6 +71,9 @@ class InitialState:
         The applied forces a_0 and lambda_0 were solved with, when they are
         not Q(t_0, q_0, v_0, lambda_0): a friction joint at rest starts from
         the Coulomb limit (:func:`coulomb_start`); None otherwise.
+    placements : list of str
+        How the start of the assembly placed the far body of each distance
+        joint it met (:func:`place_bodies`), for the "solved for" line.
     """
 
     t: float
@@ -87,6 +90,7 @@ class InitialState:
     warnings: list = field(default_factory=list)
     method_state: dict = field(default_factory=dict)
     Q: np.ndarray | None = None
+    placements: list = field(default_factory=list)
 
     #: At most this many solved coordinates are listed in :meth:`report`.
     REPORT_COORDINATES = 10
@@ -114,13 +118,24 @@ class InitialState:
             text = ", ".join(f"{k} = {shown(k, v):.6g}" for k, v in items[:self.REPORT_COORDINATES])
             if len(items) > self.REPORT_COORDINATES:
                 text += f", and {len(items) - self.REPORT_COORDINATES} more"
+            if self.placements:
+                text += " (" + "; ".join(self.placements) + "; a 'guess' picks another start)"
             lines.append("  solved for: " + text)
         return "\n".join(lines)
 
 
-def place_bodies(system: AssembledSystem, t0: float = 0.0) -> np.ndarray:
-    """Initial guess of q from the spanning tree of the joint graph, shape (n,)."""
+def place_bodies(system: AssembledSystem, t0: float = 0.0, notes: list | None = None) -> np.ndarray:
+    """Initial guess of q from the spanning tree of the joint graph, shape (n,).
+
+    Each body is placed so that its tree joint holds: a revolute, fixed or
+    sliding joint's two points coincide; a ``distance`` joint's far point is
+    put at the joint's length along gravity (along -y without gravity), or
+    on its circle at a given x or y. What was chosen for distance joints is
+    appended to ``notes`` (strings for the "solved for" line) when given.
+    """
     model = system.model
+    g = np.asarray(model.gravity, float) if model.gravity is not None else np.zeros(2)
+    down = g / np.linalg.norm(g) if np.linalg.norm(g) > 0.0 else _MINUS_Y
     cmap = system.cmap
     q = np.zeros(system.n + 3)          # extended: ground (and particles' phi) at n..n+2 stay 0
     given = {}
@@ -157,12 +172,49 @@ def place_bodies(system: AssembledSystem, t0: float = 0.0) -> np.ndarray:
             mine, theirs = ((joint.second, joint.first) if joint.second.body == child
                             else (joint.first, joint.second))
             target = _point(theirs)
-            q[[cx, cy]] = target - rot(np.array([q[cp]]), mine.local[None])[0]
+            offset = rot(np.array([q[cp]]), mine.local[None])[0]
+            if joint.kind == "distance":
+                # both points at one place would leave the constraint with no
+                # gradient: put the far point at the joint's length along the
+                # default direction, or on the circle through a given x or y
+                target, how = _on_circle(target, joint.length, offset, down,
+                                         given.get((child, "x")), given.get((child, "y")))
+                if how and notes is not None:
+                    notes.append(f"'{joint.name}' placed {how}")
+            q[[cx, cy]] = target - offset
         for k, name in enumerate(("x", "y")):
             if (child, name) in given:
                 q[(cx, cy)[k]] = given[(child, name)]
         placed.add(child)
     return q[:system.n]
+
+
+def _on_circle(centre, length, offset, down, x=None, y=None):
+    """Where the far point of a distance joint starts: (point, how).
+
+    ``centre`` (2,) [m] is the near point, ``length`` [m] the joint's length,
+    ``offset`` (2,) [m] the far point relative to its body's reference point,
+    ``down`` (2,) the default unit direction (along gravity, else -y). With
+    the body's x (or y) given, the point on the circle at that x (or y) on
+    the side of ``down``; else ``centre + length * down``. ``how`` says which
+    (empty when both x and y are given: the user placed the body)."""
+    if x is not None and y is not None:
+        return centre, ""
+    if x is not None or y is not None:
+        k = 0 if x is not None else 1           # the given coordinate
+        p_k = (x if x is not None else y) + offset[k]
+        rest = length ** 2 - (p_k - centre[k]) ** 2
+        if rest >= 0.0:
+            p = np.array(centre, dtype=float)
+            p[k] = p_k
+            side = down[1 - k] if down[1 - k] != 0.0 else -1.0
+            p[1 - k] = centre[1 - k] + np.copysign(np.sqrt(rest), side)
+            return p, f"on its circle at the given {'xy'[k]}"
+    return (np.asarray(centre, float) + length * down,
+            f"{length:.6g} m along {'gravity' if down is not _MINUS_Y else '-y'}")
+
+
+_MINUS_Y = np.array([0.0, -1.0])
 
 
 def _min_norm_step(J, r):
@@ -471,7 +523,9 @@ def _consistent_state(system, t0, tol, max_iter, elastic, q_start=None, redundan
     sparse = system.n + system.m > DENSE_LIMIT
     weights = _column_weights(system)
     with np.errstate(all="ignore"):
-        q = place_bodies(system, t0) if q_start is None else np.array(q_start, dtype=float)
+        placements = []
+        q = (place_bodies(system, t0, placements) if q_start is None
+             else np.array(q_start, dtype=float))
         if elastic is not None:
             for b in model.flexible_bodies:
                 q[b.elastic_columns()] = elastic[b.elastic_columns()]
@@ -507,7 +561,9 @@ def _consistent_state(system, t0, tol, max_iter, elastic, q_start=None, redundan
         if d is not None:
             raise AssemblyError(d.message, [d])
         phi0 = system.Phi(q_start, t0)
-        name, value = lay.worst_element(phi0 if np.all(np.isfinite(phi0)) else phi)
+        worst = phi0 if np.all(np.isfinite(phi0)) else phi
+        name, value = lay.worst_element(worst)
+        value = joint_miss(model, name, worst[lay.element_rows[name]])
         d = Diagnostic("error", "E503",
                        f"the initial configuration cannot be assembled: joint '{name}' stays "
                        f"open by {value:.3g} (m or rad) after {it} Newton iterations",
@@ -619,7 +675,7 @@ def _consistent_state(system, t0, tol, max_iter, elastic, q_start=None, redundan
     fixed_idx = {ic.column(system.cmap) for ic in model.initials if not ic.guess and not ic.is_velocity}
     solved = {lay.coordinates[i]: float(q[i]) for i in range(n) if i not in fixed_idx}
     return InitialState(t0, q, v, a, lam, res_q, res_v, res_a, solved, it, structure, warnings,
-                        Q=Q_start)
+                        Q=Q_start, placements=placements)
 
 
 def coulomb_start(system, t0, q, v, solve):

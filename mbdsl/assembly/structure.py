@@ -276,11 +276,12 @@ def miss_diagnosis(system, q_start: np.ndarray, t0: float, fixed: list[tuple[int
             return None
         phi = system.Phi(q, t0)
         name, value = lay.worst_element(phi)
+        value = joint_miss(model, name, phi[lay.element_rows[name]])
         bodies, joints = graph.loop_through(model, name)
         loop = (" on the loop " + " - ".join(bodies) + " (joints " + ", ".join(joints) + ")"
                 if bodies else "")
         hint = (f"check the points and lengths on this loop: with every other joint holding, "
-                f"'{name}' stays {value:.3g} m apart")
+                f"'{name}' misses by {value:.3g} m")
         if len(iq):
             q_free = solve(False)
             if q_free is not None and np.max(np.abs(system.Phi(q_free, t0))) < 1e-9:
@@ -293,6 +294,21 @@ def miss_diagnosis(system, q_start: np.ndarray, t0: float, fixed: list[tuple[int
                       f"the initial configuration cannot be assembled: joint '{name}' cannot "
                       f"close{loop}; with the other joints holding it misses by {value:.3g} m",
                       lay.span_of(name), f"misses by {value:.3g} m", hint=hint)
+
+
+def joint_miss(model, name: str, residual: np.ndarray) -> float:
+    """How far a joint is from holding [m or rad], from its rows' residual.
+
+    The rows of most joints are distances or angles already; a ``distance``
+    joint's row is (|d|^2 - L^2) / (2 L) (``assembly.groups.DistanceGroup``),
+    so its miss is | |d| - L | = | sqrt(L^2 + 2 L Phi) - L |, not Phi.
+    """
+    residual = np.atleast_1d(np.asarray(residual, float))
+    joint = next((j for j in model.joints if j.name == name), None)
+    if joint is not None and joint.kind == "distance" and joint.length > 0.0:
+        L = joint.length
+        return float(abs(np.sqrt(max(L * L + 2.0 * L * residual[0], 0.0)) - L))
+    return float(np.max(np.abs(residual), initial=0.0))
 
 
 def involved_names(system, method, vector: np.ndarray, share: float = 0.1) -> tuple[list, list]:
