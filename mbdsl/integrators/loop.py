@@ -792,25 +792,53 @@ def _null_vector(method, ctx, w):
     return sv[-1] / max(sv[0], 1e-300), vt[-1]
 
 
-def _stiff_elements(system, h):
-    """Springs whose natural period (sqrt of k over the attached mass or
-    inertia, a one-body estimate) is shorter than 4 h: (name, period [s])."""
+def _stiff_elements(system, h, v=None):
+    """Elements too stiff for the step h [s]: (name, time [s], what) sorted by time.
+
+    Springs (translational, rotational) whose natural period 2 pi sqrt(m/k)
+    (a one-body estimate: the lighter attached mass or inertia) is shorter
+    than 4 h, and contacts and limits whose contact duration
+    (:func:`~mbdsl.model.contact.contact_duration`, at the relative speed of
+    the two bodies in ``v``, shape (n,), the last accepted velocities) is
+    shorter than 4 h: fewer than four steps in it. ``what`` names the time
+    ("period" or "contact duration").
+    """
+    from ..model.contact import Contact, contact_duration
     out = []
     model = system.model
+    vx = np.zeros(system.n + 3)
+    if v is not None:
+        vx[:system.n] = v
+
+    def masses(bodies, rotational):
+        return [model.bodies[b].inertia if rotational else model.bodies[b].mass
+                for b in bodies if b >= 0]
+
     for f in model.forces:
         k = getattr(f, "k", None)
         if not k:
             continue
+        if isinstance(f, Contact):
+            for geometry, data, _ in f.gaps:
+                rotational = geometry == "angle"
+                inertia = masses((data[0], data[2]), rotational)
+                if not inertia:
+                    continue
+                c = system.cmap([data[0], data[2]])
+                dv = vx[c[1]] - vx[c[0]]
+                speed = abs(dv[2]) if rotational else float(np.hypot(dv[0], dv[1]))
+                duration = contact_duration(k, f.exponent, min(inertia), speed)
+                if duration < 4.0 * h:
+                    out.append((f.name, duration, "contact duration"))
+            continue
         if hasattr(f, "joint"):                      # rotational: k [N m/rad] over inertia
-            bodies = [f.joint.first.body, f.joint.second.body]
-            inertia = [model.bodies[b].inertia for b in bodies if b >= 0]
+            inertia = masses((f.joint.first.body, f.joint.second.body), True)
         else:
-            bodies = [f.first.body, f.second.body]
-            inertia = [model.bodies[b].mass for b in bodies if b >= 0]
+            inertia = masses((f.first.body, f.second.body), False)
         if inertia:
             period = 2.0 * np.pi * np.sqrt(min(inertia) / k)
             if period < 4.0 * h:
-                out.append((f.name, period))
+                out.append((f.name, period, "period"))
     return sorted(out, key=lambda x: x[1])
 
 
@@ -850,35 +878,50 @@ def _fail(sol, method, ctx, res, t, step, h):
     # 1e-6: a step failing next to a singular position (the N-four-bar's
     # Newton matrix at its last accepted state: 2e-7) is told so
     near_singular = svd is not None and svd[0] < 1e-6
+    stiff = []
+    if res.status in (NewtonStatus.DIVERGING, NewtonStatus.MAX_ITER):
+        last = ctx.history[-1] if ctx.history else None
+        stiff = _stiff_elements(system, step, getattr(last, "v", None))
+    explained = False
     if res.status is NewtonStatus.SINGULAR or near_singular:
         null = svd[1] if svd is not None else None
-        if near_singular and res.status is not NewtonStatus.SINGULAR:
-            detail += f"; the Newton matrix is nearly singular (s_min/s_max = {svd[0]:.1e})"
-        if null is not None:
-            coords, elements = involved_names(system, method, null)
-            if elements:
-                detail += ("; the singular direction involves the rows of "
-                           + ", ".join(f"'{e}'" for e in elements)
-                           + (" and the coordinates " + ", ".join(coords) if coords else ""))
-                span = system.layout.span_of(elements[0]) or span
-                hint = (f"the equations of {', '.join(repr(e) for e in elements)} become "
-                        "dependent here: a singular (dead-centre or locked) position of the "
-                        "linkage, e.g. a crank and rod in line; "
-                        + ("--formulation augmented goes through such positions, or "
-                           if method.accepts_augmented and method.formulation == "lagrange"
-                           else "")
-                        + "start elsewhere, drive past it with a motion, or check the joint "
-                        "geometry")
-            elif coords:
-                detail += "; the singular direction involves " + ", ".join(coords)
-                hint = ("no joint holds these coordinates: a body with no mass or inertia in "
-                        "that direction, or a free motion with nothing to resist it")
-    elif res.status in (NewtonStatus.DIVERGING, NewtonStatus.MAX_ITER):
-        stiff = _stiff_elements(system, step)
-        if stiff:
-            name, period = stiff[0]
-            alpha = getattr(method, "alpha", None)
-            rho_inf = getattr(method, "rho_inf", None)
+        coords, elements = involved_names(system, method, null) if null is not None else ([], [])
+        if elements:
+            if near_singular and res.status is not NewtonStatus.SINGULAR:
+                detail += f"; the Newton matrix is nearly singular (s_min/s_max = {svd[0]:.1e})"
+            detail += ("; the singular direction involves the rows of "
+                       + ", ".join(f"'{e}'" for e in elements)
+                       + (" and the coordinates " + ", ".join(coords) if coords else ""))
+            span = system.layout.span_of(elements[0]) or span
+            hint = (f"the equations of {', '.join(repr(e) for e in elements)} become "
+                    "dependent here: a singular (dead-centre or locked) position of the "
+                    "linkage, e.g. a crank and rod in line; "
+                    + ("--formulation augmented goes through such positions, or "
+                       if method.accepts_augmented and method.formulation == "lagrange"
+                       else "")
+                    + "start elsewhere, drive past it with a motion, or check the joint "
+                    "geometry")
+            explained = True
+        elif coords and not stiff:
+            # a stiff element also makes the matrix nearly singular (k h^2
+            # against a small inertia): then the stiffness is the cause
+            if near_singular and res.status is not NewtonStatus.SINGULAR:
+                detail += f"; the Newton matrix is nearly singular (s_min/s_max = {svd[0]:.1e})"
+            detail += "; the singular direction involves " + ", ".join(coords)
+            hint = ("no joint holds these coordinates: a body with no mass or inertia in "
+                    "that direction, or a free motion with nothing to resist it")
+            explained = True
+    if stiff and not explained:
+        name, time, what = stiff[0]
+        alpha = getattr(method, "alpha", None)
+        rho_inf = getattr(method, "rho_inf", None)
+        if what == "contact duration":
+            detail += (f"; contact '{name}' lasts about {time:.2g} s an impact, "
+                       f"shorter than four steps of h = {step:.2g} s")
+            hint = (f"'{name}' is too stiff for the step: use error control (--rtol), which "
+                    f"lands on the contact and steps through it, a step below {time / 4:.2g} s, "
+                    "or a softer contact (smaller k)")
+        else:
             if alpha is not None and alpha <= -0.3 + 1e-9:      # that advice is followed
                 remedy = ("use a smaller h (alpha is already -0.3, the most damping HHT "
                           "allows), or nstiff / nstiff-si2, which damp such a mode more")
@@ -889,9 +932,9 @@ def _fail(sol, method, ctx, res, t, step, h):
                 remedy = ("use a smaller h, or a method with numerical damping "
                           "(hht-i3/hht-si2 with alpha = -0.3, genalpha/genalpha-si2 with "
                           "rho_inf = 0)")
-            hint = (f"'{name}' oscillates with a period of about {period:.2g} s, "
+            hint = (f"'{name}' oscillates with a period of about {time:.2g} s, "
                     f"shorter than the step can follow (h = {step:.2g} s): {remedy}")
-            span = span or next((f.span for f in system.model.forces if f.name == name), None)
+        span = next((f.span for f in system.model.forces if f.name == name), None) or span
     k = len(res.norms)
     if k == 0:
         norms = "no Newton iteration"

@@ -68,7 +68,7 @@ import numpy as np
 from ..errors import Span
 from .elements import GROUND
 
-__all__ = ["Contact", "damping_factor", "gap_columns", "SPEED_FLOOR"]
+__all__ = ["Contact", "damping_factor", "gap_columns", "contact_duration", "SPEED_FLOOR"]
 
 #: Approach speeds below this [m/s or rad/s] are taken as this speed in the
 #: damping term chi ddelta/dt / v_impact: a contact that closes at rest (a body
@@ -160,6 +160,25 @@ def damping_factor(restitution: float, exponent: float = 1.5) -> float:
         return chi * (1.0 + e) - math.log1p(chi) - s
     s = brentq(f, 1e-3 * (1.0 - e) * e, (1.0 + e) / e + 50.0, xtol=1e-15, rtol=1e-13)
     return -math.expm1(-s) / e
+
+
+def contact_duration(k: float, exponent: float, mass: float, speed: float) -> float:
+    """How long an undamped impact lasts under f = K delta^n [s].
+
+    A mass m [kg] (or inertia [kg m^2] for an angle) meeting the contact at
+    speed v [m/s or rad/s]: m x'' = -K x^n, x(0) = 0, x'(0) = v. Energy gives
+    the largest penetration x_max = ((n + 1) m v^2 / (2 K))^(1/(n+1)) and the
+    time in contact T = 2 (x_max / v) sqrt(pi) Gamma(1 + 1/(n+1)) /
+    Gamma(1/2 + 1/(n+1)) (Goldsmith, Impact, 1960, ch. 4; for n = 3/2, Hertz's
+    T = 2.94 x_max / v); for n = 1 it is pi sqrt(m / K) at any speed. The
+    law's damping is left out: an estimate, for diagnostics.
+    ``speed`` is floored at :data:`SPEED_FLOOR`.
+    """
+    n = float(exponent)
+    v = max(abs(float(speed)), SPEED_FLOOR)
+    p = 1.0 / (n + 1.0)
+    x_max = ((n + 1.0) * mass * v * v / (2.0 * k)) ** p
+    return 2.0 * x_max / v * math.sqrt(math.pi) * math.gamma(1.0 + p) / math.gamma(0.5 + p)
 
 
 def gap_columns(geometry: str, data, cmap) -> list[int]:

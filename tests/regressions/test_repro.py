@@ -77,3 +77,29 @@ def test_models_with_particles_plot(tmp_path, capsys, model, suffix):
     fig = mbdsl.plot(mbdsl.load_solution(out))
     angle = next(ax for ax in fig.axes if ax.get_title().startswith("angle"))
     assert not angle.lines
+
+
+@pytest.mark.parametrize("k", ["1e9", "1e12"])
+def test_a_contact_too_stiff_for_the_step_is_named_in_e601(tmp_path, capsys, k):
+    """A 1 kg ball dropped 0.95 m onto a Hertz floor (k = 1e9 N/m^1.5) at
+    h = 0.02 s: the step fails; the diagnosis names the contact and its
+    duration (Hertz, 4.32 m/s: 2.94 x_max / v = 6.0e-4 s at k = 1e9), exit 3."""
+    text = (HERE / "stiff_ball.mbd").read_text().replace("k = 1e9", f"k = {k}")
+    path = tmp_path / "ball.mbd"
+    path.write_text(text)
+    assert main(["simulate", str(path), "-q", "-o", str(tmp_path / "b.csv")]) == 3
+    err = capsys.readouterr().err
+    assert "E601" in err and "Traceback" not in err
+    assert "contact 'floor'" in err and "ball.mbd:4:7" in err
+    if k == "1e9":
+        assert "lasts about 0.0006 s" in err
+
+
+def test_the_contact_duration_is_hertz_impact_time():
+    """Against the closed forms: pi sqrt(m/K) for a linear law, and Hertz's
+    2.94 x_max / v with x_max = (5 m v^2 / (4 K))^(2/5) for n = 3/2."""
+    from mbdsl.model.contact import contact_duration
+    assert contact_duration(1e4, 1.0, 2.0, 3.0) == pytest.approx(np.pi * np.sqrt(2.0 / 1e4))
+    m, v, K = 1.0, 4.32, 1e9
+    x_max = (5 * m * v ** 2 / (4 * K)) ** 0.4
+    assert contact_duration(K, 1.5, m, v) == pytest.approx(2.9432 * x_max / v, rel=1e-4)
