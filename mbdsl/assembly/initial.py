@@ -34,7 +34,8 @@ from ..model import graph
 from ..model.elements import GROUND
 from .groups import rot
 from .sparse import DENSE_LIMIT, issparse
-from .structure import (RANK_LIMIT, StructureReport, analyse_structure, joint_miss, miss_diagnosis,
+from .structure import (RANK_LIMIT, StructureReport, analyse_structure,
+                        friction_on_redundant_joints, joint_miss, miss_diagnosis,
                         redundancy_diagnostics)
 from .system import AssembledSystem
 
@@ -809,6 +810,10 @@ def _check_structure(system, q, t0, redundant="error") -> StructureReport:
                        "overflows here", hint="a point or length of extreme size: check the "
                        "units (SI: m) and the points this joint connects")
         raise AssemblyError(d.message, [d]) from None
+    if report.redundant:
+        diags = friction_on_redundant_joints(report, system)
+        if diags:
+            raise AssemblyError(diags[0].message, diags, structure=report)
     if report.redundant and redundant != "accept":
         diags = redundancy_diagnostics(report, system.layout)
         raise AssemblyError(diags[0].message, diags, structure=report)

@@ -30,6 +30,7 @@ from ..errors import Diagnostic
 from ..model import graph
 
 __all__ = ["StructureReport", "analyse_structure", "independent_rows", "miss_diagnosis",
+           "friction_on_redundant_joints",
            "involved_names", "RANK_LIMIT"]
 
 #: Largest number of constraint rows analysed densely at every start; above
@@ -185,6 +186,41 @@ def redundancy_diagnostics(report: StructureReport, layout,
                  f"remove '{r.name}', or replace it by a joint that adds only what is missing "
                  "(e.g. point_on_line instead of revolute); redundant rows make the "
                  "multipliers undetermined and the Newton matrix singular",
+            notes=(f"{report.m} constraint equations, rank {report.rank}, "
+                   f"{report.n} coordinates",)))
+    return out
+
+
+def friction_on_redundant_joints(report: StructureReport, system) -> list[Diagnostic]:
+    """E403 for each friction element in a joint whose rows are redundant.
+
+    Coulomb friction in a joint reads the joint's normal reaction (its
+    multipliers). Where the joint's rows repeat another joint's, only the sum
+    Phi_q^T lambda is determined, not how the reaction splits between them
+    (the minimum-norm split halves it): the friction force would follow an
+    arbitrary choice. The diagnostic names the friction, its joint and the
+    joint(s) it repeats or is repeated by.
+    """
+    from ..model.elements import Friction
+    partners: dict[str, set] = {}
+    for r in report.redundant:
+        group = {r.name, *r.depends_on}
+        for name in group:
+            partners.setdefault(name, set()).update(group - {name})
+    out = []
+    for f in system.model.forces:
+        if not isinstance(f, Friction) or f.joint.name not in partners:
+            continue
+        others = sorted(partners[f.joint.name])
+        listed = ", ".join(f"'{o}'" for o in others) or "itself"
+        out.append(Diagnostic(
+            "error", "E403",
+            f"friction '{f.name}' reads the normal reaction of joint '{f.joint.name}', "
+            f"whose equations repeat those of {listed}: the reaction's split between them, "
+            "and so the friction force, is not determined", f.span, "needs a determinate reaction",
+            hint=f"remove the redundant joint ({listed} or '{f.joint.name}') so that one "
+                 "joint carries the reaction, or put the friction on a joint that is not "
+                 "redundant",
             notes=(f"{report.m} constraint equations, rank {report.rank}, "
                    f"{report.n} coordinates",)))
     return out

@@ -103,3 +103,25 @@ def test_the_contact_duration_is_hertz_impact_time():
     m, v, K = 1.0, 4.32, 1e9
     x_max = (5 * m * v ** 2 / (4 * K)) ** 0.4
     assert contact_duration(K, 1.5, m, v) == pytest.approx(2.9432 * x_max / v, rel=1e-4)
+
+
+def test_friction_on_a_redundant_guide_is_an_error(tmp_path, capsys):
+    """The quick-return's ram guide declared twice (a point_on_line repeating
+    the prismatic's normal row), with friction on it: E403 naming the
+    friction and both joints, exit 4, no result written."""
+    out = tmp_path / "x.csv"
+    assert main(["simulate", str(HERE / "quick_return_redundant_guide.mbd"), "-q",
+                 "-o", str(out)]) == 4
+    err = capsys.readouterr().err
+    assert "error[E403]" in err and "'guide'" in err and "'R'" in err and "'R2'" in err
+    assert not out.exists()
+    assert main(["check", str(HERE / "quick_return_redundant_guide.mbd")]) == 1
+
+
+def test_the_redundant_guide_without_friction_still_runs_augmented(tmp_path, capsys):
+    text = (HERE / "quick_return_redundant_guide.mbd").read_text().replace(
+        "force guide: friction(R, mu = mu)\n", "")
+    path = tmp_path / "qr.mbd"
+    path.write_text(text)
+    assert main(["simulate", str(path), "-q", "--t-end", "0.05", "-o", str(tmp_path / "x.csv")]) == 0
+    assert "W405" in capsys.readouterr().err
