@@ -386,11 +386,15 @@ def rebuild_system(meta: dict, path):
 
 
 def run_description(meta: dict) -> dict:
-    """``timings``, ``engine`` and ``linear_solver`` of a stored run, for
-    :meth:`Solution.from_arrays` (absent from files of older versions)."""
+    """``timings``, ``engine``, ``linear_solver``, ``events`` and
+    ``event_cuts`` of a stored run, for :meth:`Solution.from_arrays`
+    (absent from files of older versions)."""
     return {"timings": json.loads(meta.get("timings", "{}")),
             "engine": meta.get("engine", "numpy"),
-            "linear_solver": meta.get("linear_solver", "dense")}
+            "linear_solver": meta.get("linear_solver", "dense"),
+            "events": [(float(t), str(name), str(kind), float(speed))
+                       for t, name, kind, speed in json.loads(meta.get("events", "[]"))],
+            "event_cuts": int(meta.get("event_cuts", 0))}
 
 
 def _method_parameters(meta: dict) -> dict:

@@ -618,7 +618,7 @@ class Solution:
                     stats: dict, stats_total: RunStats, status: str, message: str,
                     wall_time: float = 0.0, derived: dict | None = None,
                     timings: dict | None = None, engine: str = "numpy",
-                    linear_solver: str = "dense") -> "Solution":
+                    linear_solver: str = "dense", events=(), event_cuts: int = 0) -> "Solution":
         """A Solution from stored arrays (``mbdsl.load_solution``).
 
         Parameters
@@ -636,6 +636,10 @@ class Solution:
             recomputed from q, v, lambda when absent.
         timings : dict of str -> float [s], optional
         engine, linear_solver : str
+        events : sequence of (t [s], gap, "closed" or "opened", speed)
+            The contact and limit events of the run (:attr:`events`).
+        event_cuts : int
+            Steps retaken to land on them.
 
         Returns
         -------
@@ -653,6 +657,8 @@ class Solution:
         self.timings = dict.fromkeys(cls.TIMING_NAMES, 0.0)
         self.timings.update(timings or {})
         self.engine, self.linear_solver = engine, linear_solver
+        self.events, self.event_cuts = [tuple(e) for e in events], int(event_cuts)
+        self.contact_log, self.engine_note = [], None
         self._rows = _RowStore(system.n, system.m, self.extra_names)
         n, m = system.n, system.m
         self.t = np.asarray(t, dtype=float)

@@ -444,8 +444,11 @@ def _animate(args) -> int:
     try:
         res = animate_solution(sol, out, fps=args.fps, speed=args.speed,
                                deform_scale=args.deform_scale)
-    except (OSError, ValueError) as exc:
-        print(f"error: {exc}", file=sys.stderr)
+    except OSError as exc:
+        _write_error(out, exc)
+        return 1
+    except ValueError as exc:
+        print(f"error: cannot write {out}: {exc}", file=sys.stderr)
         return 1
     if not args.quiet:
         print(f"wrote {out} ({res.frames} frames, t = {res.times[0]:g} .. {res.times[-1]:g} s)")

@@ -125,3 +125,82 @@ def test_the_redundant_guide_without_friction_still_runs_augmented(tmp_path, cap
     path.write_text(text)
     assert main(["simulate", str(path), "-q", "--t-end", "0.05", "-o", str(tmp_path / "x.csv")]) == 0
     assert "W405" in capsys.readouterr().err
+
+
+_DAMAGE = """
+import sys
+import numpy as np
+import mbdsl
+src_path, bad_path = sys.argv[1], sys.argv[2]
+good = mbdsl.load_solution(src_path)
+src = open(src_path, "rb").read()
+read = refused = 0
+for off in range(0, len(src), max(1, len(src) // 40)):
+    b = bytearray(src)
+    b[off:off + 64] = bytes(len(b[off:off + 64]))
+    if b == src:
+        continue
+    open(bad_path, "wb").write(b)
+    try:
+        s = mbdsl.load_solution(bad_path)
+    except (ValueError, OSError):
+        refused += 1
+        continue
+    # what is read without complaint must be what was written
+    assert np.array_equal(s.q, good.q) and np.array_equal(s.t, good.t), off
+    assert np.array_equal(s.lam, good.lam) and s.events == good.events, off
+    read += 1
+print(read, refused)
+"""
+
+
+def test_a_damaged_hdf5_result_is_refused_not_read(tmp_path):
+    """64 zero bytes at 40 places of a result file: each load either raises
+    ValueError/OSError (checksums of the metadata and the data) or returns
+    the written arrays exactly; none hangs (the subprocess's timeout) and
+    none returns other numbers."""
+    import subprocess
+    import sys
+    src = tmp_path / "ball.h5"
+    assert main(["simulate", str(HERE.parents[2] / "models" / "bouncing_ball.mbd"), "-q",
+                 "--t-end", "1", "-o", str(src)]) == 0
+    r = subprocess.run([sys.executable, "-c", _DAMAGE, str(src), str(tmp_path / "bad.h5")],
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    read, refused = map(int, r.stdout.split())
+    assert refused >= 10 and read + refused >= 38
+
+
+def test_a_damaged_hdf5_gives_a_message_in_plot_and_animate(tmp_path, capsys):
+    src = tmp_path / "ball.h5"
+    assert main(["simulate", str(HERE.parents[2] / "models" / "bouncing_ball.mbd"), "-q",
+                 "--t-end", "1", "-o", str(src)]) == 0
+    import h5py
+    with h5py.File(src) as f:                  # the first chunk of q's data
+        at = f["q"].id.get_chunk_info(0).byte_offset
+    b = bytearray(src.read_bytes())
+    b[at:at + 64] = bytes(64)
+    src.write_bytes(b)
+    assert main(["plot", str(src), "-o", str(tmp_path / "x.png")]) == 1
+    assert main(["animate", str(src), "-o", str(tmp_path / "x.gif")]) == 1
+    err = capsys.readouterr().err
+    assert err.count("the file is damaged") == 2 and "Traceback" not in err
+
+
+def test_load_solution_keeps_the_events(tmp_path):
+    model = mbdsl.load(HERE.parents[2] / "models" / "bouncing_ball.mbd")
+    sol = mbdsl.simulate(model, t_end=1.0)
+    assert len(sol.events) >= 2
+    for suffix in (".csv", ".h5"):
+        path = tmp_path / f"ball{suffix}"
+        mbdsl.write_solution(sol, path)
+        back = mbdsl.load_solution(path)
+        assert back.events == sol.events and back.event_cuts == sol.event_cuts
+
+
+def test_animate_into_a_missing_folder_says_so(tmp_path, capsys):
+    out = tmp_path / "run.csv"
+    assert main(["simulate", str(HERE / "particle_pendulum.mbd"), "-q", "-o", str(out)]) == 0
+    assert main(["animate", str(out), "-o", str(tmp_path / "no" / "a.gif")]) == 1
+    err = capsys.readouterr().err
+    assert "does not exist" in err and "Errno" not in err
