@@ -226,17 +226,35 @@ def _integer(x: float) -> bool:
     return math.isfinite(x) and abs(x) < 1e6 and x == int(x)
 
 
+class _Soft:
+    """The dimension of ``t`` (a time) and of a function's value (a plain
+    number) where nothing written fixes it: a factor with that dimension in a
+    product or quotient with a determined quantity (``3 kg*t`` is kg s;
+    ``A*sin(w*t)`` has A's dimension), but free like a plain number where it
+    stands alone or in a sum (``0.72 + t`` is an angle written in SI, with
+    an unwritten 1 rad/s)."""
+
+    __slots__ = ("d",)
+
+    def __init__(self, d):
+        self.d = Dimension(d)
+
+
 def dimension(expr, names: dict, references=None) -> Dimension | None:
     """The dimension of ``expr``, or None where it is not determined.
 
     A number with a unit has that unit's dimension; a plain number, a
     parameter written without units and any reference to the state are
     undetermined (None): they are SI values of whatever dimension the context
-    needs (so are ``t`` and ``pi``). ``names`` maps parameter names to their
-    dimension (or None); ``references`` (optional) gives the dimension of a dotted
-    reference such as ``arm.T.x`` (:func:`reference_dimension`). Sums and comparisons of two determined parts must agree;
-    products, quotients and powers of determined parts combine; anything
-    multiplied by an undetermined part is undetermined.
+    needs (so is ``pi``). ``t`` is a time and a function's value a plain
+    number as factors of a product or quotient with a determined part
+    (``3 kg*t`` is kg s, ``A*sin(t)`` A's dimension), and undetermined
+    otherwise (``0.72 + t`` is an angle in SI). ``names`` maps parameter
+    names to their dimension (or None); ``references`` (optional) gives the
+    dimension of a dotted reference such as ``arm.T.x``
+    (:func:`reference_dimension`). Sums and comparisons of two determined
+    parts must agree; products, quotients and powers of determined parts
+    combine; anything multiplied by an undetermined part is undetermined.
 
     Raises
     ------
@@ -245,19 +263,59 @@ def dimension(expr, names: dict, references=None) -> Dimension | None:
         branches of ``if`` differ, or a function of plain numbers gets a
         quantity with a dimension.
     """
+    d = _dimension(expr, names, references)
+    return d if isinstance(d, Dimension) else None
+
+
+def _hard(d):
+    """A determined dimension, or None (a soft one counts as undetermined)."""
+    return d if isinstance(d, Dimension) else None
+
+
+def _product(a, b, op):
+    """a * b or a / b over determined, soft and undetermined (None) parts."""
+    if a is None or b is None:
+        return None
+    da = a.d if isinstance(a, _Soft) else a
+    db = b.d if isinstance(b, _Soft) else b
+    d = da * db if op == "*" else da / db
+    return _Soft(d) if isinstance(a, _Soft) and isinstance(b, _Soft) else d
+
+
+def _dimension(expr, names: dict, references=None):
+    """:func:`dimension` with soft parts (:class:`_Soft`) still soft."""
     from .expressions import Binary, Call, Cond, Dotted, Name, Num, Unary
     if isinstance(expr, Num):
         return unit_dimension(expr.unit) if expr.unit is not None else None
     if isinstance(expr, Dotted):
         return references(expr) if references is not None else None
     if isinstance(expr, Name):
-        # t and pi are undetermined like plain numbers: `0.72 + t` is an angle
-        # written in SI, never a time added to an angle
-        return names.get(expr.name) if expr.name not in ("t", "pi") else None
+        if expr.name == "t":
+            return _Soft(expected("s"))
+        return names.get(expr.name) if expr.name != "pi" else None
     if isinstance(expr, Unary):
-        return dimension(expr.operand, names, references)
+        return _dimension(expr.operand, names, references)
     if isinstance(expr, Binary):
-        a, b = dimension(expr.left, names, references), dimension(expr.right, names, references)
+        a = _dimension(expr.left, names, references)
+        b = _dimension(expr.right, names, references)
+        if expr.op in ("*", "/"):
+            return _product(a, b, expr.op)
+        if expr.op == "^":
+            base = a.d if isinstance(a, _Soft) else a
+            if base is None or base == NONE:
+                return a
+            k = None
+            if isinstance(expr.right, Num) and expr.right.unit is None \
+                    and _integer(expr.right.value):
+                k = int(expr.right.value)
+            elif isinstance(expr.right, Unary) and isinstance(expr.right.operand, Num) \
+                    and _integer(expr.right.operand.value):
+                k = (-int(expr.right.operand.value) if expr.right.op == "-"
+                     else int(expr.right.operand.value))
+            if k is None:
+                return None
+            return _Soft(base ** k) if isinstance(a, _Soft) else base ** k
+        a, b = _hard(a), _hard(b)              # sums, comparisons: soft parts are free
         if expr.op in ("min", "max"):
             if a is not None and b is not None and a != b:
                 raise DimensionError(f"{expr.op}() of {describe(a)} and {describe(b)}",
@@ -273,45 +331,34 @@ def dimension(expr, names: dict, references=None) -> Dimension | None:
             if expr.op in ("<", ">", "<=", ">="):
                 return NONE if a is not None or b is not None else None
             return a if a is not None else b
-        if expr.op == "*":
-            return a * b if a is not None and b is not None else None
-        if expr.op == "/":
-            return a / b if a is not None and b is not None else None
-        if expr.op == "^":
-            if a is None or a == NONE:
-                return a
-            if isinstance(expr.right, Num) and expr.right.unit is None \
-                    and _integer(expr.right.value):
-                return a ** int(expr.right.value)
-            if isinstance(expr.right, Unary) and isinstance(expr.right.operand, Num) \
-                    and _integer(expr.right.operand.value):
-                return a ** (-int(expr.right.operand.value) if expr.right.op == "-"
-                             else int(expr.right.operand.value))
-            return None
         return None
     if isinstance(expr, Call):
-        dims = [dimension(expr.arg, names, references)]
+        arg = _dimension(expr.arg, names, references)
         if expr.func in _PLAIN_FUNCTIONS:
-            for d in dims:
-                if d is not None and d != NONE:
-                    raise DimensionError(f"{expr.func}() takes an angle or a plain number, "
-                                         f"got {describe(d)}", expr.span)
-            return NONE if any(d is not None for d in dims) else None
+            d = _hard(arg)
+            if d is not None and d != NONE:
+                raise DimensionError(f"{expr.func}() takes an angle or a plain number, "
+                                     f"got {describe(d)}", expr.span)
+            # its value is a plain number: NONE where the argument is one
+            return NONE if d is not None else _Soft(NONE)
         if expr.func == "sqrt":
-            d = dims[0]
-            if d is not None and all(e % 2 == 0 for e in d):
-                return Dimension(e // 2 for e in d)
+            base = arg.d if isinstance(arg, _Soft) else arg
+            if base is not None and all(e % 2 == 0 for e in base):
+                half = Dimension(e // 2 for e in base)
+                return _Soft(half) if isinstance(arg, _Soft) else half
             return None
         if expr.func == "abs":
-            return dims[0]
+            return arg
         return None
     if isinstance(expr, Cond):
-        dimension(expr.test, names, references)
-        a, b = dimension(expr.then, names, references), dimension(expr.other, names, references)
-        if a is not None and b is not None and a != b:
-            raise DimensionError(f"the branches of if() are {describe(a)} and {describe(b)}",
+        _dimension(expr.test, names, references)
+        a = _dimension(expr.then, names, references)
+        b = _dimension(expr.other, names, references)
+        ha, hb = _hard(a), _hard(b)
+        if ha is not None and hb is not None and ha != hb:
+            raise DimensionError(f"the branches of if() are {describe(ha)} and {describe(hb)}",
                                  expr.span)
-        return a if a is not None else b
+        return ha if ha is not None else hb
     return None
 
 

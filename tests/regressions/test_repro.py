@@ -204,3 +204,28 @@ def test_animate_into_a_missing_folder_says_so(tmp_path, capsys):
     assert main(["animate", str(out), "-o", str(tmp_path / "no" / "a.gif")]) == 1
     err = capsys.readouterr().err
     assert "does not exist" in err and "Errno" not in err
+
+
+@pytest.mark.parametrize("driver, wrong", [
+    ("P.distance = A*sin(t)", "got a force"),                 # the repro: A = 50 mN
+    ("P.distance = 3 kg*t", "got kg"),
+    ("P.distance = A*t^2", "got"),
+])
+def test_driver_expressions_are_dimension_checked(tmp_path, capsys, driver, wrong):
+    text = (HERE / "driver_units.mbd").read_text().replace("P.distance = A*sin(t)", driver)
+    path = tmp_path / "d.mbd"
+    path.write_text(text)
+    assert main(["check", str(path)]) == 1
+    err = capsys.readouterr().err
+    assert "error[E307]" in err and "expected a length [m]" in err and wrong in err
+
+
+@pytest.mark.parametrize("driver", [
+    "P.distance = 0.05*sin(t)", "P.distance = 50 mm*sin(2*pi*t)", "P.distance = 0.01 + t",
+    "P.distance = 2 m/s*t", "P.distance = 1 m/s^2*t^2/2", "P.distance = if(t < 1, 0.1*t, 0.1)",
+    "P.distance = 10 mm*exp(-t/(1 s))"])
+def test_si_and_unit_driver_expressions_stay_valid(tmp_path, capsys, driver):
+    text = (HERE / "driver_units.mbd").read_text().replace("P.distance = A*sin(t)", driver)
+    path = tmp_path / "d.mbd"
+    path.write_text(text)
+    assert main(["check", str(path)]) == 0, capsys.readouterr().err
