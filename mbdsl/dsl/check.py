@@ -1359,6 +1359,11 @@ class _Checker:
             return ExprError(f"'{ref.text}': {msg}", code, ref.span, hint=hint)
         if isinstance(ref.obj, Dotted):            # body.point.field, reaction.J.fx, driver.D.force
             head, mid, attr = ref.obj.obj, ref.obj.attr, ref.attr
+            kind = {"reaction": "joints", "driver": "drivers"}.get(head)
+            if kind and mid in {x.name for x in self.items[kind]} \
+                    and mid not in self.joints and mid not in {d.name for d in self.drivers}:
+                # declared, but left out after an error reported at its declaration
+                raise _BrokenReference(ref.text, "E201", ref.span)
             if head == "reaction":
                 if mid not in self.joints or attr not in ("fx", "fy", "torque"):
                     raise fail("a reaction is reaction.<joint>.fx|fy|torque",

@@ -229,3 +229,20 @@ def test_si_and_unit_driver_expressions_stay_valid(tmp_path, capsys, driver):
     path = tmp_path / "d.mbd"
     path.write_text(text)
     assert main(["check", str(path)]) == 0, capsys.readouterr().err
+
+
+def test_one_typo_gives_one_error(capsys):
+    """A misspelt parameter in body 'lever' (L1 for Ll) is the only error: the
+    output reading the reaction of joint O4 (on that body) is not blamed."""
+    assert main(["check", str(HERE / "typo_param.mbd")]) == 1
+    err = capsys.readouterr().err
+    assert err.count("error[") == 1 and "unknown name 'L1'" in err
+    assert "1 error, 0 warnings" in err
+
+
+def test_a_reaction_of_a_force_is_still_an_error(tmp_path, capsys):
+    text = (HERE / "quick_return.mbd").read_text().replace("reaction.O4.fx^2", "reaction.motor.fx^2")
+    path = tmp_path / "qr.mbd"
+    path.write_text(text)
+    assert main(["check", str(path)]) == 1
+    assert "'reaction.motor.fx'" in capsys.readouterr().err
