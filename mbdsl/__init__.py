@@ -159,7 +159,7 @@ def simulate(model: Model, method: str | None = None, h: float | None = None,
              on_failure: str = "raise", progress=None, writer=None, engine: str = "auto",
              output_every: int = 1, announce=None, compile_policy: str = "wait",
              formulation: str | None = None, rtol: float | None = None,
-             atol: float | None = None, **coefficients) -> Solution:
+             atol: float | None = None, setup_time: float = 0.0, **coefficients) -> Solution:
     """Simulate a model.
 
     Parameters
@@ -201,6 +201,9 @@ def simulate(model: Model, method: str | None = None, h: float | None = None,
         and rad), h the first step's size. Either one alone sets both;
         default: the ``simulate`` section's ``rtol``, ``atol`` or ``tol``
         (both), else fixed steps of h.
+    setup_time : float [s]
+        Time spent before this call on the run (reading the model), counted
+        in the run's ``timings["setup"]`` with the assembly's.
     **coefficients
         Method coefficients, e.g. ``alpha=-0.1``; default from the
         ``simulate`` section.
@@ -247,13 +250,8 @@ def simulate(model: Model, method: str | None = None, h: float | None = None,
     m = formulated
     assembly_time = time.perf_counter() - t0
     control = step_control(s, rtol, atol)
-    try:
-        sol = integrate(system, m, float(t_end), float(h), t_start=t_start, initial=initial,
-                        newton=newton, on_failure=on_failure, progress=progress,
-                        writer=writer, engine=engine, output_every=output_every,
-                        announce=announce, compile_policy=compile_policy, control=control)
-    except ConvergenceError as err:
-        err.solution.timings["setup"] += assembly_time
-        raise
-    sol.timings["setup"] += assembly_time
-    return sol
+    return integrate(system, m, float(t_end), float(h), t_start=t_start, initial=initial,
+                     newton=newton, on_failure=on_failure, progress=progress,
+                     writer=writer, engine=engine, output_every=output_every,
+                     announce=announce, compile_policy=compile_policy, control=control,
+                     setup_time=setup_time + assembly_time)

@@ -159,11 +159,12 @@ class CsvStream:
 
     The metadata lines come first with ``status: running``; chunks of rows
     follow at most every ``interval`` seconds of wall time; ``finish``
-    writes the remaining rows and appends the final ``status``, ``message``
-    and Newton totals (:func:`read_csv_metadata` keeps the last value of a
-    key). A run stopped by Ctrl-C, a failed step or a bug therefore leaves
-    every accepted step and says why it stopped; a file whose last status
-    is ``running`` comes from a process that was killed outright.
+    writes the remaining rows, appends what is known only at the end (the
+    ``message``, Newton totals, timings, events), each once, and overwrites
+    the header's status and wall time (written padded) with the final ones. A run stopped by
+    Ctrl-C, a failed step or a bug therefore leaves every accepted step and
+    says why it stopped; a file whose status is ``running`` comes from a
+    process that was killed outright.
 
     Parameters
     ----------
@@ -212,14 +213,17 @@ class CsvStream:
         return text
 
     #: Header fields known only at the end, written padded to these widths and
-    #: rewritten in place by :meth:`finish`, so that the head of the file is true.
+    #: rewritten in place by :meth:`finish`, so that the head of the file is true
+    #: ("running" until then: a process killed outright leaves that).
     _LATE_FIELDS = {"status": 11, "wall_time": 24}
+    #: Fields known only at the end, written once after the rows by :meth:`finish`.
+    _TRAILER = ("message", "stats_total", "timings", "events", "event_cuts")
 
     def _open(self, sol):
         buf = io.StringIO()
         self._late = {}
         for k, v in metadata(sol).items():
-            if k in ("events", "event_cuts"):          # known at the end: written there
+            if k in self._TRAILER:               # known at the end: written there
                 continue
             if k in self._LATE_FIELDS:
                 buf.write(f"# {k}: ")
@@ -279,8 +283,7 @@ class CsvStream:
                                     for k in self._derived[0]}
             sol.timings["output"] = self.elapsed
             meta = metadata(sol)
-            for k in ("status", "message", "stats_total", "wall_time", "timings", "events",
-                      "event_cuts"):
+            for k in self._TRAILER:
                 if k in meta:
                     self._file.write(f"# {k}: {meta[k]}\n")
             self._file.close()

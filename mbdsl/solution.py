@@ -658,7 +658,7 @@ class Solution:
         self.timings.update(timings or {})
         self.engine, self.linear_solver = engine, linear_solver
         self.events, self.event_cuts = [tuple(e) for e in events], int(event_cuts)
-        self.contact_log, self.engine_note = [], None
+        self.contact_log, self.engine_note, self.control = [], None, None
         self._rows = _RowStore(system.n, system.m, self.extra_names)
         n, m = system.n, system.m
         self.t = np.asarray(t, dtype=float)
@@ -834,7 +834,8 @@ class Solution:
             f"  steps {tot.steps} (rejected {tot.rejected}) on the {self.engine} engine "
             f"({self.linear_solver} linear solver"
             + (f"; not compiled: {self.engine_note}" if getattr(self, "engine_note", None) else "")
-            + f"): {1e6 * self.wall_time / steps:.1f} us/step",
+            + (f"): {1e6 * self.wall_time / steps:.1f} us/step" if tot.steps else
+               f"): no step recorded in {self.wall_time:.3g} s"),
             "  wall time: " + ", ".join(f"{k} {v:.3f} s" for k, v in self.timings.items()),
             f"  Newton: {tot.iterations / steps:.2f} iterations/step, {tot.jacobians} Jacobians, "
             f"{tot.factorizations} factorizations, {tot.residuals} residuals"

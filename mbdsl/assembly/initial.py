@@ -774,7 +774,7 @@ def _require_finite(system, x, context, t0, what="coordinate"):
     body = system.model.body(name.rpartition(".")[0])
     d = Diagnostic("error", "E506",
                    f"{context} a non-finite {what} at t = {t0:g} s: '{name}' "
-                   f"({x[bad[0]]!r}); {len(bad)} value{'s' if len(bad) > 1 else ''} overflow",
+                   f"({float(x[bad[0]])}); {len(bad)} value{'s overflow' if len(bad) > 1 else ' overflows'}",
                    body.span, "overflows here",
                    hint="a mass, length, point or force of extreme size: check the units "
                         "(SI: kg, m, s, N) and the values of this body")

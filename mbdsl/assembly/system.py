@@ -184,7 +184,8 @@ class AssembledSystem:
             Qg = np.zeros(n)
             for b in model.bodies:
                 if not isinstance(b, FlexibleBeam):      # beams: in their own group
-                    Qg[cmap.table[b.index, :2]] = b.mass * model.gravity
+                    with np.errstate(over="ignore"):     # an overflow is E506 at the start
+                        Qg[cmap.table[b.index, :2]] = b.mass * model.gravity
             self.gravity_force = Qg
         springs = [f for f in model.forces if isinstance(f, SpringDamper)]
         rsprings = [f for f in model.forces if isinstance(f, RotationalSpringDamper)]

@@ -175,7 +175,8 @@ def _run_options(p):
                    help="compiled: the numba kernels, every method and element; uncompiled: "
                         "the same kernels run by the Python interpreter, for debugging them "
                         "(slow, nothing compiled); numpy: the vectorised numpy assembly; auto "
-                        "(default): compiled, or numpy while the kernels are being built")
+                        "(default): compiled, or the uncompiled kernels while the compiled "
+                        "ones are being built, or numpy where the kernels do not apply")
     p.add_argument("--output-every", type=_positive_int, default=1, metavar="K",
                    help="record every K-th step (and the last): less memory on long runs")
 
@@ -316,8 +317,8 @@ def _run(args, model, writer=None):
                            b=args.b, rho_inf=args.rho_inf, engine=args.engine, output_every=args.output_every,
                            announce=announce, formulation=getattr(args, "formulation", None),
                            rtol=getattr(args, "rtol", None), atol=getattr(args, "atol", None),
-                           compile_policy="background" if background_allowed() else "wait")
-        sol.timings["setup"] += getattr(args, "load_time", 0.0)
+                           compile_policy="background" if background_allowed() else "wait",
+                           setup_time=getattr(args, "load_time", 0.0))
     except AssemblyError as exc:
         _print_diagnostics(exc.diagnostics)
         return None, 4

@@ -792,6 +792,38 @@ def _null_vector(method, ctx, w):
     return sv[-1] / max(sv[0], 1e-300), vt[-1]
 
 
+def _near_singular_rows(system, ctx, ratio_limit=1e-4):
+    """(s_min / s_max of Phi_q, the joints of its smallest left singular
+    vector) at the last accepted configuration when the ratio is below
+    ``ratio_limit`` (a mechanism a step away from a singular position, where
+    Newton's matrix is not yet singular), else None. Dense SVD: None for more
+    than 3000 rows or coordinates."""
+    last = ctx.history[-1] if ctx.history else None
+    if last is None or system.m == 0 or max(system.m, system.n) > 3000:
+        return None
+    with np.errstate(all="ignore"):
+        A = system.Phi_q(last.q, ctx.t)
+        if hasattr(A, "toarray"):
+            A = A.toarray()
+        if not np.all(np.isfinite(A)):
+            return None
+        u, sv, _ = np.linalg.svd(np.asarray(A, float))
+    if len(sv) < system.m:               # more rows than coordinates: rank-deficient already
+        return None
+    ratio = sv[-1] / max(sv[0], 1e-300)
+    if ratio >= ratio_limit:
+        return None
+    w = np.abs(u[:, -1])
+    names = []
+    for i in np.argsort(-w):
+        if w[i] < 0.1 * w.max():
+            break
+        name = system.layout.rows[i][0]
+        if name not in names:
+            names.append(name)
+    return ratio, names[:6]
+
+
 def _stiff_elements(system, h, v=None):
     """Elements too stiff for the step h [s]: (name, time [s], what) sorted by time.
 
@@ -910,6 +942,22 @@ def _fail(sol, method, ctx, res, t, step, h):
             detail += "; the singular direction involves " + ", ".join(coords)
             hint = ("no joint holds these coordinates: a body with no mass or inertia in "
                     "that direction, or a free motion with nothing to resist it")
+            explained = True
+    if not explained and not stiff and res.status in (NewtonStatus.DIVERGING,
+                                                      NewtonStatus.MAX_ITER):
+        near = _near_singular_rows(system, ctx)
+        if near is not None:
+            ratio, elements = near
+            detail += (f"; Phi_q is nearly rank-deficient at the last accepted state "
+                       f"(s_min/s_max = {ratio:.1e}) in the rows of "
+                       + ", ".join(f"'{e}'" for e in elements))
+            span = system.layout.span_of(elements[0]) or span
+            hint = (f"the mechanism is close to a singular position, where the equations of "
+                    f"{', '.join(repr(e) for e in elements)} become dependent: a smaller step "
+                    "does not help there; "
+                    + ("--formulation augmented goes through such positions, or "
+                       if method.accepts_augmented and method.formulation == "lagrange" else "")
+                    + "start elsewhere, drive past it with a motion, or check the joint geometry")
             explained = True
     if stiff and not explained:
         name, time, what = stiff[0]

@@ -194,6 +194,10 @@ def test_the_head_of_a_streamed_csv_is_true_after_the_run(tmp_path):
     assert float(head["wall_time"]) > 0.0
     meta, names, values = read_csv_metadata(out)
     assert meta["status"] == "completed" and values.shape[0] == 201 and names[0] == "t"
+    keys = [line[1:].partition(":")[0].strip() for line in out.read_text().splitlines()
+            if line.startswith("#")]
+    assert len(keys) == len(set(keys))               # each key once: head or trailer
+    assert meta["timings"] and json.loads(meta["timings"])["setup"] > 0.0
 
 
 def test_the_solved_for_line_is_short_and_prints_round_off_as_zero():

@@ -38,3 +38,16 @@ def test_example_produces_its_code(code, tmp_path, capsys, monkeypatch):
     assert f"{kind_word}[{code}]" in err, err
     assert "Traceback" not in err
     assert (status == 0) == code.startswith("W")
+
+
+def _named(code):
+    """The backticked names of a section's text after its example."""
+    body = dict(SECTION.findall(DOC))[code]
+    return set(re.findall(r"`([a-z0-9_-]+)`", body.split("```")[-1]))
+
+
+def test_the_kinds_and_methods_listed_are_the_languages():
+    from mbdsl import METHODS
+    from mbdsl.dsl.check import FORCE_KINDS, JOINT_KINDS
+    assert _named("E205") == set(JOINT_KINDS) | set(FORCE_KINDS)
+    assert _named("E206") == set(METHODS)

@@ -246,3 +246,32 @@ def test_a_reaction_of_a_force_is_still_an_error(tmp_path, capsys):
     path.write_text(text)
     assert main(["check", str(path)]) == 1
     assert "'reaction.motor.fx'" in capsys.readouterr().err
+
+
+def test_the_files_setup_time_is_the_summarys(tmp_path, capsys):
+    """The setup time stored in the file (CSV and HDF5) is the one the
+    summary prints: reading and assembling the model included."""
+    import json
+    import re
+    from mbdsl.output import read_csv_metadata
+    for suffix in (".csv", ".h5"):
+        out = tmp_path / f"sc{suffix}"
+        assert main(["simulate", str(HERE.parents[2] / "models" / "slider_crank.mbd"),
+                     "--t-end", "0.05", "-o", str(out)]) == 0
+        printed = float(re.search(r"setup ([0-9.]+) s", capsys.readouterr().out).group(1))
+        stored = (json.loads(read_csv_metadata(out)[0]["timings"]) if suffix == ".csv"
+                  else mbdsl.load_solution(out).timings)["setup"]
+        assert round(stored, 3) == pytest.approx(printed, abs=1.5e-3)
+        assert stored > 0.0
+
+
+def test_a_run_with_no_recorded_step_prints_no_rate():
+    from mbdsl.solution import RunStats, Solution
+    sol = mbdsl.simulate(mbdsl.load(HERE / "particle_pendulum.mbd"), t_end=0.01)
+    empty = Solution.from_arrays(
+        sol.system, method_name="hht-i3", method_parameters={}, extra_names=(), h=1e-3,
+        t_end=0.2, t=sol.t[:1], q=sol.q[:1], v=sol.v[:1], a=sol.a[:1], lam=sol.lam[:1],
+        extras={}, stats={k: v[:1] for k, v in sol.stats.items()}, stats_total=RunStats(),
+        status="interrupted", message="interrupted", wall_time=0.77)
+    text = empty.summary()
+    assert "us/step" not in text and "no step recorded in 0.77 s" in text
