@@ -29,7 +29,7 @@ __all__ = ["write_csv", "read_csv_metadata", "write_solution", "load_solution", 
 HDF5_SUFFIXES = (".h5", ".hdf5")
 
 
-def metadata(solution, extra: dict | None = None) -> dict:
+def metadata(solution, extra: dict | None = None, final: bool = True) -> dict:
     """Everything about a run that is not a time history, as str -> str.
 
     Keys: ``mbdsl_version``, ``model``, ``model_file``, ``model_sha256``,
@@ -41,7 +41,9 @@ def metadata(solution, extra: dict | None = None) -> dict:
     for a model with contacts or joint limits ``events`` (JSON list of [t [s],
     gap, "closed" or "opened", speed [m/s or rad/s]]: when and which gap of a
     contact or limit closed or opened, with its approach or separation
-    speed) and ``event_cuts`` (steps retaken to land on them).
+    speed) and ``event_cuts`` (steps retaken to land on them); for a finished
+    run (``final``) ``warnings`` (JSON list of [code, message]: what the run's
+    own rows say is wrong with it, ``Solution.warnings``).
     """
     from . import __version__
     model = solution.model
@@ -73,6 +75,8 @@ def metadata(solution, extra: dict | None = None) -> dict:
         meta["events"] = json.dumps([[float(t), name, kind, float(speed)]
                                      for t, name, kind, speed in solution.events])
         meta["event_cuts"] = str(int(solution.event_cuts))
+    if final:
+        meta["warnings"] = json.dumps([[w.code, w.message] for w in solution.warnings])
     meta["model_source"] = json.dumps(model.source)      # one line: newlines escaped
     meta.update(extra or {})
     return meta
@@ -207,6 +211,7 @@ class CsvStream:
             extras=extras, stats=stats, stats_total=sol.stats_total, status=sol.status,
             message=sol.message)
         part.energy_start = self._energy
+        part.contact_log = sol.contact_log     # the impact speeds behind the contacts' damping
         text = _csv_rows(part.table()[1])
         self._energy = dict(part.energy_end)
         self._derived.append(part._derived)
@@ -217,12 +222,12 @@ class CsvStream:
     #: ("running" until then: a process killed outright leaves that).
     _LATE_FIELDS = {"status": 11, "wall_time": 24}
     #: Fields known only at the end, written once after the rows by :meth:`finish`.
-    _TRAILER = ("message", "stats_total", "timings", "events", "event_cuts")
+    _TRAILER = ("message", "stats_total", "timings", "events", "event_cuts", "warnings")
 
     def _open(self, sol):
         buf = io.StringIO()
         self._late = {}
-        for k, v in metadata(sol).items():
+        for k, v in metadata(sol, final=False).items():
             if k in self._TRAILER:               # known at the end: written there
                 continue
             if k in self._LATE_FIELDS:
@@ -389,15 +394,17 @@ def rebuild_system(meta: dict, path):
 
 
 def run_description(meta: dict) -> dict:
-    """``timings``, ``engine``, ``linear_solver``, ``events`` and
-    ``event_cuts`` of a stored run, for :meth:`Solution.from_arrays`
+    """``timings``, ``engine``, ``linear_solver``, ``events``,
+    ``event_cuts`` and ``warnings`` of a stored run, for :meth:`Solution.from_arrays`
     (absent from files of older versions)."""
     return {"timings": json.loads(meta.get("timings", "{}")),
             "engine": meta.get("engine", "numpy"),
             "linear_solver": meta.get("linear_solver", "dense"),
             "events": [(float(t), str(name), str(kind), float(speed))
                        for t, name, kind, speed in json.loads(meta.get("events", "[]"))],
-            "event_cuts": int(meta.get("event_cuts", 0))}
+            "event_cuts": int(meta.get("event_cuts", 0)),
+            "warnings": (None if "warnings" not in meta else
+                         [(str(c), str(m)) for c, m in json.loads(meta["warnings"])])}
 
 
 def _method_parameters(meta: dict) -> dict:

@@ -193,6 +193,9 @@ class _Reactions:
         return self.sign[:, None] * np.stack([gen[..., 0], gen[..., 1], couple], -1)
 
 
+#: The codes of the guard's checks (:mod:`mbdsl.guard`), named in the summary's first line.
+_GUARD_CODES = ("W602", "W603", "W604")
+
 #: Rows evaluated together for derived columns (bounds the temporary arrays).
 _ROW_CHUNK = 1024
 
@@ -611,6 +614,26 @@ class Solution:
         self.extras = {x: d[x] for x in self.extra_names}
         self.stats = {k: d[k] for k in self.STAT_NAMES}
         self._derived = None
+        self._warnings = None
+
+    @property
+    def warnings(self) -> list:
+        """What the run's own rows say is wrong with it (a finished run).
+
+        :meth:`run_warnings` (W404, a beam beyond small deflections) and the
+        checks of :mod:`mbdsl.guard`: W602 an energy balance off by more than
+        1 % of the energy exchanged, W603 error-controlled steps collapsed by
+        six orders of magnitude, W604 reactions alternating step by step.
+        Computed once (they read the derived columns).
+
+        Returns
+        -------
+        list of Diagnostic
+        """
+        if getattr(self, "_warnings", None) is None:
+            from .guard import run_checks
+            self._warnings = self.run_warnings() + run_checks(self)
+        return self._warnings
 
     @classmethod
     def from_arrays(cls, system, *, method_name: str, method_parameters: dict,
@@ -618,7 +641,8 @@ class Solution:
                     stats: dict, stats_total: RunStats, status: str, message: str,
                     wall_time: float = 0.0, derived: dict | None = None,
                     timings: dict | None = None, engine: str = "numpy",
-                    linear_solver: str = "dense", events=(), event_cuts: int = 0) -> "Solution":
+                    linear_solver: str = "dense", events=(), event_cuts: int = 0,
+                    warnings=None) -> "Solution":
         """A Solution from stored arrays (``mbdsl.load_solution``).
 
         Parameters
@@ -640,6 +664,8 @@ class Solution:
             The contact and limit events of the run (:attr:`events`).
         event_cuts : int
             Steps retaken to land on them.
+        warnings : sequence of (code, message), optional
+            The run's stored :attr:`warnings`; None: computed from the rows.
 
         Returns
         -------
@@ -659,6 +685,9 @@ class Solution:
         self.engine, self.linear_solver = engine, linear_solver
         self.events, self.event_cuts = [tuple(e) for e in events], int(event_cuts)
         self.contact_log, self.engine_note, self.control = [], None, None
+        from .errors import Diagnostic
+        self._warnings = (None if warnings is None else
+                          [Diagnostic("warning", c, m) for c, m in warnings])
         self._rows = _RowStore(system.n, system.m, self.extra_names)
         n, m = system.n, system.m
         self.t = np.asarray(t, dtype=float)
@@ -830,7 +859,9 @@ class Solution:
                f", error-controlled steps (rtol {self.control.rtol:g}, atol "
                f"{self.control.atol:g}; h from {np.min(self.stats['h'][1:], initial=self.h):.3g} "
                f"to {np.max(self.stats['h'][1:], initial=self.h):.3g} s)")
-            + f", t = {self.t[0]:g} .. {self.t[-1]:g} s ({self.status})",
+            + f", t = {self.t[0]:g} .. {self.t[-1]:g} s ({self.status}"
+            + "".join(f"; {w.code}: {w.message.split(':')[0]}" for w in self.warnings
+                      if w.code in _GUARD_CODES) + ")",
             f"  steps {tot.steps} (rejected {tot.rejected}) on the {self.engine} engine "
             f"({self.linear_solver} linear solver"
             + (f"; not compiled: {self.engine_note}" if getattr(self, "engine_note", None) else "")
@@ -860,4 +891,7 @@ class Solution:
                          + f"); {self.event_cuts} steps retaken to land on them")
         if self.status != "completed":
             lines.append(f"  stopped: {self.message}")
+        for w in self.warnings:
+            if w.code in _GUARD_CODES:
+                lines.append(f"  warning {w.code}: {w.message}")
         return "\n".join(lines)

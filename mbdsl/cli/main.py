@@ -49,6 +49,10 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("-o", "--output", help="output file, CSV or HDF5 by extension (.csv, .h5); "
                      "default: beside the model, MODEL.csv")
     _run_options(sim)
+    sim.add_argument("--strict", action="store_true",
+                     help="a run that completes with a warning about its own motion (W602 "
+                          "energy balance, W603 collapsed steps, W604 alternating reactions, "
+                          "W404) is a failed run: exit 3")
     sim.add_argument("--plot", action="store_true",
                      help="also write the standard panels beside the output (run.csv -> run.png)")
     sim.add_argument("-q", "--quiet", action="store_true", help="print no summary, no progress bar")
@@ -355,8 +359,13 @@ def _simulate(args) -> int:
         return status
     if sol.initial is not None and sol.initial.warnings:
         _print_diagnostics(sol.initial.warnings)
-    if sol.model.flexible_bodies or getattr(sol.system, "flipping_springs", None) is not None:
-        _print_diagnostics(sol.run_warnings())
+    _print_diagnostics(sol.warnings)
+    if sol.warnings and getattr(args, "strict", False) and status == 0:
+        print(f"error: --strict: the run completed with {len(sol.warnings)} warning"
+              f"{'s' if len(sol.warnings) > 1 else ''} "
+              f"({', '.join(w.code for w in sol.warnings)}): counted as a failed run",
+              file=sys.stderr)
+        status = 3
     if not args.quiet:
         print(sol.initial.report())
         print(sol.summary())
