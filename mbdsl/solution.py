@@ -518,12 +518,13 @@ class Solution:
         tot.multipliers_stalled += int(sums[4])
 
     def amend_last(self, t: float | None = None, a=None, lam=None,
-                   extras: dict | None = None) -> None:
+                   extras: dict | None = None, v=None) -> None:
         """Overwrite the last recorded row: its time t [s] (a segment of the
         compiled loop that ends exactly on a switch of a function of time),
-        and the state a restart just past a switch puts there: a (n,),
-        lam (m,), and the method's extra multipliers (``extras``: name ->
-        (m,); those this solution does not store are left out).
+        and the state a restart just past a switch puts there: v (n,) taken
+        onto the velocity constraint, a (n,), lam (m,), and the method's
+        extra multipliers (``extras``: name -> (m,); those this solution
+        does not store are left out).
 
         Raises
         ------
@@ -533,6 +534,8 @@ class Solution:
         if not self.n_rows:
             raise IndexError("no row recorded yet")
         values = {} if t is None else {"t": float(t)}
+        if v is not None:
+            values["v"] = np.array(v, dtype=float)
         if a is not None:
             values["a"] = np.array(a, dtype=float)
         if lam is not None:

@@ -151,6 +151,11 @@ class Method(ABC):
     accepts_augmented: bool = False
     #: epsilon of the augmented formulation [1/kg] (0: Lagrange)
     regularization: float = 0.0
+    #: whether the carried acceleration ``a`` is the total one q'' (False for
+    #: HHT-ADD, whose ``a`` is the applied forces' M^-1 Q without the
+    #: constraint forces): where the motion's acceleration is read (the
+    #: event locator's free flight to a closing), it is then the index-1 one
+    acceleration_is_total: bool = True
 
     #: epsilon = AUGMENTED_EPSILON / (largest body mass): small against the
     #: smallest non-zero singular value of Phi_q M^-1 Phi_q^T of a mechanism

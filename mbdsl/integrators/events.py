@@ -402,7 +402,7 @@ def switch_times(switches, t_start, t_end, h):
     return out
 
 
-def restart_after_switch(system, method, t, q, v):
+def restart_after_switch(system, method, t, q, v, project=False):
     """The start state of ``method`` at t, just past a switch of a function of
     time, on the new branch: a and lambda from the index-1 system at (t, q, v)
     (a one-step method's carried a_n and force term would hold the old
@@ -415,12 +415,28 @@ def restart_after_switch(system, method, t, q, v):
     method : Method
     t : float [s]
     q, v : ndarray, shape (n,)
+    project : bool
+        First take v onto the velocity constraint Phi_q v + Phi_t = 0 by the
+        mass-weighted least change, [[M, Phi_q^T], [Phi_q, 0]] [dv; mu] =
+        [0; -(Phi_q v + Phi_t)] (Haug, sec. 6.3): an index-3 method's
+        velocities drift from it by its tolerance, and a restart on tiny
+        steps turns that drift into multipliers of order drift / (beta h)
+        that alternate from step to step.
 
     Returns
     -------
     StepState or None
     """
     try:
+        if project and system.m:
+            n, m = system.n, system.m
+            K = np.zeros((n + m, n + m))
+            K[:n, :n] = system.mass_matrix(q)
+            P = system.Phi_q(q, t)
+            K[:n, n:], K[n:, :n] = P.T, P
+            drift = P @ v + system.Phi_t(q, t)
+            dv = np.linalg.solve(K, np.concatenate([np.zeros(n), -drift]))[:n]
+            v = np.asarray(v, dtype=float) + dv
         a, lam = system.index1_state(t, q, v)
     except np.linalg.LinAlgError:           # a singular configuration: keep the state
         return None

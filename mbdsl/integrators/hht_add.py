@@ -79,6 +79,7 @@ class HHTADD(Method):
     name = "hht-add"
     index = 2
     history_length = 1
+    acceleration_is_total = False       # a = M^-1 Q; the constraint forces' part is in psi
     extras = ("psi1",)
     output_extras = ("psi2",)
 

@@ -193,22 +193,23 @@ def _segments(t_start, t_end, h, switches):
 def _restart_at_switch(system, method, sol, switch, h, ls) -> float:
     """A stretch ended ``SWITCH_GAP`` h before ``switch`` (time, text), with a
     row there: record the event, put the new branch's state just past it
-    (``events.restart_after_switch``) into the loop's a, lam, b (auxiliary
+    (``events.restart_after_switch``, v taken onto the velocity constraint
+    of the new branch) into the loop's v, a, lam, b (auxiliary
     acceleration) and mu (the method's ``extra`` multipliers) (``ls``, a
     :class:`LoopState`), in place, and into that row. Returns the restart's
     time [s]."""
     t_switch, text = switch
     sol.events.append((t_switch, text, "switched", 0.0))
     t_new = t_switch + switch_gap(h, t_switch)
-    new = restart_after_switch(system, method, t_new, ls.q, ls.v)
+    new = restart_after_switch(system, method, t_new, ls.q, ls.v, project=True)
     extra = ls.extra
     if new is not None:
-        ls.a[:], ls.lam[:] = new.a, new.lam
+        ls.v[:], ls.a[:], ls.lam[:] = new.v, new.a, new.lam
         if "aux" in new.extra:
             ls.b[:] = new.extra["aux"]
         if extra is not None and extra in new.extra:
             ls.mu[:] = new.extra[extra]
-    sol.amend_last(t=t_new, a=ls.a, lam=ls.lam,
+    sol.amend_last(t=t_new, v=ls.v, a=ls.a, lam=ls.lam,
                    extras={extra: ls.mu} if extra is not None else None)
     return t_new
 
@@ -507,6 +508,28 @@ class TimeLoop:
                 and self.sizes.jumped is None and not self.landed_now
                 and self.t < self.t_end - 1e-9 * self.h)
 
+    def _restart_after_event(self):
+        """After a landed event (a contact or limit closing or opening, a
+        spring's points passing), at the landed state: the method starts
+        again from the index-1 acceleration and multipliers of the new branch
+        (``events.restart_after_switch``), as at a switch of a function of
+        time, its velocities first taken back onto the velocity constraint
+        (an index-3 method's drift). A one-step method's carried acceleration (HHT's a_n,
+        generalized-alpha's auxiliary one) belongs to the old branch: kept,
+        it alternates about the new one for many steps and the run drops to
+        first order; a two-step method restarts with BDF1 (``land``). The
+        recorded row of the landing step keeps the step's own values."""
+        ls = self.ls
+        new = restart_after_switch(self.system, self.method, self.t, ls.q, ls.v, project=True)
+        if new is None:               # a singular index-1 matrix: the step's state stays
+            return
+        ls.v[:], ls.a[:], ls.lam[:] = new.v, new.a, new.lam
+        if ls.carries_aux and "aux" in new.extra:
+            ls.b[:] = new.extra["aux"]
+        if ls.extra is not None and ls.extra in new.extra:
+            ls.mu[:] = new.extra[ls.extra]
+        self.stepper.resync()
+
     def attempt(self, mode, h_try, limit=0):
         """Call the stepper in ``mode`` from (t, q, v, ...) with a first step
         of h_try, at most ``limit`` accepted steps (0: no limit); returns (its
@@ -537,7 +560,13 @@ class TimeLoop:
         ls, state, events = self.ls, self.state, self.events
         t0, step = self.t, float(state[1])
         resume = step                 # the size planned, to go back to once landed
-        last = StepState(t0, ls.q.copy(), ls.v.copy(), ls.a.copy(), ls.lam.copy())
+        a0 = ls.a.copy()
+        if not self.method.acceleration_is_total:   # the motion's q'' for the free flight
+            try:
+                a0 = self.system.index1_state(t0, ls.q, ls.v)[0]
+            except np.linalg.LinAlgError:
+                pass
+        last = StepState(t0, ls.q.copy(), ls.v.copy(), a0, ls.lam.copy())
         events.resume_at(ls.q)        # the stepper took the steps since the last event
         self.ctl[6] = self.h_max      # the step limit of the gaps after the event, below
         h_try = step
@@ -570,6 +599,8 @@ class TimeLoop:
                      StepState(t, ls.q.copy(), ls.v.copy(), ls.a.copy(), ls.lam.copy()))
         events.commit()
         self.stepper.events_changed(self)
+        if events.happened:           # every method restarts on the new branch
+            self._restart_after_event()
         if self.fixed:                # back to the size before the cut, one step more at it
             h_next = self.h_cur = self.sizes.grown(self.h_cur, landed)
         else:
