@@ -2,7 +2,14 @@
 
 Three kinds, chosen by ``--reference``:
 
-``dop853`` (what ``auto`` tries first)
+events (what ``auto`` takes for a model with contacts, limits or springs
+    that pass through zero length, whose motion is not smooth)
+    HHT-SI2 with error control at rtol = atol = 1e-10, landing on every event
+    and restarting past it, its error estimated against the same run at
+    1e-9, and cross-checked by NSTIFF-SI2 at 1e-10; where the cross-check
+    fails the reference is marked not trusted and a study fits no order
+    from it. ``dop853`` is refused for such models: it does not follow events.
+``dop853`` (what ``auto`` tries first for a smooth model)
     The index-1 form integrated by scipy's DOP853 (order 8) at rtol = atol =
     1e-12 (:func:`mbdsl.reference.index1_reference`). It shares only the
     assembly (M, Q, Phi_q, gamma) with the methods, none of their
@@ -82,6 +89,10 @@ class StudyReference:
     lam_names: tuple = ()
     lam_end: np.ndarray | None = None
     error_lam: np.ndarray | None = None
+    #: False when the reference's own cross-check failed: a study then shows
+    #: the errors but fits no order from them, and says why (``warning``)
+    trusted: bool = True
+    warning: str = ""
 
     def add_multipliers(self, system) -> None:
         """lambda at T from the index-1 system at (q_end, v_end) (the
@@ -129,7 +140,16 @@ def build_reference(kind: str, model, t_end: float, h_min: float,
     ConvergenceError
         A method reference could not complete.
     """
-    from .. import METHODS
+    from .. import METHODS, assemble
+    if kind in ("auto", "dop853") and _has_events(assemble(model)):
+        if kind == "dop853":
+            raise ValueError("the DOP853 reference integrates the smooth index-1 equations and "
+                             "does not follow the model's contacts, limits or springs through "
+                             "zero length; use --reference auto (error-controlled runs that "
+                             "land on every event, cross-checked) or a method")
+        log("reference: the model has non-smooth events: error-controlled runs that land on "
+            "them, cross-checked by a second method")
+        return _events_reference(model, t_end)
     if kind in ("auto", "dop853"):
         from ..reference import EvaluationBudgetExceeded
         try:
@@ -166,6 +186,64 @@ def _dop853(model, t_end, budget):
         f"estimated against rtol = 1e-11; constraint drift at T {fine.drift:.1e}",
         t_end, fine.q[-1], fine.v[-1], np.abs(fine.q[-1] - coarse.q[-1]),
         np.abs(fine.v[-1] - coarse.v[-1]), state)
+
+
+#: The tolerance of the event models' reference runs, and the looser one of
+#: its error estimate.
+EVENTS_RTOL, EVENTS_RTOL_COARSE = 1e-10, 1e-9
+#: The cross-check passes when the two methods agree within this multiple of
+#: the estimated error (plus round-off).
+CROSS_CHECK_MARGIN = 10.0
+
+
+def _has_events(system) -> bool:
+    """Whether the model's motion has non-smooth events (contacts, limits,
+    springs whose points pass each other), which a smooth integrator without
+    event location does not follow."""
+    return (getattr(system, "contact_group", None) is not None
+            or getattr(system, "flipping_springs", None) is not None)
+
+
+def _events_reference(model, t_end):
+    """The reference of a model with contacts, limits or flipping springs:
+    HHT-SI2 with error control at rtol = atol = EVENTS_RTOL, landing on every
+    event (``integrators.events``) and restarting past it; its error
+    estimated against the same run at EVENTS_RTOL_COARSE (the difference
+    bounds the looser run's error); cross-checked by NSTIFF-SI2 at
+    EVENTS_RTOL, a method with other formulas and other step sizes. Where the
+    two differ by more than CROSS_CHECK_MARGIN times the estimate, or either
+    run fails, the reference is not trusted (``StudyReference.trusted``):
+    events the steps land on differently (a grazing contact, a rattling
+    clearance) make the motion itself sensitive."""
+    from .. import simulate
+    h0 = 1e-3 * max(t_end, 1e-9)
+    runs, why = {}, []
+    for name, method, rtol in (("fine", "hht-si2", EVENTS_RTOL),
+                               ("coarse", "hht-si2", EVENTS_RTOL_COARSE),
+                               ("check", "nstiff-si2", EVENTS_RTOL)):
+        runs[name] = simulate(model, method=method, h=h0, t_end=t_end, rtol=rtol, atol=rtol,
+                              on_failure="return")
+        if not runs[name].completed:
+            why.append(f"{method} at rtol {rtol:g} stopped at t = {runs[name].t[-1]:.6g} s")
+    fine, coarse, check = runs["fine"], runs["coarse"], runs["check"]
+    error_q = np.abs(fine.q[-1] - coarse.q[-1])
+    error_v = np.abs(fine.v[-1] - coarse.v[-1])
+    tiny = 1e-12 * (1.0 + np.abs(fine.q[-1])), 1e-12 * (1.0 + np.abs(fine.v[-1]))
+    dq, dv = np.abs(fine.q[-1] - check.q[-1]), np.abs(fine.v[-1] - check.v[-1])
+    if not why and (np.any(dq > CROSS_CHECK_MARGIN * error_q + tiny[0])
+                    or np.any(dv > CROSS_CHECK_MARGIN * error_v + tiny[1])):
+        why.append(f"hht-si2 and nstiff-si2 at rtol {EVENTS_RTOL:g} differ by "
+                   f"{float(np.max(dq)):.3g} in positions and {float(np.max(dv)):.3g} in "
+                   f"velocities at T, more than {CROSS_CHECK_MARGIN:g} times the estimated "
+                   f"error {float(np.max(error_q)):.3g} / {float(np.max(error_v)):.3g}")
+    events = len(fine.events)
+    description = (f"hht-si2 with error control, rtol = atol = {EVENTS_RTOL:g}, landing on "
+                   f"{events} event{'s' if events != 1 else ''}; error estimated against rtol = "
+                   f"{EVENTS_RTOL_COARSE:g}; cross-checked by nstiff-si2 at {EVENTS_RTOL:g}"
+                   + (" (failed: not trusted)" if why else " (agrees)"))
+    return StudyReference(description, t_end, fine.q[-1], fine.v[-1], error_q, error_v,
+                          _hermite_state(fine), trusted=not why,
+                          warning="; ".join(why))
 
 
 def _hermite_state(sol):

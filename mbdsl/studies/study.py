@@ -419,6 +419,9 @@ def run_study(kind: str, model_path, options: StudyOptions, overrides: dict | No
             from .. import assemble
             reference.add_multipliers(assemble(model))
         log(f"reference ({time.perf_counter() - t0:.1f} s): {reference.description}")
+        if not reference.trusted:
+            log(f"warning: the reference cannot be trusted ({reference.warning}); errors "
+                "against it are shown, no order is fitted from them")
     specs = _plan(kinds, options, joint, model)
     _build_kernels(options.methods, model, log)
     done = [0]
@@ -498,9 +501,11 @@ def fitted_order(hs, errors) -> float:
     return float(np.polyfit(np.log(hs[ok]), np.log(errors[ok]), 1)[0])
 
 
-def _usable(run, err, ref_err):
-    """An error that may be fitted: completed run, clearly above the reference's error."""
-    return run.completed and np.isfinite(err) and err > REFERENCE_MARGIN * ref_err
+def _usable(run, err, ref_err, ref=None):
+    """An error that may be fitted: completed run, clearly above the
+    reference's error, against a reference that passed its own cross-check."""
+    return (run.completed and np.isfinite(err) and err > REFERENCE_MARGIN * ref_err
+            and (ref is None or ref.trusted))
 
 
 def _convergence(o, runs, ref, model, system=None, **_):
@@ -522,10 +527,10 @@ def _convergence(o, runs, ref, model, system=None, **_):
             for q in o.quantities:
                 err, ref_err = quantity_error(model, run, ref, q) if run.completed else (np.nan, 0)
                 cells.append(err)
-                if _usable(run, err, ref_err):
+                if _usable(run, err, ref_err, ref):
                     per_q[q][0].append(h)
                     per_q[q][1].append(err)
-                elif run.completed:
+                elif run.completed and ref.trusted:
                     marks.append(f"{q} below {REFERENCE_MARGIN:g}x reference error")
                     flagged = True
             status = "completed" if run.completed else f"failed at t = {run.t_stop:.4g} s"
@@ -541,6 +546,9 @@ def _convergence(o, runs, ref, model, system=None, **_):
         errors.notes.append(f"errors below {REFERENCE_MARGIN:g} times the reference's estimated "
                             "error are shown but not fitted")
     errors.notes.append(f"reference: {ref.description}")
+    if not ref.trusted:
+        errors.notes.insert(0, f"the reference cannot be trusted ({ref.warning}): the errors "
+                            "are shown, no order is fitted from them")
     caption = ("Global error at T of each method against the reference, on log-log axes: a "
                "method of order p draws a line of slope p (the paper's Figs. 3-6). NEWMARK "
                "(gamma = 0.6 by default) is first order; the others are second order.")
@@ -686,6 +694,14 @@ def _cost(o, runs, ref, model, **_):
     return Section("cost", caption, [table], [("cost", [panel], "Relative cost")])
 
 
+def _untrusted_note(table, ref) -> None:
+    """A first note on a table of errors against a reference that failed its
+    own cross-check (``StudyReference.trusted``)."""
+    if not ref.trusted:
+        table.notes.insert(0, f"the reference cannot be trusted ({ref.warning}): errors below "
+                           "its disagreement mean nothing")
+
+
 def _work_precision(o, runs, ref, model, **_):
     """Error against wall time, every method and h (or tolerance)."""
     if o.sweep_tols:
@@ -708,6 +724,7 @@ def _work_precision(o, runs, ref, model, **_):
                 xs.append(run.time)
                 ys.append(err)
         panel.series.append(Series(m, np.array(xs), np.array(ys)))
+    _untrusted_note(table, ref)
     caption = ("What accuracy costs in time: each line is one method over the step sizes; the "
                "lower-left method gives the same error for less time.")
     return Section("work-precision", caption, [table],
@@ -741,6 +758,7 @@ def _work_precision_tols(o, runs, ref, model):
                 ts.append(tol)
         panel.series.append(Series(m, np.array(xs), np.array(ys)))
         achieved.series.append(Series(m, np.array(ts), np.array(ys)))
+    _untrusted_note(table, ref)
     caption = ("What accuracy costs in time when the step size follows a tolerance: each line "
                "is one method over the tolerances (rtol = atol); the lower-left method gives "
                "the same error for less time. The second panel shows the error each "
