@@ -823,7 +823,7 @@ def _null_vector(method, ctx, w):
     return sv[-1] / max(sv[0], 1e-300), vt[-1]
 
 
-def _near_singular_rows(system, ctx, ratio_limit=1e-4):
+def _near_singular_rows(system, ctx, ratio_limit=1e-3):
     """(s_min / s_max of Phi_q, the joints of its smallest left singular
     vector) at the last accepted configuration when the ratio is below
     ``ratio_limit`` (a mechanism a step away from a singular position, where

@@ -85,3 +85,40 @@ def test_the_quick_return_under_error_control_is_right_or_refused(method):
         assert sol.column("energy.dissipated")[-1] == pytest.approx(ref, rel=0.02)
     else:
         assert sol.diagnostics and sol.diagnostics[0].code.startswith("E6")
+
+
+def _complete_models(text):
+    """The fenced blocks of a document that are whole models (start with
+    ``model NAME``)."""
+    import re
+    return [b for b in re.findall(r"```[a-z]*\n(.*?)```", text, re.S)
+            if b.lstrip().startswith("model ")
+            and re.search(r"^\s*(body|particle|flexible_beam) ", b, re.M)]
+
+
+@pytest.mark.parametrize("doc", ["README.md", "docs/language.md", "docs/contact.md",
+                                 "docs/studies.md", "docs/methods.md"])
+def test_the_docs_whole_models_leave_the_guard_silent(doc):
+    """Every whole model written in the docs (not errors.md, whose examples
+    are there to trip a diagnostic) runs at its own settings, guard silent."""
+    for text in _complete_models((ROOT / doc).read_text()):
+        sol = mbdsl.simulate(mbdsl.load_text(text))
+        assert sol.completed and not GUARD & {w.code for w in sol.warnings}, text[:200]
+
+
+def test_near_a_singular_position_e601_blames_the_geometry():
+    """The row of parallelogram four-bars, run with the Lagrange formulation
+    until its bars lie horizontal (where Phi_q loses rank): at the last
+    accepted state Phi_q is nearly rank-deficient, and the diagnosis names
+    the joints whose equations become dependent, not the step size."""
+    from types import SimpleNamespace
+    from mbdsl.integrators.loop import _near_singular_rows
+    model = mbdsl.load(ROOT / "models" / "n_fourbar.mbd")
+    sol = mbdsl.simulate(model, method="hht-i3", formulation="lagrange", on_failure="return")
+    assert sol.status == "failed"
+    near = SimpleNamespace(history=[SimpleNamespace(q=sol.q[-1])], t=sol.t[-1])
+    ratio, joints = _near_singular_rows(sol.system, near)
+    assert ratio < 1e-3 and joints
+    assert {j.name for j in model.joints} >= set(joints)
+    far = SimpleNamespace(history=[SimpleNamespace(q=sol.q[0])], t=0.0)
+    assert _near_singular_rows(sol.system, far) is None
