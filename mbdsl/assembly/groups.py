@@ -235,6 +235,9 @@ class SpringDamperGroup:
         self.pair = _PointPair(cmap, first, second)
         self.cols = self.pair.cols
         self.k, self.c, self.l0 = (np.asarray(x, float) for x in (k, c, length))
+        #: the direction held while a step is landed on a pass of the points
+        #: (``compiled._free_length``), (k, 2); zeros: none, the physical law
+        self.held = np.zeros((len(self.k), 2))
         self.damped = bool(np.any(self.c != 0.0))
 
 

@@ -433,6 +433,8 @@ class AssembledSystem:
         cm = self.kernel_model()
         if self.contact_group is not None:
             cm.impact_speed[:] = self.contact_group.impact_speed
+        if self.flipping_springs is not None:    # the held directions (landing on a pass)
+            cm.spring_held[:] = self.flipping_springs[0].held
         N = len(rows)
         # fresh, writable copies (numba types a read-only view, as np.broadcast_to
         # gives, as another signature: one more library to load)

@@ -117,7 +117,7 @@ MODEL_SCHEMA = (
     ("pcolP", "i", 3), ("psP", "f", 2), ("pn0", "f", 2),
     ("lrow", "i", 0), ("lcol", "i", 2), ("lcoef", "f", 2), ("loff", "f", 0),   # linear rows
     ("scol1", "i", 3), ("ss1", "f", 2), ("scol2", "i", 3), ("ss2", "f", 2),   # spring-dampers
-    ("spar", "f", 3),                                                  # (k, c, l0)
+    ("spar", "f", 5),                                  # (k, c, l0, u_ref): see _free_length
     ("rcol", "i", 2), ("rpar", "f", 3),                                # rotational (k, c, angle)
     ("fcol", "i", 3), ("fs", "f", 2), ("fF", "f", 2),                  # constant point forces
     ("row_element", "i", 0),                                           # constraint row -> element
@@ -656,6 +656,29 @@ def _spring_points(I, Fl, qx, i):
 
 
 @_jit
+def _free_length(I, Fl, i, dx, dy):
+    """The free length spring i's force k (l - l0') e reads at d = (dx, dy):
+    l0, or -l0 while d points against the spring's held direction u_ref
+    (SPAR columns 3, 4; (0, 0): none held, the physical law).
+
+    A spring with a free length whose points pass each other has a force
+    that turns over at the pass (e = d / l flips). While a step is landed on
+    the pass (``loop.TimeLoop.land``), u_ref holds the direction before it,
+    so that the steps the event locator tries feel the old branch continued
+    past the root (k (l + l0) e with e the new direction is -k (-l - l0)
+    e_old: the force of the signed length -l, smooth through the root) and
+    not the new one over their whole length, an O(step) error of an implicit
+    step that ends past the root; the commit clears u_ref, and the method
+    restarts on the new branch. The potential energy (``_potential``) keeps
+    the physical law: the two agree except past the root within a landing."""
+    l0 = _f(I, Fl, SPAR, i, 2)
+    ux, uy = _f(I, Fl, SPAR, i, 3), _f(I, Fl, SPAR, i, 4)
+    if dx * ux + dy * uy < 0.0:
+        return -l0
+    return l0
+
+
+@_jit
 def _direction(dx, dy, l):
     """e = d / l of a spring-damper, (0, 0) at l = 0: two coincident points
     have no direction, and no force along it (``SpringDamperGroup``)."""
@@ -1042,7 +1065,7 @@ def _springs_add(I, Fl, qx, vx, out):
         dx, dy, ax1, ay1, ax2, ay2 = _spring_points(I, Fl, qx, i)
         l = math.sqrt(dx * dx + dy * dy)
         ex, ey = _direction(dx, dy, l)
-        f = _f(I, Fl, SPAR, i, 0) * (l - _f(I, Fl, SPAR, i, 2))
+        f = _f(I, Fl, SPAR, i, 0) * (l - _free_length(I, Fl, i, dx, dy))
         if _f(I, Fl, SPAR, i, 1) != 0.0:
             f = f + _f(I, Fl, SPAR, i, 1) * _spring_rate(I, Fl, qx, vx, i, ex, ey, ax1, ay1,
                                                          ax2, ay2)
@@ -1961,9 +1984,10 @@ def _emit_spring_elastic(I, Fl, n, qx, vx, i, R, C, V, p, r0, c0, cq, cv):
             j += 1
     for j in range(nc):
         v[j] = vx[cols[j]]
-    k, c, l0 = _f(I, Fl, SPAR, i, 0), _f(I, Fl, SPAR, i, 1), _f(I, Fl, SPAR, i, 2)
+    k, c = _f(I, Fl, SPAR, i, 0), _f(I, Fl, SPAR, i, 1)
     dx = (qx[cols[3]] - qx[cols[0]]) + (ax2 - ax1)
     dy = (qx[cols[4]] - qx[cols[1]]) + (ay2 - ay1)
+    l0 = _free_length(I, Fl, i, dx, dy)
     l = math.sqrt(dx * dx + dy * dy)
     ex, ey = _direction(dx, dy, l)
     ddx, ddy = 0.0, 0.0
@@ -2017,8 +2041,9 @@ def _emit_force(I, Fl, t, n, qx, vx, lam, R, C, V, p, r0, c0, cq, cv):
         if a1 > a0 or b1 > b0:            # a point on a flexible beam
             p = _emit_spring_elastic(I, Fl, n, qx, vx, i, R, C, V, p, r0, c0, cq, cv)
             continue
-        k, c, l0 = _f(I, Fl, SPAR, i, 0), _f(I, Fl, SPAR, i, 1), _f(I, Fl, SPAR, i, 2)
+        k, c = _f(I, Fl, SPAR, i, 0), _f(I, Fl, SPAR, i, 1)
         dx, dy, ddx, ddy, l, ax1, ay1, ax2, ay2 = _spring(I, Fl, qx, vx, i, G, v6)
+        l0 = _free_length(I, Fl, i, dx, dy)
         ex, ey = _direction(dx, dy, l)
         P00, P01, P11 = _direction_derivative(ex, ey, l)
         ldot = ex * ddx + ey * ddy

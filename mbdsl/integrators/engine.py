@@ -451,6 +451,10 @@ class CompiledModel:
         #: the contacts' impact speeds (k,) [m/s or rad/s]: a view into the packed
         #: floats, the contact state the kernels read, written at events
         self.impact_speed = K.unpack(self.ints, self.floats)["kimp"]
+        #: the springs' held directions (k, 2) (``compiled._free_length``): a view
+        #: into the packed floats, written while a step is landed on a pass
+        spar = K.unpack(self.ints, self.floats)["spar"]
+        self.spring_held = spar[:, 3:5] if spar.ndim == 2 and spar.shape[1] >= 5 else None
 
 
 class _Tables:
@@ -593,7 +597,7 @@ def _force_fields(system, tables) -> dict:
         if isinstance(g, SpringDamperGroup):
             d.update(scol1=g.pair.P1.cols[:, :3].astype(i8), ss1=g.pair.P1.s.astype(f8),
                      scol2=g.pair.P2.cols[:, :3].astype(i8), ss2=g.pair.P2.s.astype(f8),
-                     spar=np.stack([g.k, g.c, g.l0], axis=1).astype(f8))
+                     spar=np.column_stack([g.k, g.c, g.l0, g.held]).astype(f8))
         elif isinstance(g, RotationalSpringGroup):
             d.update(rcol=g.cols.astype(i8),
                      rpar=np.stack([g.k, g.c, g.angle], axis=1).astype(f8))
@@ -1002,10 +1006,17 @@ class KernelStepper:
         does."""
 
     def events_changed(self, loop):
-        """The contacts' impact speeds (set by the event locator) into the kernels' data."""
+        """The contacts' impact speeds and the springs' held directions (set by
+        the event locator) into the kernels' data."""
         group = self.system.contact_group
         if group is not None:
             self.cm.impact_speed[:] = group.impact_speed
+        springs = self.system.flipping_springs
+        if springs is not None:
+            self.cm.spring_held[:] = springs[0].held
+
+    def forget_crossing(self):
+        """Nothing kept: the compiled loop solves every step it is asked for."""
 
     def newton_failed(self, loop):
         """A fixed step Newton did not converge: HHT-SI2's split band Newton
@@ -1083,6 +1094,8 @@ class SparseAdapter:
         ctx = self._method.context(system, history, t, h)
         if system.contact_group is not None:
             self._cm.impact_speed[:] = system.contact_group.impact_speed
+        if system.flipping_springs is not None:
+            self._cm.spring_held[:] = system.flipping_springs[0].held
         rec, first = step_recipe(self._method, history, h)
         s = history[-1]
         p = history[-2] if len(history) >= 2 else s

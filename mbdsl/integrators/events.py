@@ -121,6 +121,31 @@ class EventLocator:
         which = self.springs[1]
         return self.system.spring_separations(q)[[i for i, _ in which]]
 
+    def hold(self, q) -> None:
+        """Hold each flipping spring's direction at configuration q (n,), the
+        start of the step being landed on an event: the steps tried meanwhile
+        continue the old branch past a pass (``compiled._free_length``)."""
+        if self.springs is None:
+            return
+        group, which = self.springs
+        d = self._spring_d(q)
+        norm = np.hypot(d[:, 0], d[:, 1])
+        held = np.where(norm[:, None] > 0.0, d / np.where(norm > 0.0, norm, 1.0)[:, None], 0.0)
+        group.held[[i for i, _ in which]] = held
+
+    def spring_passes(self, qa, qb) -> bool:
+        """Whether a flipping spring's points pass each other between
+        configurations qa and qb (n,): d_a . d_b < 0."""
+        if self.springs is None:
+            return False
+        da, db = self._spring_d(qa), self._spring_d(qb)
+        return bool(np.any(np.einsum("ka,ka->k", da, db) < 0.0))
+
+    def release(self) -> None:
+        """No direction held: the physical law (after the landing's commit)."""
+        if self.springs is not None:
+            self.springs[0].held[:] = 0.0
+
     def step_limit(self) -> float:
         """The largest error-controlled step while gaps are closed [s]: their
         estimated impact duration over ``STEPS_PER_CONTACT`` (inf when all

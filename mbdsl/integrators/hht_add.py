@@ -165,7 +165,10 @@ class HHTADD(Method):
         prev = ctx.last.extra.get("acc")
         if prev is None:
             prev = ctx.last.a + self._r(ctx.system, ctx.last.q, ctx.last.lam)
-        return (self.beta - 1.0 / 6.0) * ctx.h ** 2 * (new.extra["acc"] - prev)
+        acc = new.extra.get("acc")    # (a state the kernels' accept built has none)
+        if acc is None:
+            acc = new.a + self._r(ctx.system, new.q, new.lam)
+        return (self.beta - 1.0 / 6.0) * ctx.h ** 2 * (acc - prev)
 
     @staticmethod
     def _r(system, q, psi):

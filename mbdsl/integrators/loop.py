@@ -567,7 +567,11 @@ class TimeLoop:
             except np.linalg.LinAlgError:
                 pass
         last = StepState(t0, ls.q.copy(), ls.v.copy(), a0, ls.lam.copy())
-        events.resume_at(ls.q)        # the stepper took the steps since the last event
+        events.resume_at(ls.q)
+        if events.spring_passes(ls.q, self.trial[0]):  # the tried steps continue its old branch
+            events.hold(ls.q)
+            self.stepper.events_changed(self)
+            self.stepper.forget_crossing()     # that step was solved without it        # the stepper took the steps since the last event
         self.ctl[6] = self.h_max      # the step limit of the gaps after the event, below
         h_try = step
         mode = None
@@ -592,12 +596,15 @@ class TimeLoop:
                     break
                 mode = ATTEMPT
         if status != CONVERGED:
+            events.release()
+            self.stepper.events_changed(self)
             return status
         # the step taken: its events (none, if it ended before them) from its own ends
         t = self.t
         events.check(t0, t - t0, last,
                      StepState(t, ls.q.copy(), ls.v.copy(), ls.a.copy(), ls.lam.copy()))
         events.commit()
+        events.release()
         self.stepper.events_changed(self)
         if events.happened:           # every method restarts on the new branch
             self._restart_after_event()
@@ -665,6 +672,11 @@ class PythonStepper:
     def events_changed(self, loop):
         """The contacts changed state (their law reads it from the system's
         contact group, which the kernels' copy follows in ``SparseAdapter``)."""
+
+    def forget_crossing(self):
+        """The step that crossed an event is not to be landed on as it was
+        solved (a spring's direction is held for the landing)."""
+        self.crossing = None
 
     def newton_failed(self, loop):
         """Newton did not converge on a fixed step (nothing to change here)."""

@@ -741,7 +741,8 @@ def test_packed_model_data_round_trips():
     assert np.array_equal(fields["mass"], system.mass_diag)
     assert fields["crow"].shape == (3, 2) and fields["prow"].shape == (4,)
     assert [list(r) for r in fields["pfn"]].count([-1, -1, -1]) == 3    # D3 is the fourth row
-    assert fields["spar"].shape == (3, 3) and fields["n_elements"] == system.layout.n_elements
+    assert fields["spar"].shape == (3, 5) and fields["n_elements"] == system.layout.n_elements
+    assert np.all(fields["spar"][:, 3:] == 0.0)        # no spring direction held at the start
     # T2 reads J6.angle, J6.rate, a.omega, c.phi; T3 d.omega, b.x, e.vy: 7 variables,
     # 2 torques of the state with one partial derivative per variable they read
     assert fields["var"].shape == (7, 4) and fields["stq"].shape == (2, 4)

@@ -275,3 +275,23 @@ def test_a_run_with_no_recorded_step_prints_no_rate():
         status="interrupted", message="interrupted", wall_time=0.77)
     text = empty.summary()
     assert "us/step" not in text and "no step recorded in 0.77 s" in text
+
+
+def test_hht_add_with_error_control_on_its_fallback_estimates_its_error():
+    """Found by the semantic fuzzing (5000 examples): HHT-ADD with error
+    control, a step the compiled loop handed to the Python stepper, whose
+    state had no total acceleration for the error estimate: a KeyError
+    traceback. It completes or stops with a code."""
+    text = ("model fuzzed\ngravity (0, -9.81)\nparticle b0 { mass 3.169 }\n"
+            "body b1 { mass 4.726; inertia 0.1245; point p0 (0.2502, -0.4368); point p1 (0, 0) }\n"
+            "body b2 { mass 3.56; inertia 0.0356; point p0 (0, 0); point p1 (0, 0) }\n"
+            "joint J0: distance(ground.origin, b0.cm, length = 0.25)\n"
+            "joint J1: distance(b0.cm, b1.p0, length = 0.4688)\n"
+            "joint J2: revolute(b0.cm, b2.p0)\n"
+            "force s0: spring_damper(b1.cm, b0.cm, k = 1.094, c = 1, length = 0.688)\n"
+            "force s1: spring_damper(ground.origin, b0.cm, k = 287, c = 0, length = 0.0293)\n"
+            "force s2: spring_damper(b2.cm, b0.cm, k = 2784, c = 0, length = 0.5)\n"
+            "force g0: force(b0.cm, (1.06, -1*t))\n"
+            "simulate { h 0.001; t_end 0.15 }\n")
+    sol = mbdsl.simulate(mbdsl.load_text(text), method="hht-add", rtol=1e-4, on_failure="return")
+    assert sol.completed or sol.diagnostics[0].code.startswith("E6")
