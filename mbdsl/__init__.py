@@ -159,7 +159,8 @@ def simulate(model: Model, method: str | None = None, h: float | None = None,
              on_failure: str = "raise", progress=None, writer=None, engine: str = "auto",
              output_every: int = 1, announce=None, compile_policy: str = "wait",
              formulation: str | None = None, rtol: float | None = None,
-             atol: float | None = None, setup_time: float = 0.0, **coefficients) -> Solution:
+             atol: float | None = None, setup_time: float = 0.0, fixed: bool = False,
+             **coefficients) -> Solution:
     """Simulate a model.
 
     Parameters
@@ -204,6 +205,9 @@ def simulate(model: Model, method: str | None = None, h: float | None = None,
     setup_time : float [s]
         Time spent before this call on the run (reading the model), counted
         in the run's ``timings["setup"]`` with the assembly's.
+    fixed : bool
+        Fixed steps of h, whatever tolerance the ``simulate`` section gives
+        (a study's sweep over h); with ``rtol``/``atol`` a ValueError.
     **coefficients
         Method coefficients, e.g. ``alpha=-0.1``; default from the
         ``simulate`` section.
@@ -249,7 +253,9 @@ def simulate(model: Model, method: str | None = None, h: float | None = None,
         formulated = m.formulated("augmented", system)   # redundant joints: what runs them
     m = formulated
     assembly_time = time.perf_counter() - t0
-    control = step_control(s, rtol, atol)
+    if fixed and (rtol is not None or atol is not None):
+        raise ValueError("fixed steps and a tolerance (rtol/atol) exclude each other")
+    control = None if fixed else step_control(s, rtol, atol)
     return integrate(system, m, float(t_end), float(h), t_start=t_start, initial=initial,
                      newton=newton, on_failure=on_failure, progress=progress,
                      writer=writer, engine=engine, output_every=output_every,

@@ -265,8 +265,8 @@ def _hermite_state(sol):
 def _method(model, method, coefficients, t_end, h):
     """A method at h, error by Richardson against 2h."""
     from .. import simulate
-    fine = simulate(model, method=method, h=h, t_end=t_end, **coefficients)
-    coarse = simulate(model, method=method, h=2 * h, t_end=t_end, **coefficients)
+    fine = simulate(model, method=method, h=h, t_end=t_end, fixed=True, **coefficients)
+    coarse = simulate(model, method=method, h=2 * h, t_end=t_end, fixed=True, **coefficients)
     p = method_order(method, fine.method_parameters, fine.system)
     return StudyReference(
         f"{method} at h = {h:.4g} s (16 times below the smallest step), error by Richardson "

@@ -242,10 +242,13 @@ def time_run(source: ModelSource, spec: RunSpec) -> float:
 
 def _coefficients(spec: RunSpec) -> dict:
     """The keyword arguments of ``simulate`` for ``spec``'s method
-    coefficients and, with ``spec.tol``, its error-controlled steps."""
+    coefficients and, with ``spec.tol``, its error-controlled steps, else
+    fixed steps of h (a model whose simulate section sets a tolerance too)."""
     coef = dict(spec.coefficients)
     if spec.tol is not None:
         coef.update(rtol=spec.tol, atol=spec.tol)
+    else:                   # a sweep over h: steps of h, whatever the model's tolerance
+        coef["fixed"] = True
     return coef
 
 
