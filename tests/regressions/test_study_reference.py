@@ -69,3 +69,11 @@ def test_a_reference_that_fails_its_cross_check_fits_no_order(monkeypatch):
     assert "cannot be trusted" in table.notes[0]
     orders = next(t for s in result.sections for t in s.tables if t.name == "convergence_orders")
     assert all(row[-1] == 0 for row in orders.rows)          # no point fitted
+
+
+def test_fixed_steps_and_a_tolerance_exclude_each_other():
+    model = mbdsl.load(ROOT / "models" / "pendulum_stop.mbd")
+    with pytest.raises(ValueError, match="exclude each other"):
+        mbdsl.simulate(model, t_end=0.01, fixed=True, rtol=1e-6)
+    sol = mbdsl.simulate(model, h=1e-3, t_end=0.01, fixed=True)
+    assert sol.control is None and np.allclose(sol.stats["h"][1:], 1e-3)
