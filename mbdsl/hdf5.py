@@ -90,6 +90,7 @@ def write_hdf5(solution, path, extra_metadata: dict | None = None) -> Path:
     columns = {}
 
     def table(group, name, data, names):
+        """A dataset of named columns, its names also kept for the record."""
         columns[f"{group.name.strip('/')}/{name}".strip("/")] = list(names)
         return _dataset(group, name, data, names)
 

@@ -454,15 +454,22 @@ def restart_after_switch(system, method, t, q, v, project=False):
     """
     try:
         if project and system.m:
+            import scipy.linalg
             n, m = system.n, system.m
             K = np.zeros((n + m, n + m))
             K[:n, :n] = system.mass_matrix(q)
             P = system.Phi_q(q, t)
             K[:n, n:], K[n:, :n] = P.T, P
+            lu = scipy.linalg.lu_factor(K, check_finite=False)   # one matrix: v, then a, lambda
+            if not np.all(np.abs(np.diag(lu[0])) > 0.0):
+                raise np.linalg.LinAlgError("singular index-1 matrix")
             drift = P @ v + system.Phi_t(q, t)
-            dv = np.linalg.solve(K, np.concatenate([np.zeros(n), -drift]))[:n]
-            v = np.asarray(v, dtype=float) + dv
-        a, lam = system.index1_state(t, q, v)
+            v = np.asarray(v, dtype=float) + scipy.linalg.lu_solve(
+                lu, np.concatenate([np.zeros(n), -drift]))[:n]
+            sol = system.index1_solve(K, t, q, v, solve=lambda r: scipy.linalg.lu_solve(lu, r))
+            a, lam = sol[:n], sol[n:]
+        else:
+            a, lam = system.index1_state(t, q, v)
     except np.linalg.LinAlgError:           # a singular configuration: keep the state
         return None
     from ..assembly.initial import InitialState

@@ -204,11 +204,7 @@ def _restart_at_switch(system, method, sol, switch, h, ls) -> float:
     new = restart_after_switch(system, method, t_new, ls.q, ls.v, project=True)
     extra = ls.extra
     if new is not None:
-        ls.v[:], ls.a[:], ls.lam[:] = new.v, new.a, new.lam
-        if "aux" in new.extra:
-            ls.b[:] = new.extra["aux"]
-        if extra is not None and extra in new.extra:
-            ls.mu[:] = new.extra[extra]
+        ls.restart_from(new)
     sol.amend_last(t=t_new, v=ls.v, a=ls.a, lam=ls.lam,
                    extras={extra: ls.mu} if extra is not None else None)
     return t_new
@@ -272,6 +268,16 @@ class LoopState:
         if self.extra is not None:
             s.extra[self.extra] = self.mu.copy()
         return s
+
+    def restart_from(self, new: StepState) -> None:
+        """Take a restart's state (``events.restart_after_switch``): its v, a,
+        lambda, auxiliary acceleration and the method's extra multipliers,
+        in place."""
+        self.v[:], self.a[:], self.lam[:] = new.v, new.a, new.lam
+        if self.carries_aux and "aux" in new.extra:
+            self.b[:] = new.extra["aux"]
+        if self.extra is not None and self.extra in new.extra:
+            self.mu[:] = new.extra[self.extra]
 
     def outputs(self):
         """The out_* buffers past the rows already buffered, for the next call
@@ -523,11 +529,7 @@ class TimeLoop:
         new = restart_after_switch(self.system, self.method, self.t, ls.q, ls.v, project=True)
         if new is None:               # a singular index-1 matrix: the step's state stays
             return
-        ls.v[:], ls.a[:], ls.lam[:] = new.v, new.a, new.lam
-        if ls.carries_aux and "aux" in new.extra:
-            ls.b[:] = new.extra["aux"]
-        if ls.extra is not None and ls.extra in new.extra:
-            ls.mu[:] = new.extra[ls.extra]
+        ls.restart_from(new)
         self.stepper.resync()
 
     def attempt(self, mode, h_try, limit=0):
@@ -567,11 +569,11 @@ class TimeLoop:
             except np.linalg.LinAlgError:
                 pass
         last = StepState(t0, ls.q.copy(), ls.v.copy(), a0, ls.lam.copy())
-        events.resume_at(ls.q)
+        events.resume_at(ls.q)        # the stepper took the steps since the last event
         if events.spring_passes(ls.q, self.trial[0]):  # the tried steps continue its old branch
             events.hold(ls.q)
             self.stepper.events_changed(self)
-            self.stepper.forget_crossing()     # that step was solved without it        # the stepper took the steps since the last event
+            self.stepper.forget_crossing()     # that step was solved without it
         self.ctl[6] = self.h_max      # the step limit of the gaps after the event, below
         h_try = step
         mode = None
@@ -886,6 +888,8 @@ def _stiff_elements(system, h, v=None):
         vx[:system.n] = v
 
     def masses(bodies, rotational):
+        """The inertias [kg m^2] (``rotational``) or masses [kg] of the bodies
+        that are not the ground."""
         return [model.bodies[b].inertia if rotational else model.bodies[b].mass
                 for b in bodies if b >= 0]
 
