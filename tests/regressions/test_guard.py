@@ -112,7 +112,7 @@ def test_near_a_singular_position_e601_blames_the_geometry():
     accepted state Phi_q is nearly rank-deficient, and the diagnosis names
     the joints whose equations become dependent, not the step size."""
     from types import SimpleNamespace
-    from mbdsl.integrators.loop import _near_singular_rows
+    from mbdsl.integrators.diagnosis import _near_singular_rows
     model = mbdsl.load(ROOT / "models" / "n_fourbar.mbd")
     sol = mbdsl.simulate(model, method="hht-i3", formulation="lagrange", on_failure="return")
     assert sol.status == "failed"

@@ -131,7 +131,7 @@ def test_a_failed_run_recording_every_7th_step_keeps_its_last_accepted_state(eng
 
 
 def test_stiff_spring_hint_names_the_spring():
-    from mbdsl.integrators.loop import _stiff_elements
+    from mbdsl.integrators.diagnosis import _stiff_elements
     system = mbdsl.assemble(mbdsl.load(MODELS / "double_pendulum_stiff.mbd"))
     (name, period, what), = _stiff_elements(system, 1e-3)
     assert name == "elbow" and what == "period"

@@ -1,0 +1,252 @@
+"""Why a run stopped, in the model's words: the diagnosis of a step that cannot
+be taken (E601, E602).
+
+A step Newton cannot converge is explained by what made it fail, in this
+order: the rows of a singular (or nearly singular) position of the linkage,
+named from the Newton matrix's or Phi_q's smallest singular vector; an element
+too stiff for the step (a spring's period or a contact's duration below four
+steps); a body with nothing to resist its motion. The time loop
+(``loop.PythonStepper.diagnose``) calls :func:`fail` and :func:`fail_tolerance`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import Diagnostic
+from .newton import NewtonStatus
+
+__all__ = ["fail", "fail_tolerance"]
+
+_HINTS = {
+    NewtonStatus.SINGULAR: "the Newton matrix is singular: the mechanism may be at a singular "
+                           "(dead-centre) position, or joints may be redundant",
+    NewtonStatus.DIVERGING: "Newton diverges: the step may be too large for the fastest motion "
+                            "(a stiff spring, a fast driver); try a smaller h",
+    NewtonStatus.MAX_ITER: "Newton converges too slowly: try a smaller h or full Newton",
+    NewtonStatus.NONFINITE: "a value became infinite or NaN: check stiffnesses, masses and "
+                            "driver functions for extreme values",
+}
+
+
+def _null_vector(method, ctx, w):
+    """(s_min / s_max, right singular vector of s_min) of the Newton matrix at w
+    (dense SVD; None for matrices too large to decompose densely)."""
+    J = method.jacobian(w, ctx)
+    if hasattr(J, "toarray"):
+        if J.shape[0] > 3000:
+            return None
+        J = J.toarray()
+    J = np.asarray(J, dtype=float)
+    if not np.all(np.isfinite(J)):
+        return None
+    _, sv, vt = np.linalg.svd(J)
+    return sv[-1] / max(sv[0], 1e-300), vt[-1]
+
+
+def _near_singular_rows(system, ctx, ratio_limit=1e-3):
+    """(s_min / s_max of Phi_q, the joints of its smallest left singular
+    vector) at the last accepted configuration when the ratio is below
+    ``ratio_limit`` (a mechanism a step away from a singular position, where
+    Newton's matrix is not yet singular), else None. Dense SVD: None for more
+    than 3000 rows or coordinates."""
+    last = ctx.history[-1] if ctx.history else None
+    if last is None or system.m == 0 or max(system.m, system.n) > 3000:
+        return None
+    with np.errstate(all="ignore"):
+        A = system.Phi_q(last.q, ctx.t)
+        if hasattr(A, "toarray"):
+            A = A.toarray()
+        if not np.all(np.isfinite(A)):
+            return None
+        u, sv, _ = np.linalg.svd(np.asarray(A, float))
+    if len(sv) < system.m:               # more rows than coordinates: rank-deficient already
+        return None
+    ratio = sv[-1] / max(sv[0], 1e-300)
+    if ratio >= ratio_limit:
+        return None
+    w = np.abs(u[:, -1])
+    names = []
+    for i in np.argsort(-w):
+        if w[i] < 0.1 * w.max():
+            break
+        name = system.layout.rows[i][0]
+        if name not in names:
+            names.append(name)
+    return ratio, names[:6]
+
+
+def _stiff_elements(system, h, v=None):
+    """Elements too stiff for the step h [s]: (name, time [s], what) sorted by time.
+
+    Springs (translational, rotational) whose natural period 2 pi sqrt(m/k)
+    (a one-body estimate: the lighter attached mass or inertia) is shorter
+    than 4 h, and contacts and limits whose contact duration
+    (:func:`~mbdsl.model.contact.contact_duration`, at the relative speed of
+    the two bodies in ``v``, shape (n,), the last accepted velocities) is
+    shorter than 4 h: fewer than four steps in it. ``what`` names the time
+    ("period" or "contact duration").
+    """
+    from ..model.contact import Contact, contact_duration
+    out = []
+    model = system.model
+    vx = np.zeros(system.n + 3)
+    if v is not None:
+        vx[:system.n] = v
+
+    def masses(bodies, rotational):
+        """The inertias [kg m^2] (``rotational``) or masses [kg] of the bodies
+        that are not the ground."""
+        return [model.bodies[b].inertia if rotational else model.bodies[b].mass
+                for b in bodies if b >= 0]
+
+    for f in model.forces:
+        k = getattr(f, "k", None)
+        if not k:
+            continue
+        if isinstance(f, Contact):
+            for geometry, data, _ in f.gaps:
+                rotational = geometry == "angle"
+                inertia = masses((data[0], data[2]), rotational)
+                if not inertia:
+                    continue
+                c = system.cmap([data[0], data[2]])
+                dv = vx[c[1]] - vx[c[0]]
+                speed = abs(dv[2]) if rotational else float(np.hypot(dv[0], dv[1]))
+                duration = contact_duration(k, f.exponent, min(inertia), speed)
+                if duration < 4.0 * h:
+                    out.append((f.name, duration, "contact duration"))
+            continue
+        if hasattr(f, "joint"):                      # rotational: k [N m/rad] over inertia
+            inertia = masses((f.joint.first.body, f.joint.second.body), True)
+        else:
+            inertia = masses((f.first.body, f.second.body), False)
+        if inertia:
+            period = 2.0 * np.pi * np.sqrt(min(inertia) / k)
+            if period < 4.0 * h:
+                out.append((f.name, period, "period"))
+    return sorted(out, key=lambda x: x[1])
+
+
+def fail_tolerance(sol, method, control, t, step, err):
+    """Stop a run whose local error stays above the tolerance at the smallest step."""
+    msg = (f"the step from t = {t:.6g} s cannot meet the error tolerance with "
+           f"{method.describe()}: at the smallest step h = {step:.3g} s its local error is "
+           f"{err:.3g} times rtol = {control.rtol:g}, atol = {control.atol:g}")
+    sol.status, sol.message = "failed", msg
+    sol.diagnostics = [Diagnostic(
+        "error", "E602", msg, None, "",
+        hint="a force or driver with a jump or a kink at this time (the error does not "
+             "shrink with h there), or a tolerance below the round-off of q: loosen rtol/atol")]
+
+
+def fail(sol, method, ctx, res, t, step, h):
+    from ..assembly.structure import involved_names
+    system = ctx.system
+    detail = ""
+    span = None
+    hint = _HINTS.get(res.status, "")
+    try:
+        with np.errstate(all="ignore"):
+            state = method.accept(res.w, ctx)
+            phi = system.Phi(state.q, ctx.t)
+        if np.all(np.isfinite(phi)) and system.m:
+            name, value = system.layout.worst_element(phi)
+            detail = f"; the largest constraint residual is at '{name}' ({value:.3g})"
+            span = system.layout.span_of(name)
+    except (FloatingPointError, ValueError, ZeroDivisionError, np.linalg.LinAlgError):
+        pass
+    try:
+        with np.errstate(all="ignore"):        # at the last accepted state: finite, meaningful
+            svd = _null_vector(method, ctx, method.predict(ctx))
+    except (FloatingPointError, ValueError, np.linalg.LinAlgError):
+        svd = None
+    # 1e-6: a step failing next to a singular position (the N-four-bar's
+    # Newton matrix at its last accepted state: 2e-7) is told so
+    near_singular = svd is not None and svd[0] < 1e-6
+    stiff = []
+    if res.status in (NewtonStatus.DIVERGING, NewtonStatus.MAX_ITER):
+        last = ctx.history[-1] if ctx.history else None
+        stiff = _stiff_elements(system, step, getattr(last, "v", None))
+    explained = False
+    if res.status is NewtonStatus.SINGULAR or near_singular:
+        null = svd[1] if svd is not None else None
+        coords, elements = involved_names(system, method, null) if null is not None else ([], [])
+        if elements:
+            if near_singular and res.status is not NewtonStatus.SINGULAR:
+                detail += f"; the Newton matrix is nearly singular (s_min/s_max = {svd[0]:.1e})"
+            detail += ("; the singular direction involves the rows of "
+                       + ", ".join(f"'{e}'" for e in elements)
+                       + (" and the coordinates " + ", ".join(coords) if coords else ""))
+            span = system.layout.span_of(elements[0]) or span
+            hint = (f"the equations of {', '.join(repr(e) for e in elements)} become "
+                    "dependent here: a singular (dead-centre or locked) position of the "
+                    "linkage, e.g. a crank and rod in line; "
+                    + ("--formulation augmented goes through such positions, or "
+                       if method.accepts_augmented and method.formulation == "lagrange"
+                       else "")
+                    + "start elsewhere, drive past it with a motion, or check the joint "
+                    "geometry")
+            explained = True
+        elif coords and not stiff:
+            # a stiff element also makes the matrix nearly singular (k h^2
+            # against a small inertia): then the stiffness is the cause
+            if near_singular and res.status is not NewtonStatus.SINGULAR:
+                detail += f"; the Newton matrix is nearly singular (s_min/s_max = {svd[0]:.1e})"
+            detail += "; the singular direction involves " + ", ".join(coords)
+            hint = ("no joint holds these coordinates: a body with no mass or inertia in "
+                    "that direction, or a free motion with nothing to resist it")
+            explained = True
+    if not explained and not stiff and res.status in (NewtonStatus.DIVERGING,
+                                                      NewtonStatus.MAX_ITER):
+        near = _near_singular_rows(system, ctx)
+        if near is not None:
+            ratio, elements = near
+            detail += (f"; Phi_q is nearly rank-deficient at the last accepted state "
+                       f"(s_min/s_max = {ratio:.1e}) in the rows of "
+                       + ", ".join(f"'{e}'" for e in elements))
+            span = system.layout.span_of(elements[0]) or span
+            hint = (f"the mechanism is close to a singular position, where the equations of "
+                    f"{', '.join(repr(e) for e in elements)} become dependent: a smaller step "
+                    "does not help there; "
+                    + ("--formulation augmented goes through such positions, or "
+                       if method.accepts_augmented and method.formulation == "lagrange" else "")
+                    + "start elsewhere, drive past it with a motion, or check the joint geometry")
+            explained = True
+    if stiff and not explained:
+        name, time, what = stiff[0]
+        alpha = getattr(method, "alpha", None)
+        rho_inf = getattr(method, "rho_inf", None)
+        if what == "contact duration":
+            detail += (f"; contact '{name}' lasts about {time:.2g} s an impact, "
+                       f"shorter than four steps of h = {step:.2g} s")
+            hint = (f"'{name}' is too stiff for the step: use error control (--rtol), which "
+                    f"lands on the contact and steps through it, a step below {time / 4:.2g} s, "
+                    "or a softer contact (smaller k)")
+        else:
+            if alpha is not None and alpha <= -0.3 + 1e-9:      # that advice is followed
+                remedy = ("use a smaller h (alpha is already -0.3, the most damping HHT "
+                          "allows), or nstiff / nstiff-si2, which damp such a mode more")
+            elif rho_inf is not None and rho_inf <= 1e-12:
+                remedy = ("use a smaller h (rho_inf is already 0: such a mode is removed in "
+                          "one step where the step resolves nothing of it)")
+            else:
+                remedy = ("use a smaller h, or a method with numerical damping "
+                          "(hht-i3/hht-si2 with alpha = -0.3, genalpha/genalpha-si2 with "
+                          "rho_inf = 0)")
+            hint = (f"'{name}' oscillates with a period of about {time:.2g} s, "
+                    f"shorter than the step can follow (h = {step:.2g} s): {remedy}")
+        span = next((f.span for f in system.model.forces if f.name == name), None) or span
+    k = len(res.norms)
+    if k == 0:
+        norms = "no Newton iteration"
+    elif k <= 2:
+        norms = "Newton norms " + ", ".join(f"{x:.2g}" for x in res.norms)
+    else:            # where it started and where it ended: the trend is what helps
+        norms = f"Newton norm {res.norms[0]:.2g} -> {res.norms[-1]:.2g} in {k} iterations"
+    msg = (f"the step from t = {t:.6g} s could not converge with {method.describe()} "
+           f"(h = {step:.3g} s after halving from {h:.3g} s): {res.status.value}; "
+           f"{norms}{detail}")
+    sol.status, sol.message = "failed", msg
+    sol.diagnostics = [Diagnostic("error", "E601", msg, span, "involved here" if span else "",
+                                  hint=hint)]
