@@ -339,6 +339,17 @@ class Method(ABC):
         """
         return lam, {}
 
+    def stability_check_every(self, system) -> int:
+        """Accepted steps between two calls of :meth:`stability_check` on the
+        model of ``system``; 0 (the default): never."""
+        return 0
+
+    def stability_check(self, system, state, h):
+        """None, or ``(message, hint)`` when the method cannot take steps of
+        h [s] stably from the accepted ``state`` (a StepState): the run then
+        stops with E603 and keeps what it computed. The default: None."""
+        return None
+
     def describe(self) -> str:
         """``name(alpha=-0.05, ...)`` for messages."""
         params = ", ".join(f"{k}={v:g}" for k, v in self.parameters().items())

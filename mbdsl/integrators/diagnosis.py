@@ -1,12 +1,13 @@
 """Why a run stopped, in the model's words: the diagnosis of a step that cannot
-be taken (E601, E602).
+be taken (E601, E602) or that the method cannot take stably (E603).
 
 A step Newton cannot converge is explained by what made it fail, in this
 order: the rows of a singular (or nearly singular) position of the linkage,
 named from the Newton matrix's or Phi_q's smallest singular vector; an element
 too stiff for the step (a spring's period or a contact's duration below four
 steps); a body with nothing to resist its motion. The time loop
-(``loop.PythonStepper.diagnose``) calls :func:`fail` and :func:`fail_tolerance`.
+(``loop.PythonStepper.diagnose``) calls :func:`fail` and :func:`fail_tolerance`;
+``loop.TimeLoop`` calls :func:`fail_unstable`.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ import numpy as np
 from ..errors import Diagnostic
 from .newton import NewtonStatus
 
-__all__ = ["fail", "fail_tolerance"]
+__all__ = ["fail", "fail_tolerance", "fail_unstable"]
 
 _HINTS = {
     NewtonStatus.SINGULAR: "the Newton matrix is singular: the mechanism may be at a singular "
@@ -138,6 +139,13 @@ def fail_tolerance(sol, method, control, t, step, err):
         "error", "E602", msg, None, "",
         hint="a force or driver with a jump or a kink at this time (the error does not "
              "shrink with h there), or a tolerance below the round-off of q: loosen rtol/atol")]
+
+
+def fail_unstable(sol, method, t, msg, hint):
+    """Stop a run whose method says it cannot go on stably (E603;
+    ``Method.stability_check``): the message says why, the hint what to use."""
+    sol.status, sol.message = "failed", msg
+    sol.diagnostics = [Diagnostic("error", "E603", msg, None, "", hint=hint)]
 
 
 def fail(sol, method, ctx, res, t, step, h):

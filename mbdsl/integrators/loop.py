@@ -37,7 +37,7 @@ import time as _time
 import numpy as np
 
 from .base import StepState
-from .diagnosis import fail, fail_tolerance
+from .diagnosis import fail, fail_tolerance, fail_unstable
 from .events import restart_after_switch, switch_gap
 from .outcomes import ATTEMPT, CONVERGED, EVENT, LAND, REJECTED, RUN, TOLERANCE
 
@@ -366,6 +366,11 @@ class TimeLoop:
         self.progress = self.writer = None
         self.told = (0, 0)           # steps and iterations the progress callback was told of
         self.landed_now = False      # the last call of step_on landed on an event
+        # a method's own stability limit (HHT-ADD on flexible beams): looked
+        # at every so many accepted steps, the stepper's calls cut to that many
+        self.check_every = method.stability_check_every(system)
+        self.checked_at = 0          # step_no at the last look
+        self.retried = False         # step_on retries a step Newton did not converge
         if events is not None:
             events.start(t_start, ls.start)
             stepper.events_changed(self)
@@ -385,6 +390,8 @@ class TimeLoop:
                 if self.events is not None and not self.fixed:  # the closed gaps' step limit
                     self.ctl[6] = min(self.h_max, self.events.step_limit())
                 status = self.step_on()
+                if self._unstable(status):
+                    break
                 if status != CONVERGED and not self._fall_back():
                     if ls.counts[5]:    # accepted steps since the last record: keep the last
                         ls.add_row(sol, self.t, float(state[3]) or self.h)
@@ -452,6 +459,8 @@ class TimeLoop:
         limit = min(limit, CHUNK) if limit else CHUNK
         if self.stepper is self.fallback:
             limit = 1
+        if self.check_every:
+            limit = min(limit, self.check_every)
         status, taken = self.attempt(RUN, h_try, limit)
         if taken:                   # (the limit stops the call where the size would change)
             if self.fixed:
@@ -466,11 +475,35 @@ class TimeLoop:
         retry = self._retry()
         if retry is None:
             return status
+        self.retried = True
         if self.fixed:
             self.h_cur = retry
         else:
             state[1] = retry
         return CONVERGED
+
+    def _unstable(self, status):
+        """Every ``check_every`` accepted steps, and before a step Newton did
+        not converge is retried smaller, the method's look at its own
+        stability at the last accepted state (``Method.stability_check``) for
+        the run's step: with fixed steps the h asked for (an instability
+        first shows as Newton failing, and halving would only hide it), with
+        error control the next step's size. True when it says the steps
+        cannot go on: the run then stops with E603
+        (``diagnosis.fail_unstable``), its rows kept."""
+        retried, self.retried = self.retried, False
+        if not self.check_every or status not in (CONVERGED, EVENT):
+            return False
+        if not retried and self.step_no - self.checked_at < self.check_every:
+            return False
+        self.checked_at = self.step_no
+        h = self.h if self.fixed else float(self.state[1])
+        found = self.method.stability_check(self.system, self.ls.step_state(self.t), h)
+        if found is None:
+            return False
+        self.flush()
+        fail_unstable(self.sol, self.method, self.t, *found)
+        return True
 
     def _retry(self):
         """The step of size state[1] from t that Newton did not converge: the
