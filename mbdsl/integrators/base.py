@@ -339,6 +339,12 @@ class Method(ABC):
         """
         return lam, {}
 
+    def amplification(self, omega_h: float) -> np.ndarray:
+        """The matrix of one step on the linear oscillator x'' = -omega^2 x at
+        Omega = omega h (``spectral.py``: its eigenvalues are the method's
+        roots, from which the numerical damping and period error follow)."""
+        raise NotImplementedError(f"{self.name} has no amplification matrix")
+
     def stability_check_every(self, system) -> int:
         """Accepted steps between two calls of :meth:`stability_check` on the
         model of ``system``; 0 (the default): never."""

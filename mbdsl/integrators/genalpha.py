@@ -64,6 +64,12 @@ class _GenAlphaBase(Method):
         """2."""
         return 2
 
+    def amplification(self, omega_h: float) -> np.ndarray:
+        """Generalized-alpha's (x, h v, h^2 a, h^2 b) step on x'' = -omega^2 x,
+        shape (4, 4) (``spectral.genalpha_amplification``)."""
+        from .spectral import genalpha_amplification
+        return genalpha_amplification(omega_h, self.alpha_m, self.alpha_f, self.beta, self.gamma)
+
     def parameters(self) -> dict:
         """rho_inf, and the derived alpha_m, alpha_f, beta and gamma."""
         return {"rho_inf": self.rho_inf, "alpha_m": self.alpha_m, "alpha_f": self.alpha_f,

@@ -97,6 +97,12 @@ class HHTADD(Method):
             return 1
         return 2
 
+    def amplification(self, omega_h: float) -> np.ndarray:
+        """HHT's (x, h v, h^2 a) step (the unconstrained a = (1 + alpha) f_{n+1} - alpha f_n) on x'' = -omega^2 x, shape (3, 3)
+        (``spectral.newmark_amplification`` with alpha)."""
+        from .spectral import newmark_amplification
+        return newmark_amplification(omega_h, self.beta, self.gamma, self.alpha)
+
     def parameters(self) -> dict:
         """alpha, b, and the derived beta and gamma."""
         return {"alpha": self.alpha, "b": self.b, "beta": self.beta, "gamma": self.gamma}

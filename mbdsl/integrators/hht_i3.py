@@ -78,6 +78,12 @@ class HHTI3(Method):
         so a study expects 2."""
         return 2
 
+    def amplification(self, omega_h: float) -> np.ndarray:
+        """HHT's (x, h v, h^2 a) step on x'' = -omega^2 x, shape (3, 3)
+        (``spectral.newmark_amplification`` with alpha)."""
+        from .spectral import newmark_amplification
+        return newmark_amplification(omega_h, self.beta, self.gamma, self.alpha)
+
     def parameters(self) -> dict:
         """alpha, and the derived beta and gamma."""
         return {"alpha": self.alpha, "beta": self.beta, "gamma": self.gamma}

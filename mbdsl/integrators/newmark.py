@@ -64,6 +64,12 @@ class Newmark(Method):
         """2 when gamma = 1/2, otherwise 1."""
         return 2 if abs(self.gamma - 0.5) < 1e-14 else 1
 
+    def amplification(self, omega_h: float) -> np.ndarray:
+        """Newmark's (x, h v, h^2 a) step on x'' = -omega^2 x, shape (3, 3)
+        (``spectral.newmark_amplification``)."""
+        from .spectral import newmark_amplification
+        return newmark_amplification(omega_h, self.beta, self.gamma)
+
     def parameters(self) -> dict:
         """gamma and beta."""
         return {"gamma": self.gamma, "beta": self.beta}

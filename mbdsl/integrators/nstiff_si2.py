@@ -65,6 +65,12 @@ class NStiffSI2(Method):
         """2."""
         return 2
 
+    def amplification(self, omega_h: float) -> np.ndarray:
+        """BDF2's (x, h v, x_prev, h v_prev) step on x'' = -omega^2 x, shape
+        (4, 4) (``spectral.bdf2_amplification``)."""
+        from .spectral import bdf2_amplification
+        return bdf2_amplification(omega_h)
+
     def parameters(self) -> dict:
         """None: BDF2 has no free coefficient."""
         return {}
