@@ -431,9 +431,12 @@ def _not_quasi_static(system, accel):
 STATIC_ITERATIONS = 50
 
 
-def static_positions(system, t0: float, q: np.ndarray, lam: np.ndarray) -> np.ndarray:
+def static_positions(system, t0: float, q: np.ndarray, lam: np.ndarray,
+                     hold_initials: bool = True) -> np.ndarray:
     """Positions of static equilibrium: Q(t0, q, 0) = Phi_q^T lambda, Phi(q, t0) = 0,
-    with the coordinates the ``initial`` lines give held at their values.
+    with the coordinates the ``initial`` lines give held at their values
+    (``hold_initials``; False: only the drivers hold, as for the modes about
+    the equilibrium, ``mbdsl.modes``).
 
     Newton's method on
 
@@ -458,7 +461,7 @@ def static_positions(system, t0: float, q: np.ndarray, lam: np.ndarray) -> np.nd
     """
     model, n, m = system.model, system.n, system.m
     iq = np.array([ic.column(system.cmap) for ic in model.initials
-                   if not ic.guess and not ic.is_velocity], dtype=int)
+                   if hold_initials and not ic.guess and not ic.is_velocity], dtype=int)
     given = q[iq].copy()
     f = len(iq)
     E = np.zeros((f, n))

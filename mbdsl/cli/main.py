@@ -68,6 +68,25 @@ def build_parser() -> argparse.ArgumentParser:
     sta.add_argument("--set", action="append", metavar="NAME=VALUE",
                      help="override a model parameter (repeatable)")
 
+    mod = sub.add_parser("modes", help="linearize the model about a state and print its "
+                         "natural frequencies, damping and mode shapes, and what a method "
+                         "does to each mode at its step")
+    mod.add_argument("model", help="model file (.mbd)")
+    mod.add_argument("--at", default="initial", metavar="STATE",
+                     help="initial (the consistent initial state, default), static (the static "
+                          "equilibrium, only the drivers held), or RESULT:T (a row of a result "
+                          "file of this model at time T [s])")
+    mod.add_argument("-k", type=_positive_int, metavar="K",
+                     help="only the K lowest modes (default: every mode; 10 for models "
+                          "solved by the sparse eigensolver)")
+    mod.add_argument("--highest", action="store_true", help="the K highest modes instead")
+    mod.add_argument("--method", choices=sorted(METHODS),
+                     help="integration method whose damping of each mode is shown (default: "
+                          "the model's simulate block, else hht-i3)")
+    mod.add_argument("--h", type=float, help="step size [s] (default: the model's)")
+    mod.add_argument("--set", action="append", metavar="NAME=VALUE",
+                     help="override a model parameter (repeatable)")
+
     plt = sub.add_parser("plot", help="plot time histories of a result file")
     plt.add_argument("result", help="result file written by simulate (.csv, .h5)")
     plt.add_argument("--y", help="comma-separated columns, one panel each "
@@ -287,6 +306,47 @@ def _static(args) -> int:
         for k in loads:
             print(f"  {k:<24} {derived[k][0]: .6g}")
     print(f"  energy.potential         {derived['energy.potential'][0]: .9g} J")
+    return 0
+
+
+def _modes(args) -> int:
+    """Print the modes about the chosen state and a method's damping of each."""
+    from .. import assemble, load_solution
+    from ..integrators import make_method, settings_coefficients
+    from ..registry import DEFAULT_METHOD
+    from ..modes import modes
+    model = _load(args)
+    if model is None:
+        return 1
+    system = assemble(model)
+    solution, t, at = None, 0.0, args.at
+    if at not in ("initial", "static"):
+        path, sep, when = at.rpartition(":")
+        try:
+            t = float(when)
+        except ValueError:
+            path = ""
+        if not sep or not path:
+            raise argparse.ArgumentTypeError(
+                f"--at expects initial, static or RESULT:T, got {at!r}")
+        try:
+            solution = load_solution(path)
+        except (OSError, ValueError) as exc:
+            print(f"mbdsl: error: cannot read the result {path!r}: {exc}", file=sys.stderr)
+            return 1
+    try:
+        found = modes(system, at=at, k=args.k, highest=args.highest, solution=solution, t=t)
+    except MbdError as exc:
+        _print_diagnostics(exc.diagnostics)
+        return 4
+    except ValueError as exc:
+        print(f"mbdsl: error: {exc}", file=sys.stderr)
+        return 2
+    s = model.settings
+    name = args.method or s.get("method", DEFAULT_METHOD)
+    h = args.h or s.get("h")
+    method = make_method(name, **settings_coefficients(s, name))
+    print(found.report(method, float(h)) if h else found.report())
     return 0
 
 
@@ -561,7 +621,7 @@ def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     try:
         commands = {"check": _check, "simulate": _simulate, "plot": _plot, "animate": _animate,
-                    "study": _study, "static": _static}
+                    "study": _study, "static": _static, "modes": _modes}
         return commands[args.command](args)
     except BrokenPipeError:           # the reader went away (| head): stop quietly
         import os

@@ -1,0 +1,397 @@
+"""Linearization and modes: the mechanism's spectrum about a state.
+
+The constrained equations of motion M(q) q'' + Phi_q^T lambda = Q(t, q, v),
+Phi(q, t) = 0, perturbed about a state (q, v, a, lambda) that satisfies them:
+
+    M dq'' + C dq' + K dq + Phi_q^T dlambda = 0,    Phi_q dq = 0,
+
+    K = (M a)_q + (Phi_q^T lambda)_q - Q_q,    C = -Q_v,
+
+K holding the stiffness of springs, beams, closed contacts and forces of the
+state, the geometric stiffness of the constraint forces ((Phi_q^T lambda)_q,
+what makes a hanging pendulum stiff) and the mass matrix's change with q
+under the state's acceleration; C the damping of dampers and contacts and,
+for flexible beams at a moving state, their gyroscopic terms (Geradin &
+Cardona, Flexible Multibody Dynamics, sec. 12.3, on linearizing constrained
+equations; Haug, Computer-Aided Kinematics and Dynamics of Mechanical
+Systems, sec. 9.3). Drivers are constraints and hold their coordinates.
+With dq = N z, N an orthonormal basis of the null space of Phi_q (its rank
+counts the independent constraints: redundant joints are no trouble), the
+reduced equations N^T M N z'' + N^T C N z' + N^T K N z = 0 have the
+mechanism's degrees of freedom as unknowns. At a moving state the change of
+N along the motion is neglected: the modes are those of the frozen
+configuration.
+
+Eigenvalues s of the reduced problem give each mode's natural frequency
+omega = |s| [rad/s], damping ratio zeta = -Re(s)/|s| and shape (dq = N z,
+in the model's coordinates). Without damping the symmetric problem
+K z = omega^2 M z is solved as such (scipy.linalg.eigh); omega^2 < 0 is a
+divergent (unstable) direction, reported with omega = sqrt(-omega^2) as its
+growth rate. Models of more than ``DENSE_LIMIT`` coordinates use the sparse
+constrained pencil instead,
+
+    [[K, Phi_q^T], [Phi_q, 0]] x = omega^2 [[M, 0], [0, 0]] x,
+
+with ARPACK in shift-invert mode about a small negative shift (scipy's
+``eigsh``): the lowest k frequencies, damping left out (said so in the
+report).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .integrators.spectral import MethodSpectrum, spectrum
+
+__all__ = ["DENSE_LIMIT", "Mode", "Modes", "linearize", "modes"]
+
+#: above this many coordinates the sparse pencil and ARPACK (lowest k modes)
+DENSE_LIMIT = 1500
+
+
+def _sparse(pattern, vals, shape):
+    import scipy.sparse
+    rows, cols = pattern
+    return scipy.sparse.csr_matrix((vals, (rows, cols)), shape=shape)
+
+
+@dataclass
+class Linearization:
+    """The linearized equations about one state (sparse, scipy CSR).
+
+    Attributes
+    ----------
+    M, C, K : scipy.sparse matrix, shape (n, n)
+        Mass [kg, kg m, kg m^2], damping [N s/m ...] and stiffness [N/m ...]
+        of M dq'' + C dq' + K dq + Phi_q^T dlambda = 0.
+    Phi_q : scipy.sparse matrix, shape (m, n)
+        The constraint Jacobian (dq must satisfy Phi_q dq = 0).
+    damped : bool
+        Whether C is not zero.
+    """
+
+    M: object
+    C: object
+    K: object
+    Phi_q: object
+    damped: bool
+
+
+def linearize(system, t: float, q: np.ndarray, v: np.ndarray, a: np.ndarray,
+              lam: np.ndarray) -> Linearization:
+    """M, C, K and Phi_q of the constrained equations linearized about (t, q, v, a, lambda).
+
+    Parameters
+    ----------
+    system : AssembledSystem
+    t : float
+        Time [s] (drivers and forces of time are frozen at t).
+    q, v, a : ndarray, shape (n,)
+        The state and its acceleration (zero at an equilibrium).
+    lam : ndarray, shape (m,)
+        The Lagrange multipliers at the state.
+
+    Returns
+    -------
+    Linearization
+        K = (M a)_q + (Phi_q^T lambda)_q - Q_q, C = -Q_v (module docstring).
+    """
+    n, m = system.n, system.m
+    shape = (n, n)
+    M = _sparse(system.pattern_mass, system.mass_values(q), shape)
+    K = _sparse(system.pattern_hessian, system.PhiqT_lam_q_values(q, lam), shape) if m else \
+        _sparse((np.zeros(0, int), np.zeros(0, int)), np.zeros(0), shape)
+    Ma = system.Ma_q_values(q, a)
+    if Ma is not None:
+        K = K + _sparse(system.pattern_mass, Ma, shape)
+    Qq, Qv = system.force_derivative_values(t, q, v, lam)
+    if Qq is not None:
+        K = K - _sparse(system.pattern_force, Qq, shape)
+    C = _sparse(system.pattern_force, -Qv, shape) if Qv is not None else \
+        _sparse((np.zeros(0, int), np.zeros(0, int)), np.zeros(0), shape)
+    C.eliminate_zeros()
+    G = _sparse(system.pattern_Phi_q, system.Phi_q_values(q, t), (m, n))
+    damped = C.nnz > 0 and float(abs(C).max()) > 0.0
+    return Linearization(M.tocsr(), C.tocsr(), K.tocsr(), G, damped)
+
+
+@dataclass
+class Mode:
+    """One mode of the linearized mechanism.
+
+    Attributes
+    ----------
+    omega : float
+        Natural frequency |s| [rad/s] (for a divergent mode: its growth rate).
+    damping_ratio : float
+        zeta = -Re(s)/|s| (0 undamped; 1 and above: not oscillating; nan for
+        a zero-frequency mode, a free motion).
+    shape : ndarray, shape (n,)
+        The mode shape in the model's coordinates, largest entry 1 [m, rad].
+    stable : bool
+        False for a divergent direction (omega^2 < 0: an unstable equilibrium).
+    energy_share : ndarray, shape (n,)
+        Each coordinate's share of the mode's kinetic energy (x_i (M x)_i /
+        x^T M x): which bodies move.
+    """
+
+    omega: float
+    damping_ratio: float
+    shape: np.ndarray
+    stable: bool
+    energy_share: np.ndarray
+
+    @property
+    def frequency(self) -> float:
+        """omega / (2 pi) [Hz]."""
+        return self.omega / (2.0 * np.pi)
+
+
+@dataclass
+class Modes:
+    """The modes of a model about one state, lowest frequency first.
+
+    Attributes
+    ----------
+    model_name : str
+    at : str
+        Which state: ``"initial"``, ``"static"`` or ``"RESULT at t = ..."``.
+    t : float
+        Its time [s].
+    q : ndarray, shape (n,)
+    names : list of str
+        The coordinates' names (``rod.x``, ``beam.u1`` ...).
+    dof : int
+        Degrees of freedom at the state (n - rank Phi_q).
+    modes : list of Mode
+    solver : str
+        ``"dense"`` (every mode, damping included) or ``"sparse"`` (the
+        lowest k by ARPACK, damping left out).
+    notes : list of str
+    """
+
+    model_name: str
+    at: str
+    t: float
+    q: np.ndarray
+    names: list
+    dof: int
+    modes: list
+    solver: str
+    notes: list = field(default_factory=list)
+
+    def moving_bodies(self, mode: Mode, share: float = 0.1) -> list[tuple[str, float]]:
+        """(element, share of the kinetic energy) of the elements (bodies,
+        beams, particles: the part of a coordinate name before its dot) that
+        carry at least ``share`` of the mode's kinetic energy, largest first."""
+        out: dict[str, float] = {}
+        for name, e in zip(self.names, mode.energy_share):
+            key = name.split(".")[0]
+            out[key] = out.get(key, 0.0) + float(e)
+        return sorted([(k, v) for k, v in out.items() if v >= share], key=lambda kv: -kv[1])
+
+    def method_spectra(self, method, h: float) -> list[MethodSpectrum | None]:
+        """What ``method`` (an integrator) does to each mode at step h [s]
+        (``integrators.spectral``); None for a zero-frequency or divergent mode."""
+        return [spectrum(method.amplification(mo.omega * h), mo.omega * h)
+                if mo.stable and mo.omega > 0.0 else None for mo in self.modes]
+
+    def report(self, method=None, h: float | None = None) -> str:
+        """The modes as a text table; with a method and h, what it does to each."""
+        lines = [f"model {self.model_name}: {len(self.modes)} mode"
+                 f"{'s' if len(self.modes) != 1 else ''} at the {self.at} state "
+                 f"(t = {self.t:g} s), {self.dof} degree{'s' if self.dof != 1 else ''} of freedom, "
+                 f"{self.solver} eigensolver"]
+        lines += [f"  note: {n}" for n in self.notes]
+        lines.append(f"  {'mode':>4}  {'f [Hz]':>12}  {'omega [rad/s]':>13}  {'damping':>8}  "
+                     "moves most (share of kinetic energy)")
+        for i, mo in enumerate(self.modes, 1):
+            who = ", ".join(f"{k} {100 * v:.0f} %" for k, v in self.moving_bodies(mo)[:3])
+            zeta = "   -" if np.isnan(mo.damping_ratio) else f"{mo.damping_ratio:8.4g}"
+            freq = f"{mo.frequency:12.6g}" if mo.stable else f"{'unstable':>12}"
+            lines.append(f"  {i:>4}  {freq}  {mo.omega:13.6g}  {zeta:>8}  {who}")
+        if method is not None and h is not None:
+            lines.append(f"  {method.describe()} at h = {h:g} s:")
+            lines.append(f"  {'mode':>4}  {'omega h':>10}  {'rho':>8}  {'xi_bar':>9}  "
+                         f"{'period err':>10}  {'steps to lose 99 %':>18}")
+            for i, sp in enumerate(self.method_spectra(method, h), 1):
+                if sp is None:
+                    continue
+                if sp.omega_h < 1e-4:         # the roots' angles are at round-off there
+                    lines.append(f"  {i:>4}  {sp.omega_h:10.4g}  {sp.rho:8.6f}  "
+                                 f"{'(a mode this slow is not touched by the step)':>41}")
+                    continue
+                xi = "-" if np.isnan(sp.damping_ratio) else f"{sp.damping_ratio:.3g}"
+                per = "-" if not np.isfinite(sp.period_error) else f"{sp.period_error:+.3g}"
+                steps = "never" if not np.isfinite(sp.steps_to_damp) else f"{sp.steps_to_damp:.3g}"
+                lines.append(f"  {i:>4}  {sp.omega_h:10.4g}  {sp.rho:8.6f}  {xi:>9}  {per:>10}  "
+                             f"{steps:>18}")
+        return "\n".join(lines)
+
+
+def _state_at(system, at, solution, t):
+    """(description, t, q, v, a, lambda) of the state the modes are taken about."""
+    from .assembly.initial import consistent_initial_state, static_positions
+    from .errors import AssemblyError
+    model = system.model
+    t0 = float(model.settings.get("t_start", 0.0))
+    if solution is not None:
+        if list(solution.system.layout.coordinates) != list(system.layout.coordinates):
+            raise ValueError("the result's coordinates are not the model's")
+        i = int(np.argmin(np.abs(solution.t - t)))
+        tt, q, v = float(solution.t[i]), solution.q[i].copy(), solution.v[i].copy()
+        a, lam = system.index1_state(tt, q, v)[:2]
+        return f"result's (row {i})", tt, q, v, a, lam
+    init = consistent_initial_state(system, t0)
+    if at == "initial":
+        return "initial", t0, init.q, init.v, init.a, init.lam
+    if at == "static":
+        try:
+            q = static_positions(system, t0, init.q, init.lam, hold_initials=False)
+        except AssemblyError as exc:
+            d = exc.diagnostics[0]
+            hint = ("Newton starts from the model's initial configuration: give 'initial' "
+                    "lines near the equilibrium (a link hanging, not horizontal, where gravity "
+                    "has no stiffness), or take the modes at the initial state")
+            raise AssemblyError(d.message, [dataclasses.replace(d, hint=hint)]) from None
+        v = np.zeros(system.n)
+        a, lam = system.index1_state(t0, q, v)[:2]
+        return "static", t0, q, v, a, lam
+    raise ValueError(f"unknown state '{at}': initial, static, or a result and a time")
+
+
+def _energy_share(Mx, x):
+    e = np.real(np.conj(x) * Mx)
+    total = float(np.sum(e))
+    return e / total if total != 0.0 else np.zeros_like(e)
+
+
+def _dense_modes(lin, k, highest):
+    import scipy.linalg
+    M, C, K, G = (lin.M.toarray(), lin.C.toarray(), lin.K.toarray(), lin.Phi_q.toarray())
+    N = scipy.linalg.null_space(G) if G.shape[0] else np.eye(M.shape[0])
+    r = N.shape[1]
+    if r == 0:
+        return 0, []
+    Mr, Cr, Kr = N.T @ M @ N, N.T @ C @ N, N.T @ K @ N
+    out = []
+    symmetric = np.allclose(Kr, Kr.T, rtol=1e-9, atol=1e-12 * max(1.0, np.abs(Kr).max()))
+    if not lin.damped and symmetric:
+        w2, Z = scipy.linalg.eigh(0.5 * (Kr + Kr.T), Mr)
+        for j in range(r):
+            x = N @ Z[:, j]
+            stable = w2[j] >= -1e-9 * max(1.0, abs(w2).max())
+            omega = float(np.sqrt(abs(w2[j])))
+            zeta = float("nan") if omega < 1e-9 * max(1.0, np.sqrt(abs(w2).max())) else 0.0
+            out.append((omega, zeta, x, stable))
+    else:
+        Mi = np.linalg.inv(Mr)
+        A = np.block([[np.zeros((r, r)), np.eye(r)], [-Mi @ Kr, -Mi @ Cr]])
+        s, V = np.linalg.eig(A)
+        scale = max(1.0, float(np.abs(s).max()))
+        for j in range(2 * r):
+            if s[j].imag < -1e-12 * scale:
+                continue                  # one of each complex pair
+            x = N @ V[:r, j]
+            omega = float(abs(s[j]))
+            stable = s[j].real <= 1e-9 * scale
+            zeta = float("nan") if omega < 1e-9 * scale else float(-s[j].real / omega)
+            out.append((omega, zeta, x, stable))
+    out.sort(key=lambda o: o[0])
+    if k is not None:
+        out = out[-k:] if highest else out[:k]
+    return r, [_mode(M, *o) for o in out]
+
+
+def _mode(M, omega, zeta, x, stable):
+    x = np.asarray(x)
+    i = int(np.argmax(np.abs(x)))
+    if abs(x[i]) > 0:
+        x = x / x[i]
+    share = _energy_share(M @ x, x)
+    return Mode(omega, zeta, np.real(x), bool(stable), share)
+
+
+def _sparse_modes(lin, k):
+    import scipy.sparse
+    import scipy.sparse.linalg as sla
+    n, m = lin.M.shape[0], lin.Phi_q.shape[0]
+    K = 0.5 * (lin.K + lin.K.T)
+    A = scipy.sparse.bmat([[K, lin.Phi_q.T], [lin.Phi_q, None]], format="csc")
+    B = scipy.sparse.bmat([[lin.M, None], [None, scipy.sparse.csr_matrix((m, m))]],
+                          format="csc")
+    diag = lin.M.diagonal()
+    sigma = -1e-6 * float(np.max(np.abs(K.diagonal()) / np.where(diag > 0, diag, 1.0)))
+    w2, X = sla.eigsh(A, k=k, M=B, sigma=sigma or -1e-6, which="LM")
+    order = np.argsort(w2)
+    out = []
+    scale = max(1.0, float(np.sqrt(np.abs(w2).max())))
+    for j in order:
+        omega = float(np.sqrt(abs(w2[j])))
+        zeta = float("nan") if omega < 1e-9 * scale else 0.0
+        out.append(_mode(lin.M, omega, zeta, X[:n, j], w2[j] >= -1e-9 * scale * scale))
+    return out
+
+
+def modes(system, at: str = "initial", k: int | None = None, highest: bool = False,
+          solution=None, t: float = 0.0, sparse: bool | None = None) -> Modes:
+    """The modes of a model linearized about a state (module docstring).
+
+    Parameters
+    ----------
+    system : AssembledSystem or Model
+    at : {"initial", "static"}
+        The consistent initial state, or the static equilibrium (``mbdsl
+        static``); ignored when ``solution`` is given.
+    k : int, optional
+        How many modes: the k lowest (or highest); default every mode
+        (dense) or 10 (sparse).
+    highest : bool
+        The k highest instead (dense solver only).
+    solution : Solution, optional
+        A result of this model: the modes about its recorded row nearest t.
+    t : float
+        The time [s] of that row.
+    sparse : bool, optional
+        Force the sparse (True) or dense (False) eigensolver; default:
+        sparse above ``DENSE_LIMIT`` coordinates.
+
+    Returns
+    -------
+    Modes
+
+    Raises
+    ------
+    ValueError
+        An unknown state, a result of another model, or the highest modes
+        asked of the sparse solver.
+    MbdError
+        The state cannot be found (E503 assembly, E507 no static equilibrium).
+    """
+    from .assembly.system import AssembledSystem, assemble
+    if not isinstance(system, AssembledSystem):
+        system = assemble(system)
+    desc, tt, q, v, a, lam = _state_at(system, at, solution, t)
+    lin = linearize(system, tt, q, v, a, lam)
+    use_sparse = system.n > DENSE_LIMIT if sparse is None else sparse
+    notes = []
+    if use_sparse:
+        if highest:
+            raise ValueError("the sparse eigensolver finds the lowest modes only; "
+                             "ask for the highest with the dense one (sparse=False)")
+        kk = k or 10
+        found = _sparse_modes(lin, kk)
+        dof = system.n - system.m          # independent constraints (E401 refuses others)
+        if lin.damped:
+            notes.append("damping left out (sparse solver): the frequencies are undamped")
+        solver = "sparse"
+    else:
+        dof, found = _dense_modes(lin, k, highest)
+        solver = "dense"
+    if np.any(np.abs(v) > 0) and solution is None and at == "initial":
+        notes.append("a moving state: the modes of the frozen configuration")
+    return Modes(system.model.name, desc, tt, q, list(system.layout.coordinates), dof, found,
+                 solver, notes)
