@@ -46,7 +46,8 @@ import numpy as np
 
 from .integrators.spectral import MethodSpectrum, spectrum
 
-__all__ = ["DENSE_LIMIT", "Mode", "Modes", "linearize", "modes"]
+__all__ = ["DENSE_LIMIT", "FOLLOWED_PERIOD_ERROR", "Mode", "Modes", "describe_followed",
+           "followed", "linearize", "modes"]
 
 #: above this many coordinates the sparse pencil and ARPACK (lowest k modes)
 DENSE_LIMIT = 1500
@@ -229,7 +230,61 @@ class Modes:
                 steps = "never" if not np.isfinite(sp.steps_to_damp) else f"{sp.steps_to_damp:.3g}"
                 lines.append(f"  {i:>4}  {sp.omega_h:10.4g}  {sp.rho:8.6f}  {xi:>9}  {per:>10}  "
                              f"{steps:>18}")
+            lines.append("  " + describe_followed(self, method, h))
         return "\n".join(lines)
+
+
+#: A mode is followed by a step when its period error under the method is at
+#: most this (about 18 steps per period for the second-order methods); the
+#: modes above it are not followed but damped (or, without numerical damping,
+#: carried at the wrong frequency).
+FOLLOWED_PERIOD_ERROR = 0.01
+
+
+def followed(found: "Modes", method, h: float):
+    """(the fastest mode ``method`` follows at step h, the modes it does not
+    follow), each entry (index, Mode, MethodSpectrum); the first is None when
+    it follows none. Zero-frequency and divergent modes are left out."""
+    fast, above = None, []
+    for i, (mo, sp) in enumerate(zip(found.modes, found.method_spectra(method, h)), 1):
+        if sp is None:
+            continue
+        ok = sp.omega_h < 1e-4 or (np.isfinite(sp.period_error)       # (roots' angles at
+                                    and abs(sp.period_error) <= FOLLOWED_PERIOD_ERROR)  # round-off)
+        if ok and (fast is None or mo.omega > fast[1].omega):
+            fast = (i, mo, sp)
+        elif not ok:
+            above.append((i, mo, sp))
+    return fast, above
+
+
+def describe_followed(found: "Modes", method, h: float) -> str:
+    """One sentence: which modes the step h follows and what ``method`` does to
+    the others (for ``study recommend`` and ``mbdsl modes``)."""
+    fast, above = followed(found, method, h)
+
+    def who(mo):
+        bodies = found.moving_bodies(mo)
+        return ", ".join(k for k, _ in bodies[:2]) or "spread over the chain"
+    parts = []
+    if fast is not None:
+        i, mo, sp = fast
+        per = f", period error {sp.period_error:+.2g}" if sp.omega_h >= 1e-4 else ""
+        parts.append(f"h = {h:.3g} s follows the modes up to {mo.frequency:.4g} Hz (mode {i}, "
+                     f"{who(mo)}; omega h = {sp.omega_h:.3g}{per})")
+    else:
+        parts.append(f"h = {h:.3g} s follows none of the modes")
+    if above:
+        i, mo, sp = above[0]
+        steps = sp.steps_to_damp
+        damp = (f"{method.name} removes 99 % of its energy in {steps:.3g} steps "
+                f"({steps * h:.3g} s)" if np.isfinite(steps) else
+                f"{method.name} does not damp it (rho = {sp.rho:.6f})")
+        parts.append(f"{len(above)} mode{'s' if len(above) > 1 else ''} above "
+                     f"{'are' if len(above) > 1 else 'is'} not followed, the lowest of them "
+                     f"mode {i} at {mo.frequency:.4g} Hz ({who(mo)}; omega h = {sp.omega_h:.3g}): "
+                     + damp)
+    return "; ".join(parts)
 
 
 def _state_at(system, at, solution, t):

@@ -438,7 +438,7 @@ def run_study(kind: str, model_path, options: StudyOptions, overrides: dict | No
     results = run_specs(source, specs, options.jobs, options.scheduler, on_done)
     runs = {r.spec.key: r for r in results}
     system = None
-    if "energy" in kinds:
+    if "energy" in kinds or "recommend" in kinds:      # (recommend: the modes)
         from .. import assemble
         system = assemble(model)
     analyse = {"convergence": _convergence, "energy": _energy, "drift": _drift,
@@ -859,7 +859,49 @@ def _recommend(o, runs, ref, model, source=None, system=None, **_):
                "method that needs the least time on this model, the step size it needs and the "
                "runner-up. A step size below the swept ones is extrapolated along the method's "
                "order and then run to verify it.")
-    return Section("recommend", caption, [table], [])
+    tables = [table]
+    spectrum_table = _recommend_modes(table, model, system)
+    if spectrum_table is not None:
+        tables.append(spectrum_table)
+        caption += (" The second table reads each recommendation against the model's modes "
+                    "(mbdsl modes, at the initial state): the fastest mode the step follows "
+                    "(period error at most 1 %), the first it does not, and how many steps the "
+                    "method takes to remove 99 % of that mode's energy.")
+    return Section("recommend", caption, tables, [])
+
+
+def _recommend_modes(table, model, system):
+    """The recommendations read against the spectrum (``mbdsl.modes``): a Table,
+    or None without a system or when the modes cannot be found."""
+    from ..errors import MbdError
+    from ..integrators import make_method, settings_coefficients
+    from ..modes import DENSE_LIMIT, describe_followed, followed, modes
+    if system is None or not table.rows:
+        return None
+    try:
+        found = modes(system, k=None if system.n <= DENSE_LIMIT else 20)
+    except (MbdError, np.linalg.LinAlgError, ValueError):
+        return None
+    out = Table("recommend_modes", "The recommended steps and the model's modes",
+                ["target", "method", "h [s]", "followed up to [Hz]", "fastest followed",
+                 "first not followed [Hz]", "its omega h", "steps to remove 99 %",
+                 "moves most"])
+    for row in table.rows:
+        tol, name, h = row[0], row[1], row[2]
+        if name == "none" or not np.isfinite(h):
+            continue
+        method = make_method(name, **settings_coefficients(model.settings, name))
+        fast, above = followed(found, method, h)
+        first = above[0] if above else None
+        out.rows.append([
+            tol, name, h, fast[1].frequency if fast else float("nan"),
+            f"mode {fast[0]}" if fast else "none",
+            first[1].frequency if first else float("nan"),
+            first[2].omega_h if first else float("nan"),
+            first[2].steps_to_damp if first else float("nan"),
+            ", ".join(k for k, _ in found.moving_bodies(first[1])[:2]) if first else ""])
+        out.notes.append(f"target {tol:g}, {name}: " + describe_followed(found, method, h))
+    return out
 
 
 __all__ += ["quantity_error", "fitted_order", "fmt", "recommend_h"]

@@ -204,3 +204,61 @@ def test_a_hanging_chain_has_the_frequencies_of_bernoullis_chain():
     found = modes(mbdsl.load_text(text, overrides={"N": 200}), at="static", k=5, sparse=True)
     exact = scipy.special.jn_zeros(0, 5) / 2 * np.sqrt(G / 20.0)
     np.testing.assert_allclose([mo.omega for mo in found.modes], exact, rtol=2e-3)
+
+
+SPRUNG_RODS = """model sprung_rods   # two rods held hanging by two horizontal springs at their free lengths
+ground { point A (1, -1); point B (1, -2) }
+body link1 { mass 1; inertia 1/12; point O (-0.5, 0); point E (0.5, 0) }
+body link2 { mass 1.5; inertia 0.2; point E (-0.5, 0); point tip (0.5, 0) }
+joint O: revolute(ground.origin, link1.O)
+joint E: revolute(link1.E, link2.E)
+force s2: spring_damper(ground.A, link1.E, k = 40, c = 0, length = 1)
+force s3: spring_damper(ground.B, link2.tip, k = 70, c = 0, length = 1)
+initial link1.phi = -pi/2;  initial link2.phi = -pi/2
+"""
+
+
+def test_exudyn_finds_the_same_frequencies():
+    """Exudyn's ComputeODE2Eigenvalues (null space of its constraint
+    Jacobian) on the same rods translated element by element
+    (benchmarks/exudyn_side.py): equal to 1e-6 (measured 6e-16). The model
+    is one whose joints carry no load at the equilibrium: Exudyn 1.13.6
+    leaves out the constraint forces' geometric stiffness (a hanging
+    pendulum has no frequency there), which the pendulum tests above show
+    belongs in. Runs with the ``bench`` extra (Exudyn installed)."""
+    pytest.importorskip("exudyn")
+    import sys
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import exudyn
+    import exudyn_side
+    model = mbdsl.load_text(SPRUNG_RODS)
+    ours = modes(model, at="static")
+    _, mbs, _ = exudyn_side._build(model, ours.q, np.zeros_like(ours.q))
+    w2 = np.real(mbs.ComputeODE2Eigenvalues(exudyn.SimulationSettings(),
+                                            useAbsoluteValues=False)[0])
+    theirs = np.sqrt(np.sort(w2[np.abs(w2) > 1e-8]))
+    np.testing.assert_allclose([mo.omega for mo in ours.modes], theirs, rtol=1e-6)
+
+
+def test_the_recommendation_is_read_against_the_modes():
+    """``study recommend``'s second table on the stiff double pendulum: at the
+    recommended h = 5e-4 s genalpha does not follow the elbow mode (k = 1e7
+    N m/rad, the 2 x 2 linearization's upper frequency at the released,
+    horizontal state where gravity adds no stiffness: 1864 Hz), and the steps
+    it takes to remove 99 % of that mode's energy are those of its
+    amplification matrix at omega h."""
+    from mbdsl.studies.study import _recommend_modes
+    from mbdsl.studies.tables import Table
+    model = mbdsl.load(ROOT / "models" / "double_pendulum_stiff.mbd")
+    table = Table("recommend", "", ["target", "method", "h [s]"], [[1e-5, "genalpha", 5e-4]])
+    out = _recommend_modes(table, model, mbdsl.assemble(model))
+    row = out.rows[0]
+    M = np.array([[4 / 3, 1 / 2], [1 / 2, 1 / 3]])          # about the pin, rods horizontal
+    K = 1e7 * np.array([[1, -1], [-1, 1]])
+    elbow = np.sqrt(scipy.linalg.eigh(K, M, eigvals_only=True)[-1])
+    assert row[5] == pytest.approx(elbow / (2 * np.pi), rel=1e-8)
+    W = elbow * 5e-4
+    assert row[6] == pytest.approx(W, rel=1e-8)
+    method = mbdsl.make_method("genalpha", rho_inf=0.9)
+    assert row[7] == pytest.approx(spectrum(method.amplification(W), W).steps_to_damp, rel=1e-9)
+    assert "1864 Hz" in out.notes[0] and "link1" in out.notes[0]
