@@ -1,5 +1,6 @@
 """Why a run stopped, in the model's words: the diagnosis of a step that cannot
-be taken (E601, E602) or that the method cannot take stably (E603).
+be taken (E601, E602), that the method cannot take stably (E603), or that
+an event repeats faster than the steps (E605).
 
 A step Newton cannot converge is explained by what made it fail, in this
 order: the rows of a singular (or nearly singular) position of the linkage,
@@ -17,7 +18,7 @@ import numpy as np
 from ..errors import Diagnostic
 from .newton import NewtonStatus
 
-__all__ = ["fail", "fail_tolerance", "fail_unstable"]
+__all__ = ["fail", "fail_chatter", "fail_tolerance", "fail_unstable"]
 
 _HINTS = {
     NewtonStatus.SINGULAR: "the Newton matrix is singular: the mechanism may be at a singular "
@@ -146,6 +147,24 @@ def fail_unstable(sol, method, t, msg, hint):
     ``Method.stability_check``): the message says why, the hint what to use."""
     sol.status, sol.message = "failed", msg
     sol.diagnostics = [Diagnostic("error", "E603", msg, None, "", hint=hint)]
+
+
+def fail_chatter(sol, t, spring, passes, span):
+    """Stop a run whose spring's points keep passing each other (E605): its
+    points stay together, where the force's direction is not defined."""
+    msg = (f"spring '{spring}' passed through zero length {passes} times in {span:.3g} s "
+           f"(up to t = {t:.6g} s), faster than the steps can follow: its points stay "
+           f"together, where the direction of its force is not defined")
+    sol.status, sol.message = "failed", msg
+    span_ = None
+    for f in sol.system.model.forces if getattr(sol, "system", None) is not None else ():
+        if f.name == spring:
+            span_ = getattr(f, "span", None)
+    sol.diagnostics = [Diagnostic(
+        "error", "E605", msg, span_, "its points stay together" if span_ else "",
+        hint="attach the spring's ends to points that move apart (two points a joint holds "
+             "at one place never do), or give it free length 0 (a force that vanishes with "
+             "the length, as a spring to a fixed point does)")]
 
 
 def fail(sol, method, ctx, res, t, step, h):

@@ -37,7 +37,7 @@ import time as _time
 import numpy as np
 
 from .base import StepState
-from .diagnosis import fail, fail_tolerance, fail_unstable
+from .diagnosis import fail, fail_chatter, fail_tolerance, fail_unstable
 from .events import restart_after_switch, switch_gap
 from .outcomes import ATTEMPT, CONVERGED, EVENT, LAND, REJECTED, RUN, TOLERANCE
 
@@ -390,7 +390,7 @@ class TimeLoop:
                 if self.events is not None and not self.fixed:  # the closed gaps' step limit
                     self.ctl[6] = min(self.h_max, self.events.step_limit())
                 status = self.step_on()
-                if self._unstable(status):
+                if self._unstable(status) or self._chatters():
                     break
                 if status != CONVERGED and not self._fall_back():
                     if ls.counts[5]:    # accepted steps since the last record: keep the last
@@ -503,6 +503,16 @@ class TimeLoop:
             return False
         self.flush()
         fail_unstable(self.sol, self.method, self.t, *found)
+        return True
+
+    def _chatters(self):
+        """Whether a spring's points kept passing each other within less than
+        a step (``EventLocator.chatter``): the run then stops with E605
+        (``diagnosis.fail_chatter``), its rows kept."""
+        if self.events is None or self.events.chatter is None:
+            return False
+        self.flush()
+        fail_chatter(self.sol, self.t, *self.events.chatter)
         return True
 
     def _retry(self):
