@@ -211,7 +211,8 @@ class Modes:
                      "moves most (share of kinetic energy)")
         for i, mo in enumerate(self.modes, 1):
             who = ", ".join(f"{k} {100 * v:.0f} %" for k, v in self.moving_bodies(mo)[:3])
-            zeta = "   -" if np.isnan(mo.damping_ratio) else f"{mo.damping_ratio:8.4g}"
+            zeta = ("   -" if np.isnan(mo.damping_ratio) else      # round-off shown as 0
+                    f"{(0.0 if abs(mo.damping_ratio) < 1e-10 else mo.damping_ratio):8.4g}")
             freq = f"{mo.frequency:12.6g}" if mo.stable else f"{'unstable':>12}"
             lines.append(f"  {i:>4}  {freq}  {mo.omega:13.6g}  {zeta:>8}  {who}")
         if method is not None and h is not None:

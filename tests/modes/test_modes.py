@@ -262,3 +262,59 @@ def test_the_recommendation_is_read_against_the_modes():
     method = mbdsl.make_method("genalpha", rho_inf=0.9)
     assert row[7] == pytest.approx(spectrum(method.amplification(W), W).steps_to_damp, rel=1e-9)
     assert "1864 Hz" in out.notes[0] and "link1" in out.notes[0]
+
+
+def test_a_spinning_cantilever_has_southwells_frequency():
+    """The spin-up beam's cantilever driven at Omega = 4 rad/s from the start
+    (tests/flexible/test_stiffening.py): its modes about the spinning
+    initial state (a moving state: M's change with q under the centripetal
+    acceleration, the gyroscopic damping matrix) give the first in-plane
+    frequency in the rotating frame, 4.1636 rad/s, within 1 % of Southwell's
+    sqrt(omega_0^2 + 0.1933 Omega^2) = 4.185 (and 0.005 % from the 4.1638 the
+    time-domain run measures); zero damping (no damper)."""
+    from tests.flexible.test_stiffening import rotating_cantilever
+    found = modes(rotating_cantilever(4.0), k=1)
+    w0 = 1.8751 ** 2 * np.sqrt(14000.0 / (1.2 * 10.0 ** 4))
+    assert found.modes[0].omega == pytest.approx(np.sqrt(w0 ** 2 + 0.1933 * 16.0), rel=1e-2)
+    assert abs(found.modes[0].damping_ratio) < 1e-10
+    assert any("moving state" in n for n in found.notes)
+
+
+def test_the_slider_crank_at_rest_matches_its_one_degree_of_freedom_equation():
+    """models/slider_crank.mbd about its static equilibrium against the
+    reduced equation m(theta) theta'' + c(theta) theta' + V'(theta) = 0 in the
+    crank angle, written here from the geometry (A = L1 (cos, sin) theta, B on
+    the x axis with |B - A| = L2, to the right of A; the spring from the
+    origin to B of free length 0), linearized by central differences:
+    omega^2 = V''/m, zeta = c/(2 sqrt(V'' m)), to 1e-6."""
+    import scipy.optimize
+    L1, m1, L2, m2, k, c = 0.3, 3.0, 0.6, 0.9, 100.0, 5.0
+    I1, I2 = m1 * L1 ** 2 / 12, m2 * L2 ** 2 / 12
+
+    def geometry(th):
+        A = L1 * np.array([np.cos(th), np.sin(th)])
+        xB = A[0] + np.sqrt(L2 ** 2 - A[1] ** 2)
+        B = np.array([xB, 0.0])
+        return A / 2, (A + B) / 2, np.arctan2(B[1] - A[1], B[0] - A[0]), xB
+
+    def V(th):
+        c1, c2, _, xB = geometry(th)
+        return G * (m1 * c1[1] + m2 * c2[1]) + 0.5 * k * xB ** 2
+
+    def d(f, th, e=1e-5):
+        return (np.asarray(f(th + e)) - np.asarray(f(th - e))) / (2 * e)
+
+    th = scipy.optimize.brentq(lambda x: d(V, x), 3 * np.pi / 2 - 1.2, 3 * np.pi / 2,
+                               xtol=1e-14)
+    dc1, dc2 = d(lambda x: geometry(x)[0], th), d(lambda x: geometry(x)[1], th)
+    dphi, dxB = d(lambda x: geometry(x)[2], th), d(lambda x: geometry(x)[3], th)
+    mass = m1 * dc1 @ dc1 + I1 + m2 * dc2 @ dc2 + I2 * dphi ** 2
+    stiffness = (V(th + 1e-4) - 2 * V(th) + V(th - 1e-4)) / 1e-8
+    damping = c * dxB ** 2
+    found = modes(mbdsl.load(ROOT / "models" / "slider_crank.mbd"), at="static")
+    assert found.dof == 1
+    crank = found.q[found.names.index("crank.phi")]
+    assert crank == pytest.approx(th, abs=1e-8)
+    mo = found.modes[0]
+    assert mo.omega == pytest.approx(np.sqrt(stiffness / mass), rel=1e-6)
+    assert mo.damping_ratio == pytest.approx(damping / (2 * np.sqrt(stiffness * mass)), rel=1e-6)
