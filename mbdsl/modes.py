@@ -137,6 +137,11 @@ class Mode:
     energy_share : ndarray, shape (n,)
         Each coordinate's share of the mode's kinetic energy (x_i (M x)_i /
         x^T M x): which bodies move.
+    stiffened_by : list of (str, float)
+        The springs (translational and rotational) that hold at least a tenth
+        of the mode's strain energy x^T K x / 2, with their shares, largest
+        first: what the mode is the vibration of (the elbow spring of a
+        stiff double pendulum).
     """
 
     omega: float
@@ -144,6 +149,7 @@ class Mode:
     shape: np.ndarray
     stable: bool
     energy_share: np.ndarray
+    stiffened_by: list = field(default_factory=list)
 
     @property
     def frequency(self) -> float:
@@ -208,9 +214,12 @@ class Modes:
                  f"{self.solver} eigensolver"]
         lines += [f"  note: {n}" for n in self.notes]
         lines.append(f"  {'mode':>4}  {'f [Hz]':>12}  {'omega [rad/s]':>13}  {'damping':>8}  "
-                     "moves most (share of kinetic energy)")
+                     "moves most (share of kinetic energy); spring (of strain energy)")
         for i, mo in enumerate(self.modes, 1):
             who = ", ".join(f"{k} {100 * v:.0f} %" for k, v in self.moving_bodies(mo)[:3])
+            if mo.stiffened_by:
+                who += "; spring " + ", ".join(f"{k} {100 * v:.0f} %"
+                                                for k, v in mo.stiffened_by[:2])
             zeta = ("   -" if np.isnan(mo.damping_ratio) else      # round-off shown as 0
                     f"{(0.0 if abs(mo.damping_ratio) < 1e-10 else mo.damping_ratio):8.4g}")
             freq = f"{mo.frequency:12.6g}" if mo.stable else f"{'unstable':>12}"
@@ -265,8 +274,10 @@ def describe_followed(found: "Modes", method, h: float) -> str:
     fast, above = followed(found, method, h)
 
     def who(mo):
-        bodies = found.moving_bodies(mo)
-        return ", ".join(k for k, _ in bodies[:2]) or "spread over the chain"
+        bodies = ", ".join(k for k, _ in found.moving_bodies(mo)[:2]) or "spread over the chain"
+        if mo.stiffened_by:
+            return f"the spring {mo.stiffened_by[0][0]}: {bodies}"
+        return bodies
     parts = []
     if fast is not None:
         i, mo, sp = fast
@@ -371,6 +382,33 @@ def _mode(M, omega, zeta, x, stable):
     return Mode(omega, zeta, np.real(x), bool(stable), share)
 
 
+def _springs_in(system, q, lin, x, share=0.1):
+    """(spring, share of the mode's strain energy x^T K x / 2) of the spring-dampers
+    (k dL^2 / 2, dL the change of length along x by central differences) and
+    rotational spring-dampers (k dtheta^2 / 2, dtheta the joint angle's change)
+    holding at least ``share`` of it, largest first."""
+    from .model.elements import RotationalSpringDamper, SpringDamper
+    total = 0.5 * float(x @ (lin.K @ x))
+    if not total > 0.0:
+        return []
+    out = []
+    springs = [f for f in system.model.forces if isinstance(f, SpringDamper)]
+    if springs:
+        eps = 1e-7 / max(float(np.max(np.abs(x))), 1e-300)
+        dp = np.hypot(*system.spring_separations(q + eps * x).T)
+        dm = np.hypot(*system.spring_separations(q - eps * x).T)
+        dL = (dp - dm) / (2 * eps)
+        out += [(f.name, 0.5 * f.k * dL[i] ** 2) for i, f in enumerate(springs)]
+    cmap, n = system.cmap, system.n
+    for f in system.model.forces:
+        if isinstance(f, RotationalSpringDamper):
+            c1, c2 = cmap.column(f.joint.first.body, 2), cmap.column(f.joint.second.body, 2)
+            dth = (x[c2] if c2 < n else 0.0) - (x[c1] if c1 < n else 0.0)
+            out.append((f.name, 0.5 * f.k * dth ** 2))
+    out = [(name, e / total) for name, e in out if e >= share * total]
+    return sorted(out, key=lambda p: -p[1])
+
+
 def _sparse_modes(lin, k):
     import scipy.sparse
     import scipy.sparse.linalg as sla
@@ -447,6 +485,10 @@ def modes(system, at: str = "initial", k: int | None = None, highest: bool = Fal
     else:
         dof, found = _dense_modes(lin, k, highest)
         solver = "dense"
+    top = max((mo.omega for mo in found), default=0.0)
+    for mo in found:             # (a free motion's strain energy is round-off)
+        if mo.stable and mo.omega > 1e-6 * top:
+            mo.stiffened_by = _springs_in(system, q, lin, mo.shape)
     if np.any(np.abs(v) > 0) and solution is None and at == "initial":
         notes.append("a moving state: the modes of the frozen configuration")
     return Modes(system.model.name, desc, tt, q, list(system.layout.coordinates), dof, found,

@@ -870,6 +870,13 @@ def _recommend(o, runs, ref, model, source=None, system=None, **_):
     return Section("recommend", caption, tables, [])
 
 
+def _mode_of(found, mode):
+    """What a mode is: its spring (when one holds its strain energy), then the
+    bodies it moves."""
+    bodies = ", ".join(k for k, _ in found.moving_bodies(mode)[:2])
+    return f"spring {mode.stiffened_by[0][0]}: {bodies}" if mode.stiffened_by else bodies
+
+
 def _recommend_modes(table, model, system):
     """The recommendations read against the spectrum (``mbdsl.modes``): a Table,
     or None without a system or when the modes cannot be found."""
@@ -885,7 +892,7 @@ def _recommend_modes(table, model, system):
     out = Table("recommend_modes", "The recommended steps and the model's modes",
                 ["target", "method", "h [s]", "followed up to [Hz]", "fastest followed",
                  "first not followed [Hz]", "its omega h", "steps to remove 99 %",
-                 "moves most"])
+                 "the mode of"])
     for row in table.rows:
         tol, name, h = row[0], row[1], row[2]
         if name == "none" or not np.isfinite(h):
@@ -899,7 +906,7 @@ def _recommend_modes(table, model, system):
             first[1].frequency if first else float("nan"),
             first[2].omega_h if first else float("nan"),
             first[2].steps_to_damp if first else float("nan"),
-            ", ".join(k for k, _ in found.moving_bodies(first[1])[:2]) if first else ""])
+            _mode_of(found, first[1]) if first else ""])
         out.notes.append(f"target {tol:g}, {name}: " + describe_followed(found, method, h))
     return out
 

@@ -261,7 +261,8 @@ def test_the_recommendation_is_read_against_the_modes():
     assert row[6] == pytest.approx(W, rel=1e-8)
     method = mbdsl.make_method("genalpha", rho_inf=0.9)
     assert row[7] == pytest.approx(spectrum(method.amplification(W), W).steps_to_damp, rel=1e-9)
-    assert "1864 Hz" in out.notes[0] and "link1" in out.notes[0]
+    assert "1864 Hz" in out.notes[0] and "the spring elbow" in out.notes[0]
+    assert row[8].startswith("spring elbow")
 
 
 def test_a_spinning_cantilever_has_southwells_frequency():
@@ -318,3 +319,16 @@ def test_the_slider_crank_at_rest_matches_its_one_degree_of_freedom_equation():
     mo = found.modes[0]
     assert mo.omega == pytest.approx(np.sqrt(stiffness / mass), rel=1e-6)
     assert mo.damping_ratio == pytest.approx(damping / (2 * np.sqrt(stiffness * mass)), rel=1e-6)
+
+
+def test_a_mode_names_the_spring_that_holds_its_strain_energy():
+    """The stiff double pendulum's upper mode is its elbow's: the rotational
+    spring 'elbow' holds all its strain energy (k dtheta^2/2 = omega^2 x^T M x/2
+    with no other stiffness at the horizontal start); the suspension's mode
+    is its spring's; the free swing (0 Hz) names none."""
+    found = modes(mbdsl.load(ROOT / "models" / "double_pendulum_stiff.mbd"))
+    assert found.modes[0].stiffened_by == []
+    (name, share), = found.modes[1].stiffened_by
+    assert name == "elbow" and share == pytest.approx(1.0, rel=1e-6)
+    susp = modes(mbdsl.load(ROOT / "models" / "suspension.mbd"), at="static")
+    assert susp.modes[0].stiffened_by[0][0] == "spring"
