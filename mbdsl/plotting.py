@@ -156,6 +156,58 @@ def plot_solution(solution, y=None, x: str = "t", path=None, bodies=None) -> Fig
     return fig
 
 
+def plot_mode_damping(found, methods, h: float, path=None) -> Figure:
+    """What each method does to a mode of frequency omega at step h, with the
+    model's modes marked: spectral radius, numerical damping ratio and
+    relative period error against omega h (``integrators.spectral``).
+
+    Parameters
+    ----------
+    found : mbdsl.modes.Modes
+    methods : list of Method
+    h : float
+        Step size [s].
+    path : str or Path, optional
+        Where to save the figure (format by extension).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from .integrators.spectral import spectrum
+    W = np.logspace(-3, 3, 400)
+    fig = _figure(7.5, 8.0)
+    axes = fig.subplots(3, 1, sharex=True)
+    for method in methods:
+        sp = [spectrum(method.amplification(w), w) for w in W]
+        label = method.describe()
+        axes[0].plot(W, [s.rho for s in sp], lw=1.2, label=label)
+        axes[1].plot(W, [s.damping_ratio for s in sp], lw=1.2, label=label)
+        per = np.array([s.period_error for s in sp])
+        axes[2].plot(W, np.where(per > 0, per, np.nan), lw=1.2, label=label)
+    marks = [(mo.omega * h, i) for i, mo in enumerate(found.modes, 1)
+             if mo.stable and 1e-3 <= mo.omega * h <= 1e3]
+    for ax in axes:
+        ax.set_xscale("log")
+        ax.grid(alpha=0.3)
+        for w, i in marks:
+            ax.axvline(w, color="0.5", lw=0.8, ls=":")
+    for w, i in marks:
+        axes[0].annotate(f"{i}", (w, 1.0), textcoords="offset points", xytext=(2, 2),
+                         fontsize=7, color="0.3")
+    axes[0].set_ylabel("spectral radius rho")
+    axes[1].set_ylabel("damping ratio xi_bar")
+    axes[2].set_ylabel("period error (longer)")
+    axes[2].set_yscale("log")
+    axes[2].set_xlabel(f"omega h (h = {h:g} s); dotted: the model's modes")
+    axes[0].legend(fontsize=7, loc="lower left")
+    fig.suptitle(f"{found.model_name}: what each method does to a mode at h = {h:g} s",
+                 fontsize=10)
+    if path is not None:
+        fig.savefig(path)
+    return fig
+
+
 def _step_size_axis(ax, h) -> None:
     """A log axis of step sizes whose ticks are the halvings (factors of 2) with
     their values as labels, padded by half a halving: a constant h shows as one

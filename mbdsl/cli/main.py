@@ -84,6 +84,11 @@ def build_parser() -> argparse.ArgumentParser:
                      help="integration method whose damping of each mode is shown (default: "
                           "the model's simulate block, else hht-i3)")
     mod.add_argument("--h", type=float, help="step size [s] (default: the model's)")
+    mod.add_argument("--plot", metavar="FIGURE",
+                     help="also draw each method's spectral radius, damping ratio and period "
+                          "error against omega h with the modes marked (.png, .svg, .pdf)")
+    mod.add_argument("--methods", help="comma-separated methods of the figure (default: the "
+                                       "run's method)")
     mod.add_argument("--set", action="append", metavar="NAME=VALUE",
                      help="override a model parameter (repeatable)")
 
@@ -347,6 +352,24 @@ def _modes(args) -> int:
     h = args.h or s.get("h")
     method = make_method(name, **settings_coefficients(s, name))
     print(found.report(method, float(h)) if h else found.report())
+    if args.plot:
+        if not h:
+            print("mbdsl: error: --plot needs a step size (--h or the model's)", file=sys.stderr)
+            return 2
+        from ..plotting import plot_mode_damping
+        names = [m.strip() for m in args.methods.split(",")] if args.methods else [name]
+        unknown = [m for m in names if m not in METHODS]
+        if unknown:
+            print(f"mbdsl: error: unknown method {unknown[0]!r}; available: "
+                  f"{', '.join(sorted(METHODS))}", file=sys.stderr)
+            return 2
+        try:
+            plot_mode_damping(found, [make_method(m, **settings_coefficients(s, m))
+                                      for m in names], float(h), args.plot)
+        except (OSError, ValueError) as exc:
+            print(f"mbdsl: error: cannot write {args.plot!r}: {exc}", file=sys.stderr)
+            return 1
+        print(f"wrote {args.plot}")
     return 0
 
 

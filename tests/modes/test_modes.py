@@ -332,3 +332,15 @@ def test_a_mode_names_the_spring_that_holds_its_strain_energy():
     assert name == "elbow" and share == pytest.approx(1.0, rel=1e-6)
     susp = modes(mbdsl.load(ROOT / "models" / "suspension.mbd"), at="static")
     assert susp.modes[0].stiffened_by[0][0] == "spring"
+
+
+def test_the_modes_command_draws_the_methods_damping(tmp_path, capsys):
+    """--plot: the figure of rho, xi_bar and the period error against omega h
+    for the methods asked, with the modes marked; a method that does not
+    exist is an error, not a traceback."""
+    out = tmp_path / "damping.png"
+    model = str(ROOT / "models" / "double_pendulum_stiff.mbd")
+    assert main(["modes", model, "--plot", str(out), "--methods", "hht-i3,genalpha"]) == 0
+    assert out.stat().st_size > 10_000
+    assert main(["modes", model, "--plot", str(out), "--methods", "rk4"]) == 2
+    assert "unknown method 'rk4'" in capsys.readouterr().err
