@@ -252,6 +252,10 @@ def simulate(model: Model, method: str | None = None, h: float | None = None,
     if chosen is None and any(d.code == "W405" for d in initial.warnings):
         formulated = m.formulated("augmented", system)   # redundant joints: what runs them
     m = formulated
+    from .modes import step_warning           # a mode the step neither follows nor damps
+    found = step_warning(system, initial, m, float(h), float(t_end) - t_start)
+    if found is not None:
+        initial.warnings.append(found)
     assembly_time = time.perf_counter() - t0
     if fixed and (rtol is not None or atol is not None):
         raise ValueError("fixed steps and a tolerance (rtol/atol) exclude each other")

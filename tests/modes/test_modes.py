@@ -344,3 +344,27 @@ def test_the_modes_command_draws_the_methods_damping(tmp_path, capsys):
     assert out.stat().st_size > 10_000
     assert main(["modes", model, "--plot", str(out), "--methods", "rk4"]) == 2
     assert "unknown method 'rk4'" in capsys.readouterr().err
+
+
+def test_a_mode_the_step_neither_follows_nor_damps_is_warned_before_the_run():
+    """W606: a 1e6 N/m spring on 1 kg (159 Hz) at h = 1e-2 s (omega h = 10)
+    under the trapezoidal rule (Newmark 1/4, 1/2: rho = 1 at every omega h)
+    is kept undamped for the whole run; HHT with alpha = -0.3 removes 99 % of
+    it in 10 steps (its spectral radius 0.54 there): no warning; at h = 1e-4 s
+    (omega h = 0.1) the trapezoidal rule follows it: none either."""
+    model = mbdsl.load_text("""model trapezoid
+body block { mass 1; inertia 0.1 }
+joint G: prismatic(ground.origin, block.cm, direction = (1, 0))
+force s: spring_damper(ground.origin, block.cm, k = 1e6, c = 0, length = 0)
+initial block.x = 0.001;  initial block.vx = 0
+simulate { method newmark; gamma 0.5; beta 0.25; h 1e-2; t_end 1 }
+""")
+    sol = mbdsl.simulate(model)
+    (w,) = [d for d in sol.initial.warnings if d.code == "W606"]
+    assert "159.2 Hz" in w.message and "the spring s" in w.message
+    damped = mbdsl.simulate(model, "hht-i3", alpha=-0.3)
+    assert not [d for d in damped.initial.warnings if d.code == "W606"]
+    fine = mbdsl.simulate(model, h=1e-4, t_end=0.01)
+    assert not [d for d in fine.initial.warnings if d.code == "W606"]
+    assert spectrum(mbdsl.make_method("hht-i3", alpha=-0.3).amplification(10.0), 10.0) \
+        .steps_to_damp < 100
