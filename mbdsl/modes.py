@@ -47,7 +47,8 @@ import numpy as np
 from .integrators.spectral import MethodSpectrum, spectrum
 
 __all__ = ["DENSE_LIMIT", "FOLLOWED_PERIOD_ERROR", "STEP_CHECK_LIMIT", "Mode", "Modes",
-           "describe_followed", "followed", "linearize", "modes", "step_warning"]
+           "describe_followed", "followed", "linearize", "mode_motion", "modes",
+           "step_warning"]
 
 #: above this many coordinates the sparse pencil and ARPACK (lowest k modes)
 DENSE_LIMIT = 1500
@@ -350,6 +351,61 @@ def step_warning(system, initial, method, h: float, t_span: float):
         None, "", hint=f"numerical damping that removes it (hht-i3 with alpha -0.3, genalpha "
                        f"with rho_inf 0.5, nstiff), or h below {0.3 / mo.omega:.2g} s to "
                        "follow it (mbdsl modes shows every mode)")
+
+
+def mode_motion(system, found: "Modes", index: int, cycles: float = 2.0,
+                frames_per_cycle: int = 40, amplitude: float | None = None):
+    """The motion q(t) = q + A x sin(omega t) of mode ``index`` (1-based) as a
+    Solution, for ``mbdsl.animate`` (one second of video per period at speed 1
+    is not asked: the time axis is the mode's own, t [s]).
+
+    A: the largest displacement of a coordinate x or y, 5 % of the model's
+    size (the spread of its coordinates) unless given [m]; each frame is
+    taken back onto the constraints (Gauss-Newton on Phi, up to 300
+    coordinates), which the linear shape leaves at second order. The
+    Solution carries no dynamics: its rows are the mode's shape, not a run.
+
+    Raises
+    ------
+    ValueError
+        No such mode, or a mode of zero frequency.
+    """
+    from .solution import RunStats, Solution
+    if not 1 <= index <= len(found.modes):
+        raise ValueError(f"no mode {index}; modes 1 .. {len(found.modes)}")
+    mo = found.modes[index - 1]
+    if not mo.omega > 0.0:
+        raise ValueError(f"mode {index} has no frequency (a free motion): nothing to animate")
+    q0, x = np.asarray(found.q, dtype=float), mo.shape
+    if amplitude is None:
+        xy = [j for j, name in enumerate(found.names) if name.endswith((".x", ".y"))]
+        size = float(np.ptp(q0[xy])) if xy else 1.0
+        amplitude = 0.05 * (size if size > 0 else 1.0)
+    trans = [j for j, name in enumerate(found.names) if not name.endswith(".phi")]
+    peak = float(np.max(np.abs(x[trans]))) if trans else float(np.max(np.abs(x)))
+    A = amplitude / (peak if peak > 0 else 1.0)
+    period = 2.0 * np.pi / mo.omega
+    t = np.linspace(0.0, cycles * period, int(cycles * frames_per_cycle) + 1)
+    s = np.sin(mo.omega * t)[:, None]
+    c = np.cos(mo.omega * t)[:, None]
+    q = q0 + A * s * x
+    if system.m and system.n <= 300:      # the joints closed again (the shape is linear)
+        for row in q:
+            for _ in range(8):
+                r = system.Phi(row, found.t)
+                if np.max(np.abs(r)) < 1e-12:
+                    break
+                row -= np.linalg.lstsq(system.Phi_q(row, found.t), r, rcond=None)[0]
+    v = A * mo.omega * c * x
+    a = -A * mo.omega ** 2 * s * x
+    N, m = len(t), system.m
+    stats = {k: np.zeros(N) for k in Solution.STAT_NAMES}
+    stats["h"][1:] = np.diff(t)
+    return Solution.from_arrays(
+        system, method_name=f"mode {index}", method_parameters={}, extra_names=(),
+        h=float(t[1] - t[0]), t_end=float(t[-1]), t=t, q=q, v=v, a=a, lam=np.zeros((N, m)),
+        extras={}, stats=stats, stats_total=RunStats(), status="completed",
+        message=f"mode {index} at {mo.frequency:.4g} Hz, linearized shape", warnings=())
 
 
 def _state_at(system, at, solution, t):

@@ -89,6 +89,11 @@ def build_parser() -> argparse.ArgumentParser:
                           "error against omega h with the modes marked (.png, .svg, .pdf)")
     mod.add_argument("--methods", help="comma-separated methods of the figure (default: the "
                                        "run's method)")
+    mod.add_argument("--animate", metavar="ANIMATION",
+                     help="draw a mode's shape moving, one period a second (.gif, or .mp4 "
+                          "with ffmpeg)")
+    mod.add_argument("--mode", type=_positive_int, metavar="I",
+                     help="which mode --animate draws (default: the highest found)")
     mod.add_argument("--set", action="append", metavar="NAME=VALUE",
                      help="override a model parameter (repeatable)")
 
@@ -370,6 +375,21 @@ def _modes(args) -> int:
             print(f"mbdsl: error: cannot write {args.plot!r}: {exc}", file=sys.stderr)
             return 1
         print(f"wrote {args.plot}")
+    if args.animate:
+        from ..modes import mode_motion
+        from ..plotting import animate_solution
+        index = args.mode or len(found.modes)
+        try:
+            motion = mode_motion(system, found, index)
+            period = 2.0 * math.pi / found.modes[index - 1].omega
+            animate_solution(motion, args.animate, fps=40.0, speed=period)
+        except ValueError as exc:
+            print(f"mbdsl: error: {exc}", file=sys.stderr)
+            return 2
+        except OSError as exc:
+            print(f"mbdsl: error: cannot write {args.animate!r}: {exc}", file=sys.stderr)
+            return 1
+        print(f"wrote {args.animate} (mode {index}, {found.modes[index - 1].frequency:.4g} Hz)")
     return 0
 
 

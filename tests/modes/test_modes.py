@@ -368,3 +368,24 @@ simulate { method newmark; gamma 0.5; beta 0.25; h 1e-2; t_end 1 }
     assert not [d for d in fine.initial.warnings if d.code == "W606"]
     assert spectrum(mbdsl.make_method("hht-i3", alpha=-0.3).amplification(10.0), 10.0) \
         .steps_to_damp < 100
+
+
+def test_a_mode_is_animated_as_its_shape_moving(tmp_path, capsys):
+    """--animate: the elbow mode's shape moving, one period a second; the
+    frames keep the joints closed (each taken back onto Phi = 0) and the
+    elbow angle swings by the shape's ratio of the two links' angles."""
+    from mbdsl.modes import mode_motion
+    model = mbdsl.load(ROOT / "models" / "double_pendulum_stiff.mbd")
+    system = mbdsl.assemble(model)
+    found = modes(system)
+    motion = mode_motion(system, found, 2)
+    assert np.max(motion.column("constraint.position")) < 1e-10
+    x = found.modes[1].shape
+    i1, i2 = found.names.index("link1.phi"), found.names.index("link2.phi")
+    swing1 = np.ptp(motion.column("link1.phi"))
+    swing2 = np.ptp(motion.column("link2.phi"))
+    assert swing2 / swing1 == pytest.approx(abs(x[i2] / x[i1]), rel=0.05)
+    out = tmp_path / "elbow.gif"
+    assert main(["modes", str(ROOT / "models" / "double_pendulum_stiff.mbd"),
+                 "--animate", str(out)]) == 0
+    assert out.stat().st_size > 1000 and "mode 2, 1864 Hz" in capsys.readouterr().out
