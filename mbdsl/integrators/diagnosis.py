@@ -78,12 +78,39 @@ def _near_singular_rows(system, ctx, ratio_limit=1e-3):
     return ratio, names[:6]
 
 
-def _stiff_elements(system, h, v=None):
+def _spring_modes(system, h, state):
+    """(spring, period [s], "period") of the modes of the linearization at
+    ``state`` (a StepState: ``mbdsl.modes``) shorter than 4 h whose strain
+    energy a spring holds; None where the spectrum is not available (more
+    than ``modes.STEP_CHECK_LIMIT`` coordinates, or no state)."""
+    from ..modes import STEP_CHECK_LIMIT, _dense_modes, _springs_in, linearize
+    if state is None or system.n > STEP_CHECK_LIMIT:
+        return None
+    try:
+        with np.errstate(all="ignore"):
+            lin = linearize(system, state.t, state.q, state.v, state.a, state.lam)
+            _, found = _dense_modes(lin, None, False)
+    except (np.linalg.LinAlgError, ValueError, FloatingPointError):
+        return None
+    out, named = [], set()
+    for mo in sorted(found, key=lambda m: -m.omega):
+        if not mo.stable or not mo.omega > 0.0 or 2.0 * np.pi / mo.omega >= 4.0 * h:
+            continue
+        springs = _springs_in(system, state.q, lin, mo.shape)
+        if springs and springs[0][0] not in named:
+            named.add(springs[0][0])
+            out.append((springs[0][0], 2.0 * np.pi / mo.omega, "period"))
+    return out
+
+
+def _stiff_elements(system, h, v=None, state=None):
     """Elements too stiff for the step h [s]: (name, time [s], what) sorted by time.
 
-    Springs (translational, rotational) whose natural period 2 pi sqrt(m/k)
-    (a one-body estimate: the lighter attached mass or inertia) is shorter
-    than 4 h, and contacts and limits whose contact duration
+    Springs (translational, rotational) whose mode is shorter than 4 h:
+    from the spectrum at the last accepted ``state`` where it is available
+    (:func:`_spring_modes`: the mode's period, and the spring that holds its
+    strain energy), else from a one-body estimate 2 pi sqrt(m/k) (the lighter
+    attached mass or inertia); and contacts and limits whose contact duration
     (:func:`~mbdsl.model.contact.contact_duration`, at the relative speed of
     the two bodies in ``v``, shape (n,), the last accepted velocities) is
     shorter than 4 h: fewer than four steps in it. ``what`` names the time
@@ -102,9 +129,14 @@ def _stiff_elements(system, h, v=None):
         return [model.bodies[b].inertia if rotational else model.bodies[b].mass
                 for b in bodies if b >= 0]
 
+    from_spectrum = _spring_modes(system, h, state)
+    if from_spectrum is not None:
+        out += from_spectrum
     for f in model.forces:
         k = getattr(f, "k", None)
         if not k:
+            continue
+        if from_spectrum is not None and not isinstance(f, Contact):
             continue
         if isinstance(f, Contact):
             for geometry, data, _ in f.gaps:
@@ -194,7 +226,7 @@ def fail(sol, method, ctx, res, t, step, h):
     stiff = []
     if res.status in (NewtonStatus.DIVERGING, NewtonStatus.MAX_ITER):
         last = ctx.history[-1] if ctx.history else None
-        stiff = _stiff_elements(system, step, getattr(last, "v", None))
+        stiff = _stiff_elements(system, step, getattr(last, "v", None), last)
     explained = False
     if res.status is NewtonStatus.SINGULAR or near_singular:
         null = svd[1] if svd is not None else None

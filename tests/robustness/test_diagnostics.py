@@ -239,3 +239,22 @@ def test_an_interrupted_compiled_run_keeps_every_accepted_step(engine, control):
     assert f"at t = {cut.t[-1]:.6g} s" in cut.message
     assert np.array_equal(cut.t, full.t[:k]) and np.array_equal(cut.q, full.q[:k])
     assert np.array_equal(cut.lam, full.lam[:k])
+
+
+def test_stiff_spring_hint_takes_the_modes_period_where_the_spectrum_is_available():
+    """With the last accepted state, E601's stiff element comes from the
+    linearization (``mbdsl.modes``): the elbow's mode of the stiff double
+    pendulum, period 1/1863.8 Hz = 5.37e-4 s (both links move: the one-body
+    estimate above says 5.74e-4 s), named by the spring holding its strain
+    energy; shorter than 4 h at h = 1e-3 s, not at h = 1e-4 s."""
+    from mbdsl.integrators.base import StepState
+    from mbdsl.integrators.diagnosis import _stiff_elements
+    from mbdsl.modes import modes
+    system = mbdsl.assemble(mbdsl.load(MODELS / "double_pendulum_stiff.mbd"))
+    init = mbdsl.consistent_initial_state(system)
+    state = StepState(init.t, init.q, init.v, init.a, init.lam)
+    (name, period, what), = _stiff_elements(system, 1e-3, init.v, state)
+    assert name == "elbow" and what == "period"
+    assert period == pytest.approx(2 * math.pi / modes(system).modes[-1].omega, rel=1e-12)
+    assert period == pytest.approx(1 / 1863.83, rel=1e-5)
+    assert _stiff_elements(system, 1e-4, init.v, state) == []
