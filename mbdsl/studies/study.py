@@ -863,10 +863,14 @@ def _recommend(o, runs, ref, model, source=None, system=None, **_):
     spectrum_table = _recommend_modes(table, model, system)
     if spectrum_table is not None:
         tables.append(spectrum_table)
+        at_h = _modes_at_model_step(model, system, o.methods)
+        if at_h is not None:
+            tables.append(at_h)
         caption += (" The second table reads each recommendation against the model's modes "
                     "(mbdsl modes, at the initial state): the fastest mode the step follows "
                     "(period error at most 1 %), the first it does not, and how many steps the "
-                    "method takes to remove 99 % of that mode's energy.")
+                    "method takes to remove 99 % of that mode's energy; the third does the "
+                    "same for the model's own step and every method.")
     return Section("recommend", caption, tables, [])
 
 
@@ -875,6 +879,39 @@ def _mode_of(found, mode):
     bodies it moves."""
     bodies = ", ".join(k for k, _ in found.moving_bodies(mode)[:2])
     return f"spring {mode.stiffened_by[0][0]}: {bodies}" if mode.stiffened_by else bodies
+
+
+def _modes_at_model_step(model, system, methods, most: int = 8):
+    """The modes the model's own step does not follow, and the steps each
+    method takes to remove 99 % of each one's energy: a Table, or None."""
+    from ..errors import MbdError
+    from ..integrators import make_method, settings_coefficients
+    from ..integrators.spectral import spectrum
+    from ..modes import DENSE_LIMIT, describe_followed, followed, modes
+    h = model.settings.get("h")
+    if not h:
+        return None
+    try:
+        found = modes(system, k=None if system.n <= DENSE_LIMIT else 20)
+    except (MbdError, np.linalg.LinAlgError, ValueError):
+        return None
+    made = [make_method(m, **settings_coefficients(model.settings, m)) for m in methods]
+    fast, above = followed(found, made[0], float(h))
+    out = Table("recommend_model_step", f"The modes the model's step h = {h:g} s does not "
+                "follow, and the steps each method takes to remove 99 % of their energy",
+                ["mode", "f [Hz]", "omega h", "the mode of"] + [m.name for m in made])
+    for i, mo, _ in above[:most]:
+        row = [i, mo.frequency, mo.omega * h, _mode_of(found, mo)]
+        for m in made:
+            row.append(spectrum(m.amplification(mo.omega * h), mo.omega * h).steps_to_damp)
+        out.rows.append(row)
+    out.notes.append(describe_followed(found, made[0], float(h)))
+    if above:
+        i, mo, _ = above[0]
+        out.notes.append(f"to follow mode {i} ({mo.frequency:.4g} Hz, {_mode_of(found, mo)}), "
+                         f"the mode that limits h, a step below {0.3 / mo.omega:.2g} s "
+                         "(omega h = 0.3, period error about 1 %)")
+    return out
 
 
 def _recommend_modes(table, model, system):

@@ -263,6 +263,14 @@ def test_the_recommendation_is_read_against_the_modes():
     assert row[7] == pytest.approx(spectrum(method.amplification(W), W).steps_to_damp, rel=1e-9)
     assert "1864 Hz" in out.notes[0] and "the spring elbow" in out.notes[0]
     assert row[8].startswith("spring elbow")
+    from mbdsl.studies.study import _modes_at_model_step
+    at_h = _modes_at_model_step(model, mbdsl.assemble(model), ["hht-i3", "nstiff"])
+    (mode, f, W, what, hht, bdf2), = at_h.rows          # the model's h = 1e-3 s, alpha = -0.3
+    assert mode == 2 and W == pytest.approx(elbow * 1e-3, rel=1e-8)
+    assert hht == pytest.approx(spectrum(mbdsl.make_method("hht-i3", alpha=-0.3)
+                                         .amplification(W), W).steps_to_damp, rel=1e-9)
+    assert bdf2 < hht                                   # BDF2 damps it faster
+    assert "the mode that limits h" in at_h.notes[1]
 
 
 def test_a_spinning_cantilever_has_southwells_frequency():
