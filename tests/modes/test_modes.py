@@ -409,3 +409,19 @@ def test_the_sparse_solver_finds_the_highest_modes_too():
     sparse = modes(model, at="static", k=5, highest=True, sparse=True)
     np.testing.assert_allclose([mo.omega for mo in sparse.modes],
                                [mo.omega for mo in dense.modes], rtol=1e-9)
+
+
+def test_the_static_equilibrium_of_a_large_model_is_found_by_sparse_newton(monkeypatch):
+    """Above STATIC_DENSE_LIMIT unknowns the static Newton matrix is sparse
+    (SuperLU): on a 100-link chain released near hanging it reaches the dense
+    Newton's equilibrium to 1e-12 m."""
+    import mbdsl.assembly.initial as initial
+    text = (ROOT / "models" / "pendulum_chain.mbd").read_text()
+    text = text.replace("initial link[i].phi = 0 ", "initial link[i].phi = -1.5")
+    system = mbdsl.assemble(mbdsl.load_text(text, overrides={"N": 100}))
+    init = mbdsl.consistent_initial_state(system)
+    assert system.n + system.m > initial.STATIC_DENSE_LIMIT
+    sparse = initial.static_positions(system, 0.0, init.q, init.lam, hold_initials=False)
+    monkeypatch.setattr(initial, "STATIC_DENSE_LIMIT", 10 ** 9)
+    dense = initial.static_positions(system, 0.0, init.q, init.lam, hold_initials=False)
+    np.testing.assert_allclose(sparse, dense, atol=1e-12)
