@@ -312,3 +312,18 @@ def test_a_spring_whose_points_stay_together_stops_with_e605(tmp_path, capsys):
     assert back.status == "failed" and len(back.t) > 100
     passes = [e for e in back.events if e[1] == "s1"]
     assert len(passes) == 10 and passes[-1][0] - passes[0][0] < 0.005
+
+
+def test_the_augmented_jump_is_tried_once_per_point():
+    """Found by 5000 fuzz examples: under error control, the augmented
+    formulation's jump past a singular position (a retry 1.5 times longer
+    after Newton fails) was shortened by the error estimate, which cleared
+    the jump, Newton failed again, and the run jumped again from the same t:
+    1.6 million rejections without a step. Now one jump per t, then halving:
+    the run ends (here completed, flagged W602/W604) after a few dozen
+    rejections."""
+    sol = mbdsl.simulate(mbdsl.load(HERE / "jump_cycle.mbd"), on_failure="return")
+    assert sol.completed or (sol.diagnostics and sol.diagnostics[0].code.startswith("E6"))
+    assert sol.stats_total.rejected < 500
+    if sol.completed:
+        assert {"W602", "W604"} & {w.code for w in sol.warnings}
