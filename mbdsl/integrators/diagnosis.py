@@ -18,7 +18,7 @@ import numpy as np
 from ..errors import Diagnostic
 from .newton import NewtonStatus
 
-__all__ = ["fail", "fail_chatter", "fail_tolerance", "fail_unstable"]
+__all__ = ["fail", "fail_chatter", "fail_stalled", "fail_tolerance", "fail_unstable"]
 
 _HINTS = {
     NewtonStatus.SINGULAR: "the Newton matrix is singular: the mechanism may be at a singular "
@@ -179,6 +179,19 @@ def fail_unstable(sol, method, t, msg, hint):
     ``Method.stability_check``): the message says why, the hint what to use."""
     sol.status, sol.message = "failed", msg
     sol.diagnostics = [Diagnostic("error", "E603", msg, None, "", hint=hint)]
+
+
+def fail_stalled(sol, method, t0, t, steps, h):
+    """Stop an error-controlled run whose steps stay collapsed (E604)."""
+    msg = (f"the error-controlled steps of {method.describe()} stayed collapsed: {steps} "
+           f"steps from t = {t0:.6g} s to {t:.6g} s, {(t - t0) / max(steps, 1):.3g} s each "
+           f"against the nominal h = {h:g} s")
+    sol.status, sol.message = "failed", msg
+    sol.diagnostics = [Diagnostic(
+        "error", "E604", msg, None, "",
+        hint="a switch the error estimate chases (friction sticking and slipping, a force "
+             "with a kink) or a part of the model the steps cannot resolve: a looser "
+             "tolerance, fixed steps, or smoothing the switch")]
 
 
 def fail_chatter(sol, t, spring, passes, span):

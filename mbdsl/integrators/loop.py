@@ -37,7 +37,7 @@ import time as _time
 import numpy as np
 
 from .base import StepState
-from .diagnosis import fail, fail_chatter, fail_tolerance, fail_unstable
+from .diagnosis import fail, fail_chatter, fail_stalled, fail_tolerance, fail_unstable
 from .events import restart_after_switch, switch_gap
 from .outcomes import ATTEMPT, CONVERGED, EVENT, LAND, REJECTED, RUN, TOLERANCE
 
@@ -50,6 +50,12 @@ __all__ = ["TimeLoop", "LoopState", "PythonStepper", "StepSizes", "CHUNK", "FLUS
 #: CHUNK K steps (a chain of 1000 links, 1.6 ms a step, recording every 100th: 5
 #: minutes).
 CHUNK = 2000
+#: Error control: a run whose last STALL_STEPS accepted steps averaged less
+#: than STALL_FRACTION times its nominal step stops (E604): a generated
+#: mechanism whose friction switch the steps chased took 1.1e6 steps of about
+#: 2e-10 s in 2.3e-4 s of its 0.3 s before it was killed.
+STALL_STEPS = 200_000
+STALL_FRACTION = 1e-6
 #: The buffered rows go to the Solution, the progress callback and the writer when
 #: the buffers are full, at a boundary of the run (an event landed, a hand-over, a
 #: switch, the end, Ctrl-C), or when this much wall time [s] has passed since they
@@ -377,6 +383,7 @@ class TimeLoop:
         self.check_every = method.stability_check_every(system)
         self.checked_at = 0          # step_no at the last look
         self.retried = False         # step_on retries a step Newton did not converge
+        self.stall_mark = (0, t_start)   # (steps, t) where the last STALL_STEPS began
         if events is not None:
             events.start(t_start, ls.start)
             stepper.events_changed(self)
@@ -396,7 +403,7 @@ class TimeLoop:
                 if self.events is not None and not self.fixed:  # the closed gaps' step limit
                     self.ctl[6] = min(self.h_max, self.events.step_limit())
                 status = self.step_on()
-                if self._unstable(status) or self._chatters():
+                if self._unstable(status) or self._chatters() or self._stalled():
                     break
                 if status != CONVERGED and not self._fall_back():
                     if ls.counts[5]:    # accepted steps since the last record: keep the last
@@ -510,6 +517,24 @@ class TimeLoop:
         self.flush()
         fail_unstable(self.sol, self.method, self.t, *found)
         return True
+
+    def _stalled(self):
+        """Error control only: whether the last ``STALL_STEPS`` accepted steps
+        covered less than ``STALL_STEPS * STALL_FRACTION`` times the nominal
+        step (their mean below a millionth of h): the run would take millions
+        of steps more to get anywhere. It stops with E604
+        (``diagnosis.fail_stalled``), its rows kept."""
+        if self.fixed:
+            return False
+        steps, t0 = self.stall_mark
+        if self.step_no - steps < STALL_STEPS:
+            return False
+        if self.t - t0 < STALL_STEPS * STALL_FRACTION * self.h:
+            self.flush()
+            fail_stalled(self.sol, self.method, t0, self.t, self.step_no - steps, self.h)
+            return True
+        self.stall_mark = (self.step_no, self.t)
+        return False
 
     def _chatters(self):
         """Whether a spring's points kept passing each other within less than
