@@ -167,18 +167,21 @@ def fail_tolerance(sol, method, control, t, step, err):
     msg = (f"the step from t = {t:.6g} s cannot meet the error tolerance with "
            f"{method.describe()}: at the smallest step h = {step:.3g} s its local error is "
            f"{err:.3g} times rtol = {control.rtol:g}, atol = {control.atol:g}")
+    _stop(sol, "E602", msg,
+          "a force or driver with a jump or a kink at this time (the error does not shrink "
+          "with h there), or a tolerance below the round-off of q: loosen rtol/atol")
+
+
+def _stop(sol, code, msg, hint, span=None, label=""):
+    """The run failed: its status and message, and the one diagnostic saying why."""
     sol.status, sol.message = "failed", msg
-    sol.diagnostics = [Diagnostic(
-        "error", "E602", msg, None, "",
-        hint="a force or driver with a jump or a kink at this time (the error does not "
-             "shrink with h there), or a tolerance below the round-off of q: loosen rtol/atol")]
+    sol.diagnostics = [Diagnostic("error", code, msg, span, label, hint=hint)]
 
 
-def fail_unstable(sol, method, t, msg, hint):
+def fail_unstable(sol, msg, hint):
     """Stop a run whose method says it cannot go on stably (E603;
     ``Method.stability_check``): the message says why, the hint what to use."""
-    sol.status, sol.message = "failed", msg
-    sol.diagnostics = [Diagnostic("error", "E603", msg, None, "", hint=hint)]
+    _stop(sol, "E603", msg, hint)
 
 
 def fail_stalled(sol, method, t0, t, steps, h):
@@ -186,12 +189,10 @@ def fail_stalled(sol, method, t0, t, steps, h):
     msg = (f"the error-controlled steps of {method.describe()} stayed collapsed: {steps} "
            f"steps from t = {t0:.6g} s to {t:.6g} s, {(t - t0) / max(steps, 1):.3g} s each "
            f"against the nominal h = {h:g} s")
-    sol.status, sol.message = "failed", msg
-    sol.diagnostics = [Diagnostic(
-        "error", "E604", msg, None, "",
-        hint="a switch the error estimate chases (friction sticking and slipping, a force "
-             "with a kink) or a part of the model the steps cannot resolve: a looser "
-             "tolerance, fixed steps, or smoothing the switch")]
+    _stop(sol, "E604", msg,
+          "a switch the error estimate chases (friction sticking and slipping, a force with "
+          "a kink) or a part of the model the steps cannot resolve: a looser tolerance, "
+          "fixed steps, or smoothing the switch")
 
 
 def fail_chatter(sol, t, spring, passes, span):
@@ -200,19 +201,20 @@ def fail_chatter(sol, t, spring, passes, span):
     msg = (f"spring '{spring}' passed through zero length {passes} times in {span:.3g} s "
            f"(up to t = {t:.6g} s), faster than the steps can follow: its points stay "
            f"together, where the direction of its force is not defined")
-    sol.status, sol.message = "failed", msg
-    span_ = None
-    for f in sol.system.model.forces if getattr(sol, "system", None) is not None else ():
-        if f.name == spring:
-            span_ = getattr(f, "span", None)
-    sol.diagnostics = [Diagnostic(
-        "error", "E605", msg, span_, "its points stay together" if span_ else "",
-        hint="attach the spring's ends to points that move apart (two points a joint holds "
-             "at one place never do), or give it free length 0 (a force that vanishes with "
-             "the length, as a spring to a fixed point does)")]
+    where = next((f.span for f in sol.system.model.forces if f.name == spring), None)
+    _stop(sol, "E605", msg,
+          "attach the spring's ends to points that move apart (two points a joint holds at "
+          "one place never do), or give it free length 0 (a force that vanishes with the "
+          "length, as a spring to a fixed point does)",
+          where, "its points stay together" if where else "")
 
 
 def fail(sol, method, ctx, res, t, step, h):
+    """Stop a run at a step Newton could not converge (E601), in the model's
+    words: a singular position (the rows of the Newton matrix's or Phi_q's
+    smallest singular vector), an element too stiff for the step
+    (:func:`_stiff_elements`), or a free motion; ``res`` the Newton result,
+    ``step`` the last size tried [s], ``h`` the size it was halved from [s]."""
     from ..assembly.structure import involved_names
     system = ctx.system
     detail = ""
@@ -319,6 +321,4 @@ def fail(sol, method, ctx, res, t, step, h):
     msg = (f"the step from t = {t:.6g} s could not converge with {method.describe()} "
            f"(h = {step:.3g} s after halving from {h:.3g} s): {res.status.value}; "
            f"{norms}{detail}")
-    sol.status, sol.message = "failed", msg
-    sol.diagnostics = [Diagnostic("error", "E601", msg, span, "involved here" if span else "",
-                                  hint=hint)]
+    _stop(sol, "E601", msg, hint, span, "involved here" if span else "")

@@ -515,7 +515,7 @@ class TimeLoop:
         if found is None:
             return False
         self.flush()
-        fail_unstable(self.sol, self.method, self.t, *found)
+        fail_unstable(self.sol, *found)
         return True
 
     def _stalled(self):
