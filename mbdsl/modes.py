@@ -159,6 +159,23 @@ class Mode:
         return self.omega / (2.0 * np.pi)
 
 
+def _moving(names, mode: Mode, share: float = 0.1) -> list[tuple[str, float]]:
+    """(element, share of the kinetic energy) of the elements (the part of a
+    coordinate name in ``names`` before its dot) carrying at least ``share``
+    of the mode's kinetic energy, largest first."""
+    out: dict[str, float] = {}
+    for name, e in zip(names, mode.energy_share):
+        key = name.split(".")[0]
+        out[key] = out.get(key, 0.0) + float(e)
+    return sorted([(k, v) for k, v in out.items() if v >= share], key=lambda kv: -kv[1])
+
+
+def _mode_of(names, mode: Mode) -> str:
+    """``spring NAME: body, body`` or ``body, body`` (``Modes.mode_of``)."""
+    bodies = ", ".join(k for k, _ in _moving(names, mode)[:2]) or "spread over the chain"
+    return f"spring {mode.stiffened_by[0][0]}: {bodies}" if mode.stiffened_by else bodies
+
+
 @dataclass
 class Modes:
     """The modes of a model about one state, lowest frequency first.
@@ -194,13 +211,14 @@ class Modes:
 
     def moving_bodies(self, mode: Mode, share: float = 0.1) -> list[tuple[str, float]]:
         """(element, share of the kinetic energy) of the elements (bodies,
-        beams, particles: the part of a coordinate name before its dot) that
-        carry at least ``share`` of the mode's kinetic energy, largest first."""
-        out: dict[str, float] = {}
-        for name, e in zip(self.names, mode.energy_share):
-            key = name.split(".")[0]
-            out[key] = out.get(key, 0.0) + float(e)
-        return sorted([(k, v) for k, v in out.items() if v >= share], key=lambda kv: -kv[1])
+        beams, particles) that carry at least ``share`` of the mode's kinetic
+        energy, largest first (:func:`_moving`)."""
+        return _moving(self.names, mode, share)
+
+    def mode_of(self, mode: Mode) -> str:
+        """What a mode is, in a few words: ``spring elbow: link2, link1`` (the
+        spring holding its strain energy, then the two bodies moving most)."""
+        return _mode_of(self.names, mode)
 
     def method_spectra(self, method, h: float) -> list[MethodSpectrum | None]:
         """What ``method`` (an integrator) does to each mode at step h [s]
@@ -276,10 +294,8 @@ def describe_followed(found: "Modes", method, h: float) -> str:
     fast, above = followed(found, method, h)
 
     def who(mo):
-        bodies = ", ".join(k for k, _ in found.moving_bodies(mo)[:2]) or "spread over the chain"
-        if mo.stiffened_by:
-            return f"the spring {mo.stiffened_by[0][0]}: {bodies}"
-        return bodies
+        """The mode in the sentence's words: 'the spring elbow: link2, link1'."""
+        return ("the " if mo.stiffened_by else "") + found.mode_of(mo)
     parts = []
     if fast is not None:
         i, mo, sp = fast
@@ -335,9 +351,7 @@ def step_warning(system, initial, method, h: float, t_span: float):
         return None
     i, mo, sp = worst
     mo.stiffened_by = _springs_in(system, initial.q, lin, mo.shape)
-    what = (f"the spring {mo.stiffened_by[0][0]}" if mo.stiffened_by else
-            ", ".join(k for k, _ in Modes("", "", 0.0, initial.q, list(system.layout.coordinates),
-                                          0, [], "").moving_bodies(mo)[:2]))
+    what = ("the " if mo.stiffened_by else "") + _mode_of(system.layout.coordinates, mo)
     if sp.rho > 1.0 + 1e-9:
         fate = f"amplifies it (rho = {sp.rho:.6f})"
     elif not np.isfinite(sp.steps_to_damp):
@@ -540,6 +554,19 @@ def _sparse_modes(lin, k):
     return out
 
 
+def _projector(Mlu, G):
+    """x -> P x, P = I - M^-1 G^T (G M^-1 G^T)^-1 G (M by its sparse LU
+    ``Mlu``, G = Phi_q sparse; the identity without constraints)."""
+    import scipy.sparse
+    import scipy.sparse.linalg as sla
+    if not G.shape[0]:
+        return lambda x: x
+    # M^-1 G^T: as sparse as G for the block-diagonal M of bodies and beams
+    MiGT = scipy.sparse.csc_matrix(Mlu.solve(G.T.toarray()))
+    Slu = sla.splu(scipy.sparse.csc_matrix(G @ MiGT))
+    return lambda x: x - MiGT @ Slu.solve(G @ x)
+
+
 def _sparse_highest(lin, k):
     """The k highest modes of a large model: ARPACK (scipy's ``eigs``, largest
     magnitude) on S = P M^-1 K P, P = I - M^-1 G^T (G M^-1 G^T)^-1 G the
@@ -551,17 +578,7 @@ def _sparse_highest(lin, k):
     Mlu = sla.splu(lin.M.tocsc())
     G = lin.Phi_q.tocsr()
     K = 0.5 * (lin.K + lin.K.T)
-    if G.shape[0]:
-        import scipy.sparse
-        # M^-1 G^T: as sparse as G for the block-diagonal M of bodies and beams
-        MiGT = scipy.sparse.csc_matrix(Mlu.solve(G.T.toarray()))
-        Slu = sla.splu(scipy.sparse.csc_matrix(G @ MiGT))
-
-        def project(x):
-            return x - MiGT @ Slu.solve(G @ x)
-    else:
-        def project(x):
-            return x
+    project = _projector(Mlu, G)
     op = sla.LinearOperator((n, n), dtype=float,
                             matvec=lambda x: project(Mlu.solve(K @ project(x))))
     w2, X = sla.eigs(op, k=k, which="LM", v0=np.cos(np.arange(n) + 0.5))

@@ -874,13 +874,6 @@ def _recommend(o, runs, ref, model, source=None, system=None, **_):
     return Section("recommend", caption, tables, [])
 
 
-def _mode_of(found, mode):
-    """What a mode is: its spring (when one holds its strain energy), then the
-    bodies it moves."""
-    bodies = ", ".join(k for k, _ in found.moving_bodies(mode)[:2])
-    return f"spring {mode.stiffened_by[0][0]}: {bodies}" if mode.stiffened_by else bodies
-
-
 def _modes_at_model_step(model, system, methods, most: int = 8):
     """The modes the model's own step does not follow, and the steps each
     method takes to remove 99 % of each one's energy: a Table, or None."""
@@ -901,14 +894,14 @@ def _modes_at_model_step(model, system, methods, most: int = 8):
                 "follow, and the steps each method takes to remove 99 % of their energy",
                 ["mode", "f [Hz]", "omega h", "the mode of"] + [m.name for m in made])
     for i, mo, _ in above[:most]:
-        row = [i, mo.frequency, mo.omega * h, _mode_of(found, mo)]
+        row = [i, mo.frequency, mo.omega * h, found.mode_of(mo)]
         for m in made:
             row.append(spectrum(m.amplification(mo.omega * h), mo.omega * h).steps_to_damp)
         out.rows.append(row)
     out.notes.append(describe_followed(found, made[0], float(h)))
     if above:
         i, mo, _ = above[0]
-        out.notes.append(f"to follow mode {i} ({mo.frequency:.4g} Hz, {_mode_of(found, mo)}), "
+        out.notes.append(f"to follow mode {i} ({mo.frequency:.4g} Hz, {found.mode_of(mo)}), "
                          f"the mode that limits h, a step below {0.3 / mo.omega:.2g} s "
                          "(omega h = 0.3, period error about 1 %)")
     return out
@@ -943,7 +936,7 @@ def _recommend_modes(table, model, system):
             first[1].frequency if first else float("nan"),
             first[2].omega_h if first else float("nan"),
             first[2].steps_to_damp if first else float("nan"),
-            _mode_of(found, first[1]) if first else ""])
+            found.mode_of(first[1]) if first else ""])
         out.notes.append(f"target {tol:g}, {name}: " + describe_followed(found, method, h))
     return out
 
