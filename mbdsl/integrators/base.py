@@ -339,11 +339,11 @@ class Method(ABC):
         """
         return lam, {}
 
+    @abstractmethod
     def amplification(self, omega_h: float) -> np.ndarray:
         """The matrix of one step on the linear oscillator x'' = -omega^2 x at
         Omega = omega h (``spectral.py``: its eigenvalues are the method's
         roots, from which the numerical damping and period error follow)."""
-        raise NotImplementedError(f"{self.name} has no amplification matrix")
 
     def stability_check_every(self, system) -> int:
         """Accepted steps between two calls of :meth:`stability_check` on the

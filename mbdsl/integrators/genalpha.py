@@ -17,6 +17,7 @@ from .base import Block, Method, StepContext, StepState, check_range
 from .common import (acceleration_scales, index3_newton_matrix, roundoff_floor,
                      si2_blocks, si2_newton_matrix, si2_residual, si2_scales)
 from .recipe import genalpha_recipe
+from .spectral import genalpha_step
 
 __all__ = ["GenAlpha", "GenAlphaSI2", "genalpha_coefficients"]
 
@@ -64,11 +65,7 @@ class _GenAlphaBase(Method):
         """2."""
         return 2
 
-    def amplification(self, omega_h: float) -> np.ndarray:
-        """Generalized-alpha's (x, h v, h^2 a, h^2 b) step on x'' = -omega^2 x,
-        shape (4, 4) (``spectral.genalpha_amplification``)."""
-        from .spectral import genalpha_amplification
-        return genalpha_amplification(omega_h, self.alpha_m, self.alpha_f, self.beta, self.gamma)
+    amplification = genalpha_step  # spectral.py: one step on x'' = -omega^2 x
 
     def parameters(self) -> dict:
         """rho_inf, and the derived alpha_m, alpha_f, beta and gamma."""

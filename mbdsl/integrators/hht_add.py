@@ -7,6 +7,7 @@ import numpy as np
 from .base import Block, Method, StepContext, StepState, check_range
 from .common import Terms, assemble, hht_coefficients, newmark_predictor, roundoff_floor
 from .recipe import additive_recipe
+from .spectral import hht_step
 
 __all__ = ["HHTADD"]
 
@@ -97,11 +98,7 @@ class HHTADD(Method):
             return 1
         return 2
 
-    def amplification(self, omega_h: float) -> np.ndarray:
-        """HHT's (x, h v, h^2 a) step (the unconstrained a = (1 + alpha) f_{n+1} - alpha f_n) on x'' = -omega^2 x, shape (3, 3)
-        (``spectral.newmark_amplification`` with alpha)."""
-        from .spectral import newmark_amplification
-        return newmark_amplification(omega_h, self.beta, self.gamma, self.alpha)
+    amplification = hht_step  # spectral.py: one step on x'' = -omega^2 x
 
     def parameters(self) -> dict:
         """alpha, b, and the derived beta and gamma."""

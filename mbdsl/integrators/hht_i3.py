@@ -8,6 +8,7 @@ from .base import Block, Method, StepContext, StepState
 from .common import (acceleration_scales, force_term, hht_coefficients,
                      index3_newton_matrix, newmark_predictor, roundoff_floor, start_force_term)
 from .recipe import newmark_recipe
+from .spectral import hht_step
 
 __all__ = ["HHTI3"]
 
@@ -78,11 +79,7 @@ class HHTI3(Method):
         so a study expects 2."""
         return 2
 
-    def amplification(self, omega_h: float) -> np.ndarray:
-        """HHT's (x, h v, h^2 a) step on x'' = -omega^2 x, shape (3, 3)
-        (``spectral.newmark_amplification`` with alpha)."""
-        from .spectral import newmark_amplification
-        return newmark_amplification(omega_h, self.beta, self.gamma, self.alpha)
+    amplification = hht_step  # spectral.py: one step on x'' = -omega^2 x
 
     def parameters(self) -> dict:
         """alpha, and the derived beta and gamma."""

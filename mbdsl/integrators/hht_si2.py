@@ -9,6 +9,7 @@ from .common import (force_term, hht_coefficients, newmark_predictor, roundoff_f
                      si2_blocks, si2_newton_matrix, si2_residual, si2_scales,
                      start_force_term)
 from .recipe import newmark_recipe
+from .spectral import hht_step
 
 __all__ = ["HHTSI2"]
 
@@ -67,11 +68,7 @@ class HHTSI2(Method):
         """2."""
         return 2
 
-    def amplification(self, omega_h: float) -> np.ndarray:
-        """HHT's (x, h v, h^2 a) step on x'' = -omega^2 x, shape (3, 3)
-        (``spectral.newmark_amplification`` with alpha)."""
-        from .spectral import newmark_amplification
-        return newmark_amplification(omega_h, self.beta, self.gamma, self.alpha)
+    amplification = hht_step  # spectral.py: one step on x'' = -omega^2 x
 
     def parameters(self) -> dict:
         """alpha, and the derived beta and gamma."""

@@ -8,6 +8,7 @@ from .base import Block, Method, StepContext, StepState, check_range
 from .common import (acceleration_scales, force_term, index3_newton_matrix,
                      newmark_predictor, roundoff_floor)
 from .recipe import newmark_recipe
+from .spectral import hht_step
 
 __all__ = ["Newmark"]
 
@@ -64,11 +65,7 @@ class Newmark(Method):
         """2 when gamma = 1/2, otherwise 1."""
         return 2 if abs(self.gamma - 0.5) < 1e-14 else 1
 
-    def amplification(self, omega_h: float) -> np.ndarray:
-        """Newmark's (x, h v, h^2 a) step on x'' = -omega^2 x, shape (3, 3)
-        (``spectral.newmark_amplification``)."""
-        from .spectral import newmark_amplification
-        return newmark_amplification(omega_h, self.beta, self.gamma)
+    amplification = hht_step  # spectral.py: one step on x'' = -omega^2 x
 
     def parameters(self) -> dict:
         """gamma and beta."""

@@ -8,6 +8,7 @@ from .base import Block, Method, StepContext, StepState
 from .common import (acceleration_scales, bdf_coefficients, bdf_local_error, force_term,
                      index3_newton_matrix, roundoff_floor)
 from .recipe import bdf_recipe
+from .spectral import bdf2_step
 
 __all__ = ["NStiff"]
 
@@ -54,11 +55,7 @@ class NStiff(Method):
         """2."""
         return 2
 
-    def amplification(self, omega_h: float) -> np.ndarray:
-        """BDF2's (x, h v, x_prev, h v_prev) step on x'' = -omega^2 x, shape
-        (4, 4) (``spectral.bdf2_amplification``)."""
-        from .spectral import bdf2_amplification
-        return bdf2_amplification(omega_h)
+    amplification = bdf2_step  # spectral.py: one step on x'' = -omega^2 x
 
     def parameters(self) -> dict:
         """None: BDF2 has no free coefficient."""

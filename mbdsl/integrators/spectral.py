@@ -30,8 +30,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["MethodSpectrum", "bdf2_amplification", "genalpha_amplification",
-           "newmark_amplification", "spectrum"]
+__all__ = ["MethodSpectrum", "bdf2_amplification", "bdf2_step", "genalpha_amplification",
+           "genalpha_step", "hht_step", "newmark_amplification", "spectrum"]
 
 
 def newmark_amplification(Omega: float, beta: float, gamma: float, alpha: float = 0.0) -> np.ndarray:
@@ -103,6 +103,24 @@ def bdf2_amplification(Omega: float) -> np.ndarray:
                   [0.0, 4.0 / 3.0, 0.0, -1.0 / 3.0]])
     top = np.linalg.solve(L, R)
     return np.vstack([top, np.hstack([np.eye(2), np.zeros((2, 2))])])
+
+
+def hht_step(method, omega_h: float) -> np.ndarray:
+    """``Method.amplification`` of the Newmark and HHT methods (NEWMARK,
+    HHT-I3, HHT-SI2, HHT-ADD: alpha 0 for Newmark), shape (3, 3)."""
+    return newmark_amplification(omega_h, method.beta, method.gamma,
+                                 getattr(method, "alpha", 0.0))
+
+
+def genalpha_step(method, omega_h: float) -> np.ndarray:
+    """``Method.amplification`` of GENALPHA and GENALPHA-SI2, shape (4, 4)."""
+    return genalpha_amplification(omega_h, method.alpha_m, method.alpha_f, method.beta,
+                                  method.gamma)
+
+
+def bdf2_step(method, omega_h: float) -> np.ndarray:
+    """``Method.amplification`` of NSTIFF and NSTIFF-SI2, shape (4, 4)."""
+    return bdf2_amplification(omega_h)
 
 
 @dataclass(frozen=True)
