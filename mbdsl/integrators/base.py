@@ -308,7 +308,15 @@ class Method(ABC):
         The Newmark-type default: (beta - 1/6) h^2 (a_{n+1} - a_n)
         (Zienkiewicz & Xie 1991), with the method's ``beta``.
         """
-        return (self.beta - 1.0 / 6.0) * ctx.h ** 2 * (new.a - ctx.last.a)
+        c, absolute = self.error_coefficient(ctx)
+        return c * (new.a if absolute else new.a - ctx.last.a)
+
+    def error_coefficient(self, ctx: StepContext) -> tuple[float, bool]:
+        """(c [s^2], absolute): the local position error is c (a_{n+1} - a_n),
+        or c a_{n+1} when ``absolute`` (``local_error``; the compiled
+        recipe's ``err`` and ``eabs``). The Newmark-type default
+        ((beta - 1/6) h^2, False)."""
+        return (self.beta - 1.0 / 6.0) * ctx.h ** 2, False
 
     def first_step(self, history, h: float) -> bool:
         """Whether the step of size h after ``history`` is a start-up step

@@ -13,7 +13,7 @@ import numpy as np
 from ..assembly.sparse import JacobianAssembler, Term
 
 __all__ = ["newmark_predictor", "force_term", "index3_newton_matrix", "bdf_coefficients", "bdf_ratio_coefficients",
-           "bdf_local_error",
+           "bdf_local_error", "bdf_error_coefficient",
            "roundoff_floor", "EPS", "Terms", "assemble", "hht_coefficients",
            "acceleration_scales", "si2_blocks", "si2_scales", "si2_residual",
            "si2_newton_matrix"]
@@ -242,9 +242,15 @@ def bdf_local_error(ctx, new) -> np.ndarray:
     times the third derivative of q (Hairer & Wanner II, sec. III.2); a BDF1
     start-up step (``ctx.cache["bdf_order"]`` 1): h^2 a_{n+1} / 2, its own
     leading term."""
+    c, absolute = bdf_error_coefficient(ctx)
+    return c * (new.a if absolute else new.a - ctx.last.a)
+
+
+def bdf_error_coefficient(ctx) -> tuple[float, bool]:
+    """(c [s^2], absolute) of :func:`bdf_local_error` (``Method.error_coefficient``)."""
     if ctx.cache["bdf_order"] == 1:
-        return 0.5 * ctx.h ** 2 * new.a
-    return (2.0 / 9.0) * ctx.h ** 2 * (new.a - ctx.last.a)
+        return 0.5 * ctx.h ** 2, True
+    return (2.0 / 9.0) * ctx.h ** 2, False
 
 
 def roundoff_floor(system, q: np.ndarray, velocity_per_metre: float, n_kinematic: int,

@@ -3504,27 +3504,108 @@ def _crossed(I, Fl, n, q, qx, gaps, springs, qs, grad6, H6):
     return False
 
 
+#: The step-size controller (``adaptive``): the order k of the error per unit
+#: step in h, and the gains of Soderlind's H211b digital filter with b = 4
+#: (G. Soderlind, "Digital filters in adaptive time-stepping", ACM TOMS 29
+#: (2003) 1-26, sec. 6): beta1 = beta2 = 1/(b k), alpha2 = 1/b.
+ERROR_ORDER = 2.0
+H211B_BETA = 1.0 / (4.0 * ERROR_ORDER)
+H211B_ALPHA = 0.25
+
+
 @_jit
-def _error_norm(rc, n, q, qx, a_new, a, b, b_new, additive, acc_old, acc_new, rtol, atol):
-    """The weighted RMS norm of a step's local error estimate e = err d
-    (``adaptive``: Hairer, Norsett & Wanner I, sec. II.4): d the change of the
+def step_ratio(err, err_last, ratio_last, safety, fmin, fmax):
+    """The next step's size over this one's from the error per unit step
+    ``err`` of this step (``_error_norm``) and, when both are positive, the
+    last accepted step's ``err_last`` and the ratio ``ratio_last`` chosen
+    after it: Soderlind's H211b filter
+
+        r = (theta / err)^beta1 (theta / err_last)^beta2 ratio_last^(-alpha2),
+
+    theta = safety^k (the filter's fixed point is err = theta), else the
+    elementary controller (theta / err)^(1/k) (the first step, and after a
+    rejection or an event); within [fmin, fmax]. An error of 0 gives fmax, a
+    non-finite one fmin. Both steppers' rule (``_run``,
+    ``loop.PythonStepper``)."""
+    if err == 0.0:
+        return fmax
+    if not math.isfinite(err):
+        return fmin
+    theta = safety ** ERROR_ORDER
+    if err_last > 0.0 and ratio_last > 0.0:
+        r = ((theta / err) ** H211B_BETA * (theta / err_last) ** H211B_BETA
+             * ratio_last ** (-H211B_ALPHA))
+    else:
+        r = (theta / err) ** (1.0 / ERROR_ORDER)
+    return min(fmax, max(fmin, r))
+
+
+#: Constraint rows up to which an index-3 method's error estimate is taken on
+#: its index-1 accelerations (``_index1_acceleration``: m Jacobian products
+#: and an m x m least-squares solve per step); above it, on a as it is.
+INDEX1_LIMIT = 200
+
+
+@_jit
+def _index1_acceleration(I, Fl, n, m, t, qx, vx, a, out, R, C, V):
+    """out[:n] = a - M^-1 Phi_q^T (Phi_q M^-1 Phi_q^T)^+ (Phi_q a - gamma) at
+    (t, qx, vx): the acceleration a (n,) made to meet the acceleration
+    constraints Phi_q a = gamma, gamma = -(Phi_q v)_q v - Phi_tt (Haug, sec.
+    6.3), by a change along the directions M^-1 Phi_q^T lambda in which the
+    multipliers act: the index-1 acceleration when a's tangential part is
+    (the pseudo-inverse keeps redundant rows). An index-3 method's a meets
+    only Phi = 0; its normal part is the multipliers' round-off over
+    beta h^2. R, C, V: triplet scratch."""
+    S, col, g = np.empty((m, m)), np.empty(m), np.empty(m)
+    y = np.empty(n + 3)
+    for i in range(m):
+        col[:] = 0.0
+        col[i] = 1.0
+        _minus_correction(I, Fl, qx, col, y)        # M^-1 Phi_q^T e_i
+        y[n:] = 0.0                                 # the ground's columns
+        phiq_times(I, Fl, qx, y, g)
+        S[:, i] = g
+    y[:n] = a[:n]
+    y[n:] = 0.0
+    phiq_times(I, Fl, qx, y, g)
+    _index1_gamma(I, Fl, t, qx, vx, col, R, C, V)   # -gamma
+    for i in range(m):
+        g[i] += col[i]
+    z = np.linalg.lstsq(S, g, 1e-13)[0]
+    _minus_correction(I, Fl, qx, z, y)
+    for j in range(n):
+        out[j] = a[j] - y[j]
+
+
+@_jit
+def _error_norm(rc, n, q, qx, a_new, a, b, b_new, additive, acc_old, acc_new, rtol, atol, h,
+                index1, d):
+    """The error per unit step of a step of size h [s]: the weighted RMS norm
+    of its local error estimate e = err d (``adaptive``: Hairer, Norsett &
+    Wanner I, sec. II.4) over h / (1 s): d the change of the
     auxiliary acceleration b -> b_new when the recipe's ``eaux``, of HHT-ADD's
-    a + R_II (acc_old -> acc_new) for the additive form, a_new itself when
-    ``eabs``, else a -> a_new; each entry over atol + rtol max(|q|, |q_new|)
-    with q_new = qx[:n]."""
+    a + R_II or of an index-3 recipe's index-1 acceleration when
+    ``index1`` (acc_old -> acc_new), acc_new itself when ``eabs`` and
+    ``index1``, a_new when ``eabs``, else a -> a_new; each entry over
+    atol + rtol max(|q|, |q_new|). d (n,): scratch."""
+    if n == 0:
+        return 0.0
+    for j in range(n):
+        if index1:
+            d[j] = acc_new[j] if rc[EABS] != 0.0 else acc_new[j] - acc_old[j]
+        elif rc[EAUX] != 0.0:
+            d[j] = b_new[j] - b[j]
+        elif additive:
+            d[j] = acc_new[j] - acc_old[j]
+        elif rc[EABS] != 0.0:
+            d[j] = a_new[j]
+        else:
+            d[j] = a_new[j] - a[j]
     acc = 0.0
     for j in range(n):
-        if rc[EAUX] != 0.0:
-            d = b_new[j] - b[j]
-        elif additive:
-            d = acc_new[j] - acc_old[j]
-        elif rc[EABS] != 0.0:
-            d = a_new[j]
-        else:
-            d = a_new[j] - a[j]
-        e = rc[ERR] * d / (atol + rtol * max(abs(q[j]), abs(qx[j])))
+        e = rc[ERR] * d[j] / (atol + rtol * max(abs(q[j]), abs(qx[j])))
         acc += e * e
-    return math.sqrt(acc / n) if n > 0 else 0.0
+    return math.sqrt(acc / n) / h
 
 
 @_jit
@@ -3574,11 +3655,12 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
     ``ctl`` = (rtol, atol, safety, min_factor, max_factor, h_min, h_max,
     fixed). Error control (fixed = 0): after each converged step the local
     error estimate e = err (x - x_n) (on b when ``eaux``; err x when
-    ``eabs``; HHT-ADD's the change of a + R_II) is measured in the weighted
-    RMS norm E; E > 1 rejects the step (retried with h max(min_factor,
-    safety E^(-1/3))), else it is accepted and h grows by min(max_factor,
-    ...) (not right after a rejection); a step Newton cannot converge is
-    not halved here. Fixed steps (fixed = 1): steps of h, the last one
+    ``eabs``; HHT-ADD's the change of a + R_II) is measured per unit step,
+    E = ||e||_RMS,w / (h / 1 s) (``_error_norm``); E > 1 rejects the step
+    (retried with h max(min_factor, safety E^(-1/2))), else it is accepted
+    and the next h follows the H211b filter (``step_ratio``; not growing
+    right after a rejection); a step Newton cannot converge is not halved
+    here. Fixed steps (fixed = 1): steps of h, the last one
     shortened to land on t_end; no error estimate. Either way a step Newton
     cannot converge ends the call at once (its Newton status, with the
     step's size in state[1]): halving, the augmented formulation's jump and
@@ -3594,10 +3676,12 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
     (n,): F_n at t0 when F0[0] is not NaN (a start whose forces are not the
     law's at (q, v, lambda): friction's Coulomb limit, ``InitialState.Q``).
 
-    ``state`` (8,) in/out: (t, h of the next step, rejected steps, h of the
+    ``state`` (10,) in/out: (t, h of the next step, rejected steps, h of the
     last step or 0, mode, the compensation of the sum t, 1 when the last
     attempt was rejected (the next accepted step does not grow h), the
-    number of accepted steps this call may take or 0 for no limit).
+    number of accepted steps this call may take or 0 for no limit, the last
+    accepted step's error per unit step E or 0 (none: the step-size filter
+    restarts), the step ratio chosen after it).
     Returns (status, steps, records): CONVERGED, a Newton status (a step
     that does not converge), TOLERANCE (the error above 1 at h_min), EVENT
     or REJECTED below.
@@ -3625,7 +3709,13 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
                                                     ctl[5], ctl[6])
     fixed = ctl[7] != 0.0
     r, dw, w, weight, qx, vx, work, q_pred, v_pred, qx_old, F, scratch = _workspace(n, m, size, I)
-    b_new = np.empty(n)
+    b_new, d_err = np.empty(n), np.empty(n)
+    # an index-3 recipe (no velocity constraints, not additive) takes its error estimate
+    # on its index-1 accelerations: the normal part of its own is the multipliers'
+    # round-off over beta h^2, which a tolerance per unit step would chase; not where
+    # friction reads the multipliers (their oscillation then moves q: the estimate sees it)
+    index1 = (not fixed and ctl[8] != 0.0 and rc[FORM] != ADDITIVE and not has_extra
+              and 0 < m <= INDEX1_LIMIT and _rows(I, FRI) == 0)
     mode = int(state[4])
     gaps = _rows(I, KGI) > 0 and mode != LAND
     springs = False                     # spring-dampers with a free length
@@ -3637,6 +3727,10 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
     if additive and not fixed:                      # at the last accepted state, then carried
         qx_old[:n] = q
         _total_acceleration(I, Fl, n, qx_old, a, lam, R, C, V, acc_old)
+    if index1:
+        qx_old[:n] = q
+        vx[:n] = v
+        _index1_acceleration(I, Fl, n, m, t0, qx_old, vx, a, acc_old, R, C, V)
     _start_force(rc, I, Fl, t0, q, v, lam, F0, F, qx, vx, work)
     t = t0
     # the step, start-up flag and c0, w0, w1 of the recipe in rc
@@ -3681,14 +3775,13 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
         if not fixed:
             if additive:    # HHT-ADD: the change of a + R_II, which sees the constraint forces
                 _total_acceleration(I, Fl, n, qx, w[a0:a0 + n], w[l0:l0 + m], R, C, V, acc_new)
+            elif index1:
+                _index1_acceleration(I, Fl, n, m, t_new, qx, vx, w[a0:a0 + n], acc_new, R, C, V)
             err = _error_norm(rc, n, q, qx, w[a0:a0 + n], a, b, b_new, additive, acc_old,
-                              acc_new, rtol, atol)
-            if err == 0.0:
-                factor = fmax
-            elif not np.isfinite(err):
-                factor = fmin
-            else:
-                factor = min(fmax, max(fmin, safety * err ** (-1.0 / 3.0)))
+                              acc_new, rtol, atol, step, index1, d_err)
+            if err > 1.0 or after_rejection:        # the filter restarts after a rejection
+                state[8] = 0.0
+            factor = step_ratio(err, state[8], state[9], safety, fmin, fmax)
         if err > 1.0:
             if step <= h_min * (1.0 + 1e-9):
                 state[0], state[1] = t, step
@@ -3703,6 +3796,8 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
         if after_rejection:
             factor = min(factor, 1.0)
         after_rejection = False
+        if not fixed:
+            state[8], state[9] = err, factor
         q_prev[:] = q
         v_prev[:] = v
         state[3] = step
@@ -3712,7 +3807,7 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
             b[:] = b_new
         else:
             _advance(rc, b, a, w[a0:a0 + n])
-        if additive:
+        if additive or index1:
             acc_old[:] = acc_new
         a[:] = w[a0:a0 + n]
         lam[:] = w[l0:l0 + m]

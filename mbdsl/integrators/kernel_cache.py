@@ -181,8 +181,9 @@ def warm_up(groups=GROUPS, output: bool = True) -> None:
     * "sparse": the compiled residuals and triplets under the Python Newton
       loop, which is also the compiled loop's fallback (``predict``,
       ``old_force``, ``residual``, ``jacobian_triplets``, ``accumulate``,
-      ``mobility``, ``state``, ``layout``, ``step_end``, and
-      generalized-alpha's ``advance``: this group runs GENALPHA);
+      ``mobility``, ``state``, ``layout``, ``step_end``, ``step_ratio``
+      and generalized-alpha's ``advance``: this group runs GENALPHA, with
+      error control);
 
     and with ``output`` the kernels of the output's index-1 multipliers
     (``index1_multipliers_band`` for rigid bodies, ``index1_multipliers``
@@ -198,6 +199,7 @@ def warm_up(groups=GROUPS, output: bool = True) -> None:
     """
     from .. import assemble, load_text
     from . import HHTI3, GenAlpha, NewtonOptions, integrate
+    from .adaptive import StepControl
     from .compiled import lapack_band_addresses
     system = assemble(load_text(_PENDULUM, file="<kernel warm-up>"))
     groups = [g for g in groups if g != "banded" or lapack_band_addresses() is not None]
@@ -205,7 +207,8 @@ def warm_up(groups=GROUPS, output: bool = True) -> None:
     for solver in groups:
         method = GenAlpha() if solver == "sparse" else HHTI3()
         integrate(system, method, 2e-3, 1e-3, engine="compiled",
-                  newton=NewtonOptions(linear_solver=solver))
+                  newton=NewtonOptions(linear_solver=solver),
+                  control=StepControl(1.0, 1.0) if solver == "sparse" else None)
     if output:                 # the output's multipliers (HHT-ADD), contacts' energy and power
         from .engine import CompiledModel, index1_multipliers
         index1_multipliers(system, np.zeros(1), np.zeros((1, system.n)), np.zeros((1, system.n)))

@@ -36,6 +36,7 @@ import time as _time
 
 import numpy as np
 
+from .adaptive import index1_acceleration
 from .base import StepState
 from .diagnosis import fail, fail_chatter, fail_stalled, fail_tolerance, fail_unstable
 from .events import restart_after_switch, switch_gap
@@ -363,15 +364,17 @@ class TimeLoop:
         span = t_end - t_start
         self.fixed = control is None
         if self.fixed:
-            self.ctl = np.array([1.0, 1.0, 1.0, 1.0, 1.0, h, h, 1.0])
+            self.ctl = np.array([1.0, 1.0, 1.0, 1.0, 1.0, h, h, 1.0, 0.0])
         else:
             self.ctl = np.array([control.rtol, control.atol, control.safety,
                                  control.min_factor, control.max_factor,
-                                 sizes.h_min, min(control.h_max, span), 0.0])
+                                 sizes.h_min, min(control.h_max, span), 0.0,
+                                 float(control.index1)])
         self.h_max = self.ctl[6]
         # t, next h, rejected, previous h (none), mode (RUN), the compensation of the
-        # sum t (Kahan: t exact to round-off over 1e6 steps), after a rejection, limit
-        self.state = np.array([t_start, h, 0.0, 0.0, RUN, 0.0, 0.0, 0.0])
+        # sum t (Kahan: t exact to round-off over 1e6 steps), after a rejection, limit,
+        # the step-size filter's last error per unit step (none) and step ratio
+        self.state = np.array([t_start, h, 0.0, 0.0, RUN, 0.0, 0.0, 0.0, 0.0, 0.0])
         self.trial = np.empty((2, system.n))     # the end of a step that crossed an event
         self.step_no, self.t = 0, t_start
         self.seg_end = t_end         # the stepper runs to the end of the stretch
@@ -420,6 +423,7 @@ class TimeLoop:
                     self.t = _restart_at_switch(self.system, self.method, sol, switch, self.h,
                                                 ls)
                     state[0], state[3], state[5] = self.t, 0.0, 0.0   # BDF restarts: BDF1
+                    state[8] = 0.0                  # the step-size filter restarts too
                     self.stepper.resync()
                     segments.pop(0)
                 if clock() - flushed >= FLUSH_INTERVAL:
@@ -678,6 +682,8 @@ class TimeLoop:
             h_next = self.h_cur = self.sizes.grown(self.h_cur, landed)
         else:
             h_next = min(max(float(state[1]), resume), events.step_limit())
+        if events.happened:
+            state[8] = 0.0            # the step-size filter restarts on the new branch
         if events.happened and self.method.history_length > 1:
             state[3] = 0.0            # BDF1 from the event
             if not self.fixed:
@@ -782,7 +788,11 @@ class PythonStepper:
         events = loop.events if mode != LAND else None
         augmented = method.formulation == "augmented"
         after_rejection = state[6] != 0.0
-        step_end = system.kernel_model().K.step_end    # the compiled loop's rule (compiled.py)
+        K = system.kernel_model().K
+        step_end, step_ratio = K.step_end, K.step_ratio    # the compiled loop's rules (compiled.py)
+        # an index-3 method's error estimate on its index-1 accelerations (as compiled)
+        index1 = (not fixed and control.index1 and method.index == 3
+                  and 0 < system.m <= K.INDEX1_LIMIT and not system.multiplier_groups)
         clock = _time.perf_counter
         started = clock()
         t, taken = t0, 0
@@ -812,21 +822,31 @@ class PythonStepper:
                 self.crossing = (t, step, ctx, res, new)
                 return EVENT, taken
             if not fixed:
-                err = control.norm(method.local_error(ctx, new), ctx.last.q, new.q)
+                if index1:
+                    e = self._index1_error(ctx, new)
+                else:
+                    e = method.local_error(ctx, new)
+                err = control.norm(e, ctx.last.q, new.q, step)
+                if err > 1.0 or after_rejection:     # the filter restarts after a rejection
+                    state[8] = 0.0
+                factor = step_ratio(err, float(state[8]), float(state[9]), control.safety,
+                                    control.min_factor, control.max_factor)
                 if err > 1.0:
                     if step <= h_min * (1.0 + 1e-9):
                         self.failure = (None, err, t, step)
                         state[0], state[1] = t, step
                         return TOLERANCE, taken
                     state[2] += 1.0
-                    h = max(step * control.factor(err, True), h_min)
+                    h = max(step * min(factor, 1.0), h_min)
                     after_rejection = True
                     if mode != RUN:
                         state[0], state[1], state[6] = t, h, 1.0
                         return REJECTED, taken
                     continue
-                factor = control.factor(err, after_rejection)
+                if after_rejection:
+                    factor = min(factor, 1.0)
                 after_rejection = False
+                state[8], state[9] = err, factor
             c[4] += int(res.multipliers_stalled)
             self._accept(ls, new, step, t_new, carry, state, history)
             t = t_new
@@ -841,6 +861,18 @@ class PythonStepper:
                 break
         state[0], state[1], state[6] = t, h, 1.0 if after_rejection else 0.0
         return CONVERGED, taken
+
+    def _index1_error(self, ctx, new):
+        """An index-3 method's local error estimate on its index-1 accelerations
+        (``adaptive.index1_acceleration``), that of the step's start kept from
+        the step before; new's in ``new.extra["a1"]``."""
+        system, last = self.system, ctx.last
+        a_old = last.extra.get("a1")
+        if a_old is None:
+            a_old = index1_acceleration(system, last.t, last.q, last.v, last.a)
+        a_new = new.extra["a1"] = index1_acceleration(system, new.t, new.q, new.v, new.a)
+        c, absolute = self.method.error_coefficient(ctx)
+        return c * (a_new if absolute else a_new - a_old)
 
     def _solve(self, history, t_new, step, augmented):
         """Newton on the step of size ``step`` [s] to t_new [s] after

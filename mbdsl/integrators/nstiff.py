@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from .base import Block, Method, StepContext, StepState
-from .common import (acceleration_scales, bdf_coefficients, bdf_local_error, force_term,
-                     index3_newton_matrix, roundoff_floor)
+from .common import (acceleration_scales, bdf_coefficients, bdf_error_coefficient,
+                     bdf_local_error, force_term, index3_newton_matrix, roundoff_floor)
 from .recipe import bdf_recipe
 from .spectral import bdf2_step
 
@@ -84,6 +84,10 @@ class NStiff(Method):
     def local_error(self, ctx, new):
         """BDF2's estimate (``common.bdf_local_error``)."""
         return bdf_local_error(ctx, new)
+
+    def error_coefficient(self, ctx):
+        """BDF2's (``common.bdf_error_coefficient``)."""
+        return bdf_error_coefficient(ctx)
 
     def first_step(self, history, h):
         """BDF1 when no two past states are h apart (``bdf_coefficients``)."""

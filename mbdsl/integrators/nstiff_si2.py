@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from .base import Block, Method, StepContext, StepState
-from .common import (Terms, assemble, bdf_coefficients, bdf_local_error, force_term,
-                     roundoff_floor)
+from .common import (Terms, assemble, bdf_coefficients, bdf_error_coefficient,
+                     bdf_local_error, force_term, roundoff_floor)
 from .recipe import bdf_recipe
 from .spectral import bdf2_step
 
@@ -100,6 +100,10 @@ class NStiffSI2(Method):
     def local_error(self, ctx, new):
         """BDF2's estimate (``common.bdf_local_error``)."""
         return bdf_local_error(ctx, new)
+
+    def error_coefficient(self, ctx):
+        """BDF2's (``common.bdf_error_coefficient``)."""
+        return bdf_error_coefficient(ctx)
 
     def first_step(self, history, h):
         """BDF1 when no two past states are h apart (``bdf_coefficients``)."""

@@ -34,15 +34,23 @@ def slider_crank():
 
 @pytest.mark.parametrize("method", SECOND_ORDER)
 def test_error_falls_with_the_tolerance(method, slider_crank, slider_crank_reference):
-    """Crank angle at T = 2 s against the reference: at least 100 times
-    smaller at rtol = atol = 1e-8 than at 1e-4 (measured 380-490 times: a
-    local error of O(h^3) held to tol gives a global error of O(tol^(2/3)),
-    10^(8/3) = 464), every step within [h_min, h_max] and the run landing on T."""
+    """Crank angle over the run (the reference's 21 samples, the run's rows
+    interpolated by cubic Hermite on q and v) against the published
+    reference: the largest error falls in proportion to rtol = atol from
+    1e-4 to 1e-8, log-log slope 1 +- 0.2 (measured 0.90-0.98: the error per
+    unit step held to tol gives a global error of O(tol); held per step, as
+    before, O(tol^(2/3))), every step within [h_min, h_max] and the run
+    landing on T. (At T alone HHT-ADD's error, whose h^2 terms of either
+    sign cancel along the varying steps, falls faster: slope 1.3.)"""
+    from scipy.interpolate import CubicHermiteSpline
     system, init = slider_crank
-    theta_T = slider_crank_reference["cases"]["damped_x0_zero"]["theta1_T"]
+    table = slider_crank_reference["cases"]["damped_x0_zero"]["table"]
+    t_ref = np.array([r["t"] for r in table])
+    theta_ref = np.array([r["theta1"] for r in table])
     col = system.layout.coordinates.index("crank.phi")
+    tols = [1e-4, 1e-6, 1e-8]
     errors = []
-    for tol in (1e-4, 1e-8):
+    for tol in tols:
         sol = integrate(system, make_method(method), 2.0, 1e-3, initial=init,
                         control=StepControl(tol, tol))
         assert sol.status == "completed" and sol.t[-1] == 2.0
@@ -50,20 +58,24 @@ def test_error_falls_with_the_tolerance(method, slider_crank, slider_crank_refer
         assert sol.control.rtol == tol
         steps = np.diff(sol.t)
         assert np.all(steps > 0) and np.ptp(steps) > 0          # the steps do vary
-        errors.append(abs(sol.q[-1, col] - theta_T))
-    assert errors[0] / errors[1] >= 100.0, errors
+        theta = CubicHermiteSpline(sol.t, sol.q[:, col], sol.v[:, col])(t_ref)
+        errors.append(np.abs(theta - theta_ref).max())
+    slope = np.polyfit(np.log10(tols), np.log10(errors), 1)[0]
+    assert 0.8 <= slope <= 1.2, (slope, errors)
 
 
 def test_first_order_newmark_under_the_same_control(slider_crank, slider_crank_reference):
-    """NEWMARK (gamma = 0.6) is first order: the same local control buys less
-    (measured 29 times from 1e-4 to 1e-8, h of O(tol^(1/3)))."""
+    """NEWMARK (gamma = 0.6) is first order: the same control buys less, about
+    the square root of the tolerance's fall (measured 126 times from 1e-4 to
+    1e-8: its estimate per unit step is O(h^2), h of O(tol^(1/2)), its
+    global error O(h))."""
     system, init = slider_crank
     theta_T = slider_crank_reference["cases"]["damped_x0_zero"]["theta1_T"]
     col = system.layout.coordinates.index("crank.phi")
     e = [abs(integrate(system, make_method("newmark"), 2.0, 1e-3, initial=init,
                        control=StepControl(tol, tol)).q[-1, col] - theta_T)
          for tol in (1e-4, 1e-8)]
-    assert 10.0 <= e[0] / e[1] <= 100.0, e
+    assert 30.0 <= e[0] / e[1] <= 500.0, e
 
 
 def test_fixed_steps_are_unchanged_without_a_tolerance(slider_crank):
@@ -100,16 +112,13 @@ def test_variable_step_bdf2_is_exact_for_quadratics(ratio):
     assert order == 1 and c0 == 1.0 / h
 
 
-def test_step_control_validates_and_bounds_the_factor():
+def test_step_control_validates_its_tolerances():
     with pytest.raises(ValueError, match="rtol"):
         StepControl(0.0, 1e-6)
     with pytest.raises(ValueError, match="atol"):
         StepControl(1e-6, -1.0)
     c = StepControl(1e-6, 1e-6)
-    assert c.factor(0.0, False) == 5.0 and c.factor(1e9, False) == 0.2
-    assert c.factor(1e-9, True) == 1.0                 # no growth right after a rejection
-    assert c.factor(8.0, False) == pytest.approx(0.45)   # 0.9 * 8^(-1/3)
-    assert c.norm(np.array([1e-6, 0.0]), np.zeros(2), np.zeros(2)) == pytest.approx(
+    assert c.norm(np.array([1e-6, 0.0]), np.zeros(2), np.zeros(2), 1.0) == pytest.approx(
         math.sqrt(0.5))
 
 
