@@ -41,6 +41,7 @@ work-precision
 from __future__ import annotations
 
 import datetime
+import math
 import os
 import platform
 import time
@@ -329,6 +330,9 @@ def _plan(kinds, o: StudyOptions, joint, model) -> list[RunSpec]:
             elif kind in ("convergence", "work-precision", "recommend"):
                 for h in o.hs:
                     need(m, h, repeat=timed)
+                if kind == "recommend":          # error control at rtol = atol = each target
+                    for tol in o.tols:
+                        need(m, o.hs[0], repeat=timed, tol=_probe_tol(tol))
             elif kind == "energy":
                 for h in o.hs:
                     need(m, h, energy=True)
@@ -743,6 +747,10 @@ def _work_precision_tols(o, runs, ref, model):
                   xscale="log", yscale="log")
     achieved = Panel(f"achieved error against tolerance ({q})", "tol", f"error in {q} at T",
                      xscale="log", yscale="log")
+    slopes = Table("tolerance_proportionality", f"Tolerance proportionality: the least-squares "
+                   f"slope of log(error in {q} at T) against log(tol) (1 when the error is "
+                   "proportional to the tolerance) and the error over tol at the tightest "
+                   "tolerance", ["method", "slope", "error / tol", "runs fitted"])
     for m in o.methods:
         xs, ys, ts = [], [], []
         for tol in o.sweep_tols:
@@ -756,14 +764,20 @@ def _work_precision_tols(o, runs, ref, model):
                 xs.append(run.time)
                 ys.append(err)
                 ts.append(tol)
+        slope = fitted_order(ts, ys)
+        ok = [(t, e) for t, e in zip(ts, ys) if np.isfinite(e) and e > 0]
+        slopes.rows.append([m, slope, min(ok)[1] / min(ok)[0] if ok else float("nan"), len(ok)])
+        label = f"{m} (slope {slope:.2f})" if np.isfinite(slope) else m
         panel.series.append(Series(m, np.array(xs), np.array(ys)))
-        achieved.series.append(Series(m, np.array(ts), np.array(ys)))
+        achieved.series.append(Series(label, np.array(ts), np.array(ys)))
     _untrusted_note(table, ref)
     caption = ("What accuracy costs in time when the step size follows a tolerance: each line "
                "is one method over the tolerances (rtol = atol); the lower-left method gives "
                "the same error for less time. The second panel shows the error each "
-               "tolerance achieves.")
-    return Section("work-precision", caption, [table],
+               "tolerance achieves, and the second table its slope: the tolerance is an "
+               "error per unit step, so that a second-order method's error falls in "
+               "proportion to it (slope 1; docs/methods.md).")
+    return Section("work-precision", caption, [table, slopes],
                    [("work_precision", [panel, achieved], "Work-precision by tolerance")])
 
 
@@ -798,10 +812,12 @@ def recommend_h(hs, errors, tol, order, h_max):
 
 
 def _recommend(o, runs, ref, model, source=None, system=None, **_):
-    """For each target error, the cheapest method and the h it needs.
+    """For each target error, the cheapest method and the h or the tolerance it needs.
 
-    Candidates come from the sweep (``recommend_h``); an extrapolated one is
-    run at its h and kept only if it meets the target (with h halved up to
+    Candidates come from the sweep over h (``recommend_h``) and from
+    error-controlled runs at rtol = atol = the target (``_tolerance_option``);
+    an extrapolated one is run at its h or tolerance and kept only if it
+    meets the target (with h halved, or the tolerance quartered, up to
     twice): below the swept step sizes an index-3 method meets the floor its
     Newton tolerance and round-off set (HHT-I3 on the slider crank: 1e-7 m at
     h = 7.6e-6 s, worse than at 3.1e-5 s), which no order extrapolates.
@@ -811,54 +827,68 @@ def _recommend(o, runs, ref, model, source=None, system=None, **_):
     table = Table("recommend", f"Cheapest method for a target error in {q} at T = {o.t_end:g} s "
                   f"(time of the time loop, median of {o.repeat} after a warm-up run; measured "
                   "in the sweep, or extrapolated along the method's order and verified by a "
-                  "run)", ["target", "method", "h [s]", "error", "basis", "time [s]",
-                           "engine", "runner-up", "runner-up time [s]"])
+                  "run; fixed steps of h, or error-controlled steps at rtol = atol = tol)",
+                  ["target", "method", "h [s]", "tol", "error", "basis", "time [s]", "engine",
+                   "runner-up", "runner-up time [s]"])
+    nan = float("nan")
     for tol in o.tols:
-        options = []
+        options = []        # [time, method, h, error, basis, engine, tolerance]
         for m in o.methods:
             hs = [h for h in o.hs if runs[(m, h, ())].completed]
-            if not hs:
-                continue
-            errs = [quantity_error(model, runs[(m, h, ())], ref, q)[0] for h in hs]
-            order = method_order(m, runs[(m, hs[0], ())].coefficients, system)
-            h, err, basis = recommend_h(hs, errs, tol, order, max(o.hs))
-            if not np.isfinite(h):
-                continue
-            run = runs[(m, h if basis == "measured" else min(hs), ())]
-            per_step = run.time / max(run.stats.get("steps", 0), 1)
-            options.append([per_step * o.t_end / h, m, h, err, basis, run.engine])
+            if hs:
+                errs = [quantity_error(model, runs[(m, h, ())], ref, q)[0] for h in hs]
+                order = method_order(m, runs[(m, hs[0], ())].coefficients, system)
+                h, err, basis = recommend_h(hs, errs, tol, order, max(o.hs))
+                if np.isfinite(h):
+                    run = runs[(m, h if basis == "measured" else min(hs), ())]
+                    per_step = run.time / max(run.stats.get("steps", 0), 1)
+                    options.append([per_step * o.t_end / h, m, h, err, basis, run.engine, nan])
+            option = _tolerance_option(runs.get((m, o.hs[0], (), _probe_tol(tol))), model, ref,
+                                       q, tol)
+            if option is not None:
+                options.append(option)
         options.sort()
         chosen = []
         for opt in options:
             if len(chosen) == 2:
                 break
-            if opt[4] == "measured" or source is None:
+            if opt[4].startswith("measured") or source is None:
                 chosen.append(opt)
                 continue
             for _ in range(3):                 # verify an extrapolated step size by a run
-                if opt[2] < min(o.hs) / RECOMMEND_REACH:
+                controlled = np.isfinite(opt[6])
+                if not controlled and opt[2] < min(o.hs) / RECOMMEND_REACH:
                     break
-                data = execute_run(source, RunSpec(opt[1], opt[2], o.t_end, (), 1))
+                if controlled and opt[6] < _probe_tol(tol) / RECOMMEND_REACH ** 2:
+                    break                      # (steps follow tol^(-1/2))
+                data = execute_run(source, RunSpec(opt[1], o.hs[0] if controlled else opt[2],
+                                                   o.t_end, (), 1,
+                                                   tol=opt[6] if controlled else None))
                 err = quantity_error(model, data, ref, q)[0] if data.completed else np.inf
                 if err <= tol:
-                    opt[0], opt[3], opt[4] = data.time, err, "extrapolated, verified"
+                    opt[0], opt[3] = data.time, err
+                    opt[4] = opt[4].replace("extrapolated", "extrapolated, verified")
                     chosen.append(opt)
                     break
-                opt[2] /= 2.0
+                if controlled:
+                    opt[6] /= 4.0
+                else:
+                    opt[2] /= 2.0
         chosen.sort()
         if not chosen:
-            table.rows.append([tol, "none", float("nan"), float("nan"),
+            table.rows.append([tol, "none", nan, nan, nan,
                                "not reached: no method met it at the step sizes tried "
-                               f"(down to {min(o.hs) / RECOMMEND_REACH:.3g} s)", float("nan"), "", "",
-                               float("nan")])
+                               f"(down to {min(o.hs) / RECOMMEND_REACH:.3g} s)", nan, "", "",
+                               nan])
             continue
         best, second = chosen[0], (chosen[1] if len(chosen) > 1 else None)
-        table.rows.append([tol, best[1], best[2], best[3], best[4], best[0], best[5],
-                           second[1] if second else "", second[0] if second else float("nan")])
+        table.rows.append([tol, best[1], best[2], best[6], best[3], best[4], best[0], best[5],
+                           second[1] if second else "", second[0] if second else nan])
     caption = ("Which method, for what accuracy, at what cost: for each target error the "
-               "method that needs the least time on this model, the step size it needs and the "
-               "runner-up. A step size below the swept ones is extrapolated along the method's "
-               "order and then run to verify it.")
+               "method that needs the least time on this model, the step size or the "
+               "tolerance it needs, and the runner-up. A step size below the swept ones is "
+               "extrapolated along the method's order, a tolerance in proportion to the error "
+               "(docs/methods.md), and then run to verify it.")
     tables = [table]
     spectrum_table = _recommend_modes(table, model, system)
     if spectrum_table is not None:
@@ -872,6 +902,35 @@ def _recommend(o, runs, ref, model, source=None, system=None, **_):
                     "method takes to remove 99 % of that mode's energy; the third does the "
                     "same for the model's own step and every method.")
     return Section("recommend", caption, tables, [])
+
+
+#: The tightest tolerance a recommendation probes with error control: an error
+#: per unit step of 1e-10 already takes some 1e6 steps on the slider crank.
+RECOMMEND_TIGHTEST_PROBE = 1e-10
+
+
+def _probe_tol(target):
+    """The rtol = atol of the error-controlled probe run for a target error."""
+    return max(target, RECOMMEND_TIGHTEST_PROBE)
+
+
+def _tolerance_option(run, model, ref, q, target):
+    """A recommendation with error control from the run at rtol = atol = target:
+    [time, method, nan, error, basis, engine, tolerance], or None. Measured
+    when it meets the target; otherwise the tolerance RECOMMEND_SAFETY target
+    (target / error), the error being proportional to the tolerance, and the
+    time scaled by the steps' tol^(-1/2) (docs/methods.md)."""
+    if run is None or not run.completed:
+        return None
+    err = quantity_error(model, run, ref, q)[0]
+    if not (np.isfinite(err) and err > 0):
+        return None
+    if err <= target:
+        return [run.time, run.spec.method, float("nan"), err, "measured, error control",
+                run.engine, target]
+    tol = RECOMMEND_SAFETY * target * target / err
+    return [run.time * math.sqrt(target / tol), run.spec.method, float("nan"), target,
+            "extrapolated, error control", run.engine, tol]
 
 
 def _modes_at_model_step(model, system, methods, most: int = 8):

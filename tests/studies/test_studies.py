@@ -307,26 +307,33 @@ def test_convergence_of_a_multiplier_column():
 
 
 def test_recommend_picks_a_method_and_an_h_that_meet_each_target():
-    # for each target error: a method, an h and a time; rerunning the chosen
-    # method at that h (measured or extrapolated along its order) meets the target
+    # for each target error: a method, an h or a tolerance, and a time; rerunning the
+    # chosen method at that h (measured or extrapolated along its order) or tolerance
+    # (measured or extrapolated in proportion) meets the target
     from mbdsl.integrators import integrate, make_method
+    from mbdsl.integrators.adaptive import StepControl
     opts = StudyOptions(methods=["hht-i3", "nstiff", "hht-si2"], hs=[2.0**-k for k in range(7, 10)],
                         t_end=0.5, quantities=["positions"], repeat=1, jobs=1,
                         tols=(1e-4, 1e-6, 1e-12))
     result = run_study("recommend", MODELS / "slider_crank.mbd", opts, log=lambda s: None)
     rows = result.section("recommend").tables[0].rows
     assert [r[0] for r in rows] == [1e-4, 1e-6, 1e-12]
-    assert rows[1][4] == "extrapolated, verified"           # below the sweep, checked by a run
-    assert rows[2][1] == "none" and rows[2][4].startswith("not reached")   # below the error floor
+    assert rows[1][5].startswith("extrapolated, verified")  # below the sweep, checked by a run
+    assert rows[2][1] == "none" and rows[2][5].startswith("not reached")   # below the error floor
     rows = rows[:2]
     system = mbdsl.assemble(mbdsl.load(MODELS / "slider_crank.mbd"))
     init = mbdsl.consistent_initial_state(system)
-    for tol, method, h, _, basis, time_s, engine, runner_up, _ in rows:
+    for target, method, h, tol, _, basis, time_s, engine, runner_up, _ in rows:
         assert method in opts.methods and runner_up in opts.methods and runner_up != method
         assert time_s > 0 and engine.startswith("compiled")
-        sol = integrate(system, make_method(method), 0.5, h, initial=init)
+        assert np.isfinite(h) != np.isfinite(tol)                 # a step size or a tolerance
+        if np.isfinite(tol):
+            sol = integrate(system, make_method(method), 0.5, opts.hs[0], initial=init,
+                            control=StepControl(tol, tol))
+        else:
+            sol = integrate(system, make_method(method), 0.5, h, initial=init)
         error = np.abs(sol.q[-1] - result.reference.q_end).max()
-        assert error <= tol, (tol, method, h, basis, error)
+        assert error <= target, (target, method, h, tol, basis, error)
 
 
 def test_work_precision_by_tolerance(tmp_path):
