@@ -129,9 +129,9 @@ def index1_acceleration(system, t: float, q: np.ndarray, v: np.ndarray,
 
         a - M^-1 Phi_q^T (Phi_q M^-1 Phi_q^T)^+ (Phi_q a - gamma(q, v, t)),
 
-    the index-1 acceleration at (t, q, v) when a's tangential part is (Haug,
-    Computer-Aided Kinematics and Dynamics of Mechanical Systems, sec. 6.3;
-    the pseudo-inverse keeps redundant rows). An index-3 method's error
+    the index-1 acceleration at (t, q, v) when a's tangential part is the true
+    one (Haug, Computer-Aided Kinematics and Dynamics of Mechanical Systems,
+    sec. 6.3; the pseudo-inverse keeps redundant rows). An index-3 method's error
     estimate reads it (module notes): its own a meets only Phi = 0, and the
     normal part carries the multipliers' round-off over beta h^2. The
     compiled loop's ``compiled._index1_acceleration`` is the same operation.

@@ -13,7 +13,7 @@ import numpy as np
 from ..assembly.sparse import JacobianAssembler, Term
 
 __all__ = ["newmark_predictor", "force_term", "index3_newton_matrix", "bdf_coefficients", "bdf_ratio_coefficients",
-           "bdf_local_error", "bdf_error_coefficient",
+           "bdf_error_coefficient",
            "roundoff_floor", "EPS", "Terms", "assemble", "hht_coefficients",
            "acceleration_scales", "si2_blocks", "si2_scales", "si2_residual",
            "si2_newton_matrix"]
@@ -236,18 +236,13 @@ def bdf_coefficients(history, h: float):
     return 1.0 / h, ((1.0, last),), 1
 
 
-def bdf_local_error(ctx, new) -> np.ndarray:
-    """Local position error estimate of a BDF step (``adaptive``), shape (n,):
-    BDF2's error constant 2/9 times h^2 (a_{n+1} - a_n), which stands for h^3
-    times the third derivative of q (Hairer & Wanner II, sec. III.2); a BDF1
-    start-up step (``ctx.cache["bdf_order"]`` 1): h^2 a_{n+1} / 2, its own
-    leading term."""
-    c, absolute = bdf_error_coefficient(ctx)
-    return c * (new.a if absolute else new.a - ctx.last.a)
-
-
 def bdf_error_coefficient(ctx) -> tuple[float, bool]:
-    """(c [s^2], absolute) of :func:`bdf_local_error` (``Method.error_coefficient``)."""
+    """(c [s^2], absolute) of a BDF step's local position error estimate
+    (``Method.error_coefficient``, ``adaptive``): BDF2's error constant 2/9
+    times h^2, with a_{n+1} - a_n standing for h times the third derivative
+    of q (Hairer & Wanner II, sec. III.2); a BDF1 start-up step
+    (``ctx.cache["bdf_order"]`` 1): h^2 / 2 times a_{n+1}, its own leading
+    term."""
     if ctx.cache["bdf_order"] == 1:
         return 0.5 * ctx.h ** 2, True
     return (2.0 / 9.0) * ctx.h ** 2, False

@@ -3547,17 +3547,16 @@ INDEX1_LIMIT = 200
 
 
 @_jit
-def _index1_acceleration(I, Fl, n, m, t, qx, vx, a, out, R, C, V):
+def _index1_acceleration(I, Fl, n, m, t, qx, vx, a, out, R, C, V, S, col, g, y):
     """out[:n] = a - M^-1 Phi_q^T (Phi_q M^-1 Phi_q^T)^+ (Phi_q a - gamma) at
     (t, qx, vx): the acceleration a (n,) made to meet the acceleration
     constraints Phi_q a = gamma, gamma = -(Phi_q v)_q v - Phi_tt (Haug, sec.
     6.3), by a change along the directions M^-1 Phi_q^T lambda in which the
     multipliers act: the index-1 acceleration when a's tangential part is
-    (the pseudo-inverse keeps redundant rows). An index-3 method's a meets
-    only Phi = 0; its normal part is the multipliers' round-off over
-    beta h^2. R, C, V: triplet scratch."""
-    S, col, g = np.empty((m, m)), np.empty(m), np.empty(m)
-    y = np.empty(n + 3)
+    the true one (the pseudo-inverse keeps redundant rows). An index-3
+    method's a meets only Phi = 0; its normal part is the multipliers'
+    round-off over beta h^2. R, C, V: triplet scratch; S (m, m), col, g
+    (m,), y (n + 3,): scratch, allocated once per call of the time loop."""
     for i in range(m):
         col[:] = 0.0
         col[i] = 1.0
@@ -3727,10 +3726,13 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
     if additive and not fixed:                      # at the last accepted state, then carried
         qx_old[:n] = q
         _total_acceleration(I, Fl, n, qx_old, a, lam, R, C, V, acc_old)
+    k1 = m if index1 else 0                         # the index-1 acceleration's scratch
+    S1, col1, g1, y1 = np.empty((k1, k1)), np.empty(k1), np.empty(k1), np.empty(n + 3)
     if index1:
         qx_old[:n] = q
         vx[:n] = v
-        _index1_acceleration(I, Fl, n, m, t0, qx_old, vx, a, acc_old, R, C, V)
+        _index1_acceleration(I, Fl, n, m, t0, qx_old, vx, a, acc_old, R, C, V, S1, col1, g1,
+                             y1)
     _start_force(rc, I, Fl, t0, q, v, lam, F0, F, qx, vx, work)
     t = t0
     # the step, start-up flag and c0, w0, w1 of the recipe in rc
@@ -3776,7 +3778,8 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
             if additive:    # HHT-ADD: the change of a + R_II, which sees the constraint forces
                 _total_acceleration(I, Fl, n, qx, w[a0:a0 + n], w[l0:l0 + m], R, C, V, acc_new)
             elif index1:
-                _index1_acceleration(I, Fl, n, m, t_new, qx, vx, w[a0:a0 + n], acc_new, R, C, V)
+                _index1_acceleration(I, Fl, n, m, t_new, qx, vx, w[a0:a0 + n], acc_new, R, C, V,
+                                     S1, col1, g1, y1)
             err = _error_norm(rc, n, q, qx, w[a0:a0 + n], a, b, b_new, additive, acc_old,
                               acc_new, rtol, atol, step, index1, d_err)
             if err > 1.0 or after_rejection:        # the filter restarts after a rejection

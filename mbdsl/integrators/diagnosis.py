@@ -165,8 +165,9 @@ def _stiff_elements(system, h, v=None, state=None):
 def fail_tolerance(sol, method, control, t, step, err):
     """Stop a run whose local error stays above the tolerance at the smallest step."""
     msg = (f"the step from t = {t:.6g} s cannot meet the error tolerance with "
-           f"{method.describe()}: at the smallest step h = {step:.3g} s its local error is "
-           f"{err:.3g} times rtol = {control.rtol:g}, atol = {control.atol:g}")
+           f"{method.describe()}: at the smallest step h = {step:.3g} s its local error per "
+           f"unit step is {err:.3g} times the tolerance (rtol = {control.rtol:g}, "
+           f"atol = {control.atol:g} per second)")
     _stop(sol, "E602", msg,
           "a force or driver with a jump or a kink at this time (the error does not shrink "
           "with h there), or a tolerance below the round-off of q: loosen rtol/atol")

@@ -6,7 +6,7 @@ import numpy as np
 
 from .base import Block, Method, StepContext, StepState
 from .common import (Terms, assemble, bdf_coefficients, bdf_error_coefficient,
-                     bdf_local_error, force_term, roundoff_floor)
+                     force_term, roundoff_floor)
 from .recipe import bdf_recipe
 from .spectral import bdf2_step
 
@@ -97,12 +97,8 @@ class NStiffSI2(Method):
         """The recipe with the BDF coefficients c0, w0, w1 (variable steps)."""
         return bdf_recipe(h, first, index2=True, c0=c0, w0=w0, w1=w1)
 
-    def local_error(self, ctx, new):
-        """BDF2's estimate (``common.bdf_local_error``)."""
-        return bdf_local_error(ctx, new)
-
     def error_coefficient(self, ctx):
-        """BDF2's (``common.bdf_error_coefficient``)."""
+        """BDF2's, BDF1's at start-up (``common.bdf_error_coefficient``)."""
         return bdf_error_coefficient(ctx)
 
     def first_step(self, history, h):

@@ -136,7 +136,7 @@ def bdf_recipe(h: float, first: bool, index2: bool, c0: float | None = None,
     y = D q, q = xi(q) + y/c0, v = xi(v) + x/c0 (``nstiff.py``, ``nstiff_si2.py``).
     c0, w0, w1 given: xi(x) = w0 x_n + w1 x_{n-1} with that c0 (the
     variable-step coefficients). Error estimate: 2/9 h^2 (x - x_n); BDF1
-    h^2 / 2 x (``common.bdf_local_error``).
+    h^2 / 2 x (``common.bdf_error_coefficient``).
     """
     if c0 is None:
         c0, w0, w1 = (1.0 / h, 1.0, 0.0) if first else (1.5 / h, 4.0 / 3.0, -1.0 / 3.0)

@@ -121,7 +121,9 @@ def test_the_index1_acceleration_meets_the_acceleration_constraints(car_axis):
     qx[:n], vx[:n] = q, v
     out = np.empty(n)
     R, C, V = np.empty(km.bound, np.int64), np.empty(km.bound, np.int64), np.empty(km.bound)
-    K._index1_acceleration(km.ints, km.floats, n, system.m, t, qx, vx, a, out, R, C, V)
+    m = system.m
+    K._index1_acceleration(km.ints, km.floats, n, m, t, qx, vx, a, out, R, C, V,
+                           np.empty((m, m)), np.empty(m), np.empty(m), np.empty(n + 3))
     assert np.allclose(out, a1, rtol=0, atol=1e-10)
 
 
