@@ -31,6 +31,15 @@ the tolerance. (Per step, as scipy's codes test it, the steps of a
 second-order method would follow tol^(1/3) and its global error tol^(2/3):
 ten times less tolerance would buy only 4.6 times less error.)
 
+The per-unit-step tolerance tol h of an entry never falls below one ulp
+of it (``ROUNDOFF`` max(|q_n|, |q_{n+1}|)): at steps below eps / rtol it
+would ask for a local error the positions cannot represent, and no step
+could meet it. That happens where the light cart-pole's pole passes the
+vertical (``models/light_cart_pole.mbd``: the 1e-6 kg cart crosses at
+4.4 km/s for a microsecond; steps of 1e-11 s at rtol 1e-7, where tol h is
+1e-18 m against an ulp of 1.1e-16 m), and on smooth models only at
+tolerances near 1e-10.
+
 Rule (``compiled.step_ratio``, the same in both engines): a step whose error
 E per unit step exceeds 1 is rejected and retried with
 h max(min_factor, safety E^(-1/2)); after an accepted step the next size
@@ -55,7 +64,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["StepControl", "index1_acceleration"]
+__all__ = ["StepControl", "index1_acceleration", "ROUNDOFF"]
+
+#: A step's tolerance of an entry is never below this fraction of the entry (one
+#: ulp): the per-unit-step tolerance tol h falls below what the positions can
+#: represent at steps of eps / rtol (2e-9 s at rtol 1e-7), where the light
+#: cart-pole's passages through the vertical take their steps (module notes).
+ROUNDOFF = float(np.finfo(float).eps)
 
 
 @dataclass(frozen=True)
@@ -117,8 +132,9 @@ class StepControl:
         """
         if not len(error):
             return 0.0
-        scale = self.atol + self.rtol * np.maximum(np.abs(q_old), np.abs(q_new))
-        return float(np.sqrt(np.mean((np.asarray(error) / scale) ** 2))) / h
+        size = np.maximum(np.abs(q_old), np.abs(q_new))
+        scale = np.maximum((self.atol + self.rtol * size) * h, ROUNDOFF * size)
+        return float(np.sqrt(np.mean((np.asarray(error) / scale) ** 2)))
 
 
 def index1_acceleration(system, t: float, q: np.ndarray, v: np.ndarray,

@@ -156,6 +156,12 @@ class Method(ABC):
     #: constraint forces): where the motion's acceleration is read (the
     #: event locator's free flight to a closing), it is then the index-1 one
     acceleration_is_total: bool = True
+    #: whether the rows of the residual's constraint equations are the rows of
+    #: the multiplier unknowns (w = (x, [y,] lambda, [mu]), rows (dynamics, [..,]
+    #: Phi, [Phi_q v + Phi_t])): every method but HHT-ADD, whose additive form
+    #: orders them otherwise. Newton's round-off test on the residual
+    #: (``newton.py``) reads the constraint rows by it.
+    saddle_point_rows: bool = True
 
     #: epsilon = AUGMENTED_EPSILON / (largest body mass): small against the
     #: smallest non-zero singular value of Phi_q M^-1 Phi_q^T of a mechanism

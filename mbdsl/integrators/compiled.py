@@ -3262,10 +3262,11 @@ def _solve(solver, lin, r, dw):
 
 @_jit
 def _newton(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, weight, opts, solver, lin, lu_state,
-            R, C, V, r, dw, qx, vx, work, counts):
+            R, C, V, r, dw, qx, vx, work, counts, spare):
     """One step's Newton iteration on w (in place), with the stored
     factorization (``_factor``, ``_solve``) reused across iterations and
-    steps (modified Newton).
+    steps (modified Newton). ``spare``: scratch of 2 size floats for the
+    residual's round-off test (``_rest_at_roundoff``, newton.py's).
 
     ``opts`` = (rtol, atol_k, atol_m, max_iter, rate_refresh, full);
     ``lu_state`` = (valid, rate); ``counts`` += (iterations, residuals,
@@ -3324,13 +3325,21 @@ def _newton(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, weight, opts, solve
             stalls = stalls + 1 if norm >= 0.5 * best else 0
             best = min(best, norm)
         roundoff = stalls >= 2 and norm <= ROUNDOFF_BAND
+        grows_now = grows + 1 if (prev >= 0.0 and theta >= 1.0 and current) else 0
+        failing = stalls >= 2 or theta > 100.0 or (grows_now >= 2 and norm > ROUNDOFF_BAND)
+        if (failing and not roundoff and norm > 1.0 and rec[FORM] == LINEAR
+                and rec[REG] == 0.0
+                and _rest_at_roundoff(rec, I, solver, lin, r, qx, vx, weight, spare)):
+            for i in range(size):         # the iterate whose residual r was read
+                w[i] += dw[i]
+            roundoff = True
         if norm == 0.0 or (eta * norm <= 1.0 and norm <= 1.0) or roundoff:
             if roundoff:
                 counts[4] += 1
             lu_state[1] = min(max(theta, 1e-3), 0.9) if np.isfinite(theta) else 0.5
             lu_state[0] = 0.0 if full else 1.0
             return CONVERGED
-        grows = grows + 1 if (prev >= 0.0 and theta >= 1.0 and current) else 0
+        grows = grows_now
         if theta > 100.0 or (grows >= 2 and norm > ROUNDOFF_BAND):
             lu_state[0] = 0.0
             return DIVERGING
@@ -3341,6 +3350,50 @@ def _newton(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, weight, opts, solve
         prev = norm
     lu_state[0] = 0.0
     return MAX_ITER
+
+
+#: A constraint is met to round-off within this many ulps of its terms (as
+#: ``loop.ROUNDOFF_ULPS``).
+ROUNDOFF_ULPS = 8.0
+
+
+@_jit
+def _rest_at_roundoff(rec, I, solver, lin, r, qx, vx, weight, spare):
+    """newton.py's residual test of a stagnating exact-Newton iteration at
+    the iterate whose residual is r (state in qx, vx): its constraint rows
+    (Phi scaled by sP, at index 2 Phi_q v + Phi_t scaled by sV) within
+    ROUNDOFF_ULPS ulps of their terms, and the update the other rows alone
+    ask for, J^-1 r' (r' = r with those rows zeroed, in spare[:size]; the
+    update in spare[size:]), within the tolerance."""
+    n, m = _rows(I, MASS), _rows(I, ROW_ELEMENT)
+    if m == 0:
+        return False
+    size, l0, u0, _ = _layout(rec, n, m)
+    qmax, vmax = 0.0, 0.0
+    for j in range(n):
+        qmax = max(qmax, abs(qx[j]))
+        vmax = max(vmax, abs(vx[j]))
+    scale = ROUNDOFF_ULPS * EPS * (1.0 + qmax)
+    for i in range(m):
+        if abs(r[l0 + i]) > abs(rec[SP]) * scale:
+            return False
+    if rec[HAS_Y] != 0.0:
+        for i in range(m):
+            if abs(r[u0 + i]) > abs(rec[SV]) * scale * (1.0 + vmax):
+                return False
+    rest, dw = spare[:size], spare[size:2 * size]
+    for i in range(size):
+        rest[i] = r[i]
+    for i in range(m):
+        rest[l0 + i] = 0.0
+    if rec[HAS_Y] != 0.0:
+        for i in range(m):
+            rest[u0 + i] = 0.0
+    _solve(solver, lin, rest, dw)
+    for i in range(size):
+        if abs(dw[i] * weight[i]) > 1.0:
+            return False
+    return True
 
 
 def triplet_bound(I) -> int:
@@ -3586,7 +3639,9 @@ def _error_norm(rc, n, q, qx, a_new, a, b, b_new, additive, acc_old, acc_new, rt
     a + R_II or of an index-3 recipe's index-1 acceleration when
     ``index1`` (acc_old -> acc_new), acc_new itself when ``eabs`` and
     ``index1``, a_new when ``eabs``, else a -> a_new; each entry over
-    atol + rtol max(|q|, |q_new|). d (n,): scratch."""
+    atol + rtol max(|q|, |q_new|), an entry's tolerance for the step never
+    below one ulp of max(|q|, |q_new|) (``StepControl.norm``). d (n,):
+    scratch."""
     if n == 0:
         return 0.0
     for j in range(n):
@@ -3602,9 +3657,10 @@ def _error_norm(rc, n, q, qx, a_new, a, b, b_new, additive, acc_old, acc_new, rt
             d[j] = a_new[j] - a[j]
     acc = 0.0
     for j in range(n):
-        e = rc[ERR] * d[j] / (atol + rtol * max(abs(q[j]), abs(qx[j])))
+        size = max(abs(q[j]), abs(qx[j]))
+        e = rc[ERR] * d[j] / max((atol + rtol * size) * h, EPS * size)
         acc += e * e
-    return math.sqrt(acc / n) / h
+    return math.sqrt(acc / n)
 
 
 @_jit
@@ -3757,7 +3813,8 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
             qx_old[j] = q[j] + rc[MH] * v[j]
         _scales_weights(rc, I, Fl, q, w, opts, R, C, V, qx, weight, scratch)
         status = _newton(rc, I, Fl, t_new, q_pred, v_pred, F, qx_old, w, weight, opts, solver,
-                         lin, lu_state, R, C, V, r, dw, qx, vx, work, counts)
+                         lin, lu_state, R, C, V, r, dw, qx, vx, work, counts,
+                         scratch[scratch.shape[0] - 2 * size:])
         if status != CONVERGED:       # the driver decides: halve, jump, or hand over
             state[0], state[1] = t, step
             state[6] = 1.0 if after_rejection else 0.0

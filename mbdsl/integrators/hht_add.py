@@ -81,6 +81,7 @@ class HHTADD(Method):
     index = 2
     history_length = 1
     acceleration_is_total = False       # a = M^-1 Q; the constraint forces' part is in psi
+    saddle_point_rows = False           # rows (E1..E5) not in the unknowns' order
     extras = ("psi1",)
     output_extras = ("psi2",)
 

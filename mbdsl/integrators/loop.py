@@ -43,7 +43,7 @@ from .events import restart_after_switch, switch_gap
 from .outcomes import ATTEMPT, CONVERGED, EVENT, LAND, REJECTED, RUN, TOLERANCE
 
 __all__ = ["TimeLoop", "LoopState", "PythonStepper", "StepSizes", "CHUNK", "FLUSH_INTERVAL",
-           "sparse_newton"]
+           "sparse_newton", "constraints_at_roundoff"]
 
 #: Rows the loop's output buffers hold, and the steps a stepper takes in one call at
 #: most: it returns when either is reached. Ctrl-C and the progress callback are seen
@@ -692,6 +692,42 @@ class TimeLoop:
         return status
 
 
+#: A constraint is met to round-off within this many ulps of its terms (Newton's
+#: residual test, ``newton.py``): |Phi| <= ROUNDOFF_ULPS eps (1 + |q|_max), and at
+#: index 2 |Phi_q v + Phi_t| <= ROUNDOFF_ULPS eps (1 + |q|_max) (1 + |v|_max).
+ROUNDOFF_ULPS = 8.0
+
+
+def constraints_at_roundoff(system, t: float, q: np.ndarray, v: np.ndarray,
+                            velocity: bool) -> bool:
+    """Whether the state meets its position constraints (and, with
+    ``velocity``, its velocity constraints) to within ROUNDOFF_ULPS ulps of
+    their terms: what floating point can represent, so that a Newton
+    iteration stagnating there has converged.
+
+    Parameters
+    ----------
+    system : AssembledSystem
+    t : float [s]
+    q, v : ndarray, shape (n,) [m, rad; m/s, rad/s]
+    velocity : bool
+        Test Phi_q v + Phi_t too (the stabilized index-2 methods' rows).
+
+    Returns
+    -------
+    bool
+    """
+    if system.m == 0:
+        return True
+    scale = ROUNDOFF_ULPS * np.finfo(float).eps * (1.0 + float(np.max(np.abs(q), initial=0.0)))
+    if np.max(np.abs(system.Phi(q, t))) > scale:
+        return False
+    if not velocity:
+        return True
+    nu = system.Phiq_times(q, t, v) + system.Phi_t(q, t)
+    return bool(np.max(np.abs(nu)) <= scale * (1.0 + float(np.max(np.abs(v), initial=0.0))))
+
+
 class PythonStepper:
     """Steps taken by the Python Newton iteration (``newton.Newton``: dense LU,
     or SuperLU above ``DENSE_LIMIT`` unknowns or when asked) on a method's
@@ -889,9 +925,17 @@ class PythonStepper:
             # a Newton matrix of its own every step (Method.formulated)
             scales = np.where(self.kinds, 0.0, scales)
             key = (step, t_new)
+        at_roundoff = None
+        if method.saddle_point_rows and not augmented:
+            velocity = int(self.kinds.sum()) == 2 * system.m   # index 2: Phi_q v + Phi_t rows too
+
+            def at_roundoff(w):
+                s = method.accept(w, ctx)
+                return constraints_at_roundoff(system, s.t, s.q, s.v, velocity)
         res = self.newton.solve(lambda w: method.residual(w, ctx),
                                 lambda w: method.jacobian(w, ctx), w0, self.kinds, scales,
-                                key=key, floor=method.roundoff_floor(system, step, ctx.last.q))
+                                key=key, floor=method.roundoff_floor(system, step, ctx.last.q),
+                                at_roundoff=at_roundoff)
         return ctx, res
 
     def _accept(self, ls, new, step, t_new, carry, state, history):

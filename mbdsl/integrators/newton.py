@@ -45,6 +45,23 @@ conditioned) and small lever arms (Andrews' mechanism: 1 mm, mostly in the
 multipliers) amplify that floor beyond any fixed tolerance; further
 iterations only reshuffle round-off. Growth beyond the band is divergence.
 
+Near a singular configuration the geometry amplifies the round-off of Phi
+beyond any band: on a 1e-6 kg cart under a pendulum passing the vertical
+(``models/light_cart_pole.mbd``) at h = 1e-12 s, Phi alternates between
++-1 ulp from iteration to iteration and each update moves the cart by
+5.5e-14 m through multipliers of 1.4e8, a velocity-equivalent 3.9e3 times
+the tolerance, the same at every iteration. So the stall is also read on
+the residual (``at_roundoff``): when exact Newton stagnates, or an update
+grows past the divergence test (the first update at the round-off floor
+after one that was not: 9.6 then 7.7e3 on that cart), the iterate
+meets its constraints to round-off (the caller's test: |Phi| and
+|Phi_q v + Phi_t| within a few ulps of their terms), and the update that
+the other rows alone ask for, J^-1 r with the constraint rows of r set to
+zero, meets the tolerance, the step is converged at round-off as well
+(counted in ``multipliers_stalled``). The constraint rows are the rows of
+the multiplier unknowns (``kinds``), as in every saddle-point form here but
+HHT-ADD's, which passes no test.
+
 Jacobian policies (:class:`JacobianUpdate`):
 
 * ``FULL``: a new Jacobian and factorization every iteration (Newton).
@@ -278,7 +295,7 @@ class Newton:
         self._lu, self._key = None, None
 
     def solve(self, residual, jacobian, w0: np.ndarray, kinds: np.ndarray, scales: np.ndarray,
-              key=None, floor=0.0) -> NewtonResult:
+              key=None, floor=0.0, at_roundoff=None) -> NewtonResult:
         """Solve residual(w) = 0 from w0.
 
         Parameters
@@ -296,6 +313,10 @@ class Newton:
         key : hashable
             Identifies the Newton matrix's dependence on the step (h); a
             stored factorization is reused only under the same key.
+        at_roundoff : callable w -> bool, optional
+            Whether the iterate w meets its constraints to round-off (the
+            residual test of the module docstring); its rows are those of
+            ``kinds``. None: the stall is read on the update alone.
 
         Returns
         -------
@@ -359,6 +380,12 @@ class Newton:
                 stalls = stalls + 1 if norm >= 0.5 * best else 0
                 best = min(best, norm)
             roundoff = stalls >= 2 and norm <= ROUNDOFF_BAND
+            grows_now = grows + 1 if (prev is not None and theta >= 1.0 and current) else 0
+            failing = stalls >= 2 or theta > 100.0 or (grows_now >= 2 and norm > ROUNDOFF_BAND)
+            if (failing and not roundoff and norm > 1.0 and at_roundoff is not None
+                    and at_roundoff(w + dw) and self._rest_converged(lu, r, mult, weight)):
+                w = w + dw          # the iterate whose residual r was read
+                roundoff = True
             if norm == 0.0 or (eta * norm <= 1.0 and norm <= 1.0) or roundoff:
                 res.w, res.status = w, NewtonStatus.CONVERGED
                 res.multipliers_stalled = roundoff
@@ -366,7 +393,7 @@ class Newton:
                 if reuse:
                     self._lu, self._key = lu, key
                 return res
-            grows = grows + 1 if (prev is not None and theta >= 1.0 and current) else 0
+            grows = grows_now
             if theta > 100.0 or (grows >= 2 and norm > ROUNDOFF_BAND):
                 res.status = NewtonStatus.DIVERGING
                 return self._fail(res, w)
@@ -385,6 +412,16 @@ class Newton:
             prev = norm
         res.status = NewtonStatus.MAX_ITER
         return self._fail(res, w)
+
+    @staticmethod
+    def _rest_converged(lu, r, rows, weight) -> bool:
+        """Whether the update the residual's rows other than ``rows`` (the
+        constraint rows) ask for meets the tolerance: ||J^-1 r'||_W <= 1,
+        r' = r with ``rows`` zeroed."""
+        if not rows.any():
+            return False
+        rest = np.where(rows, 0.0, r)
+        return float(np.max(np.abs(lu.solve(rest) * weight))) <= 1.0
 
     def _fail(self, res: NewtonResult, w) -> NewtonResult:
         res.w = w

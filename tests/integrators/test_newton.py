@@ -141,3 +141,45 @@ def test_step_halving_recovers_and_grows_back():
     assert sol.status == "completed"
     assert sol.stats_total.rejected > 0 and hs.min() < 0.05
     assert np.isclose(hs[-5:], 0.05).any() or np.isclose(sol.t[-1], 1.0)
+
+
+def _ulp_flipping_saddle():
+    """w = (x, lambda), rows (dynamics, constraint): x - c lambda - f = 0 and
+    c x - d = 0 with c = 1e-4, the constraint's residual carrying a
+    round-off of 1e-13 that flips sign at every evaluation (as Phi flips
+    between +-1 ulp on the light cart-pole near its singular position).
+    J^-1 amplifies it by 1/c^2 into lambda (= 1): updates of 1e-5 that no
+    iteration reduces."""
+    c, f, d, delta = 1e-4, 2.0 - 1e-4, 2e-4, 1e-13
+    calls = []
+
+    def F(w):
+        calls.append(1)
+        return np.array([w[0] - c * w[1] - f, c * w[0] - d + delta * (-1) ** len(calls)])
+
+    def J(w):
+        return np.array([[1.0, -c], [c, 0.0]])
+    return F, J, np.array([d / c, (d / c - f) / c])
+
+
+def test_a_stall_at_the_constraints_round_off_is_converged():
+    """The update's norm stays far above the round-off band (the constraint
+    row's round-off through J^-1), so the update alone cannot tell it from
+    divergence; the residual can: the constraint row is at round-off
+    (``at_roundoff``) and the update the dynamic row alone asks for meets the
+    tolerance. Without the residual test, or with a constraint that is not
+    met, the same iteration fails."""
+    F, J, exact = _ulp_flipping_saddle()
+    kinds, scales = np.array([False, True]), np.array([1.0, 1e3])
+
+    def solve(at_roundoff):
+        return Newton(NewtonOptions(jacobian="full")).solve(
+            F, J, exact + [1e-3, 0.0], kinds, scales, at_roundoff=at_roundoff)
+    plain = solve(None)
+    assert not plain.converged and min(plain.norms) > ROUNDOFF_BAND, plain.norms
+    assert not solve(lambda w: False).converged
+    res = solve(lambda w: abs(1e-4 * w[0] - 2e-4) < 1e-12)
+    assert res.converged and res.multipliers_stalled
+    # the constraint met to its round-off (x within delta / c), lambda to what that leaves
+    assert abs(1e-4 * res.w[0] - 2e-4) <= 2e-13
+    assert res.w[1] == pytest.approx(exact[1], rel=1e-4)
