@@ -251,12 +251,21 @@ def test_light_cart_pole_passages_end_in_no_newton_failure(cart_pole, method):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("method, tol", [("hht-si2", 1e-8), ("nstiff-si2", 1e-7),
-                                         ("genalpha-si2", 1e-6)])
-def test_light_cart_pole_benchmark(cart_pole, method, tol):
-    """The benchmark: 10 s, 22 passages, e <= 1e-6 over its 1001 samples."""
+@pytest.mark.parametrize("method, options, tol", [("hht-si2", {"alpha": -0.01}, 1e-7),
+                                                  ("nstiff-si2", {}, 1e-7),
+                                                  ("genalpha-si2", {}, 1e-6)])
+def test_light_cart_pole_benchmark(cart_pole, method, options, tol):
+    """The benchmark: 10 s, 22 passages, e <= 1e-6 over its 1001 samples
+    (measured: HHT-SI2 at alpha = -0.01 1.7e-7 in 1.5e6 steps, NSTIFF-SI2
+    5.5e-7 in 2.2e6 steps, GENALPHA-SI2 6.3e-7 in 0.83e6 steps; 12-23 s
+    each). HHT-SI2 at its default alpha = -0.05 settles at 1.45e-6 whatever
+    the tolerance (1.45e-6 at rtol 1e-7, 1.48e-6 at 3e-8): its numerical
+    damping takes 1e-7 J of the 9.81 J at each passage (3.2e-7 J over the
+    first two at alpha = -0.05, 1.1e-6 J at -0.2), where the steps are held
+    at the positions' round-off (``StepControl.norm``) and the norm does not
+    measure the velocities."""
     system, init = cart_pole
-    sol = integrate(system, make_method(method), 10.0, 1e-3, initial=init,
+    sol = integrate(system, make_method(method, **options), 10.0, 1e-3, initial=init,
                     control=StepControl(tol, tol))
     assert sol.completed
     assert _cart_pole_error(system, sol) <= 1e-6
