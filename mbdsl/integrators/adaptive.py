@@ -31,14 +31,17 @@ the tolerance. (Per step, as scipy's codes test it, the steps of a
 second-order method would follow tol^(1/3) and its global error tol^(2/3):
 ten times less tolerance would buy only 4.6 times less error.)
 
-The per-unit-step tolerance tol h of an entry never falls below one ulp
-of it (``ROUNDOFF`` max(|q_n|, |q_{n+1}|)): at steps below eps / rtol it
-would ask for a local error the positions cannot represent, and no step
-could meet it. That happens where the light cart-pole's pole passes the
-vertical (``models/light_cart_pole.mbd``: the 1e-6 kg cart crosses at
-4.4 km/s for a microsecond; steps of 1e-11 s at rtol 1e-7, where tol h is
-1e-18 m against an ulp of 1.1e-16 m), and on smooth models only at
-tolerances near 1e-10.
+The per-unit-step tolerance tol h of an entry never falls below the
+estimate's own round-off: c (a_{n+1} - a_n) with c = err h^2 reads the
+accelerations, whose round-off is that of q over h^2 (the constraint rows
+are scaled by 1/h^2), so it carries err ulps of |q| (0.11 for HHT, 2/9 for
+BDF2): the floor is err ulps of max(|q_n|, |q_{n+1}|). Below it no step
+could meet the tolerance. That happens where the light cart-pole's pole
+passes the vertical (``models/light_cart_pole.mbd``: the 1e-6 kg cart
+crosses at 4.4 km/s for a microsecond; steps of 1e-11 s at rtol 1e-7, where
+tol h is 1e-18 m against an estimate that stalls at 1e-18 m), and on smooth
+models only below rtol 1e-10 (the car axis at 1e-10: steps of 1.5e-6 s,
+tol h |q| = 1.5e-16 m against a floor of 2.4e-17 m).
 
 Rule (``compiled.step_ratio``, the same in both engines): a step whose error
 E per unit step exceeds 1 is rejected and retried with
@@ -66,10 +69,7 @@ import numpy as np
 
 __all__ = ["StepControl", "index1_acceleration", "ROUNDOFF"]
 
-#: A step's tolerance of an entry is never below this fraction of the entry (one
-#: ulp): the per-unit-step tolerance tol h falls below what the positions can
-#: represent at steps of eps / rtol (2e-9 s at rtol 1e-7), where the light
-#: cart-pole's passages through the vertical take their steps (module notes).
+#: One ulp, relative (module notes: the floor of a step's tolerance).
 ROUNDOFF = float(np.finfo(float).eps)
 
 
@@ -117,10 +117,13 @@ class StepControl:
         if not self.h_max > 0:
             raise ValueError(f"h_max must be positive, got {self.h_max}")
 
-    def norm(self, error: np.ndarray, q_old: np.ndarray, q_new: np.ndarray, h: float) -> float:
+    def norm(self, error: np.ndarray, q_old: np.ndarray, q_new: np.ndarray, h: float,
+             noise: float = 1.0) -> float:
         """The error per unit step of a local error estimate (module notes): its
-        weighted RMS norm over h / (1 s); 0 for a model without coordinates
-        (``compiled._error_norm`` in the compiled loop).
+        weighted RMS norm with each entry's tolerance (atol + rtol max(|q_n|,
+        |q_{n+1}|)) h, never below ``noise`` ulps of max(|q_n|, |q_{n+1}|); 0
+        for a model without coordinates (``compiled._error_norm`` in the
+        compiled loop).
 
         Parameters
         ----------
@@ -129,11 +132,14 @@ class StepControl:
             The positions at the step's start and end (the weights).
         h : float [s]
             The step's size.
+        noise : float
+            The estimate's round-off in ulps of q: its coefficient over h^2
+            (``Method.error_coefficient``; module notes).
         """
         if not len(error):
             return 0.0
         size = np.maximum(np.abs(q_old), np.abs(q_new))
-        scale = np.maximum((self.atol + self.rtol * size) * h, ROUNDOFF * size)
+        scale = np.maximum((self.atol + self.rtol * size) * h, noise * ROUNDOFF * size)
         return float(np.sqrt(np.mean((np.asarray(error) / scale) ** 2)))
 
 

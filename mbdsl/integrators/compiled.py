@@ -3640,8 +3640,8 @@ def _error_norm(rc, n, q, qx, a_new, a, b, b_new, additive, acc_old, acc_new, rt
     ``index1`` (acc_old -> acc_new), acc_new itself when ``eabs`` and
     ``index1``, a_new when ``eabs``, else a -> a_new; each entry over
     atol + rtol max(|q|, |q_new|), an entry's tolerance for the step never
-    below one ulp of max(|q|, |q_new|) (``StepControl.norm``). d (n,):
-    scratch."""
+    below the estimate's round-off, err / h^2 ulps of max(|q|, |q_new|)
+    (``StepControl.norm``). d (n,): scratch."""
     if n == 0:
         return 0.0
     for j in range(n):
@@ -3656,9 +3656,10 @@ def _error_norm(rc, n, q, qx, a_new, a, b, b_new, additive, acc_old, acc_new, rt
         else:
             d[j] = a_new[j] - a[j]
     acc = 0.0
+    noise = abs(rc[ERR]) / (h * h) * EPS       # the estimate's round-off per unit of |q|
     for j in range(n):
         size = max(abs(q[j]), abs(qx[j]))
-        e = rc[ERR] * d[j] / max((atol + rtol * size) * h, EPS * size)
+        e = rc[ERR] * d[j] / max((atol + rtol * size) * h, noise * size)
         acc += e * e
     return math.sqrt(acc / n)
 
