@@ -67,10 +67,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["StepControl", "index1_acceleration", "ROUNDOFF"]
+from .common import EPS
 
-#: One ulp, relative (module notes: the floor of a step's tolerance).
-ROUNDOFF = float(np.finfo(float).eps)
+__all__ = ["StepControl", "index1_acceleration"]
 
 
 @dataclass(frozen=True)
@@ -139,7 +138,7 @@ class StepControl:
         if not len(error):
             return 0.0
         size = np.maximum(np.abs(q_old), np.abs(q_new))
-        scale = np.maximum((self.atol + self.rtol * size) * h, noise * ROUNDOFF * size)
+        scale = np.maximum((self.atol + self.rtol * size) * h, noise * EPS * size)
         return float(np.sqrt(np.mean((np.asarray(error) / scale) ** 2)))
 
 

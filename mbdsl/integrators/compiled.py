@@ -3325,9 +3325,9 @@ def _newton(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, weight, opts, solve
             stalls = stalls + 1 if norm >= 0.5 * best else 0
             best = min(best, norm)
         roundoff = stalls >= 2 and norm <= ROUNDOFF_BAND
-        grows_now = grows + 1 if (prev >= 0.0 and theta >= 1.0 and current) else 0
-        failing = stalls >= 2 or theta > 100.0 or (grows_now >= 2 and norm > ROUNDOFF_BAND)
-        if (failing and not roundoff and norm > 1.0 and rec[FORM] == LINEAR
+        grows = grows + 1 if (prev >= 0.0 and theta >= 1.0 and current) else 0
+        diverging = theta > 100.0 or (grows >= 2 and norm > ROUNDOFF_BAND)
+        if ((stalls >= 2 or diverging) and not roundoff and norm > 1.0 and rec[FORM] == LINEAR
                 and rec[REG] == 0.0
                 and _rest_at_roundoff(rec, I, solver, lin, r, qx, vx, weight, spare)):
             for i in range(size):         # the iterate whose residual r was read
@@ -3339,8 +3339,7 @@ def _newton(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, weight, opts, solve
             lu_state[1] = min(max(theta, 1e-3), 0.9) if np.isfinite(theta) else 0.5
             lu_state[0] = 0.0 if full else 1.0
             return CONVERGED
-        grows = grows_now
-        if theta > 100.0 or (grows >= 2 and norm > ROUNDOFF_BAND):
+        if diverging:
             lu_state[0] = 0.0
             return DIVERGING
         from_earlier_step = n_jac == 0
@@ -3352,9 +3351,7 @@ def _newton(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, weight, opts, solve
     return MAX_ITER
 
 
-#: A constraint is met to round-off within this many ulps of its terms (as
-#: ``loop.ROUNDOFF_ULPS``).
-ROUNDOFF_ULPS = 8.0
+ROUNDOFF_ULPS = 8.0        # as in newton.py
 
 
 @_jit

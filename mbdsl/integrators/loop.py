@@ -37,6 +37,8 @@ import time as _time
 import numpy as np
 
 from .adaptive import index1_acceleration
+from .common import EPS
+from .newton import ROUNDOFF_ULPS
 from .base import StepState
 from .diagnosis import fail, fail_chatter, fail_stalled, fail_tolerance, fail_unstable
 from .events import restart_after_switch, switch_gap
@@ -701,18 +703,13 @@ class TimeLoop:
         return status
 
 
-#: A constraint is met to round-off within this many ulps of its terms (Newton's
-#: residual test, ``newton.py``): |Phi| <= ROUNDOFF_ULPS eps (1 + |q|_max), and at
-#: index 2 |Phi_q v + Phi_t| <= ROUNDOFF_ULPS eps (1 + |q|_max) (1 + |v|_max).
-ROUNDOFF_ULPS = 8.0
-
-
 def constraints_at_roundoff(system, t: float, q: np.ndarray, v: np.ndarray,
                             velocity: bool) -> bool:
     """Whether the state meets its position constraints (and, with
-    ``velocity``, its velocity constraints) to within ROUNDOFF_ULPS ulps of
-    their terms: what floating point can represent, so that a Newton
-    iteration stagnating there has converged.
+    ``velocity``, its velocity constraints) to within ``newton.ROUNDOFF_ULPS``
+    ulps of their terms, |Phi| <= ULPS eps (1 + |q|_max) and |Phi_q v + Phi_t|
+    <= that times (1 + |v|_max): what floating point can represent, so that a
+    Newton iteration stagnating there has converged (newton.py).
 
     Parameters
     ----------
@@ -728,7 +725,7 @@ def constraints_at_roundoff(system, t: float, q: np.ndarray, v: np.ndarray,
     """
     if system.m == 0:
         return True
-    scale = ROUNDOFF_ULPS * np.finfo(float).eps * (1.0 + float(np.max(np.abs(q), initial=0.0)))
+    scale = ROUNDOFF_ULPS * EPS * (1.0 + float(np.max(np.abs(q), initial=0.0)))
     if np.max(np.abs(system.Phi(q, t))) > scale:
         return False
     if not velocity:
@@ -763,6 +760,10 @@ class PythonStepper:
         self.system, self.method, self.newton, self.control = system, method, newton, control
         blocks = method.blocks(system)
         self.kinds = np.concatenate([np.full(b.size, b.kind == "multiplier") for b in blocks])
+        # Newton's round-off test on the residual (newton.py): the saddle-point forms, their
+        # Phi_q v + Phi_t rows too at index 2 (a second block of multipliers)
+        self.roundoff_rows = (None if not method.saddle_point_rows
+                              else int(self.kinds.sum()) == 2 * system.m)
         self.assembler = JacobianAssembler(len(self.kinds),
                                            sparse=sparse_newton(newton.options, len(self.kinds)))
         self.history = None
@@ -936,12 +937,11 @@ class PythonStepper:
             scales = np.where(self.kinds, 0.0, scales)
             key = (step, t_new)
         at_roundoff = None
-        if method.saddle_point_rows and not augmented:
-            velocity = int(self.kinds.sum()) == 2 * system.m   # index 2: Phi_q v + Phi_t rows too
-
+        if self.roundoff_rows is not None and not augmented:
             def at_roundoff(w):
+                """Whether the iterate w meets its constraints to round-off."""
                 s = method.accept(w, ctx)
-                return constraints_at_roundoff(system, s.t, s.q, s.v, velocity)
+                return constraints_at_roundoff(system, s.t, s.q, s.v, self.roundoff_rows)
         res = self.newton.solve(lambda w: method.residual(w, ctx),
                                 lambda w: method.jacobian(w, ctx), w0, self.kinds, scales,
                                 key=key, floor=method.roundoff_floor(system, step, ctx.last.q),

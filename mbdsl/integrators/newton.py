@@ -90,6 +90,9 @@ __all__ = ["JacobianUpdate", "NewtonStatus", "NewtonOptions", "NewtonResult", "N
 
 #: Stagnation within this many tolerances, under exact Newton, is round-off (see above).
 ROUNDOFF_BAND = 1e3
+#: A constraint is met to round-off within this many ulps of its terms (the
+#: residual test above; ``loop.constraints_at_roundoff``, ``compiled._rest_at_roundoff``).
+ROUNDOFF_ULPS = 8.0
 
 
 class JacobianUpdate(enum.Enum):
@@ -380,10 +383,11 @@ class Newton:
                 stalls = stalls + 1 if norm >= 0.5 * best else 0
                 best = min(best, norm)
             roundoff = stalls >= 2 and norm <= ROUNDOFF_BAND
-            grows_now = grows + 1 if (prev is not None and theta >= 1.0 and current) else 0
-            failing = stalls >= 2 or theta > 100.0 or (grows_now >= 2 and norm > ROUNDOFF_BAND)
-            if (failing and not roundoff and norm > 1.0 and at_roundoff is not None
-                    and at_roundoff(w + dw) and self._rest_converged(lu, r, mult, weight)):
+            grows = grows + 1 if (prev is not None and theta >= 1.0 and current) else 0
+            diverging = theta > 100.0 or (grows >= 2 and norm > ROUNDOFF_BAND)
+            if ((stalls >= 2 or diverging) and not roundoff and norm > 1.0
+                    and at_roundoff is not None and at_roundoff(w + dw)
+                    and self._rest_converged(lu, r, mult, weight)):
                 w = w + dw          # the iterate whose residual r was read
                 roundoff = True
             if norm == 0.0 or (eta * norm <= 1.0 and norm <= 1.0) or roundoff:
@@ -393,8 +397,7 @@ class Newton:
                 if reuse:
                     self._lu, self._key = lu, key
                 return res
-            grows = grows_now
-            if theta > 100.0 or (grows >= 2 and norm > ROUNDOFF_BAND):
+            if diverging:
                 res.status = NewtonStatus.DIVERGING
                 return self._fail(res, w)
             # A new Jacobian for the next iterate: always for full Newton. Modified
