@@ -31,6 +31,7 @@ from .errors import (AssemblyError, ConvergenceError, Diagnostic, MbdError, MbdM
                      MbdSyntaxError, render)
 from .integrators import (METHODS, JacobianUpdate, NewtonOptions, integrate, make_method,
                           method_parameters, settings_coefficients)
+from .integrators.dense import output_times as dense_times
 from .model.elements import Model
 from .output import load_solution, write_solution
 from .solution import Solution
@@ -160,6 +161,7 @@ def simulate(model: Model, method: str | None = None, h: float | None = None,
              output_every: int = 1, announce=None, compile_policy: str = "wait",
              formulation: str | None = None, rtol: float | None = None,
              atol: float | None = None, setup_time: float = 0.0, fixed: bool = False,
+             output_dt: float | None = None, output_times=None,
              **coefficients) -> Solution:
     """Simulate a model.
 
@@ -208,6 +210,15 @@ def simulate(model: Model, method: str | None = None, h: float | None = None,
     fixed : bool
         Fixed steps of h, whatever tolerance the ``simulate`` section gives
         (a study's sweep over h); with ``rtol``/``atol`` a ValueError.
+    output_dt : float [s], optional
+        Rows every output_dt from the start (and at t_end) instead of one
+        per step, interpolated within the steps by the method's dense
+        output (:mod:`mbdsl.integrators.dense`); events keep their rows.
+        Default: the ``simulate`` section's ``output_dt``, else a row per
+        (``output_every``-th) step.
+    output_times : sequence of float [s], optional
+        Rows at exactly these times (and t_end), as scipy's ``t_eval``;
+        excludes ``output_dt``.
     **coefficients
         Method coefficients, e.g. ``alpha=-0.1``; default from the
         ``simulate`` section.
@@ -220,7 +231,9 @@ def simulate(model: Model, method: str | None = None, h: float | None = None,
     ------
     ValueError
         Missing h or t_end, unknown method, coefficient out of range, an
-        unknown formulation or one the method does not take.
+        unknown formulation or one the method does not take; both
+        output_dt and output_times, an output time outside the run, or
+        either with output_every > 1.
     AssemblyError
         No consistent initial state.
     ConvergenceError
@@ -260,8 +273,13 @@ def simulate(model: Model, method: str | None = None, h: float | None = None,
     if fixed and (rtol is not None or atol is not None):
         raise ValueError("fixed steps and a tolerance (rtol/atol) exclude each other")
     control = None if fixed else step_control(s, rtol, atol)
+    if output_times is None and output_dt is None and output_every == 1:
+        output_dt = s.get("output_dt")
+    times = None
+    if output_dt is not None or output_times is not None:
+        times = dense_times(t_start, float(t_end), dt=output_dt, times=output_times)
     return integrate(system, m, float(t_end), float(h), t_start=t_start, initial=initial,
                      newton=newton, on_failure=on_failure, progress=progress,
                      writer=writer, engine=engine, output_every=output_every,
                      announce=announce, compile_policy=compile_policy, control=control,
-                     setup_time=setup_time + assembly_time)
+                     setup_time=setup_time + assembly_time, output_times=times)

@@ -75,6 +75,8 @@ def metadata(solution, extra: dict | None = None, final: bool = True) -> dict:
         meta["events"] = json.dumps([[float(t), name, kind, float(speed)]
                                      for t, name, kind, speed in solution.events])
         meta["event_cuts"] = str(int(solution.event_cuts))
+    if getattr(solution, "dense", False):    # not one row per step (integrators.dense)
+        meta["rows"] = "at requested times"
     if final:
         meta["warnings"] = json.dumps([[w.code, w.message] for w in solution.warnings])
     meta["model_source"] = json.dumps(model.source)      # one line: newlines escaped
@@ -194,22 +196,25 @@ class CsvStream:
     def _rows_text(self, sol, i0, i1, finalized) -> str:
         """Rows i0..i1-1 of the table as CSV text, from the stacked arrays of a
         finalized Solution or from the rows recorded so far during the run."""
-        from .solution import Solution
+        from .solution import FLOW_NAMES, Solution
         if finalized:
             sl = slice(i0, i1)
             t, q, v, a, lam = sol.t[sl], sol.q[sl], sol.v[sl], sol.a[sl], sol.lam[sl]
             extras = {k: x[sl] for k, x in sol.extras.items()}
             stats = {k: x[sl] for k, x in sol.stats.items()}
+            flows = ({k: x[sl] for k, x in sol.flows.items()}
+                     if getattr(sol, "flows", None) is not None else None)
         else:
             d = sol.rows(i0, i1)
             t, q, v, a, lam = d["t"], d["q"], d["v"], d["a"], d["lam"]
             extras = {x: d[x] for x in sol.extra_names}
             stats = {k: d[k] for k in Solution.STAT_NAMES}
+            flows = {k: d[k] for k in FLOW_NAMES if k in d} or None
         part = Solution.from_arrays(
             sol.system, method_name=sol.method_name, method_parameters=sol.method_parameters,
             extra_names=sol.extra_names, h=sol.h, t_end=sol.t_end, t=t, q=q, v=v, a=a, lam=lam,
             extras=extras, stats=stats, stats_total=sol.stats_total, status=sol.status,
-            message=sol.message)
+            message=sol.message, flows=flows)
         part.energy_start = self._energy
         part.contact_log = sol.contact_log     # the impact speeds behind the contacts' damping
         text = _csv_rows(part.table()[1])

@@ -45,6 +45,11 @@ class RunStats:
     multipliers_stalled: int = 0
 
 
+#: The energy integrals a run with rows at requested times carries per row,
+#: integrated over its steps (``integrators.dense``).
+FLOW_NAMES = ("energy.work", "energy.dissipated")
+
+
 class _RowStore:
     """The recorded rows of a run, in segments of arrays.
 
@@ -57,11 +62,14 @@ class _RowStore:
 
     A segment is a dict: "t" (k,), "q", "v", "a" (k, n), "lam" (k, m), one
     (k, m) array per extra multiplier name, and one (k,) array per
-    ``Solution.STAT_NAMES`` entry.
+    ``Solution.STAT_NAMES`` entry; with ``flows``, also (k,) arrays
+    "energy.work" and "energy.dissipated" integrated over the steps
+    (``integrators.dense``: rows at requested times).
     """
 
-    def __init__(self, n: int, m: int, extra_names):
+    def __init__(self, n: int, m: int, extra_names, flows: bool = False):
         self.n, self.m, self.extra_names = n, m, tuple(extra_names)
+        self.flow_names = FLOW_NAMES if flows else ()
         self._segments: list[dict] = []
         self._states: list = []
         self._stats: list = []
@@ -95,6 +103,8 @@ class _RowStore:
             seg[x] = np.array([s.extra[x] for s in rows], dtype=float).reshape(k, m)
         for name in Solution.STAT_NAMES:
             seg[name] = np.array([getattr(s, name) for s in self._stats])
+        for name in self.flow_names:       # the initial row: nothing exchanged yet
+            seg[name] = np.zeros(k)
         self._segments.append(seg)
         self._states, self._stats = [], []
 
@@ -108,7 +118,8 @@ class _RowStore:
             if lo < hi:
                 parts.append({key: x[lo:hi] for key, x in seg.items()})
             start += k
-        keys = ("t", "q", "v", "a", "lam") + self.extra_names + Solution.STAT_NAMES
+        keys = (("t", "q", "v", "a", "lam") + self.extra_names + Solution.STAT_NAMES
+                + self.flow_names)
         if not parts:
             shapes = {"t": (0,), "q": (0, self.n), "v": (0, self.n), "a": (0, self.n)}
             return {key: np.zeros(shapes.get(key, (0, self.m) if key == "lam"
@@ -200,7 +211,8 @@ _GUARD_CODES = ("W602", "W603", "W604")
 _ROW_CHUNK = 1024
 
 
-def energy_flows(system, t, q, v, lam, total, phi_t=None, start=None, contact_log=None) -> dict:
+def energy_flows(system, t, q, v, lam, total, phi_t=None, start=None, contact_log=None,
+                 flows=None) -> dict:
     """``energy.work``, ``energy.dissipated`` and ``energy.balance`` of rows.
 
     work(t) = int_0^t p_in, dissipated(t) = int_0^t p_dissipated
@@ -221,7 +233,19 @@ def energy_flows(system, t, q, v, lam, total, phi_t=None, start=None, contact_lo
     contact_log : list, optional
         The run's contact state changes (``Solution.contact_log``); None: those
         of the run under way (``ContactGroup.log``).
+    flows : dict of str -> ndarray, shape (N,) [J], optional
+        ``energy.work`` and ``energy.dissipated`` at the rows, integrated over
+        the run's steps (rows at requested times, ``integrators.dense``):
+        taken as they are, and the balance from them.
     """
+    if flows is not None:
+        work = np.asarray(flows["energy.work"], dtype=float)
+        diss = np.asarray(flows["energy.dissipated"], dtype=float)
+        e0 = total[0] if start is None else start["E0"]
+        return {"energy.work": work, "energy.dissipated": diss,
+                "energy.balance": total - e0 - work + diss,
+                "_end": {"t": t[-1], "p_in": np.nan, "p_dissipated": np.nan,
+                         "work": work[-1], "dissipated": diss[-1], "E0": e0}}
     group = getattr(system, "contact_group", None)
     if contact_log is None:
         contact_log = group.log if group is not None else ()
@@ -322,7 +346,7 @@ def output_columns(system, t, q, v, a, derived) -> dict:
 
 
 def derived_columns(system, t, q, v, lam, start=None, end=None, a=None,
-                    contact_log=None) -> dict:
+                    contact_log=None, flows=None) -> dict:
     """Energies, constraint norms and joint reactions of stored rows.
 
     Every element is evaluated for all rows at once (the kernels loop over
@@ -340,7 +364,7 @@ def derived_columns(system, t, q, v, lam, start=None, end=None, a=None,
         The energy integrals carried from the rows before (``start``, None
         when these rows begin the run) and to the rows after (``end`` is
         filled): see :func:`energy_flows`.
-    contact_log : list, optional
+    contact_log, flows : optional
         See :func:`energy_flows`.
 
     Returns
@@ -369,9 +393,9 @@ def derived_columns(system, t, q, v, lam, start=None, end=None, a=None,
             if reactions is not None:
                 reac[sl] = reactions(qs, ts, lam[sl])
     out = {"energy.kinetic": kin, "energy.potential": pot, "energy.total": kin + pot}
-    flows = energy_flows(system, t, q, v, lam, kin + pot, phi_t, start, contact_log)
-    carry = flows.pop("_end")
-    out.update(flows)
+    energies = energy_flows(system, t, q, v, lam, kin + pot, phi_t, start, contact_log, flows)
+    carry = energies.pop("_end")
+    out.update(energies)
     out.update({"constraint.position": cpos, "constraint.velocity": cvel})
     for k, j in enumerate(joints):
         for c, comp in enumerate(("fx", "fy", "torque")):
@@ -470,6 +494,11 @@ class Solution:
         self.contact_log = []
         #: Steps retaken to end on an event (``integrators.events``).
         self.event_cuts = 0
+        #: Rows at requested times (``integrators.dense``), not one per step.
+        self.dense = False
+        #: energy.work and energy.dissipated integrated over the steps (dense
+        #: output: name -> (N,) [J]), or None: integrated over the rows.
+        self.flows = None
 
     # -- building ---------------------------------------------------------------------
     def append(self, state, stats: StepStats) -> None:
@@ -484,7 +513,14 @@ class Solution:
         tot.factorizations += stats.factorizations
         tot.multipliers_stalled += int(stats.multipliers_stalled)
 
-    def append_block(self, t, q, v, a, lam, extras: dict, counts, h: float) -> None:
+    def dense_output(self) -> None:
+        """Rows at requested times (``integrators.dense``): the rows carry the
+        energy integrals over the steps, before any row but the initial one."""
+        self._rows = _RowStore(self.system.n, self.system.m, self._stored_extras, flows=True)
+        self.dense = True
+
+    def append_block(self, t, q, v, a, lam, extras: dict, counts, h: float,
+                     totals: bool = True, flows: dict | None = None) -> None:
         """Record k rows at once (the compiled loop's output); the arrays are kept.
 
         Parameters
@@ -500,6 +536,12 @@ class Solution:
         h : float or ndarray, shape (k,) [s]
             The step size of these rows (one per row with error-controlled
             steps); 0 for a row that records no new step.
+        totals : bool
+            Add the counts to ``stats_total`` (False: the caller did, per
+            step: dense output).
+        flows : dict of str -> ndarray, shape (k,) [J], optional
+            ``energy.work`` and ``energy.dissipated`` at the rows, integrated
+            over the steps (dense output; ``dense_output`` first).
         """
         k = len(t)
         seg = {"t": t, "q": q, "v": v, "a": a, "lam": lam, "iterations": counts[:, 0],
@@ -507,7 +549,16 @@ class Solution:
                "factorizations": counts[:, 3],
                "h": np.full(k, float(h)) if np.ndim(h) == 0 else np.asarray(h, float)}
         seg.update({x: extras[x] for x in self._stored_extras})
+        if self._rows.flow_names:
+            seg.update({x: np.asarray(flows[x], dtype=float) for x in self._rows.flow_names})
         self._rows.extend(seg)
+        if totals:
+            self.add_totals(counts, h)
+
+    def add_totals(self, counts, h) -> None:
+        """Add steps' Newton counts (k, 6) (as in :meth:`append_block`) taken
+        with step sizes h [s] to :attr:`stats_total` (steps only where every
+        h > 0: a row that records no new step counts none)."""
         tot, sums = self.stats_total, counts.sum(axis=0)
         if np.all(np.asarray(h) > 0):
             tot.steps += int(sums[5])
@@ -616,6 +667,8 @@ class Solution:
         self.t, self.q, self.v, self.a, self.lam = d["t"], d["q"], d["v"], d["a"], d["lam"]
         self.extras = {x: d[x] for x in self.extra_names}
         self.stats = {k: d[k] for k in self.STAT_NAMES}
+        self.flows = ({k: d[k] for k in self._rows.flow_names}
+                      if self._rows.flow_names else None)
         self._derived = None
         self._warnings = None
 
@@ -645,7 +698,7 @@ class Solution:
                     wall_time: float = 0.0, derived: dict | None = None,
                     timings: dict | None = None, engine: str = "numpy",
                     linear_solver: str = "dense", events=(), event_cuts: int = 0,
-                    warnings=None) -> "Solution":
+                    warnings=None, flows: dict | None = None) -> "Solution":
         """A Solution from stored arrays (``mbdsl.load_solution``).
 
         Parameters
@@ -669,6 +722,9 @@ class Solution:
             Steps retaken to land on them.
         warnings : sequence of (code, message), optional
             The run's stored :attr:`warnings`; None: computed from the rows.
+        flows : dict of str -> ndarray, shape (N,) [J], optional
+            ``energy.work`` and ``energy.dissipated`` integrated over the
+            steps of a run with rows at requested times (:attr:`flows`).
 
         Returns
         -------
@@ -688,6 +744,9 @@ class Solution:
         self.engine, self.linear_solver = engine, linear_solver
         self.events, self.event_cuts = [tuple(e) for e in events], int(event_cuts)
         self.contact_log, self.engine_note, self.control = [], None, None
+        self.flows = None if flows is None else {k: np.asarray(x, dtype=float)
+                                                 for k, x in flows.items()}
+        self.dense = self.flows is not None
         from .errors import Diagnostic
         self._warnings = (None if warnings is None else
                           [Diagnostic("warning", c, m) for c, m in warnings])
@@ -716,7 +775,8 @@ class Solution:
         self._derived = derived_columns(self.system, self.t, self.q, self.v, self.lam,
                                         start=getattr(self, "energy_start", None),
                                         end=self.energy_end, a=self.a,
-                                        contact_log=getattr(self, "contact_log", None))
+                                        contact_log=getattr(self, "contact_log", None),
+                                        flows=getattr(self, "flows", None))
         return self._derived
 
     @property

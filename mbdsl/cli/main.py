@@ -210,8 +210,37 @@ def _run_options(p):
                         "(slow, nothing compiled); numpy: the vectorised numpy assembly; auto "
                         "(default): compiled, or the uncompiled kernels while the compiled "
                         "ones are being built, or numpy where the kernels do not apply")
-    p.add_argument("--output-every", type=_positive_int, default=1, metavar="K",
-                   help="record every K-th step (and the last): less memory on long runs")
+    rows = p.add_mutually_exclusive_group()
+    rows.add_argument("--output-every", type=_positive_int, default=1, metavar="K",
+                      help="record every K-th step (and the last): less memory on long runs")
+    rows.add_argument("--output-dt", type=_positive_time, default=None, metavar="DT",
+                      help="a row every DT seconds (and at t_end) instead of one per step, "
+                           "interpolated within the steps; events keep their rows")
+    rows.add_argument("--output-times", type=_times, default=None, metavar="T1,T2,...",
+                      help="rows at exactly these times (and t_end)")
+
+
+def _positive_time(text):
+    """A positive time in seconds from the command line (``--output-dt``)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a time in seconds, got {text!r}") from None
+    if not (value > 0 and value < float("inf")):
+        raise argparse.ArgumentTypeError(f"expected a positive time in seconds, got {text!r}")
+    return value
+
+
+def _times(text):
+    """Comma-separated times in seconds (``--output-times``)."""
+    try:
+        values = [float(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected times in seconds separated by commas, got {text!r}") from None
+    if not values:
+        raise argparse.ArgumentTypeError("expected at least one time")
+    return values
 
 
 def _positive_int(text):
@@ -424,6 +453,8 @@ def _run(args, model, writer=None):
                            b=args.b, rho_inf=args.rho_inf, engine=args.engine, output_every=args.output_every,
                            announce=announce, formulation=getattr(args, "formulation", None),
                            rtol=getattr(args, "rtol", None), atol=getattr(args, "atol", None),
+                           output_dt=getattr(args, "output_dt", None),
+                           output_times=getattr(args, "output_times", None),
                            compile_policy="background" if background_allowed() else "wait",
                            setup_time=getattr(args, "load_time", 0.0))
     except AssemblyError as exc:

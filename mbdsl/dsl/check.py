@@ -77,7 +77,8 @@ SLIDING_STATE = {"distance": 0, "speed": 1}
 KNOWN_METHODS = METHOD_NAMES
 #: simulate-section settings: name -> must be positive (the methods' coefficients: no)
 SETTINGS = {"h": True, "t_end": True, **{c: False for c in COEFFICIENTS}, "t_start": False,
-            "rtol": True, "atol": True, "tol": True}     # error-controlled steps
+            "rtol": True, "atol": True, "tol": True,     # error-controlled steps
+            "output_dt": True}                           # rows at requested times
 
 
 def _did_you_mean(name: str, candidates) -> str:
@@ -1545,7 +1546,7 @@ class _Checker:
                            or f"settings are method, formulation, {', '.join(SETTINGS)}")
                 continue
             v = self.number(s.value, s.span, f"simulate: {s.name}",
-                            unit="s" if s.name in ("h", "t_end", "t_start")
+                            unit="s" if s.name in ("h", "t_end", "t_start", "output_dt")
                             else None if s.name == "atol" else "1")   # atol: m or rad
             if v is None:
                 continue

@@ -23,6 +23,8 @@ from ..solution import Solution, StepStats
 from .adaptive import StepControl
 from .base import Method
 from .blas_threads import one_thread
+from .dense import DenseOutput
+from .dense import output_times as dense_times
 from .events import EventLocator, switch_times, time_switches
 from .loop import LoopState, PythonStepper, StepSizes, TimeLoop, sparse_newton
 from .newton import Newton, NewtonOptions
@@ -37,7 +39,7 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
               progress=None, writer=None, output_every: int = 1,
               engine: str = "auto", announce=None, compile_policy: str = "wait",
               control: StepControl | None = None, python_loop: bool = False,
-              setup_time: float = 0.0) -> Solution:
+              setup_time: float = 0.0, output_times=None) -> Solution:
     """Integrate the equations of motion from t_start to t_end.
 
     Parameters
@@ -108,6 +110,10 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
         Time the caller spent setting the run up before this call (reading
         the model, assembling it, the initial state), counted in
         ``timings["setup"]`` before any row is written.
+    output_times : sequence of float [s], optional
+        Rows at exactly these times (and t_end), interpolated within the
+        steps with each method's dense output (:mod:`.dense`), instead of one
+        row per step; events get their rows too. Excludes ``output_every``.
 
     Returns
     -------
@@ -116,7 +122,8 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
     Raises
     ------
     ValueError
-        For h <= 0, t_end <= t_start, output_every < 1, an unknown engine,
+        For h <= 0, t_end <= t_start, output_every < 1 (or > 1 with
+        output_times), an output time outside the run, an unknown engine,
         or ``engine="compiled"`` or ``"uncompiled"`` where it does not apply (also with
         ``control``).
     ConvergenceError
@@ -124,6 +131,11 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
     """
     output_every, control = _checked(h, t_start, t_end, on_failure, output_every, method,
                                      control)
+    if output_times is not None:
+        if output_every != 1:
+            raise ValueError("rows at requested times (output_times) and output_every "
+                             "exclude each other")
+        output_times = dense_times(t_start, t_end, times=output_times)
     with one_thread():      # small matrices: a threaded BLAS only waits (blas_threads)
         which, engine, engine_note = _engine_for(system, method, engine, control,
                                                  compile_policy, announce)
@@ -143,7 +155,7 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
                 if engine in ("auto", "auto_numpy") and which == "numpy" else None)
         sizes = StepSizes.of_run(method, h, t_start, t_end, control, max_halvings, grow_after)
         sol = _run(system, method, t_start, t_end, h, initial, steppers, control, (which, note),
-                   sizes, output_every, progress, writer, timings)
+                   sizes, output_every, progress, writer, timings, output_times)
         return _result(sol, on_failure)
 
 
@@ -227,7 +239,7 @@ def _steppers(system, method, initial, solver, which, control, python_loop, anno
 
 
 def _run(system, method, t_start, t_end, h, initial, steppers, control, engine, sizes,
-         output_every, progress, writer, timings):
+         output_every, progress, writer, timings, output_times=None):
     """Run the time loop (``loop.TimeLoop``) on ``steppers`` (the stepper,
     its fallback, the linear solver's name); returns the Solution, whatever
     ended the run."""
@@ -239,10 +251,14 @@ def _run(system, method, t_start, t_end, h, initial, steppers, control, engine, 
     sol.engine, sol.engine_note = engine
     sol.control, sol.linear_solver, sol.timings = control, linear_solver, timings
     ls = LoopState(system, method, initial)
+    sink = None
+    if output_times is not None:      # rows at requested times, from every step
+        sol.dense_output()
+        sink = DenseOutput(system, sol, output_times, ls.start, ls.extra)
     sol.append(ls.start, StepStats())
     events = EventLocator(system, h, sol) if EventLocator.found_by_steps(system) else None
     run = TimeLoop(system, method, sol, ls, primary, fallback, t_start, t_end, h, control,
-                   sizes, output_every, events)
+                   sizes, output_every, events, sink)
     timings["setup"] += _time.perf_counter() - t0
     loop_start = _time.perf_counter()
     try:
@@ -250,7 +266,9 @@ def _run(system, method, t_start, t_end, h, initial, steppers, control, engine, 
     except KeyboardInterrupt:
         _interrupted(sol)
     finally:
-        _finish(sol, writer, loop_start)
+        _finish(sol, writer, loop_start, getattr(sink, "elapsed", 0.0) if sink else 0.0)
+        if sink is not None:
+            sol.timings["output"] += sink.elapsed
     return sol
 
 
@@ -262,16 +280,17 @@ def _interrupted(sol):
                    "is kept")
 
 
-def _finish(sol, writer, loop_start):
+def _finish(sol, writer, loop_start, resampling=0.0):
     """Stack the recorded rows and close the stream: on every exit of a run.
 
     ``sol.timings["integration"]`` is the time since the loop started less
     the writer's time during it (``writer.elapsed``), which goes to
-    ``"output"`` with the writer's final flush; ``sol.wall_time`` is the
-    integration time.
+    ``"output"`` with the writer's final flush, as does ``resampling`` [s]
+    (the rows at requested times, ``dense.DenseOutput``); ``sol.wall_time``
+    is the integration time.
     """
     clock = _time.perf_counter
-    written = getattr(writer, "elapsed", 0.0)
+    written = getattr(writer, "elapsed", 0.0) + resampling
     sol.timings["integration"] = clock() - loop_start - written
     sol.wall_time = sol.timings["integration"]
     t0 = clock()

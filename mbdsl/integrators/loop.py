@@ -200,14 +200,15 @@ def _segments(t_start, t_end, h, switches):
     return out + [(start, t_end, None)]
 
 
-def _restart_at_switch(system, method, sol, switch, h, ls) -> float:
+def _restart_at_switch(system, method, sol, switch, h, ls, sink=None) -> float:
     """A stretch ended ``SWITCH_GAP`` h before ``switch`` (time, text), with a
     row there: record the event, put the new branch's state just past it
     (``events.restart_after_switch``, v taken onto the velocity constraint
     of the new branch) into the loop's v, a, lam, b (auxiliary
     acceleration) and mu (the method's ``extra`` multipliers) (``ls``, a
-    :class:`LoopState`), in place, and into that row. Returns the restart's
-    time [s]."""
+    :class:`LoopState`), in place, and into that row (``sink.amend_last``:
+    the Solution's last row, or with rows at requested times the event's
+    rows, ``dense.DenseOutput``). Returns the restart's time [s]."""
     t_switch, text = switch
     sol.events.append((t_switch, text, "switched", 0.0))
     t_new = t_switch + switch_gap(h, t_switch)
@@ -215,8 +216,8 @@ def _restart_at_switch(system, method, sol, switch, h, ls) -> float:
     extra = ls.extra
     if new is not None:
         ls.restart_from(new)
-    sol.amend_last(t=t_new, v=ls.v, a=ls.a, lam=ls.lam,
-                   extras={extra: ls.mu} if extra is not None else None)
+    (sink or sol).amend_last(t=t_new, v=ls.v, a=ls.a, lam=ls.lam,
+                             extras={extra: ls.mu} if extra is not None else None)
     return t_new
 
 
@@ -360,11 +361,16 @@ class TimeLoop:
         Contacts, joint limits and springs with a free length: a stepper
         returns EVENT at a step that crosses one, and this loop lands a step
         on it (:meth:`land`).
+    sink : DenseOutput, optional
+        Where the recorded steps go: the rows at requested times
+        (``dense.DenseOutput``, which needs every step: ``output_every``
+        1); None: the steps are the Solution's rows.
     """
 
     def __init__(self, system, method, sol, ls, stepper, fallback, t_start, t_end, h, control,
-                 sizes, output_every, events):
+                 sizes, output_every, events, sink=None):
         self.system, self.method, self.sol, self.ls = system, method, sol, ls
+        self.sink = sol if sink is None else sink
         self.stepper, self.primary, self.fallback = stepper, stepper, fallback
         self.t_start, self.t_end, self.h, self.h_cur = t_start, t_end, h, h
         self.control, self.sizes, self.every, self.events = control, sizes, output_every, events
@@ -417,7 +423,7 @@ class TimeLoop:
                     break
                 if status != CONVERGED and not self._fall_back():
                     if ls.counts[5]:    # accepted steps since the last record: keep the last
-                        ls.add_row(sol, self.t, float(state[3]) or self.h)
+                        ls.add_row(self.sink, self.t, float(state[3]) or self.h)
                     self.flush()
                     # a Python stepper's word: the compiled loop always has one as fallback
                     self.stepper.diagnose(self, status)
@@ -426,9 +432,9 @@ class TimeLoop:
                     self.stepper = self.primary
                     self.primary.resync()
                 if self.t >= self.seg_end - 1e-12 * span and switch is not None:
-                    ls.flush(sol)
+                    ls.flush(self.sink)
                     self.t = _restart_at_switch(self.system, self.method, sol, switch, self.h,
-                                                ls)
+                                                ls, self.sink)
                     state[0], state[3], state[5] = self.t, 0.0, 0.0   # BDF restarts: BDF1
                     state[8] = 0.0                  # the step-size filter restarts too
                     self.stepper.resync()
@@ -441,14 +447,16 @@ class TimeLoop:
             self.flush()
         except KeyboardInterrupt:       # the driver marks the run interrupted
             if ls.counts[5]:            # accepted steps since the last record
-                ls.add_row(sol, float(state[0]), float(state[3]) or self.h)
+                ls.add_row(self.sink, float(state[0]), float(state[3]) or self.h)
             raise
         except Exception as exc:        # a bug: keep what was computed, then let it surface
             sol.status = "failed"
             sol.message = f"internal error at t = {self.t:.6g} s: {exc!r}"
             raise
         finally:                        # whatever ends the run, no recorded row is lost
-            ls.flush(sol)
+            ls.flush(self.sink)
+            if self.sink is not sol:
+                self.sink.close()
             sol.last_state = ls.step_state(state[0])
         return sol
 
@@ -457,7 +465,7 @@ class TimeLoop:
         mean Newton iterations per step since it was last told) and the
         writer."""
         sol = self.sol
-        self.ls.flush(sol)
+        self.ls.flush(self.sink)
         if self.progress is not None:
             tot = sol.stats_total
             steps, iterations = tot.steps - self.told[0], tot.iterations - self.told[1]
@@ -606,10 +614,13 @@ class TimeLoop:
         recorded row of the landing step keeps the step's own values."""
         ls = self.ls
         new = restart_after_switch(self.system, self.method, self.t, ls.q, ls.v, project=True)
-        if new is None:               # a singular index-1 matrix: the step's state stays
-            return
-        ls.restart_from(new)
-        self.stepper.resync()
+        if new is not None:           # (a singular index-1 matrix: the step's state stays)
+            ls.restart_from(new)
+            self.stepper.resync()
+        if self.sink is not self.sol:  # rows at requested times: the event's two rows
+            ls.flush(self.sink)
+            self.sink.amend_last(v=ls.v, a=ls.a, lam=ls.lam,
+                                 extras={ls.extra: ls.mu} if ls.extra is not None else None)
 
     def attempt(self, mode, h_try, limit=0):
         """Call the stepper in ``mode`` from (t, q, v, ...) with a first step

@@ -129,3 +129,21 @@ def test_rho_inf_in_the_simulate_block(tmp_path, capsys):
     assert main(["simulate", str(path), "-q", "-o", str(out)]) != 0
     err = capsys.readouterr().err
     assert "E303" in err and "rho_inf = 1.5 is out of range" in err and "ga.mbd:" in err
+
+
+def test_rows_at_requested_times_from_the_command_line(tmp_path, capsys):
+    """--output-dt and --output-times: rows at exactly those times (and
+    t_end) in the CSV; an output time outside the run exits 1 naming it;
+    --output-every with either is refused by the parser (exit 2)."""
+    status, out = run(tmp_path, "--output-dt", "0.02")
+    meta, names, values = read_csv_metadata(out)
+    assert status == 0 and meta["rows"] == "at requested times"
+    assert np.allclose(values[:, 0], [0, 0.02, 0.04, 0.06, 0.08, 0.1], atol=1e-12)
+    status, out = run(tmp_path, "--output-times", "0.0375,0.05")
+    meta, names, values = read_csv_metadata(out)
+    assert status == 0 and np.allclose(values[:, 0], [0, 0.0375, 0.05, 0.1], atol=1e-15)
+    status, out = run(tmp_path, "--output-times", "0.05,0.3")
+    assert status == 1 and "output time 0.3 s is outside the run" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exc:
+        run(tmp_path, "--output-dt", "0.02", "--output-every", "2")
+    assert exc.value.code == 2 and "not allowed with" in capsys.readouterr().err
