@@ -400,7 +400,7 @@ def rebuild_system(meta: dict, path):
 
 def run_description(meta: dict) -> dict:
     """``timings``, ``engine``, ``linear_solver``, ``events``,
-    ``event_cuts`` and ``warnings`` of a stored run, for :meth:`Solution.from_arrays`
+    ``event_cuts``, ``dense`` and ``warnings`` of a stored run, for :meth:`Solution.from_arrays`
     (absent from files of older versions)."""
     return {"timings": json.loads(meta.get("timings", "{}")),
             "engine": meta.get("engine", "numpy"),
@@ -408,6 +408,7 @@ def run_description(meta: dict) -> dict:
             "events": [(float(t), str(name), str(kind), float(speed))
                        for t, name, kind, speed in json.loads(meta.get("events", "[]"))],
             "event_cuts": int(meta.get("event_cuts", 0)),
+            "dense": meta.get("rows") == "at requested times",
             "warnings": (None if "warnings" not in meta else
                          [(str(c), str(m)) for c, m in json.loads(meta["warnings"])])}
 

@@ -698,7 +698,8 @@ class Solution:
                     wall_time: float = 0.0, derived: dict | None = None,
                     timings: dict | None = None, engine: str = "numpy",
                     linear_solver: str = "dense", events=(), event_cuts: int = 0,
-                    warnings=None, flows: dict | None = None) -> "Solution":
+                    warnings=None, flows: dict | None = None,
+                    dense: bool = False) -> "Solution":
         """A Solution from stored arrays (``mbdsl.load_solution``).
 
         Parameters
@@ -725,6 +726,8 @@ class Solution:
         flows : dict of str -> ndarray, shape (N,) [J], optional
             ``energy.work`` and ``energy.dissipated`` integrated over the
             steps of a run with rows at requested times (:attr:`flows`).
+        dense : bool
+            The rows are at requested times (:attr:`dense`), not one per step.
 
         Returns
         -------
@@ -746,7 +749,7 @@ class Solution:
         self.contact_log, self.engine_note, self.control = [], None, None
         self.flows = None if flows is None else {k: np.asarray(x, dtype=float)
                                                  for k, x in flows.items()}
-        self.dense = self.flows is not None
+        self.dense = bool(dense) or self.flows is not None
         from .errors import Diagnostic
         self._warnings = (None if warnings is None else
                           [Diagnostic("warning", c, m) for c, m in warnings])
@@ -890,8 +893,31 @@ class Solution:
         names = self.columns
         return names, np.column_stack([self.column(c) for c in names])
 
+    def run_attributes(self) -> dict:
+        """What a table of this run carries besides its numbers: the model,
+        method and its coefficients, status, tolerance, whether the rows are
+        at requested times, the events and the run's totals (str, float or
+        list values: attributes of a DataFrame or an xarray Dataset)."""
+        from dataclasses import asdict
+        out = {"model": self.model.name, "method": self.method_name,
+               "formulation": getattr(self, "formulation", "lagrange"),
+               "status": self.status, "message": self.message, "h": self.h,
+               "t_end": self.t_end,
+               "rows": "at requested times" if getattr(self, "dense", False) else "steps",
+               "events": [list(e) for e in self.events],
+               "stats_total": asdict(self.stats_total)}
+        out.update({f"method.{k}": float(v) for k, v in self.method_parameters.items()})
+        control = getattr(self, "control", None)
+        if control is not None:
+            out.update({"rtol": control.rtol, "atol": control.atol})
+        return out
+
     def to_dataframe(self):
         """Every column as a pandas DataFrame indexed by t (pandas is optional).
+
+        ``df.attrs["units"]`` maps each column (and "t") to its SI unit
+        (:meth:`column_units`; "" for none or a mix); the other attrs are
+        :meth:`run_attributes`.
 
         Raises
         ------
@@ -903,8 +929,58 @@ class Solution:
         except ImportError as exc:      # optional: keep the core free of pandas
             raise ImportError("Solution.to_dataframe needs pandas (pip install pandas)") from exc
         names, values = self.table()
-        return pd.DataFrame(values[:, 1:], index=pd.Index(values[:, 0], name="t"),
-                            columns=names[1:])
+        df = pd.DataFrame(values[:, 1:], index=pd.Index(values[:, 0], name="t"),
+                          columns=names[1:])
+        df.attrs.update(self.run_attributes())
+        df.attrs["units"] = self.column_units()
+        return df
+
+    def to_xarray(self):
+        """Every column as an xarray Dataset on the coordinate t (xarray is optional).
+
+        Each column is a variable of dimension ``t`` named as in the CSV,
+        with its SI unit in ``attrs["units"]``. The rigid bodies' coordinates
+        are also stacked on a ``body`` dimension: variables ``x``, ``y``,
+        ``phi``, ``vx``, ``vy``, ``omega`` of shape (N, bodies) (particles,
+        which have no angle, and beams' elastic coordinates stay columns).
+        The Dataset's attrs are :meth:`run_attributes` (the events as a JSON
+        string, as netCDF takes no nested lists).
+
+        Returns
+        -------
+        xarray.Dataset
+
+        Raises
+        ------
+        ImportError
+            When xarray is not installed, saying so.
+        """
+        try:
+            import xarray as xr
+        except ImportError as exc:      # optional: keep the core free of xarray
+            raise ImportError("Solution.to_xarray needs xarray (pip install xarray)") from exc
+        import json
+        names, values = self.table()
+        units = self.column_units()
+        data = {name: ("t", values[:, i], {"units": units.get(name, "")})
+                for i, name in enumerate(names) if name != "t"}
+        coords = set(self.system.layout.coordinates)
+        bodies = [b.name for b in self.model.bodies
+                  if {f"{b.name}.x", f"{b.name}.y", f"{b.name}.phi"} <= coords]
+        stacked = (("x", "m"), ("y", "m"), ("phi", "rad"), ("vx", "m/s"), ("vy", "m/s"),
+                   ("omega", "rad/s"))
+        if bodies:
+            for field, unit in stacked:
+                data[field] = (("t", "body"),
+                               np.column_stack([self.column(f"{b}.{field}") for b in bodies]),
+                               {"units": unit})
+        attrs = self.run_attributes()
+        attrs["events"] = json.dumps(attrs["events"])
+        attrs["stats_total"] = json.dumps(attrs["stats_total"])
+        coordinates = {"t": ("t", values[:, 0], {"units": "s"})}
+        if bodies:
+            coordinates["body"] = ("body", bodies)
+        return xr.Dataset(data, coords=coordinates, attrs=attrs)
 
     def summary(self) -> str:
         """A one-screen summary of the run."""

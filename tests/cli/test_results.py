@@ -203,6 +203,40 @@ def test_to_dataframe(crank_run):
     assert isinstance(df, pd.DataFrame) and df.index.name == "t"
     np.testing.assert_array_equal(df["crank.omega"].to_numpy(), crank_run.column("crank.omega"))
     assert len(df) == len(crank_run.t) and len(df.columns) == len(crank_run.columns) - 1
+    assert df.attrs["units"]["crank.omega"] == "rad/s" and df.attrs["units"]["energy.total"] == "J"
+    assert df.attrs["method"] == crank_run.method_name and df.attrs["rows"] == "steps"
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".h5"])
+def test_tables_of_a_run_read_back(tmp_path, suffix):
+    """A bouncing ball with rows every 10 ms written and read back: the
+    numbers, units, events and totals survive in the Solution, its DataFrame
+    and its xarray Dataset (bodies stacked on a dimension: a particle has no
+    angle, so the ball stays in columns; the slider crank's two bodies stack)."""
+    xr = pytest.importorskip("xarray")
+    pytest.importorskip("pandas")
+    import json
+    sol = mbdsl.simulate(mbdsl.load(MODELS / "bouncing_ball.mbd"), output_dt=1e-2)
+    path = tmp_path / f"ball{suffix}"
+    mbdsl.write_solution(sol, path)
+    back = mbdsl.load_solution(path)
+    assert back.dense and back.events == sol.events and back.stats_total == sol.stats_total
+    np.testing.assert_array_equal(back.column("ball.y"), sol.column("ball.y"))
+    np.testing.assert_allclose(back.column("energy.balance"), sol.column("energy.balance"),
+                               rtol=1e-12, atol=1e-15)
+    ds = back.to_xarray()
+    assert isinstance(ds, xr.Dataset) and "body" not in ds.dims
+    np.testing.assert_array_equal(ds["ball.y"].values, sol.column("ball.y"))
+    np.testing.assert_array_equal(ds["t"].values, sol.t)
+    assert ds["ball.vy"].attrs["units"] == "m/s" and ds["energy.total"].attrs["units"] == "J"
+    assert json.loads(ds.attrs["events"]) == [list(e) for e in sol.events]
+    df = back.to_dataframe()
+    assert df.attrs["units"] == sol.column_units() and df.attrs["rows"] == "at requested times"
+    crank = mbdsl.simulate(mbdsl.load(MODELS / "slider_crank.mbd"), t_end=0.05)
+    ds = crank.to_xarray()
+    assert list(ds["body"].values) == ["crank", "rod"] and ds["omega"].dims == ("t", "body")
+    np.testing.assert_array_equal(ds["omega"].sel(body="rod").values, crank.column("rod.omega"))
+    assert ds["phi"].attrs["units"] == "rad"
 
 
 # -- progress ------------------------------------------------------------------------------
