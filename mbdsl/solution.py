@@ -281,7 +281,7 @@ def driver_loads(system) -> list[tuple[str, int]]:
     return out
 
 
-def output_columns(system, t, q, v, a, derived) -> dict:
+def output_columns(system, t, q, v, a, derived, lam=None, contact_log=None) -> dict:
     """The ``output.<name>`` columns of the model's ``output`` lines, shape (N,)
     each, evaluated over the rows (numpy: a division by zero gives inf).
 
@@ -293,6 +293,12 @@ def output_columns(system, t, q, v, a, derived) -> dict:
         Accelerations (None: an output that reads one is NaN).
     derived : dict
         The derived columns of the same rows (energies, reactions, loads).
+    lam : ndarray, shape (N, m), optional
+        The multipliers (``lambda.<joint>.<row>``; the loads of friction
+        elements); None: NaN.
+    contact_log : list, optional
+        The run's contact state changes (the impact speeds behind a contact's
+        normal force); None: those of the run under way.
     """
     from .assembly.groups import drot, rot
     from .dsl.expressions import evaluate_rows
@@ -303,11 +309,30 @@ def output_columns(system, t, q, v, a, derived) -> dict:
     index.update({name: (v, i) for i, name in enumerate(lay.velocities)})
     if a is not None:
         index.update({name: (a, i) for i, name in enumerate(lay.accelerations)})
+    if lam is not None:
+        index.update({name: (lam, i) for i, name in enumerate(lay.multiplier_names())})
+    sensors = None               # (contacts (N, k, 5), frictions (N, kf, 3)), when read
     out = {}
     for o in system.model.outputs:
         env = {}
         for var in o.variables:
-            if var.kind == "column":
+            if var.kind in ("gap", "friction"):
+                if sensors is None:
+                    group = getattr(system, "contact_group", None)
+                    log = (contact_log if contact_log is not None
+                           else group.log if group is not None else ())
+                    sensors = system.sensor_values(
+                        t, q, v, np.zeros((N, system.m)) if lam is None else lam, log)
+                if var.kind == "gap":
+                    k = ("gap", "gap_rate", "normal", "friction", "power").index(var.field)
+                    env[var.name] = sensors[0][:, var.index, k]
+                else:
+                    k = ("speed", "friction", "power").index(var.field)
+                    env[var.name] = (sensors[1][:, var.index, k] if lam is not None or k == 0
+                                     else np.full(N, np.nan))
+            elif var.kind == "beam_point":
+                env[var.name] = _beam_point(system, var, qx, vx)
+            elif var.kind == "column":
                 if var.column in index:
                     arr, i = index[var.column]
                     env[var.name] = arr[:, i]
@@ -343,6 +368,27 @@ def output_columns(system, t, q, v, a, derived) -> dict:
         out[f"output.{o.name}"] = np.broadcast_to(
             evaluate_rows(o.expr, env, np.asarray(t, dtype=float)), (N,)).astype(float)
     return out
+
+
+def _beam_point(system, var, qx, vx) -> np.ndarray:
+    """``field`` of the material point at arc x of a flexible beam at rows qx,
+    vx (N, n + 3): r + A(phi) ((x, 0) + S(x) q_f) and its velocity (the
+    floating frame of reference); "deflection": the point's elastic
+    displacement normal to the frame's axis, (S(x) q_f)_y [m]."""
+    from .assembly.groups import drot, rot
+    beam = system.model.bodies[var.bodies[0]]
+    S = beam.mesh.shape(np.array([var.arc]))[0]               # (2, nf)
+    cols = beam.elastic_columns()
+    disp, rate = qx[:, cols] @ S.T, vx[:, cols] @ S.T          # (N, 2)
+    if var.field == "deflection":
+        return disp[:, 1].copy()
+    cx, cy, cp = system.cmap(beam.index)[0]
+    local = disp + np.array([var.arc, 0.0])
+    phi = qx[:, cp]
+    if var.field in ("x", "y"):
+        return (qx[:, [cx, cy]] + rot(phi, local))[:, "xy".index(var.field)]
+    vel = vx[:, [cx, cy]] + vx[:, cp:cp + 1] * drot(phi, local) + rot(phi, rate)
+    return vel[:, 0 if var.field == "vx" else 1]
 
 
 def derived_columns(system, t, q, v, lam, start=None, end=None, a=None,
@@ -403,7 +449,7 @@ def derived_columns(system, t, q, v, lam, start=None, end=None, a=None,
     for name, row in driver_loads(system):
         out[name] = -lam[:, row]
     if system.model.outputs:
-        out.update(output_columns(system, t, q, v, a, out))
+        out.update(output_columns(system, t, q, v, a, out, lam=lam, contact_log=contact_log))
     if end is not None:              # for a writer that goes on with the next rows
         end.update(carry)
     return out
@@ -807,14 +853,10 @@ class Solution:
         Outputs carry the unit their expression determines, if it does.
         """
         from .dsl import units
-        angle_rows = {"fixed": {2}, "prismatic": {1}}
-        lam = {}
-        for j in self.model.joints:
-            for k in range(j.rows):
-                lam[f"lambda.{j.name}.{k}"] = "N*m" if k in angle_rows.get(j.kind, ()) else "N"
-        for d in self.model.drivers:
-            point = (d.kind == "coordinate" and d.coord < 2) or d.kind == "joint_distance"
-            lam[f"lambda.{d.name}.0"] = "N" if point else "N*m"
+        from .model.elements import multiplier_unit
+        lam = {f"lambda.{e.name}.{k}": multiplier_unit(e, k)
+               for e in list(self.model.joints) + list(self.model.drivers)
+               for k in range(getattr(e, "rows", 1))}
         outputs = {f"output.{o.name}": getattr(o, "unit", "") for o in self.model.outputs}
         out = {}
         for name in self.columns:

@@ -541,6 +541,46 @@ class AssembledSystem:
         self._elements(_L_GAPS, np.ascontiguousarray(qx, dtype=float)[None], 0.0, None, None, out)
         return out[0, :k], out[0, k:].reshape(k, 6)
 
+    def sensor_values(self, t, q, v, lam, contact_log=()):
+        """What the contacts and the friction joints do at rows of a run.
+
+        Parameters
+        ----------
+        t : ndarray, shape (N,) [s]
+        q, v : ndarray, shape (N, n)
+        lam : ndarray, shape (N, m)
+        contact_log : sequence of (t, gap, speed)
+            The run's contact state changes (``Solution.contact_log``): the
+            impact speeds behind the contacts' damping.
+
+        Returns
+        -------
+        contacts : ndarray, shape (N, k, 5)
+            Per gap (``contact_group.names``): g [m or rad], dg/dt, the
+            normal force f [N or N m], the friction force along the tangent
+            t = (n_y, -n_x) of the contact normal n (a contact on a line:
+            the line's direction) [N], and the power the contact dissipates
+            [W] (``compiled.elements``, L_SENSORS: the laws the run's forces
+            use; its F_t is along -t).
+        frictions : ndarray, shape (N, kf, 3)
+            Per friction joint (``model.forces`` order): its speed z [rad/s
+            or m/s], its friction load tau [N m or N] and the power it
+            dissipates -tau z [W].
+        """
+        g = self.contact_group
+        k = len(g.names) if g is not None else 0
+        kf = sum(isinstance(f, Friction) for f in self.model.forces)
+        rows, _ = self._ext_rows(q)
+        N = len(rows)
+        out = np.zeros((N, 5 * k + 3 * kf))
+        if N and (k or kf):
+            speeds = g.speeds_at(t, contact_log) if g is not None else None
+            self._elements(_L_SENSORS, rows, t, self._ext_rows(v)[0],
+                           np.reshape(lam, (N, self.m)), out, speeds=speeds)
+        contacts = out[:, :5 * k].reshape(N, k, 5)
+        contacts[:, :, 3] *= -1.0              # along t, not along the kernel's slip direction
+        return contacts, out[:, 5 * k:].reshape(N, kf, 3)
+
     def friction_speeds(self, q, v, a=None):
         """Per friction joint its speed z (omega_2 - omega_1 or ds/dt), or
         with accelerations ``a`` (n,) its rate dz/dt = w . a + v^T (d^2 s) v,
@@ -843,7 +883,8 @@ class AssembledSystem:
 
 
 #: ``compiled.elements``' evaluations (its L_* constants, repeated as the C_* below)
-(_L_Q, _L_QQ, _L_QV, _L_QLAM, _L_ENERGY, _L_POWER, _L_GAPS, _L_SPRINGS, _L_SLIP) = range(8, 17)
+(_L_Q, _L_QQ, _L_QV, _L_QLAM, _L_ENERGY, _L_POWER, _L_GAPS, _L_SPRINGS, _L_SLIP,
+ _L_SENSORS) = range(8, 18)
 #: ``compiled.elements``' evaluations (its C_* constants, repeated here so
 #: that building a model never imports numba)
 _C_PHI, _C_PHI_T, _C_PHI_TT, _C_PHIQ_Y, _C_PHIQT_Y, _C_PHIQ, _C_PHIQT_Y_Q, _C_PHIQ_Y_Q = range(8)

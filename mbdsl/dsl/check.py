@@ -1360,6 +1360,11 @@ class _Checker:
             return ExprError(f"'{ref.text}': {msg}", code, ref.span, hint=hint)
         if isinstance(ref.obj, Dotted):            # body.point.field, reaction.J.fx, driver.D.force
             head, mid, attr = ref.obj.obj, ref.obj.attr, ref.attr
+            if head == "lambda":
+                return self._multiplier_variable(ref, mid, attr, fail)
+            sensors = self._sensor_elements()
+            if isinstance(head, str) and head in sensors:       # stop.lower.gap
+                return self._sensor_variable(ref, sensors[head], mid, attr, fail)
             kind = {"reaction": "joints", "driver": "drivers"}.get(head)
             if kind and mid in {x.name for x in self.items[kind]} \
                     and mid not in self.joints and mid not in {d.name for d in self.drivers}:
@@ -1385,12 +1390,17 @@ class _Checker:
             if body is None:
                 raise fail(f"unknown body '{head}'", "E201",
                            _did_you_mean(str(head), list(self.bodies) + ["reaction", "driver"]))
-            if isinstance(body, FlexibleBeam):
-                raise fail("outputs read points of rigid bodies, not of flexible beams",
-                           hint="use the beam's deflection column or a rigid body's point")
             if mid not in body.points:
                 raise fail(f"body '{head}' has no point '{mid}'", "E201",
                            _did_you_mean(mid, body.points))
+            if isinstance(body, FlexibleBeam):
+                fields = ("x", "y", "vx", "vy", "deflection")
+                if attr not in fields:
+                    raise fail("a beam point's field is x, y, vx, vy or deflection",
+                               hint=_did_you_mean(attr, fields))
+                self.output_units[ref.text] = "m/s" if attr[0] == "v" else "m"
+                return OutputVariable(ref.text, "beam_point", field=attr,
+                                      bodies=(body.index,), arc=float(body.points[mid]))
             if attr not in ("x", "y", "vx", "vy"):
                 raise fail("a point's field is x, y, vx or vy",
                            hint=_did_you_mean(attr, ("x", "y", "vx", "vy")))
@@ -1402,10 +1412,21 @@ class _Checker:
                 raise fail(f"{obj} columns are {', '.join(self.OUTPUT_GROUPS[obj])}",
                            hint=_did_you_mean(attr, self.OUTPUT_GROUPS[obj]))
             return OutputVariable(ref.text, "column", column=ref.text)
+        sensors = self._sensor_elements()
+        if obj in sensors:
+            return self._sensor_variable(ref, sensors[obj], None, attr, fail)
         if obj in self.bodies:
             fields = COORDINATES + VELOCITIES + ACCELERATIONS
             if getattr(self.bodies[obj], "particle", False):
                 fields = ("x", "y", "vx", "vy", "ax", "ay")
+            if isinstance(self.bodies[obj], FlexibleBeam):     # and its elastic coordinates
+                names = self.bodies[obj].mesh.names
+                elastic = tuple(names) + tuple(f"{x}_t" for x in names) + tuple(
+                    f"{x}_tt" for x in names)
+                if attr in elastic:
+                    self.output_units[ref.text] = units.column_unit(ref.text)
+                    return OutputVariable(ref.text, "column", column=ref.text)
+                fields = fields + elastic
             if attr not in fields:
                 raise fail(f"a body's fields are {', '.join(fields)}",
                            hint=_did_you_mean(attr, fields) or "or a point: body.point.x")
@@ -1435,9 +1456,71 @@ class _Checker:
                    _did_you_mean(str(obj), list(self.bodies) + list(self.joints)
                                  + list(self.OUTPUT_GROUPS)))
 
+    #: What an output reads of a contact or limit gap (``floor.gap``), and its unit
+    #: for a gap between points (an angle limit's: rad, rad/s, N*m, -, W).
+    GAP_SENSORS = {"gap": "m", "gap_rate": "m/s", "normal": "N", "friction": "N",
+                   "power": "W"}
+    #: ... and of a friction element (``f.friction``), its sliding joint's units.
+    FRICTION_SENSORS = {"speed": "m/s", "friction": "N", "power": "W"}
+
+    def _sensor_elements(self) -> dict:
+        """Contacts, limits and friction elements by name (what sensors read)."""
+        from ..model.contact import Contact
+        return {f.name: f for f in getattr(self, "forces", ())
+                if isinstance(f, (Contact, Friction))}
+
+    def _multiplier_variable(self, ref, mid, attr, fail) -> OutputVariable:
+        """``lambda.<joint or driver>.<row>``: a Lagrange multiplier by name."""
+        from ..model.elements import multiplier_unit
+        elements = dict(self.joints)
+        elements.update({d.name: d for d in self.drivers})
+        if mid not in elements:
+            raise fail("a multiplier is lambda.<joint or driver>.<row>", "E201",
+                       _did_you_mean(str(mid), elements))
+        rows = getattr(elements[mid], "rows", 1)
+        if not (isinstance(attr, str) and attr.isdigit() and int(attr) < rows):
+            raise fail(f"'{mid}' has multiplier rows 0 .. {rows - 1}")
+        column = f"lambda.{mid}.{int(attr)}"
+        self.output_units[ref.text] = multiplier_unit(elements[mid], int(attr))
+        return OutputVariable(ref.text, "column", column=column)
+
+    def _sensor_variable(self, ref, element, label, attr, fail) -> OutputVariable:
+        """What a contact, limit (``floor.normal``, ``stop.upper.gap``) or
+        friction element (``f.friction``) does at the stored rows."""
+        from ..model.contact import Contact
+        if isinstance(element, Friction):
+            if label is not None or attr not in self.FRICTION_SENSORS:
+                raise fail("a friction element's fields are speed, friction and power",
+                           hint=_did_you_mean(str(attr), self.FRICTION_SENSORS))
+            index = [f.name for f in self.forces if isinstance(f, Friction)].index(element.name)
+            turning = element.joint.kind == "revolute"
+            self.output_units[ref.text] = {"speed": "rad/s" if turning else "m/s",
+                                           "friction": "N*m" if turning else "N",
+                                           "power": "W"}[attr]
+            return OutputVariable(ref.text, "friction", field=attr, index=index)
+        labels = [g[2] for g in element.gaps]
+        if label is None and len(labels) > 1:
+            raise fail(f"'{element.name}' has gaps {', '.join(labels)}: name one",
+                       hint=f"write {element.name}.{labels[0]}.{attr}")
+        if label is not None and label not in labels:
+            raise fail(f"'{element.name}' has no gap '{label}'", "E201",
+                       _did_you_mean(str(label), labels))
+        if attr not in self.GAP_SENSORS:
+            raise fail("a gap's fields are " + ", ".join(self.GAP_SENSORS),
+                       hint=_did_you_mean(str(attr), self.GAP_SENSORS))
+        k = labels.index(label) if label is not None else 0
+        index = sum(len(f.gaps) for f in self.forces[:self.forces.index(element)]
+                    if isinstance(f, Contact)) + k
+        angle = element.gaps[k][0] == "angle"
+        self.output_units[ref.text] = ({"gap": "rad", "gap_rate": "rad/s", "normal": "N*m",
+                                        "friction": "", "power": "W"}[attr] if angle
+                                       else self.GAP_SENSORS[attr])
+        return OutputVariable(ref.text, "gap", field=attr, index=index)
+
     def check_outputs(self):
         """``output NAME = expr`` lines: names unique, references resolved."""
         self.outputs = []
+        self.output_units = {}      # reference -> SI unit, where its element decides it
         seen = {}
         for o in self.spec.outputs:
             if o.name in seen:
@@ -1464,13 +1547,21 @@ class _Checker:
                 self.expr_error(err, o.span, f"output '{o.name}'")
                 continue
             try:
-                dim = units.dimension(value, self.param_dims, units.reference_dimension)
+                dim = units.dimension(value, self.param_dims, self._reference_dimension)
             except units.DimensionError as err:
                 self.error("E307", f"output '{o.name}': {err}", err.span or o.span,
                            "dimensions differ")
                 continue
             self.outputs.append(Output(o.name, e, tuple(found.values()), o.span,
                                        units.unit_text(dim)))
+
+    def _reference_dimension(self, ref):
+        """The dimension of an output's reference: by its element where that
+        decides it (``output_units``), else by its last part."""
+        unit = self.output_units.get(getattr(ref, "text", None))
+        if unit is not None:
+            return units.expected(unit) if unit else None
+        return units.reference_dimension(ref)
 
     #: the SI unit of a body coordinate or velocity
     INITIAL_UNITS = {"x": "m", "y": "m", "phi": "rad", "vx": "m/s", "vy": "m/s", "omega": "rad/s"}

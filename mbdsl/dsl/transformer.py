@@ -312,7 +312,8 @@ class ToSpec(Transformer):
 
     @v_args(meta=True)
     def dotted2(self, meta, children):
-        """``arm.T.x`` (a point's field, or ``reaction.O.fx``) -> Dotted of a Dotted."""
+        """``arm.T.x`` (a point's field, or ``reaction.O.fx``; ``lambda.O.0``, a
+        multiplier row) -> Dotted of a Dotted."""
         inner = Dotted(self._name(children[0]), str(children[1]), self._span(meta))
         return Dotted(inner, str(children[2]), self._span(meta))
 

@@ -375,6 +375,10 @@ COLUMN_UNITS = {"t": "s", "x": "m", "y": "m", "phi": "rad", "vx": "m/s", "vy": "
                 "deflection_mid": "m"}
 
 
+#: A flexible beam's elastic coordinate (nodal u, v, theta) and its rates.
+_ELASTIC = re.compile(r"^(u|v|theta)\d+(_t|_tt)?$")
+
+
 def column_unit(name: str) -> str:
     """The SI unit of a result column (``""`` when it has none or is mixed,
     like the multipliers of a joint's rows and the constraint residuals)."""
@@ -382,4 +386,9 @@ def column_unit(name: str) -> str:
         return "J"
     if name.startswith(("lambda.", "drift.", "output.", "newton.")):
         return ""               # by the row or expression (Solution.column_units), or counts
-    return COLUMN_UNITS.get(name.rsplit(".", 1)[-1], "")
+    last = name.rsplit(".", 1)[-1]
+    elastic = _ELASTIC.match(last)
+    if elastic and "." in name:       # a beam's nodal displacement (m) or rotation (rad)
+        base = "m" if elastic.group(1) in "uv" else "rad"
+        return base + {None: "", "_t": "/s", "_tt": "/s^2"}[elastic.group(2)]
+    return COLUMN_UNITS.get(last, "")

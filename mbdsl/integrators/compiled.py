@@ -2173,7 +2173,8 @@ def _emit_force(I, Fl, t, n, qx, vx, lam, R, C, V, p, r0, c0, cq, cv):
 #: dissipated into out[:, :2]; the contacts' gaps and their gradients, the
 #: spring-dampers' d = p2 - p1 and the friction joints' speeds and their
 #: rates into out (see ``elements``). Numbered after the C_*.
-(L_Q, L_QQ, L_QV, L_QLAM, L_ENERGY, L_POWER, L_GAPS, L_SPRINGS, L_SLIP) = range(8, 17)
+(L_Q, L_QQ, L_QV, L_QLAM, L_ENERGY, L_POWER, L_GAPS, L_SPRINGS, L_SLIP,
+ L_SENSORS) = range(8, 18)
 
 
 @_jit
@@ -2270,7 +2271,15 @@ def elements(I, Fl, what, t, qx, vx, y, slip, speeds, out, R, C, V):
       their six columns into out[:, k + 6 i: k + 6 i + 6];
     * L_SPRINGS: d = p2 - p1 of spring-damper i into out[:, 2 i: 2 i + 2];
     * L_SLIP: the friction joints' speeds z into out[:, :k] and their rates
-      dz/dt = w . a + v^T (d^2 s) v, a = y, into out[:, k:].
+      dz/dt = w . a + v^T (d^2 s) v, a = y, into out[:, k:];
+    * L_SENSORS: what the contacts and the friction joints do, y = lambda:
+      per gap i at the impact speeds ``speeds`` (N, k), out[:, 5 i: 5 i +
+      5] = (g, dg/dt, normal force f, friction force F_t, power dissipated
+      (f - K delta^n) ddelta/dt - F_t v_t) (``_contact_law``,
+      ``_contact_friction``); then per friction joint j, out[:, 5 k + 3 j:
+      5 k + 3 j + 3] = (joint speed z, friction load tau, power dissipated
+      -tau z) (``_friction_law``). The same laws as the run's forces and
+      ``_power``, for the sensors of ``output`` lines.
 
     The contacts' impact speeds of L_Q, L_QQ and L_QV are the model's state
     (KIMP). One entry point, so that a process loads one library for all of
@@ -2306,6 +2315,29 @@ def elements(I, Fl, what, t, qx, vx, y, slip, speeds, out, R, C, V):
             for i in range(_rows(I, SCOL1)):
                 dx, dy, ax1, ay1, ax2, ay2 = _spring_points(I, Fl, qx[r], i)
                 out[r, 2 * i], out[r, 2 * i + 1] = dx, dy
+        elif what == L_SENSORS:
+            k = _rows(I, KGI)
+            w, dw = np.empty(6), np.empty((6, 6))
+            for i in range(k):
+                g, delta, ddelta, f, elastic, speed, armed = _contact_law(
+                    I, Fl, qx[r], vx[r], i, speeds[r, i], grad, H)
+                if g >= 0.0:         # open: the gap's rate all the same
+                    ddelta = 0.0
+                    for a in range(6):
+                        ddelta -= grad[a] * vx[r, _i(I, KCOL, i, a)]
+                ft, dissipated = 0.0, 0.0
+                if delta > 0.0:
+                    dissipated = (f - elastic) * ddelta
+                    if _f(I, Fl, KPAR, i, 12) > 0.0 and f > 0.0:
+                        ft, vt, T = _contact_friction(I, Fl, qx[r], vx[r], i, f, w, dw)
+                        dissipated -= ft * vt
+                out[r, 5 * i], out[r, 5 * i + 1], out[r, 5 * i + 2] = g, -ddelta, f
+                out[r, 5 * i + 3], out[r, 5 * i + 4] = ft, dissipated
+            for i in range(_rows(I, FRI)):
+                z, g = _friction_kin(I, Fl, i, qx[r], vx[r], grad, H)
+                tau, dz, dN, Rn = _friction_law(I, Fl, i, z, y[r], Fl[:0])
+                out[r, 5 * k + 3 * i], out[r, 5 * k + 3 * i + 1] = z, tau
+                out[r, 5 * k + 3 * i + 2] = -tau * z
         else:
             k = _rows(I, FRI)
             for i in range(k):

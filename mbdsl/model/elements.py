@@ -43,7 +43,8 @@ __all__ = [
     "GROUND", "RigidBody", "Shape", "FlexibleBeam", "PointRef", "Joint", "Driver", "SpringDamper",
     "RotationalSpringDamper", "Torque", "JointTorque", "JointForce", "Friction", "PointForce",
     "InitialCondition", "line_distance", "line_columns", "CoordinateMap",
-    "TimeFunction", "StateVariable", "StateFunction", "Output", "OutputVariable", "Model", "COORDINATES", "VELOCITIES", "ACCELERATIONS",
+    "TimeFunction", "StateVariable", "StateFunction", "Output", "OutputVariable",
+    "multiplier_unit", "Model", "COORDINATES", "VELOCITIES", "ACCELERATIONS",
 ]
 
 #: Names of a body's position coordinates, and of their rates, by index.
@@ -236,12 +237,18 @@ class OutputVariable:
     ----------
     name : str
         As written, e.g. ``"arm.T.y"``.
-    kind : {"column", "point", "joint"}
+    kind : {"column", "point", "joint", "beam_point", "gap", "friction"}
         "column": a result column by name (``column``); "point": ``field``
         (x, y, vx, vy) of a rigid body's point ``point``; "joint": a revolute
         joint's relative angle (``field`` "angle") or rate ("rate") of the
         bodies ``bodies`` (first, second), or with ``line`` (the geometry of
-        :func:`line_distance`) a sliding joint's distance or speed.
+        :func:`line_distance`) a sliding joint's distance or speed;
+        "beam_point": ``field`` (x, y, vx, vy, deflection) of the material
+        point at ``arc`` [m] of the flexible beam ``bodies[0]``; "gap":
+        ``field`` (gap, gap_rate, normal, friction, power) of contact gap
+        ``index`` (``ContactGroup`` order); "friction": ``field`` (speed,
+        friction, power) of friction element ``index`` (among the model's
+        friction forces).
     """
 
     name: str
@@ -251,6 +258,22 @@ class OutputVariable:
     field: str = ""
     bodies: tuple = ()
     line: tuple | None = None
+    arc: float = 0.0
+    index: int = 0
+
+
+def multiplier_unit(element, row: int) -> str:
+    """The SI unit of row ``row``'s Lagrange multiplier of a joint or driver:
+    the load that row carries, N for a row that holds a point (revolute,
+    fixed, point_on_line, distance; a driven x, y or joint distance), N*m
+    for one that holds an angle (a fixed joint's third row, a prismatic
+    joint's second; a driven phi or joint angle)."""
+    if isinstance(element, Driver):
+        point = ((element.kind == "coordinate" and element.coord < 2)
+                 or element.kind == "joint_distance")
+        return "N" if point else "N*m"
+    angle_rows = {"fixed": {2}, "prismatic": {1}}
+    return "N*m" if row in angle_rows.get(element.kind, ()) else "N"
 
 
 @dataclass(frozen=True)
