@@ -425,60 +425,15 @@ def animate_solution(solution, path, fps: float = 25.0, speed: float = 1.0,
     else:
         raise ValueError(f"cannot write an animation as '{ext or path.name}': use .gif or .mp4")
 
+    from .scene import Scene
     sol, model = solution, solution.model
-    cmap = model.coordinate_map
     t = sol.t
     n_frames = int(np.floor((t[-1] - t[0]) * fps / speed + 1e-9)) + 1
     times = t[0] + np.arange(n_frames) * speed / fps
     qs = _interpolated(t, sol.q, times) if len(t) > 1 else np.repeat(sol.q[:1], n_frames, 0)
-
-    # body geometry in body frames: declared points plus every attachment on the body;
-    # declared shapes replace the outline; flexible beams: their deformed centre line
-    from .model.elements import FlexibleBeam
-    beams = {b.index: b for b in model.bodies if isinstance(b, FlexibleBeam)}
-    arcs = {i: np.linspace(0.0, b.length, 8 * b.elements + 1) for i, b in beams.items()}
-
-    def located(q, body, local):
-        """World position of a body-frame point (on a beam: deformed, by its arc)."""
-        if body in beams:
-            return beam_world(q, beams[body], [float(np.asarray(local).reshape(-1)[0])],
-                              deform_scale, cmap=cmap)
-        return _world(q, body, local, cmap)
-
-    def shape_verts(shape):
-        """Body-frame vertices bounding a shape (a circle: its bounding square)."""
-        if shape.kind == "circle":
-            c, r = shape.points[0], shape.radius
-            return c + r * np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]], float)
-        return shape.points
-
-    attach = {b.index: [np.array([p, 0.0]) if np.ndim(p) == 0 else np.asarray(p, float)
-                        for p in b.points.values()] for b in model.bodies}
-    joint_points = [j.first for j in model.joints]
-    springs = [f for f in model.forces if type(f).__name__ == "SpringDamper"]
-    for ref in [p for j in model.joints for p in (j.first, j.second)] + \
-            [p for s in springs for p in (s.first, s.second)]:
-        if ref.body != GROUND:
-            attach[ref.body].append(np.asarray(ref.local, float))
-    outlines = {b.index: body_outline(np.array(attach[b.index]).reshape(-1, 2))
-                for b in model.bodies}
-
-    # scene extent over every frame, for fixed limits
-    every = [np.array([p.local for j in model.joints for p in (j.first, j.second)
-                       if p.body == GROUND]).reshape(-1, 2)]
-    for b in model.bodies:
-        sample = list(qs[:: max(1, n_frames // 200)]) + [qs[-1]]
-        if b.index in beams:
-            every += [beam_world(q, b, arcs[b.index], deform_scale, cmap=cmap) for q in sample]
-            continue
-        shapes = getattr(b, "shapes", ())
-        verts = (np.vstack([shape_verts(s) for s in shapes]) if shapes
-                 else outlines[b.index][1])
-        every += [_world(q, b.index, verts, cmap) for q in sample]
-    every = np.vstack(every)
-    lo, hi = every.min(axis=0), every.max(axis=0)
-    scale = float(max(np.max(hi - lo), 1e-3))
-    lo, hi = lo - 0.12 * scale, hi + 0.12 * scale
+    scene = Scene(model, deform_scale)
+    lo, hi = scene.frame_extent(qs)
+    scale = scene.scale
     r_joint = 0.015 * scale
 
     fig = _figure(*size)
@@ -492,93 +447,48 @@ def animate_solution(solution, path, fps: float = 25.0, speed: float = 1.0,
     ax.set_yticks([])
 
     # ground: a hatched block under every ground attachment, guides of sliders on the ground
-    for j in model.joints:
-        for p, other in ((j.first, j.second), (j.second, j.first)):
-            if p.body == GROUND:
-                g = np.asarray(p.local, float)
-                ax.add_patch(Rectangle((g[0] - 2 * r_joint, g[1] - 3.5 * r_joint), 4 * r_joint,
-                                       2.2 * r_joint, hatch="////", fill=False, lw=0.8,
-                                       edgecolor="0.3", zorder=0))
-        if j.direction is not None and j.second.body == GROUND:
-            g, d = np.asarray(j.second.local, float), np.asarray(j.direction, float)
-            d = d / np.hypot(*d)
-            ends = np.array([g - 2 * scale * d, g + 2 * scale * d])
-            ax.plot(ends[:, 0], ends[:, 1], ls="--", lw=0.8, color="0.5", zorder=0)
+    marks, guides = scene.ground()
+    for g in marks:
+        ax.add_patch(Rectangle((g[0] - 2 * r_joint, g[1] - 3.5 * r_joint), 4 * r_joint,
+                               2.2 * r_joint, hatch="////", fill=False, lw=0.8,
+                               edgecolor="0.3", zorder=0))
+    for ends in guides:
+        ax.plot(ends[:, 0], ends[:, 1], ls="--", lw=0.8, color="0.5", zorder=0)
 
-    colors, artists = {}, {}
-    cycle = [tuple(int(h[i:i + 2], 16) / 255 for i in (1, 3, 5))
-             for h in ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd",
-                       "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf")]
-    shape_artists = {}
-    for b in model.bodies:
-        col = cycle[b.index % len(cycle)]
-        colors[b.name] = col
-        kind, _ = outlines[b.index]
-        if b.index in beams:
-            artists[b.index] = ax.plot([], [], lw=3.0, color=col, solid_capstyle="round")[0]
-            continue
-        if getattr(b, "shapes", ()):
-            drawn = []
-            for s in b.shapes:
-                if s.kind == "circle":
-                    drawn.append(ax.add_patch(Circle((0, 0), s.radius, lw=2.0,
-                                                     facecolor=(*col, 0.35), edgecolor=col)))
-                elif s.kind == "polygon":
-                    drawn.append(ax.add_patch(Polygon(np.zeros((3, 2)), closed=True, lw=2.0,
-                                                      facecolor=(*col, 0.35), edgecolor=col)))
-                else:
-                    drawn.append(ax.plot([], [], lw=4.0, color=col,
-                                         solid_capstyle="round")[0])
-            shape_artists[b.index] = drawn
-            continue
-        if kind == "polygon":
-            artists[b.index] = ax.add_patch(Polygon(np.zeros((3, 2)), closed=True, lw=2.0,
-                                                    facecolor=(*col, 0.35), edgecolor=col))
-        elif kind == "segment":
-            artists[b.index] = ax.plot([], [], lw=4.0, color=col, solid_capstyle="round")[0]
+    def rgb(h):
+        return tuple(int(h[i:i + 2], 16) / 255 for i in (1, 3, 5))
+    colors = {name: rgb(h) for name, h in scene.colors.items()}
+    artists = []
+    for item in scene.items:
+        col = rgb(item.color)
+        if item.kind == "circle":
+            artists.append(ax.add_patch(Circle((0, 0), item.radius, lw=2.0,
+                                               facecolor=(*col, 0.35), edgecolor=col)))
+        elif item.kind == "polygon":
+            artists.append(ax.add_patch(Polygon(np.zeros((3, 2)), closed=True, lw=2.0,
+                                                facecolor=(*col, 0.35), edgecolor=col)))
+        elif item.kind in ("line", "beam"):
+            artists.append(ax.plot([], [], lw=4.0 if item.kind == "line" else 3.0, color=col,
+                                   solid_capstyle="round")[0])
+        elif item.kind == "point":
+            artists.append(ax.plot([], [], "o", ms=8, color=col)[0])
+        elif item.kind in ("spring", "rod"):
+            artists.append(ax.plot([], [], lw=1.0 if item.kind == "spring" else 1.5,
+                                   color="k" if item.kind == "spring" else "0.2")[0])
         else:
-            artists[b.index] = ax.plot([], [], "o", ms=8, color=col)[0]
-    spring_lines = [ax.plot([], [], lw=1.0, color="k")[0] for _ in springs]
-    rods = [j for j in model.joints if j.kind == "distance"]         # massless rods
-    rod_lines = [ax.plot([], [], lw=1.5, color="0.2")[0] for _ in rods]
-    joint_circles = [ax.add_patch(Circle((0, 0), r_joint, fill=True, facecolor="white",
-                                         edgecolor="k", lw=1.2, zorder=5)) for _ in joint_points]
+            artists.append(ax.add_patch(Circle((0, 0), r_joint, fill=True, facecolor="white",
+                                               edgecolor="k", lw=1.2, zorder=5)))
     label = ax.text(0.02, 0.97, "", transform=ax.transAxes, va="top", fontsize=10)
 
     def draw(k):
         """Move every artist to frame k."""
-        q = qs[k]
-        for b in model.bodies:
-            if b.index in beams:
-                w = beam_world(q, b, arcs[b.index], deform_scale, cmap=cmap)
-                artists[b.index].set_data(w[:, 0], w[:, 1])
-                continue
-            if b.index in shape_artists:
-                for s, art in zip(b.shapes, shape_artists[b.index]):
-                    w = _world(q, b.index, s.points, cmap)
-                    if s.kind == "circle":
-                        art.center = tuple(w[0])
-                    elif s.kind == "polygon":
-                        art.set_xy(w)
-                    else:
-                        art.set_data(w[:, 0], w[:, 1])
-                continue
-            kind, verts = outlines[b.index]
-            w = _world(q, b.index, verts, cmap)
-            if kind == "polygon":
-                artists[b.index].set_xy(w)
+        for item, art, w in zip(scene.items, artists, scene.coordinates(qs[k])):
+            if item.kind in ("circle", "joint"):
+                art.center = tuple(w[0])
+            elif item.kind == "polygon":
+                art.set_xy(w)
             else:
-                artists[b.index].set_data(w[:, 0], w[:, 1])
-        for line, s in zip(spring_lines, springs):
-            z = _zigzag(located(q, s.first.body, s.first.local)[0],
-                        located(q, s.second.body, s.second.local)[0], 0.02 * scale)
-            line.set_data(z[:, 0], z[:, 1])
-        for line, j in zip(rod_lines, rods):
-            ends = np.vstack([located(q, j.first.body, j.first.local),
-                              located(q, j.second.body, j.second.local)])
-            line.set_data(ends[:, 0], ends[:, 1])
-        for circ, p in zip(joint_circles, joint_points):
-            circ.center = tuple(located(q, p.body, p.local)[0])
+                art.set_data(w[:, 0], w[:, 1])
         label.set_text(f"t = {times[k]:.3f} s")
         return []
 
