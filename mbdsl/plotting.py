@@ -46,6 +46,53 @@ def _lines(ax, t, sol, names):
         ax.legend(fontsize=7, loc="best")
 
 
+def standard_columns(model, bodies=None) -> tuple[dict, str]:
+    """The columns of the first five standard panels (:data:`PANELS`) and
+    what the body panels' titles add ("(first 4 of 40 bodies; ...)").
+
+    Parameters
+    ----------
+    model : Model
+    bodies : list of str, optional
+        The bodies shown (default: the first :data:`MAX_BODIES`).
+
+    Returns
+    -------
+    panels : dict of str -> (str, list of str)
+        Panel title -> (its unit in brackets, its columns).
+    shown : str
+
+    Raises
+    ------
+    KeyError
+        An unknown body, with the closest names.
+    """
+    by_name = {b.name: b for b in model.bodies}
+    if bodies:
+        for name in bodies:
+            if name not in by_name:
+                import difflib
+                close = difflib.get_close_matches(name, list(by_name), n=3)
+                raise KeyError(f"no body '{name}'" + (f"; did you mean {', '.join(close)}?"
+                               if close else f"; the bodies are {', '.join(by_name)}"))
+        chosen = [by_name[n] for n in bodies]
+        shown = "" if len(chosen) == len(by_name) else \
+            f" ({len(chosen)} of {len(by_name)} bodies)"
+    else:
+        chosen = list(model.bodies[:MAX_BODIES])
+        shown = "" if len(model.bodies) <= MAX_BODIES else \
+            f" (first {MAX_BODIES} of {len(model.bodies)} bodies; choose with --bodies)"
+    turning = [b for b in chosen if not getattr(b, "particle", False)]
+    return {
+        "position": ("[m]", [f"{b.name}.{c}" for b in chosen for c in ("x", "y")]),
+        # a particle (a point mass) has no angle: no line in the angle panels
+        "angle": ("[rad]", [f"{b.name}.phi" for b in turning]),
+        "velocity": ("[m/s]", [f"{b.name}.{c}" for b in chosen for c in ("vx", "vy")]),
+        "angular velocity": ("[rad/s]", [f"{b.name}.omega" for b in turning]),
+        "energy": ("[J]", ["energy.kinetic", "energy.potential", "energy.total"]),
+    }, shown
+
+
 def plot_solution(solution, y=None, x: str = "t", path=None, bodies=None) -> Figure:
     """Time histories of a run as one figure.
 
@@ -95,31 +142,7 @@ def plot_solution(solution, y=None, x: str = "t", path=None, bodies=None) -> Fig
     else:
         fig = _figure(11.0, 10.0)
         axes = fig.subplots(4, 2, sharex=True).ravel()
-        by_name = {b.name: b for b in sol.model.bodies}
-        if bodies:
-            for name in bodies:
-                if name not in by_name:
-                    import difflib
-                    close = difflib.get_close_matches(name, list(by_name), n=3)
-                    raise KeyError(f"no body '{name}'" + (f"; did you mean {', '.join(close)}?"
-                                   if close else f"; the bodies are {', '.join(by_name)}"))
-            chosen = [by_name[n] for n in bodies]
-            shown = "" if len(chosen) == len(by_name) else \
-                f" ({len(chosen)} of {len(by_name)} bodies)"
-        else:
-            chosen = list(sol.model.bodies[:MAX_BODIES])
-            shown = "" if len(sol.model.bodies) <= MAX_BODIES else \
-                f" (first {MAX_BODIES} of {len(sol.model.bodies)} bodies; choose with --bodies)"
-        bodies = chosen
-        turning = [b for b in bodies if not getattr(b, "particle", False)]
-        panels = {
-            "position": ("[m]", [f"{b.name}.{c}" for b in bodies for c in ("x", "y")]),
-            # a particle (a point mass) has no angle: no line in the angle panels
-            "angle": ("[rad]", [f"{b.name}.phi" for b in turning]),
-            "velocity": ("[m/s]", [f"{b.name}.{c}" for b in bodies for c in ("vx", "vy")]),
-            "angular velocity": ("[rad/s]", [f"{b.name}.omega" for b in turning]),
-            "energy": ("[J]", ["energy.kinetic", "energy.potential", "energy.total"]),
-        }
+        panels, shown = standard_columns(sol.model, bodies)
         for ax, title in zip(axes, PANELS):
             ax.set_title(title + (shown if title in ("position", "angle", "velocity",
                                                       "angular velocity") else ""), fontsize=9)

@@ -18,11 +18,11 @@ def test_loading_and_assembling_a_model_imports_no_solver_plotting_or_jit_librar
     code = ("import json, sys, mbdsl; "
             f"s = mbdsl.assemble(mbdsl.load({str(MODELS / 'slider_crank.mbd')!r})); "
             "print(json.dumps(sorted(m for m in sys.modules if m.split('.')[0] in "
-            "('numba', 'scipy', 'matplotlib', 'h5py', 'llvmlite'))))")
+            "('numba', 'scipy', 'matplotlib', 'h5py', 'llvmlite', 'plotly'))))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     loaded = set(json.loads(out.stdout))
     for heavy in ("numba", "llvmlite", "matplotlib", "h5py", "scipy.sparse", "scipy.linalg",
-                  "scipy.integrate"):
+                  "scipy.integrate", "plotly"):
         assert heavy not in loaded, f"{heavy} is imported at start-up"
 
 

@@ -55,6 +55,9 @@ def build_parser() -> argparse.ArgumentParser:
                           "W404) is a failed run: exit 3")
     sim.add_argument("--plot", action="store_true",
                      help="also write the standard panels beside the output (run.csv -> run.png)")
+    sim.add_argument("--html", action="store_true",
+                     help="also write the run as an interactive page beside the output "
+                          "(run.csv -> run.html; see mbdsl view)")
     sim.add_argument("-q", "--quiet", action="store_true", help="print no summary, no progress bar")
 
     chk = sub.add_parser("check", help="check a model file and print every diagnostic")
@@ -119,6 +122,22 @@ def build_parser() -> argparse.ArgumentParser:
                      help="simulated seconds per second of video (default 1)")
     _run_options(ani)
     ani.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
+
+    vw = sub.add_parser("view", help="a run as one interactive HTML page (works offline): the "
+                        "mechanism animated with a time slider, time plots that zoom and hover")
+    vw.add_argument("source", help="result file (.csv, .h5) or model file (.mbd, simulated first)")
+    vw.add_argument("-o", "--output", help="the page (.html); default: SOURCE.html")
+    vw.add_argument("--y", help="comma-separated columns, one time plot each "
+                    "(default: the standard panels)")
+    vw.add_argument("--bodies", help="comma-separated bodies of the standard panels "
+                    "(default: the first 4)")
+    vw.add_argument("--frames", type=_positive_int, default=None, metavar="N",
+                    help="frames of the animation at most (default 200; the time plots show "
+                         "every row)")
+    vw.add_argument("--deform-scale", type=float, default=1.0, metavar="S",
+                    help="draw flexible beams with their elastic displacement times S")
+    _run_options(vw)
+    vw.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
 
     from ..studies import KINDS
     st = sub.add_parser("study", help="the paper's experiments on a model: convergence, energy, "
@@ -514,6 +533,8 @@ def _simulate(args) -> int:
             return status or 1
         if not args.quiet:
             print(f"wrote {fig_path}")
+    if getattr(args, "html", False):
+        return _write_page(sol, out.with_suffix(".html"), args) or status
     return status
 
 
@@ -568,22 +589,27 @@ def _plot(args) -> int:
     return 0
 
 
+def _source_run(args):
+    """(solution, status) of ``args.source``: a result file read back, or a
+    model file simulated with the run options; (None, exit status) after
+    saying why there is none."""
+    src = Path(args.source)
+    if src.suffix.lower() in (".csv",) + HDF5_SUFFIXES:
+        sol = _read_result(src)
+        return (sol, 0) if sol is not None else (None, 1)
+    args.model = args.source
+    model = _load(args)
+    if model is None:
+        return None, 1
+    return _run(args, model)
+
+
 def _animate(args) -> int:
     from ..plotting import animate_solution
     src = Path(args.source)
-    status = 0
-    if src.suffix.lower() in (".csv",) + HDF5_SUFFIXES:
-        sol = _read_result(src)
-        if sol is None:
-            return 1
-    else:
-        args.model = args.source
-        model = _load(args)
-        if model is None:
-            return 1
-        sol, status = _run(args, model)
-        if sol is None:
-            return status
+    sol, status = _source_run(args)
+    if sol is None:
+        return status
     out = Path(args.output) if args.output else src.with_suffix(".gif")
     try:
         res = animate_solution(sol, out, fps=args.fps, speed=args.speed,
@@ -597,6 +623,40 @@ def _animate(args) -> int:
     if not args.quiet:
         print(f"wrote {out} ({res.frames} frames, t = {res.times[0]:g} .. {res.times[-1]:g} s)")
     return status
+
+
+def _view(args) -> int:
+    """``mbdsl view``: a result file, or a model simulated first, as an HTML page."""
+    sol, status = _source_run(args)
+    if sol is None:
+        return status
+    out = Path(args.output) if args.output else Path(args.source).with_suffix(".html")
+    return _write_page(sol, out, args) or status
+
+
+def _write_page(sol, out, args) -> int:
+    """Write the run's HTML page (``viewer.write_html``); 0, or 1 after saying why not."""
+    from ..viewer import MAX_FRAMES, write_html
+
+    def listed(text):
+        return [c.strip() for c in text.split(",") if c.strip()] if text else None
+    try:
+        write_html(sol, out, columns=listed(getattr(args, "y", None)),
+                   bodies=listed(getattr(args, "bodies", None)),
+                   max_frames=getattr(args, "frames", None) or MAX_FRAMES,
+                   deform_scale=getattr(args, "deform_scale", 1.0))
+    except KeyError as exc:
+        print(f"error: {exc.args[0]}", file=sys.stderr)
+        return 1
+    except ValueError as exc:
+        print(f"error: cannot write {out}: {exc}", file=sys.stderr)
+        return 1
+    except OSError as exc:
+        _write_error(out, exc)
+        return 1
+    if not args.quiet:
+        print(f"wrote {out} ({out.stat().st_size / 1e6:.1f} MB; open it in a browser)")
+    return 0
 
 
 def _study_options(args, model):
@@ -695,6 +755,7 @@ def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     try:
         commands = {"check": _check, "simulate": _simulate, "plot": _plot, "animate": _animate,
+                    "view": _view,
                     "study": _study, "static": _static, "modes": _modes}
         return commands[args.command](args)
     except BrokenPipeError:           # the reader went away (| head): stop quietly

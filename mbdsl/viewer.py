@@ -1,0 +1,324 @@
+"""A run in the browser: one self-contained HTML file (``mbdsl view``).
+
+The page holds the mechanism animated (the drawing of :mod:`mbdsl.scene`:
+bodies with their shapes, beams deformed, springs, rods and joints), a time
+slider with play and pause at three speeds, and time plots beside it (the
+standard panels, or the columns asked for) that zoom, pan and show values
+on hover, each with a cursor at the slider's time and the run's events as
+dotted lines. Above them the run's summary and its warnings. plotly writes
+the figure, its script embedded (``include_plotlyjs=True``): the file opens
+offline, without a server. plotly is imported here only.
+
+The frames are downsampled (at most ``max_frames``, evenly in time, the
+state interpolated linearly between rows as the GIF animation does), the
+time plots are not: they draw every row. The mechanism is drawn with a few
+traces whatever the number of bodies (one per colour and kind, the parts
+separated by gaps), so that a chain of hundreds of links plays smoothly.
+
+The page exposes what it shows for scripts and tests as
+``window.mbdslViewer``: ``frames`` (their number), ``times`` [s] and
+``traces`` (the mechanism traces' indices in the figure and what each
+draws); the figure is the element with id ``mechanism``.
+"""
+
+from __future__ import annotations
+
+import html
+import json
+from pathlib import Path
+
+import numpy as np
+
+from .scene import Scene
+
+__all__ = ["write_html", "MAX_FRAMES"]
+
+#: Frames of the animation at most (downsampled in time).
+MAX_FRAMES = 200
+#: Points of a drawn circle.
+_CIRCLE = 24
+
+
+def _rgba(color: str, alpha: float) -> str:
+    r, g, b = (int(color[i:i + 2], 16) for i in (1, 3, 5))
+    return f"rgba({r},{g},{b},{alpha})"
+
+
+def _joined(parts, closed: bool) -> tuple[np.ndarray, np.ndarray]:
+    """x, y of polylines (k, 2) joined with NaN gaps (closed: back to the start)."""
+    xs, ys = [], []
+    for w in parts:
+        if closed:
+            w = np.vstack([w, w[:1]])
+        xs += [w[:, 0], [np.nan]]
+        ys += [w[:, 1], [np.nan]]
+    if not xs:
+        return np.zeros(0), np.zeros(0)
+    return np.concatenate(xs)[:-1], np.concatenate(ys)[:-1]
+
+
+class _Drawing:
+    """The scene's items grouped into plotly traces (one per colour and way
+    of drawing), and their x, y at a state."""
+
+    def __init__(self, scene: Scene):
+        self.scene = scene
+        self.groups = {}              # (style, colour) -> item indices
+        for i, item in enumerate(scene.items):
+            style = {"polygon": "fill", "circle": "fill", "line": "line", "beam": "beam",
+                     "point": "point", "spring": "spring", "rod": "rod",
+                     "joint": "joint"}[item.kind]
+            self.groups.setdefault((style, item.color), []).append(i)
+        self.keys = list(self.groups)
+
+    def traces(self):
+        """The traces' static attributes (plotly dicts), in :attr:`keys` order."""
+        out = []
+        for style, color in self.keys:
+            names = sorted({self.scene.items[i].body for i in self.groups[(style, color)]
+                            if self.scene.items[i].body})
+            base = {"type": "scatter", "xaxis": "x", "yaxis": "y", "showlegend": False,
+                    "hoverinfo": "name", "name": ", ".join(names[:4])
+                    + (" ..." if len(names) > 4 else "") or style}
+            if style == "fill":
+                base.update(mode="lines", fill="toself", fillcolor=_rgba(color, 0.35),
+                            line={"color": color, "width": 2})
+            elif style in ("line", "beam"):
+                base.update(mode="lines", line={"color": color, "width": 5 if style == "line"
+                                                else 4})
+            elif style == "point":
+                base.update(mode="markers", marker={"color": color, "size": 10})
+            elif style in ("spring", "rod"):
+                base.update(mode="lines", line={"color": "#000000" if style == "spring"
+                                                else "#333333",
+                                                "width": 1 if style == "spring" else 2})
+            else:
+                base.update(mode="markers", marker={"color": "#ffffff", "size": 9,
+                                                    "line": {"color": "#000000", "width": 1.5}})
+            out.append(base)
+        return out
+
+    def xy(self, q):
+        """Per trace (x, y) at q (n,): the parts joined with gaps."""
+        coords = self.scene.coordinates(q)
+        out = []
+        for style, color in self.keys:
+            parts = []
+            for i in self.groups[(style, color)]:
+                w, item = coords[i], self.scene.items[i]
+                if item.kind == "circle":
+                    a = np.linspace(0.0, 2 * np.pi, _CIRCLE, endpoint=False)
+                    w = w[0] + item.radius * np.column_stack([np.cos(a), np.sin(a)])
+                parts.append(w)
+            if style in ("point", "joint"):
+                pts = np.vstack(parts)
+                out.append((pts[:, 0], pts[:, 1]))
+            else:
+                out.append(_joined(parts, closed=style == "fill"))
+        return out
+
+
+def _panels(sol, columns, bodies):
+    """[(title, [columns], log scale)] of the time plots."""
+    if columns:
+        missing = [c for c in columns if c not in set(sol.columns)]
+        for c in missing:
+            sol.column(c)               # the KeyError with the closest names
+        return [(c, [c], False) for c in columns]
+    from .plotting import standard_columns
+    panels, _ = standard_columns(sol.model, bodies)
+    out = [(f"{title} {unit}", names, False) for title, (unit, names) in panels.items()
+           if names]
+    if sol.system.m:
+        out.append(("constraint violation", ["constraint.position", "constraint.velocity"],
+                    True))
+    if getattr(sol, "control", None) is not None or len(np.unique(sol.stats["h"][1:])) > 1:
+        out.append(("step size [s]", ["step.h"], True))
+    return out
+
+
+def write_html(solution, path, columns=None, bodies=None, max_frames: int = MAX_FRAMES,
+               deform_scale: float = 1.0) -> Path:
+    """Write a run as one self-contained interactive HTML page (module notes).
+
+    Parameters
+    ----------
+    solution : Solution
+        A finished run, or one read back from a result file.
+    path : str or Path
+        The ``.html`` file.
+    columns : list of str, optional
+        The time plots, one column each; default: the standard panels
+        (positions, angles, velocities, angular velocities of the first
+        four bodies, energies, constraint violation, the step size of an
+        error-controlled run).
+    bodies : list of str, optional
+        The bodies of the standard panels.
+    max_frames : int
+        Frames of the animation at most.
+    deform_scale : float
+        Magnification of the beams' elastic displacements in the drawing.
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    KeyError
+        An unknown column or body, with the closest names.
+    ValueError
+        max_frames < 2, a negative deformation scale, a run without rows.
+    OSError
+        The file cannot be written.
+    """
+    import plotly.graph_objects as go
+    from plotly.subplots import make_subplots
+    from .plotting import _interpolated
+    sol = solution
+    if max_frames < 2:
+        raise ValueError(f"the animation needs at least 2 frames, got {max_frames}")
+    if len(sol.t) == 0:
+        raise ValueError("the run has no rows to show")
+    panels = _panels(sol, columns, bodies)
+    t = np.asarray(sol.t, float)
+    n_frames = int(min(max_frames, max(len(t), 2)))
+    times = np.linspace(t[0], t[-1], n_frames)
+    qs = _interpolated(t, sol.q, times) if len(t) > 1 else np.repeat(sol.q[:1], n_frames, 0)
+    scene = Scene(sol.model, deform_scale)
+    lo, hi = scene.frame_extent(qs)
+    drawing = _Drawing(scene)
+
+    rows = max(len(panels), 1)
+    fig = make_subplots(rows=rows, cols=2, column_widths=[0.5, 0.5],
+                        specs=[[{"rowspan": rows}, {}]] + [[None, {}] for _ in range(rows - 1)],
+                        shared_xaxes=False, vertical_spacing=0.04 if rows > 4 else 0.08,
+                        subplot_titles=[""] + [p[0] for p in panels])
+    # the mechanism: ground marks and guides (static), then its traces
+    marks, guides = scene.ground()
+    if marks:
+        m = np.array(marks)
+        fig.add_trace(go.Scatter(x=m[:, 0], y=m[:, 1], mode="markers", showlegend=False,
+                                 hoverinfo="skip", marker={"symbol": "triangle-up", "size": 12,
+                                                           "color": "#777777"}), row=1, col=1)
+    for g in guides:
+        fig.add_trace(go.Scatter(x=g[:, 0], y=g[:, 1], mode="lines", showlegend=False,
+                                 hoverinfo="skip", line={"dash": "dash", "color": "#888888",
+                                                         "width": 1}), row=1, col=1)
+    first = len(fig.data)
+    for base, (x, y) in zip(drawing.traces(), drawing.xy(qs[0])):
+        base = dict(base)
+        base.pop("xaxis")
+        base.pop("yaxis")
+        fig.add_trace(go.Scatter(x=x, y=y, **{k: v for k, v in base.items() if k != "type"}),
+                      row=1, col=1)
+    mech = list(range(first, len(fig.data)))
+    # the time plots, every row; a cursor at the frame's time in each
+    units = sol.column_units()
+    cursors, bounds = [], []
+    for r, (title, names, log) in enumerate(panels, start=1):
+        lows, highs = [], []
+        for name in names:
+            y = np.asarray(sol.column(name), float)
+            if log:
+                y = np.where(y > 0, y, np.nan)
+            label = f"{name} [{units[name]}]" if units.get(name) else name
+            fig.add_trace(go.Scatter(x=t, y=y, mode="lines", name=label, showlegend=False,
+                                     hovertemplate=f"{label}: %{{y:.6g}}<br>t = %{{x:.6g}} s"
+                                     "<extra></extra>", line={"width": 1.5}),
+                          row=r, col=2)
+            finite = y[np.isfinite(y)]
+            if len(finite):
+                lows.append(finite.min())
+                highs.append(finite.max())
+        y0 = min(lows) if lows else 0.0
+        y1 = max(highs) if highs else 1.0
+        if y1 == y0:
+            y0, y1 = y0 - 1.0, y1 + 1.0
+        bounds.append((y0, y1))
+        for te, name, kind, _ in sol.events:          # events as dotted lines
+            fig.add_trace(go.Scatter(x=[te, te], y=[y0, y1], mode="lines", showlegend=False,
+                                     hovertemplate=f"{html.escape(str(name))} {kind} "
+                                     f"at t = {te:.6g} s<extra></extra>",
+                                     line={"dash": "dot", "color": "#999999", "width": 1}),
+                          row=r, col=2)
+        fig.add_trace(go.Scatter(x=[times[0], times[0]], y=[y0, y1], mode="lines",
+                                 showlegend=False, hoverinfo="skip",
+                                 line={"color": "#d62728", "width": 1.5}), row=r, col=2)
+        cursors.append(len(fig.data) - 1)
+        if log:
+            fig.update_yaxes(type="log", row=r, col=2)
+    fig.update_xaxes(title_text="t [s]", row=rows, col=2)
+    fig.update_xaxes(range=[lo[0], hi[0]], row=1, col=1, showgrid=False, zeroline=False)
+    fig.update_yaxes(range=[lo[1], hi[1]], row=1, col=1, scaleanchor="x", scaleratio=1,
+                     showgrid=False, zeroline=False)
+
+    frames = []
+    for k in range(n_frames):
+        data = [go.Scatter(x=x, y=y) for x, y in drawing.xy(qs[k])]
+        data += [go.Scatter(x=[times[k], times[k]], y=list(b)) for b in bounds]
+        frames.append(go.Frame(name=f"f{k}", data=data, traces=mech + cursors))
+    fig.frames = frames
+    span = float(times[-1] - times[0])
+    step_ms = 1000.0 * span / max(n_frames - 1, 1)
+
+    def play(speed):
+        return {"label": f"play x{speed:g}", "method": "animate",
+                "args": [None, {"frame": {"duration": max(step_ms / speed, 16.0),
+                                          "redraw": False},
+                                "transition": {"duration": 0}, "fromcurrent": True,
+                                "mode": "immediate"}]}
+    fig.update_layout(
+        height=max(600, 170 * rows), margin={"l": 50, "r": 20, "t": 40, "b": 40},
+        template="plotly_white", hovermode="closest",
+        updatemenus=[{"type": "buttons", "direction": "left", "x": 0.0, "y": -0.02,
+                      "xanchor": "left", "yanchor": "top", "showactive": False,
+                      "buttons": [play(1.0), play(0.25), play(4.0),
+                                  {"label": "pause", "method": "animate",
+                                   "args": [[None], {"frame": {"duration": 0, "redraw": False},
+                                                     "mode": "immediate",
+                                                     "transition": {"duration": 0}}]}]}],
+        sliders=[{"active": 0, "x": 0.0, "len": 0.5, "y": -0.08, "xanchor": "left",
+                  "yanchor": "top", "currentvalue": {"prefix": "t = ", "suffix": " s"},
+                  "steps": [{"label": f"{times[k]:.4g}", "method": "animate",
+                             "args": [[f"f{k}"], {"mode": "immediate",
+                                                  "frame": {"duration": 0, "redraw": False},
+                                                  "transition": {"duration": 0}}]}
+                            for k in range(n_frames)]}])
+    figure = fig.to_html(include_plotlyjs=True, full_html=False, div_id="mechanism",
+                         config={"responsive": True, "displaylogo": False})
+    described = [{"trace": i, "style": s, "color": c}
+                 for i, (s, c) in zip(mech, drawing.keys)]
+    info = {"frames": n_frames, "times": times.tolist(), "traces": described,
+            "cursors": cursors}
+    warnings = "".join(f"<li>{html.escape(w.code)}: {html.escape(w.message)}</li>"
+                       for w in sol.warnings)
+    page = _PAGE.format(title=html.escape(f"{sol.model.name}: {sol.method_name}"),
+                        summary=html.escape(sol.summary()),
+                        warnings=f"<ul class='warn'>{warnings}</ul>" if warnings else "",
+                        figure=figure, info=json.dumps(info))
+    path = Path(path)
+    path.write_text(page, encoding="utf-8")
+    return path
+
+
+_PAGE = """<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8"><title>{title}</title>
+<style>body {{ font-family: sans-serif; margin: 1em; }}
+details pre {{ font-size: 12px; }} .warn {{ color: #a33; }}</style></head>
+<body>
+<script>
+// plotly.js rejects an animation's promise, with no reason, when the next one
+// interrupts it (a click on the slider animates on mousedown and again on
+// mouseup; plotly/plotly.js#2438: intentional): not an error of this page.
+window.addEventListener("unhandledrejection", function (e) {{
+  if (e.reason === undefined) {{ e.preventDefault(); }}
+}});
+</script>
+<h2>{title}</h2>
+<details><summary>summary of the run</summary><pre>{summary}</pre></details>
+{warnings}
+{figure}
+<script>window.mbdslViewer = {info};</script>
+</body></html>
+"""
