@@ -41,7 +41,9 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-__all__ = ["write_hdf5", "read_hdf5", "update_attributes"]
+from .output import RowStream
+
+__all__ = ["write_hdf5", "read_hdf5", "update_attributes", "HdfStream"]
 
 
 def _dataset(group, name, data, columns=None):
@@ -61,6 +63,30 @@ def _write_record(f, record: dict) -> None:
     if "metadata" in f:
         del f["metadata"]
     _dataset(f, "metadata", np.frombuffer(json.dumps(record).encode("utf-8"), dtype=np.uint8))
+
+
+def _tables(sol, derived) -> list:
+    """[(dataset path, rows (k, ...), column names or None)] of a Solution's
+    rows (the module docstring's layout), from its arrays and derived columns."""
+    from .solution import Solution
+    lay = sol.system.layout
+    out = [("t", sol.t, None), ("q", sol.q, lay.coordinates), ("v", sol.v, lay.velocities),
+           ("a", sol.a, lay.accelerations), ("lambda", sol.lam, lay.multiplier_names())]
+    out += [(f"extras/{x}", sol.extras[x], [f"{x}.{a}.{b}" for a, b in lay.rows])
+            for x in sol.extra_names]
+    energies = [k for k in Solution.DERIVED_NAMES if k.startswith("energy.")]
+    cons = ["constraint.position", "constraint.velocity"]
+    reac = [k for k in derived if k.startswith(("reaction.", "driver.", "output."))]
+    out += [("energies", np.column_stack([derived[k] for k in energies]), energies),
+            ("constraints", np.column_stack([derived[k] for k in cons]), cons),
+            ("reactions", np.column_stack([derived[k] for k in reac])
+             if reac else np.zeros((len(sol.t), 0)), reac)]
+    out += [(f"newton/{k}", sol.stats[k], None) for k in Solution.STAT_NAMES]   # ints stay ints
+    return out
+
+
+def _record_columns(tables) -> dict:
+    return {name: list(cols) for name, _, cols in tables if cols is not None}
 
 
 def write_hdf5(solution, path, extra_metadata: dict | None = None) -> Path:
@@ -84,41 +110,110 @@ def write_hdf5(solution, path, extra_metadata: dict | None = None) -> Path:
     """
     from .output import metadata
     path = Path(path)
-    sol, lay = solution, solution.system.layout
-    derived = sol.derived()
+    sol = solution
+    tables = _tables(sol, sol.derived())
     meta = metadata(sol, extra_metadata)
-    columns = {}
-
-    def table(group, name, data, names):
-        """A dataset of named columns, its names also kept for the record."""
-        columns[f"{group.name.strip('/')}/{name}".strip("/")] = list(names)
-        return _dataset(group, name, data, names)
-
     with h5py.File(path, "w", libver="latest") as f:
         for k, v in meta.items():
             f.attrs[k] = v
-        _dataset(f, "t", sol.t)
-        table(f, "q", sol.q, lay.coordinates)
-        table(f, "v", sol.v, lay.velocities)
-        table(f, "a", sol.a, lay.accelerations)
-        table(f, "lambda", sol.lam, lay.multiplier_names())
-        extras = f.create_group("extras")
-        for x in sol.extra_names:
-            table(extras, x, sol.extras[x], [f"{x}.{a}.{b}" for a, b in lay.rows])
-        energies = [k for k in sol.DERIVED_NAMES if k.startswith("energy.")]
-        table(f, "energies", np.column_stack([derived[k] for k in energies]), energies)
-        cons = ["constraint.position", "constraint.velocity"]
-        table(f, "constraints", np.column_stack([derived[k] for k in cons]), cons)
-        reac = [k for k in derived if k.startswith(("reaction.", "driver.", "output."))]
-        table(f, "reactions", np.column_stack([derived[k] for k in reac])
-              if reac else np.zeros((len(sol.t), 0)), reac)
-        grp = f.create_group("newton")
-        for k in sol.STAT_NAMES:                 # ints stay ints, h stays float
-            _dataset(grp, k, sol.stats[k])
+        f.create_group("extras")
+        for name, data, cols in tables:
+            _dataset(f, name, data, cols)
         f.create_dataset("model_source", data=sol.model.source or "",
                          dtype=h5py.string_dtype())
-        _write_record(f, {"attributes": meta, "columns": columns})
+        _write_record(f, {"attributes": meta, "columns": _record_columns(tables)})
     return path
+
+
+class HdfStream(RowStream):
+    """Writes a run's HDF5 file as it goes (``mbdsl simulate -o run.h5``).
+
+    The file is created at the first chunk with every dataset of the layout
+    (module docstring) empty and resizable (chunked, Fletcher-32), the
+    metadata with ``status: running``, then put in single-writer/multiple-
+    reader mode (SWMR): each chunk of rows is appended to every dataset and
+    flushed, and HDF5 orders its writes so that the file on disk is
+    consistent after every flush. A process killed outright (SIGKILL, a
+    power cut) leaves a file that :func:`read_hdf5` reads with every chunk
+    flushed before the kill, status ``running``. ``finish`` writes the
+    remaining rows, then reopens the file to write the final metadata
+    (status, message, totals, timings, events, warnings).
+
+    Parameters
+    ----------
+    path : str or Path
+    interval : float [s]
+        Wall time between chunks.
+
+    Raises
+    ------
+    OSError
+        The file cannot be created (raised here, before the run starts).
+    """
+
+    #: Rows per HDF5 chunk of the row datasets.
+    CHUNK_ROWS = 1024
+
+    def __init__(self, path, interval: float = 0.5):
+        super().__init__(path, interval)
+        self.path.touch()             # fail early on an unwritable path
+        self._file = None
+
+    def _open(self, sol) -> None:
+        from .output import metadata
+        meta = metadata(sol, final=False)
+        cols = [c for c in sol.columns if c.startswith(("reaction.", "driver.", "output."))]
+        empty = sol.__class__.from_arrays(
+            sol.system, method_name=sol.method_name, method_parameters=sol.method_parameters,
+            extra_names=sol.extra_names, h=sol.h, t_end=sol.t_end, t=np.zeros(0),
+            q=np.zeros((0, sol.system.n)), v=np.zeros((0, sol.system.n)),
+            a=np.zeros((0, sol.system.n)), lam=np.zeros((0, sol.system.m)),
+            extras={x: np.zeros((0, sol.system.m)) for x in sol.extra_names},
+            stats={k: np.zeros(0, np.int64 if k != "h" else float)
+                   for k in sol.STAT_NAMES},
+            stats_total=sol.stats_total, status=sol.status, message=sol.message,
+            derived={k: np.zeros(0) for k in list(sol.DERIVED_NAMES) + cols})
+        tables = _tables(empty, empty.derived())
+        f = h5py.File(self.path, "w", libver="latest")
+        for k, v in meta.items():
+            f.attrs[k] = v
+        f.create_group("extras")
+        f.create_group("newton")
+        for name, data, names in tables:
+            width = data.shape[1:]
+            # resizable datasets are chunked; a chunk has no empty side (no reactions: (k, 0))
+            ds = f.create_dataset(name, shape=(0,) + width,
+                                  maxshape=(None,) + tuple(w or None for w in width),
+                                  dtype=data.dtype, fletcher32=True,
+                                  chunks=(self.CHUNK_ROWS,) + tuple(w or 1 for w in width))
+            if names is not None:
+                ds.attrs["columns"] = np.array(names, dtype=h5py.string_dtype())
+        f.create_dataset("model_source", data=sol.model.source or "",
+                         dtype=h5py.string_dtype())
+        _write_record(f, {"attributes": meta, "columns": _record_columns(tables)})
+        f.swmr_mode = True
+        self._file = f
+
+    def _write(self, part) -> None:
+        f = self._file
+        for name, data, _ in _tables(part, part.derived()):
+            ds = f[name]
+            k = ds.shape[0]
+            ds.resize(k + len(data), axis=0)
+            if data.size:
+                ds[k:] = data
+        f.flush()
+
+    def _end(self, sol, meta) -> None:
+        self._file.close()
+        self._file = None
+        update_attributes(self.path, meta)
+
+    def close_unused(self) -> None:
+        """The run never started: remove the empty file."""
+        if self._file is not None:
+            self._file.close()
+        super().close_unused()
 
 
 def update_attributes(path, attrs: dict) -> None:
@@ -155,7 +250,13 @@ def read_hdf5(path):
         checksum that does not match, a missing or unreadable part).
     """
     path = Path(path)
-    with h5py.File(path, "r") as f:
+    try:
+        f = h5py.File(path, "r")
+    except OSError:
+        # a file whose writer was killed while it streamed (HdfStream, SWMR mode)
+        # is still marked open for writing: SWMR readers open it
+        f = h5py.File(path, "r", swmr=True)
+    with f:
         try:
             return _read(f, path)
         except (OSError, KeyError, RuntimeError, TypeError, IndexError,
@@ -166,7 +267,8 @@ def read_hdf5(path):
 
 def _read(f, path):
     """The Solution of the open result file ``f`` (:func:`read_hdf5`)."""
-    from .output import _method_parameters, _run_stats, rebuild_system, run_description
+    from .output import (_method_parameters, _run_stats, rebuild_system, run_description,
+                         unfinished_message)
     from .solution import Solution
     if "metadata" in f:           # the checked copy; the attributes are not read
         record = json.loads(bytes(f["metadata"][()]).decode("utf-8"))
@@ -177,18 +279,29 @@ def _read(f, path):
     if "method" not in meta or "q" not in f:
         raise ValueError(f"{path}: an HDF5 file, but not a result written by mbdsl")
     system = rebuild_system(meta, path)
+    extra_names = json.loads(meta.get("extras", "[]"))
+    rows = (["t", "q", "v", "a", "lambda", "energies", "constraints", "reactions"]
+            + [f"extras/{x}" for x in extra_names]
+            + [f"newton/{k}" for k in Solution.STAT_NAMES])
+    # a file streamed by a process killed between two datasets' writes of a
+    # chunk: the rows every dataset holds
+    n = min(f[name].shape[0] for name in rows)
+
+    def read(name):
+        return f[name][:n]
     derived = {}
     for name in ("energies", "constraints", "reactions"):
-        values = f[name][()]
+        values = read(name)
         names = columns[name] if columns is not None else _columns(f[name])
         derived.update({c: values[:, i] for i, c in enumerate(names)})
-    extra_names = json.loads(meta.get("extras", "[]"))
+    status, message = meta.get("status", "completed"), meta.get("message", "")
+    if status == "running":
+        message = unfinished_message(read("t"), float(meta["t_end"]))
     return Solution.from_arrays(
         system, method_name=meta["method"], method_parameters=_method_parameters(meta),
         extra_names=extra_names, h=float(meta["h"]), t_end=float(meta["t_end"]),
-        t=f["t"][()], q=f["q"][()], v=f["v"][()], a=f["a"][()], lam=f["lambda"][()],
-        extras={x: f["extras"][x][()] for x in extra_names},
-        stats={k: f["newton"][k][()] for k in Solution.STAT_NAMES},
-        stats_total=_run_stats(meta), status=meta.get("status", "completed"),
-        message=meta.get("message", ""), wall_time=float(meta.get("wall_time", 0.0)),
-        derived=derived, **run_description(meta))
+        t=read("t"), q=read("q"), v=read("v"), a=read("a"), lam=read("lambda"),
+        extras={x: read(f"extras/{x}") for x in extra_names},
+        stats={k: read(f"newton/{k}") for k in Solution.STAT_NAMES},
+        stats_total=_run_stats(meta), status=status, message=message,
+        wall_time=float(meta.get("wall_time", 0.0)), derived=derived, **run_description(meta))

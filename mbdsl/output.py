@@ -160,42 +160,37 @@ class _DeferredInterrupt:
             raise KeyboardInterrupt
 
 
-class CsvStream:
-    """Writes a run's CSV as it goes (``mbdsl simulate -o run.csv``).
+class RowStream:
+    """Writes a run's rows as it goes: the base of :class:`CsvStream` and
+    ``hdf5.HdfStream``.
 
-    The metadata lines come first with ``status: running``; chunks of rows
-    follow at most every ``interval`` seconds of wall time; ``finish``
-    writes the remaining rows, appends what is known only at the end (the
-    ``message``, Newton totals, timings, events), each once, and overwrites
-    the header's status and wall time (written padded) with the final ones. A run stopped by
-    Ctrl-C, a failed step or a bug therefore leaves every accepted step and
-    says why it stopped; a file whose status is ``running`` comes from a
-    process that was killed outright.
+    Chunks of rows go out at most every ``interval`` seconds of wall time
+    (``append``, told by the time loop), each with its derived columns
+    (energies, constraint norms, reactions, outputs; the energy integrals
+    carried from chunk to chunk), Ctrl-C held while a chunk is written;
+    ``finish`` writes the remaining rows and what is known only at the end.
+    A subclass opens the file (``_open``), writes a chunk (``_write``, a
+    Solution of its rows) and ends it (``_end``, with the final metadata).
 
     Parameters
     ----------
     path : str or Path
     interval : float [s]
         Wall time between chunks.
-
-    Raises
-    ------
-    OSError
-        The file cannot be created (raised here, before the run starts).
     """
 
     def __init__(self, path, interval: float = 0.5):
         self.path, self.interval = Path(path), float(interval)
-        self._file = open(self.path, "w", encoding="utf-8")
         self._header, self._written, self._last = False, 0, 0.0
         self._derived = []          # derived columns of the rows written, chunk by chunk
         self._energy = None         # the energy integrals at the last row written
         #: Wall time spent computing and writing rows [s] (``Solution.timings["output"]``).
         self.elapsed = 0.0
 
-    def _rows_text(self, sol, i0, i1, finalized) -> str:
-        """Rows i0..i1-1 of the table as CSV text, from the stacked arrays of a
-        finalized Solution or from the rows recorded so far during the run."""
+    def _part(self, sol, i0, i1, finalized):
+        """Rows i0..i1-1 as a Solution with their derived columns, from the
+        stacked arrays of a finalized Solution or from the rows recorded so
+        far during the run; the energy integrals go on from the last chunk."""
         from .solution import FLOW_NAMES, Solution
         if finalized:
             sl = slice(i0, i1)
@@ -217,10 +212,89 @@ class CsvStream:
             message=sol.message, flows=flows)
         part.energy_start = self._energy
         part.contact_log = sol.contact_log     # the impact speeds behind the contacts' damping
-        text = _csv_rows(part.table()[1])
+        part.derived()
         self._energy = dict(part.energy_end)
         self._derived.append(part._derived)
-        return text
+        return part
+
+    def append(self, sol) -> None:
+        """After an accepted step: write the pending rows if ``interval`` has passed."""
+        import time
+        now = time.perf_counter()
+        if self._header and now - self._last < self.interval:
+            return
+        self._last = now
+        with _DeferredInterrupt(), _Timer(self):
+            if not self._header:
+                self._open(sol)
+                self._header = True
+            n = sol.n_rows
+            if n > self._written:
+                self._write(self._part(sol, self._written, n, finalized=False))
+                self._written = n
+
+    def finish(self, sol) -> Path:
+        """After the run (finalized Solution): the remaining rows and the final
+        status. The derived columns computed chunk by chunk become the
+        Solution's (its summary does not compute them again)."""
+        with _DeferredInterrupt():
+            with _Timer(self):
+                if not self._header:
+                    self._open(sol)
+                    self._header = True
+                n = len(sol.t)
+                if n > self._written:
+                    self._write(self._part(sol, self._written, n, finalized=True))
+                    self._written = n
+                if sol._derived is None and self._derived and None not in self._derived:
+                    sol._derived = {k: np.concatenate([d[k] for d in self._derived])
+                                    for k in self._derived[0]}
+            sol.timings["output"] = self.elapsed
+            self._end(sol, metadata(sol))
+        return self.path
+
+    def close_unused(self) -> None:
+        """The run never started (no consistent initial state): remove the file."""
+        if not self._header:
+            self.path.unlink(missing_ok=True)
+
+    def _open(self, sol) -> None:
+        raise NotImplementedError
+
+    def _write(self, part) -> None:
+        raise NotImplementedError
+
+    def _end(self, sol, meta) -> None:
+        raise NotImplementedError
+
+
+class CsvStream(RowStream):
+    """Writes a run's CSV as it goes (``mbdsl simulate -o run.csv``).
+
+    The metadata lines come first with ``status: running``; chunks of rows
+    follow (:class:`RowStream`); ``finish`` writes the remaining rows,
+    appends what is known only at the end (the ``message``, Newton totals,
+    timings, events), each once, and overwrites the header's status and
+    wall time (written padded) with the final ones. A run stopped by
+    Ctrl-C, a failed step or a bug therefore leaves every accepted step and
+    says why it stopped; a file whose status is ``running`` comes from a
+    process that was killed outright.
+
+    Parameters
+    ----------
+    path : str or Path
+    interval : float [s]
+        Wall time between chunks.
+
+    Raises
+    ------
+    OSError
+        The file cannot be created (raised here, before the run starts).
+    """
+
+    def __init__(self, path, interval: float = 0.5):
+        super().__init__(path, interval)
+        self._file = open(self.path, "w", encoding="utf-8")
 
     #: Header fields known only at the end, written padded to these widths and
     #: rewritten in place by :meth:`finish`, so that the head of the file is true
@@ -244,7 +318,10 @@ class CsvStream:
         buf.write(",".join(sol.columns) + "\n")
         self._file.write(buf.getvalue())
         self._file.flush()
-        self._header = True
+
+    def _write(self, part) -> None:
+        self._file.write(_csv_rows(part.table()[1]))
+        self._file.flush()
 
     def _rewrite_late_fields(self, meta) -> None:
         """The header's status and wall time, overwritten in place (closed file)."""
@@ -254,51 +331,17 @@ class CsvStream:
                 f.seek(offset)
                 f.write(value.encode("ascii"))
 
-    def append(self, sol) -> None:
-        """After an accepted step: write the pending rows if ``interval`` has passed."""
-        import time
-        now = time.perf_counter()
-        if self._header and now - self._last < self.interval:
-            return
-        self._last = now
-        with _DeferredInterrupt(), _Timer(self):
-            if not self._header:
-                self._open(sol)
-            n = sol.n_rows
-            if n > self._written:
-                self._file.write(self._rows_text(sol, self._written, n, finalized=False))
-                self._file.flush()
-                self._written = n
+    def _end(self, sol, meta) -> None:
+        for k in self._TRAILER:
+            if k in meta:
+                self._file.write(f"# {k}: {meta[k]}\n")
+        self._file.close()
+        self._rewrite_late_fields(meta)
 
     def close_unused(self) -> None:
         """The run never started (no consistent initial state): remove the empty file."""
         self._file.close()
-        if not self._header:
-            self.path.unlink(missing_ok=True)
-
-    def finish(self, sol) -> Path:
-        """After the run (finalized Solution): the remaining rows and the final
-        status. The derived columns computed chunk by chunk become the
-        Solution's (its summary does not compute them again)."""
-        with _DeferredInterrupt():
-            with _Timer(self):
-                if not self._header:
-                    self._open(sol)
-                n = len(sol.t)
-                if n > self._written:
-                    self._file.write(self._rows_text(sol, self._written, n, finalized=True))
-                    self._written = n
-                if sol._derived is None and self._derived and None not in self._derived:
-                    sol._derived = {k: np.concatenate([d[k] for d in self._derived])
-                                    for k in self._derived[0]}
-            sol.timings["output"] = self.elapsed
-            meta = metadata(sol)
-            for k in self._TRAILER:
-                if k in meta:
-                    self._file.write(f"# {k}: {meta[k]}\n")
-            self._file.close()
-            self._rewrite_late_fields(meta)
-        return self.path
+        super().close_unused()
 
 
 class WriteAtEnd:
@@ -413,6 +456,15 @@ def run_description(meta: dict) -> dict:
                          [(str(c), str(m)) for c, m in json.loads(meta["warnings"])])}
 
 
+def unfinished_message(t, t_end: float) -> str:
+    """What a result file whose status is still ``running`` says: its run was
+    stopped outright while it wrote the file (rows at times t [s])."""
+    if not len(t):
+        return "the run did not finish: the file has no rows"
+    return (f"the run did not finish: the file ends at t = {float(t[-1]):.6g} s of "
+            f"{float(t_end):g} s (the process writing it was stopped)")
+
+
 def _method_parameters(meta: dict) -> dict:
     return {k[7:]: float(v) for k, v in meta.items() if k.startswith("method.")}
 
@@ -444,14 +496,17 @@ def read_csv_solution(path):
     stats = {k: values[:, col[f"newton.{k}"]] for k in Solution.STAT_NAMES[:-1]}
     stats = {k: v.astype(int) for k, v in stats.items()}
     stats["h"] = values[:, col["step.h"]]
+    status, message = meta.get("status", "completed").strip(), meta.get("message", "")
+    if status == "running":
+        message = unfinished_message(values[:, col["t"]], float(meta["t_end"]))
     return Solution.from_arrays(
         system, method_name=meta["method"], method_parameters=_method_parameters(meta),
         extra_names=extra_names, h=float(meta["h"]), t_end=float(meta["t_end"]),
         t=values[:, col["t"]], q=block(lay.coordinates), v=block(lay.velocities),
         a=block(lay.accelerations), lam=block(lay.multiplier_names()),
         extras={x: block([f"{x}.{r}" for r in rows]) for x in extra_names},
-        stats=stats, stats_total=_run_stats(meta), status=meta.get("status", "completed"),
-        message=meta.get("message", ""), wall_time=float(meta.get("wall_time", 0.0)),
+        stats=stats, stats_total=_run_stats(meta), status=status,
+        message=message, wall_time=float(meta.get("wall_time", 0.0)),
         derived=derived, **run_description(meta))
 
 

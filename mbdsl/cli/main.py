@@ -23,7 +23,7 @@ from pathlib import Path
 from .. import (METHODS, AssemblyError, ConvergenceError, MbdError, __version__, load,
                 render, simulate)
 from ..errors import Diagnostic
-from ..output import HDF5_SUFFIXES, CsvStream, WriteAtEnd, load_solution
+from ..output import HDF5_SUFFIXES, CsvStream, load_solution
 
 __all__ = ["main", "build_parser"]
 
@@ -497,8 +497,12 @@ def _simulate(args) -> int:
         return 1
     out = Path(args.output) if args.output else Path(args.model).with_suffix(".csv")
     stream = out.suffix.lower() not in HDF5_SUFFIXES
-    try:       # CSV is written as the run goes, HDF5 on any exit of the run
-        writer = CsvStream(out) if stream else WriteAtEnd(out)
+    try:       # written as the run goes, chunk by chunk
+        if stream:
+            writer = CsvStream(out)
+        else:
+            from ..hdf5 import HdfStream
+            writer = HdfStream(out)
     except OSError as exc:
         _write_error(out, exc)
         return 1
@@ -557,7 +561,10 @@ def _read_result(path):
               file=sys.stderr)
         return None
     try:
-        return load_solution(path)
+        sol = load_solution(path)
+        if sol.status == "running":      # streamed by a process that was stopped outright
+            print(f"warning: {path} ended early: {sol.message}", file=sys.stderr)
+        return sol
     except MbdError as exc:
         _print_diagnostics(exc.diagnostics)
     except (OSError, ValueError) as exc:
