@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ["write_csv", "read_csv_metadata", "write_solution", "load_solution", "metadata",
-           "HDF5_SUFFIXES", "CsvStream", "WriteAtEnd"]
+           "HDF5_SUFFIXES", "CsvStream", "RowStream"]
 
 HDF5_SUFFIXES = (".h5", ".hdf5")
 
@@ -342,45 +342,6 @@ class CsvStream(RowStream):
         """The run never started (no consistent initial state): remove the empty file."""
         self._file.close()
         super().close_unused()
-
-
-class WriteAtEnd:
-    """A run writer for formats written whole (HDF5): ``finish`` writes the
-    file on every exit of the run, including Ctrl-C and an unexpected
-    exception, so the accepted steps are never lost.
-
-    Raises
-    ------
-    OSError
-        The file cannot be created (raised here, before the run starts).
-    """
-
-    def __init__(self, path):
-        self.path = Path(path)
-        self.path.touch()             # fail early on an unwritable path
-        self._used = False
-        #: Wall time spent writing [s] (``Solution.timings["output"]``).
-        self.elapsed = 0.0
-
-    def append(self, sol) -> None:
-        """Nothing to do per step."""
-
-    def close_unused(self) -> None:
-        """The run never started: remove the empty file."""
-        if not self._used:
-            self.path.unlink(missing_ok=True)
-
-    def finish(self, sol) -> Path:
-        """Write the whole (finalized) Solution; its output time is stored
-        last, once known."""
-        self._used = True
-        with _Timer(self):
-            path = write_solution(sol, self.path)
-        sol.timings["output"] = self.elapsed
-        if self.path.suffix.lower() in HDF5_SUFFIXES:
-            from .hdf5 import update_attributes
-            update_attributes(path, {"timings": json.dumps(sol.timings)})
-        return path
 
 
 def read_csv_metadata(path) -> tuple[dict, list[str], np.ndarray]:
