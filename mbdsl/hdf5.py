@@ -43,7 +43,7 @@ import numpy as np
 
 from .output import RowStream
 
-__all__ = ["write_hdf5", "read_hdf5", "update_attributes", "HdfStream"]
+__all__ = ["write_hdf5", "read_hdf5", "update_attributes", "HdfStream", "SweepTable", "read_sweep"]
 
 
 def _dataset(group, name, data, columns=None):
@@ -305,3 +305,101 @@ def _read(f, path):
         stats={k: read(f"newton/{k}") for k in Solution.STAT_NAMES},
         stats_total=_run_stats(meta), status=status, message=message,
         wall_time=float(meta.get("wall_time", 0.0)), derived=derived, **run_description(meta))
+
+
+class SweepTable:
+    """The table of a parameter sweep (``studies.sweep``): one row per run,
+    appended and flushed as each run finishes.
+
+    Layout: ``/runs/<column>`` (N,) per column, float64 for the numbers,
+    UTF-8 strings for ``status``, ``code`` and ``message``; root attributes
+    ``columns`` (JSON list, the order), ``parameters`` (JSON list) and the
+    sweep's description (model name, file, source, how it was asked for).
+
+    Parameters
+    ----------
+    path : str or Path
+        Created, or continued when it holds the same sweep's table.
+    columns : list of str
+    parameters : list of str
+        The leading columns that identify a run (:meth:`done`).
+    attributes : dict of str -> str
+
+    Raises
+    ------
+    ValueError
+        ``path`` holds another table (other columns or parameters), or is
+        not a sweep table.
+    OSError
+        The file cannot be written.
+    """
+
+    TEXT = ("status", "code", "message")
+
+    def __init__(self, path, columns, parameters, attributes: dict):
+        self.path, self.columns = Path(path), list(columns)
+        exists = self.path.exists() and self.path.stat().st_size > 0
+        self._file = h5py.File(self.path, "a" if exists else "w", libver="latest")
+        f = self._file
+        if exists:
+            try:
+                same = (json.loads(f.attrs["columns"]) == self.columns
+                        and json.loads(f.attrs["parameters"]) == list(parameters))
+            except (KeyError, ValueError, TypeError):
+                same = False
+            if not same:
+                f.close()
+                raise ValueError(f"{self.path} holds another sweep's table (other parameters "
+                                 "or columns): give another output file")
+            return
+        f.attrs["columns"] = json.dumps(self.columns)
+        f.attrs["parameters"] = json.dumps(list(parameters))
+        for k, v in attributes.items():
+            f.attrs[k] = v
+        runs = f.create_group("runs")
+        for c in self.columns:
+            runs.create_dataset(c, shape=(0,), maxshape=(None,), chunks=(256,),
+                                dtype=h5py.string_dtype() if c in self.TEXT else "f8")
+        f.flush()
+
+    def done(self) -> set:
+        """The parameter values (tuples, in ``parameters`` order) of the runs in the table."""
+        f = self._file
+        params = json.loads(f.attrs["parameters"])
+        if not params:
+            return {()} if len(f["runs"][self.columns[0]]) else set()
+        values = [f["runs"][p][()] for p in params]
+        return {tuple(float(x) for x in row) for row in zip(*values)}
+
+    def append(self, row: dict) -> None:
+        """One run's row (column -> value; absent numbers NaN), flushed."""
+        runs = self._file["runs"]
+        for c in self.columns:
+            ds = runs[c]
+            k = ds.shape[0]
+            ds.resize(k + 1, axis=0)
+            ds[k] = str(row.get(c, "")) if c in self.TEXT else float(row.get(c, np.nan))
+        self._file.flush()
+
+    def close(self) -> None:
+        self._file.close()
+
+
+def read_sweep(path) -> dict:
+    """A sweep table (:class:`SweepTable`) as column -> ndarray (N,), in its
+    column order (strings for status, code and message).
+
+    Raises
+    ------
+    ValueError
+        Not a sweep table.
+    """
+    with h5py.File(path, "r") as f:
+        if "runs" not in f or "columns" not in f.attrs:
+            raise ValueError(f"{path} is not a sweep table written by mbdsl sweep")
+        out = {}
+        for c in json.loads(f.attrs["columns"]):
+            values = f["runs"][c][()]
+            out[c] = (np.array([v.decode() if isinstance(v, bytes) else str(v) for v in values])
+                      if c in SweepTable.TEXT else values)
+        return out

@@ -455,6 +455,22 @@ def derived_columns(system, t, q, v, lam, start=None, end=None, a=None,
     return out
 
 
+def result_columns(system, extra_names=()) -> list[str]:
+    """Names of every column of a run of ``system``, in CSV order
+    (``Solution.columns``), whose method stores the extra multipliers
+    ``extra_names`` (``mu``, ``psi1``)."""
+    lay, model = system.layout, system.model
+    extras = [f"{x}.{name}.{k}" for x in extra_names for name, k in lay.rows]
+    reactions = [f"reaction.{j.name}.{c}" for j in model.joints for c in ("fx", "fy", "torque")]
+    reactions += [name for name, _ in driver_loads(system)]
+    reactions += [f"output.{o.name}" for o in model.outputs]
+    beams = [f"{b.name}.deflection_mid" for b in model.flexible_bodies]
+    return (["t"] + lay.coordinates + lay.velocities + lay.accelerations
+            + list(Solution.DERIVED_NAMES) + beams + lay.multiplier_names()
+            + extras + reactions
+            + [f"newton.{k}" for k in Solution.STAT_NAMES[:-1]] + ["step.h"])
+
+
 class Solution:
     """Time histories of a run, and everything derived from them.
 
@@ -831,16 +847,7 @@ class Solution:
     @property
     def columns(self) -> list[str]:
         """Names of every output column, in CSV order."""
-        lay = self.system.layout
-        extras = [f"{x}.{name}.{k}" for x in self.extra_names for name, k in lay.rows]
-        reactions = [f"reaction.{j.name}.{c}" for j in self.model.joints
-                     for c in ("fx", "fy", "torque")]
-        reactions += [name for name, _ in driver_loads(self.system)]
-        reactions += [f"output.{o.name}" for o in self.model.outputs]
-        return (["t"] + lay.coordinates + lay.velocities + lay.accelerations
-                + list(self.DERIVED_NAMES) + self._beam_columns() + lay.multiplier_names()
-                + extras + reactions
-                + [f"newton.{k}" for k in self.STAT_NAMES[:-1]] + ["step.h"])
+        return result_columns(self.system, self.extra_names)
 
     def column_units(self) -> dict[str, str]:
         """The SI unit of every column (``""``: none, or a mix such as the
@@ -872,10 +879,6 @@ class Solution:
     DERIVED_NAMES = ("energy.kinetic", "energy.potential", "energy.total", "energy.work",
                      "energy.dissipated", "energy.balance",
                      "constraint.position", "constraint.velocity")
-
-    def _beam_columns(self) -> list[str]:
-        """``<beam>.deflection_mid`` of every flexible beam."""
-        return [f"{b.name}.deflection_mid" for b in self.model.flexible_bodies]
 
     def _beam_column(self, name: str):
         """A flexible beam's column computed from q, or None for another name."""

@@ -1,5 +1,6 @@
 """Shared fixtures: paths of the shipped models and the reference data."""
 
+import contextlib
 import json
 import os
 from pathlib import Path
@@ -55,3 +56,37 @@ def interrupted_run(system, t_end, at, **options):
     cut = integrate(system, make_method("hht-i3"), t_end, 1e-3, progress=progress,
                     on_failure="return", **options)
     return full, cut
+
+
+@contextlib.contextmanager
+def dask_processes(folder, workers: int = 2):
+    """A Dask cluster of separate processes on 127.0.0.1 (`dask scheduler`
+    and ``workers`` `dask worker`s, one thread each, as on machines of their
+    own): yields the scheduler's address once it is up; stops them all."""
+    import json
+    import subprocess
+    import sys
+    import time
+    sfile = Path(folder) / "scheduler.json"
+    quiet = {"stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL}
+    procs = [subprocess.Popen([sys.executable, "-m", "dask", "scheduler", "--host", "127.0.0.1",
+                               "--port", "0", "--no-dashboard", "--scheduler-file", str(sfile)],
+                              **quiet)]
+    try:
+        deadline = time.monotonic() + 120
+        while not sfile.exists() and time.monotonic() < deadline:    # readiness, not a race
+            time.sleep(0.2)
+        address = json.loads(sfile.read_text())["address"]
+        for _ in range(workers):
+            procs.append(subprocess.Popen(
+                [sys.executable, "-m", "dask", "worker", "--scheduler-file", str(sfile),
+                 "--nworkers", "1", "--nthreads", "1", "--no-dashboard"], **quiet))
+        yield address
+    finally:
+        for p in procs[::-1]:
+            p.terminate()
+        for p in procs:
+            try:
+                p.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                p.kill()

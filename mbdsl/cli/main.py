@@ -181,6 +181,33 @@ def build_parser() -> argparse.ArgumentParser:
     st.add_argument("--set", action="append", metavar="NAME=VALUE",
                     help="override a model parameter (repeatable)")
     st.add_argument("-q", "--quiet", action="store_true", help="print no tables, no progress")
+
+    sw = sub.add_parser("sweep", help="run a model over a grid or random samples of its "
+                        "parameters, on local processes or a Dask cluster, into one table")
+    sw.add_argument("model", help="model file (.mbd)")
+    sw.add_argument("--set", action="append", metavar="NAME=VALUES", default=[],
+                    help="a swept parameter: a:b:n (n values from a to b) or v1,v2,... "
+                         "(repeatable; the grid is every combination)")
+    sw.add_argument("--samples", type=_positive_int, default=0, metavar="N",
+                    help="N random draws of the --distribution parameters (crossed with the grid)")
+    sw.add_argument("--distribution", action="append", metavar="NAME=DIST", default=[],
+                    help="normal(mu,sigma), uniform(a,b) or lognormal(mu,sigma) (repeatable)")
+    sw.add_argument("--seed", type=int, default=0, help="seed of the random draws (default 0)")
+    sw.add_argument("--method", choices=sorted(METHODS),
+                    help="integration method (default: the model's simulate block)")
+    sw.add_argument("--h", type=float, help="step size [s] (default: the model's)")
+    sw.add_argument("--t-end", type=float, help="end time [s] (default: the model's)")
+    sw.add_argument("--rtol", type=float, help="error-controlled steps, rtol = atol")
+    sw.add_argument("--columns", help="comma-separated columns whose final value, minimum and "
+                    "maximum each run gives (default: the model's outputs, else the first "
+                    "body's coordinates and the total energy)")
+    sw.add_argument("--jobs", type=_positive_int, default=None,
+                    help="worker processes (default: the number of cores)")
+    sw.add_argument("--scheduler", help="address of a Dask scheduler (tcp://host:8786) to run "
+                    "on instead of local processes (needs mbdsl[cluster])")
+    sw.add_argument("-o", "--output", help="the table (.h5; default: MODEL_sweep.h5); an "
+                    "existing table of the same sweep is continued, its runs not redone")
+    sw.add_argument("-q", "--quiet", action="store_true", help="print no table, no progress")
     return p
 
 
@@ -757,12 +784,70 @@ def _study(args) -> int:
     return 0
 
 
+def _sweep(args) -> int:
+    """``mbdsl sweep``: the runs, the table, a summary of it."""
+    from ..hdf5 import read_sweep
+    from ..progress import TaskBar
+    from ..studies.sweep import parse_distribution, parse_values, run_sweep, sweep_points
+    try:
+        grid, dists = {}, {}
+        for text in args.set:
+            name, eq, values = text.partition("=")
+            if not eq or not name.strip():
+                raise ValueError(f"--set expects NAME=VALUES, got {text!r}")
+            grid[name.strip()] = parse_values(values)
+        for text in args.distribution:
+            name, eq, dist = text.partition("=")
+            if not eq or not name.strip():
+                raise ValueError(f"--distribution expects NAME=DIST, got {text!r}")
+            dists[name.strip()] = parse_distribution(dist)
+        points = sweep_points(grid, args.samples, dists, args.seed)
+    except ValueError as exc:
+        print(f"mbdsl sweep: error: {exc}", file=sys.stderr)
+        return 2
+    stem = Path(args.model).with_suffix("")
+    out = Path(args.output) if args.output else stem.parent / f"{stem.name}_sweep.h5"
+    columns = [c.strip() for c in args.columns.split(",") if c.strip()] if args.columns else None
+    asked = {"set": args.set, "samples": args.samples, "distribution": args.distribution,
+             "seed": args.seed, "method": args.method, "h": args.h, "t_end": args.t_end,
+             "rtol": args.rtol}
+    try:
+        with TaskBar("runs", enabled=False if args.quiet else None) as bar:
+            result = run_sweep(args.model, points, out, method=args.method, h=args.h,
+                               t_end=args.t_end, tol=args.rtol, columns=columns,
+                               jobs=args.jobs, scheduler=args.scheduler, progress=bar,
+                               sweep=asked)
+    except MbdError as exc:
+        _print_diagnostics(exc.diagnostics)
+        return 1
+    except KeyError as exc:
+        print(f"mbdsl sweep: error: {exc.args[0]}", file=sys.stderr)
+        return 1
+    except (ValueError, ImportError, OSError) as exc:
+        print(f"mbdsl sweep: error: {exc}", file=sys.stderr)
+        return 1
+    if not args.quiet:
+        table = read_sweep(out)
+        names = list(grid) + list(dists)
+        shown = names + ["status"] + [c for c in table if c.endswith(".final")][:3]
+        print("  ".join(f"{c:>14}" for c in shown))
+        for i in range(min(len(table["status"]), 20)):
+            print("  ".join(f"{table[c][i]:>14.6g}" if c != "status" else
+                            f"{table[c][i] + (' ' + table['code'][i] if table['code'][i] else ''):>14}"
+                            for c in shown))
+        if len(table["status"]) > 20:
+            print(f"{'...':>14}")
+        print(f"{result.points} points: {result.run} run now, {result.skipped} already in the "
+              f"table, {result.failed} failed; wrote {out}")
+    return 0
+
+
 def main(argv=None) -> int:
     """Entry point of the ``mbdsl`` console script; returns the exit status."""
     args = build_parser().parse_args(argv)
     try:
         commands = {"check": _check, "simulate": _simulate, "plot": _plot, "animate": _animate,
-                    "view": _view,
+                    "view": _view, "sweep": _sweep,
                     "study": _study, "static": _static, "modes": _modes}
         return commands[args.command](args)
     except BrokenPipeError:           # the reader went away (| head): stop quietly

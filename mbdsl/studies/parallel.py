@@ -23,7 +23,7 @@ from collections.abc import Callable, Sequence
 
 from .runs import ModelSource, RunData, RunSpec, execute_run, time_run
 
-__all__ = ["run_specs", "default_jobs"]
+__all__ = ["run_specs", "run_tasks", "default_jobs"]
 
 
 def default_jobs() -> int:
@@ -71,18 +71,61 @@ def run_specs(source: ModelSource, specs: Sequence[RunSpec], jobs: int | None = 
     specs = list(specs)
     on_done = on_done or (lambda data: None)
     if scheduler:
-        return _run_dask(source, specs, scheduler, on_done)
-    jobs = default_jobs() if jobs is None else max(1, int(jobs))
+        return run_tasks(execute_run, [(source, spec) for spec in specs],
+                         scheduler=scheduler, on_done=on_done)
     results: list = [None] * len(specs)
     timed = [i for i, spec in enumerate(specs) if spec.repeat]
     untimed = [i for i, spec in enumerate(specs) if not spec.repeat]
-    if jobs > 1 and len(untimed) > 1:
-        _pool(source, specs, untimed, jobs, results, on_done)
-    else:
-        for i in untimed:
-            results[i] = execute_run(source, specs[i])
-            on_done(results[i])
+    # longest runs first: a pool's tail is then short runs, not one long one
+    untimed.sort(key=lambda i: -specs[i].t_end / specs[i].h)
+    for i, data in zip(untimed, run_tasks(execute_run, [(source, specs[i]) for i in untimed],
+                                          jobs=jobs, on_done=on_done)):
+        results[i] = data
     _timed(source, specs, timed, results, on_done)
+    return results
+
+
+def run_tasks(fn: Callable, tasks: Sequence[tuple], jobs: int | None = None,
+              scheduler: str | None = None, on_done: Callable | None = None) -> list:
+    """fn(*task) for every task, independent of each other; results in the
+    order of ``tasks``.
+
+    Parameters
+    ----------
+    fn : callable
+        A module-level function (workers import it by name).
+    tasks : sequence of tuple
+        Its arguments per task (picklable: sent to other processes).
+    jobs : int, optional
+        Local worker processes (``spawn``); 1 runs the tasks in this process;
+        default: the number of cores. Ignored with ``scheduler``.
+    scheduler : str, optional
+        A Dask scheduler's address (``tcp://host:8786``); the tasks go to its
+        workers, which need mbdsl installed.
+    on_done : callable, optional
+        Called with each result as it arrives, in this process.
+
+    Raises
+    ------
+    ImportError
+        ``scheduler`` given without dask.distributed installed (the message
+        names the extra to install).
+    OSError
+        The scheduler cannot be reached.
+    """
+    tasks = list(tasks)
+    on_done = on_done or (lambda result: None)
+    results: list = [None] * len(tasks)
+    if scheduler:
+        _run_dask(fn, tasks, scheduler, results, on_done)
+        return results
+    jobs = default_jobs() if jobs is None else max(1, int(jobs))
+    if jobs > 1 and len(tasks) > 1:
+        _pool(fn, tasks, jobs, results, on_done)
+    else:
+        for i, task in enumerate(tasks):
+            results[i] = fn(*task)
+            on_done(results[i])
     return results
 
 
@@ -111,15 +154,13 @@ def _timed(source, specs, which, results, on_done):
         results[i].wall_times = times[i]
 
 
-def _pool(source, specs, which, jobs, results, on_done):
-    """The specs of indices ``which`` in a local process pool of ``jobs``
-    workers, their RunData into ``results``."""
+def _pool(fn, tasks, jobs, results, on_done):
+    """The tasks in a local process pool of ``jobs`` workers, submitted in
+    order, their results into ``results``."""
     from concurrent.futures import ProcessPoolExecutor, as_completed
     ctx = multiprocessing.get_context("spawn")
-    # longest runs first: the pool's tail is then short runs, not one long one
-    order = sorted(which, key=lambda i: -specs[i].t_end / specs[i].h)
-    with ProcessPoolExecutor(max_workers=min(jobs, len(which)), mp_context=ctx) as pool:
-        futures = {pool.submit(execute_run, source, specs[i]): i for i in order}
+    with ProcessPoolExecutor(max_workers=min(jobs, len(tasks)), mp_context=ctx) as pool:
+        futures = {pool.submit(fn, *task): i for i, task in enumerate(tasks)}
         try:
             for fut in as_completed(futures):
                 results[futures[fut]] = fut.result()
@@ -130,17 +171,20 @@ def _pool(source, specs, which, jobs, results, on_done):
             raise
 
 
-def _run_dask(source, specs, scheduler, on_done):
-    """The runs on a Dask cluster (``dask.distributed``)."""
+def _run_dask(fn, tasks, scheduler, results, on_done):
+    """The tasks on a Dask cluster (``dask.distributed``), their results into
+    ``results``."""
     try:
         from dask.distributed import Client, as_completed
     except ImportError as exc:
         raise ImportError("--scheduler needs dask.distributed: pip install 'mbdsl[cluster]'") from exc
-    results: list = [None] * len(specs)
     with Client(scheduler, timeout=30) as client:
-        futures = [client.submit(execute_run, source, spec, pure=False) for spec in specs]
+        futures = [client.submit(fn, *task, pure=False) for task in tasks]
         index = {fut.key: i for i, fut in enumerate(futures)}
-        for fut in as_completed(futures):
-            results[index[fut.key]] = fut.result()
-            on_done(results[index[fut.key]])
-    return results
+        try:
+            for fut in as_completed(futures):
+                results[index[fut.key]] = fut.result()
+                on_done(results[index[fut.key]])
+        except BaseException:
+            client.cancel(futures)
+            raise

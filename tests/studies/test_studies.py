@@ -215,25 +215,9 @@ def test_a_study_on_a_cluster_of_separate_processes(tmp_path):
     # a real cluster: `dask scheduler` and two `dask worker` processes (as on
     # machines of their own), the study run through the command line with
     # --scheduler; the same errors as --jobs 1. The processes are stopped at the end.
-    import json
-    import subprocess
-    import sys
-    import time
+    from ..conftest import dask_processes
     distributed = pytest.importorskip("distributed")
-    sfile = tmp_path / "scheduler.json"
-    quiet = {"stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL}
-    procs = [subprocess.Popen([sys.executable, "-m", "dask", "scheduler", "--host", "127.0.0.1",
-                               "--port", "0", "--no-dashboard", "--scheduler-file", str(sfile)],
-                              **quiet)]
-    try:
-        deadline = time.monotonic() + 120
-        while not sfile.exists() and time.monotonic() < deadline:    # readiness, not a race
-            time.sleep(0.2)
-        address = json.loads(sfile.read_text())["address"]
-        for _ in range(2):
-            procs.append(subprocess.Popen(
-                [sys.executable, "-m", "dask", "worker", "--scheduler-file", str(sfile),
-                 "--nworkers", "1", "--nthreads", "1", "--no-dashboard"], **quiet))
+    with dask_processes(tmp_path) as address:
         args = ["study", "convergence", str(PENDULUM), "--methods", "hht-i3,hht-si2",
                 "--h", f"{HS[0]},{HS[1]}", "--t-end", str(T)]
         with distributed.Client(address, timeout=120) as client:
@@ -245,14 +229,6 @@ def test_a_study_on_a_cluster_of_separate_processes(tmp_path):
         cluster = (tmp_path / "cluster" / "convergence.csv").read_text()
         local = (tmp_path / "local" / "convergence.csv").read_text()
         assert cluster == local and "hht-si2" in cluster
-    finally:
-        for p in procs[::-1]:
-            p.terminate()
-        for p in procs:
-            try:
-                p.wait(timeout=30)
-            except subprocess.TimeoutExpired:
-                p.kill()
 
 
 def test_h_range():
