@@ -852,6 +852,8 @@ def _recommend(o, runs, ref, model, source=None, system=None, **_):
         for opt in options:
             if len(chosen) == 2:
                 break
+            if any(opt[1] == c[1] for c in chosen):
+                continue                      # the runner-up is another method
             if opt[4].startswith("measured") or source is None:
                 chosen.append(opt)
                 continue
