@@ -302,6 +302,7 @@ def output_columns(system, t, q, v, a, derived, lam=None, contact_log=None) -> d
     """
     from .assembly.groups import drot, rot
     from .dsl.expressions import evaluate_rows
+    from .model.elements import SENSOR_UNITS
     lay, N, cmap = system.layout, len(t), system.cmap
     qx = np.concatenate([q, np.zeros((N, 3))], axis=1)      # ground (and particles' phi): 0
     vx = np.concatenate([v, np.zeros((N, 3))], axis=1)
@@ -311,25 +312,22 @@ def output_columns(system, t, q, v, a, derived, lam=None, contact_log=None) -> d
         index.update({name: (a, i) for i, name in enumerate(lay.accelerations)})
     if lam is not None:
         index.update({name: (lam, i) for i, name in enumerate(lay.multiplier_names())})
-    sensors = None               # (contacts (N, k, 5), frictions (N, kf, 3)), when read
+    sensors = None               # system.sensor_values, when read
     out = {}
     for o in system.model.outputs:
         env = {}
         for var in o.variables:
-            if var.kind in ("gap", "friction"):
+            if var.kind in SENSOR_UNITS:
                 if sensors is None:
                     group = getattr(system, "contact_group", None)
                     log = (contact_log if contact_log is not None
                            else group.log if group is not None else ())
                     sensors = system.sensor_values(
                         t, q, v, np.zeros((N, system.m)) if lam is None else lam, log)
-                if var.kind == "gap":
-                    k = ("gap", "gap_rate", "normal", "friction", "power").index(var.field)
-                    env[var.name] = sensors[0][:, var.index, k]
-                else:
-                    k = ("speed", "friction", "power").index(var.field)
-                    env[var.name] = (sensors[1][:, var.index, k] if lam is not None or k == 0
-                                     else np.full(N, np.nan))
+                k = list(SENSOR_UNITS[var.kind]).index(var.field)
+                reads_lam = var.kind == "friction" and k > 0     # a friction load: lambda
+                env[var.name] = (sensors[var.kind][:, var.index, k]
+                                 if lam is not None or not reads_lam else np.full(N, np.nan))
             elif var.kind == "beam_point":
                 env[var.name] = _beam_point(system, var, qx, vx)
             elif var.kind == "column":

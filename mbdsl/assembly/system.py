@@ -542,7 +542,7 @@ class AssembledSystem:
         return out[0, :k], out[0, k:].reshape(k, 6)
 
     def sensor_values(self, t, q, v, lam, contact_log=()):
-        """What the contacts and the friction joints do at rows of a run.
+        """What the force elements do at rows of a run.
 
         Parameters
         ----------
@@ -555,31 +555,41 @@ class AssembledSystem:
 
         Returns
         -------
-        contacts : ndarray, shape (N, k, 5)
-            Per gap (``contact_group.names``): g [m or rad], dg/dt, the
-            normal force f [N or N m], the friction force along the tangent
-            t = (n_y, -n_x) of the contact normal n (a contact on a line:
-            the line's direction) [N], and the power the contact dissipates
-            [W] (``compiled.elements``, L_SENSORS: the laws the run's forces
-            use; its F_t is along -t).
-        frictions : ndarray, shape (N, kf, 3)
-            Per friction joint (``model.forces`` order): its speed z [rad/s
-            or m/s], its friction load tau [N m or N] and the power it
-            dissipates -tau z [W].
+        dict of str -> ndarray
+            ``"gap"`` (N, k, 6), per gap (``contact_group.names``): g [m or
+            rad], dg/dt, the normal force f [N or N m], the friction force
+            along the tangent t = (n_y, -n_x) of the contact normal n (a
+            contact on a line: the line's direction) [N], the power the
+            contact dissipates [W] and its elastic energy [J];
+            ``"friction"`` (N, kf, 3), per friction joint (``model.forces``
+            order): its speed z [rad/s or m/s], its friction load tau [N m or
+            N] and the power it dissipates -tau z [W]; ``"spring"`` (N, ks,
+            5), per spring-damper: length [m], its rate, tension [N], energy
+            [J], power dissipated [W]; ``"rotational"`` (N, kr, 5), per
+            rotational spring-damper the same of its angle [rad, rad/s, N m,
+            J, W]. From ``compiled.elements``, L_SENSORS: the laws the run's
+            forces use (its F_t is along -t).
         """
+        from ..model.elements import RotationalSpringDamper, SpringDamper
         g = self.contact_group
-        k = len(g.names) if g is not None else 0
-        kf = sum(isinstance(f, Friction) for f in self.model.forces)
+        forces = self.model.forces
+        sizes = {"gap": (len(g.names) if g is not None else 0, 6),
+                 "friction": (sum(isinstance(f, Friction) for f in forces), 3),
+                 "spring": (sum(isinstance(f, SpringDamper) for f in forces), 5),
+                 "rotational": (sum(isinstance(f, RotationalSpringDamper) for f in forces), 5)}
         rows, _ = self._ext_rows(q)
         N = len(rows)
-        out = np.zeros((N, 5 * k + 3 * kf))
-        if N and (k or kf):
+        out = np.zeros((N, sum(k * w for k, w in sizes.values())))
+        if N and out.shape[1]:
             speeds = g.speeds_at(t, contact_log) if g is not None else None
             self._elements(_L_SENSORS, rows, t, self._ext_rows(v)[0],
                            np.reshape(lam, (N, self.m)), out, speeds=speeds)
-        contacts = out[:, :5 * k].reshape(N, k, 5)
-        contacts[:, :, 3] *= -1.0              # along t, not along the kernel's slip direction
-        return contacts, out[:, 5 * k:].reshape(N, kf, 3)
+        found, col = {}, 0
+        for name, (k, w) in sizes.items():
+            found[name] = out[:, col:col + k * w].reshape(N, k, w)
+            col += k * w
+        found["gap"][:, :, 3] *= -1.0     # along t, not along the kernel's slip direction
+        return found
 
     def friction_speeds(self, q, v, a=None):
         """Per friction joint its speed z (omega_2 - omega_1 or ds/dt), or

@@ -1456,18 +1456,16 @@ class _Checker:
                    _did_you_mean(str(obj), list(self.bodies) + list(self.joints)
                                  + list(self.OUTPUT_GROUPS)))
 
-    #: What an output reads of a contact or limit gap (``floor.gap``), and its unit
-    #: for a gap between points (an angle limit's: rad, rad/s, N*m, -, W).
-    GAP_SENSORS = {"gap": "m", "gap_rate": "m/s", "normal": "N", "friction": "N",
-                   "power": "W"}
-    #: ... and of a friction element (``f.friction``), its sliding joint's units.
-    FRICTION_SENSORS = {"speed": "m/s", "friction": "N", "power": "W"}
+    #: An angle limit's gap sensors, in its units (a gap between points: SENSOR_UNITS).
+    ANGLE_GAP_UNITS = {"gap": "rad", "gap_rate": "rad/s", "normal": "N*m", "friction": "",
+                       "power": "W", "energy": "J"}
 
     def _sensor_elements(self) -> dict:
-        """Contacts, limits and friction elements by name (what sensors read)."""
+        """Contacts, limits, friction elements and spring-dampers by name (what
+        sensors read)."""
         from ..model.contact import Contact
         return {f.name: f for f in getattr(self, "forces", ())
-                if isinstance(f, (Contact, Friction))}
+                if isinstance(f, (Contact, Friction, SpringDamper, RotationalSpringDamper))}
 
     def _multiplier_variable(self, ref, mid, attr, fail) -> OutputVariable:
         """``lambda.<joint or driver>.<row>``: a Lagrange multiplier by name."""
@@ -1485,19 +1483,24 @@ class _Checker:
         return OutputVariable(ref.text, "column", column=column)
 
     def _sensor_variable(self, ref, element, label, attr, fail) -> OutputVariable:
-        """What a contact, limit (``floor.normal``, ``stop.upper.gap``) or
-        friction element (``f.friction``) does at the stored rows."""
+        """What a contact, limit (``floor.normal``, ``stop.upper.gap``),
+        friction element (``f.friction``) or spring-damper (``spring.tension``)
+        does at the stored rows."""
         from ..model.contact import Contact
-        if isinstance(element, Friction):
-            if label is not None or attr not in self.FRICTION_SENSORS:
-                raise fail("a friction element's fields are speed, friction and power",
-                           hint=_did_you_mean(str(attr), self.FRICTION_SENSORS))
-            index = [f.name for f in self.forces if isinstance(f, Friction)].index(element.name)
-            turning = element.joint.kind == "revolute"
-            self.output_units[ref.text] = {"speed": "rad/s" if turning else "m/s",
-                                           "friction": "N*m" if turning else "N",
-                                           "power": "W"}[attr]
-            return OutputVariable(ref.text, "friction", field=attr, index=index)
+        from ..model.elements import SENSOR_UNITS
+        kind = {Friction: "friction", SpringDamper: "spring",
+                RotationalSpringDamper: "rotational"}.get(type(element))
+        if kind is not None:
+            fields = SENSOR_UNITS[kind]
+            if label is not None or attr not in fields:
+                raise fail(f"a {kind} element's fields are {', '.join(fields)}",
+                           hint=_did_you_mean(str(attr), fields))
+            index = [f.name for f in self.forces if type(f) is type(element)].index(element.name)
+            unit = fields[attr]
+            if kind == "friction" and element.joint.kind == "revolute":
+                unit = {"speed": "rad/s", "friction": "N*m", "power": "W"}[attr]
+            self.output_units[ref.text] = unit
+            return OutputVariable(ref.text, kind, field=attr, index=index)
         labels = [g[2] for g in element.gaps]
         if label is None and len(labels) > 1:
             raise fail(f"'{element.name}' has gaps {', '.join(labels)}: name one",
@@ -1505,16 +1508,15 @@ class _Checker:
         if label is not None and label not in labels:
             raise fail(f"'{element.name}' has no gap '{label}'", "E201",
                        _did_you_mean(str(label), labels))
-        if attr not in self.GAP_SENSORS:
-            raise fail("a gap's fields are " + ", ".join(self.GAP_SENSORS),
-                       hint=_did_you_mean(str(attr), self.GAP_SENSORS))
+        if attr not in SENSOR_UNITS["gap"]:
+            raise fail("a gap's fields are " + ", ".join(SENSOR_UNITS["gap"]),
+                       hint=_did_you_mean(str(attr), SENSOR_UNITS["gap"]))
         k = labels.index(label) if label is not None else 0
         index = sum(len(f.gaps) for f in self.forces[:self.forces.index(element)]
                     if isinstance(f, Contact)) + k
         angle = element.gaps[k][0] == "angle"
-        self.output_units[ref.text] = ({"gap": "rad", "gap_rate": "rad/s", "normal": "N*m",
-                                        "friction": "", "power": "W"}[attr] if angle
-                                       else self.GAP_SENSORS[attr])
+        self.output_units[ref.text] = (self.ANGLE_GAP_UNITS if angle
+                                       else SENSOR_UNITS["gap"])[attr]
         return OutputVariable(ref.text, "gap", field=attr, index=index)
 
     def check_outputs(self):
@@ -1552,8 +1554,11 @@ class _Checker:
                 self.error("E307", f"output '{o.name}': {err}", err.span or o.span,
                            "dimensions differ")
                 continue
-            self.outputs.append(Output(o.name, e, tuple(found.values()), o.span,
-                                       units.unit_text(dim)))
+            unit = units.unit_text(dim)
+            named = self.output_units.get(getattr(value, "text", None))
+            if named and isinstance(value, Dotted):      # a sensor alone: its own unit (J, not N*m)
+                unit = named
+            self.outputs.append(Output(o.name, e, tuple(found.values()), o.span, unit))
 
     def _reference_dimension(self, ref):
         """The dimension of an output's reference: by its element where that

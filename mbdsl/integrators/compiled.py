@@ -2175,6 +2175,35 @@ def _emit_force(I, Fl, t, n, qx, vx, lam, R, C, V, p, r0, c0, cq, cv):
 #: rates into out (see ``elements``). Numbered after the C_*.
 (L_Q, L_QQ, L_QV, L_QLAM, L_ENERGY, L_POWER, L_GAPS, L_SPRINGS, L_SLIP,
  L_SENSORS) = range(8, 18)
+#: Values per gap, per friction joint and per (rotational) spring-damper of L_SENSORS.
+SENSOR_GAP, SENSOR_FRICTION, SENSOR_SPRING = 6, 3, 5
+
+
+@_jit
+def _spring_energy(I, Fl, qx, i):
+    """(length l [m], k (l - l0)^2 / 2 [J]) of spring-damper i at qx."""
+    dx, dy, ax1, ay1, ax2, ay2 = _spring_points(I, Fl, qx, i)
+    l = math.sqrt(dx * dx + dy * dy)
+    s = l - _f(I, Fl, SPAR, i, 2)
+    return l, 0.5 * _f(I, Fl, SPAR, i, 0) * s * s
+
+
+@_jit
+def _rotational_energy(I, Fl, qx, i):
+    """(relative angle theta_2 - theta_1 [rad], k (theta - theta0)^2 / 2 [J])
+    of rotational spring-damper i at qx."""
+    a = qx[_i(I, RCOL, i, 1)] - qx[_i(I, RCOL, i, 0)]
+    th = a - _f(I, Fl, RPAR, i, 2)
+    return a, 0.5 * _f(I, Fl, RPAR, i, 0) * th * th
+
+
+@_jit
+def _contact_energy(I, Fl, i, g):
+    """K delta^(n+1) / (n+1) [J] of gap i at gap g (delta = -g; 0 when open)."""
+    if g >= 0.0:
+        return 0.0
+    ex = _f(I, Fl, KPAR, i, 10)
+    return _f(I, Fl, KPAR, i, 9) * (-g) ** (ex + 1.0) / (ex + 1.0)
 
 
 @_jit
@@ -2185,19 +2214,13 @@ def _potential(I, Fl, qx):
     -Q0 . q, the caller's."""
     e = 0.0
     for i in range(_rows(I, SCOL1)):
-        dx, dy, ax1, ay1, ax2, ay2 = _spring_points(I, Fl, qx, i)
-        s = math.sqrt(dx * dx + dy * dy) - _f(I, Fl, SPAR, i, 2)
-        e += 0.5 * _f(I, Fl, SPAR, i, 0) * s * s
+        e += _spring_energy(I, Fl, qx, i)[1]
     for i in range(_rows(I, RCOL)):
-        th = qx[_i(I, RCOL, i, 1)] - qx[_i(I, RCOL, i, 0)] - _f(I, Fl, RPAR, i, 2)
-        e += 0.5 * _f(I, Fl, RPAR, i, 0) * th * th
+        e += _rotational_energy(I, Fl, qx, i)[1]
     if _rows(I, KGI) > 0:
         grad, H = np.empty(6), np.empty((6, 6))
         for i in range(_rows(I, KGI)):
-            g = _gap(I, Fl, qx, i, grad, H)
-            if g < 0.0:
-                ex = _f(I, Fl, KPAR, i, 10)
-                e += _f(I, Fl, KPAR, i, 9) * (-g) ** (ex + 1.0) / (ex + 1.0)
+            e += _contact_energy(I, Fl, i, _gap(I, Fl, qx, i, grad, H))
     for b in range(_rows(I, BEAM)):
         e += _ffr_energy(I, Fl, b, qx, _YES)
     return e
@@ -2272,14 +2295,18 @@ def elements(I, Fl, what, t, qx, vx, y, slip, speeds, out, R, C, V):
     * L_SPRINGS: d = p2 - p1 of spring-damper i into out[:, 2 i: 2 i + 2];
     * L_SLIP: the friction joints' speeds z into out[:, :k] and their rates
       dz/dt = w . a + v^T (d^2 s) v, a = y, into out[:, k:];
-    * L_SENSORS: what the contacts and the friction joints do, y = lambda:
-      per gap i at the impact speeds ``speeds`` (N, k), out[:, 5 i: 5 i +
-      5] = (g, dg/dt, normal force f, friction force F_t, power dissipated
-      (f - K delta^n) ddelta/dt - F_t v_t) (``_contact_law``,
-      ``_contact_friction``); then per friction joint j, out[:, 5 k + 3 j:
-      5 k + 3 j + 3] = (joint speed z, friction load tau, power dissipated
-      -tau z) (``_friction_law``). The same laws as the run's forces and
-      ``_power``, for the sensors of ``output`` lines.
+    * L_SENSORS: what the force elements do, y = lambda, for the sensors
+      of ``output`` lines, by the laws of the run's forces, ``_potential``
+      and ``_power``: per gap i at the impact speeds ``speeds`` (N, k),
+      SENSOR_GAP values (g, dg/dt, normal force f, friction force F_t,
+      power dissipated (f - K delta^n) ddelta/dt - F_t v_t, elastic energy)
+      (``_contact_law``, ``_contact_friction``, ``_contact_energy``); then
+      per friction joint SENSOR_FRICTION values (joint speed z, friction
+      load tau, power dissipated -tau z) (``_friction_law``); then per
+      spring-damper SENSOR_SPRING values (length l, dl/dt, tension k (l -
+      l0) + c dl/dt, energy, power dissipated c (dl/dt)^2); then per
+      rotational spring-damper the same of its angle (theta, dtheta/dt,
+      torque, energy, power).
 
     The contacts' impact speeds of L_Q, L_QQ and L_QV are the model's state
     (KIMP). One entry point, so that a process loads one library for all of
@@ -2318,6 +2345,7 @@ def elements(I, Fl, what, t, qx, vx, y, slip, speeds, out, R, C, V):
         elif what == L_SENSORS:
             k = _rows(I, KGI)
             w, dw = np.empty(6), np.empty((6, 6))
+            o = 0                    # the next value's column
             for i in range(k):
                 g, delta, ddelta, f, elastic, speed, armed = _contact_law(
                     I, Fl, qx[r], vx[r], i, speeds[r, i], grad, H)
@@ -2331,13 +2359,33 @@ def elements(I, Fl, what, t, qx, vx, y, slip, speeds, out, R, C, V):
                     if _f(I, Fl, KPAR, i, 12) > 0.0 and f > 0.0:
                         ft, vt, T = _contact_friction(I, Fl, qx[r], vx[r], i, f, w, dw)
                         dissipated -= ft * vt
-                out[r, 5 * i], out[r, 5 * i + 1], out[r, 5 * i + 2] = g, -ddelta, f
-                out[r, 5 * i + 3], out[r, 5 * i + 4] = ft, dissipated
+                out[r, o], out[r, o + 1], out[r, o + 2] = g, -ddelta, f
+                out[r, o + 3], out[r, o + 4] = ft, dissipated
+                out[r, o + 5] = _contact_energy(I, Fl, i, g)
+                o += SENSOR_GAP
             for i in range(_rows(I, FRI)):
                 z, g = _friction_kin(I, Fl, i, qx[r], vx[r], grad, H)
                 tau, dz, dN, Rn = _friction_law(I, Fl, i, z, y[r], Fl[:0])
-                out[r, 5 * k + 3 * i], out[r, 5 * k + 3 * i + 1] = z, tau
-                out[r, 5 * k + 3 * i + 2] = -tau * z
+                out[r, o], out[r, o + 1], out[r, o + 2] = z, tau, -tau * z
+                o += SENSOR_FRICTION
+            for i in range(_rows(I, SCOL1)):
+                l, e = _spring_energy(I, Fl, qx[r], i)
+                dx, dy, ax1, ay1, ax2, ay2 = _spring_points(I, Fl, qx[r], i)
+                ex, ey = _direction(dx, dy, l)
+                ld = _spring_rate(I, Fl, qx[r], vx[r], i, ex, ey, ax1, ay1, ax2, ay2)
+                c = _f(I, Fl, SPAR, i, 1)
+                out[r, o], out[r, o + 1] = l, ld
+                out[r, o + 2] = _f(I, Fl, SPAR, i, 0) * (l - _f(I, Fl, SPAR, i, 2)) + c * ld
+                out[r, o + 3], out[r, o + 4] = e, c * ld * ld
+                o += SENSOR_SPRING
+            for i in range(_rows(I, RCOL)):
+                a, e = _rotational_energy(I, Fl, qx[r], i)
+                wr = vx[r, _i(I, RCOL, i, 1)] - vx[r, _i(I, RCOL, i, 0)]
+                c = _f(I, Fl, RPAR, i, 1)
+                out[r, o], out[r, o + 1] = a, wr
+                out[r, o + 2] = _f(I, Fl, RPAR, i, 0) * (a - _f(I, Fl, RPAR, i, 2)) + c * wr
+                out[r, o + 3], out[r, o + 4] = e, c * wr * wr
+                o += SENSOR_SPRING
         else:
             k = _rows(I, FRI)
             for i in range(k):

@@ -44,7 +44,7 @@ __all__ = [
     "RotationalSpringDamper", "Torque", "JointTorque", "JointForce", "Friction", "PointForce",
     "InitialCondition", "line_distance", "line_columns", "CoordinateMap",
     "TimeFunction", "StateVariable", "StateFunction", "Output", "OutputVariable",
-    "multiplier_unit", "Model", "COORDINATES", "VELOCITIES", "ACCELERATIONS",
+    "multiplier_unit", "SENSOR_UNITS", "Model", "COORDINATES", "VELOCITIES", "ACCELERATIONS",
 ]
 
 #: Names of a body's position coordinates, and of their rates, by index.
@@ -237,7 +237,7 @@ class OutputVariable:
     ----------
     name : str
         As written, e.g. ``"arm.T.y"``.
-    kind : {"column", "point", "joint", "beam_point", "gap", "friction"}
+    kind : {"column", "point", "joint", "beam_point", "gap", "friction", "spring", "rotational"}
         "column": a result column by name (``column``); "point": ``field``
         (x, y, vx, vy) of a rigid body's point ``point``; "joint": a revolute
         joint's relative angle (``field`` "angle") or rate ("rate") of the
@@ -246,9 +246,9 @@ class OutputVariable:
         "beam_point": ``field`` (x, y, vx, vy, deflection) of the material
         point at ``arc`` [m] of the flexible beam ``bodies[0]``; "gap":
         ``field`` (gap, gap_rate, normal, friction, power) of contact gap
-        ``index`` (``ContactGroup`` order); "friction": ``field`` (speed,
-        friction, power) of friction element ``index`` (among the model's
-        friction forces).
+        ``index`` (``ContactGroup`` order); "friction", "spring",
+        "rotational": ``field`` (:data:`SENSOR_UNITS`) of the element
+        ``index`` among the model's forces of its kind.
     """
 
     name: str
@@ -260,6 +260,21 @@ class OutputVariable:
     line: tuple | None = None
     arc: float = 0.0
     index: int = 0
+
+
+#: What an ``output`` line reads of a force element (``OutputVariable.kind``
+#: "gap", "friction", "spring", "rotational"): field -> SI unit, in the order of
+#: ``AssembledSystem.sensor_values`` (a contact's gap; a friction element on a
+#: sliding joint; a spring-damper; a rotational one). An angle limit's gap is
+#: in rad, rad/s, N m.
+SENSOR_UNITS = {
+    "gap": {"gap": "m", "gap_rate": "m/s", "normal": "N", "friction": "N", "power": "W",
+            "energy": "J"},
+    "friction": {"speed": "m/s", "friction": "N", "power": "W"},
+    "spring": {"length": "m", "rate": "m/s", "tension": "N", "energy": "J", "power": "W"},
+    "rotational": {"angle": "rad", "rate": "rad/s", "torque": "N*m", "energy": "J",
+                   "power": "W"},
+}
 
 
 def multiplier_unit(element, row: int) -> str:

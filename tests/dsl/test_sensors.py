@@ -158,7 +158,8 @@ def test_a_beam_points_sensors():
     ("output a = lambda.O.5", "'O' has multiplier rows 0 .. 1"),
     ("output a = lambda.Q.0", "a multiplier is lambda.<joint or driver>.<row>"),
     ("output a = stop.gap", "'stop' has gaps lower, upper: name one"),
-    ("output a = stop.upper.bogus", "a gap's fields are gap, gap_rate, normal, friction, power"),
+    ("output a = stop.upper.bogus",
+     "a gap's fields are gap, gap_rate, normal, friction, power, energy"),
     ("output a = stop.middle.gap", "'stop' has no gap 'middle'"),
 ])
 def test_sensor_references_that_do_not_exist(line, text):
@@ -171,3 +172,56 @@ force stop: limit(O, lower = -1, upper = 1, k = 1e5, restitution = 0.5)
     with pytest.raises(MbdModelError) as exc:
         mbdsl.load_text(source)
     assert text in " ".join(d.message for d in exc.value.diagnostics)
+
+
+def test_a_spring_dampers_sensors():
+    """The slider crank's spring (ground.origin to rod.B, k = 100, c = 5, free
+    length 0): its length and rate from rod.B's position and velocity
+    (the rod's frame: B at (0.3, 0)), tension k l + c dl/dt, energy k l^2 /
+    2 (also energy.potential less the bodies' gravity), power c (dl/dt)^2;
+    to 1e-12 relative."""
+    text = (MODELS / "slider_crank.mbd").read_text().replace(
+        "simulate {", "output l = spring.length\noutput ld = spring.rate\n"
+        "output f = spring.tension\noutput e = spring.energy\noutput p = spring.power\n"
+        "output bx = rod.B.x\noutput by = rod.B.y\noutput bvx = rod.B.vx\n"
+        "output bvy = rod.B.vy\nsimulate {")
+    sol = mbdsl.simulate(mbdsl.load_text(text), method="hht-i3", h=1e-3, t_end=0.5)
+    c = {k: sol.column(f"output.{k}") for k in ("l", "ld", "f", "e", "p", "bx", "by", "bvx",
+                                                  "bvy")}
+    length = np.hypot(c["bx"], c["by"])
+    rate = (c["bx"] * c["bvx"] + c["by"] * c["bvy"]) / length
+    assert np.max(np.abs(c["l"] - length)) < 1e-12 * np.max(length)
+    assert np.max(np.abs(c["ld"] - rate)) < 1e-12 * np.max(np.abs(rate))
+    assert np.max(np.abs(c["f"] - (100 * length + 5 * rate))) < 1e-10 * np.max(np.abs(c["f"]))
+    assert np.max(np.abs(c["e"] - 50 * length ** 2)) < 1e-12 * np.max(c["e"])
+    assert np.max(np.abs(c["p"] - 5 * rate ** 2)) < 1e-12 * np.max(c["p"])
+    gravity = 9.81 * (3 * sol.column("crank.y") + 0.9 * sol.column("rod.y"))
+    assert np.max(np.abs(c["e"] - (sol.column("energy.potential") - gravity))) < 1e-12 * 30
+    units = sol.column_units()
+    assert (units["output.f"], units["output.e"], units["output.p"]) == ("N", "J", "W")
+
+
+def test_a_rotational_springs_sensors_and_a_contacts_energy():
+    """The stiff double pendulum's elbow (k = 1e7 N m/rad, started 1e-3 rad
+    bent): elbow.angle = link2.phi - link1.phi, elbow.torque = k angle,
+    elbow.energy = k angle^2 / 2; the bouncing ball's floor.energy = K
+    delta^2.5 / 2.5 in contact."""
+    text = (MODELS / "double_pendulum_stiff.mbd").read_text().replace(
+        "simulate {", "output a = elbow.angle\noutput w = elbow.rate\noutput tq = elbow.torque\n"
+        "output e = elbow.energy\nsimulate {")
+    model = mbdsl.load_text(text, overrides={"elbow0": "1e-3"})
+    sol = mbdsl.simulate(model, h=1e-4, t_end=0.01)
+    angle = sol.column("link2.phi") - sol.column("link1.phi")
+    rate = sol.column("link2.omega") - sol.column("link1.omega")
+    assert np.max(np.abs(sol.column("output.a") - angle)) < 1e-15
+    assert np.max(np.abs(sol.column("output.w") - rate)) < 1e-12 * np.max(np.abs(rate))
+    assert np.max(np.abs(sol.column("output.tq") - 1e7 * angle)) < 1e-9 * 1e4
+    assert np.max(np.abs(sol.column("output.e") - 5e6 * angle ** 2)) < 1e-12 * 5
+    assert sol.column_units()["output.tq"] == "N*m"
+    ball = mbdsl.load_text(BALL.format(friction="", y0=1, vx0=0).replace(
+        "output F = floor.friction", "output E = floor.energy"))
+    sol = mbdsl.simulate(ball, method="hht-i3", h=1e-3, t_end=0.6, rtol=1e-6, atol=1e-6)
+    delta = np.clip(0.05 - sol.column("ball.y"), 0, None)
+    energy = 1e7 * delta ** 2.5 / 2.5
+    assert np.max(energy) > 1.0
+    assert np.max(np.abs(sol.column("output.E") - energy)) < 1e-12 * np.max(energy)
