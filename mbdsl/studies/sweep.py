@@ -158,10 +158,10 @@ def run_point(task: SweepTask, point: dict) -> dict:
                        compile_policy="wait")
     except MbdError as exc:
         diag = exc.diagnostics[0] if exc.diagnostics else None
-        row.update(code=diag.code if diag else "E000", message=str(diag.message if diag else exc))
+        row.update(code=diag.code if diag else "", message=str(diag.message if diag else exc))
         return row
-    except ValueError as exc:
-        row.update(code="E000", message=str(exc))
+    except ValueError as exc:        # options the run refuses (no code: the message says)
+        row.update(message=str(exc))
         return row
     row["wall_time"] = time.perf_counter() - t0
     row["steps"] = sol.stats_total.steps
