@@ -90,27 +90,31 @@ def write_csv(solution, path, extra_metadata: dict | None = None) -> Path:
     Parameters
     ----------
     solution : Solution
-    path : str or Path
+    path : str or Path, or a text stream
+        A stream (``sys.stdout``: ``mbdsl simulate -o -``) is written to, not closed.
     extra_metadata : dict, optional
         More ``# key: value`` lines.
 
     Returns
     -------
-    Path
-        The file written.
+    Path or the stream
+        What was written.
 
     Raises
     ------
     OSError
         If the file cannot be written.
     """
-    path = Path(path)
     names, values = solution.table()
     buf = io.StringIO()
     for k, v in metadata(solution, extra_metadata).items():
         buf.write(f"# {k}: {v}\n")
     buf.write(",".join(names) + "\n")
     buf.write(_csv_rows(values))
+    if hasattr(path, "write"):
+        path.write(buf.getvalue())
+        return path
+    path = Path(path)
     path.write_text(buf.getvalue(), encoding="utf-8")
     return path
 

@@ -522,10 +522,16 @@ def _simulate(args) -> int:
     model = _load(args)
     if model is None:
         return 1
+    to_stdout = args.output == "-"      # the CSV on standard output, once the run ends
+    if to_stdout and (args.plot or getattr(args, "html", False)):
+        print("error: --plot and --html write files beside the output: give -o FILE, not -o -",
+              file=sys.stderr)
+        return 2
     out = Path(args.output) if args.output else Path(args.model).with_suffix(".csv")
-    stream = out.suffix.lower() not in HDF5_SUFFIXES
     try:       # written as the run goes, chunk by chunk
-        if stream:
+        if to_stdout:
+            writer = None
+        elif out.suffix.lower() not in HDF5_SUFFIXES:
             writer = CsvStream(out)
         else:
             from ..hdf5 import HdfStream
@@ -539,8 +545,13 @@ def _simulate(args) -> int:
         _write_error(out, exc)
         return 1
     if sol is None:
-        writer.close_unused()
+        if writer is not None:
+            writer.close_unused()
         return status
+    if to_stdout:
+        from ..output import write_csv
+        write_csv(sol, sys.stdout)
+        sys.stdout.flush()
     if sol.initial is not None and sol.initial.warnings:
         _print_diagnostics(sol.initial.warnings)
     _print_diagnostics(sol.warnings)
@@ -551,9 +562,11 @@ def _simulate(args) -> int:
               file=sys.stderr)
         status = 3
     if not args.quiet:
-        print(sol.initial.report())
-        print(sol.summary())
-        print(f"wrote {out} ({len(sol.t)} rows, {len(sol.columns)} columns)")
+        report = sys.stderr if to_stdout else sys.stdout     # stdout holds the table
+        print(sol.initial.report(), file=report)
+        print(sol.summary(), file=report)
+        print(f"wrote {'standard output' if to_stdout else out} ({len(sol.t)} rows, "
+              f"{len(sol.columns)} columns)", file=report)
     if args.plot:
         from ..plotting import plot_solution
         fig_path = out.with_suffix(".png")

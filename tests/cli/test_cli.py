@@ -147,3 +147,22 @@ def test_rows_at_requested_times_from_the_command_line(tmp_path, capsys):
     with pytest.raises(SystemExit) as exc:
         run(tmp_path, "--output-dt", "0.02", "--output-every", "2")
     assert exc.value.code == 2 and "not allowed with" in capsys.readouterr().err
+
+
+def test_csv_on_standard_output(tmp_path, capsys, monkeypatch):
+    """-o - writes the CSV to standard output (the report to stderr), the
+    same table as a file, and no file named '-'; --plot needs a file."""
+    monkeypatch.chdir(tmp_path)
+    status, out = run(tmp_path)
+    capsys.readouterr()
+    assert main(["simulate", str(MODELS / "slider_crank.mbd"), "--t-end", "0.1", "-o", "-"]) == 0
+    captured = capsys.readouterr()
+    assert not (tmp_path / "-").exists() and "wrote standard output" in captured.err
+    (tmp_path / "stdout.csv").write_text(captured.out)
+    _, names, values = read_csv_metadata(tmp_path / "stdout.csv")
+    _, names_file, values_file = read_csv_metadata(out)
+    assert names == names_file and values.shape == values_file.shape
+    t, phi = names.index("t"), names.index("crank.phi")
+    assert np.array_equal(values[:, [t, phi]], values_file[:, [t, phi]])
+    assert main(["simulate", str(MODELS / "slider_crank.mbd"), "-o", "-", "--plot"]) == 2
+    assert "give -o FILE" in capsys.readouterr().err
