@@ -232,9 +232,20 @@ class DenseOutput:
 
     def close(self) -> None:
         """The run ended: a row at the last accepted step if none was written
-        there (a run that stopped early), with the counts since the last row."""
-        if self.held["t"] > self.written_t:
+        there (a run that stopped early), with the counts since the last row;
+        requested times the last step ended short of by the loop's own
+        end test (1e-12 of the run's span: t_end after steps of 1e-12 s)
+        get its state."""
+        hd = self.held
+        if hd["t"] > self.written_t:
             self._write_held()
+        span = self.times[-1] - self.times[0] if len(self.times) > 1 else 0.0
+        near = 1e-12 * max(span, abs(self.times[-1]) if len(self.times) else 0.0)
+        for tau in self.times[self.next:]:
+            if tau > hd["t"] + near:
+                break
+            self._write_held(float(tau))
+            self.next += 1
 
     # -- helpers --------------------------------------------------------------------------
     def _flows(self, t, q, v, lam):

@@ -218,3 +218,53 @@ def test_the_simulate_section_and_the_csv(tmp_path):
     assert np.allclose(back.column("energy.balance"), sol.column("energy.balance"),
                        rtol=1e-9, atol=1e-12)
     assert "# rows: at requested times" in out.read_text()
+
+
+class _Rows:
+    """A stand-in for the Solution: the rows DenseOutput writes."""
+
+    def __init__(self):
+        from mbdsl.solution import RunStats
+        self.stats_total = RunStats()
+        self.t, self.q, self.v = [], [], []
+
+    def add_totals(self, counts, h):
+        self.stats_total.steps += int(counts[:, 5].sum())
+
+    def append_block(self, t, q, v, a, lam, extras, counts, h, totals=True, flows=None):
+        self.t += list(t)
+        self.q += list(q[:, 0])
+        self.v += list(v[:, 0])
+
+
+def test_the_interpolant_is_exact_on_a_cubic_and_the_last_time_is_kept():
+    """q = t^3 (v = 3 t^2) sampled at uneven steps: the rows at the requested
+    times are exact to round-off (a cubic Hermite reproduces cubics, its
+    derivative their velocity); a requested t_end the last step ends 1e-13 s
+    short of (steps of 1e-12 s) gets the last state."""
+    from types import SimpleNamespace
+    from mbdsl.integrators.dense import DenseOutput
+    system = SimpleNamespace(m=1, force_groups=[], timed_groups=())
+    start = SimpleNamespace(t=0.0, q=np.zeros(1), v=np.zeros(1), a=np.zeros(1),
+                            lam=np.zeros(1), extra={})
+    times = np.array([0.05, 0.3, 0.55, 0.8, 1.0])
+    rows = _Rows()
+    dense = DenseOutput(system, rows, times, start, None)
+    steps = np.array([0.1, 0.25, 0.6, 0.9, 1.0 - 2e-12, 1.0 - 1e-13])
+
+    def block(t):
+        k = len(t)
+        counts = np.zeros((k, 6), np.int64)
+        counts[:, 5] = 1
+        return (t, (t ** 3)[:, None], (3 * t ** 2)[:, None], (6 * t)[:, None], np.zeros((k, 1)),
+                {}, counts, np.diff(np.concatenate([[0.0], t])))
+    dense.append_block(*block(steps[:3]))
+    dense.append_block(*block(steps[3:]))
+    dense.close()
+    t = np.array(rows.t)
+    # the grid, the last step (where the run ended), then t_end with its state
+    assert np.array_equal(t, np.concatenate([times[:4], [1.0 - 1e-13, 1.0]]))
+    assert rows.q[-1] == rows.q[-2] and rows.stats_total.steps == 6
+    inner = t < 0.95
+    assert np.allclose(np.array(rows.q)[inner], t[inner] ** 3, rtol=1e-14, atol=1e-15)
+    assert np.allclose(np.array(rows.v)[inner], 3 * t[inner] ** 2, rtol=1e-13, atol=1e-15)
