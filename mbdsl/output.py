@@ -253,6 +253,7 @@ class RowStream:
                 if sol._derived is None and self._derived and None not in self._derived:
                     sol._derived = {k: np.concatenate([d[k] for d in self._derived])
                                     for k in self._derived[0]}
+                self._derived = []      # the Solution's now: not held twice
             sol.timings["output"] = self.elapsed
             self._end(sol, metadata(sol))
         return self.path

@@ -109,7 +109,8 @@ class _RowStore:
         self._states, self._stats = [], []
 
     def get(self, i0: int, i1: int) -> dict:
-        """Rows i0..i1-1 as one segment (new arrays)."""
+        """Rows i0..i1-1 as one segment: views of the stored arrays when one
+        segment holds them all, else new arrays (read-only use)."""
         self._flush()
         parts, start = [], 0
         for seg in self._segments:
@@ -125,7 +126,16 @@ class _RowStore:
             return {key: np.zeros(shapes.get(key, (0, self.m) if key == "lam"
                                              or key in self.extra_names else (0,)))
                     for key in keys}
+        if len(parts) == 1:
+            return {key: parts[0][key] for key in keys}
         return {key: np.concatenate([p[key] for p in parts]) for key in keys}
+
+    def stack(self) -> None:
+        """Hold every row as one segment (the arrays a finished run's Solution
+        exposes), the segments of the run freed."""
+        self._flush()
+        if len(self._segments) > 1:
+            self._segments = [self.get(0, self._count)]
 
     def last(self) -> dict:
         """The last row, as a one-row segment."""
@@ -722,7 +732,9 @@ class Solution:
         return out
 
     def finalize(self) -> None:
-        """Stack the recorded steps into arrays."""
+        """Stack the recorded steps into arrays (the rows' one copy: the row
+        store keeps the stacked arrays, not the run's segments)."""
+        self._rows.stack()
         d = self.rows(0, len(self._rows))
         self.t, self.q, self.v, self.a, self.lam = d["t"], d["q"], d["v"], d["a"], d["lam"]
         self.extras = {x: d[x] for x in self.extra_names}
