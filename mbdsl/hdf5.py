@@ -139,16 +139,8 @@ class HdfStream(RowStream):
     remaining rows, then reopens the file to write the final metadata
     (status, message, totals, timings, events, warnings).
 
-    Parameters
-    ----------
-    path : str or Path
-    interval : float [s]
-        Wall time between chunks.
-
-    Raises
-    ------
-    OSError
-        The file cannot be created (raised here, before the run starts).
+    Parameters and errors as :class:`~mbdsl.output.RowStream`; the file is
+    created here, so that an unwritable path fails before the run starts.
     """
 
     #: Rows per HDF5 chunk of the row datasets.
@@ -160,25 +152,21 @@ class HdfStream(RowStream):
         self._file = None
 
     def _open(self, sol) -> None:
+        """The file with the run's metadata (status running); its datasets
+        come with the first chunk (:meth:`_write`), whose tables give them."""
         from .output import metadata
-        meta = metadata(sol, final=False)
-        cols = [c for c in sol.columns if c.startswith(("reaction.", "driver.", "output."))]
-        empty = sol.__class__.from_arrays(
-            sol.system, method_name=sol.method_name, method_parameters=sol.method_parameters,
-            extra_names=sol.extra_names, h=sol.h, t_end=sol.t_end, t=np.zeros(0),
-            q=np.zeros((0, sol.system.n)), v=np.zeros((0, sol.system.n)),
-            a=np.zeros((0, sol.system.n)), lam=np.zeros((0, sol.system.m)),
-            extras={x: np.zeros((0, sol.system.m)) for x in sol.extra_names},
-            stats={k: np.zeros(0, np.int64 if k != "h" else float)
-                   for k in sol.STAT_NAMES},
-            stats_total=sol.stats_total, status=sol.status, message=sol.message,
-            derived={k: np.zeros(0) for k in list(sol.DERIVED_NAMES) + cols})
-        tables = _tables(empty, empty.derived())
+        self._meta = metadata(sol, final=False)
         f = h5py.File(self.path, "w", libver="latest")
-        for k, v in meta.items():
+        for k, v in self._meta.items():
             f.attrs[k] = v
-        f.create_group("extras")
-        f.create_group("newton")
+        f.create_dataset("model_source", data=sol.model.source or "",
+                         dtype=h5py.string_dtype())
+        self._file = f
+
+    def _create(self, tables) -> None:
+        """Every dataset of the layout, empty and resizable, as the tables of
+        the first chunk give them; the checked record; then SWMR mode."""
+        f = self._file
         for name, data, names in tables:
             width = data.shape[1:]
             # resizable datasets are chunked; a chunk has no empty side (no reactions: (k, 0))
@@ -188,15 +176,15 @@ class HdfStream(RowStream):
                                   chunks=(self.CHUNK_ROWS,) + tuple(w or 1 for w in width))
             if names is not None:
                 ds.attrs["columns"] = np.array(names, dtype=h5py.string_dtype())
-        f.create_dataset("model_source", data=sol.model.source or "",
-                         dtype=h5py.string_dtype())
-        _write_record(f, {"attributes": meta, "columns": _record_columns(tables)})
+        _write_record(f, {"attributes": self._meta, "columns": _record_columns(tables)})
         f.swmr_mode = True
-        self._file = f
 
     def _write(self, part) -> None:
         f = self._file
-        for name, data, _ in _tables(part, part.derived()):
+        tables = _tables(part, part.derived())
+        if not f.swmr_mode:
+            self._create(tables)
+        for name, data, _ in tables:
             ds = f[name]
             k = ds.shape[0]
             ds.resize(k + len(data), axis=0)
@@ -288,6 +276,7 @@ def _read(f, path):
     n = min(f[name].shape[0] for name in rows)
 
     def read(name):
+        """The dataset's first n rows (those every row dataset holds)."""
         return f[name][:n]
     derived = {}
     for name in ("energies", "constraints", "reactions"):
@@ -382,6 +371,7 @@ class SweepTable:
         self._file.flush()
 
     def close(self) -> None:
+        """Close the file (every row is flushed already)."""
         self._file.close()
 
 

@@ -16,6 +16,7 @@ animated on a machine that never saw the ``.mbd`` file.
 
 from __future__ import annotations
 
+import abc
 import io
 import json
 from dataclasses import asdict
@@ -164,7 +165,7 @@ class _DeferredInterrupt:
             raise KeyboardInterrupt
 
 
-class RowStream:
+class RowStream(abc.ABC):
     """Writes a run's rows as it goes: the base of :class:`CsvStream` and
     ``hdf5.HdfStream``.
 
@@ -181,6 +182,11 @@ class RowStream:
     path : str or Path
     interval : float [s]
         Wall time between chunks.
+
+    Raises
+    ------
+    OSError
+        The file cannot be created (a subclass creates it in ``__init__``).
     """
 
     def __init__(self, path, interval: float = 0.5):
@@ -263,14 +269,18 @@ class RowStream:
         if not self._header:
             self.path.unlink(missing_ok=True)
 
+    @abc.abstractmethod
     def _open(self, sol) -> None:
-        raise NotImplementedError
+        """Create the file for the run ``sol`` (its metadata, status running)."""
 
+    @abc.abstractmethod
     def _write(self, part) -> None:
-        raise NotImplementedError
+        """Append the rows of ``part`` (a Solution of one chunk, derived
+        columns computed) and flush them."""
 
+    @abc.abstractmethod
     def _end(self, sol, meta) -> None:
-        raise NotImplementedError
+        """Close the file with the final metadata ``meta``."""
 
 
 class CsvStream(RowStream):
@@ -285,16 +295,8 @@ class CsvStream(RowStream):
     says why it stopped; a file whose status is ``running`` comes from a
     process that was killed outright.
 
-    Parameters
-    ----------
-    path : str or Path
-    interval : float [s]
-        Wall time between chunks.
-
-    Raises
-    ------
-    OSError
-        The file cannot be created (raised here, before the run starts).
+    Parameters and errors as :class:`~mbdsl.output.RowStream`; the file is
+    created here, so that an unwritable path fails before the run starts.
     """
 
     def __init__(self, path, interval: float = 0.5):

@@ -479,6 +479,7 @@ def animate_solution(solution, path, fps: float = 25.0, speed: float = 1.0,
         ax.plot(ends[:, 0], ends[:, 1], ls="--", lw=0.8, color="0.5", zorder=0)
 
     def rgb(h):
+        """``#rrggbb`` as an RGB tuple in [0, 1]."""
         return tuple(int(h[i:i + 2], 16) / 255 for i in (1, 3, 5))
     colors = {name: rgb(h) for name, h in scene.colors.items()}
     artists = []

@@ -263,6 +263,7 @@ def write_html(solution, path, columns=None, bodies=None, max_frames: int = MAX_
     step_ms = 1000.0 * span / max(n_frames - 1, 1)
 
     def play(speed):
+        """The play button at ``speed`` times real time (frames >= 16 ms apart)."""
         return {"label": f"play x{speed:g}", "method": "animate",
                 "args": [None, {"frame": {"duration": max(step_ms / speed, 16.0),
                                           "redraw": False},

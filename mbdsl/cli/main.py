@@ -686,6 +686,7 @@ def _write_page(sol, out, args) -> int:
     from ..viewer import MAX_FRAMES, write_html
 
     def listed(text):
+        """Comma-separated names as a list, or None."""
         return [c.strip() for c in text.split(",") if c.strip()] if text else None
     try:
         write_html(sol, out, columns=listed(getattr(args, "y", None)),

@@ -177,6 +177,7 @@ class DenseOutput:
             at_start = ~at_end & (np.abs(tau - T[j - 1]) <= SNAP * span)
 
             def pick(held, block):
+                """The held step's value then the block's: (k + 1, ...)."""
                 return np.concatenate([held[None], block])
 
             Q, V, A = pick(hd["q"], q), pick(hd["v"], v), pick(hd["a"], a)
@@ -283,6 +284,7 @@ class DenseOutput:
                   + (3 * s2 - 4 * s + 1) * v0 + (3 * s2 - 2 * s) * v1)
 
         def lin(X):
+            """X (steps, ...) linear within each row's step."""
             return (1 - s) * X[j - 1] + s * X[j]
 
         w = s[:, 0]

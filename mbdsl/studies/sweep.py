@@ -274,6 +274,7 @@ def run_sweep(model_path, points: list, output, *, method=None, h=None, t_end=No
     count = [skipped]
 
     def finished(row):
+        """A run's row: into the table, counted, told to the callbacks."""
         nonlocal failed
         table.append(row)
         failed += row["status"] != "completed"
