@@ -75,17 +75,16 @@ def run_checks(sol) -> list[Diagnostic]:
 def energy_balance(sol) -> Diagnostic | None:
     """W602 when the largest |energy.balance| exceeds :data:`ENERGY_LIMIT`
     of the energy exchanged (module notes), else None."""
-    if len(sol.t) < 2:
+    if sol.n_rows < 2:
         return None
-    c = sol.column
-    ke, pe, total = c("energy.kinetic"), c("energy.potential"), c("energy.total")
-    work, diss, bal = c("energy.work"), c("energy.dissipated"), c("energy.balance")
+    x = sol.extent          # a column's range and largest value (kept by a streamed run)
+    ke, pe, total = x("energy.kinetic"), x("energy.potential"), x("energy.total")
+    work, diss, bal = x("energy.work"), x("energy.dissipated"), x("energy.balance")
     with np.errstate(all="ignore"):
-        exchanged = max(float(np.ptp(ke)), float(np.ptp(pe)), float(np.max(np.abs(work))),
-                        float(np.max(np.abs(diss))))
-        floor = 1e-9 * float(np.max(np.abs(np.concatenate([ke, pe, total])))) + 1e-12
-        k = int(np.argmax(np.abs(bal)))
-        worst = float(np.abs(bal[k]))
+        exchanged = float(np.max([ke.max - ke.min, pe.max - pe.min, work.absmax,
+                                  diss.absmax]))
+        floor = 1e-9 * float(np.max([ke.absmax, pe.absmax, total.absmax])) + 1e-12
+        k, worst = bal.at, bal.absmax
     if not np.isfinite(worst):
         worst = float("inf")
     if worst <= max(ENERGY_LIMIT * exchanged, floor):
@@ -141,20 +140,27 @@ def alternating_reactions(sol) -> Diagnostic | None:
     """W604 when a constraint force alternates by more than
     :data:`JUMP_FACTOR` times its typical size for :data:`ALTERNATING_STEPS`
     steps in a row, else None."""
-    lam = np.asarray(sol.lam, dtype=float)
-    if lam.ndim != 2 or lam.shape[1] == 0 or len(lam) < ALTERNATING_STEPS + 2:
+    names = sol.system.layout.multiplier_names()
+    if not names or sol.n_rows < ALTERNATING_STEPS + 2:
         return None
+    # one multiplier at a time (a long streamed run's rows are read a column at a time)
     with np.errstate(all="ignore"):
-        typical = np.median(np.abs(lam), axis=0)
-        ref = np.maximum(typical, 1e-3 * float(np.max(typical)) + 1e-12)
-        z = np.diff(lam, axis=0) / ref
-    big = np.abs(z) > JUMP_FACTOR
-    alternating = big[1:] & big[:-1] & (np.sign(z[1:]) == -np.sign(z[:-1]))
+        typical = np.array([np.median(np.abs(sol.column(c))) for c in names])
+        floor = 1e-3 * float(np.max(typical)) + 1e-12
     best, where = 0, None
-    for j in np.flatnonzero(np.sum(alternating, axis=0) >= ALTERNATING_STEPS):
+    for j, name in enumerate(names):
+        with np.errstate(all="ignore"):
+            z = np.diff(sol.column(name)) / np.maximum(typical[j], floor)
+            big = np.abs(z) > JUMP_FACTOR
+        down = np.signbit(z)            # (a jump is not zero, nor NaN)
+        del z
+        alternating = big[1:] & big[:-1] & (down[1:] != down[:-1])
+        if np.count_nonzero(alternating) < ALTERNATING_STEPS:
+            continue
         run = 0
-        for i, a in enumerate(alternating[:, j]):
-            run = run + 1 if a else 0
+        for i in np.flatnonzero(alternating):       # the longest run of consecutive rows
+            run = run + 1 if run and i == last + 1 else 1
+            last = i
             if run > best:
                 best, where = run, (i, j)
     if best < ALTERNATING_STEPS:

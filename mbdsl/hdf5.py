@@ -43,7 +43,8 @@ import numpy as np
 
 from .output import RowStream
 
-__all__ = ["write_hdf5", "read_hdf5", "update_attributes", "HdfStream", "SweepTable", "read_sweep"]
+__all__ = ["write_hdf5", "read_hdf5", "update_attributes", "HdfStream", "FileRows",
+           "SweepTable", "read_sweep"]
 
 
 def _dataset(group, name, data, columns=None):
@@ -146,10 +147,15 @@ class HdfStream(RowStream):
     #: Rows per HDF5 chunk of the row datasets.
     CHUNK_ROWS = 1024
 
+    #: The rows written leave memory: the finished Solution reads them from
+    #: the file (``Solution.attach_file`` with :class:`FileRows`).
+    releases_rows = True
+
     def __init__(self, path, interval: float = 0.5):
         super().__init__(path, interval)
         self.path.touch()             # fail early on an unwritable path
         self._file = None
+        self._columns = {}            # dataset -> column names (derived datasets)
 
     def _open(self, sol) -> None:
         """The file with the run's metadata (status running); its datasets
@@ -176,6 +182,7 @@ class HdfStream(RowStream):
                                   chunks=(self.CHUNK_ROWS,) + tuple(w or 1 for w in width))
             if names is not None:
                 ds.attrs["columns"] = np.array(names, dtype=h5py.string_dtype())
+        self._columns = _record_columns(tables)
         _write_record(f, {"attributes": self._meta, "columns": _record_columns(tables)})
         f.swmr_mode = True
 
@@ -192,9 +199,16 @@ class HdfStream(RowStream):
                 ds[k:] = data
         f.flush()
 
+    def _close(self) -> None:
+        if self._file is not None:
+            self._file.close()
+            self._file = None
+
+    def _rows_source(self, n: int) -> "FileRows":
+        return FileRows(self.path, n, self._columns)
+
     def _end(self, sol, meta) -> None:
-        self._file.close()
-        self._file = None
+        self._close()
         update_attributes(self.path, meta)
 
     def close_unused(self) -> None:
@@ -202,6 +216,58 @@ class HdfStream(RowStream):
         if self._file is not None:
             self._file.close()
         super().close_unused()
+
+
+class FileRows:
+    """The rows of a result file (layout in the module docstring), read when
+    asked for: where a run streamed to HDF5 (:class:`HdfStream`) reads its
+    rows back after they left memory (``Solution.attach_file``).
+
+    Each read opens the file and closes it again: no handle is held between
+    reads (the stream reopens the file to write its final metadata, and
+    HDF5 refuses a second handle on a file in another mode).
+
+    Parameters
+    ----------
+    path : str or Path
+    n : int
+        Rows of the run (each dataset's first n rows are read).
+    columns : dict of str -> list of str
+        Column names of the derived datasets ("energies", "constraints",
+        "reactions"), as in the file's ``/metadata`` record.
+
+    Attributes
+    ----------
+    derived : dict of str -> (str, int)
+        Derived column name -> (dataset, column index).
+    """
+
+    DERIVED = ("energies", "constraints", "reactions")
+
+    def __init__(self, path, n: int, columns: dict):
+        self.path, self.n = Path(path), int(n)
+        self.derived = {c: (name, j) for name in self.DERIVED
+                        for j, c in enumerate(columns.get(name, ()))}
+
+    def read(self, dataset: str, j=None) -> np.ndarray:
+        """Rows 0..n-1 of ``dataset``, shape (n, ...), or of its column j (an
+        index, shape (n,); or a list of increasing indices, shape (n, k)).
+
+        Raises
+        ------
+        OSError
+            The file cannot be opened (moved or deleted since the run).
+        """
+        with h5py.File(self.path, "r") as f:
+            ds = f[dataset]
+            if j is None:
+                return ds[:self.n]
+            if np.ndim(j) == 0:
+                return ds[:self.n, int(j)]
+            j = [int(i) for i in j]
+            if j and j == list(range(j[0], j[-1] + 1)):    # a slice reads faster
+                return ds[:self.n, j[0]:j[-1] + 1]
+            return ds[:self.n, j]
 
 
 def update_attributes(path, attrs: dict) -> None:

@@ -177,6 +177,17 @@ class RowStream(abc.ABC):
     A subclass opens the file (``_open``), writes a chunk (``_write``, a
     Solution of its rows) and ends it (``_end``, with the final metadata).
 
+    Memory stays bounded on long runs: a chunk also goes out once
+    ``PENDING_ROWS`` rows wait, whatever the interval, and is written in
+    parts of at most ``PART_ROWS`` rows (the derived columns' temporaries).
+    A stream with ``releases_rows`` (HDF5, which reads back one column at a
+    time) then lets the Solution drop the rows written
+    (``Solution.release_rows``); at the end the Solution reads its rows from
+    the file (``Solution.attach_file``) and its summary and checks the
+    derived columns' extents kept chunk by chunk (``solution.Extent``). The
+    last row recorded is held back until the end: the loop may still amend
+    it (a restart at an event or a switch).
+
     Parameters
     ----------
     path : str or Path
@@ -189,10 +200,18 @@ class RowStream(abc.ABC):
         The file cannot be created (a subclass creates it in ``__init__``).
     """
 
+    #: Rows waiting that send a chunk out before its interval has passed.
+    PENDING_ROWS = 1 << 14
+    #: Most rows whose derived columns are computed at once.
+    PART_ROWS = 1 << 14
+    #: The Solution may let go of the rows written (the file gives them back).
+    releases_rows = False
+
     def __init__(self, path, interval: float = 0.5):
         self.path, self.interval = Path(path), float(interval)
         self._header, self._written, self._last = False, 0, 0.0
         self._derived = []          # derived columns of the rows written, chunk by chunk
+        self._extents = {}          # their extents (solution.Extent), merged chunk by chunk
         self._energy = None         # the energy integrals at the last row written
         #: Wall time spent computing and writing rows [s] (``Solution.timings["output"]``).
         self.elapsed = 0.0
@@ -222,44 +241,64 @@ class RowStream(abc.ABC):
             message=sol.message, flows=flows)
         part.energy_start = self._energy
         part.contact_log = sol.contact_log     # the impact speeds behind the contacts' damping
-        part.derived()
+        derived = part.derived()
         self._energy = dict(part.energy_end)
-        self._derived.append(part._derived)
+        if not self.releases_rows:  # the Solution gets them at the end
+            self._derived.append(part._derived)
+        from .solution import Extent
+        for k, x in derived.items():
+            ext = Extent.of(x, i0)
+            self._extents[k] = self._extents[k].merge(ext) if k in self._extents else ext
         return part
+
+    def _write_rows(self, sol, n, finalized) -> None:
+        """Rows written .. n-1, in parts of at most ``PART_ROWS``."""
+        while self._written < n:
+            i1 = min(n, self._written + self.PART_ROWS)
+            self._write(self._part(sol, self._written, i1, finalized))
+            self._written = i1
+            if self.releases_rows and not finalized:
+                sol.release_rows(self._written)
 
     def append(self, sol) -> None:
         """After an accepted step: write the pending rows if ``interval`` has passed."""
         import time
         now = time.perf_counter()
-        if self._header and now - self._last < self.interval:
+        n = sol.n_rows - 1          # the last row may still be amended: held back
+        if (self._header and now - self._last < self.interval
+                and n - self._written < self.PENDING_ROWS):
             return
         self._last = now
         with _DeferredInterrupt(), _Timer(self):
             if not self._header:
                 self._open(sol)
                 self._header = True
-            n = sol.n_rows
-            if n > self._written:
-                self._write(self._part(sol, self._written, n, finalized=False))
-                self._written = n
+            self._write_rows(sol, n, finalized=False)
 
     def finish(self, sol) -> Path:
-        """After the run (finalized Solution): the remaining rows and the final
-        status. The derived columns computed chunk by chunk become the
-        Solution's (its summary does not compute them again)."""
+        """After the run: the remaining rows and the final status.
+
+        A stream that ``releases_rows`` takes the Solution as the run left
+        it (not finalized), writes the rows it still holds, closes the file
+        and attaches it to the Solution (``Solution.attach_file``), which
+        reads its rows from there on. Otherwise the Solution is finalized
+        and the derived columns computed chunk by chunk become its own (its
+        summary does not compute them again)."""
         with _DeferredInterrupt():
             with _Timer(self):
                 if not self._header:
                     self._open(sol)
                     self._header = True
-                n = len(sol.t)
-                if n > self._written:
-                    self._write(self._part(sol, self._written, n, finalized=True))
-                    self._written = n
-                if sol._derived is None and self._derived and None not in self._derived:
-                    sol._derived = {k: np.concatenate([d[k] for d in self._derived])
-                                    for k in self._derived[0]}
-                self._derived = []      # the Solution's now: not held twice
+                if self.releases_rows:
+                    self._write_rows(sol, sol.n_rows, finalized=False)
+                    self._close()
+                    sol.attach_file(self._rows_source(self._written), self._extents)
+                else:
+                    self._write_rows(sol, len(sol.t), finalized=True)
+                    if sol._derived is None and self._derived and None not in self._derived:
+                        sol._derived = {k: np.concatenate([d[k] for d in self._derived])
+                                        for k in self._derived[0]}
+                self._derived, self._extents = [], {}   # the Solution's now: not held twice
             sol.timings["output"] = self.elapsed
             self._end(sol, metadata(sol))
         return self.path
@@ -281,6 +320,16 @@ class RowStream(abc.ABC):
     @abc.abstractmethod
     def _end(self, sol, meta) -> None:
         """Close the file with the final metadata ``meta``."""
+
+    def _close(self) -> None:
+        """Close the file before the final metadata (a stream that
+        ``releases_rows``: the Solution reads the file back first)."""
+        raise NotImplementedError(f"{type(self).__name__} keeps its rows in the Solution")
+
+    def _rows_source(self, n: int):
+        """The file's n rows, read back when asked for (a stream that
+        ``releases_rows``; ``hdf5.FileRows``)."""
+        raise NotImplementedError(f"{type(self).__name__} keeps its rows in the Solution")
 
 
 class CsvStream(RowStream):

@@ -5,13 +5,15 @@ Shapes: N stored time points, n coordinates, m constraint equations.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
 from .assembly.groups import PointSet
 
-__all__ = ["Solution", "StepStats", "RunStats", "derived_columns"]
+__all__ = ["Solution", "StepStats", "RunStats", "derived_columns", "Extent"]
 
 
 @dataclass
@@ -45,6 +47,103 @@ class RunStats:
     multipliers_stalled: int = 0
 
 
+class Extent(NamedTuple):
+    """What a run's summary and checks read of one column: its first and last
+    values, its least and greatest, its largest magnitude and the row of it
+    (the first such row; NaN counts as largest, as in ``numpy.argmax``).
+
+    Computed from a whole column (:meth:`of`), or chunk by chunk as a run
+    streams its rows to a file (:meth:`merge`), with the same result.
+    """
+
+    first: float
+    last: float
+    min: float
+    max: float
+    absmax: float
+    at: int
+
+    @classmethod
+    def of(cls, values, offset: int = 0) -> "Extent":
+        """The extent of ``values`` (shape (k,), k >= 1), rows numbered from ``offset``."""
+        x = np.asarray(values, dtype=float)
+        with np.errstate(all="ignore"):
+            k = int(np.argmax(np.abs(x)))
+            return cls(float(x[0]), float(x[-1]), float(np.min(x)), float(np.max(x)),
+                       float(abs(x[k])), offset + k)
+
+    def merge(self, later: "Extent") -> "Extent":
+        """The extent of this column's rows followed by those of ``later``."""
+        with np.errstate(all="ignore"):
+            first_wins = int(np.argmax([self.absmax, later.absmax])) == 0
+            return Extent(self.first, later.last, float(np.min([self.min, later.min])),
+                          float(np.max([self.max, later.max])),
+                          self.absmax if first_wins else later.absmax,
+                          self.at if first_wins else later.at)
+
+
+class _RowArray:
+    """A Solution's array of rows (``t``, ``q``, ``v``, ``a``, ``lam``): held,
+    or, for a run whose rows went to its HDF5 file as it streamed and left
+    memory (:meth:`Solution.attach_file`), read from that file when first
+    asked for and then held."""
+
+    def __init__(self, dataset: str):
+        self.dataset = dataset
+
+    def __set_name__(self, owner, name):
+        self.name, self.slot = name, "_held_" + name
+
+    def __get__(self, obj, owner=None):
+        if obj is None:
+            return self
+        held = obj.__dict__.get(self.slot)
+        if held is not None:
+            return held
+        source = obj.__dict__.get("_file_rows")
+        if source is None:
+            raise AttributeError(f"the run's rows are not stacked yet (no '{self.name}' "
+                                 "before Solution.finalize)")
+        held = obj.__dict__[self.slot] = source.read(self.dataset)
+        return held
+
+    def __set__(self, obj, value):
+        obj.__dict__[self.slot] = value
+
+    def held(self, obj) -> bool:
+        """Whether ``obj`` holds the array (not only its file does)."""
+        return obj.__dict__.get(self.slot) is not None
+
+
+class _FileArrays(Mapping):
+    """Arrays of a result file by name, each read when first asked for and
+    then held (a streamed run's extras, Newton statistics and derived
+    columns, :meth:`Solution.attach_file`); :meth:`column` reads one column
+    of one without holding it."""
+
+    def __init__(self, source, datasets: dict):
+        #: name -> (dataset, column or None for the whole dataset)
+        self._source, self._datasets, self._held = source, dict(datasets), {}
+
+    def __getitem__(self, key):
+        if key not in self._held:
+            dataset, j = self._datasets[key]
+            self._held[key] = self._source.read(dataset, j)
+        return self._held[key]
+
+    def __iter__(self):
+        return iter(self._datasets)
+
+    def __len__(self):
+        return len(self._datasets)
+
+    def column(self, key, j: int) -> np.ndarray:
+        """Column j of the (N, k) array ``key``, read alone unless it is held."""
+        if key in self._held:
+            return self._held[key][:, j]
+        return self._source.read(self._datasets[key][0], j)
+
+
 #: The energy integrals a run with rows at requested times carries per row,
 #: integrated over its steps (``integrators.dense``).
 FLOW_NAMES = ("energy.work", "energy.dissipated")
@@ -74,6 +173,8 @@ class _RowStore:
         self._states: list = []
         self._stats: list = []
         self._count = 0
+        #: Rows let go (:meth:`release`): the first stored row is row ``released``.
+        self.released = 0
 
     def __len__(self) -> int:
         return self._count
@@ -112,7 +213,10 @@ class _RowStore:
         """Rows i0..i1-1 as one segment: views of the stored arrays when one
         segment holds them all, else new arrays (read-only use)."""
         self._flush()
-        parts, start = [], 0
+        if i0 < self.released and i1 > i0:
+            raise IndexError(f"rows before {self.released} were released (written to the "
+                             f"result file), not rows {i0}..{i1 - 1}")
+        parts, start = [], self.released
         for seg in self._segments:
             k = len(seg["t"])
             lo, hi = max(i0 - start, 0), min(i1 - start, k)
@@ -130,12 +234,20 @@ class _RowStore:
             return {key: parts[0][key] for key in keys}
         return {key: np.concatenate([p[key] for p in parts]) for key in keys}
 
+    def release(self, upto: int) -> None:
+        """Let go of the segments that hold only rows before ``upto`` (a
+        stream wrote them to its file), the last segment always kept (the
+        last row may still be amended, :meth:`set_last`)."""
+        self._flush()
+        while len(self._segments) > 1 and self.released + len(self._segments[0]["t"]) <= upto:
+            self.released += len(self._segments.pop(0)["t"])
+
     def stack(self) -> None:
         """Hold every row as one segment (the arrays a finished run's Solution
         exposes), the segments of the run freed."""
         self._flush()
         if len(self._segments) > 1:
-            self._segments = [self.get(0, self._count)]
+            self._segments = [self.get(self.released, self._count)]
 
     def last(self) -> dict:
         """The last row, as a one-row segment."""
@@ -529,6 +641,12 @@ class Solution:
     #: Per-step Newton statistics, stored and written in this order.
     STAT_NAMES = ("iterations", "residuals", "jacobians", "factorizations", "h")
 
+    t = _RowArray("t")
+    q = _RowArray("q")
+    v = _RowArray("v")
+    a = _RowArray("a")
+    lam = _RowArray("lambda")
+
     def __init__(self, system, method, h, t_end, initial):
         self.system = system
         self.model = system.model
@@ -554,6 +672,9 @@ class Solution:
         self.engine_note = None
         self.stats_total = RunStats()
         self._rows = _RowStore(system.n, system.m, self._stored_extras)
+        #: The result file the rows are read from (``attach_file``), or None: held.
+        self._file_rows = None
+        self._extents = None          # the streamed chunks' Extent per derived column
         self.last_state = None
         self.energy_start, self.energy_end = None, {}
         #: Contact and limit events: (t [s], gap name, "closed" or "opened",
@@ -667,13 +788,73 @@ class Solution:
 
     @property
     def n_rows(self) -> int:
-        """Rows recorded so far."""
-        return len(self._rows)
+        """Rows recorded so far (a finished run's rows)."""
+        if self._file_rows is not None:
+            return self._file_rows.n
+        held = self.__dict__.get("_held_t")        # stacked or given (``from_arrays``)
+        return len(held) if held is not None else len(self._rows)
 
     @property
     def last_t(self) -> float:
         """The time of the last row recorded so far [s] (NaN before any)."""
+        if self._file_rows is not None:
+            return float(self.t[-1]) if self.n_rows else float("nan")
         return float(self._rows.last()["t"][0]) if self.n_rows else float("nan")
+
+    def release_rows(self, upto: int) -> None:
+        """Let go of the rows before ``upto`` (as far as whole blocks of rows
+        allow): a stream wrote them to its file, which holds them from now on
+        (``output.RowStream`` with ``releases_rows``; :meth:`attach_file` at
+        the end). A run of millions of steps then holds a few blocks."""
+        self._rows.release(upto)
+
+    def attach_file(self, source, extents: dict | None = None) -> None:
+        """End a run whose rows went to a result file as it streamed: the rows
+        still held go, and ``t``, ``q``, ``v``, ``a``, ``lam``, ``extras``,
+        ``stats`` and the derived columns are read from ``source`` when first
+        asked for (one column at a time by :meth:`column`); the summary and
+        the checks of :mod:`mbdsl.guard` read the derived columns' ``extents``
+        (name -> :class:`Extent`, merged over the chunks written) and the
+        columns they need one at a time, so that a long run's report does not
+        hold its rows in memory again.
+
+        Parameters
+        ----------
+        source : hdf5.FileRows
+            ``n`` (rows), ``read(dataset, j=None)`` and ``derived`` (column
+            name -> (dataset, column index)).
+        extents : dict of str -> Extent, optional
+        """
+        for attr in ("t", "q", "v", "a", "lam"):
+            self.__dict__.pop("_held_" + attr, None)
+        self._rows = _RowStore(self.system.n, self.system.m, self._stored_extras)
+        self._file_rows = source
+        self.extras = _FileArrays(source, {x: (f"extras/{x}", None) for x in self.extra_names})
+        self.stats = _FileArrays(source, {k: (f"newton/{k}", None) for k in self.STAT_NAMES})
+        self.flows = None             # energy.work and energy.dissipated: derived columns
+        self._derived = _FileArrays(source, source.derived)
+        self._extents = dict(extents or {})
+        self._warnings = None
+
+    def extent(self, name: str) -> Extent:
+        """The :class:`Extent` of one column (:meth:`column`'s names): kept
+        from the chunks a streamed run wrote, else computed from the column.
+
+        Raises
+        ------
+        KeyError
+            For an unknown column (as :meth:`column`).
+        """
+        kept = (self._extents or {}).get(name)
+        return kept if kept is not None else Extent.of(self.column(name))
+
+    def _field(self, attr: str, j) -> np.ndarray:
+        """Column j (an index, or a list of increasing indices) of the row
+        array ``attr`` ("q", "v", "a", "lam"): read alone from the result
+        file when the array is not held."""
+        if self._file_rows is not None and not type(self).__dict__[attr].held(self):
+            return self._file_rows.read(type(self).__dict__[attr].dataset, j)
+        return getattr(self, attr)[:, j]
 
     def rows(self, i0: int, i1: int) -> dict:
         """Rows i0..i1-1 recorded so far, as arrays ("t", "q", "v", "a",
@@ -707,14 +888,16 @@ class Solution:
         """
         from .errors import Diagnostic
         out = []
-        q = self.q
-        if len(q) == 0:
+        if self.n_rows == 0:
             return out
         for beam in self.model.flexible_bodies:
             arcs = np.linspace(0.0, beam.length, beam.elements + 1)
             S = beam.mesh.shape(arcs)                              # (k, 2, nf)
-            disp = np.einsum("kif,Nf->Nki", S, q[:, beam.elastic_columns()])
-            size = np.max(np.hypot(disp[..., 0], disp[..., 1]), axis=1)
+            qf = self._field("q", list(beam.elastic_columns()))
+            size = np.empty(len(qf))
+            for i in range(0, len(qf), 1 << 16):                  # (rows, k, 2) in blocks
+                disp = np.einsum("kif,Nf->Nki", S, qf[i:i + (1 << 16)])
+                size[i:i + len(disp)] = np.max(np.hypot(disp[..., 0], disp[..., 1]), axis=1)
             over = np.flatnonzero(size > self.DEFLECTION_LIMIT * beam.length)
             if len(over) == 0:
                 continue
@@ -826,6 +1009,7 @@ class Solution:
         self._warnings = (None if warnings is None else
                           [Diagnostic("warning", c, m) for c, m in warnings])
         self._rows = _RowStore(system.n, system.m, self.extra_names)
+        self._file_rows, self._extents = None, None
         n, m = system.n, system.m
         self.t = np.asarray(t, dtype=float)
         N = len(self.t)
@@ -897,7 +1081,7 @@ class Solution:
             return None
         for b in self.model.flexible_bodies:
             if b.name == head:
-                return b.mesh.deflection_mid(self.q[:, b.elastic_columns()])
+                return b.mesh.deflection_mid(self._field("q", list(b.elastic_columns())))
         return None
 
     def derived(self) -> dict:
@@ -916,11 +1100,11 @@ class Solution:
             return self.t
         lay = self.system.layout
         if name in lay.coordinates:
-            return self.q[:, lay.coordinates.index(name)]
+            return self._field("q", lay.coordinates.index(name))
         if name in lay.velocities:
-            return self.v[:, lay.velocities.index(name)]
+            return self._field("v", lay.velocities.index(name))
         if name in lay.accelerations:
-            return self.a[:, lay.accelerations.index(name)]
+            return self._field("a", lay.accelerations.index(name))
         if name.startswith("newton.") and name[7:] in self.STAT_NAMES[:-1]:
             return self.stats[name[7:]]
         if name == "step.h":
@@ -933,12 +1117,14 @@ class Solution:
             return beam
         mult = lay.multiplier_names()
         if name in mult:
-            return self.lam[:, mult.index(name)]
+            return self._field("lam", mult.index(name))
         head, _, rest = name.partition(".")
         if head in self.extras:
             rows = [f"{a}.{b}" for a, b in lay.rows]
             if rest in rows:
-                return self.extras[head][:, rows.index(rest)]
+                j = rows.index(rest)
+                x = self.extras
+                return x.column(head, j) if isinstance(x, _FileArrays) else x[head][:, j]
         import difflib
         close = difflib.get_close_matches(name, self.columns, n=3)
         raise KeyError(f"no column '{name}'" + (f"; did you mean {', '.join(close)}?" if close else ""))
@@ -1041,8 +1227,8 @@ class Solution:
         """A one-screen summary of the run."""
         tot = self.stats_total
         steps = max(tot.steps, 1)
-        d = self._compute_derived()
-        e = d["energy.total"]
+        ext = self.extent             # first/last/largest of a column: a long run's are kept
+        e, bal = ext("energy.total"), ext("energy.balance")
         lines = [
             f"model {self.model.name}: {self.method_name} "
             + ", ".join(f"{k}={v:g}" for k, v in self.method_parameters.items())
@@ -1066,11 +1252,11 @@ class Solution:
             f"{tot.factorizations} factorizations, {tot.residuals} residuals"
             + (f"; {tot.multipliers_stalled} steps with multipliers at round-off"
                if tot.multipliers_stalled else ""),
-            f"  max |Phi| = {np.max(d['constraint.position']):.2e}, "
-            f"max |Phi_q v + Phi_t| = {np.max(d['constraint.velocity']):.2e}",
-            f"  energy: {e[0]:.6g} J -> {e[-1]:.6g} J (change {e[-1] - e[0]:+.3e} J; work "
-            f"{d['energy.work'][-1]:+.4g} J, dissipated {d['energy.dissipated'][-1]:.4g} J; "
-            f"balance max {np.max(np.abs(d['energy.balance'])):.2e} J)",
+            f"  max |Phi| = {ext('constraint.position').max:.2e}, "
+            f"max |Phi_q v + Phi_t| = {ext('constraint.velocity').max:.2e}",
+            f"  energy: {e.first:.6g} J -> {e.last:.6g} J (change {e.last - e.first:+.3e} J; "
+            f"work {ext('energy.work').last:+.4g} J, dissipated "
+            f"{ext('energy.dissipated').last:.4g} J; balance max {bal.absmax:.2e} J)",
         ]
         if self.events or getattr(self.system, "contact_group", None) is not None:
             words = {"closed": "closed", "opened": "opened",

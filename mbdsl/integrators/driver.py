@@ -294,7 +294,8 @@ def _finish(sol, writer, loop_start, resampling=0.0):
     sol.timings["integration"] = clock() - loop_start - written
     sol.wall_time = sol.timings["integration"]
     t0 = clock()
-    sol.finalize()              # stacking the rows, and the method's output multipliers
+    if not getattr(writer, "releases_rows", False):   # else the rows are read from its file
+        sol.finalize()          # stacking the rows, and the method's output multipliers
     stacking = clock() - t0
     if writer is not None:
         writer.finish(sol)

@@ -71,6 +71,11 @@ STALL_REJECTED = 0.1
 #: halves), and appending each call's one or two rows to the Solution cost more than
 #: the kernel's step. A Python stepper's call ends after as long.
 FLUSH_INTERVAL = 0.2
+#: ... or when the Solution holds this many rows more than when they last went: a
+#: writer that streams the rows to its file (``output.RowStream``) keeps the rows held
+#: in memory bounded on a machine of any speed, not only within FLUSH_INTERVAL's
+#: worth of steps.
+FLUSH_ROWS = 1 << 14
 #: how much longer a failed step of the augmented formulation is retried first
 JUMP = 1.5
 #: a two-step method's first step after an event, as a fraction of the
@@ -412,7 +417,7 @@ class TimeLoop:
         segments = _segments(self.t_start, self.t_end, self.h, switches)
         self.progress, self.writer = progress, writer
         clock = _time.perf_counter
-        flushed = clock()
+        flushed, rows_then = clock(), sol.n_rows
         try:
             while self.t < self.t_end - 1e-12 * span:
                 self.seg_end, switch = segments[0][1:]
@@ -439,9 +444,10 @@ class TimeLoop:
                     state[8] = 0.0                  # the step-size filter restarts too
                     self.stepper.resync()
                     segments.pop(0)
-                if clock() - flushed >= FLUSH_INTERVAL:
+                if (clock() - flushed >= FLUSH_INTERVAL
+                        or sol.n_rows - rows_then >= FLUSH_ROWS):
                     self.flush()
-                    flushed = clock()
+                    flushed, rows_then = clock(), sol.n_rows
             else:
                 sol.status, sol.message = "completed", f"reached t_end = {self.t_end:g} s"
             self.flush()
