@@ -144,8 +144,23 @@ class HdfStream(RowStream):
     created here, so that an unwritable path fails before the run starts.
     """
 
-    #: Rows per HDF5 chunk of the row datasets.
+    #: Rows per HDF5 chunk of the row datasets (fewer for wide ones: :meth:`chunk_shape`).
     CHUNK_ROWS = 1024
+    #: Values per HDF5 chunk at most (1 MiB): a chunk is written, checksummed and
+    #: read whole, so the chunk of a chain of 10 000 links (30 000 columns) must not
+    #: span 1024 rows (245 MB rewritten at each flush of a few rows).
+    CHUNK_VALUES = 1 << 17
+
+    @classmethod
+    def chunk_shape(cls, width: tuple) -> tuple:
+        """The chunk of a dataset whose rows have shape ``width``: up to
+        ``CHUNK_ROWS`` rows and ``CHUNK_VALUES`` values, a wide row split
+        into blocks of columns (a column is then read without the others)."""
+        if not width:
+            return (cls.CHUNK_ROWS,)
+        cols = max(1, min(width[0] or 1, cls.CHUNK_VALUES // 8))
+        rows = max(1, min(cls.CHUNK_ROWS, cls.CHUNK_VALUES // cols))
+        return (rows, cols) + tuple(w or 1 for w in width[1:])
 
     #: The rows written leave memory: the finished Solution reads them from
     #: the file (``Solution.attach_file`` with :class:`FileRows`).
@@ -179,7 +194,7 @@ class HdfStream(RowStream):
             ds = f.create_dataset(name, shape=(0,) + width,
                                   maxshape=(None,) + tuple(w or None for w in width),
                                   dtype=data.dtype, fletcher32=True,
-                                  chunks=(self.CHUNK_ROWS,) + tuple(w or 1 for w in width))
+                                  chunks=self.chunk_shape(width))
             if names is not None:
                 ds.attrs["columns"] = np.array(names, dtype=h5py.string_dtype())
         self._columns = _record_columns(tables)

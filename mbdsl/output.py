@@ -245,9 +245,9 @@ class RowStream(abc.ABC):
         self._energy = dict(part.energy_end)
         if not self.releases_rows:  # the Solution gets them at the end
             self._derived.append(part._derived)
-        from .solution import Extent
-        for k, x in derived.items():
-            ext = Extent.of(x, i0)
+        from .solution import Extent, Solution
+        for k in Solution.DERIVED_NAMES:        # what the summary and the guards read
+            ext = Extent.of(derived[k], i0)
             self._extents[k] = self._extents[k].merge(ext) if k in self._extents else ext
         return part
 

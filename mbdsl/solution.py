@@ -1052,7 +1052,11 @@ class Solution:
         x, y or joint distance), N m for a row that holds an angle (a fixed or
         prismatic joint's third or second row; a driven phi or joint angle).
         Outputs carry the unit their expression determines, if it does.
+        Computed once per run (the model's, not the rows'): a copy is returned.
         """
+        held = self.__dict__.get("_column_units")
+        if held is not None:
+            return dict(held)
         from .dsl import units
         from .model.elements import multiplier_unit
         lam = {f"lambda.{e.name}.{k}": multiplier_unit(e, k)
@@ -1067,7 +1071,8 @@ class Solution:
                 out[name] = outputs[name]
             else:
                 out[name] = units.column_unit(name)
-        return out
+        self._column_units = out
+        return dict(out)
 
     #: Derived columns every model has, in CSV order.
     DERIVED_NAMES = ("energy.kinetic", "energy.potential", "energy.total", "energy.work",

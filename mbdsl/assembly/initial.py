@@ -26,15 +26,16 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import math
 import warnings
 
 import numpy as np
 import scipy
 
+from ..gcpause import paused
 from ..errors import AssemblyError, Diagnostic
 from ..model import graph
 from ..model.elements import GROUND
-from .groups import rot
 from .sparse import DENSE_LIMIT, issparse
 from .structure import (RANK_LIMIT, StructureReport, analyse_structure,
                         friction_on_redundant_joints, joint_miss, miss_diagnosis,
@@ -152,13 +153,20 @@ def place_bodies(system: AssembledSystem, t0: float = 0.0, notes: list | None = 
     given.update(coordinate_drivers)
     placed = {GROUND}
 
+    # body by body along the tree, in scalars (numpy's per-call overhead on (2,)
+    # arrays was most of the set-up of a 100 000-link chain)
     def _angle(b):
-        return 0.0 if b == GROUND else q[cmap.column(b, 2)]
+        return 0.0 if b == GROUND else float(q[cmap.column(b, 2)])
+
+    def _turned(phi, local):
+        c, s = math.cos(phi), math.sin(phi)
+        return np.array([c * local[0] - s * local[1], s * local[0] + c * local[1]])
 
     def _point(ref):
         if ref.body == GROUND:
             return ref.local
-        return q[cmap(ref.body)[0, :2]] + rot(np.array([_angle(ref.body)]), ref.local[None])[0]
+        cx, cy = cmap.column(ref.body, 0), cmap.column(ref.body, 1)
+        return np.array([q[cx], q[cy]]) + _turned(_angle(ref.body), ref.local)
 
     for parent, child, joint in graph.spanning_tree_edges(model):
         phi = given.get((child, "phi"))
@@ -168,14 +176,14 @@ def place_bodies(system: AssembledSystem, t0: float = 0.0, notes: list | None = 
                 phi = _angle(parent) + sign * angle_drivers[joint.name]
             elif joint.kind in ("fixed", "prismatic"):
                 phi = _angle(parent) + sign * joint.angle
-        cx, cy, cp = cmap(child)[0]
+        cx, cy, cp = (cmap.column(child, k) for k in range(3))
         if cp < system.n:                   # a particle does not turn
             q[cp] = phi if phi is not None else 0.0
         if joint is not None:
             mine, theirs = ((joint.second, joint.first) if joint.second.body == child
                             else (joint.first, joint.second))
             target = _point(theirs)
-            offset = rot(np.array([q[cp]]), mine.local[None])[0]
+            offset = _turned(float(q[cp]), mine.local)
             if joint.kind == "distance":
                 # both points at one place would leave the constraint with no
                 # gradient: put the far point at the joint's length along the
@@ -270,8 +278,22 @@ def _weighted_step(J, r, w):
     return w * _min_norm_step(Jw, r)
 
 
+def _selection(columns, n: int, sparse: bool):
+    """The rows of the n x n identity at ``columns`` (k,): E with E q =
+    q[columns], shape (k, n), dense or (``sparse``, large models) CSR: a
+    chain of 10 000 links fixes 10 000 angles among 30 000 coordinates, and
+    its dense E would take 2.4 GB."""
+    k = len(columns)
+    if sparse:
+        return scipy.sparse.csr_matrix((np.ones(k), (np.arange(k), columns)), shape=(k, n))
+    E = np.zeros((k, n))
+    E[np.arange(k), columns] = 1.0
+    return E
+
+
 def _stacked_jacobian(system, q, t, E, sparse):
-    """[Phi_q; E] (E selects the coordinates the user fixed), dense or CSR."""
+    """[Phi_q; E] (E selects the coordinates the user fixed, ``_selection``),
+    dense or CSR."""
     if not sparse:
         return np.vstack([system.Phi_q(q, t), E])
     rows, cols = system.pattern_Phi_q
@@ -284,6 +306,7 @@ def _stacked_jacobian(system, q, t, E, sparse):
 QUASI_STATIC_ITERATIONS = 50
 
 
+@paused
 def consistent_initial_state(system: AssembledSystem, t0: float = 0.0,
                              tol: float = 1e-12, max_iter: int = 50,
                              redundant: str = "error") -> InitialState:
@@ -558,10 +581,8 @@ def _consistent_state(system, t0, tol, max_iter, elastic, q_start=None, redundan
                              for i in b.elastic_columns()]
     iq = np.array([i for i, _ in fixed_q], dtype=int)
     vq = np.array([v for _, v in fixed_q])
-    E = np.zeros((len(iq), n))
-    E[np.arange(len(iq)), iq] = 1.0
-
     sparse = system.n + system.m > DENSE_LIMIT
+    E = _selection(iq, n, sparse)
     weights = _column_weights(system)
     with np.errstate(all="ignore"):
         placements = []
@@ -637,8 +658,7 @@ def _consistent_state(system, t0, tol, max_iter, elastic, q_start=None, redundan
     for i, val in guess_v + fixed_v:
         v_g[i] = val
     iv = np.array([i for i, _ in fixed_v], dtype=int)
-    Ev = np.zeros((len(iv), n))
-    Ev[np.arange(len(iv)), iv] = 1.0
+    Ev = _selection(iv, n, sparse)
     Phi_t = system.Phi_t(q, t0)
     A = _stacked_jacobian(system, q, t0, Ev, sparse)
     rhs = np.concatenate([-Phi_t, v_g[iv]])

@@ -42,6 +42,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..gcpause import paused
 from ..model.elements import (GROUND, FlexibleBeam, Friction, JointForce, JointTorque, Model,
                               PointForce,
                               RotationalSpringDamper, SpringDamper, TimeFunction, Torque)
@@ -914,6 +915,7 @@ def _unique_pattern(rows, cols, width):
     return (keys // width).astype(np.intp), (keys % width).astype(np.intp)
 
 
+@paused
 def assemble(model: Model) -> AssembledSystem:
     """Build the :class:`AssembledSystem` of a checked model."""
     return AssembledSystem(model)

@@ -17,6 +17,7 @@ from lark.exceptions import (UnexpectedCharacters, UnexpectedEOF, UnexpectedInpu
 
 from lark.lexer import PatternStr
 
+from ..gcpause import paused
 from ..errors import Diagnostic, MbdError, MbdSyntaxError, Span
 from .error_examples import EXAMPLES
 from .spec import ModelSpec
@@ -149,6 +150,7 @@ def _syntax_diagnostic(err: UnexpectedInput, text: str, file: str) -> Diagnostic
                       hint=f"expected {expected}")
 
 
+@paused
 def parse_text(text: str, file: str = "<string>") -> ModelSpec:
     """Parse model text into a :class:`ModelSpec` (no semantic checks).
 

@@ -98,7 +98,9 @@ class CoordinateMap:
 
     def column(self, body: int, coord: int) -> int:
         """The column of coordinate ``coord`` (0, 1, 2 = x, y, phi) of ``body``."""
-        return int(self(body)[0, coord])
+        if body < 0:
+            return self.n + coord
+        return int(self.table[body, coord])
 VELOCITIES = ("vx", "vy", "omega")
 ACCELERATIONS = ("ax", "ay", "alpha")
 
