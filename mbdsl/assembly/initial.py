@@ -519,8 +519,7 @@ def static_positions(system, t0: float, q: np.ndarray, lam: np.ndarray,
                    if hold_initials and not ic.guess and not ic.is_velocity], dtype=int)
     given = q[iq].copy()
     f = len(iq)
-    E = np.zeros((f, n))
-    E[np.arange(f), iq] = 1.0
+    E = _selection(iq, n, n + m > STATIC_DENSE_LIMIT)
     v0 = np.zeros(n)
     x = np.concatenate([q, lam, np.zeros(f)])
     scale = 1.0 + float(np.max(np.abs(system.Q(t0, q, v0, lam)), initial=0.0))
