@@ -140,29 +140,32 @@ def alternating_reactions(sol) -> Diagnostic | None:
     """W604 when a constraint force alternates by more than
     :data:`JUMP_FACTOR` times its typical size for :data:`ALTERNATING_STEPS`
     steps in a row, else None."""
-    names = sol.system.layout.multiplier_names()
-    if not names or sol.n_rows < ALTERNATING_STEPS + 2:
+    m, N = sol.system.m, sol.n_rows
+    if not m or N < ALTERNATING_STEPS + 2:
         return None
-    # one multiplier at a time (a long streamed run's rows are read a column at a time)
+    # the multipliers in blocks of columns of about 2^20 values: a long streamed
+    # run's are read from its file a column at a time, a chain's 20 000 at once
+    width = max(1, (1 << 20) // N)
+    blocks = [(j0, min(m, j0 + width)) for j0 in range(0, m, width)]
     with np.errstate(all="ignore"):
-        typical = np.array([np.median(np.abs(sol.column(c))) for c in names])
-        floor = 1e-3 * float(np.max(typical)) + 1e-12
+        typical = np.concatenate([np.median(np.abs(sol.multipliers(a, b)), axis=0)
+                                  for a, b in blocks])
+        ref = np.maximum(typical, 1e-3 * float(np.max(typical)) + 1e-12)
     best, where = 0, None
-    for j, name in enumerate(names):
+    for a, b in blocks:
         with np.errstate(all="ignore"):
-            z = np.diff(sol.column(name)) / np.maximum(typical[j], floor)
+            z = np.diff(sol.multipliers(a, b), axis=0) / ref[a:b]
             big = np.abs(z) > JUMP_FACTOR
         down = np.signbit(z)            # (a jump is not zero, nor NaN)
         del z
         alternating = big[1:] & big[:-1] & (down[1:] != down[:-1])
-        if np.count_nonzero(alternating) < ALTERNATING_STEPS:
-            continue
-        run = 0
-        for i in np.flatnonzero(alternating):       # the longest run of consecutive rows
-            run = run + 1 if run and i == last + 1 else 1
-            last = i
-            if run > best:
-                best, where = run, (i, j)
+        for jj in np.flatnonzero(np.count_nonzero(alternating, axis=0) >= ALTERNATING_STEPS):
+            run = 0
+            for i in np.flatnonzero(alternating[:, jj]):   # the longest run of consecutive rows
+                run = run + 1 if run and i == last + 1 else 1
+                last = i
+                if run > best:
+                    best, where = run, (i, a + jj)
     if best < ALTERNATING_STEPS:
         return None
     i, j = where

@@ -66,9 +66,30 @@ def _write_record(f, record: dict) -> None:
     _dataset(f, "metadata", np.frombuffer(json.dumps(record).encode("utf-8"), dtype=np.uint8))
 
 
-def _tables(sol, derived) -> list:
+def _tables(sol, derived, names=None) -> list:
     """[(dataset path, rows (k, ...), column names or None)] of a Solution's
-    rows (the module docstring's layout), from its arrays and derived columns."""
+    rows (the module docstring's layout), from its arrays and derived columns;
+    with ``names`` (``output.select_columns``) only those columns, each
+    dataset keeping its place (a dataset none of whose columns is chosen
+    has width 0, a statistic not chosen is left out)."""
+    tables = _all_tables(sol, derived)
+    if names is None:
+        return tables
+    keep, out = set(names), []
+    stat_column = {f"newton/{k}": ("step.h" if k == "h" else f"newton.{k}")
+                   for k in sol.STAT_NAMES}
+    for name, data, cols in tables:
+        if cols is None:
+            if name == "t" or stat_column.get(name) in keep:
+                out.append((name, data, None))
+            continue
+        idx = [i for i, c in enumerate(cols) if c in keep]
+        out.append((name, data[:, idx], [cols[i] for i in idx]))
+    return out
+
+
+def _all_tables(sol, derived) -> list:
+    """:func:`_tables` of every column."""
     from .solution import Solution
     lay = sol.system.layout
     out = [("t", sol.t, None), ("q", sol.q, lay.coordinates), ("v", sol.v, lay.velocities),
@@ -90,7 +111,8 @@ def _record_columns(tables) -> dict:
     return {name: list(cols) for name, _, cols in tables if cols is not None}
 
 
-def write_hdf5(solution, path, extra_metadata: dict | None = None) -> Path:
+def write_hdf5(solution, path, extra_metadata: dict | None = None,
+               columns: list | None = None) -> Path:
     """Write a Solution as HDF5 (layout in the module docstring).
 
     Parameters
@@ -99,6 +121,8 @@ def write_hdf5(solution, path, extra_metadata: dict | None = None) -> Path:
     path : str or Path
     extra_metadata : dict, optional
         More root attributes.
+    columns : list of str, optional
+        Patterns of the columns to write (``output.select_columns``); None: all.
 
     Returns
     -------
@@ -108,12 +132,15 @@ def write_hdf5(solution, path, extra_metadata: dict | None = None) -> Path:
     ------
     OSError
         If the file cannot be written.
+    ValueError
+        A pattern of ``columns`` matches no column.
     """
-    from .output import metadata
+    from .output import metadata, select_columns
     path = Path(path)
     sol = solution
-    tables = _tables(sol, sol.derived())
-    meta = metadata(sol, extra_metadata)
+    names = None if columns is None else select_columns(sol.columns, columns)
+    tables = _tables(sol, sol.derived(), names)
+    meta = metadata(sol, extra_metadata, columns=names)
     with h5py.File(path, "w", libver="latest") as f:
         for k, v in meta.items():
             f.attrs[k] = v
@@ -166,8 +193,8 @@ class HdfStream(RowStream):
     #: the file (``Solution.attach_file`` with :class:`FileRows`).
     releases_rows = True
 
-    def __init__(self, path, interval: float = 0.5):
-        super().__init__(path, interval)
+    def __init__(self, path, interval: float = 0.5, columns: list | None = None):
+        super().__init__(path, interval, columns)
         self.path.touch()             # fail early on an unwritable path
         self._file = None
         self._columns = {}            # dataset -> column names (derived datasets)
@@ -176,7 +203,7 @@ class HdfStream(RowStream):
         """The file with the run's metadata (status running); its datasets
         come with the first chunk (:meth:`_write`), whose tables give them."""
         from .output import metadata
-        self._meta = metadata(sol, final=False)
+        self._meta = metadata(sol, final=False, columns=self.names)
         f = h5py.File(self.path, "w", libver="latest")
         for k, v in self._meta.items():
             f.attrs[k] = v
@@ -203,7 +230,7 @@ class HdfStream(RowStream):
 
     def _write(self, part) -> None:
         f = self._file
-        tables = _tables(part, part.derived())
+        tables = _tables(part, part.derived(), self.names)
         if not f.swmr_mode:
             self._create(tables)
         for name, data, _ in tables:
@@ -352,13 +379,29 @@ def _read(f, path):
     rows = (["t", "q", "v", "a", "lambda", "energies", "constraints", "reactions"]
             + [f"extras/{x}" for x in extra_names]
             + [f"newton/{k}" for k in Solution.STAT_NAMES])
+    written = json.loads(meta["columns"]) if "columns" in meta else None   # some columns only
+    rows = [name for name in rows if written is None or name in f]
     # a file streamed by a process killed between two datasets' writes of a
     # chunk: the rows every dataset holds
     n = min(f[name].shape[0] for name in rows)
+    lay = system.layout
 
-    def read(name):
-        """The dataset's first n rows (those every row dataset holds)."""
-        return f[name][:n]
+    def read(name, names=None):
+        """The dataset's first n rows (those every row dataset holds); of a
+        file of some columns, as the whole table of ``names`` with NaN where
+        a column was not written (a statistic not written: zeros)."""
+        if written is None:
+            return f[name][:n]
+        if names is None:
+            return f[name][:n] if name in f else np.zeros(n, dtype=int)
+        out = np.full((n, len(names)), np.nan)
+        held = columns[name] if columns is not None else _columns(f[name])
+        where = {c: i for i, c in enumerate(names)}
+        values = f[name][:n]
+        for j, c in enumerate(held):
+            out[:, where[c]] = values[:, j]
+        return out
+    extra_rows = [f"{a}.{b}" for a, b in lay.rows]
     derived = {}
     for name in ("energies", "constraints", "reactions"):
         values = read(name)
@@ -370,11 +413,13 @@ def _read(f, path):
     return Solution.from_arrays(
         system, method_name=meta["method"], method_parameters=_method_parameters(meta),
         extra_names=extra_names, h=float(meta["h"]), t_end=float(meta["t_end"]),
-        t=read("t"), q=read("q"), v=read("v"), a=read("a"), lam=read("lambda"),
-        extras={x: read(f"extras/{x}") for x in extra_names},
+        t=read("t"), q=read("q", lay.coordinates), v=read("v", lay.velocities),
+        a=read("a", lay.accelerations), lam=read("lambda", lay.multiplier_names()),
+        extras={x: read(f"extras/{x}", [f"{x}.{r}" for r in extra_rows]) for x in extra_names},
         stats={k: read(f"newton/{k}") for k in Solution.STAT_NAMES},
         stats_total=_run_stats(meta), status=status, message=message,
-        wall_time=float(meta.get("wall_time", 0.0)), derived=derived, **run_description(meta))
+        wall_time=float(meta.get("wall_time", 0.0)), derived=derived, written=written,
+        **run_description(meta))
 
 
 class SweepTable:

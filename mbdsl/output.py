@@ -25,12 +25,60 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ["write_csv", "read_csv_metadata", "write_solution", "load_solution", "metadata",
-           "HDF5_SUFFIXES", "CsvStream", "RowStream"]
+           "HDF5_SUFFIXES", "CsvStream", "RowStream", "select_columns"]
 
 HDF5_SUFFIXES = (".h5", ".hdf5")
 
 
-def metadata(solution, extra: dict | None = None, final: bool = True) -> dict:
+def _pattern(text: str) -> str:
+    """A column pattern as a regular expression: ``*`` any run of characters,
+    ``?`` one, everything else literal (``link[99999].*``: the brackets are
+    part of the name, not a character class as in shell globs)."""
+    import re
+    return "".join(".*" if c == "*" else "." if c == "?" else re.escape(c) for c in text)
+
+
+def select_columns(names, patterns) -> list[str]:
+    """The columns of ``names`` that match any of ``patterns`` (``*`` and
+    ``?`` wildcards, :func:`_pattern`), in the order of ``names``, with "t"
+    always first (``mbdsl simulate --columns``).
+
+    Parameters
+    ----------
+    names : sequence of str
+        Every column of the run (``Solution.columns``).
+    patterns : sequence of str
+
+    Raises
+    ------
+    ValueError
+        A pattern that matches no column, with the closest names.
+    """
+    import difflib
+    import re
+    texts = [p.strip() for p in patterns if p.strip()]
+    # one alternation, one match per column (1.4 million columns of a 100 000-link chain)
+    anyof = re.compile("(?:" + "|".join(f"(?P<p{k}>{_pattern(p)})" for k, p in enumerate(texts))
+                       + r")\Z")
+    chosen, hit = ["t"], set()
+    for n in names:
+        found = anyof.match(n)
+        if found is not None:
+            hit.add(found.lastgroup)
+            if n != "t":
+                chosen.append(n)
+    for k, text in enumerate(texts):
+        if f"p{k}" in hit or any(re.match(_pattern(text) + r"\Z", n) for n in names):
+            continue        # (a column that an earlier pattern took as well)
+        close = difflib.get_close_matches(text.replace("*", ""), list(names), n=3)
+        raise ValueError(f"--columns: '{text}' matches no column of this run"
+                         + (f"; did you mean {', '.join(close)}?" if close else
+                            " (mbdsl check lists the model's elements)"))
+    return chosen
+
+
+def metadata(solution, extra: dict | None = None, final: bool = True,
+             columns: list | None = None) -> dict:
     """Everything about a run that is not a time history, as str -> str.
 
     Keys: ``mbdsl_version``, ``model``, ``model_file``, ``model_sha256``,
@@ -44,7 +92,9 @@ def metadata(solution, extra: dict | None = None, final: bool = True) -> dict:
     contact or limit closed or opened, with its approach or separation
     speed) and ``event_cuts`` (steps retaken to land on them); for a finished
     run (``final``) ``warnings`` (JSON list of [code, message]: what the run's
-    own rows say is wrong with it, ``Solution.warnings``).
+    own rows say is wrong with it, ``Solution.warnings``). A file of some
+    columns only (``columns``, :func:`select_columns`) also has ``columns``
+    (JSON list of the columns written), and ``units`` has only those.
     """
     from . import __version__
     model = solution.model
@@ -66,7 +116,11 @@ def metadata(solution, extra: dict | None = None, final: bool = True) -> dict:
         meta["parameters"] = ", ".join(f"{k}={float(v)!r}" for k, v in model.parameters.items())
     meta["model_parameters"] = json.dumps({k: float(v) for k, v in model.parameters.items()})
     meta["extras"] = json.dumps(list(solution.extra_names))
-    meta["units"] = json.dumps(solution.column_units())
+    units = solution.column_units()
+    if columns is not None:
+        meta["columns"] = json.dumps(list(columns))
+        units = {k: units[k] for k in columns if k in units}
+    meta["units"] = json.dumps(units)
     meta["stats_total"] = json.dumps(asdict(solution.stats_total))
     meta["wall_time"] = repr(float(solution.wall_time))
     meta["engine"] = solution.engine
@@ -85,7 +139,8 @@ def metadata(solution, extra: dict | None = None, final: bool = True) -> dict:
     return meta
 
 
-def write_csv(solution, path, extra_metadata: dict | None = None) -> Path:
+def write_csv(solution, path, extra_metadata: dict | None = None,
+              columns: list | None = None) -> Path:
     """Write a Solution as CSV.
 
     Parameters
@@ -95,6 +150,8 @@ def write_csv(solution, path, extra_metadata: dict | None = None) -> Path:
         A stream (``sys.stdout``: ``mbdsl simulate -o -``) is written to, not closed.
     extra_metadata : dict, optional
         More ``# key: value`` lines.
+    columns : list of str, optional
+        Patterns of the columns to write (:func:`select_columns`); None: every column.
 
     Returns
     -------
@@ -105,10 +162,13 @@ def write_csv(solution, path, extra_metadata: dict | None = None) -> Path:
     ------
     OSError
         If the file cannot be written.
+    ValueError
+        A pattern of ``columns`` matches no column.
     """
-    names, values = solution.table()
+    names = None if columns is None else select_columns(solution.columns, columns)
+    names, values = solution.table(names)
     buf = io.StringIO()
-    for k, v in metadata(solution, extra_metadata).items():
+    for k, v in metadata(solution, extra_metadata, columns=names if columns else None).items():
         buf.write(f"# {k}: {v}\n")
     buf.write(",".join(names) + "\n")
     buf.write(_csv_rows(values))
@@ -193,6 +253,11 @@ class RowStream(abc.ABC):
     path : str or Path
     interval : float [s]
         Wall time between chunks.
+    columns : list of str, optional
+        Patterns of the columns the file holds (:func:`select_columns`; "t"
+        always); None: every column. Checked against the run's columns when
+        it starts (:meth:`begin`). A file of some columns keeps the rows in
+        the Solution (it cannot give them back).
 
     Raises
     ------
@@ -207,8 +272,11 @@ class RowStream(abc.ABC):
     #: The Solution may let go of the rows written (the file gives them back).
     releases_rows = False
 
-    def __init__(self, path, interval: float = 0.5):
+    def __init__(self, path, interval: float = 0.5, columns: list | None = None):
         self.path, self.interval = Path(path), float(interval)
+        self.patterns = None if columns is None else list(columns)
+        self.names = None           # the columns written (select_columns), or None: all
+        self.releases_rows = type(self).releases_rows and self.patterns is None
         self._header, self._written, self._last = False, 0, 0.0
         self._derived = []          # derived columns of the rows written, chunk by chunk
         self._extents = {}          # their extents (solution.Extent), merged chunk by chunk
@@ -260,6 +328,23 @@ class RowStream(abc.ABC):
             if self.releases_rows and not finalized:
                 sol.release_rows(self._written)
 
+    def begin(self, sol) -> None:
+        """Before the first step (the run's Solution holds its initial row):
+        the columns chosen, then the file's head (metadata, status running).
+
+        Raises
+        ------
+        ValueError
+            A pattern of ``columns`` matches no column of the run.
+        """
+        if self._header:
+            return
+        if self.patterns is not None:
+            self.names = select_columns(sol.columns, self.patterns)
+        with _Timer(self):
+            self._open(sol)
+        self._header = True
+
     def append(self, sol) -> None:
         """After an accepted step: write the pending rows if ``interval`` has passed."""
         import time
@@ -269,10 +354,9 @@ class RowStream(abc.ABC):
                 and n - self._written < self.PENDING_ROWS):
             return
         self._last = now
+        if not self._header:
+            self.begin(sol)
         with _DeferredInterrupt(), _Timer(self):
-            if not self._header:
-                self._open(sol)
-                self._header = True
             self._write_rows(sol, n, finalized=False)
 
     def finish(self, sol) -> Path:
@@ -285,10 +369,9 @@ class RowStream(abc.ABC):
         and the derived columns computed chunk by chunk become its own (its
         summary does not compute them again)."""
         with _DeferredInterrupt():
+            if not self._header:
+                self.begin(sol)
             with _Timer(self):
-                if not self._header:
-                    self._open(sol)
-                    self._header = True
                 if self.releases_rows:
                     self._write_rows(sol, sol.n_rows, finalized=False)
                     self._close()
@@ -300,7 +383,7 @@ class RowStream(abc.ABC):
                                         for k in self._derived[0]}
                 self._derived, self._extents = [], {}   # the Solution's now: not held twice
             sol.timings["output"] = self.elapsed
-            self._end(sol, metadata(sol))
+            self._end(sol, metadata(sol, columns=self.names))
         return self.path
 
     def close_unused(self) -> None:
@@ -348,8 +431,8 @@ class CsvStream(RowStream):
     created here, so that an unwritable path fails before the run starts.
     """
 
-    def __init__(self, path, interval: float = 0.5):
-        super().__init__(path, interval)
+    def __init__(self, path, interval: float = 0.5, columns: list | None = None):
+        super().__init__(path, interval, columns)
         self._file = open(self.path, "w", encoding="utf-8")
 
     #: Header fields known only at the end, written padded to these widths and
@@ -362,7 +445,7 @@ class CsvStream(RowStream):
     def _open(self, sol):
         buf = io.StringIO()
         self._late = {}
-        for k, v in metadata(sol, final=False).items():
+        for k, v in metadata(sol, final=False, columns=self.names).items():
             if k in self._TRAILER:               # known at the end: written there
                 continue
             if k in self._LATE_FIELDS:
@@ -371,12 +454,12 @@ class CsvStream(RowStream):
                 buf.write(f"{v:<{self._LATE_FIELDS[k]}}\n")
             else:
                 buf.write(f"# {k}: {v}\n")
-        buf.write(",".join(sol.columns) + "\n")
+        buf.write(",".join(self.names or sol.columns) + "\n")
         self._file.write(buf.getvalue())
         self._file.flush()
 
     def _write(self, part) -> None:
-        self._file.write(_csv_rows(part.table()[1]))
+        self._file.write(_csv_rows(part.table(self.names)[1]))
         self._file.flush()
 
     def _rewrite_late_fields(self, meta) -> None:
@@ -422,18 +505,22 @@ def read_csv_metadata(path) -> tuple[dict, list[str], np.ndarray]:
     return meta, header or [], np.array(rows).reshape(len(rows), len(header or []))
 
 
-def write_solution(solution, path, extra_metadata: dict | None = None) -> Path:
-    """Write a Solution, HDF5 for ``.h5``/``.hdf5``, else CSV.
+def write_solution(solution, path, extra_metadata: dict | None = None,
+                   columns: list | None = None) -> Path:
+    """Write a Solution, HDF5 for ``.h5``/``.hdf5``, else CSV; ``columns``:
+    patterns of the columns to write (:func:`select_columns`), None: all.
 
     Raises
     ------
     OSError
         If the file cannot be written.
+    ValueError
+        A pattern of ``columns`` matches no column.
     """
     if Path(path).suffix.lower() in HDF5_SUFFIXES:
         from .hdf5 import write_hdf5
-        return write_hdf5(solution, path, extra_metadata)
-    return write_csv(solution, path, extra_metadata)
+        return write_hdf5(solution, path, extra_metadata, columns)
+    return write_csv(solution, path, extra_metadata, columns)
 
 
 def rebuild_system(meta: dict, path):
@@ -502,17 +589,29 @@ def read_csv_solution(path):
     col = {name: i for i, name in enumerate(names)}
     lay = system.layout
 
+    written = json.loads(meta["columns"]) if "columns" in meta else None   # some columns only
+
     def block(keys):
-        """Columns by name, shape (rows, len(keys))."""
+        """Columns by name, shape (rows, len(keys)); NaN for a column a file
+        of some columns does not hold."""
+        if written is not None:
+            out = np.full((len(values), len(keys)), np.nan)
+            for j, k in enumerate(keys):
+                if k in col:
+                    out[:, j] = values[:, col[k]]
+            return out
         return values[:, [col[k] for k in keys]] if keys else np.zeros((len(values), 0))
+
+    def stat(name, kind):
+        return (values[:, col[name]].astype(kind) if name in col
+                else np.zeros(len(values), dtype=kind))
 
     extra_names = json.loads(meta.get("extras", "[]"))
     rows = [f"{a}.{b}" for a, b in lay.rows]
     derived = {k: values[:, i] for k, i in col.items()
                if k in Solution.DERIVED_NAMES or k.startswith(("reaction.", "driver.", "output."))}
-    stats = {k: values[:, col[f"newton.{k}"]] for k in Solution.STAT_NAMES[:-1]}
-    stats = {k: v.astype(int) for k, v in stats.items()}
-    stats["h"] = values[:, col["step.h"]]
+    stats = {k: stat(f"newton.{k}", int) for k in Solution.STAT_NAMES[:-1]}
+    stats["h"] = stat("step.h", float)
     status, message = meta.get("status", "completed").strip(), meta.get("message", "")
     if status == "running":
         message = unfinished_message(values[:, col["t"]], float(meta["t_end"]))
@@ -524,7 +623,7 @@ def read_csv_solution(path):
         extras={x: block([f"{x}.{r}" for r in rows]) for x in extra_names},
         stats=stats, stats_total=_run_stats(meta), status=status,
         message=message, wall_time=float(meta.get("wall_time", 0.0)),
-        derived=derived, **run_description(meta))
+        derived=derived, written=written, **run_description(meta))
 
 
 def load_solution(path):

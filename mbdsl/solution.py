@@ -674,6 +674,9 @@ class Solution:
         self._rows = _RowStore(system.n, system.m, self._stored_extras)
         #: The result file the rows are read from (``attach_file``), or None: held.
         self._file_rows = None
+        #: The columns a result file written with some columns only holds
+        #: (``from_arrays``; :attr:`columns`), or None: every column.
+        self.written = None
         self._extents = None          # the streamed chunks' Extent per derived column
         self.last_state = None
         self.energy_start, self.energy_end = None, {}
@@ -854,7 +857,15 @@ class Solution:
         file when the array is not held."""
         if self._file_rows is not None and not type(self).__dict__[attr].held(self):
             return self._file_rows.read(type(self).__dict__[attr].dataset, j)
+        if np.ndim(j) and len(j) and list(j) == list(range(j[0], j[-1] + 1)):
+            return getattr(self, attr)[:, j[0]:j[-1] + 1]      # a view
         return getattr(self, attr)[:, j]
+
+    def multipliers(self, j0: int, j1: int) -> np.ndarray:
+        """Columns j0..j1-1 of :attr:`lam`, shape (N, j1 - j0): read alone
+        from the result file when the run's rows are there (a long run
+        streamed to HDF5), else a view."""
+        return self._field("lam", list(range(j0, j1)))
 
     def rows(self, i0: int, i1: int) -> dict:
         """Rows i0..i1-1 recorded so far, as arrays ("t", "q", "v", "a",
@@ -954,7 +965,7 @@ class Solution:
                     timings: dict | None = None, engine: str = "numpy",
                     linear_solver: str = "dense", events=(), event_cuts: int = 0,
                     warnings=None, flows: dict | None = None,
-                    dense: bool = False) -> "Solution":
+                    dense: bool = False, written=None) -> "Solution":
         """A Solution from stored arrays (``mbdsl.load_solution``).
 
         Parameters
@@ -983,6 +994,10 @@ class Solution:
             steps of a run with rows at requested times (:attr:`flows`).
         dense : bool
             The rows are at requested times (:attr:`dense`), not one per step.
+        written : sequence of str, optional
+            The columns of a file written with some columns only (the
+            arrays hold NaN elsewhere; :attr:`columns` and :meth:`column`
+            give those alone).
 
         Returns
         -------
@@ -1010,6 +1025,8 @@ class Solution:
                           [Diagnostic("warning", c, m) for c, m in warnings])
         self._rows = _RowStore(system.n, system.m, self.extra_names)
         self._file_rows, self._extents = None, None
+        self.written = None if written is None else list(written)
+        self._written_set = set(self.written or ())
         n, m = system.n, system.m
         self.t = np.asarray(t, dtype=float)
         N = len(self.t)
@@ -1040,7 +1057,10 @@ class Solution:
 
     @property
     def columns(self) -> list[str]:
-        """Names of every output column, in CSV order."""
+        """Names of every output column, in CSV order (of a result file
+        written with some columns only, ``mbdsl simulate --columns``: those)."""
+        if self.written is not None:
+            return list(self.written)
         return result_columns(self.system, self.extra_names)
 
     def column_units(self) -> dict[str, str]:
@@ -1103,13 +1123,24 @@ class Solution:
         """
         if name == "t":
             return self.t
+        if self.written is not None and name not in self._written_set:
+            import difflib
+            close = difflib.get_close_matches(name, self.written, n=3)
+            raise KeyError(f"no column '{name}' in this result: its file was written with "
+                           f"some columns only ({len(self.written)}: mbdsl simulate --columns)"
+                           + (f"; did you mean {', '.join(close)}?" if close else ""))
         lay = self.system.layout
-        if name in lay.coordinates:
-            return self._field("q", lay.coordinates.index(name))
-        if name in lay.velocities:
-            return self._field("v", lay.velocities.index(name))
-        if name in lay.accelerations:
-            return self._field("a", lay.accelerations.index(name))
+        index = self.__dict__.get("_column_index")
+        if index is None:   # name -> (row array, column): a lookup per column, not a list search
+            index = self._column_index = {
+                c: (attr, i) for attr, names in (("q", lay.coordinates), ("v", lay.velocities),
+                                                 ("a", lay.accelerations),
+                                                 ("lam", lay.multiplier_names()))
+                for i, c in enumerate(names)}
+            self._extra_rows = {f"{a}.{b}": i for i, (a, b) in enumerate(lay.rows)}
+        where = index.get(name)
+        if where is not None and where[0] != "lam":
+            return self._field(*where)
         if name.startswith("newton.") and name[7:] in self.STAT_NAMES[:-1]:
             return self.stats[name[7:]]
         if name == "step.h":
@@ -1120,23 +1151,28 @@ class Solution:
         beam = self._beam_column(name)
         if beam is not None:
             return beam
-        mult = lay.multiplier_names()
-        if name in mult:
-            return self._field("lam", mult.index(name))
+        if where is not None:                       # a multiplier
+            return self._field(*where)
         head, _, rest = name.partition(".")
         if head in self.extras:
-            rows = [f"{a}.{b}" for a, b in lay.rows]
-            if rest in rows:
-                j = rows.index(rest)
+            j = self._extra_rows.get(rest)
+            if j is not None:
                 x = self.extras
                 return x.column(head, j) if isinstance(x, _FileArrays) else x[head][:, j]
         import difflib
         close = difflib.get_close_matches(name, self.columns, n=3)
         raise KeyError(f"no column '{name}'" + (f"; did you mean {', '.join(close)}?" if close else ""))
 
-    def table(self) -> tuple[list[str], np.ndarray]:
-        """(column names, values of shape (N, number of columns))."""
-        names = self.columns
+    def table(self, names=None) -> tuple[list[str], np.ndarray]:
+        """(column names, values of shape (N, number of columns)): every
+        column (:attr:`columns`), or those of ``names``.
+
+        Raises
+        ------
+        KeyError
+            An unknown name (as :meth:`column`).
+        """
+        names = self.columns if names is None else list(names)
         return names, np.column_stack([self.column(c) for c in names])
 
     def run_attributes(self) -> dict:

@@ -259,6 +259,8 @@ def _run(system, method, t_start, t_end, h, initial, steppers, control, engine, 
     events = EventLocator(system, h, sol) if EventLocator.found_by_steps(system) else None
     run = TimeLoop(system, method, sol, ls, primary, fallback, t_start, t_end, h, control,
                    sizes, output_every, events, sink)
+    if hasattr(writer, "begin"):       # the file's head, its columns checked, before any step
+        writer.begin(sol)
     timings["setup"] += _time.perf_counter() - t0
     loop_start = _time.perf_counter()
     try:

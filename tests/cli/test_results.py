@@ -501,3 +501,69 @@ def test_a_million_steps_to_hdf5_stay_below_300_mb(tmp_path):
     assert peak_mb < 300, f"peak resident memory {peak_mb:.0f} MB"
     sol = mbdsl.load_solution(out)
     assert len(sol.t) == 1000001 and sol.t[-1] == pytest.approx(10.0)
+
+
+# -- some columns only (--columns) ---------------------------------------------------------
+
+def test_column_patterns_take_brackets_literally():
+    """``link[3].*`` is link 3's columns (the brackets are part of the name,
+    not a shell character class); ``?`` one character; "t" always first."""
+    from mbdsl.output import select_columns
+    names = ["t", "link[1].x", "link[3].x", "link[3].phi", "link[33].x", "energy.total"]
+    assert select_columns(names, ["link[3].*"]) == ["t", "link[3].x", "link[3].phi"]
+    assert select_columns(names, ["link[?].x", "energy.*"]) == \
+        ["t", "link[1].x", "link[3].x", "energy.total"]
+    with pytest.raises(ValueError, match="did you mean energy.total"):
+        select_columns(names, ["energi.total"])
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".h5"])
+def test_a_file_of_some_columns_holds_them_exactly(tmp_path, suffix):
+    """``simulate --columns``: the file holds t and the matching columns,
+    equal to the same run's full file bit for bit; read back, those columns
+    are the result's and any other is a KeyError that says why; the units
+    metadata lists those alone."""
+    import json
+    full, part = tmp_path / f"full{suffix}", tmp_path / f"part{suffix}"
+    model = str(MODELS / "slider_crank.mbd")
+    assert main(["simulate", model, "--t-end", "0.2", "-q", "-o", str(full)]) == 0
+    assert main(["simulate", model, "--t-end", "0.2", "-q", "-o", str(part),
+                 "--columns", "crank.*, lambda.O.*,energy.total,step.h"]) == 0
+    a, b = mbdsl.load_solution(full), mbdsl.load_solution(part)
+    chosen = {"lambda.O.0", "lambda.O.1", "energy.total", "step.h"}
+    want = [c for c in a.columns if c == "t" or c.startswith("crank.") or c in chosen]
+    assert len(want) == 1 + 9 + 4
+    assert b.columns == want
+    for c in want:
+        np.testing.assert_array_equal(b.column(c), a.column(c), err_msg=c)
+    with pytest.raises(KeyError, match="some columns only"):
+        b.column("slider.x")
+    if suffix == ".csv":
+        from mbdsl.output import read_csv_metadata
+        meta, names, _ = read_csv_metadata(part)
+        assert names == want
+    else:
+        import h5py
+        with h5py.File(part, "r") as f:
+            meta = dict(f.attrs)
+            assert f["q"].shape == (201, 3) and f["reactions"].shape == (201, 0)
+    assert json.loads(meta["columns"]) == want
+    assert set(json.loads(meta["units"])) == set(want)
+
+
+def test_a_column_pattern_that_matches_nothing_is_refused_before_the_run(tmp_path, capsys):
+    """A misspelt pattern: exit 1 before any step, with the closest names, no
+    file left behind; the same for the table on standard output."""
+    out = tmp_path / "run.h5"
+    model = str(MODELS / "slider_crank.mbd")
+    assert main(["simulate", model, "-q", "-o", str(out), "--columns", "crank.phi,rodd.*"]) == 1
+    err = capsys.readouterr().err
+    assert "'rodd.*' matches no column" in err and "did you mean" in err
+    assert not out.exists()
+    assert main(["simulate", model, "-q", "-o", "-", "--columns", "crnk.phi"]) == 1
+    captured = capsys.readouterr()
+    assert captured.out == "" and "did you mean crank.phi" in captured.err
+    assert main(["simulate", model, "--t-end", "0.01", "-q", "-o", "-",
+                 "--columns", "crank.phi"]) == 0
+    rows = [r for r in capsys.readouterr().out.splitlines() if not r.startswith("#")]
+    assert rows[0] == "t,crank.phi" and len(rows) == 12
