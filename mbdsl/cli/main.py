@@ -644,6 +644,10 @@ def _read_result(path):
     return None
 
 
+#: Columns ``mbdsl plot`` draws by default from a file written with some columns only.
+MAX_PLOT_COLUMNS = 12
+
+
 def _plot(args) -> int:
     from ..plotting import plot_solution
     sol = _read_result(args.result)
@@ -651,6 +655,13 @@ def _plot(args) -> int:
         return 1
     out = Path(args.output) if args.output else Path(args.result).with_suffix(".png")
     y = [c.strip() for c in args.y.split(",") if c.strip()] if args.y else None
+    if y is None and getattr(sol, "written", None) is not None:
+        # a file of some columns (simulate --columns) has not the standard panels' columns:
+        # a plot of each column it holds
+        y = [c for c in sol.written if c != args.x][:MAX_PLOT_COLUMNS]
+        if len(sol.written) - 1 > MAX_PLOT_COLUMNS:
+            print(f"note: {args.result} holds {len(sol.written) - 1} columns; plotting the first "
+                  f"{MAX_PLOT_COLUMNS} (choose others with --y)", file=sys.stderr)
     try:
         bodies = [b.strip() for b in args.bodies.split(",") if b.strip()] if args.bodies \
             else None
@@ -675,7 +686,17 @@ def _source_run(args):
     src = Path(args.source)
     if src.suffix.lower() in (".csv",) + HDF5_SUFFIXES:
         sol = _read_result(src)
-        return (sol, 0) if sol is not None else (None, 1)
+        if sol is None:
+            return None, 1
+        missing = ([] if getattr(sol, "written", None) is None else
+                   [c for c in sol.system.layout.coordinates if c not in sol.written])
+        if missing:         # the mechanism is drawn from every coordinate
+            print(f"error: {src} was written with some columns only (simulate --columns) and "
+                  f"lacks {len(missing)} of the coordinates the drawing needs ({missing[0]}, "
+                  "...): animate or view the model itself, or a file written without "
+                  "--columns", file=sys.stderr)
+            return None, 1
+        return sol, 0
     args.model = args.source
     model = _load(args)
     if model is None:

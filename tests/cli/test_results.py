@@ -549,6 +549,9 @@ def test_a_file_of_some_columns_holds_them_exactly(tmp_path, suffix):
             assert f["q"].shape == (201, 3) and f["reactions"].shape == (201, 0)
     assert json.loads(meta["columns"]) == want
     assert set(json.loads(meta["units"])) == set(want)
+    # plotted: a panel per column it holds; not drawn: the mechanism needs every coordinate
+    assert main(["plot", str(part), "-o", str(tmp_path / "part.png")]) == 0
+    assert main(["animate", str(part), "-o", str(tmp_path / "part.gif")]) == 1
 
 
 def test_a_column_pattern_that_matches_nothing_is_refused_before_the_run(tmp_path, capsys):
