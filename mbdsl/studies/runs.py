@@ -96,6 +96,10 @@ class RunSpec:
     tol : float or None
         Error-controlled steps with rtol = atol = tol (``h`` the first
         step); None: fixed steps of h.
+    samples : int
+        Return q and v at this many equally spaced times after the start,
+        the last at t_end (cubic Hermite on the steps; 0: none), for errors
+        over the whole run.
     """
 
     method: str
@@ -106,6 +110,7 @@ class RunSpec:
     energy: bool = False
     drift_joint: str | None = None
     tol: float | None = None
+    samples: int = 0
 
     @property
     def key(self) -> tuple:
@@ -158,6 +163,10 @@ class RunData:
         Step times and total energy (``spec.energy``).
     drift : ndarray, shape (N, rows) or None
         ``Phi_q v + Phi_t`` of ``spec.drift_joint`` at every step.
+    t_samples : ndarray, shape (k,) or None
+        The times of ``spec.samples`` [s] (a completed run's).
+    q_samples, v_samples : ndarray, shape (k, n) or None
+        q and v there, by cubic Hermite interpolation of the steps.
     """
 
     spec: RunSpec
@@ -174,6 +183,9 @@ class RunData:
     drift: np.ndarray | None = None
     lam_end: np.ndarray | None = None
     engine: str = ""
+    t_samples: np.ndarray | None = None
+    q_samples: np.ndarray | None = None
+    v_samples: np.ndarray | None = None
 
     @property
     def completed(self) -> bool:
@@ -229,7 +241,16 @@ def execute_run(source: ModelSource, spec: RunSpec) -> RunData:
         data.energy = total_energy(sol.system, sol.q, sol.v)
     if spec.drift_joint:
         data.drift = joint_velocity_violation(sol, spec.drift_joint)
+    if spec.samples and status == "completed":
+        from .reference import _hermite_state
+        data.t_samples = sample_times(float(sol.t[0]), spec.t_end, spec.samples)
+        data.q_samples, data.v_samples = _hermite_state(sol)(data.t_samples)
     return data
+
+
+def sample_times(t_start: float, t_end: float, k: int) -> np.ndarray:
+    """k equally spaced times after t_start, the last at t_end [s], shape (k,)."""
+    return np.linspace(t_start, t_end, k + 1)[1:]
 
 
 def time_run(source: ModelSource, spec: RunSpec) -> float:

@@ -65,6 +65,9 @@ ALL_KINDS = KINDS[:5]
 
 #: An error below this multiple of the reference's estimated error is not fitted.
 REFERENCE_MARGIN = 10.0
+#: Times at which a tolerance sweep's runs are compared with the reference
+#: (equally spaced, the last at T): the global error is the largest over them.
+RUN_SAMPLES = 20
 
 #: A velocity violation below ROUNDOFF * max(1, max |v|) is round-off.
 ROUNDOFF = 1e-10
@@ -309,16 +312,19 @@ def _plan(kinds, o: StudyOptions, joint, model) -> list[RunSpec]:
     """
     wanted: dict = {}
 
-    def need(method, h, coefficients=(), repeat=0, energy=False, drift=None, tol=None):
+    def need(method, h, coefficients=(), repeat=0, energy=False, drift=None, tol=None,
+             samples=0):
         """Add a run or widen an existing one with the same key."""
         plain = _effective(model, method)
         if all(plain.get(k) == v for k, v in coefficients):
             coefficients = ()
-        spec = RunSpec(method, h, o.t_end, tuple(coefficients), repeat, energy, drift, tol)
+        spec = RunSpec(method, h, o.t_end, tuple(coefficients), repeat, energy, drift, tol,
+                       samples)
         old = wanted.get(spec.key)
         if old is not None:
             spec = RunSpec(method, h, o.t_end, tuple(coefficients), max(repeat, old.repeat),
-                           energy or old.energy, drift or old.drift_joint, tol)
+                           energy or old.energy, drift or old.drift_joint, tol,
+                           max(samples, old.samples))
         wanted[spec.key] = spec
 
     timed = o.repeat if ("work-precision" in kinds or "recommend" in kinds) else 0
@@ -326,7 +332,7 @@ def _plan(kinds, o: StudyOptions, joint, model) -> list[RunSpec]:
         for m in o.methods:
             if kind == "work-precision" and o.sweep_tols:
                 for tol in o.sweep_tols:         # error-controlled, from the largest h
-                    need(m, o.hs[0], repeat=o.repeat, tol=tol)
+                    need(m, o.hs[0], repeat=o.repeat, tol=tol, samples=RUN_SAMPLES)
             elif kind in ("convergence", "work-precision", "recommend"):
                 for h in o.hs:
                     need(m, h, repeat=timed)
@@ -494,6 +500,25 @@ def quantity_error(model, run: RunData, ref: StudyReference, quantity: str) -> t
         return abs(float(run.q_end[i] - ref.q_end[i])), float(ref.error_q[i])
     i = model.velocity_names().index(quantity)
     return abs(float(run.v_end[i] - ref.v_end[i])), float(ref.error_v[i])
+
+
+def sampled_error(model, run: RunData, ref: StudyReference, quantity: str) -> float:
+    """The largest |x(t) - x_ref(t)| of one quantity over a run's samples
+    (``RunSpec.samples``; ``positions``/``velocities``: over every coordinate
+    or velocity too); NaN without samples, or for a multiplier."""
+    if run.t_samples is None or quantity.startswith("lambda."):
+        return float("nan")
+    q_ref, v_ref = ref.state(run.t_samples)
+    if quantity == "positions":
+        return float(np.max(np.abs(run.q_samples - q_ref)))
+    if quantity == "velocities":
+        return float(np.max(np.abs(run.v_samples - v_ref)))
+    coords = model.coordinate_names()
+    if quantity in coords:
+        i = coords.index(quantity)
+        return float(np.max(np.abs(run.q_samples[:, i] - q_ref[:, i])))
+    i = model.velocity_names().index(quantity)
+    return float(np.max(np.abs(run.v_samples[:, i] - v_ref[:, i])))
 
 
 def fitted_order(hs, errors) -> float:
@@ -739,34 +764,42 @@ def _work_precision_tols(o, runs, ref, model):
     """Error against wall time, every method and tolerance (error-controlled steps)."""
     from ..plotting import Panel, Series
     q = o.quantities[0]
-    table = Table("work_precision", f"Error in {q} at T against wall time with error-controlled "
-                  f"steps, rtol = atol = tol, from h = {o.hs[0]:g} s (median of {o.repeat} after "
-                  "a warm-up run)", ["method", "engine", "tol", "steps", "rejected",
-                                      f"error {q}", "time [s]", "status"])
-    panel = Panel(f"work-precision by tolerance ({q})", "wall time [s]", f"error in {q} at T",
-                  xscale="log", yscale="log")
-    achieved = Panel(f"achieved error against tolerance ({q})", "tol", f"error in {q} at T",
-                     xscale="log", yscale="log")
+    over = f"the largest error in {q} over {RUN_SAMPLES} times of the run"
+    table = Table("work_precision", f"Error in {q} with error-controlled steps, rtol = atol = "
+                  f"tol, from h = {o.hs[0]:g} s, against wall time (median of {o.repeat} after "
+                  f"a warm-up run): {over} (the last at T) and the error at T",
+                  ["method", "engine", "tol", "steps", "rejected", f"max error {q}",
+                   f"error {q}", "time [s]", "status"])
+    panel = Panel(f"work-precision by tolerance ({q})", "wall time [s]",
+                  f"max error in {q} over the run", xscale="log", yscale="log")
+    achieved = Panel(f"achieved error against tolerance ({q})", "tol",
+                     f"max error in {q} over the run", xscale="log", yscale="log")
     slopes = Table("tolerance_proportionality", f"Tolerance proportionality: the least-squares "
-                   f"slope of log(error in {q} at T) against log(tol) (1 when the error is "
-                   "proportional to the tolerance) and the error over tol at the tightest "
-                   "tolerance", ["method", "slope", "error / tol", "runs fitted"])
+                   f"slope of log(error) against log(tol) (1 when the error is proportional to "
+                   f"the tolerance), of {over} and of the error at T alone (which may pass "
+                   "through zero at T), and the largest error over tol at the tightest "
+                   "tolerance", ["method", "slope", "slope at T", "error / tol", "runs fitted"])
     for m in o.methods:
-        xs, ys, ts = [], [], []
+        xs, ys, ts, ends = [], [], [], []
         for tol in o.sweep_tols:
             run = runs[(m, o.hs[0], (), tol)]
             err = quantity_error(model, run, ref, q)[0] if run.completed else float("nan")
+            most = sampled_error(model, run, ref, q) if run.completed else float("nan")
+            if not np.isfinite(most):      # a multiplier: at T only
+                most = err
             table.rows.append([m, run.engine, tol, run.stats.get("steps", 0),
-                               run.stats.get("rejected", 0), err, run.time,
+                               run.stats.get("rejected", 0), most, err, run.time,
                                "completed" if run.completed
                                else f"failed at t = {run.t_stop:.4g} s"])
             if run.completed:
                 xs.append(run.time)
-                ys.append(err)
+                ys.append(most)
+                ends.append(err)
                 ts.append(tol)
         slope = fitted_order(ts, ys)
         ok = [(t, e) for t, e in zip(ts, ys) if np.isfinite(e) and e > 0]
-        slopes.rows.append([m, slope, min(ok)[1] / min(ok)[0] if ok else float("nan"), len(ok)])
+        slopes.rows.append([m, slope, fitted_order(ts, ends),
+                            min(ok)[1] / min(ok)[0] if ok else float("nan"), len(ok)])
         label = f"{m} (slope {slope:.2f})" if np.isfinite(slope) else m
         panel.series.append(Series(m, np.array(xs), np.array(ys)))
         achieved.series.append(Series(label, np.array(ts), np.array(ys)))
@@ -774,9 +807,9 @@ def _work_precision_tols(o, runs, ref, model):
     caption = ("What accuracy costs in time when the step size follows a tolerance: each line "
                "is one method over the tolerances (rtol = atol); the lower-left method gives "
                "the same error for less time. The second panel shows the error each "
-               "tolerance achieves, and the second table its slope: the tolerance is an "
-               "error per unit step, so that a second-order method's error falls in "
-               "proportion to it (slope 1; docs/methods.md).")
+               "tolerance achieves, the largest over the run, and the second table its slope: "
+               "the tolerance is an error per unit step, so that a second-order method's "
+               "error falls in proportion to it (slope 1; docs/methods.md).")
     return Section("work-precision", caption, [table, slopes],
                    [("work_precision", [panel, achieved], "Work-precision by tolerance")])
 

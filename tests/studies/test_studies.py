@@ -326,6 +326,10 @@ def test_work_precision_by_tolerance(tmp_path):
         errors = [float(r["error rod.phi"]) for r in rows if r["method"] == method]
         steps = [int(r["steps"]) for r in rows if r["method"] == method]
         assert errors[0] > 10 * errors[-1] and steps[0] < steps[1] < steps[2]
+        # the largest error over the run's samples: at least the error at T, falling too
+        most = [float(r["max error rod.phi"]) for r in rows if r["method"] == method]
+        assert all(m >= e * (1 - 1e-6) for m, e in zip(most, errors)), (most, errors)
+        assert most[0] > 10 * most[-1]
         assert all(r["engine"] == "compiled/dense" for r in rows if r["method"] == method)
 
 
@@ -348,3 +352,29 @@ def test_timed_runs_go_one_at_a_time_after_the_others():
         assert data.completed and len(data.wall_times) == max(data.spec.repeat, 1)
     alone = run_specs(source, [specs[0]], jobs=1)[0]
     assert np.array_equal(alone.q_end, out[0].q_end) and alone.stats == out[0].stats
+
+
+def test_a_runs_sampled_error_is_its_largest_over_the_run():
+    """The tolerance sweep's error: the largest over RUN_SAMPLES times of the
+    run, q at those times by cubic Hermite on the steps. On a pendulum run at
+    fixed steps, against the study's DOP853 reference: equal to the largest
+    of the errors computed directly at the sample times from a run that lands
+    a step on each of them (to the Hermite interpolation's error, far below
+    the run's own), and at least the error at T."""
+    import mbdsl
+    from mbdsl.studies.reference import build_reference
+    from mbdsl.studies.runs import ModelSource, RunSpec, execute_run, sample_times
+    from mbdsl.studies.study import sampled_error
+    source = ModelSource(PENDULUM.read_text(), str(PENDULUM))
+    model = source.load()
+    data = execute_run(source, RunSpec("hht-i3", 1e-3, 1.0, samples=10))
+    assert data.completed and data.t_samples[-1] == pytest.approx(1.0)
+    np.testing.assert_allclose(data.t_samples, sample_times(0.0, 1.0, 10))
+    ref = build_reference("dop853", model, 1.0, 1e-3)
+    got = sampled_error(model, data, ref, "rod.phi")
+    sol = mbdsl.simulate(model, method="hht-i3", h=1e-3, t_end=1.0, fixed=True)
+    i = model.coordinate_names().index("rod.phi")
+    at = np.searchsorted(sol.t, data.t_samples - 1e-12)
+    direct = np.max(np.abs(sol.q[at, i] - ref.state(data.t_samples)[0][:, i]))
+    assert got == pytest.approx(direct, rel=1e-6)
+    assert got >= abs(data.q_end[i] - ref.q_end[i])
