@@ -147,16 +147,18 @@ def alternating_reactions(sol) -> Diagnostic | None:
     # run's are read from its file a column at a time, a chain's 20 000 at once
     width = max(1, (1 << 20) // N)
     blocks = [(j0, min(m, j0 + width)) for j0 in range(0, m, width)]
+    # (temporaries in place: a run of 10^6 steps has columns of 8 MB)
     with np.errstate(all="ignore"):
-        typical = np.concatenate([np.median(np.abs(sol.multipliers(a, b)), axis=0)
-                                  for a, b in blocks])
+        typical = np.concatenate([np.median(np.abs(sol.multipliers(a, b)), axis=0,
+                                            overwrite_input=True) for a, b in blocks])
         ref = np.maximum(typical, 1e-3 * float(np.max(typical)) + 1e-12)
     best, where = 0, None
     for a, b in blocks:
         with np.errstate(all="ignore"):
-            z = np.diff(sol.multipliers(a, b), axis=0) / ref[a:b]
-            big = np.abs(z) > JUMP_FACTOR
-        down = np.signbit(z)            # (a jump is not zero, nor NaN)
+            z = np.diff(sol.multipliers(a, b), axis=0)
+            z /= ref[a:b]
+            down = np.signbit(z)        # (a jump is not zero, nor NaN)
+            big = np.abs(z, out=z) > JUMP_FACTOR
         del z
         alternating = big[1:] & big[:-1] & (down[1:] != down[:-1])
         for jj in np.flatnonzero(np.count_nonzero(alternating, axis=0) >= ALTERNATING_STEPS):
