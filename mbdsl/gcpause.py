@@ -24,6 +24,7 @@ def paused(fn):
     or raises."""
     @functools.wraps(fn)
     def wrapper(*args, **kwargs):
+        """``fn`` with the collector paused."""
         if not gc.isenabled():
             return fn(*args, **kwargs)
         gc.disable()

@@ -246,7 +246,8 @@ class HdfStream(RowStream):
             self._file.close()
             self._file = None
 
-    def _rows_source(self, n: int) -> "FileRows":
+    def _hand_back(self, n: int) -> "FileRows":
+        self._close()
         return FileRows(self.path, n, self._columns)
 
     def _end(self, sol, meta) -> None:

@@ -269,7 +269,7 @@ class RowStream(abc.ABC):
     PENDING_ROWS = 1 << 14
     #: Most rows whose derived columns are computed at once.
     PART_ROWS = 1 << 14
-    #: The Solution may let go of the rows written (the file gives them back).
+    #: The Solution may let go of the rows written (``_hand_back`` gives them back).
     releases_rows = False
 
     def __init__(self, path, interval: float = 0.5, columns: list | None = None):
@@ -374,8 +374,7 @@ class RowStream(abc.ABC):
             with _Timer(self):
                 if self.releases_rows:
                     self._write_rows(sol, sol.n_rows, finalized=False)
-                    self._close()
-                    sol.attach_file(self._rows_source(self._written), self._extents)
+                    sol.attach_file(self._hand_back(self._written), self._extents)
                 else:
                     self._write_rows(sol, len(sol.t), finalized=True)
                     if sol._derived is None and self._derived and None not in self._derived:
@@ -404,15 +403,12 @@ class RowStream(abc.ABC):
     def _end(self, sol, meta) -> None:
         """Close the file with the final metadata ``meta``."""
 
-    def _close(self) -> None:
-        """Close the file before the final metadata (a stream that
-        ``releases_rows``: the Solution reads the file back first)."""
-        raise NotImplementedError(f"{type(self).__name__} keeps its rows in the Solution")
-
-    def _rows_source(self, n: int):
-        """The file's n rows, read back when asked for (a stream that
-        ``releases_rows``; ``hdf5.FileRows``)."""
-        raise NotImplementedError(f"{type(self).__name__} keeps its rows in the Solution")
+    def _hand_back(self, n: int):
+        """Close the file (before its final metadata) and return its n rows,
+        read when asked for (``hdf5.FileRows``): what a stream that
+        ``releases_rows`` gives the Solution at the end. None: this stream's
+        file does not give rows back (its Solution keeps them)."""
+        return None
 
 
 class CsvStream(RowStream):

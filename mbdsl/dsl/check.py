@@ -27,9 +27,8 @@ from ..model.elements import (COORDINATES, GROUND, VELOCITIES, Driver, InitialCo
                               StateFunction, StateVariable, TimeFunction, Torque)
 import dataclasses
 
-from .expressions import (Binary, Call, Dotted, ExprError, IndexedName, Name, Num, Unary, Vec,
-                          compile_function, compile_state_function, diff, evaluate,
-                          free_names, substitute)
+from .expressions import (Dotted, ExprError, IndexedName, Name, Num, Vec, compile_function,
+                          compile_state_function, diff, evaluate, free_names, substitute)
 from ..model.beam import FRAMES
 from .spec import BeamSpec, ForSpec, GroundSpec, ModelSpec
 from . import units
@@ -105,6 +104,12 @@ class _Checker:
         # names whose own error is reported: their uses are not reported again
         self.broken_names: set[str] = set()
         self.broken_points: set[tuple[str, str]] = set()
+        # per spec object (keyed by id, the object kept to check it is the same one):
+        # what it holds (_scan), its fields a copy may change, its builders, its value
+        self._scanned: dict = {}
+        self._varying: dict = {}
+        self._builders: dict = {}
+        self._numbers: dict = {}
 
     # -- helpers -------------------------------------------------------------
     def error(self, code, message, span=None, label="", hint="", notes=(), secondary=()):
@@ -152,7 +157,7 @@ class _Checker:
         A value is remembered per expression object: the copies a ``for``
         block makes share the parts that do not read its variable
         (:meth:`instantiate`), so ``mass m`` of 10 000 links is evaluated once."""
-        memo = self.__dict__.setdefault("_numbers", {})
+        memo = self._numbers
         key = (id(expr), unit, allow_t, len(self.params))     # parameters only grow
         hit = memo.get(key)
         if hit is not None and hit[0] is expr:
@@ -433,7 +438,7 @@ class _Checker:
         remembered per object: a declaration's parts that hold neither an
         indexed name nor a loop variable are shared by every copy a ``for``
         block makes, not copied again (:meth:`instantiate`)."""
-        memo = self.__dict__.setdefault("_scanned", {})
+        memo = self._scanned
         hit = memo.get(id(obj))
         if hit is not None and hit[0] is obj:
             return hit[1], hit[2]
@@ -460,7 +465,7 @@ class _Checker:
                     varying.append((fields[k], i, n))
             out = (indexed, names)
             if fields is not None:        # the fields a copy may change (:meth:`instantiate`)
-                self.__dict__.setdefault("_varying", {})[id(obj)] = varying
+                self._varying[id(obj)] = varying
         memo[id(obj)] = (obj, *out)
         return out
 
@@ -482,7 +487,7 @@ class _Checker:
         """A function (env, span) -> the instance of ``obj`` (or None after
         reporting) for loop variables ``keys``; None when ``obj`` reads none
         of them and holds no indexed name (the instance is ``obj``)."""
-        memo = self.__dict__.setdefault("_builders", {})
+        memo = self._builders
         hit = memo.get((id(obj), keys))
         if hit is not None and hit[0] is obj:
             return hit[1]
@@ -492,7 +497,12 @@ class _Checker:
         return build
 
     def _compile(self, obj, keys):
-        """The builder of :meth:`_builder` for an ``obj`` that needs one."""
+        """The builder of :meth:`_builder` for an ``obj`` that needs one: a
+        loop variable becomes its number, an indexed name its resolved name
+        (``link[3]``; in a reference ``link[i].B`` the element's name as a
+        string), a tuple and any other spec or expression node a copy with its
+        changed parts built. Each builder takes (env, span) and returns the
+        instance, or None after reporting."""
         sub = self._builder
 
         def part(x):
@@ -504,43 +514,22 @@ class _Checker:
             return lambda env, span: Num(float(env[obj.name]), obj.span)
         if isinstance(obj, IndexedName):
             def build(env, span):
+                """The Name of the resolved ``base[index]``."""
                 name = resolve(obj, env, span)
                 return None if name is None else Name(name, obj.span)
             return build
-        if isinstance(obj, Dotted):
-            if isinstance(obj.obj, Dotted):        # link[i].B.x: resolve the inner reference
-                inner = part(obj.obj)
-
-                def build(env, span):
-                    x = inner(env, span)
-                    return None if x is None else Dotted(x, obj.attr, obj.span)
-                return build
-
+        if isinstance(obj, Dotted) and not isinstance(obj.obj, Dotted):    # link[i].B, ground.P[i]
             def build(env, span):
+                """The reference with its element's and point's names resolved."""
                 where = obj.span or span
                 name, attr = resolve(obj.obj, env, where), resolve(obj.attr, env, where)
                 return None if name is None or attr is None else Dotted(name, attr, obj.span)
-            return build
-        if isinstance(obj, (Unary, Call)):
-            field = "operand" if isinstance(obj, Unary) else "arg"
-            inner = part(getattr(obj, field))
-
-            def build(env, span):
-                x = inner(env, span)
-                return None if x is None else dataclasses.replace(obj, **{field: x})
-            return build
-        if isinstance(obj, (Binary, Vec)):
-            f1, f2 = ("left", "right") if isinstance(obj, Binary) else ("x", "y")
-            b1, b2 = part(getattr(obj, f1)), part(getattr(obj, f2))
-
-            def build(env, span):
-                x, y = b1(env, span), b2(env, span)
-                return None if x is None or y is None else dataclasses.replace(obj, **{f1: x, f2: y})
             return build
         if isinstance(obj, tuple):
             items = [part(x) for x in obj]
 
             def build(env, span):
+                """The tuple of its items' instances."""
                 out = tuple(b(env, span) for b in items)
                 return None if any(x is None for x in out) else out
             return build
@@ -556,6 +545,7 @@ class _Checker:
             cls, state = type(obj), obj.__dict__
 
             def build(env, span):
+                """A shallow copy with the changed fields built."""
                 span = own or span
                 # a shallow copy with the changed fields (the specs' __post_init__
                 # only normalises what they were given, which the parts already are;
