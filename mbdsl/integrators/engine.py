@@ -1166,7 +1166,7 @@ class SparseAdapter:
         size, l0, e0, a0 = self._K.layout(rec, n, m)
         s = StepState(ctx.t, qx[:n].copy(), vx[:n].copy(), w[a0:a0 + n].copy(),
                       w[l0:l0 + m].copy())
-        if e0 < size:
+        if self._method.extras:         # mu, psi1: empty blocks on a model without joints
             s.extra[self._method.extras[0]] = w[e0:e0 + m].copy()
         if "aux" in ctx.last.extra:
             b = np.array(ctx.cache["kb"], dtype=float)
