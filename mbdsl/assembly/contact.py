@@ -24,7 +24,7 @@ the contact, set by the time loop when the gap closes (``arm``, the event
 that lands a step on the closing) and cleared when it opens (``release``).
 
 The group holds the contacts' data and state; the kernels of
-``integrators/compiled.py`` evaluate the law (``_contact_law``,
+``kernels/loads/contact.py`` evaluate the law (``_contact_law``,
 ``_contacts_add``, ``_emit_contacts``) and the gaps (``_gap``), the latter
 through the evaluation :meth:`ContactGroup.bind` gives the group
 (``AssembledSystem.contact_gaps``). ``tests/contact/contact_oracle.py`` is

@@ -57,7 +57,7 @@ A :class:`FlexibleBeamGroup` holds the data of the beams with the same
 number of elastic coordinates, stacked (struct of arrays, shape (k, ...)):
 columns, shape integrals, stiffness and strain data, which
 ``integrators.engine.CompiledModel`` packs for the kernels. The physics
-above is evaluated once, by the kernels of ``integrators/compiled.py``
+above is evaluated once, by the kernels of ``mbdsl/kernels``
 (``_ffr_local``, ``_ffr_energy``): the compiled time loops call them
 directly, and everything else (the numpy engine, the initial conditions,
 the output's energies) through this group's methods, on the compiled
@@ -75,7 +75,7 @@ from .groups import body_columns
 
 __all__ = ["FlexibleBeamGroup"]
 
-#: ``compiled._ffr_local``'s bits (M, Q, (Q_q, Q_v), (M x)_q), repeated here so
+#: ``kernels.beams.ffr._ffr_local``'s bits (M, Q, (Q_q, Q_v), (M x)_q), repeated here so
 #: that building a model never imports numba.
 FFR_M, FFR_Q, FFR_DQ, FFR_MXQ = 1, 2, 4, 8
 
@@ -153,7 +153,7 @@ class FlexibleBeamGroup:
         self._kernel_model, self.first = kernel_model, first
 
     def _blocks(self, qx, vx, x, what):
-        """The kernels' local blocks of the group's beams (``compiled.beam_blocks``):
+        """The kernels' local blocks of the group's beams (``kernels.beams.ffr.beam_blocks``):
         M, Q, Q_q, Q_v, (M x)_q, shapes (k, c, c), (k, c), (k, c, c) x 3."""
         cm = self._kernel_model()
         k, c = len(self.beams), self.c
@@ -200,7 +200,7 @@ class FlexibleBeamGroup:
     def energy(self, qx, gravity: bool = True):
         """Strain energy (+ with ``gravity`` the gravity potential energy) of
         all beams [J]: a float, or shape (...) for rows qx of shape (..., n
-        or n + 3) (``compiled.beam_energies``)."""
+        or n + 3) (``kernels.beams.ffr.beam_energies``)."""
         cm = self._kernel_model()
         rows = self._extended(qx).reshape(-1, self._nx)
         out = np.empty(len(rows))

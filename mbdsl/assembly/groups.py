@@ -6,7 +6,7 @@ body-fixed vectors, parameters) built once: the model data
 ``rows`` (k, r) of a constraint, columns ``cols`` (k, c) into the extended
 coordinate vector q_ext = [q, 0, 0, 0], where the three trailing zeros are
 the ground) holds data only, and states its element's equations: the
-kernels of ``integrators/compiled.py`` are the one evaluation of Phi, Q and
+kernels of ``mbdsl/kernels`` are the one evaluation of Phi, Q and
 their derivatives (``AssembledSystem.Phi``, ``AssembledSystem.Q`` and the
 functions after them), and ``tests/assembly/constraint_oracle.py`` and
 ``tests/assembly/force_oracle.py`` independent numpy ones they are tested
@@ -70,7 +70,7 @@ class PointSet:
     * jacobian: [I, B u, A S]                             (k, 2, 3 + e)
     * Hessian:  d2/dphi2 = -A u, d2/dphi dq_e = B S       (k, 2, 3 + e, 3 + e)
 
-    (the jacobian and Hessian are the kernels', ``compiled._Au`` and the
+    (the jacobian and Hessian are the kernels', ``kernels.geometry._Au`` and the
     elastic terms of the joints and loads)
 
     (Shabana, Dynamics of Multibody Systems, sec. 5.3: the position of an
@@ -225,7 +225,7 @@ class SpringDamperGroup:
     the Hessians of d; Q_v = -c (D^T e)(D^T e)^T. Two coincident points have
     no direction and no force along it (the time loop lands a step there as
     an event, docs/contact.md). The points may lie on flexible beams
-    (``PointSet``). Evaluated by ``compiled._springs_add`` and
+    (``PointSet``). Evaluated by ``kernels.loads.spring_damper._springs_add`` and
     ``_emit_force``.
     """
 
@@ -236,7 +236,7 @@ class SpringDamperGroup:
         self.cols = self.pair.cols
         self.k, self.c, self.l0 = (np.asarray(x, float) for x in (k, c, length))
         #: the direction held while a step is landed on a pass of the points
-        #: (``compiled._free_length``), (k, 2); zeros: none, the physical law
+        #: (``kernels.loads.spring_damper._free_length``), (k, 2); zeros: none, the physical law
         self.held = np.zeros((len(self.k), 2))
         self.damped = bool(np.any(self.c != 0.0))
 

@@ -22,7 +22,7 @@ Newton matrices are assembled from (``assembly/sparse.py``); the dense
 the matrix-free products ``PhiqT_times`` and ``Phiq_times``.
 
 The physics of every element (joints, drivers, applied loads, contacts,
-flexible beams) is evaluated by the kernels of ``integrators/compiled.py``,
+flexible beams) is evaluated by the kernels of ``mbdsl/kernels``,
 its one implementation, through :meth:`AssembledSystem.kernel_model`; the
 groups of ``groups.py``, ``contact.py`` and ``ffr.py`` hold the elements'
 data. The constraint patterns are the kernels' triplets; the loads'
@@ -415,7 +415,7 @@ class AssembledSystem:
         return per_element[element]
 
     # -- forces -------------------------------------------------------------------------
-    # Evaluated by the kernels (``compiled.elements``), the one implementation of the
+    # Evaluated by the kernels (``kernels.system.elements``), the one implementation of the
     # applied loads (gravity, spring-dampers, torques, point forces, loads of the
     # state, friction, contacts, flexible beams).
     _EMPTY_I, _EMPTY_1, _EMPTY_F = np.zeros(0, np.int64), np.zeros(0), np.zeros((0, 0))
@@ -426,7 +426,7 @@ class AssembledSystem:
 
     def _elements(self, what, rows, t, vx, y, out, slip=None, speeds=None, R=None, C=None,
                   V=None):
-        """``compiled.elements`` at the rows (N, nx) (joints and drivers:
+        """``kernels.system.elements`` at the rows (N, nx) (joints and drivers:
         ``what`` a C_*; applied loads: an L_*), one argument type per slot:
         t (N,), vx (N, nx) and y (N, m or nx) zeros when not given, slip (k,)
         and speeds (N, k) empty, unused outputs empty arrays. The contacts'
@@ -477,7 +477,7 @@ class AssembledSystem:
         """Generalized applied forces Q(t, q, v[, lambda]), shape (n,) [N, N m].
 
         ``slip``: friction's tanh(z/v_reg) replaced, per friction instance
-        (NaN: not), for the Coulomb limit at rest (``compiled._friction_law``).
+        (NaN: not), for the Coulomb limit at rest (``kernels.loads.friction._friction_law``).
 
         Raises
         ------
@@ -568,7 +568,7 @@ class AssembledSystem:
             5), per spring-damper: length [m], its rate, tension [N], energy
             [J], power dissipated [W]; ``"rotational"`` (N, kr, 5), per
             rotational spring-damper the same of its angle [rad, rad/s, N m,
-            J, W]. From ``compiled.elements``, L_SENSORS: the laws the run's
+            J, W]. From ``kernels.system.elements``, L_SENSORS: the laws the run's
             forces use (its F_t is along -t).
         """
         from ..model.elements import RotationalSpringDamper, SpringDamper
@@ -603,7 +603,7 @@ class AssembledSystem:
         return out[0, :k] if a is None else out[0, k:]
 
     # -- constraints ------------------------------------------------------------------
-    # Evaluated by the kernels (``compiled.elements``), the one implementation of
+    # Evaluated by the kernels (``kernels.system.elements``), the one implementation of
     # the joints and drivers; every function takes one state or rows of a stored
     # solution.
 
@@ -842,7 +842,7 @@ class AssembledSystem:
         Phi_t, the power of the rheonomic constraint forces -Phi_q^T lambda
         on a motion with Phi_q v + Phi_t = 0). Dissipated: the dampers of
         spring-dampers and rotational spring-dampers, friction and the
-        contacts (``compiled._power``). Gravity, springs and beam strain are
+        contacts (``kernels.system._power``). Gravity, springs and beam strain are
         in :meth:`potential_energy`. Only what the model declares is
         evaluated.
 
@@ -893,10 +893,10 @@ class AssembledSystem:
         return float(e) if np.ndim(q) == 1 else e
 
 
-#: ``compiled.elements``' evaluations (its L_* constants, repeated as the C_* below)
+#: ``kernels.system.elements``' evaluations (its L_* constants, repeated as the C_* below)
 (_L_Q, _L_QQ, _L_QV, _L_QLAM, _L_ENERGY, _L_POWER, _L_GAPS, _L_SPRINGS, _L_SLIP,
  _L_SENSORS) = range(8, 18)
-#: ``compiled.elements``' evaluations (its C_* constants, repeated here so
+#: ``kernels.system.elements``' evaluations (its C_* constants, repeated here so
 #: that building a model never imports numba)
 _C_PHI, _C_PHI_T, _C_PHI_TT, _C_PHIQ_Y, _C_PHIQT_Y, _C_PHIQ, _C_PHIQT_Y_Q, _C_PHIQ_Y_Q = range(8)
 

@@ -685,7 +685,7 @@ def compile_state_function(e: Expr, variables: tuple) -> Callable[[float, "objec
 def postfix(e: Expr, var: str = "t", variables: dict | None = None
             ) -> tuple[list[int], list[float], int]:
     """A substituted expression as a postfix program, for the compiled kernels
-    (``integrators.compiled._eval``): of time ``var`` and, with
+    (``kernels.programs._eval``): of time ``var`` and, with
     ``variables`` (name -> index in the model's table of state variables),
     of the state.
 

@@ -43,7 +43,7 @@ tol h is 1e-18 m against an estimate that stalls at 1e-18 m), and on smooth
 models only below rtol 1e-10 (the car axis at 1e-10: steps of 1.5e-6 s,
 tol h |q| = 1.5e-16 m against a floor of 2.4e-17 m).
 
-Rule (``compiled.step_ratio``, the same in both engines): a step whose error
+Rule (``integrators.compiled.loop.step_ratio``, the same in both engines): a step whose error
 E per unit step exceeds 1 is rejected and retried with
 h max(min_factor, safety E^(-1/2)); after an accepted step the next size
 follows Soderlind's H211b digital filter with b = 4 ("Digital filters in
@@ -121,7 +121,7 @@ class StepControl:
         """The error per unit step of a local error estimate (module notes): its
         weighted RMS norm with each entry's tolerance (atol + rtol max(|q_n|,
         |q_{n+1}|)) h, never below ``noise`` ulps of max(|q_n|, |q_{n+1}|); 0
-        for a model without coordinates (``compiled._error_norm`` in the
+        for a model without coordinates (``integrators.compiled.loop._error_norm`` in the
         compiled loop).
 
         Parameters
@@ -155,7 +155,7 @@ def index1_acceleration(system, t: float, q: np.ndarray, v: np.ndarray,
     sec. 6.3; the pseudo-inverse keeps redundant rows). An index-3 method's error
     estimate reads it (module notes): its own a meets only Phi = 0, and the
     normal part carries the multipliers' round-off over beta h^2. The
-    compiled loop's ``compiled._index1_acceleration`` is the same operation.
+    compiled loop's ``integrators.compiled.index1._index1_acceleration`` is the same operation.
 
     Parameters
     ----------

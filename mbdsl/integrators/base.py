@@ -4,7 +4,7 @@ A method is a recipe: the layout of its unknowns w, the integration
 formulas q = I1(w), v = I2(w), the residual Upsilon(w) with its row
 scaling, the Newton Jacobian, its start-up, its history length, its order
 and index. The time loop (``loop.py``), the Python Newton loop
-(``newton.py``) and the compiled loop (``compiled.py``, on the method's
+(``newton.py``) and the compiled loop (``integrators/compiled/loop.py``, on the method's
 ``kernel_recipe``) never ask which method they run.
 
 Methods hold no mutable state: per-step values live in :class:`StepContext`

@@ -93,10 +93,10 @@ def _kernels(uncompiled: bool = False):
 def numba_available() -> bool:
     """True when numba can be imported."""
     try:
-        import numba  # noqa: F401
+        from ..kernels import jit
     except ImportError:
         return False
-    return True
+    return jit.available()
 
 
 def unsupported(system, method) -> str | None:
@@ -145,9 +145,9 @@ def index1_multipliers(system, t, q, v) -> np.ndarray:
     when this process has loaded them and they cover the model (a run on the
     compiled engine), else row by row by the system's dense index-1 matrix.
     Rigid bodies: the Schur complement Phi_q M^-1 Phi_q^T in a band Cholesky
-    (``compiled.index1_multipliers_band``, ``_index1_band``; linear in the
+    (``integrators.compiled.index1_multipliers_band``, ``_index1_band``; linear in the
     size of a chain); flexible beams: the dense index-1 matrix
-    (``compiled.index1_multipliers``). Rows: t (N,) [s], q and v (N, n).
+    (``integrators.compiled.index1_multipliers``). Rows: t (N,) [s], q and v (N, n).
 
     Contacts: each row with the impact speeds in force at its time, from the
     contact log of the model's last run (``ContactGroup.log``,
@@ -194,7 +194,7 @@ def index1_multipliers(system, t, q, v) -> np.ndarray:
 
 
 def _index1_band(system):
-    """(order, kd, addresses) of ``compiled.index1_multipliers_band`` for a
+    """(order, kd, addresses) of ``integrators.compiled.index1_multipliers_band`` for a
     model of rigid bodies (constant diagonal M): the reverse Cuthill-McKee
     order of the constraint rows on the pattern of Phi_q M^-1 Phi_q^T and its
     half-bandwidth kd there, and LAPACK's dpbtrf and dpbtrs; None for
@@ -241,7 +241,7 @@ def recipe_monomials(method):
     (0) and the steps after it (1) as monomials c h^a c0^b w0^c w1^d in the
     step size h and a two-step method's coefficients c0, w0, w1 (rows: c, a,
     b, c, d; ``Method.kernel_recipe_at``), which the error-controlled compiled
-    loop evaluates at every step (``compiled._recipe_at``); None for a recipe
+    loop evaluates at every step (``integrators.compiled.loop._recipe_at``); None for a recipe
     that is not of that form."""
     from .recipe import RECIPE_FIELDS
     reg = RECIPE_FIELDS.index("reg")
@@ -451,7 +451,7 @@ class CompiledModel:
         #: the contacts' impact speeds (k,) [m/s or rad/s]: a view into the packed
         #: floats, the contact state the kernels read, written at events
         self.impact_speed = K.unpack(self.ints, self.floats)["kimp"]
-        #: the springs' held directions (k, 2) (``compiled._free_length``): a view
+        #: the springs' held directions (k, 2) (``kernels.loads.spring_damper._free_length``): a view
         #: into the packed floats, written while a step is landed on a pass
         spar = K.unpack(self.ints, self.floats)["spar"]
         self.spring_held = spar[:, 3:5] if spar.ndim == 2 and spar.shape[1] >= 5 else None
@@ -603,7 +603,7 @@ def _force_fields(system, tables) -> dict:
                      rpar=np.stack([g.k, g.c, g.angle], axis=1).astype(f8))
         elif isinstance(g, TorqueGroup):
             # a constant torque too is a (constant) program, not a term of Q0:
-            # the power it puts in is that of the loads of ``compiled._inputs_add``
+            # the power it puts in is that of the loads of ``kernels.system._inputs_add``
             for col, f in zip(g.cols[:, 0], g.functions):
                 tcol.append(col)
                 tfn.append(tables.program(f.expr if _timed(f) else Num(f.f(0.0))))
@@ -762,7 +762,7 @@ class LinearSolverPlan:
         "banded": 1, or 2 for HHT-SI2 split into its (a, lambda) and (abar,
         mu) blocks (see ``compiled``, "Linear solvers").
     addresses : ndarray of int64, shape (2,) or None
-        "banded": dgbtrf and dgbtrs (``compiled.lapack_band_addresses``).
+        "banded": dgbtrf and dgbtrs (``integrators.compiled.linalg.lapack_band_addresses``).
     why : str
         The reason for the choice, for reports.
     """
@@ -785,7 +785,7 @@ class LinearSolverPlan:
         return self.kl * (self.kl + self.ku + 1) > 6 * (2 * self.kl + self.ku + 11)
 
     def workspace(self, size, bound):
-        """The kernels' ``lin`` tuple (see ``compiled._factor``) for this
+        """The kernels' ``lin`` tuple (see ``integrators.compiled.linalg._factor``) for this
         plan; ``bound``: the triplet bound of the model."""
         one, i8 = np.zeros((1, 1)), np.int64
         ldab = 2 * self.kl + self.ku + 1
@@ -891,7 +891,7 @@ def band_ordering(system, method, q, split=False, cm=None):
 
 def band_plan(system, method, q, split, addresses, cm=None) -> LinearSolverPlan:
     """The "banded" plan of ``band_ordering`` (arguments as there; addresses
-    from ``compiled.lapack_band_addresses``)."""
+    from ``integrators.compiled.linalg.lapack_band_addresses``)."""
     rperm, cperm, kl, ku, blocks = band_ordering(system, method, q, split, cm)
     return LinearSolverPlan("banded", f"band LU, kl = {kl}, ku = {ku}, {blocks} block(s) "
                             f"({newton_size(system, method)} unknowns)", rperm, cperm, kl, ku,
@@ -949,7 +949,7 @@ def linear_solver_plan(system, method, options, q, cm=None, split_si2=True) -> L
 # ---------------------------------------------------------------------------------------------
 
 class KernelStepper:
-    """The compiled loop (``compiled.run``) as a stepper of ``loop.TimeLoop``:
+    """The compiled loop (``integrators.compiled.run``) as a stepper of ``loop.TimeLoop``:
     up to CHUNK steps in one call, its own Newton iteration with the linear
     solver of ``plan`` ("dense": explicit inverse; "banded": LAPACK's band
     LU), recording into the loop's buffers.
@@ -1090,7 +1090,7 @@ class SparseAdapter:
 
     def context(self, system, history, t, h):
         """The wrapped method's context, with the recipe of this step and its
-        predictors (``compiled._run``) for the kernels."""
+        predictors (``integrators.compiled.loop._run``) for the kernels."""
         ctx = self._method.context(system, history, t, h)
         if system.contact_group is not None:
             self._cm.impact_speed[:] = system.contact_group.impact_speed
@@ -1158,7 +1158,7 @@ class SparseAdapter:
         return np.concatenate([np.full(n, sx), np.full(n, sy), sx * mob, smu])
 
     def accept(self, w, ctx):
-        """The state of the converged w by the recipe (``compiled._run``)."""
+        """The state of the converged w by the recipe (``integrators.compiled.loop._run``)."""
         n, m = self._system.n, self._system.m
         rec = ctx.cache["recipe"]
         qx, vx = np.zeros(n + 3), np.zeros(n + 3)

@@ -132,7 +132,7 @@ class EventLocator:
     def hold(self, q) -> None:
         """Hold each flipping spring's direction at configuration q (n,), the
         start of the step being landed on an event: the steps tried meanwhile
-        continue the old branch past a pass (``compiled._free_length``)."""
+        continue the old branch past a pass (``kernels.loads.spring_damper._free_length``)."""
         if self.springs is None:
             return
         group, which = self.springs
@@ -184,7 +184,7 @@ class EventLocator:
         """Whether the step from configuration q0 to q1 (n,) crosses an event:
         a gap changes sign, or a spring's points pass each other (d turns
         against its direction at the step's start). Changes nothing: the
-        steppers' test (the compiled loop's is ``compiled._crossed``)."""
+        steppers' test (the compiled loop's is ``integrators.compiled.loop._crossed``)."""
         g = self.group
         if g is not None and np.any((g.gaps(self.system._ext(q0)) > 0.0)
                                     != (g.gaps(self.system._ext(q1)) > 0.0)):

@@ -1,7 +1,7 @@
 """Loading the compiled kernels: numba's on-disk cache, announced compilation,
 and a background build for a first run that should not wait.
 
-numba compiles the kernels of :mod:`.compiled` once per machine (about a
+numba compiles the kernels (:mod:`mbdsl.kernels`, :mod:`.compiled`) once per machine (about a
 minute on two cores) and caches them on disk; later processes load them in
 a fraction of a second. Two things follow for a tool that reports its own
 cost:
@@ -19,7 +19,7 @@ cost:
 
 Whether the kernels are built is recorded by a marker file beside numba's
 cache, written after every entry point was loaded or compiled, keyed by the
-source of :mod:`.compiled`, the numba version and the host CPU (numba's own
+sources of both packages (``kernel_sources``), the numba version and the host CPU (numba's own
 cache is keyed by the same). A marker that is wrong (numba's cache cleared
 by hand) costs only a late announcement: :func:`ensure_loaded` then reports
 the compilation once it has taken more than a few seconds.
@@ -63,8 +63,20 @@ def package_root() -> Path:
     return Path(__file__).resolve().parents[2]
 
 
-def _compiled_source() -> Path:
-    return Path(__file__).with_name("compiled.py")
+#: The packages of numba code: the element kernels and the step kernels.
+KERNEL_PACKAGES = ("kernels", "integrators/compiled")
+
+
+def kernel_sources() -> list:
+    """Every source file of the numba code (``KERNEL_PACKAGES``), sorted.
+
+    numba's on-disk cache keys a function on its own file only: a kernel that
+    calls a changed kernel of another file loads its stale machine code
+    (numba issue #1833). The marker's key therefore covers all of them, and a
+    change of any one rebuilds every kernel (``ensure_loaded``).
+    """
+    root = Path(__file__).resolve().parents[1]
+    return sorted(p for package in KERNEL_PACKAGES for p in (root / package).rglob("*.py"))
 
 
 def _cache_dir() -> Path:
@@ -80,12 +92,55 @@ def _cache_dir() -> Path:
 def _key() -> dict:
     """What the cached kernels depend on: our source (the kernels, and the
     warm-up that says which of them a build compiles), numba, the host CPU."""
-    import llvmlite.binding as llvm
-    import numba
-    source = _compiled_source().read_bytes() + Path(__file__).read_bytes()
-    return {"source": hashlib.sha256(source).hexdigest(),
-            "numba": numba.__version__, "cpu": llvm.get_host_cpu_name(),
+    from ..kernels import jit
+    digest = hashlib.sha256()
+    root = package_root()
+    for path in kernel_sources() + [Path(__file__).resolve()]:
+        digest.update(str(path.relative_to(root)).encode() + b"\0" + path.read_bytes() + b"\0")
+    return {"source": digest.hexdigest(),
+            "numba": jit.version(), "cpu": jit.host_cpu(),
             "python": sys.version.split()[0]}
+
+
+def _cache_folders() -> list:
+    """The folders numba caches the kernel packages' functions in (one per
+    package folder; under ``NUMBA_CACHE_DIR`` when set), from the
+    dispatchers of the imported kernel modules."""
+    from . import compiled      # noqa: F401  (imports every kernel module)
+    folders = set()
+    for name, module in list(sys.modules.items()):
+        if not name.startswith(("mbdsl.kernels", "mbdsl.integrators.compiled")):
+            continue
+        for value in vars(module).values():
+            cache = getattr(getattr(value, "_cache", None), "_cache_path", None)
+            if isinstance(cache, str) and getattr(value, "__module__", None) == name:
+                folders.add(Path(cache))
+                break
+    return sorted(folders)
+
+
+def purge_kernel_caches() -> int:
+    """Delete numba's cached machine code of every kernel (``*.nbi``, ``*.nbc``).
+
+    numba checks a cached function against its own file's time stamp only, so
+    a kernel whose callee in another file changed would load its old machine
+    code (numba issue #1833). A build for a new key (``ensure_loaded``)
+    therefore starts from an empty cache. The marker and the lock stay.
+
+    Returns
+    -------
+    int
+        The number of files deleted.
+    """
+    count = 0
+    for folder in _cache_folders():
+        for path in list(folder.glob("*.nbi")) + list(folder.glob("*.nbc")):
+            try:
+                path.unlink()
+                count += 1
+            except OSError:
+                pass
+    return count
 
 
 def _marker() -> Path:
@@ -259,6 +314,7 @@ def ensure_loaded(group: str | None = None, announce=None) -> float:
         return time.perf_counter() - t0
     timer = None
     if not ready:
+        purge_kernel_caches()
         if announce is not None:
             announce("compiling the kernels for this machine (once; about four minutes on two "
                      "cores, then cached) ...")
@@ -290,16 +346,22 @@ def ensure_loaded(group: str | None = None, announce=None) -> float:
     return elapsed
 
 
-#: The module name of the kernels' uncompiled copy (:func:`uncompiled_kernels`).
-UNCOMPILED_MODULE = "mbdsl.integrators._uncompiled"
+#: The package the kernels' uncompiled copy is imported under (:func:`uncompiled_kernels`):
+#: ``mbdsl._uncompiled.kernels...`` and ``mbdsl._uncompiled.integrators.compiled...``.
+UNCOMPILED_ROOT = "mbdsl._uncompiled"
+#: The module name of the uncompiled copy's entry points.
+UNCOMPILED_MODULE = UNCOMPILED_ROOT + ".integrators.compiled"
 
 
 def uncompiled_kernels():
-    """The kernels of :mod:`.compiled` as plain Python functions: the same
-    source executed a second time, as the module ``UNCOMPILED_MODULE``,
-    with numba's JIT disabled while its decorators run (numba's
-    ``DISABLE_JIT``: ``njit`` then returns the function itself). This
-    process's compiled kernels are untouched.
+    """The kernels of :mod:`mbdsl.kernels` and :mod:`.compiled` as plain Python
+    functions: the same sources executed a second time, as the packages under
+    ``UNCOMPILED_ROOT``, with numba's JIT disabled while their decorators run
+    (numba's ``DISABLE_JIT``: ``njit`` then returns the function itself). The
+    kernels import each other relatively, so the copy's modules see the copy;
+    what they import from the rest of mbdsl (absolute imports: opcodes,
+    recipe fields, outcomes) is shared. This process's compiled kernels are
+    untouched, and never imported by this function.
 
     This is the uncompiled engine (``engine="uncompiled"``): the one
     implementation of the physics and the methods, runnable under pdb and
@@ -324,26 +386,30 @@ def uncompiled_kernels():
     module = sys.modules.get(UNCOMPILED_MODULE)
     if module is not None:
         return module
-    import importlib.util
+    import importlib
+    import types
 
-    import numba
-    spec = importlib.util.spec_from_file_location(UNCOMPILED_MODULE, _compiled_source())
-    module = importlib.util.module_from_spec(spec)
-    before = numba.config.DISABLE_JIT
-    numba.config.DISABLE_JIT = True
-    sys.modules[UNCOMPILED_MODULE] = module
+    from ..kernels.jit import jit_disabled
+    root = Path(__file__).resolve().parents[1]
+    # the copy's parent packages as empty shells: importing them runs no __init__ of mbdsl
+    shells = {UNCOMPILED_ROOT: root, UNCOMPILED_ROOT + ".integrators": root / "integrators"}
+    for name, folder in shells.items():
+        shell = types.ModuleType(name)
+        shell.__path__ = [str(folder)]
+        sys.modules[name] = shell
     try:
-        spec.loader.exec_module(module)
+        with jit_disabled():
+            module = importlib.import_module(UNCOMPILED_MODULE)
     except BaseException:
-        del sys.modules[UNCOMPILED_MODULE]
+        for name in [k for k in sys.modules if k.startswith(UNCOMPILED_ROOT)]:
+            del sys.modules[name]
         raise
-    finally:
-        numba.config.DISABLE_JIT = before
+    copies = [m for k, m in sys.modules.items() if k.startswith(UNCOMPILED_ROOT + ".")]
     kernel_solve = module._solve
 
     def _solve(solver, lin, r, dw):
         """dw = J^-1 r: numpy's product with the stored transposed inverse for
-        the dense solver (``compiled._solve`` loops), else the kernel."""
+        the dense solver (``integrators.compiled.linalg._solve`` loops), else the kernel."""
         if solver == module.DENSE:
             size = r.shape[0]
             np.matmul(r, lin[1][:size, :size], out=dw[:size])
@@ -354,9 +420,10 @@ def uncompiled_kernels():
         raise RuntimeError("the uncompiled kernels cannot call LAPACK's band routines")
 
     kernel_factor = module._factor
+    linalg = sys.modules[UNCOMPILED_ROOT + ".integrators.compiled.linalg"]
 
     def _factor(solver, lin, R, C, V, p):
-        """``compiled._factor`` for the dense solver on whole arrays, else the kernel."""
+        """``integrators.compiled.linalg._factor`` for the dense solver on whole arrays, else the kernel."""
         if solver != module.DENSE:
             return kernel_factor(solver, lin, R, C, V, p)
         if not np.all(np.isfinite(V[:p])):
@@ -364,11 +431,15 @@ def uncompiled_kernels():
         J = lin[0]
         J[:, :] = 0.0
         np.add.at(J, (R[:p], C[:p]), V[:p])
-        return module.CONVERGED if module._invert(J, lin[1]) else module.SINGULAR
+        return module.CONVERGED if linalg._invert(J, lin[1]) else module.SINGULAR
 
-    module._solve = _solve
-    module._factor = _factor
-    module._fortran_call = _fortran_call
+    # every module of the copy that calls them reads its own global
+    replaced = {kernel_solve: _solve, kernel_factor: _factor,
+                linalg._fortran_call: _fortran_call}
+    for copy in copies:
+        for name, value in list(vars(copy).items()):
+            if callable(value) and value in replaced:
+                setattr(copy, name, replaced[value])
     return module
 
 

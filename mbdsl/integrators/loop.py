@@ -16,7 +16,7 @@ control in ``loop.state``), in a mode and with a status of
 :mod:`.outcomes`, recording every ``loop.every``-th step into the loop's
 buffers and updating the state after every step it accepts. Two exist:
 
-* ``engine.KernelStepper``: the compiled loop (``compiled.run``), which takes
+* ``engine.KernelStepper``: the compiled loop (``integrators.compiled.run``), which takes
   up to 2000 steps (:data:`CHUNK`) in one call with its own Newton iteration
   (explicit inverse or LAPACK band LU);
 * :class:`PythonStepper`: the Python Newton iteration (``newton.Newton``,
@@ -757,7 +757,7 @@ class PythonStepper:
     residual and Newton matrix: the method's own (the numpy engine), or the
     kernels' (``engine.SparseAdapter``). The stepper contract of
     :class:`TimeLoop` (:mod:`.outcomes`); the steps of the compiled loop,
-    ``compiled._run``, in Python, with the method's own error estimate
+    ``integrators.compiled.loop._run``, in Python, with the method's own error estimate
     (``Method.local_error``) and its carried state (the StepStates of its
     history, with the force terms it caches).
 
@@ -840,7 +840,7 @@ class PythonStepper:
 
     def advance(self, loop, mode, h, limit):
         """Steps from the loop's state (the contract of :class:`TimeLoop`,
-        ``compiled._run``'s in Python); returns (status, steps taken)."""
+        ``integrators.compiled.loop._run``'s in Python); returns (status, steps taken)."""
         system, method, ls, state = self.system, self.method, loop.ls, loop.state
         if self.history is None:
             self.history = self._from_loop(loop)
@@ -852,7 +852,7 @@ class PythonStepper:
         augmented = method.formulation == "augmented"
         after_rejection = state[6] != 0.0
         K = system.kernel_model().K
-        step_end, step_ratio = K.step_end, K.step_ratio    # the compiled loop's rules (compiled.py)
+        step_end, step_ratio = K.step_end, K.step_ratio    # the compiled loop's rules (compiled/loop.py)
         # an index-3 method's error estimate on its index-1 accelerations (as compiled)
         index1 = (not fixed and control.index1 and method.index == 3
                   and 0 < system.m <= K.INDEX1_LIMIT and not system.multiplier_groups)

@@ -91,7 +91,7 @@ __all__ = ["JacobianUpdate", "NewtonStatus", "NewtonOptions", "NewtonResult", "N
 #: Stagnation within this many tolerances, under exact Newton, is round-off (see above).
 ROUNDOFF_BAND = 1e3
 #: A constraint is met to round-off within this many ulps of its terms (the
-#: residual test above; ``loop.constraints_at_roundoff``, ``compiled._rest_at_roundoff``).
+#: residual test above; ``loop.constraints_at_roundoff``, ``integrators.compiled.newton._rest_at_roundoff``).
 ROUNDOFF_ULPS = 8.0
 
 

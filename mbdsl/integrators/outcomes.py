@@ -1,7 +1,7 @@
 """How the time loop asks a stepper for steps, and what a stepper's call returns.
 
 One driver (``engine.TimeLoop``) runs every engine's steps through a stepper
-with one contract: the compiled loop (``compiled.run``, through
+with one contract: the compiled loop (``integrators.compiled.run``, through
 ``engine.KernelStepper``) and the Python Newton iteration on a method's own
 residual or on the kernels' (``stepper.PythonStepper``). A call is asked in a
 mode and ends with one status; both are plain integers, so that the

@@ -35,7 +35,7 @@ enter the Newton matrix), or, when ``mh`` is not 0, Mhat = M(q_n + mh v_n)
 held for the step (HHT-SI2: mh = (1 + alpha) h; GENALPHA-SI2: mh = h). For
 rigid bodies M is a constant diagonal and ``mh`` changes nothing.
 
-Their Newton matrix follows by the chain rule (``compiled._jacobian_triplets``):
+Their Newton matrix follows by the chain rule (``integrators.compiled.recipes._jacobian_triplets``):
 d/dx of a term in q is its q-derivative times cqx, and so on. After
 convergence a_{n+1} = x. Newton starts from x = a_n, y = y0v v_n, lambda_n,
 mu = 0, with velocity-equivalent scales sx for x, sy for y, sx times the

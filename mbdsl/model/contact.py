@@ -53,7 +53,7 @@ the pin's centre towards the hole's), tau = (-nu_y, nu_x) and
     w = (-tau, -nu . (c - r_1), tau, nu . (A_2 s_P) - r)
 
 over (x, y, phi of the first body, then of the second). The kernels of
-``integrators/compiled.py`` evaluate the gaps and the law (``_gap``,
+``kernels/loads/contact.py`` evaluate the gaps and the law (``_gap``,
 ``_slip``, ``_contact_law``).
 """
 

@@ -181,7 +181,7 @@ def line_distance(line, qx, cmap: "CoordinateMap"):
     u = A(phi_L) u0, p = r + A(phi) s_body, for the rigid bodies (or ground)
     of ``line`` = (body L, s_L, body P, s_P, u0), at one state (the output
     columns of a sliding joint's distance and speed; the kernels evaluate it
-    for the loads that read it, ``compiled._line_distance``).
+    for the loads that read it, ``kernels.geometry._line``).
 
     Returns
     -------

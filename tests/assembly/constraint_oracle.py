@@ -1,5 +1,5 @@
 """An independent, vectorised numpy evaluation of the joints and drivers:
-the oracle the constraint kernels of ``mbdsl.integrators.compiled``
+the oracle the constraint kernels of ``mbdsl.kernels``
 (``phi``, ``phiq_times``, ``phiqT_add``, ``_emit_phiq``, ``_emit_hess``,
 ``_emit_G``, ``_phi_time_add``) are tested against. Not part of the
 package: mbdsl evaluates its constraints with the kernels only.

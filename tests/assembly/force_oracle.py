@@ -1,5 +1,5 @@
 """An independent numpy evaluation of the applied loads: the oracle the load
-kernels of ``mbdsl.integrators.compiled`` (``elements``: ``_forces``,
+kernels of ``mbdsl.kernels`` (``elements``: ``_forces``,
 ``_emit_force``, ``_emit_friction_lam``, ``_potential``, ``_power``, the
 gaps, spring separations and friction speeds) are tested against. Not part
 of the package: mbdsl evaluates its loads with the kernels only.

@@ -214,7 +214,7 @@ print(" ".join(sorted(name for name in dir(compiled) if not name.startswith("_")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          timeout=600, cwd=ROOT)
     assert out.returncode == 0, out.stderr
-    assert out.stdout.split() == ["force_term", "forces", "phi", "phiqT_add", "phiq_times"]
+    assert out.stdout.split() == ["force_term", "forces", "phi"]
 
 
 def test_no_kernel_is_compiled_once_per_constant_argument():
@@ -222,17 +222,22 @@ def test_no_kernel_is_compiled_once_per_constant_argument():
     # (Literal[int](0)) and compiles the kernel once per value and call site:
     # the time loop's library held 11 copies of _emit_beams, 6 of _emit_phiq, 4
     # of _emit_force (7.9 MB of IR, which every process parses as it loads the
-    # library; 5.4 MB with each kernel once). Kernels pass compiled._0, _YES,
+    # library; 5.4 MB with each kernel once). Kernels pass schema._0, _YES,
     # _NO or numpy integers. Left as constants: the model data's field indices
     # (a copy per element kind of the accessors _Au, _As, _scalar_row_terms,
     # their offsets folded), the side of _Au's point (0 or 1, 16 kB a copy) and
     # _phi_time_add's derivative order (1 or 2).
     import ast
-    import inspect
-    from mbdsl.integrators import compiled
-    tree = ast.parse(inspect.getsource(compiled))
-    kernels = {f.name for f in tree.body if isinstance(f, ast.FunctionDef)
+    import importlib
+    from mbdsl.integrators import compiled, kernel_cache
+    root = kernel_cache.package_root()
+    names = [".".join(p.relative_to(root).with_suffix("").parts).removesuffix(".__init__")
+             for p in kernel_cache.kernel_sources()]
+    modules = [importlib.import_module(name) for name in names]
+    trees = [ast.parse(p.read_text()) for p in kernel_cache.kernel_sources()]
+    kernels = {f.name for tree in trees for f in tree.body if isinstance(f, ast.FunctionDef)
                and any(ast.unparse(d) == "_jit" for d in f.decorator_list)}
+    values = {k: v for m in modules for k, v in vars(m).items() if type(v) in (int, bool)}
     exempt = {"_Au", "_phi_time_add"}
     assert exempt <= kernels and len(kernels) > 100
     fields = {name.upper() for name, _, _ in compiled.MODEL_SCHEMA}
@@ -243,9 +248,9 @@ def test_no_kernel_is_compiled_once_per_constant_argument():
         if isinstance(a, ast.UnaryOp) and isinstance(a.operand, ast.Constant):
             return type(a.operand.value) is int
         return (isinstance(a, ast.Name) and a.id not in fields
-                and type(getattr(compiled, a.id, None)) in (int, bool))
+                and type(values.get(a.id)) in (int, bool))
 
-    calls = [(node.func.id, node.lineno) for node in ast.walk(tree)
+    calls = [(node.func.id, node.lineno) for tree in trees for node in ast.walk(tree)
              if isinstance(node, ast.Call) and isinstance(node.func, ast.Name)
              and node.func.id in kernels - exempt and any(map(constant, node.args))]
     assert calls == []

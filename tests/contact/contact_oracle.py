@@ -1,5 +1,5 @@
 """An independent numpy evaluation of the contacts and joint limits: the
-oracle the contact kernels of ``mbdsl.integrators.compiled`` (``_gap``,
+oracle the contact kernels of ``mbdsl.kernels`` (``_gap``,
 ``_slip``, ``_contact_law``, ``_contacts_add``, ``_emit_contacts`` and the
 contacts' terms of ``_potential`` and ``_power``) are tested against. Not
 part of the package: mbdsl evaluates its contacts with the kernels only.

@@ -1,6 +1,6 @@
 """The uncompiled engine: the compiled engine's kernels and loops run by the interpreter.
 
-``engine="uncompiled"`` executes the source of ``integrators/compiled.py`` a
+``engine="uncompiled"`` executes the sources of ``mbdsl/kernels`` and ``integrators/compiled`` a
 second time with numba's JIT disabled (``kernel_cache.uncompiled_kernels``),
 so that a kernel can be debugged with pdb or print. These tests check that
 it is the same implementation and needs nothing compiled: its runs reach the
@@ -21,7 +21,7 @@ import pytest
 import mbdsl
 from mbdsl.integrators import NewtonOptions, integrate, make_method
 from mbdsl.integrators.adaptive import StepControl
-from mbdsl.integrators.kernel_cache import UNCOMPILED_MODULE, uncompiled_kernels
+from mbdsl.integrators.kernel_cache import UNCOMPILED_MODULE, UNCOMPILED_ROOT, uncompiled_kernels
 
 from ..conftest import MODELS
 
@@ -39,8 +39,15 @@ def _pair(path, method, T, h=1e-3, **kwargs):
 def test_the_uncompiled_kernels_are_python_functions():
     K = uncompiled_kernels()
     assert K.__name__ == UNCOMPILED_MODULE and uncompiled_kernels() is K
-    for name in ("forces", "phi", "_newton", "_run", "_emit_force"):
+    for name in ("forces", "phi", "_run", "run", "residual"):
         assert type(getattr(K, name)).__name__ == "function", name
+    # the copy's modules call the copy: the Newton loop and an element kernel
+    copy = sys.modules[UNCOMPILED_ROOT + ".integrators.compiled.newton"]
+    assert type(copy._newton).__name__ == "function"
+    system = sys.modules[UNCOMPILED_ROOT + ".kernels.system"]
+    assert system._emit_force.__module__ == UNCOMPILED_ROOT + ".kernels.system"
+    springs = sys.modules[UNCOMPILED_ROOT + ".kernels.loads.spring_damper"]
+    assert system.spring_damper is springs and type(springs._spring).__name__ == "function"
 
 
 def test_second_order_to_the_independent_reference(slider_crank_reference):
@@ -116,6 +123,7 @@ def test_an_uncompiled_run_imports_nothing_compiled(tmp_path):
         f" '--engine', 'uncompiled', '-o', {str(tmp_path / 'out.csv')!r}, '--quiet'])\n"
         "assert status == 0, status\n"
         "assert 'mbdsl.integrators.compiled' not in sys.modules\n"
+        "assert 'mbdsl.kernels.system' not in sys.modules\n"
         f"assert {UNCOMPILED_MODULE!r} in sys.modules\n")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           timeout=300)

@@ -1,0 +1,267 @@
+"""The index-1 quantities of the compiled engine: multipliers and accelerations
+from M a + Phi_q^T lambda = Q, Phi_q a = gamma (Haug, sec. 6.3), the
+multipliers' mobility, and the scales and weights of Newton's norm.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .additive import _minus_correction
+from .layout import ADDITIVE, FLOOR, FORM, HAS_Y, MU_MOB, REG, SM, SX, SY, _layout
+from .linalg import _fortran_call
+from ...kernels.schema import (EPS, FRI, MASS, ROW_ELEMENT, _0, _HEADER, _NO, _YES, _f, _i, _jit,
+                               _rows)
+from ...kernels.system import _emit_G, _emit_mass, _emit_phiq, _phi_time_add, forces, phiq_times
+
+@_jit
+def _index1_gamma(I, Fl, t, qx, vx, gam, R, C, V):
+    """-gamma = (Phi_q v)_q v + Phi_tt into gam (m,) at (t, qx, vx) (Haug, sec. 6.3)."""
+    n = _rows(I, MASS)
+    gam[:] = 0.0
+    _phi_time_add(I, Fl, t, gam, 2)
+    p = _emit_G(I, Fl, n, qx, vx, R, C, V, _0, _0, _0, 1.0)
+    for i in range(p):
+        gam[R[i]] += V[i] * vx[C[i]]
+
+
+@_jit
+def _index1_multipliers_band(I, Fl, t, q, v, out, R, C, V, iterations, order, kd, addr):
+    """The index-1 multipliers of ``_index1_multipliers`` for rigid bodies
+    (M a constant diagonal) from the Schur complement
+
+        A lambda = Phi_q M^-1 Q - gamma,    A = Phi_q M^-1 Phi_q^T (m x m, SPD),
+
+    the constraint rows reordered by ``order`` (position k holds row
+    order[k]) so that A is a band of half-width kd, factored by LAPACK's
+    band Cholesky (dpbtrf, dpbtrs at ``addr``). A chain of N links costs
+    O(N) per row instead of the O((n + m)^3) of the dense index-1 matrix.
+    Friction: the fixed point of ``_index1_multipliers`` on the same
+    factorization. A matrix that is not positive definite, or whose
+    Cholesky pivots (U_kk^2) fall below 1e-13 of the largest (redundant
+    joints, a singular position), gives NaN for that row."""
+    n, m = q.shape[1], out.shape[1]
+    qx, vx, work = np.zeros(n + 3), np.zeros(n + 3), np.zeros(n + 3)
+    ldab = kd + 1
+    AB, b, gam, lam = np.empty((m, ldab)), np.empty(m), np.empty(m), np.zeros(m)
+    place = np.empty(m, np.int64)
+    for k in range(m):
+        place[order[k]] = k
+    ints = np.array([m, kd, ldab, 1, 0], np.int32)    # n, kd, ldab, nrhs, info
+    uplo = np.array([ord("U")], np.uint8)
+    minv = np.empty(n)
+    for j in range(n):
+        minv[j] = 1.0 / _f(I, Fl, MASS, j, 0)
+    friction = _rows(I, FRI) > 0
+    by_col = np.empty(0, np.int64)
+    start = np.zeros(n + 1, np.int64)
+    for row in range(q.shape[0]):
+        for j in range(n):
+            qx[j], vx[j] = q[row, j], v[row, j]
+        _index1_gamma(I, Fl, t[row], qx, vx, gam, R, C, V)    # before R, C, V hold Phi_q
+        p = _emit_phiq(I, Fl, n, qx, R, C, V, _0, _0, _0, 1.0, _NO)
+        if row == 0:               # the pattern is fixed: entries grouped by column once
+            by_col = np.argsort(C[:p], kind="mergesort")
+            for i in range(p):
+                start[C[i] + 1] += 1
+            for j in range(n):
+                start[j + 1] += start[j]
+        AB[:, :] = 0.0             # A(i, j), i <= j, at AB[j, kd + i - j] (LAPACK "U")
+        ok = True
+        for col in range(n):
+            for x in range(start[col], start[col + 1]):
+                ex = by_col[x]
+                i = place[R[ex]]
+                for y in range(start[col], start[col + 1]):
+                    ey = by_col[y]
+                    j = place[R[ey]]
+                    if i <= j:
+                        if j - i > kd:
+                            ok = False
+                        else:
+                            AB[j, kd + i - j] += V[ex] * V[ey] * minv[col]
+        if ok:
+            ints[4] = 0
+            _fortran_call(addr[0], (uplo, ints[0:1], ints[1:2], AB, ints[2:3], ints[4:5]))
+            ok = ints[4] == 0
+            # dependent rows leave a pivot of round-off (3e-15 of the largest on a
+            # parallelogram with a redundant link), which dpbtrf accepts
+            dmin, dmax = np.inf, 0.0
+            for k in range(m):
+                d = AB[k, kd] * AB[k, kd]
+                dmin, dmax = min(dmin, d), max(dmax, d)
+            ok = ok and dmin >= 1e-13 * dmax
+        lam[:] = 0.0
+        settled = False
+        for sweep in range(iterations if (friction and ok) else (1 if ok else 0)):
+            forces(I, Fl, t[row], qx, vx, lam, work)
+            for k in range(m):
+                b[k] = gam[order[k]]            # Phi_q M^-1 Q - gamma, reordered
+            for e in range(p):
+                b[place[R[e]]] += V[e] * minv[C[e]] * work[C[e]]
+            _fortran_call(addr[1], (uplo, ints[0:1], ints[1:2], ints[3:4], AB, ints[2:3], b,
+                                    ints[0:1], ints[4:5]))
+            change, big = 0.0, 0.0
+            for k in range(m):
+                xk = b[place[k]]
+                change = max(change, abs(xk - lam[k]))
+                big = max(big, abs(xk))
+                lam[k] = xk
+            if not friction or change <= 1e-13 * (1.0 + big):
+                settled = True
+                break
+        for k in range(m):
+            out[row, k] = lam[k] if settled and np.isfinite(lam[k]) else np.nan
+
+
+@_jit
+def _index1_multipliers(I, Fl, t, q, v, out, R, C, V, iterations):
+    """The Lagrange multipliers of the index-1 system at each row into out
+    (N, m): [[M(q), Phi_q^T], [Phi_q, 0]] [a; lambda] = [Q(t, q, v,
+    lambda); gamma], gamma = -(Phi_q v)_q v - Phi_tt (Haug, sec. 6.3;
+    ``AssembledSystem.index1_multipliers``). With friction Q reads lambda:
+    up to ``iterations`` fixed-point sweeps from lambda = 0, to a change of
+    1e-13 relative (``AssembledSystem.index1_solve``). A singular matrix, or
+    friction that does not settle, gives NaN for that row. Rows: t (N,), q,
+    v (N, n); R, C, V triplet scratch of ``triplet_bound`` entries."""
+    n, m = q.shape[1], out.shape[1]
+    size = n + m
+    qx, vx, work = np.zeros(n + 3), np.zeros(n + 3), np.zeros(n + 3)
+    K, rhs, gam, lam = np.empty((size, size)), np.empty(size), np.empty(m), np.zeros(m)
+    friction = _rows(I, FRI) > 0
+    for row in range(q.shape[0]):
+        for j in range(n):
+            qx[j], vx[j] = q[row, j], v[row, j]
+        p = _emit_mass(I, Fl, n, qx, R, C, V, _0, _0, _0, 1.0)
+        p = _emit_phiq(I, Fl, n, qx, R, C, V, p, _0, n, 1.0, _YES)
+        p = _emit_phiq(I, Fl, n, qx, R, C, V, p, n, _0, 1.0, _NO)
+        K[:, :] = 0.0
+        for i in range(p):
+            K[R[i], C[i]] += V[i]
+        _index1_gamma(I, Fl, t[row], qx, vx, gam, R, C, V)
+        lam[:] = 0.0
+        ok = False
+        for sweep in range(iterations if friction else 1):
+            forces(I, Fl, t[row], qx, vx, lam, work)
+            for j in range(n):
+                rhs[j] = work[j]
+            for i in range(m):
+                rhs[n + i] = -gam[i]
+            try:
+                sol = np.linalg.solve(K, rhs)
+            except Exception:       # a singular configuration
+                break
+            change, big = 0.0, 0.0
+            for i in range(m):
+                change = max(change, abs(sol[n + i] - lam[i]))
+                big = max(big, abs(sol[n + i]))
+                lam[i] = sol[n + i]
+            if not friction or change <= 1e-13 * (1.0 + big):
+                ok = True
+                break
+        for i in range(m):
+            out[row, i] = lam[i] if ok else np.nan
+
+
+@_jit
+def _mobility(I, Fl, q, out, R, C, V, qx, per):
+    """Multiplier mobility per constraint row into out (m,)
+    (``AssembledSystem.multiplier_mobility``): max over the element's
+    Phi_q entries of |Phi_q[k, j]| / M_jj; ``per``: scratch of n_elements."""
+    n = _rows(I, MASS)
+    qx[:n] = q
+    p = _emit_phiq(I, Fl, n, qx, R, C, V, _0, _0, _0, 1.0, _NO)
+    per[:] = 0.0
+    for i in range(p):
+        ratio = abs(V[i]) / _f(I, Fl, MASS, C[i], 0)
+        e = _i(I, ROW_ELEMENT, R[i], 0)
+        if ratio > per[e]:
+            per[e] = ratio
+    for i in range(out.shape[0]):
+        out[i] = per[_i(I, ROW_ELEMENT, i, 0)]
+
+
+@_jit
+def _scales_weights(rec, I, Fl, q, w, opts, R, C, V, qx, weight, scratch):
+    """Newton weights (``Newton.solve``): scales / (atol + rtol |s w|), with the
+    multipliers' relative part taken norm-wise, and the round-off floor
+    (``Method.scales``, ``Method.roundoff_floor``: the recipe's sx, sy,
+    mu_mob and floor). ``scratch``: m + n_elements + 2 size floats, so that
+    a step allocates nothing."""
+    n, m, ne = _rows(I, MASS), _rows(I, ROW_ELEMENT), I[_HEADER - 1]
+    size, l0, u0, a0 = _layout(rec, n, m)
+    rtol, atol_k, atol_m = opts[0], opts[1], opts[2]
+    mob = scratch[:m]
+    _mobility(I, Fl, q, mob, R, C, V, qx, scratch[m:m + ne])
+    qmax = 0.0
+    for j in range(n):
+        qmax = max(qmax, abs(q[j]))
+    floor = 32.0 * EPS * (1.0 + qmax) * rec[FLOOR]
+    scales = scratch[m + ne:m + ne + size]
+    mult = scratch[m + ne + size:m + ne + 2 * size]
+    mult[:] = 0.0
+    sx, sy = rec[SX], rec[SY]
+    scales[:n] = sx
+    if rec[FORM] == ADDITIVE:          # dq, dv: sx; a: sy; psi_I, psi_II: sm times the mobility
+        scales[n:2 * n] = sx
+        scales[2 * n:3 * n] = sy
+        for i in range(m):
+            scales[u0 + i] = scales[l0 + i] = rec[SM] * mob[i]
+            mult[u0 + i] = mult[l0 + i] = 1.0
+    else:
+        for i in range(m):
+            scales[l0 + i] = sx * mob[i]
+            mult[l0 + i] = 1.0
+    if rec[FORM] != ADDITIVE and rec[HAS_Y] != 0.0:
+        scales[n:2 * n] = sy
+        for i in range(m):
+            scales[u0 + i] = sy * mob[i] if rec[MU_MOB] != 0.0 else sy
+            mult[u0 + i] = 1.0
+    smax = 0.0
+    for i in range(size):
+        if mult[i] != 0.0:
+            smax = max(smax, abs(scales[i] * w[i]))
+    for i in range(size):
+        is_mult = mult[i] != 0.0
+        atol = max(atol_m if is_mult else atol_k, floor)
+        sz = smax if is_mult else abs(scales[i] * w[i])
+        weight[i] = scales[i] / (atol + rtol * sz)
+    if rec[REG] != 0.0:        # augmented: only Phi_q^T lambda is unique; converge on x
+        for i in range(m):
+            weight[l0 + i] = 0.0
+
+
+#: Constraint rows up to which an index-3 method's error estimate is taken on
+#: its index-1 accelerations (``_index1_acceleration``: m Jacobian products
+#: and an m x m least-squares solve per step); above it, on a as it is.
+INDEX1_LIMIT = 200
+
+
+@_jit
+def _index1_acceleration(I, Fl, n, m, t, qx, vx, a, out, R, C, V, S, col, g, y):
+    """out[:n] = a - M^-1 Phi_q^T (Phi_q M^-1 Phi_q^T)^+ (Phi_q a - gamma) at
+    (t, qx, vx): the acceleration a (n,) made to meet the acceleration
+    constraints Phi_q a = gamma, gamma = -(Phi_q v)_q v - Phi_tt (Haug, sec.
+    6.3), by a change along the directions M^-1 Phi_q^T lambda in which the
+    multipliers act: the index-1 acceleration when a's tangential part is
+    the true one (the pseudo-inverse keeps redundant rows). An index-3
+    method's a meets only Phi = 0; its normal part is the multipliers'
+    round-off over beta h^2. R, C, V: triplet scratch; S (m, m), col, g
+    (m,), y (n + 3,): scratch, allocated once per call of the time loop."""
+    for i in range(m):
+        col[:] = 0.0
+        col[i] = 1.0
+        _minus_correction(I, Fl, qx, col, y)        # M^-1 Phi_q^T e_i
+        y[n:] = 0.0                                 # the ground's columns
+        phiq_times(I, Fl, qx, y, g)
+        S[:, i] = g
+    y[:n] = a[:n]
+    y[n:] = 0.0
+    phiq_times(I, Fl, qx, y, g)
+    _index1_gamma(I, Fl, t, qx, vx, col, R, C, V)   # -gamma
+    for i in range(m):
+        g[i] += col[i]
+    z = np.linalg.lstsq(S, g, 1e-13)[0]
+    _minus_correction(I, Fl, qx, z, y)
+    for j in range(n):
+        out[j] = a[j] - y[j]

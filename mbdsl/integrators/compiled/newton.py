@@ -1,0 +1,147 @@
+"""The compiled Newton iteration: the one of :mod:`mbdsl.integrators.newton`
+(weighted velocity-equivalent norm, contraction-based stopping, modified
+Newton with refresh on poor contraction, the round-off stall rule).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mbdsl.integrators.outcomes import (CONVERGED, DIVERGING, MAX_ITER, NONFINITE)
+
+from .layout import FORM, HAS_Y, LINEAR, REG, SP, SV, _layout
+from .linalg import _factor, _solve
+from .recipes import _jacobian_triplets, _residual
+from ...kernels.schema import EPS, MASS, ROUNDOFF_BAND, ROW_ELEMENT, _jit, _rows
+
+@_jit
+def _newton(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, weight, opts, solver, lin, lu_state,
+            R, C, V, r, dw, qx, vx, work, counts, spare):
+    """One step's Newton iteration on w (in place), with the stored
+    factorization (``_factor``, ``_solve``) reused across iterations and
+    steps (modified Newton). ``spare``: scratch of 2 size floats for the
+    residual's round-off test (``_rest_at_roundoff``, newton.py's).
+
+    ``opts`` = (rtol, atol_k, atol_m, max_iter, rate_refresh, full);
+    ``lu_state`` = (valid, rate); ``counts`` += (iterations, residuals,
+    jacobians, factorizations, stalled steps). Returns the status code.
+    """
+    max_iter, rate_refresh, full = int(opts[3]), opts[4], opts[5] != 0.0
+    size = w.shape[0]
+    # the augmented formulation factors a Newton matrix of its own every step
+    # (``Method.formulated``: near a singular position one from an earlier step
+    # ends the iteration away from the step's solution)
+    valid = lu_state[0] != 0.0 and not full and rec[REG] == 0.0
+    age = 1 << 30
+    prev = -1.0
+    best = np.inf
+    stalls = 0
+    grows = 0
+    theta = lu_state[1]
+    n_jac = 0
+    for _ in range(max_iter):
+        if not valid:
+            p = _jacobian_triplets(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, R, C, V, qx,
+                                   vx)
+            counts[2] += 1
+            n_jac += 1
+            status = _factor(solver, lin, R, C, V, p)
+            if status != CONVERGED:
+                lu_state[0] = 0.0
+                return status
+            counts[3] += 1
+            valid = True
+            age = 0
+        _residual(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work)
+        counts[1] += 1
+        for i in range(size):
+            if not np.isfinite(r[i]):
+                lu_state[0] = 0.0
+                return NONFINITE
+        _solve(solver, lin, r, dw)
+        norm = 0.0
+        for i in range(size):
+            norm = max(norm, abs(dw[i] * weight[i]))
+        for i in range(size):
+            w[i] -= dw[i]
+        counts[0] += 1
+        current = age == 0
+        age += 1
+        for i in range(size):
+            if not np.isfinite(w[i]):
+                lu_state[0] = 0.0
+                return NONFINITE
+        if prev > 0.0:
+            theta = norm / prev
+        eta = max(theta / (1.0 - theta), 1e-2) if theta < 1.0 else np.inf
+        stuck = prev >= 0.0 and norm >= max(0.5, rate_refresh) * prev   # newton.py's rule
+        if current:
+            stalls = stalls + 1 if norm >= 0.5 * best else 0
+            best = min(best, norm)
+        roundoff = stalls >= 2 and norm <= ROUNDOFF_BAND
+        grows = grows + 1 if (prev >= 0.0 and theta >= 1.0 and current) else 0
+        diverging = theta > 100.0 or (grows >= 2 and norm > ROUNDOFF_BAND)
+        if ((stalls >= 2 or diverging) and not roundoff and norm > 1.0 and rec[FORM] == LINEAR
+                and rec[REG] == 0.0
+                and _rest_at_roundoff(rec, I, solver, lin, r, qx, vx, weight, spare)):
+            for i in range(size):         # the iterate whose residual r was read
+                w[i] += dw[i]
+            roundoff = True
+        if norm == 0.0 or (eta * norm <= 1.0 and norm <= 1.0) or roundoff:
+            if roundoff:
+                counts[4] += 1
+            lu_state[1] = min(max(theta, 1e-3), 0.9) if np.isfinite(theta) else 0.5
+            lu_state[0] = 0.0 if full else 1.0
+            return CONVERGED
+        if diverging:
+            lu_state[0] = 0.0
+            return DIVERGING
+        from_earlier_step = n_jac == 0
+        if (full or stuck or (from_earlier_step and prev >= 0.0 and theta > rate_refresh)
+                or (norm <= ROUNDOFF_BAND and prev >= 0.0 and theta > 0.25)):
+            valid = False
+        prev = norm
+    lu_state[0] = 0.0
+    return MAX_ITER
+
+
+ROUNDOFF_ULPS = 8.0        # as in newton.py
+
+
+@_jit
+def _rest_at_roundoff(rec, I, solver, lin, r, qx, vx, weight, spare):
+    """newton.py's residual test of a stagnating exact-Newton iteration at
+    the iterate whose residual is r (state in qx, vx): its constraint rows
+    (Phi scaled by sP, at index 2 Phi_q v + Phi_t scaled by sV) within
+    ROUNDOFF_ULPS ulps of their terms, and the update the other rows alone
+    ask for, J^-1 r' (r' = r with those rows zeroed, in spare[:size]; the
+    update in spare[size:]), within the tolerance."""
+    n, m = _rows(I, MASS), _rows(I, ROW_ELEMENT)
+    if m == 0:
+        return False
+    size, l0, u0, _ = _layout(rec, n, m)
+    qmax, vmax = 0.0, 0.0
+    for j in range(n):
+        qmax = max(qmax, abs(qx[j]))
+        vmax = max(vmax, abs(vx[j]))
+    scale = ROUNDOFF_ULPS * EPS * (1.0 + qmax)
+    for i in range(m):
+        if abs(r[l0 + i]) > abs(rec[SP]) * scale:
+            return False
+    if rec[HAS_Y] != 0.0:
+        for i in range(m):
+            if abs(r[u0 + i]) > abs(rec[SV]) * scale * (1.0 + vmax):
+                return False
+    rest, dw = spare[:size], spare[size:2 * size]
+    for i in range(size):
+        rest[i] = r[i]
+    for i in range(m):
+        rest[l0 + i] = 0.0
+    if rec[HAS_Y] != 0.0:
+        for i in range(m):
+            rest[u0 + i] = 0.0
+    _solve(solver, lin, rest, dw)
+    for i in range(size):
+        if abs(dw[i] * weight[i]) > 1.0:
+            return False
+    return True

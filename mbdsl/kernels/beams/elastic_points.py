@@ -1,0 +1,193 @@
+"""Joint points on flexible beams: the elastic columns of coincidence,
+point-on-line and distance joints.
+
+A point of a flexible beam is at r + A(phi) u, u = s + sum_k S_k q_k. Its
+position's derivative by q_k is A S_k, and the only second derivatives the
+elastic terms add are d^2/dphi dq_k = B S_k (Shabana, Dynamics of Multibody
+Systems, sec. 5.3). The rigid kernels above already read u (``_Au``) where
+they read s; the functions below add the entries of the elastic columns.
+Coincidence: Phi = p2 - p1, sign -1 for point 1. Point on line: Phi = n . (p_P
+- p_L), n = A_L n0: d/dq_k = +-n . (A S_k), and for a term of P the mixed
+entries (phi_L, q_k) = (B_L n0) . (A_P S_k) and (phi_P, q_k) = n . (B_P S_k);
+a term of L has the constant gradient -n0 . S_k and no second derivative.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..geometry import _eshape, _span
+from ..joints.distance import _dist, _dist_columns, _dist_h, _dist_local
+from ..joints.point_on_line import _pol
+from ..schema import (CCOL1, CCOL2, CEL, CROW, DCOL1, DCOL2, DROW, DSP, ECOL, PCOLL, PCOLP, PEL,
+                      PROW, _i, _jit, _put, _rows)
+
+@_jit
+def _elastic_grad(I, Fl, qx, rows, cols, vals):
+    """The elastic entries of Phi_q: (constraint row, column, value) into rows,
+    cols, vals (each of 2 x the elastic terms); returns their count.
+    Coincidence: +-A S_k per row; point on line: +-n . (A S_k)."""
+    p = 0
+    for i in range(_rows(I, CROW)):
+        for sd in range(2):
+            sg, ph = (-1.0 if sd == 0 else 1.0), qx[_i(I, CCOL1 if sd == 0 else CCOL2, i, 2)]
+            k0, k1 = _span(I, CEL, i, sd)
+            for k in range(k0, k1):
+                ax, ay, bx, by = _eshape(I, Fl, k, ph)
+                for a in range(2):
+                    rows[p], cols[p] = _i(I, CROW, i, a), _i(I, ECOL, k, 0)
+                    vals[p] = sg * (ax if a == 0 else ay)
+                    p += 1
+    for i in range(_rows(I, PROW)):
+        nx, ny, dx, dy, axL, ayL, axP, ayP = _pol(I, Fl, qx, i)
+        p = _scalar_row_terms(I, Fl, qx, PCOLL, PCOLP, PEL, i, _i(I, PROW, i, 0), nx, ny,
+                              rows, cols, vals, p)
+    if _rows(I, DSP) > 0:
+        g = np.empty(6)
+        for i in range(_rows(I, DROW)):
+            dx, dy, ax1, ay1, ax2, ay2, L = _dist(I, Fl, qx, i, g)
+            p = _scalar_row_terms(I, Fl, qx, DCOL1, DCOL2, DSP, i, _i(I, DROW, i, 0), dx / L,
+                                  dy / L, rows, cols, vals, p)
+    return p
+
+
+@_jit
+def _scalar_row_terms(I, Fl, qx, col1, col2, el, i, row, nx, ny, rows, cols, vals, p):
+    """The elastic entries of a scalar row whose gradient is n . dd/dq (a point
+    on a line: its normal; a distance joint: d / L): -+n . (A S_k) of the
+    terms of instance i's first and second point, from p on; returns p."""
+    for sd in range(2):
+        sg, ph = (-1.0 if sd == 0 else 1.0), qx[_i(I, col1 if sd == 0 else col2, i, 2)]
+        k0, k1 = _span(I, el, i, sd)
+        for k in range(k0, k1):
+            ax, ay, bx, by = _eshape(I, Fl, k, ph)
+            rows[p], cols[p] = row, _i(I, ECOL, k, 0)
+            vals[p] = sg * (nx * ax + ny * ay)
+            p += 1
+    return p
+
+
+@_jit
+def _elastic_phiqT_add(I, Fl, qx, lam, coef, out):
+    """out += coef Phi_q^T lambda in the elastic columns."""
+    k = 2 * _rows(I, ECOL)
+    rows, cols, vals = np.empty(k, np.int64), np.empty(k, np.int64), np.empty(k)
+    for e in range(_elastic_grad(I, Fl, qx, rows, cols, vals)):
+        out[cols[e]] += coef * lam[rows[e]] * vals[e]
+
+
+@_jit
+def _elastic_phiq_times(I, Fl, qx, vx, out):
+    """out += Phi_q v of the elastic columns."""
+    k = 2 * _rows(I, ECOL)
+    rows, cols, vals = np.empty(k, np.int64), np.empty(k, np.int64), np.empty(k)
+    for e in range(_elastic_grad(I, Fl, qx, rows, cols, vals)):
+        out[rows[e]] += vals[e] * vx[cols[e]]
+
+
+@_jit
+def _emit_elastic_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose):
+    """The elastic columns of coef Phi_q at (r0, c0) (or of Phi_q^T)."""
+    k = 2 * _rows(I, ECOL)
+    rows, cols, vals = np.empty(k, np.int64), np.empty(k, np.int64), np.empty(k)
+    for e in range(_elastic_grad(I, Fl, qx, rows, cols, vals)):
+        if transpose:
+            p = _put(R, C, V, p, r0 + cols[e], c0 + rows[e], coef * vals[e])
+        else:
+            p = _put(R, C, V, p, r0 + rows[e], c0 + cols[e], coef * vals[e])
+    return p
+
+
+@_jit
+def _emit_elastic_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef):
+    """The elastic entries of coef (Phi_q^T lambda)_q at (r0, c0): the mixed
+    (phi, q_k) second derivatives, both triangles."""
+    for i in range(_rows(I, CROW)):
+        l0, l1 = coef * lam[_i(I, CROW, i, 0)], coef * lam[_i(I, CROW, i, 1)]
+        for sd in range(2):
+            cph = _i(I, CCOL1 if sd == 0 else CCOL2, i, 2)
+            sg, ph = (-1.0 if sd == 0 else 1.0), qx[cph]
+            k0, k1 = _span(I, CEL, i, sd)
+            for k in range(k0, k1):
+                ax, ay, bx, by = _eshape(I, Fl, k, ph)
+                col, val = _i(I, ECOL, k, 0), sg * (l0 * bx + l1 * by)
+                if cph < n:
+                    p = _put(R, C, V, p, r0 + cph, c0 + col, val)
+                    p = _put(R, C, V, p, r0 + col, c0 + cph, val)
+    for i in range(_rows(I, PROW)):
+        nx, ny, dx, dy, axL, ayL, axP, ayP = _pol(I, Fl, qx, i)
+        lv = coef * lam[_i(I, PROW, i, 0)]
+        cL, cP = _i(I, PCOLL, i, 2), _i(I, PCOLP, i, 2)
+        k0, k1 = _span(I, PEL, i, 1)
+        for k in range(k0, k1):
+            ax, ay, bx, by = _eshape(I, Fl, k, qx[cP])
+            col = _i(I, ECOL, k, 0)
+            hL, hP = -ny * ax + nx * ay, nx * bx + ny * by
+            if cL < n:
+                p = _put(R, C, V, p, r0 + cL, c0 + col, lv * hL)
+                p = _put(R, C, V, p, r0 + col, c0 + cL, lv * hL)
+            if cP < n:
+                p = _put(R, C, V, p, r0 + cP, c0 + col, lv * hP)
+                p = _put(R, C, V, p, r0 + col, c0 + cP, lv * hP)
+    if _rows(I, DSP) > 0:      # distance rows: every entry with an elastic column
+        nmax = _dist_columns(I)
+        cols = np.empty(nmax, np.int64)
+        D, Hd = np.empty((2, nmax)), np.empty((2, nmax, nmax))
+        for i in range(_rows(I, DROW)):
+            nc, dx, dy, L = _dist_local(I, Fl, qx, i, cols, D, Hd)
+            lv = coef * lam[_i(I, DROW, i, 0)]
+            for a in range(nc):
+                for b in range(nc):
+                    if (a >= 6 or b >= 6) and cols[a] < n and cols[b] < n:
+                        p = _put(R, C, V, p, r0 + cols[a], c0 + cols[b],
+                                 lv * _dist_h(D, Hd, dx, dy, L, a, b))
+    return p
+
+
+@_jit
+def _emit_elastic_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef):
+    """The elastic entries of coef (Phi_q v)_q at (r0, c0)."""
+    for i in range(_rows(I, CROW)):
+        for sd in range(2):
+            cph = _i(I, CCOL1 if sd == 0 else CCOL2, i, 2)
+            sg, ph, w = (-1.0 if sd == 0 else 1.0), qx[cph], vx[cph]
+            k0, k1 = _span(I, CEL, i, sd)
+            for k in range(k0, k1):
+                ax, ay, bx, by = _eshape(I, Fl, k, ph)
+                col, vk = _i(I, ECOL, k, 0), vx[_i(I, ECOL, k, 0)]
+                for a in range(2):
+                    row, b = _i(I, CROW, i, a), (bx if a == 0 else by)
+                    if cph < n:
+                        p = _put(R, C, V, p, r0 + row, c0 + cph, coef * sg * b * vk)
+                    p = _put(R, C, V, p, r0 + row, c0 + col, coef * sg * b * w)
+    for i in range(_rows(I, PROW)):
+        nx, ny, dx, dy, axL, ayL, axP, ayP = _pol(I, Fl, qx, i)
+        row = _i(I, PROW, i, 0)
+        cL, cP = _i(I, PCOLL, i, 2), _i(I, PCOLP, i, 2)
+        k0, k1 = _span(I, PEL, i, 1)
+        for k in range(k0, k1):
+            ax, ay, bx, by = _eshape(I, Fl, k, qx[cP])
+            col, vk = _i(I, ECOL, k, 0), vx[_i(I, ECOL, k, 0)]
+            hL, hP = -ny * ax + nx * ay, nx * bx + ny * by
+            if cL < n:
+                p = _put(R, C, V, p, r0 + row, c0 + cL, coef * hL * vk)
+            if cP < n:
+                p = _put(R, C, V, p, r0 + row, c0 + cP, coef * hP * vk)
+            p = _put(R, C, V, p, r0 + row, c0 + col, coef * (hL * vx[cL] + hP * vx[cP]))
+    if _rows(I, DSP) > 0:      # distance rows: v^T Hess, the terms with an elastic column
+        nmax = _dist_columns(I)
+        cols = np.empty(nmax, np.int64)
+        D, Hd = np.empty((2, nmax)), np.empty((2, nmax, nmax))
+        for i in range(_rows(I, DROW)):
+            nc, dx, dy, L = _dist_local(I, Fl, qx, i, cols, D, Hd)
+            row = _i(I, DROW, i, 0)
+            for b in range(nc):
+                if cols[b] >= n:
+                    continue
+                acc = 0.0
+                for a in range(nc):
+                    if a >= 6 or b >= 6:
+                        acc += _dist_h(D, Hd, dx, dy, L, a, b) * vx[cols[a]]
+                if nc > 6:
+                    p = _put(R, C, V, p, r0 + row, c0 + cols[b], coef * acc)
+    return p

@@ -1,0 +1,205 @@
+"""A distance between two points: Phi = (d . d - L^2) / (2 L), d = p2 - p1, one
+row (a massless link; the scaling by 2 L makes Phi a length near the
+constraint, and its multiplier the link's tension [N]).
+
+Gradient d^T D / L and Hessian (D^T D + sum_a d_a D_a,qq) / L over (x1, y1,
+phi1, x2, y2, phi2), D = dd/dq (Haug, sec. 3.2, the distance constraint).
+Points on flexible beams add their elastic columns (``_dist_local``, used by
+``beams.elastic_points``).
+
+Fields: DROW (k,) the rows, DCOL1, DCOL2 (k, 3) the bodies' columns, DS1,
+DS2 (k, 2) the local positions [m], DLEN (k,) L [m], DSP (k, 4) elastic spans.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..geometry import _Au, _eshape, _span
+from ..schema import (DCOL1, DCOL2, DLEN, DROW, DS1, DS2, DSP, ECOL, _f, _i, _inline, _jit, _put,
+                      _rows)
+
+#: Newton-matrix triplets per instance: Phi_q, (Phi_q^T lambda)_q, (Phi_q v)_q.
+PHIQ_TRIPLETS, HESS_TRIPLETS, G_TRIPLETS = 6, 36, 6
+
+
+@_jit
+def _dist(I, Fl, qx, i, g):
+    """Distance joint i: d = p2 - p1 and A1 u1, A2 u2 (u = s + S q_e on a
+    flexible beam), its length L; the gradient of Phi over (x1, y1, phi1,
+    x2, y2, phi2) into g (6,) (the elastic columns: ``_dist_local``).
+    Returns (dx, dy, ax1, ay1, ax2, ay2, L)."""
+    ax1, ay1 = _Au(I, Fl, qx, DCOL1, DS1, DSP, 0, i)
+    ax2, ay2 = _Au(I, Fl, qx, DCOL2, DS2, DSP, 1, i)
+    dx = (qx[_i(I, DCOL2, i, 0)] - qx[_i(I, DCOL1, i, 0)]) + (ax2 - ax1)
+    dy = (qx[_i(I, DCOL2, i, 1)] - qx[_i(I, DCOL1, i, 1)]) + (ay2 - ay1)
+    L = _f(I, Fl, DLEN, i, 0)
+    g[0], g[1], g[2] = -dx / L, -dy / L, (dx * ay1 - dy * ax1) / L
+    g[3], g[4], g[5] = dx / L, dy / L, (-dx * ay2 + dy * ax2) / L
+    return dx, dy, ax1, ay1, ax2, ay2, L
+
+
+@_jit
+def _dist_col(I, i, j):
+    """Column of local entry j (x1, y1, phi1, x2, y2, phi2) of distance joint i."""
+    return _i(I, DCOL1, i, j) if j < 3 else _i(I, DCOL2, i, j - 3)
+
+
+@_jit
+def _dist_hess(dx, dy, ax1, ay1, ax2, ay2, L, H):
+    """Hessian of the distance row, (D^T D + sum_a d_a D_a,qq) / L, into H (6, 6);
+    D = dd/dq = [[-1, 0, ay1, 1, 0, -ay2], [0, -1, -ax1, 0, 1, ax2]]."""
+    D0 = (-1.0, 0.0, ay1, 1.0, 0.0, -ay2)
+    D1 = (0.0, -1.0, -ax1, 0.0, 1.0, ax2)
+    for a in range(6):
+        for b in range(6):
+            H[a, b] = (D0[a] * D0[b] + D1[a] * D1[b]) / L
+    H[2, 2] += (dx * ax1 + dy * ay1) / L
+    H[5, 5] -= (dx * ax2 + dy * ay2) / L
+
+
+@_jit
+def _dist_local(I, Fl, qx, i, cols, D, Hd):
+    """Distance joint i with points on flexible beams over its local
+    columns (x, y, phi of both bodies, then each point's elastic terms):
+    their columns into cols, D = dd/dq_local (2, nc) and Hd = d^2 d/dq_local^2
+    (2, nc, nc) into D, Hd (zeroed; d^2 p/dphi^2 = -A u, d^2 p/dphi dq_k =
+    B S_k). Returns (nc, dx, dy, L); Phi's Hessian is (D^T D + d . Hd) / L."""
+    g = np.empty(6)
+    dx, dy, ax1, ay1, ax2, ay2, L = _dist(I, Fl, qx, i, g)
+    D[:, :] = 0.0
+    Hd[:, :, :] = 0.0
+    for j in range(3):
+        cols[j] = _i(I, DCOL1, i, j)
+        cols[3 + j] = _i(I, DCOL2, i, j)
+    D[0, 0], D[1, 1], D[0, 3], D[1, 4] = -1.0, -1.0, 1.0, 1.0
+    D[0, 2], D[1, 2], D[0, 5], D[1, 5] = ay1, -ax1, -ay2, ax2
+    Hd[0, 2, 2], Hd[1, 2, 2], Hd[0, 5, 5], Hd[1, 5, 5] = ax1, ay1, -ax2, -ay2
+    j = 6
+    for sd in range(2):
+        sg, cph = (-1.0, 2) if sd == 0 else (1.0, 5)
+        k0, k1 = _span(I, DSP, i, sd)
+        for k in range(k0, k1):
+            cols[j] = _i(I, ECOL, k, 0)
+            ax, ay, bx, by = _eshape(I, Fl, k, qx[cols[cph]])
+            D[0, j], D[1, j] = sg * ax, sg * ay
+            Hd[0, cph, j], Hd[1, cph, j] = sg * bx, sg * by
+            Hd[0, j, cph], Hd[1, j, cph] = sg * bx, sg * by
+            j += 1
+    return j, dx, dy, L
+
+
+@_jit
+def _dist_columns(I):
+    """The most local columns of a distance joint (``_dist_local``)."""
+    out = 6
+    for i in range(_rows(I, DROW)):
+        a0, a1 = _span(I, DSP, i, 0)
+        b0, b1 = _span(I, DSP, i, 1)
+        out = max(out, 6 + (a1 - a0) + (b1 - b0))
+    return out
+
+
+@_inline
+def _dist_h(D, Hd, dx, dy, L, a, b):
+    """Entry (a, b) of a distance row's Hessian (``_dist_local``)."""
+    return (D[0, a] * D[0, b] + D[1, a] * D[1, b] + dx * Hd[0, a, b] + dy * Hd[1, a, b]) / L
+
+
+@_jit
+def phi(I, Fl, t, qx, out):
+    """Phi into out (m,) [m]."""
+    if _rows(I, DROW) == 0:
+        return
+    g = np.empty(6)
+    for i in range(_rows(I, DROW)):
+        dx, dy, ax1, ay1, ax2, ay2, L = _dist(I, Fl, qx, i, g)
+        out[_i(I, DROW, i, 0)] = (dx * dx + dy * dy - L * L) / (2.0 * L)
+
+
+@_jit
+def phiqT_add(I, Fl, qx, lam, coef, out):
+    """out (n+3,) += coef Phi_q^T lambda [N, N m] (rigid columns)."""
+    if _rows(I, DROW) == 0:
+        return
+    g = np.empty(6)
+    for i in range(_rows(I, DROW)):
+        _dist(I, Fl, qx, i, g)
+        lv = coef * lam[_i(I, DROW, i, 0)]
+        for j in range(6):
+            out[_dist_col(I, i, j)] += lv * g[j]
+
+
+@_jit
+def phiq_times(I, Fl, qx, vx, out):
+    """Phi_q v into out (m,) [m/s] (rigid columns)."""
+    if _rows(I, DROW) == 0:
+        return
+    g = np.empty(6)
+    for i in range(_rows(I, DROW)):
+        _dist(I, Fl, qx, i, g)
+        acc = 0.0
+        for j in range(6):
+            acc += g[j] * vx[_dist_col(I, i, j)]
+        out[_i(I, DROW, i, 0)] = acc
+
+
+@_jit
+def emit_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose):
+    """coef Phi_q at (r0, c0), or coef Phi_q^T when transpose; returns p."""
+    if _rows(I, DROW) == 0:
+        return p
+    g = np.empty(6)
+    for i in range(_rows(I, DROW)):
+        _dist(I, Fl, qx, i, g)
+        row = _i(I, DROW, i, 0)
+        for j in range(6):
+            col = _dist_col(I, i, j)
+            if col < n:
+                if transpose:
+                    p = _put(R, C, V, p, r0 + col, c0 + row, coef * g[j])
+                else:
+                    p = _put(R, C, V, p, r0 + row, c0 + col, coef * g[j])
+    return p
+
+
+@_jit
+def emit_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef):
+    """coef (Phi_q^T lambda)_q at (r0, c0); returns p."""
+    if _rows(I, DROW) == 0:
+        return p
+    g, H = np.empty(6), np.empty((6, 6))
+    for i in range(_rows(I, DROW)):
+        dx, dy, ax1, ay1, ax2, ay2, L = _dist(I, Fl, qx, i, g)
+        _dist_hess(dx, dy, ax1, ay1, ax2, ay2, L, H)
+        lv = coef * lam[_i(I, DROW, i, 0)]
+        for a in range(6):
+            ca = _dist_col(I, i, a)
+            for b in range(6):
+                cb = _dist_col(I, i, b)
+                if ca < n and cb < n:
+                    p = _put(R, C, V, p, r0 + ca, c0 + cb, lv * H[a, b])
+    return p
+
+
+@_jit
+def emit_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef):
+    """coef (Phi_q v)_q at (r0, c0); returns p."""
+    if _rows(I, DROW) == 0:
+        return p
+    g, H = np.empty(6), np.empty((6, 6))
+    v6 = np.empty(6)
+    for i in range(_rows(I, DROW)):
+        dx, dy, ax1, ay1, ax2, ay2, L = _dist(I, Fl, qx, i, g)
+        _dist_hess(dx, dy, ax1, ay1, ax2, ay2, L, H)
+        for j in range(6):
+            v6[j] = vx[_dist_col(I, i, j)]
+        row = _i(I, DROW, i, 0)
+        for a in range(6):
+            col = _dist_col(I, i, a)
+            if col < n:
+                hv = 0.0
+                for b in range(6):
+                    hv += H[a, b] * v6[b]
+                p = _put(R, C, V, p, r0 + row, c0 + col, coef * hv)
+    return p

@@ -1,0 +1,65 @@
+"""Linear rows: Phi = c1 q[i1] + c2 q[i2] - offset - f(t), one row each: locked
+and driven angles and coordinates (a body coordinate's driver, an angle
+between two bodies held or driven). Constant gradient, no Hessian.
+
+Fields: LROW (k,) the rows, LCOL (k, 2) the two columns (the ground's when
+one is unused), LCOEF (k, 2) their coefficients, LOFF (k,) the offset [m or
+rad], LFN (k, 3) the programs of a driver f, f', f'' (-1: none).
+"""
+
+from __future__ import annotations
+
+from ..programs import _eval
+from ..schema import LCOEF, LCOL, LFN, LOFF, LROW, _f, _i, _jit, _put, _rows
+
+#: Newton-matrix triplets per instance: Phi_q, (Phi_q^T lambda)_q, (Phi_q v)_q.
+PHIQ_TRIPLETS, HESS_TRIPLETS, G_TRIPLETS = 2, 0, 0
+
+
+@_jit
+def phi(I, Fl, t, qx, out):
+    """Phi into out (m,) [m or rad]."""
+    for i in range(_rows(I, LROW)):
+        val = (_f(I, Fl, LCOEF, i, 0) * qx[_i(I, LCOL, i, 0)]
+               + _f(I, Fl, LCOEF, i, 1) * qx[_i(I, LCOL, i, 1)] - _f(I, Fl, LOFF, i, 0))
+        if _i(I, LFN, i, 0) >= 0:                  # a driver f(t)
+            val -= _eval(I, Fl, _i(I, LFN, i, 0), t)
+        out[_i(I, LROW, i, 0)] = val
+
+
+@_jit
+def phi_time_add(I, Fl, t, out, order):
+    """out (m,) += the order-th time derivative of Phi: -f'(t), -f''(t) of drivers."""
+    for i in range(_rows(I, LROW)):
+        if _i(I, LFN, i, order) >= 0:
+            out[_i(I, LROW, i, 0)] -= _eval(I, Fl, _i(I, LFN, i, order), t)
+
+
+@_jit
+def phiqT_add(I, Fl, qx, lam, coef, out):
+    """out (n+3,) += coef Phi_q^T lambda."""
+    for i in range(_rows(I, LROW)):
+        lv = coef * lam[_i(I, LROW, i, 0)]
+        out[_i(I, LCOL, i, 0)] += _f(I, Fl, LCOEF, i, 0) * lv
+        out[_i(I, LCOL, i, 1)] += _f(I, Fl, LCOEF, i, 1) * lv
+
+
+@_jit
+def phiq_times(I, Fl, qx, vx, out):
+    """Phi_q v into out (m,)."""
+    for i in range(_rows(I, LROW)):
+        out[_i(I, LROW, i, 0)] = _f(I, Fl, LCOEF, i, 0) * vx[_i(I, LCOL, i, 0)] + _f(I, Fl, LCOEF, i, 1) * vx[_i(I, LCOL, i, 1)]
+
+
+@_jit
+def emit_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose):
+    """coef Phi_q at (r0, c0), or coef Phi_q^T when transpose; returns p."""
+    for i in range(_rows(I, LROW)):
+        for j in range(2):
+            col = _i(I, LCOL, i, j)
+            if col < n:
+                if transpose:
+                    p = _put(R, C, V, p, r0 + col, c0 + _i(I, LROW, i, 0), coef * _f(I, Fl, LCOEF, i, j))
+                else:
+                    p = _put(R, C, V, p, r0 + _i(I, LROW, i, 0), c0 + col, coef * _f(I, Fl, LCOEF, i, j))
+    return p

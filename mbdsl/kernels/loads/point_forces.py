@@ -1,0 +1,60 @@
+"""Point forces F(t) on body points: Q = J^T F, J = [I, B u] (and A S_k on a
+flexible beam's point); constant or programs of time.
+
+Fields: FCOL (k, 3) the body's columns, FS (k, 2) the local point [m], FF
+(k, 2) a constant force [N], FFN (k, 2) the programs of fx, fy (-1: the
+constant), FEL (k, 2) elastic spans.
+"""
+
+from __future__ import annotations
+
+from ..schema import ECOL, FCOL, FEL, FS, _put, _rows
+from ..geometry import _Au, _eshape, _span
+from ..programs import _eval
+from ..schema import FF, FFN, _f, _i, _jit
+
+@_jit
+def _point_force(I, Fl, t, i):
+    """(fx, fy) [N] of point force i at time t: constant, or its programs."""
+    fx, fy = _f(I, Fl, FF, i, 0), _f(I, Fl, FF, i, 1)
+    if _i(I, FFN, i, 0) >= 0:
+        fx = _eval(I, Fl, _i(I, FFN, i, 0), t)
+    if _i(I, FFN, i, 1) >= 0:
+        fy = _eval(I, Fl, _i(I, FFN, i, 1), t)
+    return fx, fy
+
+@_jit
+def forces_add(I, Fl, t, qx, out):
+    """out (n+3,) += J^T F(t) [N, N m] of every point force (on a flexible
+    beam's point also (A S_k) . F in its elastic columns)."""
+    for i in range(_rows(I, FCOL)):
+        ax, ay = _Au(I, Fl, qx, FCOL, FS, FEL, 0, i)
+        fx, fy = _point_force(I, Fl, t, i)
+        out[_i(I, FCOL, i, 0)] += fx
+        out[_i(I, FCOL, i, 1)] += fy
+        out[_i(I, FCOL, i, 2)] += -ay * fx + ax * fy
+        k0, k1 = _span(I, FEL, i, 0)
+        for k in range(k0, k1):            # a point on a flexible beam: (A S_k) . F
+            Ax, Ay, Bx, By = _eshape(I, Fl, k, qx[_i(I, FCOL, i, 2)])
+            out[_i(I, ECOL, k, 0)] += Ax * fx + Ay * fy
+
+
+@_jit
+def emit_force(I, Fl, t, n, qx, R, C, V, p, r0, c0, cq):
+    """-cq Q_q at (r0, c0): (d^2 p/dphi^2) . F = -(A u) . F on the body's angle,
+    B S_k . F between the angle and an elastic coordinate; returns p."""
+    for i in range(_rows(I, FCOL)):
+        cph = _i(I, FCOL, i, 2)
+        if cph < n:
+            ax, ay = _Au(I, Fl, qx, FCOL, FS, FEL, 0, i)
+            fx, fy = _point_force(I, Fl, t, i)
+            val = cq * -(ax * fx + ay * fy)
+            p = _put(R, C, V, p, r0 + cph, c0 + cph, -val)
+            k0, k1 = _span(I, FEL, i, 0)
+            for k in range(k0, k1):        # d2p/dphi dq_k = B S_k
+                Ax, Ay, Bx, By = _eshape(I, Fl, k, qx[cph])
+                val = cq * (Bx * fx + By * fy)
+                ck = _i(I, ECOL, k, 0)
+                p = _put(R, C, V, p, r0 + cph, c0 + ck, -val)
+                p = _put(R, C, V, p, r0 + ck, c0 + cph, -val)
+    return p

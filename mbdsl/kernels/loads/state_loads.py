@@ -1,0 +1,103 @@
+"""Loads of the state: a torque tau(t, x) between a joint's two bodies, or a force
+tau(t, x) along a sliding joint's line, x the state variables the expression
+reads (a joint's angle or distance and their rates, body coordinates).
+
+Q = tau w, w = (+1, -1) on the two bodies' angles or grad s of the line
+(``geometry._line``); its derivatives: tau dw/dq (a line's Hessian) and
+w (dtau/dx_k) (dx_k/dq, dx_k/dv) for every partial derivative the checker
+wrote as a program (SDV).
+
+Fields: STQ (k, 4) (program of tau, +column, -column, line row or -1), SDV
+(j, 3) (load, variable, program of dtau/dx_k), VAR, VARC, XVAL the state
+variables (``programs._state_values``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..geometry import _line
+from ..programs import _eval, _state_values
+from ..schema import GEO, SDV, STQ, VAR, VARC, _f, _i, _jit, _put, _rows
+
+
+@_jit
+def forces_add(I, Fl, t, qx, vx, out):
+    """out (n+3,) += tau w of every load of the state [N, N m]."""
+    if _rows(I, STQ) > 0:                          # loads of the state, in joints
+        grad, H = np.empty(6), np.empty((6, 6))
+        _state_values(I, Fl, qx, vx, grad, H)
+        for i in range(_rows(I, STQ)):
+            tau = _eval(I, Fl, _i(I, STQ, i, 0), t)
+            g = _i(I, STQ, i, 3)
+            if g < 0:                              # a torque: +tau, -tau
+                out[_i(I, STQ, i, 1)] += tau
+                out[_i(I, STQ, i, 2)] -= tau
+            else:                                  # a force along a sliding line: tau grad s
+                _line(I, Fl, qx, g, grad, H)
+                for j in range(6):
+                    out[_i(I, GEO, g, j)] += tau * grad[j]
+
+
+@_jit
+def emit_force(I, Fl, t, n, qx, vx, R, C, V, p, r0, c0, cq, cv):
+    """-(cq Q_q + cv Q_v) of the loads of the state at (r0, c0); returns p."""
+    if _rows(I, STQ) > 0:      # loads of the state: Q = tau w, w = +-e_phi or grad s
+        grad, H = np.empty(6), np.empty((6, 6))
+        wg, wH = np.empty(6), np.empty((6, 6))
+        _state_values(I, Fl, qx, vx, grad, H)
+        if cq != 0.0:          # tau dw/dq of a force along a sliding line
+            for i in range(_rows(I, STQ)):
+                g = _i(I, STQ, i, 3)
+                if g < 0:
+                    continue
+                tau = _eval(I, Fl, _i(I, STQ, i, 0), t)
+                _line(I, Fl, qx, g, wg, wH)
+                for a in range(6):
+                    ra = _i(I, GEO, g, a)
+                    for b in range(6):
+                        cb = _i(I, GEO, g, b)
+                        if ra < n and cb < n and wH[a, b] != 0.0:
+                            p = _put(R, C, V, p, r0 + ra, c0 + cb, -cq * tau * wH[a, b])
+        for e in range(_rows(I, SDV)):   # w (dtau/dx_k) (dx_k/dq, dx_k/dv)
+            si, kv = _i(I, SDV, e, 0), _i(I, SDV, e, 1)
+            gk = _eval(I, Fl, _i(I, SDV, e, 2), t)
+            gs = _i(I, STQ, si, 3)
+            if gs >= 0:
+                _line(I, Fl, qx, gs, wg, wH)
+            nrow = 2 if gs < 0 else 6
+            gv = _i(I, VAR, kv, 3)
+            if gv >= 0:
+                _line(I, Fl, qx, gv, grad, H)
+            for a in range(nrow):
+                if gs < 0:
+                    row, w = _i(I, STQ, si, 1 + a), (1.0 if a == 0 else -1.0)
+                else:
+                    row, w = _i(I, GEO, gs, a), wg[a]
+                if row >= n or w == 0.0:
+                    continue
+                if gv < 0:                 # linear in q (level 0) or v (level 1)
+                    c = cq if _i(I, VAR, kv, 0) == 0 else cv
+                    if c == 0.0:
+                        continue
+                    for j in range(2):
+                        col = _i(I, VAR, kv, 1 + j)
+                        if col < n and _f(I, Fl, VARC, kv, j) != 0.0:
+                            p = _put(R, C, V, p, r0 + row, c0 + col,
+                                     -c * w * gk * _f(I, Fl, VARC, kv, j))
+                    continue
+                for j in range(6):         # a sliding distance (grad s) or speed
+                    col = _i(I, GEO, gv, j)
+                    if col >= n:
+                        continue
+                    if _i(I, VAR, kv, 0) == 0:
+                        dq, dv = grad[j], 0.0
+                    else:                  # d(grad s . v)/dq = H v, d/dv = grad s
+                        dq = 0.0
+                        for m2 in range(6):
+                            dq += H[j, m2] * vx[_i(I, GEO, gv, m2)]
+                        dv = grad[j]
+                    val = cq * dq + cv * dv
+                    if val != 0.0:
+                        p = _put(R, C, V, p, r0 + row, c0 + col, -w * gk * val)
+    return p

@@ -1,0 +1,170 @@
+"""The language's expressions as postfix programs, evaluated in the kernels.
+
+Functions of time and of the state (``dsl.expressions.postfix``), with the
+non-raising semantics of ``compile_function``: a division by zero gives
++-inf (0/0 NaN), a domain error NaN, so that a bad value stops the run with
+a message, not a crash. The state variables a program reads are evaluated
+first into XVAL (:func:`_state_values`).
+
+(``dsl.expressions.postfix``), with the same non-raising semantics as
+``compile_function``: a division by zero gives +-inf (0/0 NaN), a domain
+error NaN, so that a bad value stops the run with a message, not a crash.
+"""
+
+from __future__ import annotations
+
+import math
+
+from mbdsl.dsl.expressions import OPCODES
+
+from .geometry import _line
+from .schema import CODE, CONSTS, GEO, PROG, STACK, VAR, VARC, XVAL, _f, _i, _jit, _rows
+
+_OPCODES = ("const", "t", "neg", "+", "-", "*", "/", "^", "sin", "cos", "tan", "asin", "acos",
+            "atan", "sinh", "cosh", "tanh", "sqrt", "exp", "log", "abs", "sign", "x", "min",
+            "max", "<", ">", "<=", ">=", "if")
+
+
+#: Opcodes (``dsl.expressions.OPCODES``, checked at import): literals, as the field indices.
+(OP_CONST, OP_T, OP_NEG, OP_ADD, OP_SUB, OP_MUL, OP_DIV, OP_POW,
+ OP_SIN, OP_COS, OP_TAN, OP_ASIN, OP_ACOS, OP_ATAN, OP_SINH, OP_COSH, OP_TANH,
+ OP_SQRT, OP_EXP, OP_LOG, OP_ABS, OP_SIGN, OP_X, OP_MIN, OP_MAX,
+ OP_LT, OP_GT, OP_LE, OP_GE, OP_IF) = range(30)
+if _OPCODES != OPCODES:     # pragma: no cover (a developer's error, caught by any test)
+    raise ImportError("programs.py's opcodes differ from dsl.expressions.OPCODES")
+
+
+@_jit
+def _eval(I, Fl, p, t):
+    """The value at time t [s] of program p (row of field PROG); a program of
+    the state reads the variables' values from XVAL (``_state_values``)."""
+    base, sp = I[3 * STACK], 0              # the stack is the float field STACK
+    k, end = _i(I, PROG, p, 0), _i(I, PROG, p, 1)
+    while k < end:
+        op = _i(I, CODE, k, 0)
+        k += 1
+        if op == OP_CONST:
+            Fl[base + sp] = _f(I, Fl, CONSTS, _i(I, CODE, k, 0), 0)
+            k += 1
+            sp += 1
+        elif op == OP_T:
+            Fl[base + sp] = t
+            sp += 1
+        elif op == OP_NEG:
+            Fl[base + sp - 1] = -Fl[base + sp - 1]
+        elif op == OP_X:
+            Fl[base + sp] = Fl[I[3 * XVAL] + _i(I, CODE, k, 0)]
+            k += 1
+            sp += 1
+        elif op == OP_MIN or op == OP_MAX:
+            a, b = Fl[base + sp - 2], Fl[base + sp - 1]
+            sp -= 1
+            Fl[base + sp - 1] = min(a, b) if op == OP_MIN else max(a, b)
+        elif op >= OP_LT and op <= OP_GE:    # comparisons: 1.0 or 0.0
+            a, b = Fl[base + sp - 2], Fl[base + sp - 1]
+            sp -= 1
+            if op == OP_LT:
+                c = a < b
+            elif op == OP_GT:
+                c = a > b
+            elif op == OP_LE:
+                c = a <= b
+            else:
+                c = a >= b
+            Fl[base + sp - 1] = 1.0 if c else 0.0
+        elif op == OP_IF:                    # test, then, other -> the chosen one
+            test, a, b = Fl[base + sp - 3], Fl[base + sp - 2], Fl[base + sp - 1]
+            sp -= 2
+            Fl[base + sp - 1] = a if test != 0.0 else b
+        elif op <= OP_POW:
+            a, b = Fl[base + sp - 2], Fl[base + sp - 1]
+            sp -= 1
+            if op == OP_ADD:
+                x = a + b
+            elif op == OP_SUB:
+                x = a - b
+            elif op == OP_MUL:
+                x = a * b
+            elif op == OP_DIV:
+                if b != 0.0:
+                    x = a / b
+                elif a != 0.0:
+                    x = math.copysign(math.inf, a)
+                else:
+                    x = math.nan
+            else:
+                x = _pow(a, b)
+            Fl[base + sp - 1] = x
+        else:
+            Fl[base + sp - 1] = _call(op, Fl[base + sp - 1])
+    return Fl[base]
+
+
+@_jit
+def _pow(a, b):
+    """a ** b as ``expressions._pow``: inf on overflow or 0 ** negative, NaN
+    for a negative base with a fractional exponent."""
+    if a == 0.0 and b < 0.0:
+        return math.inf
+    if a < 0.0 and b != math.floor(b):
+        return math.nan
+    return math.pow(a, b)
+
+
+@_jit
+def _call(op, x):
+    """The function of opcode op at x; NaN outside its domain."""
+    if op == OP_SIN:
+        return math.sin(x)
+    if op == OP_COS:
+        return math.cos(x)
+    if op == OP_TAN:
+        return math.tan(x)
+    if op == OP_ASIN:
+        return math.asin(x) if abs(x) <= 1.0 else math.nan
+    if op == OP_ACOS:
+        return math.acos(x) if abs(x) <= 1.0 else math.nan
+    if op == OP_ATAN:
+        return math.atan(x)
+    if op == OP_SINH:
+        return math.sinh(x)
+    if op == OP_COSH:
+        return math.cosh(x)
+    if op == OP_TANH:
+        return math.tanh(x)
+    if op == OP_SQRT:
+        return math.sqrt(x) if x >= 0.0 else math.nan
+    if op == OP_EXP:
+        return math.exp(x)
+    if op == OP_LOG:
+        return math.log(x) if x > 0.0 else math.nan
+    if op == OP_SIGN:
+        return 1.0 if x > 0.0 else (-1.0 if x < 0.0 else 0.0)
+    return abs(x)
+
+
+@_jit
+def _state_values(I, Fl, qx, vx, grad, H):
+    """The state variables' values into XVAL: sum of coef q[col] (level 0) or
+    coef v[col] (level 1) over their two (column, coef) entries, or a sliding
+    line's distance s (level 0) or speed grad s . v (level 1); grad (6,), H
+    (6, 6) scratch."""
+    base = I[3 * XVAL]
+    for k in range(_rows(I, VAR)):
+        g = _i(I, VAR, k, 3)
+        if g >= 0:
+            s = _line(I, Fl, qx, g, grad, H)
+            if _i(I, VAR, k, 0) == 0:
+                Fl[base + k] = s
+            else:
+                acc = 0.0
+                for j in range(6):
+                    acc += grad[j] * vx[_i(I, GEO, g, j)]
+                Fl[base + k] = acc
+            continue
+        c1, c2 = _i(I, VAR, k, 1), _i(I, VAR, k, 2)
+        a1, a2 = _f(I, Fl, VARC, k, 0), _f(I, Fl, VARC, k, 1)
+        if _i(I, VAR, k, 0) == 0:
+            Fl[base + k] = a1 * qx[c1] + a2 * qx[c2]
+        else:
+            Fl[base + k] = a1 * vx[c1] + a2 * vx[c2]

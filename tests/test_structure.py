@@ -1,0 +1,133 @@
+"""The package's structure: who imports whom, where numba is, how long modules
+are, and what the kernel cache's key covers.
+
+Read from the sources with ``ast`` (function-local imports included), so
+that a lazy import hidden in a function counts as much as one at the top.
+"""
+
+import ast
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import networkx as nx
+import pytest
+
+PACKAGE = Path(__file__).resolve().parents[1] / "mbdsl"
+#: The packages of numba code: the element kernels and the step kernels.
+KERNEL_PACKAGES = ("mbdsl.kernels", "mbdsl.integrators.compiled")
+
+
+def _modules():
+    """{module name: path} of every module of mbdsl."""
+    out = {}
+    for path in PACKAGE.rglob("*.py"):
+        parts = path.relative_to(PACKAGE.parent).with_suffix("").parts
+        if parts[-1] == "__init__":
+            parts = parts[:-1]
+        out[".".join(parts)] = path
+    return out
+
+
+def _imports(name, path, modules):
+    """(imported module of mbdsl or None, top-level name) for every import
+    statement of a module, anywhere in its body."""
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            targets = [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")[:len(package.split(".")) - node.level + 1]
+                stem = ".".join(base + ([node.module] if node.module else []))
+            else:
+                stem = node.module
+            targets = [stem] + [f"{stem}.{a.name}" for a in node.names]
+        else:
+            continue
+        for target in targets:
+            top = target.split(".")[0]
+            while target and target not in modules:
+                target = target.rpartition(".")[0]
+            yield (target or None), top
+
+
+@pytest.fixture(scope="module")
+def graph():
+    modules = _modules()
+    g = nx.DiGraph()
+    tops = {}
+    for name, path in modules.items():
+        g.add_node(name)
+        tops[name] = set()
+        for target, top in _imports(name, path, modules):
+            tops[name].add(top)
+            if target is not None and target != name:
+                g.add_edge(name, target)
+    return g, tops
+
+
+def _inside(name, packages):
+    return any(name == p or name.startswith(p + ".") for p in packages)
+
+
+def test_the_kernels_import_nothing_of_the_integrators(graph):
+    """The element kernels sit below the integrators: nothing under
+    ``mbdsl/kernels`` imports ``mbdsl.integrators``."""
+    g, _ = graph
+    wrong = [(a, b) for a, b in g.edges
+             if _inside(a, ("mbdsl.kernels",)) and _inside(b, ("mbdsl.integrators",))]
+    assert wrong == []
+
+
+def test_only_the_kernel_packages_import_numba(graph):
+    """numba (and llvmlite) behind the kernel packages: a model is parsed,
+    checked, assembled and written without them."""
+    _, tops = graph
+    users = sorted(m for m, t in tops.items() if t & {"numba", "llvmlite"})
+    assert users and all(_inside(m, KERNEL_PACKAGES) for m in users), users
+
+
+def test_the_kernel_packages_have_no_import_cycle(graph):
+    g, _ = graph
+    sub = g.subgraph([m for m in g if _inside(m, KERNEL_PACKAGES)])
+    assert list(nx.simple_cycles(sub)) == []
+
+
+def test_no_kernel_module_is_over_a_thousand_lines():
+    long = {}
+    for package in KERNEL_PACKAGES:
+        folder = PACKAGE.parent.joinpath(*package.split("."))
+        for path in folder.rglob("*.py"):
+            n = len(path.read_text().splitlines())
+            if n > 1000:
+                long[str(path.relative_to(PACKAGE))] = n
+    assert long == {}
+
+
+def _key(root):
+    code = "from mbdsl.integrators.kernel_cache import _key; print(_key()['source'])"
+    done = subprocess.run([sys.executable, "-c", code], cwd=root, capture_output=True,
+                          text=True, timeout=120, env={"PYTHONPATH": str(root),
+                                                      "PATH": "/usr/bin:/bin"})
+    assert done.returncode == 0, done.stderr
+    return done.stdout.strip()
+
+
+def test_the_cache_key_covers_every_kernel_file(tmp_path):
+    """numba's cache does not see a change to a kernel of another file (numba
+    issue #1833): the marker's key hashes every file of both kernel packages,
+    so a change to any one of them, here a comment added to the torques'
+    module in a copy of the package, rebuilds."""
+    copy = tmp_path / "mbdsl"
+    shutil.copytree(PACKAGE, copy, ignore=shutil.ignore_patterns("__pycache__", "*.nbi", "*.nbc"))
+    same = _key(tmp_path)
+    assert same == _key(PACKAGE.parent)
+    target = copy / "kernels" / "loads" / "torques.py"
+    target.write_text(target.read_text() + "# a change\n")
+    assert _key(tmp_path) != same
+    step = copy / "integrators" / "compiled" / "newton.py"
+    before = _key(tmp_path)
+    step.write_text(step.read_text() + "# a change\n")
+    assert _key(tmp_path) != before
