@@ -13,6 +13,10 @@ import math
 
 from .schema import ECOL, ESHP, GEO, GEOF, _f, _i, _inline, _jit, _rows
 
+#: Its fields in ``schema.MODEL_SCHEMA``: the sliding joints' lines (columns; s_L, s_P, u0).
+FIELDS = ("geo", "geof")
+
+
 @_jit
 def _As(I, Fl, qx, cols, s, i):
     """A(phi) s of instance i of the element whose body columns are integer

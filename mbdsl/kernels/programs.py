@@ -33,6 +33,9 @@ _OPCODES = ("const", "t", "neg", "+", "-", "*", "/", "^", "sin", "cos", "tan", "
 if _OPCODES != OPCODES:     # pragma: no cover (a developer's error, caught by any test)
     raise ImportError("programs.py's opcodes differ from dsl.expressions.OPCODES")
 
+#: Its fields in ``schema.MODEL_SCHEMA``: the programs, their stack, the state variables.
+FIELDS = ("code", "consts", "prog", "stack", "var", "varc", "xval")
+
 
 @_jit
 def _eval(I, Fl, p, t):

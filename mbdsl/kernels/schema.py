@@ -57,6 +57,9 @@ MODEL_SCHEMA = (
     ("sel", "i", 4), ("fel", "i", 2),                                  # elastic terms of spring and
     ("dsp", "i", 4),                                                   # point-force points, distance
 )                                                                      # joints' points: spans
+#: The fields no element family owns: the mass diagonal, the constant forces (gravity),
+#: the constraint rows' elements and the rigid bodies' mass diagonal.
+FIELDS = ("mass", "Q0", "row_element", "mrig")
 #: The field names, and the scalar "n_elements" (the header's last entry).
 MODEL_FIELDS = tuple(name for name, _, _ in MODEL_SCHEMA) + ("n_elements",)
 
@@ -99,6 +102,7 @@ if any(globals()[name.upper()] != k for k, (name, _, _) in enumerate(MODEL_SCHEM
 # reads cost a few ns.
 # --------------------------------------------------------------------------------------------
 
+
 @_inline
 def _rows(I, k):
     """Rows (instances) of field k."""
@@ -121,12 +125,23 @@ def _f(I, Fl, k, i, j):
 # Matrix blocks as (row, column, value) triplets in a fixed order
 # --------------------------------------------------------------------------------------------
 
+
 @_jit
 def _put(R, C, V, p, r, c, v):
+    """Triplet p := (r, c, v); returns p + 1."""
     R[p] = r
     C[p] = c
     V[p] = v
     return p + 1
+
+
+@_inline
+def _put_phiq(R, C, V, p, r0, c0, row, col, v, transpose):
+    """The Phi_q entry (row, col) = v at (r0, c0), or at (r0 + col, c0 + row) when
+    ``transpose`` (the Phi_q^T block of a saddle-point matrix); returns p + 1."""
+    if transpose:
+        return _put(R, C, V, p, r0 + col, c0 + row, v)
+    return _put(R, C, V, p, r0 + row, c0 + col, v)
 
 
 # --------------------------------------------------------------------------------------------

@@ -31,6 +31,16 @@ from .schema import (BEAM, CROW, DROW, DSP, ECOL, FCOL, FEL, FRI, GEO, KCOL, KGI
                      MRIG, PROW, Q0, RCOL, ROW_ELEMENT, RPAR, SCOL1, SDV, SEL, SPAR, STQ, _0, _NO,
                      _YES, _f, _i, _jit, _put, _rows)
 
+
+#: The joint families in the order of every aggregate, each with its first field
+#: (whose rows are its instances).
+JOINTS = ((coincidence, CROW), (point_on_line, PROW), (linear_rows, LROW), (distance, DROW))
+#: The load families with a force block, each with the field that counts it
+#: (a load of the state counts twice: per load, STQ, and per partial derivative, SDV).
+LOADS = ((spring_damper, SCOL1), (torques, RCOL), (point_forces, FCOL), (state_loads, STQ),
+         (state_loads, SDV), (friction, FRI), (contact, KGI))
+
+
 @_jit
 def _phi_time_add(I, Fl, t, out, order):
     """out (m,) += the order-th partial time derivative of Phi (1: Phi_t,
@@ -403,18 +413,18 @@ def triplet_bound(I) -> int:
         """Instances of field k (the header's row count)."""
         return int(I[3 * k + 1])
     n = rows(MASS)
-    kc, kp, kl, kd = rows(CROW), rows(PROW), rows(LROW), rows(DROW)
-    ks, kr, kf = rows(SCOL1), rows(RCOL), rows(FCOL)
-    phiq = 8 * kc + 6 * kp + 2 * kl + 6 * kd
+    # per family: its instances (its first field's rows) times its triplets per instance
+    phiq = sum(j.PHIQ_TRIPLETS * rows(field) for j, field in JOINTS)
+    hess = sum(j.HESS_TRIPLETS * rows(field) for j, field in JOINTS)
+    G = sum(j.G_TRIPLETS * rows(field) for j, field in JOINTS)
+    force = sum(load.FORCE_TRIPLETS * rows(field) for load, field in LOADS)
     beams, csum = 0, 0
     for b in range(rows(BEAM)):     # blocks, and the additive form's M M_n^-1 Phi_q^T (twice)
         c = 3 + int(I[int(I[3 * BEAM]) + 6 * b + 1])
         beams += 15 * c * c + 2 * c * (phiq + 2 * rows(ECOL))
         csum += c
-    base = (6 * n + rows(ROW_ELEMENT) + 6 * phiq + 4 * (2 * kc + 12 * kp + 36 * kd)
-            + 2 * (36 * ks + 4 * kr + kf + 36 * rows(SDV) + 36 * rows(STQ) + 36 * rows(FRI)
-                   + 36 * rows(KGI))
-            + 2 * (4 * kc + 6 * kp + 6 * kd) + 12 * rows(FRI) + beams + 40 * rows(ECOL))
+    base = (6 * n + rows(ROW_ELEMENT) + 6 * phiq + 4 * hess + 2 * force + 2 * G
+            + 12 * rows(FRI) + beams + 40 * rows(ECOL))
     # springs and point forces on beam points: (6 + e)^2 and 1 + 2 e entries, e their
     # elastic terms (spans into ECOL), in each of the two force blocks
     ecs = 0

@@ -14,6 +14,7 @@ from ...kernels.schema import (BCOL, BEAM, CROW, DROW, ECOL, FRI, LROW, MASS, MR
 from ...kernels.system import (_emit_G, _emit_force, _emit_hess, _emit_mass, _emit_phiq,
                                _phi_time_add, forces, phi, phiqT_add, phiq_times)
 
+
 @_jit
 def _mass_solve(I, Fl, qM, x, out):
     """out[:n] = M(qM)^-1 x[:n]: a division on the rigid diagonal, a dense

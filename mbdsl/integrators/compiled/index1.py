@@ -14,6 +14,7 @@ from ...kernels.schema import (EPS, FRI, MASS, ROW_ELEMENT, _0, _HEADER, _NO, _Y
                                _rows)
 from ...kernels.system import _emit_G, _emit_mass, _emit_phiq, _phi_time_add, forces, phiq_times
 
+
 @_jit
 def _index1_gamma(I, Fl, t, qx, vx, gam, R, C, V):
     """-gamma = (Phi_q v)_q v + Phi_tt into gam (m,) at (t, qx, vx) (Haug, sec. 6.3)."""

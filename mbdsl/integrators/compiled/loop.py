@@ -21,6 +21,7 @@ from ...kernels.loads.spring_damper import _spring_passed
 from ...kernels.schema import (EPS, FRI, KGI, MASS, ROW_ELEMENT, SCOL1, SPAR, _HEADER, _f, _jit,
                                _rows)
 
+
 @_jit
 def _workspace(n, m, size, I):
     """The time loops' scratch arrays, allocated once per call: (r, dw, w,

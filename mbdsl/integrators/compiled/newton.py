@@ -14,6 +14,7 @@ from .linalg import _factor, _solve
 from .recipes import _jacobian_triplets, _residual
 from ...kernels.schema import EPS, MASS, ROUNDOFF_BAND, ROW_ELEMENT, _jit, _rows
 
+
 @_jit
 def _newton(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, weight, opts, solver, lin, lu_state,
             R, C, V, r, dw, qx, vx, work, counts, spare):

@@ -14,6 +14,7 @@ from ...kernels.schema import BEAM, FRI, MASS, MRIG, ROW_ELEMENT, _0, _NO, _YES,
 from ...kernels.system import (_emit_G, _emit_force, _emit_hess, _emit_mass, _emit_phiq,
                                _phi_time_add, forces, phi, phiqT_add, phiq_times)
 
+
 @_jit
 def _residual(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work):
     """Upsilon(w) of the recipe ``rec``, size n + m (index 3), 2 (n + m)

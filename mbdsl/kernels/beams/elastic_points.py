@@ -20,7 +20,12 @@ from ..geometry import _eshape, _span
 from ..joints.distance import _dist, _dist_columns, _dist_h, _dist_local
 from ..joints.point_on_line import _pol
 from ..schema import (CCOL1, CCOL2, CEL, CROW, DCOL1, DCOL2, DROW, DSP, ECOL, PCOLL, PCOLP, PEL,
-                      PROW, _i, _jit, _put, _rows)
+                      PROW, _i, _jit, _put, _put_phiq, _rows)
+
+#: Its fields in ``schema.MODEL_SCHEMA``: the elastic terms of points on beams (column, S_k);
+#: each element's spans into them are the element's own fields (CEL, PEL, SEL, FEL, DSP).
+FIELDS = ("ecol", "eshp")
+
 
 @_jit
 def _elastic_grad(I, Fl, qx, rows, cols, vals):
@@ -91,10 +96,7 @@ def _emit_elastic_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose):
     k = 2 * _rows(I, ECOL)
     rows, cols, vals = np.empty(k, np.int64), np.empty(k, np.int64), np.empty(k)
     for e in range(_elastic_grad(I, Fl, qx, rows, cols, vals)):
-        if transpose:
-            p = _put(R, C, V, p, r0 + cols[e], c0 + rows[e], coef * vals[e])
-        else:
-            p = _put(R, C, V, p, r0 + rows[e], c0 + cols[e], coef * vals[e])
+        p = _put_phiq(R, C, V, p, r0, c0, rows[e], cols[e], coef * vals[e], transpose)
     return p
 
 

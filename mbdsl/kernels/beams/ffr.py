@@ -21,6 +21,9 @@ import numpy as np
 
 from ..schema import BCOL, BDAT, BDOF, BEAM, GRAV, _f, _i, _inline, _jit, _put, _rows
 
+#: Its fields in ``schema.MODEL_SCHEMA`` (the first gives the instances).
+FIELDS = ("beam", "bcol", "bdat", "bdof", "grav")
+
 #: What ``_ffr_local`` evaluates (bits): M, Q, (Q_q, Q_v), (M x)_q; numpy integers, so
 #: that passing one does not compile a kernel per value (see ``_0``)
 FFR_M, FFR_Q, FFR_DQ, FFR_MXQ = np.int64(1), np.int64(2), np.int64(4), np.int64(8)

@@ -14,8 +14,10 @@ positions [m], CEL (k, 4) the spans of their elastic terms.
 from __future__ import annotations
 
 from ..geometry import _Au
-from ..schema import CCOL1, CCOL2, CEL, CROW, CS1, CS2, _i, _jit, _put, _rows
+from ..schema import CCOL1, CCOL2, CEL, CROW, CS1, CS2, _i, _jit, _put, _put_phiq, _rows
 
+#: Its fields in ``schema.MODEL_SCHEMA`` (the first gives the instances).
+FIELDS = ("crow", "ccol1", "cs1", "ccol2", "cs2", "cel")
 #: Newton-matrix triplets per instance: Phi_q, (Phi_q^T lambda)_q, (Phi_q v)_q.
 PHIQ_TRIPLETS, HESS_TRIPLETS, G_TRIPLETS = 8, 2, 4
 
@@ -75,10 +77,7 @@ def emit_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose):
                 else:
                     col, g = _i(I, CCOL2, i, 2), (-ay2 if a == 0 else ax2)
                 if col < n:
-                    if transpose:
-                        p = _put(R, C, V, p, r0 + col, c0 + row, coef * g)
-                    else:
-                        p = _put(R, C, V, p, r0 + row, c0 + col, coef * g)
+                    p = _put_phiq(R, C, V, p, r0, c0, row, col, coef * g, transpose)
     return p
 
 

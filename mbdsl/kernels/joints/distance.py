@@ -17,8 +17,10 @@ import numpy as np
 
 from ..geometry import _Au, _eshape, _span
 from ..schema import (DCOL1, DCOL2, DLEN, DROW, DS1, DS2, DSP, ECOL, _f, _i, _inline, _jit, _put,
-                      _rows)
+                      _put_phiq, _rows)
 
+#: Its fields in ``schema.MODEL_SCHEMA`` (the first gives the instances).
+FIELDS = ("drow", "dcol1", "ds1", "dcol2", "ds2", "dlen", "dsp")
 #: Newton-matrix triplets per instance: Phi_q, (Phi_q^T lambda)_q, (Phi_q v)_q.
 PHIQ_TRIPLETS, HESS_TRIPLETS, G_TRIPLETS = 6, 36, 6
 
@@ -156,10 +158,7 @@ def emit_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose):
         for j in range(6):
             col = _dist_col(I, i, j)
             if col < n:
-                if transpose:
-                    p = _put(R, C, V, p, r0 + col, c0 + row, coef * g[j])
-                else:
-                    p = _put(R, C, V, p, r0 + row, c0 + col, coef * g[j])
+                p = _put_phiq(R, C, V, p, r0, c0, row, col, coef * g[j], transpose)
     return p
 
 

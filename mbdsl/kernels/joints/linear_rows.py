@@ -10,8 +10,10 @@ rad], LFN (k, 3) the programs of a driver f, f', f'' (-1: none).
 from __future__ import annotations
 
 from ..programs import _eval
-from ..schema import LCOEF, LCOL, LFN, LOFF, LROW, _f, _i, _jit, _put, _rows
+from ..schema import LCOEF, LCOL, LFN, LOFF, LROW, _f, _i, _jit, _put_phiq, _rows
 
+#: Its fields in ``schema.MODEL_SCHEMA`` (the first gives the instances).
+FIELDS = ("lrow", "lcol", "lcoef", "loff", "lfn")
 #: Newton-matrix triplets per instance: Phi_q, (Phi_q^T lambda)_q, (Phi_q v)_q.
 PHIQ_TRIPLETS, HESS_TRIPLETS, G_TRIPLETS = 2, 0, 0
 
@@ -58,8 +60,5 @@ def emit_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose):
         for j in range(2):
             col = _i(I, LCOL, i, j)
             if col < n:
-                if transpose:
-                    p = _put(R, C, V, p, r0 + col, c0 + _i(I, LROW, i, 0), coef * _f(I, Fl, LCOEF, i, j))
-                else:
-                    p = _put(R, C, V, p, r0 + _i(I, LROW, i, 0), c0 + col, coef * _f(I, Fl, LCOEF, i, j))
+                p = _put_phiq(R, C, V, p, r0, c0, _i(I, LROW, i, 0), col, coef * _f(I, Fl, LCOEF, i, j), transpose)
     return p

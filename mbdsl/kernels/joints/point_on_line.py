@@ -19,8 +19,10 @@ import numpy as np
 
 from ..geometry import _As, _Au
 from ..programs import _eval
-from ..schema import PCOLL, PCOLP, PEL, PFN, PN0, PROW, PSL, PSP, _i, _jit, _put, _rows
+from ..schema import PCOLL, PCOLP, PEL, PFN, PN0, PROW, PSL, PSP, _i, _jit, _put, _put_phiq, _rows
 
+#: Its fields in ``schema.MODEL_SCHEMA`` (the first gives the instances).
+FIELDS = ("prow", "pcolL", "psL", "pcolP", "psP", "pn0", "pfn", "pel")
 #: Newton-matrix triplets per instance: Phi_q, (Phi_q^T lambda)_q, (Phi_q v)_q.
 PHIQ_TRIPLETS, HESS_TRIPLETS, G_TRIPLETS = 6, 12, 6
 
@@ -120,10 +122,7 @@ def emit_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose):
         for j in range(6):
             col = _i(I, PCOLL, i, j) if j < 3 else _i(I, PCOLP, i, j - 3)
             if col < n:
-                if transpose:
-                    p = _put(R, C, V, p, r0 + col, c0 + row, coef * g[j])
-                else:
-                    p = _put(R, C, V, p, r0 + row, c0 + col, coef * g[j])
+                p = _put_phiq(R, C, V, p, r0, c0, row, col, coef * g[j], transpose)
     return p
 
 

@@ -25,6 +25,10 @@ from mbdsl.model.contact import SPEED_FLOOR as _CONTACT_SPEED_FLOOR
 from ..geometry import _direction, _direction_derivative, _line
 from ..schema import KCOL, KGI, KIMP, KPAR, _f, _i, _jit, _put, _rows
 
+#: Its fields in ``schema.MODEL_SCHEMA`` (the first gives the instances).
+FIELDS = ("kgi", "kcol", "kpar", "kimp")
+#: Newton-matrix triplets per instance of a force block: a 6 x 6 block over both bodies' columns.
+FORCE_TRIPLETS = 36
 #: ``model.contact.SPEED_FLOOR`` as a literal (checked at import, as the recipe indices are)
 SPEED_FLOOR = 1e-3
 if SPEED_FLOOR != _CONTACT_SPEED_FLOOR:     # pragma: no cover (a developer's error)
@@ -267,6 +271,7 @@ def _contact_energy(I, Fl, i, g):
         return 0.0
     ex = _f(I, Fl, KPAR, i, 10)
     return _f(I, Fl, KPAR, i, 9) * (-g) ** (ex + 1.0) / (ex + 1.0)
+
 
 @_jit
 def energy_add(I, Fl, qx, e):

@@ -19,6 +19,13 @@ import numpy as np
 from ..geometry import _line
 from ..schema import FRI, FRP, GEO, _f, _i, _jit, _put, _rows
 
+#: Its fields in ``schema.MODEL_SCHEMA`` (the first gives the instances).
+FIELDS = ("fri", "frp")
+#: Newton-matrix triplets per instance of a force block: Q_q and Q_v over a sliding line's 6
+#: columns (and 12 of Q_lambda).
+FORCE_TRIPLETS = 36
+
+
 @_jit
 def _friction_law(I, Fl, i, z, lam, slip):
     """(tau, dtau/dz, dtau/dN_raw, R) of friction instance i at joint speed z,
@@ -116,6 +123,7 @@ def _emit_friction_lam(I, Fl, n, qx, vx, lam, R, C, V, p, r0, c0, coef):
                 d = dN * lam[row + k] / Rn if Rn > 0.0 else 0.0
                 p = _put(R, C, V, p, r0 + ra, c0 + row + k, -coef * w[a] * d)
     return p
+
 
 @_jit
 def forces_add(I, Fl, qx, vx, lam, slip, out):

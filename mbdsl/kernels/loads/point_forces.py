@@ -8,10 +8,16 @@ constant), FEL (k, 2) elastic spans.
 
 from __future__ import annotations
 
-from ..schema import ECOL, FCOL, FEL, FS, _put, _rows
 from ..geometry import _Au, _eshape, _span
 from ..programs import _eval
-from ..schema import FF, FFN, _f, _i, _jit
+from ..schema import ECOL, FCOL, FEL, FF, FFN, FS, _f, _i, _jit, _put, _rows
+
+#: Its fields in ``schema.MODEL_SCHEMA`` (the first gives the instances).
+FIELDS = ("fcol", "fs", "fF", "ffn", "fel")
+#: Newton-matrix triplets per instance of a force block: the body angle's diagonal (a point on a
+#: beam: ``triplet_bound``).
+FORCE_TRIPLETS = 1
+
 
 @_jit
 def _point_force(I, Fl, t, i):
@@ -22,6 +28,7 @@ def _point_force(I, Fl, t, i):
     if _i(I, FFN, i, 1) >= 0:
         fy = _eval(I, Fl, _i(I, FFN, i, 1), t)
     return fx, fy
+
 
 @_jit
 def forces_add(I, Fl, t, qx, out):

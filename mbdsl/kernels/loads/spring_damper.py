@@ -21,6 +21,13 @@ import numpy as np
 from ..geometry import _Au, _direction, _direction_derivative, _eshape, _span
 from ..schema import ECOL, SCOL1, SCOL2, SEL, SPAR, SS1, SS2, _f, _i, _jit, _put, _rows
 
+#: Its fields in ``schema.MODEL_SCHEMA`` (the first gives the instances).
+FIELDS = ("scol1", "ss1", "scol2", "ss2", "spar", "sel")
+#: Newton-matrix triplets per instance of a force block: a 6 x 6 block over both bodies' columns (a
+#: point on a beam: ``triplet_bound``).
+FORCE_TRIPLETS = 36
+
+
 @_jit
 def _spring_points(I, Fl, qx, i):
     """(d_x, d_y, (A u)_1, (A u)_2) of spring-damper i at qx: d = p2 - p1 [m]
@@ -229,6 +236,7 @@ def _spring_energy(I, Fl, qx, i):
     l = math.sqrt(dx * dx + dy * dy)
     s = l - _f(I, Fl, SPAR, i, 2)
     return l, 0.5 * _f(I, Fl, SPAR, i, 0) * s * s
+
 
 @_jit
 def emit_force(I, Fl, n, qx, vx, R, C, V, p, r0, c0, cq, cv):

@@ -20,6 +20,12 @@ from ..geometry import _line
 from ..programs import _eval, _state_values
 from ..schema import GEO, SDV, STQ, VAR, VARC, _f, _i, _jit, _put, _rows
 
+#: Its fields in ``schema.MODEL_SCHEMA`` (the first gives the instances).
+FIELDS = ("stq", "sdv")
+#: Newton-matrix triplets per instance of a force block: per load and per partial derivative (SDV):
+#: a 6 x 6 block.
+FORCE_TRIPLETS = 36
+
 
 @_jit
 def forces_add(I, Fl, t, qx, vx, out):

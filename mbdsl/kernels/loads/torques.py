@@ -8,9 +8,15 @@ program.
 
 from __future__ import annotations
 
-from ..schema import TCOL, TFN, _put, _rows
 from ..programs import _eval
-from ..schema import RCOL, RPAR, _f, _i, _jit
+from ..schema import RCOL, RPAR, TCOL, TFN, _f, _i, _jit, _put, _rows
+
+#: Its fields in ``schema.MODEL_SCHEMA`` (the first gives the instances).
+FIELDS = ("rcol", "rpar", "tcol", "tfn")
+#: Newton-matrix triplets per instance of a force block: a rotational spring-damper's 2 x 2 block
+#: (torques of time have none).
+FORCE_TRIPLETS = 4
+
 
 @_jit
 def _rotational_energy(I, Fl, qx, i):
@@ -19,6 +25,7 @@ def _rotational_energy(I, Fl, qx, i):
     a = qx[_i(I, RCOL, i, 1)] - qx[_i(I, RCOL, i, 0)]
     th = a - _f(I, Fl, RPAR, i, 2)
     return a, 0.5 * _f(I, Fl, RPAR, i, 0) * th * th
+
 
 @_jit
 def forces_add(I, Fl, qx, vx, out):
