@@ -153,7 +153,7 @@ def check_mechanism(case):
         assert "W602" in codes, (text, method, rtol)
 
 
-@settings(max_examples=int(os.environ.get("MBDSL_SEMANTIC_FUZZ", 200)), deadline=30_000,
+@settings(max_examples=int(os.environ.get("MBDSL_SEMANTIC_FUZZ", 200)), deadline=None,
           derandomize=True, database=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
 @given(mechanisms())
@@ -163,7 +163,7 @@ def test_generated_mechanisms_are_right_or_refused(case):
 
 @pytest.mark.nightly
 @pytest.mark.slow
-@settings(max_examples=5000, deadline=30_000, database=None,
+@settings(max_examples=5000, deadline=None, database=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
 @given(mechanisms())
 def test_generated_mechanisms_are_right_or_refused_nightly(case):

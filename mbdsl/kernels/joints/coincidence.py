@@ -14,7 +14,7 @@ positions [m], CEL (k, 4) the spans of their elastic terms.
 from __future__ import annotations
 
 from ..geometry import _Au
-from ..schema import CCOL1, CCOL2, CEL, CROW, CS1, CS2, _i, _jit, _put, _put_phiq, _rows
+from ..schema import CCOL1, CCOL2, CEL, CROW, CS1, CS2, _i, _inline, _put, _put_phiq, _rows
 
 #: Its fields in ``schema.MODEL_SCHEMA`` (the first gives the instances).
 FIELDS = ("crow", "ccol1", "cs1", "ccol2", "cs2", "cel")
@@ -22,7 +22,7 @@ FIELDS = ("crow", "ccol1", "cs1", "ccol2", "cs2", "cel")
 PHIQ_TRIPLETS, HESS_TRIPLETS, G_TRIPLETS = 8, 2, 4
 
 
-@_jit
+@_inline
 def phi(I, Fl, t, qx, out):
     """Phi into out (m,) [m]."""
     for i in range(_rows(I, CROW)):
@@ -32,7 +32,7 @@ def phi(I, Fl, t, qx, out):
         out[_i(I, CROW, i, 1)] = (qx[_i(I, CCOL2, i, 1)] - qx[_i(I, CCOL1, i, 1)]) + (ay2 - ay1)
 
 
-@_jit
+@_inline
 def phiqT_add(I, Fl, qx, lam, coef, out):
     """out (n+3,) += coef Phi_q^T lambda [N, N m] (rigid columns)."""
     for i in range(_rows(I, CROW)):
@@ -47,7 +47,7 @@ def phiqT_add(I, Fl, qx, lam, coef, out):
         out[_i(I, CCOL2, i, 2)] += -ay2 * l0 + ax2 * l1
 
 
-@_jit
+@_inline
 def phiq_times(I, Fl, qx, vx, out):
     """Phi_q v into out (m,) [m/s] (rigid columns)."""
     for i in range(_rows(I, CROW)):
@@ -58,7 +58,7 @@ def phiq_times(I, Fl, qx, vx, out):
         out[_i(I, CROW, i, 1)] = (vx[_i(I, CCOL2, i, 1)] - vx[_i(I, CCOL1, i, 1)]) + (ax2 * w2 - ax1 * w1)
 
 
-@_jit
+@_inline
 def emit_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose):
     """coef Phi_q at (r0, c0), or coef Phi_q^T when transpose; returns p."""
     for i in range(_rows(I, CROW)):
@@ -81,7 +81,7 @@ def emit_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose):
     return p
 
 
-@_jit
+@_inline
 def emit_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef):
     """coef (Phi_q^T lambda)_q at (r0, c0): -(A u)^T lambda on each angle's diagonal."""
     for i in range(_rows(I, CROW)):
@@ -96,7 +96,7 @@ def emit_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef):
     return p
 
 
-@_jit
+@_inline
 def emit_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef):
     """coef (Phi_q v)_q at (r0, c0)."""
     for i in range(_rows(I, CROW)):

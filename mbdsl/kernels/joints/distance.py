@@ -108,7 +108,7 @@ def _dist_h(D, Hd, dx, dy, L, a, b):
     return (D[0, a] * D[0, b] + D[1, a] * D[1, b] + dx * Hd[0, a, b] + dy * Hd[1, a, b]) / L
 
 
-@_jit
+@_inline
 def phi(I, Fl, t, qx, out):
     """Phi into out (m,) [m]."""
     if _rows(I, DROW) == 0:
@@ -119,7 +119,7 @@ def phi(I, Fl, t, qx, out):
         out[_i(I, DROW, i, 0)] = (dx * dx + dy * dy - L * L) / (2.0 * L)
 
 
-@_jit
+@_inline
 def phiqT_add(I, Fl, qx, lam, coef, out):
     """out (n+3,) += coef Phi_q^T lambda [N, N m] (rigid columns)."""
     if _rows(I, DROW) == 0:
@@ -132,7 +132,7 @@ def phiqT_add(I, Fl, qx, lam, coef, out):
             out[_dist_col(I, i, j)] += lv * g[j]
 
 
-@_jit
+@_inline
 def phiq_times(I, Fl, qx, vx, out):
     """Phi_q v into out (m,) [m/s] (rigid columns)."""
     if _rows(I, DROW) == 0:
@@ -146,7 +146,7 @@ def phiq_times(I, Fl, qx, vx, out):
         out[_i(I, DROW, i, 0)] = acc
 
 
-@_jit
+@_inline
 def emit_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose):
     """coef Phi_q at (r0, c0), or coef Phi_q^T when transpose; returns p."""
     if _rows(I, DROW) == 0:
@@ -162,7 +162,7 @@ def emit_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose):
     return p
 
 
-@_jit
+@_inline
 def emit_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef):
     """coef (Phi_q^T lambda)_q at (r0, c0); returns p."""
     if _rows(I, DROW) == 0:
@@ -181,7 +181,7 @@ def emit_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef):
     return p
 
 
-@_jit
+@_inline
 def emit_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef):
     """coef (Phi_q v)_q at (r0, c0); returns p."""
     if _rows(I, DROW) == 0:

@@ -10,7 +10,7 @@ rad], LFN (k, 3) the programs of a driver f, f', f'' (-1: none).
 from __future__ import annotations
 
 from ..programs import _eval
-from ..schema import LCOEF, LCOL, LFN, LOFF, LROW, _f, _i, _jit, _put_phiq, _rows
+from ..schema import LCOEF, LCOL, LFN, LOFF, LROW, _f, _i, _inline, _put_phiq, _rows
 
 #: Its fields in ``schema.MODEL_SCHEMA`` (the first gives the instances).
 FIELDS = ("lrow", "lcol", "lcoef", "loff", "lfn")
@@ -18,7 +18,7 @@ FIELDS = ("lrow", "lcol", "lcoef", "loff", "lfn")
 PHIQ_TRIPLETS, HESS_TRIPLETS, G_TRIPLETS = 2, 0, 0
 
 
-@_jit
+@_inline
 def phi(I, Fl, t, qx, out):
     """Phi into out (m,) [m or rad]."""
     for i in range(_rows(I, LROW)):
@@ -29,7 +29,7 @@ def phi(I, Fl, t, qx, out):
         out[_i(I, LROW, i, 0)] = val
 
 
-@_jit
+@_inline
 def phi_time_add(I, Fl, t, out, order):
     """out (m,) += the order-th time derivative of Phi: -f'(t), -f''(t) of drivers."""
     for i in range(_rows(I, LROW)):
@@ -37,7 +37,7 @@ def phi_time_add(I, Fl, t, out, order):
             out[_i(I, LROW, i, 0)] -= _eval(I, Fl, _i(I, LFN, i, order), t)
 
 
-@_jit
+@_inline
 def phiqT_add(I, Fl, qx, lam, coef, out):
     """out (n+3,) += coef Phi_q^T lambda."""
     for i in range(_rows(I, LROW)):
@@ -46,14 +46,14 @@ def phiqT_add(I, Fl, qx, lam, coef, out):
         out[_i(I, LCOL, i, 1)] += _f(I, Fl, LCOEF, i, 1) * lv
 
 
-@_jit
+@_inline
 def phiq_times(I, Fl, qx, vx, out):
     """Phi_q v into out (m,)."""
     for i in range(_rows(I, LROW)):
         out[_i(I, LROW, i, 0)] = _f(I, Fl, LCOEF, i, 0) * vx[_i(I, LCOL, i, 0)] + _f(I, Fl, LCOEF, i, 1) * vx[_i(I, LCOL, i, 1)]
 
 
-@_jit
+@_inline
 def emit_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose):
     """coef Phi_q at (r0, c0), or coef Phi_q^T when transpose; returns p."""
     for i in range(_rows(I, LROW)):

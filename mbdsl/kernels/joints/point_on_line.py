@@ -19,7 +19,8 @@ import numpy as np
 
 from ..geometry import _As, _Au
 from ..programs import _eval
-from ..schema import PCOLL, PCOLP, PEL, PFN, PN0, PROW, PSL, PSP, _i, _jit, _put, _put_phiq, _rows
+from ..schema import (PCOLL, PCOLP, PEL, PFN, PN0, PROW, PSL, PSP, _i, _inline, _jit, _put,
+                      _put_phiq, _rows)
 
 #: Its fields in ``schema.MODEL_SCHEMA`` (the first gives the instances).
 FIELDS = ("prow", "pcolL", "psL", "pcolP", "psP", "pn0", "pfn", "pel")
@@ -66,7 +67,7 @@ def _pol_hess(nx, ny, dx, dy, axL, ayL, axP, ayP, bnd):
     return hLL, hPP
 
 
-@_jit
+@_inline
 def phi(I, Fl, t, qx, out):
     """Phi into out (m,) [m]."""
     for i in range(_rows(I, PROW)):
@@ -76,7 +77,7 @@ def phi(I, Fl, t, qx, out):
             out[_i(I, PROW, i, 0)] -= _eval(I, Fl, _i(I, PFN, i, 0), t)
 
 
-@_jit
+@_inline
 def phi_time_add(I, Fl, t, out, order):
     """out (m,) += the order-th time derivative of Phi: -f'(t), -f''(t) of drivers."""
     for i in range(_rows(I, PROW)):
@@ -84,7 +85,7 @@ def phi_time_add(I, Fl, t, out, order):
             out[_i(I, PROW, i, 0)] -= _eval(I, Fl, _i(I, PFN, i, order), t)
 
 
-@_jit
+@_inline
 def phiqT_add(I, Fl, qx, lam, coef, out):
     """out (n+3,) += coef Phi_q^T lambda [N, N m] (rigid columns)."""
     for i in range(_rows(I, PROW)):
@@ -99,7 +100,7 @@ def phiqT_add(I, Fl, qx, lam, coef, out):
         out[_i(I, PCOLP, i, 2)] += lv * g5
 
 
-@_jit
+@_inline
 def phiq_times(I, Fl, qx, vx, out):
     """Phi_q v into out (m,) [m/s] (rigid columns)."""
     for i in range(_rows(I, PROW)):
@@ -109,7 +110,7 @@ def phiq_times(I, Fl, qx, vx, out):
                         + g3 * vx[_i(I, PCOLP, i, 0)] + g4 * vx[_i(I, PCOLP, i, 1)] + g5 * vx[_i(I, PCOLP, i, 2)])
 
 
-@_jit
+@_inline
 def emit_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose):
     """coef Phi_q at (r0, c0), or coef Phi_q^T when transpose; returns p."""
     if _rows(I, PROW) == 0:
@@ -126,7 +127,7 @@ def emit_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose):
     return p
 
 
-@_jit
+@_inline
 def emit_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef):
     """coef (Phi_q^T lambda)_q at (r0, c0); returns p."""
     if _rows(I, PROW) == 0:
@@ -150,7 +151,7 @@ def emit_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef):
     return p
 
 
-@_jit
+@_inline
 def emit_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef):
     """coef (Phi_q v)_q at (r0, c0); returns p."""
     if _rows(I, PROW) == 0:

@@ -23,7 +23,7 @@ import numpy as np
 from mbdsl.model.contact import SPEED_FLOOR as _CONTACT_SPEED_FLOOR
 
 from ..geometry import _direction, _direction_derivative, _line
-from ..schema import KCOL, KGI, KIMP, KPAR, _f, _i, _jit, _put, _rows
+from ..schema import KCOL, KGI, KIMP, KPAR, _f, _i, _inline, _jit, _put, _rows
 
 #: Its fields in ``schema.MODEL_SCHEMA`` (the first gives the instances).
 FIELDS = ("kgi", "kcol", "kpar", "kimp")
@@ -273,7 +273,7 @@ def _contact_energy(I, Fl, i, g):
     return _f(I, Fl, KPAR, i, 9) * (-g) ** (ex + 1.0) / (ex + 1.0)
 
 
-@_jit
+@_inline
 def energy_add(I, Fl, qx, e):
     """e + the contacts' potential K delta^(n+1) / (n+1) [J]."""
     if _rows(I, KGI) > 0:
@@ -283,7 +283,7 @@ def energy_add(I, Fl, qx, e):
     return e
 
 
-@_jit
+@_inline
 def power_add(I, Fl, qx, vx, speeds, p):
     """p + the power the contacts dissipate at the impact speeds ``speeds`` (k,):
     (f - K delta^n) ddelta/dt and -F_t v_t of their friction [W]."""

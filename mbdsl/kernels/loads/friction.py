@@ -17,7 +17,7 @@ import math
 import numpy as np
 
 from ..geometry import _line
-from ..schema import FRI, FRP, GEO, _f, _i, _jit, _put, _rows
+from ..schema import FRI, FRP, GEO, _f, _i, _inline, _jit, _put, _rows
 
 #: Its fields in ``schema.MODEL_SCHEMA`` (the first gives the instances).
 FIELDS = ("fri", "frp")
@@ -125,7 +125,7 @@ def _emit_friction_lam(I, Fl, n, qx, vx, lam, R, C, V, p, r0, c0, coef):
     return p
 
 
-@_jit
+@_inline
 def forces_add(I, Fl, qx, vx, lam, slip, out):
     """out (n+3,) += tau w of every friction joint [N, N m] (``_friction_law``)."""
     grad, H = np.empty(6), np.empty((6, 6))
@@ -136,7 +136,7 @@ def forces_add(I, Fl, qx, vx, lam, slip, out):
             out[_friction_col(I, i, g, a)] += tau * grad[a]
 
 
-@_jit
+@_inline
 def power_add(I, Fl, qx, vx, lam, p):
     """p + the power friction dissipates, -tau z [W]."""
     if _rows(I, FRI) == 0:

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from ..geometry import _Au, _eshape, _span
 from ..programs import _eval
-from ..schema import ECOL, FCOL, FEL, FF, FFN, FS, _f, _i, _jit, _put, _rows
+from ..schema import ECOL, FCOL, FEL, FF, FFN, FS, _f, _i, _inline, _jit, _put, _rows
 
 #: Its fields in ``schema.MODEL_SCHEMA`` (the first gives the instances).
 FIELDS = ("fcol", "fs", "fF", "ffn", "fel")
@@ -30,7 +30,7 @@ def _point_force(I, Fl, t, i):
     return fx, fy
 
 
-@_jit
+@_inline
 def forces_add(I, Fl, t, qx, out):
     """out (n+3,) += J^T F(t) [N, N m] of every point force (on a flexible
     beam's point also (A S_k) . F in its elastic columns)."""
@@ -46,7 +46,7 @@ def forces_add(I, Fl, t, qx, out):
             out[_i(I, ECOL, k, 0)] += Ax * fx + Ay * fy
 
 
-@_jit
+@_inline
 def emit_force(I, Fl, t, n, qx, R, C, V, p, r0, c0, cq):
     """-cq Q_q at (r0, c0): (d^2 p/dphi^2) . F = -(A u) . F on the body's angle,
     B S_k . F between the angle and an elastic coordinate; returns p."""

@@ -19,7 +19,7 @@ import math
 import numpy as np
 
 from ..geometry import _Au, _direction, _direction_derivative, _eshape, _span
-from ..schema import ECOL, SCOL1, SCOL2, SEL, SPAR, SS1, SS2, _f, _i, _jit, _put, _rows
+from ..schema import ECOL, SCOL1, SCOL2, SEL, SPAR, SS1, SS2, _f, _i, _inline, _jit, _put, _rows
 
 #: Its fields in ``schema.MODEL_SCHEMA`` (the first gives the instances).
 FIELDS = ("scol1", "ss1", "scol2", "ss2", "spar", "sel")
@@ -238,7 +238,7 @@ def _spring_energy(I, Fl, qx, i):
     return l, 0.5 * _f(I, Fl, SPAR, i, 0) * s * s
 
 
-@_jit
+@_inline
 def emit_force(I, Fl, n, qx, vx, R, C, V, p, r0, c0, cq, cv):
     """-(cq Q_q + cv Q_v) of the spring-dampers at (r0, c0) (``SpringDamperGroup``'s
     notes; a point on a flexible beam: ``_emit_spring_elastic``); returns p."""
@@ -298,7 +298,7 @@ def emit_force(I, Fl, n, qx, vx, R, C, V, p, r0, c0, cq, cv):
     return p
 
 
-@_jit
+@_inline
 def energy_add(I, Fl, qx, e):
     """e + the springs' potential k (l - l0)^2 / 2 [J]."""
     for i in range(_rows(I, SCOL1)):
@@ -306,7 +306,7 @@ def energy_add(I, Fl, qx, e):
     return e
 
 
-@_jit
+@_inline
 def power_add(I, Fl, qx, vx, p):
     """p + the power the dampers dissipate, c ldot^2 [W]."""
     for i in range(_rows(I, SCOL1)):

@@ -18,7 +18,7 @@ import numpy as np
 
 from ..geometry import _line
 from ..programs import _eval, _state_values
-from ..schema import GEO, SDV, STQ, VAR, VARC, _f, _i, _jit, _put, _rows
+from ..schema import GEO, SDV, STQ, VAR, VARC, _f, _i, _inline, _put, _rows
 
 #: Its fields in ``schema.MODEL_SCHEMA`` (the first gives the instances).
 FIELDS = ("stq", "sdv")
@@ -27,7 +27,7 @@ FIELDS = ("stq", "sdv")
 FORCE_TRIPLETS = 36
 
 
-@_jit
+@_inline
 def forces_add(I, Fl, t, qx, vx, out):
     """out (n+3,) += tau w of every load of the state [N, N m]."""
     if _rows(I, STQ) > 0:                          # loads of the state, in joints
@@ -45,7 +45,7 @@ def forces_add(I, Fl, t, qx, vx, out):
                     out[_i(I, GEO, g, j)] += tau * grad[j]
 
 
-@_jit
+@_inline
 def emit_force(I, Fl, t, n, qx, vx, R, C, V, p, r0, c0, cq, cv):
     """-(cq Q_q + cv Q_v) of the loads of the state at (r0, c0); returns p."""
     if _rows(I, STQ) > 0:      # loads of the state: Q = tau w, w = +-e_phi or grad s

@@ -9,7 +9,7 @@ program.
 from __future__ import annotations
 
 from ..programs import _eval
-from ..schema import RCOL, RPAR, TCOL, TFN, _f, _i, _jit, _put, _rows
+from ..schema import RCOL, RPAR, TCOL, TFN, _f, _i, _inline, _jit, _put, _rows
 
 #: Its fields in ``schema.MODEL_SCHEMA`` (the first gives the instances).
 FIELDS = ("rcol", "rpar", "tcol", "tfn")
@@ -27,7 +27,7 @@ def _rotational_energy(I, Fl, qx, i):
     return a, 0.5 * _f(I, Fl, RPAR, i, 0) * th * th
 
 
-@_jit
+@_inline
 def forces_add(I, Fl, qx, vx, out):
     """out (n+3,) += the rotational spring-dampers' torques [N m]:
     tau = k (phi2 - phi1 - angle) + c (w2 - w1), +tau on body 1, -tau on body 2."""
@@ -38,14 +38,14 @@ def forces_add(I, Fl, qx, vx, out):
         out[_i(I, RCOL, i, 1)] -= tau
 
 
-@_jit
+@_inline
 def time_torques_add(I, Fl, t, out):
     """out (n+3,) += the torques tau(t) on bodies [N m]."""
     for i in range(_rows(I, TCOL)):
         out[_i(I, TCOL, i, 0)] += _eval(I, Fl, _i(I, TFN, i, 0), t)
 
 
-@_jit
+@_inline
 def emit_force(I, Fl, n, R, C, V, p, r0, c0, cq, cv):
     """-(cq Q_q + cv Q_v) of the rotational spring-dampers at (r0, c0):
     Q_q = k [[-1, 1], [1, -1]], Q_v = c [[-1, 1], [1, -1]]; returns p."""
@@ -59,7 +59,7 @@ def emit_force(I, Fl, n, R, C, V, p, r0, c0, cq, cv):
     return p
 
 
-@_jit
+@_inline
 def energy_add(I, Fl, qx, e):
     """e + the rotational springs' potential k theta^2 / 2 [J]."""
     for i in range(_rows(I, RCOL)):
@@ -67,7 +67,7 @@ def energy_add(I, Fl, qx, e):
     return e
 
 
-@_jit
+@_inline
 def power_add(I, Fl, vx, p):
     """p + the power the rotational dampers dissipate, c theta'^2 [W]."""
     for i in range(_rows(I, RCOL)):
