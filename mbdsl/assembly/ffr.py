@@ -56,7 +56,7 @@ velocity vector). A is the rotation matrix, B = dA/dphi, I~ = [[0,-1],[1,0]].
 A :class:`FlexibleBeamGroup` holds the data of the beams with the same
 number of elastic coordinates, stacked (struct of arrays, shape (k, ...)):
 columns, shape integrals, stiffness and strain data, which
-``integrators.engine.CompiledModel`` packs for the kernels. The physics
+``packing.PackedModel`` packs for the kernels. The physics
 above is evaluated once, by the kernels of ``mbdsl/kernels``
 (``_ffr_local``, ``_ffr_energy``): the compiled time loops call them
 directly, and everything else (the numpy engine, the initial conditions,
@@ -148,7 +148,7 @@ class FlexibleBeamGroup:
 
     def bind(self, kernel_model, first: int) -> None:
         """Evaluate through ``kernel_model()`` (a callable returning the
-        model's ``CompiledModel``), this group's beams being the kernels'
+        model's ``PackedModel``), this group's beams being the kernels'
         ``first`` .. ``first + k - 1``."""
         self._kernel_model, self.first = kernel_model, first
 

@@ -2,7 +2,7 @@
 
 Each group stores its instances as a struct of arrays (body columns,
 body-fixed vectors, parameters) built once: the model data
-``integrators.engine.CompiledModel`` packs for the kernels. A group (rows
+``packing.PackedModel`` packs for the kernels. A group (rows
 ``rows`` (k, r) of a constraint, columns ``cols`` (k, c) into the extended
 coordinate vector q_ext = [q, 0, 0, 0], where the three trailing zeros are
 the ground) holds data only, and states its element's equations: the

@@ -112,7 +112,7 @@ class AssembledSystem:
             rigid[g.cols.ravel()] = False
             g.bind(self.kernel_model, first)
             first += len(g.beams)
-        self._kernel_models, self._kernels_built = {}, None    # {compiled: CompiledModel}
+        self._kernel_models, self._kernels_built = {}, None    # {compiled: PackedModel}
         self.mass_diag = mass
         self._rigid_cols = np.flatnonzero(rigid)
         self.mass_is_constant = not self.flexible_groups
@@ -299,25 +299,26 @@ class AssembledSystem:
     kernels = "auto"
 
     def kernel_model(self):
-        """The model data packed for the kernels (``integrators.engine.CompiledModel``),
-        on the kernels this process can call without compiling: the compiled
-        ones once it has loaded them or the machine's cache holds them
-        (``kernel_cache``), else their uncompiled copy (always with
+        """The model data packed for the element kernels (``packing.PackedModel``
+        on ``kernels.api``), on the kernels this process can call without
+        compiling: the compiled ones once it has loaded them or the machine's
+        cache holds them (``kernels.cache``), else their uncompiled copy (always with
         ``kernels = "uncompiled"``). Built once per kind and kept; the joints,
         drivers and flexible beams, whose physics the kernels alone evaluate,
         call them through it."""
-        from ..integrators import kernel_cache
+        from ..kernels import cache
         compiled = False
         if self.kernels != "uncompiled":
             if True in self._kernel_models:
                 return self._kernel_models[True]
             if self._kernels_built is None:              # the marker: read once per system
-                self._kernels_built = kernel_cache.kernels_ready()
-            compiled = kernel_cache.loaded() or self._kernels_built
+                self._kernels_built = cache.kernels_ready()
+            compiled = cache.loaded() or self._kernels_built
         cm = self._kernel_models.get(compiled)
         if cm is None:
-            from ..integrators.engine import CompiledModel, _kernels
-            cm = self._kernel_models[compiled] = CompiledModel(self, _kernels(not compiled))
+            from .packing import PackedModel
+            cm = self._kernel_models[compiled] = PackedModel(
+                self, cache.element_kernels(uncompiled=not compiled))
         return cm
 
     def __getstate__(self):

@@ -37,69 +37,18 @@ from pathlib import Path
 
 import numpy as np
 
+# what the build shares with the assembled system's choice of kernels (kernels/cache.py)
+from ..kernels.cache import (_STALE_LOCK, KERNEL_PACKAGES, UNCOMPILED_ROOT,  # noqa: F401
+                             _cache_dir, _key, _loaded, _lock, _marker, build_in_progress,
+                             import_uncompiled, kernel_sources, kernels_ready, loaded,
+                             package_root)
+
 __all__ = ["kernels_ready", "ensure_loaded", "loaded", "start_background_build", "build_in_progress",
            "background_allowed", "warm_up", "uncompiled_kernels"]
 
 #: Environment variable: "0" makes the command line compile in the process
 #: (announced) instead of in the background.
 BACKGROUND_ENV = "MBDSL_BACKGROUND_COMPILE"
-
-#: A build lock older than this is taken to belong to a dead build [s].
-_STALE_LOCK = 900.0
-
-_loaded: set = set()          # entry-point groups loaded in this process (GROUPS)
-
-
-def loaded() -> bool:
-    """Whether this process has loaded (or compiled) the kernels of a group:
-    output that can use them (``engine.index1_multipliers``) then does,
-    without ever starting a compilation of its own."""
-    return bool(_loaded)
-
-
-def package_root() -> Path:
-    """The folder that holds the ``mbdsl`` package this process imported
-    (site-packages, or a source checkout)."""
-    return Path(__file__).resolve().parents[2]
-
-
-#: The packages of numba code: the element kernels and the step kernels.
-KERNEL_PACKAGES = ("kernels", "integrators/compiled")
-
-
-def kernel_sources() -> list:
-    """Every source file of the numba code (``KERNEL_PACKAGES``), sorted.
-
-    numba's on-disk cache keys a function on its own file only: a kernel that
-    calls a changed kernel of another file loads its stale machine code
-    (numba issue #1833). The marker's key therefore covers all of them, and a
-    change of any one rebuilds every kernel (``ensure_loaded``).
-    """
-    root = Path(__file__).resolve().parents[1]
-    return sorted(p for package in KERNEL_PACKAGES for p in (root / package).rglob("*.py"))
-
-
-def _cache_dir() -> Path:
-    """The folder numba caches the kernels in (the marker and the lock live there)."""
-    from . import compiled
-    try:
-        return Path(compiled.run._cache._cache_path)
-    except AttributeError:          # numba moved its internals: a folder of our own
-        base = os.environ.get("NUMBA_CACHE_DIR") or Path.home() / ".cache" / "mbdsl"
-        return Path(base)
-
-
-def _key() -> dict:
-    """What the cached kernels depend on: our source (the kernels, and the
-    warm-up that says which of them a build compiles), numba, the host CPU."""
-    from ..kernels import jit
-    digest = hashlib.sha256()
-    root = package_root()
-    for path in kernel_sources() + [Path(__file__).resolve()]:
-        digest.update(str(path.relative_to(root)).encode() + b"\0" + path.read_bytes() + b"\0")
-    return {"source": digest.hexdigest(),
-            "numba": jit.version(), "cpu": jit.host_cpu(),
-            "python": sys.version.split()[0]}
 
 
 def _cache_folders() -> list:
@@ -141,34 +90,6 @@ def purge_kernel_caches() -> int:
             except OSError:
                 pass
     return count
-
-
-def _marker() -> Path:
-    return _cache_dir() / "mbdsl-kernels.json"
-
-
-def _lock() -> Path:
-    return _cache_dir() / "mbdsl-kernels.lock"
-
-
-def kernels_ready() -> bool:
-    """True when every kernel is in numba's cache for this machine (imports numba).
-
-    Returns False, never raises, when numba is missing or the cache folder
-    cannot be read.
-    """
-    try:
-        return json.loads(_marker().read_text()) == _key()
-    except (OSError, ValueError, ImportError):
-        return False
-
-
-def build_in_progress() -> bool:
-    """True while a background build holds the lock (and is not stale)."""
-    try:
-        return time.time() - _lock().stat().st_mtime < _STALE_LOCK
-    except (OSError, ImportError):
-        return False
 
 
 def background_allowed() -> bool:
@@ -346,9 +267,6 @@ def ensure_loaded(group: str | None = None, announce=None) -> float:
     return elapsed
 
 
-#: The package the kernels' uncompiled copy is imported under (:func:`uncompiled_kernels`):
-#: ``mbdsl._uncompiled.kernels...`` and ``mbdsl._uncompiled.integrators.compiled...``.
-UNCOMPILED_ROOT = "mbdsl._uncompiled"
 #: The module name of the uncompiled copy's entry points.
 UNCOMPILED_MODULE = UNCOMPILED_ROOT + ".integrators.compiled"
 
@@ -383,27 +301,9 @@ def uncompiled_kernels():
     module
         Cached in ``sys.modules`` for the rest of the process.
     """
-    module = sys.modules.get(UNCOMPILED_MODULE)
-    if module is not None:
+    module = import_uncompiled("integrators.compiled")
+    if getattr(module, "_linear_algebra_replaced", False):
         return module
-    import importlib
-    import types
-
-    from ..kernels.jit import jit_disabled
-    root = Path(__file__).resolve().parents[1]
-    # the copy's parent packages as empty shells: importing them runs no __init__ of mbdsl
-    shells = {UNCOMPILED_ROOT: root, UNCOMPILED_ROOT + ".integrators": root / "integrators"}
-    for name, folder in shells.items():
-        shell = types.ModuleType(name)
-        shell.__path__ = [str(folder)]
-        sys.modules[name] = shell
-    try:
-        with jit_disabled():
-            module = importlib.import_module(UNCOMPILED_MODULE)
-    except BaseException:
-        for name in [k for k in sys.modules if k.startswith(UNCOMPILED_ROOT)]:
-            del sys.modules[name]
-        raise
     copies = [m for k, m in sys.modules.items() if k.startswith(UNCOMPILED_ROOT + ".")]
     kernel_solve = module._solve
 
@@ -440,6 +340,7 @@ def uncompiled_kernels():
         for name, value in list(vars(copy).items()):
             if callable(value) and value in replaced:
                 setattr(copy, name, replaced[value])
+    module._linear_algebra_replaced = True
     return module
 
 

@@ -851,7 +851,8 @@ class PythonStepper:
         events = loop.events if mode != LAND else None
         augmented = method.formulation == "augmented"
         after_rejection = state[6] != 0.0
-        K = system.kernel_model().K
+        from .engine import _kernels
+        K = _kernels(uncompiled=system.kernel_model().uncompiled)
         step_end, step_ratio = K.step_end, K.step_ratio    # the compiled loop's rules (compiled/loop.py)
         # an index-3 method's error estimate on its index-1 accelerations (as compiled)
         index1 = (not fixed and control.index1 and method.index == 3

@@ -25,3 +25,8 @@ numba. Importing a module here does not compile anything: numba compiles (or
 loads from its cache) at the first call, which :mod:`.kernel_cache
 <mbdsl.integrators.kernel_cache>` announces and times.
 """
+
+#: The package the uncompiled copy of the kernels is imported under
+#: (``cache.import_uncompiled``): ``mbdsl._uncompiled.kernels...`` and
+#: ``mbdsl._uncompiled.integrators.compiled...``.
+UNCOMPILED_ROOT = "mbdsl._uncompiled"

@@ -13,6 +13,7 @@ import pytest
 import mbdsl
 from mbdsl.cli.main import main
 from mbdsl.integrators import HHTI3, integrate, kernel_cache
+from mbdsl.kernels import cache as kernel_cache_state
 from mbdsl.output import read_csv_metadata
 from mbdsl.solution import derived_columns
 
@@ -120,7 +121,9 @@ def test_the_csv_stream_hands_its_derived_columns_to_the_solution(tmp_path):
 def cache_dir(tmp_path, monkeypatch):
     """The marker and the lock in a folder of the test's own."""
     monkeypatch.setattr(kernel_cache, "_cache_dir", lambda: tmp_path)
-    monkeypatch.setattr(kernel_cache, "_loaded", set())     # as in a new process
+    monkeypatch.setattr(kernel_cache_state, "_cache_dir", lambda: tmp_path)
+    monkeypatch.setattr(kernel_cache_state, "_loaded", set())     # as in a new process
+    monkeypatch.setattr(kernel_cache, "_loaded", kernel_cache_state._loaded)
     return tmp_path
 
 

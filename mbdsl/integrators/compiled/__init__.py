@@ -18,7 +18,7 @@ energies and power through ``elements``, ``beam_blocks`` and
 
 The element kernels are :mod:`mbdsl.kernels` (one module per element
 family, their fields in ``kernels.schema.MODEL_SCHEMA``, packed into two flat
-arrays by ``engine.CompiledModel``). This package holds the step kernels:
+arrays by ``assembly.packing.PackedModel``). This package holds the step kernels:
 
 * ``layout``: a recipe's unknowns, state and predictor;
 * ``recipes``, ``additive``: the residual and Newton matrix of the linear

@@ -33,7 +33,7 @@ FORCE_TRIPLETS = 36
 SPEED_FLOOR = 1e-3
 if SPEED_FLOOR != _CONTACT_SPEED_FLOOR:     # pragma: no cover (a developer's error)
     raise ImportError("compiled.SPEED_FLOOR differs from model.contact.SPEED_FLOOR")
-#: gap kinds (KGI's first column), as ``engine.CompiledModel`` writes them
+#: gap kinds (KGI's first column), as ``assembly.packing.PackedModel`` writes them
 GAP_LINE, GAP_SLIDE, GAP_ANGLE, GAP_CIRCLE = 0, 1, 2, 3
 
 
