@@ -15,9 +15,8 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from .model.elements import GROUND
 
-__all__ = ["plot_solution", "animate_solution", "PANELS", "AnimationResult", "body_outline",
+__all__ = ["plot_solution", "animate_solution", "PANELS", "AnimationResult",
            "Series", "Panel", "write_figure"]
 
 #: Titles of the standard panels of :func:`plot_solution`, in order.
@@ -270,93 +269,6 @@ def _readable_log_ticks(ax) -> None:
 
 # -- animation ---------------------------------------------------------------------------
 
-def body_outline(points: np.ndarray) -> tuple[str, np.ndarray]:
-    """How to draw a rigid body through its points (body frame).
-
-    Parameters
-    ----------
-    points : ndarray, shape (k, 2) [m]
-
-    Returns
-    -------
-    kind : {"polygon", "segment", "dot"}
-    vertices : ndarray, shape (v, 2)
-        The convex outline for three or more non-collinear points (ordered
-        by angle about their centroid), the two extreme points of collinear
-        ones, the segment from the centre of mass to a single point, or the
-        centre of mass alone.
-    """
-    pts = np.unique(np.round(np.asarray(points, float).reshape(-1, 2), 12), axis=0)
-    if len(pts) == 0 or (len(pts) == 1 and not np.any(pts)):
-        return "dot", np.zeros((1, 2))
-    if len(pts) == 1:
-        return "segment", np.vstack([np.zeros(2), pts[0]])
-    c = pts.mean(axis=0)
-    d = pts - c
-    _, sv, vt = np.linalg.svd(d, full_matrices=False)
-    if len(pts) == 2 or sv[1] <= 1e-9 * sv[0]:
-        s = d @ vt[0]
-        return "segment", np.vstack([pts[np.argmin(s)], pts[np.argmax(s)]])
-    from scipy.spatial import ConvexHull
-    hull = ConvexHull(pts)
-    return "polygon", pts[hull.vertices]        # counter-clockwise
-
-
-def _world(q, body, local, cmap):
-    """Positions of body-frame points: local shape (k, 2) -> (k, 2); ground:
-    local as is. ``cmap``: the model's CoordinateMap (a particle's phi is 0)."""
-    if body == GROUND:
-        return np.asarray(local, float).reshape(-1, 2)
-    cx, cy, cp = cmap(body)[0]
-    x, y, phi = q[cx], q[cy], (q[cp] if cp < len(q) else 0.0)
-    c, s = np.cos(phi), np.sin(phi)
-    loc = np.asarray(local, float).reshape(-1, 2)
-    return np.column_stack([x + c * loc[:, 0] - s * loc[:, 1], y + s * loc[:, 0] + c * loc[:, 1]])
-
-
-def beam_world(q, beam, arcs, scale: float = 1.0, *, cmap) -> np.ndarray:
-    """World positions of a flexible beam's material points, deformed.
-
-    r + A(phi) ((x, 0) + scale S(x) q_f) at arc lengths x (the floating frame
-    of reference; ``scale`` magnifies the elastic displacement for drawing).
-
-    Parameters
-    ----------
-    q : ndarray, shape (n,)
-    beam : FlexibleBeam
-    arcs : ndarray, shape (k,) [m]
-        In [0, beam.length].
-    scale : float
-        Deformation scale (1: true size).
-    cmap : CoordinateMap
-        The model's body columns (``Model.coordinate_map``).
-
-    Returns
-    -------
-    ndarray, shape (k, 2) [m]
-    """
-    arcs = np.asarray(arcs, float).reshape(-1)
-    S = beam.mesh.shape(arcs)                               # (k, 2, nf)
-    local = np.column_stack([arcs, np.zeros(len(arcs))])
-    local = local + scale * np.einsum("kif,f->ki", S, q[beam.elastic_columns()])
-    return _world(q, beam.index, local, cmap)
-
-
-def _zigzag(p1, p2, width, coils=6):
-    """Polyline of a spring between two points: straight ends, zig-zag middle."""
-    d = p2 - p1
-    length = float(np.hypot(*d))
-    if length < 1e-12:
-        return np.vstack([p1, p2])
-    u = d / length
-    nrm = np.array([-u[1], u[0]])
-    s = np.concatenate([[0.0, 0.15], 0.15 + 0.7 * (np.arange(1, 2 * coils) / (2 * coils)),
-                        [0.85, 1.0]])
-    off = np.zeros_like(s)
-    off[2:-2] = width * np.where(np.arange(2 * coils - 1) % 2 == 0, 1.0, -1.0)
-    return p1 + np.outer(s * length, u) + np.outer(off, nrm)
-
-
 @dataclass
 class AnimationResult:
     """What :func:`animate_solution` wrote.
@@ -399,8 +311,8 @@ def animate_solution(solution, path, fps: float = 25.0, speed: float = 1.0,
 
     Rigid bodies are drawn with their ``shape`` lines (lines, circles,
     polygons in the body frame), or without them as the outline through
-    their points (:func:`body_outline`); flexible beams as their deformed
-    centre line (:func:`beam_world`, the elastic displacement times
+    their points (:func:`mbdsl.scene.body_outline`); flexible beams as their deformed
+    centre line (:func:`mbdsl.scene.beam_world`, the elastic displacement times
     ``deform_scale``); joints as circles, spring-dampers as zig-zags, ground
     attachment points hatched (a prismatic or point-on-line joint on the
     ground also shows its guide), and the simulated time as a label.

@@ -4,7 +4,7 @@ animation (``plotting.animate_solution``, matplotlib) and the browser viewer
 
 Rigid bodies are their ``shape`` lines (lines, circles, polygons in the body
 frame) or, without them, the outline through their points
-(:func:`~mbdsl.plotting.body_outline`); flexible beams their deformed centre
+(:func:`body_outline`); flexible beams their deformed centre
 line (the floating frame of reference: r + A(phi) ((x, 0) + s S(x) q_f), s the
 deformation scale); joints are circles at their first point, spring-dampers
 zig-zags, distance joints (massless rods) lines; ground attachments and the
@@ -72,7 +72,6 @@ class Scene:
     """
 
     def __init__(self, model, deform_scale: float = 1.0):
-        from .plotting import body_outline
         if not (deform_scale >= 0 and np.isfinite(deform_scale)):
             raise ValueError(f"the deformation scale must be zero or positive, got {deform_scale}")
         self.model, self.deform_scale = model, float(deform_scale)
@@ -127,7 +126,6 @@ class Scene:
     def located(self, q, body, local) -> np.ndarray:
         """World position (1, 2) [m] of a body-frame point (on a beam: the
         deformed material point at the arc ``local[0]``) at q (n,)."""
-        from .plotting import _world, beam_world
         if body in self.beams:
             return beam_world(q, self.beams[body], [float(np.asarray(local).reshape(-1)[0])],
                               self.deform_scale, cmap=self.cmap)
@@ -136,7 +134,6 @@ class Scene:
     def coordinates(self, q) -> list:
         """World coordinates of every item at q (n,): per item an array (k,
         2) [m] (a circle: its centre, (1, 2); a joint: its point)."""
-        from .plotting import _world, _zigzag, beam_world
         out = []
         for body, what, data in self._parts:
             if what == "beam":
@@ -160,7 +157,6 @@ class Scene:
     def frame_extent(self, qs) -> tuple[np.ndarray, np.ndarray]:
         """(lo, hi) [m] of a drawing that holds every frame q of qs (F, n)
         with a 12 % margin (at most 200 frames sampled); sets :attr:`scale`."""
-        from .plotting import _world, beam_world
 
         def shape_verts(shape):
             """Body-frame vertices bounding a shape (a circle: its bounding square)."""
@@ -199,3 +195,92 @@ class Scene:
                 d = d / np.hypot(*d)
                 guides.append(np.array([g - 2 * self.scale * d, g + 2 * self.scale * d]))
         return marks, guides
+
+
+# -- drawing geometry -------------------------------------------------------------------------
+
+def body_outline(points: np.ndarray) -> tuple[str, np.ndarray]:
+    """How to draw a rigid body through its points (body frame).
+
+    Parameters
+    ----------
+    points : ndarray, shape (k, 2) [m]
+
+    Returns
+    -------
+    kind : {"polygon", "segment", "dot"}
+    vertices : ndarray, shape (v, 2)
+        The convex outline for three or more non-collinear points (ordered
+        by angle about their centroid), the two extreme points of collinear
+        ones, the segment from the centre of mass to a single point, or the
+        centre of mass alone.
+    """
+    pts = np.unique(np.round(np.asarray(points, float).reshape(-1, 2), 12), axis=0)
+    if len(pts) == 0 or (len(pts) == 1 and not np.any(pts)):
+        return "dot", np.zeros((1, 2))
+    if len(pts) == 1:
+        return "segment", np.vstack([np.zeros(2), pts[0]])
+    c = pts.mean(axis=0)
+    d = pts - c
+    _, sv, vt = np.linalg.svd(d, full_matrices=False)
+    if len(pts) == 2 or sv[1] <= 1e-9 * sv[0]:
+        s = d @ vt[0]
+        return "segment", np.vstack([pts[np.argmin(s)], pts[np.argmax(s)]])
+    from scipy.spatial import ConvexHull
+    hull = ConvexHull(pts)
+    return "polygon", pts[hull.vertices]        # counter-clockwise
+
+
+def _world(q, body, local, cmap):
+    """Positions of body-frame points: local shape (k, 2) -> (k, 2); ground:
+    local as is. ``cmap``: the model's CoordinateMap (a particle's phi is 0)."""
+    if body == GROUND:
+        return np.asarray(local, float).reshape(-1, 2)
+    cx, cy, cp = cmap(body)[0]
+    x, y, phi = q[cx], q[cy], (q[cp] if cp < len(q) else 0.0)
+    c, s = np.cos(phi), np.sin(phi)
+    loc = np.asarray(local, float).reshape(-1, 2)
+    return np.column_stack([x + c * loc[:, 0] - s * loc[:, 1], y + s * loc[:, 0] + c * loc[:, 1]])
+
+
+def beam_world(q, beam, arcs, scale: float = 1.0, *, cmap) -> np.ndarray:
+    """World positions of a flexible beam's material points, deformed.
+
+    r + A(phi) ((x, 0) + scale S(x) q_f) at arc lengths x (the floating frame
+    of reference; ``scale`` magnifies the elastic displacement for drawing).
+
+    Parameters
+    ----------
+    q : ndarray, shape (n,)
+    beam : FlexibleBeam
+    arcs : ndarray, shape (k,) [m]
+        In [0, beam.length].
+    scale : float
+        Deformation scale (1: true size).
+    cmap : CoordinateMap
+        The model's body columns (``Model.coordinate_map``).
+
+    Returns
+    -------
+    ndarray, shape (k, 2) [m]
+    """
+    arcs = np.asarray(arcs, float).reshape(-1)
+    S = beam.mesh.shape(arcs)                               # (k, 2, nf)
+    local = np.column_stack([arcs, np.zeros(len(arcs))])
+    local = local + scale * np.einsum("kif,f->ki", S, q[beam.elastic_columns()])
+    return _world(q, beam.index, local, cmap)
+
+
+def _zigzag(p1, p2, width, coils=6):
+    """Polyline of a spring between two points: straight ends, zig-zag middle."""
+    d = p2 - p1
+    length = float(np.hypot(*d))
+    if length < 1e-12:
+        return np.vstack([p1, p2])
+    u = d / length
+    nrm = np.array([-u[1], u[0]])
+    s = np.concatenate([[0.0, 0.15], 0.15 + 0.7 * (np.arange(1, 2 * coils) / (2 * coils)),
+                        [0.85, 1.0]])
+    off = np.zeros_like(s)
+    off[2:-2] = width * np.where(np.arange(2 * coils - 1) % 2 == 0, 1.0, -1.0)
+    return p1 + np.outer(s * length, u) + np.outer(off, nrm)

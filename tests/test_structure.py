@@ -134,3 +134,27 @@ def test_the_cache_key_covers_every_kernel_file(tmp_path):
     before = _key(tmp_path)
     step.write_text(step.read_text() + "# a change\n")
     assert _key(tmp_path) != before
+
+
+#: The import cycles the package still has, each with why it is there (function-local
+#: imports counted). A new cycle, or a module joining one of these, fails the test below.
+KNOWN_CYCLES = {
+    # the language: the expression parser is built from the grammar the spec's
+    # transformer and the units checker share, and each calls back into the others
+    frozenset({"mbdsl.dsl.expressions", "mbdsl.dsl.parser", "mbdsl.dsl.spec",
+               "mbdsl.dsl.transformer", "mbdsl.dsl.units"}),
+    # the top-level API: ``mbdsl`` re-exports load/assemble/simulate, and the checker,
+    # the output and the time loop call it back lazily (the output stages are not yet
+    # a package of their own)
+    frozenset({"mbdsl", "mbdsl.dsl.check", "mbdsl.hdf5", "mbdsl.integrators",
+               "mbdsl.integrators.diagnosis", "mbdsl.integrators.driver",
+               "mbdsl.integrators.engine", "mbdsl.integrators.hht_add",
+               "mbdsl.integrators.kernel_cache", "mbdsl.integrators.loop",
+               "mbdsl.integrators.newton", "mbdsl.output"}),
+}
+
+
+def test_no_import_cycle_beyond_the_known_ones(graph):
+    g, _ = graph
+    cycles = {frozenset(c) for c in nx.strongly_connected_components(g) if len(c) > 1}
+    assert cycles <= KNOWN_CYCLES, sorted(sorted(c) for c in cycles - KNOWN_CYCLES)

@@ -38,6 +38,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .runs import hermite_state, total_energy
+
 __all__ = ["StudyReference", "build_reference", "method_order"]
 
 #: rhs evaluations DOP853 may spend before ``auto`` gives up on it
@@ -108,7 +110,6 @@ class StudyReference:
 
     def energy(self, system, t: np.ndarray) -> np.ndarray:
         """Total energy T + V [J] of the reference at times t, shape (N,)."""
-        from .runs import total_energy
         return total_energy(system, *self.state(np.asarray(t, dtype=float)))
 
 
@@ -242,24 +243,8 @@ def _events_reference(model, t_end):
                    f"{EVENTS_RTOL_COARSE:g}; cross-checked by nstiff-si2 at {EVENTS_RTOL:g}"
                    + (" (failed: not trusted)" if why else " (agrees)"))
     return StudyReference(description, t_end, fine.q[-1], fine.v[-1], error_q, error_v,
-                          _hermite_state(fine), trusted=not why,
+                          hermite_state(fine), trusted=not why,
                           warning="; ".join(why))
-
-
-def _hermite_state(sol):
-    """Continuous (q, v) of a Solution by cubic Hermite interpolation of its steps."""
-    from scipy.interpolate import CubicHermiteSpline
-    t = sol.t
-    keep = np.concatenate([[True], np.diff(t) > 0])     # Hermite needs increasing t
-    sq = CubicHermiteSpline(t[keep], sol.q[keep], sol.v[keep], axis=0)
-    sv = CubicHermiteSpline(t[keep], sol.v[keep], sol.a[keep], axis=0)
-
-    def state(tt):
-        """(q, v) at times tt, each (N, n)."""
-        tt = np.asarray(tt, dtype=float)
-        return sq(tt), sv(tt)
-
-    return state
 
 
 def _method(model, method, coefficients, t_end, h):
@@ -272,7 +257,7 @@ def _method(model, method, coefficients, t_end, h):
         f"{method} at h = {h:.4g} s (16 times below the smallest step), error by Richardson "
         f"against h = {2 * h:.4g} s (order {p})", t_end, fine.q[-1], fine.v[-1],
         np.abs(fine.q[-1] - coarse.q[-1]) / (2**p - 1),
-        np.abs(fine.v[-1] - coarse.v[-1]) / (2**p - 1), _hermite_state(fine))
+        np.abs(fine.v[-1] - coarse.v[-1]) / (2**p - 1), hermite_state(fine))
 
 
 def _file(path, model, t_end):
@@ -298,4 +283,4 @@ def _file(path, model, t_end):
         f"file {path}: {sol.method_name} at h = {sol.h:.4g} s, error by Richardson against "
         f"h = {2 * sol.h:.4g} s (order {p})", t_end, sol.q[i], sol.v[i],
         np.abs(sol.q[i] - coarse.q[-1]) / (2**p - 1),
-        np.abs(sol.v[i] - coarse.v[-1]) / (2**p - 1), _hermite_state(sol))
+        np.abs(sol.v[i] - coarse.v[-1]) / (2**p - 1), hermite_state(sol))

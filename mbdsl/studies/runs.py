@@ -242,9 +242,8 @@ def execute_run(source: ModelSource, spec: RunSpec) -> RunData:
     if spec.drift_joint:
         data.drift = joint_velocity_violation(sol, spec.drift_joint)
     if spec.samples and status == "completed":
-        from .reference import _hermite_state
         data.t_samples = sample_times(float(sol.t[0]), spec.t_end, spec.samples)
-        data.q_samples, data.v_samples = _hermite_state(sol)(data.t_samples)
+        data.q_samples, data.v_samples = hermite_state(sol)(data.t_samples)
     return data
 
 
@@ -304,3 +303,19 @@ def joint_velocity_violation(sol, joint: str) -> np.ndarray:
     for i, (t, q, v) in enumerate(zip(sol.t, sol.q, sol.v)):
         out[i] = (sys_.Phiq_times(q, t, v) + sys_.Phi_t(q, t))[rows]
     return out
+
+
+def hermite_state(sol):
+    """Continuous (q, v) of a Solution by cubic Hermite interpolation of its steps."""
+    from scipy.interpolate import CubicHermiteSpline
+    t = sol.t
+    keep = np.concatenate([[True], np.diff(t) > 0])     # Hermite needs increasing t
+    sq = CubicHermiteSpline(t[keep], sol.q[keep], sol.v[keep], axis=0)
+    sv = CubicHermiteSpline(t[keep], sol.v[keep], sol.a[keep], axis=0)
+
+    def state(tt):
+        """(q, v) at times tt, each (N, n)."""
+        tt = np.asarray(tt, dtype=float)
+        return sq(tt), sv(tt)
+
+    return state

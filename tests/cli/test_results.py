@@ -8,7 +8,8 @@ from PIL import Image
 
 import mbdsl
 from mbdsl.cli.main import main
-from mbdsl.plotting import PANELS, animate_solution, body_outline, plot_solution
+from mbdsl.plotting import PANELS, animate_solution, plot_solution
+from mbdsl.scene import body_outline
 from mbdsl.progress import ProgressBar
 
 from ..conftest import MODELS
@@ -346,7 +347,7 @@ def test_shape_misuse_is_reported(line, code):
 def test_beams_are_drawn_deformed_by_the_deform_scale(tmp_path):
     """beam_world: r + A(phi) ((x, 0) + s S(x) q_f); at a node S q_f is that
     node's (u, v)."""
-    from mbdsl.plotting import beam_world
+    from mbdsl.scene import beam_world
     model = mbdsl.load(MODELS / "flexible_slider_crank.mbd")
     beam = next(b for b in model.bodies if isinstance(b, mbdsl.model.elements.FlexibleBeam))
     q = np.zeros(model.n_coordinates)
