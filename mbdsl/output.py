@@ -599,6 +599,7 @@ def read_csv_solution(path):
         return values[:, [col[k] for k in keys]] if keys else np.zeros((len(values), 0))
 
     def stat(name, kind):
+        """Column ``name`` of the file's rows as dtype ``kind``, zeros when absent."""
         return (values[:, col[name]].astype(kind) if name in col
                 else np.zeros(len(values), dtype=kind))
 
