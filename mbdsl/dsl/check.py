@@ -18,7 +18,7 @@ import numpy as np
 from ..gcpause import paused
 from ..errors import Diagnostic, MbdModelError, Span
 from ..model import graph
-from ..registry import COEFFICIENTS, METHOD_COEFFICIENTS, METHOD_NAMES
+from ..registry import COEFFICIENTS, METHOD_COEFFICIENTS, METHOD_NAMES, check_coefficient
 from ..model.elements import (COORDINATES, GROUND, VELOCITIES, Driver, InitialCondition,
                               FlexibleBeam, Joint, Model, PointForce, PointRef, RigidBody, Shape,
                               Friction, JointForce, JointTorque, Output, OutputVariable,
@@ -1755,7 +1755,6 @@ class _Checker:
         """Method coefficients in their ranges, each against the methods that use
         it (alpha: the HHT family; beta, gamma: newmark; b: hht-add), so that a
         file never reaches the integrator with a value it would refuse."""
-        from ..integrators import make_method
         st = self.settings
         groups, claimed = [], set()      # each coefficient against the first method taking it
         for method, coefs in METHOD_COEFFICIENTS.items():
@@ -1767,8 +1766,10 @@ class _Checker:
             given = {k: st[k] for k in names if k in st}
             if not given:
                 continue
+            gamma = st.get("gamma", METHOD_COEFFICIENTS["newmark"]["gamma"])
             try:
-                make_method(method, **given)
+                for k, v in given.items():      # in the constructor's order: gamma, beta
+                    check_coefficient(k, v, gamma=gamma)
             except ValueError as exc:
                 name = next(iter(given))
                 self.error("E303", f"simulate: {exc}", spans.get(name), "out of range")

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["Block", "StepState", "StepContext", "Method", "check_range"]
+__all__ = ["Block", "StepState", "StepContext", "Method"]
 
 
 @dataclass(frozen=True)
@@ -100,20 +100,6 @@ class StepContext:
     def last(self) -> StepState:
         """The state at t_n."""
         return self.history[-1]
-
-
-def check_range(name: str, value: float, ok: bool, allowed: str, reason: str) -> float:
-    """Validate a method coefficient.
-
-    Raises
-    ------
-    ValueError
-        Naming the parameter, the value, the allowed range and the reason.
-    """
-    value = float(value)
-    if not np.isfinite(value) or not ok:
-        raise ValueError(f"{name} = {value:g} is out of range: {allowed} ({reason})")
-    return value
 
 
 class Method(ABC):

@@ -31,9 +31,8 @@ def hht_coefficients(alpha: float) -> tuple[float, float, float]:
     ValueError
         alpha out of range, with the reason.
     """
-    from .base import check_range
-    alpha = check_range("alpha", alpha, -1.0 / 3.0 - 1e-12 <= alpha <= 0.0, "[-1/3, 0]",
-                        "HHT is unconditionally stable and second order only in this range")
+    from ..registry import check_coefficient
+    alpha = check_coefficient("alpha", alpha)
     return alpha, (1.0 - alpha) ** 2 / 4.0, (1.0 - 2.0 * alpha) / 2.0
 
 

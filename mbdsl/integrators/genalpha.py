@@ -13,7 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import Block, Method, StepContext, StepState, check_range
+from ..registry import check_coefficient
+from .base import Block, Method, StepContext, StepState
 from .common import (acceleration_scales, index3_newton_matrix, roundoff_floor,
                      si2_blocks, si2_newton_matrix, si2_residual, si2_scales)
 from .recipe import genalpha_recipe
@@ -38,8 +39,7 @@ def genalpha_coefficients(rho_inf: float) -> tuple[float, float, float, float, f
     ValueError
         rho_inf outside [0, 1], with the reason.
     """
-    rho = check_range("rho_inf", rho_inf, 0.0 <= rho_inf <= 1.0, "[0, 1]",
-                      "the spectral radius at infinity of a stable method")
+    rho = check_coefficient("rho_inf", rho_inf)
     alpha_m = (2.0 * rho - 1.0) / (rho + 1.0)
     alpha_f = rho / (rho + 1.0)
     gamma = 0.5 + alpha_f - alpha_m

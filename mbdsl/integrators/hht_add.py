@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import Block, Method, StepContext, StepState, check_range
+from ..registry import check_coefficient
+from .base import Block, Method, StepContext, StepState
 from .common import Terms, assemble, hht_coefficients, newmark_predictor, roundoff_floor
 from .recipe import additive_recipe
 from .spectral import hht_step
@@ -87,8 +88,7 @@ class HHTADD(Method):
 
     def __init__(self, alpha: float = -0.05, b: float = 0.0):
         self.alpha, self.beta, self.gamma = hht_coefficients(alpha)
-        self.b = check_range("b", b, abs(b - 0.5) > 1e-12, "b != 1/2",
-                             "with b = 1/2 the Newton matrix is singular as h -> 0")
+        self.b = check_coefficient("b", b)
 
     def order(self, system=None) -> int:
         """2; 1 on a model with friction in joints, whose normal load is then

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import Block, Method, StepContext, StepState, check_range
+from ..registry import check_coefficient
+from .base import Block, Method, StepContext, StepState
 from .common import (acceleration_scales, force_term, index3_newton_matrix,
                      newmark_predictor, roundoff_floor)
 from .recipe import newmark_recipe
@@ -54,12 +55,8 @@ class Newmark(Method):
     history_length = 1
 
     def __init__(self, gamma: float = 0.6, beta: float = 0.3025):
-        self.gamma = check_range("gamma", gamma, gamma >= 0.5, "gamma >= 1/2",
-                                 "smaller gamma amplifies high frequencies")
-        limit = (self.gamma + 0.5) ** 2 / 4.0
-        self.beta = check_range("beta", beta, beta >= limit * (1.0 - 1e-12),
-                                f"beta >= (gamma + 1/2)^2 / 4 = {limit:g}",
-                                "unconditional stability of the linear test problem")
+        self.gamma = check_coefficient("gamma", gamma)
+        self.beta = check_coefficient("beta", beta, gamma=self.gamma)
 
     def order(self, system=None) -> int:
         """2 when gamma = 1/2, otherwise 1."""

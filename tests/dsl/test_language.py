@@ -14,6 +14,8 @@ from mbdsl.dsl.parser import grammar_parser, parse_expression, parse_text
 from mbdsl.dsl.spec import (BodySpec, ForceSpec, InitialSpec, JointSpec, ModelSpec,
                             ParameterSpec, SettingSpec)
 
+from ..conftest import MODELS
+
 ROOT = Path(__file__).resolve().parents[2]
 
 
@@ -132,3 +134,24 @@ def test_dof_counts():
     assert (model.n_coordinates, model.n_constraints, model.dof) == (6, 5, 1)
     model = mbdsl.load(ROOT / "tests" / "dsl" / "valid" / "all_elements.mbd")
     assert model.n_constraints == 14
+
+
+@pytest.mark.parametrize("method, setting, value", [
+    ("newmark", "gamma", 0.4), ("newmark", "beta", 0.25), ("hht-i3", "alpha", 0.1),
+    ("hht-add", "b", 0.5), ("genalpha", "rho_inf", 1.2)])
+def test_the_simulate_section_refuses_a_coefficient_as_the_method_does(method, setting, value):
+    """One range per coefficient (``registry.check_coefficient``): the model
+    file's check refuses the value the method's constructor refuses, with the
+    constructor's message, at the value's line and column."""
+    text = (MODELS / "slider_crank.mbd").read_text().replace(
+        "simulate { method hht-i3; h 1e-3; t_end 2 }",
+        f"simulate {{ method {method}; h 1e-3; t_end 2;\n {setting} {value} }}")
+    with pytest.raises(ValueError) as constructor:
+        mbdsl.make_method(method, **{setting: value})
+    with pytest.raises(mbdsl.MbdModelError) as checked:
+        mbdsl.load_text(text, "coef.mbd")
+    (d,) = [d for d in checked.value.diagnostics if d.is_error]
+    assert d.code == "E303" and str(constructor.value) in d.message
+    assert (d.span.line, d.span.column) == (text.splitlines().index(f" {setting} {value} }}") + 1,
+                                            len(setting) + 3)
+
