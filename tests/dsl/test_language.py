@@ -155,3 +155,26 @@ def test_the_simulate_section_refuses_a_coefficient_as_the_method_does(method, s
     assert (d.span.line, d.span.column) == (text.splitlines().index(f" {setting} {value} }}") + 1,
                                             len(setting) + 3)
 
+
+
+def test_the_check_is_named_passes_each_stating_its_diagnostics():
+    """``check_spec`` runs the passes of ``dsl/check/`` in the order it lists
+    them, each a function of its own module; every code a module reports is
+    named in that module's docstring, so that a reader finds where E303 or
+    W301 can come from."""
+    import importlib
+    import pkgutil
+    import re
+
+    from mbdsl.dsl import check
+    names = [name for name, _ in check.PASSES]
+    assert names == ["parameters", "loops", "ground", "bodies", "gravity", "joints",
+                     "drivers", "forces", "initials", "outputs", "settings"]
+    assert {fn.__module__ for _, fn in check.PASSES} <= {
+        f"mbdsl.dsl.check.{m.name}" for m in pkgutil.iter_modules(check.__path__)}
+    for info in pkgutil.iter_modules(check.__path__):
+        module = importlib.import_module(f"mbdsl.dsl.check.{info.name}")
+        text = Path(module.__file__).read_text()
+        body = text.split('"""', 2)[2]
+        reported = set(re.findall(r'"([EW]\d{3})"', body))
+        assert reported <= set(re.findall(r"\b([EW]\d{3})\b", module.__doc__)), info.name

@@ -1,0 +1,103 @@
+"""Semantic checks: ModelSpec -> Model, or every diagnostic at once.
+
+The check runs named passes in order over one :class:`CheckContext` (as
+MuJoCo's compiler does): each pass is a module with its own diagnostics, and
+:data:`PASSES` lists them. All passes run even after an error so that a user
+sees every problem of a file in one go; a pass skips only the elements whose
+inputs were already reported broken. The structure pass runs last, on the
+resolved model, and only when nothing else failed.
+
+=============  =========================================================
+pass           module
+=============  =========================================================
+parameters     ``parameters.py``: values, units, ``--set`` overrides
+loops          ``loops.py``: ``for`` blocks flattened, indexed names
+ground         ``bodies.py``: the ground's points
+bodies         ``bodies.py``: rigid bodies, particles, flexible beams
+gravity        ``forces.py``
+joints         ``joints.py`` (kinds in ``tables.py``)
+drivers        ``drivers.py``
+forces         ``forces.py`` and ``contact.py`` (kinds in ``tables.py``)
+initials       ``initials.py``
+outputs        ``outputs.py``
+settings       ``settings.py``: the simulate section
+structure      ``structure.py``: connectivity to the ground
+=============  =========================================================
+"""
+
+from __future__ import annotations
+
+import hashlib
+
+from ...errors import MbdModelError
+from ...gcpause import paused
+from ...model.elements import Model
+from ..spec import ModelSpec
+from .bodies import check_bodies, check_ground
+from .context import CheckContext, point_ref
+from .drivers import check_drivers
+from .forces import check_forces, check_gravity
+from .initials import check_initials
+from .joints import check_joints
+from .loops import expand_loops
+from .outputs import check_outputs
+from .parameters import check_parameters
+from .settings import check_settings
+from .structure import check_structure
+from .tables import FORCE_KINDS, JOINT_KINDS, KNOWN_METHODS, SETTINGS
+
+__all__ = ["check_spec", "CheckContext", "PASSES", "JOINT_KINDS", "FORCE_KINDS", "SETTINGS",
+           "KNOWN_METHODS", "point_ref"]
+
+#: The passes in order, by name. Each takes the context; gravity's returns the
+#: model's gravity vector (or None).
+PASSES = (("parameters", check_parameters), ("loops", expand_loops),
+          ("ground", check_ground), ("bodies", check_bodies), ("gravity", check_gravity),
+          ("joints", check_joints), ("drivers", check_drivers), ("forces", check_forces),
+          ("initials", check_initials), ("outputs", check_outputs),
+          ("settings", check_settings))
+
+
+@paused
+def check_spec(spec: ModelSpec, overrides: dict | None = None) -> Model:
+    """Check a model specification and resolve it into a :class:`Model`.
+
+    Parameters
+    ----------
+    spec : ModelSpec
+        As parsed (``parse_text``) or built in Python.
+    overrides : dict of str -> float or str, optional
+        Parameter values replacing the declared ones (``--set``).
+
+    Returns
+    -------
+    Model
+        With any warnings in ``model.warnings``.
+
+    Raises
+    ------
+    MbdModelError
+        Carrying every diagnostic (errors and warnings) when there is at
+        least one error.
+    """
+    c = CheckContext(spec, overrides)
+    gravity = None
+    for name, run in PASSES:
+        value = run(c)
+        if name == "gravity":
+            gravity = value
+    source = spec.source or ""
+    model = Model(
+        name=spec.name, bodies=tuple(c.bodies.values()), ground_points=c.ground_points,
+        joints=tuple(c.joints.values()), drivers=tuple(c.drivers), forces=tuple(c.forces),
+        gravity=gravity, initials=tuple(c.initials), settings=c.settings,
+        parameters=dict(c.params), file=spec.file, source=spec.source,
+        sha256=hashlib.sha256(source.encode()).hexdigest() if spec.source else "",
+        static=bool(spec.static), static_span=spec.static_span, outputs=tuple(c.outputs))
+    if not any(d.is_error for d in c.diags):
+        check_structure(c, model)
+    if any(d.is_error for d in c.diags):
+        errors = [d for d in c.diags if d.is_error]
+        raise MbdModelError(f"{len(errors)} error{'s' if len(errors) != 1 else ''} in "
+                            f"{spec.file}", c.diags)
+    return Model(**{**model.__dict__, "warnings": tuple(c.diags)})

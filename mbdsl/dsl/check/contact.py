@@ -1,0 +1,142 @@
+"""One-sided elements (part of the loads' pass): contact, a circle on a body
+point against a line or in a circular hole of another body or the ground, and
+limit, a revolute's angle or a sliding joint's distance between bounds; both
+with the Hunt-Crossley law of ``model.contact``. Diagnostics: E305 (neither or
+both of ``line`` and ``circle``, their arguments, a limit without bounds or on
+another joint), E304 (a contact on a flexible beam), E303 (radius, stiffness,
+exponent, restitution, bounds out of range), E402 (a body against itself).
+"""
+
+from __future__ import annotations
+
+import math
+
+from ...model.contact import Contact, contact_geometry_circle, contact_geometry_line
+from ...model.elements import GROUND, FlexibleBeam
+from ..expressions import ExprError, Vec
+from .tables import GEOMETRY_OPTIONS
+
+
+def contact_element(c, f, pos, opts, ctx):
+    """A ``contact`` (a circle against a line or in a hole) or a ``limit``
+    (a joint's angle or distance between bounds): one-sided gaps of
+    :mod:`mbdsl.model.contact`; None after reporting."""
+    for name, hint in (("restitution", "a coefficient of restitution is in (0, 1]: 1 keeps "
+                        "the energy, 0.8 is a hard ball, small values a dead impact"),
+                       ("exponent", "1 for a linear law, 1.5 for Hertz's sphere")):
+        v = opts[name]
+        bad = not (0.0 < v <= 1.0) if name == "restitution" else not v >= 1.0
+        if bad:
+            span = next((a.span for a in f.args if a.keyword == name), f.span)
+            c.error("E303", f"{ctx}: '{name}' = {v:g} is out of range", span,
+                    "out of range", hint=hint)
+            return None
+    if not opts["k"] > 0:
+        c.error("E303", f"{ctx}: the contact stiffness 'k' must be positive",
+                next((a.span for a in f.args if a.keyword == "k"), f.span), "not positive")
+        return None
+    common = (opts["k"], opts["exponent"], opts["restitution"], f.span)
+    if f.kind == "limit":
+        gaps = _limit_gaps(c, f, pos, opts, ctx)
+        return None if gaps is None else Contact(f.name, "limit", gaps, *common)
+    geometry = _contact_geometry(c, f, pos, opts, ctx)
+    if geometry is None:
+        return None
+    return Contact(f.name, "contact", (geometry,), *common, mu=opts["mu"], v_reg=opts["v_reg"])
+
+
+def _limit_gaps(c, f, pos, opts, ctx):
+    """A limit's gaps: ("angle", (body1, None, body2, None, bound, sign), label)
+    for a revolute, ("slide", line + (bound, sign), label) for a sliding joint,
+    one per bound given; None after reporting."""
+    joint = c.joint_argument(pos[0], f, ctx)
+    if joint is None:
+        return None
+    lower, upper = opts["lower"], opts["upper"]
+    if math.isnan(lower) and math.isnan(upper):
+        c.error("E305", f"{ctx}: a limit needs 'lower', 'upper' or both", f.span,
+                "no bound", hint="e.g. limit(O, lower = -pi/4, upper = pi/4, k = 1e5)")
+        return None
+    if not (math.isnan(lower) or math.isnan(upper)) and not lower < upper:
+        c.error("E303", f"{ctx}: 'lower' ({lower:g}) must be below 'upper' ({upper:g})",
+                f.span, "empty range")
+        return None
+    if joint.kind == "revolute":
+        if not c.turning(joint.bodies, ctx, f.span, "a limit on an angle turns bodies"):
+            return None
+        pair = (joint.first.body, None, joint.second.body, None)
+        gaps = tuple(("angle", pair + (b, sign), label)
+                     for b, sign, label in ((lower, 1.0, "lower"), (upper, -1.0, "upper"))
+                     if not math.isnan(b))
+    elif joint.kind in ("prismatic", "point_on_line"):
+        try:
+            line = c.sliding_line(joint)
+        except ExprError as err:
+            c.expr_error(err, f.span, ctx)
+            return None
+        gaps = tuple(("slide", line + (b, sign), label)
+                     for b, sign, label in ((lower, 1.0, "lower"), (upper, -1.0, "upper"))
+                     if not math.isnan(b))
+    else:
+        c.error("E305", f"{ctx}: a limit acts on a revolute's angle or a prismatic or "
+                f"point_on_line joint's distance; '{joint.name}' is a {joint.kind} joint",
+                getattr(pos[0].value, "span", None) or f.span, "no motion to limit")
+        return None
+    return gaps
+
+
+def _contact_geometry(c, f, pos, opts, ctx):
+    """The gap of a circle on a body point against a line (``line = (point,
+    (dx, dy))``) or in a hole (``circle = (point, radius)``) of another body or
+    the ground (``model.contact``); None after reporting."""
+    centre = c.point(pos[0].value, pos[0].span or f.span, ctx)
+    if centre is None:
+        return None
+    given = [g for g in GEOMETRY_OPTIONS if not isinstance(opts[g], float)]
+    if len(given) != 1:
+        c.error("E305", f"{ctx}: a contact needs one of 'line = (point, (dx, dy))' or "
+                "'circle = (point, radius)'", f.span,
+                "no geometry" if not given else "two geometries",
+                hint="a circle against a line: line = (ground.origin, (1, 0)); "
+                "in a hole: circle = (slot.c, 0.0105)")
+        return None
+    arg = opts[given[0]]
+    val = arg.value
+    shape_ok = isinstance(val, Vec) and (isinstance(val.y, Vec) == (given[0] == "line"))
+    if not shape_ok:
+        c.error("E305", f"{ctx}: expected {given[0]} = "
+                + ("(point, (dx, dy))" if given[0] == "line" else "(point, radius)"),
+                arg.span or f.span, "not a " + given[0])
+        return None
+    other = c.point(val.x, arg.span or f.span, ctx)
+    if other is None:
+        return None
+    for p in (centre, other):
+        if p.body != GROUND and isinstance(c.model_body(p.body), FlexibleBeam):
+            c.error("E304", f"{ctx}: contacts act between rigid bodies; '{p.text}' is on "
+                    "a flexible beam", f.span, "flexible beam",
+                    hint="attach a rigid body to the beam and put the contact on it")
+            return None
+    if centre.body == other.body:
+        c.error("E402", f"{ctx} puts a body in contact with itself", f.span, "no effect")
+        return None
+    radius = opts["radius"]
+    if given[0] == "line":
+        dx = c.number(val.y.x, arg.span or f.span, ctx)
+        dy = c.number(val.y.y, arg.span or f.span, ctx)
+        if dx is None or dy is None:
+            return None
+        if dx == 0.0 and dy == 0.0:
+            c.error("E303", f"{ctx}: the line's direction is zero", arg.span or f.span,
+                    "zero direction")
+            return None
+        return contact_geometry_line(centre, radius, other, (dx, dy))
+    hole = c.number(val.y, arg.span or f.span, ctx, unit="m")
+    if hole is None:
+        return None
+    if not hole > radius:
+        c.error("E303", f"{ctx}: the hole's radius ({hole:g} m) must exceed the pin's "
+                f"({radius:g} m)", arg.span or f.span, "no clearance",
+                hint="a pin as large as its hole is a revolute joint")
+        return None
+    return contact_geometry_circle(centre, radius, other, hole)

@@ -1,0 +1,348 @@
+"""Pass 5 (gravity) and pass 8, loads: spring-dampers, torques, joint forces and
+torques, point forces, friction, joint limits and (``contact.py``) contact;
+force expressions of time and of the motion compiled with their gradients.
+Diagnostics: E205 (unknown kind), E304/E305 (options and arguments), E201 (a
+name the expression cannot read), E303 (a value out of range), E402 (a body
+acting on itself).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ...model.elements import (GROUND, FlexibleBeam, Friction, JointForce, JointTorque, PointForce,
+                               RotationalSpringDamper, SpringDamper, StateFunction, StateVariable,
+                               Torque)
+from ..expressions import compile_state_function, diff, Dotted, ExprError, Name, substitute, Vec
+from .contact import contact_element
+from .context import BrokenReference, did_you_mean
+from .tables import BODY_STATE, FORCE_KINDS, GEOMETRY_OPTIONS, REVOLUTE_STATE, SLIDING_STATE
+
+
+#: the SI unit of a force option (friction's speeds are m/s or rad/s by joint: unchecked)
+FORCE_UNITS = {("spring_damper", "k"): "N/m", ("spring_damper", "c"): "N*s/m",
+               ("spring_damper", "length"): "m", ("rotational_spring_damper", "k"): "N*m/rad",
+               ("rotational_spring_damper", "c"): "N*m*s/rad",
+               ("rotational_spring_damper", "angle"): "rad", ("friction", "mu"): "1",
+               ("friction", "mu_static"): "1", ("friction", "radius"): "m",
+               ("contact", "radius"): "m", ("contact", "exponent"): "1",
+               ("contact", "restitution"): "1", ("contact", "mu"): "1",
+               ("contact", "v_reg"): "m/s", ("limit", "exponent"): "1",
+               ("limit", "restitution"): "1"}
+
+
+def check_forces(c):
+    """Check force options (required, non-negative) and build force elements."""
+    c.forces = []
+    for f in c.items["forces"]:
+        ok = c.claim(f.name, f.span, "force")
+        ctx = f"force '{f.name}'"
+        if not c.known_kind(f, FORCE_KINDS, "force", ctx):
+            continue
+        allowed = FORCE_KINDS[f.kind]
+        npos = {"spring_damper": 2, "rotational_spring_damper": 1, "torque": 2,
+                "joint_torque": 2, "joint_force": 2, "force": 2, "friction": 1,
+                "contact": 1, "limit": 1}[f.kind]
+        pos, kw = c.split_args(f, allowed, npos, ctx)
+        if pos is None:
+            continue
+        opts = {}
+        for name, default in allowed.items():
+            if name in kw and name in GEOMETRY_OPTIONS:
+                opts[name] = kw[name]
+            elif name in kw:
+                v = (c.angle if name == "angle" else c.number)(
+                    kw[name].value, kw[name].span, f"{ctx}: {name}",
+                    unit=FORCE_UNITS.get((f.kind, name)))
+                if v is None:
+                    break
+                if name in ("k", "c", "mu", "mu_static", "viscous", "v_stribeck",
+                            "radius") and v < 0:
+                    c.error("E303", f"{ctx}: '{name}' must not be negative, got {v:g}",
+                            kw[name].span, "negative",
+                            hint="a negative stiffness, damping or friction coefficient "
+                            "feeds energy in")
+                    break
+                if name == "v_reg" and not v > 0:
+                    c.error("E303", f"{ctx}: the regularisation speed 'v_reg' must be "
+                            f"positive, got {v:g}", kw[name].span, "not positive",
+                            hint="the friction force reaches mu N at a few v_reg: "
+                            "1e-4 m/s (or rad/s) suits most machines")
+                    break
+                if name == "length" and v < 0:
+                    c.error("E303", f"{ctx}: the free length must not be negative, got {v:g} m",
+                            kw[name].span, "negative length")
+                    break
+                opts[name] = v
+            elif default is not None:
+                opts[name] = default
+            else:
+                break
+        else:
+            el = force_element(c, f, pos, opts, ctx)
+            if el is not None and ok:
+                c.forces.append(el)
+
+
+def force_element(c, f, pos, opts, ctx):
+    """Build one force element from checked arguments (by kind, :data:`BUILDERS`);
+    None after reporting."""
+    return BUILDERS[f.kind](c, f, pos, opts, ctx)
+
+
+def _spring_damper(c, f, pos, opts, ctx):
+    """A spring-damper-actuator between two points (``model.elements.SpringDamper``)."""
+    a = c.point(pos[0].value, pos[0].span or f.span, ctx)
+    b = c.point(pos[1].value, pos[1].span or f.span, ctx)
+    if a is None or b is None:
+        return None
+    if a.body == b.body:
+        c.error("E402", f"{ctx} connects a body to itself", f.span, "no effect",
+                hint="a spring-damper acts between two different bodies")
+        return None
+    return SpringDamper(f.name, a, b, opts["k"], opts["c"], opts["length"], f.span)
+
+
+def _rotational_spring_damper(c, f, pos, opts, ctx):
+    """A rotational spring-damper on a revolute's relative angle."""
+    joint = c.joint_argument(pos[0], f, ctx)
+    if joint is None or not c.turning(joint.bodies, ctx, f.span,
+                                      "a rotational spring acts on a relative angle"):
+        return None
+    return RotationalSpringDamper(f.name, joint, opts["k"], opts["c"], opts["angle"],
+                                  f.span)
+
+
+def _torque(c, f, pos, opts, ctx):
+    """A torque on a body, of time and of the motion [N m]."""
+    ref = pos[0].value
+    if not isinstance(ref, Name) or ref.name not in c.bodies:
+        name = ref.name if isinstance(ref, Name) else "?"
+        if name not in c.broken_bodies:
+            c.error("E201", f"{ctx}: expected the name of a body, got '{name}'",
+                    getattr(ref, "span", None) or f.span, "not a body",
+                    hint=did_you_mean(name, c.bodies))
+        return None
+    if not c.turning([c.bodies[ref.name].index], ctx, f.span,
+                     "a torque turns a body"):
+        return None
+    fn = force_function(c, pos[1].value, pos[1].span or f.span, ctx, unit="N*m")
+    return Torque(f.name, c.bodies[ref.name].index, fn, f.span) if fn else None
+
+
+def _joint_torque(c, f, pos, opts, ctx):
+    """A torque in a revolute joint, equal and opposite on its bodies [N m]."""
+    joint = c.joint_argument(pos[0], f, ctx)
+    if joint is None:
+        return None
+    ref = pos[0].value
+    if joint.kind != "revolute":
+        c.error("E305", f"{ctx}: a joint torque acts in a revolute joint; "
+                f"'{joint.name}' is a {joint.kind} joint",
+                getattr(ref, "span", None) or f.span, "not a revolute joint",
+                hint="apply torque(body, ...) to one of its bodies instead")
+        return None
+    if not c.turning(joint.bodies, ctx, f.span, "a joint torque turns its bodies"):
+        return None
+    fn = force_function(c, pos[1].value, pos[1].span or f.span, ctx, unit="N*m")
+    return JointTorque(f.name, joint, fn, f.span) if fn else None
+
+
+def _joint_force(c, f, pos, opts, ctx):
+    """A force along a sliding joint's line, equal and opposite on its bodies [N]."""
+    joint = c.joint_argument(pos[0], f, ctx)
+    if joint is None:
+        return None
+    if joint.kind not in ("prismatic", "point_on_line"):
+        c.error("E305", f"{ctx}: a joint force acts along a prismatic or point_on_line "
+                f"joint; '{joint.name}' is a {joint.kind} joint",
+                getattr(pos[0].value, "span", None) or f.span, "not a sliding joint",
+                hint="use joint_torque for a revolute joint")
+        return None
+    try:
+        c.sliding_line(joint)
+    except ExprError as err:
+        c.expr_error(err, f.span, ctx)
+        return None
+    fn = force_function(c, pos[1].value, pos[1].span or f.span, ctx, unit="N")
+    return JointForce(f.name, joint, fn, f.span) if fn else None
+
+
+def _point_force(c, f, pos, opts, ctx):
+    """A point force (fx, fy) in world axes, of time [N]."""
+    p = c.point(pos[0].value, pos[0].span or f.span, ctx)
+    vec = pos[1].value
+    if not isinstance(vec, Vec):
+        c.error("E305", f"{ctx}: expected the force as a vector '(fx, fy)'",
+                pos[1].span or f.span, "not a vector")
+        return None
+    fx = c.time_function(vec.x, pos[1].span or f.span, ctx, unit="N")
+    fy = c.time_function(vec.y, pos[1].span or f.span, ctx, unit="N")
+    if p is None or fx is None or fy is None:
+        return None
+    if p.body == GROUND:
+        c.error("E402", f"{ctx} acts on the ground", f.span, "no effect",
+                hint="apply the force to a moving body")
+        return None
+    return PointForce(f.name, p, fx, fy, f.span)
+
+
+def friction_element(c, f, pos, opts, ctx):
+    """A Friction element from checked options; None after reporting."""
+    joint = c.joint_argument(pos[0], f, ctx)
+    if joint is None:
+        return None
+    span = getattr(pos[0].value, "span", None) or f.span
+    kw = {a.keyword: a for a in f.args if a.keyword is not None}
+    if joint.kind in ("fixed", "distance"):
+        c.error("E305", f"{ctx}: friction acts in a revolute, prismatic or point_on_line "
+                f"joint; '{joint.name}' is a {joint.kind} joint", span,
+                f"no sliding surface in a {joint.kind} joint",
+                hint="friction(J, ...) takes a revolute, prismatic or point_on_line joint")
+        return None
+    radius = opts["radius"]
+    if joint.kind == "revolute" and not c.turning(
+            joint.bodies, ctx, f.span, "friction in a revolute joint brakes a relative rotation"):
+        return None
+    if joint.kind == "revolute":
+        if np.isnan(radius):
+            c.error("E304", f"{ctx}: friction in a revolute joint needs the pin's "
+                    "'radius' (m)", f.kind_span or f.span, "'radius = ...' is required",
+                    hint="the friction torque is mu r |reaction|")
+            return None
+    else:
+        if not np.isnan(radius):
+            c.error("E304", f"{ctx}: 'radius' is for revolute joints; '{joint.name}' is "
+                    f"a {joint.kind} joint", kw["radius"].span or f.span,
+                    "not a revolute joint",
+                    hint="a sliding joint's friction force is mu |normal reaction|")
+            return None
+        radius = 1.0
+        try:
+            c.sliding_line(joint)
+        except ExprError as err:
+            c.expr_error(err, f.span, ctx)
+            return None
+    mu = opts["mu"]
+    mu_s = mu if np.isnan(opts["mu_static"]) else opts["mu_static"]
+    if mu_s != mu and opts["v_stribeck"] == 0.0:
+        c.error("E304", f"{ctx}: 'mu_static' differs from 'mu' but no 'v_stribeck' "
+                "says at which speed", kw["mu_static"].span or f.span,
+                "needs v_stribeck",
+                hint="mu(z) = mu + (mu_static - mu) exp(-(z/v_stribeck)^2): "
+                "give v_stribeck = ... (m/s or rad/s)")
+        return None
+    return Friction(f.name, joint, mu, mu_s, opts["v_stribeck"], opts["viscous"],
+                    opts["v_reg"], radius, f.span)
+
+
+def force_function(c, expr, span, context, unit=None):
+    """A force magnitude: f(t) (TimeFunction) when the expression reads no
+    state, else f(t, state) (StateFunction) with its exact partial
+    derivatives; None after reporting. ``unit``: as in :meth:`number`."""
+    if not c.dimension(expr, unit, span, context):
+        return None
+    found: dict[str, StateVariable] = {}
+
+    def resolve(ref):
+        """The variable's name; records it."""
+        var = state_variable(c, ref)
+        found.setdefault(var.name, var)
+        return var.name
+    try:
+        e = substitute(expr, c.params, resolve)
+    except BrokenReference:
+        return None                 # a reference to a broken element: reported already
+    except ExprError as err:
+        c.expr_error(err, span, context)
+        return None
+    if not found:
+        return c.time_function(expr, span, context, unit)
+    variables = tuple(found.values())
+    names = tuple(v.name for v in variables)
+    try:
+        grads = tuple(diff(e, name) for name in names)
+    except ExprError as err:
+        c.expr_error(err, span, context)
+        return None
+    return StateFunction(compile_state_function(e, names),
+                         tuple(compile_state_function(g, names) for g in grads),
+                         variables, expr=e, grad_exprs=grads)
+
+
+def state_variable(c, ref: Dotted) -> StateVariable:
+    """The state variable of a reference in a force expression
+    (``crank.omega``, ``O.angle``).
+
+    Raises
+    ------
+    ExprError
+        E201 for an unknown body or joint, E304 for a field it does not have.
+    """
+    obj = ref.obj if isinstance(ref.obj, str) else getattr(ref.obj, "text", "?")
+    if obj in c.bodies:
+        body = c.bodies[obj]
+        if isinstance(body, FlexibleBeam):
+            raise ExprError(f"'{ref.text}': force expressions read the state of rigid "
+                            "bodies and joints, not of flexible beams", "E304", ref.span,
+                            hint="use a rigid body or a joint")
+        if ref.attr not in BODY_STATE:
+            raise ExprError(f"'{ref.text}': a body's state in a force is one of "
+                            f"{', '.join(BODY_STATE)}", "E304", ref.span,
+                            hint=did_you_mean(ref.attr, BODY_STATE)
+                            or f"fields are {', '.join(BODY_STATE)}")
+        level, j = BODY_STATE[ref.attr]
+        if j == 2 and getattr(body, "particle", False):
+            raise ExprError(f"'{ref.text}': particle '{obj}' does not turn (it has x, y, "
+                            "vx, vy)", "E304", ref.span)
+        return StateVariable(ref.text, level, ((body.index, j, 1.0),))
+    if obj in c.joints and c.joints[obj].kind in ("prismatic", "point_on_line"):
+        joint = c.joints[obj]
+        if ref.attr not in SLIDING_STATE:
+            raise ExprError(f"'{ref.text}': a force reads a {joint.kind} joint's "
+                            f"{', '.join(SLIDING_STATE)}", "E304", ref.span,
+                            hint=did_you_mean(ref.attr, SLIDING_STATE)
+                            or f"fields are {', '.join(SLIDING_STATE)}")
+        line = c.sliding_line(joint, ref)
+        return StateVariable(ref.text, SLIDING_STATE[ref.attr], (), line=line)
+    if obj in c.joints:
+        joint = c.joints[obj]
+        if joint.kind != "revolute" or ref.attr not in REVOLUTE_STATE:
+            allowed = ", ".join(REVOLUTE_STATE)
+            raise ExprError(f"'{ref.text}': a force reads a revolute joint's {allowed}",
+                            "E304", ref.span,
+                            hint=(f"'{obj}' is a {joint.kind} joint"
+                                  if joint.kind != "revolute" else
+                                  did_you_mean(ref.attr, REVOLUTE_STATE)
+                                  or f"fields are {allowed}"))
+        b1, b2 = joint.bodies
+        for b in (b1, b2):
+            if c.is_particle(b):
+                raise ExprError(f"'{ref.text}': the joint holds particle "
+                                f"'{c.model_body(b).name}', which does not turn", "E304",
+                                ref.span)
+            if b != GROUND and isinstance(c.model_body(b), FlexibleBeam):
+                raise ExprError(f"'{ref.text}': the joint holds a flexible beam, whose "
+                                "rotation at the joint is not its frame's", "E304",
+                                ref.span)
+        terms = tuple((b, 2, c) for b, c in ((b2, 1.0), (b1, -1.0)) if b != GROUND)
+        return StateVariable(ref.text, REVOLUTE_STATE[ref.attr], terms)
+    if obj in c.broken_bodies or obj in c.broken_names:
+        raise BrokenReference(ref.text, "E201", ref.span)
+    raise ExprError(f"unknown body or joint '{obj}' in '{ref.text}'", "E201", ref.span,
+                    name=obj, hint=did_you_mean(obj, list(c.bodies) + list(c.joints))
+                    or "a force reads the state of a body or a revolute joint")
+
+
+def check_gravity(c):
+    """Evaluate the gravity vector, or None when not declared."""
+    if c.spec.gravity is None:
+        return None
+    return c.vector(c.spec.gravity, c.spec.gravity_span, "gravity", unit="m/s^2")
+
+
+#: force kind -> the function that builds its element (c, f, pos, opts, ctx) -> element or None
+BUILDERS = {"spring_damper": _spring_damper, "rotational_spring_damper": _rotational_spring_damper,
+            "torque": _torque, "joint_torque": _joint_torque, "joint_force": _joint_force,
+            "friction": friction_element, "contact": contact_element, "limit": contact_element,
+            "force": _point_force}
