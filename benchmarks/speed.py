@@ -14,7 +14,7 @@ default, ``--methods``) it prints:
 * Newton iterations, Jacobian evaluations and factorizations per step;
 * the error at T: max |q - q_ref| over all coordinates, against the published
   slider-crank reference (tests/reference/slider_crank.json: crank angle) or
-  an independent index-1 DOP853 solution at 1e-12 (``mbdsl.reference``); the
+  an independent index-1 DOP853 solution at 1e-12 (``mbdsl.studies.index1``); the
   chain of 1000 links has none (its index-1 solution is too costly);
 * with exudyn installed (``pip install -e ".[bench]"``), the same model run in
   Exudyn (``exudyn_side.py``; rigid models with the elements it translates),
@@ -53,7 +53,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import mbdsl  # noqa: E402
 from mbdsl.integrators import METHODS, integrate, make_method, method_parameters  # noqa: E402
-from mbdsl.reference import index1_reference  # noqa: E402
+from mbdsl.studies.index1 import index1_reference
 
 import exudyn_side  # noqa: E402
 

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 import mbdsl
-from mbdsl.plotting import Panel, Series, write_figure
+from mbdsl.graphics.plotting import Panel, Series, write_figure
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "docs" / "studies" / "double_pendulum_stiff"

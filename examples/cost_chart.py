@@ -13,7 +13,7 @@ from __future__ import annotations
 import csv
 from pathlib import Path
 
-from mbdsl.plotting import Panel, Series, write_figure
+from mbdsl.graphics.plotting import Panel, Series, write_figure
 
 ROOT = Path(__file__).resolve().parents[1] / "docs" / "studies"
 MODELS = [("slider_crank", "rigid slider crank"), ("flexible_slider_crank", "flexible slider crank"),

@@ -33,8 +33,8 @@ from .integrators import (METHODS, JacobianUpdate, NewtonOptions, integrate, mak
                           method_parameters, settings_coefficients)
 from .integrators.dense import output_times as dense_times
 from .model.elements import Model
-from .output import load_solution, write_solution
-from .solution import Solution
+from .io import load_solution, write_solution
+from .io.solution import Solution
 from .registry import DEFAULT_METHOD
 
 __version__ = "0.1.0"
@@ -50,14 +50,14 @@ __all__ = [
 
 
 def plot(solution, y=None, x: str = "t", path=None):
-    """Time histories of a Solution as one figure; see :func:`mbdsl.plotting.plot_solution`."""
-    from .plotting import plot_solution
+    """Time histories of a Solution as one figure; see :func:`mbdsl.graphics.plotting.plot_solution`."""
+    from .graphics.plotting import plot_solution
     return plot_solution(solution, y=y, x=x, path=path)
 
 
 def animate(solution, path, fps: float = 25.0, speed: float = 1.0):
-    """Write the mechanism's motion; see :func:`mbdsl.plotting.animate_solution`."""
-    from .plotting import animate_solution
+    """Write the mechanism's motion; see :func:`mbdsl.graphics.plotting.animate_solution`."""
+    from .graphics.plotting import animate_solution
     return animate_solution(solution, path, fps=fps, speed=speed)
 
 
@@ -157,7 +157,7 @@ def step_control(settings: dict, rtol: float | None = None, atol: float | None =
 
 def simulate(model: Model, method: str | None = None, h: float | None = None,
              t_end: float | None = None, *, newton: NewtonOptions | None = None,
-             on_failure: str = "raise", progress=None, writer=None, engine: str = "auto",
+             on_failure: str = "raise", progress=None, observers=(), engine: str = "auto",
              output_every: int = 1, announce=None, compile_policy: str = "wait",
              formulation: str | None = None, rtol: float | None = None,
              atol: float | None = None, setup_time: float = 0.0, fixed: bool = False,
@@ -182,8 +182,10 @@ def simulate(model: Model, method: str | None = None, h: float | None = None,
     progress : callable, optional
         ``progress(t, h, iterations)`` as the run goes; see
         :func:`mbdsl.integrators.integrate`.
-    writer : mbdsl.output.CsvStream, optional
-        Writes the accepted steps to a file as the run goes.
+    observers : sequence of mbdsl.io.observers.RunObserver, optional
+        Told of the run as it goes (its start, the rows recorded, events, its
+        end), e.g. ``mbdsl.io.CsvStream(path)``, which writes the rows to a
+        file as the run goes.
     engine : {"auto", "numpy", "compiled", "uncompiled"}
         See :func:`mbdsl.integrators.integrate`.
     output_every : int
@@ -280,6 +282,6 @@ def simulate(model: Model, method: str | None = None, h: float | None = None,
         times = dense_times(t_start, float(t_end), dt=output_dt, times=output_times)
     return integrate(system, m, float(t_end), float(h), t_start=t_start, initial=initial,
                      newton=newton, on_failure=on_failure, progress=progress,
-                     writer=writer, engine=engine, output_every=output_every,
+                     observers=observers, engine=engine, output_every=output_every,
                      announce=announce, compile_policy=compile_policy, control=control,
                      setup_time=setup_time + assembly_time, output_times=times)

@@ -7,7 +7,7 @@ thought. Three signs of that are read from the stored rows, after the run,
 on every run (they cost a pass over arrays the run has computed anyway):
 
 * **W602, the energy balance.** ``energy.balance = E - E_0 - work +
-  dissipated`` (:func:`mbdsl.solution.energy_flows`) is zero for the exact
+  dissipated`` (:func:`mbdsl.io.derived.energy_flows`) is zero for the exact
   motion. Its largest magnitude is compared with the energy the run
   exchanged: the largest of the range of the kinetic energy, the range of
   the potential energy, the work put in and the energy dissipated. Above

@@ -385,7 +385,8 @@ def mode_motion(system, found: "Modes", index: int, cycles: float = 2.0,
     ValueError
         No such mode, or a mode of zero frequency.
     """
-    from .solution import RunStats, Solution
+    from .io.rows import RunStats
+    from .io.solution import Solution
     if not 1 <= index <= len(found.modes):
         raise ValueError(f"no mode {index}; modes 1 .. {len(found.modes)}")
     mo = found.modes[index - 1]

@@ -364,6 +364,18 @@ def consistent_initial_state(system: AssembledSystem, t0: float = 0.0,
                                  redundant=redundant)
     if not system.flexible_groups:
         return state
+    state, settled = _quasi_static(system, state, t0, tol, max_iter)
+    if settled:
+        _large_deflections(system, state)
+    return state
+
+
+def _quasi_static(system, state, t0, tol, max_iter):
+    """The consistent state whose flexible beams start quasi-statically
+    deflected (their elastic accelerations at round-off): Newton on the
+    elastic coordinates, each step halved until it reduces them. Returns
+    (the state reached, whether it settled); W403 (``_not_quasi_static``) in
+    its warnings when it did not."""
     cols = np.concatenate([b.elastic_columns() for b in system.model.flexible_bodies])
     def tangent(q):
         """The beams' elastic stiffness at q (with geometric stiffening: its tangent)."""
@@ -403,7 +415,7 @@ def consistent_initial_state(system: AssembledSystem, t0: float = 0.0,
             step[:] = np.nan
         if not np.all(np.isfinite(step)):
             state.warnings.append(_not_quasi_static(system, elastic_acceleration(state)))
-            return state
+            return state, False
         for _ in range(12):          # halve a step that does not reduce a_f
             try:
                 trial = _consistent_state(system, t0, tol, max_iter, state.q + step)
@@ -416,13 +428,19 @@ def consistent_initial_state(system: AssembledSystem, t0: float = 0.0,
             if settled(state):
                 break
             state.warnings.append(_not_quasi_static(system, elastic_acceleration(state)))
-            return state
+            return state, False
         state = trial
         if np.max(np.abs(step)) <= 1e-12 * (1e-9 + np.max(np.abs(state.q[cols]))):
             break
     else:
         state.warnings.append(_not_quasi_static(system, elastic_acceleration(state)))
-        return state
+        return state, False
+    return state, True
+
+
+def _large_deflections(system, state) -> None:
+    """W403 on each beam that starts deflected beyond ``LARGE_DEFLECTION`` of
+    its length (its linear elasticity no longer holds)."""
     for b in system.model.flexible_bodies:
         largest = b.mesh.max_translation(state.q[b.elastic_columns()])
         if largest > LARGE_DEFLECTION * b.length:
@@ -432,7 +450,6 @@ def consistent_initial_state(system: AssembledSystem, t0: float = 0.0,
                 f"({b.length:g} m): its linear elasticity does not hold there", b.span,
                 "deflects too much", hint="check E, the cross-section and the loads (SI units): "
                 "the floating frame of reference assumes small elastic deflections"))
-    return state
 
 
 #: A quasi-static deflection above this fraction of a beam's length is reported (W403).
@@ -571,18 +588,31 @@ def _consistent_state(system, t0, tol, max_iter, elastic, q_start=None, redundan
     n = system.n
     fixed_q = [(ic.column(system.cmap), ic.value) for ic in model.initials
                if not ic.guess and not ic.is_velocity]
-    fixed_v = [(ic.column(system.cmap), ic.value) for ic in model.initials
-               if not ic.guess and ic.is_velocity]
-    guess_v = [(ic.column(system.cmap), ic.value) for ic in model.initials
-               if ic.guess and ic.is_velocity]
     if elastic is not None:      # the quasi-static iteration sets them: the bodies close the loops
         fixed_q = fixed_q + [(int(i), float(elastic[i])) for b in model.flexible_bodies
                              for i in b.elastic_columns()]
+    sparse = system.n + system.m > DENSE_LIMIT
+    weights = _column_weights(system)
+    q, it, res_q, placements = _positions(system, t0, tol, max_iter, elastic, q_start, fixed_q,
+                                          sparse, weights)
+    structure, warnings = _structure_at(system, q, t0, redundant, elastic)
+    v, res_v = _velocities(system, q, t0, sparse, weights)
+    a, lam, res_a, Q_start = _accelerations(system, q, v, t0, sparse, structure)
+    fixed_idx = {ic.column(system.cmap) for ic in model.initials if not ic.guess and not ic.is_velocity}
+    solved = {lay.coordinates[i]: float(q[i]) for i in range(n) if i not in fixed_idx}
+    return InitialState(t0, q, v, a, lam, res_q, res_v, res_a, solved, it, structure, warnings,
+                        Q=Q_start, placements=placements)
+
+
+def _positions(system, t0, tol, max_iter, elastic, q_start, fixed_q, sparse, weights):
+    """(q, Newton iterations, max |Phi(q)|, the bodies' placements): the
+    configuration closest (in ``weights``) to the bodies placed along the
+    joints that satisfies Phi(q, t0) = 0 and the given coordinates
+    ``fixed_q`` [(column, value)]; AssemblyError (E501, E503) if none is found."""
+    model, lay, n = system.model, system.layout, system.n
     iq = np.array([i for i, _ in fixed_q], dtype=int)
     vq = np.array([v for _, v in fixed_q])
-    sparse = system.n + system.m > DENSE_LIMIT
     E = _selection(iq, n, sparse)
-    weights = _column_weights(system)
     with np.errstate(all="ignore"):
         placements = []
         q = (place_bodies(system, t0, placements) if q_start is None
@@ -632,8 +662,15 @@ def _consistent_state(system, t0, tol, max_iter, elastic, q_start=None, redundan
                        hint="check the lengths and points on this loop, or give a 'guess' "
                        "for an angle near the intended assembly branch")
         raise AssemblyError(d.message, [d])
+    return q, it, res_q, placements
 
-    # structure at the assembled configuration: redundant joints are refused
+
+def _structure_at(system, q, t0, redundant, elastic):
+    """(structure, warnings) at the assembled configuration: redundant joints
+    refused (E401, unless accepted) by name before the singular index-1 matrix
+    could say less, the DOF by rank against the initial conditions (E501),
+    a mechanism that cannot move (W402)."""
+    model, n = system.model, system.n
     # here, by name, before the singular index-1 matrix could say less
     structure, warnings = None, []
     if system.m <= RANK_LIMIT:
@@ -651,8 +688,19 @@ def _consistent_state(system, t0, tol, max_iter, elastic, q_start=None, redundan
                 f"({structure.summary()}) and no driver", model.joints[0].span
                 if model.joints else None, "locks the mechanism",
                 hint="nothing will move; remove a joint, or add a driver if that was intended"))
+    return structure, warnings
 
-    # velocities: min ||v - v_g|| s.t. Phi_q v = -Phi_t, v[fixed] = given
+
+def _velocities(system, q, t0, sparse, weights):
+    """(v, max |Phi_q v + Phi_t|): the velocities closest to the given and
+    guessed ones (``initial`` and ``guess`` lines) that satisfy the velocity
+    constraints, min ||v - v_g|| s.t. Phi_q v = -Phi_t, v[fixed] = given;
+    AssemblyError (E504) when the given ones contradict the constraints."""
+    model, lay, n = system.model, system.layout, system.n
+    fixed_v = [(ic.column(system.cmap), ic.value) for ic in model.initials
+               if not ic.guess and ic.is_velocity]
+    guess_v = [(ic.column(system.cmap), ic.value) for ic in model.initials
+               if ic.guess and ic.is_velocity]
     v_g = np.zeros(n)
     for i, val in guess_v + fixed_v:
         v_g[i] = val
@@ -672,7 +720,15 @@ def _consistent_state(system, t0, tol, max_iter, elastic, q_start=None, redundan
                        lay.span_of(name), "velocity not consistent",
                        hint="give fewer initial velocities (the DOF count), or check their values")
         raise AssemblyError(d.message, [d])
+    return v, res_v
 
+
+def _accelerations(system, q, v, t0, sparse, structure):
+    """(a, lambda, max |Phi_q a - gamma|, Q at the start or None) from the index-1 system
+    [[M, Phi_q^T], [Phi_q, 0]] [a; lambda] = [Q; gamma] (friction: its loads
+    iterated from zero multipliers to their Coulomb limit at rest,
+    ``coulomb_start``); AssemblyError (E401, E505) when it is singular."""
+    model, n = system.model, system.n
     with np.errstate(all="ignore"):
         # friction's loads start from zero multipliers; iterated below
         Q = system.Q(t0, q, v, np.zeros(system.m) if system.multiplier_groups else None)
@@ -732,10 +788,7 @@ def _consistent_state(system, t0, tol, max_iter, elastic, q_start=None, redundan
         raise AssemblyError(d.message, [d]) from None
     a, lam = sol[:n], sol[n:]
     res_a = float(np.max(np.abs(system.Phiq_times(q, t0, a) - gam), initial=0.0))
-    fixed_idx = {ic.column(system.cmap) for ic in model.initials if not ic.guess and not ic.is_velocity}
-    solved = {lay.coordinates[i]: float(q[i]) for i in range(n) if i not in fixed_idx}
-    return InitialState(t0, q, v, a, lam, res_q, res_v, res_a, solved, it, structure, warnings,
-                        Q=Q_start, placements=placements)
+    return a, lam, res_a, Q_start
 
 
 def coulomb_start(system, t0, q, v, solve):

@@ -245,69 +245,14 @@ def miss_diagnosis(system, q_start: np.ndarray, t0: float, fixed: list[tuple[int
     n, m = system.n, system.m
     if n + m > 4 * RANK_LIMIT or m == 0:
         return None
-    import scipy.linalg
     tree = {j.name for _, _, j in graph.spanning_tree_edges(model) if j is not None}
     drivers = {d.name for d in model.drivers}
     hard_rows = np.array([lay.rows[i][0] in tree or lay.rows[i][0] in drivers for i in range(m)])
     iq = np.array([i for i, _ in fixed], dtype=int)
     vq = np.array([v for _, v in fixed], dtype=float)
 
-    def solve(hold_fixed):
-        """min ||Phi_loop(q)|| subject to the tree joints, the drivers and (if
-        hold_fixed) the initial coordinates holding exactly: Gauss-Newton in the
-        null space of the held rows, each trial point projected back onto
-        them, with backtracking on the loop residual."""
-        k = len(iq) if hold_fixed else 0
-        E = np.zeros((k, n))
-        E[np.arange(k), iq[:k]] = 1.0
-
-        def held(q):
-            """Residuals of the held rows (tree joints, drivers, initial values)."""
-            return np.concatenate([system.Phi(q, t0)[hard_rows], q[iq[:k]] - vq[:k]])
-
-        def held_jac(q):
-            """Jacobian of :func:`held`, shape (held rows, n)."""
-            return np.vstack([system.Phi_q(q, t0)[hard_rows], E])
-
-        def project(q):
-            """Back onto the held rows by minimum-norm Newton steps."""
-            for _ in range(30):
-                r = held(q)
-                if np.max(np.abs(r), initial=0.0) < 1e-13:
-                    break
-                q = q - np.linalg.lstsq(held_jac(q), r, rcond=None)[0]
-            return q
-
-        def loop_res(q):
-            """Residuals of the loop-closing joints."""
-            return system.Phi(q, t0)[~hard_rows]
-
-        q = project(q_start.copy())
-        for _ in range(max_iter):
-            r = loop_res(q)
-            N = scipy.linalg.null_space(held_jac(q)) if np.any(hard_rows) or k else np.eye(n)
-            if N.shape[1] == 0:
-                break
-            z = np.linalg.lstsq(system.Phi_q(q, t0)[~hard_rows] @ N, r, rcond=None)[0]
-            dq = N @ z
-            if not np.all(np.isfinite(dq)):
-                return None
-            f0, step = float(r @ r), 1.0
-            while step > 1e-8:
-                q_new = project(q - step * dq)
-                r_new = loop_res(q_new)
-                if float(r_new @ r_new) < f0:
-                    break
-                step *= 0.5
-            else:
-                break
-            q = q_new
-            if f0 - float(r_new @ r_new) < 1e-24:
-                break
-        return q
-
     with np.errstate(all="ignore"):
-        q = solve(True)
+        q = _close_loops(system, q_start, t0, hard_rows, iq, vq, True, max_iter)
         if q is None:
             return None
         phi = system.Phi(q, t0)
@@ -319,7 +264,7 @@ def miss_diagnosis(system, q_start: np.ndarray, t0: float, fixed: list[tuple[int
         hint = (f"check the points and lengths on this loop: with every other joint holding, "
                 f"'{name}' misses by {value:.3g} m")
         if len(iq):
-            q_free = solve(False)
+            q_free = _close_loops(system, q_start, t0, hard_rows, iq, vq, False, max_iter)
             if q_free is not None and np.max(np.abs(system.Phi(q_free, t0))) < 1e-9:
                 k = int(np.argmax(np.abs(q_free[iq] - vq)))
                 coord = lay.coordinates[iq[k]]
@@ -330,6 +275,64 @@ def miss_diagnosis(system, q_start: np.ndarray, t0: float, fixed: list[tuple[int
                       f"the initial configuration cannot be assembled: joint '{name}' cannot "
                       f"close{loop}; with the other joints holding it misses by {value:.3g} m",
                       lay.span_of(name), f"misses by {value:.3g} m", hint=hint)
+
+
+def _close_loops(system, q_start, t0, hard_rows, iq, vq, hold_fixed, max_iter):
+    """min ||Phi_loop(q)|| subject to the tree joints, the drivers and (if
+    hold_fixed) the initial coordinates holding exactly: Gauss-Newton in the
+    null space of the held rows, each trial point projected back onto
+    them, with backtracking on the loop residual; None where the step is
+    not finite."""
+    import scipy.linalg
+    n = system.n
+    k = len(iq) if hold_fixed else 0
+    E = np.zeros((k, n))
+    E[np.arange(k), iq[:k]] = 1.0
+
+    def held(q):
+        """Residuals of the held rows (tree joints, drivers, initial values)."""
+        return np.concatenate([system.Phi(q, t0)[hard_rows], q[iq[:k]] - vq[:k]])
+
+    def held_jac(q):
+        """Jacobian of :func:`held`, shape (held rows, n)."""
+        return np.vstack([system.Phi_q(q, t0)[hard_rows], E])
+
+    def project(q):
+        """Back onto the held rows by minimum-norm Newton steps."""
+        for _ in range(30):
+            r = held(q)
+            if np.max(np.abs(r), initial=0.0) < 1e-13:
+                break
+            q = q - np.linalg.lstsq(held_jac(q), r, rcond=None)[0]
+        return q
+
+    def loop_res(q):
+        """Residuals of the loop-closing joints."""
+        return system.Phi(q, t0)[~hard_rows]
+
+    q = project(q_start.copy())
+    for _ in range(max_iter):
+        r = loop_res(q)
+        N = scipy.linalg.null_space(held_jac(q)) if np.any(hard_rows) or k else np.eye(n)
+        if N.shape[1] == 0:
+            break
+        z = np.linalg.lstsq(system.Phi_q(q, t0)[~hard_rows] @ N, r, rcond=None)[0]
+        dq = N @ z
+        if not np.all(np.isfinite(dq)):
+            return None
+        f0, step = float(r @ r), 1.0
+        while step > 1e-8:
+            q_new = project(q - step * dq)
+            r_new = loop_res(q_new)
+            if float(r_new @ r_new) < f0:
+                break
+            step *= 0.5
+        else:
+            break
+        q = q_new
+        if f0 - float(r_new @ r_new) < 1e-24:
+            break
+    return q
 
 
 def joint_miss(model, name: str, residual: np.ndarray) -> float:

@@ -179,6 +179,9 @@ class AssembledSystem:
         self._patterns = {}
 
     def _build_forces(self, model):
+        """The applied loads: gravity's constant Q, one group per load kind
+        (:meth:`_load_groups`), and the fixed patterns of their derivatives
+        (:meth:`_load_patterns`)."""
         n, cmap = self.n, self.cmap
         self.gravity_force = None
         if model.gravity is not None and np.any(model.gravity != 0.0):
@@ -188,6 +191,14 @@ class AssembledSystem:
                     with np.errstate(over="ignore"):     # an overflow is E506 at the start
                         Qg[cmap.table[b.index, :2]] = b.mass * model.gravity
             self.gravity_force = Qg
+        self._load_groups(model)
+        self._load_patterns()
+
+    def _load_groups(self, model):
+        """``force_groups``: spring-dampers, rotational springs, torques,
+        torques and forces that read the motion or act in joints, point
+        forces, friction, contacts and limits, then the flexible beams."""
+        cmap = self.cmap
         springs = [f for f in model.forces if isinstance(f, SpringDamper)]
         rsprings = [f for f in model.forces if isinstance(f, RotationalSpringDamper)]
         torques = [f for f in model.forces if isinstance(f, Torque)
@@ -258,6 +269,11 @@ class AssembledSystem:
             self.force_groups.append(self.contact_group)
             self.contact_group.bind(self.contact_gaps)
         self.force_groups.extend(self.flexible_groups)
+
+    def _load_patterns(self):
+        """The patterns (row, column) of Q_lambda (friction), of Q_q and Q_v,
+        of the diagonal and of the mass matrix, fixed here for every step."""
+        n = self.n
         #: Groups whose loads read lambda (friction): Q(t, q, v, lambda).
         self.multiplier_groups = [g for g in self.force_groups
                                   if getattr(g, "uses_multipliers", False)]

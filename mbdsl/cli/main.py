@@ -20,10 +20,12 @@ import os
 import sys
 from pathlib import Path
 
-from .. import (METHODS, AssemblyError, ConvergenceError, MbdError, __version__, load,
+from .. import (METHODS, AssemblyError, MbdError, __version__, load,
                 render, simulate)
 from ..errors import Diagnostic
-from ..output import HDF5_SUFFIXES, CsvStream, load_solution
+from ..io import HDF5_SUFFIXES, load_solution
+from ..io.csvfile import CsvStream
+from ..io.observers import RunObserver
 
 __all__ = ["main", "build_parser"]
 
@@ -43,7 +45,20 @@ def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="mbdsl", description="Dynamics of planar multibody systems.")
     p.add_argument("--version", action="version", version=f"mbdsl {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
+    _add_simulate(sub)
+    _add_check(sub)
+    _add_static(sub)
+    _add_modes(sub)
+    _add_plot(sub)
+    _add_animate(sub)
+    _add_view(sub)
+    _add_study(sub)
+    _add_sweep(sub)
+    return p
 
+
+def _add_simulate(sub) -> None:
+    """``mbdsl simulate``: run a model and write its time histories."""
     sim = sub.add_parser("simulate", help="simulate a model and write its time histories")
     sim.add_argument("model", help="model file (.mbd)")
     sim.add_argument("-o", "--output", help="output file, CSV or HDF5 by extension (.csv, .h5); "
@@ -64,17 +79,26 @@ def build_parser() -> argparse.ArgumentParser:
                           "(run.csv -> run.html; see mbdsl view)")
     sim.add_argument("-q", "--quiet", action="store_true", help="print no summary, no progress bar")
 
+
+def _add_check(sub) -> None:
+    """``mbdsl check``: every diagnostic of a model file."""
     chk = sub.add_parser("check", help="check a model file and print every diagnostic")
     chk.add_argument("model", help="model file (.mbd)")
     chk.add_argument("--set", action="append", metavar="NAME=VALUE",
                      help="override a model parameter (repeatable)")
 
+
+def _add_static(sub) -> None:
+    """``mbdsl static``: the static equilibrium."""
     sta = sub.add_parser("static", help="find and print the model's static equilibrium "
                          "(as 'initial static' starts a run)")
     sta.add_argument("model", help="model file (.mbd)")
     sta.add_argument("--set", action="append", metavar="NAME=VALUE",
                      help="override a model parameter (repeatable)")
 
+
+def _add_modes(sub) -> None:
+    """``mbdsl modes``: natural frequencies, damping and mode shapes."""
     mod = sub.add_parser("modes", help="linearize the model about a state and print its "
                          "natural frequencies, damping and mode shapes, and what a method "
                          "does to each mode at its step")
@@ -104,6 +128,9 @@ def build_parser() -> argparse.ArgumentParser:
     mod.add_argument("--set", action="append", metavar="NAME=VALUE",
                      help="override a model parameter (repeatable)")
 
+
+def _add_plot(sub) -> None:
+    """``mbdsl plot``: time histories of a result file."""
     plt = sub.add_parser("plot", help="plot time histories of a result file")
     plt.add_argument("result", help="result file written by simulate (.csv, .h5)")
     plt.add_argument("--y", help="comma-separated columns, one panel each "
@@ -114,6 +141,9 @@ def build_parser() -> argparse.ArgumentParser:
     plt.add_argument("-o", "--output", help="figure file, format by extension (.png, .svg, .pdf); "
                      "default: RESULT.png")
 
+
+def _add_animate(sub) -> None:
+    """``mbdsl animate``: the motion as GIF or MP4."""
     ani = sub.add_parser("animate", help="animate a model (simulated first) or a result file")
     ani.add_argument("source", help="model file (.mbd) or result file (.csv, .h5)")
     ani.add_argument("-o", "--output", help="animation file (.gif, or .mp4 with ffmpeg); "
@@ -127,6 +157,9 @@ def build_parser() -> argparse.ArgumentParser:
     _run_options(ani)
     ani.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
 
+
+def _add_view(sub) -> None:
+    """``mbdsl view``: a run as one interactive HTML page."""
     vw = sub.add_parser("view", help="a run as one interactive HTML page (works offline): the "
                         "mechanism animated with a time slider, time plots that zoom and hover")
     vw.add_argument("source", help="result file (.csv, .h5) or model file (.mbd, simulated first)")
@@ -143,6 +176,9 @@ def build_parser() -> argparse.ArgumentParser:
     _run_options(vw)
     vw.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
 
+
+def _add_study(sub) -> None:
+    """``mbdsl study``: the paper's experiments on a model."""
     from ..studies import KINDS
     st = sub.add_parser("study", help="the paper's experiments on a model: convergence, energy, "
                         "drift, cost, work-precision, or all of them; recommend: the cheapest "
@@ -186,6 +222,9 @@ def build_parser() -> argparse.ArgumentParser:
                     help="override a model parameter (repeatable)")
     st.add_argument("-q", "--quiet", action="store_true", help="print no tables, no progress")
 
+
+def _add_sweep(sub) -> None:
+    """``mbdsl sweep``: a model over a grid or random samples of its parameters."""
     sw = sub.add_parser("sweep", help="run a model over a grid or random samples of its "
                         "parameters, on local processes or a Dask cluster, into one table")
     sw.add_argument("model", help="model file (.mbd)")
@@ -212,7 +251,6 @@ def build_parser() -> argparse.ArgumentParser:
     sw.add_argument("-o", "--output", help="the table (.h5; default: MODEL_sweep.h5); an "
                     "existing table of the same sweep is continued, its runs not redone")
     sw.add_argument("-q", "--quiet", action="store_true", help="print no table, no progress")
-    return p
 
 
 def _run_options(p):
@@ -371,7 +409,7 @@ def _static(args) -> int:
     import numpy as np
 
     from .. import assemble, consistent_initial_state
-    from ..solution import derived_columns
+    from ..io.derived import derived_columns
     model = _load(args)
     if model is None:
         return 1
@@ -440,7 +478,7 @@ def _modes(args) -> int:
         if not h:
             print("mbdsl: error: --plot needs a step size (--h or the model's)", file=sys.stderr)
             return 2
-        from ..plotting import plot_mode_damping
+        from ..graphics.plotting import plot_mode_damping
         names = [m.strip() for m in args.methods.split(",")] if args.methods else [name]
         unknown = [m for m in names if m not in METHODS]
         if unknown:
@@ -456,7 +494,7 @@ def _modes(args) -> int:
         print(f"wrote {args.plot}")
     if args.animate:
         from ..modes import mode_motion
-        from ..plotting import animate_solution
+        from ..graphics.plotting import animate_solution
         index = args.mode or len(found.modes)
         try:
             motion = mode_motion(system, found, index)
@@ -472,7 +510,7 @@ def _modes(args) -> int:
     return 0
 
 
-def _run(args, model, writer=None):
+def _run(args, model, observers=()):
     """(solution, exit status) of a model with the run options, or (None, status)."""
     from ..integrators import NewtonOptions
     from ..integrators.kernel_cache import background_allowed
@@ -499,7 +537,7 @@ def _run(args, model, writer=None):
                          enabled=None if not args.quiet else False) as bar:
             sol = simulate(model, method=args.method, h=args.h, t_end=args.t_end,
                            newton=NewtonOptions(jacobian=args.newton), on_failure="return",
-                           progress=bar, writer=writer, alpha=args.alpha, beta=args.beta, gamma=args.gamma,
+                           progress=bar, observers=observers, alpha=args.alpha, beta=args.beta, gamma=args.gamma,
                            b=args.b, rho_inf=args.rho_inf, engine=args.engine, output_every=args.output_every,
                            announce=announce, formulation=getattr(args, "formulation", None),
                            rtol=getattr(args, "rtol", None), atol=getattr(args, "atol", None),
@@ -522,26 +560,19 @@ def _run(args, model, writer=None):
     return sol, status
 
 
-class _StdoutColumns:
+class _StdoutColumns(RunObserver):
     """``simulate -o - --columns``: the table goes to standard output once
     the run ends; its columns are checked before the run starts, as a file's
-    are (``output.RowStream.begin``), so that a wrong pattern costs no run."""
-
-    releases_rows, elapsed = False, 0.0
+    are (``io.stream.RowStream.on_start``), so that a wrong pattern costs no run."""
 
     def __init__(self, patterns):
         self.patterns, self.names = patterns, None
 
-    def begin(self, sol):
-        """Choose the columns (``output.select_columns``); ValueError for a pattern matching none."""
-        from ..output import select_columns
+    def on_start(self, sol):
+        """Choose the columns (``io.metadata.select_columns``); ValueError for a
+        pattern matching none."""
+        from ..io.metadata import select_columns
         self.names = select_columns(sol.columns, self.patterns)
-
-    def append(self, sol):
-        """Nothing is written during the run."""
-
-    def finish(self, sol):
-        """Nothing to close: the caller writes the finished Solution."""
 
     def close_unused(self):
         """No file was opened."""
@@ -565,13 +596,13 @@ def _simulate(args) -> int:
         elif out.suffix.lower() not in HDF5_SUFFIXES:
             writer = CsvStream(out, columns=columns)
         else:
-            from ..hdf5 import HdfStream
+            from ..io.hdf5 import HdfStream
             writer = HdfStream(out, columns=columns)
     except OSError as exc:
         _write_error(out, exc)
         return 1
     try:
-        sol, status = _run(args, model, writer)
+        sol, status = _run(args, model, () if writer is None else (writer,))
     except OSError as exc:
         _write_error(out, exc)
         return 1
@@ -580,7 +611,7 @@ def _simulate(args) -> int:
             writer.close_unused()
         return status
     if to_stdout:
-        from ..output import write_csv
+        from ..io.csvfile import write_csv
         write_csv(sol, sys.stdout, columns=columns)
         sys.stdout.flush()
     if sol.initial is not None and sol.initial.warnings:
@@ -600,7 +631,7 @@ def _simulate(args) -> int:
         print(f"wrote {'standard output' if to_stdout else out} ({len(sol.t)} rows, "
               f"{len(written)} columns)", file=report)
     if args.plot:
-        from ..plotting import plot_solution
+        from ..graphics.plotting import plot_solution
         fig_path = out.with_suffix(".png")
         try:
             plot_solution(sol, path=fig_path)
@@ -649,7 +680,7 @@ MAX_PLOT_COLUMNS = 12
 
 
 def _plot(args) -> int:
-    from ..plotting import plot_solution
+    from ..graphics.plotting import plot_solution
     sol = _read_result(args.result)
     if sol is None:
         return 1
@@ -705,7 +736,7 @@ def _source_run(args):
 
 
 def _animate(args) -> int:
-    from ..plotting import animate_solution
+    from ..graphics.plotting import animate_solution
     src = Path(args.source)
     sol, status = _source_run(args)
     if sol is None:
@@ -736,7 +767,7 @@ def _view(args) -> int:
 
 def _write_page(sol, out, args) -> int:
     """Write the run's HTML page (``viewer.write_html``); 0, or 1 after saying why not."""
-    from ..viewer import MAX_FRAMES, write_html
+    from ..graphics.viewer import MAX_FRAMES, write_html
 
     def listed(text):
         """Comma-separated names as a list, or None."""
@@ -853,7 +884,7 @@ def _study(args) -> int:
 
 def _sweep(args) -> int:
     """``mbdsl sweep``: the runs, the table, a summary of it."""
-    from ..hdf5 import read_sweep
+    from ..io.hdf5 import read_sweep
     from ..progress import TaskBar
     from ..studies.sweep import parse_distribution, parse_values, run_sweep, sweep_points
     try:

@@ -5,7 +5,7 @@ t1,t2,...``, ``output_dt`` in the simulate block, ``t_eval`` in
 :func:`mbdsl.simulate`) a run records a row at exactly each requested time,
 whatever steps it takes. The time loop records every accepted step into its
 buffers as usual; :class:`DenseOutput` stands between those buffers and the
-:class:`~mbdsl.solution.Solution`, holds the last step, and turns each
+:class:`~mbdsl.io.Solution`, holds the last step, and turns each
 block of steps into the rows at the requested times they cover. Memory is
 one step plus the rows asked for, whatever the number of steps.
 

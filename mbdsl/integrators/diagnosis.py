@@ -7,7 +7,7 @@ order: the rows of a singular (or nearly singular) position of the linkage,
 named from the Newton matrix's or Phi_q's smallest singular vector; an element
 too stiff for the step (a spring's period or a contact's duration below four
 steps); a body with nothing to resist its motion. The time loop
-(``loop.PythonStepper.diagnose``) calls :func:`fail` and :func:`fail_tolerance`;
+(``python_stepper.PythonStepper.diagnose``) calls :func:`fail` and :func:`fail_tolerance`;
 ``loop.TimeLoop`` calls :func:`fail_unstable`.
 """
 
@@ -216,21 +216,9 @@ def fail(sol, method, ctx, res, t, step, h):
     smallest singular vector), an element too stiff for the step
     (:func:`_stiff_elements`), or a free motion; ``res`` the Newton result,
     ``step`` the last size tried [s], ``h`` the size it was halved from [s]."""
-    from ..assembly.structure import involved_names
     system = ctx.system
-    detail = ""
-    span = None
+    detail, span = _worst_residual(system, method, ctx, res)
     hint = _HINTS.get(res.status, "")
-    try:
-        with np.errstate(all="ignore"):
-            state = method.accept(res.w, ctx)
-            phi = system.Phi(state.q, ctx.t)
-        if np.all(np.isfinite(phi)) and system.m:
-            name, value = system.layout.worst_element(phi)
-            detail = f"; the largest constraint residual is at '{name}' ({value:.3g})"
-            span = system.layout.span_of(name)
-    except (FloatingPointError, ValueError, ZeroDivisionError, np.linalg.LinAlgError):
-        pass
     try:
         with np.errstate(all="ignore"):        # at the last accepted state: finite, meaningful
             svd = _null_vector(method, ctx, method.predict(ctx))
@@ -243,83 +231,130 @@ def fail(sol, method, ctx, res, t, step, h):
     if res.status in (NewtonStatus.DIVERGING, NewtonStatus.MAX_ITER):
         last = ctx.history[-1] if ctx.history else None
         stiff = _stiff_elements(system, step, getattr(last, "v", None), last)
-    explained = False
+    found = None
     if res.status is NewtonStatus.SINGULAR or near_singular:
-        null = svd[1] if svd is not None else None
-        coords, elements = involved_names(system, method, null) if null is not None else ([], [])
-        if elements:
-            if near_singular and res.status is not NewtonStatus.SINGULAR:
-                detail += f"; the Newton matrix is nearly singular (s_min/s_max = {svd[0]:.1e})"
-            detail += ("; the singular direction involves the rows of "
-                       + ", ".join(f"'{e}'" for e in elements)
-                       + (" and the coordinates " + ", ".join(coords) if coords else ""))
-            span = system.layout.span_of(elements[0]) or span
-            hint = (f"the equations of {', '.join(repr(e) for e in elements)} become "
-                    "dependent here: a singular (dead-centre or locked) position of the "
-                    "linkage, e.g. a crank and rod in line; "
-                    + ("--formulation augmented goes through such positions, or "
-                       if method.accepts_augmented and method.formulation == "lagrange"
-                       else "")
-                    + "start elsewhere, drive past it with a motion, or check the joint "
-                    "geometry")
-            explained = True
-        elif coords and not stiff:
-            # a stiff element also makes the matrix nearly singular (k h^2
-            # against a small inertia): then the stiffness is the cause
-            if near_singular and res.status is not NewtonStatus.SINGULAR:
-                detail += f"; the Newton matrix is nearly singular (s_min/s_max = {svd[0]:.1e})"
-            detail += "; the singular direction involves " + ", ".join(coords)
-            hint = ("no joint holds these coordinates: a body with no mass or inertia in "
-                    "that direction, or a free motion with nothing to resist it")
-            explained = True
-    if not explained and not stiff and res.status in (NewtonStatus.DIVERGING,
+        found = _singular_direction(system, method, res, svd, near_singular, bool(stiff))
+    if found is None and not stiff and res.status in (NewtonStatus.DIVERGING,
                                                       NewtonStatus.MAX_ITER):
-        near = _near_singular_rows(system, ctx)
-        if near is not None:
-            ratio, elements = near
-            detail += (f"; Phi_q is nearly rank-deficient at the last accepted state "
-                       f"(s_min/s_max = {ratio:.1e}) in the rows of "
-                       + ", ".join(f"'{e}'" for e in elements))
-            span = system.layout.span_of(elements[0]) or span
-            hint = (f"the mechanism is close to a singular position, where the equations of "
-                    f"{', '.join(repr(e) for e in elements)} become dependent: a smaller step "
-                    "does not help there; "
-                    + ("--formulation augmented goes through such positions, or "
-                       if method.accepts_augmented and method.formulation == "lagrange" else "")
-                    + "start elsewhere, drive past it with a motion, or check the joint geometry")
-            explained = True
-    if stiff and not explained:
-        name, time, what = stiff[0]
-        alpha = getattr(method, "alpha", None)
-        rho_inf = getattr(method, "rho_inf", None)
-        if what == "contact duration":
-            detail += (f"; contact '{name}' lasts about {time:.2g} s an impact, "
-                       f"shorter than four steps of h = {step:.2g} s")
-            hint = (f"'{name}' is too stiff for the step: use error control (--rtol), which "
-                    f"lands on the contact and steps through it, a step below {time / 4:.2g} s, "
-                    "or a softer contact (smaller k)")
-        else:
-            if alpha is not None and alpha <= -0.3 + 1e-9:      # that advice is followed
-                remedy = ("use a smaller h (alpha is already -0.3, the most damping HHT "
-                          "allows), or nstiff / nstiff-si2, which damp such a mode more")
-            elif rho_inf is not None and rho_inf <= 1e-12:
-                remedy = ("use a smaller h (rho_inf is already 0: such a mode is removed in "
-                          "one step where the step resolves nothing of it)")
-            else:
-                remedy = ("use a smaller h, or a method with numerical damping "
-                          "(hht-i3/hht-si2 with alpha = -0.3, genalpha/genalpha-si2 with "
-                          "rho_inf = 0)")
-            hint = (f"'{name}' oscillates with a period of about {time:.2g} s, "
-                    f"shorter than the step can follow (h = {step:.2g} s): {remedy}")
-        span = next((f.span for f in system.model.forces if f.name == name), None) or span
-    k = len(res.norms)
-    if k == 0:
-        norms = "no Newton iteration"
-    elif k <= 2:
-        norms = "Newton norms " + ", ".join(f"{x:.2g}" for x in res.norms)
-    else:            # where it started and where it ended: the trend is what helps
-        norms = f"Newton norm {res.norms[0]:.2g} -> {res.norms[-1]:.2g} in {k} iterations"
+        found = _near_singular_rows_explained(system, method, ctx)
+    if found is None and stiff:
+        found = _too_stiff(system, method, stiff, step)
+    if found is not None:
+        more, where, hint = found
+        detail += more
+        span = where or span
     msg = (f"the step from t = {t:.6g} s could not converge with {method.describe()} "
            f"(h = {step:.3g} s after halving from {h:.3g} s): {res.status.value}; "
-           f"{norms}{detail}")
+           f"{_norms_text(res.norms)}{detail}")
     _stop(sol, "E601", msg, hint, span, "involved here" if span else "")
+
+
+def _worst_residual(system, method, ctx, res) -> tuple:
+    """(text, span) of the largest constraint residual at Newton's last
+    iterate, or ("", None) where it cannot be evaluated."""
+    try:
+        with np.errstate(all="ignore"):
+            state = method.accept(res.w, ctx)
+            phi = system.Phi(state.q, ctx.t)
+        if np.all(np.isfinite(phi)) and system.m:
+            name, value = system.layout.worst_element(phi)
+            return (f"; the largest constraint residual is at '{name}' ({value:.3g})",
+                    system.layout.span_of(name))
+    except (FloatingPointError, ValueError, ZeroDivisionError, np.linalg.LinAlgError):
+        pass
+    return "", None
+
+
+def _augmented_advice(method) -> str:
+    """The augmented formulation as a way through a singular position, where
+    the method takes it and runs without it."""
+    return ("--formulation augmented goes through such positions, or "
+            if method.accepts_augmented and method.formulation == "lagrange" else "")
+
+
+def _singular_direction(system, method, res, svd, near_singular, stiff) -> tuple | None:
+    """(text, span, hint) from the Newton matrix's singular direction: the
+    rows of dependent joints (a singular position), or coordinates no joint
+    holds (a free motion; unless an element is too stiff, the likelier
+    cause); None when it names neither."""
+    from ..assembly.structure import involved_names
+    null = svd[1] if svd is not None else None
+    coords, elements = involved_names(system, method, null) if null is not None else ([], [])
+    nearly = (f"; the Newton matrix is nearly singular (s_min/s_max = {svd[0]:.1e})"
+              if near_singular and res.status is not NewtonStatus.SINGULAR else "")
+    if elements:
+        detail = nearly + ("; the singular direction involves the rows of "
+                           + ", ".join(f"'{e}'" for e in elements)
+                           + (" and the coordinates " + ", ".join(coords) if coords else ""))
+        hint = (f"the equations of {', '.join(repr(e) for e in elements)} become "
+                "dependent here: a singular (dead-centre or locked) position of the "
+                "linkage, e.g. a crank and rod in line; " + _augmented_advice(method)
+                + "start elsewhere, drive past it with a motion, or check the joint "
+                "geometry")
+        return detail, system.layout.span_of(elements[0]), hint
+    if coords and not stiff:
+        # a stiff element also makes the matrix nearly singular (k h^2
+        # against a small inertia): then the stiffness is the cause
+        return (nearly + "; the singular direction involves " + ", ".join(coords), None,
+                "no joint holds these coordinates: a body with no mass or inertia in "
+                "that direction, or a free motion with nothing to resist it")
+    return None
+
+
+def _near_singular_rows_explained(system, method, ctx) -> tuple | None:
+    """(text, span, hint) when Phi_q is nearly rank-deficient at the last
+    accepted state (:func:`_near_singular_rows`), else None."""
+    near = _near_singular_rows(system, ctx)
+    if near is None:
+        return None
+    ratio, elements = near
+    detail = (f"; Phi_q is nearly rank-deficient at the last accepted state "
+              f"(s_min/s_max = {ratio:.1e}) in the rows of "
+              + ", ".join(f"'{e}'" for e in elements))
+    hint = (f"the mechanism is close to a singular position, where the equations of "
+            f"{', '.join(repr(e) for e in elements)} become dependent: a smaller step "
+            "does not help there; " + _augmented_advice(method)
+            + "start elsewhere, drive past it with a motion, or check the joint geometry")
+    return detail, system.layout.span_of(elements[0]), hint
+
+
+def _too_stiff(system, method, stiff, step) -> tuple:
+    """(text, span, hint) for the stiffest element (:func:`_stiff_elements`):
+    a contact shorter than four steps, or a period the step cannot follow,
+    with the remedy the method has left."""
+    name, time, what = stiff[0]
+    alpha = getattr(method, "alpha", None)
+    rho_inf = getattr(method, "rho_inf", None)
+    detail = ""
+    if what == "contact duration":
+        detail = (f"; contact '{name}' lasts about {time:.2g} s an impact, "
+                  f"shorter than four steps of h = {step:.2g} s")
+        hint = (f"'{name}' is too stiff for the step: use error control (--rtol), which "
+                f"lands on the contact and steps through it, a step below {time / 4:.2g} s, "
+                "or a softer contact (smaller k)")
+    else:
+        if alpha is not None and alpha <= -0.3 + 1e-9:      # that advice is followed
+            remedy = ("use a smaller h (alpha is already -0.3, the most damping HHT "
+                      "allows), or nstiff / nstiff-si2, which damp such a mode more")
+        elif rho_inf is not None and rho_inf <= 1e-12:
+            remedy = ("use a smaller h (rho_inf is already 0: such a mode is removed in "
+                      "one step where the step resolves nothing of it)")
+        else:
+            remedy = ("use a smaller h, or a method with numerical damping "
+                      "(hht-i3/hht-si2 with alpha = -0.3, genalpha/genalpha-si2 with "
+                      "rho_inf = 0)")
+        hint = (f"'{name}' oscillates with a period of about {time:.2g} s, "
+                f"shorter than the step can follow (h = {step:.2g} s): {remedy}")
+    span = next((f.span for f in system.model.forces if f.name == name), None)
+    return detail, span, hint
+
+
+def _norms_text(norms) -> str:
+    """Newton's residual norms as a user reads them: where they started and
+    where they ended (the trend is what helps)."""
+    k = len(norms)
+    if k == 0:
+        return "no Newton iteration"
+    if k <= 2:
+        return "Newton norms " + ", ".join(f"{x:.2g}" for x in norms)
+    return f"Newton norm {norms[0]:.2g} -> {norms[-1]:.2g} in {k} iterations"

@@ -5,7 +5,7 @@ consistent initial conditions when none are given, builds the run's steppers
 and runs the one time loop (:class:`~mbdsl.integrators.loop.TimeLoop`: the
 step-size policy when Newton does not converge, events, switches, the output
 stride, Ctrl-C, the fallback and the failure's report in the model's words),
-with BLAS on one thread; the :class:`~mbdsl.solution.Solution` keeps every
+with BLAS on one thread; the :class:`~mbdsl.io.Solution` keeps every
 accepted step whatever ends the run.
 """
 
@@ -19,14 +19,16 @@ import numpy as np
 
 from ..assembly.initial import InitialState, consistent_initial_state
 from ..errors import ConvergenceError
-from ..solution import Solution, StepStats
+from ..io.solution import Solution
+from ..io.rows import StepStats
 from .adaptive import StepControl
 from .base import Method
 from .blas_threads import one_thread
 from .dense import DenseOutput
 from .dense import output_times as dense_times
 from .events import EventLocator, switch_times, time_switches
-from .loop import LoopState, PythonStepper, StepSizes, TimeLoop, sparse_newton
+from .loop import LoopState, StepSizes, TimeLoop, sparse_newton
+from .python_stepper import PythonStepper
 from .newton import Newton, NewtonOptions
 
 __all__ = ["integrate"]
@@ -36,7 +38,7 @@ __all__ = ["integrate"]
 def integrate(system, method: Method, t_end: float, h: float, *, t_start: float = 0.0,
               initial: InitialState | None = None, newton: NewtonOptions | None = None,
               on_failure: str = "raise", max_halvings: int = 6, grow_after: int = 4,
-              progress=None, writer=None, output_every: int = 1,
+              progress=None, observers=(), output_every: int = 1,
               engine: str = "auto", announce=None, compile_policy: str = "wait",
               control: StepControl | None = None, python_loop: bool = False,
               setup_time: float = 0.0, output_times=None) -> Solution:
@@ -72,11 +74,12 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
         iterations per step since it was last told, when the rows go out of
         the loop's buffers (full buffers, every ``loop.FLUSH_INTERVAL`` s of
         wall time, a switch, the end).
-    writer : object with ``append(solution)`` and ``finish(solution)``, optional
-        Streams accepted steps to a file as the run goes
-        (:class:`mbdsl.output.CsvStream`); ``finish`` runs on every exit,
-        including Ctrl-C and an unexpected exception, so no step is lost.
-        Called when progress is told.
+    observers : sequence of RunObserver, optional
+        Told of the run as it goes (:mod:`mbdsl.io.observers`: ``on_start``,
+        ``on_rows`` when progress is told, ``on_event``, ``on_end``), e.g.
+        :class:`mbdsl.io.CsvStream`, which streams the rows to a file;
+        ``on_end`` runs on every exit, including Ctrl-C and an unexpected
+        exception, so no step is lost.
     output_every : int
         Record every K-th step (and the last one), so that a long run of a
         large model does not hold every step in memory; a recorded row's
@@ -155,7 +158,7 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
                 if engine in ("auto", "auto_numpy") and which == "numpy" else None)
         sizes = StepSizes.of_run(method, h, t_start, t_end, control, max_halvings, grow_after)
         sol = _run(system, method, t_start, t_end, h, initial, steppers, control, (which, note),
-                   sizes, output_every, progress, writer, timings, output_times)
+                   sizes, output_every, progress, tuple(observers), timings, output_times)
         return _result(sol, on_failure)
 
 
@@ -239,7 +242,7 @@ def _steppers(system, method, initial, solver, which, control, python_loop, anno
 
 
 def _run(system, method, t_start, t_end, h, initial, steppers, control, engine, sizes,
-         output_every, progress, writer, timings, output_times=None):
+         output_every, progress, observers, timings, output_times=None):
     """Run the time loop (``loop.TimeLoop``) on ``steppers`` (the stepper,
     its fallback, the linear solver's name); returns the Solution, whatever
     ended the run."""
@@ -259,16 +262,16 @@ def _run(system, method, t_start, t_end, h, initial, steppers, control, engine, 
     events = EventLocator(system, h, sol) if EventLocator.found_by_steps(system) else None
     run = TimeLoop(system, method, sol, ls, primary, fallback, t_start, t_end, h, control,
                    sizes, output_every, events, sink)
-    if hasattr(writer, "begin"):       # the file's head, its columns checked, before any step
-        writer.begin(sol)
+    for observer in observers:  # a file's head, its columns checked, before any step
+        observer.on_start(sol)
     timings["setup"] += _time.perf_counter() - t0
     loop_start = _time.perf_counter()
     try:
-        run.run(switches, progress, writer)
+        run.run(switches, progress, observers)
     except KeyboardInterrupt:
         _interrupted(sol)
     finally:
-        _finish(sol, writer, loop_start, getattr(sink, "elapsed", 0.0) if sink else 0.0)
+        _finish(sol, observers, loop_start, getattr(sink, "elapsed", 0.0) if sink else 0.0)
         if sink is not None:
             sol.timings["output"] += sink.elapsed
     return sol
@@ -282,26 +285,28 @@ def _interrupted(sol):
                    "is kept")
 
 
-def _finish(sol, writer, loop_start, resampling=0.0):
-    """Stack the recorded rows and close the stream: on every exit of a run.
+def _finish(sol, observers, loop_start, resampling=0.0):
+    """Stack the recorded rows and tell the observers the run ended (a
+    stream closes its file): on every exit of a run.
 
     ``sol.timings["integration"]`` is the time since the loop started less
-    the writer's time during it (``writer.elapsed``), which goes to
-    ``"output"`` with the writer's final flush, as does ``resampling`` [s]
+    the observers' time during it (``elapsed``), which goes to
+    ``"output"`` with their final calls, as does ``resampling`` [s]
     (the rows at requested times, ``dense.DenseOutput``); ``sol.wall_time``
     is the integration time.
     """
     clock = _time.perf_counter
-    written = getattr(writer, "elapsed", 0.0) + resampling
+    written = sum(o.elapsed for o in observers) + resampling
     sol.timings["integration"] = clock() - loop_start - written
     sol.wall_time = sol.timings["integration"]
     t0 = clock()
-    if not getattr(writer, "releases_rows", False):   # else the rows are read from its file
+    if not any(o.releases_rows for o in observers):   # else the rows are read from its file
         sol.finalize()          # stacking the rows, and the method's output multipliers
     stacking = clock() - t0
-    if writer is not None:
-        writer.finish(sol)
-        sol.timings["output"] = getattr(writer, "elapsed", 0.0)
+    for observer in observers:
+        observer.on_end(sol)
+    if observers:
+        sol.timings["output"] = sum(o.elapsed for o in observers)
     sol.timings["output"] += stacking
 
 

@@ -17,7 +17,7 @@ events and switches, halves failed steps and lets Ctrl-C through:
   scipy.sparse.csgraph) makes the Newton matrix narrow-banded (chains,
   linkages built link by link), the same compiled loop with LAPACK's band
   LU (dgbtrf/dgbtrs, called from the kernels);
-* otherwise, the Python Newton iteration (``loop.PythonStepper``,
+* otherwise, the Python Newton iteration (``python_stepper.PythonStepper``,
   :mod:`.newton`) on compiled residuals and Newton matrices assembled on a
   CSC pattern fixed at the start (:class:`SparseAdapter`), with SuperLU.
 
@@ -728,7 +728,7 @@ class KernelStepper:
 class SparseAdapter:
     """A recipe method whose residual, Newton matrix, scales and force term
     are evaluated by the kernels; everything else is the wrapped method's:
-    the Python stepper (``loop.PythonStepper``) on the compiled evaluation
+    the Python stepper (``python_stepper.PythonStepper``) on the compiled evaluation
     (large models, for SuperLU; the compiled loop's fallback; a recipe the
     compiled loop cannot evaluate at a step size). The Newton matrix is a
     CSC matrix on a pattern fixed at the first evaluation (values refilled

@@ -173,11 +173,16 @@ def warm_up(groups=GROUPS, output: bool = True) -> None:
     Every method shares every signature (the method is a recipe array,
     ``recipe.py``), so one of them loads what all use.
     """
-    from .. import assemble, load_text
-    from . import HHTI3, GenAlpha, NewtonOptions, integrate
+    from ..assembly.system import assemble
+    from ..dsl.check import check_spec
+    from ..dsl.parser import parse_text
+    from .driver import integrate
+    from .genalpha import GenAlpha
+    from .hht_i3 import HHTI3
+    from .newton import NewtonOptions
     from .adaptive import StepControl
     from .compiled import lapack_band_addresses
-    system = assemble(load_text(_PENDULUM, file="<kernel warm-up>"))
+    system = assemble(check_spec(parse_text(_PENDULUM, file="<kernel warm-up>")))
     groups = [g for g in groups if g != "banded" or lapack_band_addresses() is not None]
     _loaded.update(groups)                  # integrate: no warm-up again
     for solver in groups:

@@ -6,8 +6,8 @@ restarts on the new branch past each), the step-size policy when Newton does
 not converge (:class:`StepSizes`: halving, the augmented formulation's jump,
 regrowth), landing a step on an event (contacts, joint limits, springs whose
 points pass; ``events.EventLocator``), the output stride and the buffers the
-rows go through to the :class:`~mbdsl.solution.Solution`, the progress callback
-and the writer, Ctrl-C, handing a step a stepper cannot take to the fallback,
+rows go through to the :class:`~mbdsl.io.Solution`, the progress callback
+and the run's observers (:mod:`mbdsl.io.observers`: the result streams), Ctrl-C, handing a step a stepper cannot take to the fallback,
 and the failure's report in the model's words.
 
 A stepper takes steps: ``advance(loop, mode, h, limit) -> (status, steps)``
@@ -36,16 +36,12 @@ import time as _time
 
 import numpy as np
 
-from .adaptive import index1_acceleration
-from .common import EPS
-from .newton import ROUNDOFF_ULPS
 from .base import StepState
-from .diagnosis import fail, fail_chatter, fail_stalled, fail_tolerance, fail_unstable
+from .diagnosis import fail_chatter, fail_stalled, fail_unstable
 from .events import restart_after_switch, switch_gap
 from .outcomes import ATTEMPT, CONVERGED, EVENT, LAND, REJECTED, RUN, TOLERANCE
 
-__all__ = ["TimeLoop", "LoopState", "PythonStepper", "StepSizes", "CHUNK", "FLUSH_INTERVAL",
-           "sparse_newton", "constraints_at_roundoff"]
+__all__ = ["TimeLoop", "LoopState", "StepSizes", "CHUNK", "FLUSH_INTERVAL", "sparse_newton"]
 
 #: Rows the loop's output buffers hold, and the steps a stepper takes in one call at
 #: most: it returns when either is reached. Ctrl-C and the progress callback are seen
@@ -64,7 +60,7 @@ CHUNK = 2000
 STALL_STEPS = 200_000
 STALL_FRACTION = 1e-6
 STALL_REJECTED = 0.1
-#: The buffered rows go to the Solution, the progress callback and the writer when
+#: The buffered rows go to the Solution, the progress callback and the observers when
 #: the buffers are full, at a boundary of the run (an event landed, a hand-over, a
 #: switch, the end, Ctrl-C), or when this much wall time [s] has passed since they
 #: last went: a run whose steps fail often returns to the loop at every failure (it
@@ -72,7 +68,7 @@ STALL_REJECTED = 0.1
 #: the kernel's step. A Python stepper's call ends after as long.
 FLUSH_INTERVAL = 0.2
 #: ... or when the Solution holds this many rows more than when they last went: a
-#: writer that streams the rows to its file (``output.RowStream``) keeps the rows held
+#: stream that writes the rows to its file (``io.stream.RowStream``) keeps the rows held
 #: in memory bounded on a machine of any speed, not only within FLUSH_INTERVAL's
 #: worth of steps.
 FLUSH_ROWS = 1 << 14
@@ -396,7 +392,8 @@ class TimeLoop:
         self.trial = np.empty((2, system.n))     # the end of a step that crossed an event
         self.step_no, self.t = 0, t_start
         self.seg_end = t_end         # the stepper runs to the end of the stretch
-        self.progress = self.writer = None
+        self.progress, self.observers = None, ()
+        self.told_rows, self.told_events = 0, 0   # rows and events the observers were told of
         self.told = (0, 0)           # steps and iterations the progress callback was told of
         self.landed_now = False      # the last call of step_on landed on an event
         # a method's own stability limit (HHT-ADD on flexible beams): looked
@@ -409,13 +406,14 @@ class TimeLoop:
             events.start(t_start, ls.start)
             stepper.events_changed(self)
 
-    def run(self, switches, progress, writer):
+    def run(self, switches, progress, observers=()):
         """From switch to switch to t_end, landing events and handing steps
         the stepper cannot take to the fallback; returns the Solution."""
         sol, ls, state = self.sol, self.ls, self.state
         span = self.t_end - self.t_start
         segments = _segments(self.t_start, self.t_end, self.h, switches)
-        self.progress, self.writer = progress, writer
+        self.progress, self.observers = progress, tuple(observers)
+        self.told_rows, self.told_events = sol.n_rows, len(sol.events)
         clock = _time.perf_counter
         flushed, rows_then = clock(), sol.n_rows
         try:
@@ -469,7 +467,8 @@ class TimeLoop:
     def flush(self):
         """The buffered rows to the Solution, then the progress callback (the
         mean Newton iterations per step since it was last told) and the
-        writer."""
+        observers: the rows recorded and the events logged since they were
+        last told (``on_rows``, ``on_event``)."""
         sol = self.sol
         self.ls.flush(self.sink)
         if self.progress is not None:
@@ -479,8 +478,15 @@ class TimeLoop:
                 self.told = (tot.steps, tot.iterations)
                 h_last = float(self.state[3]) or float(self.state[1])  # 0: after a restart
                 self.progress(self.t, h_last, round(iterations / steps))
-        if self.writer is not None:
-            self.writer.append(sol)
+        if self.observers and sol.n_rows > self.told_rows:
+            start, self.told_rows = self.told_rows, sol.n_rows
+            for observer in self.observers:
+                observer.on_rows(sol, start, sol.n_rows)
+        if self.observers and len(sol.events) > self.told_events:
+            new, self.told_events = sol.events[self.told_events:], len(sol.events)
+            for event in new:
+                for observer in self.observers:
+                    observer.on_event(sol, event)
 
     def step_on(self):
         """One call of the stepper from t, at the step the policy has (with
@@ -718,273 +724,3 @@ class TimeLoop:
                 h_next = min(h_next, RESTART_FRACTION * events.changed_limit)
         state[1] = h_next
         return status
-
-
-def constraints_at_roundoff(system, t: float, q: np.ndarray, v: np.ndarray,
-                            velocity: bool) -> bool:
-    """Whether the state meets its position constraints (and, with
-    ``velocity``, its velocity constraints) to within ``newton.ROUNDOFF_ULPS``
-    ulps of their terms, |Phi| <= ULPS eps (1 + |q|_max) and |Phi_q v + Phi_t|
-    <= that times (1 + |v|_max): what floating point can represent, so that a
-    Newton iteration stagnating there has converged (newton.py).
-
-    Parameters
-    ----------
-    system : AssembledSystem
-    t : float [s]
-    q, v : ndarray, shape (n,) [m, rad; m/s, rad/s]
-    velocity : bool
-        Test Phi_q v + Phi_t too (the stabilized index-2 methods' rows).
-
-    Returns
-    -------
-    bool
-    """
-    if system.m == 0:
-        return True
-    scale = ROUNDOFF_ULPS * EPS * (1.0 + float(np.max(np.abs(q), initial=0.0)))
-    if np.max(np.abs(system.Phi(q, t))) > scale:
-        return False
-    if not velocity:
-        return True
-    nu = system.Phiq_times(q, t, v) + system.Phi_t(q, t)
-    return bool(np.max(np.abs(nu)) <= scale * (1.0 + float(np.max(np.abs(v), initial=0.0))))
-
-
-class PythonStepper:
-    """Steps taken by the Python Newton iteration (``newton.Newton``: dense LU,
-    or SuperLU above ``DENSE_LIMIT`` unknowns or when asked) on a method's
-    residual and Newton matrix: the method's own (the numpy engine), or the
-    kernels' (``engine.SparseAdapter``). The stepper contract of
-    :class:`TimeLoop` (:mod:`.outcomes`); the steps of the compiled loop,
-    ``integrators.compiled.loop._run``, in Python, with the method's own error estimate
-    (``Method.local_error``) and its carried state (the StepStates of its
-    history, with the force terms it caches).
-
-    Parameters
-    ----------
-    system : AssembledSystem
-    method : Method or SparseAdapter
-    newton : Newton
-    control : StepControl or None
-    initial : InitialState or None
-        The run's start, for the first step (None: a fallback, which starts
-        from the loop's state at each hand-over).
-    """
-
-    def __init__(self, system, method, newton, control, initial):
-        from ..assembly.sparse import JacobianAssembler
-        self.system, self.method, self.newton, self.control = system, method, newton, control
-        blocks = method.blocks(system)
-        self.kinds = np.concatenate([np.full(b.size, b.kind == "multiplier") for b in blocks])
-        # Newton's round-off test on the residual (newton.py): the saddle-point forms, their
-        # Phi_q v + Phi_t rows too at index 2 (a second block of multipliers)
-        self.roundoff_rows = (None if not method.saddle_point_rows
-                              else int(self.kinds.sum()) == 2 * system.m)
-        self.assembler = JacobianAssembler(len(self.kinds),
-                                           sparse=sparse_newton(newton.options, len(self.kinds)))
-        self.history = None
-        if initial is not None:
-            self.history = method.start(system, initial)
-            previous = initial.method_state.get("previous")
-            if previous is not None and method.history_length > 1:   # resuming a two-step method
-                self.history = [previous] + self.history
-        self.failure = None          # (ctx, NewtonResult, t, step) or (None, err, t, step)
-        self.crossing = None         # (t, step, ctx, NewtonResult, StepState): EVENT's step
-
-    @property
-    def linear_solver(self) -> str:
-        """"sparse" (SuperLU) or "dense" (LAPACK's LU through scipy)."""
-        return "sparse" if self.assembler.sparse else "dense"
-
-    def resync(self):
-        """The loop's state was changed by another (the compiled loop's steps,
-        a restart at a switch): start the next step from it, with a new
-        Newton matrix."""
-        self.history = self.crossing = None
-        self.newton.invalidate()
-
-    def events_changed(self, loop):
-        """The contacts changed state (their law reads it from the system's
-        contact group, which the kernels' copy follows in ``SparseAdapter``)."""
-
-    def forget_crossing(self):
-        """The step that crossed an event is not to be landed on as it was
-        solved (a spring's direction is held for the landing)."""
-        self.crossing = None
-
-    def newton_failed(self, loop):
-        """Newton did not converge on a fixed step (nothing to change here)."""
-
-    def _from_loop(self, loop):
-        """The history the method steps from: the loop's accepted state as a
-        start of the method (its cached terms evaluated there), with its
-        extra multipliers and auxiliary acceleration, and for a two-step
-        method the state one step before (its a and lambda NaN: BDF2 reads
-        q and v) when the last step was a step (state[3] > 0)."""
-        from ..assembly.initial import InitialState
-        ls, system, t = loop.ls, self.system, loop.t
-        start = InitialState(t, ls.q.copy(), ls.v.copy(), ls.a.copy(), ls.lam.copy(),
-                             float(np.max(np.abs(system.Phi(ls.q, t)), initial=0.0)), 0.0,
-                             float("nan"),
-                             method_state={"aux": ls.b.copy()} if ls.carries_aux else {})
-        s = self.method.start(system, start)[-1]
-        if ls.extra is not None:
-            s.extra[ls.extra] = ls.mu.copy()
-        h_last = float(loop.state[3])
-        if h_last > 0.0 and self.method.history_length > 1:
-            previous = StepState(t - h_last, ls.q_prev.copy(), ls.v_prev.copy(),
-                                 np.full_like(ls.a, np.nan), np.full_like(ls.lam, np.nan))
-            return [previous, s]
-        return [s]
-
-    def advance(self, loop, mode, h, limit):
-        """Steps from the loop's state (the contract of :class:`TimeLoop`,
-        ``integrators.compiled.loop._run``'s in Python); returns (status, steps taken)."""
-        system, method, ls, state = self.system, self.method, loop.ls, loop.state
-        if self.history is None:
-            self.history = self._from_loop(loop)
-        control, fixed = self.control, loop.fixed
-        h_min, h_max = loop.ctl[5], loop.ctl[6]
-        t0, t_end = loop.t, loop.seg_end
-        span = t_end - t0
-        events = loop.events if mode != LAND else None
-        augmented = method.formulation == "augmented"
-        after_rejection = state[6] != 0.0
-        from .engine import _kernels
-        K = _kernels(uncompiled=system.kernel_model().uncompiled)
-        step_end, step_ratio = K.step_end, K.step_ratio    # the compiled loop's rules (compiled/loop.py)
-        # an index-3 method's error estimate on its index-1 accelerations (as compiled)
-        index1 = (not fixed and control.index1 and method.index == 3
-                  and 0 < system.m <= K.INDEX1_LIMIT and not system.multiplier_groups)
-        clock = _time.perf_counter
-        started = clock()
-        t, taken = t0, 0
-        # the step that crossed an event, converged: LAND of that very step takes it as it is
-        crossing, self.crossing = (self.crossing if mode == LAND else None), None
-        while t < t_end - 1e-12 * span and ls.buffered < CHUNK:
-            step, t_new, carry = step_end(h, t, t_end, float(state[5]))
-            history = self.history if state[3] != 0.0 else self.history[-1:]  # BDF1 start
-            c = ls.counts
-            if crossing is not None and crossing[:2] == (t, step):
-                ctx, res, new = crossing[2:]   # landing the step that crossed: solved already
-            else:
-                ctx, res = self._solve(history, t_new, step, augmented)
-                c[0] += res.n_iter
-                c[1] += res.n_residual
-                c[2] += res.n_jacobian
-                c[3] += res.n_factor
-                if not res.converged:
-                    self.failure = (ctx, res, t, step)
-                    state[0], state[1], state[6] = t, step, 1.0 if after_rejection else 0.0
-                    return res.status.code, taken
-                new = method.accept(res.w, ctx)
-            crossing = None
-            if events is not None and events.crosses(ctx.last.q, new.q):
-                loop.trial[0], loop.trial[1] = new.q, new.v
-                state[0], state[1] = t, step
-                self.crossing = (t, step, ctx, res, new)
-                return EVENT, taken
-            if not fixed:
-                if index1:
-                    e = self._index1_error(ctx, new)
-                else:
-                    e = method.local_error(ctx, new)
-                err = control.norm(e, ctx.last.q, new.q, step,
-                                   noise=abs(method.error_coefficient(ctx)[0]) / step ** 2)
-                if err > 1.0 or after_rejection:     # the filter restarts after a rejection
-                    state[8] = 0.0
-                factor = step_ratio(err, float(state[8]), float(state[9]), control.safety,
-                                    control.min_factor, control.max_factor)
-                if err > 1.0:
-                    if step <= h_min * (1.0 + 1e-9):
-                        self.failure = (None, err, t, step)
-                        state[0], state[1] = t, step
-                        return TOLERANCE, taken
-                    state[2] += 1.0
-                    h = max(step * min(factor, 1.0), h_min)
-                    after_rejection = True
-                    if mode != RUN:
-                        state[0], state[1], state[6] = t, h, 1.0
-                        return REJECTED, taken
-                    continue
-                if after_rejection:
-                    factor = min(factor, 1.0)
-                after_rejection = False
-                state[8], state[9] = err, factor
-            c[4] += int(res.multipliers_stalled)
-            self._accept(ls, new, step, t_new, carry, state, history)
-            t = t_new
-            taken += 1
-            if not fixed:
-                # a step shortened to land on the stretch's end (a switch of a function
-                # of time) leaves the size planned before it
-                h = max(min(step * factor, h_max), h if t >= t_end - 1e-12 * span else 0.0)
-            if (loop.step_no + taken) % loop.every == 0 or t >= t_end - 1e-12 * span:
-                ls.record(t, step)
-            if mode != RUN or taken == limit or clock() - started > FLUSH_INTERVAL:
-                break
-        state[0], state[1], state[6] = t, h, 1.0 if after_rejection else 0.0
-        return CONVERGED, taken
-
-    def _index1_error(self, ctx, new):
-        """An index-3 method's local error estimate on its index-1 accelerations
-        (``adaptive.index1_acceleration``), that of the step's start kept from
-        the step before; new's in ``new.extra["a1"]``."""
-        system, last = self.system, ctx.last
-        a_old = last.extra.get("a1")
-        if a_old is None:
-            a_old = index1_acceleration(system, last.t, last.q, last.v, last.a)
-        a_new = new.extra["a1"] = index1_acceleration(system, new.t, new.q, new.v, new.a)
-        c, absolute = self.method.error_coefficient(ctx)
-        return c * (a_new if absolute else a_new - a_old)
-
-    def _solve(self, history, t_new, step, augmented):
-        """Newton on the step of size ``step`` [s] to t_new [s] after
-        ``history``: (its StepContext, the NewtonResult)."""
-        system, method = self.system, self.method
-        ctx = method.context(system, history, t_new, step)
-        ctx.assembler = self.assembler
-        ctx.regularization = method.regularization
-        w0 = method.predict(ctx)
-        scales = method.scales(system, step, ctx.last.q)
-        key = step
-        if augmented:
-            # only Phi_q^T lambda is unique where Phi_q loses rank: converge on a;
-            # a Newton matrix of its own every step (Method.formulated)
-            scales = np.where(self.kinds, 0.0, scales)
-            key = (step, t_new)
-        at_roundoff = None
-        if self.roundoff_rows is not None and not augmented:
-            def at_roundoff(w):
-                """Whether the iterate w meets its constraints to round-off."""
-                s = method.accept(w, ctx)
-                return constraints_at_roundoff(system, s.t, s.q, s.v, self.roundoff_rows)
-        res = self.newton.solve(lambda w: method.residual(w, ctx),
-                                lambda w: method.jacobian(w, ctx), w0, self.kinds, scales,
-                                key=key, floor=method.roundoff_floor(system, step, ctx.last.q),
-                                at_roundoff=at_roundoff)
-        return ctx, res
-
-    def _accept(self, ls, new, step, t_new, carry, state, history):
-        """The step to ``new`` (at t_new [s], of size ``step`` [s]) taken: the
-        loop's state and this stepper's history."""
-        self.history = (list(history) + [new])[-self.method.history_length:]
-        ls.q_prev[:], ls.v_prev[:] = ls.q, ls.v
-        ls.q[:], ls.v[:], ls.a[:], ls.lam[:] = new.q, new.v, new.a, new.lam
-        if ls.extra is not None:
-            ls.mu[:] = new.extra[ls.extra]
-        if ls.carries_aux:
-            ls.b[:] = new.extra["aux"]
-        state[3], state[5] = step, carry
-        state[0] = t_new
-        ls.counts[5] += 1
-
-    def diagnose(self, loop, status):
-        """The run ends at the step this stepper could not take: its status and
-        message in the model's words, and a diagnostic (E601, E602)."""
-        ctx, res, t, step = self.failure
-        if status == TOLERANCE:
-            fail_tolerance(loop.sol, self.method, self.control, t, step, res)
-        else:
-            fail(loop.sol, self.method, ctx, res, t, step, loop.h)

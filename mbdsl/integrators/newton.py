@@ -91,7 +91,7 @@ __all__ = ["JacobianUpdate", "NewtonStatus", "NewtonOptions", "NewtonResult", "N
 #: Stagnation within this many tolerances, under exact Newton, is round-off (see above).
 ROUNDOFF_BAND = 1e3
 #: A constraint is met to round-off within this many ulps of its terms (the
-#: residual test above; ``loop.constraints_at_roundoff``, ``integrators.compiled.newton._rest_at_roundoff``).
+#: residual test above; ``python_stepper.constraints_at_roundoff``, ``integrators.compiled.newton._rest_at_roundoff``).
 ROUNDOFF_ULPS = 8.0
 
 
@@ -327,14 +327,8 @@ class Newton:
         """
         opt = self.options
         w = np.array(w0, dtype=float)
-        atol = np.maximum(np.where(kinds, opt.atol_multiplier, opt.atol_kinematic), floor)
-        # relative part: per entry for kinematic unknowns, norm-wise for multipliers
-        # (a joint's force is judged against the largest force in the mechanism)
-        size = np.abs(scales * w)
         mult = np.asarray(kinds, dtype=bool)
-        if mult.any():
-            size[mult] = np.max(size[mult])
-        weight = scales / (atol + opt.rtol * size)
+        weight = self._weights(w, mult, scales, floor)
         res = NewtonResult(w, NewtonStatus.MAX_ITER)
         reuse = opt.jacobian is JacobianUpdate.MODIFIED
         lu = self._lu if (reuse and self._key == key) else None
@@ -345,18 +339,10 @@ class Newton:
         theta = self._rate
         for k in range(opt.max_iter):
             if lu is None:
-                J = jacobian(w)
-                res.n_jacobian += 1
-                values = J.data if issparse(J) else J
-                if not np.all(np.isfinite(values)):
-                    res.status = NewtonStatus.NONFINITE
+                lu = self._factorize(jacobian, w, res)
+                if lu is None:
                     return self._fail(res, w)
-                lu = factorize(J)
-                res.n_factor += 1
                 age = 0
-                if lu.singular:
-                    res.status = NewtonStatus.SINGULAR
-                    return self._fail(res, w)
             r = residual(w)
             res.n_residual += 1
             res.residual = r
@@ -415,6 +401,36 @@ class Newton:
             prev = norm
         res.status = NewtonStatus.MAX_ITER
         return self._fail(res, w)
+
+    def _weights(self, w, mult, scales, floor) -> np.ndarray:
+        """The weights of the update's norm, scales / (atol + rtol |scales w|),
+        shape (N,): absolute tolerances raised to the method's round-off
+        ``floor``; the relative part per entry for kinematic unknowns,
+        norm-wise for multipliers (``mult``: a joint's force is judged against
+        the largest force in the mechanism)."""
+        opt = self.options
+        atol = np.maximum(np.where(mult, opt.atol_multiplier, opt.atol_kinematic), floor)
+        size = np.abs(scales * w)
+        if mult.any():
+            size[mult] = np.max(size[mult])
+        return scales / (atol + opt.rtol * size)
+
+    @staticmethod
+    def _factorize(jacobian, w, res):
+        """The Newton matrix at w, evaluated and factorized (counted in
+        ``res``); None with ``res.status`` NONFINITE or SINGULAR."""
+        J = jacobian(w)
+        res.n_jacobian += 1
+        values = J.data if issparse(J) else J
+        if not np.all(np.isfinite(values)):
+            res.status = NewtonStatus.NONFINITE
+            return None
+        lu = factorize(J)
+        res.n_factor += 1
+        if lu.singular:
+            res.status = NewtonStatus.SINGULAR
+            return None
+        return lu
 
     @staticmethod
     def _rest_converged(lu, r, rows, weight) -> bool:

@@ -25,8 +25,8 @@ from pathlib import Path
 
 from . import UNCOMPILED_ROOT
 
-__all__ = ["KERNEL_PACKAGES", "kernel_sources", "kernels_ready", "build_in_progress", "loaded",
-           "element_kernels", "import_uncompiled", "package_root"]
+__all__ = ["KERNEL_PACKAGES", "kernel_sources", "source_digest", "kernels_ready",
+           "build_in_progress", "loaded", "element_kernels", "import_uncompiled", "package_root"]
 
 #: The packages of numba code (folders under ``mbdsl``): the element kernels and the
 #: step kernels.
@@ -75,16 +75,24 @@ def _cache_dir() -> Path:
         return Path(base)
 
 
-def _key() -> dict:
-    """What the cached kernels depend on: our sources (the kernels, and the
-    warm-up that says which of them a build compiles), numba, the host CPU."""
-    from . import jit
+def source_digest() -> str:
+    """The engine's version: the SHA-256 of every kernel source and of the
+    warm-up that says which of them a build compiles (hex, 64 digits). It
+    changes with any change of the numba code, and nothing else; results
+    that record it (``docs/studies``) say which engine computed them."""
     digest = hashlib.sha256()
     root = package_root()
     files = kernel_sources() + [root / "mbdsl" / name for name in _BUILD_FILES]
     for path in files:
         digest.update(str(path.relative_to(root)).encode() + b"\0" + path.read_bytes() + b"\0")
-    return {"source": digest.hexdigest(),
+    return digest.hexdigest()
+
+
+def _key() -> dict:
+    """What the cached kernels depend on: our sources (:func:`source_digest`),
+    numba, the host CPU."""
+    from . import jit
+    return {"source": source_digest(),
             "numba": jit.version(), "cpu": jit.host_cpu(),
             "python": sys.version.split()[0]}
 

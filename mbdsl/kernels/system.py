@@ -11,7 +11,6 @@ results do not depend on which families a model declares.
 
 from __future__ import annotations
 
-import math
 
 import numpy as np
 
@@ -29,7 +28,7 @@ from .loads.spring_damper import _spring_energy, _spring_points, _spring_rate, _
 from .loads.torques import _rotational_energy
 from .schema import (BEAM, CROW, DROW, DSP, ECOL, FCOL, FEL, FRI, GEO, KCOL, KGI, KPAR, LROW, MASS,
                      MRIG, PROW, Q0, RCOL, ROW_ELEMENT, RPAR, SCOL1, SDV, SEL, SPAR, STQ, _0, _NO,
-                     _YES, _f, _i, _jit, _put, _rows)
+                     _YES, _f, _i, _inline, _jit, _put, _rows)
 
 
 #: The joint families in the order of every aggregate, each with its first field
@@ -337,62 +336,78 @@ def elements(I, Fl, what, t, qx, vx, y, slip, speeds, out, R, C, V):
                 dx, dy, ax1, ay1, ax2, ay2 = _spring_points(I, Fl, qx[r], i)
                 out[r, 2 * i], out[r, 2 * i + 1] = dx, dy
         elif what == L_SENSORS:
-            k = _rows(I, KGI)
-            w, dw = np.empty(6), np.empty((6, 6))
-            o = 0                    # the next value's column
-            for i in range(k):
-                g, delta, ddelta, f, elastic, speed, armed = _contact_law(
-                    I, Fl, qx[r], vx[r], i, speeds[r, i], grad, H)
-                if g >= 0.0:         # open: the gap's rate all the same
-                    ddelta = 0.0
-                    for a in range(6):
-                        ddelta -= grad[a] * vx[r, _i(I, KCOL, i, a)]
-                ft, dissipated = 0.0, 0.0
-                if delta > 0.0:
-                    dissipated = (f - elastic) * ddelta
-                    if _f(I, Fl, KPAR, i, 12) > 0.0 and f > 0.0:
-                        ft, vt, T = _contact_friction(I, Fl, qx[r], vx[r], i, f, w, dw)
-                        dissipated -= ft * vt
-                out[r, o], out[r, o + 1], out[r, o + 2] = g, -ddelta, f
-                out[r, o + 3], out[r, o + 4] = ft, dissipated
-                out[r, o + 5] = _contact_energy(I, Fl, i, g)
-                o += SENSOR_GAP
-            for i in range(_rows(I, FRI)):
-                z, g = _friction_kin(I, Fl, i, qx[r], vx[r], grad, H)
-                tau, dz, dN, Rn = _friction_law(I, Fl, i, z, y[r], Fl[:0])
-                out[r, o], out[r, o + 1], out[r, o + 2] = z, tau, -tau * z
-                o += SENSOR_FRICTION
-            for i in range(_rows(I, SCOL1)):
-                l, e = _spring_energy(I, Fl, qx[r], i)
-                dx, dy, ax1, ay1, ax2, ay2 = _spring_points(I, Fl, qx[r], i)
-                ex, ey = _direction(dx, dy, l)
-                ld = _spring_rate(I, Fl, qx[r], vx[r], i, ex, ey, ax1, ay1, ax2, ay2)
-                c = _f(I, Fl, SPAR, i, 1)
-                out[r, o], out[r, o + 1] = l, ld
-                out[r, o + 2] = _f(I, Fl, SPAR, i, 0) * (l - _f(I, Fl, SPAR, i, 2)) + c * ld
-                out[r, o + 3], out[r, o + 4] = e, c * ld * ld
-                o += SENSOR_SPRING
-            for i in range(_rows(I, RCOL)):
-                a, e = _rotational_energy(I, Fl, qx[r], i)
-                wr = vx[r, _i(I, RCOL, i, 1)] - vx[r, _i(I, RCOL, i, 0)]
-                c = _f(I, Fl, RPAR, i, 1)
-                out[r, o], out[r, o + 1] = a, wr
-                out[r, o + 2] = _f(I, Fl, RPAR, i, 0) * (a - _f(I, Fl, RPAR, i, 2)) + c * wr
-                out[r, o + 3], out[r, o + 4] = e, c * wr * wr
-                o += SENSOR_SPRING
+            _sensors_row(I, Fl, qx[r], vx[r], y[r], speeds[r], grad, H, out[r])
         else:
-            k = _rows(I, FRI)
-            for i in range(k):
-                z, g = _friction_kin(I, Fl, i, qx[r], vx[r], grad, H)
-                rate = 0.0
-                for a in range(2 if g < 0 else 6):
-                    col = _friction_col(I, i, g, a)
-                    rate += grad[a] * y[r, col]
-                    if g >= 0:
-                        for b in range(6):
-                            rate += vx[r, col] * H[a, b] * vx[r, _i(I, GEO, g, b)]
-                out[r, i], out[r, k + i] = z, rate
+            _slip_row(I, Fl, qx[r], vx[r], y[r], grad, H, out[r])
     return p
+
+
+@_inline
+def _sensors_row(I, Fl, qx_r, vx_r, y_r, speeds_r, grad, H, out_r):
+    """L_SENSORS of ``elements`` at one row: per contact gap SENSOR_GAP
+    values, per friction joint SENSOR_FRICTION, per spring-damper and per
+    rotational spring-damper SENSOR_SPRING, into out_r in that order."""
+    k = _rows(I, KGI)
+    w, dw = np.empty(6), np.empty((6, 6))
+    o = 0                    # the next value's column
+    for i in range(k):
+        g, delta, ddelta, f, elastic, speed, armed = _contact_law(
+            I, Fl, qx_r, vx_r, i, speeds_r[i], grad, H)
+        if g >= 0.0:         # open: the gap's rate all the same
+            ddelta = 0.0
+            for a in range(6):
+                ddelta -= grad[a] * vx_r[_i(I, KCOL, i, a)]
+        ft, dissipated = 0.0, 0.0
+        if delta > 0.0:
+            dissipated = (f - elastic) * ddelta
+            if _f(I, Fl, KPAR, i, 12) > 0.0 and f > 0.0:
+                ft, vt, T = _contact_friction(I, Fl, qx_r, vx_r, i, f, w, dw)
+                dissipated -= ft * vt
+        out_r[o], out_r[o + 1], out_r[o + 2] = g, -ddelta, f
+        out_r[o + 3], out_r[o + 4] = ft, dissipated
+        out_r[o + 5] = _contact_energy(I, Fl, i, g)
+        o += SENSOR_GAP
+    for i in range(_rows(I, FRI)):
+        z, g = _friction_kin(I, Fl, i, qx_r, vx_r, grad, H)
+        tau, dz, dN, Rn = _friction_law(I, Fl, i, z, y_r, Fl[:0])
+        out_r[o], out_r[o + 1], out_r[o + 2] = z, tau, -tau * z
+        o += SENSOR_FRICTION
+    for i in range(_rows(I, SCOL1)):
+        l, e = _spring_energy(I, Fl, qx_r, i)
+        dx, dy, ax1, ay1, ax2, ay2 = _spring_points(I, Fl, qx_r, i)
+        ex, ey = _direction(dx, dy, l)
+        ld = _spring_rate(I, Fl, qx_r, vx_r, i, ex, ey, ax1, ay1, ax2, ay2)
+        c = _f(I, Fl, SPAR, i, 1)
+        out_r[o], out_r[o + 1] = l, ld
+        out_r[o + 2] = _f(I, Fl, SPAR, i, 0) * (l - _f(I, Fl, SPAR, i, 2)) + c * ld
+        out_r[o + 3], out_r[o + 4] = e, c * ld * ld
+        o += SENSOR_SPRING
+    for i in range(_rows(I, RCOL)):
+        a, e = _rotational_energy(I, Fl, qx_r, i)
+        wr = vx_r[_i(I, RCOL, i, 1)] - vx_r[_i(I, RCOL, i, 0)]
+        c = _f(I, Fl, RPAR, i, 1)
+        out_r[o], out_r[o + 1] = a, wr
+        out_r[o + 2] = _f(I, Fl, RPAR, i, 0) * (a - _f(I, Fl, RPAR, i, 2)) + c * wr
+        out_r[o + 3], out_r[o + 4] = e, c * wr * wr
+        o += SENSOR_SPRING
+
+
+@_inline
+def _slip_row(I, Fl, qx_r, vx_r, y_r, grad, H, out_r):
+    """L_SLIP of ``elements`` at one row: the friction joints' speeds z into
+    out_r[:k] and their rates dz/dt = w . a + v^T (d^2 s) v (a = y_r) into
+    out_r[k:]."""
+    k = _rows(I, FRI)
+    for i in range(k):
+        z, g = _friction_kin(I, Fl, i, qx_r, vx_r, grad, H)
+        rate = 0.0
+        for a in range(2 if g < 0 else 6):
+            col = _friction_col(I, i, g, a)
+            rate += grad[a] * y_r[col]
+            if g >= 0:
+                for b in range(6):
+                    rate += vx_r[col] * H[a, b] * vx_r[_i(I, GEO, g, b)]
+        out_r[i], out_r[k + i] = z, rate
 
 
 def triplet_bound(I) -> int:

@@ -68,3 +68,26 @@ class Table:
                           enumerate(zip(r, widths))) for r in cells[1:]]
         out += [f"  {n}" for n in self.notes]
         return "\n".join(out)
+
+
+@dataclass
+class Section:
+    """The result of one study kind: tables, figures and a caption.
+
+    Attributes
+    ----------
+    kind : str
+    caption : str
+        What the figures show (markdown).
+    tables : list of Table
+    figures : list of tuple (str, list of Panel, str)
+        (file stem, panels, figure title).
+    files : list of Path
+        Written by :meth:`StudyResult.write`.
+    """
+
+    kind: str
+    caption: str
+    tables: list = field(default_factory=list)
+    figures: list = field(default_factory=list)
+    files: list = field(default_factory=list)

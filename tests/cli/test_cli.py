@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from mbdsl.cli.main import main
-from mbdsl.output import read_csv_metadata
+from mbdsl.io.csvfile import read_csv_metadata
 
 from ..conftest import MODELS
 

@@ -8,8 +8,8 @@ from PIL import Image
 
 import mbdsl
 from mbdsl.cli.main import main
-from mbdsl.plotting import PANELS, animate_solution, plot_solution
-from mbdsl.scene import body_outline
+from mbdsl.graphics.plotting import PANELS, animate_solution, plot_solution
+from mbdsl.graphics.scene import body_outline
 from mbdsl.progress import ProgressBar
 
 from ..conftest import MODELS
@@ -265,7 +265,7 @@ def test_standard_plot_step_size_bodies_and_log_ticks():
     # titles say how many are shown
     from matplotlib.figure import Figure
 
-    from mbdsl.plotting import _readable_log_ticks, plot_solution
+    from mbdsl.graphics.plotting import _readable_log_ticks, plot_solution
     model = mbdsl.load(MODELS / "pendulum_chain.mbd", overrides={"N": 6})
     sol = mbdsl.simulate(model, method="hht-i3", h=1e-3, t_end=0.05)
     fig = plot_solution(sol)
@@ -347,7 +347,7 @@ def test_shape_misuse_is_reported(line, code):
 def test_beams_are_drawn_deformed_by_the_deform_scale(tmp_path):
     """beam_world: r + A(phi) ((x, 0) + s S(x) q_f); at a node S q_f is that
     node's (u, v)."""
-    from mbdsl.scene import beam_world
+    from mbdsl.graphics.scene import beam_world
     model = mbdsl.load(MODELS / "flexible_slider_crank.mbd")
     beam = next(b for b in model.bodies if isinstance(b, mbdsl.model.elements.FlexibleBeam))
     q = np.zeros(model.n_coordinates)
@@ -381,7 +381,7 @@ def test_beams_are_drawn_deformed_by_the_deform_scale(tmp_path):
 def test_amending_the_last_row_changes_it_alone():
     """Solution.amend_last (a compiled segment ending on a switch, the
     restart past it): the last row's t, a, lambda and mu, nothing else."""
-    from mbdsl.solution import Solution
+    from mbdsl.io.solution import Solution
     model = mbdsl.load(MODELS / "slider_crank.mbd")
     sol = mbdsl.simulate(model, method="hht-si2", h=1e-3, t_end=0.01)
     before = sol.rows(0, sol.n_rows)
@@ -405,7 +405,7 @@ def test_extents_merged_chunk_by_chunk_equal_the_whole_columns():
     """The summary and the energy guard of a streamed run read Extents merged
     over its chunks: equal to the Extent of the whole column, NaN included
     (the first NaN is the largest, as numpy.argmax finds it), ties at the first."""
-    from mbdsl.solution import Extent
+    from mbdsl.io.rows import Extent
     rng = np.random.default_rng(3)
     for trial in range(50):
         x = rng.normal(size=rng.integers(1, 60))
@@ -429,7 +429,7 @@ class _Watching:
     """An HdfStream whose appends record how many rows the Solution holds."""
 
     def __init__(self, path):
-        from mbdsl.hdf5 import HdfStream
+        from mbdsl.io.hdf5 import HdfStream
         self.stream = HdfStream(path, interval=0.0)
         self.stream.PENDING_ROWS, self.stream.PART_ROWS = 50, 37   # many parts and chunks
         self.held = []
@@ -437,8 +437,8 @@ class _Watching:
     def __getattr__(self, name):
         return getattr(self.stream, name)
 
-    def append(self, sol):
-        self.stream.append(sol)
+    def on_rows(self, sol, start, stop):
+        self.stream.on_rows(sol, start, stop)
         self.held.append((sol.n_rows, sol.n_rows - sol._rows.released))
 
 
@@ -462,7 +462,7 @@ def test_a_run_streamed_to_hdf5_lets_its_rows_go_and_reads_them_back(
     m = mbdsl.load(MODELS / model)
     held = mbdsl.simulate(m, **options)
     watch = _Watching(tmp_path / "run.h5")
-    streamed = mbdsl.simulate(m, writer=watch, **options)
+    streamed = mbdsl.simulate(m, observers=[watch], **options)
     assert streamed._file_rows is not None and streamed._rows.released == 0
     n = held.n_rows
     most = max(h for _, h in watch.held)
@@ -512,7 +512,7 @@ def test_a_million_steps_to_hdf5_stay_below_300_mb(tmp_path):
 def test_column_patterns_take_brackets_literally():
     """``link[3].*`` is link 3's columns (the brackets are part of the name,
     not a shell character class); ``?`` one character; "t" always first."""
-    from mbdsl.output import select_columns
+    from mbdsl.io.metadata import select_columns
     names = ["t", "link[1].x", "link[3].x", "link[3].phi", "link[33].x", "energy.total"]
     assert select_columns(names, ["link[3].*"]) == ["t", "link[3].x", "link[3].phi"]
     assert select_columns(names, ["link[?].x", "energy.*"]) == \
@@ -543,7 +543,7 @@ def test_a_file_of_some_columns_holds_them_exactly(tmp_path, suffix):
     with pytest.raises(KeyError, match="some columns only"):
         b.column("slider.x")
     if suffix == ".csv":
-        from mbdsl.output import read_csv_metadata
+        from mbdsl.io.csvfile import read_csv_metadata
         meta, names, _ = read_csv_metadata(part)
         assert names == want
     else:

@@ -14,8 +14,8 @@ import mbdsl
 from mbdsl.cli.main import main
 from mbdsl.integrators import HHTI3, integrate, kernel_cache
 from mbdsl.kernels import cache as kernel_cache_state
-from mbdsl.output import read_csv_metadata
-from mbdsl.solution import derived_columns
+from mbdsl.io.csvfile import read_csv_metadata
+from mbdsl.io.derived import derived_columns
 
 from ..conftest import MODELS, ROOT
 
@@ -29,7 +29,7 @@ def _row_by_row(system, t, q, v, lam):
            "constraint.velocity": [], "reactions": []}
     reactions = None
     if system.model.joints:
-        from mbdsl.solution import _Reactions
+        from mbdsl.io.derived import _Reactions
         reactions = _Reactions(system)
     for i in range(len(t)):
         out["energy.kinetic"].append(system.kinetic_energy(q[i], v[i]))
@@ -106,9 +106,9 @@ def test_summary_and_files_say_where_the_time_went_and_which_engine_ran(tmp_path
 
 def test_the_csv_stream_hands_its_derived_columns_to_the_solution(tmp_path):
     """Derived columns are computed once: the summary reuses those written."""
-    from mbdsl.output import CsvStream
+    from mbdsl.io.csvfile import CsvStream
     writer = CsvStream(tmp_path / "run.csv", interval=0.0)
-    sol = mbdsl.simulate(mbdsl.load(MODELS / "slider_crank.mbd"), t_end=0.1, writer=writer)
+    sol = mbdsl.simulate(mbdsl.load(MODELS / "slider_crank.mbd"), t_end=0.1, observers=[writer])
     assert sol._derived is not None
     fresh = derived_columns(sol.system, sol.t, sol.q, sol.v, sol.lam)
     for k, v in fresh.items():

@@ -18,8 +18,8 @@ import pytest
 
 import mbdsl
 from mbdsl.cli.main import main
-from mbdsl.scene import Scene
-from mbdsl.viewer import write_html
+from mbdsl.graphics.scene import Scene
+from mbdsl.graphics.viewer import write_html
 
 from ..conftest import MODELS
 

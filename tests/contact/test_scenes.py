@@ -140,7 +140,7 @@ def test_events_are_written(tmp_path):
     from mbdsl.cli.main import main
     assert main(["simulate", str(MODELS / "bouncing_ball.mbd"), "-o", str(out),
                  "--t-end", "1"]) == 0
-    from mbdsl.output import read_csv_metadata
+    from mbdsl.io.csvfile import read_csv_metadata
     meta, _, _ = read_csv_metadata(out)
     events = json.loads(meta["events"])
     assert [e[1:3] for e in events[:2]] == [["floor", "closed"], ["floor", "opened"]]

@@ -10,7 +10,7 @@ import pytest
 
 import mbdsl
 from mbdsl.errors import MbdModelError
-from mbdsl.output import read_csv_metadata
+from mbdsl.io.csvfile import read_csv_metadata
 
 from ..conftest import MODELS
 

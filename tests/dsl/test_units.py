@@ -19,7 +19,7 @@ from mbdsl.dsl import units
 from mbdsl.dsl.parser import grammar_parser, parse_expression
 from mbdsl.dsl.unparse import expr_text
 from mbdsl.errors import MbdModelError, MbdSyntaxError
-from mbdsl.output import write_csv
+from mbdsl.io.csvfile import write_csv
 
 WITH_UNITS = """model slider_crank_units
 parameter L1 = 30 cm

@@ -38,12 +38,12 @@ def slider_crank():
 
 def dop853_error_ratios(system, init, methods, T, steps=(1e-3, 5e-4)):
     """{method name: (errors, ratios)} of compiled runs against the DOP853
-    solution of the index-1 equations at T (``mbdsl.reference``, rtol = atol
+    solution of the index-1 equations at T (``mbdsl.studies.index1``, rtol = atol
     = 1e-12, numpy assembly): errors max |q(T) - q_ref| at each h of steps,
     ratios of consecutive errors (2^p for a method of order p). ``methods``:
     Method instances."""
     from mbdsl.integrators import integrate
-    from mbdsl.reference import index1_reference
+    from mbdsl.studies.index1 import index1_reference
     q_ref = index1_reference(system, [T], initial=init).q[-1]
     out = {}
     for method in methods:

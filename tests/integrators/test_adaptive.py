@@ -17,7 +17,7 @@ from mbdsl.integrators import integrate, make_method
 from mbdsl.integrators.adaptive import StepControl
 from mbdsl.integrators.base import StepState
 from mbdsl.integrators.common import bdf_coefficients
-from mbdsl.output import read_csv_metadata
+from mbdsl.io.csvfile import read_csv_metadata
 
 from ..conftest import MODELS
 

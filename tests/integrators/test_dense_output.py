@@ -209,9 +209,9 @@ def test_the_simulate_section_and_the_csv(tmp_path):
     text = (MODELS / "slider_crank.mbd").read_text().replace("t_end 2", "t_end 0.5; output_dt 10 ms")
     model = mbdsl.load_text(text)
     out = tmp_path / "run.csv"
-    from mbdsl.output import CsvStream
+    from mbdsl.io.csvfile import CsvStream
     writer = CsvStream(out, interval=0.0)
-    sol = mbdsl.simulate(model, writer=writer)
+    sol = mbdsl.simulate(model, observers=[writer])
     assert len(sol.t) == 51 and np.allclose(sol.t, np.linspace(0, 0.5, 51), atol=1e-12)
     back = mbdsl.load_solution(out)
     assert np.allclose(back.t, sol.t) and np.allclose(back.q, sol.q, rtol=1e-12)
@@ -224,7 +224,7 @@ class _Rows:
     """A stand-in for the Solution: the rows DenseOutput writes."""
 
     def __init__(self):
-        from mbdsl.solution import RunStats
+        from mbdsl.io.rows import RunStats
         self.stats_total = RunStats()
         self.t, self.q, self.v = [], [], []
 

@@ -131,7 +131,7 @@ def test_multipliers_converge_at_the_method_s_order(method):
     # psi_II converges at order 1; its output lambda comes from the index-1
     # system at (q, v) and its psi_II is kept as the psi2 column.
     from mbdsl.integrators import integrate, make_method
-    from mbdsl.reference import index1_reference
+    from mbdsl.studies.index1 import index1_reference
     system = mbdsl.assemble(mbdsl.load(MODELS / "slider_crank.mbd"))
     init = mbdsl.consistent_initial_state(system)
     T = 0.25

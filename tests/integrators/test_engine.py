@@ -80,10 +80,10 @@ RIGID = [(MODELS / "slider_crank.mbd", 0.5), (VALID / "compiled_elements.mbd", 0
 @pytest.fixture(scope="module")
 def dop853_references():
     """{path: (system, initial state, q, v, lambda at T)}: the index-1 equations
-    integrated by scipy's DOP853 at rtol = atol = 1e-12 (``mbdsl.reference``),
+    integrated by scipy's DOP853 at rtol = atol = 1e-12 (``mbdsl.studies.index1``),
     lambda from the index-1 system at the reference's (q, v); none of the
     methods' formulas, and the vectorised numpy assembly, not the kernels."""
-    from mbdsl.reference import index1_reference
+    from mbdsl.studies.index1 import index1_reference
     refs = {}
     for path, T in RIGID:
         system, init = _system(path)
@@ -361,7 +361,7 @@ def _soft_system(path):
 def soft_references():
     """{path: (system, initial state, q at T = 0.1 s)}: DOP853 at 1e-12 on the
     index-1 equations of the soft beams (numpy assembly)."""
-    from mbdsl.reference import index1_reference
+    from mbdsl.studies.index1 import index1_reference
     refs = {}
     for path in SOFT:
         system, init = _soft_system(path)
@@ -415,7 +415,7 @@ def test_hht_i3_is_of_order_one_on_flexible_beams_unless_alpha_is_zero(soft_refe
 def soft_distance_reference():
     """(system, initial state, q at T = 0.1 s) of flexible_distance with its
     beams' E / 1e4: DOP853 at 1e-12 on the index-1 equations."""
-    from mbdsl.reference import index1_reference
+    from mbdsl.studies.index1 import index1_reference
     system, init = _soft_system(VALID / "flexible_distance.mbd")
     return system, init, index1_reference(system, [0.1], initial=init).q[-1]
 
@@ -487,7 +487,7 @@ def test_with_error_control_the_fallback_takes_one_step_and_hands_the_run_back(
     the rest of the run (three hand-overs of one step each, measured); the
     run equals the Python stepper alone to 1e-8 (measured 1.6e-10)."""
     system, init, _ = soft_distance_reference
-    from mbdsl.integrators.loop import PythonStepper
+    from mbdsl.integrators.python_stepper import PythonStepper
     advance, steps = PythonStepper.advance, []
 
     def counted(self, loop, mode, h, limit):
@@ -626,23 +626,28 @@ def test_a_failing_compiled_step_is_halved_by_the_driver(monkeypatch, control):
     assert b.t[-1] == 1.0 and np.abs(a.q - b.q).max() < 1e-8
 
 
-def test_the_compiled_loop_tells_progress_and_writer_what_it_recorded():
+def test_the_compiled_loop_tells_progress_and_observers_what_it_recorded():
     # the rows are buffered across the kernels' calls and go out together: the
     # progress callback is told the mean Newton iterations per step of the steps
     # since it was last called (the run's 10776 iterations over 2000 steps: 5),
-    # not the run's total so far, and the writer sees every row, in order
+    # not the run's total so far, and an observer is told of every row once, in
+    # order: on_start with the initial row, contiguous on_rows, on_end at the end
+    from mbdsl.io.observers import RunObserver
     system, init = _system(MODELS / "slider_crank.mbd")
     told, seen = [], []
 
-    class Writer:
-        def append(self, sol):
-            seen.append(sol.n_rows)
+    class Watcher(RunObserver):
+        def on_start(self, sol):
+            seen.append(("start", sol.n_rows))
 
-        def finish(self, sol):
-            seen.append(len(sol.t))
+        def on_rows(self, sol, start, stop):
+            seen.append((start, stop))
+
+        def on_end(self, sol):
+            seen.append(("end", len(sol.t)))
 
     sol = integrate(system, make_method("hht-i3"), 2.0, 1e-3, initial=init, engine="compiled",
-                    progress=lambda t, h, it: told.append((t, h, it)), writer=Writer())
+                    progress=lambda t, h, it: told.append((t, h, it)), observers=[Watcher()])
     assert sol.engine == "compiled" and sol.status == "completed"
     tot = sol.stats_total
     assert tot.steps == 2000 and 5.0 < tot.iterations / tot.steps < 6.0
@@ -650,7 +655,10 @@ def test_the_compiled_loop_tells_progress_and_writer_what_it_recorded():
     assert all(1 <= it <= 8 for _, _, it in told), told
     if len(told) == 1:
         assert told[0][2] == round(tot.iterations / tot.steps)
-    assert seen == sorted(seen) and seen[-1] == len(sol.t) == 2001
+    assert seen[0] == ("start", 1) and seen[-1] == ("end", 2001) == ("end", len(sol.t))
+    ranges = seen[1:-1]
+    assert ranges and ranges[0][0] == 1 and ranges[-1][1] == 2001
+    assert all(a[1] == b[0] and a[0] < a[1] for a, b in zip(ranges, ranges[1:] + [(2001,)]))
 
 
 def test_ctrl_c_reaches_a_compiled_run_that_records_every_500th_step(monkeypatch):
@@ -897,3 +905,33 @@ def test_a_model_without_constraints_steps_with_every_solver(method, solver):
     np.testing.assert_allclose(sol.q[:, 1], 3.0 - 9.81 * t ** 2 / 2, rtol=0, atol=offset)
     np.testing.assert_allclose(sol.q[:, 0], 0.5 * t, rtol=0, atol=1e-12)
     np.testing.assert_allclose(sol.v[-1], [0.5, -9.81 * 0.05], rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("engine", ["compiled", "numpy"])
+def test_observers_are_told_of_every_event_after_the_rows_before_it(engine):
+    """The ball's impacts (contact closed, opened) reach an observer once each,
+    in the Solution's order, each after the rows up to its time were told."""
+    from mbdsl.io.observers import RunObserver
+    events = []
+
+    class Watcher(RunObserver):
+        rows = None
+
+        def on_start(self, sol):
+            self.rows = sol.n_rows                # the initial row
+
+        def on_rows(self, sol, start, stop):
+            assert start == self.rows          # contiguous, none twice
+            self.rows = stop
+
+        def on_event(self, sol, event):
+            assert self.rows >= 1 and sol.rows(self.rows - 1, self.rows)["t"][0] >= \
+                event[0] - 1e-12
+            events.append(event)
+
+    model = mbdsl.load(MODELS / "bouncing_ball.mbd")
+    sol = mbdsl.simulate(model, rtol=1e-6, t_end=1.0, engine=engine, observers=[Watcher()])
+    assert sol.status == "completed"
+    kinds = [e[2] for e in sol.events]
+    assert "closed" in kinds and "opened" in kinds
+    assert events == list(sol.events)

@@ -130,7 +130,7 @@ def test_pendulum_with_pin_friction_against_the_index1_reference():
     multipliers, and so the friction, come from the same fixed point):
     second-order methods within 3e-4 rad at h = 1e-3 (measured 4.3e-5 to
     1.9e-4; without the friction the rod is 0.108 rad further on)."""
-    from mbdsl.reference import index1_reference
+    from mbdsl.studies.index1 import index1_reference
     model = mbdsl.load_text(PENDULUM)
     ref = index1_reference(mbdsl.assemble(model), np.array([1.0]), rtol=1e-11, atol=1e-11)
     for method in SECOND_ORDER:

@@ -9,7 +9,7 @@ import pytest
 import mbdsl
 from mbdsl.assembly.initial import consistent_initial_state
 from mbdsl.integrators import make_method
-from mbdsl.reference import index1_reference
+from mbdsl.studies.index1 import index1_reference
 
 from ..conftest import MODELS
 from .suite import HS, INDEX2, METHODS, ORDER, eps_energy, fitted_slope, slider_crank  # noqa: F401

@@ -7,7 +7,7 @@ import mbdsl
 from mbdsl.cli.main import main
 from mbdsl.integrators.newton import (ROUNDOFF_BAND, JacobianUpdate, Newton, NewtonOptions,
                                       NewtonStatus)
-from mbdsl.output import read_csv_metadata
+from mbdsl.io.csvfile import read_csv_metadata
 
 from ..conftest import MODELS
 

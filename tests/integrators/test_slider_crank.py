@@ -9,7 +9,7 @@ import pytest
 
 import mbdsl
 from mbdsl.cli.main import main
-from mbdsl.output import read_csv_metadata
+from mbdsl.io.csvfile import read_csv_metadata
 
 from ..conftest import MODELS
 

@@ -170,7 +170,7 @@ def test_energy_balance_closes_at_the_methods_order(model, method):
 
 def test_energy_columns_are_written_and_read_back(tmp_path):
     from mbdsl.cli.main import main
-    from mbdsl.output import read_csv_metadata
+    from mbdsl.io.csvfile import read_csv_metadata
     from ..conftest import MODELS
     out = tmp_path / "d.csv"
     assert main(["simulate", str(MODELS / "slider_crank_driven.mbd"), "--t-end", "0.5", "-q",
@@ -285,8 +285,8 @@ def test_driver_loads_by_name_and_zero_reactions(tmp_path):
         assert np.all(sol.column(f"reaction.{joint}.torque") == 0.0)
     for suffix in (".csv", ".h5"):
         path = tmp_path / f"run{suffix}"
-        from mbdsl.hdf5 import write_hdf5
-        from mbdsl.output import write_csv
+        from mbdsl.io.hdf5 import write_hdf5
+        from mbdsl.io.csvfile import write_csv
         (write_hdf5 if suffix == ".h5" else write_csv)(sol, path)
         back = mbdsl.load_solution(path)
         np.testing.assert_array_equal(back.column("driver.motor.torque"),

@@ -248,7 +248,7 @@ def test_the_recommendation_is_read_against_the_modes():
     horizontal state where gravity adds no stiffness: 1864 Hz), and the steps
     it takes to remove 99 % of that mode's energy are those of its
     amplification matrix at omega h."""
-    from mbdsl.studies.study import _recommend_modes
+    from mbdsl.studies.recommend import _recommend_modes
     from mbdsl.studies.tables import Table
     model = mbdsl.load(ROOT / "models" / "double_pendulum_stiff.mbd")
     table = Table("recommend", "", ["target", "method", "h [s]"], [[1e-5, "genalpha", 5e-4]])
@@ -264,7 +264,7 @@ def test_the_recommendation_is_read_against_the_modes():
     assert row[7] == pytest.approx(spectrum(method.amplification(W), W).steps_to_damp, rel=1e-9)
     assert "1864 Hz" in out.notes[0] and "the spring elbow" in out.notes[0]
     assert row[8].startswith("spring elbow")
-    from mbdsl.studies.study import _modes_at_model_step
+    from mbdsl.studies.recommend import _modes_at_model_step
     at_h = _modes_at_model_step(model, mbdsl.assemble(model), ["hht-i3", "nstiff"])
     (mode, f, W, what, hht, bdf2), = at_h.rows          # the model's h = 1e-3 s, alpha = -0.3
     assert mode == 2 and W == pytest.approx(elbow * 1e-3, rel=1e-8)

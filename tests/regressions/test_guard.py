@@ -25,7 +25,7 @@ def test_a_friction_that_does_not_match_the_motion_trips_the_energy_guard():
     """The motion of the block on the incline with mu read with the loads of
     2 mu (the friction's dissipation counted twice, as a friction force fed a
     wrong factor would): the balance is off by the dissipated energy, W602."""
-    from mbdsl.solution import Solution
+    from mbdsl.io.solution import Solution
     model = mbdsl.load(ROOT / "models" / "incline_friction.mbd")
     sol = mbdsl.simulate(model)
     assert not sol.warnings
@@ -61,7 +61,7 @@ def test_an_unresolved_contact_is_flagged_and_strict_fails_it(tmp_path, capsys):
 def test_the_streamed_csv_has_the_runs_energies(tmp_path):
     """The CSV written as the run goes and the Solution agree on the contact's
     dissipation (it reads the impact speeds of the run's contact log)."""
-    from mbdsl.output import read_csv_metadata
+    from mbdsl.io.csvfile import read_csv_metadata
     out = tmp_path / "ball.csv"
     assert main(["simulate", str(HERE / "stiff_ball.mbd"), "--h", "1e-4", "-q",
                  "-o", str(out)]) == 0

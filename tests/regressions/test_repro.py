@@ -253,7 +253,7 @@ def test_the_files_setup_time_is_the_summarys(tmp_path, capsys):
     summary prints: reading and assembling the model included."""
     import json
     import re
-    from mbdsl.output import read_csv_metadata
+    from mbdsl.io.csvfile import read_csv_metadata
     for suffix in (".csv", ".h5"):
         out = tmp_path / f"sc{suffix}"
         assert main(["simulate", str(HERE.parents[2] / "models" / "slider_crank.mbd"),
@@ -266,7 +266,8 @@ def test_the_files_setup_time_is_the_summarys(tmp_path, capsys):
 
 
 def test_a_run_with_no_recorded_step_prints_no_rate():
-    from mbdsl.solution import RunStats, Solution
+    from mbdsl.io.rows import RunStats
+    from mbdsl.io.solution import Solution
     sol = mbdsl.simulate(mbdsl.load(HERE / "particle_pendulum.mbd"), t_end=0.01)
     empty = Solution.from_arrays(
         sol.system, method_name="hht-i3", method_parameters={}, extra_names=(), h=1e-3,

@@ -364,7 +364,7 @@ def test_a_runs_sampled_error_is_its_largest_over_the_run():
     import mbdsl
     from mbdsl.studies.reference import build_reference
     from mbdsl.studies.runs import ModelSource, RunSpec, execute_run, sample_times
-    from mbdsl.studies.study import sampled_error
+    from mbdsl.studies.measures import sampled_error
     source = ModelSource(PENDULUM.read_text(), str(PENDULUM))
     model = source.load()
     data = execute_run(source, RunSpec("hht-i3", 1e-3, 1.0, samples=10))

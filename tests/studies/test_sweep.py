@@ -13,7 +13,7 @@ import pytest
 
 import mbdsl
 from mbdsl.cli.main import main
-from mbdsl.hdf5 import read_sweep
+from mbdsl.io.hdf5 import read_sweep
 from mbdsl.studies.sweep import (parse_distribution, parse_values, run_point, run_sweep,
                                  sweep_points)
 

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 from functools import partial
 
-from ...model.elements import (ACCELERATIONS, COORDINATES, VELOCITIES, FlexibleBeam, Friction, Output,
-                               OutputVariable, RotationalSpringDamper, SpringDamper)
+from ...model.elements import (ACCELERATIONS, COORDINATES, VELOCITIES, FlexibleBeam, Friction,
+                               Output, OutputVariable, RotationalSpringDamper, SpringDamper)
 from .. import units
 from ..expressions import Dotted, ExprError, substitute
 from .context import BrokenReference, did_you_mean, point_ref

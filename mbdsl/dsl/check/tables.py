@@ -10,7 +10,8 @@ from __future__ import annotations
 
 from ...registry import COEFFICIENTS, METHOD_NAMES
 
-__all__ = ["MAX_REPEAT", "JOINT_KINDS", "UNSET", "FORCE_KINDS", "GEOMETRY_OPTIONS", "BODY_STATE", "REVOLUTE_STATE", "SLIDING_STATE", "KNOWN_METHODS", "SETTINGS"]
+__all__ = ["MAX_REPEAT", "JOINT_KINDS", "UNSET", "FORCE_KINDS", "GEOMETRY_OPTIONS", "BODY_STATE",
+           "REVOLUTE_STATE", "SLIDING_STATE", "KNOWN_METHODS", "SETTINGS"]
 
 
 #: most instances one for block may create

@@ -13,7 +13,7 @@ from mbdsl.integrators.outcomes import (CONVERGED, EVENT, LAND, REJECTED, RUN, T
 from .additive import _minus_correction
 from .index1 import INDEX1_LIMIT, _index1_acceleration, _scales_weights
 from .layout import (ADDITIVE, CF, EABS, EAUX, ERR, FORM, KA1, KA2, MH, Y0V, _advance, _layout,
-                     _state, predict, state)
+                     _state, predict)
 from .newton import _newton
 from .recipes import _old_force
 from ...kernels.loads.contact import _gap
@@ -157,7 +157,7 @@ def step_ratio(err, err_last, ratio_last, safety, fmin, fmax):
     elementary controller (theta / err)^(1/k) (the first step, and after a
     rejection or an event); within [fmin, fmax]. An error of 0 gives fmax, a
     non-finite one fmin. Both steppers' rule (``_run``,
-    ``loop.PythonStepper``)."""
+    ``python_stepper.PythonStepper``)."""
     if err == 0.0:
         return fmax
     if not math.isfinite(err):
@@ -214,7 +214,7 @@ def step_end(h, t, t_end, carry):
     of a step) before it; t_new is a compensated (Kahan) sum with
     ``carry``, the rounding error of the sum so far, so that t stays exact
     to round-off over 1e6 steps. Both steppers' rule (``_run``,
-    ``loop.PythonStepper``)."""
+    ``python_stepper.PythonStepper``)."""
     step = min(h, t_end - t)
     if t_end - (t + step) < 1e-6 * step:
         step = t_end - t
@@ -223,6 +223,52 @@ def step_end(h, t, t_end, carry):
     y = step - carry
     t_new = t + y
     return step, t_new, (t_new - t) - y
+
+
+@_jit
+def _run_flags(mono, I, Fl, rc, m, ctl, has_extra, mode):
+    """What a run of ``_run`` does besides its steps: (a two-step recipe,
+    reading c0, w0, w1; the error estimated on the index-1 accelerations;
+    events of gaps; events of spring-dampers with a free length).
+
+    An index-3 recipe (no velocity constraints, not additive) takes its error
+    estimate on its index-1 accelerations: the normal part of its own is the
+    multipliers' round-off over beta h^2, which a tolerance per unit step
+    would chase; not where friction reads the multipliers (their oscillation
+    then moves q: the estimate sees it)."""
+    two_step = False                    # a recipe reading c0, w0, w1
+    for i in range(mono.shape[2]):
+        two_step = two_step or mono[1, 2, i] != 0.0 or mono[1, 3, i] != 0.0 \
+            or mono[1, 4, i] != 0.0
+    fixed = ctl[7] != 0.0
+    index1 = (not fixed and ctl[8] != 0.0 and rc[FORM] != ADDITIVE and not has_extra
+              and 0 < m <= INDEX1_LIMIT and _rows(I, FRI) == 0)
+    gaps = _rows(I, KGI) > 0 and mode != LAND
+    springs = False                     # spring-dampers with a free length
+    for i in range(_rows(I, SCOL1)):
+        springs = springs or (_f(I, Fl, SPAR, i, 2) > 0.0 and mode != LAND)
+    return two_step, index1, gaps, springs
+
+
+@_jit
+def _start_estimate(I, Fl, n, m, t0, q, v, a, lam, additive, fixed, index1, qx_old, vx, R, C,
+                    V):
+    """The acceleration the first step's error estimate compares with, at the
+    last accepted state (the additive form's a + R_II, or the index-1
+    acceleration), its successor's array and the index-1 acceleration's
+    scratch: (acc_old, acc_new, S1, col1, g1, y1)."""
+    acc_old, acc_new = np.empty(n), np.empty(n)     # the additive form's a + R_II
+    if additive and not fixed:                      # at the last accepted state, then carried
+        qx_old[:n] = q
+        _total_acceleration(I, Fl, n, qx_old, a, lam, R, C, V, acc_old)
+    k1 = m if index1 else 0                         # the index-1 acceleration's scratch
+    S1, col1, g1, y1 = np.empty((k1, k1)), np.empty(k1), np.empty(k1), np.empty(n + 3)
+    if index1:
+        qx_old[:n] = q
+        vx[:n] = v
+        _index1_acceleration(I, Fl, n, m, t0, qx_old, vx, a, acc_old, R, C, V, S1, col1, g1,
+                             y1)
+    return acc_old, acc_new, S1, col1, g1, y1
 
 
 @_jit
@@ -298,40 +344,18 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
     rc = np.empty(mono.shape[2])
     _recipe_at(mono[1], 1.0, 1.0, 1.0, 1.0, rc)
     size, l0, e0, a0 = _layout(rc, n, m)
-    two_step = False                    # a recipe reading c0, w0, w1
-    for i in range(mono.shape[2]):
-        two_step = two_step or mono[1, 2, i] != 0.0 or mono[1, 3, i] != 0.0 \
-            or mono[1, 4, i] != 0.0
     has_extra = e0 < size
     rtol, atol, safety, fmin, fmax, h_min, h_max = (ctl[0], ctl[1], ctl[2], ctl[3], ctl[4],
                                                     ctl[5], ctl[6])
     fixed = ctl[7] != 0.0
     r, dw, w, weight, qx, vx, work, q_pred, v_pred, qx_old, F, scratch = _workspace(n, m, size, I)
     b_new, d_err = np.empty(n), np.empty(n)
-    # an index-3 recipe (no velocity constraints, not additive) takes its error estimate
-    # on its index-1 accelerations: the normal part of its own is the multipliers'
-    # round-off over beta h^2, which a tolerance per unit step would chase; not where
-    # friction reads the multipliers (their oscillation then moves q: the estimate sees it)
-    index1 = (not fixed and ctl[8] != 0.0 and rc[FORM] != ADDITIVE and not has_extra
-              and 0 < m <= INDEX1_LIMIT and _rows(I, FRI) == 0)
     mode = int(state[4])
-    gaps = _rows(I, KGI) > 0 and mode != LAND
-    springs = False                     # spring-dampers with a free length
-    for i in range(_rows(I, SCOL1)):
-        springs = springs or (_f(I, Fl, SPAR, i, 2) > 0.0 and mode != LAND)
+    two_step, index1, gaps, springs = _run_flags(mono, I, Fl, rc, m, ctl, has_extra, mode)
     qs, grad6, H6 = np.zeros(n + 3), np.empty(6), np.empty((6, 6))
     additive = rc[FORM] == ADDITIVE
-    acc_old, acc_new = np.empty(n), np.empty(n)     # the additive form's a + R_II
-    if additive and not fixed:                      # at the last accepted state, then carried
-        qx_old[:n] = q
-        _total_acceleration(I, Fl, n, qx_old, a, lam, R, C, V, acc_old)
-    k1 = m if index1 else 0                         # the index-1 acceleration's scratch
-    S1, col1, g1, y1 = np.empty((k1, k1)), np.empty(k1), np.empty(k1), np.empty(n + 3)
-    if index1:
-        qx_old[:n] = q
-        vx[:n] = v
-        _index1_acceleration(I, Fl, n, m, t0, qx_old, vx, a, acc_old, R, C, V, S1, col1, g1,
-                             y1)
+    acc_old, acc_new, S1, col1, g1, y1 = _start_estimate(I, Fl, n, m, t0, q, v, a, lam, additive,
+                                                         fixed, index1, qx_old, vx, R, C, V)
     _start_force(rc, I, Fl, t0, q, v, lam, F0, F, qx, vx, work)
     t = t0
     # the step, start-up flag and c0, w0, w1 of the recipe in rc

@@ -35,6 +35,121 @@ def _bd(I, Fl, k):
     return Fl[I[3 * BDAT] + k]
 
 
+@_inline
+def _ffr_mass(I, Fl, nf, qf, m, Bsx, Bsy, ASb, aU, aT, f0, au_, mff_, M):
+    """The mass matrix M(q) of the beam's local coordinates (R, phi, q_f), (c,
+    c)."""
+    M[:, :] = 0.0
+    M[0, 0] = M[1, 1] = m
+    M[0, 2] = M[2, 0] = Bsx
+    M[1, 2] = M[2, 1] = Bsy
+    mpp = _bd(I, Fl, f0 + 3)
+    for j in range(nf):
+        mpp += (2.0 * _bd(I, Fl, au_ + j) + (aU[j] - _bd(I, Fl, au_ + j))) * qf[j]
+        M[0, 3 + j] = M[3 + j, 0] = ASb[0, j]
+        M[1, 3 + j] = M[3 + j, 1] = ASb[1, j]
+        M[2, 3 + j] = M[3 + j, 2] = aT[j]
+        for i in range(nf):
+            M[3 + i, 3 + j] = _bd(I, Fl, mff_ + i * nf + j)
+    M[2, 2] = mpp
+
+
+@_inline
+def _ffr_force(I, Fl, nf, qf, qd, w, w2, m, gx, gy, Asx, Asy, Bsx, Bsy, Bqd0, Bqd1, aUqd, ASb, aU,
+               st_, kk_, Q):
+    """Q = Q_v - K q_f + Q_gravity of the local coordinates, (c,)."""
+    Q[0] = w2 * Asx - 2.0 * w * Bqd0 + m * gx
+    Q[1] = w2 * Asy - 2.0 * w * Bqd1 + m * gy
+    Q[2] = -2.0 * w * aUqd + Bsx * gx + Bsy * gy
+    for i in range(nf):
+        acc = w2 * aU[i] + ASb[0, i] * gx + ASb[1, i] * gy
+        for j in range(nf):
+            acc -= (2.0 * w * _bd(I, Fl, st_ + i * nf + j) * qd[j]
+                    + _bd(I, Fl, kk_ + i * nf + j) * qf[j])
+        Q[3 + i] = acc
+
+
+@_inline
+def _ffr_force_derivatives(I, Fl, nf, qd, w, w2, gx, gy, Asx, Asy, Bsx, Bsy, Aqd0, Aqd1, Bqd0,
+                           Bqd1, aUqd, ASb, BSb, aU, mff_, st_, kk_, Qq, Qv):
+    """Q_q and Q_v of the local coordinates, (c, c) each."""
+    Qq[:, :] = 0.0
+    Qv[:, :] = 0.0
+    Qq[0, 2], Qq[1, 2] = w2 * Bsx + 2.0 * w * Aqd0, w2 * Bsy + 2.0 * w * Aqd1
+    Qv[0, 2], Qv[1, 2] = 2.0 * w * Asx - 2.0 * Bqd0, 2.0 * w * Asy - 2.0 * Bqd1
+    Qv[2, 2] = -2.0 * aUqd
+    Qq[2, 2] = -(Asx * gx + Asy * gy)
+    for j in range(nf):
+        for a in range(2):
+            Qq[a, 3 + j] = w2 * ASb[a, j]
+            Qv[a, 3 + j] = -2.0 * w * BSb[a, j]
+        mq, sq = 0.0, 0.0
+        for k in range(nf):
+            mq += _bd(I, Fl, mff_ + j * nf + k) * qd[k]
+            sq += _bd(I, Fl, st_ + j * nf + k) * qd[k]
+        Qq[2, 3 + j] = -2.0 * w * mq + BSb[0, j] * gx + BSb[1, j] * gy
+        Qq[3 + j, 2] = BSb[0, j] * gx + BSb[1, j] * gy
+        Qv[2, 3 + j] = -2.0 * w * aU[j]
+        Qv[3 + j, 2] = 2.0 * w * aU[j] - 2.0 * sq
+        for i in range(nf):
+            Qq[3 + j, 3 + i] = (w2 * _bd(I, Fl, mff_ + j * nf + i)
+                                - _bd(I, Fl, kk_ + j * nf + i))
+            Qv[3 + j, 3 + i] = -2.0 * w * _bd(I, Fl, st_ + j * nf + i)
+
+
+@_inline
+def _ffr_stiffening(I, Fl, what, qf, ne, dm, d0, kea_, bu_, gg_, Q, Qq):
+    """Geometric stiffening: - dU_G/dq_f into Q and - d^2U_G/dq_f^2 into Q_q,
+    as ``what`` asks (the axial force's bending stiffness, element by
+    element)."""
+    g, dof = np.empty(dm), np.empty(dm, np.int64)
+    for e in range(ne):
+        ke = _bd(I, Fl, kea_ + e)
+        for i in range(dm):
+            dof[i] = _i(I, BDOF, d0 + e * dm + i, 0)
+        ae, ce = 0.0, 0.0
+        for i in range(dm):
+            ae += _bd(I, Fl, bu_ + e * dm + i) * qf[dof[i]]
+            gi = 0.0
+            for j in range(dm):
+                gi += _bd(I, Fl, gg_ + (e * dm + i) * dm + j) * qf[dof[j]]
+            g[i] = gi
+        for i in range(dm):
+            ce += g[i] * qf[dof[i]]
+        for i in range(dm):
+            bui = _bd(I, Fl, bu_ + e * dm + i)
+            if what & FFR_Q:
+                Q[3 + dof[i]] -= ke * (ce * bui + (2.0 * ae + ce) * g[i])
+            if what & FFR_DQ:
+                for j in range(dm):
+                    buj = _bd(I, Fl, bu_ + e * dm + j)
+                    Qq[3 + dof[i], 3 + dof[j]] -= ke * (
+                        2.0 * (bui * g[j] + g[i] * buj) + 2.0 * g[i] * g[j]
+                        + (2.0 * ae + ce) * _bd(I, Fl, gg_ + (e * dm + i) * dm + j))
+
+
+@_inline
+def _ffr_mxq(I, Fl, k0, nf, cph, x, Asx, Asy, BSb, aU, st_, Mxq):
+    """(M(q) x)_q of the local coordinates for the extended vector x, (c, c)."""
+    xR0, xR1 = x[_i(I, BCOL, k0, 0)], x[_i(I, BCOL, k0 + 1, 0)]
+    xp = x[cph]
+    Mxq[:, :] = 0.0
+    Mxq[0, 2], Mxq[1, 2] = -Asx * xp, -Asy * xp
+    Mxq[2, 2] = -(Asx * xR0 + Asy * xR1)
+    for j in range(nf):
+        xj = x[_i(I, BCOL, k0 + 3 + j, 0)]
+        Mxq[0, 2] += BSb[0, j] * xj
+        Mxq[1, 2] += BSb[1, j] * xj
+        Mxq[0, 3 + j], Mxq[1, 3 + j] = BSb[0, j] * xp, BSb[1, j] * xp
+        bx = BSb[0, j] * xR0 + BSb[1, j] * xR1
+        Mxq[3 + j, 2] = bx
+        sx = 0.0
+        for k in range(nf):
+            sx += _bd(I, Fl, st_ + j * nf + k) * x[_i(I, BCOL, k0 + 3 + k, 0)]
+            Mxq[3 + j, 3 + k] = _bd(I, Fl, st_ + j * nf + k) * xp
+        Mxq[2, 3 + j] = bx + 2.0 * aU[j] * xp - sx
+
+
 @_jit
 def _ffr_local(I, Fl, b, qx, vx, x, what, M, Q, Qq, Qv, Mxq):
     """Local blocks of beam b (c = 3 + nf): M(q) into M (c, c), Q = Q_v - K
@@ -73,19 +188,7 @@ def _ffr_local(I, Fl, b, qx, vx, x, what, M, Q, Qq, Qv, Mxq):
     Asx, Asy = cs * sbx - sn * sby, sn * sbx + cs * sby          # A s_bar
     Bsx, Bsy = -Asy, Asx                                         # B s_bar
     if what & FFR_M:
-        M[:, :] = 0.0
-        M[0, 0] = M[1, 1] = m
-        M[0, 2] = M[2, 0] = Bsx
-        M[1, 2] = M[2, 1] = Bsy
-        mpp = _bd(I, Fl, f0 + 3)
-        for j in range(nf):
-            mpp += (2.0 * _bd(I, Fl, au_ + j) + (aU[j] - _bd(I, Fl, au_ + j))) * qf[j]
-            M[0, 3 + j] = M[3 + j, 0] = ASb[0, j]
-            M[1, 3 + j] = M[3 + j, 1] = ASb[1, j]
-            M[2, 3 + j] = M[3 + j, 2] = aT[j]
-            for i in range(nf):
-                M[3 + i, 3 + j] = _bd(I, Fl, mff_ + i * nf + j)
-        M[2, 2] = mpp
+        _ffr_mass(I, Fl, nf, qf, m, Bsx, Bsy, ASb, aU, aT, f0, au_, mff_, M)
     if what & (FFR_Q | FFR_DQ):
         Bqd0, Bqd1, Aqd0, Aqd1, aUqd = 0.0, 0.0, 0.0, 0.0, 0.0
         for j in range(nf):
@@ -99,81 +202,16 @@ def _ffr_local(I, Fl, b, qx, vx, x, what, M, Q, Qq, Qv, Mxq):
         if _rows(I, GRAV) > 0:
             gx, gy = _f(I, Fl, GRAV, 0, 0), _f(I, Fl, GRAV, 1, 0)
         if what & FFR_Q:
-            Q[0] = w2 * Asx - 2.0 * w * Bqd0 + m * gx
-            Q[1] = w2 * Asy - 2.0 * w * Bqd1 + m * gy
-            Q[2] = -2.0 * w * aUqd + Bsx * gx + Bsy * gy
-            for i in range(nf):
-                acc = w2 * aU[i] + ASb[0, i] * gx + ASb[1, i] * gy
-                for j in range(nf):
-                    acc -= (2.0 * w * _bd(I, Fl, st_ + i * nf + j) * qd[j]
-                            + _bd(I, Fl, kk_ + i * nf + j) * qf[j])
-                Q[3 + i] = acc
+            _ffr_force(I, Fl, nf, qf, qd, w, w2, m, gx, gy, Asx, Asy, Bsx, Bsy, Bqd0, Bqd1, aUqd,
+                       ASb, aU, st_, kk_, Q)
         if what & FFR_DQ:
-            Qq[:, :] = 0.0
-            Qv[:, :] = 0.0
-            Qq[0, 2], Qq[1, 2] = w2 * Bsx + 2.0 * w * Aqd0, w2 * Bsy + 2.0 * w * Aqd1
-            Qv[0, 2], Qv[1, 2] = 2.0 * w * Asx - 2.0 * Bqd0, 2.0 * w * Asy - 2.0 * Bqd1
-            Qv[2, 2] = -2.0 * aUqd
-            Qq[2, 2] = -(Asx * gx + Asy * gy)
-            for j in range(nf):
-                for a in range(2):
-                    Qq[a, 3 + j] = w2 * ASb[a, j]
-                    Qv[a, 3 + j] = -2.0 * w * BSb[a, j]
-                mq, sq = 0.0, 0.0
-                for k in range(nf):
-                    mq += _bd(I, Fl, mff_ + j * nf + k) * qd[k]
-                    sq += _bd(I, Fl, st_ + j * nf + k) * qd[k]
-                Qq[2, 3 + j] = -2.0 * w * mq + BSb[0, j] * gx + BSb[1, j] * gy
-                Qq[3 + j, 2] = BSb[0, j] * gx + BSb[1, j] * gy
-                Qv[2, 3 + j] = -2.0 * w * aU[j]
-                Qv[3 + j, 2] = 2.0 * w * aU[j] - 2.0 * sq
-                for i in range(nf):
-                    Qq[3 + j, 3 + i] = (w2 * _bd(I, Fl, mff_ + j * nf + i)
-                                        - _bd(I, Fl, kk_ + j * nf + i))
-                    Qv[3 + j, 3 + i] = -2.0 * w * _bd(I, Fl, st_ + j * nf + i)
+            _ffr_force_derivatives(I, Fl, nf, qd, w, w2, gx, gy, Asx, Asy, Bsx, Bsy, Aqd0, Aqd1,
+                                   Bqd0, Bqd1, aUqd, ASb, BSb, aU, mff_, st_, kk_, Qq, Qv)
         if ne > 0:          # geometric stiffening: - dU_G/dq_f, - d^2U_G/dq_f^2
-            g, dof = np.empty(dm), np.empty(dm, np.int64)
-            for e in range(ne):
-                ke = _bd(I, Fl, kea_ + e)
-                for i in range(dm):
-                    dof[i] = _i(I, BDOF, d0 + e * dm + i, 0)
-                ae, ce = 0.0, 0.0
-                for i in range(dm):
-                    ae += _bd(I, Fl, bu_ + e * dm + i) * qf[dof[i]]
-                    gi = 0.0
-                    for j in range(dm):
-                        gi += _bd(I, Fl, gg_ + (e * dm + i) * dm + j) * qf[dof[j]]
-                    g[i] = gi
-                for i in range(dm):
-                    ce += g[i] * qf[dof[i]]
-                for i in range(dm):
-                    bui = _bd(I, Fl, bu_ + e * dm + i)
-                    if what & FFR_Q:
-                        Q[3 + dof[i]] -= ke * (ce * bui + (2.0 * ae + ce) * g[i])
-                    if what & FFR_DQ:
-                        for j in range(dm):
-                            buj = _bd(I, Fl, bu_ + e * dm + j)
-                            Qq[3 + dof[i], 3 + dof[j]] -= ke * (
-                                2.0 * (bui * g[j] + g[i] * buj) + 2.0 * g[i] * g[j]
-                                + (2.0 * ae + ce) * _bd(I, Fl, gg_ + (e * dm + i) * dm + j))
+            _ffr_stiffening(I, Fl, what, qf, ne, dm, d0, kea_, bu_, gg_, Q, Qq)
     if what & FFR_MXQ:
-        xR0, xR1 = x[_i(I, BCOL, k0, 0)], x[_i(I, BCOL, k0 + 1, 0)]
-        xp = x[cph]
-        Mxq[:, :] = 0.0
-        Mxq[0, 2], Mxq[1, 2] = -Asx * xp, -Asy * xp
-        Mxq[2, 2] = -(Asx * xR0 + Asy * xR1)
-        for j in range(nf):
-            xj = x[_i(I, BCOL, k0 + 3 + j, 0)]
-            Mxq[0, 2] += BSb[0, j] * xj
-            Mxq[1, 2] += BSb[1, j] * xj
-            Mxq[0, 3 + j], Mxq[1, 3 + j] = BSb[0, j] * xp, BSb[1, j] * xp
-            bx = BSb[0, j] * xR0 + BSb[1, j] * xR1
-            Mxq[3 + j, 2] = bx
-            sx = 0.0
-            for k in range(nf):
-                sx += _bd(I, Fl, st_ + j * nf + k) * x[_i(I, BCOL, k0 + 3 + k, 0)]
-                Mxq[3 + j, 3 + k] = _bd(I, Fl, st_ + j * nf + k) * xp
-            Mxq[2, 3 + j] = bx + 2.0 * aU[j] * xp - sx
+        _ffr_mxq(I, Fl, k0, nf, cph, x, Asx, Asy, BSb, aU, st_, Mxq)
+
 
 
 @_jit

@@ -1,6 +1,6 @@
 """A run in the browser: one self-contained HTML file (``mbdsl view``).
 
-The page holds the mechanism animated (the drawing of :mod:`mbdsl.scene`:
+The page holds the mechanism animated (the drawing of :mod:`mbdsl.graphics.scene`:
 bodies with their shapes, beams deformed, springs, rods and joints), a time
 slider with play and pause at three speeds, and time plots beside it (the
 standard panels, or the columns asked for) that zoom, pan and show values
@@ -194,7 +194,36 @@ def write_html(solution, path, columns=None, bodies=None, max_frames: int = MAX_
                         specs=[[{"rowspan": rows}, {}]] + [[None, {}] for _ in range(rows - 1)],
                         shared_xaxes=False, vertical_spacing=0.04 if rows > 4 else 0.08,
                         subplot_titles=[""] + [p[0] for p in panels])
-    # the mechanism: ground marks and guides (static), then its traces
+    mech = _add_mechanism(fig, go, scene, drawing, qs[0])
+    cursors, bounds = _add_time_plots(fig, go, sol, panels, t, times)
+    fig.update_xaxes(title_text="t [s]", row=rows, col=2)
+    fig.update_xaxes(range=[lo[0], hi[0]], row=1, col=1, showgrid=False, zeroline=False)
+    fig.update_yaxes(range=[lo[1], hi[1]], row=1, col=1, scaleanchor="x", scaleratio=1,
+                     showgrid=False, zeroline=False)
+
+    _add_frames(fig, go, drawing, qs, times, bounds, mech + cursors, rows)
+    figure = fig.to_html(include_plotlyjs=True, full_html=False, div_id="mechanism",
+                         config={"responsive": True, "displaylogo": False})
+    described = [{"trace": i, "style": s, "color": c}
+                 for i, (s, c) in zip(mech, drawing.keys)]
+    info = {"frames": n_frames, "times": times.tolist(), "traces": described,
+            "cursors": cursors}
+    warnings = "".join(f"<li>{html.escape(w.code)}: {html.escape(w.message)}</li>"
+                       for w in sol.warnings)
+    page = _PAGE.format(title=html.escape(f"{sol.model.name}: {sol.method_name}"),
+                        summary=html.escape(sol.summary()),
+                        warnings=f"<ul class='warn'>{warnings}</ul>" if warnings else "",
+                        figure=figure, info=json.dumps(info))
+    path = Path(path)
+    path.write_text(page, encoding="utf-8")
+    return path
+
+
+
+def _add_mechanism(fig, go, scene, drawing, q0) -> list:
+    """The mechanism's panel at q0: the ground's marks and guides (static),
+    then its bodies' traces; returns the indices of those (the frames move
+    them)."""
     marks, guides = scene.ground()
     if marks:
         m = np.array(marks)
@@ -206,14 +235,20 @@ def write_html(solution, path, columns=None, bodies=None, max_frames: int = MAX_
                                  hoverinfo="skip", line={"dash": "dash", "color": "#888888",
                                                          "width": 1}), row=1, col=1)
     first = len(fig.data)
-    for base, (x, y) in zip(drawing.traces(), drawing.xy(qs[0])):
+    for base, (x, y) in zip(drawing.traces(), drawing.xy(q0)):
         base = dict(base)
         base.pop("xaxis")
         base.pop("yaxis")
         fig.add_trace(go.Scatter(x=x, y=y, **{k: v for k, v in base.items() if k != "type"}),
                       row=1, col=1)
     mech = list(range(first, len(fig.data)))
-    # the time plots, every row; a cursor at the frame's time in each
+    return mech
+
+
+def _add_time_plots(fig, go, sol, panels, t, times) -> tuple:
+    """The time plots, every row, events as dotted lines and a cursor at the
+    first frame's time in each; returns (the cursors' trace indices, each
+    panel's (y0, y1))."""
     units = sol.column_units()
     cursors, bounds = [], []
     for r, (title, names, log) in enumerate(panels, start=1):
@@ -248,16 +283,18 @@ def write_html(solution, path, columns=None, bodies=None, max_frames: int = MAX_
         cursors.append(len(fig.data) - 1)
         if log:
             fig.update_yaxes(type="log", row=r, col=2)
-    fig.update_xaxes(title_text="t [s]", row=rows, col=2)
-    fig.update_xaxes(range=[lo[0], hi[0]], row=1, col=1, showgrid=False, zeroline=False)
-    fig.update_yaxes(range=[lo[1], hi[1]], row=1, col=1, scaleanchor="x", scaleratio=1,
-                     showgrid=False, zeroline=False)
+    return cursors, bounds
 
+
+def _add_frames(fig, go, drawing, qs, times, bounds, moving, rows) -> None:
+    """One frame per time of ``times`` (the mechanism at ``qs`` and the
+    cursors), the play buttons and the time slider."""
+    n_frames = len(times)
     frames = []
     for k in range(n_frames):
         data = [go.Scatter(x=x, y=y) for x, y in drawing.xy(qs[k])]
         data += [go.Scatter(x=[times[k], times[k]], y=list(b)) for b in bounds]
-        frames.append(go.Frame(name=f"f{k}", data=data, traces=mech + cursors))
+        frames.append(go.Frame(name=f"f{k}", data=data, traces=moving))
     fig.frames = frames
     span = float(times[-1] - times[0])
     step_ms = 1000.0 * span / max(n_frames - 1, 1)
@@ -286,21 +323,6 @@ def write_html(solution, path, columns=None, bodies=None, max_frames: int = MAX_
                                                   "frame": {"duration": 0, "redraw": False},
                                                   "transition": {"duration": 0}}]}
                             for k in range(n_frames)]}])
-    figure = fig.to_html(include_plotlyjs=True, full_html=False, div_id="mechanism",
-                         config={"responsive": True, "displaylogo": False})
-    described = [{"trace": i, "style": s, "color": c}
-                 for i, (s, c) in zip(mech, drawing.keys)]
-    info = {"frames": n_frames, "times": times.tolist(), "traces": described,
-            "cursors": cursors}
-    warnings = "".join(f"<li>{html.escape(w.code)}: {html.escape(w.message)}</li>"
-                       for w in sol.warnings)
-    page = _PAGE.format(title=html.escape(f"{sol.model.name}: {sol.method_name}"),
-                        summary=html.escape(sol.summary()),
-                        warnings=f"<ul class='warn'>{warnings}</ul>" if warnings else "",
-                        figure=figure, info=json.dumps(info))
-    path = Path(path)
-    path.write_text(page, encoding="utf-8")
-    return path
 
 
 _PAGE = """<!DOCTYPE html>

@@ -5,590 +5,16 @@ Shapes: N stored time points, n coordinates, m constraint equations.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from dataclasses import dataclass
-from typing import NamedTuple
-
 import numpy as np
 
-from .assembly.groups import PointSet
+from .derived import DERIVED_NAMES, derived_columns, result_columns
+from .rows import (STAT_NAMES, Extent, RunStats, StepStats, FileArrays, RowArray,
+                   RowStore)
 
-__all__ = ["Solution", "StepStats", "RunStats", "derived_columns", "Extent"]
-
-
-@dataclass
-class StepStats:
-    """Newton statistics of one recorded row (zeros for the initial row).
-
-    With an output stride (``output_every`` K > 1) a row stands for the K
-    steps since the previous row: the counts are their sums, ``h`` the size
-    of the last of them and ``steps`` their number.
-    """
-
-    iterations: int = 0
-    residuals: int = 0
-    jacobians: int = 0
-    factorizations: int = 0
-    h: float = 0.0
-    multipliers_stalled: int = 0      # steps accepted at the round-off floor (0 or 1 per step)
-    steps: int = 1
-
-
-@dataclass
-class RunStats:
-    """Totals over a run."""
-
-    steps: int = 0
-    iterations: int = 0
-    residuals: int = 0
-    jacobians: int = 0
-    factorizations: int = 0
-    rejected: int = 0
-    multipliers_stalled: int = 0
-
-
-class Extent(NamedTuple):
-    """What a run's summary and checks read of one column: its first and last
-    values, its least and greatest, its largest magnitude and the row of it
-    (the first such row; NaN counts as largest, as in ``numpy.argmax``).
-
-    Computed from a whole column (:meth:`of`), or chunk by chunk as a run
-    streams its rows to a file (:meth:`merge`), with the same result.
-    """
-
-    first: float
-    last: float
-    min: float
-    max: float
-    absmax: float
-    at: int
-
-    @classmethod
-    def of(cls, values, offset: int = 0) -> "Extent":
-        """The extent of ``values`` (shape (k,), k >= 1), rows numbered from ``offset``."""
-        x = np.asarray(values, dtype=float)
-        with np.errstate(all="ignore"):
-            k = int(np.argmax(np.abs(x)))
-            return cls(float(x[0]), float(x[-1]), float(np.min(x)), float(np.max(x)),
-                       float(abs(x[k])), offset + k)
-
-    def merge(self, later: "Extent") -> "Extent":
-        """The extent of this column's rows followed by those of ``later``."""
-        with np.errstate(all="ignore"):
-            first_wins = int(np.argmax([self.absmax, later.absmax])) == 0
-            return Extent(self.first, later.last, float(np.min([self.min, later.min])),
-                          float(np.max([self.max, later.max])),
-                          self.absmax if first_wins else later.absmax,
-                          self.at if first_wins else later.at)
-
-
-class _RowArray:
-    """A Solution's array of rows (``t``, ``q``, ``v``, ``a``, ``lam``): held,
-    or, for a run whose rows went to its HDF5 file as it streamed and left
-    memory (:meth:`Solution.attach_file`), read from that file when first
-    asked for and then held."""
-
-    def __init__(self, dataset: str):
-        self.dataset = dataset
-
-    def __set_name__(self, owner, name):
-        self.name, self.slot = name, "_held_" + name
-
-    def __get__(self, obj, owner=None):
-        if obj is None:
-            return self
-        held = obj.__dict__.get(self.slot)
-        if held is not None:
-            return held
-        source = obj.__dict__.get("_file_rows")
-        if source is None:
-            raise AttributeError(f"the run's rows are not stacked yet (no '{self.name}' "
-                                 "before Solution.finalize)")
-        held = obj.__dict__[self.slot] = source.read(self.dataset)
-        return held
-
-    def __set__(self, obj, value):
-        obj.__dict__[self.slot] = value
-
-    def held(self, obj) -> bool:
-        """Whether ``obj`` holds the array (not only its file does)."""
-        return obj.__dict__.get(self.slot) is not None
-
-
-class _FileArrays(Mapping):
-    """Arrays of a result file by name, each read when first asked for and
-    then held (a streamed run's extras, Newton statistics and derived
-    columns, :meth:`Solution.attach_file`); :meth:`column` reads one column
-    of one without holding it."""
-
-    def __init__(self, source, datasets: dict):
-        #: name -> (dataset, column or None for the whole dataset)
-        self._source, self._datasets, self._held = source, dict(datasets), {}
-
-    def __getitem__(self, key):
-        if key not in self._held:
-            dataset, j = self._datasets[key]
-            self._held[key] = self._source.read(dataset, j)
-        return self._held[key]
-
-    def __iter__(self):
-        return iter(self._datasets)
-
-    def __len__(self):
-        return len(self._datasets)
-
-    def column(self, key, j: int) -> np.ndarray:
-        """Column j of the (N, k) array ``key``, read alone unless it is held."""
-        if key in self._held:
-            return self._held[key][:, j]
-        return self._source.read(self._datasets[key][0], j)
-
-
-#: The energy integrals a run with rows at requested times carries per row,
-#: integrated over its steps (``integrators.dense``).
-FLOW_NAMES = ("energy.work", "energy.dissipated")
-
-
-class _RowStore:
-    """The recorded rows of a run, in segments of arrays.
-
-    The compiled time loop hands over blocks of rows as arrays
-    (:meth:`extend`); the numpy engine one accepted state at a time
-    (:meth:`append`), kept as objects until the next block or read, then
-    stacked into one segment. Why: a Python object per recorded step cost as
-    much as the compiled step itself (about 10 us per row, half of it the
-    garbage collector walking them).
-
-    A segment is a dict: "t" (k,), "q", "v", "a" (k, n), "lam" (k, m), one
-    (k, m) array per extra multiplier name, and one (k,) array per
-    ``Solution.STAT_NAMES`` entry; with ``flows``, also (k,) arrays
-    "energy.work" and "energy.dissipated" integrated over the steps
-    (``integrators.dense``: rows at requested times).
-    """
-
-    def __init__(self, n: int, m: int, extra_names, flows: bool = False):
-        self.n, self.m, self.extra_names = n, m, tuple(extra_names)
-        self.flow_names = FLOW_NAMES if flows else ()
-        self._segments: list[dict] = []
-        self._states: list = []
-        self._stats: list = []
-        self._count = 0
-        #: Rows let go (:meth:`release`): the first stored row is row ``released``.
-        self.released = 0
-
-    def __len__(self) -> int:
-        return self._count
-
-    def append(self, state, stats: StepStats) -> None:
-        """One accepted state (``StepState``) and its statistics."""
-        self._states.append(state)
-        self._stats.append(stats)
-        self._count += 1
-
-    def extend(self, segment: dict) -> None:
-        """A block of rows (a segment as in the class docstring; the arrays are kept)."""
-        self._flush()
-        self._segments.append(segment)
-        self._count += len(segment["t"])
-
-    def _flush(self) -> None:
-        if not self._states:
-            return
-        rows, k, m = self._states, len(self._states), self.m
-        seg = {"t": np.array([s.t for s in rows], dtype=float),
-               "q": np.array([s.q for s in rows], dtype=float).reshape(k, self.n),
-               "v": np.array([s.v for s in rows], dtype=float).reshape(k, self.n),
-               "a": np.array([s.a for s in rows], dtype=float).reshape(k, self.n),
-               "lam": np.array([s.lam for s in rows], dtype=float).reshape(k, m)}
-        for x in self.extra_names:
-            seg[x] = np.array([s.extra[x] for s in rows], dtype=float).reshape(k, m)
-        for name in Solution.STAT_NAMES:
-            seg[name] = np.array([getattr(s, name) for s in self._stats])
-        for name in self.flow_names:       # the initial row: nothing exchanged yet
-            seg[name] = np.zeros(k)
-        self._segments.append(seg)
-        self._states, self._stats = [], []
-
-    def get(self, i0: int, i1: int) -> dict:
-        """Rows i0..i1-1 as one segment: views of the stored arrays when one
-        segment holds them all, else new arrays (read-only use)."""
-        self._flush()
-        if i0 < self.released and i1 > i0:
-            raise IndexError(f"rows before {self.released} were released (written to the "
-                             f"result file), not rows {i0}..{i1 - 1}")
-        parts, start = [], self.released
-        for seg in self._segments:
-            k = len(seg["t"])
-            lo, hi = max(i0 - start, 0), min(i1 - start, k)
-            if lo < hi:
-                parts.append({key: x[lo:hi] for key, x in seg.items()})
-            start += k
-        keys = (("t", "q", "v", "a", "lam") + self.extra_names + Solution.STAT_NAMES
-                + self.flow_names)
-        if not parts:
-            shapes = {"t": (0,), "q": (0, self.n), "v": (0, self.n), "a": (0, self.n)}
-            return {key: np.zeros(shapes.get(key, (0, self.m) if key == "lam"
-                                             or key in self.extra_names else (0,)))
-                    for key in keys}
-        if len(parts) == 1:
-            return {key: parts[0][key] for key in keys}
-        return {key: np.concatenate([p[key] for p in parts]) for key in keys}
-
-    def release(self, upto: int) -> None:
-        """Let go of the segments that hold only rows before ``upto`` (a
-        stream wrote them to its file), the last segment always kept (the
-        last row may still be amended, :meth:`set_last`)."""
-        self._flush()
-        while len(self._segments) > 1 and self.released + len(self._segments[0]["t"]) <= upto:
-            self.released += len(self._segments.pop(0)["t"])
-
-    def stack(self) -> None:
-        """Hold every row as one segment (the arrays a finished run's Solution
-        exposes), the segments of the run freed."""
-        self._flush()
-        if len(self._segments) > 1:
-            self._segments = [self.get(self.released, self._count)]
-
-    def last(self) -> dict:
-        """The last row, as a one-row segment."""
-        return self.get(self._count - 1, self._count)
-
-    def set_last(self, **values) -> None:
-        """Overwrite entries of the last row: a key of a segment (class
-        docstring) and its new value (a float for "t", an array for the others)."""
-        self._flush()
-        for key, value in values.items():
-            self._segments[-1][key][-1] = value
-
-
-class _Reactions:
-    """Reaction of every joint on its second body, vectorised over joints and rows.
-
-    For each joint: (fx, fy) [N] in global coordinates, applied at the
-    joint's first point, and the couple [N m] about that point (zero for a
-    revolute joint). The generalized constraint force of a joint's rows is
-    -Phi_q^T lambda (sign convention M a + Phi_q^T lambda = Q). When the
-    second body is the ground, the reaction is minus the one on the first
-    body (the joint is massless).
-
-    Built once: which entries of the Phi_q pattern (a joint's rows, the
-    columns x, y, phi of the body read) add into which reaction component,
-    sorted so that one ``np.add.reduceat`` sums them for all rows at once.
-    """
-
-    def __init__(self, system):
-        joints = system.model.joints
-        element = {name: k for k, name in enumerate(system.layout.element_rows)}
-        elem = np.array([element[j.name] for j in joints], dtype=np.intp)
-        second = np.array([j.second.body for j in joints], dtype=np.intp)
-        first = np.array([j.first.body for j in joints], dtype=np.intp)
-        self.body = np.where(second >= 0, second, first)          # whose force we read
-        self.sign = np.where(second >= 0, 1.0, -1.0)
-        self.first_points = PointSet(system.cmap, [j.first for j in joints])  # deformation included
-        self.system, self.n_joints = system, len(joints)
-        # zero by construction, written as 0 rather than the round-off of the sum:
-        # a pin, a rod (its force along the rod, through the first point) and a
-        # point on a line transmit no couple about the first point, nor does
-        # anything acting on a particle
-        particle = [getattr(system.model.bodies[b], "particle", False) if b >= 0 else False
-                    for b in self.body]
-        self.pinned = np.array([j.kind in ("revolute", "distance", "point_on_line") or p
-                                for j, p in zip(joints, particle)], dtype=bool)
-        rows, cols = system.pattern_Phi_q
-        joint_of_element = np.full(system.layout.n_elements, -1, dtype=np.intp)
-        joint_of_element[elem] = np.arange(len(joints))
-        jt = joint_of_element[system.layout.row_element[rows]]
-        # the columns (x, y, phi) of the body whose force we read, per joint
-        self.body_cols = system.cmap(self.body).reshape(-1, 3)
-        match = cols[:, None] == self.body_cols[np.maximum(jt, 0)]
-        comp = np.where(match.any(axis=1), match.argmax(axis=1), -1)
-        keep = np.flatnonzero((jt >= 0) & (comp >= 0))
-        target = 3 * jt[keep] + comp[keep]
-        order = np.argsort(target, kind="stable")
-        self.entries = keep[order]                   # pattern entries, grouped by target
-        self.rows = rows[self.entries]
-        self.targets, self.starts = np.unique(target[order], return_index=True)
-
-    def __call__(self, q, t, lam) -> np.ndarray:
-        """(fx, fy, couple) of every joint, shape (joints, 3), or (N, joints,
-        3) for rows q (N, n), t (N,), lam (N, m)."""
-        q, lam = np.asarray(q, dtype=float), np.asarray(lam, dtype=float)
-        vals = self.system.Phi_q_values(q, t)[..., self.entries] * -lam[..., self.rows]
-        gen = np.zeros(q.shape[:-1] + (3 * self.n_joints,))
-        if len(self.entries):
-            gen[..., self.targets] = np.add.reduceat(vals, self.starts, axis=-1)
-        gen = gen.reshape(q.shape[:-1] + (self.n_joints, 3))
-        qx = np.concatenate([q, np.zeros(q.shape[:-1] + (3,))], axis=-1)  # ground: 0
-        point = self.first_points.position(qx[..., self.first_points.cols])
-        d = point - np.stack([qx[..., self.body_cols[:, 0]], qx[..., self.body_cols[:, 1]]], -1)
-        couple = gen[..., 2] - (d[..., 0] * gen[..., 1] - d[..., 1] * gen[..., 0])
-        couple = np.where(self.pinned, 0.0, couple)     # a revolute transmits no couple
-        return self.sign[:, None] * np.stack([gen[..., 0], gen[..., 1], couple], -1)
-
+__all__ = ["Solution"]
 
 #: The codes of the guard's checks (:mod:`mbdsl.guard`), named in the summary's first line.
-_GUARD_CODES = ("W602", "W603", "W604")
-
-#: Rows evaluated together for derived columns (bounds the temporary arrays).
-_ROW_CHUNK = 1024
-
-
-def energy_flows(system, t, q, v, lam, total, phi_t=None, start=None, contact_log=None,
-                 flows=None) -> dict:
-    """``energy.work``, ``energy.dissipated`` and ``energy.balance`` of rows.
-
-    work(t) = int_0^t p_in, dissipated(t) = int_0^t p_dissipated
-    (``AssembledSystem.power``), by the trapezoidal rule over the rows (second
-    order, as the methods' energies; with ``--output-every`` K the rows are K
-    steps apart and the quadrature error grows as (K h)^2). balance = E(t) -
-    E(0) - work + dissipated is zero for the exact motion; its size is the
-    integration's energy error.
-
-    Parameters
-    ----------
-    total : ndarray, shape (N,) [J]
-        ``energy.total`` of the rows.
-    start : dict, optional
-        The state after the rows before these (:func:`energy_end`): a run
-        written chunk by chunk integrates on from it; None: the rows start
-        the run.
-    contact_log : list, optional
-        The run's contact state changes (``Solution.contact_log``); None: those
-        of the run under way (``ContactGroup.log``).
-    flows : dict of str -> ndarray, shape (N,) [J], optional
-        ``energy.work`` and ``energy.dissipated`` at the rows, integrated over
-        the run's steps (rows at requested times, ``integrators.dense``):
-        taken as they are, and the balance from them.
-    """
-    if flows is not None:
-        work = np.asarray(flows["energy.work"], dtype=float)
-        diss = np.asarray(flows["energy.dissipated"], dtype=float)
-        e0 = total[0] if start is None else start["E0"]
-        return {"energy.work": work, "energy.dissipated": diss,
-                "energy.balance": total - e0 - work + diss,
-                "_end": {"t": t[-1], "p_in": np.nan, "p_dissipated": np.nan,
-                         "work": work[-1], "dissipated": diss[-1], "E0": e0}}
-    group = getattr(system, "contact_group", None)
-    if contact_log is None:
-        contact_log = group.log if group is not None else ()
-    p_in, p_diss = system.power(t, q, v, lam, phi_t, contact_log=contact_log)
-    if start is None:
-        start = {"t": t[0], "p_in": p_in[0], "p_dissipated": p_diss[0], "work": 0.0,
-                 "dissipated": 0.0, "E0": total[0]}
-    t_prev = np.concatenate([[start["t"]], t[:-1]])
-    dt = 0.5 * (t - t_prev)
-    work = np.cumsum(np.concatenate([[start["work"]], dt * (
-        p_in + np.concatenate([[start["p_in"]], p_in[:-1]]))]))[1:]
-    diss = np.cumsum(np.concatenate([[start["dissipated"]], dt * (
-        p_diss + np.concatenate([[start["p_dissipated"]], p_diss[:-1]]))]))[1:]
-    return {"energy.work": work, "energy.dissipated": diss,
-            "energy.balance": total - start["E0"] - work + diss,
-            "_end": {"t": t[-1], "p_in": p_in[-1], "p_dissipated": p_diss[-1],
-                     "work": work[-1], "dissipated": diss[-1], "E0": start["E0"]}}
-
-
-def driver_loads(system) -> list[tuple[str, int]]:
-    """(column, constraint row) of every driver's load: ``driver.<name>.force``
-    [N] for a driven x, y or joint distance, ``driver.<name>.torque`` [N m]
-    for a driven phi or joint angle. The load is -lambda of the driver's row
-    (sign convention M a + Phi_q^T lambda = Q, a driver row q_c - f(t)): the
-    generalized force the driver applies to the driven coordinate, i.e. on
-    the driven body's x, y or phi, on a joint's second body (its first body
-    takes the opposite), or along the line on a sliding joint's first point."""
-    out = []
-    for d in system.model.drivers:
-        row = system.layout.element_rows[d.name][0]
-        force = (d.kind == "coordinate" and d.coord < 2) or d.kind == "joint_distance"
-        out.append((f"driver.{d.name}.{'force' if force else 'torque'}", int(row)))
-    return out
-
-
-def output_columns(system, t, q, v, a, derived, lam=None, contact_log=None) -> dict:
-    """The ``output.<name>`` columns of the model's ``output`` lines, shape (N,)
-    each, evaluated over the rows (numpy: a division by zero gives inf).
-
-    Parameters
-    ----------
-    t : ndarray, shape (N,) [s]
-    q, v : ndarray, shape (N, n)
-    a : ndarray, shape (N, n), or None
-        Accelerations (None: an output that reads one is NaN).
-    derived : dict
-        The derived columns of the same rows (energies, reactions, loads).
-    lam : ndarray, shape (N, m), optional
-        The multipliers (``lambda.<joint>.<row>``; the loads of friction
-        elements); None: NaN.
-    contact_log : list, optional
-        The run's contact state changes (the impact speeds behind a contact's
-        normal force); None: those of the run under way.
-    """
-    from .assembly.groups import drot, rot
-    from .dsl.expressions import evaluate_rows
-    from .model.elements import SENSOR_UNITS
-    lay, N, cmap = system.layout, len(t), system.cmap
-    qx = np.concatenate([q, np.zeros((N, 3))], axis=1)      # ground (and particles' phi): 0
-    vx = np.concatenate([v, np.zeros((N, 3))], axis=1)
-    index = {name: (q, i) for i, name in enumerate(lay.coordinates)}
-    index.update({name: (v, i) for i, name in enumerate(lay.velocities)})
-    if a is not None:
-        index.update({name: (a, i) for i, name in enumerate(lay.accelerations)})
-    if lam is not None:
-        index.update({name: (lam, i) for i, name in enumerate(lay.multiplier_names())})
-    sensors = None               # system.sensor_values, when read
-    out = {}
-    for o in system.model.outputs:
-        env = {}
-        for var in o.variables:
-            if var.kind in SENSOR_UNITS:
-                if sensors is None:
-                    group = getattr(system, "contact_group", None)
-                    log = (contact_log if contact_log is not None
-                           else group.log if group is not None else ())
-                    sensors = system.sensor_values(
-                        t, q, v, np.zeros((N, system.m)) if lam is None else lam, log)
-                k = list(SENSOR_UNITS[var.kind]).index(var.field)
-                reads_lam = var.kind == "friction" and k > 0     # a friction load: lambda
-                env[var.name] = (sensors[var.kind][:, var.index, k]
-                                 if lam is not None or not reads_lam else np.full(N, np.nan))
-            elif var.kind == "beam_point":
-                env[var.name] = _beam_point(system, var, qx, vx)
-            elif var.kind == "column":
-                if var.column in index:
-                    arr, i = index[var.column]
-                    env[var.name] = arr[:, i]
-                else:
-                    env[var.name] = derived.get(var.column, np.full(N, np.nan))
-            elif var.kind == "joint" and var.line is not None:      # s or ds/dt
-                from .model.elements import line_columns, line_distance
-                cols = line_columns(var.line, cmap)
-                vals = np.empty(N)
-                for r in range(N):
-                    s, grad = line_distance(var.line, qx[r], cmap)
-                    vals[r] = s if var.field == "distance" else grad @ vx[r, cols]
-                env[var.name] = vals
-            elif var.kind == "joint":
-                src = qx if var.field == "angle" else vx
-                val = np.zeros(N)
-                for b, sign in zip(var.bodies, (-1.0, 1.0)):
-                    if b >= 0:
-                        val = val + sign * src[:, cmap.column(b, 2)]
-                env[var.name] = val
-            else:                               # a point of a rigid body (or the ground)
-                b, s = var.point.body, np.asarray(var.point.local, dtype=float)
-                if b < 0:
-                    pos, vel = np.tile(s, (N, 1)), np.zeros((N, 2))
-                else:
-                    cx, cy, cp = cmap(b)[0]
-                    phi = qx[:, cp]
-                    pos = qx[:, [cx, cy]] + rot(phi, np.broadcast_to(s, (N, 2)))
-                    vel = vx[:, [cx, cy]] + vx[:, cp:cp + 1] * drot(
-                        phi, np.broadcast_to(s, (N, 2)))
-                k = {"x": 0, "y": 1, "vx": 0, "vy": 1}[var.field]
-                env[var.name] = (pos if var.field in ("x", "y") else vel)[:, k]
-        out[f"output.{o.name}"] = np.broadcast_to(
-            evaluate_rows(o.expr, env, np.asarray(t, dtype=float)), (N,)).astype(float)
-    return out
-
-
-def _beam_point(system, var, qx, vx) -> np.ndarray:
-    """``field`` of the material point at arc x of a flexible beam at rows qx,
-    vx (N, n + 3): r + A(phi) ((x, 0) + S(x) q_f) and its velocity (the
-    floating frame of reference); "deflection": the point's elastic
-    displacement normal to the frame's axis, (S(x) q_f)_y [m]."""
-    from .assembly.groups import drot, rot
-    beam = system.model.bodies[var.bodies[0]]
-    S = beam.mesh.shape(np.array([var.arc]))[0]               # (2, nf)
-    cols = beam.elastic_columns()
-    disp, rate = qx[:, cols] @ S.T, vx[:, cols] @ S.T          # (N, 2)
-    if var.field == "deflection":
-        return disp[:, 1].copy()
-    cx, cy, cp = system.cmap(beam.index)[0]
-    local = disp + np.array([var.arc, 0.0])
-    phi = qx[:, cp]
-    if var.field in ("x", "y"):
-        return (qx[:, [cx, cy]] + rot(phi, local))[:, "xy".index(var.field)]
-    vel = vx[:, [cx, cy]] + vx[:, cp:cp + 1] * drot(phi, local) + rot(phi, rate)
-    return vel[:, 0 if var.field == "vx" else 1]
-
-
-def derived_columns(system, t, q, v, lam, start=None, end=None, a=None,
-                    contact_log=None, flows=None) -> dict:
-    """Energies, constraint norms and joint reactions of stored rows.
-
-    Every element is evaluated for all rows at once (the kernels loop over
-    the rows for the joints, drivers and beams; the force groups broadcast
-    over leading axes), in chunks of ``_ROW_CHUNK`` rows.
-
-    Parameters
-    ----------
-    system : AssembledSystem
-    t : ndarray, shape (N,) [s]
-    q, v : ndarray, shape (N, n)
-    lam : ndarray, shape (N, m)
-
-    start, end : dict, optional
-        The energy integrals carried from the rows before (``start``, None
-        when these rows begin the run) and to the rows after (``end`` is
-        filled): see :func:`energy_flows`.
-    contact_log, flows : optional
-        See :func:`energy_flows`.
-
-    Returns
-    -------
-    dict of str -> ndarray, shape (N,)
-        ``energy.kinetic|potential|total``, ``energy.work|dissipated|balance``
-        [J], ``constraint.position``
-        (max |Phi|), ``constraint.velocity`` (max |Phi_q v + Phi_t|) and
-        ``reaction.<joint>.fx|fy|torque`` [N, N m].
-    """
-    N = len(t)
-    kin, pot, cpos, cvel = (np.zeros(N) for _ in range(4))
-    phi_t = np.zeros((N, system.m))
-    joints = system.model.joints
-    reactions = _Reactions(system) if joints else None
-    reac = np.zeros((N, len(joints), 3))
-    for i0 in range(0, N, _ROW_CHUNK):
-        sl = slice(i0, min(i0 + _ROW_CHUNK, N))
-        qs, vs, ts = q[sl], v[sl], t[sl]
-        kin[sl] = system.kinetic_energy(qs, vs)
-        pot[sl] = system.potential_energy(qs)
-        if system.m:
-            cpos[sl] = np.max(np.abs(system.Phi(qs, ts)), axis=1)
-            phi_t[sl] = system.Phi_t(qs, ts)
-            cvel[sl] = np.max(np.abs(system.Phiq_times(qs, ts, vs) + phi_t[sl]), axis=1)
-            if reactions is not None:
-                reac[sl] = reactions(qs, ts, lam[sl])
-    out = {"energy.kinetic": kin, "energy.potential": pot, "energy.total": kin + pot}
-    energies = energy_flows(system, t, q, v, lam, kin + pot, phi_t, start, contact_log, flows)
-    carry = energies.pop("_end")
-    out.update(energies)
-    out.update({"constraint.position": cpos, "constraint.velocity": cvel})
-    for k, j in enumerate(joints):
-        for c, comp in enumerate(("fx", "fy", "torque")):
-            out[f"reaction.{j.name}.{comp}"] = reac[:, k, c]
-    for name, row in driver_loads(system):
-        out[name] = -lam[:, row]
-    if system.model.outputs:
-        out.update(output_columns(system, t, q, v, a, out, lam=lam, contact_log=contact_log))
-    if end is not None:              # for a writer that goes on with the next rows
-        end.update(carry)
-    return out
-
-
-def result_columns(system, extra_names=()) -> list[str]:
-    """Names of every column of a run of ``system``, in CSV order
-    (``Solution.columns``), whose method stores the extra multipliers
-    ``extra_names`` (``mu``, ``psi1``)."""
-    lay, model = system.layout, system.model
-    extras = [f"{x}.{name}.{k}" for x in extra_names for name, k in lay.rows]
-    reactions = [f"reaction.{j.name}.{c}" for j in model.joints for c in ("fx", "fy", "torque")]
-    reactions += [name for name, _ in driver_loads(system)]
-    reactions += [f"output.{o.name}" for o in model.outputs]
-    beams = [f"{b.name}.deflection_mid" for b in model.flexible_bodies]
-    return (["t"] + lay.coordinates + lay.velocities + lay.accelerations
-            + list(Solution.DERIVED_NAMES) + beams + lay.multiplier_names()
-            + extras + reactions
-            + [f"newton.{k}" for k in Solution.STAT_NAMES[:-1]] + ["step.h"])
+GUARD_CODES = ("W602", "W603", "W604")
 
 
 class Solution:
@@ -639,13 +65,13 @@ class Solution:
     TIMING_NAMES = ("setup", "kernels", "integration", "output")
 
     #: Per-step Newton statistics, stored and written in this order.
-    STAT_NAMES = ("iterations", "residuals", "jacobians", "factorizations", "h")
+    STAT_NAMES = STAT_NAMES
 
-    t = _RowArray("t")
-    q = _RowArray("q")
-    v = _RowArray("v")
-    a = _RowArray("a")
-    lam = _RowArray("lambda")
+    t = RowArray("t")
+    q = RowArray("q")
+    v = RowArray("v")
+    a = RowArray("a")
+    lam = RowArray("lambda")
 
     def __init__(self, system, method, h, t_end, initial):
         self.system = system
@@ -671,7 +97,7 @@ class Solution:
         #: the numpy engine for (``engine.unsupported``), or None.
         self.engine_note = None
         self.stats_total = RunStats()
-        self._rows = _RowStore(system.n, system.m, self._stored_extras)
+        self._rows = RowStore(system.n, system.m, self._stored_extras)
         #: The result file the rows are read from (``attach_file``), or None: held.
         self._file_rows = None
         #: The columns a result file written with some columns only holds
@@ -710,7 +136,7 @@ class Solution:
     def dense_output(self) -> None:
         """Rows at requested times (``integrators.dense``): the rows carry the
         energy integrals over the steps, before any row but the initial one."""
-        self._rows = _RowStore(self.system.n, self.system.m, self._stored_extras, flows=True)
+        self._rows = RowStore(self.system.n, self.system.m, self._stored_extras, flows=True)
         self.dense = True
 
     def append_block(self, t, q, v, a, lam, extras: dict, counts, h: float,
@@ -807,7 +233,7 @@ class Solution:
     def release_rows(self, upto: int) -> None:
         """Let go of the rows before ``upto`` (as far as whole blocks of rows
         allow): a stream wrote them to its file, which holds them from now on
-        (``output.RowStream`` with ``releases_rows``; :meth:`attach_file` at
+        (``stream.RowStream`` with ``releases_rows``; :meth:`attach_file` at
         the end). A run of millions of steps then holds a few blocks."""
         self._rows.release(upto)
 
@@ -830,12 +256,12 @@ class Solution:
         """
         for attr in ("t", "q", "v", "a", "lam"):
             self.__dict__.pop("_held_" + attr, None)
-        self._rows = _RowStore(self.system.n, self.system.m, self._stored_extras)
+        self._rows = RowStore(self.system.n, self.system.m, self._stored_extras)
         self._file_rows = source
-        self.extras = _FileArrays(source, {x: (f"extras/{x}", None) for x in self.extra_names})
-        self.stats = _FileArrays(source, {k: (f"newton/{k}", None) for k in self.STAT_NAMES})
+        self.extras = FileArrays(source, {x: (f"extras/{x}", None) for x in self.extra_names})
+        self.stats = FileArrays(source, {k: (f"newton/{k}", None) for k in self.STAT_NAMES})
         self.flows = None             # energy.work and energy.dissipated: derived columns
-        self._derived = _FileArrays(source, source.derived)
+        self._derived = FileArrays(source, source.derived)
         self._extents = dict(extents or {})
         self._warnings = None
 
@@ -897,7 +323,7 @@ class Solution:
         -------
         list of Diagnostic
         """
-        from .errors import Diagnostic
+        from ..errors import Diagnostic
         out = []
         if self.n_rows == 0:
             return out
@@ -953,7 +379,7 @@ class Solution:
         list of Diagnostic
         """
         if getattr(self, "_warnings", None) is None:
-            from .guard import run_checks
+            from ..guard import run_checks
             self._warnings = self.run_warnings() + run_checks(self)
         return self._warnings
 
@@ -1020,10 +446,10 @@ class Solution:
         self.flows = None if flows is None else {k: np.asarray(x, dtype=float)
                                                  for k, x in flows.items()}
         self.dense = bool(dense) or self.flows is not None
-        from .errors import Diagnostic
+        from ..errors import Diagnostic
         self._warnings = (None if warnings is None else
                           [Diagnostic("warning", c, m) for c, m in warnings])
-        self._rows = _RowStore(system.n, system.m, self.extra_names)
+        self._rows = RowStore(system.n, system.m, self.extra_names)
         self._file_rows, self._extents = None, None
         self.written = None if written is None else list(written)
         self._written_set = set(self.written or ())
@@ -1045,6 +471,20 @@ class Solution:
         return self.status == "completed"
 
     # -- derived quantities -------------------------------------------------------------
+    def adopt_derived(self, derived: dict) -> None:
+        """Take the derived columns a stream computed chunk by chunk while it
+        wrote this run's rows (``stream.RowStream``), so that the summary
+        does not compute them again; a no-op when this Solution has its own.
+
+        Parameters
+        ----------
+        derived : dict of str -> ndarray, shape (N,)
+            Every derived column (``DERIVED_NAMES``, reactions, outputs) over
+            all N rows, in order.
+        """
+        if self._derived is None:
+            self._derived = dict(derived)
+
     def _compute_derived(self):
         if self._derived is not None:
             return self._derived
@@ -1077,8 +517,8 @@ class Solution:
         held = self.__dict__.get("_column_units")
         if held is not None:
             return dict(held)
-        from .dsl import units
-        from .model.elements import multiplier_unit
+        from ..dsl import units
+        from ..model.elements import multiplier_unit
         lam = {f"lambda.{e.name}.{k}": multiplier_unit(e, k)
                for e in list(self.model.joints) + list(self.model.drivers)
                for k in range(getattr(e, "rows", 1))}
@@ -1095,9 +535,7 @@ class Solution:
         return dict(out)
 
     #: Derived columns every model has, in CSV order.
-    DERIVED_NAMES = ("energy.kinetic", "energy.potential", "energy.total", "energy.work",
-                     "energy.dissipated", "energy.balance",
-                     "constraint.position", "constraint.velocity")
+    DERIVED_NAMES = DERIVED_NAMES
 
     def _beam_column(self, name: str):
         """A flexible beam's column computed from q, or None for another name."""
@@ -1158,7 +596,7 @@ class Solution:
             j = self._extra_rows.get(rest)
             if j is not None:
                 x = self.extras
-                return x.column(head, j) if isinstance(x, _FileArrays) else x[head][:, j]
+                return x.column(head, j) if isinstance(x, FileArrays) else x[head][:, j]
         import difflib
         close = difflib.get_close_matches(name, self.columns, n=3)
         raise KeyError(f"no column '{name}'" + (f"; did you mean {', '.join(close)}?" if close else ""))
@@ -1282,7 +720,7 @@ class Solution:
                f"to {np.max(self.stats['h'][1:], initial=self.h):.3g} s)")
             + f", t = {self.t[0]:g} .. {self.t[-1]:g} s ({self.status}"
             + "".join(f"; {w.code}: {w.message.split(':')[0]}" for w in self.warnings
-                      if w.code in _GUARD_CODES) + ")",
+                      if w.code in GUARD_CODES) + ")",
             f"  steps {tot.steps} (rejected {tot.rejected}) on the {self.engine} engine "
             f"({self.linear_solver} linear solver"
             + (f"; not compiled: {self.engine_note}" if getattr(self, "engine_note", None) else "")
@@ -1313,6 +751,6 @@ class Solution:
         if self.status != "completed":
             lines.append(f"  stopped: {self.message}")
         for w in self.warnings:
-            if w.code in _GUARD_CODES:
+            if w.code in GUARD_CODES:
                 lines.append(f"  warning {w.code}: {w.message}")
         return "\n".join(lines)

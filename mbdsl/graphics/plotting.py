@@ -196,7 +196,7 @@ def plot_mode_damping(found, methods, h: float, path=None) -> Figure:
     -------
     matplotlib.figure.Figure
     """
-    from .integrators.spectral import spectrum
+    from ..integrators.spectral import spectrum
     W = np.logspace(-3, 3, 400)
     fig = _figure(7.5, 8.0)
     axes = fig.subplots(3, 1, sharex=True)
@@ -311,8 +311,8 @@ def animate_solution(solution, path, fps: float = 25.0, speed: float = 1.0,
 
     Rigid bodies are drawn with their ``shape`` lines (lines, circles,
     polygons in the body frame), or without them as the outline through
-    their points (:func:`mbdsl.scene.body_outline`); flexible beams as their deformed
-    centre line (:func:`mbdsl.scene.beam_world`, the elastic displacement times
+    their points (:func:`mbdsl.graphics.scene.body_outline`); flexible beams as their deformed
+    centre line (:func:`mbdsl.graphics.scene.beam_world`, the elastic displacement times
     ``deform_scale``); joints as circles, spring-dampers as zig-zags, ground
     attachment points hatched (a prismatic or point-on-line joint on the
     ground also shows its guide), and the simulated time as a label.
@@ -343,22 +343,13 @@ def animate_solution(solution, path, fps: float = 25.0, speed: float = 1.0,
         ffmpeg (saying to install it or write a GIF).
     """
     from matplotlib import animation
-    from matplotlib.patches import Circle, Polygon, Rectangle
     path = Path(path)
     ext = path.suffix.lower()
     if fps <= 0 or speed <= 0:
         raise ValueError(f"fps and speed must be positive (got fps={fps}, speed={speed})")
     if not (deform_scale >= 0 and np.isfinite(deform_scale)):
         raise ValueError(f"the deformation scale must be zero or positive, got {deform_scale}")
-    if ext == ".gif":
-        writer = animation.PillowWriter(fps=fps)
-    elif ext == ".mp4":
-        if not animation.writers.is_available("ffmpeg"):
-            raise ValueError("writing MP4 needs ffmpeg, which is not installed here; "
-                             "install ffmpeg or write a GIF (-o motion.gif)")
-        writer = animation.FFMpegWriter(fps=fps)
-    else:
-        raise ValueError(f"cannot write an animation as '{ext or path.name}': use .gif or .mp4")
+    writer = _movie_writer(animation, path, ext, fps)
 
     from .scene import Scene
     sol, model = solution, solution.model
@@ -381,7 +372,47 @@ def animate_solution(solution, path, fps: float = 25.0, speed: float = 1.0,
     ax.set_xticks([])
     ax.set_yticks([])
 
-    # ground: a hatched block under every ground attachment, guides of sliders on the ground
+    artists, colors = _mechanism_artists(ax, scene, r_joint)
+    label = ax.text(0.02, 0.97, "", transform=ax.transAxes, va="top", fontsize=10)
+
+    def draw(k):
+        """Move every artist to frame k."""
+        for item, art, w in zip(scene.items, artists, scene.coordinates(qs[k])):
+            if item.kind in ("circle", "joint"):
+                art.center = tuple(w[0])
+            elif item.kind == "polygon":
+                art.set_xy(w)
+            else:
+                art.set_data(w[:, 0], w[:, 1])
+        label.set_text(f"t = {times[k]:.3f} s")
+        return []
+
+    anim = animation.FuncAnimation(fig, draw, frames=n_frames, blit=False, repeat=False)
+    anim.save(str(path), writer=writer, dpi=dpi)
+    draw(0)
+    fig.canvas.draw()              # final limits (equal aspect) for data -> pixel maps
+    return AnimationResult(path=path, frames=n_frames, times=times, figure=fig, colors=colors)
+
+
+
+def _movie_writer(animation, path, ext, fps):
+    """matplotlib's writer of a ``.gif`` (Pillow) or ``.mp4`` (ffmpeg) at
+    ``fps`` frames per second; ValueError for another format or without ffmpeg."""
+    if ext == ".gif":
+        return animation.PillowWriter(fps=fps)
+    if ext == ".mp4":
+        if not animation.writers.is_available("ffmpeg"):
+            raise ValueError("writing MP4 needs ffmpeg, which is not installed here; "
+                             "install ffmpeg or write a GIF (-o motion.gif)")
+        return animation.FFMpegWriter(fps=fps)
+    raise ValueError(f"cannot write an animation as '{ext or path.name}': use .gif or .mp4")
+
+
+def _mechanism_artists(ax, scene, r_joint) -> tuple:
+    """The ground (a hatched block under every ground attachment, the guides
+    of sliders on the ground) and one artist per item of ``scene``, in its
+    order; returns (the artists, the bodies' colours as RGB)."""
+    from matplotlib.patches import Circle, Polygon, Rectangle
     marks, guides = scene.ground()
     for g in marks:
         ax.add_patch(Rectangle((g[0] - 2 * r_joint, g[1] - 3.5 * r_joint), 4 * r_joint,
@@ -414,25 +445,7 @@ def animate_solution(solution, path, fps: float = 25.0, speed: float = 1.0,
         else:
             artists.append(ax.add_patch(Circle((0, 0), r_joint, fill=True, facecolor="white",
                                                edgecolor="k", lw=1.2, zorder=5)))
-    label = ax.text(0.02, 0.97, "", transform=ax.transAxes, va="top", fontsize=10)
-
-    def draw(k):
-        """Move every artist to frame k."""
-        for item, art, w in zip(scene.items, artists, scene.coordinates(qs[k])):
-            if item.kind in ("circle", "joint"):
-                art.center = tuple(w[0])
-            elif item.kind == "polygon":
-                art.set_xy(w)
-            else:
-                art.set_data(w[:, 0], w[:, 1])
-        label.set_text(f"t = {times[k]:.3f} s")
-        return []
-
-    anim = animation.FuncAnimation(fig, draw, frames=n_frames, blit=False, repeat=False)
-    anim.save(str(path), writer=writer, dpi=dpi)
-    draw(0)
-    fig.canvas.draw()              # final limits (equal aspect) for data -> pixel maps
-    return AnimationResult(path=path, frames=n_frames, times=times, figure=fig, colors=colors)
+    return artists, colors
 
 
 @dataclass

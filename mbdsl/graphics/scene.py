@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .model.elements import GROUND, FlexibleBeam
+from ..model.elements import GROUND, FlexibleBeam
 
 __all__ = ["Scene", "Item", "COLORS"]
 

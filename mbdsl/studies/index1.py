@@ -22,7 +22,7 @@ import numpy as np
 import scipy.integrate
 import scipy.linalg
 
-from .assembly.initial import consistent_initial_state
+from ..assembly.initial import consistent_initial_state
 
 __all__ = ["ReferenceSolution", "EvaluationBudgetExceeded", "index1_reference"]
 

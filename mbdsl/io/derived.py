@@ -1,0 +1,350 @@
+"""The columns derived from a run's rows: energies and their balance (work
+put in, energy dissipated), constraint norms, joint reactions and driver
+loads, the model's ``output`` expressions and the sensors of its loads.
+
+Shapes: N rows, n coordinates, m constraint equations.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..assembly.groups import PointSet
+from .rows import STAT_NAMES
+
+__all__ = ["DERIVED_NAMES", "energy_flows", "driver_loads", "output_columns", "derived_columns",
+           "result_columns"]
+
+
+#: Derived columns every model has, in CSV order (``Solution.DERIVED_NAMES``).
+DERIVED_NAMES = ("energy.kinetic", "energy.potential", "energy.total", "energy.work",
+                 "energy.dissipated", "energy.balance",
+                 "constraint.position", "constraint.velocity")
+
+
+class _Reactions:
+    """Reaction of every joint on its second body, vectorised over joints and rows.
+
+    For each joint: (fx, fy) [N] in global coordinates, applied at the
+    joint's first point, and the couple [N m] about that point (zero for a
+    revolute joint). The generalized constraint force of a joint's rows is
+    -Phi_q^T lambda (sign convention M a + Phi_q^T lambda = Q). When the
+    second body is the ground, the reaction is minus the one on the first
+    body (the joint is massless).
+
+    Built once: which entries of the Phi_q pattern (a joint's rows, the
+    columns x, y, phi of the body read) add into which reaction component,
+    sorted so that one ``np.add.reduceat`` sums them for all rows at once.
+    """
+
+    def __init__(self, system):
+        joints = system.model.joints
+        element = {name: k for k, name in enumerate(system.layout.element_rows)}
+        elem = np.array([element[j.name] for j in joints], dtype=np.intp)
+        second = np.array([j.second.body for j in joints], dtype=np.intp)
+        first = np.array([j.first.body for j in joints], dtype=np.intp)
+        self.body = np.where(second >= 0, second, first)          # whose force we read
+        self.sign = np.where(second >= 0, 1.0, -1.0)
+        self.first_points = PointSet(system.cmap, [j.first for j in joints])  # deformation included
+        self.system, self.n_joints = system, len(joints)
+        # zero by construction, written as 0 rather than the round-off of the sum:
+        # a pin, a rod (its force along the rod, through the first point) and a
+        # point on a line transmit no couple about the first point, nor does
+        # anything acting on a particle
+        particle = [getattr(system.model.bodies[b], "particle", False) if b >= 0 else False
+                    for b in self.body]
+        self.pinned = np.array([j.kind in ("revolute", "distance", "point_on_line") or p
+                                for j, p in zip(joints, particle)], dtype=bool)
+        rows, cols = system.pattern_Phi_q
+        joint_of_element = np.full(system.layout.n_elements, -1, dtype=np.intp)
+        joint_of_element[elem] = np.arange(len(joints))
+        jt = joint_of_element[system.layout.row_element[rows]]
+        # the columns (x, y, phi) of the body whose force we read, per joint
+        self.body_cols = system.cmap(self.body).reshape(-1, 3)
+        match = cols[:, None] == self.body_cols[np.maximum(jt, 0)]
+        comp = np.where(match.any(axis=1), match.argmax(axis=1), -1)
+        keep = np.flatnonzero((jt >= 0) & (comp >= 0))
+        target = 3 * jt[keep] + comp[keep]
+        order = np.argsort(target, kind="stable")
+        self.entries = keep[order]                   # pattern entries, grouped by target
+        self.rows = rows[self.entries]
+        self.targets, self.starts = np.unique(target[order], return_index=True)
+
+    def __call__(self, q, t, lam) -> np.ndarray:
+        """(fx, fy, couple) of every joint, shape (joints, 3), or (N, joints,
+        3) for rows q (N, n), t (N,), lam (N, m)."""
+        q, lam = np.asarray(q, dtype=float), np.asarray(lam, dtype=float)
+        vals = self.system.Phi_q_values(q, t)[..., self.entries] * -lam[..., self.rows]
+        gen = np.zeros(q.shape[:-1] + (3 * self.n_joints,))
+        if len(self.entries):
+            gen[..., self.targets] = np.add.reduceat(vals, self.starts, axis=-1)
+        gen = gen.reshape(q.shape[:-1] + (self.n_joints, 3))
+        qx = np.concatenate([q, np.zeros(q.shape[:-1] + (3,))], axis=-1)  # ground: 0
+        point = self.first_points.position(qx[..., self.first_points.cols])
+        d = point - np.stack([qx[..., self.body_cols[:, 0]], qx[..., self.body_cols[:, 1]]], -1)
+        couple = gen[..., 2] - (d[..., 0] * gen[..., 1] - d[..., 1] * gen[..., 0])
+        couple = np.where(self.pinned, 0.0, couple)     # a revolute transmits no couple
+        return self.sign[:, None] * np.stack([gen[..., 0], gen[..., 1], couple], -1)
+
+
+
+#: Rows evaluated together for derived columns (bounds the temporary arrays).
+_ROW_CHUNK = 1024
+
+
+def energy_flows(system, t, q, v, lam, total, phi_t=None, start=None, contact_log=None,
+                 flows=None) -> dict:
+    """``energy.work``, ``energy.dissipated`` and ``energy.balance`` of rows.
+
+    work(t) = int_0^t p_in, dissipated(t) = int_0^t p_dissipated
+    (``AssembledSystem.power``), by the trapezoidal rule over the rows (second
+    order, as the methods' energies; with ``--output-every`` K the rows are K
+    steps apart and the quadrature error grows as (K h)^2). balance = E(t) -
+    E(0) - work + dissipated is zero for the exact motion; its size is the
+    integration's energy error.
+
+    Parameters
+    ----------
+    total : ndarray, shape (N,) [J]
+        ``energy.total`` of the rows.
+    start : dict, optional
+        The state after the rows before these (:func:`energy_end`): a run
+        written chunk by chunk integrates on from it; None: the rows start
+        the run.
+    contact_log : list, optional
+        The run's contact state changes (``Solution.contact_log``); None: those
+        of the run under way (``ContactGroup.log``).
+    flows : dict of str -> ndarray, shape (N,) [J], optional
+        ``energy.work`` and ``energy.dissipated`` at the rows, integrated over
+        the run's steps (rows at requested times, ``integrators.dense``):
+        taken as they are, and the balance from them.
+    """
+    if flows is not None:
+        work = np.asarray(flows["energy.work"], dtype=float)
+        diss = np.asarray(flows["energy.dissipated"], dtype=float)
+        e0 = total[0] if start is None else start["E0"]
+        return {"energy.work": work, "energy.dissipated": diss,
+                "energy.balance": total - e0 - work + diss,
+                "_end": {"t": t[-1], "p_in": np.nan, "p_dissipated": np.nan,
+                         "work": work[-1], "dissipated": diss[-1], "E0": e0}}
+    group = getattr(system, "contact_group", None)
+    if contact_log is None:
+        contact_log = group.log if group is not None else ()
+    p_in, p_diss = system.power(t, q, v, lam, phi_t, contact_log=contact_log)
+    if start is None:
+        start = {"t": t[0], "p_in": p_in[0], "p_dissipated": p_diss[0], "work": 0.0,
+                 "dissipated": 0.0, "E0": total[0]}
+    t_prev = np.concatenate([[start["t"]], t[:-1]])
+    dt = 0.5 * (t - t_prev)
+    work = np.cumsum(np.concatenate([[start["work"]], dt * (
+        p_in + np.concatenate([[start["p_in"]], p_in[:-1]]))]))[1:]
+    diss = np.cumsum(np.concatenate([[start["dissipated"]], dt * (
+        p_diss + np.concatenate([[start["p_dissipated"]], p_diss[:-1]]))]))[1:]
+    return {"energy.work": work, "energy.dissipated": diss,
+            "energy.balance": total - start["E0"] - work + diss,
+            "_end": {"t": t[-1], "p_in": p_in[-1], "p_dissipated": p_diss[-1],
+                     "work": work[-1], "dissipated": diss[-1], "E0": start["E0"]}}
+
+
+def driver_loads(system) -> list[tuple[str, int]]:
+    """(column, constraint row) of every driver's load: ``driver.<name>.force``
+    [N] for a driven x, y or joint distance, ``driver.<name>.torque`` [N m]
+    for a driven phi or joint angle. The load is -lambda of the driver's row
+    (sign convention M a + Phi_q^T lambda = Q, a driver row q_c - f(t)): the
+    generalized force the driver applies to the driven coordinate, i.e. on
+    the driven body's x, y or phi, on a joint's second body (its first body
+    takes the opposite), or along the line on a sliding joint's first point."""
+    out = []
+    for d in system.model.drivers:
+        row = system.layout.element_rows[d.name][0]
+        force = (d.kind == "coordinate" and d.coord < 2) or d.kind == "joint_distance"
+        out.append((f"driver.{d.name}.{'force' if force else 'torque'}", int(row)))
+    return out
+
+
+def output_columns(system, t, q, v, a, derived, lam=None, contact_log=None) -> dict:
+    """The ``output.<name>`` columns of the model's ``output`` lines, shape (N,)
+    each, evaluated over the rows (numpy: a division by zero gives inf).
+
+    Parameters
+    ----------
+    t : ndarray, shape (N,) [s]
+    q, v : ndarray, shape (N, n)
+    a : ndarray, shape (N, n), or None
+        Accelerations (None: an output that reads one is NaN).
+    derived : dict
+        The derived columns of the same rows (energies, reactions, loads).
+    lam : ndarray, shape (N, m), optional
+        The multipliers (``lambda.<joint>.<row>``; the loads of friction
+        elements); None: NaN.
+    contact_log : list, optional
+        The run's contact state changes (the impact speeds behind a contact's
+        normal force); None: those of the run under way.
+    """
+    from ..assembly.groups import drot, rot
+    from ..dsl.expressions import evaluate_rows
+    from ..model.elements import SENSOR_UNITS
+    lay, N, cmap = system.layout, len(t), system.cmap
+    qx = np.concatenate([q, np.zeros((N, 3))], axis=1)      # ground (and particles' phi): 0
+    vx = np.concatenate([v, np.zeros((N, 3))], axis=1)
+    index = {name: (q, i) for i, name in enumerate(lay.coordinates)}
+    index.update({name: (v, i) for i, name in enumerate(lay.velocities)})
+    if a is not None:
+        index.update({name: (a, i) for i, name in enumerate(lay.accelerations)})
+    if lam is not None:
+        index.update({name: (lam, i) for i, name in enumerate(lay.multiplier_names())})
+    sensors = None               # system.sensor_values, when read
+    out = {}
+    for o in system.model.outputs:
+        env = {}
+        for var in o.variables:
+            if var.kind in SENSOR_UNITS:
+                if sensors is None:
+                    group = getattr(system, "contact_group", None)
+                    log = (contact_log if contact_log is not None
+                           else group.log if group is not None else ())
+                    sensors = system.sensor_values(
+                        t, q, v, np.zeros((N, system.m)) if lam is None else lam, log)
+                k = list(SENSOR_UNITS[var.kind]).index(var.field)
+                reads_lam = var.kind == "friction" and k > 0     # a friction load: lambda
+                env[var.name] = (sensors[var.kind][:, var.index, k]
+                                 if lam is not None or not reads_lam else np.full(N, np.nan))
+            elif var.kind == "beam_point":
+                env[var.name] = _beam_point(system, var, qx, vx)
+            elif var.kind == "column":
+                if var.column in index:
+                    arr, i = index[var.column]
+                    env[var.name] = arr[:, i]
+                else:
+                    env[var.name] = derived.get(var.column, np.full(N, np.nan))
+            elif var.kind == "joint" and var.line is not None:      # s or ds/dt
+                from ..model.elements import line_columns, line_distance
+                cols = line_columns(var.line, cmap)
+                vals = np.empty(N)
+                for r in range(N):
+                    s, grad = line_distance(var.line, qx[r], cmap)
+                    vals[r] = s if var.field == "distance" else grad @ vx[r, cols]
+                env[var.name] = vals
+            elif var.kind == "joint":
+                src = qx if var.field == "angle" else vx
+                val = np.zeros(N)
+                for b, sign in zip(var.bodies, (-1.0, 1.0)):
+                    if b >= 0:
+                        val = val + sign * src[:, cmap.column(b, 2)]
+                env[var.name] = val
+            else:                               # a point of a rigid body (or the ground)
+                b, s = var.point.body, np.asarray(var.point.local, dtype=float)
+                if b < 0:
+                    pos, vel = np.tile(s, (N, 1)), np.zeros((N, 2))
+                else:
+                    cx, cy, cp = cmap(b)[0]
+                    phi = qx[:, cp]
+                    pos = qx[:, [cx, cy]] + rot(phi, np.broadcast_to(s, (N, 2)))
+                    vel = vx[:, [cx, cy]] + vx[:, cp:cp + 1] * drot(
+                        phi, np.broadcast_to(s, (N, 2)))
+                k = {"x": 0, "y": 1, "vx": 0, "vy": 1}[var.field]
+                env[var.name] = (pos if var.field in ("x", "y") else vel)[:, k]
+        out[f"output.{o.name}"] = np.broadcast_to(
+            evaluate_rows(o.expr, env, np.asarray(t, dtype=float)), (N,)).astype(float)
+    return out
+
+
+def _beam_point(system, var, qx, vx) -> np.ndarray:
+    """``field`` of the material point at arc x of a flexible beam at rows qx,
+    vx (N, n + 3): r + A(phi) ((x, 0) + S(x) q_f) and its velocity (the
+    floating frame of reference); "deflection": the point's elastic
+    displacement normal to the frame's axis, (S(x) q_f)_y [m]."""
+    from ..assembly.groups import drot, rot
+    beam = system.model.bodies[var.bodies[0]]
+    S = beam.mesh.shape(np.array([var.arc]))[0]               # (2, nf)
+    cols = beam.elastic_columns()
+    disp, rate = qx[:, cols] @ S.T, vx[:, cols] @ S.T          # (N, 2)
+    if var.field == "deflection":
+        return disp[:, 1].copy()
+    cx, cy, cp = system.cmap(beam.index)[0]
+    local = disp + np.array([var.arc, 0.0])
+    phi = qx[:, cp]
+    if var.field in ("x", "y"):
+        return (qx[:, [cx, cy]] + rot(phi, local))[:, "xy".index(var.field)]
+    vel = vx[:, [cx, cy]] + vx[:, cp:cp + 1] * drot(phi, local) + rot(phi, rate)
+    return vel[:, 0 if var.field == "vx" else 1]
+
+
+def derived_columns(system, t, q, v, lam, start=None, end=None, a=None,
+                    contact_log=None, flows=None) -> dict:
+    """Energies, constraint norms and joint reactions of stored rows.
+
+    Every element is evaluated for all rows at once (the kernels loop over
+    the rows for the joints, drivers and beams; the force groups broadcast
+    over leading axes), in chunks of ``_ROW_CHUNK`` rows.
+
+    Parameters
+    ----------
+    system : AssembledSystem
+    t : ndarray, shape (N,) [s]
+    q, v : ndarray, shape (N, n)
+    lam : ndarray, shape (N, m)
+
+    start, end : dict, optional
+        The energy integrals carried from the rows before (``start``, None
+        when these rows begin the run) and to the rows after (``end`` is
+        filled): see :func:`energy_flows`.
+    contact_log, flows : optional
+        See :func:`energy_flows`.
+
+    Returns
+    -------
+    dict of str -> ndarray, shape (N,)
+        ``energy.kinetic|potential|total``, ``energy.work|dissipated|balance``
+        [J], ``constraint.position``
+        (max |Phi|), ``constraint.velocity`` (max |Phi_q v + Phi_t|) and
+        ``reaction.<joint>.fx|fy|torque`` [N, N m].
+    """
+    N = len(t)
+    kin, pot, cpos, cvel = (np.zeros(N) for _ in range(4))
+    phi_t = np.zeros((N, system.m))
+    joints = system.model.joints
+    reactions = _Reactions(system) if joints else None
+    reac = np.zeros((N, len(joints), 3))
+    for i0 in range(0, N, _ROW_CHUNK):
+        sl = slice(i0, min(i0 + _ROW_CHUNK, N))
+        qs, vs, ts = q[sl], v[sl], t[sl]
+        kin[sl] = system.kinetic_energy(qs, vs)
+        pot[sl] = system.potential_energy(qs)
+        if system.m:
+            cpos[sl] = np.max(np.abs(system.Phi(qs, ts)), axis=1)
+            phi_t[sl] = system.Phi_t(qs, ts)
+            cvel[sl] = np.max(np.abs(system.Phiq_times(qs, ts, vs) + phi_t[sl]), axis=1)
+            if reactions is not None:
+                reac[sl] = reactions(qs, ts, lam[sl])
+    out = {"energy.kinetic": kin, "energy.potential": pot, "energy.total": kin + pot}
+    energies = energy_flows(system, t, q, v, lam, kin + pot, phi_t, start, contact_log, flows)
+    carry = energies.pop("_end")
+    out.update(energies)
+    out.update({"constraint.position": cpos, "constraint.velocity": cvel})
+    for k, j in enumerate(joints):
+        for c, comp in enumerate(("fx", "fy", "torque")):
+            out[f"reaction.{j.name}.{comp}"] = reac[:, k, c]
+    for name, row in driver_loads(system):
+        out[name] = -lam[:, row]
+    if system.model.outputs:
+        out.update(output_columns(system, t, q, v, a, out, lam=lam, contact_log=contact_log))
+    if end is not None:              # for a writer that goes on with the next rows
+        end.update(carry)
+    return out
+
+
+def result_columns(system, extra_names=()) -> list[str]:
+    """Names of every column of a run of ``system``, in CSV order
+    (``Solution.columns``), whose method stores the extra multipliers
+    ``extra_names`` (``mu``, ``psi1``)."""
+    lay, model = system.layout, system.model
+    extras = [f"{x}.{name}.{k}" for x in extra_names for name, k in lay.rows]
+    reactions = [f"reaction.{j.name}.{c}" for j in model.joints for c in ("fx", "fy", "torque")]
+    reactions += [name for name, _ in driver_loads(system)]
+    reactions += [f"output.{o.name}" for o in model.outputs]
+    beams = [f"{b.name}.deflection_mid" for b in model.flexible_bodies]
+    return (["t"] + lay.coordinates + lay.velocities + lay.accelerations
+            + list(DERIVED_NAMES) + beams + lay.multiplier_names()
+            + extras + reactions
+            + [f"newton.{k}" for k in STAT_NAMES[:-1]] + ["step.h"])
