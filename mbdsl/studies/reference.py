@@ -11,7 +11,7 @@ events (what ``auto`` takes for a model with contacts, limits or springs
     from it. ``dop853`` is refused for such models: it does not follow events.
 ``dop853`` (what ``auto`` tries first for a smooth model)
     The index-1 form integrated by scipy's DOP853 (order 8) at rtol = atol =
-    1e-12 (:func:`mbdsl.reference.index1_reference`). It shares only the
+    1e-12 (:func:`mbdsl.studies.index1.index1_reference`). It shares only the
     assembly (M, Q, Phi_q, gamma) with the methods, none of their
     formulas. Its error is estimated by a second integration at rtol = atol =
     1e-11: the difference is about the error of the looser run, so it bounds
@@ -142,7 +142,19 @@ def build_reference(kind: str, model, t_end: float, h_min: float,
         A method reference could not complete.
     """
     from .. import METHODS, assemble
-    if kind in ("auto", "dop853") and _has_events(assemble(model)):
+    system = assemble(model)
+    if kind in ("auto", "dop853") and _has_events(system) and system.contact_group is None:
+        # springs with a free length only: their event is their points passing
+        # each other, which most runs never come near
+        from .index1 import EvaluationBudgetExceeded
+        try:
+            ref = _dop853(model, t_end, DOP853_BUDGET if kind == "auto" else None)
+        except (EvaluationBudgetExceeded, RuntimeError):
+            ref = None
+        if ref is not None and _springs_stay_apart(system, ref, t_end):
+            log("reference: the springs' points stay apart (no event): DOP853")
+            return ref
+    if kind in ("auto", "dop853") and _has_events(system):
         if kind == "dop853":
             raise ValueError("the DOP853 reference integrates the smooth index-1 equations and "
                              "does not follow the model's contacts, limits or springs through "
@@ -152,7 +164,7 @@ def build_reference(kind: str, model, t_end: float, h_min: float,
             "them, cross-checked by a second method")
         return _events_reference(model, t_end)
     if kind in ("auto", "dop853"):
-        from ..reference import EvaluationBudgetExceeded
+        from .index1 import EvaluationBudgetExceeded
         try:
             return _dop853(model, t_end, DOP853_BUDGET if kind == "auto" else None)
         except (EvaluationBudgetExceeded, RuntimeError) as exc:
@@ -169,7 +181,7 @@ def _dop853(model, t_end, budget):
     """DOP853 at 1e-12, error estimated against 1e-11."""
     from .. import assemble
     from ..assembly.initial import consistent_initial_state
-    from ..reference import index1_reference
+    from .index1 import index1_reference
     system = assemble(model)
     init = consistent_initial_state(system, float(model.settings.get("t_start", 0.0)))
     fine = index1_reference(system, [t_end], 1e-12, 1e-12, init, dense_output=True,
@@ -203,6 +215,30 @@ def _has_events(system) -> bool:
     event location does not follow."""
     return (getattr(system, "contact_group", None) is not None
             or getattr(system, "flipping_springs", None) is not None)
+
+
+#: Samples of the DOP853 trajectory over which the springs' lengths are read,
+#: and the least length, as a fraction of its free length, a spring may come
+#: down to for the motion to count as free of its event (points passing).
+SPRING_SAMPLES, SPRING_MARGIN = 20001, 0.05
+
+
+def _springs_stay_apart(system, ref, t_end) -> bool:
+    """Whether every spring-damper with a free length keeps its points at
+    least SPRING_MARGIN of that length apart over the reference's trajectory
+    (sampled at SPRING_SAMPLES times): no spring passes through zero length,
+    the only event of a model without contacts and limits."""
+    _, springs = system.flipping_springs
+    lengths = {f.name: getattr(f, "length", 0.0) for f in system.model.forces}
+    free = np.array([lengths[name] for _, name in springs])
+    index = [i for i, _ in springs]
+    t_start = float(system.model.settings.get("t_start", 0.0))
+    q, _ = ref.state(np.linspace(t_start, t_end, SPRING_SAMPLES))
+    for row in q:
+        d = system.spring_separations(row)[index]
+        if np.any(np.hypot(d[:, 0], d[:, 1]) < SPRING_MARGIN * free):
+            return False
+    return True
 
 
 def _events_reference(model, t_end):
@@ -263,7 +299,7 @@ def _method(model, method, coefficients, t_end, h):
 def _file(path, model, t_end):
     """A stored result, its error by a rerun at twice its step."""
     from .. import simulate
-    from ..output import load_solution
+    from ..io import load_solution
     sol = load_solution(path)
     if sol.system.layout.coordinates != model.coordinate_names():
         raise ValueError(f"reference {path} is a result of model '{sol.model.name}' with "
