@@ -12,9 +12,9 @@ points). Every point is one run of the model with those parameters
 (:func:`run_point`), the runs executed as independent tasks by
 :mod:`.parallel` (local processes, or a Dask cluster's workers with
 ``scheduler``). A run gives, per chosen column, its final value, its
-minimum and its maximum over the run, and its status: ``completed``, or
+minimum and its maximum over the run, its status: ``completed``, or
 ``failed`` with the first diagnostic's code (E601, E602, ...) and the
-message, which does not stop the sweep.
+message, which does not stop the sweep, and the engine that ran it.
 
 The table (``hdf5.SweepTable``) gets a row as each run finishes, flushed:
 a sweep stopped midway keeps its finished runs, and the same sweep run
@@ -149,7 +149,7 @@ def run_point(task: SweepTask, point: dict) -> dict:
     from .. import load_text, simulate
     from ..errors import MbdError
     row = dict(point)
-    row.update(status="failed", code="", message="", steps=0, wall_time=0.0)
+    row.update(status="failed", code="", message="", steps=0, wall_time=0.0, engine="")
     t0 = time.perf_counter()
     try:
         model = load_text(task.text, task.file, {k: repr(float(v)) for k, v in point.items()})
@@ -165,6 +165,7 @@ def run_point(task: SweepTask, point: dict) -> dict:
         return row
     row["wall_time"] = time.perf_counter() - t0
     row["steps"] = sol.stats_total.steps
+    row["engine"] = sol.engine
     row["status"] = sol.status
     if sol.status != "completed":
         diag = sol.diagnostics[0] if sol.diagnostics else None
@@ -246,13 +247,13 @@ def run_sweep(model_path, points: list, output, *, method=None, h=None, t_end=No
     from pathlib import Path
 
     from .. import load
-    from ..hdf5 import SweepTable
+    from ..io.hdf5 import SweepTable
     from .parallel import run_tasks
     path = Path(model_path)
     model = load(path)                   # the model's own errors, once, before any run
     columns = tuple(columns) if columns else default_columns(model)
     from .. import assemble
-    from ..solution import result_columns
+    from ..io.derived import result_columns
     known = set(result_columns(assemble(model), ("mu", "psi1")))
     for c in columns:
         if c not in known:
@@ -263,7 +264,7 @@ def run_sweep(model_path, points: list, output, *, method=None, h=None, t_end=No
     task = SweepTask(path.read_text(encoding="utf-8"), str(path), method, h, t_end, tol,
                      columns)
     params = list(points[0]) if points else []
-    names = params + ["status", "code", "message", "steps", "wall_time"] + [
+    names = params + ["status", "code", "message", "steps", "wall_time", "engine"] + [
         f"{c}.{k}" for c in columns for k in ("final", "min", "max")]
     table = SweepTable(output, names, params, {"model": model.name, "model_file": str(path),
                                                "model_source": task.text,

@@ -10,7 +10,8 @@ from pathlib import Path
 import matplotlib
 import numpy as np
 
-from mbdsl.hdf5 import read_sweep
+from mbdsl.io.hdf5 import read_sweep
+from mbdsl.studies.study import engine_line
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
@@ -31,3 +32,10 @@ axes[0].legend(fontsize=8)
 for ax in axes:
     ax.grid(alpha=0.3)
 fig.savefig(here / "sweep.png", dpi=110)
+(here / "index.md").write_text(
+    "# A sweep of the slider crank's spring\n\n"
+    "- command: `mbdsl sweep models/slider_crank.mbd --set k=20:400:39 --set c=0,5,20 --t-end 2 "
+    "--columns crank.phi,energy.total -o docs/studies/slider_crank_sweep/sweep.h5`\n"
+    "- command: `python docs/studies/slider_crank_sweep/plot.py`\n"
+    f"- {engine_line(t['engine'])}\n\n"
+    "![the slider crank's spring stiffness swept](sweep.png)\n", encoding="utf-8")
