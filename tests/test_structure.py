@@ -201,3 +201,15 @@ def test_no_import_cycle_beyond_the_known_ones(graph):
     g, _ = graph
     cycles = {frozenset(c) for c in nx.strongly_connected_components(g) if len(c) > 1}
     assert cycles <= KNOWN_CYCLES, sorted(sorted(c) for c in cycles - KNOWN_CYCLES)
+
+
+def test_every_folder_of_the_package_is_a_package():
+    """setuptools ships the packages it finds (``pyproject.toml``:
+    ``packages.find``), and a folder without ``__init__.py`` is none: a
+    source checkout imports it as a namespace package, an installed copy
+    lacks it (``mbdsl plot`` would fail after ``pip install .``)."""
+    from setuptools import find_packages
+    found = set(find_packages(where=str(PACKAGE.parent), include=["mbdsl*"]))
+    folders = {".".join(p.parent.relative_to(PACKAGE.parent).parts)
+               for p in PACKAGE.rglob("*.py") if "__pycache__" not in p.parts}
+    assert folders <= found, sorted(folders - found)
