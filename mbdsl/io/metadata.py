@@ -14,6 +14,7 @@ import re
 from dataclasses import asdict
 
 from ..version import __version__
+from .rows import RunStats
 
 __all__ = ["select_columns", "metadata", "rebuild_system", "run_description",
            "unfinished_message", "method_parameters", "run_stats"]
@@ -173,9 +174,12 @@ def unfinished_message(t, t_end: float) -> str:
 
 
 def method_parameters(meta: dict) -> dict:
+    """The method's coefficients of a stored run (its ``method.<name>``
+    entries, :func:`metadata`), name -> value (dimensionless)."""
     return {k[7:]: float(v) for k, v in meta.items() if k.startswith("method.")}
 
 
-def run_stats(meta: dict):
-    from .solution import RunStats
+def run_stats(meta: dict) -> RunStats:
+    """The Newton totals of a stored run (its ``stats_total`` entry), or
+    zeros for a file of an older version that has none."""
     return RunStats(**json.loads(meta["stats_total"])) if "stats_total" in meta else RunStats()
