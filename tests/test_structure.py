@@ -6,6 +6,7 @@ that a lazy import hidden in a function counts as much as one at the top.
 """
 
 import ast
+import re
 import shutil
 import subprocess
 import sys
@@ -213,3 +214,81 @@ def test_every_folder_of_the_package_is_a_package():
     folders = {".".join(p.parent.relative_to(PACKAGE.parent).parts)
                for p in PACKAGE.rglob("*.py") if "__pycache__" not in p.parts}
     assert folders <= found, sorted(folders - found)
+
+
+#: The kinds of joint the language has (``dsl/check/tables.JOINT_KINDS``).
+JOINT_KIND_NAMES = {"revolute", "fixed", "prismatic", "point_on_line", "distance"}
+
+
+def _mentions_the_distance_joint(name, path, modules) -> bool:
+    """Whether a module names the distance joint: compares a ``kind`` with
+    "distance", keys a table of joint kinds by it, imports its kernels module,
+    or names its fields (``kernels.schema``'s DROW, ...) or a class of it."""
+    from mbdsl.kernels.joints import distance
+    fields = {f.upper() for f in distance.FIELDS}
+    family = "mbdsl.kernels.joints.distance"
+
+    def names_kind(node):
+        return isinstance(node, ast.Constant) and node.value == "distance" or (
+            isinstance(node, (ast.Tuple, ast.List, ast.Set)) and any(names_kind(e)
+                                                                     for e in node.elts))
+
+    def is_kind(node):
+        return (isinstance(node, ast.Attribute) and node.attr == "kind") or (
+            isinstance(node, ast.Name) and node.id == "kind")
+
+    if name != family and any(t == family for t, _ in _imports(name, path, modules)):
+        return True
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Compare):
+            sides = [node.left, *node.comparators]
+            if any(map(is_kind, sides)) and any(map(names_kind, sides)):
+                return True
+        elif isinstance(node, ast.Dict):
+            keys = {k.value for k in node.keys if isinstance(k, ast.Constant)}
+            if "distance" in keys and keys <= JOINT_KIND_NAMES:
+                return True
+        elif isinstance(node, (ast.Name, ast.alias, ast.ClassDef)):
+            ident = {ast.Name: "id", ast.alias: "name", ast.ClassDef: "name"}[type(node)]
+            text = getattr(node, ident)
+            if text in fields or "Distance" in text:
+                return True
+    return False
+
+
+def test_the_distance_joint_lives_where_the_architecture_says():
+    """docs/architecture.md, "Adding a joint type", names the files a joint kind
+    lives in, for the distance joint; the package's modules that name it (by
+    the rules of ``_mentions_the_distance_joint``) are exactly those."""
+    modules = _modules()
+    found = {str(path.relative_to(PACKAGE)) for name, path in modules.items()
+             if _mentions_the_distance_joint(name, path, modules)}
+    doc = (PACKAGE.parent / "docs" / "architecture.md").read_text()
+    line = next(l for l in doc.splitlines() if l.startswith("The distance joint lives in"))
+    listed = {p for p in re.findall(r"`([\w/]+\.py)`", line) if not p.startswith("tests/")}
+    assert found == listed, (sorted(found), sorted(listed))
+
+
+def test_the_rules_see_a_joint_kind_dispatch(tmp_path):
+    """The rules above are not blind: a branch on the kind, a table of joint
+    kinds, an import of the family and a field constant are each seen."""
+    modules = {"mbdsl.x": tmp_path / "x.py", "mbdsl.kernels.joints.distance": None}
+    for text in ('if joint.kind == "distance":\n    pass\n',
+                 'ok = kind in ("fixed", "distance")\n',
+                 'T = {"revolute": 2, "distance": 1}\n',
+                 'from mbdsl.kernels.joints import distance\n',
+                 'from mbdsl.kernels.schema import DLEN\n'):
+        (tmp_path / "x.py").write_text(text)
+        assert _mentions_the_distance_joint("mbdsl.x", tmp_path / "x.py", modules), text
+    (tmp_path / "x.py").write_text('UNITS = {"distance": "m", "speed": "m/s"}\n'
+                                   'if ref.attr == "distance":\n    pass\n')
+    assert not _mentions_the_distance_joint("mbdsl.x", tmp_path / "x.py", modules)
+
+
+def test_the_locked_angle_rows_agree():
+    """The model's joints that lock an angle (reaction units, couples) are the
+    ones whose angle row the linear-rows family packs, at the same row."""
+    from mbdsl.kernels.joints import linear_rows
+    from mbdsl.model.elements import ANGLE_ROWS
+    joints = {k: r for k, r in linear_rows.ELEMENT_ROWS.items() if k in JOINT_KIND_NAMES}
+    assert joints == ANGLE_ROWS

@@ -1,16 +1,15 @@
-"""Element groups: every instance of one element type at once.
+"""Load groups: every instance of one applied load type at once.
 
 Each group stores its instances as a struct of arrays (body columns,
 body-fixed vectors, parameters) built once: the model data
-``packing.PackedModel`` packs for the kernels. A group (rows
-``rows`` (k, r) of a constraint, columns ``cols`` (k, c) into the extended
-coordinate vector q_ext = [q, 0, 0, 0], where the three trailing zeros are
-the ground) holds data only, and states its element's equations: the
-kernels of ``mbdsl/kernels`` are the one evaluation of Phi, Q and
-their derivatives (``AssembledSystem.Phi``, ``AssembledSystem.Q`` and the
-functions after them), and ``tests/assembly/constraint_oracle.py`` and
-``tests/assembly/force_oracle.py`` independent numpy ones they are tested
-against. All formulas are in absolute planar
+``packing.PackedModel`` packs for the kernels. A group (columns ``cols``
+(k, c) into the extended coordinate vector q_ext = [q, 0, 0, 0], where the
+three trailing zeros are the ground) holds data only, and states its
+element's equations: the kernels of ``mbdsl/kernels`` are the one evaluation
+of Q and its derivatives (``AssembledSystem.Q`` and the functions after it),
+and ``tests/assembly/force_oracle.py`` an independent numpy one they are
+tested against. The joints and drivers have no group: their kernel families
+pack them from the model (``kernels/joints``). All formulas are in absolute planar
 coordinates (Haug, Computer-Aided Kinematics and Dynamics of Mechanical
 Systems, ch. 3; Nikravesh, Computer-Aided Analysis of Mechanical Systems,
 ch. 4): A(phi) is the rotation matrix, B(phi) = dA/dphi, and
@@ -23,8 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["rot", "drot", "body_columns", "PointSet", "CoincidenceGroup", "PointOnLineGroup",
-           "LinearConstraintGroup", "DistanceGroup", "SpringDamperGroup", "RotationalSpringGroup",
+__all__ = ["rot", "drot", "body_columns", "PointSet", "SpringDamperGroup", "RotationalSpringGroup",
            "TorqueGroup", "StateTorqueGroup", "PointForceGroup", "FrictionGroup"]
 
 
@@ -80,6 +78,8 @@ class PointSet:
     def __init__(self, cmap, points):
         n = cmap.n
         points = list(points)
+        #: the points (``model.elements.PointRef``), for the kernels' packing
+        self.refs = points
         k = len(points)
         self.e = max((len(p.elastic_columns) for p in points), default=0)
         self.c = 3 + self.e
@@ -106,109 +106,12 @@ class PointSet:
 
 class _PointPair:
     """Two point sets side by side, local coordinates (q_1 [c1], q_2 [c2]):
-    d = p2 - p1 of a joint or a spring-damper."""
+    d = p2 - p1 of a spring-damper."""
 
     def __init__(self, cmap, first, second):
         self.P1, self.P2 = PointSet(cmap, first), PointSet(cmap, second)
         self.c1 = self.P1.c
         self.cols = np.concatenate([self.P1.cols, self.P2.cols], axis=1)
-
-
-class CoincidenceGroup:
-    """Two points coincide (revolute, and the first two rows of fixed).
-
-    Phi = (r2 + A2 u2) - (r1 + A1 u1) (2 rows). Local coordinates
-    (x1, y1, phi1, q_e1, x2, y2, phi2, q_e2); q_e are the elastic
-    coordinates of a point on a flexible beam (none for rigid bodies).
-    """
-
-    r = 2
-    nonlinear = True
-
-    def __init__(self, cmap, rows, first, second):
-        self.rows = np.asarray(rows, dtype=np.intp).reshape(-1, 2)
-        self.pair = _PointPair(cmap, first, second)
-        self.cols = self.pair.cols
-        self.time_dependent = False
-
-
-class DistanceGroup:
-    """Two points held at a fixed distance L (``distance`` joint: a massless rod).
-
-    Phi = (d . d - L^2) / (2 L), d = p2 - p1 (1 row): zero exactly when |d| = L,
-    smooth everywhere (|d| - L is not at d = 0), and scaled so that Phi is a
-    length near the solution and its multiplier the rod's tension [N]
-    (Haug, Computer-Aided Kinematics and Dynamics of Mechanical Systems,
-    sec. 3.3, the distance constraint). With D = dd/dq_local:
-
-        Phi_q = d^T D / L,   Phi_qq = (D^T D + sum_a d_a D_a,qq) / L
-    """
-
-    r = 1
-    nonlinear = True
-
-    def __init__(self, cmap, rows, first, second, lengths):
-        self.rows = np.asarray(rows, dtype=np.intp).reshape(-1, 1)
-        self.pair = _PointPair(cmap, first, second)
-        self.cols = self.pair.cols
-        self.L = np.asarray(lengths, float).reshape(-1)
-        self.time_dependent = False
-
-
-class PointOnLineGroup:
-    """Point P stays on the line through point L of body l, or is driven
-    along it.
-
-    Phi = n . d - f(t), d = p_P - p_L, n = A_l n0 turning with body l's
-    (reference) frame (1 row): with n0 the line's unit normal and no f, P
-    stays on the line (point_on_line, prismatic); with n0 the line's unit
-    direction, n . d is the distance of P along the line and f(t) drives it
-    (a ``P.distance`` driver). Local coordinates (x_L, y_L, phi_L, q_eL, x_P,
-    y_P, phi_P, q_eP), D = dd/dq_local:
-
-        Phi_q  = n^T D + (B_l n0 . d) e_phiL^T
-        Phi_qq = n . D_qq + e_phiL (B_l n0)^T D + D^T (B_l n0) e_phiL^T
-                 - (n . d) e_phiL e_phiL^T
-        Phi_t  = -f'(t),  Phi_tt = -f''(t),  Phi_qt = 0
-
-    ``functions`` holds a TimeFunction or None per instance.
-    """
-
-    r = 1
-    nonlinear = True
-
-    def __init__(self, cmap, rows, point, line, normal, functions=None):
-        self.rows = np.asarray(rows, dtype=np.intp).reshape(-1, 1)
-        self.pair = _PointPair(cmap, line, point)          # d = p_P - p_L
-        self.cols = self.pair.cols
-        self.n0 = np.asarray(normal, float).reshape(-1, 2)
-        k = len(self.rows)
-        self.functions = list(functions) if functions is not None else [None] * k
-        self.time_dependent = any(f is not None for f in self.functions)
-
-
-class LinearConstraintGroup:
-    """Rows linear in q with constant coefficients, minus a time function:
-
-        Phi = c1 q[col1] + c2 q[col2] - offset - f(t)
-
-    This covers the locked relative angle of fixed and prismatic joints
-    (phi2 - phi1 - angle), joint-angle drivers (phi2 - phi1 - f(t)) and
-    coordinate drivers (q_c - f(t), written with the ground's dummy column
-    and coefficient 0 as its first column). Linear: Hess = 0, Phi_qt = 0.
-    ``functions`` holds a TimeFunction or None per instance.
-    """
-
-    r = 1
-    nonlinear = False
-
-    def __init__(self, cmap, rows, cols, coefs, offset, functions):
-        self.rows = np.asarray(rows, dtype=np.intp).reshape(-1, 1)
-        self.cols = np.asarray(cols, dtype=np.intp).reshape(-1, 2)
-        self.coefs = np.asarray(coefs, float).reshape(-1, 2)
-        self.offset = np.asarray(offset, float)
-        self.functions = list(functions)
-        self.time_dependent = any(f is not None for f in self.functions)
 
 
 # ---------------------------------------------------------------------------

@@ -132,14 +132,17 @@ def place_bodies(system: AssembledSystem, t0: float = 0.0, notes: list | None = 
     """Initial guess of q from the spanning tree of the joint graph, shape (n,).
 
     Each body is placed so that its tree joint holds: a revolute, fixed or
-    sliding joint's two points coincide; a ``distance`` joint's far point is
-    put at the joint's length along gravity (along -y without gravity), or
-    on its circle at a given x or y. What was chosen for distance joints is
+    sliding joint's two points coincide; a joint whose family says where its
+    far point starts (``start_point``, ``kernels.system.joint_hook``: a
+    distance joint's at its length along gravity, along -y without gravity,
+    or on its circle at a given x or y) puts it there, and what was chosen is
     appended to ``notes`` (strings for the "solved for" line) when given.
     """
     model = system.model
     g = np.asarray(model.gravity, float) if model.gravity is not None else np.zeros(2)
-    down = g / np.linalg.norm(g) if np.linalg.norm(g) > 0.0 else _MINUS_Y
+    down, along = ((g / np.linalg.norm(g), "gravity") if np.linalg.norm(g) > 0.0
+                   else (np.array([0.0, -1.0]), "-y"))
+    K = system.kernel_model().K
     cmap = system.cmap
     q = np.zeros(system.n + 3)          # extended: ground (and particles' phi) at n..n+2 stay 0
     given = {}
@@ -184,12 +187,10 @@ def place_bodies(system: AssembledSystem, t0: float = 0.0, notes: list | None = 
                             else (joint.first, joint.second))
             target = _point(theirs)
             offset = _turned(float(q[cp]), mine.local)
-            if joint.kind == "distance":
-                # both points at one place would leave the constraint with no
-                # gradient: put the far point at the joint's length along the
-                # default direction, or on the circle through a given x or y
-                target, how = _on_circle(target, joint.length, offset, down,
-                                         given.get((child, "x")), given.get((child, "y")))
+            start = K.joint_hook(joint.kind, "start_point")
+            if start is not None:
+                target, how = start(joint, target, offset, down, along,
+                                    given.get((child, "x")), given.get((child, "y")))
                 if how and notes is not None:
                     notes.append(f"'{joint.name}' placed {how}")
             q[[cx, cy]] = target - offset
@@ -198,34 +199,6 @@ def place_bodies(system: AssembledSystem, t0: float = 0.0, notes: list | None = 
                 q[(cx, cy)[k]] = given[(child, name)]
         placed.add(child)
     return q[:system.n]
-
-
-def _on_circle(centre, length, offset, down, x=None, y=None):
-    """Where the far point of a distance joint starts: (point, how).
-
-    ``centre`` (2,) [m] is the near point, ``length`` [m] the joint's length,
-    ``offset`` (2,) [m] the far point relative to its body's reference point,
-    ``down`` (2,) the default unit direction (along gravity, else -y). With
-    the body's x (or y) given, the point on the circle at that x (or y) on
-    the side of ``down``; else ``centre + length * down``. ``how`` says which
-    (empty when both x and y are given: the user placed the body)."""
-    if x is not None and y is not None:
-        return centre, ""
-    if x is not None or y is not None:
-        k = 0 if x is not None else 1           # the given coordinate
-        p_k = (x if x is not None else y) + offset[k]
-        rest = length ** 2 - (p_k - centre[k]) ** 2
-        if rest >= 0.0:
-            p = np.array(centre, dtype=float)
-            p[k] = p_k
-            side = down[1 - k] if down[1 - k] != 0.0 else -1.0
-            p[1 - k] = centre[1 - k] + np.copysign(np.sqrt(rest), side)
-            return p, f"on its circle at the given {'xy'[k]}"
-    return (np.asarray(centre, float) + length * down,
-            f"{length:.6g} m along {'gravity' if down is not _MINUS_Y else '-y'}")
-
-
-_MINUS_Y = np.array([0.0, -1.0])
 
 
 def _min_norm_step(J, r):
@@ -654,7 +627,7 @@ def _positions(system, t0, tol, max_iter, elastic, q_start, fixed_q, sparse, wei
         phi0 = system.Phi(q_start, t0)
         worst = phi0 if np.all(np.isfinite(phi0)) else phi
         name, value = lay.worst_element(worst)
-        value = joint_miss(model, name, worst[lay.element_rows[name]])
+        value = joint_miss(system, name, worst[lay.element_rows[name]])
         d = Diagnostic("error", "E503",
                        f"the initial configuration cannot be assembled: joint '{name}' stays "
                        f"open by {value:.3g} (m or rad) after {it} Newton iterations",

@@ -1,12 +1,15 @@
-"""The assembled system packed for the kernels: every element group's data as
-the fields of ``kernels.schema.MODEL_SCHEMA`` in two flat arrays.
+"""The assembled system packed for the kernels: every element's data as the
+fields of ``kernels.schema.MODEL_SCHEMA`` in two flat arrays.
 
-The groups of :mod:`.groups` store their instances as structs of arrays;
-packing concatenates them field by field (``kernels.schema.pack``), turns
-the functions of time and of the state into postfix programs
-(``dsl.expressions.postfix``) and the sliding joints' lines and state
-variables into shared tables. The packed model is what every kernel reads,
-compiled or uncompiled.
+The joints and drivers are packed by their kernel families, straight from the
+model (``pack`` of each module of ``kernels/joints``, for the kinds its
+``ELEMENT_ROWS`` names); the loads from the groups of :mod:`.groups`, which
+store their instances as structs of arrays. What several elements share is
+built once in a :class:`PackingContext`: the functions of time and of the
+state as postfix programs (``dsl.expressions.postfix``), the sliding joints'
+lines, the state variables the loads read, the elastic terms of points on
+flexible beams. The packed model is what every kernel reads, compiled or
+uncompiled.
 """
 
 from __future__ import annotations
@@ -14,18 +17,17 @@ from __future__ import annotations
 import numpy as np
 
 from ..kernels import UNCOMPILED_ROOT
-from .groups import (CoincidenceGroup, DistanceGroup, FrictionGroup, LinearConstraintGroup,
-                     PointForceGroup, PointOnLineGroup, RotationalSpringGroup, SpringDamperGroup,
+from .groups import (FrictionGroup, PointForceGroup, RotationalSpringGroup, SpringDamperGroup,
                      StateTorqueGroup, TorqueGroup)
 
-__all__ = ["PackedModel"]
+__all__ = ["PackedModel", "PackingContext"]
 
 
 class PackedModel:
     """The model's element groups as the kernels' packed model data.
 
-    Built once per run from the system's groups (which already store their
-    instances as structs of arrays); fields as ``compiled.MODEL_SCHEMA``
+    Built once per run from the model's joints and drivers (by their kernel
+    families) and the system's load groups; fields as ``MODEL_SCHEMA``
     declares them. Constant driver values are folded into the rows'
     offsets, constant torques and gravity into Q0; functions of time
     become postfix programs (``dsl.expressions.postfix``): f and f' of
@@ -37,8 +39,12 @@ class PackedModel:
         A model the compiled engine accepts (``engine.unsupported``).
     kernels : module
         The kernels the model data are for and the run calls (``K``):
-        :mod:`mbdsl.integrators.compiled` or its uncompiled copy
-        (``integrators.engine._kernels``).
+        :mod:`mbdsl.kernels.api` or its uncompiled copy (``kernels.cache``).
+
+    Raises
+    ------
+    ValueError
+        A joint or driver kind no kernel family holds the rows of.
     """
 
     def __init__(self, system, kernels):
@@ -53,8 +59,8 @@ class PackedModel:
         d = {name: np.zeros((0, columns) if columns else 0,
                             np.int64 if kind == "i" else np.float64)
              for name, kind, columns in K.MODEL_SCHEMA}
-        tables = _Tables(system)
-        d.update(_constraint_fields(system, tables))
+        tables = PackingContext(system)
+        d.update(_joint_fields(system, tables, K.JOINT_FAMILIES))
         d.update(_force_fields(system, tables))
         if system.contact_group is not None:
             d.update(_contact_fields(system.contact_group, tables.line_row, K))
@@ -63,7 +69,6 @@ class PackedModel:
         d["mrig"] = np.zeros(n)
         d["mrig"][system._rigid_cols] = system.mass_diag[system._rigid_cols]
         d.update(_beam_fields(system))
-        d.update(_elastic_point_fields(system))
         d["Q0"] = Q0
         d["row_element"] = system.layout.row_element.astype(np.int64)
         d["n_elements"] = int(system.layout.n_elements)
@@ -79,20 +84,55 @@ class PackedModel:
         self.spring_held = spar[:, 3:5] if spar.ndim == 2 and spar.shape[1] >= 5 else None
 
 
-class _Tables:
-    """The model data shared by several elements: the postfix programs of the
-    functions of time and of the state (``dsl.expressions.postfix``; fields
-    code, consts, prog, stack), the sliding joints' lines (geo, geof;
-    ``model.elements.line_distance``) and the state variables the loads read
-    (var, varc, xval), each entry stored once however many elements use it."""
+class PackingContext:
+    """What the element families pack with, and the model data several
+    elements share: the postfix programs of the functions of time and of the
+    state (``dsl.expressions.postfix``; fields code, consts, prog, stack), the
+    sliding joints' lines (geo, geof; ``model.elements.line_distance``), the
+    state variables the loads read (var, varc, xval), each entry stored once
+    however many elements use it, and the elastic terms of points on flexible
+    beams (ecol, eshp, and each family's spans into them).
+
+    Attributes
+    ----------
+    cmap : CoordinateMap
+        The model's body columns.
+    n : int
+        The number of coordinates (the ground's columns are n..n+2).
+    """
 
     def __init__(self, system):
         from ..dsl.expressions import OPCODES
-        self.system = system
+        self.system, self.cmap, self.n = system, system.cmap, system.n
         self.state_op = OPCODES.index("x")
         self.code, self.consts, self.prog, self.depth = [], [], [], 1
         self.geo, self.geof, self.geo_row = [], [], {}
         self.var, self.varc, self.var_row = [], [], {}
+        self.ecol, self.eshp, self.spans = [], [], {}
+
+    def points(self, refs) -> tuple:
+        """(columns (k, 3) of x, y, phi of each point's body, local positions
+        (k, 2) [m]) of points (``model.elements.PointRef``)."""
+        cols = self.cmap([p.body for p in refs]).astype(np.int64).reshape(-1, 3)
+        return cols, np.array([p.local for p in refs], np.float64).reshape(-1, 2)
+
+    def elastic_spans(self, field: str, *points) -> None:
+        """Store the elastic terms (column, S_k) of each instance's points (one
+        list of ``PointRef`` per point of the element) and their spans as
+        ``field``: per instance (first, end) of each point's terms. The spans
+        enter the model data only when some point is on a flexible beam."""
+        n, rows = self.n, []
+        for instance in zip(*points):
+            span = []
+            for p in instance:
+                start = len(self.ecol)
+                for j, col in enumerate(p.elastic_columns):
+                    if col < n:
+                        self.ecol.append(int(col))
+                        self.eshp.append(p.elastic_shape[:, j])
+                span += [start, len(self.ecol)]
+            rows.append(span)
+        self.spans[field] = np.array(rows, np.int64).reshape(-1, 2 * len(points))
 
     def program(self, expr, variables=None) -> int:
         """Index of a new program for expr (a function of t and, with
@@ -117,10 +157,22 @@ class _Tables:
         return len(self.prog) - 1
 
     def programs(self, f) -> tuple:
-        """(f, f', f'') programs of a function of time f, or (-1, -1, -1)."""
+        """(f, f', f'') programs of a function of time f, or (-1, -1, -1) (none,
+        or a constant: the caller folds it into an offset)."""
         from ..dsl.expressions import diff
         if not _timed(f):
             return (-1, -1, -1)
+        return (self.program(f.expr), self.program(diff(f.expr)),
+                self.program(diff(diff(f.expr))))
+
+    def driver_programs(self, f) -> tuple:
+        """(f, f', f'') programs of a driver's function f; a constant as the
+        program of its value and no derivatives; (-1, -1, -1) for none."""
+        from ..dsl.expressions import Num, diff
+        if f is None:
+            return (-1, -1, -1)
+        if f.expr is None:
+            return (self.program(Num(f.f(0.0))), -1, -1)
         return (self.program(f.expr), self.program(diff(f.expr)),
                 self.program(diff(diff(f.expr))))
 
@@ -154,14 +206,19 @@ class _Tables:
         return names
 
     def fields(self) -> dict:
-        """The shared tables as model data fields."""
+        """The shared tables as model data fields (the elastic terms and their
+        spans only when some point is on a flexible beam)."""
         i8, f8 = np.int64, np.float64
-        return dict(code=np.array(self.code, i8), consts=np.array(self.consts, f8),
-                    prog=np.array(self.prog, i8).reshape(-1, 2), stack=np.zeros(self.depth),
-                    var=np.array(self.var, i8).reshape(-1, 4),
-                    varc=np.array(self.varc, f8).reshape(-1, 2), xval=np.zeros(len(self.var)),
-                    geo=np.array(self.geo, i8).reshape(-1, 6),
-                    geof=np.array(self.geof, f8).reshape(-1, 6))
+        out = dict(code=np.array(self.code, i8), consts=np.array(self.consts, f8),
+                   prog=np.array(self.prog, i8).reshape(-1, 2), stack=np.zeros(self.depth),
+                   var=np.array(self.var, i8).reshape(-1, 4),
+                   varc=np.array(self.varc, f8).reshape(-1, 2), xval=np.zeros(len(self.var)),
+                   geo=np.array(self.geo, i8).reshape(-1, 6),
+                   geof=np.array(self.geof, f8).reshape(-1, 6))
+        if self.ecol:
+            out.update(self.spans, ecol=np.array(self.ecol, i8),
+                       eshp=np.array(self.eshp, f8).reshape(-1, 2))
+        return out
 
 
 def _timed(f) -> bool:
@@ -169,40 +226,29 @@ def _timed(f) -> bool:
     return f is not None and not f.constant
 
 
-def _constraint_fields(system, tables) -> dict:
-    """The joints' and drivers' model data: coincidence, distance, point on
-    line (its driver's f, f', f'' programs) and linear rows (constant driver
-    values folded into the offsets, functions of time as programs)."""
-    from ..dsl.expressions import Num, diff
-    i8, f8 = np.int64, np.float64
+def _joint_fields(system, tables, families) -> dict:
+    """The joints' and drivers' model data, each family packing the elements of
+    the kinds its ``ELEMENT_ROWS`` names, in the model's order (joints, then
+    drivers), with its rows of lambda.
+
+    Raises
+    ------
+    ValueError
+        An element of a kind no family holds the rows of.
+    """
     d = {}
-    for g in system.constraint_groups:
-        if isinstance(g, CoincidenceGroup):
-            d.update(crow=g.rows.astype(i8), ccol1=g.pair.P1.cols[:, :3].astype(i8),
-                     cs1=g.pair.P1.s.astype(f8), ccol2=g.pair.P2.cols[:, :3].astype(i8),
-                     cs2=g.pair.P2.s.astype(f8))
-        elif isinstance(g, DistanceGroup):
-            d.update(drow=g.rows[:, 0].astype(i8),
-                     dcol1=g.pair.P1.cols[:, :3].astype(i8), ds1=g.pair.P1.s.astype(f8),
-                     dcol2=g.pair.P2.cols[:, :3].astype(i8),
-                     ds2=g.pair.P2.s.astype(f8), dlen=g.L.astype(f8))
-        elif isinstance(g, PointOnLineGroup):
-            d.update(prow=g.rows[:, 0].astype(i8), pcolL=g.pair.P1.cols[:, :3].astype(i8),
-                     psL=g.pair.P1.s.astype(f8), pcolP=g.pair.P2.cols[:, :3].astype(i8),
-                     psP=g.pair.P2.s.astype(f8), pn0=g.n0.astype(f8))
-            program = tables.program
-            d["pfn"] = np.array([(-1, -1, -1) if f is None else
-                                 (program(f.expr), program(diff(f.expr)),
-                                  program(diff(diff(f.expr)))) if f.expr is not None
-                                 else (program(Num(f.f(0.0))), -1, -1)      # a constant
-                                 for f in g.functions], dtype=i8).reshape(-1, 3)
-        else:
-            off = g.offset + np.array([f.f(0.0) if f is not None and f.constant else 0.0
-                                       for f in g.functions])
-            d.update(lrow=g.rows[:, 0].astype(i8), lcol=g.cols.astype(i8),
-                     lcoef=g.coefs.astype(f8), loff=off.astype(f8),
-                     lfn=np.array([tables.programs(f) for f in g.functions],
-                                  dtype=i8).reshape(-1, 3))
+    elements = system.constraint_elements
+    held = set()
+    for family in families:
+        mine = [(row + family.ELEMENT_ROWS[e.kind], e) for row, e in elements
+                if e.kind in family.ELEMENT_ROWS]
+        held.update(family.ELEMENT_ROWS)
+        if mine:
+            d.update(family.pack(mine, tables))
+    for _, e in elements:
+        if e.kind not in held:
+            raise ValueError(f"no kernel family holds the rows of '{e.name}' ({e.kind}): "
+                             "its kind is missing from every ELEMENT_ROWS of kernels/joints")
     return d
 
 
@@ -220,6 +266,7 @@ def _force_fields(system, tables) -> dict:
             d.update(scol1=g.pair.P1.cols[:, :3].astype(i8), ss1=g.pair.P1.s.astype(f8),
                      scol2=g.pair.P2.cols[:, :3].astype(i8), ss2=g.pair.P2.s.astype(f8),
                      spar=np.column_stack([g.k, g.c, g.l0, g.held]).astype(f8))
+            tables.elastic_spans("sel", g.pair.P1.refs, g.pair.P2.refs)
         elif isinstance(g, RotationalSpringGroup):
             d.update(rcol=g.cols.astype(i8),
                      rpar=np.stack([g.k, g.c, g.angle], axis=1).astype(f8))
@@ -251,6 +298,7 @@ def _force_fields(system, tables) -> dict:
                     fri.append((n + 2, n + 2, tables.line_row(line), rows[0], len(rows)))
             d.update(fri=np.array(fri, i8).reshape(-1, 5), frp=g.params.astype(f8))
         elif isinstance(g, PointForceGroup):
+            tables.elastic_spans("fel", g.points.refs)
             d.update(fcol=g.points.cols[:, :3].astype(i8), fs=g.points.s.astype(f8),
                      fF=np.array([[0.0 if _timed(fx) else fx.f(0.0),
                                    0.0 if _timed(fy) else fy.f(0.0)]
@@ -330,38 +378,3 @@ def _beam_fields(system) -> dict:
     return {"beam": np.array(beam, np.int64).reshape(-1, 6),
             "bcol": np.array(bcol, np.int64), "bdof": np.array(bdof, np.int64),
             "bdat": np.concatenate(bdat) if bdat else np.zeros(0), "grav": grav}
-
-
-def _elastic_point_fields(system) -> dict:
-    """The elastic terms of the points on flexible beams (``PointSet``: u = s
-    + S q_e) of coincidence, point-on-line and distance joints,
-    spring-dampers and point forces: per instance the spans (first, end) of each point's terms,
-    and per term its column and shape column (S_x, S_y); empty when no such
-    point is on a flexible beam."""
-    n = system.n
-    ecol, eshp, spans = [], [], {}
-    for g in system.constraint_groups + system.force_groups:
-        if not isinstance(g, (CoincidenceGroup, PointOnLineGroup, DistanceGroup,
-                              SpringDamperGroup, PointForceGroup)):
-            continue
-        points = (g.points,) if isinstance(g, PointForceGroup) else (g.pair.P1, g.pair.P2)
-        rows = []
-        for i in range(len(points[0].cols)):
-            span = []
-            for P in points:
-                start = len(ecol)
-                for j in range(P.e):
-                    if P.cols[i, 3 + j] < n:
-                        ecol.append(int(P.cols[i, 3 + j]))
-                        eshp.append(P.S[i, :, j])
-                span += [start, len(ecol)]
-            rows.append(span)
-        spans[type(g)] = np.array(rows, np.int64).reshape(-1, 2 * len(points))
-    if not ecol:
-        return {}
-    return {"cel": spans.get(CoincidenceGroup, np.zeros((0, 4), np.int64)),
-            "pel": spans.get(PointOnLineGroup, np.zeros((0, 4), np.int64)),
-            "sel": spans.get(SpringDamperGroup, np.zeros((0, 4), np.int64)),
-            "fel": spans.get(PointForceGroup, np.zeros((0, 2), np.int64)),
-            "dsp": spans.get(DistanceGroup, np.zeros((0, 4), np.int64)),
-            "ecol": np.array(ecol, np.int64), "eshp": np.array(eshp, float).reshape(-1, 2)}

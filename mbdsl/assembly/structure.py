@@ -257,7 +257,7 @@ def miss_diagnosis(system, q_start: np.ndarray, t0: float, fixed: list[tuple[int
             return None
         phi = system.Phi(q, t0)
         name, value = lay.worst_element(phi)
-        value = joint_miss(model, name, phi[lay.element_rows[name]])
+        value = joint_miss(system, name, phi[lay.element_rows[name]])
         bodies, joints = graph.loop_through(model, name)
         loop = (" on the loop " + " - ".join(bodies) + " (joints " + ", ".join(joints) + ")"
                 if bodies else "")
@@ -335,18 +335,27 @@ def _close_loops(system, q_start, t0, hard_rows, iq, vq, hold_fixed, max_iter):
     return q
 
 
-def joint_miss(model, name: str, residual: np.ndarray) -> float:
-    """How far a joint is from holding [m or rad], from its rows' residual.
+def joint_miss(system, name: str, residual: np.ndarray) -> float:
+    """How far a joint or driver is from holding [m or rad], from its rows' residual.
 
-    The rows of most joints are distances or angles already; a ``distance``
-    joint's row is (|d|^2 - L^2) / (2 L) (``assembly.groups.DistanceGroup``),
-    so its miss is | |d| - L | = | sqrt(L^2 + 2 L Phi) - L |, not Phi.
+    The rows of most joints are distances or angles already, and their miss
+    is the largest; a joint family whose row is not says how far its joint is
+    from holding (its ``miss``, ``kernels.system.joint_hook``).
+
+    Parameters
+    ----------
+    system : AssembledSystem
+    name : str
+        The joint's or driver's name.
+    residual : ndarray, shape (rows,)
+        Its rows of Phi.
     """
     residual = np.atleast_1d(np.asarray(residual, float))
-    joint = next((j for j in model.joints if j.name == name), None)
-    if joint is not None and joint.kind == "distance" and joint.length > 0.0:
-        L = joint.length
-        return float(abs(np.sqrt(max(L * L + 2.0 * L * residual[0], 0.0)) - L))
+    joint = next((j for j in system.model.joints if j.name == name), None)
+    miss = (system.kernel_model().K.joint_hook(joint.kind, "miss")
+            if joint is not None else None)
+    if miss is not None:
+        return miss(joint, residual)
     return float(np.max(np.abs(residual), initial=0.0))
 
 

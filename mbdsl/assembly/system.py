@@ -24,9 +24,10 @@ the matrix-free products ``PhiqT_times`` and ``Phiq_times``.
 The physics of every element (joints, drivers, applied loads, contacts,
 flexible beams) is evaluated by the kernels of ``mbdsl/kernels``,
 its one implementation, through :meth:`AssembledSystem.kernel_model`; the
-groups of ``groups.py``, ``contact.py`` and ``ffr.py`` hold the elements'
-data. The constraint patterns are the kernels' triplets; the loads'
-patterns are the pairs of their instances' columns.
+kernels' joint families pack the joints and drivers from the model, the
+groups of ``groups.py``, ``contact.py`` and ``ffr.py`` hold the loads' data.
+The constraint patterns are the kernels' triplets; the loads' patterns are
+the pairs of their instances' columns.
 
 Only what the model declares is built and evaluated: a model without gravity
 has no gravity vector, a model without springs no spring group, and the
@@ -47,18 +48,11 @@ from ..model.elements import (GROUND, FlexibleBeam, Friction, JointForce, JointT
                               PointForce,
                               RotationalSpringDamper, SpringDamper, TimeFunction, Torque)
 from .ffr import FlexibleBeamGroup
-from .groups import (CoincidenceGroup, DistanceGroup, FrictionGroup, LinearConstraintGroup,
-                     PointForceGroup,
-                     PointOnLineGroup, RotationalSpringGroup, SpringDamperGroup, TorqueGroup,
-                     StateTorqueGroup,
-                     body_columns)
+from .groups import (FrictionGroup, PointForceGroup, RotationalSpringGroup, SpringDamperGroup,
+                     StateTorqueGroup, TorqueGroup)
 from .layout import Layout
 
 __all__ = ["AssembledSystem", "assemble"]
-
-
-def _normal(direction):
-    return np.array([-direction[1], direction[0]])
 
 
 class AssembledSystem:
@@ -121,61 +115,24 @@ class AssembledSystem:
 
     # -- build ------------------------------------------------------------------
     def _build_constraints(self, model):
-        n = self.n
-        coinc, pol, lin, dist = [], [], [], []
-
-        cmap = self.cmap
-
-        def _phi_col(body):
-            return body_columns(cmap, [body])[0, 2]
-
-        def _angle_row(row, body1, body2, offset, fn):   # phi2 - phi1 - offset - f(t)
-            lin.append((row, (_phi_col(body1), _phi_col(body2)), (-1.0, 1.0), offset, fn))
-
+        """The joints and drivers: each element's first row of lambda (joints in
+        declaration order, then drivers). Their rows' data are packed from the
+        model by the kernels' joint families (``packing.PackedModel``); their
+        sparsity patterns are the kernels' triplets, read once, on first use
+        (``_constraint_pattern``)."""
         row = 0
-        self.joint_rows = {}                 # joint name -> its first row of lambda
-        for j in model.joints:
-            self.joint_rows[j.name] = row
-            a, b = j.first, j.second
-            if j.kind in ("revolute", "fixed"):
-                coinc.append((row, row + 1, a, b))
-                if j.kind == "fixed":
-                    _angle_row(row + 2, a.body, b.body, j.angle, None)
-            elif j.kind == "point_on_line":
-                pol.append((row, a, b, _normal(j.direction), None))
-            elif j.kind == "prismatic":
-                pol.append((row, a, b, _normal(j.direction), None))
-                _angle_row(row + 1, a.body, b.body, j.angle, None)   # rotation locked
-            elif j.kind == "distance":
-                dist.append((row, a, b, j.length))
-            row += j.rows
-        for d in model.drivers:
-            if d.kind == "coordinate":        # q_c - f(t); first column: ground dummy, coef 0
-                lin.append((row, (n, cmap.column(d.body, d.coord)), (0.0, 1.0), 0.0, d.function))
-            elif d.kind == "joint_distance":  # u . (p1 - p2) - f(t), u along the line
-                pol.append((row, d.joint.first, d.joint.second,
-                            np.asarray(d.joint.direction, float), d.function))
-            else:
-                _angle_row(row, d.joint.first.body, d.joint.second.body, 0.0, d.function)
-            row += 1
+        #: joint name -> its first row of lambda
+        self.joint_rows = {}
+        #: (first row of lambda, Joint or Driver) of every constraint element, in row order
+        self.constraint_elements = []
+        for k, e in enumerate(list(model.joints) + list(model.drivers)):
+            if k < len(model.joints):
+                self.joint_rows[e.name] = row
+            self.constraint_elements.append((row, e))
+            row += e.rows
         assert row == self.m
-        self.constraint_groups = []
-        if coinc:
-            r0, r1, p1, p2 = zip(*coinc)
-            self.constraint_groups.append(CoincidenceGroup(cmap, np.stack([r0, r1], axis=1), p1, p2))
-        if pol:
-            r, pp, pl, nrm, fns = zip(*pol)
-            self.constraint_groups.append(PointOnLineGroup(cmap, r, pp, pl, np.array(nrm), fns))
-        if lin:
-            r, cols, coefs, off, fns = zip(*lin)
-            self.constraint_groups.append(LinearConstraintGroup(cmap, r, cols, coefs, off, fns))
-        if dist:
-            r, p1, p2, lengths = zip(*dist)
-            self.constraint_groups.append(DistanceGroup(cmap, r, p1, p2, lengths))
-        self.nonlinear_groups = [g for g in self.constraint_groups if g.nonlinear]
-        self.timed_groups = [g for g in self.constraint_groups if g.time_dependent]
-        # the constraints' sparsity patterns are the kernels' triplets, fixed by
-        # the model: read once, on first use (``_constraint_pattern``)
+        #: the drivers' functions of time f(t) (rows q_c - f, phi2 - phi1 - f, s - f)
+        self.driver_functions = [d.function for d in model.drivers]
         self._patterns = {}
 
     def _build_forces(self, model):
@@ -888,8 +845,7 @@ class AssembledSystem:
             self._elements(_L_POWER, rows, t, self._ext_rows(v)[0],
                            np.reshape(lam, (N, self.m)), out, speeds=speeds)
             p_in, p_diss = out[:, 0].copy(), out[:, 1].copy()
-        if self.m and any(f is not None and not f.constant for g in self.timed_groups
-                          for f in g.functions):
+        if self.m and any(not f.constant for f in self.driver_functions):
             pt = self.Phi_t(q, t) if phi_t is None else phi_t
             p_in += np.sum(lam * pt, axis=-1)
         return p_in, p_diss

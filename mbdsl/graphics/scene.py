@@ -83,7 +83,8 @@ class Scene:
         attach = {b.index: [np.array([p, 0.0]) if np.ndim(p) == 0 else np.asarray(p, float)
                             for p in b.points.values()] for b in model.bodies}
         self.springs = [f for f in model.forces if type(f).__name__ == "SpringDamper"]
-        self.rods = [j for j in model.joints if j.kind == "distance"]
+        # a joint that holds its points apart (a distance joint's massless rod)
+        self.rods = [j for j in model.joints if j.length > 0.0]
         self.joint_points = [j.first for j in model.joints]
         for ref in [p for j in model.joints for p in (j.first, j.second)] + \
                 [p for s in self.springs for p in (s.first, s.second)]:

@@ -48,10 +48,8 @@ from __future__ import annotations
 import numpy as np
 import scipy
 
-from ..assembly.groups import (CoincidenceGroup, DistanceGroup, FrictionGroup,
-                               LinearConstraintGroup, PointForceGroup, PointOnLineGroup,
-                               RotationalSpringGroup, SpringDamperGroup, StateTorqueGroup,
-                               TorqueGroup)
+from ..assembly.groups import (FrictionGroup, PointForceGroup, RotationalSpringGroup,
+                               SpringDamperGroup, StateTorqueGroup, TorqueGroup)
 from ..assembly.packing import PackedModel
 from ..assembly.sparse import DENSE_LIMIT
 from .base import StepState
@@ -110,10 +108,6 @@ def _unsupported_elements(system) -> str | None:
     """Why the kernels cannot evaluate this model's elements, or None."""
     from ..assembly.contact import ContactGroup
     from ..assembly.ffr import FlexibleBeamGroup
-    for g in system.constraint_groups:
-        if not isinstance(g, (CoincidenceGroup, PointOnLineGroup, LinearConstraintGroup,
-                              DistanceGroup)):
-            return f"no kernel for {type(g).__name__}"
     for g in system.force_groups:
         if not isinstance(g, (SpringDamperGroup, RotationalSpringGroup, TorqueGroup,
                               PointForceGroup, StateTorqueGroup, FrictionGroup,
@@ -125,9 +119,7 @@ def _unsupported_elements(system) -> str | None:
                                                  for k in ("P1", "P2")]
         if any(P is not None and P.e for P in points):
             return f"no kernel for a {type(g).__name__} on a flexible beam's point"
-    functions = [f for g in system.constraint_groups
-                 if isinstance(g, (LinearConstraintGroup, PointOnLineGroup))
-                 for f in g.functions if f is not None]
+    functions = list(system.driver_functions)
     functions += [f for g in system.force_groups if isinstance(g, TorqueGroup)
                   for f in g.functions]
     functions += [f for g in system.force_groups if isinstance(g, PointForceGroup)

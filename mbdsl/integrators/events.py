@@ -364,8 +364,7 @@ def time_switches(system):
     advance, so a step is shortened to end on them before it is taken
     (:func:`switch_times`)."""
     from ..dsl.expressions import compile_function
-    functions = [f for g in system.constraint_groups for f in getattr(g, "functions", ()) or ()
-                 if f is not None]
+    functions = list(system.driver_functions)
     for g in system.force_groups:
         functions += [f for f in getattr(g, "functions", ()) or () if f is not None]
         functions += list(getattr(g, "fx", ())) + list(getattr(g, "fy", ()))

@@ -53,8 +53,8 @@ class _Reactions:
         # anything acting on a particle
         particle = [getattr(system.model.bodies[b], "particle", False) if b >= 0 else False
                     for b in self.body]
-        self.pinned = np.array([j.kind in ("revolute", "distance", "point_on_line") or p
-                                for j, p in zip(joints, particle)], dtype=bool)
+        self.pinned = np.array([not j.locks_angle or p for j, p in zip(joints, particle)],
+                               dtype=bool)
         rows, cols = system.pattern_Phi_q
         joint_of_element = np.full(system.layout.n_elements, -1, dtype=np.intp)
         joint_of_element[elem] = np.arange(len(joints))

@@ -26,7 +26,7 @@ from .loads.friction import (_emit_friction, _emit_friction_lam, _friction_col, 
                              _friction_law)
 from .loads.spring_damper import _spring_energy, _spring_points, _spring_rate, _springs_add
 from .loads.torques import _rotational_energy
-from .schema import (BEAM, CROW, DROW, DSP, ECOL, FCOL, FEL, FRI, GEO, KCOL, KGI, KPAR, LROW, MASS,
+from .schema import (BEAM, CROW, DROW, ECOL, FCOL, FEL, FRI, GEO, KCOL, KGI, KPAR, LROW, MASS,
                      MRIG, PROW, Q0, RCOL, ROW_ELEMENT, RPAR, SCOL1, SDV, SEL, SPAR, STQ, _0, _NO,
                      _YES, _f, _i, _inline, _jit, _put, _rows)
 
@@ -34,6 +34,28 @@ from .schema import (BEAM, CROW, DROW, DSP, ECOL, FCOL, FEL, FRI, GEO, KCOL, KGI
 #: The joint families in the order of every aggregate, each with its first field
 #: (whose rows are its instances).
 JOINTS = ((coincidence, CROW), (point_on_line, PROW), (linear_rows, LROW), (distance, DROW))
+#: The joint families, in that order: each declares the joints and drivers whose rows
+#: it holds (``ELEMENT_ROWS``) and packs them from the model (``pack``); a family may
+#: also say where the initial conditions' first guess puts a joint's far body
+#: (``start_point``) and how far a joint is from holding (``miss``): see :func:`joint_hook`.
+JOINT_FAMILIES = tuple(family for family, _ in JOINTS)
+
+
+def joint_hook(kind: str, name: str):
+    """The function ``name`` ("start_point" or "miss") of the family that holds
+    a joint kind's rows, or None (no family of the kind defines it).
+
+    Parameters
+    ----------
+    kind : str
+        A joint kind (``Joint.kind``).
+    name : str
+        The hook's name.
+    """
+    for family in JOINT_FAMILIES:
+        if kind in family.ELEMENT_ROWS and hasattr(family, name):
+            return getattr(family, name)
+    return None
 #: The load families with a force block, each with the field that counts it
 #: (a load of the state counts twice: per load, STQ, and per partial derivative, SDV).
 LOADS = ((spring_damper, SCOL1), (torques, RCOL), (point_forces, FCOL), (state_loads, STQ),
@@ -66,6 +88,7 @@ def phiqT_add(I, Fl, qx, lam, coef, out):
     distance.phiqT_add(I, Fl, qx, lam, coef, out)
     if _rows(I, ECOL) > 0:
         _elastic_phiqT_add(I, Fl, qx, lam, coef, out)
+        distance.elastic_phiqT_add(I, Fl, qx, lam, coef, out)
 
 
 @_jit
@@ -77,6 +100,7 @@ def phiq_times(I, Fl, qx, vx, out):
     distance.phiq_times(I, Fl, qx, vx, out)
     if _rows(I, ECOL) > 0:
         _elastic_phiq_times(I, Fl, qx, vx, out)
+        distance.elastic_phiq_times(I, Fl, qx, vx, out)
 
 
 @_jit
@@ -135,7 +159,18 @@ def _emit_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose):
     p = distance.emit_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose)
     if _rows(I, ECOL) > 0:
         p = _emit_elastic_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose)
+        p = distance.emit_elastic_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose)
     return p
+
+
+@_inline
+def phiq_triplets(I):
+    """The most triplets :func:`_emit_phiq` emits: each joint family's
+    ``PHIQ_TRIPLETS`` per instance, and two per elastic term of a joint point."""
+    return (coincidence.PHIQ_TRIPLETS * _rows(I, CROW)
+            + point_on_line.PHIQ_TRIPLETS * _rows(I, PROW)
+            + linear_rows.PHIQ_TRIPLETS * _rows(I, LROW)
+            + distance.PHIQ_TRIPLETS * _rows(I, DROW) + 2 * _rows(I, ECOL))
 
 
 @_jit
@@ -146,6 +181,7 @@ def _emit_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef):
     p = distance.emit_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef)
     if _rows(I, ECOL) > 0:
         p = _emit_elastic_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef)
+        p = distance.emit_elastic_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef)
     return p
 
 
@@ -158,6 +194,7 @@ def _emit_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef):
     p = distance.emit_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef)
     if _rows(I, ECOL) > 0:
         p = _emit_elastic_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef)
+        p = distance.emit_elastic_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef)
     return p
 
 
@@ -450,9 +487,7 @@ def triplet_bound(I) -> int:
     for i in range(rows(FEL)):
         o = int(I[3 * FEL]) + 2 * i
         ecs += 2 * int(I[o + 1] - I[o])
-    for i in range(rows(DSP)):          # distance joints: four Hessian and two G blocks
-        o = int(I[3 * DSP]) + 4 * i
-        c = 6 + int(I[o + 1] - I[o] + I[o + 3] - I[o + 2])
-        ecs += 2 * c * c + c
+    # a family's own blocks of points on beams (distance joints: Hessian and G blocks)
+    ecs += sum(j.elastic_triplets(I) for j, _ in JOINTS if hasattr(j, "elastic_triplets"))
     # the additive form's unscaled beam rows: c entries per structural column, 3 blocks
     return base + 2 * ecs + 3 * (3 * n + 2 * rows(ROW_ELEMENT)) * csum

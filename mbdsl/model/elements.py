@@ -289,8 +289,13 @@ def multiplier_unit(element, row: int) -> str:
         point = ((element.kind == "coordinate" and element.coord < 2)
                  or element.kind == "joint_distance")
         return "N" if point else "N*m"
-    angle_rows = {"fixed": {2}, "prismatic": {1}}
-    return "N*m" if row in angle_rows.get(element.kind, ()) else "N"
+    return "N*m" if ANGLE_ROWS.get(element.kind) == row else "N"
+
+
+#: The joint kinds that lock a relative angle, and the row of the joint that holds it
+#: (a fixed joint's third, a prismatic joint's second); the others transmit no couple
+#: about their first point.
+ANGLE_ROWS = {"fixed": 2, "prismatic": 1}
 
 
 @dataclass(frozen=True)
@@ -514,6 +519,12 @@ class Joint:
     def bodies(self) -> tuple[int, int]:
         """(first body, second body) indices."""
         return self.first.body, self.second.body
+
+    @property
+    def locks_angle(self) -> bool:
+        """Whether a row holds the bodies' relative angle (``ANGLE_ROWS``): a
+        joint that locks none transmits no couple about its first point."""
+        return self.kind in ANGLE_ROWS
 
 
 @dataclass(frozen=True)

@@ -4,9 +4,11 @@ the oracle the constraint kernels of ``mbdsl.kernels``
 ``_emit_G``, ``_phi_time_add``) are tested against. Not part of the
 package: mbdsl evaluates its constraints with the kernels only.
 
-Each group's *local* arrays over the c coordinates it touches (columns
-``cols`` (k, c) into q_ext = [q, 0, 0, 0]) are scattered into dense
-matrices:
+The oracle reads the model's joints and drivers itself (:func:`groups_of`:
+which rows each kind holds, and their data) and groups them by the form of
+their rows: coincidence, point on line, linear, distance. Each group's
+*local* arrays over the c coordinates it touches (columns ``cols`` (k, c)
+into q_ext = [q, 0, 0, 0]) are scattered into dense matrices:
 
 * ``phi``  (k, r)        constraint values
 * ``jac``  (k, r, c)     d phi / d q_local
@@ -16,18 +18,91 @@ All formulas in absolute planar coordinates (Haug, Computer-Aided
 Kinematics and Dynamics of Mechanical Systems, ch. 3; Nikravesh,
 Computer-Aided Analysis of Mechanical Systems, ch. 4); a point of a flexible
 beam at r + A (s + S q_e) (Shabana, Dynamics of Multibody Systems, sec. 5.3).
-The groups' docstrings (``mbdsl.assembly.groups``) state each constraint.
+The kernel families' docstrings (``mbdsl/kernels/joints``) state each constraint.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from mbdsl.assembly.groups import (CoincidenceGroup, DistanceGroup, LinearConstraintGroup,
-                                   PointOnLineGroup)
+from types import SimpleNamespace
+
+from mbdsl.assembly.groups import PointSet
 from mbdsl.model.elements import line_columns
 
-__all__ = ["ConstraintOracle", "line_distance"]
+__all__ = ["ConstraintOracle", "groups_of", "line_distance"]
+
+
+def _point_pair(cmap, first, second):
+    """Two point sets side by side: columns (k, c1 + c2), c1, the sets."""
+    P1, P2 = PointSet(cmap, first), PointSet(cmap, second)
+    return SimpleNamespace(P1=P1, P2=P2, c1=P1.c, cols=np.concatenate([P1.cols, P2.cols], 1))
+
+
+def groups_of(system, model=None):
+    """The joints and drivers of ``model`` (default: the system's) grouped by
+    the form of their rows, read from the model: a revolute's and a fixed
+    joint's two coincidence rows, a fixed joint's third and a prismatic
+    joint's second row (the locked angle phi2 - phi1 - angle), a sliding
+    joint's row n . (p_first - p_second), n = A_second (-u_y, u_x); drivers: a
+    coordinate q_c - f, a joint angle phi2 - phi1 - f, a sliding joint's
+    distance u . (p_first - p_second) - f; a distance joint's (|d|^2 -
+    L^2) / (2 L). Rows: joints in declaration order, then drivers."""
+    model = system.model if model is None else model
+    cmap, n = system.cmap, system.n
+    coinc, pol, lin, dist = [], [], [], []
+    row = 0
+    phi = lambda body: cmap.column(body, 2)          # noqa: E731
+    for j in model.joints:
+        a, b = j.first, j.second
+        if j.kind in ("revolute", "fixed"):
+            coinc.append(((row, row + 1), a, b))
+            if j.kind == "fixed":
+                lin.append((row + 2, (phi(a.body), phi(b.body)), (-1.0, 1.0), j.angle, None))
+        elif j.kind in ("point_on_line", "prismatic"):
+            pol.append((row, b, a, (-j.direction[1], j.direction[0]), None))
+            if j.kind == "prismatic":
+                lin.append((row + 1, (phi(a.body), phi(b.body)), (-1.0, 1.0), j.angle, None))
+        elif j.kind == "distance":
+            dist.append((row, a, b, j.length))
+        else:
+            raise AssertionError(f"the oracle has no rows for a {j.kind} joint")
+        row += j.rows
+    for d in model.drivers:
+        if d.kind == "coordinate":
+            lin.append((row, (n, cmap.column(d.body, d.coord)), (0.0, 1.0), 0.0, d.function))
+        elif d.kind == "joint_distance":
+            pol.append((row, d.joint.second, d.joint.first, tuple(d.joint.direction), d.function))
+        else:
+            lin.append((row, (phi(d.joint.first.body), phi(d.joint.second.body)), (-1.0, 1.0),
+                        0.0, d.function))
+        row += 1
+    groups = []
+    if coinc:
+        rows, p1, p2 = zip(*coinc)
+        groups.append(SimpleNamespace(kind="coincidence", rows=np.array(rows).reshape(-1, 2),
+                                      pair=_point_pair(cmap, p1, p2), functions=[None] * len(rows)))
+    if pol:
+        rows, line, point, n0, fns = zip(*pol)
+        groups.append(SimpleNamespace(kind="point_on_line", rows=np.array(rows).reshape(-1, 1),
+                                      pair=_point_pair(cmap, line, point), n0=np.array(n0, float),
+                                      functions=list(fns)))
+    if lin:
+        rows, cols, coefs, off, fns = zip(*lin)
+        groups.append(SimpleNamespace(kind="linear", rows=np.array(rows).reshape(-1, 1),
+                                      cols=np.array(cols).reshape(-1, 2),
+                                      coefs=np.array(coefs, float), offset=np.array(off, float),
+                                      functions=list(fns)))
+    if dist:
+        rows, p1, p2, lengths = zip(*dist)
+        groups.append(SimpleNamespace(kind="distance", rows=np.array(rows).reshape(-1, 1),
+                                      pair=_point_pair(cmap, p1, p2), L=np.array(lengths, float),
+                                      functions=[None] * len(rows)))
+    for g in groups:
+        if g.kind != "linear":
+            g.cols = g.pair.cols
+        g.time_dependent = any(f is not None for f in g.functions)
+    return groups
 
 
 def rot(phi, s):
@@ -98,20 +173,20 @@ def _functions(g, t, which):
 
 def local(g, qx, t):
     """(phi (k, r), jac (k, r, c), hess (k, r, c, c) or None) of one group."""
-    if isinstance(g, LinearConstraintGroup):
+    if g.kind == "linear":
         phi = np.einsum("kj,kj->k", g.coefs, qx[g.cols]) - g.offset - _functions(g, t, "f")
         return phi[:, None], g.coefs[:, None, :].copy(), None
     q1, d, D, DD = _pair(g, qx)
-    if isinstance(g, CoincidenceGroup):
+    if g.kind == "coincidence":
         return d, D, DD
-    if isinstance(g, DistanceGroup):
+    if g.kind == "distance":
         L = g.L
         phi = (np.einsum("ka,ka->k", d, d) - L ** 2) / (2.0 * L)
         jac = np.einsum("ka,kaj->kj", d, D) / L[:, None]
         hess = (np.einsum("kai,kaj->kij", D, D) + np.einsum("ka,kaij->kij", d, DD)) \
             / L[:, None, None]
         return phi[:, None], jac[:, None], hess[:, None]
-    assert isinstance(g, PointOnLineGroup)
+    assert g.kind == "point_on_line"
     nvec, Bn = rot(q1[:, 2], g.n0), drot(q1[:, 2], g.n0)
     phi = np.einsum("ka,ka->k", nvec, d) - _functions(g, t, "f")
     jac = np.einsum("ka,kaj->kj", nvec, D)
@@ -125,8 +200,7 @@ def local(g, qx, t):
 
 
 class SystemOracle:
-    """An oracle of an ``AssembledSystem``'s groups, from their data; one
-    state at a time.
+    """An oracle of an ``AssembledSystem``'s elements; one state at a time.
 
     Parameters
     ----------
@@ -144,12 +218,16 @@ class SystemOracle:
 
 
 class ConstraintOracle(SystemOracle):
-    """Phi and its derivatives of an ``AssembledSystem``'s constraint groups,
-    dense."""
+    """Phi and its derivatives of an ``AssembledSystem``'s joints and drivers,
+    dense; ``model`` (default: the system's) gives the joints and drivers."""
+
+    def __init__(self, system, model=None):
+        super().__init__(system)
+        self.groups = groups_of(system, model)
 
     def _each(self, q, t):
         qx = self._ext(q)
-        for g in self.system.constraint_groups:
+        for g in self.groups:
             yield g, local(g, qx, t)
 
     def Phi(self, q, t):
@@ -191,7 +269,7 @@ class ConstraintOracle(SystemOracle):
         """d^order Phi / dt^order (order 1 or 2), shape (m,)."""
         out = np.zeros(self.m)
         which = "df" if order == 1 else "ddf"
-        for g in self.system.constraint_groups:
+        for g in self.groups:
             if g.time_dependent:
                 out[g.rows[:, 0]] = -_functions(g, t, which)
         return out

@@ -19,7 +19,12 @@ def system_on(path, kernels):
     """The model's system, evaluating on the given kernel module."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        system = mbdsl.assemble(mbdsl.load(path))
+        return system_on_model(mbdsl.load(path), kernels)
+
+
+def system_on_model(model, kernels):
+    """A model's system, evaluating on the given kernel module."""
+    system = mbdsl.assemble(model)
     cm = CompiledModel(system, kernels)
     system.kernel_model = lambda: cm
     return system

@@ -11,13 +11,15 @@ differentiates are in ``test_derivatives.py``; this test pins the values
 themselves (a wrong offset, length or sign that every derivative shares).
 """
 
+import dataclasses
 
 import numpy as np
 import pytest
 
-
 from .constraint_oracle import ConstraintOracle
-from .kernel_models import FILES, ROOT, kernels, system_on  # noqa: F401 (a fixture)
+from .kernel_models import (FILES, ROOT, kernels, system_on,  # noqa: F401 (a fixture)
+                            system_on_model)
+
 
 def _close(got, want):
     scale = max(1.0, float(np.abs(want).max(initial=0.0)))
@@ -59,10 +61,13 @@ def test_the_oracle_sees_a_wrong_length(kernels):
     o = ConstraintOracle(system)
     q = np.random.default_rng(4).normal(size=system.n)
     want = o.Phi(q, 0.0)
-    for g in system.constraint_groups:
-        if hasattr(g, "L"):
-            g.L = g.L * (1.0 + 1e-9)
-    assert np.abs(ConstraintOracle(system).Phi(q, 0.0) - want).max() > 1e2 * 1e-13 * max(
+    joints = [dataclasses.replace(j, length=j.length * (1.0 + 1e-9)) if j.kind == "distance"
+              else j for j in system.model.joints]
+    longer = dataclasses.replace(system.model, joints=joints)
+    assert np.abs(ConstraintOracle(system, longer).Phi(q, 0.0) - want).max() > 1e2 * 1e-13 * max(
+        1.0, np.abs(want).max())
+    # and so does the system packed from it (the kernels read the model's lengths)
+    assert np.abs(system_on_model(longer, kernels).Phi(q, 0.0) - want).max() > 1e2 * 1e-13 * max(
         1.0, np.abs(want).max())
 
 

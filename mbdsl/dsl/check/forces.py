@@ -16,7 +16,8 @@ from ...model.elements import (GROUND, FlexibleBeam, Friction, JointForce, Joint
 from ..expressions import compile_state_function, diff, Dotted, ExprError, Name, substitute, Vec
 from .contact import contact_element
 from .context import BrokenReference, did_you_mean
-from .tables import BODY_STATE, FORCE_KINDS, GEOMETRY_OPTIONS, REVOLUTE_STATE, SLIDING_STATE
+from .tables import (BODY_STATE, FORCE_KINDS, GEOMETRY_OPTIONS, JOINT_MOTION, REVOLUTE_STATE,
+                     SLIDING_STATE)
 
 
 #: the SI unit of a force option (friction's speeds are m/s or rad/s by joint: unchecked)
@@ -194,11 +195,13 @@ def friction_element(c, f, pos, opts, ctx):
         return None
     span = getattr(pos[0].value, "span", None) or f.span
     kw = {a.keyword: a for a in f.args if a.keyword is not None}
-    if joint.kind in ("fixed", "distance"):
-        c.error("E305", f"{ctx}: friction acts in a revolute, prismatic or point_on_line "
+    if joint.kind not in JOINT_MOTION:
+        kinds = list(JOINT_MOTION)
+        kinds = ", ".join(kinds[:-1]) + " or " + kinds[-1]
+        c.error("E305", f"{ctx}: friction acts in a {kinds} "
                 f"joint; '{joint.name}' is a {joint.kind} joint", span,
                 f"no sliding surface in a {joint.kind} joint",
-                hint="friction(J, ...) takes a revolute, prismatic or point_on_line joint")
+                hint=f"friction(J, ...) takes a {kinds} joint")
         return None
     radius = opts["radius"]
     if joint.kind == "revolute" and not c.turning(

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from ...registry import COEFFICIENTS, METHOD_NAMES
 
-__all__ = ["MAX_REPEAT", "JOINT_KINDS", "UNSET", "FORCE_KINDS", "GEOMETRY_OPTIONS", "BODY_STATE",
+__all__ = ["MAX_REPEAT", "JOINT_KINDS", "JOINT_MOTION", "UNSET", "FORCE_KINDS", "GEOMETRY_OPTIONS", "BODY_STATE",
            "REVOLUTE_STATE", "SLIDING_STATE", "KNOWN_METHODS", "SETTINGS"]
 
 
@@ -25,6 +25,11 @@ JOINT_KINDS = {
     "point_on_line": (2, {"direction": None}, 1),
     "distance": (2, {"length": None}, 1),
 }
+
+#: joint kind -> the relative motion it leaves free, which friction brakes and a limit
+#: bounds: a revolute's turning, a sliding joint's sliding along its line (the kinds
+#: not listed leave no single one)
+JOINT_MOTION = {"revolute": "turning", "prismatic": "sliding", "point_on_line": "sliding"}
 
 #: an optional keyword without a default value (``friction``'s radius, mu_static)
 UNSET = float("nan")

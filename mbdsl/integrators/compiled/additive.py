@@ -9,10 +9,11 @@ import numpy as np
 from .layout import CF, CQ, CQX, CVY, KA1, KA2, KB, SP, SV, _layout, _state
 from ...kernels.beams.ffr import FFR_M, FFR_MXQ, _emit_beams, _ffr_local, _ffr_scratch
 from ...kernels.loads.friction import _emit_friction_lam
-from ...kernels.schema import (BCOL, BEAM, CROW, DROW, ECOL, FRI, LROW, MASS, MRIG, PROW,
-                               ROW_ELEMENT, _0, _NO, _YES, _f, _i, _jit, _put, _rows)
+from ...kernels.schema import (BCOL, BEAM, FRI, MASS, MRIG, ROW_ELEMENT, _0, _NO, _YES, _f, _i,
+                               _jit, _put, _rows)
 from ...kernels.system import (_emit_G, _emit_force, _emit_hess, _emit_mass, _emit_phiq,
-                               _phi_time_add, forces, phi, phiqT_add, phiq_times)
+                               _phi_time_add, forces, phi, phiq_times, phiq_triplets,
+                               phiqT_add)
 
 
 @_jit
@@ -209,8 +210,7 @@ def _emit_mass_ratio_phiqT(I, Fl, n, qx, qx_old, R, C, V, p, c0, coef0, coef1):
         for a in range(c):
             for d in range(c):
                 T[b, a, d] = X[d, a]
-    k = 8 * _rows(I, CROW) + 6 * _rows(I, PROW) + 2 * _rows(I, LROW) + 6 * _rows(I, DROW) \
-        + 2 * _rows(I, ECOL)
+    k = phiq_triplets(I)
     Rs, Cs, Vs = np.empty(k, np.int64), np.empty(k, np.int64), np.empty(k)
     ks = _emit_phiq(I, Fl, n, qx_old, Rs, Cs, Vs, _0, _0, _0, 1.0, _YES)
     for r0, coef in ((0, coef0), (n, coef1)):

@@ -1,5 +1,6 @@
-"""Joint points on flexible beams: the elastic columns of coincidence,
-point-on-line and distance joints.
+"""Joint points on flexible beams: the elastic columns of coincidence and
+point-on-line joints (a distance joint's are in its own module, which calls
+:func:`_scalar_row_terms`).
 
 A point of a flexible beam is at r + A(phi) u, u = s + sum_k S_k q_k. Its
 position's derivative by q_k is A S_k, and the only second derivatives the
@@ -17,10 +18,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..geometry import _eshape, _span
-from ..joints.distance import _dist, _dist_columns, _dist_h, _dist_local
 from ..joints.point_on_line import _pol
-from ..schema import (CCOL1, CCOL2, CEL, CROW, DCOL1, DCOL2, DROW, DSP, ECOL, PCOLL, PCOLP, PEL,
-                      PROW, _i, _jit, _put, _put_phiq, _rows)
+from ..schema import (CCOL1, CCOL2, CEL, CROW, ECOL, PCOLL, PCOLP, PEL, PROW, _i, _jit, _put,
+                      _put_phiq, _rows)
 
 #: Its fields in ``schema.MODEL_SCHEMA``: the elastic terms of points on beams (column, S_k);
 #: each element's spans into them are the element's own fields (CEL, PEL, SEL, FEL, DSP).
@@ -47,12 +47,6 @@ def _elastic_grad(I, Fl, qx, rows, cols, vals):
         nx, ny, dx, dy, axL, ayL, axP, ayP = _pol(I, Fl, qx, i)
         p = _scalar_row_terms(I, Fl, qx, PCOLL, PCOLP, PEL, i, _i(I, PROW, i, 0), nx, ny,
                               rows, cols, vals, p)
-    if _rows(I, DSP) > 0:
-        g = np.empty(6)
-        for i in range(_rows(I, DROW)):
-            dx, dy, ax1, ay1, ax2, ay2, L = _dist(I, Fl, qx, i, g)
-            p = _scalar_row_terms(I, Fl, qx, DCOL1, DCOL2, DSP, i, _i(I, DROW, i, 0), dx / L,
-                                  dy / L, rows, cols, vals, p)
     return p
 
 
@@ -131,18 +125,6 @@ def _emit_elastic_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef):
             if cP < n:
                 p = _put(R, C, V, p, r0 + cP, c0 + col, lv * hP)
                 p = _put(R, C, V, p, r0 + col, c0 + cP, lv * hP)
-    if _rows(I, DSP) > 0:      # distance rows: every entry with an elastic column
-        nmax = _dist_columns(I)
-        cols = np.empty(nmax, np.int64)
-        D, Hd = np.empty((2, nmax)), np.empty((2, nmax, nmax))
-        for i in range(_rows(I, DROW)):
-            nc, dx, dy, L = _dist_local(I, Fl, qx, i, cols, D, Hd)
-            lv = coef * lam[_i(I, DROW, i, 0)]
-            for a in range(nc):
-                for b in range(nc):
-                    if (a >= 6 or b >= 6) and cols[a] < n and cols[b] < n:
-                        p = _put(R, C, V, p, r0 + cols[a], c0 + cols[b],
-                                 lv * _dist_h(D, Hd, dx, dy, L, a, b))
     return p
 
 
@@ -176,20 +158,4 @@ def _emit_elastic_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef):
             if cP < n:
                 p = _put(R, C, V, p, r0 + row, c0 + cP, coef * hP * vk)
             p = _put(R, C, V, p, r0 + row, c0 + col, coef * (hL * vx[cL] + hP * vx[cP]))
-    if _rows(I, DSP) > 0:      # distance rows: v^T Hess, the terms with an elastic column
-        nmax = _dist_columns(I)
-        cols = np.empty(nmax, np.int64)
-        D, Hd = np.empty((2, nmax)), np.empty((2, nmax, nmax))
-        for i in range(_rows(I, DROW)):
-            nc, dx, dy, L = _dist_local(I, Fl, qx, i, cols, D, Hd)
-            row = _i(I, DROW, i, 0)
-            for b in range(nc):
-                if cols[b] >= n:
-                    continue
-                acc = 0.0
-                for a in range(nc):
-                    if a >= 6 or b >= 6:
-                        acc += _dist_h(D, Hd, dx, dy, L, a, b) * vx[cols[a]]
-                if nc > 6:
-                    p = _put(R, C, V, p, r0 + row, c0 + cols[b], coef * acc)
     return p

@@ -13,11 +13,39 @@ positions [m], CEL (k, 4) the spans of their elastic terms.
 
 from __future__ import annotations
 
+import numpy as np
+
 from ..geometry import _Au
 from ..schema import CCOL1, CCOL2, CEL, CROW, CS1, CS2, _i, _inline, _put, _put_phiq, _rows
 
 #: Its fields in ``schema.MODEL_SCHEMA`` (the first gives the instances).
 FIELDS = ("crow", "ccol1", "cs1", "ccol2", "cs2", "cel")
+#: The joints whose rows it holds: kind -> the first of them among the joint's rows.
+ELEMENT_ROWS = {"revolute": 0, "fixed": 0}
+
+
+def pack(items, tables) -> dict:
+    """Its fields from the model's joints.
+
+    Parameters
+    ----------
+    items : list of (int, Joint)
+        Per instance, its first row of lambda and the joint (a kind of
+        ``ELEMENT_ROWS``), in the model's order.
+    tables : packing context
+        ``points`` (body columns, local positions) and ``elastic_spans`` (the
+        terms of points on flexible beams): ``assembly.packing.PackingContext``.
+
+    Returns
+    -------
+    dict
+        field name -> array, as ``schema.MODEL_SCHEMA`` declares them.
+    """
+    first, second = [j.first for _, j in items], [j.second for _, j in items]
+    (ccol1, cs1), (ccol2, cs2) = tables.points(first), tables.points(second)
+    tables.elastic_spans("cel", first, second)
+    return {"crow": np.array([(r, r + 1) for r, _ in items], np.int64).reshape(-1, 2),
+            "ccol1": ccol1, "cs1": cs1, "ccol2": ccol2, "cs2": cs2}
 #: Newton-matrix triplets per instance: Phi_q, (Phi_q^T lambda)_q, (Phi_q v)_q.
 PHIQ_TRIPLETS, HESS_TRIPLETS, G_TRIPLETS = 8, 2, 4
 

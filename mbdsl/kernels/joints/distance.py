@@ -9,12 +9,22 @@ Points on flexible beams add their elastic columns (``_dist_local``, used by
 
 Fields: DROW (k,) the rows, DCOL1, DCOL2 (k, 3) the bodies' columns, DS1,
 DS2 (k, 2) the local positions [m], DLEN (k,) L [m], DSP (k, 4) elastic spans.
+
+Besides its kernels, the joint's module holds what the assembly asks of the
+joint kind (``docs/architecture.md``, "Adding a joint"): how it packs from the
+model (:func:`pack`), where the first guess of the initial conditions puts the
+far body (:func:`start_point`: both points at one place would leave the row
+without a gradient) and how far the joint is from holding, from its row's
+residual (:func:`miss`).
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
+from ..beams.elastic_points import _scalar_row_terms
 from ..geometry import _Au, _eshape, _span
 from ..schema import (DCOL1, DCOL2, DLEN, DROW, DS1, DS2, DSP, ECOL, _f, _i, _inline, _jit, _put,
                       _put_phiq, _rows)
@@ -23,6 +33,91 @@ from ..schema import (DCOL1, DCOL2, DLEN, DROW, DS1, DS2, DSP, ECOL, _f, _i, _in
 FIELDS = ("drow", "dcol1", "ds1", "dcol2", "ds2", "dlen", "dsp")
 #: Newton-matrix triplets per instance: Phi_q, (Phi_q^T lambda)_q, (Phi_q v)_q.
 PHIQ_TRIPLETS, HESS_TRIPLETS, G_TRIPLETS = 6, 36, 6
+#: The joints whose rows it holds: kind -> the first of them among the joint's rows.
+ELEMENT_ROWS = {"distance": 0}
+
+
+def pack(items, tables) -> dict:
+    """Its fields from the model's joints.
+
+    Parameters
+    ----------
+    items : list of (int, Joint)
+        Per instance, its row of lambda and the joint, in the model's order.
+    tables : packing context
+        ``points`` and ``elastic_spans`` (``assembly.packing.PackingContext``).
+
+    Returns
+    -------
+    dict
+        field name -> array, as ``schema.MODEL_SCHEMA`` declares them.
+    """
+    first, second = [j.first for _, j in items], [j.second for _, j in items]
+    (dcol1, ds1), (dcol2, ds2) = tables.points(first), tables.points(second)
+    tables.elastic_spans("dsp", first, second)
+    return {"drow": np.array([r for r, _ in items], np.int64), "dcol1": dcol1, "ds1": ds1,
+            "dcol2": dcol2, "ds2": ds2,
+            "dlen": np.array([j.length for _, j in items], np.float64)}
+
+
+def start_point(joint, centre, offset, down, along, x=None, y=None):
+    """Where the first guess of the initial conditions puts the far point.
+
+    Parameters
+    ----------
+    joint : Joint
+        The distance joint; ``joint.length`` L [m].
+    centre : ndarray, shape (2,) [m]
+        The near point (on the body already placed).
+    offset : ndarray, shape (2,) [m]
+        The far point relative to its body's reference point.
+    down : ndarray, shape (2,)
+        The default unit direction (along gravity, else -y).
+    along : str
+        Its name ("gravity" or "-y"), for ``how``.
+    x, y : float or None [m]
+        The far body's x or y, when the initial conditions give them.
+
+    Returns
+    -------
+    point : ndarray, shape (2,) [m]
+        With x (or y) given, the point of the circle of radius L about
+        ``centre`` at that x (or y) on the side of ``down``; else ``centre +
+        L down``.
+    how : str
+        Which, for the "solved for" line (empty when x and y are both given:
+        the user placed the body).
+    """
+    length = joint.length
+    if x is not None and y is not None:
+        return centre, ""
+    if x is not None or y is not None:
+        k = 0 if x is not None else 1           # the given coordinate
+        p_k = (x if x is not None else y) + offset[k]
+        rest = length ** 2 - (p_k - centre[k]) ** 2
+        if rest >= 0.0:
+            p = np.array(centre, dtype=float)
+            p[k] = p_k
+            side = down[1 - k] if down[1 - k] != 0.0 else -1.0
+            p[1 - k] = centre[1 - k] + np.copysign(np.sqrt(rest), side)
+            return p, f"on its circle at the given {'xy'[k]}"
+    return (np.asarray(centre, float) + length * down, f"{length:.6g} m along {along}")
+
+
+def miss(joint, residual) -> float:
+    """How far the joint is from holding [m]: its row is (|d|^2 - L^2) / (2 L),
+    so the miss is | |d| - L | = | sqrt(L^2 + 2 L Phi) - L |, not Phi.
+
+    Parameters
+    ----------
+    joint : Joint
+    residual : ndarray, shape (1,) [m]
+        The joint's row of Phi.
+    """
+    L = joint.length
+    if not L > 0.0:
+        return float(np.max(np.abs(residual), initial=0.0))
+    return float(abs(math.sqrt(max(L * L + 2.0 * L * float(residual[0]), 0.0)) - L))
 
 
 @_jit
@@ -202,3 +297,113 @@ def emit_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef):
                     hv += H[a, b] * v6[b]
                 p = _put(R, C, V, p, r0 + row, c0 + col, coef * hv)
     return p
+
+
+# --------------------------------------------------------------------------------------------
+# Points on flexible beams: the entries of the elastic columns (u = s + S q_e), emitted
+# after the other joints' (``system``: the order of every aggregate)
+# --------------------------------------------------------------------------------------------
+
+
+@_jit
+def _elastic_grad(I, Fl, qx, rows, cols, vals):
+    """The elastic entries of the distance rows' Phi_q, -+(d / L) . (A S_k) of
+    each point's terms: (row, column, value) into rows, cols, vals (each of 2
+    x the elastic terms); returns their count."""
+    p = 0
+    g = np.empty(6)
+    for i in range(_rows(I, DROW)):
+        dx, dy, ax1, ay1, ax2, ay2, L = _dist(I, Fl, qx, i, g)
+        p = _scalar_row_terms(I, Fl, qx, DCOL1, DCOL2, DSP, i, _i(I, DROW, i, 0), dx / L,
+                              dy / L, rows, cols, vals, p)
+    return p
+
+
+@_jit
+def elastic_phiqT_add(I, Fl, qx, lam, coef, out):
+    """out += coef Phi_q^T lambda in the elastic columns of the distance rows."""
+    if _rows(I, DSP) == 0:
+        return
+    k = 2 * _rows(I, ECOL)
+    rows, cols, vals = np.empty(k, np.int64), np.empty(k, np.int64), np.empty(k)
+    for e in range(_elastic_grad(I, Fl, qx, rows, cols, vals)):
+        out[cols[e]] += coef * lam[rows[e]] * vals[e]
+
+
+@_jit
+def elastic_phiq_times(I, Fl, qx, vx, out):
+    """out += Phi_q v of the distance rows' elastic columns."""
+    if _rows(I, DSP) == 0:
+        return
+    k = 2 * _rows(I, ECOL)
+    rows, cols, vals = np.empty(k, np.int64), np.empty(k, np.int64), np.empty(k)
+    for e in range(_elastic_grad(I, Fl, qx, rows, cols, vals)):
+        out[rows[e]] += vals[e] * vx[cols[e]]
+
+
+@_jit
+def emit_elastic_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose):
+    """The elastic columns of the distance rows of coef Phi_q at (r0, c0) (or of
+    Phi_q^T)."""
+    if _rows(I, DSP) == 0:
+        return p
+    k = 2 * _rows(I, ECOL)
+    rows, cols, vals = np.empty(k, np.int64), np.empty(k, np.int64), np.empty(k)
+    for e in range(_elastic_grad(I, Fl, qx, rows, cols, vals)):
+        p = _put_phiq(R, C, V, p, r0, c0, rows[e], cols[e], coef * vals[e], transpose)
+    return p
+
+
+@_jit
+def emit_elastic_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef):
+    """The distance rows' entries of coef (Phi_q^T lambda)_q at (r0, c0) with an
+    elastic column (``_dist_local``)."""
+    if _rows(I, DSP) > 0:      # distance rows: every entry with an elastic column
+        nmax = _dist_columns(I)
+        cols = np.empty(nmax, np.int64)
+        D, Hd = np.empty((2, nmax)), np.empty((2, nmax, nmax))
+        for i in range(_rows(I, DROW)):
+            nc, dx, dy, L = _dist_local(I, Fl, qx, i, cols, D, Hd)
+            lv = coef * lam[_i(I, DROW, i, 0)]
+            for a in range(nc):
+                for b in range(nc):
+                    if (a >= 6 or b >= 6) and cols[a] < n and cols[b] < n:
+                        p = _put(R, C, V, p, r0 + cols[a], c0 + cols[b],
+                                 lv * _dist_h(D, Hd, dx, dy, L, a, b))
+    return p
+
+
+@_jit
+def emit_elastic_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef):
+    """The distance rows' entries of coef (Phi_q v)_q at (r0, c0) with an
+    elastic column: v^T Hess."""
+    if _rows(I, DSP) > 0:      # distance rows: v^T Hess, the terms with an elastic column
+        nmax = _dist_columns(I)
+        cols = np.empty(nmax, np.int64)
+        D, Hd = np.empty((2, nmax)), np.empty((2, nmax, nmax))
+        for i in range(_rows(I, DROW)):
+            nc, dx, dy, L = _dist_local(I, Fl, qx, i, cols, D, Hd)
+            row = _i(I, DROW, i, 0)
+            for b in range(nc):
+                if cols[b] >= n:
+                    continue
+                acc = 0.0
+                for a in range(nc):
+                    if a >= 6 or b >= 6:
+                        acc += _dist_h(D, Hd, dx, dy, L, a, b) * vx[cols[a]]
+                if nc > 6:
+                    p = _put(R, C, V, p, r0 + row, c0 + cols[b], coef * acc)
+    return p
+
+
+def elastic_triplets(I) -> int:
+    """Triplets beyond ``PHIQ/HESS/G_TRIPLETS`` of the distance joints with
+    points on beams, per force-block pair (``system.triplet_bound``): four
+    (6 + e)^2 Hessian and two 6 + e G blocks, e the elastic terms of the
+    joint's points (its spans into ECOL), counted as 2 c^2 + c, c = 6 + e."""
+    out = 0
+    for i in range(int(I[3 * DSP + 1])):
+        o = int(I[3 * DSP]) + 4 * i
+        c = 6 + int(I[o + 1] - I[o] + I[o + 3] - I[o + 2])
+        out += 2 * c * c + c
+    return out

@@ -9,6 +9,8 @@ rad], LFN (k, 3) the programs of a driver f, f', f'' (-1: none).
 
 from __future__ import annotations
 
+import numpy as np
+
 from ..programs import _eval
 from ..schema import LCOEF, LCOL, LFN, LOFF, LROW, _f, _i, _inline, _put_phiq, _rows
 
@@ -16,6 +18,51 @@ from ..schema import LCOEF, LCOL, LFN, LOFF, LROW, _f, _i, _inline, _put_phiq, _
 FIELDS = ("lrow", "lcol", "lcoef", "loff", "lfn")
 #: Newton-matrix triplets per instance: Phi_q, (Phi_q^T lambda)_q, (Phi_q v)_q.
 PHIQ_TRIPLETS, HESS_TRIPLETS, G_TRIPLETS = 2, 0, 0
+#: The joints and drivers whose rows it holds: kind -> the first of them among the
+#: element's rows (the locked angle after a fixed joint's coincidence, a prismatic
+#: joint's line; a body coordinate's or a joint angle's driver).
+ELEMENT_ROWS = {"fixed": 2, "prismatic": 1, "coordinate": 0, "joint_angle": 0}
+
+
+def pack(items, tables) -> dict:
+    """Its fields from the model's joints and drivers: a locked angle phi2 -
+    phi1 - angle, a driven one phi2 - phi1 - f(t), a driven coordinate q_c -
+    f(t) (its first column the ground's, coefficient 0). A constant f is
+    folded into the offset; a function of time becomes the programs of f, f',
+    f''.
+
+    Parameters
+    ----------
+    items : list of (int, Joint or Driver)
+        Per instance, its row of lambda and the element (a kind of
+        ``ELEMENT_ROWS``), in the model's order.
+    tables : packing context
+        ``cmap`` (the model's coordinate map), ``n`` and ``programs``
+        (``assembly.packing.PackingContext``).
+
+    Returns
+    -------
+    dict
+        field name -> array, as ``schema.MODEL_SCHEMA`` declares them.
+    """
+    cmap, n = tables.cmap, tables.n
+    cols, coefs, off, fn = [], [], [], []
+    for _, e in items:
+        if e.kind == "coordinate":
+            cols.append((n, cmap.column(e.body, e.coord)))
+            coefs.append((0.0, 1.0))
+        else:
+            joint = e if e.kind in ("fixed", "prismatic") else e.joint
+            cols.append((cmap.column(joint.first.body, 2), cmap.column(joint.second.body, 2)))
+            coefs.append((-1.0, 1.0))
+        f = getattr(e, "function", None)
+        constant = f.f(0.0) if f is not None and f.constant else 0.0
+        off.append((e.angle if e.kind in ("fixed", "prismatic") else 0.0) + constant)
+        fn.append(tables.programs(f))
+    return {"lrow": np.array([r for r, _ in items], np.int64),
+            "lcol": np.array(cols, np.int64).reshape(-1, 2),
+            "lcoef": np.array(coefs, np.float64).reshape(-1, 2),
+            "loff": np.array(off, np.float64), "lfn": np.array(fn, np.int64).reshape(-1, 3)}
 
 
 @_inline

@@ -1,11 +1,19 @@
 """A point on a line (the prismatic joint's rows, a slot): Phi = n . (p_P - p_L),
 n = A_L n0 the line's normal, one row; a distance driver subtracts f(t).
 
-Its gradient over (x_L, y_L, phi_L, x_P, y_P, phi_P) and Hessian (only row
-and column phi_L and the entry (phi_P, phi_P) are nonzero) are those of
-``assembly.groups.PointOnLineGroup`` (Haug, sec. 3.3, the translational
-joint; Nikravesh, sec. 4.5). The elastic columns of a point on a beam are
-added by ``beams.elastic_points``.
+With d = p_P - p_L and D = dd/dq over (x_L, y_L, phi_L, x_P, y_P, phi_P):
+
+    Phi_q  = n^T D + (B_L n0 . d) e_phiL^T
+    Phi_qq = n . D_qq + e_phiL (B_L n0)^T D + D^T (B_L n0) e_phiL^T
+             - (n . d) e_phiL e_phiL^T
+    Phi_t  = -f'(t),  Phi_tt = -f''(t),  Phi_qt = 0
+
+(only row and column phi_L and the entry (phi_P, phi_P) of the Hessian are
+nonzero; Haug, sec. 3.3, the translational joint; Nikravesh, sec. 4.5). With
+n0 the line's unit normal and no f, P stays on the line (point_on_line,
+prismatic); a distance driver along a sliding joint puts the line's unit
+direction in n0, so that n . d is the distance of P along the line. The
+elastic columns of a point on a beam are added by ``beams.elastic_points``.
 
 Fields: PROW (k,) the rows, PCOLL, PCOLP (k, 3) the columns of the line's
 and the point's bodies, PSL, PSP (k, 2) the local positions [m], PN0 (k, 2)
@@ -26,6 +34,42 @@ from ..schema import (PCOLL, PCOLP, PEL, PFN, PN0, PROW, PSL, PSP, _i, _inline, 
 FIELDS = ("prow", "pcolL", "psL", "pcolP", "psP", "pn0", "pfn", "pel")
 #: Newton-matrix triplets per instance: Phi_q, (Phi_q^T lambda)_q, (Phi_q v)_q.
 PHIQ_TRIPLETS, HESS_TRIPLETS, G_TRIPLETS = 6, 12, 6
+#: The joints and drivers whose rows it holds: kind -> the first of them among the
+#: element's rows (a driver of a sliding joint's distance: ``joint_distance``).
+ELEMENT_ROWS = {"point_on_line": 0, "prismatic": 0, "joint_distance": 0}
+
+
+def pack(items, tables) -> dict:
+    """Its fields from the model's joints and drivers: the line through the
+    joint's second point, the first point on it (its normal in the line's
+    body), or driven along it by f(t) (its direction, the programs of f, f',
+    f'').
+
+    Parameters
+    ----------
+    items : list of (int, Joint or Driver)
+        Per instance, its row of lambda and the element (a kind of
+        ``ELEMENT_ROWS``), in the model's order.
+    tables : packing context
+        ``points``, ``elastic_spans`` and ``driver_programs``
+        (``assembly.packing.PackingContext``).
+
+    Returns
+    -------
+    dict
+        field name -> array, as ``schema.MODEL_SCHEMA`` declares them.
+    """
+    joints = [e.joint if e.kind == "joint_distance" else e for _, e in items]
+    line, point = [j.second for j in joints], [j.first for j in joints]
+    (colL, sL), (colP, sP) = tables.points(line), tables.points(point)
+    tables.elastic_spans("pel", line, point)
+    n0 = [np.asarray(e.joint.direction, float) if e.kind == "joint_distance"
+          else np.array([-e.direction[1], e.direction[0]]) for _, e in items]
+    fn = [tables.driver_programs(e.function) if e.kind == "joint_distance" else (-1, -1, -1)
+          for _, e in items]
+    return {"prow": np.array([r for r, _ in items], np.int64), "pcolL": colL, "psL": sL,
+            "pcolP": colP, "psP": sP, "pn0": np.array(n0, np.float64).reshape(-1, 2),
+            "pfn": np.array(fn, np.int64).reshape(-1, 3)}
 
 
 @_jit
@@ -52,7 +96,7 @@ def _pol_hess(nx, ny, dx, dy, axL, ayL, axP, ayP, bnd):
     """Hessian of n . d: (Bn . D) into bnd (6,); returns (H[phiL, phiL], H[phiP, phiP]).
 
     H = n . D_qq + e_L (Bn)^T D + D^T Bn e_L^T - (n . d) e_L e_L^T
-    (``PointOnLineGroup``): its only nonzeros are row and column phi_L and
+    (the module's docstring): its only nonzeros are row and column phi_L and
     the entry (phi_P, phi_P).
     """
     bx, by = -ny, nx
