@@ -181,6 +181,39 @@ def test_the_cache_key_covers_every_kernel_file(tmp_path):
     before = _key(tmp_path)
     step.write_text(step.read_text() + "# a change\n")
     assert _key(tmp_path) != before
+    # a value the kernels import from outside both packages (numba freezes it into the
+    # machine code): a swap of two record places changes the key, a comment there does not
+    records = copy / "integrators" / "records.py"
+    text = records.read_text()
+    before = _key(tmp_path)
+    records.write_text(text + "# a comment\n")
+    assert _key(tmp_path) == before
+    records.write_text(text.replace("LU_VALID, LU_RATE, LU_STEP, LU_C0 = range(4)",
+                                    "LU_RATE, LU_VALID, LU_STEP, LU_C0 = range(4)")
+                       .replace('LU_FIELDS = ("valid", "rate", "step", "c0")',
+                                'LU_FIELDS = ("rate", "valid", "step", "c0")'))
+    assert _key(tmp_path) != before
+
+
+def test_the_records_name_every_place():
+    """The named places of the loop's vectors: each field list and its
+    constants agree, and a record built by name has the field's value at the
+    constant's place."""
+    from mbdsl.integrators import records
+    groups = {"ST_": records.STATE_FIELDS, "CTL_": records.CONTROL_FIELDS,
+              "OPT_": records.OPTION_FIELDS, "LU_": records.LU_FIELDS,
+              "LIN_": records.LIN_FIELDS, "LP_": records.LAPACK_FIELDS,
+              "CNT_": records.COUNT_FIELDS}
+    for prefix, fields in groups.items():
+        constants = {k: v for k, v in vars(records).items()
+                     if k.startswith(prefix) and isinstance(v, int)}
+        assert sorted(constants.values()) == list(range(len(fields)))
+        values = {name: float(10 * k + 1) for k, name in enumerate(fields)}
+        vec = records.vector(fields, **values)
+        for name in fields:
+            assert vec[constants[prefix + name.upper()]] == values[name]
+    with pytest.raises(ValueError, match="missing or unknown"):
+        records.vector(records.LU_FIELDS, valid=1.0, rate=0.5, step=0.0)
 
 
 #: The import cycles the package still has, each with why it is there (function-local

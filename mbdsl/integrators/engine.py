@@ -53,6 +53,8 @@ from ..assembly.groups import (FrictionGroup, PointForceGroup, RotationalSpringG
 from ..assembly.packing import PackedModel
 from ..assembly.sparse import DENSE_LIMIT
 from .base import StepState
+from .records import (LAPACK_FIELDS, LIN_FIELDS, LU_FIELDS, LU_VALID, OPTION_FIELDS, OPT_REFRESH,
+                      vector)
 
 __all__ = ["ENGINES", "unsupported", "CompiledModel", "select_engine", "prepare_compiled",
            "KernelStepper",
@@ -447,8 +449,9 @@ class LinearSolverPlan:
         return self.kl * (self.kl + self.ku + 1) > 6 * (2 * self.kl + self.ku + 11)
 
     def workspace(self, size, bound):
-        """The kernels' ``lin`` tuple (see ``integrators.compiled.linalg._factor``) for this
-        plan; ``bound``: the triplet bound of the model."""
+        """The kernels' ``lin`` tuple (``records.LIN_FIELDS``, read by
+        ``integrators.compiled.linalg._factor``) for this plan; ``bound``: the
+        triplet bound of the model."""
         one, i8 = np.zeros((1, 1)), np.int64
         ldab = 2 * self.kl + self.ku + 1
         if self.kind == "dense":
@@ -463,9 +466,12 @@ class LinearSolverPlan:
             nL = bound if self.blocks == 2 else 1
             Lr, Lc, Lv = np.zeros(nL, i8), np.zeros(nL, i8), np.zeros(nL)
         s = size // max(self.blocks, 1)
-        lp = np.array([s, s, self.kl, self.ku, ldab, 1, s, 0, self.blocks, 0], np.int32)
-        return (J, Jinv, AB, ipiv, rperm, cperm, lp, addresses, np.array([ord("N")], np.uint8),
-                np.empty(size), Lr, Lc, Lv)
+        lp = vector(LAPACK_FIELDS, np.int32, m=s, n=s, kl=self.kl, ku=self.ku, ldab=ldab, nrhs=1,
+                    ldb=s, info=0, blocks=self.blocks, nc=0)
+        lin = dict(J=J, Jinv=Jinv, AB=AB, ipiv=ipiv, rperm=rperm, cperm=cperm, lp=lp,
+                   addr=addresses, trans=np.array([ord("N")], np.uint8), b=np.empty(size),
+                   Lr=Lr, Lc=Lc, Lv=Lv)
+        return tuple(lin[name] for name in LIN_FIELDS)
 
 
 def newton_pattern(system, method, q, cm=None):
@@ -639,14 +645,14 @@ class KernelStepper:
         self.K = cm.K
         self.mono = mono
         self.size = size = newton_size(system, method)
-        self.opts = np.array([options.rtol, options.atol_kinematic, options.atol_multiplier,
-                              options.max_iter,
-                              options.refresh_rate(newton_matrix_cost(plan, size, system, method)),
-                              1.0 if options.jacobian.value == "full" else 0.0])
+        self.opts = vector(
+            OPTION_FIELDS, rtol=options.rtol, atol_kinematic=options.atol_kinematic,
+            atol_multiplier=options.atol_multiplier, max_iter=options.max_iter,
+            refresh=options.refresh_rate(newton_matrix_cost(plan, size, system, method)),
+            full=1.0 if options.jacobian.value == "full" else 0.0)
         self.solver = cm.K.DENSE if plan.kind == "dense" else cm.K.BANDED
         self.lin = plan.workspace(size, cm.bound)
-        # factorization valid, contraction rate, the step and c0 it was made for
-        self.lu_state = np.array([0.0, 0.5, 0.0, 0.0])
+        self.lu_state = vector(LU_FIELDS, valid=0.0, rate=0.5, step=0.0, c0=0.0)
         self.R, self.C = np.empty(cm.bound, np.int64), np.empty(cm.bound, np.int64)
         self.V = np.empty(cm.bound)
         n = system.n
@@ -692,7 +698,8 @@ class KernelStepper:
         plan = self.plan = band_plan(system, method, loop.ls.q, False, plan.addresses, self.cm)
         plan.why = why
         self.lin = plan.workspace(size, self.cm.bound)
-        self.opts[4] = self.opt.refresh_rate(newton_matrix_cost(plan, size, system, method))
+        cost = newton_matrix_cost(plan, size, system, method)
+        self.opts[OPT_REFRESH] = self.opt.refresh_rate(cost)
         loop.sol.linear_solver_note = plan.why
 
     def advance(self, loop, mode, h, limit):
@@ -702,7 +709,7 @@ class KernelStepper:
         law, a switch the branch, the fallback the state); returns (status,
         steps taken)."""
         ls, state = loop.ls, loop.state
-        self.lu_state[0] = 0.0
+        self.lu_state[LU_VALID] = 0.0
         status, taken, nrec = self.K.run(
             self.mono, self.cm.ints, self.cm.floats, h, loop.t, loop.seg_end, loop.step_no,
             loop.every, ls.q, ls.v, ls.a, ls.b, ls.lam, ls.mu, ls.q_prev, ls.v_prev, loop.ctl,

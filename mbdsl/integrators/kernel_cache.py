@@ -27,7 +27,6 @@ the compilation once it has taken more than a few seconds.
 
 from __future__ import annotations
 
-import hashlib
 import json
 import os
 import sys
@@ -42,6 +41,7 @@ from ..kernels.cache import (_STALE_LOCK, KERNEL_PACKAGES, UNCOMPILED_ROOT,  # n
                              _cache_dir, _key, _loaded, _lock, _marker, build_in_progress,
                              import_uncompiled, kernel_sources, kernels_ready, loaded,
                              package_root)
+from .records import LIN_J, LIN_JINV
 
 __all__ = ["kernels_ready", "ensure_loaded", "loaded", "start_background_build", "build_in_progress",
            "background_allowed", "warm_up", "uncompiled_kernels"]
@@ -317,7 +317,7 @@ def uncompiled_kernels():
         the dense solver (``integrators.compiled.linalg._solve`` loops), else the kernel."""
         if solver == module.DENSE:
             size = r.shape[0]
-            np.matmul(r, lin[1][:size, :size], out=dw[:size])
+            np.matmul(r, lin[LIN_JINV][:size, :size], out=dw[:size])
             return
         kernel_solve(solver, lin, r, dw)
 
@@ -333,10 +333,10 @@ def uncompiled_kernels():
             return kernel_factor(solver, lin, R, C, V, p)
         if not np.all(np.isfinite(V[:p])):
             return module.NONFINITE
-        J = lin[0]
+        J = lin[LIN_J]
         J[:, :] = 0.0
         np.add.at(J, (R[:p], C[:p]), V[:p])
-        return module.CONVERGED if linalg._invert(J, lin[1]) else module.SINGULAR
+        return module.CONVERGED if linalg._invert(J, lin[LIN_JINV]) else module.SINGULAR
 
     # every module of the copy that calls them reads its own global
     replaced = {kernel_solve: _solve, kernel_factor: _factor,

@@ -40,6 +40,9 @@ from .base import StepState
 from .diagnosis import fail_chatter, fail_stalled, fail_unstable
 from .events import restart_after_switch, switch_gap
 from .outcomes import ATTEMPT, CONVERGED, EVENT, LAND, REJECTED, RUN, TOLERANCE
+from .records import (CNT_STEPS, CONTROL_FIELDS, CTL_H_MAX, STATE_FIELDS, ST_AFTER_REJECTION,
+                      ST_CARRY, ST_ERR, ST_H, ST_H_LAST, ST_LIMIT, ST_MODE, ST_REJECTED, ST_T,
+                      vector)
 
 __all__ = ["TimeLoop", "LoopState", "StepSizes", "CHUNK", "FLUSH_INTERVAL", "sparse_newton"]
 
@@ -378,17 +381,19 @@ class TimeLoop:
         span = t_end - t_start
         self.fixed = control is None
         if self.fixed:
-            self.ctl = np.array([1.0, 1.0, 1.0, 1.0, 1.0, h, h, 1.0, 0.0])
+            self.ctl = vector(CONTROL_FIELDS, rtol=1.0, atol=1.0, safety=1.0, min_factor=1.0,
+                              max_factor=1.0, h_min=h, h_max=h, fixed=1.0, index1=0.0)
         else:
-            self.ctl = np.array([control.rtol, control.atol, control.safety,
-                                 control.min_factor, control.max_factor,
-                                 sizes.h_min, min(control.h_max, span), 0.0,
-                                 float(control.index1)])
-        self.h_max = self.ctl[6]
-        # t, next h, rejected, previous h (none), mode (RUN), the compensation of the
-        # sum t (Kahan: t exact to round-off over 1e6 steps), after a rejection, limit,
-        # the step-size filter's last error per unit step (none) and step ratio
-        self.state = np.array([t_start, h, 0.0, 0.0, RUN, 0.0, 0.0, 0.0, 0.0, 0.0])
+            self.ctl = vector(CONTROL_FIELDS, rtol=control.rtol, atol=control.atol,
+                              safety=control.safety, min_factor=control.min_factor,
+                              max_factor=control.max_factor, h_min=sizes.h_min,
+                              h_max=min(control.h_max, span), fixed=0.0,
+                              index1=float(control.index1))
+        self.h_max = self.ctl[CTL_H_MAX]
+        # no previous step, no compensation of the sum t yet (Kahan: t exact to round-off
+        # over 1e6 steps), no rejection, no limit, no error of the step-size filter
+        self.state = vector(STATE_FIELDS, t=t_start, h=h, rejected=0.0, h_last=0.0, mode=RUN,
+                            carry=0.0, after_rejection=0.0, limit=0.0, err=0.0, ratio=0.0)
         self.trial = np.empty((2, system.n))     # the end of a step that crossed an event
         self.step_no, self.t = 0, t_start
         self.seg_end = t_end         # the stepper runs to the end of the stretch
@@ -420,13 +425,13 @@ class TimeLoop:
             while self.t < self.t_end - 1e-12 * span:
                 self.seg_end, switch = segments[0][1:]
                 if self.events is not None and not self.fixed:  # the closed gaps' step limit
-                    self.ctl[6] = min(self.h_max, self.events.step_limit())
+                    self.ctl[CTL_H_MAX] = min(self.h_max, self.events.step_limit())
                 status = self.step_on()
                 if self._unstable(status) or self._chatters() or self._stalled():
                     break
                 if status != CONVERGED and not self._fall_back():
-                    if ls.counts[5]:    # accepted steps since the last record: keep the last
-                        ls.add_row(self.sink, self.t, float(state[3]) or self.h)
+                    if ls.counts[CNT_STEPS]:  # accepted steps since the last record: keep the last
+                        ls.add_row(self.sink, self.t, float(state[ST_H_LAST]) or self.h)
                     self.flush()
                     # a Python stepper's word: the compiled loop always has one as fallback
                     self.stepper.diagnose(self, status)
@@ -438,8 +443,9 @@ class TimeLoop:
                     ls.flush(self.sink)
                     self.t = _restart_at_switch(self.system, self.method, sol, switch, self.h,
                                                 ls, self.sink)
-                    state[0], state[3], state[5] = self.t, 0.0, 0.0   # BDF restarts: BDF1
-                    state[8] = 0.0                  # the step-size filter restarts too
+                    # BDF restarts: BDF1
+                    state[ST_T], state[ST_H_LAST], state[ST_CARRY] = self.t, 0.0, 0.0
+                    state[ST_ERR] = 0.0                  # the step-size filter restarts too
                     self.stepper.resync()
                     segments.pop(0)
                 if (clock() - flushed >= FLUSH_INTERVAL
@@ -450,8 +456,8 @@ class TimeLoop:
                 sol.status, sol.message = "completed", f"reached t_end = {self.t_end:g} s"
             self.flush()
         except KeyboardInterrupt:       # the driver marks the run interrupted
-            if ls.counts[5]:            # accepted steps since the last record
-                ls.add_row(self.sink, float(state[0]), float(state[3]) or self.h)
+            if ls.counts[CNT_STEPS]:    # accepted steps since the last record
+                ls.add_row(self.sink, float(state[ST_T]), float(state[ST_H_LAST]) or self.h)
             raise
         except Exception as exc:        # a bug: keep what was computed, then let it surface
             sol.status = "failed"
@@ -461,7 +467,7 @@ class TimeLoop:
             ls.flush(self.sink)
             if self.sink is not sol:
                 self.sink.close()
-            sol.last_state = ls.step_state(state[0])
+            sol.last_state = ls.step_state(state[ST_T])
         return sol
 
     def flush(self):
@@ -476,7 +482,8 @@ class TimeLoop:
             steps, iterations = tot.steps - self.told[0], tot.iterations - self.told[1]
             if steps > 0:
                 self.told = (tot.steps, tot.iterations)
-                h_last = float(self.state[3]) or float(self.state[1])  # 0: after a restart
+                # 0: after a restart
+                h_last = float(self.state[ST_H_LAST]) or float(self.state[ST_H])
                 self.progress(self.t, h_last, round(iterations / steps))
         if self.observers and sol.n_rows > self.told_rows:
             start, self.told_rows = self.told_rows, sol.n_rows
@@ -498,7 +505,7 @@ class TimeLoop:
         step the stepper cannot take."""
         state, sizes = self.state, self.sizes
         self.landed_now = False
-        h_try = self.h_cur if self.fixed else float(state[1])
+        h_try = self.h_cur if self.fixed else float(state[ST_H])
         limit = sizes.steps_before_growth(h_try)
         limit = min(limit, CHUNK) if limit else CHUNK
         if self.stepper is self.fallback:
@@ -510,7 +517,7 @@ class TimeLoop:
             if self.fixed:
                 self.h_cur = sizes.grown(sizes.landed(self.h_cur), taken)
             elif status == CONVERGED:
-                state[1] = sizes.landed(float(state[1]))
+                state[ST_H] = sizes.landed(float(state[ST_H]))
         if status == EVENT:
             self.landed_now = True
             return self.land()
@@ -523,7 +530,7 @@ class TimeLoop:
         if self.fixed:
             self.h_cur = retry
         else:
-            state[1] = retry
+            state[ST_H] = retry
         return CONVERGED
 
     def _unstable(self, status):
@@ -541,7 +548,7 @@ class TimeLoop:
         if not retried and self.step_no - self.checked_at < self.check_every:
             return False
         self.checked_at = self.step_no
-        h = self.h if self.fixed else float(self.state[1])
+        h = self.h if self.fixed else float(self.state[ST_H])
         found = self.method.stability_check(self.system, self.ls.step_state(self.t), h)
         if found is None:
             return False
@@ -582,16 +589,16 @@ class TimeLoop:
         return True
 
     def _retry(self):
-        """The step of size state[1] from t that Newton did not converge: the
+        """The step of size state[ST_H] from t that Newton did not converge: the
         size to retry it at (``sizes.failed``), counted as a rejected step,
         with no growth right after it under error control; None when none is
         left."""
         if self.fixed:
             self.stepper.newton_failed(self)
-        retry = self.sizes.failed(self.t, float(self.state[1]), self.t_end)
+        retry = self.sizes.failed(self.t, float(self.state[ST_H]), self.t_end)
         if retry is not None:
             self.sol.stats_total.rejected += 1
-            self.state[6] = 1.0
+            self.state[ST_AFTER_REJECTION] = 1.0
         return retry
 
     def _fall_back(self):
@@ -639,16 +646,16 @@ class TimeLoop:
         of h_try, at most ``limit`` accepted steps (0: no limit); returns (its
         status, the steps it took)."""
         ls, state = self.ls, self.state
-        state[1], state[4], state[7] = h_try, mode, limit
+        state[ST_H], state[ST_MODE], state[ST_LIMIT] = h_try, mode, limit
         if ls.buffered == CHUNK:
             self.flush()
         status, taken = self.stepper.advance(self, mode, h_try, limit)
-        if state[2]:                # the error control's rejections: no jump to return from
-            self.sol.stats_total.rejected += int(state[2])
+        if state[ST_REJECTED]:  # the error control's rejections: no jump to return from
+            self.sol.stats_total.rejected += int(state[ST_REJECTED])
             self.sizes.jumped = None
-        state[2] = 0.0
+        state[ST_REJECTED] = 0.0
         self.step_no += taken
-        self.t = float(state[0])
+        self.t = float(state[ST_T])
         return status, taken
 
     def land(self):
@@ -662,7 +669,7 @@ class TimeLoop:
         limit; a two-step method restarts with BDF1). Returns the status of
         the last attempt."""
         ls, state, events = self.ls, self.state, self.events
-        t0, step = self.t, float(state[1])
+        t0, step = self.t, float(state[ST_H])
         resume = step                 # the size planned, to go back to once landed
         a0 = ls.a.copy()
         if not self.method.acceleration_is_total:   # the motion's q'' for the free flight
@@ -676,7 +683,7 @@ class TimeLoop:
             events.hold(ls.q)
             self.stepper.events_changed(self)
             self.stepper.forget_crossing()     # that step was solved without it
-        self.ctl[6] = self.h_max      # the step limit of the gaps after the event, below
+        self.ctl[CTL_H_MAX] = self.h_max      # the step limit of the gaps after the event, below
         h_try = step
         mode = None
         landed = 0                    # steps taken (a cut one ending before the event, then on it)
@@ -689,9 +696,9 @@ class TimeLoop:
             status, taken = self.attempt(mode, h_try)
             landed += taken
             if status == EVENT:           # the retaken step crossed too: look again
-                step, mode = float(state[1]), None
+                step, mode = float(state[ST_H]), None
             elif status == REJECTED:      # its error estimate: again, shorter
-                mode, h_try = ATTEMPT, float(state[1])
+                mode, h_try = ATTEMPT, float(state[ST_H])
             elif status in (CONVERGED, TOLERANCE):
                 break
             else:                         # Newton did not converge: the policy
@@ -715,12 +722,12 @@ class TimeLoop:
         if self.fixed:                # back to the size before the cut, one step more at it
             h_next = self.h_cur = self.sizes.grown(self.h_cur, landed)
         else:
-            h_next = min(max(float(state[1]), resume), events.step_limit())
+            h_next = min(max(float(state[ST_H]), resume), events.step_limit())
         if events.happened:
-            state[8] = 0.0            # the step-size filter restarts on the new branch
+            state[ST_ERR] = 0.0            # the step-size filter restarts on the new branch
         if events.happened and self.method.history_length > 1:
-            state[3] = 0.0            # BDF1 from the event
+            state[ST_H_LAST] = 0.0            # BDF1 from the event
             if not self.fixed:
                 h_next = min(h_next, RESTART_FRACTION * events.changed_limit)
-        state[1] = h_next
+        state[ST_H] = h_next
         return status

@@ -19,6 +19,9 @@ from .diagnosis import fail, fail_tolerance
 from . import loop as _loop      # its CHUNK and FLUSH_INTERVAL read at each call
 from .newton import ROUNDOFF_ULPS
 from .outcomes import CONVERGED, EVENT, LAND, REJECTED, RUN, TOLERANCE
+from .records import (CNT_FACTORIZATIONS, CNT_ITERATIONS, CNT_JACOBIANS, CNT_RESIDUALS,
+                      CNT_STALLED, CNT_STEPS, CTL_H_MAX, CTL_H_MIN, ST_AFTER_REJECTION, ST_CARRY,
+                      ST_ERR, ST_H, ST_H_LAST, ST_RATIO, ST_REJECTED, ST_T)
 
 __all__ = ["PythonStepper", "constraints_at_roundoff"]
 
@@ -124,7 +127,7 @@ class PythonStepper:
         start of the method (its cached terms evaluated there), with its
         extra multipliers and auxiliary acceleration, and for a two-step
         method the state one step before (its a and lambda NaN: BDF2 reads
-        q and v) when the last step was a step (state[3] > 0)."""
+        q and v) when the last step was a step (state[ST_H_LAST] > 0)."""
         from ..assembly.initial import InitialState
         ls, system, t = loop.ls, self.system, loop.t
         start = InitialState(t, ls.q.copy(), ls.v.copy(), ls.a.copy(), ls.lam.copy(),
@@ -134,7 +137,7 @@ class PythonStepper:
         s = self.method.start(system, start)[-1]
         if ls.extra is not None:
             s.extra[ls.extra] = ls.mu.copy()
-        h_last = float(loop.state[3])
+        h_last = float(loop.state[ST_H_LAST])
         if h_last > 0.0 and self.method.history_length > 1:
             previous = StepState(t - h_last, ls.q_prev.copy(), ls.v_prev.copy(),
                                  np.full_like(ls.a, np.nan), np.full_like(ls.lam, np.nan))
@@ -148,12 +151,12 @@ class PythonStepper:
         if self.history is None:
             self.history = self._from_loop(loop)
         control, fixed = self.control, loop.fixed
-        h_min, h_max = loop.ctl[5], loop.ctl[6]
+        h_min, h_max = loop.ctl[CTL_H_MIN], loop.ctl[CTL_H_MAX]
         t0, t_end = loop.t, loop.seg_end
         span = t_end - t0
         events = loop.events if mode != LAND else None
         augmented = method.formulation == "augmented"
-        after_rejection = state[6] != 0.0
+        after_rejection = state[ST_AFTER_REJECTION] != 0.0
         from .engine import _kernels
         K = _kernels(uncompiled=system.kernel_model().uncompiled)
         step_end, step_ratio = K.step_end, K.step_ratio    # the compiled loop's rules (compiled/loop.py)
@@ -166,48 +169,50 @@ class PythonStepper:
         # the step that crossed an event, converged: LAND of that very step takes it as it is
         crossing, self.crossing = (self.crossing if mode == LAND else None), None
         while t < t_end - 1e-12 * span and ls.buffered < _loop.CHUNK:
-            step, t_new, carry = step_end(h, t, t_end, float(state[5]))
-            history = self.history if state[3] != 0.0 else self.history[-1:]  # BDF1 start
+            step, t_new, carry = step_end(h, t, t_end, float(state[ST_CARRY]))
+            history = self.history if state[ST_H_LAST] != 0.0 else self.history[-1:]  # BDF1 start
             c = ls.counts
             if crossing is not None and crossing[:2] == (t, step):
                 ctx, res, new = crossing[2:]   # landing the step that crossed: solved already
             else:
                 ctx, res = self._solve(history, t_new, step, augmented)
-                c[:4] += (res.n_iter, res.n_residual, res.n_jacobian, res.n_factor)
+                c[[CNT_ITERATIONS, CNT_RESIDUALS, CNT_JACOBIANS, CNT_FACTORIZATIONS]] += (
+                    res.n_iter, res.n_residual, res.n_jacobian, res.n_factor)
                 if not res.converged:
                     self.failure = (ctx, res, t, step)
-                    state[0], state[1], state[6] = t, step, 1.0 if after_rejection else 0.0
+                    state[ST_T], state[ST_H] = t, step
+                    state[ST_AFTER_REJECTION] = 1.0 if after_rejection else 0.0
                     return res.status.code, taken
                 new = method.accept(res.w, ctx)
             crossing = None
             if events is not None and events.crosses(ctx.last.q, new.q):
                 loop.trial[0], loop.trial[1] = new.q, new.v
-                state[0], state[1] = t, step
+                state[ST_T], state[ST_H] = t, step
                 self.crossing = (t, step, ctx, res, new)
                 return EVENT, taken
             if not fixed:
                 err = self._error_norm(ctx, new, step, index1)
                 if err > 1.0 or after_rejection:     # the filter restarts after a rejection
-                    state[8] = 0.0
-                factor = step_ratio(err, float(state[8]), float(state[9]), control.safety,
-                                    control.min_factor, control.max_factor)
+                    state[ST_ERR] = 0.0
+                factor = step_ratio(err, float(state[ST_ERR]), float(state[ST_RATIO]),
+                                    control.safety, control.min_factor, control.max_factor)
                 if err > 1.0:
                     if step <= h_min * (1.0 + 1e-9):
                         self.failure = (None, err, t, step)
-                        state[0], state[1] = t, step
+                        state[ST_T], state[ST_H] = t, step
                         return TOLERANCE, taken
-                    state[2] += 1.0
+                    state[ST_REJECTED] += 1.0
                     h = max(step * min(factor, 1.0), h_min)
                     after_rejection = True
                     if mode != RUN:
-                        state[0], state[1], state[6] = t, h, 1.0
+                        state[ST_T], state[ST_H], state[ST_AFTER_REJECTION] = t, h, 1.0
                         return REJECTED, taken
                     continue
                 if after_rejection:
                     factor = min(factor, 1.0)
                 after_rejection = False
-                state[8], state[9] = err, factor
-            c[4] += int(res.multipliers_stalled)
+                state[ST_ERR], state[ST_RATIO] = err, factor
+            c[CNT_STALLED] += int(res.multipliers_stalled)
             self._accept(ls, new, step, t_new, carry, state, history)
             t = t_new
             taken += 1
@@ -219,7 +224,7 @@ class PythonStepper:
                 ls.record(t, step)
             if mode != RUN or taken == limit or clock() - started > _loop.FLUSH_INTERVAL:
                 break
-        state[0], state[1], state[6] = t, h, 1.0 if after_rejection else 0.0
+        state[ST_T], state[ST_H], state[ST_AFTER_REJECTION] = t, h, 1.0 if after_rejection else 0.0
         return CONVERGED, taken
 
     def _error_norm(self, ctx, new, step, index1) -> float:
@@ -280,9 +285,9 @@ class PythonStepper:
             ls.mu[:] = new.extra[ls.extra]
         if ls.carries_aux:
             ls.b[:] = new.extra["aux"]
-        state[3], state[5] = step, carry
-        state[0] = t_new
-        ls.counts[5] += 1
+        state[ST_H_LAST], state[ST_CARRY] = step, carry
+        state[ST_T] = t_new
+        ls.counts[CNT_STEPS] += 1
 
     def diagnose(self, loop, status):
         """The run ends at the step this stepper could not take: its status and

@@ -18,6 +18,7 @@ from __future__ import annotations
 import hashlib
 import importlib
 import json
+import re
 import sys
 import time
 import types
@@ -75,16 +76,57 @@ def _cache_dir() -> Path:
         return Path(base)
 
 
+#: ``from mbdsl.<module> import <names>`` in a kernel source (the values the numba code
+#: reads from the rest of mbdsl: opcodes, recipe fields, outcome codes, record places)
+_ABSOLUTE_IMPORT = re.compile(rb"^\s*from\s+(mbdsl\.[\w.]+)\s+import\s+(\([^)]*\)|[^\n]*)", re.M)
+
+
+def imported_values(sources: dict) -> list:
+    """``module.name=repr(value)`` of every name the kernel sources import from
+    the rest of mbdsl, sorted.
+
+    numba freezes a global's value into the machine code it caches, and its
+    cache sees only the function's own file: a changed opcode, recipe field
+    or record place imported from ``mbdsl.integrators.records`` would leave
+    the cached kernels reading the old one. The digest covers these values,
+    so such a change rebuilds the kernels as a change of their own files
+    does (and a change elsewhere in those modules does not).
+
+    Parameters
+    ----------
+    sources : dict of str -> bytes
+        The kernel sources' texts.
+    """
+    out = set()
+    for text in sources.values():
+        for module, names in _ABSOLUTE_IMPORT.findall(text):
+            module = module.decode()
+            if any(module.startswith("mbdsl." + p.replace("/", ".")) for p in KERNEL_PACKAGES):
+                continue
+            values = importlib.import_module(module)
+            names = re.sub(rb"#[^\n]*", b"", names).strip(b"() \n")
+            for item in names.split(b","):       # "name" or "name as alias"
+                if not item.strip():
+                    continue
+                name = item.split()[0].decode()
+                out.add(f"{module}.{name}={getattr(values, name)!r}")
+    return sorted(out)
+
+
 def source_digest() -> str:
-    """The engine's version: the SHA-256 of every kernel source and of the
+    """The engine's version: the SHA-256 of every kernel source, of the values
+    they import from the rest of mbdsl (:func:`imported_values`) and of the
     warm-up that says which of them a build compiles (hex, 64 digits). It
     changes with any change of the numba code, and nothing else; results
     that record it (``docs/studies``) say which engine computed them."""
     digest = hashlib.sha256()
     root = package_root()
-    files = kernel_sources() + [root / "mbdsl" / name for name in _BUILD_FILES]
-    for path in files:
-        digest.update(str(path.relative_to(root)).encode() + b"\0" + path.read_bytes() + b"\0")
+    sources = {path: path.read_bytes() for path in kernel_sources()}
+    for path in list(sources) + [root / "mbdsl" / name for name in _BUILD_FILES]:
+        text = sources[path] if path in sources else path.read_bytes()
+        digest.update(str(path.relative_to(root)).encode() + b"\0" + text + b"\0")
+    for value in imported_values(sources):
+        digest.update(value.encode() + b"\0")
     return digest.hexdigest()
 
 

@@ -10,6 +10,7 @@ import numpy as np
 from .additive import _minus_correction
 from .layout import ADDITIVE, FLOOR, FORM, HAS_Y, MU_MOB, REG, SM, SX, SY, _layout
 from .linalg import _fortran_call
+from mbdsl.integrators.records import (OPT_ATOL_KINEMATIC, OPT_ATOL_MULTIPLIER, OPT_RTOL)
 from ...kernels.schema import (EPS, FRI, MASS, ROW_ELEMENT, _0, _HEADER, _NO, _YES, _f, _i, _jit,
                                _rows)
 from ...kernels.system import _emit_G, _emit_mass, _emit_phiq, _phi_time_add, forces, phiq_times
@@ -191,7 +192,7 @@ def _scales_weights(rec, I, Fl, q, w, opts, R, C, V, qx, weight, scratch):
     a step allocates nothing."""
     n, m, ne = _rows(I, MASS), _rows(I, ROW_ELEMENT), I[_HEADER - 1]
     size, l0, u0, a0 = _layout(rec, n, m)
-    rtol, atol_k, atol_m = opts[0], opts[1], opts[2]
+    rtol, atol_k, atol_m = opts[OPT_RTOL], opts[OPT_ATOL_KINEMATIC], opts[OPT_ATOL_MULTIPLIER]
     mob = scratch[:m]
     _mobility(I, Fl, q, mob, R, C, V, qx, scratch[m:m + ne])
     qmax = 0.0

@@ -35,6 +35,10 @@ import numba
 import numpy as np
 
 from mbdsl.integrators.outcomes import (CONVERGED, NONFINITE, SINGULAR)
+from mbdsl.integrators.records import (LIN_AB, LIN_ADDR, LIN_B, LIN_CPERM, LIN_IPIV, LIN_J,
+                                       LIN_JINV, LIN_LC, LIN_LP, LIN_LR, LIN_LV, LIN_RPERM,
+                                       LIN_TRANS, LP_BLOCKS, LP_INFO, LP_KL, LP_KU, LP_LDAB,
+                                       LP_LDB, LP_M, LP_N, LP_NC, LP_NRHS)
 
 from ...kernels.schema import _jit
 
@@ -107,9 +111,9 @@ def _invert(J, Jinv):
 def _factor(solver, lin, R, C, V, p):
     """Factor the Newton matrix given by p triplets; the Newton status code
     (CONVERGED for success, SINGULAR or NONFINITE)."""
-    J, Jinv, AB, ipiv, rperm, cperm, lp, addr = (lin[0], lin[1], lin[2], lin[3], lin[4],
-                                                 lin[5], lin[6], lin[7])
-    Lr, Lc, Lv = lin[10], lin[11], lin[12]
+    J, Jinv, AB, ipiv = lin[LIN_J], lin[LIN_JINV], lin[LIN_AB], lin[LIN_IPIV]
+    rperm, cperm, lp, addr = lin[LIN_RPERM], lin[LIN_CPERM], lin[LIN_LP], lin[LIN_ADDR]
+    Lr, Lc, Lv = lin[LIN_LR], lin[LIN_LC], lin[LIN_LV]
     for i in range(p):
         if not np.isfinite(V[i]):
             return NONFINITE
@@ -118,7 +122,7 @@ def _factor(solver, lin, R, C, V, p):
         for i in range(p):
             J[R[i], C[i]] += V[i]
         return CONVERGED if _invert(J, Jinv) else SINGULAR
-    s, kl, ku, blocks = lp[0], lp[2], lp[3], lp[8]
+    s, kl, ku, blocks = lp[LP_M], lp[LP_KL], lp[LP_KU], lp[LP_BLOCKS]
     diag = kl + ku
     AB[:, :] = 0.0
     nc = 0
@@ -134,12 +138,15 @@ def _factor(solver, lin, R, C, V, p):
         elif rb > cb:                                  # the coupling block L21
             Lr[nc], Lc[nc], Lv[nc] = row - s, col, V[i]
             nc += 1
-    lp[9] = nc
+    lp[LP_NC] = nc
     for blk in range(blocks):
-        lp[7] = 0
-        _fortran_call(addr[0], (lp[0:1], lp[1:2], lp[2:3], lp[3:4], AB[blk * s:(blk + 1) * s],
-                                lp[4:5], ipiv[blk * s:(blk + 1) * s], lp[7:8]))
-        if lp[7] != 0:                               # info > 0: an exactly zero pivot
+        lp[LP_INFO] = 0
+        # dgbtrf(M, N, KL, KU, AB, LDAB, IPIV, INFO), the integers by reference
+        _fortran_call(addr[0], (lp[LP_M:LP_M + 1], lp[LP_N:LP_N + 1], lp[LP_KL:LP_KL + 1],
+                                lp[LP_KU:LP_KU + 1], AB[blk * s:(blk + 1) * s],
+                                lp[LP_LDAB:LP_LDAB + 1], ipiv[blk * s:(blk + 1) * s],
+                                lp[LP_INFO:LP_INFO + 1]))
+        if lp[LP_INFO] != 0:                         # info > 0: an exactly zero pivot
             return SINGULAR
     # as SparseLU: a pivot below 1e-14 of the largest is numerically singular
     dmin, dmax = np.inf, 0.0
@@ -161,25 +168,28 @@ def _solve(solver, lin, r, dw):
         # independent sums, which the compiler vectorises; each dw_i adds the
         # same products in the same order as a row-times-vector loop would
         # (bit-identical), 3x faster at 28 unknowns
-        JinvT = lin[1]
+        JinvT = lin[LIN_JINV]
         dw[:size] = 0.0
         for k in range(size):
             rk = r[k]
             for i in range(size):
                 dw[i] += JinvT[k, i] * rk
         return
-    AB, ipiv, rperm, cperm, lp, addr, trans, b = (lin[2], lin[3], lin[4], lin[5], lin[6],
-                                                  lin[7], lin[8], lin[9])
-    Lr, Lc, Lv = lin[10], lin[11], lin[12]
-    s, blocks = lp[0], lp[8]
+    AB, ipiv, rperm, cperm = lin[LIN_AB], lin[LIN_IPIV], lin[LIN_RPERM], lin[LIN_CPERM]
+    lp, addr, trans, b = lin[LIN_LP], lin[LIN_ADDR], lin[LIN_TRANS], lin[LIN_B]
+    Lr, Lc, Lv = lin[LIN_LR], lin[LIN_LC], lin[LIN_LV]
+    s, blocks = lp[LP_M], lp[LP_BLOCKS]
     for i in range(size):
         b[rperm[i]] = r[i]
     for blk in range(blocks):
         if blk == 1:                                   # block 1's rows: r2 - L21 x1
-            for k in range(lp[9]):
+            for k in range(lp[LP_NC]):
                 b[s + Lr[k]] -= Lv[k] * b[Lc[k]]
-        _fortran_call(addr[1], (trans, lp[1:2], lp[2:3], lp[3:4], lp[5:6],
-                                AB[blk * s:(blk + 1) * s], lp[4:5], ipiv[blk * s:(blk + 1) * s],
-                                b[blk * s:(blk + 1) * s], lp[6:7], lp[7:8]))
+        # dgbtrs(TRANS, N, KL, KU, NRHS, AB, LDAB, IPIV, B, LDB, INFO)
+        _fortran_call(addr[1], (trans, lp[LP_N:LP_N + 1], lp[LP_KL:LP_KL + 1],
+                                lp[LP_KU:LP_KU + 1], lp[LP_NRHS:LP_NRHS + 1],
+                                AB[blk * s:(blk + 1) * s], lp[LP_LDAB:LP_LDAB + 1],
+                                ipiv[blk * s:(blk + 1) * s], b[blk * s:(blk + 1) * s],
+                                lp[LP_LDB:LP_LDB + 1], lp[LP_INFO:LP_INFO + 1]))
     for i in range(size):
         dw[i] = b[cperm[i]]

@@ -9,6 +9,11 @@ import math
 import numpy as np
 
 from mbdsl.integrators.outcomes import (CONVERGED, EVENT, LAND, REJECTED, RUN, TOLERANCE)
+from mbdsl.integrators.records import (CNT_STEPS, CTL_ATOL, CTL_FIXED, CTL_H_MAX, CTL_H_MIN,
+                                       CTL_INDEX1, CTL_MAX_FACTOR, CTL_MIN_FACTOR, CTL_RTOL,
+                                       CTL_SAFETY, LU_C0, LU_STEP, LU_VALID, ST_AFTER_REJECTION,
+                                       ST_CARRY, ST_ERR, ST_H, ST_H_LAST, ST_LIMIT, ST_MODE,
+                                       ST_RATIO, ST_REJECTED, ST_T)
 
 from .additive import _minus_correction
 from .index1 import INDEX1_LIMIT, _index1_acceleration, _scales_weights
@@ -240,8 +245,8 @@ def _run_flags(mono, I, Fl, rc, m, ctl, has_extra, mode):
     for i in range(mono.shape[2]):
         two_step = two_step or mono[1, 2, i] != 0.0 or mono[1, 3, i] != 0.0 \
             or mono[1, 4, i] != 0.0
-    fixed = ctl[7] != 0.0
-    index1 = (not fixed and ctl[8] != 0.0 and rc[FORM] != ADDITIVE and not has_extra
+    fixed = ctl[CTL_FIXED] != 0.0
+    index1 = (not fixed and ctl[CTL_INDEX1] != 0.0 and rc[FORM] != ADDITIVE and not has_extra
               and 0 < m <= INDEX1_LIMIT and _rows(I, FRI) == 0)
     gaps = _rows(I, KGI) > 0 and mode != LAND
     springs = False                     # spring-dampers with a free length
@@ -307,7 +312,7 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
     here. Fixed steps (fixed = 1): steps of h, the last one
     shortened to land on t_end; no error estimate. Either way a step Newton
     cannot converge ends the call at once (its Newton status, with the
-    step's size in state[1]): halving, the augmented formulation's jump and
+    step's size in state[ST_H]): halving, the augmented formulation's jump and
     any hand-over are the time loop's (``loop.TimeLoop``, ``loop.StepSizes``;
     this loop is its ``engine.KernelStepper``).
 
@@ -333,24 +338,25 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
     Events: a converged step that changes the sign of a gap of the contacts
     and joint limits (KGI), or across which the points of a spring-damper
     with a free length pass each other, is not taken; the loop returns EVENT
-    with its end (q, v) in ``trial`` (2, n) and its size in state[1], for
+    with its end (q, v) in ``trial`` (2, n) and its size in state[ST_H], for
     the time loop to land a step on the event (``events.EventLocator``).
-    Mode (state[4]) RUN goes on until t_end, an event, a failure or a full
+    Mode (state[ST_MODE]) RUN goes on until t_end, an event, a failure or a full
     output; ATTEMPT and LAND make one attempt at a step of h (with error
     control halved while Newton fails) and return: EVENT (ATTEMPT only),
-    REJECTED (its error estimate: the next h in state[1]) or CONVERGED with
+    REJECTED (its error estimate: the next h in state[ST_H]) or CONVERGED with
     the step taken; LAND takes a step across an event."""
     n, m = _rows(I, MASS), _rows(I, ROW_ELEMENT)
     rc = np.empty(mono.shape[2])
     _recipe_at(mono[1], 1.0, 1.0, 1.0, 1.0, rc)
     size, l0, e0, a0 = _layout(rc, n, m)
     has_extra = e0 < size
-    rtol, atol, safety, fmin, fmax, h_min, h_max = (ctl[0], ctl[1], ctl[2], ctl[3], ctl[4],
-                                                    ctl[5], ctl[6])
-    fixed = ctl[7] != 0.0
+    rtol, atol, safety = ctl[CTL_RTOL], ctl[CTL_ATOL], ctl[CTL_SAFETY]
+    fmin, fmax = ctl[CTL_MIN_FACTOR], ctl[CTL_MAX_FACTOR]
+    h_min, h_max = ctl[CTL_H_MIN], ctl[CTL_H_MAX]
+    fixed = ctl[CTL_FIXED] != 0.0
     r, dw, w, weight, qx, vx, work, q_pred, v_pred, qx_old, F, scratch = _workspace(n, m, size, I)
     b_new, d_err = np.empty(n), np.empty(n)
-    mode = int(state[4])
+    mode = int(state[ST_MODE])
     two_step, index1, gaps, springs = _run_flags(mono, I, Fl, rc, m, ctl, has_extra, mode)
     qs, grad6, H6 = np.zeros(n + 3), np.empty(6), np.empty((6, 6))
     additive = rc[FORM] == ADDITIVE
@@ -360,20 +366,21 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
     t = t0
     # the step, start-up flag and c0, w0, w1 of the recipe in rc
     h_rc, first_rc, c0_rc, w0_rc, w1_rc = -1.0, False, -1.0, -1.0, -1.0
-    after_rejection = state[6] != 0.0     # the last attempt, before this call, was rejected
-    limit = int(state[7])                 # accepted steps this call may take (0: no limit)
+    # the last attempt, before this call, was rejected
+    after_rejection = state[ST_AFTER_REJECTION] != 0.0
+    limit = int(state[ST_LIMIT])                 # accepted steps this call may take (0: no limit)
     rec = 0
     k = 0
     while t < t_end - 1e-12 * (t_end - t0) and rec < out_t.shape[0]:
-        step, t_new, carry = step_end(h, t, t_end, state[5])
-        first = two_step and state[3] == 0.0
-        c0, w0, w1 = _bdf_ratio(two_step, step, state[3])
+        step, t_new, carry = step_end(h, t, t_end, state[ST_CARRY])
+        first = two_step and state[ST_H_LAST] == 0.0
+        c0, w0, w1 = _bdf_ratio(two_step, step, state[ST_H_LAST])
         if step != h_rc or first != first_rc or c0 != c0_rc or w0 != w0_rc or w1 != w1_rc:
             _recipe_at(mono[0] if first else mono[1], step, c0, w0, w1, rc)
             h_rc, first_rc, c0_rc, w0_rc, w1_rc = step, first, c0, w0, w1
-        if step != lu_state[2] or c0 != lu_state[3]:    # the Newton matrix depends on them
-            lu_state[0] = 0.0
-            lu_state[2], lu_state[3] = step, c0
+        if step != lu_state[LU_STEP] or c0 != lu_state[LU_C0]:  # the Newton matrix depends on them
+            lu_state[LU_VALID] = 0.0
+            lu_state[LU_STEP], lu_state[LU_C0] = step, c0
         predict(rc, first, q, v, a, b, q_prev, v_prev, q_pred, v_pred)
         _start_w(rc, I, Fl, q, a, v, lam, w, qx, work)
         for j in range(n):                 # q_n (the additive form), or Mhat's q_n + mh v_n
@@ -383,15 +390,15 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
                          lin, lu_state, R, C, V, r, dw, qx, vx, work, counts,
                          scratch[scratch.shape[0] - 2 * size:])
         if status != CONVERGED:       # the driver decides: halve, jump, or hand over
-            state[0], state[1] = t, step
-            state[6] = 1.0 if after_rejection else 0.0
+            state[ST_T], state[ST_H] = t, step
+            state[ST_AFTER_REJECTION] = 1.0 if after_rejection else 0.0
             return status, k, rec
         _state(rc, n, w, q_pred, v_pred, qx, vx)
         # an event within the step: the caller lands a step on it
         if (gaps or springs) and _crossed(I, Fl, n, q, qx, gaps, springs, qs, grad6, H6):
                 trial[0, :] = qx[:n]
                 trial[1, :] = vx[:n]
-                state[0], state[1] = t, step
+                state[ST_T], state[ST_H] = t, step
                 return EVENT, k, rec
         # the local error estimate and its weighted RMS norm
         if rc[EAUX] != 0.0:
@@ -407,27 +414,27 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
             err = _error_norm(rc, n, q, qx, w[a0:a0 + n], a, b, b_new, additive, acc_old,
                               acc_new, rtol, atol, step, index1, d_err)
             if err > 1.0 or after_rejection:        # the filter restarts after a rejection
-                state[8] = 0.0
-            factor = step_ratio(err, state[8], state[9], safety, fmin, fmax)
+                state[ST_ERR] = 0.0
+            factor = step_ratio(err, state[ST_ERR], state[ST_RATIO], safety, fmin, fmax)
         if err > 1.0:
             if step <= h_min * (1.0 + 1e-9):
-                state[0], state[1] = t, step
+                state[ST_T], state[ST_H] = t, step
                 return TOLERANCE, k, rec
-            state[2] += 1.0
+            state[ST_REJECTED] += 1.0
             h = max(step * min(factor, 1.0), h_min)
             after_rejection = True
             if mode != RUN:
-                state[0], state[1], state[6] = t, h, 1.0
+                state[ST_T], state[ST_H], state[ST_AFTER_REJECTION] = t, h, 1.0
                 return REJECTED, k, rec
             continue
         if after_rejection:
             factor = min(factor, 1.0)
         after_rejection = False
         if not fixed:
-            state[8], state[9] = err, factor
+            state[ST_ERR], state[ST_RATIO] = err, factor
         q_prev[:] = q
         v_prev[:] = v
-        state[3] = step
+        state[ST_H_LAST] = step
         q[:] = qx[:n]
         v[:] = vx[:n]
         if rc[EAUX] != 0.0:
@@ -441,10 +448,10 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
         if has_extra:
             mu[:] = w[e0:e0 + m]
         t = t_new
-        state[5] = carry
+        state[ST_CARRY] = carry
         if rc[CF] != 0.0:                  # F_n enters the next residual only through cF
             _old_force(rc, I, Fl, t, q, v, lam, F, qx, vx, work)
-        counts[5] += 1
+        counts[CNT_STEPS] += 1
         k += 1
         if not fixed:
             # a step shortened to land on t_end (a segment's end: a switch of a function
@@ -456,5 +463,5 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
                           out_mu, out_stats)
         if mode != RUN or k == limit:
             break
-    state[0], state[1], state[6] = t, h, 1.0 if after_rejection else 0.0
+    state[ST_T], state[ST_H], state[ST_AFTER_REJECTION] = t, h, 1.0 if after_rejection else 0.0
     return CONVERGED, k, rec

@@ -8,6 +8,9 @@ from __future__ import annotations
 import numpy as np
 
 from mbdsl.integrators.outcomes import (CONVERGED, DIVERGING, MAX_ITER, NONFINITE)
+from mbdsl.integrators.records import (CNT_FACTORIZATIONS, CNT_ITERATIONS, CNT_JACOBIANS,
+                                       CNT_RESIDUALS, CNT_STALLED, LU_RATE, LU_VALID, OPT_FULL,
+                                       OPT_MAX_ITER, OPT_REFRESH)
 
 from .layout import FORM, HAS_Y, LINEAR, REG, SP, SV, _layout
 from .linalg import _factor, _solve
@@ -27,37 +30,37 @@ def _newton(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, weight, opts, solve
     ``lu_state`` = (valid, rate); ``counts`` += (iterations, residuals,
     jacobians, factorizations, stalled steps). Returns the status code.
     """
-    max_iter, rate_refresh, full = int(opts[3]), opts[4], opts[5] != 0.0
+    max_iter, rate_refresh, full = int(opts[OPT_MAX_ITER]), opts[OPT_REFRESH], opts[OPT_FULL] != 0.0
     size = w.shape[0]
     # the augmented formulation factors a Newton matrix of its own every step
     # (``Method.formulated``: near a singular position one from an earlier step
     # ends the iteration away from the step's solution)
-    valid = lu_state[0] != 0.0 and not full and rec[REG] == 0.0
+    valid = lu_state[LU_VALID] != 0.0 and not full and rec[REG] == 0.0
     age = 1 << 30
     prev = -1.0
     best = np.inf
     stalls = 0
     grows = 0
-    theta = lu_state[1]
+    theta = lu_state[LU_RATE]
     n_jac = 0
     for _ in range(max_iter):
         if not valid:
             p = _jacobian_triplets(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, R, C, V, qx,
                                    vx)
-            counts[2] += 1
+            counts[CNT_JACOBIANS] += 1
             n_jac += 1
             status = _factor(solver, lin, R, C, V, p)
             if status != CONVERGED:
-                lu_state[0] = 0.0
+                lu_state[LU_VALID] = 0.0
                 return status
-            counts[3] += 1
+            counts[CNT_FACTORIZATIONS] += 1
             valid = True
             age = 0
         _residual(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work)
-        counts[1] += 1
+        counts[CNT_RESIDUALS] += 1
         for i in range(size):
             if not np.isfinite(r[i]):
-                lu_state[0] = 0.0
+                lu_state[LU_VALID] = 0.0
                 return NONFINITE
         _solve(solver, lin, r, dw)
         norm = 0.0
@@ -65,12 +68,12 @@ def _newton(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, weight, opts, solve
             norm = max(norm, abs(dw[i] * weight[i]))
         for i in range(size):
             w[i] -= dw[i]
-        counts[0] += 1
+        counts[CNT_ITERATIONS] += 1
         current = age == 0
         age += 1
         for i in range(size):
             if not np.isfinite(w[i]):
-                lu_state[0] = 0.0
+                lu_state[LU_VALID] = 0.0
                 return NONFINITE
         if prev > 0.0:
             theta = norm / prev
@@ -90,19 +93,19 @@ def _newton(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, weight, opts, solve
             roundoff = True
         if norm == 0.0 or (eta * norm <= 1.0 and norm <= 1.0) or roundoff:
             if roundoff:
-                counts[4] += 1
-            lu_state[1] = min(max(theta, 1e-3), 0.9) if np.isfinite(theta) else 0.5
-            lu_state[0] = 0.0 if full else 1.0
+                counts[CNT_STALLED] += 1
+            lu_state[LU_RATE] = min(max(theta, 1e-3), 0.9) if np.isfinite(theta) else 0.5
+            lu_state[LU_VALID] = 0.0 if full else 1.0
             return CONVERGED
         if diverging:
-            lu_state[0] = 0.0
+            lu_state[LU_VALID] = 0.0
             return DIVERGING
         from_earlier_step = n_jac == 0
         if (full or stuck or (from_earlier_step and prev >= 0.0 and theta > rate_refresh)
                 or (norm <= ROUNDOFF_BAND and prev >= 0.0 and theta > 0.25)):
             valid = False
         prev = norm
-    lu_state[0] = 0.0
+    lu_state[LU_VALID] = 0.0
     return MAX_ITER
 
 

@@ -1,0 +1,112 @@
+"""The named places of the vectors the time loop, Newton and the banded solver
+share between Python and the compiled kernels.
+
+The run's state, the error control's settings, Newton's options and
+factorization state, the linear solver's workspace and LAPACK's arguments
+cross every call of the compiled time loop as small arrays (and one tuple of
+arrays). Each place has a name here, and every reader and writer, Python or
+compiled, uses the name: ``state[ST_H]``, never ``state[1]``.
+
+Why named indices, not a numba record or named tuple: numba reads a
+module's integer globals as compile-time constants, so ``state[ST_H]``
+compiles to the load ``state[1]`` did, and the arrays keep their types; a
+structured array or a named tuple would give every entry point a new
+signature and the loop's per-step code new loads. The field names are listed
+beside the constants and checked against them at import, as
+``kernels.schema`` does for the model data.
+"""
+
+from __future__ import annotations
+
+__all__ = ["STATE_FIELDS", "CONTROL_FIELDS", "OPTION_FIELDS", "LU_FIELDS", "LIN_FIELDS",
+           "LAPACK_FIELDS", "COUNT_FIELDS"]
+
+#: The run's state (float64, ``loop.Loop.state``): t at the last accepted step [s], the
+#: next step's size [s], the error control's rejections, the last step's size (0: none,
+#: the BDF start), the stepper's mode (``outcomes``: RUN, ATTEMPT, LAND), the Kahan
+#: compensation of the sum t, whether the last attempt was rejected, how many accepted
+#: steps a call may take (0: no limit), the step-size filter's last error per unit step
+#: and step ratio.
+STATE_FIELDS = ("t", "h", "rejected", "h_last", "mode", "carry", "after_rejection", "limit",
+                "err", "ratio")
+(ST_T, ST_H, ST_REJECTED, ST_H_LAST, ST_MODE, ST_CARRY, ST_AFTER_REJECTION, ST_LIMIT, ST_ERR,
+ ST_RATIO) = range(10)
+
+#: The step control (float64, ``loop.Loop.ctl``): rtol, atol, the safety factor, the
+#: smallest and largest step ratio, h_min and h_max [s], fixed steps (1) or not, the
+#: error estimated on the index-1 accelerations (1) or not.
+CONTROL_FIELDS = ("rtol", "atol", "safety", "min_factor", "max_factor", "h_min", "h_max",
+                  "fixed", "index1")
+(CTL_RTOL, CTL_ATOL, CTL_SAFETY, CTL_MIN_FACTOR, CTL_MAX_FACTOR, CTL_H_MIN, CTL_H_MAX, CTL_FIXED,
+ CTL_INDEX1) = range(9)
+
+#: Newton's options (float64, ``engine.CompiledStepper.opts``): rtol, atol of the
+#: kinematic unknowns and of the multipliers, the most iterations, the contraction rate
+#: above which the Newton matrix is refreshed, a full Newton matrix every iteration (1).
+OPTION_FIELDS = ("rtol", "atol_kinematic", "atol_multiplier", "max_iter", "refresh", "full")
+OPT_RTOL, OPT_ATOL_KINEMATIC, OPT_ATOL_MULTIPLIER, OPT_MAX_ITER, OPT_REFRESH, OPT_FULL = range(6)
+
+#: The factorization's state (float64, ``lu_state``): valid (1) or not, the last
+#: contraction rate, the step and c0 it was made for.
+LU_FIELDS = ("valid", "rate", "step", "c0")
+LU_VALID, LU_RATE, LU_STEP, LU_C0 = range(4)
+
+#: The linear solver's workspace (a tuple, ``engine.SolverPlan.workspace``): the dense
+#: Newton matrix and its inverse, the band storage, pivots, the band ordering's row and
+#: column permutations, LAPACK's arguments (``LAPACK_FIELDS``), the two LAPACK routines'
+#: addresses, the transpose flag, the right-hand side, and the triplets of the additive
+#: form's lower block.
+LIN_FIELDS = ("J", "Jinv", "AB", "ipiv", "rperm", "cperm", "lp", "addr", "trans", "b", "Lr",
+              "Lc", "Lv")
+(LIN_J, LIN_JINV, LIN_AB, LIN_IPIV, LIN_RPERM, LIN_CPERM, LIN_LP, LIN_ADDR, LIN_TRANS, LIN_B,
+ LIN_LR, LIN_LC, LIN_LV) = range(13)
+
+#: LAPACK's integer arguments (int32, ``lin[LIN_LP]``), passed by reference as one-entry
+#: slices: dgbtrf's M and N, KL, KU, LDAB, dgbtrs' NRHS and LDB, INFO; then the blocks
+#: of the matrix (1, or 2 for the additive form) and the lower block's triplets.
+LAPACK_FIELDS = ("m", "n", "kl", "ku", "ldab", "nrhs", "ldb", "info", "blocks", "nc")
+(LP_M, LP_N, LP_KL, LP_KU, LP_LDAB, LP_NRHS, LP_LDB, LP_INFO, LP_BLOCKS, LP_NC) = range(10)
+
+#: The Newton counts since the last recorded row (int64, ``loop.RowBuffers.counts``):
+#: iterations, residuals, Newton matrices, factorizations, steps whose multipliers
+#: stalled at round-off, accepted steps.
+COUNT_FIELDS = ("iterations", "residuals", "jacobians", "factorizations", "stalled", "steps")
+(CNT_ITERATIONS, CNT_RESIDUALS, CNT_JACOBIANS, CNT_FACTORIZATIONS, CNT_STALLED,
+ CNT_STEPS) = range(6)
+
+
+def _check():
+    """The literals above against their field lists (an edit of one without the
+    other is an import error, not a wrong index)."""
+    g = globals()
+    for prefix, fields in (("ST_", STATE_FIELDS), ("CTL_", CONTROL_FIELDS),
+                           ("OPT_", OPTION_FIELDS), ("LU_", LU_FIELDS), ("LIN_", LIN_FIELDS),
+                           ("LP_", LAPACK_FIELDS), ("CNT_", COUNT_FIELDS)):
+        for k, name in enumerate(fields):
+            if g.get(prefix + name.upper()) != k:
+                raise ImportError(f"records.py: {prefix}{name.upper()} is not {k}")
+
+
+_check()
+
+
+def vector(fields, dtype=float, **values):
+    """A record's array with every field set by name.
+
+    Parameters
+    ----------
+    fields : tuple of str
+        One of the ``*_FIELDS`` lists above.
+    dtype : numpy dtype
+    **values
+        A value for each field.
+
+    Raises
+    ------
+    ValueError
+        A field missing or unknown.
+    """
+    import numpy as np
+    if set(values) != set(fields):
+        raise ValueError(f"record fields {sorted(set(fields) ^ set(values))} missing or unknown")
+    return np.array([values[name] for name in fields], dtype=dtype)
