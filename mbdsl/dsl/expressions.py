@@ -23,7 +23,7 @@ __all__ = [
     "FUNCTIONS", "PAIR_FUNCTIONS", "OPCODES", "ExprError", "evaluate", "evaluate_rows", "free_names",
     "substitute", "diff",
     "postfix",
-    "simplify", "compile_function", "compile_state_function", "as_expr",
+    "simplify", "compile_function", "compile_state_function",
 ]
 
 
@@ -178,29 +178,6 @@ class ExprError(ValueError):
     def __init__(self, message, code, span=None, hint="", name=""):
         super().__init__(message)
         self.code, self.span, self.hint, self.name = code, span, hint, name
-
-
-def as_expr(value) -> Expr:
-    """Turn a number, an expression string or an Expr into an Expr.
-
-    Used by the Python API so that model objects can be built with plain
-    numbers (``mass=3.0``) or text (``inertia="m1*L1^2/12"``).
-
-    Raises
-    ------
-    MbdSyntaxError
-        If a string is not a valid expression.
-    """
-    if isinstance(value, (Num, Name, Dotted, Unary, Binary, Call, Cond, IndexedName)):
-        return value
-    if isinstance(value, bool):
-        raise TypeError("a boolean is not an expression")
-    if isinstance(value, (int, float)):
-        return Num(float(value))
-    if isinstance(value, str):
-        from .parser import parse_expression
-        return parse_expression(value)
-    raise TypeError(f"cannot make an expression from {type(value).__name__}")
 
 
 def _apply(op: str, a: float, b: float, span) -> float:

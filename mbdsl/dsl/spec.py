@@ -23,7 +23,8 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from ..errors import Span
-from .expressions import Dotted, Expr, Vec, as_expr
+from .expressions import Dotted, Expr, Vec
+from .grammar import as_expr
 
 __all__ = [
     "ParameterSpec", "PointSpec", "PropertySpec", "BodySpec", "ShapeSpec", "GroundSpec",

@@ -2,27 +2,22 @@
 
 Runs as its own pass (never passed into ``Lark(...)``, which would lose
 ``meta``). Methods follow the grammar's order; no name is resolved and no
-physics happens here.
+physics happens here. The expressions' rules are
+:class:`~.grammar.ToExpression`'s, which this transformer extends.
 """
 
 from __future__ import annotations
 
-import re
+from lark import v_args
 
-from lark import Token, Transformer, v_args
-
-from ..errors import Diagnostic, MbdSyntaxError, Span
 from . import spec as S
-from . import units
-from .expressions import Binary, Call, Cond, Dotted, IndexedName, Name, Num, Unary, Vec
+from .expressions import Dotted, IndexedName
+from .grammar import ToExpression
 
 __all__ = ["ToSpec"]
 
-#: a QUANTITY token split into the number and the unit as written
-_QUANTITY = re.compile(r"((?:\d+(?:\.\d+)?|\.\d+)(?:[eE][+-]?\d+)?)[ \t]*(\S+)")
 
-
-class ToSpec(Transformer):
+class ToSpec(ToExpression):
     """Build spec objects from a Lark tree of ``mbd.lark``.
 
     Parameters
@@ -32,18 +27,6 @@ class ToSpec(Transformer):
     source : str
         The text, stored on the resulting ModelSpec.
     """
-
-    def __init__(self, file: str, source: str):
-        super().__init__()
-        self.file, self.source = file, source
-
-    def _span(self, meta) -> Span | None:
-        if getattr(meta, "empty", True):
-            return None
-        return Span(self.file, meta.line, meta.column, meta.end_line, meta.end_column)
-
-    def _tspan(self, tok: Token) -> Span:
-        return Span(self.file, tok.line, tok.column, tok.end_line, tok.end_column)
 
     # -- 1. file and model header ------------------------------------------
     @v_args(meta=True)
@@ -119,12 +102,6 @@ class ToSpec(Transformer):
     def indexed_name(self, meta, children):
         """``link[i]`` as a declared name -> IndexedName."""
         return IndexedName(str(children[0]), children[1], self._span(meta))
-
-    def _name(self, x):
-        return x if isinstance(x, IndexedName) else str(x)
-
-    def _nspan(self, x):
-        return x.span if isinstance(x, IndexedName) else self._tspan(x)
 
     def _body(self, children, particle):
         name, *items = children
@@ -240,106 +217,7 @@ class ToSpec(Transformer):
         """``h 1e-3`` -> SettingSpec."""
         return S.SettingSpec(str(children[0]), children[1], self._tspan(children[0]))
 
-    # -- 3. expressions --------------------------------------------------------
-    def expression(self, children):
-        """A lone expression (parse_expression's entry point)."""
-        return children[0]
-
-    @v_args(meta=True)
-    def vec(self, meta, children):
-        """``(x, y)`` -> Vec."""
-        return Vec(children[0], children[1], self._span(meta))
-
-    def _bin(op):
-        @v_args(meta=True)
-        def method(self, meta, children):
-            """``a op b`` -> Binary."""
-            return Binary(op, children[0], children[1], self._span(meta))
-        return method
-
-    add, sub, mul, div, pow = _bin("+"), _bin("-"), _bin("*"), _bin("/"), _bin("^")
-    del _bin
-
-    @v_args(meta=True)
-    def compare(self, meta, children):
-        """``a < b`` (``>``, ``<=``, ``>=``) -> Binary worth 1 or 0."""
-        left, op, right = children
-        return Binary(str(op), left, right, self._span(meta))
-
-    @v_args(meta=True)
-    def neg(self, meta, children):
-        """``-x`` -> Unary."""
-        return Unary("-", children[0], self._span(meta))
-
-    @v_args(meta=True)
-    def pos(self, meta, children):
-        """``+x`` -> x."""
-        return children[0]
-
-    @v_args(meta=True)
-    def number(self, meta, children):
-        """NUMBER -> Num."""
-        return Num(float(children[0]), self._tspan(children[0]))
-
-    @v_args(meta=True)
-    def quantity(self, meta, children):
-        """QUANTITY (``15 cm``) -> Num in SI, keeping the number and unit as written."""
-        tok = children[0]
-        number, unit = _QUANTITY.match(str(tok)).groups()
-        try:
-            value = units.to_si(number, unit)
-        except units.UnitError as err:
-            diag = Diagnostic("error", "E307", str(err), self._tspan(tok), "unknown unit",
-                              hint="units are SI symbols and their multiples, joined by * and /")
-            raise MbdSyntaxError(diag.message, [diag]) from None
-        return Num(value, self._tspan(tok), unit=unit, written=number)
-
-    @v_args(meta=True)
-    def name(self, meta, children):
-        """NAME -> Name."""
-        return Name(str(children[0]), self._tspan(children[0]))
-
-    @v_args(meta=True)
-    def dotted(self, meta, children):
-        """``a.b`` or ``a[i].b`` -> Dotted."""
-        return Dotted(self._name(children[0]), str(children[1]), self._span(meta))
-
-    @v_args(meta=True)
-    def dotted_indexed(self, meta, children):
-        """``ground.P[i]``: an indexed point -> Dotted with an IndexedName attr."""
-        attr = IndexedName(str(children[1]), children[2], self._tspan(children[1]))
-        return Dotted(self._name(children[0]), attr, self._span(meta))
-
-    @v_args(meta=True)
-    def dotted2(self, meta, children):
-        """``arm.T.x`` (a point's field, or ``reaction.O.fx``; ``lambda.O.0``, a
-        multiplier row) -> Dotted of a Dotted."""
-        inner = Dotted(self._name(children[0]), str(children[1]), self._span(meta))
-        return Dotted(inner, str(children[2]), self._span(meta))
-
     @v_args(meta=True)
     def output_decl(self, meta, children):
         """``output NAME = expr`` -> OutputSpec."""
         return S.OutputSpec(str(children[0]), children[1], self._tspan(children[0]))
-
-    @v_args(meta=True)
-    def indexed(self, meta, children):
-        """``link[i]`` in an expression (a reference) -> IndexedName."""
-        return IndexedName(str(children[0]), children[1], self._span(meta))
-
-    @v_args(meta=True)
-    def call(self, meta, children):
-        """``f(x)`` -> Call; ``min(a, b)``, ``max(a, b)`` -> Binary;
-        ``clip(x, lo, hi)`` -> max(lo, min(x, hi)). A wrong number of
-        arguments is kept as a Call that the checks report (E203)."""
-        name, args = str(children[0]), children[1:]
-        span = self._tspan(children[0])
-        if name in ("min", "max") and len(args) == 2:
-            return Binary(name, args[0], args[1], span)
-        if name == "clip" and len(args) == 3:
-            return Binary("max", args[1], Binary("min", args[0], args[2], span), span)
-        if name == "if" and len(args) == 3:
-            return Cond(args[0], args[1], args[2], span)
-        if len(args) != 1:
-            return Call(f"{name}/{len(args)}", args[0], span)
-        return Call(name, args[0], span)

@@ -16,7 +16,11 @@ from .newmark import Newmark
 from .nstiff import NStiff
 from .nstiff_si2 import NStiffSI2
 from .newton import JacobianUpdate, Newton, NewtonOptions, NewtonResult, NewtonStatus
+from . import kernel_cache, warm_up
 from ..registry import COEFFICIENTS, METHOD_NAMES
+
+# the kernel cache loads the kernels by a run through the driver, which it does not import
+kernel_cache.register_warm_up(warm_up.run)
 
 _CLASSES = (Newmark, HHTI3, NStiff, NStiffSI2, HHTADD, HHTSI2, GenAlpha, GenAlphaSI2)
 

@@ -33,7 +33,7 @@ __all__ = ["KERNEL_PACKAGES", "kernel_sources", "source_digest", "kernels_ready"
 #: step kernels.
 KERNEL_PACKAGES = ("kernels", "integrators/compiled")
 #: The files besides them that say which kernels a build compiles (the warm-up).
-_BUILD_FILES = ("integrators/kernel_cache.py",)
+_BUILD_FILES = ("integrators/kernel_cache.py", "integrators/warm_up.py")
 #: A build lock older than this is taken to belong to a dead build [s].
 _STALE_LOCK = 900.0
 

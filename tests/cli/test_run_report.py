@@ -146,7 +146,7 @@ def test_background_policy_runs_uncompiled_and_starts_one_build(cache_dir, monke
     sol = integrate(system, HHTI3(), 0.01, 1e-3, compile_policy="background",
                     announce=said.append)
     assert sol.engine == "uncompiled" and len(started) == 1
-    assert started[0][1:] == ["-m", "mbdsl.integrators.kernel_cache"]
+    assert started[0][1:] == ["-m", "mbdsl.integrators.build_kernels"]
     assert "background" in said[0] and "uncompiled kernels" in said[0]
     # while the build holds its lock, no second build starts
     sol = integrate(system, HHTI3(), 0.01, 1e-3, compile_policy="background")

@@ -14,7 +14,8 @@ import pytest
 import mbdsl
 from mbdsl import BodySpec, InitialSpec, JointSpec, ModelSpec
 from mbdsl.cli.main import main
-from mbdsl.dsl.expressions import Binary, Num, Unary, as_expr
+from mbdsl.dsl.expressions import Binary, Num, Unary
+from mbdsl.dsl.grammar import as_expr
 from mbdsl.dsl.parser import parse_text
 from mbdsl.dsl.unparse import expr_text, spec_text
 

@@ -30,7 +30,7 @@ def check_parameters(c):
         if p.name in c.overrides:
             value = c.overrides.pop(p.name)
             if isinstance(value, str):
-                from ..expressions import as_expr
+                from ..grammar import as_expr
                 try:
                     value = evaluate(as_expr(value), c.params)
                 except ExprError as err:
