@@ -116,6 +116,14 @@ class PackingContext:
         cols = self.cmap([p.body for p in refs]).astype(np.int64).reshape(-1, 3)
         return cols, np.array([p.local for p in refs], np.float64).reshape(-1, 2)
 
+    def joint_points(self, field: str, joints) -> tuple:
+        """(columns, local positions) of the joints' first points, then of
+        their second (as :meth:`points`), their elastic terms stored with the
+        spans as ``field`` (:meth:`elastic_spans`)."""
+        first, second = [j.first for j in joints], [j.second for j in joints]
+        self.elastic_spans(field, first, second)
+        return self.points(first) + self.points(second)
+
     def elastic_spans(self, field: str, *points) -> None:
         """Store the elastic terms (column, S_k) of each instance's points (one
         list of ``PointRef`` per point of the element) and their spans as

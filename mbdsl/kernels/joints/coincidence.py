@@ -33,17 +33,16 @@ def pack(items, tables) -> dict:
         Per instance, its first row of lambda and the joint (a kind of
         ``ELEMENT_ROWS``), in the model's order.
     tables : packing context
-        ``points`` (body columns, local positions) and ``elastic_spans`` (the
-        terms of points on flexible beams): ``assembly.packing.PackingContext``.
+        ``joint_points`` (body columns and local positions of the joints' two
+        points, and the terms of points on flexible beams):
+        ``assembly.packing.PackingContext``.
 
     Returns
     -------
     dict
         field name -> array, as ``schema.MODEL_SCHEMA`` declares them.
     """
-    first, second = [j.first for _, j in items], [j.second for _, j in items]
-    (ccol1, cs1), (ccol2, cs2) = tables.points(first), tables.points(second)
-    tables.elastic_spans("cel", first, second)
+    ccol1, cs1, ccol2, cs2 = tables.joint_points("cel", [j for _, j in items])
     return {"crow": np.array([(r, r + 1) for r, _ in items], np.int64).reshape(-1, 2),
             "ccol1": ccol1, "cs1": cs1, "ccol2": ccol2, "cs2": cs2}
 #: Newton-matrix triplets per instance: Phi_q, (Phi_q^T lambda)_q, (Phi_q v)_q.

@@ -45,16 +45,14 @@ def pack(items, tables) -> dict:
     items : list of (int, Joint)
         Per instance, its row of lambda and the joint, in the model's order.
     tables : packing context
-        ``points`` and ``elastic_spans`` (``assembly.packing.PackingContext``).
+        ``joint_points`` (``assembly.packing.PackingContext``).
 
     Returns
     -------
     dict
         field name -> array, as ``schema.MODEL_SCHEMA`` declares them.
     """
-    first, second = [j.first for _, j in items], [j.second for _, j in items]
-    (dcol1, ds1), (dcol2, ds2) = tables.points(first), tables.points(second)
-    tables.elastic_spans("dsp", first, second)
+    dcol1, ds1, dcol2, ds2 = tables.joint_points("dsp", [j for _, j in items])
     return {"drow": np.array([r for r, _ in items], np.int64), "dcol1": dcol1, "ds1": ds1,
             "dcol2": dcol2, "ds2": ds2,
             "dlen": np.array([j.length for _, j in items], np.float64)}
@@ -301,7 +299,11 @@ def emit_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef):
 
 # --------------------------------------------------------------------------------------------
 # Points on flexible beams: the entries of the elastic columns (u = s + S q_e), emitted
-# after the other joints' (``system``: the order of every aggregate)
+# after the other joints' (``system``: the order of every aggregate). The three functions
+# that apply the gradient's entries repeat ``beams.elastic_points``' over their own
+# ``_elastic_grad``: a kernel passed as an argument would serve both, but numba does not
+# cache a function that takes one, nor any caller up to the time loop (measured: the
+# build warned "cannot cache ... dynamic globals" for every caller of such a function).
 # --------------------------------------------------------------------------------------------
 
 
