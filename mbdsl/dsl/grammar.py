@@ -105,7 +105,8 @@ _STATEMENT_KEYWORDS = {"PARAMETER", "GRAVITY", "GROUND", "BODY", "JOINT", "FORCE
 
 
 def _open_block_note(text: str) -> str | None:
-    depth, opened = 0, []
+    """Where a ``{`` of the text is left unclosed (the last such line), or None."""
+    opened = []
     for i, line in enumerate(text.splitlines(), 1):
         code = line.split("#", 1)[0]
         for ch in code:
@@ -119,6 +120,24 @@ def _open_block_note(text: str) -> str | None:
 
 
 def syntax_diagnostic(err: UnexpectedInput, text: str, file: str) -> Diagnostic:
+    """The E1xx diagnostic of a syntax error, in words.
+
+    Parameters
+    ----------
+    err : lark.exceptions.UnexpectedInput
+        Lark's error (an unexpected character, token or end of input).
+    text : str
+        The text that was parsed.
+    file : str
+        Its file name, for the diagnostic's span.
+
+    Returns
+    -------
+    Diagnostic
+        A known mistake's own code and hint (``error_examples.EXAMPLES``), else
+        what was expected at the error's line and column (and a note on a
+        block left open).
+    """
     lines = text.splitlines() or [""]
     matched = _match_example(err)
     if isinstance(err, UnexpectedCharacters):

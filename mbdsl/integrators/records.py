@@ -18,6 +18,8 @@ beside the constants and checked against them at import, as
 
 from __future__ import annotations
 
+import numpy as np
+
 __all__ = ["STATE_FIELDS", "CONTROL_FIELDS", "OPTION_FIELDS", "LU_FIELDS", "LIN_FIELDS",
            "LAPACK_FIELDS", "COUNT_FIELDS"]
 
@@ -106,7 +108,6 @@ def vector(fields, dtype=float, **values):
     ValueError
         A field missing or unknown.
     """
-    import numpy as np
     if set(values) != set(fields):
         raise ValueError(f"record fields {sorted(set(fields) ^ set(values))} missing or unknown")
     return np.array([values[name] for name in fields], dtype=dtype)

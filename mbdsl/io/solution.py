@@ -17,6 +17,16 @@ __all__ = ["Solution"]
 GUARD_CODES = ("W602", "W603", "W604")
 
 
+def _optional(module: str, method: str):
+    """An optional library (pandas, xarray: the core does without them), or
+    ImportError saying which method of Solution needs it."""
+    import importlib
+    try:
+        return importlib.import_module(module)
+    except ImportError as exc:
+        raise ImportError(f"Solution.{method} needs {module} (pip install {module})") from exc
+
+
 class Solution:
     """Time histories of a run, and everything derived from them.
 
@@ -644,10 +654,7 @@ class Solution:
         ImportError
             When pandas is not installed, saying so.
         """
-        try:
-            import pandas as pd
-        except ImportError as exc:      # optional: keep the core free of pandas
-            raise ImportError("Solution.to_dataframe needs pandas (pip install pandas)") from exc
+        pd = _optional("pandas", "to_dataframe")
         names, values = self.table()
         df = pd.DataFrame(values[:, 1:], index=pd.Index(values[:, 0], name="t"),
                           columns=names[1:])
@@ -675,10 +682,7 @@ class Solution:
         ImportError
             When xarray is not installed, saying so.
         """
-        try:
-            import xarray as xr
-        except ImportError as exc:      # optional: keep the core free of xarray
-            raise ImportError("Solution.to_xarray needs xarray (pip install xarray)") from exc
+        xr = _optional("xarray", "to_xarray")
         import json
         names, values = self.table()
         units = self.column_units()
