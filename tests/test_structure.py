@@ -177,6 +177,10 @@ def test_the_cache_key_covers_every_kernel_file(tmp_path):
     target = copy / "kernels" / "loads" / "torques.py"
     target.write_text(target.read_text() + "# a change\n")
     assert _key(tmp_path) != same
+    # a function imported from outside: its name enters the key, not its repr (which
+    # holds an address that differs per process: every process would rebuild)
+    target.write_text(target.read_text() + "from mbdsl.model.elements import line_columns\n")
+    assert _key(tmp_path) == _key(tmp_path)
     step = copy / "integrators" / "compiled" / "newton.py"
     before = _key(tmp_path)
     step.write_text(step.read_text() + "# a change\n")

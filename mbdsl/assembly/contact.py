@@ -56,9 +56,6 @@ class ContactGroup:
         The approach speed of each closed gap when it closed; 0 while open.
     """
 
-    damped = True
-    state_dependent = True
-
     def __init__(self, cmap, contacts):
         self.cmap = cmap
         self.geometry, self.names, self.elements = [], [], []

@@ -71,7 +71,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .groups import body_columns
+from .points import body_columns
 
 __all__ = ["FlexibleBeamGroup"]
 
@@ -133,8 +133,6 @@ class FlexibleBeamGroup:
                                          * (1.0 if s else 0.0))
                                  for b, s in zip(beams, self.stiffening)])
         self.gravity = None if gravity is None else np.asarray(gravity, float)
-        self.damped = True          # the quadratic velocity vector depends on v
-        self.state_dependent = True
         k, c = len(beams), self.c
         #: mass-matrix pattern in q: (rows, cols), each shape (k * c * c,)
         self.pattern = (np.repeat(self.cols, c, axis=1).ravel(),

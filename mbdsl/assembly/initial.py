@@ -704,7 +704,7 @@ def _accelerations(system, q, v, t0, sparse, structure):
     model, n = system.model, system.n
     with np.errstate(all="ignore"):
         # friction's loads start from zero multipliers; iterated below
-        Q = system.Q(t0, q, v, np.zeros(system.m) if system.multiplier_groups else None)
+        Q = system.Q(t0, q, v, np.zeros(system.m) if system.frictions else None)
         gam = system.gamma(q, v, t0)
     _require_finite(system, Q, "the applied forces Q are", t0, what="force")
     m = system.m
@@ -743,7 +743,7 @@ def _accelerations(system, q, v, t0, sparse, structure):
         if not resid <= 1e-8 * (Knorm * np.max(np.abs(sol)) + np.max(np.abs(rhs)) + 1e-300):
             raise np.linalg.LinAlgError("singular")
         Q_start = None
-        if system.multiplier_groups:        # friction: Q(lambda), at rest its Coulomb limit
+        if system.frictions:        # friction: Q(lambda), at rest its Coulomb limit
             sol, Q_start = coulomb_start(system, t0, q, v, (
                 (lambda r: np.linalg.lstsq(K, r, rcond=None)[0]) if lu is None else
                 lu.solve if sparse else lambda r: scipy.linalg.lu_solve(lu, r)))
@@ -796,8 +796,8 @@ def coulomb_start(system, t0, q, v, solve):
         The applied forces at the start (None: no joint at rest, the law itself).
     """
     n = system.n
-    g = system.multiplier_groups[0]
-    rest = np.abs(system.friction_speeds(q, v)) <= 1e-3 * g.regularisation()
+    v_reg = np.array([f.v_reg for f in system.frictions])
+    rest = np.abs(system.friction_speeds(q, v)) <= 1e-3 * v_reg
     if not rest.any():
         return system.index1_solve(None, t0, q, v, solve), None
     slip = np.where(rest, 0.0, np.nan)

@@ -1,10 +1,11 @@
 """The assembled system packed for the kernels: every element's data as the
 fields of ``kernels.schema.MODEL_SCHEMA`` in two flat arrays.
 
-The joints and drivers are packed by their kernel families, straight from the
-model (``pack`` of each module of ``kernels/joints``, for the kinds its
-``ELEMENT_ROWS`` names); the loads from the groups of :mod:`.groups`, which
-store their instances as structs of arrays. What several elements share is
+The joints, drivers and loads are packed by their kernel families, straight
+from the model (``pack`` of each module of ``kernels/joints``, for the kinds
+its ``ELEMENT_ROWS`` names, and of ``kernels/loads``, for the kinds its
+``LOADS`` names); the flexible beams from their groups' shape integrals
+(``assembly.ffr``). What several elements share is
 built once in a :class:`PackingContext`: the functions of time and of the
 state as postfix programs (``dsl.expressions.postfix``), the sliding joints'
 lines, the state variables the loads read, the elastic terms of points on
@@ -17,8 +18,6 @@ from __future__ import annotations
 import numpy as np
 
 from ..kernels import UNCOMPILED_ROOT
-from .groups import (FrictionGroup, PointForceGroup, RotationalSpringGroup, SpringDamperGroup,
-                     StateTorqueGroup, TorqueGroup)
 
 __all__ = ["PackedModel", "PackingContext"]
 
@@ -26,8 +25,8 @@ __all__ = ["PackedModel", "PackingContext"]
 class PackedModel:
     """The model's element groups as the kernels' packed model data.
 
-    Built once per run from the model's joints and drivers (by their kernel
-    families) and the system's load groups; fields as ``MODEL_SCHEMA``
+    Built once per run from the model's joints, drivers and loads (by their
+    kernel families) and the flexible beams' groups; fields as ``MODEL_SCHEMA``
     declares them. Constant driver values are folded into the rows'
     offsets, constant torques and gravity into Q0; functions of time
     become postfix programs (``dsl.expressions.postfix``): f and f' of
@@ -44,7 +43,8 @@ class PackedModel:
     Raises
     ------
     ValueError
-        A joint or driver kind no kernel family holds the rows of.
+        A joint or driver kind no kernel family holds the rows of, or a load
+        kind no family holds.
     """
 
     def __init__(self, system, kernels):
@@ -61,9 +61,7 @@ class PackedModel:
              for name, kind, columns in K.MODEL_SCHEMA}
         tables = PackingContext(system)
         d.update(_joint_fields(system, tables, K.JOINT_FAMILIES))
-        d.update(_force_fields(system, tables))
-        if system.contact_group is not None:
-            d.update(_contact_fields(system.contact_group, tables.line_row, K))
+        d.update(_load_fields(system, tables, K.LOAD_FAMILIES))
         d.update(tables.fields())
         d["mass"] = system.mass_diag.astype(np.float64)
         d["mrig"] = np.zeros(n)
@@ -116,6 +114,35 @@ class PackingContext:
         cols = self.cmap([p.body for p in refs]).astype(np.int64).reshape(-1, 3)
         return cols, np.array([p.local for p in refs], np.float64).reshape(-1, 2)
 
+    def point_columns(self, refs) -> np.ndarray:
+        """Columns in q_ext of each point's body (x, y, phi) and of the elastic
+        coordinates it moves with on a flexible beam, shape (k, 3 + e), e the
+        most any point has, the rest the ground's phi (n + 2, outside q)."""
+        body = self.cmap([p.body for p in refs]).astype(np.int64).reshape(-1, 3)
+        e = max((len(p.elastic_columns) for p in refs), default=0)
+        elastic = np.full((len(refs), e), self.n + 2, np.int64)
+        for i, p in enumerate(refs):
+            elastic[i, :len(p.elastic_columns)] = p.elastic_columns
+        return np.concatenate([body, elastic], axis=1)
+
+    def line_columns(self, line) -> list:
+        """Columns in q_ext (x, y, phi of the line's body, then of the sliding
+        point's) of a sliding joint's line (``model.elements.line_columns``)."""
+        from ..model.elements import line_columns
+        return line_columns(line, self.cmap)
+
+    def padded(self, per) -> np.ndarray:
+        """Per-instance column lists as one array (k, c), c the longest, the
+        rest the ground's phi (n + 2, outside q)."""
+        width = max((len(c) for c in per), default=0)
+        return np.array([list(c) + [self.n + 2] * (width - len(c)) for c in per],
+                        np.int64).reshape(len(per), width)
+
+    @staticmethod
+    def timed(f) -> bool:
+        """Whether f is a function of time (a program), not a constant."""
+        return _timed(f)
+
     def joint_points(self, field: str, joints) -> tuple:
         """(columns, local positions) of the joints' first points, then of
         their second (as :meth:`points`), their elastic terms stored with the
@@ -163,6 +190,18 @@ class PackingContext:
         self.prog.append((start, len(self.code)))
         self.depth = max(self.depth, dep)
         return len(self.prog) - 1
+
+    def value_program(self, f, variables=None) -> int:
+        """Index of the program of a load's function f: of time, a constant
+        as the program of its value; with ``variables`` (name -> row of
+        "var", :meth:`variable_rows`) of the state, its expression whenever
+        it has one."""
+        from ..dsl.expressions import Num
+        if variables is None:
+            expr = f.expr if _timed(f) else Num(f.f(0.0))
+        else:
+            expr = f.expr if f.expr is not None else Num(f.f(0.0))
+        return self.program(expr, variables)
 
     def programs(self, f) -> tuple:
         """(f, f', f'') programs of a function of time f, or (-1, -1, -1) (none,
@@ -260,94 +299,27 @@ def _joint_fields(system, tables, families) -> dict:
     return d
 
 
-def _force_fields(system, tables) -> dict:
-    """The applied loads' model data: spring-dampers, rotational
-    spring-dampers, torques (programs of time, constant or not), loads of
-    the state, friction in joints and point forces."""
-    from ..dsl.expressions import Num
-    i8, f8 = np.int64, np.float64
-    n = system.n
-    d = {}
-    tcol, tfn, stq, sdv = [], [], [], []
-    for g in system.force_groups:
-        if isinstance(g, SpringDamperGroup):
-            d.update(scol1=g.pair.P1.cols[:, :3].astype(i8), ss1=g.pair.P1.s.astype(f8),
-                     scol2=g.pair.P2.cols[:, :3].astype(i8), ss2=g.pair.P2.s.astype(f8),
-                     spar=np.column_stack([g.k, g.c, g.l0, g.held]).astype(f8))
-            tables.elastic_spans("sel", g.pair.P1.refs, g.pair.P2.refs)
-        elif isinstance(g, RotationalSpringGroup):
-            d.update(rcol=g.cols.astype(i8),
-                     rpar=np.stack([g.k, g.c, g.angle], axis=1).astype(f8))
-        elif isinstance(g, TorqueGroup):
-            # a constant torque too is a (constant) program, not a term of Q0:
-            # the power it puts in is that of the loads of ``kernels.system._inputs_add``
-            for col, f in zip(g.cols[:, 0], g.functions):
-                tcol.append(col)
-                tfn.append(tables.program(f.expr if _timed(f) else Num(f.f(0.0))))
-        elif isinstance(g, StateTorqueGroup):
-            for i, (f, line) in enumerate(zip(g.functions, g.lines)):
-                names = tables.variable_rows(f)
-                expr = f.expr if f.expr is not None else Num(f.f(0.0))
-                if line is None:
-                    a, b = (int(g.cols[i, j]) for j in g.targets[i])
-                    stq.append((tables.program(expr, names), a, b, -1))
-                else:
-                    stq.append((tables.program(expr, names), n + 2, n + 2,
-                                tables.line_row(line)))
-                for v, ge in zip(getattr(f, "variables", ()), getattr(f, "grad_exprs", ())):
-                    sdv.append((len(stq) - 1, names[v.name], tables.program(ge, names)))
-        elif isinstance(g, FrictionGroup):
-            fri = []
-            for i, line in enumerate(g.lines):
-                rows = [int(r) for r in g.rows[i]]
-                if line is None:
-                    fri.append((int(g.cols[i, 0]), int(g.cols[i, 1]), -1, rows[0], len(rows)))
-                else:
-                    fri.append((n + 2, n + 2, tables.line_row(line), rows[0], len(rows)))
-            d.update(fri=np.array(fri, i8).reshape(-1, 5), frp=g.params.astype(f8))
-        elif isinstance(g, PointForceGroup):
-            tables.elastic_spans("fel", g.points.refs)
-            d.update(fcol=g.points.cols[:, :3].astype(i8), fs=g.points.s.astype(f8),
-                     fF=np.array([[0.0 if _timed(fx) else fx.f(0.0),
-                                   0.0 if _timed(fy) else fy.f(0.0)]
-                                  for fx, fy in zip(g.fx, g.fy)], dtype=f8).reshape(-1, 2),
-                     ffn=np.array([(tables.program(fx.expr) if _timed(fx) else -1,
-                                    tables.program(fy.expr) if _timed(fy) else -1)
-                                   for fx, fy in zip(g.fx, g.fy)], dtype=i8).reshape(-1, 2))
-    d.update(tcol=np.array(tcol, i8), tfn=np.array(tfn, i8), stq=np.array(stq, i8).reshape(-1, 4),
-             sdv=np.array(sdv, i8).reshape(-1, 3))
+def _load_fields(system, tables, families) -> dict:
+    """The applied loads' model data, each family packing the model's loads
+    of the kinds its ``LOADS`` names, in the model's order.
+
+    Raises
+    ------
+    ValueError
+        A load of a kind no family holds.
+    """
+    d, held = {}, set()
+    forces = system.model.forces
+    for family in families:
+        mine = [f for f in forces if f.kind in family.LOADS]
+        held.update(family.LOADS)
+        if mine:
+            d.update(family.pack(mine, tables))
+    for f in forces:
+        if f.kind not in held:
+            raise ValueError(f"no kernel family holds the load '{f.name}' ({f.kind}): "
+                             "its kind is missing from every LOADS of kernels/loads")
     return d
-
-
-def _contact_fields(group, line_row, K) -> dict:
-    """The kernels' fields of the contacts and joint limits (``ContactGroup``,
-    one instance per gap; ``compiled``'s contact section): kind and line row,
-    columns, (offset, sign, s1, s2, n0, r, K, n, chi, mu, v_reg), impact
-    speeds. ``line_row(line)``: the row of a sliding line in GEO; ``K``:
-    the kernels (their gap kinds)."""
-    kgi, kpar = [], []
-    for i, (geometry, data) in enumerate(group.geometry):
-        s1 = s2 = n0 = (0.0, 0.0)
-        r, row = 0.0, -1
-        if geometry == "line":          # (body L, s_L, body P, s_P, n0, r)
-            kind, row, off, sign = K.GAP_LINE, line_row(tuple(data[:5])), data[5], 1.0
-            s1, s2, n0, r = data[1], data[3], data[4], data[5]
-        elif geometry == "slide":       # (body L, s_L, body P, s_P, u0, bound, sign)
-            kind, row, off, sign = K.GAP_SLIDE, line_row(tuple(data[:5])), data[5], data[6]
-        elif geometry == "angle":       # (body 1, None, body 2, None, bound, sign)
-            kind, off, sign = K.GAP_ANGLE, data[4], data[5]
-        elif geometry == "circle":      # (body C, s_C, body P, s_P, clearance, r)
-            kind, off, sign = K.GAP_CIRCLE, data[4], 1.0
-            s1, s2, r = data[1], data[3], data[5]
-        else:                           # pragma: no cover (model.contact lists four)
-            raise ValueError(f"no kernel for the gap geometry {geometry!r}")
-        kgi.append((kind, row))
-        kpar.append((off, sign, *s1, *s2, *n0, r, group.k_[i], group.n_[i], group.chi[i],
-                     group.mu[i], group.v_reg[i]))
-    return {"kgi": np.array(kgi, np.int64).reshape(-1, 2),
-            "kcol": group.cols.astype(np.int64).reshape(-1, 6),
-            "kpar": np.array(kpar, np.float64).reshape(-1, 14),
-            "kimp": group.impact_speed.astype(np.float64)}
 
 
 def _beam_fields(system) -> dict:

@@ -24,13 +24,14 @@ the matrix-free products ``PhiqT_times`` and ``Phiq_times``.
 The physics of every element (joints, drivers, applied loads, contacts,
 flexible beams) is evaluated by the kernels of ``mbdsl/kernels``,
 its one implementation, through :meth:`AssembledSystem.kernel_model`; the
-kernels' joint families pack the joints and drivers from the model, the
-groups of ``groups.py``, ``contact.py`` and ``ffr.py`` hold the loads' data.
-The constraint patterns are the kernels' triplets; the loads' patterns are
-the pairs of their instances' columns.
+kernels' joint and load families pack the joints, drivers and loads from the
+model, the groups of ``contact.py`` and ``ffr.py`` hold the contacts' state and
+the flexible beams' shape integrals. The constraint patterns are the kernels'
+triplets; the loads' patterns are the pairs of the columns each instance's
+derivatives may fill (the families' ``pattern``).
 
 Only what the model declares is built and evaluated: a model without gravity
-has no gravity vector, a model without springs no spring group, and the
+has no gravity vector, a model without springs no spring data, and the
 force derivatives are ``None`` when no declared force depends on q or v.
 
 The :class:`AssembledSystem` never changes once built (model/data split):
@@ -44,12 +45,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..gcpause import paused
-from ..model.elements import (GROUND, FlexibleBeam, Friction, JointForce, JointTorque, Model,
-                              PointForce,
-                              RotationalSpringDamper, SpringDamper, TimeFunction, Torque)
+from ..model.elements import FlexibleBeam, Model
 from .ffr import FlexibleBeamGroup
-from .groups import (FrictionGroup, PointForceGroup, RotationalSpringGroup, SpringDamperGroup,
-                     StateTorqueGroup, TorqueGroup)
 from .layout import Layout
 
 __all__ = ["AssembledSystem", "assemble"]
@@ -136,9 +133,9 @@ class AssembledSystem:
         self._patterns = {}
 
     def _build_forces(self, model):
-        """The applied loads: gravity's constant Q, one group per load kind
-        (:meth:`_load_groups`), and the fixed patterns of their derivatives
-        (:meth:`_load_patterns`)."""
+        """The applied loads: gravity's constant Q, what the loads keep
+        (:meth:`_load_groups`) and the mass matrix's pattern; the patterns of
+        the loads' derivatives are built on first use (:meth:`_load_patterns`)."""
         n, cmap = self.n, self.cmap
         self.gravity_force = None
         if model.gravity is not None and np.any(model.gravity != 0.0):
@@ -149,121 +146,106 @@ class AssembledSystem:
                         Qg[cmap.table[b.index, :2]] = b.mass * model.gravity
             self.gravity_force = Qg
         self._load_groups(model)
-        self._load_patterns()
-
-    def _load_groups(self, model):
-        """``force_groups``: spring-dampers, rotational springs, torques,
-        torques and forces that read the motion or act in joints, point
-        forces, friction, contacts and limits, then the flexible beams."""
-        cmap = self.cmap
-        springs = [f for f in model.forces if isinstance(f, SpringDamper)]
-        rsprings = [f for f in model.forces if isinstance(f, RotationalSpringDamper)]
-        torques = [f for f in model.forces if isinstance(f, Torque)
-                   and isinstance(f.function, TimeFunction)]
-        # torques that read the motion, and torques in joints (on two bodies)
-        state_torques = [f for f in model.forces if isinstance(f, (JointTorque, JointForce))
-                         or (isinstance(f, Torque) and not isinstance(f.function, TimeFunction))]
-        pforces = [f for f in model.forces if isinstance(f, PointForce)]
-        self.force_groups = []
-        #: Spring-dampers with a free length whose force direction flips when
-        #: their two points pass each other (events): (group, [(index, name)]).
-        self.flipping_springs = None
-        #: The number of spring-dampers (``spring_separations``).
-        self.spring_count = len(springs)
-        if springs:
-            group = SpringDamperGroup(
-                cmap, [s.first for s in springs], [s.second for s in springs],
-                [s.k for s in springs], [s.c for s in springs], [s.length for s in springs])
-            self.force_groups.append(group)
-            flipping = [(i, s.name) for i, s in enumerate(springs) if s.length > 0.0]
-            if flipping:
-                self.flipping_springs = (group, flipping)
-        if rsprings:
-            self.force_groups.append(RotationalSpringGroup(
-                cmap, [s.joint.first.body for s in rsprings], [s.joint.second.body for s in rsprings],
-                [s.k for s in rsprings], [s.c for s in rsprings], [s.angle for s in rsprings]))
-        if torques:
-            self.force_groups.append(TorqueGroup(cmap, [f.body for f in torques],
-                                                 [f.function for f in torques]))
-        if state_torques:
-            def line(f):
-                """A joint force's line geometry (model.elements.line_distance)."""
-                j = f.joint
-                return (j.second.body, tuple(j.second.local), j.first.body, tuple(j.first.local),
-                        tuple(j.direction))
-            self.force_groups.append(StateTorqueGroup(
-                cmap, [f.joint.second.body if isinstance(f, JointTorque) else
-                    getattr(f, "body", GROUND) for f in state_torques],
-                [f.joint.first.body if isinstance(f, JointTorque) else GROUND
-                 for f in state_torques], [f.function for f in state_torques],
-                [line(f) if isinstance(f, JointForce) else None for f in state_torques]))
-        if pforces:
-            self.force_groups.append(PointForceGroup(
-                cmap, [f.point for f in pforces], [f.fx for f in pforces], [f.fy for f in pforces]))
-        frictions = [f for f in model.forces if isinstance(f, Friction)]
-        if frictions:
-            def reaction_rows(j):
-                """The rows of lambda that carry a joint's normal reaction."""
-                r0 = self.joint_rows[j.name]
-                return [r0, r0 + 1] if j.kind == "revolute" else [r0]
-
-            def geometry(j):
-                """A sliding joint's line (model.elements.line_distance); None for a revolute."""
-                return None if j.kind == "revolute" else (
-                    j.second.body, tuple(j.second.local), j.first.body, tuple(j.first.local),
-                    tuple(j.direction))
-            self.force_groups.append(FrictionGroup(
-                cmap, [f.joint.second.body for f in frictions], [f.joint.first.body for f in frictions],
-                [geometry(f.joint) for f in frictions], [reaction_rows(f.joint) for f in frictions],
-                [(f.mu, f.mu_static, f.v_stribeck, f.viscous, f.v_reg, f.radius)
-                 for f in frictions]))
-        from ..model.contact import Contact
-        from .contact import ContactGroup
-        contacts = [f for f in model.forces if isinstance(f, Contact)]
-        #: Contacts and joint limits (one gap per instance, with events), or None.
-        self.contact_group = ContactGroup(cmap, contacts) if contacts else None
-        if contacts:
-            self.force_groups.append(self.contact_group)
-            self.contact_group.bind(self.contact_gaps)
-        self.force_groups.extend(self.flexible_groups)
-
-    def _load_patterns(self):
-        """The patterns (row, column) of Q_lambda (friction), of Q_q and Q_v,
-        of the diagonal and of the mass matrix, fixed here for every step."""
-        n = self.n
-        #: Groups whose loads read lambda (friction): Q(t, q, v, lambda).
-        self.multiplier_groups = [g for g in self.force_groups
-                                  if getattr(g, "uses_multipliers", False)]
-        fr, fc = [], []
-        for g in self.multiplier_groups:
-            for cols, rows in zip(g.cols, g.rows):
-                r = np.repeat(cols, len(rows))
-                c = np.tile(rows, len(cols))
-                keep = r < n
-                fr.append(r[keep])
-                fc.append(c[keep])
-        #: Pattern (row of Q, row of lambda) of Q_lambda, unique pairs sorted;
-        #: None without friction.
-        self.pattern_force_lam = _unique_pattern(fr, fc, self.m) if fr else None
-        # the loads that depend on the state: every entry of their local
-        # columns may be one of Q_q, Q_v (the kernels' triplets are summed
-        # into this pattern: ``_load_values``)
-        derivative_groups = [g for g in self.force_groups if g.state_dependent]
-        self.has_Q_v = any(getattr(g, "damped", False) for g in derivative_groups)
-        self.has_Q_q = bool(derivative_groups)
-        fr, fc = [], []
-        for g in derivative_groups:
-            ci = np.broadcast_to(g.cols[:, :, None], (len(g.cols),) + (g.cols.shape[1],) * 2)
-            cj = np.broadcast_to(g.cols[:, None, :], ci.shape)
-            mask = (ci < self.n) & (cj < self.n)
-            fr.append(ci[mask])
-            fc.append(cj[mask])
-        #: Pattern (row, column) of Q_q and Q_v in (n, n), unique pairs sorted.
-        self.pattern_force = _unique_pattern(fr, fc, self.n)
         rc = self._rigid_cols
-        self.pattern_diagonal = (np.arange(self.n), np.arange(self.n))
         self.pattern_mass = _concat_pattern([rc] + [g.pattern[0] for g in self.flexible_groups],
                                             [rc] + [g.pattern[1] for g in self.flexible_groups])
+
+    def _load_groups(self, model):
+        """What the loads keep beyond the model: the contacts' gaps and their
+        state (:class:`~.contact.ContactGroup`), the springs' held directions;
+        the loads' data themselves are packed from the model by the kernels'
+        load families (``kernels/loads``, ``packing.PackedModel``)."""
+        forces = model.forces
+        #: The friction elements, in the model's order: their loads read
+        #: lambda, Q(t, q, v, lambda).
+        self.frictions = [f for f in forces if f.kind == "friction"]
+        springs = [f for f in forces if f.kind == "spring"]
+        #: The number of spring-dampers (``spring_separations``).
+        self.spring_count = len(springs)
+        #: The direction each spring holds while a step is landed on a pass of
+        #: its points (``kernels.loads.spring_damper._free_length``), (k, 2);
+        #: zeros: none held, the physical law. Written by the event locator.
+        self.spring_held = np.zeros((len(springs), 2))
+        #: Spring-dampers with a free length whose force direction flips when
+        #: their two points pass each other (events): [(index, name)], or None.
+        self.flipping_springs = [(i, s.name) for i, s in enumerate(springs)
+                                 if s.length > 0.0] or None
+        #: The functions of time and of the state the loads read (torques,
+        #: forces in joints, point forces), in the model's order.
+        self.load_functions = [fn for f in forces for fn in getattr(f, "functions", ())]
+        #: Whether any load or flexible beam adds to Q beyond gravity.
+        self.has_loads = bool(forces) or bool(self.flexible_groups)
+        from .contact import ContactGroup
+        contacts = [f for f in forces if f.kind in ("contact", "limit")]
+        #: Contacts and joint limits (one gap per instance, with events), or None.
+        self.contact_group = ContactGroup(self.cmap, contacts) if contacts else None
+        if contacts:
+            self.contact_group.bind(self.contact_gaps)
+        self._load_pattern = None
+
+    def _load_patterns(self):
+        """The patterns (row, column) of Q_lambda (friction), of Q_q and Q_v
+        and whether each exists, from the load families' ``pattern`` (the
+        columns each instance's derivatives may fill: every pair of them is in
+        the pattern) and the flexible beams' columns; built on first use, with
+        the kernels this process calls (:meth:`kernel_model`)."""
+        if self._load_pattern is not None:
+            return self._load_pattern
+        from .packing import PackingContext
+        n, forces = self.n, self.model.forces
+        tables = PackingContext(self)
+        blocks, damped, fr, fc = [], False, [], []
+        for family in self.kernel_model().K.LOAD_FAMILIES:
+            items = [f for f in forces if f.kind in family.LOADS]
+            found = family.pattern(items, tables) if items else None
+            if found is not None:
+                blocks.append(found[0])
+                damped = damped or found[1]
+            if items and hasattr(family, "multiplier_pattern"):
+                for cols, rows in zip(*family.multiplier_pattern(items, tables)):
+                    r, c = np.repeat(cols, len(rows)), np.tile(rows, len(cols))
+                    fr.append(r[r < n])
+                    fc.append(c[r < n])
+        blocks += [g.cols for g in self.flexible_groups]
+        damped = damped or bool(self.flexible_groups)   # the quadratic velocity vector
+        pr, pc = [], []
+        for cols in blocks:
+            ci = np.broadcast_to(cols[:, :, None], (len(cols),) + (cols.shape[1],) * 2)
+            cj = np.broadcast_to(cols[:, None, :], ci.shape)
+            mask = (ci < n) & (cj < n)
+            pr.append(ci[mask])
+            pc.append(cj[mask])
+        self._load_pattern = {
+            "force": _unique_pattern(pr, pc, n), "has_Q_q": bool(blocks),
+            "has_Q_v": damped, "force_lam": _unique_pattern(fr, fc, self.m) if fr else None}
+        return self._load_pattern
+
+    @property
+    def pattern_force(self):
+        """(rows, cols) of Q_q and Q_v in (n, n), unique pairs sorted."""
+        return self._load_patterns()["force"]
+
+    @property
+    def pattern_force_lam(self):
+        """(rows of Q, rows of lambda) of Q_lambda (friction), unique pairs
+        sorted; None without friction."""
+        return self._load_patterns()["force_lam"]
+
+    @property
+    def has_Q_q(self) -> bool:
+        """Whether a declared load depends on q (every load but torques of time)."""
+        return self._load_patterns()["has_Q_q"]
+
+    @property
+    def has_Q_v(self) -> bool:
+        """Whether a declared load depends on v (a damper, friction, a rate a
+        load reads, a contact's damping, a flexible beam)."""
+        return self._load_patterns()["has_Q_v"]
+
+    @property
+    def pattern_diagonal(self):
+        """(rows, cols) of the diagonal of (n, n)."""
+        return (np.arange(self.n), np.arange(self.n))
 
     # -- kernels ------------------------------------------------------------------
     #: Which kernels evaluate this system outside the compiled loop: "auto" (see
@@ -395,7 +377,7 @@ class AssembledSystem:
     _EMPTY_I, _EMPTY_1, _EMPTY_F = np.zeros(0, np.int64), np.zeros(0), np.zeros((0, 0))
 
     def _needs(self, lam):
-        if lam is None and self.multiplier_groups:
+        if lam is None and self.frictions:
             raise ValueError("the model has friction: its forces need the multipliers lambda")
 
     def _elements(self, what, rows, t, vx, y, out, slip=None, speeds=None, R=None, C=None,
@@ -409,7 +391,7 @@ class AssembledSystem:
         if self.contact_group is not None:
             cm.impact_speed[:] = self.contact_group.impact_speed
         if self.flipping_springs is not None:    # the held directions (landing on a pass)
-            cm.spring_held[:] = self.flipping_springs[0].held
+            cm.spring_held[:] = self.spring_held
         N = len(rows)
         # fresh, writable copies (numba types a read-only view, as np.broadcast_to
         # gives, as another signature: one more library to load)
@@ -459,7 +441,7 @@ class AssembledSystem:
             ``lam`` (m,) not given for a model with friction (its normal
             loads are reactions).
         """
-        if not self.force_groups:
+        if not self.has_loads:
             return np.zeros(self.n) if self.gravity_force is None else self.gravity_force.copy()
         self._needs(lam)
         out = np.empty((1, self.nx))
@@ -470,7 +452,7 @@ class AssembledSystem:
     def Q_lam_values(self, t, q, v, lam):
         """dQ/dlambda values on ``pattern_force_lam`` (friction), or None
         without friction."""
-        if not self.multiplier_groups:
+        if not self.frictions:
             return None
         return self._load_values(_L_QLAM, self.pattern_force_lam, self.m, t, q, v, lam)
 
@@ -545,13 +527,12 @@ class AssembledSystem:
             J, W]. From ``kernels.system.elements``, L_SENSORS: the laws the run's
             forces use (its F_t is along -t).
         """
-        from ..model.elements import RotationalSpringDamper, SpringDamper
         g = self.contact_group
         forces = self.model.forces
         sizes = {"gap": (len(g.names) if g is not None else 0, 6),
-                 "friction": (sum(isinstance(f, Friction) for f in forces), 3),
-                 "spring": (sum(isinstance(f, SpringDamper) for f in forces), 5),
-                 "rotational": (sum(isinstance(f, RotationalSpringDamper) for f in forces), 5)}
+                 "friction": (len(self.frictions), 3),
+                 "spring": (self.spring_count, 5),
+                 "rotational": (sum(f.kind == "rotational" for f in forces), 5)}
         rows, _ = self._ext_rows(q)
         N = len(rows)
         out = np.zeros((N, sum(k * w for k, w in sizes.values())))
@@ -570,7 +551,7 @@ class AssembledSystem:
         """Per friction joint its speed z (omega_2 - omega_1 or ds/dt), or
         with accelerations ``a`` (n,) its rate dz/dt = w . a + v^T (d^2 s) v,
         shape (k,)."""
-        k = len(self.multiplier_groups[0].lines)
+        k = len(self.frictions)
         out = np.empty((1, 2 * k))
         acc = self._ext(np.zeros(self.n) if a is None else a)[None]
         self._elements(_L_SLIP, self._ext(q)[None], 0.0, self._ext(v)[None], acc, out)
@@ -783,11 +764,11 @@ class AssembledSystem:
         solve = solve or (lambda rhs: np.linalg.solve(K, rhs))
         gam = self.gamma(q, v, t)
         lam = np.zeros(self.m)
-        for _ in range(self.FRICTION_ITERATIONS if self.multiplier_groups else 1):
+        for _ in range(self.FRICTION_ITERATIONS if self.frictions else 1):
             sol = solve(np.concatenate([self.Q(t, q, v, lam, slip), gam]))
             change = np.max(np.abs(sol[n:] - lam), initial=0.0)
             lam = sol[n:]
-            if not self.multiplier_groups or \
+            if not self.frictions or \
                     change <= 1e-13 * (1.0 + np.max(np.abs(lam), initial=0.0)):
                 return sol
         raise np.linalg.LinAlgError("the index-1 multipliers with friction do not settle")
@@ -837,7 +818,7 @@ class AssembledSystem:
         """
         N = len(t)
         p_in, p_diss = np.zeros(N), np.zeros(N)
-        if self.force_groups and N:
+        if self.has_loads and N:
             rows, _ = self._ext_rows(q)
             out = np.empty((N, 2))
             g = self.contact_group
@@ -857,7 +838,7 @@ class AssembledSystem:
         e = np.zeros(np.shape(q)[:-1])
         if self.gravity_force is not None:
             e = e - np.asarray(q) @ self.gravity_force
-        if self.force_groups:
+        if self.has_loads:
             rows, lead = self._ext_rows(q)
             out = np.empty((len(rows), 1))
             if len(rows):

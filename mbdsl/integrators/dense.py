@@ -144,7 +144,7 @@ class DenseOutput:
                      "mu": np.array(mu, dtype=float), "h": 0.0, "work": 0.0, "diss": 0.0}
         self.written_t = float(start.t)             # the time of the last row written
         self.carry = np.zeros(6, np.int64)          # counts of the steps since that row
-        self.flows = bool(system.force_groups) or bool(getattr(system, "driver_functions", ()))
+        self.flows = bool(system.has_loads) or bool(getattr(system, "driver_functions", ()))
         self.p = None                               # (p_in, p_dissipated) at the held step [W]
         self.elapsed = 0.0
 

@@ -48,8 +48,6 @@ from __future__ import annotations
 import numpy as np
 import scipy
 
-from ..assembly.groups import (FrictionGroup, PointForceGroup, RotationalSpringGroup,
-                               SpringDamperGroup, StateTorqueGroup, TorqueGroup)
 from ..assembly.packing import PackedModel
 from ..assembly.sparse import DENSE_LIMIT
 from .base import StepState
@@ -107,27 +105,10 @@ def unsupported(system, method) -> str | None:
 
 
 def _unsupported_elements(system) -> str | None:
-    """Why the kernels cannot evaluate this model's elements, or None."""
-    from ..assembly.contact import ContactGroup
-    from ..assembly.ffr import FlexibleBeamGroup
-    for g in system.force_groups:
-        if not isinstance(g, (SpringDamperGroup, RotationalSpringGroup, TorqueGroup,
-                              PointForceGroup, StateTorqueGroup, FrictionGroup,
-                              FlexibleBeamGroup, ContactGroup)):
-            return f"no kernel for {type(g).__name__}"
-        if isinstance(g, (SpringDamperGroup, PointForceGroup)):
-            continue                    # their points may be on flexible beams
-        points = [getattr(g, "points", None)] + [getattr(getattr(g, "pair", None), k, None)
-                                                 for k in ("P1", "P2")]
-        if any(P is not None and P.e for P in points):
-            return f"no kernel for a {type(g).__name__} on a flexible beam's point"
-    functions = list(system.driver_functions)
-    functions += [f for g in system.force_groups if isinstance(g, TorqueGroup)
-                  for f in g.functions]
-    functions += [f for g in system.force_groups if isinstance(g, PointForceGroup)
-                  for f in g.fx + g.fy]
-    functions += [f for g in system.force_groups if isinstance(g, StateTorqueGroup)
-                  for f in g.functions]
+    """Why the kernels cannot evaluate this model's elements, or None: a
+    function of time without an expression to compile (the packing refuses
+    an element kind no kernel family holds)."""
+    functions = list(system.driver_functions) + list(system.load_functions)
     if any(not f.constant and f.expr is None for f in functions):
         return "a function of time has no expression to compile"
     return None
@@ -679,9 +660,8 @@ class KernelStepper:
         group = self.system.contact_group
         if group is not None:
             self.cm.impact_speed[:] = group.impact_speed
-        springs = self.system.flipping_springs
-        if springs is not None:
-            self.cm.spring_held[:] = springs[0].held
+        if self.system.flipping_springs is not None:
+            self.cm.spring_held[:] = self.system.spring_held
 
     def forget_crossing(self):
         """Nothing kept: the compiled loop solves every step it is asked for."""
@@ -764,7 +744,7 @@ class SparseAdapter:
         if system.contact_group is not None:
             self._cm.impact_speed[:] = system.contact_group.impact_speed
         if system.flipping_springs is not None:
-            self._cm.spring_held[:] = system.flipping_springs[0].held
+            self._cm.spring_held[:] = system.spring_held
         rec, first = step_recipe(self._method, history, h)
         s = history[-1]
         p = history[-2] if len(history) >= 2 else s

@@ -126,8 +126,7 @@ class EventLocator:
 
     def _spring_d(self, q):
         """d = p2 - p1 of the flipping springs, shape (k, 2)."""
-        which = self.springs[1]
-        return self.system.spring_separations(q)[[i for i, _ in which]]
+        return self.system.spring_separations(q)[[i for i, _ in self.springs]]
 
     def hold(self, q) -> None:
         """Hold each flipping spring's direction at configuration q (n,), the
@@ -135,11 +134,10 @@ class EventLocator:
         continue the old branch past a pass (``kernels.loads.spring_damper._free_length``)."""
         if self.springs is None:
             return
-        group, which = self.springs
         d = self._spring_d(q)
         norm = np.hypot(d[:, 0], d[:, 1])
         held = np.where(norm[:, None] > 0.0, d / np.where(norm > 0.0, norm, 1.0)[:, None], 0.0)
-        group.held[[i for i, _ in which]] = held
+        self.system.spring_held[[i for i, _ in self.springs]] = held
 
     def spring_passes(self, qa, qb) -> bool:
         """Whether a flipping spring's points pass each other between
@@ -152,7 +150,7 @@ class EventLocator:
     def release(self) -> None:
         """No direction held: the physical law (after the landing's commit)."""
         if self.springs is not None:
-            self.springs[0].held[:] = 0.0
+            self.system.spring_held[:] = 0.0
 
     def step_limit(self) -> float:
         """The largest error-controlled step while gaps are closed [s]: their
@@ -306,7 +304,7 @@ class EventLocator:
         for i, th in sorted(roots.items(), key=lambda x: x[1]):
             t_event = t + th * step
             if isinstance(i, tuple):        # a spring's points passed each other
-                name = self.springs[1][i[1]][1]
+                name = self.springs[i[1]][1]
                 self.sol.events.append((t_event, name, "passed", 0.0))
                 times = self._passes.setdefault(name, [])
                 times.append(t_event)
@@ -364,10 +362,7 @@ def time_switches(system):
     advance, so a step is shortened to end on them before it is taken
     (:func:`switch_times`)."""
     from ..dsl.expressions import compile_function
-    functions = list(system.driver_functions)
-    for g in system.force_groups:
-        functions += [f for f in getattr(g, "functions", ()) or () if f is not None]
-        functions += list(getattr(g, "fx", ())) + list(getattr(g, "fy", ()))
+    functions = list(system.driver_functions) + list(system.load_functions)
     out, seen = [], set()
     for f in functions:
         expr = getattr(f, "expr", None)

@@ -162,7 +162,7 @@ class PythonStepper:
         step_end, step_ratio = K.step_end, K.step_ratio    # the compiled loop's rules (compiled/loop.py)
         # an index-3 method's error estimate on its index-1 accelerations (as compiled)
         index1 = (not fixed and control.index1 and method.index == 3
-                  and 0 < system.m <= K.INDEX1_LIMIT and not system.multiplier_groups)
+                  and 0 < system.m <= K.INDEX1_LIMIT and not system.frictions)
         clock = _time.perf_counter
         started = clock()
         t, taken = t0, 0

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..assembly.groups import PointSet
+from ..assembly.points import PointSet
 from .rows import STAT_NAMES
 
 __all__ = ["DERIVED_NAMES", "energy_flows", "driver_loads", "output_columns", "derived_columns",
@@ -181,7 +181,7 @@ def output_columns(system, t, q, v, a, derived, lam=None, contact_log=None) -> d
         The run's contact state changes (the impact speeds behind a contact's
         normal force); None: those of the run under way.
     """
-    from ..assembly.groups import drot, rot
+    from ..assembly.points import drot, rot
     from ..dsl.expressions import evaluate_rows
     from ..model.elements import SENSOR_UNITS
     lay, N, cmap = system.layout, len(t), system.cmap
@@ -254,7 +254,7 @@ def _beam_point(system, var, qx, vx) -> np.ndarray:
     vx (N, n + 3): r + A(phi) ((x, 0) + S(x) q_f) and its velocity (the
     floating frame of reference); "deflection": the point's elastic
     displacement normal to the frame's axis, (S(x) q_f)_y [m]."""
-    from ..assembly.groups import drot, rot
+    from ..assembly.points import drot, rot
     beam = system.model.bodies[var.bodies[0]]
     S = beam.mesh.shape(np.array([var.arc]))[0]               # (2, nf)
     cols = beam.elastic_columns()

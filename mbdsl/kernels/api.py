@@ -16,5 +16,5 @@ from .loads.contact import GAP_ANGLE, GAP_CIRCLE, GAP_LINE, GAP_SLIDE  # noqa: F
 from .schema import _0, _HEADER, MODEL_FIELDS, MODEL_SCHEMA, pack, unpack  # noqa: F401
 from .system import (C_PHI, C_PHI_T, C_PHI_TT, C_PHIQ, C_PHIQ_Y, C_PHIQ_Y_Q,  # noqa: F401
                      C_PHIQT_Y, C_PHIQT_Y_Q, L_ENERGY, L_GAPS, L_POWER, L_Q, L_QLAM, L_QQ, L_QV,
-                     JOINT_FAMILIES, L_SENSORS, L_SLIP, L_SPRINGS, SENSOR_FRICTION, SENSOR_GAP,
-                     SENSOR_SPRING, elements, forces, joint_hook, phi, triplet_bound)
+                     JOINT_FAMILIES, LOAD_FAMILIES, L_SENSORS, L_SLIP, L_SPRINGS, SENSOR_FRICTION,
+                     SENSOR_GAP, SENSOR_SPRING, elements, forces, joint_hook, phi, triplet_bound)

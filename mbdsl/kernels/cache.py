@@ -109,7 +109,10 @@ def imported_values(sources: dict) -> list:
                 if not item.strip():
                     continue
                 name = item.split()[0].decode()
-                out.add(f"{module}.{name}={getattr(values, name)!r}")
+                value = getattr(values, name)
+                if callable(value):      # a function's repr holds its address: its name
+                    value = f"<{getattr(value, '__qualname__', type(value).__name__)}>"
+                out.add(f"{module}.{name}={value!r}")
     return sorted(out)
 
 

@@ -104,7 +104,7 @@ def _line(I, Fl, qx, g, grad, H):
 @_jit
 def _direction(dx, dy, l):
     """e = d / l of a spring-damper, (0, 0) at l = 0: two coincident points
-    have no direction, and no force along it (``SpringDamperGroup``)."""
+    have no direction, and no force along it (``loads.spring_damper``)."""
     if l > 0.0:
         return dx / l, dy / l
     return 0.0, 0.0

@@ -56,6 +56,13 @@ def joint_hook(kind: str, name: str):
         if kind in family.ELEMENT_ROWS and hasattr(family, name):
             return getattr(family, name)
     return None
+
+
+#: The load families, in the order their data are packed: each declares the load
+#: kinds it holds (``LOADS``, the model elements' ``kind``), packs them from the
+#: model (``pack``) and says which columns the derivatives of its loads may fill
+#: (``pattern``; friction also its reaction rows: ``multiplier_pattern``).
+LOAD_FAMILIES = (spring_damper, torques, state_loads, point_forces, friction, contact)
 #: The load families with a force block, each with the field that counts it
 #: (a load of the state counts twice: per load, STQ, and per partial derivative, SDV).
 LOADS = ((spring_damper, SCOL1), (torques, RCOL), (point_forces, FCOL), (state_loads, STQ),

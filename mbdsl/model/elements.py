@@ -526,6 +526,16 @@ class Joint:
         joint that locks none transmits no couple about its first point."""
         return self.kind in ANGLE_ROWS
 
+    @property
+    def line(self) -> tuple:
+        """The sliding line of a prismatic or point_on_line joint: (body L,
+        s_L, body P, s_P, u0), the line through the second point along
+        ``direction`` and the first point sliding on it, as
+        :func:`line_distance` reads it (hashable: shared by every load that
+        uses it)."""
+        return (self.second.body, tuple(self.second.local), self.first.body,
+                tuple(self.first.local), tuple(self.direction))
+
 
 @dataclass(frozen=True)
 class Driver:
@@ -565,6 +575,9 @@ class SpringDamper:
     length: float
     span: Span | None = None
 
+    #: The load kind (the kernel family that holds it: ``kernels.system.LOAD_FAMILIES``).
+    kind = "spring"
+
 
 @dataclass(frozen=True)
 class RotationalSpringDamper:
@@ -581,6 +594,9 @@ class RotationalSpringDamper:
     angle: float
     span: Span | None = None
 
+    #: The load kind (the kernel family that holds it: ``kernels.system.LOAD_FAMILIES``).
+    kind = "rotational"
+
 
 @dataclass(frozen=True)
 class Torque:
@@ -591,6 +607,18 @@ class Torque:
     body: int
     function: object
     span: Span | None = None
+
+    @property
+    def kind(self) -> str:
+        """The load kind: "torque" for a function of time, "state_torque" for
+        one that reads the motion (the kernel families differ:
+        ``kernels.system.LOAD_FAMILIES``)."""
+        return "torque" if isinstance(self.function, TimeFunction) else "state_torque"
+
+    @property
+    def functions(self) -> tuple:
+        """Its function (of time, or of time and the state)."""
+        return (self.function,)
 
 
 @dataclass(frozen=True)
@@ -605,6 +633,14 @@ class JointForce:
     function: object
     span: Span | None = None
 
+    #: The load kind (the kernel family that holds it: ``kernels.system.LOAD_FAMILIES``).
+    kind = "joint_force"
+
+    @property
+    def functions(self) -> tuple:
+        """Its function (of time, or of time and the state)."""
+        return (self.function,)
+
 
 @dataclass(frozen=True)
 class Friction:
@@ -616,7 +652,7 @@ class Friction:
     -|N| mu(z) tanh(z/v_reg) - c z along the line on its sliding point (the
     opposite on the line's body), z the sliding speed [m/s] and |N| the
     normal reaction [N]. mu(z) = mu + (mu_static - mu) exp(-(z/v_stribeck)^2)
-    (Andersson, Soderberg & Bjorklund 2007; ``assembly.groups.FrictionGroup``).
+    (Andersson, Soderberg & Bjorklund 2007; ``kernels.loads.friction``).
 
     Attributes
     ----------
@@ -644,6 +680,9 @@ class Friction:
     radius: float = 1.0
     span: Span | None = None
 
+    #: The load kind (the kernel family that holds it: ``kernels.system.LOAD_FAMILIES``).
+    kind = "friction"
+
 
 @dataclass(frozen=True)
 class JointTorque:
@@ -655,6 +694,14 @@ class JointTorque:
     function: object
     span: Span | None = None
 
+    #: The load kind (the kernel family that holds it: ``kernels.system.LOAD_FAMILIES``).
+    kind = "joint_torque"
+
+    @property
+    def functions(self) -> tuple:
+        """Its function (of time, or of time and the state)."""
+        return (self.function,)
+
 
 @dataclass(frozen=True)
 class PointForce:
@@ -665,6 +712,14 @@ class PointForce:
     fx: TimeFunction
     fy: TimeFunction
     span: Span | None = None
+
+    #: The load kind (the kernel family that holds it: ``kernels.system.LOAD_FAMILIES``).
+    kind = "point_force"
+
+    @property
+    def functions(self) -> tuple:
+        """Its functions of time (fx, fy)."""
+        return (self.fx, self.fy)
 
 
 @dataclass(frozen=True)

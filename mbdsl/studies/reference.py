@@ -228,7 +228,7 @@ def _springs_stay_apart(system, ref, t_end) -> bool:
     least SPRING_MARGIN of that length apart over the reference's trajectory
     (sampled at SPRING_SAMPLES times): no spring passes through zero length,
     the only event of a model without contacts and limits."""
-    _, springs = system.flipping_springs
+    springs = system.flipping_springs
     lengths = {f.name: getattr(f, "length", 0.0) for f in system.model.forces}
     free = np.array([lengths[name] for _, name in springs])
     index = [i for i, _ in springs]

@@ -27,7 +27,7 @@ import numpy as np
 
 from types import SimpleNamespace
 
-from mbdsl.assembly.groups import PointSet
+from mbdsl.assembly.points import PointSet
 from mbdsl.model.elements import line_columns
 
 __all__ = ["ConstraintOracle", "groups_of", "line_distance"]

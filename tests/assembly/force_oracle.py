@@ -6,8 +6,8 @@ of the package: mbdsl evaluates its loads with the kernels only.
 
 Each group's *local* arrays over the c coordinates it touches (columns
 ``cols`` (k, c) into q_ext = [q, 0, 0, 0]) are scattered into dense ones:
-Q (k, c), Q_q and Q_v (k, c, c). The equations are the groups' notes
-(``mbdsl.assembly.groups``): spring-dampers, rotational spring-dampers,
+Q (k, c), Q_q and Q_v (k, c, c). The groups are the test's own reading of
+the model (``load_groups``), and the equations their notes: spring-dampers, rotational spring-dampers,
 torques, loads of the state, point forces, friction in joints (Andersson,
 Soderberg & Bjorklund 2007, eq. (8)); contacts (``contact_oracle``) and
 flexible beams (``ffr_oracle``) by their own oracles. A point's position and
@@ -20,12 +20,12 @@ import numpy as np
 
 from mbdsl.assembly.contact import ContactGroup
 from mbdsl.assembly.ffr import FlexibleBeamGroup
-from mbdsl.assembly.groups import (FrictionGroup, PointForceGroup, RotationalSpringGroup,
-                                   SpringDamperGroup, StateTorqueGroup, TorqueGroup)
 
 from ..contact.contact_oracle import ContactOracle
 from ..flexible.ffr_oracle import BeamOracle
 from .constraint_oracle import SystemOracle, _pair, _point_hess, _point_jac, line_distance
+from .load_groups import (FrictionGroup, PointForceGroup, RotationalSpringGroup,
+                          SpringDamperGroup, StateTorqueGroup, TorqueGroup, load_groups)
 
 __all__ = ["ForceOracle"]
 
@@ -241,6 +241,15 @@ class ForceOracle(SystemOracle):
     """Q, its derivatives, the loads' energy and power of an
     ``AssembledSystem``'s force groups, dense."""
 
+    @property
+    def groups(self) -> list:
+        """The model's loads as groups (``load_groups``), then the system's
+        contact group and flexible beams."""
+        if getattr(self, "_groups", None) is None:
+            contact = [self.system.contact_group] if self.system.contact_group is not None else []
+            self._groups = load_groups(self.system) + contact + list(self.system.flexible_groups)
+        return self._groups
+
     def _local(self, g, qx, vx, t, lam, slip=None):
         """Local Q of group g."""
         if isinstance(g, SpringDamperGroup):
@@ -284,7 +293,7 @@ class ForceOracle(SystemOracle):
         out = np.zeros(self.nx)
         if self.system.gravity_force is not None:
             out[: self.n] += self.system.gravity_force
-        for g in self.system.force_groups:
+        for g in self.groups:
             np.add.at(out, g.cols, self._local(g, qx, vx, t, lam, slip))
         return out[: self.n]
 
@@ -292,7 +301,7 @@ class ForceOracle(SystemOracle):
         """(Q_q, Q_v), each (n, n)."""
         qx, vx = self._ext(q), self._ext(v)
         Qq, Qv = np.zeros((self.nx, self.nx)), np.zeros((self.nx, self.nx))
-        for g in self.system.force_groups:
+        for g in self.groups:
             blocks = self._local_derivatives(g, qx, vx, t, lam)
             if blocks is None:
                 continue
@@ -307,7 +316,7 @@ class ForceOracle(SystemOracle):
         """dQ/dlambda (n, m) of friction."""
         qx, vx = self._ext(q), self._ext(v)
         out = np.zeros((self.nx, self.m))
-        for g in self.system.multiplier_groups:
+        for g in [g for g in self.groups if isinstance(g, FrictionGroup)]:
             for i in range(len(g.lines)):
                 cols, w, _, z, _ = _friction_kinematics(g, i, qx, vx)
                 _, _, dl = friction_law(g, i, z, lam[g.rows[i]])
@@ -318,7 +327,7 @@ class ForceOracle(SystemOracle):
         """Gravity, spring, rotational spring, contact and beam energy [J]."""
         qx = self._ext(q)
         e = 0.0 if self.system.gravity_force is None else -float(q @ self.system.gravity_force)
-        for g in self.system.force_groups:
+        for g in self.groups:
             if isinstance(g, SpringDamperGroup):
                 e += spring_energy(g, qx)
             elif isinstance(g, RotationalSpringGroup):
@@ -335,7 +344,7 @@ class ForceOracle(SystemOracle):
         out); ``speeds`` (k,) the contacts' impact speeds."""
         qx, vx = self._ext(q), self._ext(v)
         p_in = p_diss = 0.0
-        for g in self.system.force_groups:
+        for g in self.groups:
             if isinstance(g, (TorqueGroup, StateTorqueGroup, PointForceGroup)):
                 p_in += float(np.sum(self._local(g, qx, vx, t, lam) * vx[g.cols]))
             elif isinstance(g, SpringDamperGroup):
@@ -353,14 +362,14 @@ class ForceOracle(SystemOracle):
 
     def spring_separations(self, q):
         """d = p2 - p1 per spring-damper, shape (k, 2)."""
-        for g in self.system.force_groups:
+        for g in self.groups:
             if isinstance(g, SpringDamperGroup):
                 return _pair(g, self._ext(q))[1]
         return np.zeros((0, 2))
 
     def friction_speeds(self, q, v, a=None):
         """z per friction joint, or its rate with accelerations a."""
-        g = self.system.multiplier_groups[0]
+        g = next(g for g in self.groups if isinstance(g, FrictionGroup))
         return friction_speeds(g, self._ext(q), self._ext(v), None if a is None else self._ext(a))
 
     def gaps(self, qx):

@@ -64,7 +64,10 @@ def test_model_declares_every_element_type(system):
     assert kinds == {"revolute", "prismatic", "point_on_line", "fixed"}
     assert {d.kind for d in system.model.drivers} == {"coordinate", "joint_angle",
                                                       "joint_distance"}
-    assert len(system.force_groups) == 5      # the torques of the state are a group of their own
+    # a load of every kind but friction and contact (their own tests)
+    assert {f.kind for f in system.model.forces} == {"spring", "rotational", "torque",
+                                                    "point_force", "joint_torque",
+                                                    "state_torque"}
     assert system.m == 2 + 2 + 1 + 3 + 1 + 2 + 2 + 1
 
 

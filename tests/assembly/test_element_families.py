@@ -61,6 +61,31 @@ def test_packing_round_trips(path):
         assert np.array_equal(again[name], fields[name]), name
 
 
+def test_the_load_families_hold_every_load_kind_once():
+    """Each load kind of the language is packed by exactly one family of
+    ``kernels/loads`` (``LOADS``), and every family packs and says its
+    derivatives' pattern."""
+    from mbdsl.kernels.system import LOAD_FAMILIES
+    kinds = [k for family in LOAD_FAMILIES for k in family.LOADS]
+    assert len(kinds) == len(set(kinds))
+    assert all(callable(f.pack) and callable(f.pattern) for f in LOAD_FAMILIES)
+    assert {m.split(".")[-1] for m in LOADS} == {f.__name__.split(".")[-1] for f in LOAD_FAMILIES}
+    found = set()
+    for path in [*VALID.glob("*.mbd"), *MODELS.glob("*.mbd")]:
+        found |= {f.kind for f in mbdsl.load(path).forces}
+    assert found == set(kinds)
+
+
+def test_a_load_kind_no_family_holds_is_refused_by_name():
+    from dataclasses import replace
+    from types import SimpleNamespace
+    model = mbdsl.load(VALID / "all_elements.mbd")
+    gear = SimpleNamespace(kind="gear", name="G1", functions=())
+    system = mbdsl.assemble(replace(model, forces=model.forces + (gear,)))
+    with pytest.raises(ValueError, match="'G1' \\(gear\\).*LOADS"):
+        system.kernel_model()
+
+
 def _state(path, seed):
     system = mbdsl.assemble(mbdsl.load(path))
     cm = CompiledModel(system, kernels=uncompiled_kernels())

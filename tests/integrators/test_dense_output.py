@@ -244,7 +244,7 @@ def test_the_interpolant_is_exact_on_a_cubic_and_the_last_time_is_kept():
     short of (steps of 1e-12 s) gets the last state."""
     from types import SimpleNamespace
     from mbdsl.integrators.dense import DenseOutput
-    system = SimpleNamespace(m=1, force_groups=[], driver_functions=())
+    system = SimpleNamespace(m=1, has_loads=False, driver_functions=())
     start = SimpleNamespace(t=0.0, q=np.zeros(1), v=np.zeros(1), a=np.zeros(1),
                             lam=np.zeros(1), extra={})
     times = np.array([0.05, 0.3, 0.55, 0.8, 1.0])

@@ -802,7 +802,7 @@ force T: torque(b, {expr})
     system = mbdsl.assemble(mbdsl.load_text(text, file="<f>"))
     cm = CompiledModel(system)
     q = v = np.zeros(3)
-    fn = system.force_groups[0].functions[0]
+    fn = system.model.forces[0].function
     for t in (0.0, 0.5, 1.0, 2.5):
         out = np.empty(3)
         compiled.force_term(cm.ints, cm.floats, t, q, v, np.zeros(0), out, np.zeros(6),

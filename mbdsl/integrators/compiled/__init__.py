@@ -57,7 +57,7 @@ from ...kernels.schema import (_0, _HEADER, MODEL_FIELDS, MODEL_SCHEMA, _jit,  #
 from ...kernels.system import (C_PHI, C_PHI_T, C_PHI_TT, C_PHIQ, C_PHIQ_Y,  # noqa: F401
                                 C_PHIQ_Y_Q, C_PHIQT_Y, C_PHIQT_Y_Q, L_ENERGY, L_GAPS, L_POWER,
                                 L_Q, L_QLAM, L_QQ, L_QV, L_SENSORS, L_SLIP, L_SPRINGS,
-                                JOINT_FAMILIES, SENSOR_FRICTION, SENSOR_GAP, SENSOR_SPRING,
+                                JOINT_FAMILIES, LOAD_FAMILIES, SENSOR_FRICTION, SENSOR_GAP, SENSOR_SPRING,
                                 elements, forces, joint_hook, phi, triplet_bound)
 from .index1 import (INDEX1_LIMIT, _index1_acceleration, _index1_multipliers,  # noqa: F401
                      _index1_multipliers_band, _mobility)

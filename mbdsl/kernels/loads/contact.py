@@ -33,8 +33,62 @@ FORCE_TRIPLETS = 36
 SPEED_FLOOR = 1e-3
 if SPEED_FLOOR != _CONTACT_SPEED_FLOOR:     # pragma: no cover (a developer's error)
     raise ImportError("compiled.SPEED_FLOOR differs from model.contact.SPEED_FLOOR")
-#: gap kinds (KGI's first column), as ``assembly.packing.PackedModel`` writes them
+#: gap kinds (KGI's first column), as ``pack`` writes them
 GAP_LINE, GAP_SLIDE, GAP_ANGLE, GAP_CIRCLE = 0, 1, 2, 3
+#: The loads it holds (``model.contact.Contact.kind``: contacts and joint limits).
+LOADS = ("contact", "limit")
+
+
+def pack(items, tables) -> dict:
+    """Its fields from the system's contact group (its gaps, one instance
+    each, built from ``items``: ``assembly.contact.ContactGroup``, which
+    also holds the contact state the time loop changes).
+
+    Parameters
+    ----------
+    items : list of Contact
+        The model's contacts and limits, in its order.
+    tables : packing context
+        ``line_row`` and the system's ``contact_group``
+        (``assembly.packing.PackingContext``).
+
+    Returns
+    -------
+    dict
+        KGI (kind, line row), KCOL the six columns, KPAR (offset, sign, s1,
+        s2, n0, r, K, n, chi, mu, v_reg), KIMP the impact speeds in force.
+    """
+    group = tables.system.contact_group
+    kgi, kpar = [], []
+    for i, (geometry, data) in enumerate(group.geometry):
+        s1 = s2 = n0 = (0.0, 0.0)
+        r, row = 0.0, -1
+        if geometry == "line":          # (body L, s_L, body P, s_P, n0, r)
+            kind, row, off, sign = GAP_LINE, tables.line_row(tuple(data[:5])), data[5], 1.0
+            s1, s2, n0, r = data[1], data[3], data[4], data[5]
+        elif geometry == "slide":       # (body L, s_L, body P, s_P, u0, bound, sign)
+            kind, row, off, sign = GAP_SLIDE, tables.line_row(tuple(data[:5])), data[5], data[6]
+        elif geometry == "angle":       # (body 1, None, body 2, None, bound, sign)
+            kind, off, sign = GAP_ANGLE, data[4], data[5]
+        elif geometry == "circle":      # (body C, s_C, body P, s_P, clearance, r)
+            kind, off, sign = GAP_CIRCLE, data[4], 1.0
+            s1, s2, r = data[1], data[3], data[5]
+        else:                           # pragma: no cover (model.contact lists four)
+            raise ValueError(f"no kernel for the gap geometry {geometry!r}")
+        kgi.append((kind, row))
+        kpar.append((off, sign, *s1, *s2, *n0, r, group.k_[i], group.n_[i], group.chi[i],
+                     group.mu[i], group.v_reg[i]))
+    return {"kgi": np.array(kgi, np.int64).reshape(-1, 2),
+            "kcol": group.cols.astype(np.int64).reshape(-1, 6),
+            "kpar": np.array(kpar, np.float64).reshape(-1, 14),
+            "kimp": group.impact_speed.astype(np.float64)}
+
+
+def pattern(items, tables) -> tuple:
+    """(the six columns of each gap, (k, 6); whether any gap is damped or has
+    friction)."""
+    group = tables.system.contact_group
+    return group.cols.astype(np.int64).reshape(-1, 6), group.damped
 
 
 @_jit

@@ -1,10 +1,39 @@
-"""Friction in joints: tau = -N mu(z) tanh(z / v_reg) - c z along w.
+"""Coulomb friction in joints, from each joint's own reaction.
 
-z the joint's relative speed (an angle's rate or a sliding speed along
-``geometry._line``), N the normal force from the joint's multipliers, so Q
-reads lambda and Q_lambda sits beside Phi_q^T in the Newton matrix
-(``assembly.groups.FrictionGroup``; a regularised Coulomb law with a
-Stribeck curve).
+A friction load tau acts along the joint's motion coordinate z with
+direction w: in a revolute joint z is the relative rate omega_2 - omega_1
+and w = e_phi2 - e_phi1 (a torque, +tau on the second body, -tau on the
+first); in a prismatic or point_on_line joint z is the sliding speed ds/dt
+and w = grad s (a force along the line, ``geometry._line``). The law is the
+regularised Coulomb-Stribeck law of Andersson, Soderberg & Bjorklund (2007),
+eq. (8), with a viscous term:
+
+    tau = -N mu(z) tanh(z / v_reg) - c z,
+    mu(z) = mu_k + (mu_s - mu_k) exp(-(z / v_s)^2)
+
+with N the normal load, from the joint's multipliers lambda_J: r |lambda_J|
+for a revolute (r the pin radius: the friction torque of a pin pressed with
+the reaction |lambda_J|), |lambda_J| for a sliding joint (its normal row's
+multiplier is the normal force: the row's normal is a unit vector). So Q
+reads lambda, and Q_lambda sits beside Phi_q^T in the Newton matrix.
+tanh(z/v_reg) replaces sign(z): a joint under a load below mu N "sticks" at
+the creep speed z = v_reg atanh(load / (mu N)), below 2 v_reg for a load
+below 0.96 mu N.
+
+Derivatives (exact, for the Newton matrix):
+
+    Q = tau w,  Q_q = tau dw/dq + w (dtau/dz) (dz/dq),
+    Q_v = w (dtau/dz) w^T,  Q_lambda = w (dtau/dlambda_J)^T
+
+with dz/dq = (d^2 s) v for a sliding joint (0 for a revolute) and
+dtau/dlambda_J = -mu(z) tanh(z/v_reg) dN/dlambda_J, dN/dlambda_J = r
+lambda_J/|lambda_J| (0 at |lambda_J| = 0, the subgradient). Units: v_s,
+v_reg in m/s (sliding) or rad/s (revolute); c in N s/m or N m s/rad; r in m
+(1 for a sliding joint).
+
+Andersson, Soderberg & Bjorklund (2007), "Friction models for sliding dry,
+boundary and fluid lubricated contacts", Tribology International 40,
+580-587.
 
 Fields: FRI (k, 5) (+column, -column, line row or -1, first multiplier row,
 rows), FRP (k, 6) the law's parameters.
@@ -24,12 +53,67 @@ FIELDS = ("fri", "frp")
 #: Newton-matrix triplets per instance of a force block: Q_q and Q_v over a sliding line's 6
 #: columns (and 12 of Q_lambda).
 FORCE_TRIPLETS = 36
+#: The loads it holds (``model.elements.Friction.kind``).
+LOADS = ("friction",)
+
+
+def _reaction_rows(f, tables) -> list:
+    """The rows of lambda that carry a friction joint's normal reaction: a
+    revolute's two, a sliding joint's normal row."""
+    r0 = tables.system.joint_rows[f.joint.name]
+    return [r0, r0 + 1] if f.joint.kind == "revolute" else [r0]
+
+
+def pack(items, tables) -> dict:
+    """Its fields from the model's friction elements.
+
+    Parameters
+    ----------
+    items : list of Friction
+        The model's friction elements, in its order.
+    tables : packing context
+        ``cmap``, ``line_row`` and the system's ``joint_rows``
+        (``assembly.packing.PackingContext``).
+
+    Returns
+    -------
+    dict
+        FRI per joint (+column, -column, line row or -1, first reaction row,
+        rows), FRP the law's (mu_k, mu_s, v_s, c, v_reg, r).
+    """
+    ground_phi, fri = tables.n + 2, []
+    for f in items:
+        rows = _reaction_rows(f, tables)
+        j = f.joint
+        if j.kind == "revolute":
+            a, b = (int(c) for c in tables.cmap([j.second.body, j.first.body])[:, 2])
+            fri.append((a, b, -1, rows[0], len(rows)))
+        else:
+            fri.append((ground_phi, ground_phi, tables.line_row(j.line), rows[0], len(rows)))
+    frp = [(f.mu, f.mu_static, f.v_stribeck, f.viscous, f.v_reg, f.radius) for f in items]
+    return {"fri": np.array(fri, np.int64).reshape(-1, 5),
+            "frp": np.array(frp, np.float64).reshape(-1, 6)}
+
+
+def pattern(items, tables) -> tuple:
+    """(columns (k, c) whose Q_q, Q_v entries friction fills: a revolute's two
+    angles, a sliding line's six; True: it is damped)."""
+    per = [[int(c) for c in tables.cmap([f.joint.second.body, f.joint.first.body])[:, 2]]
+           if f.joint.kind == "revolute" else tables.line_columns(f.joint.line)
+           for f in items]
+    return tables.padded(per), True
+
+
+def multiplier_pattern(items, tables) -> tuple:
+    """(columns (k, c), rows of lambda per instance): where Q_lambda may be
+    nonzero, each instance's columns times its reaction rows."""
+    return pattern(items, tables)[0], [_reaction_rows(f, tables) for f in items]
 
 
 @_jit
 def _friction_law(I, Fl, i, z, lam, slip):
     """(tau, dtau/dz, dtau/dN_raw, R) of friction instance i at joint speed z,
-    the law of the ``FrictionGroup`` notes, with R = |lambda_J| (N = r R).
+    the law of the module notes, with R = |lambda_J| (N = r R).
     dtau/dlambda_J = dtau/dN_raw lambda_J / R (0 at R = 0). ``slip`` (k,),
     read where it is not NaN, replaces tanh(z/v_reg) (and mu(z) by mu_s):
     the Coulomb limit at rest of the initial conditions; empty: the law."""
@@ -79,7 +163,7 @@ def _friction_col(I, i, g, a):
 @_jit
 def _emit_friction(I, Fl, n, qx, vx, lam, R, C, V, p, r0, c0, cq, cv):
     """Friction's -(cq Q_q + cv Q_v) at (r0, c0): Q_q = tau d^2 s + w dtau/dz
-    (d^2 s v)^T, Q_v = w dtau/dz w^T (``FrictionGroup`` notes)."""
+    (d^2 s v)^T, Q_v = w dtau/dz w^T (the module notes)."""
     w, H = np.empty(6), np.empty((6, 6))
     Hv = np.empty(6)
     for i in range(_rows(I, FRI)):
@@ -109,7 +193,7 @@ def _emit_friction(I, Fl, n, qx, vx, lam, R, C, V, p, r0, c0, cq, cv):
 @_jit
 def _emit_friction_lam(I, Fl, n, qx, vx, lam, R, C, V, p, r0, c0, coef):
     """-coef Q_lambda at (r0, c0), Q_lambda = w (dtau/dlambda_J)^T over the
-    joint's reaction rows (``FrictionGroup`` notes)."""
+    joint's reaction rows (the module notes)."""
     w, H = np.empty(6), np.empty((6, 6))
     for i in range(_rows(I, FRI)):
         z, g = _friction_kin(I, Fl, i, qx, vx, w, H)

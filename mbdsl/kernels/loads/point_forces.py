@@ -8,6 +8,8 @@ constant), FEL (k, 2) elastic spans.
 
 from __future__ import annotations
 
+import numpy as np
+
 from ..geometry import _Au, _eshape, _span
 from ..programs import _eval
 from ..schema import ECOL, FCOL, FEL, FF, FFN, FS, _f, _i, _inline, _jit, _put, _rows
@@ -17,6 +19,41 @@ FIELDS = ("fcol", "fs", "fF", "ffn", "fel")
 #: Newton-matrix triplets per instance of a force block: the body angle's diagonal (a point on a
 #: beam: ``triplet_bound``).
 FORCE_TRIPLETS = 1
+#: The loads it holds (``model.elements.PointForce.kind``).
+LOADS = ("point_force",)
+
+
+def pack(items, tables) -> dict:
+    """Its fields from the model's point forces: a constant component as its
+    value, one of time as its program.
+
+    Parameters
+    ----------
+    items : list of PointForce
+        The model's point forces, in its order.
+    tables : packing context
+        ``points``, ``elastic_spans``, ``timed`` and ``program``
+        (``assembly.packing.PackingContext``).
+
+    Returns
+    -------
+    dict
+        field name -> array, as ``schema.MODEL_SCHEMA`` declares them.
+    """
+    points = [f.point for f in items]
+    tables.elastic_spans("fel", points)
+    fcol, fs = tables.points(points)
+    timed = tables.timed
+    fF = [[0.0 if timed(c) else c.f(0.0) for c in (f.fx, f.fy)] for f in items]
+    ffn = [[tables.program(c.expr) if timed(c) else -1 for c in (f.fx, f.fy)] for f in items]
+    return {"fcol": fcol, "fs": fs, "fF": np.array(fF, np.float64).reshape(-1, 2),
+            "ffn": np.array(ffn, np.int64).reshape(-1, 2)}
+
+
+def pattern(items, tables) -> tuple:
+    """(columns (k, c) whose Q_q entries a point force may fill: its body's
+    and, on a flexible beam, its elastic coordinates; False: none damped)."""
+    return tables.point_columns([f.point for f in items]), False
 
 
 @_jit

@@ -1,7 +1,8 @@
 """Spring-damper-actuators between two points: Q = -D^T (f e), f = k (l - l0) + c ldot.
 
-d = p2 - p1, l = |d|, e = d / l, D = dd/dq; Q_q and Q_v as in
-``assembly.groups.SpringDamperGroup`` (Haug, sec. 6.3; Nikravesh, sec. 4.9).
+d = p2 - p1, l = |d|, e = d / l, ldot = e . d', D = dd/dq: Q = -D^T (f e),
+Q_q by the chain rule through e, l, ldot and the Hessians of d, Q_v = -c (D^T
+e)(D^T e)^T (Haug, sec. 6.3; Nikravesh, sec. 4.9).
 A spring of free length 0 between coincident points has no direction; the
 time loop lands a step there as an event and holds the direction
 (``_free_length``, docs/contact.md). Points on flexible beams add their
@@ -26,6 +27,40 @@ FIELDS = ("scol1", "ss1", "scol2", "ss2", "spar", "sel")
 #: Newton-matrix triplets per instance of a force block: a 6 x 6 block over both bodies' columns (a
 #: point on a beam: ``triplet_bound``).
 FORCE_TRIPLETS = 36
+#: The loads it holds (``model.elements.SpringDamper.kind``).
+LOADS = ("spring",)
+
+
+def pack(items, tables) -> dict:
+    """Its fields from the model's spring-dampers.
+
+    Parameters
+    ----------
+    items : list of SpringDamper
+        The model's spring-dampers, in its order.
+    tables : packing context
+        ``points`` and ``elastic_spans`` (``assembly.packing.PackingContext``).
+
+    Returns
+    -------
+    dict
+        field name -> array; SPAR's held direction starts at zero (none held:
+        the physical law), the time loop writes it (``_free_length``).
+    """
+    first, second = [s.first for s in items], [s.second for s in items]
+    tables.elastic_spans("sel", first, second)
+    scol1, ss1 = tables.points(first)
+    scol2, ss2 = tables.points(second)
+    spar = np.array([(s.k, s.c, s.length, 0.0, 0.0) for s in items], np.float64).reshape(-1, 5)
+    return {"scol1": scol1, "ss1": ss1, "scol2": scol2, "ss2": ss2, "spar": spar}
+
+
+def pattern(items, tables) -> tuple:
+    """(columns (k, c) in q_ext whose Q_q, Q_v entries a spring may fill: both
+    points' bodies and elastic coordinates; whether any is damped)."""
+    cols = np.concatenate([tables.point_columns([s.first for s in items]),
+                           tables.point_columns([s.second for s in items])], axis=1)
+    return cols, any(s.c != 0.0 for s in items)
 
 
 @_jit
@@ -155,7 +190,7 @@ def _springs_add(I, Fl, qx, vx, out):
 @_jit
 def _emit_spring_elastic(I, Fl, n, qx, vx, i, R, C, V, p, r0, c0, cq, cv):
     """-(cq Q_q + cv Q_v) at (r0, c0) of spring-damper i with a point on a
-    flexible beam (``SpringDamperGroup`` notes) over its local columns:
+    flexible beam (the module notes) over its local columns:
     x, y, phi of both bodies, then the elastic terms of each point (u = s +
     S q_e). With D = dd/dq_local and Hd = d^2 d/dq_local^2 (d^2 p/dphi^2 = -A u,
     d^2 p/dphi dq_k = B S_k; Shabana, sec. 5.3): Q_q = -D^T d(f e)/dq - (f e)
@@ -240,7 +275,7 @@ def _spring_energy(I, Fl, qx, i):
 
 @_inline
 def emit_force(I, Fl, n, qx, vx, R, C, V, p, r0, c0, cq, cv):
-    """-(cq Q_q + cv Q_v) of the spring-dampers at (r0, c0) (``SpringDamperGroup``'s
+    """-(cq Q_q + cv Q_v) of the spring-dampers at (r0, c0) (the module
     notes; a point on a flexible beam: ``_emit_spring_elastic``); returns p."""
     if _rows(I, SCOL1) == 0:
         return p

@@ -25,6 +25,69 @@ FIELDS = ("stq", "sdv")
 #: Newton-matrix triplets per instance of a force block: per load and per partial derivative (SDV):
 #: a 6 x 6 block.
 FORCE_TRIPLETS = 36
+#: The loads it holds (``model.elements``: ``Torque.kind`` of a torque that reads
+#: the motion, ``JointTorque.kind``, ``JointForce.kind``).
+LOADS = ("state_torque", "joint_torque", "joint_force")
+
+
+def _direction(f, cmap) -> tuple:
+    """(+column, -column, line) of a load: the angles of the bodies tau acts
+    on with + and - (a joint's second and first body, or one body and the
+    ground's phi), or the ground's and a sliding joint's line."""
+    if f.kind == "joint_force":
+        return None, None, f.joint.line
+    plus, minus = (f.joint.second.body, f.joint.first.body) if f.kind == "joint_torque" \
+        else (f.body, -1)
+    a, b = (int(c) for c in cmap([plus, minus])[:, 2])
+    return a, b, None
+
+
+def pack(items, tables) -> dict:
+    """Its fields from the model's loads of the state: per load the program of
+    tau(t, x) on the state variables it reads, where it acts, and the
+    programs of its partial derivatives dtau/dx_k.
+
+    Parameters
+    ----------
+    items : list of Torque, JointTorque or JointForce
+        The model's loads of the kinds of ``LOADS``, in its order.
+    tables : packing context
+        ``variable_rows``, ``value_program``, ``program`` and ``line_row``
+        (``assembly.packing.PackingContext``).
+
+    Returns
+    -------
+    dict
+        field name -> array, as ``schema.MODEL_SCHEMA`` declares them.
+    """
+    ground_phi = tables.n + 2
+    stq, sdv = [], []
+    for f in items:
+        names = tables.variable_rows(f.function)
+        program = tables.value_program(f.function, names)
+        a, b, line = _direction(f, tables.cmap)
+        stq.append((program, a, b, -1) if line is None
+                   else (program, ground_phi, ground_phi, tables.line_row(line)))
+        fn = f.function
+        for v, ge in zip(getattr(fn, "variables", ()), getattr(fn, "grad_exprs", ())):
+            sdv.append((len(stq) - 1, names[v.name], tables.program(ge, names)))
+    return {"stq": np.array(stq, np.int64).reshape(-1, 4),
+            "sdv": np.array(sdv, np.int64).reshape(-1, 3)}
+
+
+def pattern(items, tables) -> tuple:
+    """(columns (k, c) whose Q_q, Q_v entries a load may fill: those of its
+    direction (two angles, or a line's six), then those its state variables
+    read; whether any reads a rate)."""
+    cmap, per, damped = tables.cmap, [], False
+    for f in items:
+        a, b, line = _direction(f, cmap)
+        cols = [a, b] if line is None else tables.line_columns(line)
+        for var in getattr(f.function, "variables", ()):
+            cols += var.columns(cmap)
+            damped = damped or var.level == 1
+        per.append(list(dict.fromkeys(cols)))
+    return tables.padded(per), damped
 
 
 @_inline

@@ -8,6 +8,8 @@ program.
 
 from __future__ import annotations
 
+import numpy as np
+
 from ..programs import _eval
 from ..schema import RCOL, RPAR, TCOL, TFN, _f, _i, _inline, _jit, _put, _rows
 
@@ -16,6 +18,54 @@ FIELDS = ("rcol", "rpar", "tcol", "tfn")
 #: Newton-matrix triplets per instance of a force block: a rotational spring-damper's 2 x 2 block
 #: (torques of time have none).
 FORCE_TRIPLETS = 4
+#: The loads it holds (``model.elements.RotationalSpringDamper.kind``, ``Torque.kind``).
+LOADS = ("rotational", "torque")
+
+
+def pack(items, tables) -> dict:
+    """Its fields from the model's rotational spring-dampers and torques of
+    time (a constant torque as the program of its value: the power it puts
+    in is that of the loads of ``system._inputs_add``).
+
+    Parameters
+    ----------
+    items : list of RotationalSpringDamper or Torque
+        The model's loads of the kinds of ``LOADS``, in its order.
+    tables : packing context
+        ``cmap`` and ``value_program`` (``assembly.packing.PackingContext``).
+
+    Returns
+    -------
+    dict
+        field name -> array, as ``schema.MODEL_SCHEMA`` declares them.
+    """
+    springs = [s for s in items if s.kind == "rotational"]
+    torques = [f for f in items if f.kind == "torque"]
+    out = {}
+    if springs:
+        out["rcol"] = _angles(springs, tables)
+        out["rpar"] = np.array([(s.k, s.c, s.angle) for s in springs], np.float64)
+    if torques:
+        out["tcol"] = tables.cmap([f.body for f in torques])[:, 2].astype(np.int64)
+        out["tfn"] = np.array([tables.value_program(f.function) for f in torques], np.int64)
+    return out
+
+
+def _angles(springs, tables) -> np.ndarray:
+    """Columns (phi1, phi2) of the rotational springs' joints' bodies, (k, 2)."""
+    return np.stack([tables.cmap([s.joint.first.body for s in springs])[:, 2],
+                     tables.cmap([s.joint.second.body for s in springs])[:, 2]],
+                    axis=1).astype(np.int64)
+
+
+def pattern(items, tables) -> tuple:
+    """(columns (k, 2) whose Q_q, Q_v entries a rotational spring fills, its
+    two angles; whether any is damped), or None (torques of time only: no
+    derivative)."""
+    springs = [s for s in items if s.kind == "rotational"]
+    if not springs:
+        return None
+    return _angles(springs, tables), any(s.c != 0.0 for s in springs)
 
 
 @_jit

@@ -1,107 +1,67 @@
-"""Load groups: every instance of one applied load type at once.
+"""The applied loads as structs of arrays, built from the model for the
+oracle (``force_oracle``): every instance of one load type at once, with its
+columns ``cols`` (k, c) into q_ext = [q, 0, 0, 0] (the ground's three zeros
+last). The package packs its loads from the model by its kernel families
+(``mbdsl/kernels/loads``); these are the test's own reading of the same
+model, so that the kernels are checked against data they did not pack.
 
-Each group stores its instances as a struct of arrays (body columns,
-body-fixed vectors, parameters) built once: the model data
-``packing.PackedModel`` packs for the kernels. A group (columns ``cols``
-(k, c) into the extended coordinate vector q_ext = [q, 0, 0, 0], where the
-three trailing zeros are the ground) holds data only, and states its
-element's equations: the kernels of ``mbdsl/kernels`` are the one evaluation
-of Q and its derivatives (``AssembledSystem.Q`` and the functions after it),
-and ``tests/assembly/force_oracle.py`` an independent numpy one they are
-tested against. The joints and drivers have no group: their kernel families
-pack them from the model (``kernels/joints``). All formulas are in absolute planar
-coordinates (Haug, Computer-Aided Kinematics and Dynamics of Mechanical
-Systems, ch. 3; Nikravesh, Computer-Aided Analysis of Mechanical Systems,
-ch. 4): A(phi) is the rotation matrix, B(phi) = dA/dphi, and
-d^2(A s)/dphi^2 = -A s.
-
-Shapes: k instances, r rows per instance, c local coordinates.
+The equations each group's docstring states are the oracle's; the kernels'
+modules state the same ones.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["rot", "drot", "body_columns", "PointSet", "SpringDamperGroup", "RotationalSpringGroup",
-           "TorqueGroup", "StateTorqueGroup", "PointForceGroup", "FrictionGroup"]
+from mbdsl.assembly.points import PointSet, body_columns
+from mbdsl.model.elements import GROUND, JointForce, JointTorque
+
+__all__ = ["load_groups", "SpringDamperGroup", "RotationalSpringGroup", "TorqueGroup",
+           "StateTorqueGroup", "PointForceGroup", "FrictionGroup"]
 
 
-def rot(phi: np.ndarray, s: np.ndarray) -> np.ndarray:
-    """A(phi) s for arrays: phi shape (..., k), s shape (k, 2) or (..., k, 2)
-    -> (..., k, 2). Leading axes are rows of a stored solution (evaluated
-    all at once for its derived columns); the integrators pass one row."""
-    c, si = np.cos(phi), np.sin(phi)
-    out = np.empty(np.shape(phi) + (2,))
-    out[..., 0] = c * s[..., 0] - si * s[..., 1]
-    out[..., 1] = si * s[..., 0] + c * s[..., 1]
+def load_groups(system) -> list:
+    """The groups of the system's model's loads (contacts and flexible beams
+    aside: the system's own groups), in the kernels' order."""
+    cmap, forces = system.cmap, system.model.forces
+    kinds = lambda *k: [f for f in forces if f.kind in k]     # noqa: E731
+    out = []
+    springs = kinds("spring")
+    if springs:
+        out.append(SpringDamperGroup(cmap, [s.first for s in springs], [s.second for s in springs],
+                                     [s.k for s in springs], [s.c for s in springs],
+                                     [s.length for s in springs]))
+    rsprings = kinds("rotational")
+    if rsprings:
+        out.append(RotationalSpringGroup(
+            cmap, [s.joint.first.body for s in rsprings], [s.joint.second.body for s in rsprings],
+            [s.k for s in rsprings], [s.c for s in rsprings], [s.angle for s in rsprings]))
+    torques = kinds("torque")
+    if torques:
+        out.append(TorqueGroup(cmap, [f.body for f in torques], [f.function for f in torques]))
+    state = kinds("state_torque", "joint_torque", "joint_force")
+    if state:
+        out.append(StateTorqueGroup(
+            cmap, [f.joint.second.body if isinstance(f, JointTorque) else getattr(f, "body", GROUND)
+                   for f in state],
+            [f.joint.first.body if isinstance(f, JointTorque) else GROUND for f in state],
+            [f.function for f in state],
+            [f.joint.line if isinstance(f, JointForce) else None for f in state]))
+    pforces = kinds("point_force")
+    if pforces:
+        out.append(PointForceGroup(cmap, [f.point for f in pforces], [f.fx for f in pforces],
+                                   [f.fy for f in pforces]))
+    frictions = kinds("friction")
+    if frictions:
+        def rows(j):
+            r0 = system.joint_rows[j.name]
+            return [r0, r0 + 1] if j.kind == "revolute" else [r0]
+        out.append(FrictionGroup(
+            cmap, [f.joint.second.body for f in frictions], [f.joint.first.body for f in frictions],
+            [None if f.joint.kind == "revolute" else f.joint.line for f in frictions],
+            [rows(f.joint) for f in frictions],
+            [(f.mu, f.mu_static, f.v_stribeck, f.viscous, f.v_reg, f.radius) for f in frictions]))
     return out
-
-
-def drot(phi: np.ndarray, s: np.ndarray) -> np.ndarray:
-    """B(phi) s = dA/dphi s, shapes as for :func:`rot`."""
-    c, si = np.cos(phi), np.sin(phi)
-    out = np.empty(np.shape(phi) + (2,))
-    out[..., 0] = -si * s[..., 0] - c * s[..., 1]
-    out[..., 1] = c * s[..., 0] - si * s[..., 1]
-    return out
-
-
-def body_columns(cmap, bodies) -> np.ndarray:
-    """Columns (x, y, phi) in q_ext of body indices (ground = -1 -> n..n+2; a
-    particle's phi -> n+2), shape (k, 3), from the model's
-    :class:`~mbdsl.model.elements.CoordinateMap`."""
-    return cmap(bodies)
-
-
-class PointSet:
-    """k points, one per instance, on rigid bodies, flexible beams or the ground.
-
-    A point is at r + A(phi) u with u = s + S q_e: s its body-fixed (or
-    undeformed) position, S the columns of a flexible beam's shape matrix
-    for the e elastic coordinates q_e it depends on (none on a rigid body).
-    Local coordinates per instance: (x, y, phi, q_e), with e padded to the
-    largest count in the set by the ground's dummy column (q_ext = 0 there)
-    and zero shape entries. Rigid-only sets have e = 0 and cost what the
-    rigid formulas cost.
-
-    * position: r + A u                                   (k, 2)
-    * jacobian: [I, B u, A S]                             (k, 2, 3 + e)
-    * Hessian:  d2/dphi2 = -A u, d2/dphi dq_e = B S       (k, 2, 3 + e, 3 + e)
-
-    (the jacobian and Hessian are the kernels', ``kernels.geometry._Au`` and the
-    elastic terms of the joints and loads)
-
-    (Shabana, Dynamics of Multibody Systems, sec. 5.3: the position of an
-    arbitrary point of a deformable body in the floating frame.)
-    """
-
-    def __init__(self, cmap, points):
-        n = cmap.n
-        points = list(points)
-        #: the points (``model.elements.PointRef``), for the kernels' packing
-        self.refs = points
-        k = len(points)
-        self.e = max((len(p.elastic_columns) for p in points), default=0)
-        self.c = 3 + self.e
-        ecols = np.full((k, self.e), n, dtype=np.intp)
-        self.S = np.zeros((k, 2, self.e))
-        for i, p in enumerate(points):      # build time only
-            ne = len(p.elastic_columns)
-            ecols[i, :ne] = p.elastic_columns
-            self.S[i, :, :ne] = p.elastic_shape
-        self.cols = np.concatenate([body_columns(cmap, [p.body for p in points]), ecols], axis=1)
-        self.s = np.array([p.local for p in points], dtype=float).reshape(-1, 2)
-        self.flexible = self.e > 0
-
-    def local(self, q) -> np.ndarray:
-        """u = s + S q_e in the body frame, shape (k, 2), from local coordinates q (k, c)."""
-        if not self.flexible:
-            return self.s
-        return self.s + np.einsum("kaj,...kj->...ka", self.S, q[..., 3:])
-
-    def position(self, q) -> np.ndarray:
-        """Global positions, shape (..., k, 2) for q of shape (..., k, c)."""
-        return q[..., 0:2] + rot(q[..., 2], self.local(q))
 
 
 class _PointPair:
@@ -138,9 +98,6 @@ class SpringDamperGroup:
         self.pair = _PointPair(cmap, first, second)
         self.cols = self.pair.cols
         self.k, self.c, self.l0 = (np.asarray(x, float) for x in (k, c, length))
-        #: the direction held while a step is landed on a pass of the points
-        #: (``kernels.loads.spring_damper._free_length``), (k, 2); zeros: none, the physical law
-        self.held = np.zeros((len(self.k), 2))
         self.damped = bool(np.any(self.c != 0.0))
 
 
@@ -204,7 +161,7 @@ class StateTorqueGroup:
 
     def __init__(self, cmap, plus, minus, functions, lines=None):
         n = cmap.n
-        from ..model.elements import line_columns
+        from mbdsl.model.elements import line_columns
         self.cmap = cmap
         self.functions = list(functions)
         self.lines = list(lines) if lines is not None else [None] * len(self.functions)
@@ -307,7 +264,7 @@ class FrictionGroup:
 
     def __init__(self, cmap, plus, minus, lines, rows, params):
         n = cmap.n
-        from ..model.elements import line_columns
+        from mbdsl.model.elements import line_columns
         self.n, self.cmap, self.lines = n, cmap, list(lines)
         ground_phi = n + 2
         per = []
