@@ -66,7 +66,7 @@ class PackedModel:
         d["mass"] = system.mass_diag.astype(np.float64)
         d["mrig"] = np.zeros(n)
         d["mrig"][system._rigid_cols] = system.mass_diag[system._rigid_cols]
-        d.update(_beam_fields(system))
+        d.update(K.pack_beams(system.flexible_groups))
         d["Q0"] = Q0
         d["row_element"] = system.layout.row_element.astype(np.int64)
         d["n_elements"] = int(system.layout.n_elements)
@@ -320,41 +320,3 @@ def _load_fields(system, tables, families) -> dict:
             raise ValueError(f"no kernel family holds the load '{f.name}' ({f.kind}): "
                              "its kind is missing from every LOADS of kernels/loads")
     return d
-
-
-def _beam_fields(system) -> dict:
-    """The flexible beams' model data (``compiled``, "Flexible beams"): per
-    beam (first entry in bcol, nf, first float in bdat, elements with
-    geometric stiffening, first entry in bdof, elastic coordinates per
-    element), its columns, its shape integrals, each element's strain data
-    on its own elastic coordinates, and gravity."""
-    beam, bcol, bdat, bdof, grav = [], [], [], [], np.zeros(0)
-    for g in system.flexible_groups:
-        if g.gravity is not None:
-            grav = np.asarray(g.gravity, dtype=float)
-        for k in range(len(g.beams)):
-            ne = int(g.Bu.shape[1]) if g.stiffening[k] else 0
-            start = sum(len(x) for x in bdat)
-            parts = [np.atleast_1d(g.m[k]), g.s0[k], np.atleast_1d(g.I0[k]), g.S_bar[k].ravel(),
-                     g.a_u[k], g.a_I[k], g.M_ff[k].ravel(), g.S_tilde[k].ravel(), g.K[k].ravel()]
-            dofs = []
-            if ne:            # each element's coordinates: where its Bu or G is nonzero
-                Bu, G = g.Bu[k], g.G[k]
-                dofs = [np.flatnonzero((Bu[e] != 0) | (np.abs(G[e]).sum(0) != 0)
-                                       | (np.abs(G[e]).sum(1) != 0)) for e in range(ne)]
-            dm = max((len(d) for d in dofs), default=0)
-            beam.append((len(bcol), g.nf, start, ne, len(bdof), dm))
-            bcol.extend(int(c) for c in g.cols[k])
-            if ne:
-                idx = np.zeros((ne, dm), np.int64)
-                Bu_e, G_e = np.zeros((ne, dm)), np.zeros((ne, dm, dm))
-                for e, d in enumerate(dofs):
-                    idx[e, :len(d)] = d
-                    Bu_e[e, :len(d)] = Bu[e, d]
-                    G_e[e, :len(d), :len(d)] = G[e][np.ix_(d, d)]
-                parts += [g.kEA[k], Bu_e.ravel(), G_e.ravel()]
-                bdof.extend(int(x) for x in idx.ravel())
-            bdat.append(np.concatenate([np.asarray(x, dtype=float).ravel() for x in parts]))
-    return {"beam": np.array(beam, np.int64).reshape(-1, 6),
-            "bcol": np.array(bcol, np.int64), "bdof": np.array(bdof, np.int64),
-            "bdat": np.concatenate(bdat) if bdat else np.zeros(0), "grav": grav}

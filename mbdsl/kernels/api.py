@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from .beams.ffr import (FFR_DQ, FFR_M, FFR_MXQ, FFR_Q, _ffr_local,  # noqa: F401
                         beam_blocks, beam_energies)
+from .beams.ffr import pack as pack_beams  # noqa: F401
 from .loads.contact import GAP_ANGLE, GAP_CIRCLE, GAP_LINE, GAP_SLIDE  # noqa: F401
 from .schema import _0, _HEADER, MODEL_FIELDS, MODEL_SCHEMA, pack, unpack  # noqa: F401
 from .system import (C_PHI, C_PHI_T, C_PHI_TT, C_PHIQ, C_PHIQ_Y, C_PHIQ_Y_Q,  # noqa: F401

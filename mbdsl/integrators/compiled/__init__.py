@@ -51,6 +51,7 @@ from mbdsl.integrators.outcomes import CONVERGED, NONFINITE, SINGULAR  # noqa: F
 
 from ...kernels.beams.ffr import (FFR_DQ, FFR_M, FFR_MXQ, FFR_Q, _ffr_local,  # noqa: F401
                                   beam_blocks, beam_energies)
+from ...kernels.beams.ffr import pack as pack_beams  # noqa: F401
 from ...kernels.loads.contact import GAP_ANGLE, GAP_CIRCLE, GAP_LINE, GAP_SLIDE  # noqa: F401
 from ...kernels.schema import (_0, _HEADER, MODEL_FIELDS, MODEL_SCHEMA, _jit,  # noqa: F401
                                pack, unpack)

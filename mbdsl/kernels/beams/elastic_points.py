@@ -19,8 +19,8 @@ import numpy as np
 
 from ..geometry import _eshape, _span
 from ..joints.point_on_line import _pol
-from ..schema import (CCOL1, CCOL2, CEL, CROW, ECOL, PCOLL, PCOLP, PEL, PROW, _i, _jit, _put,
-                      _put_phiq, _rows)
+from ..schema import (CCOL1, CCOL2, CEL, CROW, ECOL, PCOLL, PCOLP, PEL, PROW, _i, _inline, _jit,
+                      _put, _put_phiq, _rows)
 
 #: Its fields in ``schema.MODEL_SCHEMA``: the elastic terms of points on beams (column, S_k);
 #: each element's spans into them are the element's own fields (CEL, PEL, SEL, FEL, DSP).
@@ -66,32 +66,61 @@ def _scalar_row_terms(I, Fl, qx, col1, col2, el, i, row, nx, ny, rows, cols, val
     return p
 
 
+# The entries of the elastic columns of Phi_q as triplets (row, column, value), each
+# family's gradient (this module's ``_elastic_grad``, the distance joint's own) written
+# into the buffers of ``grad_buffers`` and applied by the three functions after it:
+# the gradient is their argument as arrays, not as a function (numba caches no
+# function that takes a function, nor any of its callers up to the time loop).
+@_inline
+def grad_buffers(I):
+    """(rows, cols, vals) for the elastic entries of Phi_q: two per elastic term."""
+    k = 2 * _rows(I, ECOL)
+    return np.empty(k, np.int64), np.empty(k, np.int64), np.empty(k)
+
+
+@_inline
+def apply_phiqT(rows, cols, vals, count, lam, coef, out):
+    """out += coef Phi_q^T lambda over the first ``count`` triplets."""
+    for e in range(count):
+        out[cols[e]] += coef * lam[rows[e]] * vals[e]
+
+
+@_inline
+def apply_phiq(rows, cols, vals, count, vx, out):
+    """out += Phi_q v over the first ``count`` triplets."""
+    for e in range(count):
+        out[rows[e]] += vals[e] * vx[cols[e]]
+
+
+@_inline
+def put_grad(rows, cols, vals, count, R, C, V, p, r0, c0, coef, transpose):
+    """The first ``count`` triplets times coef at (r0, c0) (transposed: of
+    Phi_q^T); returns p."""
+    for e in range(count):
+        p = _put_phiq(R, C, V, p, r0, c0, rows[e], cols[e], coef * vals[e], transpose)
+    return p
+
+
 @_jit
 def _elastic_phiqT_add(I, Fl, qx, lam, coef, out):
     """out += coef Phi_q^T lambda in the elastic columns."""
-    k = 2 * _rows(I, ECOL)
-    rows, cols, vals = np.empty(k, np.int64), np.empty(k, np.int64), np.empty(k)
-    for e in range(_elastic_grad(I, Fl, qx, rows, cols, vals)):
-        out[cols[e]] += coef * lam[rows[e]] * vals[e]
+    rows, cols, vals = grad_buffers(I)
+    apply_phiqT(rows, cols, vals, _elastic_grad(I, Fl, qx, rows, cols, vals), lam, coef, out)
 
 
 @_jit
 def _elastic_phiq_times(I, Fl, qx, vx, out):
     """out += Phi_q v of the elastic columns."""
-    k = 2 * _rows(I, ECOL)
-    rows, cols, vals = np.empty(k, np.int64), np.empty(k, np.int64), np.empty(k)
-    for e in range(_elastic_grad(I, Fl, qx, rows, cols, vals)):
-        out[rows[e]] += vals[e] * vx[cols[e]]
+    rows, cols, vals = grad_buffers(I)
+    apply_phiq(rows, cols, vals, _elastic_grad(I, Fl, qx, rows, cols, vals), vx, out)
 
 
 @_jit
 def _emit_elastic_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose):
     """The elastic columns of coef Phi_q at (r0, c0) (or of Phi_q^T)."""
-    k = 2 * _rows(I, ECOL)
-    rows, cols, vals = np.empty(k, np.int64), np.empty(k, np.int64), np.empty(k)
-    for e in range(_elastic_grad(I, Fl, qx, rows, cols, vals)):
-        p = _put_phiq(R, C, V, p, r0, c0, rows[e], cols[e], coef * vals[e], transpose)
-    return p
+    rows, cols, vals = grad_buffers(I)
+    return put_grad(rows, cols, vals, _elastic_grad(I, Fl, qx, rows, cols, vals), R, C, V, p,
+                    r0, c0, coef, transpose)
 
 
 @_jit

@@ -24,7 +24,8 @@ import math
 
 import numpy as np
 
-from ..beams.elastic_points import _scalar_row_terms
+from ..beams.elastic_points import (_scalar_row_terms, apply_phiq, apply_phiqT, grad_buffers,
+                                    put_grad)
 from ..geometry import _Au, _eshape, _span
 from ..schema import (DCOL1, DCOL2, DLEN, DROW, DS1, DS2, DSP, ECOL, _f, _i, _inline, _jit, _put,
                       _put_phiq, _rows)
@@ -299,11 +300,8 @@ def emit_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef):
 
 # --------------------------------------------------------------------------------------------
 # Points on flexible beams: the entries of the elastic columns (u = s + S q_e), emitted
-# after the other joints' (``system``: the order of every aggregate). The three functions
-# that apply the gradient's entries repeat ``beams.elastic_points``' over their own
-# ``_elastic_grad``: a kernel passed as an argument would serve both, but numba does not
-# cache a function that takes one, nor any caller up to the time loop (measured: the
-# build warned "cannot cache ... dynamic globals" for every caller of such a function).
+# after the other joints' (``system``: the order of every aggregate); the gradient's
+# triplets are applied by ``beams.elastic_points``' appliers.
 # --------------------------------------------------------------------------------------------
 
 
@@ -326,10 +324,8 @@ def elastic_phiqT_add(I, Fl, qx, lam, coef, out):
     """out += coef Phi_q^T lambda in the elastic columns of the distance rows."""
     if _rows(I, DSP) == 0:
         return
-    k = 2 * _rows(I, ECOL)
-    rows, cols, vals = np.empty(k, np.int64), np.empty(k, np.int64), np.empty(k)
-    for e in range(_elastic_grad(I, Fl, qx, rows, cols, vals)):
-        out[cols[e]] += coef * lam[rows[e]] * vals[e]
+    rows, cols, vals = grad_buffers(I)
+    apply_phiqT(rows, cols, vals, _elastic_grad(I, Fl, qx, rows, cols, vals), lam, coef, out)
 
 
 @_jit
@@ -337,10 +333,8 @@ def elastic_phiq_times(I, Fl, qx, vx, out):
     """out += Phi_q v of the distance rows' elastic columns."""
     if _rows(I, DSP) == 0:
         return
-    k = 2 * _rows(I, ECOL)
-    rows, cols, vals = np.empty(k, np.int64), np.empty(k, np.int64), np.empty(k)
-    for e in range(_elastic_grad(I, Fl, qx, rows, cols, vals)):
-        out[rows[e]] += vals[e] * vx[cols[e]]
+    rows, cols, vals = grad_buffers(I)
+    apply_phiq(rows, cols, vals, _elastic_grad(I, Fl, qx, rows, cols, vals), vx, out)
 
 
 @_jit
@@ -349,11 +343,9 @@ def emit_elastic_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose):
     Phi_q^T)."""
     if _rows(I, DSP) == 0:
         return p
-    k = 2 * _rows(I, ECOL)
-    rows, cols, vals = np.empty(k, np.int64), np.empty(k, np.int64), np.empty(k)
-    for e in range(_elastic_grad(I, Fl, qx, rows, cols, vals)):
-        p = _put_phiq(R, C, V, p, r0, c0, rows[e], cols[e], coef * vals[e], transpose)
-    return p
+    rows, cols, vals = grad_buffers(I)
+    return put_grad(rows, cols, vals, _elastic_grad(I, Fl, qx, rows, cols, vals), R, C, V, p,
+                    r0, c0, coef, transpose)
 
 
 @_jit
