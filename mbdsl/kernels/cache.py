@@ -15,6 +15,7 @@ numba's version and the host CPU (:func:`kernels_ready`).
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import importlib
 import json
@@ -121,9 +122,19 @@ def source_digest() -> str:
     they import from the rest of mbdsl (:func:`imported_values`) and of the
     warm-up that says which of them a build compiles (hex, 64 digits). It
     changes with any change of the numba code, and nothing else; results
-    that record it (``docs/studies``) say which engine computed them."""
+    that record it (``docs/studies``) say which engine computed them.
+
+    Computed once per process and package root: reading and scanning the
+    sources costs 3.4 ms, which every assembled system paid when it asked
+    whether the kernels are built (a sweep assembles one per point), and a
+    process runs the kernels it imported, whatever the files say later."""
+    return _digest(package_root())
+
+
+@functools.lru_cache(maxsize=None)
+def _digest(root: Path) -> str:
+    """:func:`source_digest` of the package under ``root``."""
     digest = hashlib.sha256()
-    root = package_root()
     sources = {path: path.read_bytes() for path in kernel_sources()}
     for path in list(sources) + [root / "mbdsl" / name for name in _BUILD_FILES]:
         text = sources[path] if path in sources else path.read_bytes()
