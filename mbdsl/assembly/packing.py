@@ -117,13 +117,9 @@ class PackingContext:
     def point_columns(self, refs) -> np.ndarray:
         """Columns in q_ext of each point's body (x, y, phi) and of the elastic
         coordinates it moves with on a flexible beam, shape (k, 3 + e), e the
-        most any point has, the rest the ground's phi (n + 2, outside q)."""
-        body = self.cmap([p.body for p in refs]).astype(np.int64).reshape(-1, 3)
-        e = max((len(p.elastic_columns) for p in refs), default=0)
-        elastic = np.full((len(refs), e), self.n + 2, np.int64)
-        for i, p in enumerate(refs):
-            elastic[i, :len(p.elastic_columns)] = p.elastic_columns
-        return np.concatenate([body, elastic], axis=1)
+        most any point has, the rest outside q (``points.PointSet.cols``)."""
+        from .points import PointSet
+        return PointSet(self.cmap, refs).cols.astype(np.int64)
 
     def line_columns(self, line) -> list:
         """Columns in q_ext (x, y, phi of the line's body, then of the sliding

@@ -147,6 +147,8 @@ class AssembledSystem:
             self.gravity_force = Qg
         self._load_groups(model)
         rc = self._rigid_cols
+        #: (rows, cols) of the diagonal of (n, n)
+        self.pattern_diagonal = (np.arange(self.n), np.arange(self.n))
         self.pattern_mass = _concat_pattern([rc] + [g.pattern[0] for g in self.flexible_groups],
                                             [rc] + [g.pattern[1] for g in self.flexible_groups])
 
@@ -241,11 +243,6 @@ class AssembledSystem:
         """Whether a declared load depends on v (a damper, friction, a rate a
         load reads, a contact's damping, a flexible beam)."""
         return self._load_patterns()["has_Q_v"]
-
-    @property
-    def pattern_diagonal(self):
-        """(rows, cols) of the diagonal of (n, n)."""
-        return (np.arange(self.n), np.arange(self.n))
 
     # -- kernels ------------------------------------------------------------------
     #: Which kernels evaluate this system outside the compiled loop: "auto" (see

@@ -533,8 +533,9 @@ class Joint:
         ``direction`` and the first point sliding on it, as
         :func:`line_distance` reads it (hashable: shared by every load that
         uses it)."""
-        return (self.second.body, tuple(self.second.local), self.first.body,
-                tuple(self.first.local), tuple(self.direction))
+        return (self.second.body, tuple(float(x) for x in self.second.local), self.first.body,
+                tuple(float(x) for x in self.first.local),
+                tuple(float(x) for x in self.direction))
 
 
 @dataclass(frozen=True)

@@ -346,10 +346,7 @@ class CheckContext:
                 raise ExprError(f"'{ref.text if ref is not None else joint.name}': the joint "
                                 "holds a flexible beam (its distance is read on rigid bodies "
                                 "only)", "E304", ref.span if ref is not None else joint.span)
-        first, second = joint.first, joint.second
-        return (second.body, tuple(float(x) for x in second.local), first.body,
-                tuple(float(x) for x in first.local),
-                tuple(float(x) for x in joint.direction))
+        return joint.line
 
     def joint_argument(self, arg, f, ctx) -> Joint | None:
         """The joint a force names as its first argument; None after reporting
