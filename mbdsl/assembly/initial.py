@@ -26,7 +26,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-import math
 import warnings
 
 import numpy as np
@@ -34,12 +33,11 @@ import scipy
 
 from ..gcpause import paused
 from ..errors import AssemblyError, Diagnostic
-from ..model import graph
-from ..model.elements import GROUND
 from .sparse import DENSE_LIMIT, issparse
 from .structure import (RANK_LIMIT, StructureReport, analyse_structure,
                         friction_on_redundant_joints, joint_miss, miss_diagnosis,
                         redundancy_diagnostics)
+from .placement import place_bodies
 from .system import AssembledSystem
 
 __all__ = ["InitialState", "consistent_initial_state", "place_bodies"]
@@ -126,79 +124,6 @@ class InitialState:
                 text += " (" + "; ".join(self.placements) + "; a 'guess' picks another start)"
             lines.append("  solved for: " + text)
         return "\n".join(lines)
-
-
-def place_bodies(system: AssembledSystem, t0: float = 0.0, notes: list | None = None) -> np.ndarray:
-    """Initial guess of q from the spanning tree of the joint graph, shape (n,).
-
-    Each body is placed so that its tree joint holds: a revolute, fixed or
-    sliding joint's two points coincide; a joint whose family says where its
-    far point starts (``start_point``, ``kernels.system.joint_hook``: a
-    distance joint's at its length along gravity, along -y without gravity,
-    or on its circle at a given x or y) puts it there, and what was chosen is
-    appended to ``notes`` (strings for the "solved for" line) when given.
-    """
-    model = system.model
-    g = np.asarray(model.gravity, float) if model.gravity is not None else np.zeros(2)
-    down, along = ((g / np.linalg.norm(g), "gravity") if np.linalg.norm(g) > 0.0
-                   else (np.array([0.0, -1.0]), "-y"))
-    K = system.kernel_model().K
-    cmap = system.cmap
-    q = np.zeros(system.n + 3)          # extended: ground (and particles' phi) at n..n+2 stay 0
-    given = {}
-    for ic in model.initials:
-        if not ic.is_velocity:
-            given[(ic.body, ic.field)] = ic.value
-    coordinate_drivers = {(d.body, ("x", "y", "phi")[d.coord]): d.function.f(t0)
-                          for d in model.drivers if d.kind == "coordinate"}
-    angle_drivers = {d.joint.name: d.function.f(t0) for d in model.drivers
-                     if d.kind == "joint_angle"}
-    given.update(coordinate_drivers)
-    placed = {GROUND}
-
-    # body by body along the tree, in scalars (numpy's per-call overhead on (2,)
-    # arrays was most of the set-up of a 100 000-link chain)
-    def _angle(b):
-        return 0.0 if b == GROUND else float(q[cmap.column(b, 2)])
-
-    def _turned(phi, local):
-        c, s = math.cos(phi), math.sin(phi)
-        return np.array([c * local[0] - s * local[1], s * local[0] + c * local[1]])
-
-    def _point(ref):
-        if ref.body == GROUND:
-            return ref.local
-        cx, cy = cmap.column(ref.body, 0), cmap.column(ref.body, 1)
-        return np.array([q[cx], q[cy]]) + _turned(_angle(ref.body), ref.local)
-
-    for parent, child, joint in graph.spanning_tree_edges(model):
-        phi = given.get((child, "phi"))
-        if phi is None and joint is not None:
-            sign = 1.0 if joint.second.body == child else -1.0
-            if joint.name in angle_drivers:
-                phi = _angle(parent) + sign * angle_drivers[joint.name]
-            elif joint.kind in ("fixed", "prismatic"):
-                phi = _angle(parent) + sign * joint.angle
-        cx, cy, cp = (cmap.column(child, k) for k in range(3))
-        if cp < system.n:                   # a particle does not turn
-            q[cp] = phi if phi is not None else 0.0
-        if joint is not None:
-            mine, theirs = ((joint.second, joint.first) if joint.second.body == child
-                            else (joint.first, joint.second))
-            target = _point(theirs)
-            offset = _turned(float(q[cp]), mine.local)
-            start = K.joint_hook(joint.kind, "start_point")
-            if start is not None:
-                target, how = start(joint, target, offset, down, along,
-                                    given.get((child, "x")), given.get((child, "y")))
-                if how and notes is not None:
-                    notes.append(f"'{joint.name}' placed {how}")
-            q[[cx, cy]] = target - offset
-        for k, name in enumerate(("x", "y")):
-            if (child, name) in given:
-                q[(cx, cy)[k]] = given[(child, name)]
-        placed.add(child)
-    return q[:system.n]
 
 
 def _min_norm_step(J, r):

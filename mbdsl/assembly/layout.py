@@ -37,7 +37,7 @@ class Layout:
         self.accelerations = model.acceleration_names()
         self.rows = model.constraint_names()
         self._spans = {j.name: j.span for j in model.joints}
-        self._spans.update({d.name: d.span for d in model.drivers})
+        self._spans.update({d.name: d.span for d in model.drivers + model.couplers})
         self.element_rows: dict[str, list[int]] = {}
         for i, (name, _) in enumerate(self.rows):
             self.element_rows.setdefault(name, []).append(i)

@@ -59,7 +59,7 @@ class PackedModel:
         d = {name: np.zeros((0, columns) if columns else 0,
                             np.int64 if kind == "i" else np.float64)
              for name, kind, columns in K.MODEL_SCHEMA}
-        tables = PackingContext(system)
+        tables = PackingContext(system, K)
         d.update(_joint_fields(system, tables, K.JOINT_FAMILIES))
         d.update(_load_fields(system, tables, K.LOAD_FAMILIES))
         d.update(tables.fields())
@@ -99,9 +99,10 @@ class PackingContext:
         The number of coordinates (the ground's columns are n..n+2).
     """
 
-    def __init__(self, system):
+    def __init__(self, system, kernels=None):
         from ..dsl.expressions import OPCODES
         self.system, self.cmap, self.n = system, system.cmap, system.n
+        self.kernels, self._placed = kernels, None
         self.state_op = OPCODES.index("x")
         self.code, self.consts, self.prog, self.depth = [], [], [], 1
         self.geo, self.geof, self.geo_row = [], [], {}
@@ -120,6 +121,16 @@ class PackingContext:
         most any point has, the rest outside q (``points.PointSet.cols``)."""
         from .points import PointSet
         return PointSet(self.cmap, refs).cols.astype(np.int64)
+
+    def placed(self) -> np.ndarray:
+        """The positions as placed (``placement.place_bodies``, at the model's
+        t_start), extended by the ground's three, shape (n+3,); built once."""
+        if self._placed is None:
+            from .placement import place_bodies
+            t0 = float(self.system.model.settings.get("t_start", 0.0))
+            q = place_bodies(self.system, t0, kernels=self.kernels)
+            self._placed = np.concatenate([q, np.zeros(3)])
+        return self._placed
 
     def line_columns(self, line) -> list:
         """Columns in q_ext (x, y, phi of the line's body, then of the sliding

@@ -112,17 +112,18 @@ class AssembledSystem:
 
     # -- build ------------------------------------------------------------------
     def _build_constraints(self, model):
-        """The joints and drivers: each element's first row of lambda (joints in
-        declaration order, then drivers). Their rows' data are packed from the
+        """The joints, drivers and couplers: each element's first row of lambda
+        (joints in declaration order, then drivers, then couplers). Their rows' data are packed from the
         model by the kernels' joint families (``packing.PackedModel``); their
         sparsity patterns are the kernels' triplets, read once, on first use
         (``_constraint_pattern``)."""
         row = 0
         #: joint name -> its first row of lambda
         self.joint_rows = {}
-        #: (first row of lambda, Joint or Driver) of every constraint element, in row order
+        #: (first row of lambda, Joint, Driver or Coupler) of every constraint element,
+        #: in row order
         self.constraint_elements = []
-        for k, e in enumerate(list(model.joints) + list(model.drivers)):
+        for k, e in enumerate(model.constraint_elements):
             if k < len(model.joints):
                 self.joint_rows[e.name] = row
             self.constraint_elements.append((row, e))

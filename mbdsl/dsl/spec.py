@@ -249,7 +249,9 @@ def _args(args, options) -> tuple:
 
 @dataclass(frozen=True)
 class JointSpec:
-    """``joint NAME: kind(args)``; kinds: revolute, prismatic, point_on_line, fixed."""
+    """``joint NAME: kind(args)``; kinds: revolute, prismatic, point_on_line, fixed,
+    distance, and the couplers between joints gear, rack and coupler (their
+    positional arguments joint names, or a coupler's relation)."""
 
     name: str
     kind: str

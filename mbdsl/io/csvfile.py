@@ -192,7 +192,7 @@ def read_csv_solution(path):
     extra_names = json.loads(meta.get("extras", "[]"))
     rows = [f"{a}.{b}" for a, b in lay.rows]
     derived = {k: values[:, i] for k, i in col.items()
-               if k in Solution.DERIVED_NAMES or k.startswith(("reaction.", "driver.", "output."))}
+               if k in Solution.DERIVED_NAMES or k.startswith(("reaction.", "driver.", "coupler.", "output."))}
     stats = {k: stat(f"newton.{k}", int) for k in Solution.STAT_NAMES[:-1]}
     stats["h"] = stat("step.h", float)
     status, message = meta.get("status", "completed").strip(), meta.get("message", "")

@@ -1,6 +1,6 @@
 """The columns derived from a run's rows: energies and their balance (work
-put in, energy dissipated), constraint norms, joint reactions and driver
-loads, the model's ``output`` expressions and the sensors of its loads.
+put in, energy dissipated), constraint norms, joint reactions, driver and
+coupler loads, the model's ``output`` expressions and the sensors of its loads.
 
 Shapes: N rows, n coordinates, m constraint equations.
 """
@@ -12,8 +12,8 @@ import numpy as np
 from ..assembly.points import PointSet
 from .rows import STAT_NAMES
 
-__all__ = ["DERIVED_NAMES", "energy_flows", "driver_loads", "output_columns", "derived_columns",
-           "result_columns"]
+__all__ = ["DERIVED_NAMES", "energy_flows", "driver_loads", "coupler_loads", "output_columns",
+           "derived_columns", "result_columns"]
 
 
 #: Derived columns every model has, in CSV order (``Solution.DERIVED_NAMES``).
@@ -159,6 +159,25 @@ def driver_loads(system) -> list[tuple[str, int]]:
         row = system.layout.element_rows[d.name][0]
         force = (d.kind == "coordinate" and d.coord < 2) or d.kind == "joint_distance"
         out.append((f"driver.{d.name}.{'force' if force else 'torque'}", int(row)))
+    return out
+
+
+def coupler_loads(system) -> list[tuple[str, int, float]]:
+    """(column, constraint row, factor) of the load every coupler puts on each
+    coordinate it relates: ``coupler.<name>.<variable>.torque`` [N m] on a
+    joint's angle or a body's phi, ``.force`` [N] along a sliding joint's
+    line or a body's x, y; the load is factor * lambda, factor = -a_k, the
+    term's share of -Phi_q^T lambda (``model.elements.Coupler``). A gear
+    G(J1, J2, ratio = n) puts -lambda on J1's second body and n lambda on
+    J2's (and their opposites on the first bodies); a rack R(Jr, Jp, radius
+    = r) the tooth force -lambda along the rack and r lambda on the pinion."""
+    out = []
+    for c in system.model.couplers:
+        row = system.layout.element_rows[c.name][0]
+        for v, a in zip(c.variables, c.coefficients):
+            turning = v.line is None and all(j == 2 for _, j, _ in v.terms)
+            out.append((f"coupler.{c.name}.{v.name}.{'torque' if turning else 'force'}",
+                        int(row), -float(a)))
     return out
 
 
@@ -327,6 +346,8 @@ def derived_columns(system, t, q, v, lam, start=None, end=None, a=None,
             out[f"reaction.{j.name}.{comp}"] = reac[:, k, c]
     for name, row in driver_loads(system):
         out[name] = -lam[:, row]
+    for name, row, factor in coupler_loads(system):
+        out[name] = factor * lam[:, row]
     if system.model.outputs:
         out.update(output_columns(system, t, q, v, a, out, lam=lam, contact_log=contact_log))
     if end is not None:              # for a writer that goes on with the next rows
@@ -342,6 +363,7 @@ def result_columns(system, extra_names=()) -> list[str]:
     extras = [f"{x}.{name}.{k}" for x in extra_names for name, k in lay.rows]
     reactions = [f"reaction.{j.name}.{c}" for j in model.joints for c in ("fx", "fy", "torque")]
     reactions += [name for name, _ in driver_loads(system)]
+    reactions += [name for name, _, _ in coupler_loads(system)]
     reactions += [f"output.{o.name}" for o in model.outputs]
     beams = [f"{b.name}.deflection_mid" for b in model.flexible_bodies]
     return (["t"] + lay.coordinates + lay.velocities + lay.accelerations

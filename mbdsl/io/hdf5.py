@@ -11,8 +11,9 @@ coordinates, m constraint rows)::
     /energies               (N, 6)    kinetic, potential, total, work, dissipated, balance [J]
     /constraints            (N, 2)    max |Phi| [m], max |Phi_q v + Phi_t| [m/s]
     /reactions              (N, 3 J + D)  fx, fy [N], torque [N m] per joint, then the
-                            driver loads driver.<name>.force|torque and the
-                            outputs output.<name>
+                            driver loads driver.<name>.force|torque, the
+                            coupler loads coupler.<name>.<variable>.force|torque
+                            and the outputs output.<name>
     /newton                 (N, 5)    iterations, residuals, jacobians,
                                       factorizations, h of each step
     /model_source           str       the .mbd text (also an attribute)
@@ -100,7 +101,7 @@ def _all_tables(sol, derived) -> list:
             for x in sol.extra_names]
     energies = [k for k in Solution.DERIVED_NAMES if k.startswith("energy.")]
     cons = ["constraint.position", "constraint.velocity"]
-    reac = [k for k in derived if k.startswith(("reaction.", "driver.", "output."))]
+    reac = [k for k in derived if k.startswith(("reaction.", "driver.", "coupler.", "output."))]
     out += [("energies", np.column_stack([derived[k] for k in energies]), energies),
             ("constraints", np.column_stack([derived[k] for k in cons]), cons),
             ("reactions", np.column_stack([derived[k] for k in reac])

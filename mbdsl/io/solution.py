@@ -530,7 +530,7 @@ class Solution:
         from ..dsl import units
         from ..model.elements import multiplier_unit
         lam = {f"lambda.{e.name}.{k}": multiplier_unit(e, k)
-               for e in list(self.model.joints) + list(self.model.drivers)
+               for e in self.model.constraint_elements
                for k in range(getattr(e, "rows", 1))}
         outputs = {f"output.{o.name}": getattr(o, "unit", "") for o in self.model.outputs}
         out = {}

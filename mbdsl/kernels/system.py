@@ -1,7 +1,7 @@
 """The aggregates over the element families, in a fixed order.
 
 Phi, Phi_q^T lambda, Phi_q v (coincidence, point on line, linear rows,
-distance, then the elastic columns of beam points), Q (gravity, springs,
+distance, couplers, then the elastic columns of beam points), Q (gravity, springs,
 rotational springs and torques, point forces, loads of the state, friction,
 contacts, beams), the Newton-matrix emitters of their derivatives, the
 loads' potential energy and power, and :func:`elements`, the evaluations
@@ -18,7 +18,7 @@ from .beams.elastic_points import (_elastic_phiqT_add, _elastic_phiq_times, _emi
                                    _emit_elastic_hess, _emit_elastic_phiq)
 from .beams.ffr import FFR_DQ, FFR_M, _emit_beams, _ffr_energy, _ffr_forces_add
 from .geometry import _direction
-from .joints import coincidence, distance, linear_rows, point_on_line
+from .joints import coincidence, couplers, distance, linear_rows, point_on_line
 from .loads import contact, friction, point_forces, spring_damper, state_loads, torques
 from .loads.contact import (_contact_energy, _contact_friction, _contact_law, _contacts_add,
                             _emit_contacts, _gap)
@@ -27,13 +27,14 @@ from .loads.friction import (_emit_friction, _emit_friction_lam, _friction_col, 
 from .loads.spring_damper import _spring_energy, _spring_points, _spring_rate, _springs_add
 from .loads.torques import _rotational_energy
 from .schema import (BEAM, CROW, DROW, ECOL, FCOL, FEL, FRI, GEO, KCOL, KGI, KPAR, LROW, MASS,
-                     MRIG, PROW, Q0, RCOL, ROW_ELEMENT, RPAR, SCOL1, SDV, SEL, SPAR, STQ, _0, _NO,
+                     MRIG, PROW, Q0, RCOL, ROW_ELEMENT, RPAR, SCOL1, SDV, SEL, SPAR, STQ, XTRM, _0, _NO,
                      _YES, _f, _i, _inline, _jit, _put, _rows)
 
 
 #: The joint families in the order of every aggregate, each with its first field
 #: (whose rows are its instances).
-JOINTS = ((coincidence, CROW), (point_on_line, PROW), (linear_rows, LROW), (distance, DROW))
+JOINTS = ((coincidence, CROW), (point_on_line, PROW), (linear_rows, LROW), (distance, DROW),
+          (couplers, XTRM))
 #: The joint families, in that order: each declares the joints and drivers whose rows
 #: it holds (``ELEMENT_ROWS``) and packs them from the model (``pack``); a family may
 #: also say where the initial conditions' first guess puts a joint's far body
@@ -84,6 +85,7 @@ def phi(I, Fl, t, qx, out):
     point_on_line.phi(I, Fl, t, qx, out)
     linear_rows.phi(I, Fl, t, qx, out)
     distance.phi(I, Fl, t, qx, out)
+    couplers.phi(I, Fl, t, qx, out)
 
 
 @_jit
@@ -93,6 +95,7 @@ def phiqT_add(I, Fl, qx, lam, coef, out):
     point_on_line.phiqT_add(I, Fl, qx, lam, coef, out)
     linear_rows.phiqT_add(I, Fl, qx, lam, coef, out)
     distance.phiqT_add(I, Fl, qx, lam, coef, out)
+    couplers.phiqT_add(I, Fl, qx, lam, coef, out)
     if _rows(I, ECOL) > 0:
         _elastic_phiqT_add(I, Fl, qx, lam, coef, out)
         distance.elastic_phiqT_add(I, Fl, qx, lam, coef, out)
@@ -105,6 +108,7 @@ def phiq_times(I, Fl, qx, vx, out):
     point_on_line.phiq_times(I, Fl, qx, vx, out)
     linear_rows.phiq_times(I, Fl, qx, vx, out)
     distance.phiq_times(I, Fl, qx, vx, out)
+    couplers.phiq_times(I, Fl, qx, vx, out)
     if _rows(I, ECOL) > 0:
         _elastic_phiq_times(I, Fl, qx, vx, out)
         distance.elastic_phiq_times(I, Fl, qx, vx, out)
@@ -164,6 +168,7 @@ def _emit_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose):
     p = point_on_line.emit_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose)
     p = linear_rows.emit_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose)
     p = distance.emit_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose)
+    p = couplers.emit_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose)
     if _rows(I, ECOL) > 0:
         p = _emit_elastic_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose)
         p = distance.emit_elastic_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose)
@@ -177,7 +182,8 @@ def phiq_triplets(I):
     return (coincidence.PHIQ_TRIPLETS * _rows(I, CROW)
             + point_on_line.PHIQ_TRIPLETS * _rows(I, PROW)
             + linear_rows.PHIQ_TRIPLETS * _rows(I, LROW)
-            + distance.PHIQ_TRIPLETS * _rows(I, DROW) + 2 * _rows(I, ECOL))
+            + distance.PHIQ_TRIPLETS * _rows(I, DROW)
+            + couplers.PHIQ_TRIPLETS * _rows(I, XTRM) + 2 * _rows(I, ECOL))
 
 
 @_jit
@@ -186,6 +192,7 @@ def _emit_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef):
     p = coincidence.emit_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef)
     p = point_on_line.emit_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef)
     p = distance.emit_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef)
+    p = couplers.emit_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef)
     if _rows(I, ECOL) > 0:
         p = _emit_elastic_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef)
         p = distance.emit_elastic_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef)
@@ -199,6 +206,7 @@ def _emit_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef):
     p = coincidence.emit_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef)
     p = point_on_line.emit_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef)
     p = distance.emit_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef)
+    p = couplers.emit_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef)
     if _rows(I, ECOL) > 0:
         p = _emit_elastic_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef)
         p = distance.emit_elastic_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef)

@@ -41,7 +41,7 @@ GROUND = -1
 
 __all__ = [
     "GROUND", "RigidBody", "Shape", "FlexibleBeam", "PointRef", "Joint", "Driver", "SpringDamper",
-    "RotationalSpringDamper", "Torque", "JointTorque", "JointForce", "Friction", "PointForce",
+    "RotationalSpringDamper", "Coupler", "Torque", "JointTorque", "JointForce", "Friction", "PointForce",
     "InitialCondition", "line_distance", "line_columns", "CoordinateMap",
     "TimeFunction", "StateVariable", "StateFunction", "Output", "OutputVariable",
     "multiplier_unit", "SENSOR_UNITS", "Model", "COORDINATES", "VELOCITIES", "ACCELERATIONS",
@@ -285,6 +285,9 @@ def multiplier_unit(element, row: int) -> str:
     fixed, point_on_line, distance; a driven x, y or joint distance), N*m
     for one that holds an angle (a fixed joint's third row, a prismatic
     joint's second; a driven phi or joint angle)."""
+    if isinstance(element, Coupler):
+        first = element.variables[0] if element.variables else None
+        return "N" if first is not None and first.line is not None else "N*m"
     if isinstance(element, Driver):
         point = ((element.kind == "coordinate" and element.coord < 2)
                  or element.kind == "joint_distance")
@@ -561,6 +564,74 @@ class Driver:
 
 
 @dataclass(frozen=True)
+class Coupler:
+    """A linear relation between joint coordinates, one constraint row: a gear
+    pair or a belt between two revolute joints' angles, a rack and pinion
+    between a sliding joint's distance and a revolute's angle, or any linear
+    combination of them.
+
+    Phi(q) = sum_k a_k x_k(q) - c = 0, x_k a joint's relative angle
+    (phi2 - phi1, linear in q) or a sliding joint's distance along its line
+    (``line_distance``, not linear). A gear of ratio n between J1 and J2 is
+    theta1 - n theta2 - c (theta1 - theta1_0 = n (theta2 - theta2_0)); a rack
+    of pinion radius r is s - r theta - c (the rack moves r per radian of
+    the pinion). Its multiplier lambda is the load conjugate to the first
+    term: a torque [N m] when it is an angle, a force [N] when a distance;
+    the coupler puts -a_k lambda on coordinate x_k (Haug, sec. 3.4, gears;
+    Shabana, Computational Dynamics, sec. 3.6: a constraint's generalized
+    force is -Phi_q^T lambda).
+
+    Attributes
+    ----------
+    name : str
+    kind : {"gear", "rack", "coupler"}
+    variables : tuple of StateVariable
+        The joint coordinates x_k (position level), in the order written.
+    coefficients : tuple of float
+        a_k, one per variable.
+    value : float or None
+        c; None: the value of sum a_k x_k in the configuration as placed
+        (the model's initial and guess lines, the joints along the tree:
+        ``assembly.placement.place_bodies``), so that teeth mesh as drawn.
+    joints : tuple of str
+        The joints (and bodies) whose coordinates it relates, for messages.
+    span : Span or None
+    rows : int
+        1.
+    """
+
+    name: str
+    kind: str
+    variables: tuple
+    coefficients: tuple
+    value: float | None = None
+    joints: tuple = ()
+    span: Span | None = None
+    rows: int = 1
+
+    @property
+    def bodies(self) -> tuple:
+        """The bodies whose coordinates the relation reads."""
+        out = []
+        for v in self.variables:
+            for b in ([t[0] for t in v.terms] if v.line is None else (v.line[0], v.line[2])):
+                if b not in out:
+                    out.append(b)
+        return tuple(out)
+
+    def placed_value(self, qx, cmap: "CoordinateMap") -> float:
+        """sum_k a_k x_k at qx (q extended by the ground's three, shape
+        (n+3,)): the value c taken as placed."""
+        total = 0.0
+        for a, v in zip(self.coefficients, self.variables):
+            if v.line is not None:
+                total += a * line_distance(v.line, qx, cmap)[0]
+            else:
+                total += a * sum(c * qx[cmap.column(b, j)] for b, j, c in v.terms)
+        return float(total)
+
+
+@dataclass(frozen=True)
 class SpringDamper:
     """Translational spring-damper between two points.
 
@@ -787,6 +858,9 @@ class Model:
         under the declared forces at t_start.
     outputs : tuple of Output
         ``output`` lines: columns ``output.<name>``.
+    couplers : tuple of Coupler
+        Gears, racks and linear couplers between joint coordinates (their
+        rows after the drivers').
     """
 
     name: str
@@ -806,6 +880,7 @@ class Model:
     static: bool = False
     static_span: Span | None = None
     outputs: tuple = ()
+    couplers: tuple = ()
 
     @property
     def n_coordinates(self) -> int:
@@ -826,8 +901,8 @@ class Model:
 
     @property
     def n_constraints(self) -> int:
-        """m, the number of constraint equations (joints and drivers)."""
-        return sum(j.rows for j in self.joints) + len(self.drivers)
+        """m, the number of constraint equations (joints, drivers and couplers)."""
+        return sum(j.rows for j in self.joints) + len(self.drivers) + len(self.couplers)
 
     @property
     def dof(self) -> int:
@@ -861,8 +936,15 @@ class Model:
         return ([f"{b.name}.{c}" for b in self.bodies for c in _fields(b, ACCELERATIONS)]
                 + [f"{b.name}.{c}_tt" for b in self.flexible_bodies for c in b.mesh.names])
 
+    @property
+    def constraint_elements(self) -> tuple:
+        """The elements with constraint rows, in row order: the joints, the
+        drivers, then the couplers."""
+        return tuple(self.joints) + tuple(self.drivers) + tuple(self.couplers)
+
     def constraint_names(self) -> list[tuple[str, int]]:
         """(element name, row within element) for each constraint row, shape (m,)."""
         out = [(j.name, k) for j in self.joints for k in range(j.rows)]
         out += [(d.name, 0) for d in self.drivers]
+        out += [(c.name, 0) for c in self.couplers]
         return out

@@ -408,7 +408,7 @@ def run_study(kind: str, model_path, options: StudyOptions, overrides: dict | No
     _check_quantities(model, options.quantities)
     joint = options.joint or _default_joint(model)
     if "drift" in kinds:
-        names = [j.name for j in model.joints] + [d.name for d in model.drivers]
+        names = [e.name for e in model.constraint_elements]
         if joint not in names:
             raise ValueError(f"no joint '{joint}' for the drift study; the model's joints are "
                              f"{', '.join(names) or '(none)'}")

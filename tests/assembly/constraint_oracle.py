@@ -77,6 +77,7 @@ def groups_of(system, model=None):
             lin.append((row, (phi(d.joint.first.body), phi(d.joint.second.body)), (-1.0, 1.0),
                         0.0, d.function))
         row += 1
+    couplers = [(row + k, c) for k, c in enumerate(model.couplers)]
     groups = []
     if coinc:
         rows, p1, p2 = zip(*coinc)
@@ -98,11 +99,56 @@ def groups_of(system, model=None):
         groups.append(SimpleNamespace(kind="distance", rows=np.array(rows).reshape(-1, 1),
                                       pair=_point_pair(cmap, p1, p2), L=np.array(lengths, float),
                                       functions=[None] * len(rows)))
+    groups += [_coupler_group(system, r, c) for r, c in couplers]
     for g in groups:
-        if g.kind != "linear":
+        if g.kind not in ("linear", "coupler"):
             g.cols = g.pair.cols
         g.time_dependent = any(f is not None for f in g.functions)
     return groups
+
+
+def _coupler_group(system, row, coupler):
+    """One coupler, sum_k a_k x_k - c: its terms' columns side by side (a
+    column two terms share appears twice, summed by the scatter), each term a
+    linear combination of body coordinates or a sliding joint's distance
+    (:func:`line_distance`); c given, or the relation's value at the
+    positions as placed."""
+    from mbdsl.assembly.placement import place_bodies
+    cmap, n = system.cmap, system.n
+    terms, cols = [], []
+    for v, a in zip(coupler.variables, coupler.coefficients):
+        if v.line is not None:
+            c = line_columns(v.line, cmap)
+            terms.append(("line", a, v.line, slice(len(cols), len(cols) + 6)))
+        else:
+            c = [cmap.column(b, j) for b, j, _ in v.terms]
+            terms.append(("linear", a, np.array([w for _, _, w in v.terms]),
+                          slice(len(cols), len(cols) + len(c))))
+        cols += c
+    g = SimpleNamespace(kind="coupler", rows=np.array([[row]]), cols=np.array([cols]),
+                        terms=terms, functions=[None], offset=0.0, cmap=cmap)
+    if coupler.value is not None:
+        g.offset = coupler.value
+    else:
+        qx = np.concatenate([place_bodies(system), np.zeros(3)])
+        g.offset = float(_coupler_local(g, qx)[0][0, 0])
+    return g
+
+
+def _coupler_local(g, qx):
+    """(phi, jac, hess) of a coupler group, as :func:`local` (c excluded)."""
+    c = g.cols.shape[1]
+    phi, jac, hess = 0.0, np.zeros(c), np.zeros((c, c))
+    for kind, a, data, where in g.terms:
+        if kind == "line":
+            s, grad, H = line_distance(data, qx, g.cmap)
+            phi += a * s
+            jac[where] += a * grad
+            hess[where, where] += a * H
+        else:
+            phi += a * float(data @ qx[g.cols[0, where]])
+            jac[where] += a * data
+    return np.array([[phi]]), jac[None, None], hess[None, None]
 
 
 def rot(phi, s):
@@ -173,6 +219,9 @@ def _functions(g, t, which):
 
 def local(g, qx, t):
     """(phi (k, r), jac (k, r, c), hess (k, r, c, c) or None) of one group."""
+    if g.kind == "coupler":
+        phi, jac, hess = _coupler_local(g, qx)
+        return phi - g.offset, jac, hess
     if g.kind == "linear":
         phi = np.einsum("kj,kj->k", g.coefs, qx[g.cols]) - g.offset - _functions(g, t, "f")
         return phi[:, None], g.coefs[:, None, :].copy(), None

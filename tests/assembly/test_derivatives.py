@@ -2,7 +2,8 @@
 
 The model ``all_elements.mbd`` declares every joint, driver and force type;
 ``flexible_elements.mbd`` puts every joint and point force on flexible beams
-(both frames, two beam sizes). Configurations and velocities are random
+(both frames, two beam sizes); ``coupler_elements.mbd`` every coupler (a
+rack on a turning line, joints that share a body). Configurations and velocities are random
 (not consistent: the derivatives are identities in q, v, t). A tolerance of 1e-6 relative catches a wrong
 sign or a missing term, which change entries by O(1).
 """
@@ -18,10 +19,12 @@ from mbdsl.assembly.system import assemble
 VALID = Path(__file__).parents[1] / "dsl" / "valid"
 MODEL = VALID / "all_elements.mbd"
 FLEXIBLE = VALID / "flexible_elements.mbd"
+COUPLERS = VALID / "coupler_elements.mbd"
 EPS = 1e-6
 
 
-@pytest.fixture(scope="module", params=[MODEL, FLEXIBLE], ids=["rigid", "flexible"])
+@pytest.fixture(scope="module", params=[MODEL, FLEXIBLE, COUPLERS],
+                ids=["rigid", "flexible", "couplers"])
 def system(request):
     return assemble(mbdsl.load(request.param))
 
@@ -55,6 +58,9 @@ def states(system, count=4, seed=1):
 
 
 def test_model_declares_every_element_type(system):
+    if system.model.couplers:
+        assert {c.kind for c in system.model.couplers} == {"gear", "rack", "coupler"}
+        return
     if system.model.flexible_bodies:
         assert {j.kind for j in system.model.joints} == {"revolute", "prismatic",
                                                          "point_on_line", "fixed"}

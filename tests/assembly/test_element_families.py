@@ -23,7 +23,8 @@ from ..conftest import MODELS
 VALID = MODELS.parent / "tests" / "dsl" / "valid"
 #: family module -> a model that declares it
 JOINTS = {"coincidence": VALID / "all_elements.mbd", "point_on_line": VALID / "all_elements.mbd",
-          "linear_rows": VALID / "all_elements.mbd", "distance": VALID / "distance_elements.mbd"}
+          "linear_rows": VALID / "all_elements.mbd", "distance": VALID / "distance_elements.mbd",
+          "couplers": VALID / "coupler_elements.mbd"}
 LOADS = {"spring_damper": VALID / "all_elements.mbd", "torques": VALID / "all_elements.mbd",
          "point_forces": VALID / "all_elements.mbd", "state_loads": VALID / "all_elements.mbd",
          "friction": VALID / "friction_elements.mbd",

@@ -71,10 +71,10 @@ def _system(path, **overrides):
 #: Rigid models whose elements the kernels evaluate, with the end time of the
 #: convergence runs: the slider crank, every joint, driver and force kernel
 #: (constant and functions of time), the loads of the state, friction in joints
-#: and distance joints.
+#: distance joints and couplers.
 RIGID = [(MODELS / "slider_crank.mbd", 0.5), (VALID / "compiled_elements.mbd", 0.3),
          (VALID / "all_elements.mbd", 0.3), (VALID / "friction_elements.mbd", 0.3),
-         (VALID / "distance_elements.mbd", 0.3)]
+         (VALID / "distance_elements.mbd", 0.3), (VALID / "coupler_elements.mbd", 0.3)]
 
 
 @pytest.fixture(scope="module")
@@ -258,7 +258,7 @@ def test_band_ordering_of_a_chain_and_the_automatic_choice():
 
 @pytest.mark.parametrize("model", ["compiled_elements.mbd", "all_elements.mbd",
                                    "sliding_elements.mbd", "friction_elements.mbd",
-                                   "distance_elements.mbd"])
+                                   "distance_elements.mbd", "coupler_elements.mbd"])
 @pytest.mark.parametrize("first", [True, False])
 @pytest.mark.parametrize("method", RECIPE_METHODS)
 def test_kernel_newton_matrix_is_the_derivative_of_the_kernel_residual(method, first, model):

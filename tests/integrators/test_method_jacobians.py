@@ -20,6 +20,7 @@ MODELS = {
     "sliding_elements": Path(__file__).parents[1] / "dsl" / "valid" / "sliding_elements.mbd",
     "friction_elements": Path(__file__).parents[1] / "dsl" / "valid" / "friction_elements.mbd",
     "distance_elements": Path(__file__).parents[1] / "dsl" / "valid" / "distance_elements.mbd",
+    "coupler_elements": Path(__file__).parents[1] / "dsl" / "valid" / "coupler_elements.mbd",
     "double_pendulum_stiff": Path(__file__).parents[2] / "models" / "double_pendulum_stiff.mbd",
     "flexible_elements": Path(__file__).parents[1] / "dsl" / "valid" / "flexible_elements.mbd",
     "flexible_slider_crank": Path(__file__).parents[2] / "models" / "flexible_slider_crank.mbd",

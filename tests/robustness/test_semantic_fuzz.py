@@ -3,7 +3,8 @@
 Random trees of bodies and particles hung from the ground by random joints at
 random points, a loop closed by a distance joint at the assembled
 configuration's own length, random spring-dampers, torques, joint torques and
-forces, friction, a floor contact and joint limits, all with physical
+forces, friction, a floor contact, joint limits, gears and racks between
+the joints, all with physical
 parameter ranges; each is checked (``mbdsl.check``) and run for 150 steps
 with a random method and step mode. Every example must satisfy the scene
 matrix's invariants (``tests/matrix/matrix.py``): no traceback, a completed
@@ -106,6 +107,13 @@ def mechanisms(draw):
         lines.append(f"force c0: contact({draw(st.sampled_from(names))}.cm, radius = 0.05, "
                      f"line = (ground.origin, (1, 0)), k = {draw(num(1e4, 1e6)):.3g}, "
                      f"restitution = {draw(num(0.3, 1.0)):.3g})")
+    if len(turning) >= 2 and draw(st.booleans()):
+        j1, j2 = draw(st.permutations(turning))[:2]
+        ratio = draw(num(0.3, 4.0)) * draw(st.sampled_from([-1, 1]))
+        lines.append(f"joint G0: gear({j1}, {j2}, ratio = {ratio:.3g})")
+    if sliding and turning and draw(st.booleans()):
+        lines.append(f"joint R0: rack({draw(st.sampled_from(sliding))}, "
+                     f"{draw(st.sampled_from(turning))}, radius = {draw(num(0.02, 0.3)):.3g})")
     if sliding and draw(st.booleans()):
         lines.append(f"force l0: limit({draw(st.sampled_from(sliding))}, upper = "
                      f"{draw(num(0.1, 0.5)):.3g}, k = 1e5, restitution = 0.5)")

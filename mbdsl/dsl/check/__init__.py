@@ -16,6 +16,7 @@ ground         ``bodies.py``: the ground's points
 bodies         ``bodies.py``: rigid bodies, particles, flexible beams
 gravity        ``forces.py``
 joints         ``joints.py`` (kinds in ``tables.py``)
+couplers       ``couplers.py``: gears, racks, couplers between joints
 drivers        ``drivers.py``
 forces         ``forces.py`` and ``contact.py`` (kinds in ``tables.py``)
 initials       ``initials.py``
@@ -35,6 +36,7 @@ from ...model.elements import Model
 from ..spec import ModelSpec
 from .bodies import check_bodies, check_ground
 from .context import CheckContext, point_ref
+from .couplers import check_couplers
 from .drivers import check_drivers
 from .forces import check_forces, check_gravity
 from .initials import check_initials
@@ -53,7 +55,8 @@ __all__ = ["check_spec", "CheckContext", "PASSES", "JOINT_KINDS", "FORCE_KINDS",
 #: model's gravity vector (or None).
 PASSES = (("parameters", check_parameters), ("loops", expand_loops),
           ("ground", check_ground), ("bodies", check_bodies), ("gravity", check_gravity),
-          ("joints", check_joints), ("drivers", check_drivers), ("forces", check_forces),
+          ("joints", check_joints), ("couplers", check_couplers), ("drivers", check_drivers),
+          ("forces", check_forces),
           ("initials", check_initials), ("outputs", check_outputs),
           ("settings", check_settings))
 
@@ -93,7 +96,8 @@ def check_spec(spec: ModelSpec, overrides: dict | None = None) -> Model:
         gravity=gravity, initials=tuple(c.initials), settings=c.settings,
         parameters=dict(c.params), file=spec.file, source=spec.source,
         sha256=hashlib.sha256(source.encode()).hexdigest() if spec.source else "",
-        static=bool(spec.static), static_span=spec.static_span, outputs=tuple(c.outputs))
+        static=bool(spec.static), static_span=spec.static_span, outputs=tuple(c.outputs),
+        couplers=tuple(c.couplers))
     if not any(d.is_error for d in c.diags):
         check_structure(c, model)
     if any(d.is_error for d in c.diags):

@@ -91,6 +91,7 @@ class CheckContext:
         self.items: dict[str, list] = {}               # the declarations, ``for`` flattened
         self.broken_bodies: set[str] = set()
         self.drivers: list = []
+        self.couplers: list = []
         self.forces: list = []
         self.initials: list = []
         self.outputs: list = []

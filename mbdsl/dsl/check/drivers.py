@@ -1,4 +1,4 @@
-"""Pass 7, drivers: a body coordinate, a revolute's angle or a sliding joint's
+"""Pass 8, drivers: a body coordinate, a revolute's angle or a sliding joint's
 distance prescribed as a function of time. Diagnostics: E201 (an unknown
 target), E202 (driven twice), E307 (a value of the wrong dimension).
 """

@@ -1,4 +1,4 @@
-"""Pass 5 (gravity) and pass 8, loads: spring-dampers, torques, joint forces and
+"""Pass 5 (gravity) and pass 9, loads: spring-dampers, torques, joint forces and
 torques, point forces, friction, joint limits and (``contact.py``) contact;
 force expressions of time and of the motion compiled with their gradients.
 Diagnostics: E205 (unknown kind), E304/E305 (options and arguments), E201 (a
@@ -245,20 +245,10 @@ def force_function(c, expr, span, context, unit=None):
     derivatives; None after reporting. ``unit``: as in :meth:`number`."""
     if not c.dimension(expr, unit, span, context):
         return None
-    found: dict[str, StateVariable] = {}
-
-    def resolve(ref):
-        """The variable's name; records it."""
-        var = state_variable(c, ref)
-        found.setdefault(var.name, var)
-        return var.name
-    try:
-        e = substitute(expr, c.params, resolve)
-    except BrokenReference:
-        return None                 # a reference to a broken element: reported already
-    except ExprError as err:
-        c.expr_error(err, span, context)
+    read = state_expression(c, expr, span, context)
+    if read is None:
         return None
+    e, found = read
     if not found:
         return c.time_function(expr, span, context, unit)
     variables = tuple(found.values())
@@ -271,6 +261,27 @@ def force_function(c, expr, span, context, unit=None):
     return StateFunction(compile_state_function(e, names),
                          tuple(compile_state_function(g, names) for g in grads),
                          variables, expr=e, grad_exprs=grads)
+
+
+def state_expression(c, expr, span, context):
+    """(the expression with the parameters' values substituted and each
+    reference to the motion named, the state variables it reads by name), or
+    None after reporting (silently for a reference to a broken element,
+    reported already)."""
+    found: dict[str, StateVariable] = {}
+
+    def resolve(ref):
+        """The variable's name; records it."""
+        var = state_variable(c, ref)
+        found.setdefault(var.name, var)
+        return var.name
+    try:
+        return substitute(expr, c.params, resolve), found
+    except BrokenReference:
+        return None
+    except ExprError as err:
+        c.expr_error(err, span, context)
+        return None
 
 
 def state_variable(c, ref: Dotted) -> StateVariable:

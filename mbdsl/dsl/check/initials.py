@@ -1,4 +1,4 @@
-"""Pass 9, initial conditions: ``initial`` (held) and ``guess`` (a starting point)
+"""Pass 10, initial conditions: ``initial`` (held) and ``guess`` (a starting point)
 lines on body coordinates and velocities. Diagnostics: E201 (an unknown body),
 E502 (an unknown field, or given twice).
 """

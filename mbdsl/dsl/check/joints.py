@@ -11,15 +11,18 @@ import math
 import numpy as np
 
 from ...model.elements import GROUND, Joint
-from .tables import JOINT_KINDS
+from .tables import COUPLER_KINDS, JOINT_KINDS
 
 
 def check_joints(c):
-    """Resolve joint points and options; reject joints of a body to itself."""
+    """Resolve joint points and options; reject joints of a body to itself.
+    Couplers between joints (``COUPLER_KINDS``) are the next pass's."""
     for j in c.items["joints"]:
+        if j.kind in COUPLER_KINDS:
+            continue
         ok = c.claim(j.name, j.span, "joint")
         ctx = f"joint '{j.name}'"
-        if not c.known_kind(j, JOINT_KINDS, "joint", ctx):
+        if not c.known_kind(j, {**JOINT_KINDS, **COUPLER_KINDS}, "joint", ctx):
             continue
         npos, allowed, rows = JOINT_KINDS[j.kind]
         pos, kw = c.split_args(j, allowed, npos, ctx)

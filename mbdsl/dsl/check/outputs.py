@@ -1,4 +1,4 @@
-"""Pass 10, outputs: each ``output`` expression's references (body and point
+"""Pass 11, outputs: each ``output`` expression's references (body and point
 coordinates, joint reactions, multipliers, sensors of loads, energies) resolved
 to the columns the run writes, and the expression's unit. Diagnostics: E201
 (an unknown reference, with did-you-mean), E202 (a duplicate output), E304 (an

@@ -1,4 +1,4 @@
-"""Pass 11, the simulate section: the method by name, the formulation, positive
+"""Pass 12, the simulate section: the method by name, the formulation, positive
 step, end time and tolerances, and each method coefficient in its range
 (``registry.check_coefficient``). Diagnostics: E202 (given twice), E206 (an
 unknown method), E303 (out of range), E304 (an unknown setting or formulation).

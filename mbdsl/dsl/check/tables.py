@@ -10,7 +10,8 @@ from __future__ import annotations
 
 from ...registry import COEFFICIENTS, METHOD_NAMES
 
-__all__ = ["MAX_REPEAT", "JOINT_KINDS", "JOINT_MOTION", "UNSET", "FORCE_KINDS", "GEOMETRY_OPTIONS", "BODY_STATE",
+__all__ = ["MAX_REPEAT", "JOINT_KINDS", "COUPLER_KINDS", "JOINT_MOTION", "UNSET", "FORCE_KINDS",
+           "GEOMETRY_OPTIONS", "BODY_STATE",
            "REVOLUTE_STATE", "SLIDING_STATE", "KNOWN_METHODS", "SETTINGS"]
 
 
@@ -24,6 +25,16 @@ JOINT_KINDS = {
     "prismatic": (2, {"direction": None, "angle": 0.0}, 2),
     "point_on_line": (2, {"direction": None}, 1),
     "distance": (2, {"length": None}, 1),
+}
+
+#: a coupler between joint coordinates, declared as a joint -> (positional arguments:
+#: joints, or the relation's expression for ``coupler``; allowed keywords; the
+#: quantities of its joints, "angle" or "distance"). ``value`` (c) is optional: by
+#: default the relation's value as placed.
+COUPLER_KINDS = {
+    "gear": (2, {"ratio": None, "value": float("nan")}, ("angle", "angle")),
+    "rack": (2, {"radius": None, "value": float("nan")}, ("distance", "angle")),
+    "coupler": (1, {"value": float("nan")}, ()),
 }
 
 #: joint kind -> the relative motion it leaves free, which friction brakes and a limit
