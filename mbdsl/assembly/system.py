@@ -722,6 +722,32 @@ class AssembledSystem:
                 out[i] = np.nan
         return out
 
+    def accelerations(self, t, q, v, lam) -> np.ndarray:
+        """q'' = M(q)^-1 (Q(t, q, v, lambda) - Phi_q^T lambda) at rows, shape
+        (N, n) [m/s^2, rad/s^2]: the equations of motion M a + Phi_q^T lambda
+        = Q solved for the accelerations the multipliers lambda give (with
+        the index-1 multipliers, the index-1 accelerations; Haug, sec. 6.3).
+        Rows: t (N,) [s], q and v (N, n), lam (N, m) [N, N m]; the contacts'
+        impact speeds in force are the contact group's."""
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        q = np.atleast_2d(np.asarray(q, dtype=float))
+        qx, _ = self._ext_rows(q)
+        vx, _ = self._ext_rows(np.atleast_2d(v))
+        lam = np.ascontiguousarray(np.reshape(lam, (len(t), self.m)), dtype=float)
+        f = np.zeros((len(t), self.nx))
+        if self.has_loads:
+            self._elements(_L_Q, qx, t, vx, lam, f)
+        elif self.gravity_force is not None:
+            f[:, : self.n] = self.gravity_force
+        if self.m:
+            reaction = np.zeros_like(f)
+            self._constraints(_C_PHIQT_Y, qx, t, lam, reaction)
+            f -= reaction
+        f = f[:, : self.n]
+        if self.mass_is_constant:
+            return f / self.mass_diag
+        return np.stack([self.mass_solve(qi, fi) for qi, fi in zip(q, f)])
+
     def index1_state(self, t, q, v):
         """(a, lambda) of the index-1 system at one state (t, q, v), shapes
         (n,) and (m,) [m/s^2, rad/s^2; N, N m]: [[M(q), Phi_q^T], [Phi_q, 0]]

@@ -315,6 +315,13 @@ class Method(ABC):
         (the recipe's ``first``); False for one-step methods."""
         return False
 
+    def output_accelerations(self, system, t, q, v, a, lam):
+        """The accelerations written to the output for recorded rows, shape
+        (N, n), given the output multipliers lam (N, m)
+        (:meth:`output_multipliers`): here ``a`` unchanged (the methods whose
+        a is the motion's q'')."""
+        return a
+
     def output_multipliers(self, system, t, q, v, lam, extras):
         """The multipliers written to the output for recorded rows, and the
         extra columns (``output_extras``) added to them.

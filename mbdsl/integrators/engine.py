@@ -131,25 +131,10 @@ def index1_multipliers(system, t, q, v) -> np.ndarray:
     t = np.ascontiguousarray(np.atleast_1d(t), dtype=float)
     q = np.ascontiguousarray(np.atleast_2d(q), dtype=float)
     v = np.ascontiguousarray(np.atleast_2d(v), dtype=float)
-    group = system.contact_group
-    blocks, speeds = [(0, len(t))], None
-    if group is not None and len(t):
-        speeds = group.speeds_at(t, group.log)
-        change = np.flatnonzero(np.any(speeds[1:] != speeds[:-1], axis=1)) + 1
-        edges = [0, *change.tolist(), len(t)]
-        blocks = list(zip(edges[:-1], edges[1:]))
+    blocks, speeds = _contact_blocks(system, t)
     if not loaded() or _unsupported_elements(system) is not None:
-        if group is None:
-            return system.index1_multipliers(t, q, v)
-        kept = group.impact_speed.copy()
-        try:
-            out = np.empty((len(t), system.m))
-            for i0, i1 in blocks:
-                group.impact_speed[:] = speeds[i0]
-                out[i0:i1] = system.index1_multipliers(t[i0:i1], q[i0:i1], v[i0:i1])
-            return out
-        finally:
-            group.impact_speed[:] = kept
+        return _per_contact_state(system, blocks, speeds, system.m, lambda i0, i1: (
+            system.index1_multipliers(t[i0:i1], q[i0:i1], v[i0:i1])))
     cm = getattr(system, "_compiled_model", None)
     if cm is None:
         cm = system._compiled_model = CompiledModel(system)
@@ -166,6 +151,50 @@ def index1_multipliers(system, t, q, v) -> np.ndarray:
         else:
             _kernels().index1_multipliers_band(cm.ints, cm.floats, *rows, *band)
     return out
+
+
+def index1_accelerations(system, t, q, v, lam) -> np.ndarray:
+    """The accelerations the multipliers lam give at stored rows, shape (N, n)
+    [m/s^2, rad/s^2] (``AssembledSystem.accelerations``: M a = Q - Phi_q^T
+    lambda), each block of rows with the contacts' impact speeds in force at
+    its time (as :func:`index1_multipliers`). With the index-1 multipliers,
+    the index-1 accelerations. Rows: t (N,) [s], q and v (N, n), lam (N, m)."""
+    t = np.atleast_1d(np.asarray(t, dtype=float))
+    blocks, speeds = _contact_blocks(system, t)
+    return _per_contact_state(system, blocks, speeds, system.n, lambda i0, i1: (
+        system.accelerations(t[i0:i1], q[i0:i1], v[i0:i1], lam[i0:i1])))
+
+
+def _contact_blocks(system, t):
+    """(blocks [(i0, i1)] of rows with one contact state each, the impact
+    speeds in force at each row (N, k), or None without contacts), from the
+    contact log of the model's last run (``ContactGroup.log``, ``speeds_at``)."""
+    group = system.contact_group
+    if group is None or not len(t):
+        return [(0, len(t))], None
+    speeds = group.speeds_at(t, group.log)
+    change = np.flatnonzero(np.any(speeds[1:] != speeds[:-1], axis=1)) + 1
+    edges = [0, *change.tolist(), len(t)]
+    return list(zip(edges[:-1], edges[1:])), speeds
+
+
+def _per_contact_state(system, blocks, speeds, width, rows):
+    """rows(i0, i1) (shape (i1 - i0, width)) over every block of
+    :func:`_contact_blocks`, the contact group's impact speeds set to the
+    block's while it is evaluated (and restored after)."""
+    group = system.contact_group
+    if speeds is None:
+        i0, i1 = blocks[0]
+        return rows(i0, i1)
+    kept = group.impact_speed.copy()
+    try:
+        out = np.empty((blocks[-1][1], width))
+        for i0, i1 in blocks:
+            group.impact_speed[:] = speeds[i0]
+            out[i0:i1] = rows(i0, i1)
+        return out
+    finally:
+        group.impact_speed[:] = kept
 
 
 def _index1_band(system):

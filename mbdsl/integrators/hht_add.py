@@ -146,6 +146,16 @@ class HHTADD(Method):
         from .engine import index1_multipliers
         return index1_multipliers(system, t, q, v), {"psi2": lam}
 
+    def output_accelerations(self, system, t, q, v, a, lam):
+        """q'' = M^-1 (Q - Phi_q^T lambda) at each row, lambda the output's
+        index-1 multipliers (:meth:`output_multipliers`): the step's own a
+        is M^-1 Q alone (``acceleration_is_total`` False: the constraint
+        forces' share is in psi), not the motion's acceleration; written as
+        the acceleration columns it showed a pendulum's angular acceleration
+        as 0 (``engine.index1_accelerations``)."""
+        from .engine import index1_accelerations
+        return index1_accelerations(system, t, q, v, lam)
+
     #: accepted steps between two looks at :meth:`stability_check` on a
     #: model whose mass matrix depends on q (flexible beams)
     STABILITY_CHECK_EVERY = 100

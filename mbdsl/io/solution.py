@@ -97,6 +97,7 @@ class Solution:
         self._stored_extras = tuple(method.extras)
         self.extra_names = self._stored_extras + tuple(getattr(method, "output_extras", ()))
         self._output_map = getattr(method, "output_multipliers", None)
+        self._output_acc = getattr(method, "output_accelerations", None)
         self.h, self.t_end = float(h), float(t_end)
         self.initial = initial
         self.status, self.message, self.diagnostics = "running", "", []
@@ -306,13 +307,16 @@ class Solution:
     def rows(self, i0: int, i1: int) -> dict:
         """Rows i0..i1-1 recorded so far, as arrays ("t", "q", "v", "a",
         "lam", the extra names and the ``STAT_NAMES``), with the method's
-        output multipliers (``Method.output_multipliers``)."""
+        output multipliers and accelerations (``Method.output_multipliers``,
+        ``Method.output_accelerations``)."""
         d = self._rows.get(i0, i1)
         if self._output_map is not None and len(d["t"]):
             lam, extras = self._output_map(self.system, d["t"], d["q"], d["v"], d["lam"],
                                            {x: d[x] for x in self._stored_extras})
             d.update(extras)
             d["lam"] = lam
+            if self._output_acc is not None:
+                d["a"] = self._output_acc(self.system, d["t"], d["q"], d["v"], d["a"], lam)
         return d
 
     #: A beam's elastic displacement, as a fraction of its length, above which
@@ -444,7 +448,7 @@ class Solution:
         self.system, self.model = system, system.model
         self.method_name, self.method_parameters = method_name, dict(method_parameters)
         self.extra_names = self._stored_extras = tuple(extra_names)
-        self._output_map = None
+        self._output_map = self._output_acc = None
         self.h, self.t_end, self.initial = float(h), float(t_end), None
         self.status, self.message, self.diagnostics = status, message, []
         self.wall_time, self.stats_total = float(wall_time), stats_total

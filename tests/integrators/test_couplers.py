@@ -69,11 +69,14 @@ def test_a_gear_pair_spins_up_as_one_body_with_the_reflected_inertia(method, eng
         t = sol.column("t")
         np.testing.assert_allclose(th1, acc * t ** 2 / 2, rtol=1e-10, atol=1e-14)
     # the tooth load: on the driven shaft J2 theta2'', on the driving one the rest
-    # of the torque (tau - J1 theta1''); lambda of HHT-ADD from its index-1 system
+    # of the torque (tau - J1 theta1''); HHT-ADD's lambda from its index-1 system
     on2 = sol.column("coupler.G.J2.angle.torque")[1:]
     on1 = sol.column("coupler.G.J1.angle.torque")[1:]
     np.testing.assert_allclose(on2, J2 * acc / N, rtol=1e-8)
     np.testing.assert_allclose(on1, -(TAU - J1 * acc), rtol=1e-8)
+    # ... which is the driven shaft's own J2 theta2'' (every method's acceleration
+    # columns are the motion's, HHT-ADD's from its index-1 system too)
+    np.testing.assert_allclose(on2, J2 * sol.column("w2.alpha")[1:], rtol=1e-8)
 
 
 RACK = """model rack_pinion
