@@ -85,7 +85,8 @@ def phi(I, Fl, t, qx, out):
     point_on_line.phi(I, Fl, t, qx, out)
     linear_rows.phi(I, Fl, t, qx, out)
     distance.phi(I, Fl, t, qx, out)
-    couplers.phi(I, Fl, t, qx, out)
+    if _rows(I, XTRM) > 0:
+        couplers.phi(I, Fl, t, qx, out)
 
 
 @_jit
@@ -95,7 +96,8 @@ def phiqT_add(I, Fl, qx, lam, coef, out):
     point_on_line.phiqT_add(I, Fl, qx, lam, coef, out)
     linear_rows.phiqT_add(I, Fl, qx, lam, coef, out)
     distance.phiqT_add(I, Fl, qx, lam, coef, out)
-    couplers.phiqT_add(I, Fl, qx, lam, coef, out)
+    if _rows(I, XTRM) > 0:
+        couplers.phiqT_add(I, Fl, qx, lam, coef, out)
     if _rows(I, ECOL) > 0:
         _elastic_phiqT_add(I, Fl, qx, lam, coef, out)
         distance.elastic_phiqT_add(I, Fl, qx, lam, coef, out)
@@ -108,7 +110,8 @@ def phiq_times(I, Fl, qx, vx, out):
     point_on_line.phiq_times(I, Fl, qx, vx, out)
     linear_rows.phiq_times(I, Fl, qx, vx, out)
     distance.phiq_times(I, Fl, qx, vx, out)
-    couplers.phiq_times(I, Fl, qx, vx, out)
+    if _rows(I, XTRM) > 0:
+        couplers.phiq_times(I, Fl, qx, vx, out)
     if _rows(I, ECOL) > 0:
         _elastic_phiq_times(I, Fl, qx, vx, out)
         distance.elastic_phiq_times(I, Fl, qx, vx, out)
@@ -168,7 +171,8 @@ def _emit_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose):
     p = point_on_line.emit_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose)
     p = linear_rows.emit_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose)
     p = distance.emit_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose)
-    p = couplers.emit_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose)
+    if _rows(I, XTRM) > 0:
+        p = couplers.emit_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose)
     if _rows(I, ECOL) > 0:
         p = _emit_elastic_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose)
         p = distance.emit_elastic_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose)
@@ -192,7 +196,8 @@ def _emit_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef):
     p = coincidence.emit_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef)
     p = point_on_line.emit_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef)
     p = distance.emit_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef)
-    p = couplers.emit_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef)
+    if _rows(I, XTRM) > 0:
+        p = couplers.emit_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef)
     if _rows(I, ECOL) > 0:
         p = _emit_elastic_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef)
         p = distance.emit_elastic_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef)
@@ -206,7 +211,8 @@ def _emit_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef):
     p = coincidence.emit_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef)
     p = point_on_line.emit_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef)
     p = distance.emit_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef)
-    p = couplers.emit_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef)
+    if _rows(I, XTRM) > 0:
+        p = couplers.emit_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef)
     if _rows(I, ECOL) > 0:
         p = _emit_elastic_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef)
         p = distance.emit_elastic_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef)
