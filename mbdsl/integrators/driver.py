@@ -264,14 +264,18 @@ def _run(system, method, t_start, t_end, h, initial, steppers, control, engine, 
                    sizes, output_every, events, sink)
     for observer in observers:  # a file's head, its columns checked, before any step
         observer.on_start(sol)
-    timings["setup"] += _time.perf_counter() - t0
+    # the heads' time is output's (the observers' elapsed), neither setup's nor,
+    # having been spent before the loop, to be taken from the loop's
+    opened = sum(o.elapsed for o in observers)
+    timings["setup"] += _time.perf_counter() - t0 - opened
     loop_start = _time.perf_counter()
     try:
         run.run(switches, progress, observers)
     except KeyboardInterrupt:
         _interrupted(sol)
     finally:
-        _finish(sol, observers, loop_start, getattr(sink, "elapsed", 0.0) if sink else 0.0)
+        _finish(sol, observers, loop_start, getattr(sink, "elapsed", 0.0) if sink else 0.0,
+                opened)
         if sink is not None:
             sol.timings["output"] += sink.elapsed
     return sol
@@ -285,18 +289,19 @@ def _interrupted(sol):
                    "is kept")
 
 
-def _finish(sol, observers, loop_start, resampling=0.0):
+def _finish(sol, observers, loop_start, resampling=0.0, opened=0.0):
     """Stack the recorded rows and tell the observers the run ended (a
     stream closes its file): on every exit of a run.
 
     ``sol.timings["integration"]`` is the time since the loop started less
-    the observers' time during it (``elapsed``), which goes to
+    the observers' time during it (their ``elapsed`` less ``opened`` [s],
+    what they spent before the loop: a file's head), which goes to
     ``"output"`` with their final calls, as does ``resampling`` [s]
     (the rows at requested times, ``dense.DenseOutput``); ``sol.wall_time``
     is the integration time.
     """
     clock = _time.perf_counter
-    written = sum(o.elapsed for o in observers) + resampling
+    written = sum(o.elapsed for o in observers) - opened + resampling
     sol.timings["integration"] = clock() - loop_start - written
     sol.wall_time = sol.timings["integration"]
     t0 = clock()

@@ -278,3 +278,25 @@ def test_a_killed_runs_hdf5_keeps_every_chunk_written(tmp_path, capsys):
     assert np.all(np.isfinite(sol.column("energy.total")))
     assert main(["plot", str(out), "-o", str(tmp_path / "run.png")]) == 0
     assert "ended early" in capsys.readouterr().err
+
+
+def test_an_observers_time_before_the_loop_is_not_taken_from_the_loops():
+    """An observer that spends 0.3 s opening its file (``on_start``, before
+    the first step): that time is output's, and the integration's time stays
+    the loop's own, positive (it was once the loop's time less the 0.3 s,
+    negative for a short run)."""
+    import time as clock
+    from mbdsl.io.observers import RunObserver
+
+    class SlowHead(RunObserver):
+        def on_start(self, sol):
+            t0 = clock.perf_counter()
+            clock.sleep(0.3)
+            self.elapsed += clock.perf_counter() - t0
+
+    model = mbdsl.load(MODELS / "slider_crank.mbd")
+    sol = mbdsl.simulate(model, h=1e-3, t_end=0.05, observers=(SlowHead(),))
+    assert sol.completed
+    assert sol.timings["integration"] > 0.0
+    assert sol.timings["output"] >= 0.3
+    assert sol.timings["setup"] >= 0.0
