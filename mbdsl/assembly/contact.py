@@ -5,7 +5,9 @@ Each instance is one one-sided gap g(q) of :mod:`mbdsl.model.contact`
 limit), with the Hunt-Crossley law of that module:
 
     delta = -g,  ddelta/dt = -grad g . v,
-    f = K delta^n (1 + chi ddelta/dt / v_impact)   (delta > 0, cut at f >= 0),
+    f = K delta^n (1 + chi ddelta/dt / v_impact) + f_c
+                                                   (delta > 0, cut at f >= 0),
+    f_c = c ddelta/dt limited to +-K delta^n (a rope's damping),
     Q = f grad g,
 
 with, at a contact with a friction coefficient mu, the regularised Coulomb
@@ -16,10 +18,15 @@ exact derivatives for the Newton matrix:
 
     Q_q = grad g (df/dq)^T + f H_g,   Q_v = grad g (df/dv)^T,
     df/dq = -(K n delta^(n-1) (1 + chi ddelta/dt / v_impact)) grad g
-            - (K delta^n chi / v_impact) H_g v,
-    df/dv = -(K delta^n chi / v_impact) grad g
+            - (K delta^n chi / v_impact + c) H_g v,
+    df/dv = -(K delta^n chi / v_impact + c) grad g
 
-(zero where the gap is open or the force is cut). v_impact is the state of
+(where c ddelta/dt is beyond +-K delta^n, c leaves them and f_c's
++-K n delta^(n-1) joins the first term)
+
+(zero where the gap is open or the force is cut; c is a rope's linear
+damping, 0 for contacts and limits, limited as Modelica's ElastoGap limits
+its damping: no jump in f where a rope goes taut at speed). v_impact is the state of
 the contact, set by the time loop when the gap closes (``arm``, the event
 that lands a step on the closing) and cleared when it opens (``release``).
 
@@ -50,8 +57,8 @@ class ContactGroup:
         Local columns per gap: x, y, phi of its first body, then of its second.
     names : list of str
         Per gap, the element's name and the gap's label (``"stop.upper"``).
-    k_, n_, chi : ndarray, shape (k,)
-        Stiffness, exponent and damping factor.
+    k_, n_, chi, c_ : ndarray, shape (k,)
+        Stiffness, exponent, damping factor and linear damping [N s/m].
     impact_speed : ndarray, shape (k,) [m/s or rad/s]
         The approach speed of each closed gap when it closed; 0 while open.
     """
@@ -59,7 +66,7 @@ class ContactGroup:
     def __init__(self, cmap, contacts):
         self.cmap = cmap
         self.geometry, self.names, self.elements = [], [], []
-        cols, K, n, chi, mu, v_reg = [], [], [], [], [], []
+        cols, K, n, chi, mu, v_reg, visc = [], [], [], [], [], [], []
         for c in contacts:
             for geometry, data, label in c.gaps:
                 mu.append(c.mu)
@@ -71,10 +78,13 @@ class ContactGroup:
                 K.append(c.k)
                 n.append(c.exponent)
                 chi.append(c.damping)
+                visc.append(c.viscous)
         self.cols = np.array(cols, dtype=np.intp).reshape(-1, 6)
         self.k_, self.n_, self.chi = (np.array(x, float) for x in (K, n, chi))
         self.mu, self.v_reg = np.array(mu, float), np.array(v_reg, float)
-        self.damped = bool(np.any(self.chi > 0.0) or np.any(self.mu > 0.0))
+        self.c_ = np.array(visc, float)
+        self.damped = bool(np.any(self.chi > 0.0) or np.any(self.mu > 0.0)
+                           or np.any(self.c_ > 0.0))
         self.impact_speed = np.zeros(len(self.names))
         #: (t, gap, speed) of every arm and release of the run under way
         self.log = []

@@ -45,6 +45,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..gcpause import paused
+from ..model.contact import Contact
 from ..model.elements import FlexibleBeam, Model
 from .ffr import FlexibleBeamGroup
 from .layout import Layout
@@ -179,7 +180,7 @@ class AssembledSystem:
         #: Whether any load or flexible beam adds to Q beyond gravity.
         self.has_loads = bool(forces) or bool(self.flexible_groups)
         from .contact import ContactGroup
-        contacts = [f for f in forces if f.kind in ("contact", "limit")]
+        contacts = [f for f in forces if isinstance(f, Contact)]
         #: Contacts and joint limits (one gap per instance, with events), or None.
         self.contact_group = ContactGroup(self.cmap, contacts) if contacts else None
         if contacts:

@@ -427,7 +427,7 @@ def _static(args) -> int:
         print(f"  {name:<24} {value: .9g}")
     derived = derived_columns(system, np.array([t0]), init.q[None], init.v[None],
                               init.lam[None])
-    loads = [k for k in derived if k.startswith(("reaction.", "driver.", "coupler."))]
+    loads = [k for k in derived if k.startswith(("reaction.", "driver.", "coupler.", "rope."))]
     if loads:
         print("  loads [N, N m]:")
         for k in loads:

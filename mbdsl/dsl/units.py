@@ -372,7 +372,7 @@ COLUMN_UNITS = {"t": "s", "x": "m", "y": "m", "phi": "rad", "vx": "m/s", "vy": "
                 "fx": "N", "fy": "N", "torque": "N*m", "force": "N", "kinetic": "J",
                 "potential": "J", "total": "J", "elastic": "J", "work": "J", "h": "s",
                 "angle": "rad", "rate": "rad/s", "distance": "m", "speed": "m/s",
-                "deflection_mid": "m"}
+                "deflection_mid": "m", "tension": "N"}
 
 
 #: A flexible beam's elastic coordinate (nodal u, v, theta) and its rates.

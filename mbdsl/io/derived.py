@@ -12,8 +12,8 @@ import numpy as np
 from ..assembly.points import PointSet
 from .rows import STAT_NAMES
 
-__all__ = ["DERIVED_NAMES", "energy_flows", "driver_loads", "coupler_loads", "output_columns",
-           "derived_columns", "result_columns"]
+__all__ = ["DERIVED_NAMES", "LOAD_PREFIXES", "energy_flows", "driver_loads", "coupler_loads",
+           "rope_gaps", "rope_tensions", "output_columns", "derived_columns", "result_columns"]
 
 
 #: Derived columns every model has, in CSV order (``Solution.DERIVED_NAMES``).
@@ -160,6 +160,37 @@ def driver_loads(system) -> list[tuple[str, int]]:
         force = (d.kind == "coordinate" and d.coord < 2) or d.kind == "joint_distance"
         out.append((f"driver.{d.name}.{'force' if force else 'torque'}", int(row)))
     return out
+
+
+#: The prefixes of the load columns derived per element (joint reactions, driver and
+#: coupler loads, rope tensions) and of the model's outputs, which the result files
+#: keep with the energies (``io/csvfile``, ``io/hdf5``).
+LOAD_PREFIXES = ("reaction.", "driver.", "coupler.", "rope.", "output.")
+
+
+def rope_gaps(system) -> list[tuple[str, int]]:
+    """(column, gap index) of every rope's and cable's tension,
+    ``rope.<name>.tension`` [N], in the model's order."""
+    group = system.contact_group
+    if group is None:
+        return []
+    kinds = {f.name: f.kind for f in system.model.forces}
+    return [(f"rope.{name}.tension", i) for i, name in enumerate(group.elements)
+            if kinds.get(name) in ("rope", "cable")]
+
+
+def rope_tensions(system, t, q, v, lam, contact_log=None) -> dict:
+    """``rope.<name>.tension`` [N] of stored rows, shape (N,) each: the law's
+    force f = k (l - L) + c dl/dt where the rope is taut, cut at 0, 0 where
+    it is slack (``AssembledSystem.sensor_values``, a gap's normal force)."""
+    ropes = rope_gaps(system)
+    if not ropes:
+        return {}
+    group = system.contact_group
+    log = contact_log if contact_log is not None else group.log
+    lam = np.zeros((len(t), system.m)) if lam is None else lam
+    gaps = system.sensor_values(t, q, v, lam, log)["gap"]
+    return {name: gaps[:, i, 2] for name, i in ropes}
 
 
 def coupler_loads(system) -> list[tuple[str, int, float]]:
@@ -348,6 +379,7 @@ def derived_columns(system, t, q, v, lam, start=None, end=None, a=None,
         out[name] = -lam[:, row]
     for name, row, factor in coupler_loads(system):
         out[name] = factor * lam[:, row]
+    out.update(rope_tensions(system, t, q, v, lam, contact_log))
     if system.model.outputs:
         out.update(output_columns(system, t, q, v, a, out, lam=lam, contact_log=contact_log))
     if end is not None:              # for a writer that goes on with the next rows
@@ -364,6 +396,7 @@ def result_columns(system, extra_names=()) -> list[str]:
     reactions = [f"reaction.{j.name}.{c}" for j in model.joints for c in ("fx", "fy", "torque")]
     reactions += [name for name, _ in driver_loads(system)]
     reactions += [name for name, _, _ in coupler_loads(system)]
+    reactions += [name for name, _ in rope_gaps(system)]
     reactions += [f"output.{o.name}" for o in model.outputs]
     beams = [f"{b.name}.deflection_mid" for b in model.flexible_bodies]
     return (["t"] + lay.coordinates + lay.velocities + lay.accelerations

@@ -12,7 +12,8 @@ coordinates, m constraint rows)::
     /constraints            (N, 2)    max |Phi| [m], max |Phi_q v + Phi_t| [m/s]
     /reactions              (N, 3 J + D)  fx, fy [N], torque [N m] per joint, then the
                             driver loads driver.<name>.force|torque, the
-                            coupler loads coupler.<name>.<variable>.force|torque
+                            coupler loads coupler.<name>.<variable>.force|torque,
+                            the rope tensions rope.<name>.tension [N]
                             and the outputs output.<name>
     /newton                 (N, 5)    iterations, residuals, jacobians,
                                       factorizations, h of each step
@@ -44,6 +45,7 @@ import numpy as np
 
 from .metadata import (metadata, method_parameters, rebuild_system, run_description, run_stats,
                        select_columns, unfinished_message)
+from .derived import LOAD_PREFIXES
 from .solution import Solution
 from .stream import RowStream
 
@@ -101,7 +103,7 @@ def _all_tables(sol, derived) -> list:
             for x in sol.extra_names]
     energies = [k for k in Solution.DERIVED_NAMES if k.startswith("energy.")]
     cons = ["constraint.position", "constraint.velocity"]
-    reac = [k for k in derived if k.startswith(("reaction.", "driver.", "coupler.", "output."))]
+    reac = [k for k in derived if k.startswith(LOAD_PREFIXES)]
     out += [("energies", np.column_stack([derived[k] for k in energies]), energies),
             ("constraints", np.column_stack([derived[k] for k in cons]), cons),
             ("reactions", np.column_stack([derived[k] for k in reac])

@@ -53,7 +53,7 @@ MODEL_SCHEMA = (
     ("cel", "i", 4), ("pel", "i", 4),                                  # elastic terms of joint points:
     ("ecol", "i", 0), ("eshp", "f", 2),                                # spans; column, shape (S_x, S_y)
     ("kgi", "i", 2), ("kcol", "i", 6),                                 # contact gaps: kind, line row;
-    ("kpar", "f", 14), ("kimp", "f", 0),                               # columns; data, law; impact speed
+    ("kpar", "f", 15), ("kimp", "f", 0),                               # columns; data, law; impact speed
     ("sel", "i", 4), ("fel", "i", 2),                                  # elastic terms of spring and
     ("dsp", "i", 4),                                                   # point-force points, distance
                                                                        # joints' points: spans

@@ -79,12 +79,14 @@ SPEED_FLOOR = 1e-3
 
 @dataclass(frozen=True)
 class Contact:
-    """A compliant contact (``contact``) or joint limit (``limit``).
+    """A compliant contact (``contact``), joint limit (``limit``) or a rope
+    (``rope``, ``cable``: a tension-only spring-damper between two points,
+    a point in a hole of the rope's length about the other).
 
     Attributes
     ----------
     name : str
-    kind : {"contact", "limit"}
+    kind : {"contact", "limit", "rope", "cable"}
     gaps : tuple of (geometry, data, label)
         One-sided gaps (module notes): geometry in {"line", "circle",
         "angle", "slide"}; data: ``line`` (body L, s_L, body P, s_P, n0, r),
@@ -104,6 +106,9 @@ class Contact:
         have none).
     v_reg : float [m/s]
         Regularisation speed of the friction law -mu f tanh(v_t / v_reg).
+    viscous : float [N s/m]
+        A linear damping c ddelta/dt added to the law (a rope's c; 0 for
+        contacts and limits, whose damping is the restitution's).
     """
 
     name: str
@@ -115,6 +120,7 @@ class Contact:
     span: Span | None = None
     mu: float = 0.0
     v_reg: float = 1e-4
+    viscous: float = 0.0
 
     @property
     def damping(self) -> float:
@@ -197,10 +203,18 @@ def contact_geometry_line(centre, radius, line_point, direction):
                      tuple(centre.local), normal, float(radius)), "")
 
 
+def rope_geometry(first, second, length):
+    """Gap data of a rope of ``length`` [m] between two PointRefs: the second
+    point in a hole of that radius about the first, g = L - |p2 - p1|,
+    closed (taut) where the points are farther apart than L."""
+    return ("circle", (first.body, tuple(first.local), second.body, tuple(second.local),
+                       float(length), 0.0), "")
+
+
 def contact_geometry_circle(pin, radius, hole_centre, hole_radius):
     """Gap data of a pin (PointRef, radius [m]) in a hole (PointRef, radius [m])."""
     return ("circle", (hole_centre.body, tuple(hole_centre.local), pin.body,
                        tuple(pin.local), float(hole_radius) - float(radius), float(radius)), "")
 
 
-__all__ += ["contact_geometry_line", "contact_geometry_circle", "GROUND"]
+__all__ += ["contact_geometry_line", "contact_geometry_circle", "rope_geometry", "GROUND"]

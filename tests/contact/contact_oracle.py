@@ -7,7 +7,8 @@ part of the package: mbdsl evaluates its contacts with the kernels only.
 The geometries and the law are those of ``mbdsl.model.contact`` and
 ``mbdsl.assembly.contact`` (their module notes): the gap g(q) of a circle
 against a line or in a hole, one side of a sliding or an angular limit; the
-Hunt-Crossley force f = K delta^n (1 + chi ddelta/dt / v_impact) >= 0 along
+Hunt-Crossley force f = K delta^n (1 + chi ddelta/dt / v_impact) (+ a rope's
+c ddelta/dt, within +-K delta^n) >= 0 along
 grad g, and with a friction coefficient the regularised Coulomb force
 -mu f tanh(v_t / v_reg) along the slip direction w.
 """
@@ -177,6 +178,7 @@ class ContactOracle:
         elastic = self.g.k_[i] * delta ** self.g.n_[i]
         v_imp = speed if speed > 0.0 else max(ddelta, SPEED_FLOOR)
         f = elastic * (1.0 + self.g.chi[i] * ddelta / v_imp)
+        f += np.clip(self.g.c_[i] * ddelta, -elastic, elastic)      # a rope's damping
         return g, grad, H, delta, ddelta, max(f, 0.0), elastic
 
     def friction(self, i, qx, vx, f):
@@ -211,7 +213,13 @@ class ContactOracle:
             armed = imp > 0.0 or ddelta <= SPEED_FLOOR
             speed = imp if imp > 0.0 else max(ddelta, SPEED_FLOOR)
             damp = elastic * chi / speed if armed else 0.0
-            df_ddelta = n * self.g.k_[i] * delta ** (n - 1.0) * (1.0 + chi * ddelta / speed)
+            dK = n * self.g.k_[i] * delta ** (n - 1.0)
+            df_ddelta = dK * (1.0 + chi * ddelta / speed)
+            fc = self.g.c_[i] * ddelta
+            if abs(fc) < elastic:
+                damp += self.g.c_[i]
+            elif self.g.c_[i] > 0.0:
+                df_ddelta += dK * np.sign(fc)
             v = vx[self.g.cols[i]]
             dfdq = -df_ddelta * grad - damp * (H @ v)
             dfdv = -damp * grad

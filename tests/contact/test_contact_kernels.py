@@ -28,7 +28,7 @@ from .test_law_and_derivatives import MODEL
 MODELS = Path(__file__).resolve().parents[2] / "models"
 METHODS = ["newmark", "hht-i3", "nstiff", "nstiff-si2", "hht-add", "hht-si2", "genalpha",
            "genalpha-si2"]
-GAPS = ["line", "pin", "stop.lower", "stop.upper", "end.upper"]
+GAPS = ["line", "pin", "stop.lower", "stop.upper", "end.upper", "tie"]
 
 
 @pytest.fixture(scope="module")
@@ -37,7 +37,7 @@ def system():
     # stay of the order of the others, so that central differences are exact
     # to 1e-7 (all of the law's terms are there at any stiffness)
     soft = MODEL
-    for k in ("1e6", "1e8", "1e4", "2e5"):
+    for k in ("1e6", "1e8", "1e4", "2e5", "3e3"):
         soft = soft.replace(f"k = {k}", "k = 50")
     return assemble(mbdsl.load_text(soft))
 

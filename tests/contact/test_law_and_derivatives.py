@@ -67,6 +67,7 @@ force pin: contact(a.C, radius = 0.01, circle = (b.L, 0.0105), k = 1e8, restitut
                    mu = 0.2, v_reg = 0.5)
 force stop: limit(O, lower = -0.3, upper = 0.2, k = 1e4, exponent = 1.0, restitution = 0.5)
 force end: limit(G, upper = 0.1, k = 2e5, exponent = 1.5, restitution = 0.8)
+force tie: rope(a.C, s.S, length = 0.3, k = 3e3, c = 4)
 """
 
 
@@ -77,7 +78,7 @@ def system():
 
 def test_gaps_and_their_derivatives(system):
     g = system.contact_group
-    assert g.names == ["line", "pin", "stop.lower", "stop.upper", "end.upper"]
+    assert g.names == ["line", "pin", "stop.lower", "stop.upper", "end.upper", "tie"]
     rng = np.random.default_rng(3)
     qx = np.zeros(system.nx)
     qx[:system.n] = rng.normal(scale=0.3, size=system.n)

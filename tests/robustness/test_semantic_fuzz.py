@@ -3,8 +3,8 @@
 Random trees of bodies and particles hung from the ground by random joints at
 random points, a loop closed by a distance joint at the assembled
 configuration's own length, random spring-dampers, torques, joint torques and
-forces, friction, a floor contact, joint limits, gears and racks between
-the joints, all with physical
+forces, friction, a floor contact, joint limits, a rope to the ground, gears
+and racks between the joints, all with physical
 parameter ranges; each is checked (``mbdsl.check``) and run for 150 steps
 with a random method and step mode. Every example must satisfy the scene
 matrix's invariants (``tests/matrix/matrix.py``): no traceback, a completed
@@ -107,6 +107,14 @@ def mechanisms(draw):
         lines.append(f"force c0: contact({draw(st.sampled_from(names))}.cm, radius = 0.05, "
                      f"line = (ground.origin, (1, 0)), k = {draw(num(1e4, 1e6)):.3g}, "
                      f"restitution = {draw(num(0.3, 1.0)):.3g})")
+    if draw(st.booleans()):           # a gear pair on shafts of its own, meshed with the tree
+        ga, gb = draw(num(0.01, 0.5)), draw(num(0.01, 0.5))
+        lines += [f"body gA {{ mass 1; inertia {ga:.3g}; point e ({draw(num(-0.2, 0.2)):.3g}, 0) }}",
+                  f"body gB {{ mass 1; inertia {gb:.3g} }}",
+                  "ground { point GA (2, 0); point GB (2.5, 0) }",
+                  "joint JA: revolute(ground.GA, gA.e)", "joint JB: revolute(ground.GB, gB.cm)"]
+        turning += ["JA", "JB"]
+        names += ["gA", "gB"]
     if len(turning) >= 2 and draw(st.booleans()):
         j1, j2 = draw(st.permutations(turning))[:2]
         ratio = draw(num(0.3, 4.0)) * draw(st.sampled_from([-1, 1]))
@@ -114,6 +122,10 @@ def mechanisms(draw):
     if sliding and turning and draw(st.booleans()):
         lines.append(f"joint R0: rack({draw(st.sampled_from(sliding))}, "
                      f"{draw(st.sampled_from(turning))}, radius = {draw(num(0.02, 0.3)):.3g})")
+    if draw(st.booleans()):
+        b = draw(st.sampled_from(names))
+        lines.append(f"force r0: rope(ground.origin, {b}.cm, length = {draw(num(0.2, 1.2)):.3g}, "
+                     f"k = {draw(num(1e2, 1e5)):.3g}, c = {draw(num(0, 50)):.3g})")
     if sliding and draw(st.booleans()):
         lines.append(f"force l0: limit({draw(st.sampled_from(sliding))}, upper = "
                      f"{draw(num(0.1, 0.5)):.3g}, k = 1e5, restitution = 0.5)")

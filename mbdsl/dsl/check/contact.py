@@ -1,17 +1,19 @@
 """One-sided elements (part of the loads' pass): contact, a circle on a body
-point against a line or in a circular hole of another body or the ground, and
+point against a line or in a circular hole of another body or the ground;
 limit, a revolute's angle or a sliding joint's distance between bounds; both
-with the Hunt-Crossley law of ``model.contact``. Diagnostics: E305 (neither or
-both of ``line`` and ``circle``, their arguments, a limit without bounds or on
-another joint), E304 (a contact on a flexible beam), E303 (radius, stiffness,
-exponent, restitution, bounds out of range), E402 (a body against itself).
+with the Hunt-Crossley law of ``model.contact``; and rope (or cable), a
+tension-only linear spring-damper between two points. Diagnostics: E305
+(neither or both of ``line`` and ``circle``, their arguments, a limit without
+bounds or on another joint), E304 (a contact or rope on a flexible beam), E303
+(radius, stiffness, exponent, restitution, bounds, a rope's length out of
+range), E402 (a body against itself).
 """
 
 from __future__ import annotations
 
 import math
 
-from ...model.contact import Contact, contact_geometry_circle, contact_geometry_line
+from ...model.contact import Contact, contact_geometry_circle, contact_geometry_line, rope_geometry
 from ...model.elements import GROUND, FlexibleBeam
 from ..expressions import ExprError, Vec
 from .tables import GEOMETRY_OPTIONS
@@ -43,6 +45,40 @@ def contact_element(c, f, pos, opts, ctx):
     if geometry is None:
         return None
     return Contact(f.name, "contact", (geometry,), *common, mu=opts["mu"], v_reg=opts["v_reg"])
+
+
+def rope_element(c, f, pos, opts, ctx):
+    """A ``rope`` (stiffness k [N/m]) or ``cable`` (EA [N]: k = EA / length)
+    between two points: pulls with k (l - L) + c dl/dt where l > L, never
+    pushes (``model.contact.rope_geometry``: the second point in a hole of
+    radius L about the first, the law f = K delta + c ddelta/dt cut at 0);
+    None after reporting."""
+    ends = [c.point(p.value, p.span or f.span, ctx) for p in pos]
+    if any(p is None for p in ends):
+        return None
+    for p in ends:
+        if p.body != GROUND and isinstance(c.model_body(p.body), FlexibleBeam):
+            c.error("E304", f"{ctx}: a {f.kind} acts between rigid bodies; '{p.text}' is on "
+                    "a flexible beam", f.span, "flexible beam",
+                    hint="attach a rigid body to the beam and tie the rope to it")
+            return None
+    if ends[0].body == ends[1].body:
+        c.error("E402", f"{ctx} ties a body to itself", f.span, "no effect")
+        return None
+    length = opts["length"]
+    if not length > 0:
+        c.error("E303", f"{ctx}: the {f.kind}'s length must be positive, got {length:g} m",
+                next((a.span for a in f.args if a.keyword == "length"), f.span),
+                "not positive", hint="the length at which it goes taut")
+        return None
+    stiffness = opts["k"] if f.kind == "rope" else opts["EA"] / length
+    if not stiffness > 0:
+        key = "k" if f.kind == "rope" else "EA"
+        c.error("E303", f"{ctx}: '{key}' must be positive", next(
+            (a.span for a in f.args if a.keyword == key), f.span), "not positive")
+        return None
+    return Contact(f.name, f.kind, (rope_geometry(ends[0], ends[1], length),), stiffness,
+                   1.0, 1.0, f.span, viscous=opts["c"])
 
 
 def _limit_gaps(c, f, pos, opts, ctx):

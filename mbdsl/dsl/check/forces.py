@@ -14,7 +14,7 @@ from ...model.elements import (GROUND, FlexibleBeam, Friction, JointForce, Joint
                                RotationalSpringDamper, SpringDamper, StateFunction, StateVariable,
                                Torque)
 from ..expressions import compile_state_function, diff, Dotted, ExprError, Name, substitute, Vec
-from .contact import contact_element
+from .contact import contact_element, rope_element
 from .context import BrokenReference, did_you_mean
 from .tables import (BODY_STATE, FORCE_KINDS, GEOMETRY_OPTIONS, JOINT_MOTION, REVOLUTE_STATE,
                      SLIDING_STATE)
@@ -29,7 +29,9 @@ FORCE_UNITS = {("spring_damper", "k"): "N/m", ("spring_damper", "c"): "N*s/m",
                ("contact", "radius"): "m", ("contact", "exponent"): "1",
                ("contact", "restitution"): "1", ("contact", "mu"): "1",
                ("contact", "v_reg"): "m/s", ("limit", "exponent"): "1",
-               ("limit", "restitution"): "1"}
+               ("limit", "restitution"): "1", ("rope", "length"): "m", ("rope", "k"): "N/m",
+               ("rope", "c"): "N*s/m", ("cable", "length"): "m", ("cable", "EA"): "N",
+               ("cable", "c"): "N*s/m"}
 
 
 def check_forces(c):
@@ -43,7 +45,7 @@ def check_forces(c):
         allowed = FORCE_KINDS[f.kind]
         npos = {"spring_damper": 2, "rotational_spring_damper": 1, "torque": 2,
                 "joint_torque": 2, "joint_force": 2, "force": 2, "friction": 1,
-                "contact": 1, "limit": 1}[f.kind]
+                "contact": 1, "limit": 1, "rope": 2, "cable": 2}[f.kind]
         pos, kw = c.split_args(f, allowed, npos, ctx)
         if pos is None:
             continue
@@ -58,7 +60,7 @@ def check_forces(c):
                 if v is None:
                     break
                 if name in ("k", "c", "mu", "mu_static", "viscous", "v_stribeck",
-                            "radius") and v < 0:
+                            "radius", "EA") and v < 0:
                     c.error("E303", f"{ctx}: '{name}' must not be negative, got {v:g}",
                             kw[name].span, "negative",
                             hint="a negative stiffness, damping or friction coefficient "
@@ -359,4 +361,5 @@ def check_gravity(c):
 BUILDERS = {"spring_damper": _spring_damper, "rotational_spring_damper": _rotational_spring_damper,
             "torque": _torque, "joint_torque": _joint_torque, "joint_force": _joint_force,
             "friction": friction_element, "contact": contact_element, "limit": contact_element,
+            "rope": rope_element, "cable": rope_element,
             "force": _point_force}

@@ -60,6 +60,9 @@ FORCE_KINDS = {
                 "restitution": 1.0, "mu": 0.0, "v_reg": 1e-4},
     # a revolute's angle or a sliding joint's distance between bounds (one of them or both)
     "limit": {"lower": UNSET, "upper": UNSET, "k": None, "exponent": 1.0, "restitution": 1.0},
+    # a tension-only spring-damper between two points: k [N/m], or EA [N] per length
+    "rope": {"length": None, "k": None, "c": 0.0},
+    "cable": {"length": None, "EA": None, "c": 0.0},
 }
 
 #: keywords whose value is a geometry, read by the element, not a number

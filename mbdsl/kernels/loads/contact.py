@@ -3,14 +3,17 @@
 One instance per gap (``assembly.contact.ContactGroup``'s instances, in its
 order). KGI: (kind, line row in GEO or -1); KCOL: the six columns (x, y, phi
 of the first body, then of the second); KPAR: (offset, sign, s1 (2), s2 (2),
-n0 (2), r, K, n, chi, mu, v_reg); KIMP: the impact speed of each closed gap
+n0 (2), r, K, n, chi, mu, v_reg, c); KIMP: the impact speed of each closed gap
 (0 while open), the contact's state, written by the time loop at its events.
 The geometries and the law are those of ``model.contact`` (its module notes):
 line  g = n . (p_P - p_L) - r            (``_line`` with the normal as direction)
 slide g = sign (s - bound)                (``_line``)
 angle g = sign (phi_2 - phi_1 - bound)
 circle g = (R - r) - |p_P - p_C|
-f = K delta^n (1 + chi ddelta/dt / v_impact) >= 0, delta = -g, Q = f grad g
+f = K delta^n (1 + chi ddelta/dt / v_impact) + f_c >= 0, delta = -g,
+Q = f grad g; f_c = c ddelta/dt limited to +-K delta^n, a rope's linear damping
+(Modelica's ElastoGap: no jump where the rope goes taut at speed, and the
+damping never makes it push); a rope is a circle of radius L, r = 0
 plus, with mu > 0, the regularised Coulomb force -mu f tanh(v_t / v_reg) w.
 """
 
@@ -36,7 +39,7 @@ if SPEED_FLOOR != _CONTACT_SPEED_FLOOR:     # pragma: no cover (a developer's er
 #: gap kinds (KGI's first column), as ``pack`` writes them
 GAP_LINE, GAP_SLIDE, GAP_ANGLE, GAP_CIRCLE = 0, 1, 2, 3
 #: The loads it holds (``model.contact.Contact.kind``: contacts and joint limits).
-LOADS = ("contact", "limit")
+LOADS = ("contact", "limit", "rope", "cable")
 
 
 def pack(items, tables) -> dict:
@@ -56,7 +59,7 @@ def pack(items, tables) -> dict:
     -------
     dict
         KGI (kind, line row), KCOL the six columns, KPAR (offset, sign, s1,
-        s2, n0, r, K, n, chi, mu, v_reg), KIMP the impact speeds in force.
+        s2, n0, r, K, n, chi, mu, v_reg, c), KIMP the impact speeds in force.
     """
     group = tables.system.contact_group
     kgi, kpar = [], []
@@ -77,10 +80,10 @@ def pack(items, tables) -> dict:
             raise ValueError(f"no kernel for the gap geometry {geometry!r}")
         kgi.append((kind, row))
         kpar.append((off, sign, *s1, *s2, *n0, r, group.k_[i], group.n_[i], group.chi[i],
-                     group.mu[i], group.v_reg[i]))
+                     group.mu[i], group.v_reg[i], group.c_[i]))
     return {"kgi": np.array(kgi, np.int64).reshape(-1, 2),
             "kcol": group.cols.astype(np.int64).reshape(-1, 6),
-            "kpar": np.array(kpar, np.float64).reshape(-1, 14),
+            "kpar": np.array(kpar, np.float64).reshape(-1, 15),
             "kimp": group.impact_speed.astype(np.float64)}
 
 
@@ -236,6 +239,8 @@ def _contact_law(I, Fl, qx, vx, i, imp, grad, H):
     speed = imp if imp > 0.0 else max(ddelta, SPEED_FLOOR)
     armed = imp > 0.0 or ddelta <= SPEED_FLOOR
     f = elastic * (1.0 + _f(I, Fl, KPAR, i, 11) * ddelta / speed)
+    if _f(I, Fl, KPAR, i, 14) > 0.0:           # a rope's c ddelta/dt, within +-K delta^n
+        f += min(max(_f(I, Fl, KPAR, i, 14) * ddelta, -elastic), elastic)
     return g, delta, ddelta, max(f, 0.0), elastic, speed, armed
 
 
@@ -277,10 +282,20 @@ def _emit_contacts(I, Fl, n, qx, vx, R, C, V, p, r0, c0, cq, cv):
             K, ex, chi = _f(I, Fl, KPAR, i, 9), _f(I, Fl, KPAR, i, 10), _f(I, Fl, KPAR, i, 11)
             for a in range(6):
                 v[a] = vx[_i(I, KCOL, i, a)]
-            # df/d(delta) and the damping's df/d(ddelta); unarmed, f = K delta^n
-            # (1 + chi) does not depend on ddelta
+            # df/d(delta) and the damping's df/d(ddelta); unarmed, K delta^n
+            # (1 + chi) does not depend on ddelta (a rope's c ddelta/dt does,
+            # where it is within +-K delta^n, and is +-K delta^n beyond)
             damp = elastic * chi / speed if armed else 0.0
-            df_ddelta = ex * K * delta ** (ex - 1.0) * (1.0 + chi * ddelta / speed)
+            dK = ex * K * delta ** (ex - 1.0)
+            df_ddelta = dK * (1.0 + chi * ddelta / speed)
+            visc = _f(I, Fl, KPAR, i, 14)
+            if visc > 0.0:
+                if visc * ddelta > elastic:
+                    df_ddelta += dK
+                elif visc * ddelta < -elastic:
+                    df_ddelta -= dK
+                else:
+                    damp += visc
             for a in range(6):
                 Hv[a] = 0.0
                 for b in range(6):
