@@ -403,13 +403,14 @@ def _check(args) -> int:
 
 
 def _static(args) -> int:
-    """Print the static equilibrium: coordinates, joint reactions, driver loads."""
+    """Print the static equilibrium: coordinates, joint reactions, driver and coupler
+    loads, rope tensions."""
     import dataclasses
 
     import numpy as np
 
     from .. import assemble, consistent_initial_state
-    from ..io.derived import derived_columns
+    from ..io.derived import LOAD_PREFIXES, derived_columns
     model = _load(args)
     if model is None:
         return 1
@@ -427,7 +428,7 @@ def _static(args) -> int:
         print(f"  {name:<24} {value: .9g}")
     derived = derived_columns(system, np.array([t0]), init.q[None], init.v[None],
                               init.lam[None])
-    loads = [k for k in derived if k.startswith(("reaction.", "driver.", "coupler.", "rope."))]
+    loads = [k for k in derived if k.startswith(LOAD_PREFIXES)]
     if loads:
         print("  loads [N, N m]:")
         for k in loads:

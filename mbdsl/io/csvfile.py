@@ -16,7 +16,7 @@ import numpy as np
 
 from .metadata import (metadata, method_parameters, rebuild_system, run_description, run_stats,
                        select_columns, unfinished_message)
-from .derived import LOAD_PREFIXES
+from .derived import KEPT_PREFIXES
 from .solution import Solution
 from .stream import RowStream
 
@@ -193,7 +193,7 @@ def read_csv_solution(path):
     extra_names = json.loads(meta.get("extras", "[]"))
     rows = [f"{a}.{b}" for a, b in lay.rows]
     derived = {k: values[:, i] for k, i in col.items()
-               if k in Solution.DERIVED_NAMES or k.startswith(LOAD_PREFIXES)}
+               if k in Solution.DERIVED_NAMES or k.startswith(KEPT_PREFIXES)}
     stats = {k: stat(f"newton.{k}", int) for k in Solution.STAT_NAMES[:-1]}
     stats["h"] = stat("step.h", float)
     status, message = meta.get("status", "completed").strip(), meta.get("message", "")

@@ -12,7 +12,7 @@ import numpy as np
 from ..assembly.points import PointSet
 from .rows import STAT_NAMES
 
-__all__ = ["DERIVED_NAMES", "LOAD_PREFIXES", "energy_flows", "driver_loads", "coupler_loads",
+__all__ = ["DERIVED_NAMES", "LOAD_PREFIXES", "KEPT_PREFIXES", "energy_flows", "driver_loads", "coupler_loads",
            "rope_gaps", "rope_tensions", "output_columns", "derived_columns", "result_columns"]
 
 
@@ -162,10 +162,32 @@ def driver_loads(system) -> list[tuple[str, int]]:
     return out
 
 
-#: The prefixes of the load columns derived per element (joint reactions, driver and
-#: coupler loads, rope tensions) and of the model's outputs, which the result files
-#: keep with the energies (``io/csvfile``, ``io/hdf5``).
-LOAD_PREFIXES = ("reaction.", "driver.", "coupler.", "rope.", "output.")
+#: The prefixes of the load columns derived per element: joint reactions, driver and
+#: coupler loads, rope tensions (``mbdsl static`` prints them; the result files keep
+#: them with the model's outputs, ``KEPT_PREFIXES``).
+LOAD_PREFIXES = ("reaction.", "driver.", "coupler.", "rope.")
+#: ... and with the outputs: the derived columns the result files keep beside the
+#: energies and constraint norms (``io/csvfile``, ``io/hdf5``).
+KEPT_PREFIXES = LOAD_PREFIXES + ("output.",)
+
+
+def _sensor_reader(system, t, q, v, lam, contact_log):
+    """A function giving ``AssembledSystem.sensor_values`` at the rows, read
+    once on the first call: lambda 0 where not given (the friction loads it
+    reads are then not used), the contacts' impact speeds from
+    ``contact_log`` (None: the run under way's)."""
+    held = []
+
+    def read():
+        """The sensors' values, dict of name -> (N, k, fields)."""
+        if not held:
+            group = system.contact_group
+            log = (contact_log if contact_log is not None
+                   else group.log if group is not None else ())
+            held.append(system.sensor_values(
+                t, q, v, np.zeros((len(t), system.m)) if lam is None else lam, log))
+        return held[0]
+    return read
 
 
 def rope_gaps(system) -> list[tuple[str, int]]:
@@ -179,17 +201,15 @@ def rope_gaps(system) -> list[tuple[str, int]]:
             if kinds.get(name) in ("rope", "cable")]
 
 
-def rope_tensions(system, t, q, v, lam, contact_log=None) -> dict:
+def rope_tensions(system, sensors) -> dict:
     """``rope.<name>.tension`` [N] of stored rows, shape (N,) each: the law's
     force f = k (l - L) + c dl/dt where the rope is taut, cut at 0, 0 where
-    it is slack (``AssembledSystem.sensor_values``, a gap's normal force)."""
+    it is slack (a gap's normal force of ``sensors()``, the rows'
+    ``AssembledSystem.sensor_values``)."""
     ropes = rope_gaps(system)
     if not ropes:
         return {}
-    group = system.contact_group
-    log = contact_log if contact_log is not None else group.log
-    lam = np.zeros((len(t), system.m)) if lam is None else lam
-    gaps = system.sensor_values(t, q, v, lam, log)["gap"]
+    gaps = sensors()["gap"]
     return {name: gaps[:, i, 2] for name, i in ropes}
 
 
@@ -212,7 +232,8 @@ def coupler_loads(system) -> list[tuple[str, int, float]]:
     return out
 
 
-def output_columns(system, t, q, v, a, derived, lam=None, contact_log=None) -> dict:
+def output_columns(system, t, q, v, a, derived, lam=None, contact_log=None,
+                   sensors=None) -> dict:
     """The ``output.<name>`` columns of the model's ``output`` lines, shape (N,)
     each, evaluated over the rows (numpy: a division by zero gives inf).
 
@@ -230,6 +251,9 @@ def output_columns(system, t, q, v, a, derived, lam=None, contact_log=None) -> d
     contact_log : list, optional
         The run's contact state changes (the impact speeds behind a contact's
         normal force); None: those of the run under way.
+    sensors : callable, optional
+        The rows' sensor values when the caller reads them too
+        (``_sensor_reader``); by default read here on first use.
     """
     from ..assembly.points import drot, rot
     from ..dsl.expressions import evaluate_rows
@@ -243,21 +267,16 @@ def output_columns(system, t, q, v, a, derived, lam=None, contact_log=None) -> d
         index.update({name: (a, i) for i, name in enumerate(lay.accelerations)})
     if lam is not None:
         index.update({name: (lam, i) for i, name in enumerate(lay.multiplier_names())})
-    sensors = None               # system.sensor_values, when read
+    if sensors is None:
+        sensors = _sensor_reader(system, t, q, v, lam, contact_log)
     out = {}
     for o in system.model.outputs:
         env = {}
         for var in o.variables:
             if var.kind in SENSOR_UNITS:
-                if sensors is None:
-                    group = getattr(system, "contact_group", None)
-                    log = (contact_log if contact_log is not None
-                           else group.log if group is not None else ())
-                    sensors = system.sensor_values(
-                        t, q, v, np.zeros((N, system.m)) if lam is None else lam, log)
                 k = list(SENSOR_UNITS[var.kind]).index(var.field)
                 reads_lam = var.kind == "friction" and k > 0     # a friction load: lambda
-                env[var.name] = (sensors[var.kind][:, var.index, k]
+                env[var.name] = (sensors()[var.kind][:, var.index, k]
                                  if lam is not None or not reads_lam else np.full(N, np.nan))
             elif var.kind == "beam_point":
                 env[var.name] = _beam_point(system, var, qx, vx)
@@ -379,9 +398,11 @@ def derived_columns(system, t, q, v, lam, start=None, end=None, a=None,
         out[name] = -lam[:, row]
     for name, row, factor in coupler_loads(system):
         out[name] = factor * lam[:, row]
-    out.update(rope_tensions(system, t, q, v, lam, contact_log))
+    sensors = _sensor_reader(system, t, q, v, lam, contact_log)    # read once, if at all
+    out.update(rope_tensions(system, sensors))
     if system.model.outputs:
-        out.update(output_columns(system, t, q, v, a, out, lam=lam, contact_log=contact_log))
+        out.update(output_columns(system, t, q, v, a, out, lam=lam, contact_log=contact_log,
+                                  sensors=sensors))
     if end is not None:              # for a writer that goes on with the next rows
         end.update(carry)
     return out

@@ -45,7 +45,7 @@ import numpy as np
 
 from .metadata import (metadata, method_parameters, rebuild_system, run_description, run_stats,
                        select_columns, unfinished_message)
-from .derived import LOAD_PREFIXES
+from .derived import KEPT_PREFIXES
 from .solution import Solution
 from .stream import RowStream
 
@@ -103,7 +103,7 @@ def _all_tables(sol, derived) -> list:
             for x in sol.extra_names]
     energies = [k for k in Solution.DERIVED_NAMES if k.startswith("energy.")]
     cons = ["constraint.position", "constraint.velocity"]
-    reac = [k for k in derived if k.startswith(LOAD_PREFIXES)]
+    reac = [k for k in derived if k.startswith(KEPT_PREFIXES)]
     out += [("energies", np.column_stack([derived[k] for k in energies]), energies),
             ("constraints", np.column_stack([derived[k] for k in cons]), cons),
             ("reactions", np.column_stack([derived[k] for k in reac])

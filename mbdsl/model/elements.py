@@ -593,8 +593,6 @@ class Coupler:
         c; None: the value of sum a_k x_k in the configuration as placed
         (the model's initial and guess lines, the joints along the tree:
         ``assembly.placement.place_bodies``), so that teeth mesh as drawn.
-    joints : tuple of str
-        The joints (and bodies) whose coordinates it relates, for messages.
     span : Span or None
     rows : int
         1.
@@ -605,19 +603,8 @@ class Coupler:
     variables: tuple
     coefficients: tuple
     value: float | None = None
-    joints: tuple = ()
     span: Span | None = None
     rows: int = 1
-
-    @property
-    def bodies(self) -> tuple:
-        """The bodies whose coordinates the relation reads."""
-        out = []
-        for v in self.variables:
-            for b in ([t[0] for t in v.terms] if v.line is None else (v.line[0], v.line[2])):
-                if b not in out:
-                    out.append(b)
-        return tuple(out)
 
     def placed_value(self, qx, cmap: "CoordinateMap") -> float:
         """sum_k a_k x_k at qx (q extended by the ground's three, shape

@@ -48,7 +48,7 @@ def check_couplers(c):
             built = _pair(c, j, pos, kw, quantities, ctx)
         if built is None:
             continue
-        variables, coefs, constant, joints = built
+        variables, coefs, constant = built
         value = None
         if "value" in kw:
             unit = _UNITS.get(quantities[0]) if quantities else None
@@ -58,12 +58,12 @@ def check_couplers(c):
             value = given - constant
         if ok:
             c.couplers.append(Coupler(j.name, j.kind, tuple(variables), tuple(coefs), value,
-                                      tuple(joints), j.span))
+                                      j.span))
 
 
 def _pair(c, j, pos, kw, quantities, ctx):
-    """A gear's or a rack's two terms: (variables, coefficients, 0, joints),
-    or None after reporting."""
+    """A gear's or a rack's two terms: (variables, coefficients, 0), or None
+    after reporting."""
     joints = []
     for arg, quantity in zip(pos, quantities):
         joint = c.joint_argument(arg, j, ctx)
@@ -98,7 +98,7 @@ def _pair(c, j, pos, kw, quantities, ctx):
         c.error("E303", f"{ctx}: {what}, got {x:g}{' m' if unit == 'm' else ''}",
                 _value_span(kw[key], j), label, hint=hint)
         return None
-    return variables, (1.0, -x), 0.0, [jt.name for jt in joints]
+    return variables, (1.0, -x), 0.0
 
 
 #: a gear's ratio and a rack's radius: (keyword, unit, the values allowed, the
@@ -126,7 +126,7 @@ def _what(quantity: str) -> str:
 def _relation(c, j, arg, ctx):
     """A coupler's terms from its expression, linear in joint angles,
     sliding distances and body coordinates: (variables, coefficients, the
-    constant term, joints), or None after reporting."""
+    constant term), or None after reporting."""
     span = getattr(arg.value, "span", None) or j.span
     read = state_expression(c, arg.value, span, ctx)
     if read is None:
@@ -162,5 +162,4 @@ def _relation(c, j, arg, ctx):
         c.error("E303", f"{ctx}: the relation's coefficients must be finite and not all "
                 "zero", span, "no relation")
         return None
-    joints = sorted({v.name.split(".")[0] for v in variables})
-    return variables, coefs, constant, joints
+    return variables, coefs, constant
