@@ -340,7 +340,8 @@ def substitute(expr: Expr, env: dict[str, float],
 
     ``state``: where the expression may use the state of the model (forces of
     the motion), it maps a reference such as ``crank.omega`` to the name of
-    a state variable (a :class:`Name` in the result), or raises ExprError.
+    a state variable (a :class:`Name` in the result) or to an expression in
+    such names (``arm.T.vx``, a point's velocity), or raises ExprError.
 
     Raises
     ------
@@ -371,7 +372,8 @@ def substitute(expr: Expr, env: dict[str, float],
                     substitute(expr.other, env, state), expr.span)
     if isinstance(expr, Dotted):
         if state is not None:
-            return Name(state(expr), expr.span)
+            got = state(expr)
+            return Name(got, expr.span) if isinstance(got, str) else got
         raise ExprError(f"'{expr.text}' is a reference, not a number", "E301", expr.span)
     return expr
 

@@ -18,7 +18,7 @@ import math
 from mbdsl.dsl.expressions import OPCODES
 
 from .geometry import _line
-from .schema import CODE, CONSTS, GEO, PROG, STACK, VAR, VARC, XVAL, _f, _i, _jit, _rows
+from .schema import CODE, CONSTS, GEO, PROG, STACK, VAR, VARC, XVAL, _f, _i, _inline, _jit, _put, _rows
 
 _OPCODES = ("const", "t", "neg", "+", "-", "*", "/", "^", "sin", "cos", "tan", "asin", "acos",
             "atan", "sinh", "cosh", "tanh", "sqrt", "exp", "log", "abs", "sign", "x", "min",
@@ -171,3 +171,38 @@ def _state_values(I, Fl, qx, vx, grad, H):
             Fl[base + k] = a1 * qx[c1] + a2 * qx[c2]
         else:
             Fl[base + k] = a1 * vx[c1] + a2 * vx[c2]
+
+
+@_inline
+def emit_variable(I, Fl, n, vx, R, C, V, p, r0, c0, cq, cv, row, w, gk, kv, grad, H):
+    """-w gk (cq dx_k/dq + cv dx_k/dv) in row r0 + row at column offset c0:
+    the derivative of a load's entry w tau(x) through its state variable k
+    with dtau/dx_k = gk (a linear one: its two (column, coefficient) terms at
+    level 0 (q) or 1 (v); a sliding distance: grad s; a sliding speed
+    grad s . v: H v (q) and grad s (v); ``grad``, ``H``: the line's, from
+    ``geometry._line`` at the caller); returns p."""
+    gv = _i(I, VAR, kv, 3)
+    if gv < 0:                     # linear in q (level 0) or v (level 1)
+        c = cq if _i(I, VAR, kv, 0) == 0 else cv
+        if c == 0.0:
+            return p
+        for j in range(2):
+            col = _i(I, VAR, kv, 1 + j)
+            if col < n and _f(I, Fl, VARC, kv, j) != 0.0:
+                p = _put(R, C, V, p, r0 + row, c0 + col, -c * w * gk * _f(I, Fl, VARC, kv, j))
+        return p
+    for j in range(6):             # a sliding distance (grad s) or speed
+        col = _i(I, GEO, gv, j)
+        if col >= n:
+            continue
+        if _i(I, VAR, kv, 0) == 0:
+            dq, dv = grad[j], 0.0
+        else:                      # d(grad s . v)/dq = H v, d/dv = grad s
+            dq = 0.0
+            for m2 in range(6):
+                dq += H[j, m2] * vx[_i(I, GEO, gv, m2)]
+            dv = grad[j]
+        val = cq * dq + cv * dv
+        if val != 0.0:
+            p = _put(R, C, V, p, r0 + row, c0 + col, -w * gk * val)
+    return p

@@ -122,7 +122,7 @@ def _inputs_add(I, Fl, t, qx, vx, out):
     """The loads that put work in, added to out (n+3,) [N, N m]: point
     forces F(t) (J^T F), torques tau(t) and loads of the state tau(t, x) w
     (+-tau on a joint's bodies, or tau grad s along a sliding line)."""
-    point_forces.forces_add(I, Fl, t, qx, out)
+    point_forces.forces_add(I, Fl, t, qx, vx, out)
     torques.time_torques_add(I, Fl, t, out)
     state_loads.forces_add(I, Fl, t, qx, vx, out)
 
@@ -261,7 +261,7 @@ def _emit_force(I, Fl, t, n, qx, vx, lam, R, C, V, p, r0, c0, cq, cv):
     """-(cq Q_q + cv Q_v) at (r0, c0) of every applied load (the groups' notes)."""
     p = spring_damper.emit_force(I, Fl, n, qx, vx, R, C, V, p, r0, c0, cq, cv)
     p = torques.emit_force(I, Fl, n, R, C, V, p, r0, c0, cq, cv)
-    p = point_forces.emit_force(I, Fl, t, n, qx, R, C, V, p, r0, c0, cq)
+    p = point_forces.emit_force(I, Fl, t, n, qx, vx, R, C, V, p, r0, c0, cq, cv)
     p = state_loads.emit_force(I, Fl, t, n, qx, vx, R, C, V, p, r0, c0, cq, cv)
     if _rows(I, FRI) > 0:
         p = _emit_friction(I, Fl, n, qx, vx, lam, R, C, V, p, r0, c0, cq, cv)
@@ -473,7 +473,8 @@ def triplet_bound(I) -> int:
     packed model data ``I`` (its header's row counts): up to five mass (and
     identity) blocks, four Hessian, two force, two G and six Phi_q blocks (a force
     block: 36 entries per spring-damper and per contact gap, 4 per rotational one, 1 per point
-    force, 36 per partial derivative of a load of the state (6 rows by 6
+    force (and 6 (3 + e) per partial derivative of a point force of the state,
+    ``point_forces.triplets``), 36 per partial derivative of a load of the state (6 rows by 6
     columns) and 36 per load of the state (tau d^2 s of a joint force)), and the
     augmented formulation's multiplier diagonal; per flexible beam 15 blocks of
     (3 + nf)^2 (mass, (M x)_q and force blocks), per elastic term of a joint
@@ -490,7 +491,8 @@ def triplet_bound(I) -> int:
     phiq = sum(j.PHIQ_TRIPLETS * rows(field) for j, field in JOINTS)
     hess = sum(j.HESS_TRIPLETS * rows(field) for j, field in JOINTS)
     G = sum(j.G_TRIPLETS * rows(field) for j, field in JOINTS)
-    force = sum(load.FORCE_TRIPLETS * rows(field) for load, field in LOADS)
+    force = (sum(load.FORCE_TRIPLETS * rows(field) for load, field in LOADS)
+             + point_forces.triplets(I))
     beams, csum = 0, 0
     for b in range(rows(BEAM)):     # blocks, and the additive form's M M_n^-1 Phi_q^T (twice)
         c = 3 + int(I[int(I[3 * BEAM]) + 6 * b + 1])

@@ -157,6 +157,22 @@ class BeamMesh:
         """S(x) on the elastic coordinates, shape (k, 2, nf) for k arc lengths [m]."""
         return self._full_shape(x)[:, :, self.kept]
 
+    def slope(self, x) -> np.ndarray:
+        """dS_v/dx on the elastic coordinates, shape (k, nf) [1/m, 1]: the
+        slope v'(x) of the deflection in the frame is slope(x) . e, the
+        rotation of the cross-section at x relative to the frame in the
+        linear theory of the formulation (Shabana, Dynamics of Multibody
+        Systems, 5.4: the Hermite shape functions' derivatives)."""
+        x, e, xi = self._element_of(x)
+        l = self.l
+        D = np.zeros((len(x), 3 * (self.elements + 1)))
+        base, ar = 3 * e, np.arange(len(x))
+        D[ar, base + 1] = (-6 * xi + 6 * xi ** 2) / l
+        D[ar, base + 2] = 1.0 - 4 * xi + 3 * xi ** 2
+        D[ar, base + 4] = (6 * xi - 6 * xi ** 2) / l
+        D[ar, base + 5] = -2 * xi + 3 * xi ** 2
+        return D[:, self.kept]
+
     # -- element matrices -----------------------------------------------------------
     def stiffness(self, EA: float, EI: float) -> np.ndarray:
         """Elastic stiffness matrix K on the elastic coordinates, shape (nf, nf) [N/m, N, N m].
@@ -372,6 +388,11 @@ class ModalMesh:
     def shape(self, x) -> np.ndarray:
         """S(x) Phi, shape (k, 2, nf) for k arc lengths [m]."""
         return self.mesh.shape(x) @ self.Phi
+
+    def slope(self, x) -> np.ndarray:
+        """The slope rows of :meth:`BeamMesh.slope` on the modal amplitudes,
+        shape (k, nf)."""
+        return self.mesh.slope(x) @ self.Phi
 
     def stiffness(self, EA: float, EI: float) -> np.ndarray:
         """Phi^T K Phi, shape (nf, nf) [N/m]."""

@@ -86,6 +86,9 @@ class CoordinateMap:
                 offset += 3
         self.n_reference = offset
         self.table = np.array(rows, dtype=np.intp).reshape(-1, 3)
+        #: first column of each flexible beam's elastic coordinates (body index -> column)
+        self.elastic = {i: int(b.elastic_offset) for i, b in enumerate(bodies)
+                        if isinstance(b, FlexibleBeam)}
 
     def __call__(self, bodies) -> np.ndarray:
         """Columns (x, y, phi) of body indices (ground -1 -> n..n+2), shape (k, 3)."""
@@ -97,9 +100,12 @@ class CoordinateMap:
         return out
 
     def column(self, body: int, coord: int) -> int:
-        """The column of coordinate ``coord`` (0, 1, 2 = x, y, phi) of ``body``."""
+        """The column of coordinate ``coord`` of ``body``: 0, 1, 2 = x, y, phi,
+        and on a flexible beam 3 + j its elastic coordinate j."""
         if body < 0:
             return self.n + coord
+        if coord >= 3:
+            return self.elastic[body] + coord - 3
         return int(self.table[body, coord])
 VELOCITIES = ("vx", "vy", "omega")
 ACCELERATIONS = ("ax", "ay", "alpha")
@@ -135,7 +141,8 @@ class TimeFunction:
 class StateVariable:
     """A quantity of the motion a force expression may use: a linear
     combination of generalized coordinates (``level`` 0) or velocities
-    (``level`` 1) of rigid bodies.
+    (``level`` 1) of bodies: their frames' x, y, phi and a flexible beam's
+    elastic coordinates.
 
     Attributes
     ----------
@@ -144,8 +151,9 @@ class StateVariable:
     level : int
         0: x = sum c_j q[j] (+ offset); 1: x = sum c_j v[j].
     terms : tuple of (int, int, float)
-        (body index, coordinate 0..2 = x, y, phi, coefficient c_j); its
-        columns are those of :class:`CoordinateMap`.
+        (body index, coordinate 0..2 = x, y, phi or 3 + j = a beam's elastic
+        coordinate j, coefficient c_j); its columns are those of
+        :class:`CoordinateMap`.
     offset : float
         Added to a position-level variable (0 for every variable mbdsl has).
     line : tuple or None
@@ -764,13 +772,28 @@ class JointTorque:
 
 @dataclass(frozen=True)
 class PointForce:
-    """A force (fx(t), fy(t)) [N], fixed in the global frame, at a body point."""
+    """A force (fx, fy) [N] at a body point, in world axes: functions of time
+    (:class:`TimeFunction`) or of time and the state (:class:`StateFunction`,
+    with their exact partial derivatives: a follower force, a drag).
+
+    A force declared in body axes (``frame = body``) holds here its world
+    components, R(theta) (fx_body, fy_body), theta the body's angle (on a
+    flexible beam the cross-section's at the point: the frame's phi plus the
+    local slope of the deflection, ``BeamMesh.slope``), so that its
+    derivatives with respect to theta are those of any state function.
+
+    Attributes
+    ----------
+    frame : {"world", "body"}
+        The axes the components were written in.
+    """
 
     name: str
     point: PointRef
-    fx: TimeFunction
-    fy: TimeFunction
+    fx: TimeFunction | StateFunction
+    fy: TimeFunction | StateFunction
     span: Span | None = None
+    frame: str = "world"
 
     #: The load kind (the kernel family that holds it: ``kernels.system.LOAD_FAMILIES``).
     kind = "point_force"

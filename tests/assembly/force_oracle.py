@@ -161,16 +161,50 @@ def state_derivatives(g, qx, vx, t):
 
 
 # -- point forces -------------------------------------------------------------------------------
-def _point_load(g, t):
-    return np.array([[fx.f(t), fy.f(t)] for fx, fy in zip(g.fx, g.fy)])
+def _point_load(g, t, qx, vx):
+    return np.array([[_tau(g, f, qx, vx, t)[0] for f in (fx, fy)]
+                     for fx, fy in zip(g.fx, g.fy)]).reshape(-1, 2)
 
 
-def point_forces(g, qx, t):
-    return np.einsum("kaj,ka->kj", _point_jac(g.points, qx[g.cols]), _point_load(g, t))
+def point_forces(g, qx, vx, t):
+    return np.einsum("kaj,ka->kj", _point_jac(g.points, qx[g.cols]), _point_load(g, t, qx, vx))
 
 
-def point_derivatives(g, qx, t):
-    return np.einsum("ka,kaij->kij", _point_load(g, t), _point_hess(g.points, qx[g.cols]))
+def point_derivatives(g, qx, vx, t):
+    return np.einsum("ka,kaij->kij", _point_load(g, t, qx, vx),
+                     _point_hess(g.points, qx[g.cols]))
+
+
+def point_state_derivatives(g, qx, vx, t, nx):
+    """J^T (dF/dx)(dx/dq), J^T (dF/dx)(dx/dv) of the forces of the state,
+    dense (nx, nx): each partial derivative through its variable's terms (a
+    linear combination of columns) or a sliding line's distance or speed."""
+    Qq, Qv = np.zeros((nx, nx)), np.zeros((nx, nx))
+    J = _point_jac(g.points, qx[g.cols])
+    for i, comps in enumerate(zip(g.fx, g.fy)):
+        for a, f in enumerate(comps):
+            if not hasattr(f, "variables"):
+                continue
+            x = state_values(f, qx, vx, g.cmap)
+            for grad, var in zip(f.grads, f.variables):
+                gk = grad(t, x)
+                dq, dv = np.zeros(nx), np.zeros(nx)
+                cols = var.columns(g.cmap)
+                if var.line is None:
+                    for c, (_, _, coef) in zip(cols, var.terms):
+                        (dq if var.level == 0 else dv)[c] += gk * coef
+                else:
+                    _, gs, Hs = line_distance(var.line, qx, g.cmap)
+                    if var.level == 0:
+                        np.add.at(dq, cols, gk * gs)
+                    else:
+                        np.add.at(dq, cols, gk * (Hs @ vx[cols]))
+                        np.add.at(dv, cols, gk * gs)
+                np.add.at(Qq, (g.cols[i][:, None], np.arange(nx)[None, :]),
+                          np.outer(J[i, a], dq))
+                np.add.at(Qv, (g.cols[i][:, None], np.arange(nx)[None, :]),
+                          np.outer(J[i, a], dv))
+    return Qq, Qv
 
 
 # -- friction -----------------------------------------------------------------------------------
@@ -261,7 +295,7 @@ class ForceOracle(SystemOracle):
         if isinstance(g, StateTorqueGroup):
             return state_forces(g, qx, vx, t)
         if isinstance(g, PointForceGroup):
-            return point_forces(g, qx, t)
+            return point_forces(g, qx, vx, t)
         if isinstance(g, FrictionGroup):
             return friction_forces(g, qx, vx, lam, slip)
         if isinstance(g, ContactGroup):
@@ -280,7 +314,7 @@ class ForceOracle(SystemOracle):
         if isinstance(g, StateTorqueGroup):
             return state_derivatives(g, qx, vx, t)
         if isinstance(g, PointForceGroup):
-            return point_derivatives(g, qx, t), None
+            return point_derivatives(g, qx, vx, t), None
         if isinstance(g, FrictionGroup):
             return friction_derivatives(g, qx, vx, lam)
         if isinstance(g, ContactGroup):
@@ -302,6 +336,10 @@ class ForceOracle(SystemOracle):
         qx, vx = self._ext(q), self._ext(v)
         Qq, Qv = np.zeros((self.nx, self.nx)), np.zeros((self.nx, self.nx))
         for g in self.groups:
+            if isinstance(g, PointForceGroup):      # the forces of the state reach beyond
+                dq, dv = point_state_derivatives(g, qx, vx, t, self.nx)
+                Qq += dq
+                Qv += dv
             blocks = self._local_derivatives(g, qx, vx, t, lam)
             if blocks is None:
                 continue

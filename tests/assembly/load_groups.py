@@ -188,7 +188,7 @@ class StateTorqueGroup:
 
 
 class PointForceGroup:
-    """Forces F(t), fixed in the global frame, at body points.
+    """Forces F in world axes at body points, of time or of time and the state.
 
     Q = J^T F with J = d p / d q_local (``PointSet``): (F, (B u) . F,
     S^T A^T F); Q_q = sum_a F_a d2 p_a / dq2 (for a rigid body the one
@@ -198,6 +198,7 @@ class PointForceGroup:
     state_dependent = True
 
     def __init__(self, cmap, points, fx, fy):
+        self.cmap = cmap
         self.points = PointSet(cmap, points)
         self.cols = self.points.cols
         self.fx, self.fy = list(fx), list(fy)

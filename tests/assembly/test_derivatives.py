@@ -3,7 +3,9 @@
 The model ``all_elements.mbd`` declares every joint, driver and force type;
 ``flexible_elements.mbd`` puts every joint and point force on flexible beams
 (both frames, two beam sizes); ``coupler_elements.mbd`` every coupler (a
-rack on a turning line, joints that share a body). Configurations and velocities are random
+rack on a turning line, joints that share a body); ``follower_elements.mbd``
+point forces that read the motion (in body axes, drag from point velocities,
+joint coordinates, on nodal and modal beams). Configurations and velocities are random
 (not consistent: the derivatives are identities in q, v, t). A tolerance of 1e-6 relative catches a wrong
 sign or a missing term, which change entries by O(1).
 """
@@ -20,11 +22,12 @@ VALID = Path(__file__).parents[1] / "dsl" / "valid"
 MODEL = VALID / "all_elements.mbd"
 FLEXIBLE = VALID / "flexible_elements.mbd"
 COUPLERS = VALID / "coupler_elements.mbd"
+FOLLOWER = VALID / "follower_elements.mbd"
 EPS = 1e-6
 
 
-@pytest.fixture(scope="module", params=[MODEL, FLEXIBLE, COUPLERS],
-                ids=["rigid", "flexible", "couplers"])
+@pytest.fixture(scope="module", params=[MODEL, FLEXIBLE, COUPLERS, FOLLOWER],
+                ids=["rigid", "flexible", "couplers", "follower"])
 def system(request):
     return assemble(mbdsl.load(request.param))
 
@@ -58,6 +61,16 @@ def states(system, count=4, seed=1):
 
 
 def test_model_declares_every_element_type(system):
+    if system.model.name == "follower_elements":
+        forces = {f.name: f for f in system.model.forces}
+        assert {f.kind for f in forces.values()} == {"point_force"}
+        assert {f.frame for f in forces.values()} == {"world", "body"}
+        read = {v.name for f in forces.values() for c in (f.fx, f.fy) for v in c.variables}
+        # joint angle, sliding distance and speed, body and particle rates, a nodal
+        # and a modal beam's elastic coordinates and rates, a point's motion on a beam
+        assert {"O.angle", "S.distance", "S.speed", "bob.vx", "arm.omega", "rod.theta3",
+                "lam.eta2", "rod.theta3_t", "rod.u3_t"} <= read
+        return
     if system.model.couplers:
         assert {c.kind for c in system.model.couplers} == {"gear", "rack", "coupler"}
         return

@@ -26,7 +26,7 @@ JOINTS = {"coincidence": VALID / "all_elements.mbd", "point_on_line": VALID / "a
           "linear_rows": VALID / "all_elements.mbd", "distance": VALID / "distance_elements.mbd",
           "couplers": VALID / "coupler_elements.mbd"}
 LOADS = {"spring_damper": VALID / "all_elements.mbd", "torques": VALID / "all_elements.mbd",
-         "point_forces": VALID / "all_elements.mbd", "state_loads": VALID / "all_elements.mbd",
+         "point_forces": VALID / "follower_elements.mbd", "state_loads": VALID / "all_elements.mbd",
          "friction": VALID / "friction_elements.mbd",
          "contact": MODELS / "bouncing_ball.mbd"}
 OTHERS = ("programs", "geometry", "beams.ffr", "beams.elastic_points")
@@ -136,8 +136,10 @@ def test_a_load_emits_at_most_its_triplet_count(family):
         p = module.emit_force(I, Fl, n, qx, vx, R, C, V, 0, 0, 0, 1.0, 1.0)
     elif family == "torques":
         p = module.emit_force(I, Fl, n, R, C, V, 0, 0, 0, 1.0, 1.0)
-    elif family == "point_forces":
-        p = module.emit_force(I, Fl, t, n, qx, R, C, V, 0, 0, 0, 1.0)
+    elif family == "point_forces":      # and the derivatives of the forces of the state
+        p = module.emit_force(I, Fl, t, n, qx, vx, R, C, V, 0, 0, 0, 1.0, 1.0)
+        assert 0 < p <= module.FORCE_TRIPLETS * k + module.triplets(I), (p, k)
+        return
     elif family == "state_loads":
         p = module.emit_force(I, Fl, t, n, qx, vx, R, C, V, 0, 0, 0, 1.0, 1.0)
     elif family == "friction":

@@ -3,7 +3,7 @@
 Random trees of bodies and particles hung from the ground by random joints at
 random points, a loop closed by a distance joint at the assembled
 configuration's own length, random spring-dampers, torques, joint torques and
-forces, friction, a floor contact, joint limits, a rope to the ground, gears
+forces, follower forces in body axes with a drag on their point, friction, a floor contact, joint limits, a rope to the ground, gears
 and racks between the joints, all with physical
 parameter ranges; each is checked (``mbdsl.check``) and run for 150 steps
 with a random method and step mode. Every example must satisfy the scene
@@ -99,6 +99,10 @@ def mechanisms(draw):
     if draw(st.booleans()):
         lines.append(f"force g0: force({draw(st.sampled_from(names))}.cm, "
                      f"({draw(num(-3, 3)):.3g}, {draw(num(-3, 3)):.3g}*t))")
+    if rigid and draw(st.booleans()):     # a follower force in body axes, a drag on its point
+        b = draw(st.sampled_from(rigid))
+        lines.append(f"force h0: force({b}.cm, ({draw(num(-3, 3)):.3g} - 0.3*{b}.cm.vx*abs({b}.cm.vx), "
+                     f"{draw(num(-3, 3)):.3g}*cos({b}.phi)), frame = body)")
     if (turning or sliding) and draw(st.booleans()):
         j = draw(st.sampled_from(turning + sliding))
         extra = ", radius = 0.01" if j in turning else ""

@@ -13,11 +13,12 @@ import numpy as np
 from ...model.elements import (GROUND, FlexibleBeam, Friction, JointForce, JointTorque, PointForce,
                                RotationalSpringDamper, SpringDamper, StateFunction, StateVariable,
                                Torque)
-from ..expressions import compile_state_function, diff, Dotted, ExprError, Name, substitute, Vec
+from ..expressions import (Binary, Call, compile_state_function, diff, Dotted, ExprError, Name,
+                           Num, simplify, substitute, Unary, Vec)
 from .contact import contact_element, rope_element
-from .context import BrokenReference, did_you_mean
-from .tables import (BODY_STATE, FORCE_KINDS, GEOMETRY_OPTIONS, JOINT_MOTION, REVOLUTE_STATE,
-                     SLIDING_STATE)
+from .context import BrokenReference, did_you_mean, point_ref
+from .tables import (BODY_STATE, FORCE_FRAMES, FORCE_KINDS, GEOMETRY_OPTIONS, JOINT_MOTION,
+                     REVOLUTE_STATE, SLIDING_STATE, WORD_OPTIONS)
 
 
 #: the SI unit of a force option (friction's speeds are m/s or rad/s by joint: unchecked)
@@ -51,7 +52,7 @@ def check_forces(c):
             continue
         opts = {}
         for name, default in allowed.items():
-            if name in kw and name in GEOMETRY_OPTIONS:
+            if name in kw and name in GEOMETRY_OPTIONS + WORD_OPTIONS:
                 opts[name] = kw[name]
             elif name in kw:
                 v = (c.angle if name == "angle" else c.number)(
@@ -172,22 +173,76 @@ def _joint_force(c, f, pos, opts, ctx):
 
 
 def _point_force(c, f, pos, opts, ctx):
-    """A point force (fx, fy) in world axes, of time [N]."""
+    """A point force (fx, fy) [N] in world or body axes, of time and of the
+    state (``model.elements.PointForce``): components in body axes turned to
+    world axes by the body's angle (on a flexible beam the cross-section's
+    at the point), so that the Newton matrix has their exact derivatives."""
     p = c.point(pos[0].value, pos[0].span or f.span, ctx)
-    vec = pos[1].value
+    vec, span = pos[1].value, pos[1].span or f.span
+    frame = opts["frame"]
+    if not isinstance(frame, str):
+        word = frame.value.name if isinstance(frame.value, Name) else None
+        if word not in FORCE_FRAMES:
+            c.error("E305", f"{ctx}: 'frame' is {' or '.join(FORCE_FRAMES)}",
+                    getattr(frame.value, "span", None) or frame.span or f.span, "not a frame",
+                    hint="frame = body: the components turn with the body (a follower force)")
+            return None
+        frame = word
     if not isinstance(vec, Vec):
-        c.error("E305", f"{ctx}: expected the force as a vector '(fx, fy)'",
-                pos[1].span or f.span, "not a vector")
+        c.error("E305", f"{ctx}: expected the force as a vector '(fx, fy)'", span,
+                "not a vector")
         return None
-    fx = c.time_function(vec.x, pos[1].span or f.span, ctx, unit="N")
-    fy = c.time_function(vec.y, pos[1].span or f.span, ctx, unit="N")
-    if p is None or fx is None or fy is None:
+    if not (c.dimension(vec.x, "N", span, ctx) and c.dimension(vec.y, "N", span, ctx)):
+        return None
+    read = [state_expression(c, e, span, ctx) for e in (vec.x, vec.y)]
+    if p is None or None in read:
         return None
     if p.body == GROUND:
         c.error("E402", f"{ctx} acts on the ground", f.span, "no effect",
                 hint="apply the force to a moving body")
         return None
-    return PointForce(f.name, p, fx, fy, f.span)
+    found = {**read[0][1], **read[1][1]}
+    ex, ey = read[0][0], read[1][0]
+    if frame == "body":
+        body = c.model_body(p.body)
+        if getattr(body, "particle", False):
+            c.error("E305", f"{ctx}: particle '{body.name}' does not turn: it has no body "
+                    "axes", frame_span(f) or f.span, "a particle has no axes",
+                    hint="give the components in world axes (frame = world)")
+            return None
+        theta = _section_angle(c, body, p, found)
+        C, S = Call("cos", theta), Call("sin", theta)
+        ex, ey = (Binary("-", Binary("*", ex, C), Binary("*", ey, S)),
+                  Binary("+", Binary("*", ex, S), Binary("*", ey, C)))
+    if not found:
+        fx = c.time_function(vec.x, span, ctx, unit="N")
+        fy = c.time_function(vec.y, span, ctx, unit="N")
+    else:
+        fx, fy = (state_function(c, e, tuple(found.values()), span, ctx) for e in (ex, ey))
+    if fx is None or fy is None:
+        return None
+    return PointForce(f.name, p, fx, fy, f.span, frame)
+
+
+def frame_span(f):
+    """The span of a force's ``frame`` keyword, or None."""
+    return next((a.span for a in f.args if a.keyword == "frame"), None)
+
+
+def _section_angle(c, body, p, found):
+    """The angle [rad] of a point's body axes as an expression in state
+    variables (recorded in ``found``): the body's phi, on a flexible beam
+    phi + v'(s), the cross-section's rotation (``BeamMesh.slope``)."""
+    def var(field):
+        v = state_variable(c, Dotted(body.name, field, None))
+        found.setdefault(v.name, v)
+        return Name(v.name)
+    terms = [var("phi")]
+    if isinstance(body, FlexibleBeam):
+        slope = body.mesh.slope(float(p.local[0]))[0]
+        names = body.mesh.names
+        terms += [_scaled(float(s), var(names[j])) for j, s in enumerate(slope) if s != 0.0]
+    return simplify(_sum(terms))
 
 
 def friction_element(c, f, pos, opts, ctx):
@@ -253,7 +308,13 @@ def force_function(c, expr, span, context, unit=None):
     e, found = read
     if not found:
         return c.time_function(expr, span, context, unit)
-    variables = tuple(found.values())
+    return state_function(c, e, tuple(found.values()), span, context)
+
+
+def state_function(c, e, variables, span, context):
+    """f(t, x) (StateFunction) of an expression ``e`` whose state variables
+    are named (``state_expression``), with its exact partial derivatives
+    with respect to each of ``variables``; None after reporting."""
     names = tuple(v.name for v in variables)
     try:
         grads = tuple(diff(e, name) for name in names)
@@ -272,11 +333,16 @@ def state_expression(c, expr, span, context):
     reported already)."""
     found: dict[str, StateVariable] = {}
 
-    def resolve(ref):
+    def record(var):
         """The variable's name; records it."""
-        var = state_variable(c, ref)
         found.setdefault(var.name, var)
         return var.name
+
+    def resolve(ref):
+        """A variable's name, or a point's field as an expression in them."""
+        if isinstance(ref.obj, Dotted):
+            return point_state(c, ref, record)
+        return record(state_variable(c, ref))
     try:
         return substitute(expr, c.params, resolve), found
     except BrokenReference:
@@ -298,10 +364,8 @@ def state_variable(c, ref: Dotted) -> StateVariable:
     obj = ref.obj if isinstance(ref.obj, str) else getattr(ref.obj, "text", "?")
     if obj in c.bodies:
         body = c.bodies[obj]
-        if isinstance(body, FlexibleBeam):
-            raise ExprError(f"'{ref.text}': force expressions read the state of rigid "
-                            "bodies and joints, not of flexible beams", "E304", ref.span,
-                            hint="use a rigid body or a joint")
+        if isinstance(body, FlexibleBeam) and ref.attr not in BODY_STATE:
+            return elastic_variable(body, ref)
         if ref.attr not in BODY_STATE:
             raise ExprError(f"'{ref.text}': a body's state in a force is one of "
                             f"{', '.join(BODY_STATE)}", "E304", ref.span,
@@ -348,6 +412,124 @@ def state_variable(c, ref: Dotted) -> StateVariable:
     raise ExprError(f"unknown body or joint '{obj}' in '{ref.text}'", "E201", ref.span,
                     name=obj, hint=did_you_mean(obj, list(c.bodies) + list(c.joints))
                     or "a force reads the state of a body or a revolute joint")
+
+
+def elastic_variable(beam, ref: Dotted) -> StateVariable:
+    """The state variable of a flexible beam's elastic coordinate (``rod.theta4``,
+    ``rod.eta1``) or of its rate (``rod.theta4_t``).
+
+    Raises
+    ------
+    ExprError
+        E304 for a field the beam does not have.
+    """
+    names = beam.mesh.names
+    base, level = (ref.attr[:-2], 1) if ref.attr.endswith("_t") else (ref.attr, 0)
+    if base not in names:
+        fields = list(BODY_STATE) + [names[0], names[0] + "_t"]
+        raise ExprError(f"'{ref.text}': a flexible beam's state in a force is its frame's "
+                        f"{', '.join(BODY_STATE)} or an elastic coordinate "
+                        f"({', '.join(names[:3])}, ...) or its rate (name_t)", "E304",
+                        ref.span, hint=did_you_mean(ref.attr, list(BODY_STATE) + names)
+                        or f"e.g. {', '.join(fields)}")
+    return StateVariable(ref.text, level, ((beam.index, 3 + names.index(base), 1.0),))
+
+
+#: a point's fields a force expression reads: its position and velocity in world axes
+POINT_STATE = ("x", "y", "vx", "vy")
+
+
+def _sum(terms):
+    """An expression: the sum of the expressions ``terms`` (0 for none)."""
+    out = None
+    for e in terms:
+        out = e if out is None else Binary("+", out, e)
+    return Num(0.0) if out is None else out
+
+
+def _scaled(coef: float, e):
+    """coef * e as an expression (None for coef 0, e for coef 1)."""
+    if coef == 0.0:
+        return None
+    return e if coef == 1.0 else Binary("*", Num(float(coef)), e)
+
+
+def point_state(c, ref: Dotted, record):
+    """A point's world position or velocity component (``arm.T.vx``) as an
+    expression in its body's state variables: p = r + A(phi) u, dp/dt =
+    r' + omega A' u + A S e', u = u0 + S(s) e on a flexible beam (Shabana,
+    Dynamics of Multibody Systems, 5.2); ``record`` registers a variable
+    and returns its name.
+
+    Raises
+    ------
+    ExprError
+        E201 for an unknown body or point, E304 for a field a point does not
+        have.
+    """
+    pt = ref.obj
+    if ref.attr not in POINT_STATE:
+        raise ExprError(f"'{ref.text}': a force reads a point's "
+                        f"{', '.join(POINT_STATE)}", "E304", ref.span,
+                        hint=did_you_mean(ref.attr, POINT_STATE)
+                        or f"fields are {', '.join(POINT_STATE)}")
+    if not isinstance(pt.obj, str):
+        raise ExprError(f"'{ref.text}' is not a point's field", "E304", ref.span,
+                        hint="write body.point.x")
+    if pt.obj == "ground":
+        if pt.attr not in c.ground_points:
+            raise ExprError(f"the ground has no point '{pt.attr}' in '{ref.text}'", "E201",
+                            ref.span, name=pt.attr,
+                            hint=did_you_mean(pt.attr, c.ground_points))
+        p = c.ground_points[pt.attr]
+        return Num(float({"x": p[0], "y": p[1]}.get(ref.attr, 0.0)), ref.span)
+    if pt.obj not in c.bodies:
+        if pt.obj in c.broken_bodies or pt.obj in c.broken_names:
+            raise BrokenReference(ref.text, "E201", ref.span)
+        raise ExprError(f"unknown body '{pt.obj}' in '{ref.text}'", "E201", ref.span,
+                        name=pt.obj, hint=did_you_mean(pt.obj, list(c.bodies) + ["ground"]))
+    body = c.bodies[pt.obj]
+    if pt.attr not in body.points:
+        if (body.name, pt.attr) in c.broken_points:
+            raise BrokenReference(ref.text, "E201", ref.span)
+        raise ExprError(f"body '{body.name}' has no point '{pt.attr}' in '{ref.text}'",
+                        "E201", ref.span, name=pt.attr,
+                        hint=did_you_mean(pt.attr, body.points)
+                        or f"its points are {', '.join(sorted(body.points))}")
+
+    def var(field):
+        """The body's state variable ``field`` as a name."""
+        return Name(record(state_variable(c, Dotted(body.name, field, ref.span))), ref.span)
+    level = 1 if ref.attr.startswith("v") else 0
+    axis = ref.attr[-1]
+    own = var(("v" if level else "") + axis)
+    if getattr(body, "particle", False):
+        return own
+    p = point_ref(body, pt.attr, pt.text)
+    ux, uy = (float(v) for v in p.local)
+    ex, ey, dex, dey = [Num(ux)], [Num(uy)], [], []
+    names = body.mesh.names if isinstance(body, FlexibleBeam) else ()
+    for j, col in enumerate(p.elastic_columns):
+        e = names[int(col) - body.elastic_offset]
+        sx, sy = (float(v) for v in p.elastic_shape[:, j])
+        for terms, rates, s in ((ex, dex, sx), (ey, dey, sy)):
+            terms.append(_scaled(s, var(e)))
+            rates.append(_scaled(s, var(e + "_t")))
+    ex, ey = _sum([t for t in ex if t is not None]), _sum([t for t in ey if t is not None])
+    dex, dey = _sum([t for t in dex if t is not None]), _sum([t for t in dey if t is not None])
+    phi = var("phi")
+    C, S = Call("cos", phi), Call("sin", phi)
+
+    def rot(a, b, first):
+        """(A (a, b))_x (first) or _y."""
+        return (Binary("-", Binary("*", C, a), Binary("*", S, b)) if first
+                else Binary("+", Binary("*", S, a), Binary("*", C, b)))
+    if level == 0:
+        return simplify(Binary("+", own, rot(ex, ey, axis == "x")))
+    # omega A' u = omega (-(A u)_y, (A u)_x)
+    turn = Binary("*", var("omega"), rot(ex, ey, axis == "y"))
+    turn = Unary("-", turn) if axis == "x" else turn
+    return simplify(_sum([own, turn, rot(dex, dey, axis == "x")]))
 
 
 def check_gravity(c):

@@ -11,7 +11,7 @@ from __future__ import annotations
 from ...registry import COEFFICIENTS, METHOD_NAMES
 
 __all__ = ["MAX_REPEAT", "JOINT_KINDS", "COUPLER_KINDS", "JOINT_MOTION", "UNSET", "FORCE_KINDS",
-           "GEOMETRY_OPTIONS", "BODY_STATE",
+           "GEOMETRY_OPTIONS", "WORD_OPTIONS", "FORCE_FRAMES", "BODY_STATE",
            "REVOLUTE_STATE", "SLIDING_STATE", "KNOWN_METHODS", "SETTINGS"]
 
 
@@ -54,7 +54,7 @@ FORCE_KINDS = {
     "joint_force": {},
     "friction": {"mu": None, "radius": UNSET, "mu_static": UNSET, "v_stribeck": 0.0,
                  "viscous": 0.0, "v_reg": 1e-4},
-    "force": {},
+    "force": {"frame": "world"},
     # a circle against a line or in a hole (``model.contact``); line/circle: one of them
     "contact": {"radius": None, "line": UNSET, "circle": UNSET, "k": None, "exponent": 1.5,
                 "restitution": 1.0, "mu": 0.0, "v_reg": 1e-4},
@@ -67,6 +67,11 @@ FORCE_KINDS = {
 
 #: keywords whose value is a geometry, read by the element, not a number
 GEOMETRY_OPTIONS = ("line", "circle")
+#: ... or a word (a point force's axes)
+WORD_OPTIONS = ("frame",)
+
+#: the axes a point force's components may be written in
+FORCE_FRAMES = ("world", "body")
 
 #: What a force expression may read of the motion: body field -> (level, coordinate),
 #: and revolute-joint field -> level (angle, rate: phi2 - phi1 and its rate).

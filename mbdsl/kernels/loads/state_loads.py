@@ -17,8 +17,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..geometry import _line
-from ..programs import _eval, _state_values
-from ..schema import GEO, SDV, STQ, VAR, VARC, _f, _i, _inline, _put, _rows
+from ..programs import _eval, _state_values, emit_variable
+from ..schema import GEO, SDV, STQ, VAR, _i, _inline, _put, _rows
 
 #: Its fields in ``schema.MODEL_SCHEMA`` (the first gives the instances).
 FIELDS = ("stq", "sdv")
@@ -145,28 +145,6 @@ def emit_force(I, Fl, t, n, qx, vx, R, C, V, p, r0, c0, cq, cv):
                     row, w = _i(I, GEO, gs, a), wg[a]
                 if row >= n or w == 0.0:
                     continue
-                if gv < 0:                 # linear in q (level 0) or v (level 1)
-                    c = cq if _i(I, VAR, kv, 0) == 0 else cv
-                    if c == 0.0:
-                        continue
-                    for j in range(2):
-                        col = _i(I, VAR, kv, 1 + j)
-                        if col < n and _f(I, Fl, VARC, kv, j) != 0.0:
-                            p = _put(R, C, V, p, r0 + row, c0 + col,
-                                     -c * w * gk * _f(I, Fl, VARC, kv, j))
-                    continue
-                for j in range(6):         # a sliding distance (grad s) or speed
-                    col = _i(I, GEO, gv, j)
-                    if col >= n:
-                        continue
-                    if _i(I, VAR, kv, 0) == 0:
-                        dq, dv = grad[j], 0.0
-                    else:                  # d(grad s . v)/dq = H v, d/dv = grad s
-                        dq = 0.0
-                        for m2 in range(6):
-                            dq += H[j, m2] * vx[_i(I, GEO, gv, m2)]
-                        dv = grad[j]
-                    val = cq * dq + cv * dv
-                    if val != 0.0:
-                        p = _put(R, C, V, p, r0 + row, c0 + col, -w * gk * val)
+                p = emit_variable(I, Fl, n, vx, R, C, V, p, r0, c0, cq, cv, row, w, gk, kv,
+                                  grad, H)
     return p
