@@ -103,10 +103,11 @@ class PackingContext:
         from ..dsl.expressions import OPCODES
         self.system, self.cmap, self.n = system, system.cmap, system.n
         self.kernels, self._placed = kernels, None
-        self.state_op = OPCODES.index("x")
+        self.state_op, self.table_op = OPCODES.index("x"), OPCODES.index("table")
         self.code, self.consts, self.prog, self.depth = [], [], [], 1
         self.geo, self.geof, self.geo_row = [], [], {}
         self.var, self.varc, self.var_row = [], [], {}
+        self.tbl, self.tbd, self.table_rows = [], [], {}
         self.ecol, self.eshp, self.spans = [], [], {}
 
     def points(self, refs) -> tuple:
@@ -180,7 +181,7 @@ class PackingContext:
         """Index of a new program for expr (a function of t and, with
         ``variables`` (name -> row of "var"), of the state)."""
         from ..dsl.expressions import postfix
-        c, k, dep = postfix(expr, variables=variables)
+        c, k, dep = postfix(expr, variables=variables, tables=self.table_row)
         start = len(self.code)
         j = 0
         while j < len(c):            # constant indices are local to the program
@@ -190,6 +191,9 @@ class PackingContext:
             elif c[j] == self.state_op:   # a state variable: its row follows
                 self.code.extend((c[j], c[j + 1]))
                 j += 2
+            elif c[j] == self.table_op:   # a table: its row and the order follow
+                self.code.extend(c[j:j + 3])
+                j += 3
             else:
                 self.code.append(c[j])
                 j += 1
@@ -230,6 +234,19 @@ class PackingContext:
         return (self.program(f.expr), self.program(diff(f.expr)),
                 self.program(diff(diff(f.expr))))
 
+    def table_row(self, table) -> int:
+        """Row of a table (``model.table.Table``) in tbl/tbd, stored once:
+        (offset, intervals, extrapolation code), its breakpoints then its
+        coefficients, interval by interval (``kernels.programs._table``)."""
+        from ..model.table import EXTRAPOLATIONS
+        if id(table) not in self.table_rows:
+            self.table_rows[id(table)] = len(self.tbl)
+            self.tbl.append((len(self.tbd), len(table.x) - 1,
+                             EXTRAPOLATIONS.index(table.extrapolation)))
+            self.tbd.extend(float(v) for v in table.x)
+            self.tbd.extend(float(v) for v in table.c.T.ravel())
+        return self.table_rows[id(table)]
+
     def line_row(self, line) -> int:
         """Row of a sliding joint's line in geo/geof (shared by every use)."""
         from ..model.elements import line_columns
@@ -268,7 +285,8 @@ class PackingContext:
                    var=np.array(self.var, i8).reshape(-1, 4),
                    varc=np.array(self.varc, f8).reshape(-1, 2), xval=np.zeros(len(self.var)),
                    geo=np.array(self.geo, i8).reshape(-1, 6),
-                   geof=np.array(self.geof, f8).reshape(-1, 6))
+                   geof=np.array(self.geof, f8).reshape(-1, 6),
+                   tbl=np.array(self.tbl, i8).reshape(-1, 3), tbd=np.array(self.tbd, f8))
         if self.ecol:
             out.update(self.spans, ecol=np.array(self.ecol, i8),
                        eshp=np.array(self.eshp, f8).reshape(-1, 2))

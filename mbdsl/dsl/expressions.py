@@ -19,7 +19,7 @@ from typing import Callable, Union
 from ..errors import Span
 
 __all__ = [
-    "Num", "Name", "IndexedName", "Dotted", "Unary", "Binary", "Call", "Vec", "Expr",
+    "Num", "Name", "IndexedName", "Dotted", "Unary", "Binary", "Call", "TableCall", "Vec", "Expr",
     "FUNCTIONS", "PAIR_FUNCTIONS", "OPCODES", "ExprError", "evaluate", "evaluate_rows", "free_names",
     "substitute", "diff",
     "postfix",
@@ -113,6 +113,18 @@ class Call:
 
 
 @dataclass(frozen=True)
+class TableCall:
+    """``road(x)``: a declared table (``model.table.Table``) at its argument,
+    after :func:`substitute`; ``order`` > 0: its order-th derivative with
+    respect to the argument (from :func:`diff`)."""
+
+    table: object
+    arg: "Expr"
+    order: int = 0
+    span: Span | None = None
+
+
+@dataclass(frozen=True)
 class Cond:
     """``if(test, then, other)``: ``then`` where ``test`` is not 0, else
     ``other``; only the chosen branch is evaluated where evaluation can fail
@@ -133,7 +145,7 @@ class Vec:
     span: Span | None = None
 
 
-Expr = Union[Num, Name, Dotted, Unary, Binary, Call, Cond, IndexedName]
+Expr = Union[Num, Name, Dotted, Unary, Binary, Call, Cond, IndexedName, TableCall]
 
 #: Functions an expression may call, with their derivative as an expression builder.
 FUNCTIONS: dict[str, Callable[[float], float]] = {
@@ -156,9 +168,11 @@ CONSTANTS = {"pi": math.pi}
 #: Opcodes of a compiled program (:func:`postfix`), by number: a constant (its
 #: index in the constant table follows), t, negation, the binary operators, one
 #: per entry of :data:`FUNCTIONS` in order, then a state variable (its index
-#: in the model's table of state variables follows), then min and max (binary).
+#: in the model's table of state variables follows), then min and max (binary),
+#: the comparisons, ``if``, and a table (its row in the model's tables and the
+#: derivative's order follow).
 OPCODES = (("const", "t", "neg", "+", "-", "*", "/", "^") + tuple(FUNCTIONS) + ("x",)
-           + PAIR_FUNCTIONS + COMPARISONS + ("if",))
+           + PAIR_FUNCTIONS + COMPARISONS + ("if", "table"))
 
 
 class ExprError(ValueError):
@@ -259,6 +273,8 @@ def evaluate(expr: Expr, env: dict[str, float], allow_t: bool = False,
             return _apply(e.op, _ev(e.left), _ev(e.right), e.span)
         if isinstance(e, Cond):
             return _ev(e.then) if _ev(e.test) != 0.0 else _ev(e.other)
+        if isinstance(e, TableCall):
+            return e.table.value(_ev(e.arg), e.order)
         if isinstance(e, Call):
             f = FUNCTIONS.get(e.func)
             if f is None:
@@ -311,6 +327,8 @@ def evaluate_rows(expr: Expr, env: dict, t):
                     "^": np.power, "min": np.minimum, "max": np.maximum}[e.op](a, b)
         if isinstance(e, Cond):
             return np.where(_ev(e.test) != 0.0, _ev(e.then), _ev(e.other))
+        if isinstance(e, TableCall):
+            return e.table.values(_ev(e.arg), e.order)
         if isinstance(e, Call):
             return ufuncs[e.func](_ev(e.arg))
         raise TypeError(f"cannot evaluate {e!r}")
@@ -327,7 +345,7 @@ def free_names(expr: Expr) -> set[str]:
         return free_names(expr.operand)
     if isinstance(expr, Binary):
         return free_names(expr.left) | free_names(expr.right)
-    if isinstance(expr, Call):
+    if isinstance(expr, (Call, TableCall)):
         return free_names(expr.arg)
     if isinstance(expr, Cond):
         return free_names(expr.test) | free_names(expr.then) | free_names(expr.other)
@@ -335,8 +353,11 @@ def free_names(expr: Expr) -> set[str]:
 
 
 def substitute(expr: Expr, env: dict[str, float],
-               state: Callable[[Dotted], str] | None = None) -> Expr:
-    """Replace parameters (and ``pi``) by their values, keeping ``t``.
+               state: Callable[[Dotted], str] | None = None, tables: dict | None = None
+               ) -> Expr:
+    """Replace parameters (and ``pi``) by their values, keeping ``t``, and
+    calls of the model's tables (``tables``: name -> ``model.table.Table``)
+    by :class:`TableCall` nodes.
 
     ``state``: where the expression may use the state of the model (forces of
     the motion), it maps a reference such as ``crank.omega`` to the name of
@@ -358,18 +379,22 @@ def substitute(expr: Expr, env: dict[str, float],
         if expr.name in CONSTANTS:
             return Num(CONSTANTS[expr.name], expr.span)
         raise ExprError(f"unknown name '{expr.name}'", "E201", expr.span, name=expr.name)
+    def sub(e):
+        return substitute(e, env, state, tables)
     if isinstance(expr, Unary):
-        return Unary(expr.op, substitute(expr.operand, env, state), expr.span)
+        return Unary(expr.op, sub(expr.operand), expr.span)
     if isinstance(expr, Binary):
-        return Binary(expr.op, substitute(expr.left, env, state),
-                      substitute(expr.right, env, state), expr.span)
+        return Binary(expr.op, sub(expr.left), sub(expr.right), expr.span)
     if isinstance(expr, Call):
+        if tables and expr.func in tables:
+            return TableCall(tables[expr.func], sub(expr.arg), 0, expr.span)
         if expr.func not in FUNCTIONS:
             raise _function_error(expr)
-        return Call(expr.func, substitute(expr.arg, env, state), expr.span)
+        return Call(expr.func, sub(expr.arg), expr.span)
+    if isinstance(expr, TableCall):
+        return TableCall(expr.table, sub(expr.arg), expr.order, expr.span)
     if isinstance(expr, Cond):
-        return Cond(substitute(expr.test, env, state), substitute(expr.then, env, state),
-                    substitute(expr.other, env, state), expr.span)
+        return Cond(sub(expr.test), sub(expr.then), sub(expr.other), expr.span)
     if isinstance(expr, Dotted):
         if state is not None:
             got = state(expr)
@@ -409,6 +434,13 @@ def simplify(e: Expr) -> Expr:
         if isinstance(x, Num):
             return _n(-x.value)
         return Unary("-", x)
+    if isinstance(e, TableCall):
+        x = simplify(e.arg)
+        if isinstance(x, Num):
+            v = e.table.value(x.value, e.order)
+            if math.isfinite(v):
+                return _n(v)
+        return TableCall(e.table, x, e.order, e.span)
     if isinstance(e, Call):
         x = simplify(e.arg)
         if isinstance(x, Num):
@@ -502,6 +534,8 @@ def diff(e: Expr, var: str = "t") -> Expr:
             return _b("+", term1, _b("*", _b("*", e, Call("log", a)), db))
         if isinstance(e, Cond):                # the chosen branch's derivative
             return Cond(e.test, _d(e.then), _d(e.other), e.span)
+        if isinstance(e, TableCall):           # the chain rule through the table's slope
+            return _b("*", TableCall(e.table, e.arg, e.order + 1, e.span), _d(e.arg))
         if isinstance(e, Call):
             x, dx = e.arg, _d(e.arg)
             f = e.func
@@ -605,6 +639,9 @@ def compile_function(e: Expr, var: str = "t") -> Callable[[float], float]:
         if isinstance(e, Cond):
             ft, fa, fb = _c(e.test), _c(e.then), _c(e.other)
             return lambda t: fa(t) if ft(t) != 0.0 else fb(t)
+        if isinstance(e, TableCall):
+            table, order, fx = e.table, e.order, _c(e.arg)
+            return lambda t: table.value(fx(t), order)
         if isinstance(e, Call):
             fn, fx = _safe(FUNCTIONS[e.func]), _c(e.arg)
             return lambda t: fn(fx(t))
@@ -653,6 +690,9 @@ def compile_state_function(e: Expr, variables: tuple) -> Callable[[float, "objec
         if isinstance(e, Cond):
             ft, fa, fb = _c(e.test), _c(e.then), _c(e.other)
             return lambda t, x: fa(t, x) if ft(t, x) != 0.0 else fb(t, x)
+        if isinstance(e, TableCall):
+            table, order, fx = e.table, e.order, _c(e.arg)
+            return lambda t, x: table.value(fx(t, x), order)
         if isinstance(e, Call):
             fn, fx = _safe(FUNCTIONS[e.func]), _c(e.arg)
             return lambda t, x: fn(fx(t, x))
@@ -661,12 +701,13 @@ def compile_state_function(e: Expr, variables: tuple) -> Callable[[float, "objec
     return _c(e)
 
 
-def postfix(e: Expr, var: str = "t", variables: dict | None = None
+def postfix(e: Expr, var: str = "t", variables: dict | None = None, tables=None
             ) -> tuple[list[int], list[float], int]:
     """A substituted expression as a postfix program, for the compiled kernels
     (``kernels.programs._eval``): of time ``var`` and, with
     ``variables`` (name -> index in the model's table of state variables),
-    of the state.
+    of the state; ``tables`` maps a ``model.table.Table`` to its row in the
+    model's tables (a program that calls one needs it).
 
     Returns
     -------
@@ -715,6 +756,9 @@ def postfix(e: Expr, var: str = "t", variables: dict | None = None
         elif isinstance(e, Call):
             emit(e.arg)
             code.append(OPCODES.index(e.func))
+        elif isinstance(e, TableCall) and tables is not None:
+            emit(e.arg)
+            code.extend((OPCODES.index("table"), int(tables(e.table)), int(e.order)))
         elif isinstance(e, Cond):        # both branches computed, one kept (a NaN of
             emit(e.test)                 # the other is discarded)
             emit(e.then)

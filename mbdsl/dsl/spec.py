@@ -69,6 +69,30 @@ class ParameterSpec:
 
 
 @dataclass(frozen=True)
+class TableSpec:
+    """``table NAME(ARG) = [(x, y), ...]`` or ``= "file.csv"``, with options
+    (``interpolation = pchip``, ``extrapolation = hold``, ``units = (s, N)``).
+
+    Attributes
+    ----------
+    points : tuple of Vec or None
+        The inline points (x, y), expressions of parameters with units.
+    path : str or None
+        The data file, relative to the model file's folder.
+    args : tuple of ArgSpec
+        The options.
+    """
+
+    name: str
+    argument: str
+    points: tuple | None = None
+    path: str | None = None
+    args: tuple = ()
+    span: Span | None = None
+    source_span: Span | None = None
+
+
+@dataclass(frozen=True)
 class PointSpec:
     """``point NAME (x, y)``: a body-fixed point [m], relative to the centre
     of mass in the body frame (or a ground point in the global frame)."""
@@ -380,6 +404,8 @@ class ModelSpec:
         ``initial static``: start at rest in static equilibrium.
     outputs : sequence of OutputSpec
         Output columns (sensors).
+    tables : sequence of TableSpec
+        Tables y(x), callable in expressions by name.
     """
 
     name: str
@@ -394,6 +420,7 @@ class ModelSpec:
     settings: tuple = ()
     loops: tuple = ()
     outputs: tuple = ()
+    tables: tuple = ()
     file: str = "<python>"
     source: str | None = None
     span: Span | None = None

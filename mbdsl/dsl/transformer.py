@@ -8,7 +8,7 @@ physics happens here. The expressions' rules are
 
 from __future__ import annotations
 
-from lark import v_args
+from lark import Token, v_args
 
 from . import spec as S
 from .expressions import Dotted, IndexedName
@@ -35,7 +35,7 @@ class ToSpec(ToExpression):
         header, *items = children
         buckets = {k: [] for k in ("parameters", "ground_points", "bodies", "joints",
                                    "forces", "drivers", "initials", "settings", "loops",
-                                   "outputs")}
+                                   "outputs", "tables")}
         gravity, gspan, static = None, None, None
         for it in items:
             if isinstance(it, tuple) and it and it[0] == "static":
@@ -60,6 +60,8 @@ class ToSpec(ToExpression):
                 buckets["loops"].append(it)
             elif isinstance(it, S.OutputSpec):
                 buckets["outputs"].append(it)
+            elif isinstance(it, S.TableSpec):
+                buckets["tables"].append(it)
             elif isinstance(it, list):
                 buckets["settings"].extend(it)
         return S.ModelSpec(name=header[0], gravity=gravity, gravity_span=gspan,
@@ -81,6 +83,22 @@ class ToSpec(ToExpression):
     def parameter_decl(self, meta, children):
         """``parameter NAME = expr`` -> ParameterSpec."""
         return S.ParameterSpec(str(children[0]), children[1], self._tspan(children[0]))
+
+    @v_args(meta=True)
+    def table_decl(self, meta, children):
+        """``table NAME(ARG) = [points] | "file", options`` -> TableSpec."""
+        name, arg, source, *options = children
+        if isinstance(source, Token):           # the file's name, without its quotes
+            return S.TableSpec(str(name), str(arg), None, str(source)[1:-1], tuple(options),
+                               self._tspan(name), self._tspan(source))
+        points, span = source
+        return S.TableSpec(str(name), str(arg), points, None, tuple(options), self._tspan(name),
+                           span)
+
+    @v_args(meta=True)
+    def table_points(self, meta, children):
+        """``[(x, y), ...]`` -> (tuple of Vec, span)."""
+        return tuple(children), self._span(meta)
 
     @v_args(meta=True)
     def gravity_decl(self, meta, children):

@@ -177,14 +177,14 @@ class DimensionError(ValueError):
 
 def has_unit(expr) -> bool:
     """Whether any number in the expression carries a unit."""
-    from .expressions import Binary, Call, Cond, Num, Unary
+    from .expressions import Binary, Call, Cond, Num, TableCall, Unary
     if isinstance(expr, Num):
         return expr.unit is not None
     if isinstance(expr, Unary):
         return has_unit(expr.operand)
     if isinstance(expr, Binary):
         return has_unit(expr.left) or has_unit(expr.right)
-    if isinstance(expr, Call):
+    if isinstance(expr, (Call, TableCall)):
         return has_unit(expr.arg)
     if isinstance(expr, Cond):
         return any(has_unit(a) for a in (expr.test, expr.then, expr.other))
@@ -282,6 +282,24 @@ def _product(a, b, op):
     return _Soft(d) if isinstance(a, _Soft) and isinstance(b, _Soft) else d
 
 
+def table_key(name: str) -> str:
+    """The key of a table's (argument, value) dimensions among the names'
+    dimensions (``road()``: apart from a parameter of the same name)."""
+    return f"{name}()"
+
+
+def _table_dimension(call, dims, names, references):
+    """A table's value's dimension, its argument's checked against the
+    table's (``dims``: (argument, value), None where the table's points
+    carry no unit)."""
+    arg = _hard(_dimension(call.arg, names, references))
+    want, value = dims
+    if arg is not None and want is not None and arg != want:
+        raise DimensionError(f"{call.func}() reads {describe(want)}, got {describe(arg)}",
+                             call.span)
+    return value
+
+
 def _dimension(expr, names: dict, references=None):
     """:func:`dimension` with soft parts (:class:`_Soft`) still soft."""
     from .expressions import Binary, Call, Cond, Dotted, Name, Num, Unary
@@ -332,6 +350,8 @@ def _dimension(expr, names: dict, references=None):
                 return NONE if a is not None or b is not None else None
             return a if a is not None else b
         return None
+    if isinstance(expr, Call) and table_key(expr.func) in names:
+        return _table_dimension(expr, names[table_key(expr.func)], names, references)
     if isinstance(expr, Call):
         arg = _dimension(expr.arg, names, references)
         if expr.func in _PLAIN_FUNCTIONS:

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 
-from .expressions import Binary, Call, Cond, Dotted, IndexedName, Name, Num, Unary, Vec
+from .expressions import Binary, Call, Cond, Dotted, IndexedName, Name, Num, TableCall, Unary, Vec
 
 __all__ = ["expr_text", "spec_text"]
 
@@ -73,6 +73,8 @@ def expr_text(e) -> str:
         return f"({expr_text(e.x)}, {expr_text(e.y)})"
     if isinstance(e, Call):
         return f"{e.func}({expr_text(e.arg)})"
+    if isinstance(e, TableCall):           # a derivative (from diff) as name', name'', ...
+        return f"{e.table.name}{chr(39) * e.order}({expr_text(e.arg)})"
     if isinstance(e, Cond):
         return f"if({expr_text(e.test)}, {expr_text(e.then)}, {expr_text(e.other)})"
     if isinstance(e, Unary):
@@ -144,12 +146,17 @@ def _item(it, indent: str) -> list[str]:
 def spec_text(spec) -> str:
     """The model file of a :class:`~mbdsl.dsl.spec.ModelSpec`.
 
-    Declarations are written grouped by kind (parameters, gravity, ground
+    Declarations are written grouped by kind (parameters, tables, gravity, ground
     points, bodies, joints, forces, drivers, initial lines, repeated blocks,
     the simulate section): the language does not depend on their order.
     """
     lines = [f"model {spec.name}   # written by mbdsl from a model built in Python", ""]
     lines += [f"parameter {p.name} = {expr_text(p.value)}" for p in spec.parameters]
+    for tb in spec.tables:
+        source = (f'"{tb.path}"' if tb.path is not None
+                  else "[" + ", ".join(expr_text(v) for v in tb.points) + "]")
+        options = "".join(f", {_args([a])}" for a in tb.args)
+        lines.append(f"table {tb.name}({tb.argument}) = {source}{options}")
     if spec.gravity is not None:
         lines.append(f"gravity {expr_text(spec.gravity)}")
     if spec.ground_points:

@@ -239,6 +239,8 @@ def fail(sol, method, ctx, res, t, step, h):
         found = _near_singular_rows_explained(system, method, ctx)
     if found is None and stiff:
         found = _too_stiff(system, method, stiff, step)
+    if found is None and res.status is NewtonStatus.NONFINITE:
+        found = _nonfinite_function(system, ctx, t, step)
     if found is not None:
         more, where, hint = found
         detail += more
@@ -247,6 +249,69 @@ def fail(sol, method, ctx, res, t, step, h):
            f"(h = {step:.3g} s after halving from {h:.3g} s): {res.status.value}; "
            f"{_norms_text(res.norms)}{detail}")
     _stop(sol, "E601", msg, hint, span, "involved here" if span else "")
+
+
+def _nonfinite_function(system, ctx, t, step) -> tuple | None:
+    """(text, span, hint) naming the first load or driver whose function is
+    not finite at the step's end (the last accepted state, at t + step), and
+    a table it reads outside its points (``extrapolation = error``); None
+    where every one is finite."""
+    from ..dsl.expressions import TableCall, compile_function, compile_state_function
+    from ..dsl.unparse import expr_text
+    last = ctx.history[-1] if ctx.history else None
+    if last is None:
+        return None
+    cmap = system.cmap
+    qx, vx = (np.concatenate([np.asarray(a, float), np.zeros(3)]) for a in (last.q, last.v))
+    te = t + step
+
+    def calls(e):
+        """The TableCall nodes of an expression."""
+        if isinstance(e, TableCall):
+            yield e
+        for child in vars(e).values() if hasattr(e, "__dataclass_fields__") else ():
+            if hasattr(child, "__dataclass_fields__"):
+                yield from calls(child)
+    elements = list(system.model.drivers) + list(system.model.forces)
+    for el in elements:
+        for fn in getattr(el, "functions", None) or (getattr(el, "function", None),):
+            if fn is None or getattr(fn, "expr", None) is None:
+                continue
+            variables = getattr(fn, "variables", ())
+            names = tuple(v.name for v in variables)
+            try:
+                with np.errstate(all="ignore"):
+                    x = np.array([v.value(qx, vx, cmap) for v in variables])
+
+                    def at(e):
+                        return (compile_state_function(e, names)(te, x) if names
+                                else compile_function(e)(te))
+                    if np.isfinite(at(fn.expr)):
+                        bad = [v.name for v, g in zip(variables, getattr(fn, "grad_exprs", ()))
+                               if not np.isfinite(at(g))]
+                        if not bad:
+                            continue
+                        return (f"; the derivative of {el.name}'s {expr_text(fn.expr)} with "
+                                f"respect to {bad[0]} is not finite at t = {te:.6g} s",
+                                getattr(el, "span", None),
+                                "Newton's matrix needs it: sqrt(x) has none at x = 0 "
+                                "(write sqrt(x + eps)), abs(x) is kinked but finite")
+                    for call in calls(fn.expr):
+                        tab, u = call.table, at(call.arg)
+                        if tab.extrapolation == "error" and not tab.x[0] <= u <= tab.x[-1]:
+                            return (f"; table '{tab.name}' is read at {u:.6g}, outside its "
+                                    f"points [{tab.x[0]:.6g}, {tab.x[-1]:.6g}] "
+                                    f"(extrapolation = error), by {el.name}",
+                                    getattr(el, "span", None),
+                                    "extend the table's points, or let it hold or extend "
+                                    "its end values (extrapolation = hold | linear)")
+            except (ValueError, TypeError, ZeroDivisionError, OverflowError):
+                continue
+            return (f"; {el.name}'s value {expr_text(fn.expr)} is not finite at t = {te:.6g} s",
+                    getattr(el, "span", None),
+                    "a division by zero, a root of a negative number or a derivative "
+                    "that does not exist there (sqrt at 0): reformulate the expression")
+    return None
 
 
 def _worst_residual(system, method, ctx, res) -> tuple:

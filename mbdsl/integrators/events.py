@@ -336,8 +336,10 @@ def _unparse(expr) -> str:
 def _switches(expr):
     """The switching functions of a piecewise expression: a - b for every
     min(a, b), max(a, b) and comparison a < b (``if`` tests are comparisons
-    or such expressions), the argument of abs and sign."""
-    from ..dsl.expressions import COMPARISONS, PAIR_FUNCTIONS, Binary, Call, Cond, Unary
+    or such expressions), the argument of abs and sign, and of a table whose
+    slope jumps a function whose sign changes at each jump
+    (``model.table.Table.switches``)."""
+    from ..dsl.expressions import COMPARISONS, PAIR_FUNCTIONS, Binary, Call, Cond, TableCall, Unary
     out = []
     if isinstance(expr, Binary):
         if expr.op in PAIR_FUNCTIONS or expr.op in COMPARISONS:
@@ -346,6 +348,11 @@ def _switches(expr):
     elif isinstance(expr, Call):
         if expr.func in ("abs", "sign"):
             out.append(expr.arg)
+        out += _switches(expr.arg)
+    elif isinstance(expr, TableCall):
+        kinks = expr.table.switches()      # a table whose sign changes at each kink
+        if kinks is not None and expr.order == 0:
+            out.append(TableCall(kinks, expr.arg))
         out += _switches(expr.arg)
     elif isinstance(expr, Unary):
         out += _switches(expr.operand)

@@ -74,6 +74,8 @@ def metadata(solution, extra: dict | None = None, final: bool = True,
     ``message``, ``extras`` (JSON list), ``units`` (JSON object: column ->
     SI unit, "" for none or mixed), ``stats_total`` (JSON object),
     ``wall_time``, ``engine``, ``linear_solver``, ``timings`` (JSON object);
+    for a model with tables ``tables`` (JSON object: name -> source, sha256,
+    interpolation, extrapolation, x, y: :func:`table_record`);
     for a model with contacts or joint limits ``events`` (JSON list of [t [s],
     gap, "closed" or "opened", speed [m/s or rad/s]]: when and which gap of a
     contact or limit closed or opened, with its approach or separation
@@ -120,9 +122,22 @@ def metadata(solution, extra: dict | None = None, final: bool = True,
         meta["rows"] = "at requested times"
     if final:
         meta["warnings"] = json.dumps([[w.code, w.message] for w in solution.warnings])
+    if getattr(model, "tables", ()):     # each table's points, where they came from, and how read
+        meta["tables"] = json.dumps({t.name: table_record(t) for t in model.tables})
     meta["model_source"] = json.dumps(model.source)      # one line: newlines escaped
     meta.update(extra or {})
     return meta
+
+
+def table_record(table) -> dict:
+    """A table's record in the metadata: its source (a data file's path or
+    "inline"), the sha256 of the points as read (the file's bytes), the
+    interpolation and extrapolation, and the points [SI]."""
+    x = [float(v) for v in table.x]
+    y = [table.value(v) for v in x]
+    return {"source": table.source, "sha256": table.digest,
+            "interpolation": table.interpolation, "extrapolation": table.extrapolation,
+            "x": x, "y": y}
 
 
 def rebuild_system(meta: dict, path):

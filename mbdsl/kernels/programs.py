@@ -18,23 +18,25 @@ import math
 from mbdsl.dsl.expressions import OPCODES
 
 from .geometry import _line
-from .schema import CODE, CONSTS, GEO, PROG, STACK, VAR, VARC, XVAL, _f, _i, _inline, _jit, _put, _rows
+from .schema import (CODE, CONSTS, GEO, PROG, STACK, TBD, TBL, VAR, VARC, XVAL, _f, _i, _inline,
+                     _jit, _put, _rows)
 
 _OPCODES = ("const", "t", "neg", "+", "-", "*", "/", "^", "sin", "cos", "tan", "asin", "acos",
             "atan", "sinh", "cosh", "tanh", "sqrt", "exp", "log", "abs", "sign", "x", "min",
-            "max", "<", ">", "<=", ">=", "if")
+            "max", "<", ">", "<=", ">=", "if", "table")
 
 
 #: Opcodes (``dsl.expressions.OPCODES``, checked at import): literals, as the field indices.
 (OP_CONST, OP_T, OP_NEG, OP_ADD, OP_SUB, OP_MUL, OP_DIV, OP_POW,
  OP_SIN, OP_COS, OP_TAN, OP_ASIN, OP_ACOS, OP_ATAN, OP_SINH, OP_COSH, OP_TANH,
  OP_SQRT, OP_EXP, OP_LOG, OP_ABS, OP_SIGN, OP_X, OP_MIN, OP_MAX,
- OP_LT, OP_GT, OP_LE, OP_GE, OP_IF) = range(30)
+ OP_LT, OP_GT, OP_LE, OP_GE, OP_IF, OP_TABLE) = range(31)
 if _OPCODES != OPCODES:     # pragma: no cover (a developer's error, caught by any test)
     raise ImportError("programs.py's opcodes differ from dsl.expressions.OPCODES")
 
-#: Its fields in ``schema.MODEL_SCHEMA``: the programs, their stack, the state variables.
-FIELDS = ("code", "consts", "prog", "stack", "var", "varc", "xval")
+#: Its fields in ``schema.MODEL_SCHEMA``: the programs, their stack, the state variables,
+#: the tables.
+FIELDS = ("code", "consts", "prog", "stack", "var", "varc", "xval", "tbl", "tbd")
 
 
 @_jit
@@ -98,9 +100,61 @@ def _eval(I, Fl, p, t):
             else:
                 x = _pow(a, b)
             Fl[base + sp - 1] = x
+        elif op == OP_TABLE:                 # a table's row and derivative order follow
+            Fl[base + sp - 1] = _table(I, Fl, _i(I, CODE, k, 0), _i(I, CODE, k + 1, 0),
+                                       Fl[base + sp - 1])
+            k += 2
         else:
             Fl[base + sp - 1] = _call(op, Fl[base + sp - 1])
     return Fl[base]
+
+
+@_inline
+def _cubic(Fl, c, s, order):
+    """The order-th derivative at s of the cubic whose coefficients (highest
+    power first) start at Fl[c]."""
+    c0, c1, c2, c3 = Fl[c], Fl[c + 1], Fl[c + 2], Fl[c + 3]
+    if order == 0:
+        return ((c0 * s + c1) * s + c2) * s + c3
+    if order == 1:
+        return (3.0 * c0 * s + 2.0 * c1) * s + c2
+    if order == 2:
+        return 6.0 * c0 * s + 2.0 * c1
+    return 6.0 * c0 if order == 3 else 0.0
+
+
+@_jit
+def _table(I, Fl, row, order, u):
+    """The order-th derivative at u of table ``row`` (fields TBL: offset into
+    TBD, intervals k, extrapolation 0 hold, 1 linear, 2 error; TBD: the k + 1
+    breakpoints, then 4 coefficients per interval), as
+    ``model.table.Table.value``: the interval by bisection, NaN outside the
+    points for ``error``."""
+    k, mode = _i(I, TBL, row, 1), _i(I, TBL, row, 2)
+    base = I[3 * TBD] + _i(I, TBL, row, 0)
+    coefs = base + k + 1
+    x0, xn = Fl[base], Fl[base + k]
+    if not u == u:
+        return math.nan
+    if u < x0 or u > xn:
+        if mode == 2:
+            return math.nan
+        i, s = (0, 0.0) if u < x0 else (k - 1, xn - Fl[base + k - 1])
+        y = _cubic(Fl, coefs + 4 * i, s, 0)
+        if mode == 0:
+            return y if order == 0 else 0.0
+        slope = _cubic(Fl, coefs + 4 * i, s, 1)
+        if order == 0:
+            return y + slope * (u - (x0 if u < x0 else xn))
+        return slope if order == 1 else 0.0
+    lo, hi = 0, k                            # x[lo] <= u, and u < x[hi] or hi = k
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if Fl[base + mid] <= u:
+            lo = mid
+        else:
+            hi = mid
+    return _cubic(Fl, coefs + 4 * lo, u - Fl[base + lo], order)
 
 
 @_jit

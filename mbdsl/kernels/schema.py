@@ -61,6 +61,8 @@ MODEL_SCHEMA = (
     ("xrow", "i", 0), ("xoff", "f", 0),                                # coefficients; rows, c
     ("fdv", "i", 4),                                                   # point forces of the state:
                                                                        # (force, component, var, dF/dx)
+    ("tbl", "i", 3), ("tbd", "f", 0),                                  # tables: (offset, intervals,
+                                                                       # extrapolation); x, then c
 )
 #: The fields no element family owns: the mass diagonal, the constant forces (gravity),
 #: the constraint rows' elements and the rigid bodies' mass diagonal.
@@ -88,7 +90,7 @@ _0, _YES, _NO = np.int64(0), np.bool_(True), np.bool_(False)
  FCOL, FS, FF, ROW_ELEMENT, CODE, CONSTS, PROG, LFN, TCOL, TFN, FFN, STACK,
  VAR, VARC, XVAL, STQ, SDV, PFN, GEO, GEOF, FRI, FRP,
  DROW, DCOL1, DS1, DCOL2, DS2, DLEN, MRIG, BEAM, BCOL, BDAT, BDOF, GRAV, CEL, PEL, ECOL,
- ESHP, KGI, KCOL, KPAR, KIMP, SEL, FEL, DSP, XTRM, XTC, XROW, XOFF, FDV) = range(74)
+ ESHP, KGI, KCOL, KPAR, KIMP, SEL, FEL, DSP, XTRM, XTC, XROW, XOFF, FDV, TBL, TBD) = range(76)
 if any(globals()[name.upper()] != k for k, (name, _, _) in enumerate(MODEL_SCHEMA)):
     raise ImportError("schema.py's field indices differ from MODEL_SCHEMA")   # pragma: no cover
 

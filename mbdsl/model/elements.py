@@ -175,6 +175,15 @@ class StateVariable:
             return [cmap.column(b, j) for b, j, _ in self.terms]
         return line_columns(self.line, cmap)
 
+    def value(self, qx, vx, cmap: "CoordinateMap") -> float:
+        """Its value at (q, v) extended by the ground's three zeros, shape
+        (n+3,) each (the kernels' ``programs._state_values``, in numpy)."""
+        if self.line is not None:
+            s, grad = line_distance(self.line, qx, cmap)
+            return float(s) if self.level == 0 else float(grad @ vx[self.columns(cmap)])
+        src = qx if self.level == 0 else vx
+        return self.offset + sum(c * float(src[cmap.column(b, j)]) for b, j, c in self.terms)
+
 
 def line_columns(line, cmap: "CoordinateMap") -> list[int]:
     """Columns (x, y, phi of the line's body, then of the point's body) of a
@@ -871,6 +880,8 @@ class Model:
     couplers : tuple of Coupler
         Gears, racks and linear couplers between joint coordinates (their
         rows after the drivers').
+    tables : tuple of Table
+        The model's tables y(x) (``model.table``), as its expressions call them.
     """
 
     name: str
@@ -891,6 +902,7 @@ class Model:
     static_span: Span | None = None
     outputs: tuple = ()
     couplers: tuple = ()
+    tables: tuple = ()
 
     @property
     def n_coordinates(self) -> int:

@@ -5,7 +5,9 @@ The model ``all_elements.mbd`` declares every joint, driver and force type;
 (both frames, two beam sizes); ``coupler_elements.mbd`` every coupler (a
 rack on a turning line, joints that share a body); ``follower_elements.mbd``
 point forces that read the motion (in body axes, drag from point velocities,
-joint coordinates, on nodal and modal beams). Configurations and velocities are random
+joint coordinates, on nodal and modal beams); ``table_elements.mbd`` tables of
+time and of the state (every interpolation) in a driver, torques and forces.
+Configurations and velocities are random
 (not consistent: the derivatives are identities in q, v, t). A tolerance of 1e-6 relative catches a wrong
 sign or a missing term, which change entries by O(1).
 """
@@ -23,11 +25,12 @@ MODEL = VALID / "all_elements.mbd"
 FLEXIBLE = VALID / "flexible_elements.mbd"
 COUPLERS = VALID / "coupler_elements.mbd"
 FOLLOWER = VALID / "follower_elements.mbd"
+TABLES = VALID / "table_elements.mbd"
 EPS = 1e-6
 
 
-@pytest.fixture(scope="module", params=[MODEL, FLEXIBLE, COUPLERS, FOLLOWER],
-                ids=["rigid", "flexible", "couplers", "follower"])
+@pytest.fixture(scope="module", params=[MODEL, FLEXIBLE, COUPLERS, FOLLOWER, TABLES],
+                ids=["rigid", "flexible", "couplers", "follower", "tables"])
 def system(request):
     return assemble(mbdsl.load(request.param))
 
@@ -61,6 +64,11 @@ def states(system, count=4, seed=1):
 
 
 def test_model_declares_every_element_type(system):
+    if system.model.name == "table_elements":      # every interpolation and extrapolation
+        assert {t.interpolation for t in system.model.tables} == {"linear", "pchip", "cubic",
+                                                                "akima"}
+        assert {t.extrapolation for t in system.model.tables} == {"hold", "linear"}
+        return
     if system.model.name == "follower_elements":
         forces = {f.name: f for f in system.model.forces}
         assert {f.kind for f in forces.values()} == {"point_force"}

@@ -2,7 +2,7 @@
 
 Random trees of bodies and particles hung from the ground by random joints at
 random points, a loop closed by a distance joint at the assembled
-configuration's own length, random spring-dampers, torques, joint torques and
+configuration's own length, random spring-dampers, torques (of tables too), joint torques and
 forces, follower forces in body axes with a drag on their point, friction, a floor contact, joint limits, a rope to the ground, gears
 and racks between the joints, all with physical
 parameter ranges; each is checked (``mbdsl.check``) and run for 150 steps
@@ -89,6 +89,14 @@ def mechanisms(draw):
     if rigid and draw(st.booleans()):
         lines.append(f"force t0: torque({draw(st.sampled_from(rigid))}, "
                      f"{draw(num(-2, 2)):.3g}*sin({draw(num(0.5, 10)):.3g}*t))")
+    if rigid and draw(st.booleans()):     # a table of time and one of the body's speed
+        b = draw(st.sampled_from(rigid))
+        kind = draw(st.sampled_from(["linear", "pchip", "cubic", "akima"]))
+        lines += [f"table tq(t) = [(0, 0), (0.05, {draw(num(-2, 2)):.3g}), (0.1, "
+                  f"{draw(num(-2, 2)):.3g}), (0.2, 0)], interpolation = {kind}",
+                  f"table drag(w) = [(-10, 2), (0, 0), (10, -2)], interpolation = {kind}, "
+                  "extrapolation = linear",
+                  f"force t1: torque({b}, tq(t) + drag({b}.omega))"]
     if turning and draw(st.booleans()):
         j = draw(st.sampled_from(turning))
         lines.append(f"force a0: joint_torque({j}, -{draw(num(1, 50)):.3g}*{j}.angle - "

@@ -11,6 +11,7 @@ resolved model, and only when nothing else failed.
 pass           module
 =============  =========================================================
 parameters     ``parameters.py``: values, units, ``--set`` overrides
+tables         ``data_tables.py``: tables y(x), inline or from data files
 loops          ``loops.py``: ``for`` blocks flattened, indexed names
 ground         ``bodies.py``: the ground's points
 bodies         ``bodies.py``: rigid bodies, particles, flexible beams
@@ -37,6 +38,7 @@ from ..spec import ModelSpec
 from .bodies import check_bodies, check_ground
 from .context import CheckContext, point_ref
 from .couplers import check_couplers
+from .data_tables import check_tables
 from .drivers import check_drivers
 from .forces import check_forces, check_gravity
 from .initials import check_initials
@@ -53,7 +55,7 @@ __all__ = ["check_spec", "CheckContext", "PASSES", "JOINT_KINDS", "FORCE_KINDS",
 
 #: The passes in order, by name. Each takes the context; gravity's returns the
 #: model's gravity vector (or None).
-PASSES = (("parameters", check_parameters), ("loops", expand_loops),
+PASSES = (("parameters", check_parameters), ("tables", check_tables), ("loops", expand_loops),
           ("ground", check_ground), ("bodies", check_bodies), ("gravity", check_gravity),
           ("joints", check_joints), ("couplers", check_couplers), ("drivers", check_drivers),
           ("forces", check_forces),
@@ -97,7 +99,7 @@ def check_spec(spec: ModelSpec, overrides: dict | None = None) -> Model:
         parameters=dict(c.params), file=spec.file, source=spec.source,
         sha256=hashlib.sha256(source.encode()).hexdigest() if spec.source else "",
         static=bool(spec.static), static_span=spec.static_span, outputs=tuple(c.outputs),
-        couplers=tuple(c.couplers))
+        couplers=tuple(c.couplers), tables=tuple(c.tables.values()))
     if not any(d.is_error for d in c.diags):
         check_structure(c, model)
     if any(d.is_error for d in c.diags):

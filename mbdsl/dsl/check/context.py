@@ -73,6 +73,7 @@ class CheckContext:
         self.overrides = dict(overrides or {})
         self.diags: list[Diagnostic] = []
         self.params: dict[str, float] = {}
+        self.tables: dict = {}                          # name -> model.table.Table
         self.param_dims: dict[str, units.Dimension | None] = {}
         self.bodies: dict[str, RigidBody] = {}
         self.ground_points: dict[str, np.ndarray] = {"origin": np.zeros(2)}
@@ -176,7 +177,7 @@ class CheckContext:
         if not self.dimension(expr, unit, span, context):
             return None
         try:
-            e = substitute(expr, self.params)
+            e = substitute(expr, self.params, tables=self.tables)
             f, d1 = compile_function(e), diff(e)
             d2 = diff(d1)
             fn = TimeFunction(f, compile_function(d1), compile_function(d2),

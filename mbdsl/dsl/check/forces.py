@@ -344,7 +344,7 @@ def state_expression(c, expr, span, context):
             return point_state(c, ref, record)
         return record(state_variable(c, ref))
     try:
-        return substitute(expr, c.params, resolve), found
+        return substitute(expr, c.params, resolve, c.tables), found
     except BrokenReference:
         return None
     except ExprError as err:

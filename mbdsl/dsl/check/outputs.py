@@ -243,7 +243,7 @@ def check_outputs(c):
         if value is None:
             continue
         try:
-            e = substitute(value, c.params, resolve)
+            e = substitute(value, c.params, resolve, c.tables)
         except BrokenReference:
             continue                # a reference to a broken element: reported already
         except ExprError as err:
