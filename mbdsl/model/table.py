@@ -92,9 +92,31 @@ class Table:
         return 6.0 * c0 if order == 3 else 0.0
 
     def values(self, u, order: int = 0) -> np.ndarray:
-        """:meth:`value` over an array of arguments."""
+        """:meth:`value` over an array of arguments (vectorised: the same
+        interval choice and Horner form, so the same numbers)."""
         u = np.asarray(u, dtype=float)
-        return np.array([self.value(float(v), order) for v in u.ravel()]).reshape(u.shape)
+        x, k = self.x, len(self.x) - 1
+        flat = u.ravel()
+        inside = (flat >= x[0]) & (flat <= x[-1])
+        i = np.clip(np.searchsorted(x, flat, side="right") - 1, 0, k - 1)
+        s = np.where(inside, flat - x[i], 0.0)
+        out = self._polys(i, s, order)
+        outside = ~inside & ~np.isnan(flat)
+        if outside.any():
+            out[outside] = [self.value(v, order) for v in flat[outside]]
+        out[np.isnan(flat)] = np.nan
+        return out.reshape(u.shape)
+
+    def _polys(self, i, s, order) -> np.ndarray:
+        """:meth:`_poly` over arrays of intervals and offsets."""
+        c0, c1, c2, c3 = self.c[:, i]
+        if order == 0:
+            return ((c0 * s + c1) * s + c2) * s + c3
+        if order == 1:
+            return (3.0 * c0 * s + 2.0 * c1) * s + c2
+        if order == 2:
+            return 6.0 * c0 * s + 2.0 * c1
+        return 6.0 * c0 if order == 3 else np.zeros_like(s)
 
     def switches(self):
         """A table of the same argument whose sign changes at each point

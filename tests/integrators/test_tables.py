@@ -224,3 +224,57 @@ def test_a_table_outside_its_points_holds_extends_or_stops():
                          t_end=1.0, on_failure="return")
     assert not err.completed
     assert "r(t)" in err.message or "table 'r'" in err.message, err.message
+
+
+def test_the_language_docs_example_spins_up_as_its_text_says():
+    """docs/language.md's motor map: J omega' = tau(omega), pchip through
+    (0, 20), (10, 15), (15, 0) N m; the speed rises to the curve's zero,
+    15 rad/s, and meanwhile omega(t) follows the quadrature t = J int dw /
+    tau(w) of the same interpolant (scipy's, independently of the run's)."""
+    import re
+    from pathlib import Path
+
+    from scipy.integrate import quad
+    from scipy.interpolate import PchipInterpolator
+    doc = (Path(__file__).resolve().parents[2] / "docs" / "language.md").read_text()
+    (text,) = [b for b in re.findall(r"```\n(.*?)```", doc, re.S)
+               if b.startswith("model motor_map")]
+    sol = mbdsl.simulate(mbdsl.load_text(text))
+    assert sol.completed and not sol.warnings
+    tau = PchipInterpolator([0.0, 10.0, 15.0], [20.0, 15.0, 0.0])
+    for w in (5.0, 10.0, 14.0):
+        t_w = 0.2 * quad(lambda x: 1.0 / tau(x), 0.0, w)[0]
+        assert np.interp(t_w, sol.t, sol.column("fly.omega")) == pytest.approx(w, rel=1e-5)
+    assert 14.5 < sol.column("fly.omega")[-1] < 15.0 + 1e-9
+
+
+@pytest.mark.parametrize("interpolation", ["linear", "pchip", "cubic", "akima"])
+@pytest.mark.parametrize("extrapolation", ["hold", "linear", "error"])
+def test_a_table_is_scipys_interpolant_inside_and_its_extrapolation_outside(interpolation,
+                                                                          extrapolation):
+    """Inside the points a table and its derivatives are scipy's interpolant's
+    (numpy's interp for linear); outside, the end value (hold), the end
+    tangent (linear) or NaN (error); the vectorised evaluation is the
+    scalar one, bit for bit."""
+    from scipy.interpolate import Akima1DInterpolator, CubicSpline, PchipInterpolator
+
+    from mbdsl.model.table import build_table
+    rng = np.random.default_rng(3)
+    x, y = np.cumsum(rng.uniform(0.1, 1.0, 9)), rng.normal(size=9)
+    table = build_table("r", x, y, interpolation, extrapolation)
+    u = np.linspace(x[0], x[-1], 401)
+    if interpolation == "linear":
+        np.testing.assert_allclose(table.values(u), np.interp(u, x, y), atol=1e-13)
+    else:
+        ref = {"pchip": PchipInterpolator, "cubic": CubicSpline,
+               "akima": Akima1DInterpolator}[interpolation](x, y)
+        for order in range(4):
+            np.testing.assert_allclose(table.values(u, order), ref(u, order), atol=1e-9)
+    end, slope = table.value(x[-1]), table.value(x[-1], 1)
+    beyond = table.value(x[-1] + 0.5)
+    expected = {"hold": end, "linear": end + 0.5 * slope, "error": math.nan}[extrapolation]
+    assert beyond == pytest.approx(expected, nan_ok=True)
+    w = np.concatenate([rng.uniform(x[0] - 1, x[-1] + 1, 300), x, [np.nan]])
+    for order in range(4):
+        assert np.array_equal(table.values(w, order), [table.value(v, order) for v in w],
+                              equal_nan=True)
