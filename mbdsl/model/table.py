@@ -81,15 +81,7 @@ class Table:
 
     def _poly(self, i, s, order) -> float:
         """The order-th derivative of interval i's cubic at s = x - x_i."""
-        c0, c1, c2, c3 = (float(v) for v in self.c[:, i])
-        s = float(s)
-        if order == 0:
-            return ((c0 * s + c1) * s + c2) * s + c3
-        if order == 1:
-            return (3.0 * c0 * s + 2.0 * c1) * s + c2
-        if order == 2:
-            return 6.0 * c0 * s + 2.0 * c1
-        return 6.0 * c0 if order == 3 else 0.0
+        return float(self._polys(i, float(s), order))
 
     def values(self, u, order: int = 0) -> np.ndarray:
         """:meth:`value` over an array of arguments (vectorised: the same
