@@ -150,7 +150,7 @@ def _flywheel_exact(t):
     pts = [(0.0, 0.0), (0.3, 2.0), (0.55, -1.0), (1.0, 0.5)]
     out = np.empty_like(t)
     for k, tk in enumerate(t):
-        th, w, t0 = 0.0, 0.0, 0.0
+        th, w = 0.0, 0.0
         for (a, ta), (b, tb) in zip(pts, pts[1:] + [(math.inf, 0.5)]):
             s = (tb - ta) / (b - a) if math.isfinite(b) else 0.0
             dt = min(tk, b) - a
