@@ -52,6 +52,19 @@ __all__ = ["TimeLoop", "LoopState", "StepSizes", "CHUNK", "FLUSH_INTERVAL", "spa
 #: CHUNK K steps (a chain of 1000 links, 1.6 ms a step, recording every 100th: 5
 #: minutes).
 CHUNK = 2000
+#: ... and the most bytes those buffers take: a model of n coordinates keeps
+#: fewer rows where CHUNK rows of its q, v, a, lambda and mu would take more (a
+#: chain of 1e5 links, 3e5 coordinates: 35 rows, not the 24 GB 2000 rows take,
+#: which the machine's memory does not have); every model below 5000
+#: coordinates keeps CHUNK.
+OUTPUT_BYTES = 256 * 2 ** 20
+
+
+def buffer_rows(n: int, m: int) -> int:
+    """Rows of the loop's output buffers for n coordinates and m constraint
+    rows: CHUNK, or fewer (at least 1) to stay within OUTPUT_BYTES."""
+    per_row = 8 * (3 * n + 2 * m + 8)       # q, v, a, lambda, mu, t, h and the counts
+    return int(max(1, min(CHUNK, OUTPUT_BYTES // per_row)))
 #: Error control: a run whose last STALL_STEPS accepted steps averaged less
 #: than STALL_FRACTION times its nominal step, with at least STALL_REJECTED
 #: rejected steps per accepted one among them, stops (E604): a generated
@@ -246,7 +259,8 @@ class LoopState:
         residuals, Newton matrices, factorizations, steps whose multipliers
         stalled at round-off, steps.
     out_t, out_h, out_q, out_v, out_a, out_lam, out_mu, out_stats : ndarray
-        The output buffers, CHUNK rows: time, step size, state, counts.
+        The output buffers, ``rows`` rows (:func:`buffer_rows`): time, step
+        size, state, counts.
     buffered, sent : int
         Rows recorded in the buffers, and how many of them are in the
         Solution (:meth:`flush`); the next call records after them, into the
@@ -268,10 +282,11 @@ class LoopState:
             self.mu[:] = start.extra[self.extra]
         self.q_prev, self.v_prev = self.q.copy(), self.v.copy()
         self.counts = np.zeros(6, np.int64)
-        self.out_t, self.out_h = np.empty(CHUNK), np.empty(CHUNK)
-        self.out_q, self.out_v, self.out_a = (np.empty((CHUNK, n)) for _ in range(3))
-        self.out_lam, self.out_mu = np.empty((CHUNK, m)), np.empty((CHUNK, m))
-        self.out_stats = np.empty((CHUNK, 6), np.int64)
+        rows = self.rows = buffer_rows(n, m)
+        self.out_t, self.out_h = np.empty(rows), np.empty(rows)
+        self.out_q, self.out_v, self.out_a = (np.empty((rows, n)) for _ in range(3))
+        self.out_lam, self.out_mu = np.empty((rows, m)), np.empty((rows, m))
+        self.out_stats = np.empty((rows, 6), np.int64)
         self.buffered = self.sent = 0
 
     def step_state(self, t) -> StepState:
@@ -325,7 +340,7 @@ class LoopState:
                              {x: self.out_mu[i:k].copy()} if x is not None else {},
                              self.out_stats[i:k].copy(), self.out_h[i:k].copy())
         self.sent = k
-        if k == CHUNK:
+        if k == self.rows:
             self.buffered = self.sent = 0
 
     def add_row(self, sol, t, h):
@@ -647,7 +662,7 @@ class TimeLoop:
         status, the steps it took)."""
         ls, state = self.ls, self.state
         state[ST_H], state[ST_MODE], state[ST_LIMIT] = h_try, mode, limit
-        if ls.buffered == CHUNK:
+        if ls.buffered == ls.rows:
             self.flush()
         status, taken = self.stepper.advance(self, mode, h_try, limit)
         if state[ST_REJECTED]:  # the error control's rejections: no jump to return from

@@ -16,7 +16,7 @@ from .adaptive import index1_acceleration
 from .base import StepState
 from .common import EPS
 from .diagnosis import fail, fail_tolerance
-from . import loop as _loop      # its CHUNK and FLUSH_INTERVAL read at each call
+from . import loop as _loop      # its FLUSH_INTERVAL read at each call
 from .newton import ROUNDOFF_ULPS
 from .outcomes import CONVERGED, EVENT, LAND, REJECTED, RUN, TOLERANCE
 from .records import (CNT_FACTORIZATIONS, CNT_ITERATIONS, CNT_JACOBIANS, CNT_RESIDUALS,
@@ -168,7 +168,7 @@ class PythonStepper:
         t, taken = t0, 0
         # the step that crossed an event, converged: LAND of that very step takes it as it is
         crossing, self.crossing = (self.crossing if mode == LAND else None), None
-        while t < t_end - 1e-12 * span and ls.buffered < _loop.CHUNK:
+        while t < t_end - 1e-12 * span and ls.buffered < ls.rows:
             step, t_new, carry = step_end(h, t, t_end, float(state[ST_CARRY]))
             history = self.history if state[ST_H_LAST] != 0.0 else self.history[-1:]  # BDF1 start
             c = ls.counts
