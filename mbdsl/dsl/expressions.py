@@ -380,6 +380,7 @@ def substitute(expr: Expr, env: dict[str, float],
             return Num(CONSTANTS[expr.name], expr.span)
         raise ExprError(f"unknown name '{expr.name}'", "E201", expr.span, name=expr.name)
     def sub(e):
+        """A child node, substituted alike."""
         return substitute(e, env, state, tables)
     if isinstance(expr, Unary):
         return Unary(expr.op, sub(expr.operand), expr.span)

@@ -284,6 +284,7 @@ def _nonfinite_function(system, ctx, t, step) -> tuple | None:
                     x = np.array([v.value(qx, vx, cmap) for v in variables])
 
                     def at(e):
+                        """The expression e of t and the variables at (t + step, x)."""
                         return (compile_state_function(e, names)(te, x) if names
                                 else compile_function(e)(te))
                     if np.isfinite(at(fn.expr)):

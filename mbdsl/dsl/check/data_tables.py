@@ -100,7 +100,7 @@ def _options(c, s, ctx) -> dict | None:
 def _points(c, s, ctx):
     """(x, y, (argument, value) dimensions, "inline", digest) of inline points;
     None after reporting."""
-    if s.path is None and opts_units(s):
+    if any(a.keyword == "units" for a in s.args):
         c.error("E304", f"{ctx}: 'units' is for a data file; inline points carry their own",
                 s.span, "not for inline points", hint="write (0 rad/s, 20 N*m)")
         return None
@@ -124,11 +124,6 @@ def _points(c, s, ctx):
             out.append(v)
     digest = hashlib.sha256(np.array(xs + ys, dtype=float).tobytes()).hexdigest()
     return xs, ys, tuple(dims), "inline", digest
-
-
-def opts_units(s) -> bool:
-    """Whether the table declares ``units``."""
-    return any(a.keyword == "units" for a in s.args)
 
 
 def _file_points(c, s, opts, ctx):

@@ -210,7 +210,7 @@ def _point_force(c, f, pos, opts, ctx):
                     "axes", frame_span(f) or f.span, "a particle has no axes",
                     hint="give the components in world axes (frame = world)")
             return None
-        theta = _section_angle(c, body, p, found)
+        theta = _section_angle(c, body, p, lambda v: found.setdefault(v.name, v).name)
         C, S = Call("cos", theta), Call("sin", theta)
         ex, ey = (Binary("-", Binary("*", ex, C), Binary("*", ey, S)),
                   Binary("+", Binary("*", ex, S), Binary("*", ey, C)))
@@ -229,20 +229,24 @@ def frame_span(f):
     return next((a.span for a in f.args if a.keyword == "frame"), None)
 
 
-def _section_angle(c, body, p, found):
+def _section_angle(c, body, p, record):
     """The angle [rad] of a point's body axes as an expression in state
-    variables (recorded in ``found``): the body's phi, on a flexible beam
-    phi + v'(s), the cross-section's rotation (``BeamMesh.slope``)."""
-    def var(field):
-        v = state_variable(c, Dotted(body.name, field, None))
-        found.setdefault(v.name, v)
-        return Name(v.name)
-    terms = [var("phi")]
+    variables (each registered by ``record``): the body's phi, on a flexible
+    beam phi + v'(s), the cross-section's rotation (``BeamMesh.slope``)."""
+    terms = [body_variable(c, body, "phi", record)]
     if isinstance(body, FlexibleBeam):
         slope = body.mesh.slope(float(p.local[0]))[0]
         names = body.mesh.names
-        terms += [_scaled(float(s), var(names[j])) for j, s in enumerate(slope) if s != 0.0]
+        terms += [_scaled(float(s), body_variable(c, body, names[j], record))
+                  for j, s in enumerate(slope) if s != 0.0]
     return simplify(_sum(terms))
+
+
+def body_variable(c, body, field, record, span=None) -> Name:
+    """A body's state variable ``field`` (``phi``, ``vx``, an elastic
+    coordinate ``theta3`` or its rate) as a :class:`Name` in an expression,
+    the variable registered by ``record`` (variable -> its name)."""
+    return Name(record(state_variable(c, Dotted(body.name, field, span))), span)
 
 
 def friction_element(c, f, pos, opts, ctx):
@@ -499,7 +503,7 @@ def point_state(c, ref: Dotted, record):
 
     def var(field):
         """The body's state variable ``field`` as a name."""
-        return Name(record(state_variable(c, Dotted(body.name, field, ref.span))), ref.span)
+        return body_variable(c, body, field, record, ref.span)
     level = 1 if ref.attr.startswith("v") else 0
     axis = ref.attr[-1]
     own = var(("v" if level else "") + axis)
