@@ -189,3 +189,18 @@ def test_cli_and_simulate_block(tmp_path):
     with pytest.raises(mbdsl.MbdModelError) as info:
         mbdsl.load_text(text.replace("tol 1e-5", "tol -1"), "bad.mbd")
     assert info.value.diagnostics[0].code == "E303"
+
+
+def test_steps_stuck_at_the_smallest_size_stop_the_run():
+    """A pole of 1e-12 m on a cart of 1e-6 kg (the light cart pole scaled
+    down): past 4e-7 s every step the compiled solver refuses as singular
+    is halved to the floor (6e-15 s) and taken by the fallback; the run
+    stops (E604) once FLOOR_STEPS steps in a row were at that floor, where it
+    ran 200 000 of them (48 s) before the stall's mean-step test said so."""
+    from mbdsl.integrators.loop import FLOOR_STEPS
+    text = (MODELS / "light_cart_pole.mbd").read_text().replace("parameter l = 1\n",
+                                                                 "parameter l = 1e-12\n")
+    sol = mbdsl.simulate(mbdsl.load_text(text), h=1e-3, t_end=3e-3, on_failure="return")
+    assert sol.status == "failed" and sol.diagnostics[0].code == "E604", sol.message
+    assert FLOOR_STEPS <= sol.stats_total.steps < FLOOR_STEPS + 100
+    assert sol.t[-1] < 1e-6
