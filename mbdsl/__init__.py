@@ -26,7 +26,7 @@ from .assembly.system import AssembledSystem, assemble
 from .dsl.check import check_spec
 from .dsl.parser import parse_file, parse_text
 from .dsl.spec import (ArgSpec, BeamSpec, BodySpec, DriverSpec, ForceSpec, InitialSpec, JointSpec,
-                       ModelSpec, ParameterSpec, PointSpec, SettingSpec)
+                       ModelSpec, ParameterSpec, PointSpec, SettingSpec, StateSpec, TableSpec)
 from .errors import (AssemblyError, ConvergenceError, Diagnostic, MbdError, MbdModelError,
                      MbdSyntaxError, render)
 from .integrators import (METHODS, JacobianUpdate, NewtonOptions, integrate, make_method,
@@ -43,7 +43,7 @@ __all__ = [
     "load", "load_text", "from_spec", "check", "redundant_policy", "assemble", "simulate", "METHODS",
     "Model", "Solution", "AssembledSystem", "InitialState", "NewtonOptions", "JacobianUpdate",
     "ModelSpec", "BodySpec", "BeamSpec", "JointSpec", "ForceSpec", "DriverSpec", "InitialSpec",
-    "ParameterSpec", "PointSpec", "SettingSpec", "ArgSpec",
+    "ParameterSpec", "PointSpec", "SettingSpec", "ArgSpec", "StateSpec", "TableSpec",
     "MbdError", "MbdSyntaxError", "MbdModelError", "AssemblyError", "ConvergenceError",
     "Diagnostic", "render", "__version__", "load_solution", "write_solution", "plot", "animate",
 ]

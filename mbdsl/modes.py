@@ -165,7 +165,8 @@ def _moving(names, mode: Mode, share: float = 0.1) -> list[tuple[str, float]]:
     of the mode's kinetic energy, largest first."""
     out: dict[str, float] = {}
     for name, e in zip(names, mode.energy_share):
-        key = name.split(".")[0]
+        # a body's coordinates by its name; a first-order state's by "state.<name>"
+        key = ".".join(name.split(".")[:2]) if name.startswith("state.") else name.split(".")[0]
         out[key] = out.get(key, 0.0) + float(e)
     return sorted([(k, v) for k, v in out.items() if v >= share], key=lambda kv: -kv[1])
 

@@ -431,11 +431,15 @@ def static_positions(system, t0: float, q: np.ndarray, lam: np.ndarray,
     """
     model, n, m = system.model, system.n, system.m
     iq = np.array([ic.column(system.cmap) for ic in model.initials
-                   if hold_initials and not ic.guess and not ic.is_velocity], dtype=int)
+                   if hold_initials and not ic.guess and not ic.is_velocity]
+                  + list(system.state_cols), dtype=int)     # a state's integral: always held
     given = q[iq].copy()
     f = len(iq)
     E = _selection(iq, n, n + m > STATIC_DENSE_LIMIT)
-    v0 = np.zeros(n)
+    v0 = np.zeros(n)            # at rest; the first-order states at their initial values
+    for ic in model.state_conditions:
+        if ic.is_velocity:
+            v0[ic.column(system.cmap)] = ic.value
     x = np.concatenate([q, lam, np.zeros(f)])
     scale = 1.0 + float(np.max(np.abs(system.Q(t0, q, v0, lam)), initial=0.0))
     residual = np.inf
@@ -484,7 +488,7 @@ def _consistent_state(system, t0, tol, max_iter, elastic, q_start=None, redundan
     configuration started at ``q_start`` (n,) (a static equilibrium)."""
     model, lay = system.model, system.layout
     n = system.n
-    fixed_q = [(ic.column(system.cmap), ic.value) for ic in model.initials
+    fixed_q = [(ic.column(system.cmap), ic.value) for ic in model.initials + model.state_conditions
                if not ic.guess and not ic.is_velocity]
     if elastic is not None:      # the quasi-static iteration sets them: the bodies close the loops
         fixed_q = fixed_q + [(int(i), float(elastic[i])) for b in model.flexible_bodies
@@ -496,7 +500,8 @@ def _consistent_state(system, t0, tol, max_iter, elastic, q_start=None, redundan
     structure, warnings = _structure_at(system, q, t0, redundant, elastic)
     v, res_v = _velocities(system, q, t0, sparse, weights)
     a, lam, res_a, Q_start = _accelerations(system, q, v, t0, sparse, structure)
-    fixed_idx = {ic.column(system.cmap) for ic in model.initials if not ic.guess and not ic.is_velocity}
+    fixed_idx = {ic.column(system.cmap) for ic in model.initials + model.state_conditions
+                 if not ic.guess and not ic.is_velocity}
     solved = {lay.coordinates[i]: float(q[i]) for i in range(n) if i not in fixed_idx}
     return InitialState(t0, q, v, a, lam, res_q, res_v, res_a, solved, it, structure, warnings,
                         Q=Q_start, placements=placements)
@@ -568,14 +573,14 @@ def _structure_at(system, q, t0, redundant, elastic):
     refused (E401, unless accepted) by name before the singular index-1 matrix
     could say less, the DOF by rank against the initial conditions (E501),
     a mechanism that cannot move (W402)."""
-    model, n = system.model, system.n
+    model = system.model
     # here, by name, before the singular index-1 matrix could say less
     structure, warnings = None, []
     if system.m <= RANK_LIMIT:
         structure = _check_structure(system, q, t0, redundant)  # E401 first: the cause, if any
         if structure.redundant:
             warnings += redundancy_diagnostics(structure, system.layout, accepted=True)
-    d = dof_diagnostic(model, structure.dof_rank if structure else n - system.m,
+    d = dof_diagnostic(model, structure.dof_rank if structure else model.dof,
                        "rank" if structure else "count") if elastic is None else None
     if d is not None:
         raise AssemblyError(d.message, [d])
@@ -595,7 +600,7 @@ def _velocities(system, q, t0, sparse, weights):
     constraints, min ||v - v_g|| s.t. Phi_q v = -Phi_t, v[fixed] = given;
     AssemblyError (E504) when the given ones contradict the constraints."""
     model, lay, n = system.model, system.layout, system.n
-    fixed_v = [(ic.column(system.cmap), ic.value) for ic in model.initials
+    fixed_v = [(ic.column(system.cmap), ic.value) for ic in model.initials + model.state_conditions
                if not ic.guess and ic.is_velocity]
     guess_v = [(ic.column(system.cmap), ic.value) for ic in model.initials
                if ic.guess and ic.is_velocity]
@@ -776,18 +781,27 @@ def _index1_matrix(system, q, t0) -> np.ndarray:
 
 
 def _require_finite(system, x, context, t0, what="coordinate"):
-    """E506 naming the first body whose entries of x (shape (n,)) are not finite."""
+    """E506 naming the first body (or first-order state) whose entries of x
+    (shape (n,)) are not finite."""
     bad = np.nonzero(~np.isfinite(x))[0]
     if len(bad) == 0:
         return
     name = system.layout.coordinates[bad[0]]
-    body = system.model.body(name.rpartition(".")[0])
+    offset = system.cmap.state_offset
+    if bad[0] >= offset:                     # a first-order state's integral, value or rate
+        state = system.model.states[bad[0] - offset]
+        name = (f"state.{state.name}.rate" if what == "force"    # Q there is its rate
+                else f"state.{state.name}.integral")
+        span, hint = state.span, ("a state's rate or initial value of extreme size: check "
+                                  "its parameters and the quantities it reads")
+    else:
+        span = system.model.body(name.rpartition(".")[0]).span
+        hint = ("a mass, length, point or force of extreme size: check the units "
+                "(SI: kg, m, s, N) and the values of this body")
     d = Diagnostic("error", "E506",
                    f"{context} a non-finite {what} at t = {t0:g} s: '{name}' "
                    f"({float(x[bad[0]])}); {len(bad)} value{'s overflow' if len(bad) > 1 else ' overflows'}",
-                   body.span, "overflows here",
-                   hint="a mass, length, point or force of extreme size: check the units "
-                        "(SI: kg, m, s, N) and the values of this body")
+                   span, "overflows here", hint=hint)
     raise AssemblyError(d.message, [d])
 
 

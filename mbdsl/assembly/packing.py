@@ -62,12 +62,14 @@ class PackedModel:
         tables = PackingContext(system, K)
         d.update(_joint_fields(system, tables, K.JOINT_FAMILIES))
         d.update(_load_fields(system, tables, K.LOAD_FAMILIES))
+        d["swp"] = _switch_fields(system, tables)
         d.update(tables.fields())
         d["mass"] = system.mass_diag.astype(np.float64)
         d["mrig"] = np.zeros(n)
         d["mrig"][system._rigid_cols] = system.mass_diag[system._rigid_cols]
         d.update(K.pack_beams(system.flexible_groups))
         d["Q0"] = Q0
+        d["zcol"] = system.state_cols.astype(np.int64)
         d["row_element"] = system.layout.row_element.astype(np.int64)
         d["n_elements"] = int(system.layout.n_elements)
         self.ints, self.floats = K.pack(d)
@@ -293,6 +295,15 @@ class PackingContext:
         return out
 
 
+def _switch_fields(system, tables) -> np.ndarray:
+    """The kinks of the tables of the state, located as events
+    (``model.elements.StateSwitch``): per switch, the program of the table's
+    argument u and the row of its kinks' table in tbl/tbd, shape (k, 2)."""
+    rows = [(tables.program(s.expr, tables.variable_rows(s)), tables.table_row(s.table))
+            for s in system.state_switches or ()]
+    return np.array(rows, np.int64).reshape(-1, 2)
+
+
 def _timed(f) -> bool:
     """Whether f is a function of time (compiled as a program)."""
     return f is not None and not f.constant
@@ -334,7 +345,7 @@ def _load_fields(system, tables, families) -> dict:
         A load of a kind no family holds.
     """
     d, held = {}, set()
-    forces = system.model.forces
+    forces = system.model.loads
     for family in families:
         mine = [f for f in forces if f.kind in family.LOADS]
         held.update(family.LOADS)

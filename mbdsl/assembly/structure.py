@@ -89,7 +89,8 @@ class StructureReport:
     Attributes
     ----------
     n, m : int
-        Coordinates and constraint rows.
+        Coordinates of the mechanism (a first-order state's integral is none)
+        and constraint rows.
     rank : int
         Numerical rank of Phi_q at the configuration.
     redundant : list of Redundancy
@@ -135,8 +136,9 @@ def analyse_structure(system, q: np.ndarray, t: float) -> StructureReport:
         Phi_q has non-finite entries; the argument is the joint's name.
     """
     lay = system.layout
+    n = system.n - len(system.state_cols)
     if system.m == 0:
-        return StructureReport(system.n, 0, 0)
+        return StructureReport(n, 0, 0)
     with np.errstate(all="ignore"):
         A = system.Phi_q(q, t)
     finite = np.all(np.isfinite(A), axis=1)
@@ -144,7 +146,7 @@ def analyse_structure(system, q: np.ndarray, t: float) -> StructureReport:
         name = lay.rows[int(np.argmin(finite))][0]
         raise FloatingPointError(name)
     ind, dep = independent_rows(A)
-    report = StructureReport(system.n, system.m, len(ind))
+    report = StructureReport(n, system.m, len(ind))
     by_element: dict[str, list[int]] = {}
     for i in dep:
         by_element.setdefault(lay.rows[i][0], []).append(int(i))

@@ -105,8 +105,13 @@ class AssembledSystem:
             g.bind(self.kernel_model, first)
             first += len(g.beams)
         self._kernel_models, self._kernels_built = {}, None    # {compiled: PackedModel}
+        # a first-order state's integral: unit mass under its rate (``FirstOrderState``)
+        mass[list(cmap.states)] = 1.0
         self.mass_diag = mass
         self._rigid_cols = np.flatnonzero(rigid)
+        #: the columns of the first-order states (integrals in q, values in v): no
+        #: kinetic energy, their rates no power (``kinetic_energy``, ``kernels.system._power``)
+        self.state_cols = np.array(list(cmap.states), dtype=np.intp)
         self.mass_is_constant = not self.flexible_groups
         self._build_constraints(model)
         self._build_forces(model)
@@ -159,7 +164,7 @@ class AssembledSystem:
         state (:class:`~.contact.ContactGroup`), the springs' held directions;
         the loads' data themselves are packed from the model by the kernels'
         load families (``kernels/loads``, ``packing.PackedModel``)."""
-        forces = model.forces
+        forces = model.loads
         #: The friction elements, in the model's order: their loads read
         #: lambda, Q(t, q, v, lambda).
         self.frictions = [f for f in forces if f.kind == "friction"]
@@ -177,6 +182,14 @@ class AssembledSystem:
         #: The functions of time and of the state the loads read (torques,
         #: forces in joints, point forces), in the model's order.
         self.load_functions = [fn for f in forces for fn in getattr(f, "functions", ())]
+        #: The kinks of the tables of the state the loads read
+        #: (``model.elements.StateSwitch``), each call once, located as events
+        #: (``integrators.events.EventLocator``), or None.
+        switches = {}
+        for fn in self.load_functions:
+            for s in getattr(fn, "switches", ()):
+                switches.setdefault(s.text, s)
+        self.state_switches = list(switches.values()) or None
         #: Whether any load or flexible beam adds to Q beyond gravity.
         self.has_loads = bool(forces) or bool(self.flexible_groups)
         from .contact import ContactGroup
@@ -196,7 +209,7 @@ class AssembledSystem:
         if self._load_pattern is not None:
             return self._load_pattern
         from .packing import PackingContext
-        n, forces = self.n, self.model.forces
+        n, forces = self.n, self.model.loads
         tables = PackingContext(self)
         blocks, damped, fr, fc = [], False, [], []
         for family in self.kernel_model().K.LOAD_FAMILIES:
@@ -801,7 +814,11 @@ class AssembledSystem:
     # -- energy ---------------------------------------------------------------------------
     def kinetic_energy(self, q, v):
         """T = v^T M(q) v / 2 [J]: a float, or shape (N,) for rows q, v of
-        shape (N, n)."""
+        shape (N, n); the first-order states' unit masses carry none (their
+        values are no motion)."""
+        if len(self.state_cols):
+            v = np.array(v, dtype=float)
+            v[..., self.state_cols] = 0.0
         if np.ndim(q) == 1:
             return float(0.5 * np.dot(v, self.mass_times(q, v)))
         v = np.asarray(v, dtype=float)

@@ -385,7 +385,9 @@ def _check(args) -> int:
     model = _load(args)
     if model is None:
         return 1
-    print(f"{args.model}: model {model.name}, {len(model.bodies)} bodies, "
+    states = (f", {len(model.states)} first-order state{'s' if len(model.states) != 1 else ''}"
+              if model.states else "")
+    print(f"{args.model}: model {model.name}, {len(model.bodies)} bodies{states}, "
           f"{model.n_coordinates} coordinates, {model.n_constraints} constraint equations")
     print(f"  DOF by count (Gruebler) = {model.dof}")
     from .. import redundant_policy

@@ -362,7 +362,9 @@ def substitute(expr: Expr, env: dict[str, float],
     ``state``: where the expression may use the state of the model (forces of
     the motion), it maps a reference such as ``crank.omega`` to the name of
     a state variable (a :class:`Name` in the result) or to an expression in
-    such names (``arm.T.vx``, a point's velocity), or raises ExprError.
+    such names (``arm.T.vx``, a point's velocity), or raises ExprError; it is
+    also asked about a plain name that is no parameter (a first-order state,
+    ``i``), and returns None for one it does not know.
 
     Raises
     ------
@@ -378,6 +380,9 @@ def substitute(expr: Expr, env: dict[str, float],
             return Num(env[expr.name], expr.span)
         if expr.name in CONSTANTS:
             return Num(CONSTANTS[expr.name], expr.span)
+        got = state(expr) if state is not None else None
+        if got is not None:
+            return Name(got, expr.span) if isinstance(got, str) else got
         raise ExprError(f"unknown name '{expr.name}'", "E201", expr.span, name=expr.name)
     def sub(e):
         """A child node, substituted alike."""
@@ -649,6 +654,33 @@ def compile_function(e: Expr, var: str = "t") -> Callable[[float], float]:
         raise TypeError(f"cannot compile {e!r}")
 
     return _c(e)
+
+
+def kinked_tables(e: Expr) -> list:
+    """The calls in e of tables whose slope jumps (``model.table.Table.switches``
+    is not None), of order 0, each call once, outermost first."""
+    out = []
+
+    def walk(x):
+        if isinstance(x, TableCall):
+            fresh = all(x is not o for o in out)
+            if x.order == 0 and fresh and x.table.switches() is not None:
+                out.append(x)
+            walk(x.arg)
+        elif isinstance(x, Binary):
+            walk(x.left)
+            walk(x.right)
+        elif isinstance(x, Call):
+            walk(x.arg)
+        elif isinstance(x, Unary):
+            walk(x.operand)
+        elif isinstance(x, Cond):
+            walk(x.test)
+            walk(x.then)
+            walk(x.other)
+
+    walk(e)
+    return out
 
 
 def compile_state_function(e: Expr, variables: tuple) -> Callable[[float, "object"], float]:

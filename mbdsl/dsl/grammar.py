@@ -101,7 +101,8 @@ def _match_example(err) -> tuple | None:
 
 
 _STATEMENT_KEYWORDS = {"PARAMETER", "GRAVITY", "GROUND", "BODY", "JOINT", "FORCE", "DRIVER",
-                       "INITIAL", "GUESS", "SIMULATE"}
+                       "INITIAL", "GUESS", "SIMULATE", "STATE", "TABLE", "OUTPUT", "PARTICLE",
+                       "FOR"}
 
 
 def _open_block_note(text: str) -> str | None:

@@ -30,7 +30,7 @@ __all__ = [
     "ParameterSpec", "PointSpec", "PropertySpec", "BodySpec", "ShapeSpec", "GroundSpec",
     "ArgSpec",
     "JointSpec", "ForceSpec", "DriverSpec", "InitialSpec", "SettingSpec",
-    "ForSpec", "OutputSpec", "ModelSpec",
+    "ForSpec", "OutputSpec", "ModelSpec", "StateSpec", "TableSpec",
 ]
 
 
@@ -90,6 +90,34 @@ class TableSpec:
     args: tuple = ()
     span: Span | None = None
     source_span: Span | None = None
+
+
+@dataclass(frozen=True)
+class StateSpec:
+    """``state NAME { der = expr; initial expr }``: a first-order state z with
+    dz/dt = der (an expression of t, parameters and the state, the other
+    states and z itself by name) and z(t_start) = initial (default 0).
+
+    Attributes
+    ----------
+    properties : tuple of PropertySpec
+        ``der`` and ``initial`` as written (others are reported by the check).
+    """
+
+    name: str
+    properties: tuple = ()
+    span: Span | None = None
+
+    def __post_init__(self):
+        props = []
+        for p in self.properties:
+            props.append(p if isinstance(p, PropertySpec) else PropertySpec(*p))
+        _set(self, "properties", tuple(props))
+
+    @classmethod
+    def of(cls, name: str, der, initial=0.0) -> "StateSpec":
+        """The state from Python: ``StateSpec.of("i", "w_ref - crank.omega")``."""
+        return cls(name, (PropertySpec("der", der), PropertySpec("initial", initial)))
 
 
 @dataclass(frozen=True)
@@ -406,6 +434,8 @@ class ModelSpec:
         Output columns (sensors).
     tables : sequence of TableSpec
         Tables y(x), callable in expressions by name.
+    states : sequence of StateSpec
+        First-order states, read in expressions by name.
     """
 
     name: str
@@ -421,6 +451,7 @@ class ModelSpec:
     loops: tuple = ()
     outputs: tuple = ()
     tables: tuple = ()
+    states: tuple = ()
     file: str = "<python>"
     source: str | None = None
     span: Span | None = None
@@ -430,7 +461,7 @@ class ModelSpec:
 
     def __post_init__(self):
         for f in ("parameters", "ground_points", "bodies", "joints", "forces",
-                  "drivers", "initials", "settings", "loops", "outputs"):
+                  "drivers", "initials", "settings", "loops", "outputs", "tables", "states"):
             _set(self, f, tuple(getattr(self, f)))
         if self.gravity is not None:
             _set(self, "gravity", _vec(self.gravity))

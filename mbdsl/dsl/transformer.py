@@ -35,7 +35,7 @@ class ToSpec(ToExpression):
         header, *items = children
         buckets = {k: [] for k in ("parameters", "ground_points", "bodies", "joints",
                                    "forces", "drivers", "initials", "settings", "loops",
-                                   "outputs", "tables")}
+                                   "outputs", "tables", "states")}
         gravity, gspan, static = None, None, None
         for it in items:
             if isinstance(it, tuple) and it and it[0] == "static":
@@ -62,6 +62,8 @@ class ToSpec(ToExpression):
                 buckets["outputs"].append(it)
             elif isinstance(it, S.TableSpec):
                 buckets["tables"].append(it)
+            elif isinstance(it, S.StateSpec):
+                buckets["states"].append(it)
             elif isinstance(it, list):
                 buckets["settings"].extend(it)
         return S.ModelSpec(name=header[0], gravity=gravity, gravity_span=gspan,
@@ -94,6 +96,17 @@ class ToSpec(ToExpression):
         points, span = source
         return S.TableSpec(str(name), str(arg), points, None, tuple(options), self._tspan(name),
                            span)
+
+    @v_args(meta=True)
+    def state_decl(self, meta, children):
+        """``state NAME { der = expr; initial expr }`` -> StateSpec."""
+        name, *props = children
+        return S.StateSpec(str(name), tuple(props), self._tspan(name))
+
+    @v_args(meta=True)
+    def state_initial(self, meta, children):
+        """``initial expr`` inside a state block -> PropertySpec("initial")."""
+        return S.PropertySpec("initial", children[0], self._span(meta))
 
     @v_args(meta=True)
     def table_points(self, meta, children):

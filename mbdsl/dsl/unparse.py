@@ -148,7 +148,8 @@ def spec_text(spec) -> str:
 
     Declarations are written grouped by kind (parameters, tables, gravity, ground
     points, bodies, joints, forces, drivers, initial lines, repeated blocks,
-    the simulate section): the language does not depend on their order.
+    first-order states, the simulate section): the language does not depend
+    on their order.
     """
     lines = [f"model {spec.name}   # written by mbdsl from a model built in Python", ""]
     lines += [f"parameter {p.name} = {expr_text(p.value)}" for p in spec.parameters]
@@ -167,6 +168,10 @@ def spec_text(spec) -> str:
                   spec.loops):
         for it in group:
             lines += _item(it, "")
+    for st in spec.states:
+        props = "; ".join(f"{p.name} {expr_text(p.value)}" if p.name == "initial"
+                          else f"{p.name} = {expr_text(p.value)}" for p in st.properties)
+        lines.append(f"state {st.name} {{ {props} }}")
     if spec.static:
         lines.append("initial static")
     lines += [f"output {o.name} = {expr_text(o.value)}" for o in spec.outputs]

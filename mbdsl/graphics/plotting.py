@@ -41,7 +41,7 @@ def _lines(ax, t, sol, names):
                 ha="center", va="center", fontsize=8, color="0.4")
     for name in names:
         ax.plot(t, sol.column(name), label=name, lw=1.2)
-    if 1 < len(names) <= 8:
+    if 0 < len(names) <= 8:
         ax.legend(fontsize=7, loc="best")
 
 
@@ -89,6 +89,8 @@ def standard_columns(model, bodies=None) -> tuple[dict, str]:
         "velocity": ("[m/s]", [f"{b.name}.{c}" for b in chosen for c in ("vx", "vy")]),
         "angular velocity": ("[rad/s]", [f"{b.name}.omega" for b in turning]),
         "energy": ("[J]", ["energy.kinetic", "energy.potential", "energy.total"]),
+        # a model's first-order states (controllers, filters), in their own units
+        "first-order states": ("", [f"state.{s.name}" for s in getattr(model, "states", ())]),
     }, shown
 
 
@@ -104,7 +106,8 @@ def plot_solution(solution, y=None, x: str = "t", path=None, bodies=None) -> Fig
         velocities [m/s], angular velocities [rad/s] of the first
         :data:`MAX_BODIES` bodies, kinetic/potential/total energy [J], max
         |Phi| and max |Phi_q v + Phi_t| on a log scale, Newton iterations per
-        step, and the step size [s].
+        step, the step size [s], and the first-order states if the model
+        has any.
     x : str
         The abscissa column; ``t`` by default, any column for a phase plot.
     path : str or Path, optional
@@ -139,17 +142,23 @@ def plot_solution(solution, y=None, x: str = "t", path=None, bodies=None) -> Fig
             ax.grid(alpha=0.3)
         axes[-1].set_xlabel(xlabel)
     else:
-        fig = _figure(11.0, 10.0)
-        axes = fig.subplots(4, 2, sharex=True).ravel()
         panels, shown = standard_columns(sol.model, bodies)
-        for ax, title in zip(axes, PANELS):
+        titles = PANELS + (("first-order states",) if panels["first-order states"][1] else ())
+        rows = (len(titles) + 1) // 2
+        fig = _figure(11.0, 2.5 * rows)
+        axes = fig.subplots(rows, 2, sharex=True).ravel()
+        if len(axes) > len(titles):         # an odd count: the last slot stays empty
+            axes[-1].set_visible(False)
+            axes[-3].xaxis.set_tick_params(labelbottom=True)
+            axes[-3].set_xlabel(xlabel)
+        for ax, title in zip(axes, titles):
             ax.set_title(title + (shown if title in ("position", "angle", "velocity",
                                                       "angular velocity") else ""), fontsize=9)
             ax.grid(alpha=0.3)
             if title in panels:
                 unit, names = panels[title]
                 _lines(ax, xs, sol, names)
-                ax.set_ylabel(f"{title} {unit}")
+                ax.set_ylabel(f"{title} {unit}".rstrip())
             elif title == "constraint violation":
                 for name, label in (("constraint.position", "max |Phi| [m]"),
                                     ("constraint.velocity", "max |Phi_q v + Phi_t| [m/s]")):

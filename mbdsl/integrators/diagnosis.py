@@ -272,7 +272,7 @@ def _nonfinite_function(system, ctx, t, step) -> tuple | None:
         for child in vars(e).values() if hasattr(e, "__dataclass_fields__") else ():
             if hasattr(child, "__dataclass_fields__"):
                 yield from calls(child)
-    elements = list(system.model.drivers) + list(system.model.forces)
+    elements = list(system.model.drivers) + list(system.model.loads)
     for el in elements:
         for fn in getattr(el, "functions", None) or (getattr(el, "function", None),):
             if fn is None or getattr(fn, "expr", None) is None:

@@ -1,9 +1,12 @@
 """Events: contacts and joint limits closing and opening, located within a step.
 
 A stepper returns at each step across which a gap of the model's contacts and
-limits (:class:`~mbdsl.assembly.contact.ContactGroup`) changed sign, or the
-points of a spring with a free length passed each other
-(:meth:`EventLocator.crosses`; the compiled loop's own test in its kernels),
+limits (:class:`~mbdsl.assembly.contact.ContactGroup`) changed sign, the
+points of a spring with a free length passed each other, or the argument u
+of a table of the state passed one of the table's kinks (a point of a linear
+table; :class:`~mbdsl.model.elements.StateSwitch`, its branch the number of
+kinks at or below u) (:meth:`EventLocator.crosses`; the compiled loop's own
+test in its kernels),
 and the time loop (``loop.TimeLoop.land``) asks :class:`EventLocator` where
 to end it (:meth:`EventLocator.check`): the root of the gap along the step
 is estimated with Brent's method on the step's cubic Hermite interpolant of q
@@ -51,6 +54,16 @@ __all__ = ["EventLocator", "EVENT_TOL", "MAX_CUTS", "STEPS_PER_CONTACT", "SWITCH
 EVENT_TOL = 1e-6
 #: At most this many retakes of a step to land on one event.
 MAX_CUTS = 8
+#: The landing tolerance of a kink of a table of the state, as a fraction of
+#: h: a step that passes a kink by d errs by (jump of the slope) d^2, below a
+#: second-order method's own error for d = 1e-4 h, while the retakes it
+#: spares (steps of 1e-9 s) make an index-3 method's velocities noisy, 1e-5
+#: rad/s on a crank's speed, enough to move the rate back across its kink.
+KINK_TOL = 1e-4
+#: A kink of a table of the state whose root, found again on a retaken step,
+#: lies before this fraction of its time from the step's start (a real one
+#: stays where it was, to the interpolant's accuracy) is the step's own.
+RECEDES = 0.9
 #: A step ends this fraction of the nominal step size h before a switch of a
 #: function of time, and the next starts as far after it (:func:`switch_gap`).
 SWITCH_GAP = 1e-10
@@ -104,13 +117,23 @@ class EventLocator:
         self.system = system
         self.group = system.contact_group
         self.springs = system.flipping_springs
+        self.switches = system.state_switches
         self.tol = EVENT_TOL * h
+        self.kink_tol = KINK_TOL * h
         self.sol = sol
         self.cuts = 0           # retakes for the event now being landed on
+        self._kink_root = None  # (step start, time) of the last kink root a retake aimed at
         n_gaps = len(self.group.names) if self.group is not None else 0
         self.caps = np.full(n_gaps, np.inf)                  # step limits of closed gaps
         self._mass = system.mass_diag
         self.happened = False   # the step just checked ended with events
+        #: ... of which one changes the law's value (a gap, a spring's direction):
+        #: the restart there takes v onto the velocity constraint first. A kink of
+        #: a table of the state only changes the law's slope, and that projection
+        #: (an index-3 method's velocity drift, 1e-5 rad/s after a cut step) would
+        #: take a rate that has just passed its kink back across it: the same
+        #: kink landed on again 5e-7 s later
+        self.restarts = False
         self.g = None
         self.h = h
         self._passes = {}       # spring name -> times of its recent passes
@@ -122,7 +145,43 @@ class EventLocator:
         (contacts and limits, springs with a free length), as against the
         switches of functions of time, known before the run: a loop must
         stop at each step that crosses one (:meth:`crosses`)."""
-        return system.contact_group is not None or system.flipping_springs is not None
+        return (system.contact_group is not None or system.flipping_springs is not None
+                or system.state_switches is not None)
+
+    def _u(self, k, t, q, v) -> float:
+        """The argument of switch k at time t [s] and (q, v) (n,)."""
+        return self.switches[k].value(t, self.system._ext(q), self.system._ext(v),
+                                      self.system.cmap)
+
+    def _branches(self, t, q, v) -> np.ndarray:
+        """The branch of each switch at (t, q, v), -1 where its argument is
+        not a number, shape (k,): as the kernels' ``programs.switch_branches``."""
+        u = [self._u(k, t, q, v) for k in range(len(self.switches))]
+        return np.array([s.interval(x) if x == x else -1 for s, x in zip(self.switches, u)])
+
+    def _accelerations(self, t, step, last, state):
+        """(a at the step's start, a at its end): the start's as the time loop
+        gives it (the motion's q'', ``loop.TimeLoop.land``), the end's from the
+        index-1 system (a stepper's trial end carries none, and a method's own
+        a need not be the motion's: HHT-ADD's); None where that system is
+        singular."""
+        try:
+            end = self.system.index1_state(t + step, state.q, state.v)[0]
+        except np.linalg.LinAlgError:
+            return None
+        return (last.a, end) if last.a is not None else None
+
+    def _switched(self, t0, q0, v0, t1, q1, v1) -> dict:
+        """{("switch", k): the kink passed first} of the switches whose branch
+        differs between (t0, q0, v0) and (t1, q1, v1)."""
+        if self.switches is None:
+            return {}
+        b0, b1 = self._branches(t0, q0, v0), self._branches(t1, q1, v1)
+        out = {}
+        for k in np.flatnonzero((b0 >= 0) & (b1 >= 0) & (b0 != b1)):
+            kinks = self.switches[k].kinks
+            out[("switch", int(k))] = float(kinks[b0[k]] if b1[k] > b0[k] else kinks[b0[k] - 1])
+        return out
 
     def _spring_d(self, q):
         """d = p2 - p1 of the flipping springs, shape (k, 2)."""
@@ -178,19 +237,23 @@ class EventLocator:
             self.sol.events.append((float(t), g.names[i], "closed", float(g.impact_speed[i])))
         self.sol.contact_log = g.log
 
-    def crosses(self, q0, q1) -> bool:
-        """Whether the step from configuration q0 to q1 (n,) crosses an event:
-        a gap changes sign, or a spring's points pass each other (d turns
-        against its direction at the step's start). Changes nothing: the
-        steppers' test (the compiled loop's is ``integrators.compiled.loop._crossed``)."""
+    def crosses(self, t0, last, t1, new) -> bool:
+        """Whether the step from ``last`` at t0 to ``new`` at t1 [s] (states
+        with q, v (n,)) crosses an event: a gap changes sign, a spring's
+        points pass each other (d turns against its direction at the step's
+        start), or the argument of a table of the state passes a kink.
+        Changes nothing: the steppers' test (the compiled loop's is
+        ``integrators.compiled.loop._crossed``)."""
+        q0, q1 = last.q, new.q
         g = self.group
         if g is not None and np.any((g.gaps(self.system._ext(q0)) > 0.0)
                                     != (g.gaps(self.system._ext(q1)) > 0.0)):
             return True
         if self.springs is not None:
             d0, d1 = self._spring_d(q0), self._spring_d(q1)
-            return bool(np.any(np.einsum("ka,ka->k", d0, d1) < 0.0))
-        return False
+            if np.any(np.einsum("ka,ka->k", d0, d1) < 0.0):
+                return True
+        return bool(self._switched(t0, q0, last.v, t1, q1, new.v))
 
     def resume_at(self, q):
         """The gaps at configuration q (n,), where the next step starts: for
@@ -199,6 +262,69 @@ class EventLocator:
         ``loop.TimeLoop.land``)."""
         if self.group is not None:
             self.g = self.group.gaps(self.system._ext(q))
+
+    def _tolerance(self, i) -> float:
+        """The landing tolerance of event i [s]: a kink's is ``KINK_TOL`` h."""
+        return self.kink_tol if isinstance(i, tuple) and i[0] == "switch" else self.tol
+
+    def _recedes(self, i, t, root) -> bool:
+        """Whether event i, a kink found at ``root`` [s] into the step from t,
+        lies before ``RECEDES`` of where the retake aimed (a kink found on
+        the step before it, from the same t): the crossing moved towards the
+        step's start with the step, the step's own, not the motion's (u
+        grazing its kink: a motor settling at the free speed where its table
+        holds, at 0.66 of each retake, eight retakes for nothing); the step
+        is then taken as it is."""
+        kink = isinstance(i, tuple) and i[0] == "switch"
+        aimed, self._kink_root = self._kink_root, (t, t + root) if kink else None
+        return kink and aimed is not None and aimed[0] == t and root < RECEDES * (aimed[1] - t)
+
+    def _kink_roots(self, t, step, last, state, switched, roots):
+        """Where along the step each kink in ``switched`` ({key: kink}) is
+        passed, into ``roots`` (the fraction theta of the step; 0 at its
+        start); returns ``kink_at(theta, k, x)``, u - x of switch k on the
+        step's interpolants."""
+        from scipy.optimize import brentq
+        a_ends = self._accelerations(t, step, last, state) if switched else None
+
+        def kink_at(theta, k, x):
+            """u - x of switch k on the step's Hermite interpolants: of q, and
+            of v from the accelerations at both ends where the index-1 system
+            gives them (a rate's kink then lands in one or two retakes, not
+            three to five), else v the rate of q's."""
+            q, v = _hermite(theta, step, last.q, last.v, state.q, state.v)
+            if a_ends is not None:
+                v = _hermite(theta, step, last.v, a_ends[0], state.v, a_ends[1])[0]
+            return self._u(k, t + theta * step, q, v) - x
+
+        for key, x in switched.items():
+            fa, fb = kink_at(0.0, key[1], x), kink_at(1.0, key[1], x)
+            # at the start: u there within what its rate covers in the kink's
+            # tolerance, or round-off, of the kink (the step before landed on it)
+            rate0 = (kink_at(1e-7, key[1], x) - fa) / (1e-7 * step)
+            near = abs(rate0) * self.kink_tol + 64.0 * np.finfo(float).eps * (1.0 + abs(x))
+            if abs(fa) <= near or (fa > 0.0) == (fb > 0.0):
+                roots[key] = 0.0                # at the start (round-off in the interpolant)
+            else:
+                roots[key] = brentq(kink_at, 0.0, 1.0, args=key[1:] + (x,),
+                                    xtol=1e-3 * self.kink_tol / step)
+        return kink_at
+
+    def _end_value(self, i, step, state, gb, passing, kink_at, switched) -> tuple:
+        """(event i's function at the step's end, its rate): a gap and its
+        rate; a spring's s = d . d_start and ds/dt by difference; a kink's
+        u - kink and its rate on the interpolant."""
+        if isinstance(i, tuple) and i[0] == "switch":
+            value = kink_at(1.0, i[1], switched[i])
+            return value, (value - kink_at(1.0 - 1e-7, i[1], switched[i])) / (1e-7 * step)
+        if isinstance(i, tuple):
+            ref, k = passing[i], i[1]
+            value = self._spring_d(state.q)[k] @ ref
+            eps = 1e-7 * step
+            return value, (value - self._spring_d(state.q - eps * state.v)[k] @ ref) / eps
+        n, ext, vext = self.system.n, np.zeros(self.system.nx), np.zeros(self.system.nx)
+        ext[:n], vext[:n] = state.q, state.v
+        return gb[i], self.group.gap_rate_one(i, ext, vext)
 
     def check(self, t, step, last, state):
         """After a step from ``last`` (at t) to ``state`` (at t + step) that
@@ -222,7 +348,8 @@ class EventLocator:
             d0, d1 = self._spring_d(last.q), self._spring_d(state.q)
             for k in np.flatnonzero(np.einsum("ka,ka->k", d0, d1) < 0.0):
                 passing[("spring", int(k))] = d0[k]
-        if not crossed and not passing:
+        switched = self._switched(t, last.q, last.v, t + step, state.q, state.v)
+        if not crossed and not passing and not switched:
             return None
         from scipy.optimize import brentq
         n = self.system.n
@@ -249,6 +376,8 @@ class EventLocator:
                 return self._spring_d(q)[k] @ ref
 
             roots[key] = brentq(passing_at, 0.0, 1.0, xtol=1e-3 * self.tol / step)
+
+        kink_at = self._kink_roots(t, step, last, state, switched, roots)
         for i in crossed:
             if (gap_at(0.0, i) > 0.0) == (gb[i] > 0.0):
                 roots[i] = 0.0                  # at the start (round-off in the interpolant)
@@ -260,31 +389,25 @@ class EventLocator:
                                   xtol=1e-3 * self.tol / step)
             else:
                 roots[i] = brentq(gap_at, 0.0, 1.0, args=(i,), xtol=1e-3 * self.tol / step)
-        interior = {i: th for i, th in roots.items() if th * step > self.tol}
+        tol = self._tolerance
+        interior = {i: th for i, th in roots.items() if th * step > tol(i)}
         if not interior or self.cuts >= MAX_CUTS:
             return None
         i = min(interior, key=interior.get)
+        if self._recedes(i, t, interior[i] * step):
+            return None
         # where the step ends: within the tolerance past the root, by the
         # event function's own value and rate there (the retaken step's end
         # is the method's, not the interpolant's)
-        if isinstance(i, tuple):            # a spring: s = d . d_start, ds/dt by difference
-            ref, k = passing[i], i[1]
-            value = self._spring_d(state.q)[k] @ ref
-            eps = 1e-7 * step
-            rate = (value - self._spring_d(state.q - eps * state.v)[k] @ ref) / eps
-        else:
-            ext[:n] = state.q
-            vext = np.zeros(self.system.nx)
-            vext[:n] = state.v
-            value, rate = gb[i], g.gap_rate_one(i, ext, vext)
+        value, rate = self._end_value(i, step, state, gb, passing, kink_at, switched)
         past = value / rate if rate != 0.0 else np.inf       # time since the root [s]
-        if 0.0 <= past <= self.tol:
+        if 0.0 <= past <= tol(i):
             return None
         self.cuts += 1
         if self.cuts > 1 and 0.0 < past < step:
             # a retake that did not land: Newton on the end's gap, g + rate dt = 0
-            return step - past + 0.5 * self.tol
-        return interior[i] * step + 0.5 * self.tol
+            return step - past + 0.5 * tol(i)
+        return interior[i] * step + 0.5 * tol(i)
 
     def commit(self):
         """The step last checked is kept: record its events and change the
@@ -293,6 +416,8 @@ class EventLocator:
         g = self.group
         n = self.system.n
         self.happened = bool(roots)
+        self._kink_root = None
+        self.restarts = any(not (isinstance(i, tuple) and i[0] == "switch") for i in roots)
         self.g = gb
         #: the step limit of the gaps that changed, before an opening clears it
         gaps = [i for i in roots if not isinstance(i, tuple)]
@@ -303,6 +428,9 @@ class EventLocator:
         qx, vx = np.zeros(self.system.nx), np.zeros(self.system.nx)
         for i, th in sorted(roots.items(), key=lambda x: x[1]):
             t_event = t + th * step
+            if isinstance(i, tuple) and i[0] == "switch":   # a table's argument passed a kink
+                self.sol.events.append((t_event, self.switches[i[1]].text, "switched", 0.0))
+                continue
             if isinstance(i, tuple):        # a spring's points passed each other
                 name = self.springs[i[1]][1]
                 self.sol.events.append((t_event, name, "passed", 0.0))

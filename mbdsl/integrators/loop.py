@@ -653,7 +653,7 @@ class TimeLoop:
                 and self.sizes.jumped is None and not self.landed_now
                 and self.t < self.t_end - 1e-9 * self.h)
 
-    def _restart_after_event(self):
+    def _restart_after_event(self, project=True):
         """After a landed event (a contact or limit closing or opening, a
         spring's points passing), at the landed state: the method starts
         again from the index-1 acceleration and multipliers of the new branch
@@ -665,7 +665,7 @@ class TimeLoop:
         first order; a two-step method restarts with BDF1 (``land``). The
         recorded row of the landing step keeps the step's own values."""
         ls = self.ls
-        new = restart_after_switch(self.system, self.method, self.t, ls.q, ls.v, project=True)
+        new = restart_after_switch(self.system, self.method, self.t, ls.q, ls.v, project=project)
         if new is not None:           # (a singular index-1 matrix: the step's state stays)
             ls.restart_from(new)
             self.stepper.resync()
@@ -751,7 +751,7 @@ class TimeLoop:
         events.release()
         self.stepper.events_changed(self)
         if events.happened:           # every method restarts on the new branch
-            self._restart_after_event()
+            self._restart_after_event(project=events.restarts)
         if self.fixed:                # back to the size before the cut, one step more at it
             h_next = self.h_cur = self.sizes.grown(self.h_cur, landed)
         else:

@@ -185,7 +185,7 @@ class PythonStepper:
                     return res.status.code, taken
                 new = method.accept(res.w, ctx)
             crossing = None
-            if events is not None and events.crosses(ctx.last.q, new.q):
+            if events is not None and events.crosses(t, ctx.last, t_new, new):
                 loop.trial[0], loop.trial[1] = new.q, new.v
                 state[ST_T], state[ST_H] = t, step
                 self.crossing = (t, step, ctx, res, new)

@@ -18,8 +18,8 @@ import math
 from mbdsl.dsl.expressions import OPCODES
 
 from .geometry import _line
-from .schema import (CODE, CONSTS, GEO, PROG, STACK, TBD, TBL, VAR, VARC, XVAL, _f, _i, _inline,
-                     _jit, _put, _rows)
+from .schema import (CODE, CONSTS, GEO, PROG, STACK, SWP, TBD, TBL, VAR, VARC, XVAL, _f, _i,
+                     _inline, _jit, _put, _rows)
 
 _OPCODES = ("const", "t", "neg", "+", "-", "*", "/", "^", "sin", "cos", "tan", "asin", "acos",
             "atan", "sinh", "cosh", "tanh", "sqrt", "exp", "log", "abs", "sign", "x", "min",
@@ -35,8 +35,8 @@ if _OPCODES != OPCODES:     # pragma: no cover (a developer's error, caught by a
     raise ImportError("programs.py's opcodes differ from dsl.expressions.OPCODES")
 
 #: Its fields in ``schema.MODEL_SCHEMA``: the programs, their stack, the state variables,
-#: the tables.
-FIELDS = ("code", "consts", "prog", "stack", "var", "varc", "xval", "tbl", "tbd")
+#: the tables, the kinks of tables of the state located as events.
+FIELDS = ("code", "consts", "prog", "stack", "var", "varc", "xval", "tbl", "tbd", "swp")
 
 
 @_jit
@@ -225,6 +225,29 @@ def _state_values(I, Fl, qx, vx, grad, H):
             Fl[base + k] = a1 * qx[c1] + a2 * qx[c2]
         else:
             Fl[base + k] = a1 * vx[c1] + a2 * vx[c2]
+
+
+@_jit
+def switch_branches(I, Fl, t, qx, vx, grad, H, out):
+    """The branch of each kink switch (field SWP: the program of a table's
+    argument u, the row of the table of its kinks) at time t [s] and (q, v)
+    extended (n + 3,): how many kinks lie at or below u
+    (``model.elements.StateSwitch.interval``), -1 where u is not a number;
+    into out (k,) int64. A step across which a branch changes crosses a
+    kink: an event. grad (6,), H (6, 6): scratch."""
+    _state_values(I, Fl, qx, vx, grad, H)
+    for s in range(_rows(I, SWP)):
+        u = _eval(I, Fl, _i(I, SWP, s, 0), t)
+        row = _i(I, SWP, s, 1)
+        base = I[3 * TBD] + _i(I, TBL, row, 0)
+        c = 0
+        if not u == u:
+            c = -1
+        else:
+            for j in range(_i(I, TBL, row, 1) + 1):
+                if Fl[base + j] <= u:
+                    c += 1
+        out[s] = c
 
 
 @_inline

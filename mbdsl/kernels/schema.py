@@ -63,10 +63,14 @@ MODEL_SCHEMA = (
                                                                        # (force, component, var, dF/dx)
     ("tbl", "i", 3), ("tbd", "f", 0),                                  # tables: (offset, intervals,
                                                                        # extrapolation); x, then c
+    ("zcol", "i", 0),                                                  # first-order states' columns
+    ("swp", "i", 2),                                                   # kinks of tables of the state:
+                                                                       # (u's program, kinks' table)
 )
 #: The fields no element family owns: the mass diagonal, the constant forces (gravity),
-#: the constraint rows' elements and the rigid bodies' mass diagonal.
-FIELDS = ("mass", "Q0", "row_element", "mrig")
+#: the constraint rows' elements, the rigid bodies' mass diagonal and the columns of
+#: the first-order states (``model.elements.FirstOrderState``).
+FIELDS = ("mass", "Q0", "row_element", "mrig", "zcol")
 #: The field names, and the scalar "n_elements" (the header's last entry).
 MODEL_FIELDS = tuple(name for name, _, _ in MODEL_SCHEMA) + ("n_elements",)
 
@@ -90,7 +94,8 @@ _0, _YES, _NO = np.int64(0), np.bool_(True), np.bool_(False)
  FCOL, FS, FF, ROW_ELEMENT, CODE, CONSTS, PROG, LFN, TCOL, TFN, FFN, STACK,
  VAR, VARC, XVAL, STQ, SDV, PFN, GEO, GEOF, FRI, FRP,
  DROW, DCOL1, DS1, DCOL2, DS2, DLEN, MRIG, BEAM, BCOL, BDAT, BDOF, GRAV, CEL, PEL, ECOL,
- ESHP, KGI, KCOL, KPAR, KIMP, SEL, FEL, DSP, XTRM, XTC, XROW, XOFF, FDV, TBL, TBD) = range(76)
+ ESHP, KGI, KCOL, KPAR, KIMP, SEL, FEL, DSP, XTRM, XTC, XROW, XOFF, FDV, TBL, TBD,
+ ZCOL, SWP) = range(78)
 if any(globals()[name.upper()] != k for k, (name, _, _) in enumerate(MODEL_SCHEMA)):
     raise ImportError("schema.py's field indices differ from MODEL_SCHEMA")   # pragma: no cover
 

@@ -27,8 +27,8 @@ from .loads.friction import (_emit_friction, _emit_friction_lam, _friction_col, 
 from .loads.spring_damper import _spring_energy, _spring_points, _spring_rate, _springs_add
 from .loads.torques import _rotational_energy
 from .schema import (BEAM, CROW, DROW, ECOL, FCOL, FEL, FRI, GEO, KCOL, KGI, KPAR, LROW, MASS,
-                     MRIG, PROW, Q0, RCOL, ROW_ELEMENT, RPAR, SCOL1, SDV, SEL, SPAR, STQ, XTRM, _0, _NO,
-                     _YES, _f, _i, _inline, _jit, _put, _rows)
+                     MRIG, PROW, Q0, RCOL, ROW_ELEMENT, RPAR, SCOL1, SDV, SEL, SPAR, STQ, XTRM, ZCOL,
+                     _0, _NO, _YES, _f, _i, _inline, _jit, _put, _rows)
 
 
 #: The joint families in the order of every aggregate, each with its first field
@@ -306,10 +306,13 @@ def _power(I, Fl, t, qx, vx, lam, speeds, work):
     the spring-dampers, c theta'^2 of the rotational ones, -tau z of
     friction, and of the contacts, at the impact speeds ``speeds`` (k,),
     (f - K delta^n) ddelta/dt (the damping's power and, where the force is
-    cut at zero, the elastic power it leaves out) and -F_t v_t."""
+    cut at zero, the elastic power it leaves out) and -F_t v_t. A first-order
+    state's rate is no load: its column is left out (ZCOL)."""
     for j in range(work.shape[0]):
         work[j] = 0.0
     _inputs_add(I, Fl, t, qx, vx, work)
+    for k in range(_rows(I, ZCOL)):
+        work[_i(I, ZCOL, k, 0)] = 0.0
     p_in = 0.0
     for j in range(work.shape[0]):
         p_in += work[j] * vx[j]

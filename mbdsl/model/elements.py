@@ -25,25 +25,33 @@ Conventions (stated once for the whole package)
   treated alike: a particle's phi is the ground's (always 0) dummy column,
   and its only point, ``cm``, never turns.
 * A joint's relative angle is phi(second body) - phi(first body).
+* A first-order state z (:class:`FirstOrderState`, ``state i { der = ...;
+  initial ... }``) is integrated as the velocity of one more coordinate, its
+  integral s = int z dt, stored after the elastic coordinates with unit mass
+  and the generalized force f = dz/dt: each method's velocity update is then
+  its own first-order counterpart (docs/methods.md, "First-order states").
+  :class:`CoordinateMap` gives it the pseudo body index n_bodies + k (one
+  coordinate, 0), so that the expressions read it as they read a body's.
 """
 
 from __future__ import annotations
 
 import functools
 from dataclasses import dataclass, field
-from typing import Callable
 
 import numpy as np
 
 from ..errors import Diagnostic, Span
+from .functions import (StateFunction, StateSwitch, StateVariable,  # noqa: F401 (re-exported)
+                        TimeFunction, line_columns, line_distance)
 
 GROUND = -1
 
 __all__ = [
     "GROUND", "RigidBody", "Shape", "FlexibleBeam", "PointRef", "Joint", "Driver", "SpringDamper",
     "RotationalSpringDamper", "Coupler", "Torque", "JointTorque", "JointForce", "Friction", "PointForce",
-    "InitialCondition", "line_distance", "line_columns", "CoordinateMap",
-    "TimeFunction", "StateVariable", "StateFunction", "Output", "OutputVariable",
+    "InitialCondition", "FirstOrderState", "line_distance", "line_columns", "CoordinateMap",
+    "TimeFunction", "StateVariable", "StateFunction", "StateSwitch", "Output", "OutputVariable",
     "multiplier_unit", "SENSOR_UNITS", "Model", "COORDINATES", "VELOCITIES", "ACCELERATIONS",
 ]
 
@@ -66,16 +74,24 @@ class CoordinateMap:
     bodies : sequence of RigidBody or FlexibleBeam
     n : int
         The number of generalized coordinates.
+    n_states : int
+        The number of first-order states: their integrals are the last
+        n_states columns of q, their values the same columns of v; state k
+        is the pseudo body ``n_bodies + k`` with one coordinate (0).
 
     Attributes
     ----------
     n : int
     table : ndarray of int, shape (n_bodies, 3)
         Columns of x, y, phi of each body.
+    n_bodies : int
+    state_offset : int
+        The column of the first state's integral (n - n_states).
     """
 
-    def __init__(self, bodies, n: int):
+    def __init__(self, bodies, n: int, n_states: int = 0):
         self.n = int(n)
+        self.state_offset = self.n - int(n_states)
         rows, offset = [], 0
         for b in bodies:
             if getattr(b, "particle", False):
@@ -86,6 +102,7 @@ class CoordinateMap:
                 offset += 3
         self.n_reference = offset
         self.table = np.array(rows, dtype=np.intp).reshape(-1, 3)
+        self.n_bodies = len(rows)
         #: first column of each flexible beam's elastic coordinates (body index -> column)
         self.elastic = {i: int(b.elastic_offset) for i, b in enumerate(bodies)
                         if isinstance(b, FlexibleBeam)}
@@ -101,151 +118,28 @@ class CoordinateMap:
 
     def column(self, body: int, coord: int) -> int:
         """The column of coordinate ``coord`` of ``body``: 0, 1, 2 = x, y, phi,
-        and on a flexible beam 3 + j its elastic coordinate j."""
+        and on a flexible beam 3 + j its elastic coordinate j; of a first-order
+        state's pseudo body (n_bodies + k) its integral's (coord 0)."""
         if body < 0:
             return self.n + coord
+        if body >= self.n_bodies:
+            return self.state_column(body - self.n_bodies)
         if coord >= 3:
             return self.elastic[body] + coord - 3
         return int(self.table[body, coord])
+
+    def state_column(self, k: int) -> int:
+        """The column of first-order state k: its integral in q, its value in v."""
+        return self.state_offset + int(k)
+
+    @property
+    def states(self) -> range:
+        """The columns of the first-order states."""
+        return range(self.state_offset, self.n)
+
+
 VELOCITIES = ("vx", "vy", "omega")
 ACCELERATIONS = ("ax", "ay", "alpha")
-
-
-@dataclass(frozen=True)
-class TimeFunction:
-    """f(t) with its first two derivatives, compiled from an expression.
-
-    Attributes
-    ----------
-    f, df, ddf : callable float -> float
-        f(t), f'(t), f''(t), exact (symbolic differentiation).
-    text : str
-        The expression as written, for messages.
-    constant : bool
-        True when f does not depend on t.
-    expr : Expr or None
-        The substituted expression of f (parameters replaced by their
-        values), from which the compiled engine builds its programs for f
-        and f' (``dsl.expressions.postfix``).
-    """
-
-    f: Callable[[float], float]
-    df: Callable[[float], float]
-    ddf: Callable[[float], float]
-    text: str = ""
-    constant: bool = False
-    expr: object = None
-
-
-@dataclass(frozen=True)
-class StateVariable:
-    """A quantity of the motion a force expression may use: a linear
-    combination of generalized coordinates (``level`` 0) or velocities
-    (``level`` 1) of bodies: their frames' x, y, phi and a flexible beam's
-    elastic coordinates.
-
-    Attributes
-    ----------
-    name : str
-        As written, e.g. ``"crank.omega"``, ``"O.angle"``.
-    level : int
-        0: x = sum c_j q[j] (+ offset); 1: x = sum c_j v[j].
-    terms : tuple of (int, int, float)
-        (body index, coordinate 0..2 = x, y, phi or 3 + j = a beam's elastic
-        coordinate j, coefficient c_j); its columns are those of
-        :class:`CoordinateMap`.
-    offset : float
-        Added to a position-level variable (0 for every variable mbdsl has).
-    line : tuple or None
-        A sliding joint's ``distance`` (level 0) or ``speed`` (level 1), not
-        linear: (body L, s_L, body P, s_P, u0) (:func:`line_distance`); terms
-        is empty then.
-    """
-
-    name: str
-    level: int
-    terms: tuple
-    offset: float = 0.0
-    line: tuple | None = None
-
-    def columns(self, cmap: "CoordinateMap") -> list[int]:
-        """The coordinates it reads, as columns of q extended by the ground's
-        three (n..n+2)."""
-        if self.line is None:
-            return [cmap.column(b, j) for b, j, _ in self.terms]
-        return line_columns(self.line, cmap)
-
-    def value(self, qx, vx, cmap: "CoordinateMap") -> float:
-        """Its value at (q, v) extended by the ground's three zeros, shape
-        (n+3,) each (the kernels' ``programs._state_values``, in numpy)."""
-        if self.line is not None:
-            s, grad = line_distance(self.line, qx, cmap)
-            return float(s) if self.level == 0 else float(grad @ vx[self.columns(cmap)])
-        src = qx if self.level == 0 else vx
-        return self.offset + sum(c * float(src[cmap.column(b, j)]) for b, j, c in self.terms)
-
-
-def line_columns(line, cmap: "CoordinateMap") -> list[int]:
-    """Columns (x, y, phi of the line's body, then of the point's body) of a
-    sliding joint's geometry ``line`` = (body L, s_L, body P, s_P, u0) in q
-    extended by the ground's three (n..n+2)."""
-    bL, _, bP, _, _ = line
-    return [int(c) for c in cmap([bL, bP]).ravel()]
-
-
-def line_distance(line, qx, cmap: "CoordinateMap"):
-    """Distance along a sliding joint and its gradient: s = u . (p_P - p_L),
-    u = A(phi_L) u0, p = r + A(phi) s_body, for the rigid bodies (or ground)
-    of ``line`` = (body L, s_L, body P, s_P, u0), at one state (the output
-    columns of a sliding joint's distance and speed; the kernels evaluate it
-    for the loads that read it, ``kernels.geometry._line``).
-
-    Returns
-    -------
-    s : float [m]
-    grad : ndarray, shape (6,)
-        ds/d(x_L, y_L, phi_L, x_P, y_P, phi_P).
-    """
-    q = qx[line_columns(line, cmap)]
-    _, sL, _, sP, u0 = line
-
-    def rot(phi, v):
-        """A(phi) v, shape (2,)."""
-        c, sn = np.cos(phi), np.sin(phi)
-        return np.array([c * v[0] - sn * v[1], sn * v[0] + c * v[1]])
-    u, Bu = rot(q[2], u0), rot(q[2], (-u0[1], u0[0]))
-    aL, aP = rot(q[2], sL), rot(q[5], sP)
-    BaL, BaP = np.array([-aL[1], aL[0]]), np.array([-aP[1], aP[0]])
-    d = q[3:5] + aP - q[0:2] - aL
-    s = float(u @ d)
-    return s, np.array([-u[0], -u[1], Bu @ d - u @ BaL, u[0], u[1], u @ BaP])
-
-
-@dataclass(frozen=True)
-class StateFunction:
-    """f(t, x) of time and state variables, with its exact partial derivatives.
-
-    Attributes
-    ----------
-    f : callable (t, x) -> float
-        x: the values of ``variables``, in order.
-    grads : tuple of callable (t, x) -> float
-        df/dx_k for each variable (symbolic differentiation), in order.
-    variables : tuple of StateVariable
-    expr : Expr
-        The substituted expression (state variables as names), for the
-        compiled engine; ``grad_exprs`` its partial derivatives.
-    grad_exprs : tuple of Expr
-    text : str
-    """
-
-    f: Callable
-    grads: tuple
-    variables: tuple
-    expr: object = None
-    grad_exprs: tuple = ()
-    text: str = ""
-    constant: bool = False
 
 
 @dataclass(frozen=True)
@@ -814,6 +708,60 @@ class PointForce:
 
 
 @dataclass(frozen=True)
+class FirstOrderState:
+    """A first-order state z of a controller, a filter or an electrical
+    circuit: dz/dt = f(t, x), x the motion's state variables and the states
+    (``state i { der = w_ref - crank.omega; initial 0 }``).
+
+    mbdsl integrates z as the velocity of one more generalized coordinate,
+    its integral s (s(t_start) = 0), of unit mass under the generalized force
+    f: ds/dt = z, dz/dt = f. Each method's velocity update is then its own
+    first-order formula at its order (the generalized-alpha family's for
+    first-order systems, Jansen, Whiting & Hulbert 2000, for HHT and
+    generalized-alpha; BDF2 for NSTIFF; Newmark's gamma rule for NEWMARK),
+    and df/dx enters the Newton matrix as Q_q and Q_v do (docs/methods.md,
+    "First-order states").
+
+    Attributes
+    ----------
+    name : str
+    index : int
+        k: its pseudo body is n_bodies + k, its column
+        ``CoordinateMap.state_column(k)``.
+    function : TimeFunction or StateFunction
+        f, its rate [unit of z / s].
+    initial : float
+        z(t_start).
+    span : Span or None
+    """
+
+    name: str
+    index: int
+    function: object
+    initial: float = 0.0
+    span: Span | None = None
+
+    #: The load kind of its rate, the generalized force on its integral's column
+    #: (``kernels.loads.state_loads``).
+    kind = "state_rate"
+
+    @property
+    def functions(self) -> tuple:
+        """Its rate f (of time, or of time and the state)."""
+        return (self.function,)
+
+    def variable(self, n_bodies: int) -> StateVariable:
+        """The state variable z (level 1: the velocity of its integral)."""
+        return StateVariable(self.name, 1, ((n_bodies + self.index, 0, 1.0),))
+
+    def conditions(self, n_bodies: int) -> tuple:
+        """Its initial conditions, as kept ``initial`` lines: s = 0, z = z0."""
+        body = n_bodies + self.index
+        return (InitialCondition(body, "x", 0.0, span=self.span),
+                InitialCondition(body, "vx", float(self.initial), span=self.span))
+
+
+@dataclass(frozen=True)
 class InitialCondition:
     """``initial body.coord = value`` or ``guess body.coord = value``.
 
@@ -882,6 +830,9 @@ class Model:
         rows after the drivers').
     tables : tuple of Table
         The model's tables y(x) (``model.table``), as its expressions call them.
+    states : tuple of FirstOrderState
+        First-order states (controllers, filters, circuits), in declaration
+        order: their integrals are the last coordinates.
     """
 
     name: str
@@ -903,18 +854,33 @@ class Model:
     outputs: tuple = ()
     couplers: tuple = ()
     tables: tuple = ()
+    states: tuple = ()
 
     @property
     def n_coordinates(self) -> int:
         """n, the number of generalized coordinates (3 per body, 2 per
-        particle, plus the elastic coordinates of the flexible beams)."""
+        particle, plus the elastic coordinates of the flexible beams, plus
+        one per first-order state, its integral)."""
         return (sum(2 if getattr(b, "particle", False) else 3 for b in self.bodies)
-                + sum(b.n_elastic for b in self.flexible_bodies))
+                + sum(b.n_elastic for b in self.flexible_bodies) + len(self.states))
 
     @functools.cached_property
     def coordinate_map(self) -> CoordinateMap:
         """Where each body's coordinates are in q (:class:`CoordinateMap`)."""
-        return CoordinateMap(self.bodies, self.n_coordinates)
+        return CoordinateMap(self.bodies, self.n_coordinates, len(self.states))
+
+    @property
+    def loads(self) -> tuple:
+        """What adds to Q: the forces, then the first-order states' rates
+        (each the generalized force on its integral's column)."""
+        return tuple(self.forces) + tuple(self.states)
+
+    @property
+    def state_conditions(self) -> tuple:
+        """The first-order states' initial conditions (s = 0, z = z0), kept
+        as ``initial`` lines are (``FirstOrderState.conditions``)."""
+        nb = len(self.bodies)
+        return tuple(ic for s in self.states for ic in s.conditions(nb))
 
     @property
     def flexible_bodies(self) -> tuple:
@@ -928,8 +894,9 @@ class Model:
 
     @property
     def dof(self) -> int:
-        """Degrees of freedom by Gruebler's count, n - m."""
-        return self.n_coordinates - self.n_constraints
+        """Degrees of freedom of the mechanism by Gruebler's count, n - m
+        (the first-order states' integrals not counted)."""
+        return self.n_coordinates - len(self.states) - self.n_constraints
 
     def body(self, name: str) -> RigidBody:
         """The body called ``name``.
@@ -946,17 +913,20 @@ class Model:
     def coordinate_names(self) -> list[str]:
         """``["crank.x", "crank.y", "crank.phi", ...]``, shape (n,)."""
         return ([f"{b.name}.{c}" for b in self.bodies for c in _fields(b, COORDINATES)]
-                + [f"{b.name}.{c}" for b in self.flexible_bodies for c in b.mesh.names])
+                + [f"{b.name}.{c}" for b in self.flexible_bodies for c in b.mesh.names]
+                + [f"state.{s.name}.integral" for s in self.states])
 
     def velocity_names(self) -> list[str]:
         """``["crank.vx", "crank.vy", "crank.omega", ...]``, shape (n,)."""
         return ([f"{b.name}.{c}" for b in self.bodies for c in _fields(b, VELOCITIES)]
-                + [f"{b.name}.{c}_t" for b in self.flexible_bodies for c in b.mesh.names])
+                + [f"{b.name}.{c}_t" for b in self.flexible_bodies for c in b.mesh.names]
+                + [f"state.{s.name}" for s in self.states])
 
     def acceleration_names(self) -> list[str]:
         """``["crank.ax", "crank.ay", "crank.alpha", ...]``, shape (n,)."""
         return ([f"{b.name}.{c}" for b in self.bodies for c in _fields(b, ACCELERATIONS)]
-                + [f"{b.name}.{c}_tt" for b in self.flexible_bodies for c in b.mesh.names])
+                + [f"{b.name}.{c}_tt" for b in self.flexible_bodies for c in b.mesh.names]
+                + [f"state.{s.name}.rate" for s in self.states])
 
     @property
     def constraint_elements(self) -> tuple:

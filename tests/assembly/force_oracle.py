@@ -25,7 +25,8 @@ from ..contact.contact_oracle import ContactOracle
 from ..flexible.ffr_oracle import BeamOracle
 from .constraint_oracle import SystemOracle, _pair, _point_hess, _point_jac, line_distance
 from .load_groups import (FrictionGroup, PointForceGroup, RotationalSpringGroup,
-                          SpringDamperGroup, StateTorqueGroup, TorqueGroup, load_groups)
+                          SpringDamperGroup, StateRateGroup, StateTorqueGroup, TorqueGroup,
+                          load_groups)
 
 __all__ = ["ForceOracle"]
 
@@ -383,6 +384,8 @@ class ForceOracle(SystemOracle):
         qx, vx = self._ext(q), self._ext(v)
         p_in = p_diss = 0.0
         for g in self.groups:
+            if isinstance(g, StateRateGroup):
+                continue                    # a state's rate does no work
             if isinstance(g, (TorqueGroup, StateTorqueGroup, PointForceGroup)):
                 p_in += float(np.sum(self._local(g, qx, vx, t, lam) * vx[g.cols]))
             elif isinstance(g, SpringDamperGroup):

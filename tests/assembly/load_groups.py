@@ -17,7 +17,7 @@ from mbdsl.assembly.points import PointSet, body_columns
 from mbdsl.model.elements import GROUND, JointForce, JointTorque
 
 __all__ = ["load_groups", "SpringDamperGroup", "RotationalSpringGroup", "TorqueGroup",
-           "StateTorqueGroup", "PointForceGroup", "FrictionGroup"]
+           "StateTorqueGroup", "StateRateGroup", "PointForceGroup", "FrictionGroup"]
 
 
 def load_groups(system) -> list:
@@ -47,6 +47,8 @@ def load_groups(system) -> list:
             [f.joint.first.body if isinstance(f, JointTorque) else GROUND for f in state],
             [f.function for f in state],
             [f.joint.line if isinstance(f, JointForce) else None for f in state]))
+    if system.model.states:
+        out.append(StateRateGroup(cmap, system.model.states))
     pforces = kinds("point_force")
     if pforces:
         out.append(PointForceGroup(cmap, [f.point for f in pforces], [f.fx for f in pforces],
@@ -159,7 +161,7 @@ class StateTorqueGroup:
 
     state_dependent = True
 
-    def __init__(self, cmap, plus, minus, functions, lines=None):
+    def __init__(self, cmap, plus, minus, functions, lines=None, columns=None):
         n = cmap.n
         from mbdsl.model.elements import line_columns
         self.cmap = cmap
@@ -167,8 +169,11 @@ class StateTorqueGroup:
         self.lines = list(lines) if lines is not None else [None] * len(self.functions)
         ground_phi = n + 2
         per, self.targets, self.line_cols, self.variables = [], [], [], []
-        for p, m, f, line in zip(plus, minus, self.functions, self.lines):
-            if line is None:
+        columns = columns or [None] * len(self.functions)
+        for p, m, f, line, pair in zip(plus, minus, self.functions, self.lines, columns):
+            if pair is not None:
+                own = list(pair)
+            elif line is None:
                 own = [int(c) for c in cmap([p, m])[:, 2]]
             else:
                 own = line_columns(line, cmap)
@@ -185,6 +190,20 @@ class StateTorqueGroup:
         width = max(len(c) for c in per)
         self.cols = np.array([c + [ground_phi] * (width - len(c)) for c in per], dtype=np.intp)
         self.damped = any(var.level == 1 for v in self.variables for var, _ in v)
+
+
+class StateRateGroup(StateTorqueGroup):
+    """The rates f(t, x) of first-order states: the generalized force on the
+    state's integral's column, the last n_states of q (``FirstOrderState``):
+    Q = f e_s, Q_q = e_s (df/dq)^T, Q_v = e_s (df/dv)^T; no power (a rate is
+    no load)."""
+
+    def __init__(self, cmap, states):
+        n = cmap.n
+        first = n - len(states)
+        super().__init__(cmap, [None] * len(states), [None] * len(states),
+                         [s.function for s in states],
+                         columns=[(first + k, n + 2) for k in range(len(states))])
 
 
 class PointForceGroup:

@@ -6,7 +6,9 @@ The model ``all_elements.mbd`` declares every joint, driver and force type;
 rack on a turning line, joints that share a body); ``follower_elements.mbd``
 point forces that read the motion (in body axes, drag from point velocities,
 joint coordinates, on nodal and modal beams); ``table_elements.mbd`` tables of
-time and of the state (every interpolation) in a driver, torques and forces.
+time and of the state (every interpolation) in a driver, torques and forces;
+``state_elements.mbd`` first-order states whose rates read the motion, a beam,
+a table, time and the states, read by torques, joint forces and a follower force.
 Configurations and velocities are random
 (not consistent: the derivatives are identities in q, v, t). A tolerance of 1e-6 relative catches a wrong
 sign or a missing term, which change entries by O(1).
@@ -26,11 +28,12 @@ FLEXIBLE = VALID / "flexible_elements.mbd"
 COUPLERS = VALID / "coupler_elements.mbd"
 FOLLOWER = VALID / "follower_elements.mbd"
 TABLES = VALID / "table_elements.mbd"
+STATES = VALID / "state_elements.mbd"
 EPS = 1e-6
 
 
-@pytest.fixture(scope="module", params=[MODEL, FLEXIBLE, COUPLERS, FOLLOWER, TABLES],
-                ids=["rigid", "flexible", "couplers", "follower", "tables"])
+@pytest.fixture(scope="module", params=[MODEL, FLEXIBLE, COUPLERS, FOLLOWER, TABLES, STATES],
+                ids=["rigid", "flexible", "couplers", "follower", "tables", "states"])
 def system(request):
     return assemble(mbdsl.load(request.param))
 
@@ -81,6 +84,13 @@ def test_model_declares_every_element_type(system):
         return
     if system.model.couplers:
         assert {c.kind for c in system.model.couplers} == {"gear", "rack", "coupler"}
+        return
+    if system.model.states:              # states read by every load kind of the state
+        assert len(system.model.states) == 5
+        read = {v.name for s in system.model.states for v in getattr(s.function, "variables", ())}
+        assert {"O.rate", "wf", "ie", "S.distance", "tip", "rod.theta3"} <= read
+        loads = {f.kind for f in system.model.forces}
+        assert loads == {"joint_torque", "joint_force", "point_force", "state_torque"}
         return
     if system.model.flexible_bodies:
         assert {j.kind for j in system.model.joints} == {"revolute", "prismatic",
@@ -157,7 +167,7 @@ def test_potential_energy_gradient_is_minus_conservative_force(system):
     from mbdsl.model.elements import SpringDamper, RotationalSpringDamper
     forces = tuple(replace(f, c=0.0) for f in model.forces
                    if isinstance(f, (SpringDamper, RotationalSpringDamper)))
-    sys2 = assemble(replace(model, forces=forces))
+    sys2 = assemble(replace(model, forces=forces, states=()))   # a state's rate is no force
     for q, v, lam, t in states(sys2):
         grad = fd(lambda x: np.array([sys2.potential_energy(x)]), q)[0]
         # at v = 0 (the quadratic velocity vector of flexible beams vanishes)

@@ -73,7 +73,7 @@ def test_the_load_families_hold_every_load_kind_once():
     assert {m.split(".")[-1] for m in LOADS} == {f.__name__.split(".")[-1] for f in LOAD_FAMILIES}
     found = set()
     for path in [*VALID.glob("*.mbd"), *MODELS.glob("*.mbd")]:
-        found |= {f.kind for f in mbdsl.load(path).forces}
+        found |= {f.kind for f in mbdsl.load(path).loads}
     assert found == set(kinds)
 
 

@@ -19,6 +19,7 @@ gravity        ``forces.py``
 joints         ``joints.py`` (kinds in ``tables.py``)
 couplers       ``couplers.py``: gears, racks, couplers between joints
 drivers        ``drivers.py``
+states         ``states.py``: first-order states (controllers, filters)
 forces         ``forces.py`` and ``contact.py`` (kinds in ``tables.py``)
 initials       ``initials.py``
 outputs        ``outputs.py``
@@ -47,6 +48,7 @@ from .loops import expand_loops
 from .outputs import check_outputs
 from .parameters import check_parameters
 from .settings import check_settings
+from .states import check_states
 from .structure import check_structure
 from .tables import FORCE_KINDS, JOINT_KINDS, KNOWN_METHODS, SETTINGS
 
@@ -58,7 +60,7 @@ __all__ = ["check_spec", "CheckContext", "PASSES", "JOINT_KINDS", "FORCE_KINDS",
 PASSES = (("parameters", check_parameters), ("tables", check_tables), ("loops", expand_loops),
           ("ground", check_ground), ("bodies", check_bodies), ("gravity", check_gravity),
           ("joints", check_joints), ("couplers", check_couplers), ("drivers", check_drivers),
-          ("forces", check_forces),
+          ("states", check_states), ("forces", check_forces),
           ("initials", check_initials), ("outputs", check_outputs),
           ("settings", check_settings))
 
@@ -99,7 +101,8 @@ def check_spec(spec: ModelSpec, overrides: dict | None = None) -> Model:
         parameters=dict(c.params), file=spec.file, source=spec.source,
         sha256=hashlib.sha256(source.encode()).hexdigest() if spec.source else "",
         static=bool(spec.static), static_span=spec.static_span, outputs=tuple(c.outputs),
-        couplers=tuple(c.couplers), tables=tuple(c.tables.values()))
+        couplers=tuple(c.couplers), tables=tuple(c.tables.values()),
+        states=tuple(c.first_order))
     if not any(d.is_error for d in c.diags):
         check_structure(c, model)
     if any(d.is_error for d in c.diags):

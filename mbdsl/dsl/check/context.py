@@ -74,6 +74,8 @@ class CheckContext:
         self.diags: list[Diagnostic] = []
         self.params: dict[str, float] = {}
         self.tables: dict = {}                          # name -> model.table.Table
+        self.states: dict[str, int] = {}                # first-order state name -> index
+        self.first_order: list = []                     # FirstOrderState, in order
         self.param_dims: dict[str, units.Dimension | None] = {}
         self.bodies: dict[str, RigidBody] = {}
         self.ground_points: dict[str, np.ndarray] = {"origin": np.zeros(2)}

@@ -11,10 +11,10 @@ from __future__ import annotations
 import numpy as np
 
 from ...model.elements import (GROUND, FlexibleBeam, Friction, JointForce, JointTorque, PointForce,
-                               RotationalSpringDamper, SpringDamper, StateFunction, StateVariable,
-                               Torque)
-from ..expressions import (Binary, Call, compile_state_function, diff, Dotted, ExprError, Name,
-                           Num, simplify, substitute, Unary, Vec)
+                               RotationalSpringDamper, SpringDamper, StateFunction, StateSwitch,
+                               StateVariable, Torque)
+from ..expressions import (Binary, Call, compile_state_function, diff, Dotted, ExprError,
+                           kinked_tables, Name, Num, simplify, substitute, Unary, Vec)
 from .contact import contact_element, rope_element
 from .context import BrokenReference, did_you_mean, point_ref
 from .tables import (BODY_STATE, FORCE_FRAMES, FORCE_KINDS, GEOMETRY_OPTIONS, JOINT_MOTION,
@@ -327,7 +327,18 @@ def state_function(c, e, variables, span, context):
         return None
     return StateFunction(compile_state_function(e, names),
                          tuple(compile_state_function(g, names) for g in grads),
-                         variables, expr=e, grad_exprs=grads)
+                         variables, expr=e, grad_exprs=grads,
+                         switches=state_switches(e, names, variables))
+
+
+def state_switches(e, names, variables) -> tuple:
+    """The kinks of the tables of the state in ``e`` (``kinked_tables``), as
+    :class:`~mbdsl.model.elements.StateSwitch` es: located as events."""
+    from ..unparse import expr_text
+    return tuple(StateSwitch(f"{call.table.name}({expr_text(call.arg)})",
+                             compile_state_function(call.arg, names), call.arg, variables,
+                             call.table.switches())
+                 for call in kinked_tables(e))
 
 
 def state_expression(c, expr, span, context):
@@ -343,7 +354,11 @@ def state_expression(c, expr, span, context):
         return var.name
 
     def resolve(ref):
-        """A variable's name, or a point's field as an expression in them."""
+        """A variable's name, or a point's field as an expression in them; for a
+        plain name, a first-order state's (None: not a state)."""
+        if isinstance(ref, Name):
+            var = first_order_variable(c, ref)
+            return None if var is None else record(var)
         if isinstance(ref.obj, Dotted):
             return point_state(c, ref, record)
         return record(state_variable(c, ref))
@@ -354,6 +369,24 @@ def state_expression(c, expr, span, context):
     except ExprError as err:
         c.expr_error(err, span, context)
         return None
+
+
+def first_order_variable(c, ref: Name) -> StateVariable | None:
+    """The state variable of a first-order state read by its name (its value
+    z, the velocity of its integral: ``model.elements.FirstOrderState``), or
+    None for a name that is no state.
+
+    Raises
+    ------
+    BrokenReference
+        A state whose own error is reported.
+    """
+    k = c.states.get(ref.name)
+    if k is None:
+        return None
+    if ref.name in c.broken_names:
+        raise BrokenReference(ref.name, "E201", ref.span)
+    return StateVariable(ref.name, 1, ((len(c.bodies) + k, 0, 1.0),))
 
 
 def state_variable(c, ref: Dotted) -> StateVariable:
@@ -414,8 +447,10 @@ def state_variable(c, ref: Dotted) -> StateVariable:
     if obj in c.broken_bodies or obj in c.broken_names:
         raise BrokenReference(ref.text, "E201", ref.span)
     raise ExprError(f"unknown body or joint '{obj}' in '{ref.text}'", "E201", ref.span,
-                    name=obj, hint=did_you_mean(obj, list(c.bodies) + list(c.joints))
-                    or "a force reads the state of a body or a revolute joint")
+                    name=obj, hint=(f"a first-order state is read by its name: write "
+                                    f"'{ref.attr}'" if obj == "state" and ref.attr in c.states
+                                    else did_you_mean(obj, list(c.bodies) + list(c.joints))
+                                    or "a force reads the state of a body or a revolute joint"))
 
 
 def elastic_variable(beam, ref: Dotted) -> StateVariable:

@@ -12,7 +12,7 @@ from functools import partial
 from ...model.elements import (ACCELERATIONS, COORDINATES, VELOCITIES, FlexibleBeam, Friction,
                                Output, OutputVariable, RotationalSpringDamper, SpringDamper)
 from .. import units
-from ..expressions import Dotted, ExprError, substitute
+from ..expressions import Dotted, ExprError, Name, substitute
 from .context import BrokenReference, did_you_mean, point_ref
 from .loops import instantiate
 from .tables import SLIDING_STATE
@@ -57,6 +57,9 @@ def output_variable(c, ref: Dotted) -> OutputVariable:
         return _joint_variable(c, ref, fail)
     if obj in c.element_spans or obj in c.broken_bodies:
         raise BrokenReference(ref.text, "E201", ref.span)     # its own error is reported
+    if obj == "state" and attr in c.states:
+        raise fail(f"a first-order state is read by its name, '{attr}'", "E201",
+                   f"write '{attr}' (its column is state.{attr})")
     raise fail(f"unknown body or joint '{obj}'", "E201",
                did_you_mean(str(obj), list(c.bodies) + list(c.joints)
                             + list(OUTPUT_GROUPS)))
@@ -235,7 +238,14 @@ def check_outputs(c):
         found = {}
 
         def resolve(ref):
-            """The variable's name; records it."""
+            """The variable's name; records it (a plain name: a first-order
+            state's column, or None for a name that is no state)."""
+            if isinstance(ref, Name):
+                if ref.name not in c.states:
+                    return None
+                var = OutputVariable(ref.name, "column", column=f"state.{ref.name}")
+                found.setdefault(var.name, var)
+                return var.name
             var = output_variable(c, ref)
             found.setdefault(var.name, var)
             return var.name

@@ -23,8 +23,9 @@ from .newton import _newton
 from .recipes import _old_force
 from ...kernels.loads.contact import _gap
 from ...kernels.loads.spring_damper import _spring_passed
-from ...kernels.schema import (EPS, FRI, KGI, MASS, ROW_ELEMENT, SCOL1, SPAR, _HEADER, _f, _jit,
-                               _rows)
+from ...kernels.programs import switch_branches
+from ...kernels.schema import (EPS, FRI, KGI, MASS, ROW_ELEMENT, SCOL1, SPAR, SWP, _HEADER, _f,
+                               _jit, _rows)
 
 
 @_jit
@@ -126,17 +127,35 @@ def _bdf_ratio(two_step, h, h_last):
 
 
 @_jit
-def _crossed(I, Fl, n, q, qx, gaps, springs, qs, grad6, H6):
-    """Whether the step from q (n,) to qx (n + 3,) changes the sign of a gap
-    of the contacts and joint limits (``gaps``) or takes the points of a
-    spring-damper with a free length past each other (``springs``): an
-    event. qs (n + 3,), grad6 (6,), H6 (6, 6): scratch."""
+def _event_scratch(n, I):
+    """``_crossed``'s scratch: (qs, vs (n + 3,), grad6 (6,), H6 (6, 6), b0, b1
+    (rows of SWP,) int64)."""
+    return (np.zeros(n + 3), np.zeros(n + 3), np.empty(6), np.empty((6, 6)),
+            np.empty(_rows(I, SWP), np.int64), np.empty(_rows(I, SWP), np.int64))
+
+
+@_jit
+def _crossed(I, Fl, n, t, t_new, q, v, qx, vx, gaps, springs, switches, ev):
+    """Whether the step from (t, q, v) (n,) to (t_new, qx, vx) (n + 3,)
+    changes the sign of a gap of the contacts and joint limits (``gaps``),
+    takes the points of a spring-damper with a free length past each other
+    (``springs``) or takes the argument of a table of the state past one of
+    its kinks (``switches``: ``programs.switch_branches``): an event. ``ev``:
+    scratch (``_event_scratch``)."""
+    qs, vs, grad6, H6, b0, b1 = ev
     qs[:n] = q
     if springs and _spring_passed(I, Fl, qs, qx):
         return True
     for i in range(_rows(I, KGI) if gaps else 0):        # a gap opens or closes
         if (_gap(I, Fl, qs, i, grad6, H6) > 0.0) != (_gap(I, Fl, qx, i, grad6, H6) > 0.0):
             return True
+    if switches:
+        vs[:n] = v
+        switch_branches(I, Fl, t, qs, vs, grad6, H6, b0)
+        switch_branches(I, Fl, t_new, qx, vx, grad6, H6, b1)
+        for s in range(b0.shape[0]):
+            if b0[s] >= 0 and b1[s] >= 0 and b0[s] != b1[s]:
+                return True
     return False
 
 
@@ -234,7 +253,8 @@ def step_end(h, t, t_end, carry):
 def _run_flags(mono, I, Fl, rc, m, ctl, has_extra, mode):
     """What a run of ``_run`` does besides its steps: (a two-step recipe,
     reading c0, w0, w1; the error estimated on the index-1 accelerations;
-    events of gaps; events of spring-dampers with a free length).
+    events of gaps; events of spring-dampers with a free length; events of
+    kinks of tables of the state).
 
     An index-3 recipe (no velocity constraints, not additive) takes its error
     estimate on its index-1 accelerations: the normal part of its own is the
@@ -252,7 +272,8 @@ def _run_flags(mono, I, Fl, rc, m, ctl, has_extra, mode):
     springs = False                     # spring-dampers with a free length
     for i in range(_rows(I, SCOL1)):
         springs = springs or (_f(I, Fl, SPAR, i, 2) > 0.0 and mode != LAND)
-    return two_step, index1, gaps, springs
+    switches = _rows(I, SWP) > 0 and mode != LAND
+    return two_step, index1, gaps, springs, switches
 
 
 @_jit
@@ -337,7 +358,8 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
 
     Events: a converged step that changes the sign of a gap of the contacts
     and joint limits (KGI), or across which the points of a spring-damper
-    with a free length pass each other, is not taken; the loop returns EVENT
+    with a free length pass each other or the argument of a table of the
+    state passes one of its kinks (SWP), is not taken; the loop returns EVENT
     with its end (q, v) in ``trial`` (2, n) and its size in state[ST_H], for
     the time loop to land a step on the event (``events.EventLocator``).
     Mode (state[ST_MODE]) RUN goes on until t_end, an event, a failure or a full
@@ -357,8 +379,8 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
     r, dw, w, weight, qx, vx, work, q_pred, v_pred, qx_old, F, scratch = _workspace(n, m, size, I)
     b_new, d_err = np.empty(n), np.empty(n)
     mode = int(state[ST_MODE])
-    two_step, index1, gaps, springs = _run_flags(mono, I, Fl, rc, m, ctl, has_extra, mode)
-    qs, grad6, H6 = np.zeros(n + 3), np.empty(6), np.empty((6, 6))
+    two_step, index1, gaps, springs, kinks = _run_flags(mono, I, Fl, rc, m, ctl, has_extra, mode)
+    ev = _event_scratch(n, I)
     additive = rc[FORM] == ADDITIVE
     acc_old, acc_new, S1, col1, g1, y1 = _start_estimate(I, Fl, n, m, t0, q, v, a, lam, additive,
                                                          fixed, index1, qx_old, vx, R, C, V)
@@ -395,7 +417,8 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
             return status, k, rec
         _state(rc, n, w, q_pred, v_pred, qx, vx)
         # an event within the step: the caller lands a step on it
-        if (gaps or springs) and _crossed(I, Fl, n, q, qx, gaps, springs, qs, grad6, H6):
+        if (gaps or springs or kinks) and _crossed(I, Fl, n, t, t_new, q, v, qx, vx, gaps,
+                                                   springs, kinks, ev):
                 trial[0, :] = qx[:n]
                 trial[1, :] = vx[:n]
                 state[ST_T], state[ST_H] = t, step

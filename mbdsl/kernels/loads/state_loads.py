@@ -1,6 +1,8 @@
 """Loads of the state: a torque tau(t, x) between a joint's two bodies, or a force
 tau(t, x) along a sliding joint's line, x the state variables the expression
-reads (a joint's angle or distance and their rates, body coordinates).
+reads (a joint's angle or distance and their rates, body coordinates); and the
+rates f(t, x) of the first-order states, each the generalized force on its
+integral's column (``model.elements.FirstOrderState``).
 
 Q = tau w, w = (+1, -1) on the two bodies' angles or grad s of the line
 (``geometry._line``); its derivatives: tau dw/dq (a line's Hessian) and
@@ -26,16 +28,19 @@ FIELDS = ("stq", "sdv")
 #: a 6 x 6 block.
 FORCE_TRIPLETS = 36
 #: The loads it holds (``model.elements``: ``Torque.kind`` of a torque that reads
-#: the motion, ``JointTorque.kind``, ``JointForce.kind``).
-LOADS = ("state_torque", "joint_torque", "joint_force")
+#: the motion, ``JointTorque.kind``, ``JointForce.kind``, ``FirstOrderState.kind``).
+LOADS = ("state_torque", "joint_torque", "joint_force", "state_rate")
 
 
 def _direction(f, cmap) -> tuple:
     """(+column, -column, line) of a load: the angles of the bodies tau acts
     on with + and - (a joint's second and first body, or one body and the
-    ground's phi), or the ground's and a sliding joint's line."""
+    ground's phi), or the ground's and a sliding joint's line; a first-order
+    state's rate: its column and the ground's phi."""
     if f.kind == "joint_force":
         return None, None, f.joint.line
+    if f.kind == "state_rate":
+        return cmap.state_column(f.index), cmap.n + 2, None
     plus, minus = (f.joint.second.body, f.joint.first.body) if f.kind == "joint_torque" \
         else (f.body, -1)
     a, b = (int(c) for c in cmap([plus, minus])[:, 2])
@@ -49,7 +54,7 @@ def pack(items, tables) -> dict:
 
     Parameters
     ----------
-    items : list of Torque, JointTorque or JointForce
+    items : list of Torque, JointTorque, JointForce or FirstOrderState
         The model's loads of the kinds of ``LOADS``, in its order.
     tables : packing context
         ``variable_rows``, ``value_program``, ``program`` and ``line_row``
