@@ -77,10 +77,14 @@ STALL_STEPS = 200_000
 STALL_FRACTION = 1e-6
 STALL_REJECTED = 0.1
 #: Error control: a run whose last FLOOR_STEPS accepted steps were all at the
-#: smallest size the halving reaches (below 2 h_min) stops there too (E604):
-#: it cannot get anywhere (a pole of 1e-12 m on a light cart, stepped at
-#: 6e-15 s, each step refused as singular by the compiled solver and taken
-#: by the fallback, ran 200 000 such steps, 48 s, before STALL_STEPS said so).
+#: smallest size the halving reaches (below 2 h_min), each after a failed
+#: attempt (a rejected step per accepted one), stops there too (E604): it
+#: cannot get anywhere (a pole of 1e-12 m on a light cart, stepped at 6e-15 s,
+#: each step refused as singular by the compiled solver and taken by the
+#: fallback, ran 200 000 such steps, 48 s, before STALL_STEPS said so). Steps
+#: as small that the error control accepts resolve a fast motion and go on
+#: (the light cart-pole's passages at rtol 1e-7: steps of 1.7e-11 s, h_min
+#: being 1e-11 s).
 FLOOR_STEPS = 1000
 #: The buffered rows go to the Solution, the progress callback and the observers when
 #: the buffers are full, at a boundary of the run (an event landed, a hand-over, a
@@ -428,8 +432,9 @@ class TimeLoop:
         self.checked_at = 0          # step_no at the last look
         self.retried = False         # step_on retries a step Newton did not converge
         self.stall_mark = (0, t_start, 0.0)  # (steps, t, rejected) where the last STALL_STEPS began
-        self.floor_mark = (0, t_start, False)  # (step_no, t) where the steps at h_min began,
-                                               # and whether the last look found one
+        # (step_no, t, rejected steps) where the steps at h_min began, and whether
+        # the last look found one
+        self.floor_mark = (0, t_start, 0, False)
         if events is not None:
             events.start(t_start, ls.start)
             stepper.events_changed(self)
@@ -586,16 +591,20 @@ class TimeLoop:
         rejecting (at least ``STALL_REJECTED`` rejected steps per accepted
         one): the steps chase a switch and the run would take millions of
         steps more to get anywhere; or whether the last ``FLOOR_STEPS`` were
-        all at the smallest size the halving reaches. It stops with E604
+        all at the smallest size the halving reaches, each after a failed
+        attempt. It stops with E604
         (``diagnosis.fail_stalled``), its rows kept."""
         if self.fixed:
             return False
-        h_last, (first, t_first, before) = float(self.state[ST_H_LAST]), self.floor_mark
+        h_last, (first, t_first, rejected_first, before) = (float(self.state[ST_H_LAST]),
+                                                             self.floor_mark)
         floor = 0.0 < h_last < 2.0 * self.sizes.h_min
+        rejected = self.sol.stats_total.rejected
         if not (floor and before):          # counted from the second look that finds one
-            first, t_first = self.step_no, self.t
-        self.floor_mark = (first, t_first, floor)
-        if self.step_no - first >= FLOOR_STEPS:
+            first, t_first, rejected_first = self.step_no, self.t, rejected
+        self.floor_mark = (first, t_first, rejected_first, floor)
+        if (self.step_no - first >= FLOOR_STEPS
+                and rejected - rejected_first >= self.step_no - first):
             self.flush()
             fail_stalled(self.sol, self.method, t_first, self.t, self.step_no - first, self.h)
             return True
