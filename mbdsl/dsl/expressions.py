@@ -337,19 +337,25 @@ def evaluate_rows(expr: Expr, env: dict, t):
         return _ev(expr)
 
 
+def children(expr: Expr) -> tuple:
+    """The sub-expressions an expression node holds, in reading order (none
+    for a number or a name)."""
+    if isinstance(expr, Unary):
+        return (expr.operand,)
+    if isinstance(expr, Binary):
+        return (expr.left, expr.right)
+    if isinstance(expr, (Call, TableCall)):
+        return (expr.arg,)
+    if isinstance(expr, Cond):
+        return (expr.test, expr.then, expr.other)
+    return ()
+
+
 def free_names(expr: Expr) -> set[str]:
     """Names an expression refers to (parameters, ``t``, ``pi``)."""
     if isinstance(expr, Name):
         return {expr.name}
-    if isinstance(expr, Unary):
-        return free_names(expr.operand)
-    if isinstance(expr, Binary):
-        return free_names(expr.left) | free_names(expr.right)
-    if isinstance(expr, (Call, TableCall)):
-        return free_names(expr.arg)
-    if isinstance(expr, Cond):
-        return free_names(expr.test) | free_names(expr.then) | free_names(expr.other)
-    return set()
+    return set().union(*(free_names(c) for c in children(expr)))
 
 
 def substitute(expr: Expr, env: dict[str, float],
@@ -657,29 +663,16 @@ def compile_function(e: Expr, var: str = "t") -> Callable[[float], float]:
 
 
 def kinked_tables(e: Expr) -> list:
-    """The calls in e of tables whose slope jumps (``model.table.Table.switches``
-    is not None), of order 0, each call once, outermost first."""
+    """[(call, its table's ``switches()``)] of the calls in e, of order 0, of
+    tables whose slope jumps (``model.table.Table.switches`` is not None),
+    outermost first."""
     out = []
-
-    def walk(x):
-        if isinstance(x, TableCall):
-            fresh = all(x is not o for o in out)
-            if x.order == 0 and fresh and x.table.switches() is not None:
-                out.append(x)
-            walk(x.arg)
-        elif isinstance(x, Binary):
-            walk(x.left)
-            walk(x.right)
-        elif isinstance(x, Call):
-            walk(x.arg)
-        elif isinstance(x, Unary):
-            walk(x.operand)
-        elif isinstance(x, Cond):
-            walk(x.test)
-            walk(x.then)
-            walk(x.other)
-
-    walk(e)
+    if isinstance(e, TableCall) and e.order == 0:
+        kinks = e.table.switches()
+        if kinks is not None:
+            out.append((e, kinks))
+    for c in children(e):
+        out += kinked_tables(c)
     return out
 
 

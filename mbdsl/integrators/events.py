@@ -265,7 +265,7 @@ class EventLocator:
 
     def _tolerance(self, i) -> float:
         """The landing tolerance of event i [s]: a kink's is ``KINK_TOL`` h."""
-        return self.kink_tol if isinstance(i, tuple) and i[0] == "switch" else self.tol
+        return self.kink_tol if _is_kink(i) else self.tol
 
     def _recedes(self, i, t, root) -> bool:
         """Whether event i, a kink found at ``root`` [s] into the step from t,
@@ -275,7 +275,7 @@ class EventLocator:
         grazing its kink: a motor settling at the free speed where its table
         holds, at 0.66 of each retake, eight retakes for nothing); the step
         is then taken as it is."""
-        kink = isinstance(i, tuple) and i[0] == "switch"
+        kink = _is_kink(i)
         aimed, self._kink_root = self._kink_root, (t, t + root) if kink else None
         return kink and aimed is not None and aimed[0] == t and root < RECEDES * (aimed[1] - t)
 
@@ -314,7 +314,7 @@ class EventLocator:
         """(event i's function at the step's end, its rate): a gap and its
         rate; a spring's s = d . d_start and ds/dt by difference; a kink's
         u - kink and its rate on the interpolant."""
-        if isinstance(i, tuple) and i[0] == "switch":
+        if _is_kink(i):
             value = kink_at(1.0, i[1], switched[i])
             return value, (value - kink_at(1.0 - 1e-7, i[1], switched[i])) / (1e-7 * step)
         if isinstance(i, tuple):
@@ -417,7 +417,7 @@ class EventLocator:
         n = self.system.n
         self.happened = bool(roots)
         self._kink_root = None
-        self.restarts = any(not (isinstance(i, tuple) and i[0] == "switch") for i in roots)
+        self.restarts = any(not _is_kink(i) for i in roots)
         self.g = gb
         #: the step limit of the gaps that changed, before an opening clears it
         gaps = [i for i in roots if not isinstance(i, tuple)]
@@ -428,7 +428,7 @@ class EventLocator:
         qx, vx = np.zeros(self.system.nx), np.zeros(self.system.nx)
         for i, th in sorted(roots.items(), key=lambda x: x[1]):
             t_event = t + th * step
-            if isinstance(i, tuple) and i[0] == "switch":   # a table's argument passed a kink
+            if _is_kink(i):   # a table's argument passed a kink
                 self.sol.events.append((t_event, self.switches[i[1]].text, "switched", 0.0))
                 continue
             if isinstance(i, tuple):        # a spring's points passed each other
@@ -453,6 +453,13 @@ class EventLocator:
                 g.release(i, t_event)
                 self.caps[i] = np.inf
                 self.sol.events.append((t_event, g.names[i], "opened", float(rate)))
+
+
+def _is_kink(key) -> bool:
+    """Whether an event key of :meth:`EventLocator.check` is a kink of a table
+    of the state (``("switch", k)``), as against a spring's ``("spring", k)``
+    or a gap's index."""
+    return isinstance(key, tuple) and key[0] == "switch"
 
 
 def _unparse(expr) -> str:

@@ -336,9 +336,8 @@ def state_switches(e, names, variables) -> tuple:
     :class:`~mbdsl.model.elements.StateSwitch` es: located as events."""
     from ..unparse import expr_text
     return tuple(StateSwitch(f"{call.table.name}({expr_text(call.arg)})",
-                             compile_state_function(call.arg, names), call.arg, variables,
-                             call.table.switches())
-                 for call in kinked_tables(e))
+                             compile_state_function(call.arg, names), call.arg, variables, kinks)
+                 for call, kinks in kinked_tables(e))
 
 
 def state_expression(c, expr, span, context):
