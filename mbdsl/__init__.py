@@ -5,6 +5,7 @@ Public API
 load(path, overrides)        parse and check a ``.mbd`` file -> Model
 load_text(text, ...)         the same from a string
 from_spec(spec, overrides)   check a ModelSpec built in Python -> Model
+Component(name, params, items)  a part defined once; component("upper", L=0.4) -> instance
 check(path)                  every diagnostic of a file (no exception)
 assemble(model)              -> AssembledSystem (M, Q, Phi and derivatives)
 simulate(model, method=..., h=..., t_end=..., **coefficients) -> Solution
@@ -26,7 +27,8 @@ from .assembly.system import AssembledSystem, assemble
 from .dsl.check import check_spec
 from .dsl.parser import parse_file, parse_text
 from .dsl.spec import (ArgSpec, BeamSpec, BodySpec, DriverSpec, ForceSpec, InitialSpec, JointSpec,
-                       ModelSpec, ParameterSpec, PointSpec, SettingSpec, StateSpec, TableSpec)
+                       ModelSpec, ParameterSpec, PointSpec, SettingSpec, StateSpec, TableSpec,
+                       ComponentSpec, ImportSpec, InstanceSpec, OutputSpec)
 from .errors import (AssemblyError, ConvergenceError, Diagnostic, MbdError, MbdModelError,
                      MbdSyntaxError, render)
 from .integrators import (METHODS, JacobianUpdate, NewtonOptions, integrate, make_method,
@@ -39,11 +41,17 @@ from .registry import DEFAULT_METHOD
 
 __version__ = "0.1.0"
 
+#: A component (a part with parameters) built in Python:
+#: ``Component("Link", {"L": "1 m"}, [BodySpec(...)])``; calling it makes an
+#: instance, ``link("upper", L=0.4)`` (see :class:`~mbdsl.dsl.spec.ComponentSpec`).
+Component = ComponentSpec
+
 __all__ = [
     "load", "load_text", "from_spec", "check", "redundant_policy", "assemble", "simulate", "METHODS",
     "Model", "Solution", "AssembledSystem", "InitialState", "NewtonOptions", "JacobianUpdate",
     "ModelSpec", "BodySpec", "BeamSpec", "JointSpec", "ForceSpec", "DriverSpec", "InitialSpec",
     "ParameterSpec", "PointSpec", "SettingSpec", "ArgSpec", "StateSpec", "TableSpec",
+    "Component", "ComponentSpec", "ImportSpec", "InstanceSpec", "OutputSpec",
     "MbdError", "MbdSyntaxError", "MbdModelError", "AssemblyError", "ConvergenceError",
     "Diagnostic", "render", "__version__", "load_solution", "write_solution", "plot", "animate",
 ]

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 
 __all__ = [
     "Span",
+    "ViaSpan",
     "Diagnostic",
     "MbdError",
     "MbdSyntaxError",
@@ -44,6 +45,21 @@ class Span:
     column: int
     end_line: int
     end_column: int
+
+
+@dataclass(frozen=True)
+class ViaSpan(Span):
+    """A span in a component's definition, reached through instances.
+
+    Parameters
+    ----------
+    via : tuple of (Span, str)
+        The instances' statements that led here, outermost first, each with
+        a label (``"in 'upper', an instance of Link"``); :func:`render` shows
+        them after the definition's place.
+    """
+
+    via: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -178,6 +194,8 @@ def render(diag: Diagnostic, sources: dict[str, str] | None = None) -> str:
 
     if diag.span is not None:
         _excerpt(diag.span, diag.label)
+        for span, label in reversed(getattr(diag.span, "via", ())):
+            _excerpt(span, label)
     for span, label in diag.secondary:
         _excerpt(span, label)
     for note in diag.notes:

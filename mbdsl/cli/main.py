@@ -345,11 +345,13 @@ def _print_diagnostics(diags, err=None):
     err = err or sys.stderr
     sources = {}
     for d in diags:
-        if d.span is not None and d.span.file not in sources:
-            try:
-                sources[d.span.file] = Path(d.span.file).read_text(encoding="utf-8")
-            except (OSError, UnicodeDecodeError):
-                pass
+        spans = [] if d.span is None else [d.span] + [s for s, _ in getattr(d.span, "via", ())]
+        for span in spans + [s for s, _ in d.secondary]:
+            if span.file not in sources:
+                try:
+                    sources[span.file] = Path(span.file).read_text(encoding="utf-8")
+                except (OSError, UnicodeDecodeError):
+                    sources[span.file] = None
     for d in diags:
         print(render(d, sources), file=err)
     n_err = sum(d.is_error for d in diags)
@@ -390,6 +392,12 @@ def _check(args) -> int:
     print(f"{args.model}: model {model.name}, {len(model.bodies)} bodies{states}, "
           f"{model.n_coordinates} coordinates, {model.n_constraints} constraint equations")
     print(f"  DOF by count (Gruebler) = {model.dof}")
+    if model.instances:
+        from ..dsl.components import element_counts
+        print("  built from components (elements by instance, with those it holds):")
+        for path, comp, counts in element_counts(model):
+            print(f"    {path} ({comp}): " + ", ".join(
+                f"{n} {k if n != 1 else k[:-1].replace('ie', 'y')}" for k, n in counts.items()))
     from .. import redundant_policy
     try:
         init = consistent_initial_state(assemble(model), float(model.settings.get("t_start", 0.0)),

@@ -52,16 +52,23 @@ class IndexedName:
     """``link[i]``: a name indexed by an integer expression (inside for blocks).
 
     Resolved to the plain name ``"link[3]"`` when the loop is expanded.
+
+    ``base`` is a str, or an IndexedName itself where an indexed name is
+    nested in an indexed instance of a component (``l[i].s[j]``); ``suffix``
+    follows the index (``".b"`` in ``l[i].b``, a body of component instance
+    ``l[i]``), so the name resolves to ``"l[3].b"``.
     """
 
-    base: str
+    base: object
     index: "Expr"
     span: Span | None = None
+    suffix: str = ""
 
     @property
     def text(self) -> str:
         """The name as written, e.g. ``"link[...]"``."""
-        return f"{self.base}[...]"
+        base = self.base.text if isinstance(self.base, IndexedName) else self.base
+        return f"{base}[...]{self.suffix}"
 
 
 @dataclass(frozen=True)

@@ -215,6 +215,14 @@ def as_expr(value) -> Expr:
     raise TypeError(f"cannot make an expression from {type(value).__name__}")
 
 
+def dotted_chain(first, attrs, span):
+    """``first.a.b.c`` -> Dotted(Dotted(Dotted(first, a), b), c)."""
+    out = first
+    for a in attrs:
+        out = Dotted(out, a, span)
+    return out
+
+
 class ToExpression(Transformer):
     """Build expressions (:mod:`.expressions`) from a Lark tree of an
     ``expression`` of ``mbd.lark``; the model's transformer
@@ -322,6 +330,21 @@ class ToExpression(Transformer):
         multiplier row) -> Dotted of a Dotted."""
         inner = Dotted(self._name(children[0]), str(children[1]), self._span(meta))
         return Dotted(inner, str(children[2]), self._span(meta))
+
+    @v_args(meta=True)
+    def dotted_long(self, meta, children):
+        """``upper.b.B.x`` (a point's field of a body of a component instance)
+        -> Dotted chain, nested to the left."""
+        return dotted_chain(self._name(children[0]), [str(c) for c in children[1:]],
+                            self._span(meta))
+
+    @v_args(meta=True)
+    def dotted_indexed_long(self, meta, children):
+        """``right.s[2].b.y`` (a body of an instance in a component's array)
+        -> Dotted chain with an IndexedName part."""
+        first, name, index, *rest = children
+        part = IndexedName(str(name), index, self._tspan(name))
+        return dotted_chain(self._name(first), [part] + [str(c) for c in rest], self._span(meta))
 
     @v_args(meta=True)
     def indexed(self, meta, children):

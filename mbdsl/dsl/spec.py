@@ -31,6 +31,7 @@ __all__ = [
     "ArgSpec",
     "JointSpec", "ForceSpec", "DriverSpec", "InitialSpec", "SettingSpec",
     "ForSpec", "OutputSpec", "ModelSpec", "StateSpec", "TableSpec",
+    "ImportSpec", "ComponentSpec", "BlockSpec", "ComponentParameterSpec", "InstanceSpec",
 ]
 
 
@@ -412,6 +413,124 @@ class ForSpec:
 
 
 @dataclass(frozen=True)
+class BlockSpec:
+    """The declarations of one instance of a component, flattened
+    (:func:`mbdsl.dsl.components.flatten`): they take the place of the
+    instance's statement (``span``) in the model's order, as the items of a
+    ``for`` block take the block's."""
+
+    items: tuple = ()
+    span: Span | None = None
+
+    def __post_init__(self):
+        _set(self, "items", tuple(self.items))
+
+
+@dataclass(frozen=True)
+class ImportSpec:
+    """``import "parts.mbd"`` (a file, relative to the importing file's folder),
+    ``import parts`` (``parts.mbd`` on the search path: ``MBDSL_PATH``, then
+    mbdsl's own library) or either ``as NAME``: the file's components become
+    ``NAME.Component`` (NAME defaults to the file's stem)."""
+
+    target: str
+    is_path: bool = False
+    alias: str | None = None
+    span: Span | None = None
+
+    @property
+    def namespace(self) -> str:
+        """The name that qualifies the imported components."""
+        if self.alias:
+            return self.alias
+        stem = self.target.replace("\\", "/").rsplit("/", 1)[-1]
+        return stem[:-4] if stem.endswith(".mbd") else stem
+
+
+@dataclass(frozen=True)
+class ComponentParameterSpec:
+    """A component's parameter ``NAME = default`` (``default`` None: the
+    instance must give it)."""
+
+    name: str
+    default: Any = None
+    span: Span | None = None
+
+    def __post_init__(self):
+        if self.default is not None:
+            _set(self, "default", as_expr(self.default))
+
+
+@dataclass(frozen=True)
+class ComponentSpec:
+    """``component NAME(P = default, ...) { declarations }``: a part defined
+    once. ``items`` are its declarations in order: parameters derived from
+    its own (``parameter I = m*L^2/12``), bodies, particles, beams, ground
+    points, joints, forces, drivers, initial and guess lines, outputs, ``for``
+    blocks and instances of other components. Inside, names are the
+    component's own: its parameters, its elements, ``ground``, ``t`` and
+    ``pi``; a point of a body is a connector the model joins to others.
+    """
+
+    name: str
+    parameters: tuple = ()
+    items: tuple = ()
+    span: Span | None = None
+
+    def __post_init__(self):
+        given = self.parameters
+        if isinstance(given, dict):                  # from Python: {"L": "1 m", "m": None}
+            given = [ComponentParameterSpec(k, v) for k, v in given.items()]
+        params = [p if isinstance(p, ComponentParameterSpec) else
+                  ComponentParameterSpec(*p) if isinstance(p, tuple) else
+                  ComponentParameterSpec(p) for p in given]
+        _set(self, "parameters", tuple(params))
+        _set(self, "items", tuple(self.items))
+
+    def __call__(self, name, **parameters) -> "InstanceSpec":
+        """An instance of this component: ``link("upper", L=0.4, m=2)``.
+
+        Parameters
+        ----------
+        name : str
+            The instance's name (its path's last part).
+        **parameters : float or str
+            Values of the component's parameters (numbers in SI, or
+            expressions of the model's parameters as text: ``"2*L1"``).
+
+        Returns
+        -------
+        InstanceSpec
+            For ``ModelSpec(instances=[...])`` (with this component in
+            ``components``).
+        """
+        return InstanceSpec(self.name, name, tuple(ArgSpec(v, k) for k, v in parameters.items()))
+
+
+@dataclass(frozen=True)
+class InstanceSpec:
+    """``Link upper(L = 0.4, m = 2)``: an instance of a component, its
+    parameters set by keyword (the others keep their defaults). ``component``
+    is the component's name, qualified by an import's name where it comes
+    from a library (``parts.Link``); ``name`` may be indexed in a ``for``
+    block (``l[i]``)."""
+
+    component: str
+    name: Any
+    args: tuple = ()
+    span: Span | None = None
+    component_span: Span | None = None
+
+    def __post_init__(self):
+        _set(self, "args", _args(self.args, None))
+
+    @classmethod
+    def of(cls, component: str, name, **parameters) -> "InstanceSpec":
+        """An instance from Python: ``InstanceSpec.of("parts.Link", "upper", L=0.4)``."""
+        return cls(component, name, tuple(ArgSpec(v, k) for k, v in parameters.items()))
+
+
+@dataclass(frozen=True)
 class ModelSpec:
     """A whole model as written.
 
@@ -436,6 +555,16 @@ class ModelSpec:
         Tables y(x), callable in expressions by name.
     states : sequence of StateSpec
         First-order states, read in expressions by name.
+    imports : sequence of ImportSpec
+        Libraries of components read by this file.
+    components : sequence of ComponentSpec
+        Components defined in this file.
+    instances : sequence of InstanceSpec
+        Instances of components at the top level (those in ``for`` blocks are
+        among the blocks' items); the check flattens them
+        (:func:`mbdsl.dsl.components.flatten`).
+    library : bool
+        A library file (``library NAME``): components and imports only.
     """
 
     name: str
@@ -458,10 +587,15 @@ class ModelSpec:
     gravity_span: Span | None = None
     static: bool = False
     static_span: Span | None = None
+    imports: tuple = ()
+    components: tuple = ()
+    instances: tuple = ()
+    library: bool = False
 
     def __post_init__(self):
         for f in ("parameters", "ground_points", "bodies", "joints", "forces",
-                  "drivers", "initials", "settings", "loops", "outputs", "tables", "states"):
+                  "drivers", "initials", "settings", "loops", "outputs", "tables", "states",
+                  "imports", "components", "instances"):
             _set(self, f, tuple(getattr(self, f)))
         if self.gravity is not None:
             _set(self, "gravity", _vec(self.gravity))

@@ -11,8 +11,8 @@ from __future__ import annotations
 from lark import Token, v_args
 
 from . import spec as S
-from .expressions import Dotted, IndexedName
-from .grammar import ToExpression
+from .expressions import IndexedName
+from .grammar import ToExpression, dotted_chain
 
 __all__ = ["ToSpec"]
 
@@ -35,7 +35,10 @@ class ToSpec(ToExpression):
         header, *items = children
         buckets = {k: [] for k in ("parameters", "ground_points", "bodies", "joints",
                                    "forces", "drivers", "initials", "settings", "loops",
-                                   "outputs", "tables", "states")}
+                                   "outputs", "tables", "states", "imports", "components",
+                                   "instances")}
+        kinds = ((S.ImportSpec, "imports"), (S.ComponentSpec, "components"),
+                 (S.InstanceSpec, "instances"))
         gravity, gspan, static = None, None, None
         for it in items:
             if isinstance(it, tuple) and it and it[0] == "static":
@@ -66,9 +69,12 @@ class ToSpec(ToExpression):
                 buckets["states"].append(it)
             elif isinstance(it, list):
                 buckets["settings"].extend(it)
+            else:
+                buckets[next(k for cls, k in kinds if isinstance(it, cls))].append(it)
         return S.ModelSpec(name=header[0], gravity=gravity, gravity_span=gspan,
                            file=self.file, source=self.source, span=header[1],
-                           static=static is not None, static_span=static, **buckets)
+                           static=static is not None, static_span=static,
+                           library=header[2], **buckets)
 
     @v_args(meta=True)
     def static_decl(self, meta, children):
@@ -77,8 +83,47 @@ class ToSpec(ToExpression):
 
     @v_args(meta=True)
     def model_decl(self, meta, children):
-        """``model NAME`` -> (name, span)."""
-        return (str(children[0]), self._tspan(children[0]))
+        """``model NAME`` -> (name, span, False)."""
+        return (str(children[0]), self._tspan(children[0]), False)
+
+    @v_args(meta=True)
+    def library_decl(self, meta, children):
+        """``library NAME`` -> (name, span, True)."""
+        return (str(children[0]), self._tspan(children[0]), True)
+
+    # -- components and libraries -------------------------------------------
+    @v_args(meta=True)
+    def import_decl(self, meta, children):
+        """``import "file.mbd"`` / ``import name`` [``as NAME``] -> ImportSpec."""
+        target, *alias = children
+        is_path = target.type == "STRING"
+        return S.ImportSpec(str(target)[1:-1] if is_path else str(target), is_path,
+                            str(alias[0]) if alias else None, self._span(meta))
+
+    @v_args(meta=True)
+    def component_decl(self, meta, children):
+        """``component NAME(params) { ... }`` -> ComponentSpec."""
+        name, *rest = children
+        params = tuple(c for c in rest if isinstance(c, S.ComponentParameterSpec))
+        items = tuple(c for c in rest if not isinstance(c, S.ComponentParameterSpec))
+        return S.ComponentSpec(str(name), params, items, self._tspan(name))
+
+    @v_args(meta=True)
+    def comp_param(self, meta, children):
+        """``L = 1 m`` (or ``L``) in a component's header -> ComponentParameterSpec."""
+        return S.ComponentParameterSpec(str(children[0]), children[1] if len(children) > 1
+                                        else None, self._tspan(children[0]))
+
+    @v_args(meta=True)
+    def instance_decl(self, meta, children):
+        """``Link upper(L = 0.4)`` -> InstanceSpec."""
+        (comp, cspan), name, *args = children
+        return S.InstanceSpec(comp, self._name(name), tuple(args), self._nspan(name), cspan)
+
+    @v_args(meta=True)
+    def qualname(self, meta, children):
+        """``Link`` or ``parts.Link`` -> (text, span)."""
+        return ".".join(str(c) for c in children), self._span(meta)
 
     # -- 2. declarations -----------------------------------------------------
     @v_args(meta=True)
@@ -230,8 +275,9 @@ class ToSpec(ToExpression):
 
     @v_args(meta=True)
     def ref(self, meta, children):
-        """``body.coord`` -> Dotted."""
-        return Dotted(self._name(children[0]), str(children[1]), self._span(meta))
+        """``body.coord`` (``upper.b.phi``) -> Dotted (a chain of them)."""
+        return dotted_chain(self._name(children[0]), [str(c) for c in children[1:]],
+                            self._span(meta))
 
     @v_args(meta=True)
     def simulate_decl(self, meta, children):

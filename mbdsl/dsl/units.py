@@ -300,9 +300,21 @@ def _table_dimension(call, dims, names, references):
     return value
 
 
+_NODES: tuple = ()
+
+
+def _nodes() -> tuple:
+    """The expression node classes (imported once: expressions imports this module)."""
+    global _NODES
+    if not _NODES:
+        from .expressions import Binary, Call, Cond, Dotted, Name, Num, Unary
+        _NODES = (Binary, Call, Cond, Dotted, Name, Num, Unary)
+    return _NODES
+
+
 def _dimension(expr, names: dict, references=None):
     """:func:`dimension` with soft parts (:class:`_Soft`) still soft."""
-    from .expressions import Binary, Call, Cond, Dotted, Name, Num, Unary
+    Binary, Call, Cond, Dotted, Name, Num, Unary = _NODES or _nodes()
     if isinstance(expr, Num):
         return unit_dimension(expr.unit) if expr.unit is not None else None
     if isinstance(expr, Dotted):

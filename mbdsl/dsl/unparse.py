@@ -46,7 +46,9 @@ def _prec(e) -> int:
 def _name(x) -> str:
     if isinstance(x, Dotted):
         return expr_text(x)
-    return f"{x.base}[{expr_text(x.index)}]" if isinstance(x, IndexedName) else str(x)
+    if isinstance(x, IndexedName):
+        return f"{_name(x.base)}[{expr_text(x.index)}]{x.suffix}"
+    return str(x)
 
 
 def expr_text(e) -> str:
@@ -140,6 +142,19 @@ def _item(it, indent: str) -> list[str]:
         for sub in it.items:
             lines += _item(sub, indent + "  ")
         return lines + [f"{indent}}}"]
+    if isinstance(it, S.InstanceSpec):
+        return [f"{indent}{it.component} {_name(it.name)}({_args(it.args)})"]
+    if isinstance(it, S.ParameterSpec):
+        return [f"{indent}parameter {it.name} = {expr_text(it.value)}"]
+    if isinstance(it, S.OutputSpec):
+        return [f"{indent}output {it.name} = {expr_text(it.value)}"]
+    if isinstance(it, S.ComponentSpec):
+        params = ", ".join(p.name if p.default is None else f"{p.name} = {expr_text(p.default)}"
+                           for p in it.parameters)
+        lines = [f"{indent}component {it.name}({params}) {{"]
+        for sub in it.items:
+            lines += _item(sub, indent + "  ")
+        return lines + [f"{indent}}}"]
     raise TypeError(f"not a declaration: {it!r}")
 
 
@@ -151,7 +166,13 @@ def spec_text(spec) -> str:
     first-order states, the simulate section): the language does not depend
     on their order.
     """
-    lines = [f"model {spec.name}   # written by mbdsl from a model built in Python", ""]
+    header = "library" if spec.library else "model"
+    lines = [f"{header} {spec.name}   # written by mbdsl from a model built in Python", ""]
+    for imp in spec.imports:
+        target = f'"{imp.target}"' if imp.is_path else imp.target
+        lines.append(f"import {target}" + (f" as {imp.alias}" if imp.alias else ""))
+    for comp in spec.components:
+        lines += _item(comp, "")
     lines += [f"parameter {p.name} = {expr_text(p.value)}" for p in spec.parameters]
     for tb in spec.tables:
         source = (f'"{tb.path}"' if tb.path is not None
@@ -164,8 +185,8 @@ def spec_text(spec) -> str:
         pts = "; ".join(f"point {_name(p.name)} {expr_text(p.position)}"
                         for p in spec.ground_points)
         lines.append(f"ground {{ {pts} }}")
-    for group in (spec.bodies, spec.joints, spec.forces, spec.drivers, spec.initials,
-                  spec.loops):
+    for group in (spec.instances, spec.bodies, spec.joints, spec.forces, spec.drivers,
+                  spec.initials, spec.loops):
         for it in group:
             lines += _item(it, "")
     for st in spec.states:

@@ -74,6 +74,9 @@ def metadata(solution, extra: dict | None = None, final: bool = True,
     ``message``, ``extras`` (JSON list), ``units`` (JSON object: column ->
     SI unit, "" for none or mixed), ``stats_total`` (JSON object),
     ``wall_time``, ``engine``, ``linear_solver``, ``timings`` (JSON object);
+    for a model that imports components ``imports`` (JSON object: the file's
+    key -> sha256 and source: :attr:`Model.imports`, so that the result file
+    rebuilds its model without the library files);
     for a model with tables ``tables`` (JSON object: name -> source, sha256,
     interpolation, extrapolation, x, y: :func:`table_record`);
     for a model with contacts or joint limits ``events`` (JSON list of [t [s],
@@ -124,6 +127,9 @@ def metadata(solution, extra: dict | None = None, final: bool = True,
         meta["warnings"] = json.dumps([[w.code, w.message] for w in solution.warnings])
     if getattr(model, "tables", ()):     # each table's points, where they came from, and how read
         meta["tables"] = json.dumps({t.name: table_record(t) for t in model.tables})
+    if getattr(model, "imports", None):  # the component libraries, so the file rebuilds alone
+        meta["imports"] = json.dumps({k: {"sha256": sha, "source": text}
+                                      for k, (text, sha) in model.imports.items()})
     meta["model_source"] = json.dumps(model.source)      # one line: newlines escaped
     meta.update(extra or {})
     return meta
@@ -160,7 +166,8 @@ def rebuild_system(meta: dict, path):
                          "rebuild the model (results of models built in Python without text "
                          "cannot be reloaded)")
     params = json.loads(meta.get("model_parameters", "{}"))
-    model = check_spec(parse_text(source, meta.get("model_file", str(path))), params)
+    stored = {k: v["source"] for k, v in json.loads(meta.get("imports", "{}")).items()}
+    model = check_spec(parse_text(source, meta.get("model_file", str(path))), params, stored)
     return assemble(model)
 
 

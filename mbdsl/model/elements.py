@@ -833,6 +833,11 @@ class Model:
     states : tuple of FirstOrderState
         First-order states (controllers, filters, circuits), in declaration
         order: their integrals are the last coordinates.
+    imports : dict of str -> (str, str)
+        The files of components the model imports: key (the path as the
+        model's file reaches it, or ``library:NAME``) -> (text, SHA-256).
+    instances : dict of str -> str
+        The component instances the model was built from: path -> component.
     """
 
     name: str
@@ -855,6 +860,8 @@ class Model:
     couplers: tuple = ()
     tables: tuple = ()
     states: tuple = ()
+    imports: dict = field(default_factory=dict)
+    instances: dict = field(default_factory=dict)
 
     @property
     def n_coordinates(self) -> int:

@@ -25,8 +25,8 @@ CHAIN = MODELS / "pendulum_chain.mbd"
 
 def test_the_for_expansion_evaluates_each_shared_expression_once(monkeypatch):
     """``mass m; inertia m*L^2/12`` and the points of 2000 links are one
-    template: evaluated once, not once per link; the indices (``link[i]``,
-    ``link[i-1]``) are evaluated per link. The count of evaluations doubles
+    template: evaluated once, not once per link; the indices that are
+    expressions (``link[i-1]``) are evaluated per link. The count of evaluations doubles
     with N (plus a constant), as linear work does."""
     counts = []
     real = check_module.context.evaluate
@@ -43,9 +43,11 @@ def test_the_for_expansion_evaluates_each_shared_expression_once(monkeypatch):
         counts.append(0)
         model = check_module.check_spec(spec, {"N": N})
         assert len(model.bodies) == N and len(model.joints) == N
-    # per link: the body's index, two initial lines' indices, the joint's name
-    # and its two points' indices = 6 evaluations; the masses not again
-    assert counts[1] - counts[0] == 6 * 1000
+    # per link: the index ``i - 1`` of the joint's first point is evaluated; the
+    # indices that are the loop variable itself (the body's, the initial lines',
+    # the joint's name, its second point's) are read from the loop's values, and
+    # the masses not again
+    assert counts[1] - counts[0] == 1 * 1000
 
 
 def test_instances_of_a_for_block_are_right_and_distinct():

@@ -41,7 +41,8 @@ KINDS = ("revolute", "prismatic", "point_on_line", "fixed", "distance", "particl
          "flexible_beam", "modes", "spring_damper", "rotational_spring_damper", "torque(",
          "force(", "joint_torque", "joint_force", "friction", "contact(", "circle =",
          "line =", "limit", "driver", ".angle =", ".distance =", ".phi =", "if(", "min(",
-         "max(", "gear(", "rack(", "coupler(", "rope(", "cable(", "frame = body", "table ", "state ")
+         "max(", "gear(", "rack(", "coupler(", "rope(", "cable(", "frame = body", "table ", "state ",
+         "component ", "import ")
 
 
 @dataclass

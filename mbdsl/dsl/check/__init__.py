@@ -35,6 +35,7 @@ import hashlib
 from ...errors import MbdModelError
 from ...gcpause import paused
 from ...model.elements import Model
+from ..components import flatten
 from ..spec import ModelSpec
 from .bodies import check_bodies, check_ground
 from .context import CheckContext, point_ref
@@ -66,7 +67,8 @@ PASSES = (("parameters", check_parameters), ("tables", check_tables), ("loops", 
 
 
 @paused
-def check_spec(spec: ModelSpec, overrides: dict | None = None) -> Model:
+def check_spec(spec: ModelSpec, overrides: dict | None = None,
+               stored_sources: dict | None = None) -> Model:
     """Check a model specification and resolve it into a :class:`Model`.
 
     Parameters
@@ -74,7 +76,11 @@ def check_spec(spec: ModelSpec, overrides: dict | None = None) -> Model:
     spec : ModelSpec
         As parsed (``parse_text``) or built in Python.
     overrides : dict of str -> float or str, optional
-        Parameter values replacing the declared ones (``--set``).
+        Parameter values replacing the declared ones (``--set``; an
+        instance's by its path, ``upper.L``).
+    stored_sources : dict of str -> str, optional
+        The texts of the files the model imports, by key (a result file's
+        ``imports``), read instead of the files.
 
     Returns
     -------
@@ -87,7 +93,13 @@ def check_spec(spec: ModelSpec, overrides: dict | None = None) -> Model:
         Carrying every diagnostic (errors and warnings) when there is at
         least one error.
     """
-    c = CheckContext(spec, overrides)
+    flat = flatten(spec, stored_sources)
+    c = CheckContext(flat.spec, overrides)
+    c.diags.extend(flat.diagnostics)
+    if spec.library:
+        c.error("E110", f"'{spec.name}' is a library of components, not a model", spec.span,
+                "a library", hint="write a model that imports it (`import \"file.mbd\"`) "
+                "and declares instances of its components")
     gravity = None
     for name, run in PASSES:
         value = run(c)
@@ -102,7 +114,8 @@ def check_spec(spec: ModelSpec, overrides: dict | None = None) -> Model:
         sha256=hashlib.sha256(source.encode()).hexdigest() if spec.source else "",
         static=bool(spec.static), static_span=spec.static_span, outputs=tuple(c.outputs),
         couplers=tuple(c.couplers), tables=tuple(c.tables.values()),
-        states=tuple(c.first_order))
+        states=tuple(c.first_order), imports=dict(flat.sources),
+        instances=dict(flat.instances))
     if not any(d.is_error for d in c.diags):
         check_structure(c, model)
     if any(d.is_error for d in c.diags):

@@ -11,6 +11,8 @@ written without a unit?).
 
 from __future__ import annotations
 
+from collections import ChainMap
+
 import difflib
 import math
 
@@ -304,16 +306,23 @@ class CheckContext:
         """``link[i]`` -> ``"link[3]"`` with the loop variables in env; None after reporting."""
         if not isinstance(name, IndexedName):
             return name
-        try:
-            value = evaluate(name.index, {**self.params, **env})
+        base = name.base
+        if isinstance(base, IndexedName):          # l[i].s[j]: an array in an indexed instance
+            base = self.resolve_name(base, env, span)
+            if base is None:
+                return None
+        index = name.index
+        try:           # the parameters grow with a model's instances: not copied per name
+            value = (env[index.name] if isinstance(index, Name) and index.name in env else
+                     evaluate(index, ChainMap(env, self.params)))
         except ExprError as err:
-            self.expr_error(err, name.span or span, f"index of '{name.base}[...]'")
+            self.expr_error(err, name.span or span, f"index of '{base}[...]'")
             return None
         if value != int(value):
-            self.error("E301", f"the index of '{name.base}[...]' must be an integer, got {value:g}",
+            self.error("E301", f"the index of '{base}[...]' must be an integer, got {value:g}",
                        name.span or span, "not an integer")
             return None
-        return f"{name.base}[{int(value)}]"
+        return f"{base}[{int(value)}]{name.suffix}"
 
     def model_body(self, index):
         """The body with this index."""

@@ -3,19 +3,27 @@ in source order, in work linear in the number of instances.
 
 Each declaration of a block is compiled once per set of loop variables into a
 builder that copies only the parts that read them (``instantiate``).
-Diagnostics: E202 (a loop variable hiding a name), E301 (non-integer bounds or
-indices), E303 (more than ``MAX_REPEAT`` instances) and the expression errors of
-bounds and indices.
+The blocks of component instances (:class:`~mbdsl.dsl.spec.BlockSpec`) are
+expanded in their instance's place, and the parameters of instances in ``for``
+blocks evaluated (``l[3].L``). Diagnostics: E202 (a loop variable hiding a name,
+a parameter given twice), E301 (non-integer bounds or indices), E303 (more than
+``MAX_REPEAT`` instances), E201 (a ``--set`` of no parameter: reported here,
+after the instances' parameters are known) and the expression errors of bounds
+and indices.
 """
 
 from __future__ import annotations
 
+from collections import ChainMap
 from functools import partial
 import dataclasses
 
 from ...errors import Span
 from ..expressions import Dotted, evaluate, ExprError, IndexedName, Name, Num
-from ..spec import ForSpec, GroundSpec
+from .. import units
+from ..spec import BlockSpec, ForSpec, GroundSpec, ParameterSpec
+from .context import did_you_mean
+from .parameters import apply_override
 from .tables import MAX_REPEAT
 
 
@@ -156,57 +164,58 @@ def _compile(c, obj, keys):
 
 
 def expand_loops(c):
-    """Flatten for blocks into concrete declarations, in source order."""
+    """Flatten for blocks (and the blocks of component instances) into
+    concrete declarations, in source order.
+
+    Each declaration is ordered by its place: a declaration of the model by
+    its own line and column; one of a ``for`` block by its line and column,
+    then its loop values; one of a component's instance by the instance's
+    place, then its own in the component (:class:`~mbdsl.dsl.spec.BlockSpec`).
+    A parameter of an instance inside a ``for`` block (``l[3].L``) is
+    evaluated here, in order, with its ``--set`` override."""
     keyed = {k: [] for k in _KINDS + ("ground_points",)}
-    buckets = {"bodies": "bodies", "joints": "joints", "forces": "forces",
-               "drivers": "drivers", "initials": "initials"}
+    buckets = {"BodySpec": "bodies", "BeamSpec": "bodies", "JointSpec": "joints",
+               "ForceSpec": "forces", "DriverSpec": "drivers", "InitialSpec": "initials"}
 
-    def _key(item, iteration):
+    def _key(item, anchor, iteration):
         sp = getattr(item, "span", None)
-        return (sp.line, sp.column) if sp else (0, 0), iteration
+        return anchor + ((sp.line, sp.column) if sp else (0, 0),), iteration
 
-    def _add(item, env, iteration):
+    def _add(item, env, iteration, anchor=()):
         if isinstance(item, GroundSpec):           # ground points of a for block
             for p in item.points:
                 inst = instantiate(c, p, env)
                 if inst is not None:
-                    keyed["ground_points"].append((_key(p, iteration), inst))
+                    keyed["ground_points"].append((_key(p, anchor, iteration), inst))
             return
-        kind = {"BodySpec": "bodies", "BeamSpec": "bodies", "JointSpec": "joints", "ForceSpec": "forces",
-                "DriverSpec": "drivers", "InitialSpec": "initials"}[type(item).__name__]
+        if isinstance(item, ParameterSpec):        # of an instance in a for block
+            inst = instantiate(c, item, env)
+            if inst is not None:
+                _parameter(c, inst)
+            return
+        if isinstance(item, BlockSpec):
+            _block(item, env, iteration, anchor)
+            return
         inst = instantiate(c, item, env)
         if inst is not None:
-            keyed[buckets[kind]].append((_key(item, iteration), inst))
+            keyed[buckets[type(item).__name__]].append((_key(item, anchor, iteration), inst))
 
-    def _loop(spec: ForSpec, env, iteration):
-        if spec.var in c.params or spec.var in ("t", "pi") or spec.var in env:
-            c.error("E202", f"the loop variable '{spec.var}' hides a parameter or an "
-                    "outer loop variable", spec.span, "choose another name")
-            return
-        try:
-            ctx = {**c.params, **env}
-            lo = evaluate(instantiate(c, spec.start, env, spec.span), ctx)
-            hi = evaluate(instantiate(c, spec.end, env, spec.span), ctx)
-        except (ExprError, TypeError) as err:
-            if isinstance(err, ExprError):
-                c.expr_error(err, spec.span, f"bounds of 'for {spec.var}'")
-            return
-        if lo != int(lo) or hi != int(hi):
-            c.error("E301", f"the bounds of 'for {spec.var}' must be integers, got "
-                    f"{lo:g}..{hi:g}", spec.span, "not integers")
-            return
-        count = int(hi) - int(lo) + 1
-        if count > MAX_REPEAT:
-            c.error("E303", f"'for {spec.var}' would repeat {count} times, more than "
-                    f"{MAX_REPEAT}", spec.span, "too many repetitions")
-            return
-        for value in range(int(lo), int(hi) + 1):
+    def _block(block, env, iteration, anchor):
+        inner = _key(block, anchor, ())[0]
+        for item in block.items:
+            if isinstance(item, ForSpec):
+                _loop(item, env, iteration, inner)
+            else:
+                _add(item, env, iteration, inner)
+
+    def _loop(spec: ForSpec, env, iteration, anchor=()):
+        for value in _values(c, spec, env):
             inner = {**env, spec.var: value}
             for item in spec.items:
                 if isinstance(item, ForSpec):
-                    _loop(item, inner, iteration + (value,))
+                    _loop(item, inner, iteration + (value,), anchor)
                 else:
-                    _add(item, inner, iteration + (value,))
+                    _add(item, inner, iteration + (value,), anchor)
 
     for kind in _KINDS:
         for item in getattr(c.spec, kind):
@@ -214,8 +223,59 @@ def expand_loops(c):
     for p in c.spec.ground_points:              # indexed names resolve here too
         inst = instantiate(c, p, {})
         if inst is not None:
-            keyed["ground_points"].append((_key(p, ()), inst))
+            keyed["ground_points"].append((_key(p, (), ()), inst))
     for spec in c.spec.loops:
-        _loop(spec, {}, ())
+        if isinstance(spec, BlockSpec):
+            _block(spec, {}, (), ())
+        else:
+            _loop(spec, {}, ())
+    for name in list(c.overrides):              # those no parameter took (check_parameters)
+        c.error("E201", f"--set {name}: the model has no parameter '{name}'", None,
+                hint=did_you_mean(name, c.params) or
+                f"its parameters are {', '.join(c.params) or '(none)'}")
+    c.overrides.clear()
     c.items = {k: [inst for _, inst in sorted(v, key=lambda kv: kv[0])]
                for k, v in keyed.items()}
+
+
+def _values(c, spec: ForSpec, env) -> range:
+    """The values of a ``for`` block's variable (empty after reporting)."""
+    if spec.var in c.params or spec.var in ("t", "pi") or spec.var in env:
+        c.error("E202", f"the loop variable '{spec.var}' hides a parameter or an "
+                "outer loop variable", spec.span, "choose another name")
+        return range(0)
+    try:
+        ctx = ChainMap(env, c.params)
+        lo = evaluate(instantiate(c, spec.start, env, spec.span), ctx)
+        hi = evaluate(instantiate(c, spec.end, env, spec.span), ctx)
+    except (ExprError, TypeError) as err:
+        if isinstance(err, ExprError):
+            c.expr_error(err, spec.span, f"bounds of 'for {spec.var}'")
+        return range(0)
+    if lo != int(lo) or hi != int(hi):
+        c.error("E301", f"the bounds of 'for {spec.var}' must be integers, got "
+                f"{lo:g}..{hi:g}", spec.span, "not integers")
+        return range(0)
+    count = int(hi) - int(lo) + 1
+    if count > MAX_REPEAT:
+        c.error("E303", f"'for {spec.var}' would repeat {count} times, more than "
+                f"{MAX_REPEAT}", spec.span, "too many repetitions")
+        return range(0)
+    return range(int(lo), int(hi) + 1)
+
+
+def _parameter(c, p):
+    """A parameter of an instance inside a ``for`` block (``l[3].L``), evaluated
+    when its block is expanded, before the declarations that read it."""
+    if p.name in c.params:
+        c.error("E202", f"duplicate parameter '{p.name}'", p.span, "declared again")
+        return
+    if p.name in c.overrides:
+        apply_override(c, p.name, c.overrides.pop(p.name))
+        return
+    v = c.number(p.value, p.span, f"parameter '{p.name}'")
+    if v is None:
+        c.broken_names.add(p.name)
+        return
+    c.params[p.name] = v
+    c.param_dims[p.name] = units.dimension(p.value, c.param_dims)

@@ -9,7 +9,6 @@ import math
 
 from .. import units
 from ..expressions import evaluate, ExprError
-from .context import did_you_mean
 
 
 # -- passes ---------------------------------------------------------------
@@ -28,25 +27,7 @@ def check_parameters(c):
                     "reserved name")
             continue
         if p.name in c.overrides:
-            value = c.overrides.pop(p.name)
-            if isinstance(value, str):
-                from ..grammar import as_expr
-                try:
-                    value = evaluate(as_expr(value), c.params)
-                except ExprError as err:
-                    c.error("E301", f"--set {p.name}={value}: {err}", None)
-                    c.broken_names.add(p.name)
-                    continue
-                except Exception as exc:  # noqa: BLE001 - MbdSyntaxError of the override text
-                    c.error("E301", f"--set {p.name}={value}: not a valid expression ({exc})", None)
-                    c.broken_names.add(p.name)
-                    continue
-            value = float(value)
-            if not math.isfinite(value):
-                c.error("E301", f"--set {p.name}: the value is not finite", None)
-                c.broken_names.add(p.name)
-                continue
-            c.params[p.name] = value
+            apply_override(c, p.name, c.overrides.pop(p.name))
             continue
         v = c.number(p.value, p.span, f"parameter '{p.name}'")
         if v is not None:
@@ -55,7 +36,28 @@ def check_parameters(c):
             c.param_dims[p.name] = units.dimension(p.value, c.param_dims)
         else:
             c.broken_names.add(p.name)
-    for name in c.overrides:
-        c.error("E201", f"--set {name}: the model has no parameter '{name}'", None,
-                hint=did_you_mean(name, spans) or
-                f"its parameters are {', '.join(spans) or '(none)'}")
+    # an override of no parameter is reported after the loops' pass, which
+    # evaluates the parameters of instances in ``for`` blocks (``l[3].L``)
+
+
+def apply_override(c, name, value):
+    """Set parameter ``name`` to a ``--set`` value (a number or an expression
+    of the parameters before it); E301 when it is not a finite number."""
+    if isinstance(value, str):
+        from ..grammar import as_expr
+        try:
+            value = evaluate(as_expr(value), c.params)
+        except ExprError as err:
+            c.error("E301", f"--set {name}={value}: {err}", None)
+            c.broken_names.add(name)
+            return
+        except Exception as exc:  # noqa: BLE001 - MbdSyntaxError of the override text
+            c.error("E301", f"--set {name}={value}: not a valid expression ({exc})", None)
+            c.broken_names.add(name)
+            return
+    value = float(value)
+    if not math.isfinite(value):
+        c.error("E301", f"--set {name}: the value is not finite", None)
+        c.broken_names.add(name)
+        return
+    c.params[name] = value
