@@ -138,10 +138,8 @@ def _item(it, indent: str) -> list[str]:
         pts = "; ".join(f"point {_name(p.name)} {expr_text(p.position)}" for p in it.points)
         return [f"{indent}ground {{ {pts} }}"]
     if isinstance(it, S.ForSpec):
-        lines = [f"{indent}for {it.var} in {expr_text(it.start)}..{expr_text(it.end)} {{"]
-        for sub in it.items:
-            lines += _item(sub, indent + "  ")
-        return lines + [f"{indent}}}"]
+        return _block(f"for {it.var} in {expr_text(it.start)}..{expr_text(it.end)}", it.items,
+                      indent)
     if isinstance(it, S.InstanceSpec):
         return [f"{indent}{it.component} {_name(it.name)}({_args(it.args)})"]
     if isinstance(it, S.ParameterSpec):
@@ -151,20 +149,26 @@ def _item(it, indent: str) -> list[str]:
     if isinstance(it, S.ComponentSpec):
         params = ", ".join(p.name if p.default is None else f"{p.name} = {expr_text(p.default)}"
                            for p in it.parameters)
-        lines = [f"{indent}component {it.name}({params}) {{"]
-        for sub in it.items:
-            lines += _item(sub, indent + "  ")
-        return lines + [f"{indent}}}"]
+        return _block(f"component {it.name}({params})", it.items, indent)
     raise TypeError(f"not a declaration: {it!r}")
+
+
+def _block(header: str, items, indent: str) -> list[str]:
+    """``header { items }`` over several lines (a for block, a component)."""
+    lines = [f"{indent}{header} {{"]
+    for sub in items:
+        lines += _item(sub, indent + "  ")
+    return lines + [f"{indent}}}"]
 
 
 def spec_text(spec) -> str:
     """The model file of a :class:`~mbdsl.dsl.spec.ModelSpec`.
 
-    Declarations are written grouped by kind (parameters, tables, gravity, ground
-    points, bodies, joints, forces, drivers, initial lines, repeated blocks,
-    first-order states, the simulate section): the language does not depend
-    on their order.
+    Declarations are written grouped by kind (imports, components, parameters,
+    tables, gravity, ground points, bodies, joints, forces, drivers, initial
+    lines, repeated blocks, instances, first-order states, the simulate
+    section), the order in which a model built in Python takes them: the
+    text rebuilds the same model, coordinates in the same order.
     """
     header = "library" if spec.library else "model"
     lines = [f"{header} {spec.name}   # written by mbdsl from a model built in Python", ""]
@@ -185,8 +189,10 @@ def spec_text(spec) -> str:
         pts = "; ".join(f"point {_name(p.name)} {expr_text(p.position)}"
                         for p in spec.ground_points)
         lines.append(f"ground {{ {pts} }}")
-    for group in (spec.instances, spec.bodies, spec.joints, spec.forces, spec.drivers,
-                  spec.initials, spec.loops):
+    # instances after the blocks: a model built in Python orders its coordinates
+    # so (``check.loops.expand_loops``), and its text must rebuild the same model
+    for group in (spec.bodies, spec.joints, spec.forces, spec.drivers, spec.initials,
+                  spec.loops, spec.instances):
         for it in group:
             lines += _item(it, "")
     for st in spec.states:

@@ -217,9 +217,14 @@ def test_components_from_python_equal_the_text_and_write_back():
     assert [b.name for b in mbdsl.load_text(written).bodies] == ["crank.b", "rod.b"]
     # an instance of a library part from Python
     lib = mbdsl.ModelSpec("one", imports=[mbdsl.ImportSpec("parts")],
-                          instances=[mbdsl.InstanceSpec.of("parts.Wheel", "w", r=0.2)])
+                          instances=[mbdsl.InstanceSpec.of("parts.Wheel", "w", r=0.2)],
+                          bodies=[mbdsl.BodySpec.rigid("hub", 1, 0.1)])
     assert "import parts" in spec_text(lib)
-    assert mbdsl.from_spec(lib).bodies[0].inertia == pytest.approx(0.5 * 1 * 0.2 ** 2)
+    built = mbdsl.from_spec(lib)
+    assert [b.name for b in built.bodies] == ["hub", "w.b"]
+    assert built.bodies[1].inertia == pytest.approx(0.5 * 1 * 0.2 ** 2)
+    # its text (a result file's source) rebuilds the same coordinates in the same order
+    assert [b.name for b in mbdsl.load_text(spec_text(lib)).bodies] == ["hub", "w.b"]
 
 
 def test_a_model_without_components_is_checked_as_before():
