@@ -345,7 +345,10 @@ def step_warning(system, initial, method, h: float, t_span: float):
     for i, mo in enumerate(found, 1):
         if not mo.stable or mo.omega * h <= 1.0:
             continue
-        sp = spectrum(method.amplification(mo.omega * h), mo.omega * h)
+        try:            # a mode of an overflowing model (a damper of 1e308 N s/m) has none
+            sp = spectrum(method.amplification(mo.omega * h), mo.omega * h)
+        except (np.linalg.LinAlgError, ValueError, OverflowError):
+            continue
         if sp.rho > 1.0 + 1e-9 or sp.steps_to_damp > steps:
             worst = (i, mo, sp)
     if worst is None:

@@ -454,6 +454,15 @@ class _Flattener:
             if i == len(parts) - 1 and isinstance(parts[i], str) and parts[i] in params:
                 q = qualify(name, parts[i])
                 return [Name(q, sp) if isinstance(q, str) else dataclasses.replace(q, span=sp)]
+            elements = _declared(comp.items)[0]
+            if i == len(parts) - 1 and _base(parts[i]) not in elements:
+                from .check.context import did_you_mean      # neither parameter nor element
+                self.error("E201", f"'{_rebuild(parts, sp).text}': {comp.name} has no "
+                           f"parameter '{_text(parts[i])}'", sp, "not a parameter",
+                           hint=did_you_mean(_text(parts[i]), params | elements) or
+                           f"its parameters are {', '.join(sorted(params)) or '(none)'}; "
+                           "an element's value needs its field (`b.phi`)")
+                return parts
             return [qualify(name, parts[i])] + parts[i + 1:]
         if scope.inside and head not in ("ground",):
             if isinstance(head, str) and head in scope.params and len(parts) == 1:

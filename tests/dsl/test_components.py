@@ -150,6 +150,9 @@ def test_an_error_inside_an_imported_component_shows_the_instance_and_both_place
     ('model m\nimport parts\nparts.Link a\nparts.Link a\n', "E202", "duplicate instance 'a'"),
     ('model m\nimport parts\nparts.Link upper\n'
      'joint J: revolute(ground.origin, uper.b.A)\n', "E201", "did you mean 'upper'"),
+    ('model m\nimport parts\nparts.Link rod\nguess rod.bphi = 0.5\n', "E201",
+     "'rod.bphi': Link has no parameter 'bphi'"),
+    ('model m\ninitial a.b.c = 1\n', "E201", "unknown body 'a.b'"),
     ('library m\ncomponent C() { body b { mass 1; inertia 1 } }\n', "E110",
      "a library of components, not a model"),
 ])

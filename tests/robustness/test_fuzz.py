@@ -18,6 +18,7 @@ from hypothesis import strategies as st
 
 import mbdsl
 from mbdsl import AssemblyError, MbdError
+from mbdsl.io.observers import RunObserver
 
 from ..conftest import MODELS
 
@@ -25,6 +26,10 @@ from ..conftest import MODELS
 pytestmark = pytest.mark.filterwarnings("ignore::RuntimeWarning")
 
 TEXTS = {p.name: p.read_text() for p in sorted(MODELS.glob("*.mbd"))}
+# models built from components: a local one (instances, paths) and the library's (import)
+COMPONENTS = MODELS.parent / "tests" / "dsl" / "components"
+TEXTS.update({p.name: p.read_text() for p in (COMPONENTS / "wishbone.mbd",
+                                              COMPONENTS / "slider_crank_parts.mbd")})
 TOKEN = re.compile(r"\s+|[A-Za-z_]\w*|\d+(?:\.\d*)?(?:[eE][+-]?\d+)?|\.\.|.", re.S)
 NUMBERS = ["0", "-0", "-1", "-2.5", "1e308", "1e-308", "1e400", "nan", "inf", "-inf", "3",
            "0.5", "1e-12", "1e12", "2^1024", "1/0", "0/0", "1e", "١", "½", "--1", "1..2"]
@@ -51,7 +56,12 @@ INSERTS = ["kg", "m/s", "{", "}", "(", ")", ",", ";", "=", ":", "..", "é", "→
            "5 mm", "(2 kg)*", " + 1 s", "1e400 kg", "initial crank.phi = 270\n",
            # particles
            "particle", "particle q { mass 1 }\n", "q.cm", "particle q { mass 1; inertia 1 }\n",
-           "joint Q: distance(ground.origin, q.cm, length = 1)\n"]
+           "joint Q: distance(ground.origin, q.cm, length = 1)\n",
+           # components, instances and imports
+           "component", "import", "library", "parts", "parts.Link", "import parts\n",
+           "import \"nowhere.mbd\"\n", "parts.Link x(L = 1)\n", "Arm w(L = 2 kg)\n",
+           "upper.b.O", "upper.L", "crank.b", "component C(a) { body b { mass a; inertia 1 } }\n",
+           "C c\n", "for i in 1..2 { parts.Link l[i](m = i) }\n", "l[1].b.B", "as"]
 
 
 def tokens(text):
@@ -97,7 +107,10 @@ def check_text(text):
     h = model.settings.get("h", 1e-3)
     h = h if 1e-9 < h < 0.1 else 1e-3
     try:
-        sol = mbdsl.simulate(model, h=h, t_end=3 * h, on_failure="return")
+        sol = mbdsl.simulate(model, h=h, t_end=3 * h, on_failure="return",
+                             observers=(StepBudget(),))
+    except OverBudget:
+        return "over budget"
     except AssemblyError as exc:
         assert exc.diagnostics and all(d.code.startswith(("E4", "E5")) for d in exc.diagnostics
                                        if d.is_error)
@@ -109,6 +122,27 @@ def check_text(text):
     for x in (sol.q, sol.v, sol.a, sol.lam):
         assert np.all(np.isfinite(x)), "a completed run with non-finite values"
     return "ran"
+
+
+class OverBudget(Exception):
+    """A mutated model whose three steps' worth of time takes more than
+    ``StepBudget.ROWS`` error-controlled steps."""
+
+
+class StepBudget(RunObserver):
+    """Ends a run past ``ROWS`` recorded steps (its rows reach the observer
+    in chunks; whether a run passes the budget does not depend on when):
+    a mutation such as ``gravity (1e12, -9.81)`` on the pendulum against a
+    joint limit under a tolerance asks for a rod turning at 1.4e6 rad/s,
+    steps of 5e-12 s, a billion steps to its end. The run is honest, but
+    not one for a test of bad input."""
+
+    ROWS = 200_000
+
+    def on_rows(self, sol, start, stop):
+        """Raise OverBudget past ROWS rows."""
+        if stop > self.ROWS:
+            raise OverBudget
 
 
 @settings(max_examples=int(__import__("os").environ.get("MBDSL_FUZZ", 2000)), deadline=10_000, derandomize=True, database=None,

@@ -45,6 +45,15 @@ class BrokenReference(ExprError):
     """A reference to an element whose own error is reported (not reported again)."""
 
 
+def plain_target(tgt):
+    """An initial line's or a driver's target ``a.b.c`` (no instance of that
+    path: ``components.flatten`` folds those) as ``Dotted("a.b", "c")``, so
+    that it is reported as an unknown body or joint by its written name."""
+    if isinstance(tgt.obj, Dotted):
+        return Dotted(tgt.obj.text, tgt.attr, tgt.span)
+    return tgt
+
+
 def did_you_mean(name: str, candidates) -> str:
     """A hint: the closest of ``candidates`` to ``name`` as "did you mean ...?", or ""."""
     close = difflib.get_close_matches(name, list(candidates), n=1, cutoff=0.6)

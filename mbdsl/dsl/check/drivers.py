@@ -6,7 +6,7 @@ target), E202 (driven twice), E307 (a value of the wrong dimension).
 from __future__ import annotations
 
 from ...model.elements import COORDINATES, Driver
-from .context import did_you_mean
+from .context import did_you_mean, plain_target
 
 
 #: the SI unit of a driven quantity
@@ -19,7 +19,7 @@ def check_drivers(c):
     for d in c.items["drivers"]:
         ok = c.claim(d.name, d.span, "driver")
         ctx = f"driver '{d.name}'"
-        tgt = d.target
+        tgt = plain_target(d.target)
         fn = c.time_function(d.value, d.span, ctx, unit=DRIVER_UNITS.get(tgt.attr))
         if tgt.obj in c.joints:
             joint = c.joints[tgt.obj]

@@ -6,7 +6,7 @@ E502 (an unknown field, or given twice).
 from __future__ import annotations
 
 from ...model.elements import COORDINATES, VELOCITIES, InitialCondition
-from .context import did_you_mean
+from .context import did_you_mean, plain_target
 
 
 #: the SI unit of a body coordinate or velocity
@@ -18,7 +18,7 @@ def check_initials(c):
     c.initials = []
     seen = {}
     for ic in c.items["initials"]:
-        tgt = ic.target
+        tgt = plain_target(ic.target)
         kw = "guess" if ic.guess else "initial"
         body = c.bodies.get(tgt.obj)
         if body is None:

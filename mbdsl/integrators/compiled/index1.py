@@ -263,7 +263,19 @@ def _index1_acceleration(I, Fl, n, m, t, qx, vx, a, out, R, C, V, S, col, g, y):
     _index1_gamma(I, Fl, t, qx, vx, col, R, C, V)   # -gamma
     for i in range(m):
         g[i] += col[i]
-    z = np.linalg.lstsq(S, g, 1e-13)[0]
+    # a model whose numbers overflow (a mass of 1e-308 kg) gives non-finite S or
+    # g, which LAPACK refuses: the estimate then reads a as it is, and the
+    # step's own tests stop the run with a code
+    ok = np.all(np.isfinite(S)) and np.all(np.isfinite(g))
+    if ok:
+        try:
+            z = np.linalg.lstsq(S, g, 1e-13)[0]
+        except Exception:      # noqa: BLE001 - numba raises LinAlgError when the SVD fails
+            ok = False
+    if not ok:
+        for j in range(n):
+            out[j] = a[j]
+        return
     _minus_correction(I, Fl, qx, z, y)
     for j in range(n):
         out[j] = a[j] - y[j]
