@@ -41,6 +41,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import os
+import posixpath
 from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
 
@@ -135,6 +136,13 @@ def _base(name) -> str | None:
     return None
 
 
+def _did_you_mean(name: str, candidates) -> str:
+    """The check's did-you-mean hint (imported here when used: the check's
+    package imports this module)."""
+    from .check.context import did_you_mean
+    return did_you_mean(name, candidates)
+
+
 def _chain(ref) -> list:
     """``a.b.c`` -> [a, b, c] (a str or IndexedName each)."""
     parts = []
@@ -197,11 +205,9 @@ class _Loader:
         """The file an import names, read and parsed once; None after reporting."""
         from .parser import parse_text
         if imp.is_path:
-            key = str(PurePosixPath(os.path.normpath(
-                str(PurePosixPath(from_key).parent / imp.target)))) if from_key else \
-                str(PurePosixPath(os.path.normpath(imp.target)))
-            if from_key.startswith("library:"):
-                key = f"{from_key}/{imp.target}"
+            # the path as the main file reaches it ("" is the main file's own key)
+            key = (f"{from_key}/{imp.target}" if from_key.startswith("library:") else
+                   posixpath.normpath(str(PurePosixPath(from_key).parent / imp.target)))
             path = (folder or Path.cwd()) / imp.target
             where = f"'{imp.target}' (looked for {path})"
         else:
@@ -323,6 +329,20 @@ class _Flattener:
     def __init__(self, diags: list):
         self.diags = diags
         self.instances: dict[str, str] = {}
+        self._names: dict = {}
+
+    def names(self, comp: S.ComponentSpec) -> tuple:
+        """(parameters, elements, ground points, instance name -> InstanceSpec)
+        a component declares, walked once per component (every reference
+        through an instance of it reads them)."""
+        hit = self._names.get(id(comp))
+        if hit is None or hit[0] is not comp:
+            elements, grounds, subs = _declared(comp.items)
+            params = frozenset({p.name for p in comp.parameters} | {
+                it.name for it in comp.items if isinstance(it, S.ParameterSpec)})
+            hit = self._names[id(comp)] = (comp, params, frozenset(elements),
+                                           frozenset(grounds), subs)
+        return hit[1:]
 
     def error(self, code, message, span, label="", hint=""):
         """Record an error."""
@@ -388,10 +408,9 @@ class _Flattener:
             q = qualify(scope.prefix, e.name)
             return Name(q, sp) if isinstance(q, str) else dataclasses.replace(q, span=sp)
         if not word:
-            from .check.context import did_you_mean
             self.error("E201", f"unknown name '{e.name}' in component {scope.component}",
                        sp, "not a parameter of the component",
-                       hint=did_you_mean(e.name, scope.params | scope.elements) or
+                       hint=_did_you_mean(e.name, scope.params | scope.elements) or
                        "inside a component, names are its parameters and its own elements; "
                        "pass a value of the model as a parameter")
         return Name(e.name, sp)
@@ -427,8 +446,7 @@ class _Flattener:
         comp = None
         if (isinstance(head, str) and len(parts) >= 3 and head not in scope.instances
                 and head not in scope.elements):
-            from .check.context import did_you_mean
-            hint = did_you_mean(head, scope.instances)
+            hint = _did_you_mean(head, scope.instances)
             if hint:                      # a misspelt instance (not a body's point field)
                 self.error("E201", f"unknown instance '{head}' in '{_rebuild(parts, sp).text}'",
                            sp, "no instance with this name", hint=hint)
@@ -437,7 +455,7 @@ class _Flattener:
             comp, lib = scope.instances[_base(head)]
             i = 1
             while True:
-                sub_elems, _, sub_inst = _declared(comp.items)
+                sub_inst = self.names(comp)[3]
                 nxt = parts[i]
                 if i + 1 < len(parts) and _base(nxt) in sub_inst:
                     inst = sub_inst[_base(nxt)]
@@ -449,17 +467,14 @@ class _Flattener:
                     i += 1
                     continue
                 break
-            params = {p.name for p in comp.parameters} | {
-                it.name for it in comp.items if isinstance(it, S.ParameterSpec)}
+            params, elements = self.names(comp)[:2]
             if i == len(parts) - 1 and isinstance(parts[i], str) and parts[i] in params:
                 q = qualify(name, parts[i])
                 return [Name(q, sp) if isinstance(q, str) else dataclasses.replace(q, span=sp)]
-            elements = _declared(comp.items)[0]
             if i == len(parts) - 1 and _base(parts[i]) not in elements:
-                from .check.context import did_you_mean      # neither parameter nor element
                 self.error("E201", f"'{_rebuild(parts, sp).text}': {comp.name} has no "
                            f"parameter '{_text(parts[i])}'", sp, "not a parameter",
-                           hint=did_you_mean(_text(parts[i]), params | elements) or
+                           hint=_did_you_mean(_text(parts[i]), params | elements) or
                            f"its parameters are {', '.join(sorted(params)) or '(none)'}; "
                            "an element's value needs its field (`b.phi`)")
                 return parts
@@ -568,10 +583,9 @@ class _Flattener:
         sp = self.span(inst.span, scope)
         found = _lookup(scope.file, inst.component)
         if found is None:
-            from .check.context import did_you_mean
             self.error("E201", f"unknown component '{inst.component}'",
                        self.span(inst.component_span, scope), "no such component",
-                       hint=did_you_mean(inst.component, _known_components(scope.file)) or
+                       hint=_did_you_mean(inst.component, _known_components(scope.file)) or
                        "define it with `component`, or import the library that has it")
             return
         comp, lib = found
@@ -582,10 +596,8 @@ class _Flattener:
             self.error("E109", f"component {comp.name} holds itself (through '{_text(path)}')",
                        sp, "instances nest without end")
             return
-        elements, grounds, subs = _declared(comp.items)
-        local = {it.name for it in comp.items if isinstance(it, S.ParameterSpec)}
-        child = _Scope(path, lib, frozenset({p.name for p in comp.parameters} | local),
-                       frozenset(elements), frozenset(grounds), {}, {}, scope.via + (
+        params, elements, grounds, subs = self.names(comp)
+        child = _Scope(path, lib, params, elements, grounds, {}, {}, scope.via + (
                            (inst.span, f"in '{_text(path)}', an instance of {comp.name}"),),
                        comp.name)
         for base, sub in subs.items():
@@ -600,10 +612,9 @@ class _Flattener:
                            hint=f"write {comp.parameters[0].name if comp.parameters else 'P'}"
                            " = value")
             elif a.keyword not in {p.name for p in comp.parameters}:
-                from .check.context import did_you_mean
                 self.error("E201", f"component {comp.name} has no parameter '{a.keyword}'",
                            self.span(a.span, scope), "no such parameter",
-                           hint=did_you_mean(a.keyword, [p.name for p in comp.parameters]) or
+                           hint=_did_you_mean(a.keyword, [p.name for p in comp.parameters]) or
                            f"its parameters are {', '.join(p.name for p in comp.parameters)}")
             else:
                 given[a.keyword] = a
