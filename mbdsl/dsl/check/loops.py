@@ -20,10 +20,9 @@ import dataclasses
 
 from ...errors import Span
 from ..expressions import Dotted, evaluate, ExprError, IndexedName, Name, Num
-from .. import units
 from ..spec import BlockSpec, ForSpec, GroundSpec, ParameterSpec
 from .context import did_you_mean
-from .parameters import apply_override
+from .parameters import apply_override, set_parameter
 from .tables import MAX_REPEAT
 
 
@@ -273,9 +272,4 @@ def _parameter(c, p):
     if p.name in c.overrides:
         apply_override(c, p.name, c.overrides.pop(p.name))
         return
-    v = c.number(p.value, p.span, f"parameter '{p.name}'")
-    if v is None:
-        c.broken_names.add(p.name)
-        return
-    c.params[p.name] = v
-    c.param_dims[p.name] = units.dimension(p.value, c.param_dims)
+    set_parameter(c, p)

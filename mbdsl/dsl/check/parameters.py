@@ -29,15 +29,21 @@ def check_parameters(c):
         if p.name in c.overrides:
             apply_override(c, p.name, c.overrides.pop(p.name))
             continue
-        v = c.number(p.value, p.span, f"parameter '{p.name}'")
-        if v is not None:
-            c.params[p.name] = v
-            # a parameter written with units has their dimension wherever it is used
-            c.param_dims[p.name] = units.dimension(p.value, c.param_dims)
-        else:
-            c.broken_names.add(p.name)
+        set_parameter(c, p)
     # an override of no parameter is reported after the loops' pass, which
     # evaluates the parameters of instances in ``for`` blocks (``l[3].L``)
+
+
+def set_parameter(c, p):
+    """Evaluate parameter ``p`` (a ParameterSpec) into ``c.params`` with the
+    dimension its units give it; a broken name after reporting."""
+    v = c.number(p.value, p.span, f"parameter '{p.name}'")
+    if v is None:
+        c.broken_names.add(p.name)
+        return
+    c.params[p.name] = v
+    # a parameter written with units has their dimension wherever it is used
+    c.param_dims[p.name] = units.dimension(p.value, c.param_dims)
 
 
 def apply_override(c, name, value):
