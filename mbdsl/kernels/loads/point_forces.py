@@ -102,6 +102,8 @@ def triplets(I) -> int:
     force block: per row of FDV, 3 + e rows (e: the force's elastic terms on
     a flexible beam) by the variable's columns (6 at most, a sliding line's)."""
     def field(k):
+        """(offset, rows) of field k in I (the schema's header; read in Python
+        here, where the jitted accessors ``_i``/``_rows`` would compile)."""
         return int(I[3 * k]), int(I[3 * k + 1])
     off, rows = field(FDV)
     fel_off, fel_rows = field(FEL)
