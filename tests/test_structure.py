@@ -282,6 +282,24 @@ def _mentions_the_distance_joint(name, path, modules) -> bool:
     return False
 
 
+def test_element_data_have_one_representation():
+    """Between the model's elements and the packed arrays there is no second
+    copy of element data: no ``*Group`` class (the joints', loads', contacts'
+    and beams' groups are gone; the families pack from the model), and what
+    the assembly keeps of the contacts and the beams is their run state and
+    where they sit, not their parameters."""
+    groups = [f"{path.relative_to(PACKAGE)}:{node.name}" for path in PACKAGE.rglob("*.py")
+              for node in ast.walk(ast.parse(path.read_text()))
+              if isinstance(node, ast.ClassDef) and node.name.endswith("Group")]
+    assert groups == []
+    import mbdsl
+    from mbdsl.assembly.ffr import BeamSet
+    system = mbdsl.assemble(mbdsl.load(PACKAGE.parent / "models" / "slider_crank_clearance.mbd"))
+    parameters = {"k", "k_", "n_", "chi", "c_", "mu", "v_reg", "geometry", "damped"}
+    assert not parameters & set(vars(system.contact_state))
+    assert BeamSet._fields == ("first", "beams", "cols")
+
+
 def test_the_distance_joint_lives_where_the_architecture_says():
     """docs/architecture.md, "Adding a joint type", names the files a joint kind
     lives in, for the distance joint; the package's modules that name it (by

@@ -30,12 +30,14 @@ its damping: no jump in f where a rope goes taut at speed). v_impact is the stat
 the contact, set by the time loop when the gap closes (``arm``, the event
 that lands a step on the closing) and cleared when it opens (``release``).
 
-The group holds the contacts' data and state; the kernels of
-``kernels/loads/contact.py`` evaluate the law (``_contact_law``,
-``_contacts_add``, ``_emit_contacts``) and the gaps (``_gap``), the latter
-through the evaluation :meth:`ContactGroup.bind` gives the group
-(``AssembledSystem.contact_gaps``). ``tests/contact/contact_oracle.py`` is
-an independent numpy evaluation they are tested against.
+The contacts' data are the model's (``Contact``), packed for the kernels
+by ``kernels/loads/contact.py``, which evaluates the law (``_contact_law``,
+``_contacts_add``, ``_emit_contacts``) and the gaps (``_gap``). What a run
+changes, the impact speed of each closed gap and the log of the closings
+and openings, is a :class:`ContactState`; it evaluates the gaps for the
+event locator through the kernels (``AssembledSystem.contact_gaps``, given
+by :meth:`ContactState.bind`). ``tests/contact/contact_oracle.py`` is an
+independent numpy evaluation the kernels are tested against.
 """
 
 from __future__ import annotations
@@ -44,49 +46,54 @@ import numpy as np
 
 from ..model.contact import SPEED_FLOOR, gap_columns
 
-__all__ = ["ContactGroup"]
+__all__ = ["ContactState"]
 
 
-class ContactGroup:
-    """Contacts and joint limits (:class:`~mbdsl.model.contact.Contact`), one
-    instance per one-sided gap.
+class ContactState:
+    """The run state of the contacts and joint limits
+    (:class:`~mbdsl.model.contact.Contact`): per one-sided gap, the impact
+    speed in force, and the log of the run's closings and openings; with
+    where each gap sits, to evaluate it for the event locator. The contacts'
+    parameters stay the model's (``contacts``).
+
+    Parameters
+    ----------
+    cmap : CoordinateMap
+        The model's body columns.
+    contacts : sequence of Contact
+        The model's contacts and limits, in its order (the kernels' gap order).
 
     Attributes
     ----------
+    contacts : list of Contact
+    owner : ndarray of intp, shape (k,)
+        Per gap, its element in ``contacts``.
     cols : ndarray of intp, shape (k, 6)
-        Local columns per gap: x, y, phi of its first body, then of its second.
+        Per gap, the columns of q_ext it reads: x, y, phi of its first body,
+        then of its second.
     names : list of str
         Per gap, the element's name and the gap's label (``"stop.upper"``).
-    k_, n_, chi, c_ : ndarray, shape (k,)
-        Stiffness, exponent, damping factor and linear damping [N s/m].
+    elements : list of str
+        Per gap, the element's name.
     impact_speed : ndarray, shape (k,) [m/s or rad/s]
         The approach speed of each closed gap when it closed; 0 while open.
+    log : list of (float, int, float)
+        (t, gap, speed; 0 for an opening) of every arm and release of the
+        run under way.
     """
 
     def __init__(self, cmap, contacts):
-        self.cmap = cmap
-        self.geometry, self.names, self.elements = [], [], []
-        cols, K, n, chi, mu, v_reg, visc = [], [], [], [], [], [], []
-        for c in contacts:
+        self.contacts = list(contacts)
+        self.names, self.elements, owner, cols = [], [], [], []
+        for j, c in enumerate(self.contacts):
             for geometry, data, label in c.gaps:
-                mu.append(c.mu)
-                v_reg.append(c.v_reg)
-                self.geometry.append((geometry, data))
+                owner.append(j)
                 self.names.append(c.name + ("." + label if label else ""))
                 self.elements.append(c.name)
                 cols.append(gap_columns(geometry, data, cmap))
-                K.append(c.k)
-                n.append(c.exponent)
-                chi.append(c.damping)
-                visc.append(c.viscous)
+        self.owner = np.array(owner, dtype=np.intp)
         self.cols = np.array(cols, dtype=np.intp).reshape(-1, 6)
-        self.k_, self.n_, self.chi = (np.array(x, float) for x in (K, n, chi))
-        self.mu, self.v_reg = np.array(mu, float), np.array(v_reg, float)
-        self.c_ = np.array(visc, float)
-        self.damped = bool(np.any(self.chi > 0.0) or np.any(self.mu > 0.0)
-                           or np.any(self.c_ > 0.0))
         self.impact_speed = np.zeros(len(self.names))
-        #: (t, gap, speed) of every arm and release of the run under way
         self.log = []
         self._gaps = None
 
@@ -152,8 +159,9 @@ class ContactGroup:
         if not inv > 0.0:
             return np.inf
         v = max(float(speed), SPEED_FLOOR)
-        ex = self.n_[i]
-        delta_max = ((ex + 1.0) * v * v / (2.0 * self.k_[i] * inv)) ** (1.0 / (ex + 1.0))
+        contact = self.contacts[self.owner[i]]
+        ex = float(contact.exponent)
+        delta_max = ((ex + 1.0) * v * v / (2.0 * contact.k * inv)) ** (1.0 / (ex + 1.0))
         return 3.0 * delta_max / v
 
     def speeds_at(self, t, log):

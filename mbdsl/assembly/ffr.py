@@ -53,155 +53,180 @@ Source: Shabana, Dynamics of Multibody Systems, 4th ed., ch. 5 (the planar
 FFR: eqs. for the mass matrix, the inertia shape integrals and the quadratic
 velocity vector). A is the rotation matrix, B = dA/dphi, I~ = [[0,-1],[1,0]].
 
-A :class:`FlexibleBeamGroup` holds the data of the beams with the same
-number of elastic coordinates, stacked (struct of arrays, shape (k, ...)):
-columns, shape integrals, stiffness and strain data, which
-``packing.PackedModel`` packs for the kernels. The physics
-above is evaluated once, by the kernels of ``mbdsl/kernels``
+The beams' data (shape integrals, stiffness, strain data) are the model's
+(``FlexibleBeam.shape_integrals``, ``stiffness``, ``strain_data``: computed
+once per beam), packed for the kernels by ``kernels.beams.ffr.pack``. The
+physics above is evaluated once, by the kernels of ``mbdsl/kernels``
 (``_ffr_local``, ``_ffr_energy``): the compiled time loops call them
 directly, and everything else (the numpy engine, the initial conditions,
-the output's energies) through this group's methods, on the compiled
-kernels when this process can call them without compiling, else on their
-uncompiled copy (``AssembledSystem.kernel_model``). An independent numpy
-evaluation of the same equations is the tests' oracle
+the output's energies) through the functions below, on the packed model
+the system gives them (``AssembledSystem.kernel_model``: the compiled
+kernels when this process can call them without compiling, else their
+uncompiled copy). A :class:`BeamSet` says where beams with the same number
+of elastic coordinates sit: in q, and in the kernels' beam order. An
+independent numpy evaluation of the same equations is the tests' oracle
 (``tests/flexible/ffr_oracle.py``).
 """
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from .points import body_columns
 
-__all__ = ["FlexibleBeamGroup"]
+__all__ = ["BeamSet", "beam_sets", "local_blocks", "mass_blocks", "Ma_q", "forces",
+           "derivatives", "tangent_stiffness", "energy"]
 
 #: ``kernels.beams.ffr._ffr_local``'s bits (M, Q, (Q_q, Q_v), (M x)_q), repeated here so
 #: that building a model never imports numba.
 FFR_M, FFR_Q, FFR_DQ, FFR_MXQ = 1, 2, 4, 8
 
 
-class FlexibleBeamGroup:
-    """k flexible beams with the same number nf of elastic coordinates.
+class BeamSet(NamedTuple):
+    """Where k flexible beams with the same number nf of elastic
+    coordinates sit: an index, not a copy of their data.
 
-    Local coordinates per beam: (x, y, phi, q_f), c = 3 + nf, columns
-    ``cols`` (k, c) into q.
+    Attributes
+    ----------
+    first : int
+        The kernels' beams ``first`` .. ``first + k - 1`` (``kernels.beams.ffr``).
+    beams : tuple of FlexibleBeam
+        The model's beams, in that order.
+    cols : ndarray of intp, shape (k, 3 + nf)
+        Their local coordinates (x, y, phi, q_f) as columns of q.
+    """
+
+    first: int
+    beams: tuple
+    cols: np.ndarray
+
+    @property
+    def c(self) -> int:
+        """3 + nf, the local coordinates per beam."""
+        return self.cols.shape[1]
+
+
+def beam_sets(cmap, beams) -> list:
+    """The model's flexible beams by their number of elastic coordinates, in
+    the order of first appearance (the kernels' beam order).
 
     Parameters
     ----------
     cmap : CoordinateMap
         The model's body columns (``Model.coordinate_map``).
     beams : sequence of FlexibleBeam
-    gravity : ndarray, shape (2,), or None
-        [m/s^2]; None: no gravity term.
+        In the model's order.
 
-    Notes
-    -----
-    The evaluations (``mass_blocks``, ``forces``, ...) call the kernels
-    through the model data :meth:`bind` gives the group; the group's beams
-    are the kernels' beams ``first`` .. ``first + k - 1``.
+    Returns
+    -------
+    list of BeamSet
     """
+    by_size = {}
+    for b in beams:
+        by_size.setdefault(b.n_elastic, []).append(b)
+    out, first = [], 0
+    for same in by_size.values():
+        cols = np.concatenate([body_columns(cmap, [b.index for b in same]),
+                               np.array([b.elastic_columns() for b in same])], axis=1)
+        out.append(BeamSet(first, tuple(same), cols))
+        first += len(same)
+    return out
 
-    def __init__(self, cmap, beams, gravity=None):
-        beams = list(beams)
-        self.beams = beams
-        self.nf = beams[0].n_elastic
-        self.c = 3 + self.nf
-        self.cols = np.concatenate([body_columns(cmap, [b.index for b in beams]),
-                                    np.array([b.elastic_columns() for b in beams])], axis=1)
-        ints, stiff = [], []
-        for b in beams:        # build time only: one mesh per beam
-            mesh = b.mesh
-            ints.append(mesh.shape_integrals(b.mass / b.length))
-            stiff.append(mesh.stiffness(b.E * b.area, b.E * b.second_moment))
 
-        def stack(name):
-            """One shape integral of every beam, stacked on axis 0."""
-            return np.array([getattr(i, name) for i in ints])
+def mass_pattern(s: BeamSet) -> tuple:
+    """(rows, cols) of the set's dense mass blocks in q, each shape (k c c,),
+    block by block, row-major."""
+    c = s.c
+    return np.repeat(s.cols, c, axis=1).ravel(), np.tile(s.cols, (1, c)).ravel()
 
-        self.m = stack("mass")
-        self.s0, self.I0, self.S_bar = stack("s0"), stack("I0"), stack("S_bar")
-        self.M_ff, self.a_u, self.a_I = stack("M_ff"), stack("a_u"), stack("a_I")
-        self.S_tilde = stack("S_tilde")
-        self.K = np.array(stiff)
-        # geometric stiffening: quadrature data of the beams that have it
-        self.stiffening = np.array([getattr(b, "stiffening", True) for b in beams])
-        if self.stiffening.any():
-            grads = [b.mesh.strain_gradients() for b in beams]
-            self.Bu = np.array([g[0] for g in grads])                 # (k, N_e, nf)
-            self.G = np.array([g[1] for g in grads])                  # (k, N_e, nf, nf)
-            self.kEA = np.array([np.full(b.elements, 0.5 * b.E * b.area * b.length / b.elements
-                                         * (1.0 if s else 0.0))
-                                 for b, s in zip(beams, self.stiffening)])
-        self.gravity = None if gravity is None else np.asarray(gravity, float)
-        k, c = len(beams), self.c
-        #: mass-matrix pattern in q: (rows, cols), each shape (k * c * c,)
-        self.pattern = (np.repeat(self.cols, c, axis=1).ravel(),
-                        np.tile(self.cols, (1, c)).ravel())
-        #: the diagonal of M at q = 0 (the mass of the frame's translation, I0,
-        #: diag M_ff), shape (k, c): the scaling of the unknowns
-        self.mass_diagonal = np.concatenate([self.m[:, None], self.m[:, None], self.I0[:, None],
-                                             np.diagonal(self.M_ff, axis1=1, axis2=2)], axis=1)
-        self._kernel_model, self.first = None, 0
-        self._nx = cmap.n + 3           # the kernels read extended vectors (ground: 3 zeros)
 
-    def bind(self, kernel_model, first: int) -> None:
-        """Evaluate through ``kernel_model()`` (a callable returning the
-        model's ``PackedModel``), this group's beams being the kernels'
-        ``first`` .. ``first + k - 1``."""
-        self._kernel_model, self.first = kernel_model, first
+def _extended(y, nx) -> np.ndarray:
+    """y (..., n) or (..., n + 3) as contiguous extended vectors (..., nx = n + 3)."""
+    y = np.asarray(y, dtype=float)
+    out = np.zeros(y.shape[:-1] + (nx,))
+    out[..., : y.shape[-1]] = y
+    return out
 
-    def _blocks(self, qx, vx, x, what):
-        """The kernels' local blocks of the group's beams (``kernels.beams.ffr.beam_blocks``):
-        M, Q, Q_q, Q_v, (M x)_q, shapes (k, c, c), (k, c), (k, c, c) x 3."""
-        cm = self._kernel_model()
-        k, c = len(self.beams), self.c
-        M, Qq, Qv, Mxq = (np.zeros((k, c, c)) for _ in range(4))
-        Q = np.zeros((k, c))
-        qx, vx, x = (None if y is None else self._extended(y) for y in (qx, vx, x))
-        cm.K.beam_blocks(cm.ints, cm.floats, self.first, qx, qx if vx is None else vx,
-                         qx if x is None else x, what, M, Q, Qq, Qv, Mxq)
-        return M, Q, Qq, Qv, Mxq
 
-    def _extended(self, y) -> np.ndarray:
-        """y (..., n) or (..., n + 3) as contiguous extended vectors (..., n + 3)."""
-        y = np.asarray(y, dtype=float)
-        out = np.zeros(y.shape[:-1] + (self._nx,))
-        out[..., : y.shape[-1]] = y
-        return out
+def local_blocks(cm, s: BeamSet, qx, vx=None, x=None, what=FFR_M) -> tuple:
+    """The kernels' local blocks of a set's beams (``kernels.beams.ffr.beam_blocks``).
 
-    # -- mass --------------------------------------------------------------------------------
-    def mass_blocks(self, qx) -> np.ndarray:
-        """M(q) of every beam, shape (k, c, c) [kg, kg m, kg m^2]; qx (n,) or (n + 3,)."""
-        return self._blocks(qx, None, None, FFR_M)[0]
+    Parameters
+    ----------
+    cm : PackedModel
+        The model packed for the kernels (``AssembledSystem.kernel_model()``).
+    s : BeamSet
+    qx, vx, x : ndarray, shape (n,) or (n + 3,)
+        Configuration, velocities and the vector of (M x)_q; vx and x: qx
+        when not given (not read unless ``what`` asks).
+    what : int
+        Bits of ``FFR_M``, ``FFR_Q``, ``FFR_DQ``, ``FFR_MXQ``.
 
-    def Ma_q(self, qx, ax) -> np.ndarray:
-        """(M(q) a)_q of every beam, shape (k, c, c), local rows and columns."""
-        return self._blocks(qx, None, ax, FFR_MXQ)[4]
+    Returns
+    -------
+    M, Q, Q_q, Q_v, (M x)_q : ndarray
+        Shapes (k, c, c), (k, c), (k, c, c) x 3 [SI units of M and Q];
+        zeros where not asked for.
+    """
+    k, c, nx = len(s.beams), s.c, cm.n + 3
+    M, Qq, Qv, Mxq = (np.zeros((k, c, c)) for _ in range(4))
+    Q = np.zeros((k, c))
+    qx, vx, x = (None if y is None else _extended(y, nx) for y in (qx, vx, x))
+    cm.K.beam_blocks(cm.ints, cm.floats, s.first, qx, qx if vx is None else vx,
+                     qx if x is None else x, what, M, Q, Qq, Qv, Mxq)
+    return M, Q, Qq, Qv, Mxq
 
-    # -- forces ------------------------------------------------------------------------------
-    def forces(self, qx, vx, t):
-        """Local Q = Q_v - K q_f (- dU_G/dq_f) + Q_gravity, shape (k, c) [N, N m]."""
-        return self._blocks(qx, vx, None, FFR_Q)[1]
 
-    def derivatives(self, qx, vx, t):
-        """Local (Q_q, Q_v), each shape (k, c, c)."""
-        M, Q, Qq, Qv, Mxq = self._blocks(qx, vx, None, FFR_DQ)
-        return Qq, Qv
+def mass_blocks(cm, s: BeamSet, qx) -> np.ndarray:
+    """M(q) of every beam of the set, shape (k, c, c) [kg, kg m, kg m^2]."""
+    return local_blocks(cm, s, qx)[0]
 
-    def tangent_stiffness(self, qx) -> np.ndarray:
-        """K (+ d^2U_G/dq_f^2 with geometric stiffening) of every beam at q,
-        shape (k, nf, nf) [N/m, N, N m]: -Q_q's elastic block at rest."""
-        Qq = self.derivatives(qx, np.zeros(len(qx)), 0.0)[0]
-        return -Qq[:, 3:, 3:]
 
-    # -- energy ------------------------------------------------------------------------------
-    def energy(self, qx, gravity: bool = True):
-        """Strain energy (+ with ``gravity`` the gravity potential energy) of
-        all beams [J]: a float, or shape (...) for rows qx of shape (..., n
-        or n + 3) (``kernels.beams.ffr.beam_energies``)."""
-        cm = self._kernel_model()
-        rows = self._extended(qx).reshape(-1, self._nx)
-        out = np.empty(len(rows))
-        cm.K.beam_energies(cm.ints, cm.floats, self.first, self.first + len(self.beams), rows,
-                           bool(gravity), out)
-        return float(out[0]) if np.ndim(qx) == 1 else out.reshape(np.shape(qx)[:-1])
+def Ma_q(cm, s: BeamSet, qx, ax) -> np.ndarray:
+    """(M(q) a)_q of every beam of the set, shape (k, c, c), local rows and columns."""
+    return local_blocks(cm, s, qx, None, ax, FFR_MXQ)[4]
+
+
+def forces(cm, s: BeamSet, qx, vx) -> np.ndarray:
+    """Local Q = Q_v - K q_f (- dU_G/dq_f) + Q_gravity, shape (k, c) [N, N m]."""
+    return local_blocks(cm, s, qx, vx, None, FFR_Q)[1]
+
+
+def derivatives(cm, s: BeamSet, qx, vx) -> tuple:
+    """Local (Q_q, Q_v) of every beam of the set, each shape (k, c, c)."""
+    blocks = local_blocks(cm, s, qx, vx, None, FFR_DQ)
+    return blocks[2], blocks[3]
+
+
+def tangent_stiffness(cm, s: BeamSet, qx) -> np.ndarray:
+    """K (+ d^2U_G/dq_f^2 with geometric stiffening) of every beam of the set
+    at q, shape (k, nf, nf) [N/m, N, N m]: -Q_q's elastic block at rest."""
+    Qq = derivatives(cm, s, qx, np.zeros(np.shape(qx)[-1]))[0]
+    return -Qq[:, 3:, 3:]
+
+
+def energy(cm, qx, first: int, count: int, gravity: bool = True):
+    """Strain energy (+ with ``gravity`` the gravity potential energy) of the
+    kernels' beams ``first`` .. ``first + count - 1`` [J]
+    (``kernels.beams.ffr.beam_energies``).
+
+    Parameters
+    ----------
+    cm : PackedModel
+    qx : ndarray, shape (n,) or (n + 3,), or rows (..., n or n + 3)
+    first, count : int
+        The beams (a :class:`BeamSet`'s ``first`` and size, or 0 and all).
+    gravity : bool
+        Whether to add the beams' gravity potential energy.
+
+    Returns
+    -------
+    float, or ndarray of shape (...) for rows
+    """
+    nx = cm.n + 3
+    rows = _extended(qx, nx).reshape(-1, nx)
+    out = np.empty(len(rows))
+    cm.K.beam_energies(cm.ints, cm.floats, first, first + count, rows, bool(gravity), out)
+    return float(out[0]) if np.ndim(qx) == 1 else out.reshape(np.shape(qx)[:-1])

@@ -33,6 +33,7 @@ import scipy
 
 from ..gcpause import paused
 from ..errors import AssemblyError, Diagnostic
+from . import ffr
 from .sparse import DENSE_LIMIT, issparse
 from .structure import (RANK_LIMIT, StructureReport, analyse_structure,
                         friction_on_redundant_joints, joint_miss, miss_diagnosis,
@@ -260,7 +261,7 @@ def consistent_initial_state(system: AssembledSystem, t0: float = 0.0,
         q = static_positions(system, t0, state.q, state.lam)
         return _consistent_state(system, t0, tol, max_iter, None, q_start=q,
                                  redundant=redundant)
-    if not system.flexible_groups:
+    if not system.beam_sets:
         return state
     state, settled = _quasi_static(system, state, t0, tol, max_iter)
     if settled:
@@ -278,8 +279,9 @@ def _quasi_static(system, state, t0, tol, max_iter):
     def tangent(q):
         """The beams' elastic stiffness at q (with geometric stiffening: its tangent)."""
         qx = np.concatenate([q, np.zeros(3)])
-        return scipy.linalg.block_diag(*[Kb for g in system.flexible_groups
-                                         for Kb in g.tangent_stiffness(qx)])
+        cm = system.kernel_model()
+        return scipy.linalg.block_diag(*[Kb for s in system.beam_sets
+                                         for Kb in ffr.tangent_stiffness(cm, s, qx)])
     def elastic_acceleration(st):
         """Largest elastic acceleration of a state (0 when quasi-static)."""
         return float(np.max(np.abs(st.a[cols])))

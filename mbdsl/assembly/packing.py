@@ -4,8 +4,8 @@ fields of ``kernels.schema.MODEL_SCHEMA`` in two flat arrays.
 The joints, drivers and loads are packed by their kernel families, straight
 from the model (``pack`` of each module of ``kernels/joints``, for the kinds
 its ``ELEMENT_ROWS`` names, and of ``kernels/loads``, for the kinds its
-``LOADS`` names); the flexible beams from their groups' shape integrals
-(``assembly.ffr``). What several elements share is
+``LOADS`` names); the flexible beams from their shape integrals
+(``kernels.beams.ffr.pack``). What several elements share is
 built once in a :class:`PackingContext`: the functions of time and of the
 state as postfix programs (``dsl.expressions.postfix``), the sliding joints'
 lines, the state variables the loads read, the elastic terms of points on
@@ -23,10 +23,10 @@ __all__ = ["PackedModel", "PackingContext"]
 
 
 class PackedModel:
-    """The model's element groups as the kernels' packed model data.
+    """The model's elements as the kernels' packed model data.
 
     Built once per run from the model's joints, drivers and loads (by their
-    kernel families) and the flexible beams' groups; fields as ``MODEL_SCHEMA``
+    kernel families) and the flexible beams; fields as ``MODEL_SCHEMA``
     declares them. Constant driver values are folded into the rows'
     offsets, constant torques and gravity into Q0; functions of time
     become postfix programs (``dsl.expressions.postfix``): f and f' of
@@ -67,7 +67,8 @@ class PackedModel:
         d["mass"] = system.mass_diag.astype(np.float64)
         d["mrig"] = np.zeros(n)
         d["mrig"][system._rigid_cols] = system.mass_diag[system._rigid_cols]
-        d.update(K.pack_beams(system.flexible_groups))
+        d.update(K.pack_beams([(b, cols) for s in system.beam_sets
+                               for b, cols in zip(s.beams, s.cols)], system.beam_gravity))
         d["Q0"] = Q0
         d["zcol"] = system.state_cols.astype(np.int64)
         d["row_element"] = system.layout.row_element.astype(np.int64)

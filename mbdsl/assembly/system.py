@@ -47,7 +47,7 @@ import numpy as np
 from ..gcpause import paused
 from ..model.contact import Contact
 from ..model.elements import FlexibleBeam, Model
-from .ffr import FlexibleBeamGroup
+from . import ffr
 from .layout import Layout
 
 __all__ = ["AssembledSystem", "assemble"]
@@ -73,8 +73,11 @@ class AssembledSystem:
         The diagonal of M for rigid bodies; for a flexible beam the
         diagonal of its undeformed mass matrix (m, m, I0, diag M_ff), used
         only to scale multipliers and tolerances.
-    flexible_groups : list of FlexibleBeamGroup
-        Flexible beams, grouped by their number of elastic coordinates.
+    beam_sets : list of BeamSet
+        Where the flexible beams sit, by their number of elastic coordinates
+        (:func:`~.ffr.beam_sets`); empty without flexible beams.
+    beam_gravity : ndarray, shape (2,), or None
+        Gravity the beams' kernels apply [m/s^2]; None without gravity.
     """
 
     def __init__(self, model: Model):
@@ -91,19 +94,13 @@ class AssembledSystem:
             mass[cmap.table[:, 0]] = mass[cmap.table[:, 1]] = [b.mass for b in model.bodies]
             own = cmap.table[:, 2] < n
             mass[cmap.table[own, 2]] = [b.inertia for b, o in zip(model.bodies, own) if o]
-        by_size = {}
-        for b in model.flexible_bodies:
-            by_size.setdefault(b.n_elastic, []).append(b)
-        gravity = model.gravity if model.gravity is not None and np.any(model.gravity != 0.0) \
-            else None
-        self.flexible_groups = [FlexibleBeamGroup(cmap, beams, gravity) for beams in by_size.values()]
+        self.beam_gravity = model.gravity if model.gravity is not None \
+            and np.any(model.gravity != 0.0) else None
+        self.beam_sets = ffr.beam_sets(cmap, model.flexible_bodies)
         rigid = np.ones(n, dtype=bool)
-        first = 0
-        for g in self.flexible_groups:
-            mass[g.cols] = g.mass_diagonal
-            rigid[g.cols.ravel()] = False
-            g.bind(self.kernel_model, first)
-            first += len(g.beams)
+        for s in self.beam_sets:
+            mass[s.cols] = [b.mass_diagonal for b in s.beams]
+            rigid[s.cols.ravel()] = False
         self._kernel_models, self._kernels_built = {}, None    # {compiled: PackedModel}
         # a first-order state's integral: unit mass under its rate (``FirstOrderState``)
         mass[list(cmap.states)] = 1.0
@@ -112,7 +109,7 @@ class AssembledSystem:
         #: the columns of the first-order states (integrals in q, values in v): no
         #: kinetic energy, their rates no power (``kinetic_energy``, ``kernels.system._power``)
         self.state_cols = np.array(list(cmap.states), dtype=np.intp)
-        self.mass_is_constant = not self.flexible_groups
+        self.mass_is_constant = not self.beam_sets
         self._build_constraints(model)
         self._build_forces(model)
 
@@ -156,12 +153,13 @@ class AssembledSystem:
         rc = self._rigid_cols
         #: (rows, cols) of the diagonal of (n, n)
         self.pattern_diagonal = (np.arange(self.n), np.arange(self.n))
-        self.pattern_mass = _concat_pattern([rc] + [g.pattern[0] for g in self.flexible_groups],
-                                            [rc] + [g.pattern[1] for g in self.flexible_groups])
+        blocks = [ffr.mass_pattern(s) for s in self.beam_sets]
+        self.pattern_mass = _concat_pattern([rc] + [p[0] for p in blocks],
+                                            [rc] + [p[1] for p in blocks])
 
     def _load_groups(self, model):
-        """What the loads keep beyond the model: the contacts' gaps and their
-        state (:class:`~.contact.ContactGroup`), the springs' held directions;
+        """What the loads keep beyond the model: the contacts' run state
+        (:class:`~.contact.ContactState`), the springs' held directions;
         the loads' data themselves are packed from the model by the kernels'
         load families (``kernels/loads``, ``packing.PackedModel``)."""
         forces = model.loads
@@ -191,13 +189,14 @@ class AssembledSystem:
                 switches.setdefault(s.text, s)
         self.state_switches = list(switches.values()) or None
         #: Whether any load or flexible beam adds to Q beyond gravity.
-        self.has_loads = bool(forces) or bool(self.flexible_groups)
-        from .contact import ContactGroup
+        self.has_loads = bool(forces) or bool(self.beam_sets)
+        from .contact import ContactState
         contacts = [f for f in forces if isinstance(f, Contact)]
-        #: Contacts and joint limits (one gap per instance, with events), or None.
-        self.contact_group = ContactGroup(self.cmap, contacts) if contacts else None
+        #: The contacts' and joint limits' run state (per gap: its impact speed, the
+        #: log of closings and openings; with events), or None.
+        self.contact_state = ContactState(self.cmap, contacts) if contacts else None
         if contacts:
-            self.contact_group.bind(self.contact_gaps)
+            self.contact_state.bind(self.contact_gaps)
         self._load_pattern = None
 
     def _load_patterns(self):
@@ -223,8 +222,8 @@ class AssembledSystem:
                     r, c = np.repeat(cols, len(rows)), np.tile(rows, len(cols))
                     fr.append(r[r < n])
                     fc.append(c[r < n])
-        blocks += [g.cols for g in self.flexible_groups]
-        damped = damped or bool(self.flexible_groups)   # the quadratic velocity vector
+        blocks += [s.cols for s in self.beam_sets]
+        damped = damped or bool(self.beam_sets)   # the quadratic velocity vector
         pr, pc = [], []
         for cols in blocks:
             ci = np.broadcast_to(cols[:, :, None], (len(cols),) + (cols.shape[1],) * 2)
@@ -309,6 +308,13 @@ class AssembledSystem:
         return np.bincount(flat, weights=vals, minlength=shape[0] * shape[1]).reshape(shape)
 
     # -- mass -----------------------------------------------------------------------
+    def _beam_mass_blocks(self, q) -> list:
+        """M(q) of the beams of each :class:`~.ffr.BeamSet`, shapes (k, c, c)."""
+        if not self.beam_sets:
+            return []
+        cm = self.kernel_model()
+        return [ffr.mass_blocks(cm, s, q) for s in self.beam_sets]
+
     def mass_matrix(self, q=None) -> np.ndarray:
         """M(q) as a dense array, shape (n, n) [kg, kg m, kg m^2], built on request.
 
@@ -326,7 +332,7 @@ class AssembledSystem:
         if self.mass_is_constant:
             return self.mass_diag
         return np.concatenate([self.mass_diag[self._rigid_cols]]
-                              + [g.mass_blocks(q).ravel() for g in self.flexible_groups])
+                              + [b.ravel() for b in self._beam_mass_blocks(q)])
 
     def mass_sparse(self, q=None):
         """M(q) as a scipy.sparse CSC matrix, shape (n, n)."""
@@ -337,8 +343,8 @@ class AssembledSystem:
     def mass_times(self, q, a) -> np.ndarray:
         """M(q) a, shape (n,)."""
         out = self.mass_diag * a
-        for g in self.flexible_groups:
-            out[g.cols] = np.einsum("kij,kj->ki", g.mass_blocks(q), a[g.cols])
+        for s, M in zip(self.beam_sets, self._beam_mass_blocks(q)):
+            out[s.cols] = np.einsum("kij,kj->ki", M, a[s.cols])
         return out
 
     def mass_solve(self, q, X) -> np.ndarray:
@@ -346,10 +352,10 @@ class AssembledSystem:
         bodies, a dense solve per flexible beam block."""
         X = np.asarray(X, dtype=float)
         out = X / (self.mass_diag if X.ndim == 1 else self.mass_diag[:, None])
-        for g in self.flexible_groups:
-            rhs = X[g.cols] if X.ndim == 2 else X[g.cols][..., None]
-            sol = np.linalg.solve(g.mass_blocks(q), rhs)
-            out[g.cols] = sol if X.ndim == 2 else sol[..., 0]
+        for s, M in zip(self.beam_sets, self._beam_mass_blocks(q)):
+            rhs = X[s.cols] if X.ndim == 2 else X[s.cols][..., None]
+            sol = np.linalg.solve(M, rhs)
+            out[s.cols] = sol if X.ndim == 2 else sol[..., 0]
         return out
 
     def Ma_q_values(self, q, a):
@@ -358,7 +364,8 @@ class AssembledSystem:
         if self.mass_is_constant:
             return None
         return np.concatenate([np.zeros(len(self._rigid_cols))]
-                              + [g.Ma_q(q, a).ravel() for g in self.flexible_groups])
+                              + [ffr.Ma_q(self.kernel_model(), s, q, a).ravel()
+                                 for s in self.beam_sets])
 
     def Ma_q(self, q, a):
         """(M(q) a)_q, shape (n, n), or None when M is constant (rigid bodies)."""
@@ -398,10 +405,10 @@ class AssembledSystem:
         ``what`` a C_*; applied loads: an L_*), one argument type per slot:
         t (N,), vx (N, nx) and y (N, m or nx) zeros when not given, slip (k,)
         and speeds (N, k) empty, unused outputs empty arrays. The contacts'
-        impact speeds in force are the contact group's (its state)."""
+        impact speeds in force are the contacts' run state's (``contact_state``)."""
         cm = self.kernel_model()
-        if self.contact_group is not None:
-            cm.impact_speed[:] = self.contact_group.impact_speed
+        if self.contact_state is not None:
+            cm.impact_speed[:] = self.contact_state.impact_speed
         if self.flipping_springs is not None:    # the held directions (landing on a pass)
             cm.spring_held[:] = self.spring_held
         N = len(rows)
@@ -503,9 +510,9 @@ class AssembledSystem:
 
     def contact_gaps(self, qx):
         """The contacts' gaps g, shape (k,) [m or rad], and their gradients
-        over each gap's six columns (``ContactGroup.cols``), shape (k, 6), at
+        over each gap's six columns (``ContactState.cols``), shape (k, 6), at
         the extended configuration qx (nx,)."""
-        k = len(self.contact_group.names)
+        k = len(self.contact_state.names)
         out = np.empty((1, 7 * k))
         self._elements(_L_GAPS, np.ascontiguousarray(qx, dtype=float)[None], 0.0, None, None, out)
         return out[0, :k], out[0, k:].reshape(k, 6)
@@ -525,7 +532,7 @@ class AssembledSystem:
         Returns
         -------
         dict of str -> ndarray
-            ``"gap"`` (N, k, 6), per gap (``contact_group.names``): g [m or
+            ``"gap"`` (N, k, 6), per gap (``contact_state.names``): g [m or
             rad], dg/dt, the normal force f [N or N m], the friction force
             along the tangent t = (n_y, -n_x) of the contact normal n (a
             contact on a line: the line's direction) [N], the power the
@@ -539,7 +546,7 @@ class AssembledSystem:
             J, W]. From ``kernels.system.elements``, L_SENSORS: the laws the run's
             forces use (its F_t is along -t).
         """
-        g = self.contact_group
+        g = self.contact_state
         forces = self.model.forces
         sizes = {"gap": (len(g.names) if g is not None else 0, 6),
                  "friction": (len(self.frictions), 3),
@@ -742,7 +749,7 @@ class AssembledSystem:
         = Q solved for the accelerations the multipliers lambda give (with
         the index-1 multipliers, the index-1 accelerations; Haug, sec. 6.3).
         Rows: t (N,) [s], q and v (N, n), lam (N, m) [N, N m]; the contacts'
-        impact speeds in force are the contact group's."""
+        impact speeds in force are the contacts' run state's."""
         t = np.atleast_1d(np.asarray(t, dtype=float))
         q = np.atleast_2d(np.asarray(q, dtype=float))
         qx, _ = self._ext_rows(q)
@@ -824,11 +831,11 @@ class AssembledSystem:
         v = np.asarray(v, dtype=float)
         rc = self._rigid_cols
         e = 0.5 * np.einsum("...j,j,...j->...", v[..., rc], self.mass_diag[rc], v[..., rc])
-        qx = self._ext(q) if self.flexible_groups else None
-        for g in self.flexible_groups:          # M(q) block per beam, row by row
-            for i in np.ndindex(e.shape):
-                vb = v[i][g.cols]
-                e[i] += 0.5 * np.einsum("ki,kij,kj->", vb, g.mass_blocks(qx[i]), vb)
+        qx = self._ext(q) if self.beam_sets else None
+        for i in np.ndindex(e.shape) if self.beam_sets else ():   # M(q) per beam, row by row
+            for s, M in zip(self.beam_sets, self._beam_mass_blocks(qx[i])):
+                vb = v[i][s.cols]
+                e[i] += 0.5 * np.einsum("ki,kij,kj->", vb, M, vb)
         return e
 
     def power(self, t, q, v, lam, phi_t=None, contact_log=()):
@@ -863,7 +870,7 @@ class AssembledSystem:
         if self.has_loads and N:
             rows, _ = self._ext_rows(q)
             out = np.empty((N, 2))
-            g = self.contact_group
+            g = self.contact_state
             speeds = g.speeds_at(t, contact_log) if g is not None else None
             self._elements(_L_POWER, rows, t, self._ext_rows(v)[0],
                            np.reshape(lam, (N, self.m)), out, speeds=speeds)

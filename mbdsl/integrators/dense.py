@@ -256,7 +256,7 @@ class DenseOutput:
         if not self.flows:
             return np.zeros(k), np.zeros(k)
         hd, system = self.held, self.system
-        group = getattr(system, "contact_group", None)
+        group = getattr(system, "contact_state", None)
         log = group.log if group is not None else ()     # the impact speeds so far
         if self.p is None:
             p = system.power(np.array([hd["t"]]), hd["q"][None], hd["v"][None],

@@ -125,7 +125,7 @@ def index1_multipliers(system, t, q, v) -> np.ndarray:
     (``integrators.compiled.index1_multipliers``). Rows: t (N,) [s], q and v (N, n).
 
     Contacts: each row with the impact speeds in force at its time, from the
-    contact log of the model's last run (``ContactGroup.log``,
+    contact log of the model's last run (``ContactState.log``,
     ``speeds_at``), a block of rows per contact state."""
     from .kernel_cache import loaded
     t = np.ascontiguousarray(np.atleast_1d(t), dtype=float)
@@ -168,8 +168,8 @@ def index1_accelerations(system, t, q, v, lam) -> np.ndarray:
 def _contact_blocks(system, t):
     """(blocks [(i0, i1)] of rows with one contact state each, the impact
     speeds in force at each row (N, k), or None without contacts), from the
-    contact log of the model's last run (``ContactGroup.log``, ``speeds_at``)."""
-    group = system.contact_group
+    contact log of the model's last run (``ContactState.log``, ``speeds_at``)."""
+    group = system.contact_state
     if group is None or not len(t):
         return [(0, len(t))], None
     speeds = group.speeds_at(t, group.log)
@@ -180,9 +180,9 @@ def _contact_blocks(system, t):
 
 def _per_contact_state(system, blocks, speeds, width, rows):
     """rows(i0, i1) (shape (i1 - i0, width)) over every block of
-    :func:`_contact_blocks`, the contact group's impact speeds set to the
+    :func:`_contact_blocks`, the contact state's impact speeds set to the
     block's while it is evaluated (and restored after)."""
-    group = system.contact_group
+    group = system.contact_state
     if speeds is None:
         i0, i1 = blocks[0]
         return rows(i0, i1)
@@ -296,7 +296,7 @@ def newton_matrix_cost(plan, size, system, method) -> int:
     1.5e-12 of full Newton's as before.
     """
     from .recipe import ADDITIVE
-    if system.flexible_groups and _recipe_value(method, "form") == ADDITIVE:
+    if system.beam_sets and _recipe_value(method, "form") == ADDITIVE:
         return 2
     return int(plan.factorization_is_expensive(size))
 
@@ -686,7 +686,7 @@ class KernelStepper:
     def events_changed(self, loop):
         """The contacts' impact speeds and the springs' held directions (set by
         the event locator) into the kernels' data."""
-        group = self.system.contact_group
+        group = self.system.contact_state
         if group is not None:
             self.cm.impact_speed[:] = group.impact_speed
         if self.system.flipping_springs is not None:
@@ -770,8 +770,8 @@ class SparseAdapter:
         """The wrapped method's context, with the recipe of this step and its
         predictors (``integrators.compiled.loop._run``) for the kernels."""
         ctx = self._method.context(system, history, t, h)
-        if system.contact_group is not None:
-            self._cm.impact_speed[:] = system.contact_group.impact_speed
+        if system.contact_state is not None:
+            self._cm.impact_speed[:] = system.contact_state.impact_speed
         if system.flipping_springs is not None:
             self._cm.spring_held[:] = system.spring_held
         rec, first = step_recipe(self._method, history, h)

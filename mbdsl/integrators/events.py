@@ -1,7 +1,7 @@
 """Events: contacts and joint limits closing and opening, located within a step.
 
 A stepper returns at each step across which a gap of the model's contacts and
-limits (:class:`~mbdsl.assembly.contact.ContactGroup`) changed sign, the
+limits (:class:`~mbdsl.assembly.contact.ContactState`) changed sign, the
 points of a spring with a free length passed each other, or the argument u
 of a table of the state passed one of the table's kinks (a point of a linear
 table; :class:`~mbdsl.model.elements.StateSwitch`, its branch the number of
@@ -68,7 +68,7 @@ RECEDES = 0.9
 #: function of time, and the next starts as far after it (:func:`switch_gap`).
 SWITCH_GAP = 1e-10
 #: Error-controlled steps while a gap is closed are at most its estimated
-#: impact duration over this (``ContactGroup.duration``).
+#: impact duration over this (``ContactState.duration``).
 STEPS_PER_CONTACT = 50
 #: A spring whose points pass each other this many times within less than the
 #: run's nominal step chatters: its points stay together (two points a joint
@@ -106,7 +106,7 @@ class EventLocator:
     Parameters
     ----------
     system : AssembledSystem
-        With ``contact_group`` set.
+        With ``contact_state`` set.
     h : float [s]
         The nominal step size (the tolerance's scale).
     sol : Solution
@@ -115,7 +115,7 @@ class EventLocator:
 
     def __init__(self, system, h, sol):
         self.system = system
-        self.group = system.contact_group
+        self.group = system.contact_state
         self.springs = system.flipping_springs
         self.switches = system.state_switches
         self.tol = EVENT_TOL * h
@@ -145,7 +145,7 @@ class EventLocator:
         (contacts and limits, springs with a free length), as against the
         switches of functions of time, known before the run: a loop must
         stop at each step that crosses one (:meth:`crosses`)."""
-        return (system.contact_group is not None or system.flipping_springs is not None
+        return (system.contact_state is not None or system.flipping_springs is not None
                 or system.state_switches is not None)
 
     def _u(self, k, t, q, v) -> float:

@@ -112,7 +112,7 @@ class PythonStepper:
 
     def events_changed(self, loop):
         """The contacts changed state (their law reads it from the system's
-        contact group, which the kernels' copy follows in ``SparseAdapter``)."""
+        contact state, which the kernels' copy follows in ``SparseAdapter``)."""
 
     def forget_crossing(self):
         """The step that crossed an event is not to be landed on as it was

@@ -91,7 +91,7 @@ def run(groups=GROUPS, output: bool = True) -> None:
         # after it; the initial conditions call Q already): the energies and power
         system.power(np.zeros(1), rows[:, :system.n], rows[:, :system.n],
                      np.zeros((1, system.m)))
-        # the flexible beams' evaluations from Python (``FlexibleBeamGroup``),
+        # the flexible beams' evaluations from Python (``assembly.ffr``),
         # with the argument types it passes: no beam here, the signatures only
         blocks = [np.zeros((0, 3, 3)), np.zeros((0, 3))] + [np.zeros((0, 3, 3))] * 3
         cm.K.beam_blocks(cm.ints, cm.floats, 0, rows[0], rows[0], rows[0], 1, *blocks)

@@ -113,7 +113,7 @@ def energy_flows(system, t, q, v, lam, total, phi_t=None, start=None, contact_lo
         the run.
     contact_log : list, optional
         The run's contact state changes (``Solution.contact_log``); None: those
-        of the run under way (``ContactGroup.log``).
+        of the run under way (``ContactState.log``).
     flows : dict of str -> ndarray, shape (N,) [J], optional
         ``energy.work`` and ``energy.dissipated`` at the rows, integrated over
         the run's steps (rows at requested times, ``integrators.dense``):
@@ -127,7 +127,7 @@ def energy_flows(system, t, q, v, lam, total, phi_t=None, start=None, contact_lo
                 "energy.balance": total - e0 - work + diss,
                 "_end": {"t": t[-1], "p_in": np.nan, "p_dissipated": np.nan,
                          "work": work[-1], "dissipated": diss[-1], "E0": e0}}
-    group = getattr(system, "contact_group", None)
+    group = getattr(system, "contact_state", None)
     if contact_log is None:
         contact_log = group.log if group is not None else ()
     p_in, p_diss = system.power(t, q, v, lam, phi_t, contact_log=contact_log)
@@ -181,7 +181,7 @@ def _sensor_reader(system, t, q, v, lam, contact_log):
     def read():
         """The sensors' values, dict of name -> (N, k, fields)."""
         if not held:
-            group = system.contact_group
+            group = system.contact_state
             log = (contact_log if contact_log is not None
                    else group.log if group is not None else ())
             held.append(system.sensor_values(
@@ -193,7 +193,7 @@ def _sensor_reader(system, t, q, v, lam, contact_log):
 def rope_gaps(system) -> list[tuple[str, int]]:
     """(column, gap index) of every rope's and cable's tension,
     ``rope.<name>.tension`` [N], in the model's order."""
-    group = system.contact_group
+    group = system.contact_state
     if group is None:
         return []
     kinds = {f.name: f.kind for f in system.model.forces}

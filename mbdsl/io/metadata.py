@@ -117,7 +117,7 @@ def metadata(solution, extra: dict | None = None, final: bool = True,
     meta["engine"] = solution.engine
     meta["linear_solver"] = solution.linear_solver
     meta["timings"] = json.dumps(solution.timings)
-    if solution.events or getattr(solution.system, "contact_group", None) is not None:
+    if solution.events or getattr(solution.system, "contact_state", None) is not None:
         meta["events"] = json.dumps([[float(t), name, kind, float(speed)]
                                      for t, name, kind, speed in solution.events])
         meta["event_cuts"] = str(int(solution.event_cuts))

@@ -121,7 +121,7 @@ class Solution:
         #: approach speed [m/s or rad/s]) in time order.
         self.events = []
         #: The contact state changes behind them, (t, gap index, impact speed;
-        #: 0 for an opening), for the dissipated energy (``ContactGroup.speeds_at``).
+        #: 0 for an opening), for the dissipated energy (``ContactState.speeds_at``).
         self.contact_log = []
         #: Steps retaken to end on an event (``integrators.events``).
         self.event_cuts = 0
@@ -745,11 +745,11 @@ class Solution:
             f"work {ext('energy.work').last:+.4g} J, dissipated "
             f"{ext('energy.dissipated').last:.4g} J; balance max {bal.absmax:.2e} J)",
         ]
-        if self.events or getattr(self.system, "contact_group", None) is not None:
+        if self.events or getattr(self.system, "contact_state", None) is not None:
             words = {"closed": "closed", "opened": "opened",
                      "passed": "springs through zero length", "switched": "function switches"}
             counts = {k: sum(1 for e in self.events if e[2] == k) for k in words}
-            contacts = getattr(self.system, "contact_group", None) is not None
+            contacts = getattr(self.system, "contact_state", None) is not None
             lines.append(f"  events: {len(self.events)} ("
                          + ", ".join(f"{n} {words[k]}" for k, n in counts.items()
                                      if n or (contacts and k in ("closed", "opened")))

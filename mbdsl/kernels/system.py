@@ -258,7 +258,7 @@ def _constraints_row(I, Fl, n, what, r, t, qx, y, out, R, C, V):
 
 @_jit
 def _emit_force(I, Fl, t, n, qx, vx, lam, R, C, V, p, r0, c0, cq, cv):
-    """-(cq Q_q + cv Q_v) at (r0, c0) of every applied load (the groups' notes)."""
+    """-(cq Q_q + cv Q_v) at (r0, c0) of every applied load (the load families' notes)."""
     p = spring_damper.emit_force(I, Fl, n, qx, vx, R, C, V, p, r0, c0, cq, cv)
     p = torques.emit_force(I, Fl, n, R, C, V, p, r0, c0, cq, cv)
     p = point_forces.emit_force(I, Fl, t, n, qx, vx, R, C, V, p, r0, c0, cq, cv)

@@ -159,7 +159,7 @@ class OutputVariable:
         "beam_point": ``field`` (x, y, vx, vy, deflection) of the material
         point at ``arc`` [m] of the flexible beam ``bodies[0]``; "gap":
         ``field`` (gap, gap_rate, normal, friction, power) of contact gap
-        ``index`` (``ContactGroup`` order); "friction", "spring",
+        ``index`` (``ContactState`` order); "friction", "spring",
         "rotational": ``field`` (:data:`SENSOR_UNITS`) of the element
         ``index`` among the model's forces of its kind.
     """
@@ -368,6 +368,43 @@ class FlexibleBeam:
     def elastic_columns(self) -> np.ndarray:
         """Columns of the elastic coordinates in q, shape (n_f,)."""
         return np.arange(self.elastic_offset, self.elastic_offset + self.n_elastic)
+
+    # The beam's inertia, stiffness and strain data: computed once per beam, from its
+    # mesh, and read by the kernels' packing (``kernels.beams.ffr.pack``), the mass
+    # diagonal (``AssembledSystem.mass_diag``) and the tests' oracle; the one copy of
+    # them between the model and the packed arrays.
+    @functools.cached_property
+    def shape_integrals(self):
+        """The inertia shape integrals (:class:`~mbdsl.model.beam.ShapeIntegrals`:
+        m, s0, I0, S_bar, M_ff, a_u, a_I, S_tilde) of the beam's elastic
+        coordinates, for its uniform mass per length (Shabana, Dynamics of
+        Multibody Systems, 4th ed., ch. 5)."""
+        return self.mesh.shape_integrals(self.mass / self.length)
+
+    @functools.cached_property
+    def stiffness(self) -> np.ndarray:
+        """K of the elastic coordinates, shape (n_f, n_f) [N/m, N, N m]."""
+        return self.mesh.stiffness(self.E * self.area, self.E * self.second_moment)
+
+    @functools.cached_property
+    def strain_data(self):
+        """Geometric stiffening's data (``assembly/ffr.py``): k_e = EA l / 2 per
+        element (elements,) [N m], the axial strain gradients Bu (elements,
+        n_f) and the mean squared slopes G (elements, n_f, n_f)
+        (:meth:`~mbdsl.model.beam.BeamMesh.strain_gradients`); None with
+        ``stiffening off``."""
+        if not self.stiffening:
+            return None
+        Bu, G = self.mesh.strain_gradients()
+        return np.full(self.elements, 0.5 * self.E * self.area * self.length / self.elements), Bu, G
+
+    @property
+    def mass_diagonal(self) -> np.ndarray:
+        """The diagonal of M at q = 0 in the beam's local coordinates (x, y,
+        phi, q_f): m, m, I0, diag M_ff, shape (3 + n_f,) [kg, kg m^2]; the
+        scaling of the unknowns."""
+        s = self.shape_integrals
+        return np.concatenate([[s.mass, s.mass, s.I0], np.diagonal(s.M_ff)])
 
 
 @dataclass(frozen=True)

@@ -143,7 +143,7 @@ def build_reference(kind: str, model, t_end: float, h_min: float,
     """
     from .. import METHODS, assemble
     system = assemble(model)
-    if kind in ("auto", "dop853") and _has_events(system) and system.contact_group is None:
+    if kind in ("auto", "dop853") and _has_events(system) and system.contact_state is None:
         # springs with a free length only: their event is their points passing
         # each other, which most runs never come near
         from .index1 import EvaluationBudgetExceeded
@@ -213,7 +213,7 @@ def _has_events(system) -> bool:
     """Whether the model's motion has non-smooth events (contacts, limits,
     springs whose points pass each other), which a smooth integrator without
     event location does not follow."""
-    return (getattr(system, "contact_group", None) is not None
+    return (getattr(system, "contact_state", None) is not None
             or getattr(system, "flipping_springs", None) is not None)
 
 

@@ -18,9 +18,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from mbdsl.assembly.contact import ContactGroup
-from mbdsl.assembly.ffr import FlexibleBeamGroup
-
 from ..contact.contact_oracle import ContactOracle
 from ..flexible.ffr_oracle import BeamOracle
 from .constraint_oracle import SystemOracle, _pair, _point_hess, _point_jac, line_distance
@@ -278,11 +275,13 @@ class ForceOracle(SystemOracle):
 
     @property
     def groups(self) -> list:
-        """The model's loads as groups (``load_groups``), then the system's
-        contact group and flexible beams."""
+        """The model's loads as groups (``load_groups``), then the contacts'
+        and the flexible beams' oracles."""
         if getattr(self, "_groups", None) is None:
-            contact = [self.system.contact_group] if self.system.contact_group is not None else []
-            self._groups = load_groups(self.system) + contact + list(self.system.flexible_groups)
+            system = self.system
+            contact = [ContactOracle(system)] if system.contact_state is not None else []
+            self._groups = (load_groups(system) + contact
+                            + [BeamOracle.of(system, s) for s in system.beam_sets])
         return self._groups
 
     def _local(self, g, qx, vx, t, lam, slip=None):
@@ -299,10 +298,8 @@ class ForceOracle(SystemOracle):
             return point_forces(g, qx, vx, t)
         if isinstance(g, FrictionGroup):
             return friction_forces(g, qx, vx, lam, slip)
-        if isinstance(g, ContactGroup):
-            return ContactOracle(g).forces(qx, vx, t)
-        assert isinstance(g, FlexibleBeamGroup)
-        return BeamOracle(g).forces(qx, vx, t)
+        assert isinstance(g, (ContactOracle, BeamOracle))
+        return g.forces(qx, vx, t)
 
     def _local_derivatives(self, g, qx, vx, t, lam):
         """Local (Q_q, Q_v or None) of group g, or None (torques)."""
@@ -318,9 +315,7 @@ class ForceOracle(SystemOracle):
             return point_derivatives(g, qx, vx, t), None
         if isinstance(g, FrictionGroup):
             return friction_derivatives(g, qx, vx, lam)
-        if isinstance(g, ContactGroup):
-            return ContactOracle(g).derivatives(qx, vx, t)
-        return BeamOracle(g).derivatives(qx, vx, t)
+        return g.derivatives(qx, vx, t)          # contacts and beams
 
     def Q(self, t, q, v, lam=None, slip=None):
         """Q (n,) [N, N m], gravity included."""
@@ -372,10 +367,10 @@ class ForceOracle(SystemOracle):
             elif isinstance(g, RotationalSpringGroup):
                 th = qx[g.cols[:, 1]] - qx[g.cols[:, 0]] - g.angle
                 e += 0.5 * np.sum(g.k * th ** 2)
-            elif isinstance(g, ContactGroup):
-                e += ContactOracle(g).energy(qx)
-            elif isinstance(g, FlexibleBeamGroup):
-                e += float(BeamOracle(g).energy(qx[None])[0])
+            elif isinstance(g, ContactOracle):
+                e += g.energy(qx)
+            elif isinstance(g, BeamOracle):
+                e += float(g.energy(qx[None])[0])
         return e
 
     def power(self, t, q, v, lam, speeds=None):
@@ -397,8 +392,8 @@ class ForceOracle(SystemOracle):
                 for i in range(len(g.lines)):
                     _, _, _, z, _ = _friction_kinematics(g, i, qx, vx)
                     p_diss -= friction_law(g, i, z, lam[g.rows[i]])[0] * z
-            elif isinstance(g, ContactGroup):
-                p_diss += ContactOracle(g).dissipation(qx, vx, speeds)
+            elif isinstance(g, ContactOracle):
+                p_diss += g.dissipation(qx, vx, speeds)
         return p_in, p_diss
 
     def spring_separations(self, q):
@@ -415,6 +410,6 @@ class ForceOracle(SystemOracle):
 
     def gaps(self, qx):
         """(g (k,), grad (k, 6)) of the contacts."""
-        o = ContactOracle(self.system.contact_group)
-        parts = [o.gap(i, qx) for i in range(len(self.system.contact_group.names))]
+        o = ContactOracle(self.system)
+        parts = [o.gap(i, qx) for i in range(len(o.names))]
         return np.array([p[0] for p in parts]), np.array([p[1] for p in parts]).reshape(-1, 6)

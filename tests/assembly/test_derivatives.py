@@ -95,7 +95,7 @@ def test_model_declares_every_element_type(system):
     if system.model.flexible_bodies:
         assert {j.kind for j in system.model.joints} == {"revolute", "prismatic",
                                                          "point_on_line", "fixed"}
-        assert [len(g.beams) for g in system.flexible_groups] == [2, 1]
+        assert [len(s.beams) for s in system.beam_sets] == [2, 1]
         return
     kinds = {j.kind for j in system.model.joints}
     assert kinds == {"revolute", "prismatic", "point_on_line", "fixed"}

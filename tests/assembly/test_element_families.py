@@ -62,6 +62,23 @@ def test_packing_round_trips(path):
         assert np.array_equal(again[name], fields[name]), name
 
 
+@pytest.mark.parametrize("path", sorted({*JOINTS.values(), *LOADS.values(),
+                                         VALID / "flexible_joints.mbd"}), ids=lambda p: p.stem)
+def test_the_compiled_kernels_and_their_uncompiled_copy_get_the_same_model_data(path):
+    """The families pack the same arrays for both: a family's packing that
+    compares with a class of the package (the point forces' zero derivatives,
+    ``Num``) must see the package's class from the copy too. Before, the copy
+    packed 28 more derivative programs for ``follower_elements``, each
+    evaluating a constant zero."""
+    from mbdsl.assembly.packing import PackedModel
+    system = mbdsl.assemble(mbdsl.load(path))
+    compiled = PackedModel(system, importlib.import_module("mbdsl.kernels.api"))
+    copy = PackedModel(system, uncompiled_kernels())
+    assert copy.uncompiled and not compiled.uncompiled
+    assert np.array_equal(compiled.ints, copy.ints)
+    assert np.array_equal(compiled.floats, copy.floats)
+
+
 def test_the_load_families_hold_every_load_kind_once():
     """Each load kind of the language is packed by exactly one family of
     ``kernels/loads`` (``LOADS``), and every family packs and says its

@@ -47,7 +47,7 @@ def _drivers_power(system, q, t, lam):
 def test_load_kernels_match_the_numpy_oracle(path, kernels):
     system = system_on(path, kernels)
     o = ForceOracle(system)
-    g = system.contact_group
+    g = system.contact_state
     rng = np.random.default_rng(len(path.stem))
     n, m = system.n, system.m
     for t in (0.0, 0.37, 1.9):
@@ -182,8 +182,8 @@ for path in ("models/slider_crank_clearance.mbd", "tests/dsl/valid/friction_elem
         s.Q_lam(0.1, q, v, lam)
         s.friction_speeds(q, v), s.friction_speeds(q, v, q)
         s.Q(0.1, q, v, lam, np.zeros(len(s.frictions)))
-    if s.contact_group is not None:
-        s.contact_group.gaps(s._ext(q))
+    if s.contact_state is not None:
+        s.contact_state.gaps(s._ext(q))
     if s.spring_count:
         s.spring_separations(q)
 print(len(compiled.elements.signatures))

@@ -151,22 +151,39 @@ def slip(geometry: str, data, qx, cmap):
 
 
 class ContactOracle:
-    """The contact law of a ``ContactGroup``'s data, gap by gap.
+    """The contact law of a system's contacts and limits, gap by gap, from
+    the model's ``Contact`` elements (read here, not from the package's
+    packing).
 
     Parameters
     ----------
-    group : mbdsl.assembly.contact.ContactGroup
-        Its data, and its impact speeds (the contacts' state) as they are
-        when an evaluation is asked for.
+    system : mbdsl.AssembledSystem
+        Its model's contacts, and its impact speeds (``contact_state``, the
+        contacts' state) as they are when an evaluation is asked for.
     """
 
-    def __init__(self, group):
-        self.g = group
+    def __init__(self, system):
+        from mbdsl.model.contact import Contact, gap_columns
+        self.cmap, self.state = system.cmap, system.contact_state
+        self.geometry, self.names, cols, law = [], [], [], []
+        for c in (f for f in system.model.loads if isinstance(f, Contact)):
+            for geometry, data, label in c.gaps:
+                self.geometry.append((geometry, data))
+                self.names.append(c.name + ("." + label if label else ""))
+                cols.append(gap_columns(geometry, data, self.cmap))
+                law.append((c.k, c.exponent, c.damping, c.mu, c.v_reg, c.viscous))
+        self.cols = np.array(cols, dtype=np.intp).reshape(-1, 6)
+        self.k_, self.n_, self.chi, self.mu, self.v_reg, self.c_ = np.array(law).reshape(-1, 6).T
+
+    @property
+    def impact_speed(self) -> np.ndarray:
+        """The impact speeds in force (the system's contact state), shape (k,)."""
+        return self.state.impact_speed
 
     def gap(self, i, qx):
         """(g, grad, H) of gap i."""
-        geo, data = self.g.geometry[i]
-        return gap(geo, data, qx, self.g.cmap)
+        geo, data = self.geometry[i]
+        return gap(geo, data, qx, self.cmap)
 
     def law(self, i, qx, vx, speed):
         """(g, grad, H, delta, ddelta, f, elastic part K delta^n) of gap i."""
@@ -174,62 +191,62 @@ class ContactOracle:
         if g >= 0.0:
             return g, grad, H, 0.0, 0.0, 0.0, 0.0
         delta = -g
-        ddelta = -(grad @ vx[self.g.cols[i]])
-        elastic = self.g.k_[i] * delta ** self.g.n_[i]
+        ddelta = -(grad @ vx[self.cols[i]])
+        elastic = self.k_[i] * delta ** self.n_[i]
         v_imp = speed if speed > 0.0 else max(ddelta, SPEED_FLOOR)
-        f = elastic * (1.0 + self.g.chi[i] * ddelta / v_imp)
-        f += np.clip(self.g.c_[i] * ddelta, -elastic, elastic)      # a rope's damping
+        f = elastic * (1.0 + self.chi[i] * ddelta / v_imp)
+        f += np.clip(self.c_[i] * ddelta, -elastic, elastic)      # a rope's damping
         return g, grad, H, delta, ddelta, max(f, 0.0), elastic
 
     def friction(self, i, qx, vx, f):
         """(F_t, w, dw, v_t, T) of gap i under normal force f."""
-        w, dw = slip(*self.g.geometry[i], qx, self.g.cmap)
-        vt = w @ vx[self.g.cols[i]]
-        T = np.tanh(vt / self.g.v_reg[i])
-        return -self.g.mu[i] * f * T, w, dw, vt, T
+        w, dw = slip(*self.geometry[i], qx, self.cmap)
+        vt = w @ vx[self.cols[i]]
+        T = np.tanh(vt / self.v_reg[i])
+        return -self.mu[i] * f * T, w, dw, vt, T
 
     def forces(self, qx, vx, t):
         """Local Q, shape (k, 6) [N, N m]."""
-        out = np.zeros(self.g.cols.shape)
-        for i in range(len(self.g.names)):
-            _, grad, _, _, _, f, _ = self.law(i, qx, vx, self.g.impact_speed[i])
+        out = np.zeros(self.cols.shape)
+        for i in range(len(self.names)):
+            _, grad, _, _, _, f, _ = self.law(i, qx, vx, self.impact_speed[i])
             if f > 0.0:
                 out[i] = f * grad
-                if self.g.mu[i] > 0.0:
+                if self.mu[i] > 0.0:
                     Ft, w, _, _, _ = self.friction(i, qx, vx, f)
                     out[i] += Ft * w
         return out
 
     def derivatives(self, qx, vx, t):
         """Local (Q_q, Q_v), each shape (k, 6, 6)."""
-        k = len(self.g.names)
+        k = len(self.names)
         Qq, Qv = np.zeros((k, 6, 6)), np.zeros((k, 6, 6))
         for i in range(k):
-            imp = self.g.impact_speed[i]
+            imp = self.impact_speed[i]
             g, grad, H, delta, ddelta, f, elastic = self.law(i, qx, vx, imp)
             if f <= 0.0:
                 continue
-            n, chi = self.g.n_[i], self.g.chi[i]
+            n, chi = self.n_[i], self.chi[i]
             armed = imp > 0.0 or ddelta <= SPEED_FLOOR
             speed = imp if imp > 0.0 else max(ddelta, SPEED_FLOOR)
             damp = elastic * chi / speed if armed else 0.0
-            dK = n * self.g.k_[i] * delta ** (n - 1.0)
+            dK = n * self.k_[i] * delta ** (n - 1.0)
             df_ddelta = dK * (1.0 + chi * ddelta / speed)
-            fc = self.g.c_[i] * ddelta
+            fc = self.c_[i] * ddelta
             if abs(fc) < elastic:
-                damp += self.g.c_[i]
-            elif self.g.c_[i] > 0.0:
+                damp += self.c_[i]
+            elif self.c_[i] > 0.0:
                 df_ddelta += dK * np.sign(fc)
-            v = vx[self.g.cols[i]]
+            v = vx[self.cols[i]]
             dfdq = -df_ddelta * grad - damp * (H @ v)
             dfdv = -damp * grad
             Qq[i] = np.outer(grad, dfdq) + f * H
             Qv[i] = np.outer(grad, dfdv)
-            if self.g.mu[i] > 0.0:
+            if self.mu[i] > 0.0:
                 Ft, w, dw, vt, T = self.friction(i, qx, vx, f)
-                dT = (1.0 - T * T) / self.g.v_reg[i]
-                dFt_dq = -self.g.mu[i] * (T * dfdq + f * dT * (dw.T @ v))
-                dFt_dv = -self.g.mu[i] * (T * dfdv + f * dT * w)
+                dT = (1.0 - T * T) / self.v_reg[i]
+                dFt_dq = -self.mu[i] * (T * dfdq + f * dT * (dw.T @ v))
+                dFt_dv = -self.mu[i] * (T * dfdv + f * dT * w)
                 Qq[i] += np.outer(w, dFt_dq) + Ft * dw
                 Qv[i] += np.outer(w, dFt_dv)
         return Qq, Qv
@@ -238,21 +255,21 @@ class ContactOracle:
         """Elastic energy K delta^(n+1) / (n+1) [J] at one extended
         configuration qx (nx,)."""
         out = 0.0
-        for i in range(len(self.g.names)):
+        for i in range(len(self.names)):
             g = self.gap(i, qx)[0]
             if g < 0.0:
-                out += self.g.k_[i] * (-g) ** (self.g.n_[i] + 1.0) / (self.g.n_[i] + 1.0)
+                out += self.k_[i] * (-g) ** (self.n_[i] + 1.0) / (self.n_[i] + 1.0)
         return out
 
     def dissipation(self, qx, vx, speeds):
         """Power dissipated [W] at (qx, vx) with the impact speeds ``speeds``
         (k,): (f - K delta^n) ddelta/dt - F_t v_t."""
         out = 0.0
-        for i in range(len(self.g.names)):
+        for i in range(len(self.names)):
             _, _, _, delta, ddelta, f, elastic = self.law(i, qx, vx, speeds[i])
             if delta > 0.0:
                 out += (f - elastic) * ddelta
-                if self.g.mu[i] > 0.0 and f > 0.0:
+                if self.mu[i] > 0.0 and f > 0.0:
                     Ft, _, _, vt, _ = self.friction(i, qx, vx, f)
                     out -= Ft * vt
         return out

@@ -46,7 +46,7 @@ def _penetrating(system, name, armed, seed=5):
     """(q, v), shape (n,) each, consistent with the joints (random, then
     projected on Phi = 0 and Phi_q v = 0), with gap ``name`` penetrated and
     pushing; the group's impact speeds set as ``armed`` says."""
-    g = system.contact_group
+    g = system.contact_state
     i = g.names.index(name)
     g.reset()
     if armed:
@@ -60,7 +60,7 @@ def _penetrating(system, name, armed, seed=5):
         v = rng.normal(scale=0.5, size=n)
         v -= np.linalg.lstsq(system.Phi_q(q), system.Phi_q(q) @ v, rcond=None)[0]
         qx, vx = system._ext(q), system._ext(v)
-        if g.gaps_one(i, qx) < -1e-4 and ContactOracle(g).forces(qx, vx, 0.0)[i].any():
+        if g.gaps_one(i, qx) < -1e-4 and ContactOracle(system).forces(qx, vx, 0.0)[i].any():
             assert np.abs(system.Phi(q, 0.0)).max() < 1e-12
             return q, v
     raise AssertionError(f"no configuration penetrates '{name}'")
@@ -79,7 +79,7 @@ def test_kernel_forces_are_the_oracle_s(system, name, armed):
     the numpy oracle's, and so do Q_q and Q_v; the impact speed is the
     kernels' contact state."""
     q, v = _penetrating(system, name, armed)
-    g = system.contact_group
+    g = system.contact_state
     cm = CompiledModel(system)
     cm.impact_speed[:] = g.impact_speed
     out = np.empty(system.n)
@@ -179,7 +179,7 @@ def test_kernel_energy_and_dissipation_over_rows_are_the_oracle_s(system):
     the impact speeds of the contact log at its time), equal the oracle's,
     over rows where every gap is penetrated somewhere, armed and not (speeds
     0)."""
-    g = system.contact_group
+    g = system.contact_state
     o = ForceOracle(system)
     rng = np.random.default_rng(9)
     N, n = 200, system.n
@@ -190,7 +190,7 @@ def test_kernel_energy_and_dissipation_over_rows_are_the_oracle_s(system):
                       rng.uniform(0.1, 3.0, (N, len(g.names))))
     log = [(t[r], i, speeds[r, i]) for r in range(N) for i in range(len(g.names))]
     np.testing.assert_array_equal(g.speeds_at(t, log), speeds)
-    contact = np.array([ContactOracle(g).energy(system._ext(row)) for row in q])
+    contact = np.array([ContactOracle(system).energy(system._ext(row)) for row in q])
     assert np.count_nonzero(contact) > N // 2
     energy = np.array([o.potential(row) for row in q])
     np.testing.assert_allclose(system.potential_energy(q), energy, rtol=1e-12,
@@ -213,7 +213,7 @@ def test_hht_add_output_multipliers_take_each_row_s_impact_speeds():
     row's impact speeds."""
     model = mbdsl.load(MODELS / "pendulum_stop.mbd")
     sol = mbdsl.simulate(model, method="hht-add", t_end=1.0, engine="compiled")
-    system, g = sol.system, sol.system.contact_group
+    system, g = sol.system, sol.system.contact_state
     assert sol.engine == "compiled" and len(sol.events) >= 4
     speeds = g.speeds_at(sol.t, sol.contact_log)
     inside = np.flatnonzero(np.any(speeds > 0, axis=1))

@@ -118,7 +118,7 @@ def test_clearance_slider_crank_short(method):
     assert len(sol.events) >= 1
     text = sol.summary()
     assert "events:" in text and "rejected" in text
-    g = sol.system.contact_group
+    g = sol.system.contact_state
     qx = sol.system._ext(sol.q)
     worst = min(g.gaps_one(0, row) for row in qx)
     assert -1e-4 < worst < 0          # in contact, by less than a fifth of the 0.5 mm clearance
@@ -130,7 +130,7 @@ def test_clearance_slider_crank_two_seconds(method):
     pin never sinks into its hole's wall by a fifth of the clearance."""
     sol = mbdsl.simulate(mbdsl.load(MODELS / "slider_crank_clearance.mbd"), method=method)
     assert sol.completed and sol.t[-1] == pytest.approx(2.0) and sol.engine == "compiled"
-    g = sol.system.contact_group
+    g = sol.system.contact_state
     worst = min(g.gaps_one(0, row) for row in sol.system._ext(sol.q[::10]))
     assert -1e-4 < worst < 0
 

@@ -1,14 +1,14 @@
 """An independent, vectorised evaluation of the flexible beams' physics in
 the floating frame of reference: the oracle the kernels of
-``mbdsl.integrators.compiled`` (``_ffr_local``, ``_ffr_energy``) are tested
+``mbdsl.kernels.beams.ffr`` (``_ffr_local``, ``_ffr_energy``) are tested
 against. Not part of the package: mbdsl evaluates its beams with the kernels
 only.
 
 The equations are those of ``mbdsl.assembly.ffr``'s module notes (Shabana,
 Dynamics of Multibody Systems, 4th ed., ch. 5; Sharf 1995 for the geometric
-stiffening), written here with einsums over the stacked beams of a group,
-from the data of the package's ``FlexibleBeamGroup`` (shape integrals,
-stiffness and strain data).
+stiffening), written here with einsums over stacked beams with the same
+number of elastic coordinates, from the shape integrals, stiffness and strain
+data of their meshes (``mbdsl.model.beam``).
 """
 
 from __future__ import annotations
@@ -28,27 +28,46 @@ def _AB(phi):
 
 
 class BeamOracle:
-    """The physics of the beams of one ``FlexibleBeamGroup`` (k beams with
-    nf elastic coordinates each, local coordinates (x, y, phi, q_f), c = 3 +
-    nf, columns ``cols`` (k, c) into q), evaluated with numpy: the same
-    shape integrals and stiffness, an independent implementation of what
-    the kernels compute from them.
+    """The physics of k beams with nf elastic coordinates each (local
+    coordinates (x, y, phi, q_f), c = 3 + nf, columns ``cols`` (k, c) into
+    q), evaluated with numpy: the shape integrals and stiffness of the
+    beams' meshes (computed here, not read from the package's packing), an
+    independent implementation of what the kernels compute from them.
 
     Parameters
     ----------
-    group : mbdsl.assembly.ffr.FlexibleBeamGroup
+    beams : sequence of FlexibleBeam
+        With the same number of elastic coordinates.
+    cols : ndarray of int, shape (k, c)
+    gravity : ndarray, shape (2,), or None
     """
 
-    def __init__(self, group):
-        for name in ("beams", "nf", "c", "cols", "m", "s0", "I0", "S_bar", "M_ff", "a_u", "a_I",
-                     "S_tilde", "K", "stiffening", "gravity"):
-            setattr(self, name, getattr(group, name))
+    def __init__(self, beams, cols, gravity):
+        self.beams, self.cols, self.gravity = list(beams), np.asarray(cols), gravity
+        self.nf = self.beams[0].n_elastic
+        self.c = 3 + self.nf
+        ints = [b.mesh.shape_integrals(b.mass / b.length) for b in self.beams]
+        for name in ("S_bar", "M_ff", "a_u", "a_I", "S_tilde", "s0", "I0"):
+            setattr(self, name, np.array([getattr(i, name) for i in ints]))
+        self.m = np.array([i.mass for i in ints])
+        self.K = np.array([b.mesh.stiffness(b.E * b.area, b.E * b.second_moment)
+                           for b in self.beams])
+        self.stiffening = np.array([b.stiffening for b in self.beams])
         if self.stiffening.any():
-            self.Bu, self.G, self.kEA = group.Bu, group.G, group.kEA
+            grads = [b.mesh.strain_gradients() for b in self.beams]
+            self.Bu = np.array([g[0] for g in grads])
+            self.G = np.array([g[1] for g in grads])
+            self.kEA = np.array([np.full(b.elements, 0.5 * b.E * b.area * b.length / b.elements
+                                         * (1.0 if b.stiffening else 0.0)) for b in self.beams])
         k, c = len(self.beams), self.c
         self._M = np.zeros((k, c, c))
         self._M[:, 0, 0] = self._M[:, 1, 1] = self.m
         self._M[:, 3:, 3:] = self.M_ff
+
+    @classmethod
+    def of(cls, system, beam_set):
+        """The oracle of one of a system's ``beam_sets`` (``mbdsl.assembly.ffr.BeamSet``)."""
+        return cls(beam_set.beams, beam_set.cols, system.beam_gravity)
 
     # -- kinematic parts ------------------------------------------------------------------
     def _parts(self, q):

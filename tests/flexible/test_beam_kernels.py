@@ -1,11 +1,11 @@
-"""The flexible beams' one implementation, the kernels (``compiled._ffr_local``,
-``_ffr_energy``, called from Python through ``FlexibleBeamGroup``), against
+"""The flexible beams' one implementation, the kernels (``kernels.beams.ffr._ffr_local``,
+``_ffr_energy``, called from Python through ``assembly.ffr``), against
 an independent vectorised numpy evaluation of the same equations
 (``ffr_oracle.BeamOracle``) at random states, on the compiled kernels and on
 their uncompiled copy.
 
-The oracle shares only the shape integrals and the stiffness with the
-kernels (the model data); a sign or a missing term in either shows as a
+The oracle shares only the beams' meshes with the kernels (the model
+data; it computes their shape integrals and stiffness itself); a sign or a missing term in either shows as a
 difference far above round-off. The finite-difference checks of Q_q, Q_v
 and (M a)_q against Q and M a are in ``tests/assembly/test_derivatives.py``,
 the mass matrix and Q against point-by-point kinetic energy in
@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 
 import mbdsl
+from mbdsl.assembly import ffr
 from mbdsl.integrators.engine import CompiledModel, _kernels
 
 from .ffr_oracle import BeamOracle
@@ -49,25 +50,25 @@ def kernels(request):
 def test_beam_kernels_match_the_numpy_oracle(path, kernels):
     system = mbdsl.assemble(mbdsl.load(path))
     cm = CompiledModel(system, kernels)
-    first = 0
-    for g in system.flexible_groups:
-        g.bind(lambda: cm, first)
-        first += len(g.beams)
-        o = BeamOracle(g)
-        for q, v, x in _states(system, seed=len(g.beams)):
-            pairs = [(g.mass_blocks(q), o.mass_blocks(q)), (g.forces(q, v, 0.0), o.forces(q, v, 0.0)),
-                     (g.Ma_q(q, x), o.Ma_q(q, x)), (g.tangent_stiffness(q), o.tangent_stiffness(q))]
-            pairs += list(zip(g.derivatives(q, v, 0.0), o.derivatives(q, v, 0.0)))
+    for s in system.beam_sets:
+        o = BeamOracle.of(system, s)
+        for q, v, x in _states(system, seed=len(s.beams)):
+            pairs = [(ffr.mass_blocks(cm, s, q), o.mass_blocks(q)),
+                     (ffr.forces(cm, s, q, v), o.forces(q, v, 0.0)),
+                     (ffr.Ma_q(cm, s, q, x), o.Ma_q(q, x)),
+                     (ffr.tangent_stiffness(cm, s, q), o.tangent_stiffness(q))]
+            pairs += list(zip(ffr.derivatives(cm, s, q, v), o.derivatives(q, v, 0.0)))
             for got, want in pairs:
                 assert got.shape == want.shape
                 np.testing.assert_allclose(got, want, rtol=0, atol=1e-12 * np.abs(want).max())
             rows = np.stack([q, 0.5 * q, -q])
             want = o.energy(rows)
-            np.testing.assert_allclose(g.energy(rows), want, rtol=1e-12,
+            k = len(s.beams)
+            np.testing.assert_allclose(ffr.energy(cm, rows, s.first, k), want, rtol=1e-12,
                                        atol=1e-12 * np.abs(want).max())
-            assert g.energy(q) == pytest.approx(float(want[0]), rel=1e-12)
+            assert ffr.energy(cm, q, s.first, k) == pytest.approx(float(want[0]), rel=1e-12)
             strain = o.strain_energy(q).sum()
-            assert g.energy(q, gravity=False) == pytest.approx(strain, rel=1e-12)
+            assert ffr.energy(cm, q, s.first, k, gravity=False) == pytest.approx(strain, rel=1e-12)
             assert strain > 0.0
 
 
@@ -77,13 +78,12 @@ def test_the_oracle_sees_a_wrong_term(kernels):
     # tolerance used there.
     system = mbdsl.assemble(mbdsl.load(MODELS[0]))
     cm = CompiledModel(system, kernels)
-    g = system.flexible_groups[0]
-    g.bind(lambda: cm, 0)
-    o = BeamOracle(g)
+    s = system.beam_sets[0]
+    o = BeamOracle.of(system, s)
     o.K = o.K * (1.0 + 1e-6)
     q, v, _ = next(_states(system, seed=3))
     want = o.forces(q, v, 0.0)
-    assert np.abs(g.forces(q, v, 0.0) - want).max() > 1e3 * 1e-12 * np.abs(want).max()
+    assert np.abs(ffr.forces(cm, s, q, v) - want).max() > 1e3 * 1e-12 * np.abs(want).max()
 
 
 def test_a_system_evaluates_its_beams_on_the_kernels_it_can_call():

@@ -329,7 +329,7 @@ def test_kernel_newton_matrix_of_flexible_beams(method, first, path, overrides):
     if method == "hht-add":
         n, m2, tol = system.n, system.m, 1e-10
         rigid = system.mass_diag.copy()
-        rigid[np.concatenate([g.cols.ravel() for g in system.flexible_groups])] = 1.0
+        rigid[np.concatenate([s.cols.ravel() for s in system.beam_sets])] = 1.0
         for r0 in (0, n, 2 * n + 2 * m2):
             d[r0:r0 + n] = rigid
     Jn = m.jacobian(w, ctx)

@@ -36,14 +36,14 @@ def test_hht_add_writes_the_motions_accelerations(model, output, engine):
     system = sol.system
     rows = range(0, len(sol.t), max(1, len(sol.t) // 7))
     for i in rows:
-        if system.contact_group is not None:
-            group = system.contact_group
+        if system.contact_state is not None:
+            group = system.contact_state
             kept = group.impact_speed.copy()
             group.impact_speed[:] = group.speeds_at(sol.t[i:i + 1], group.log)[0]
         try:
             a, lam = system.index1_state(sol.t[i], sol.q[i], sol.v[i])
         finally:
-            if system.contact_group is not None:
+            if system.contact_state is not None:
                 group.impact_speed[:] = kept
         scale = 1.0 + np.abs(a).max()
         assert np.abs(sol.a[i] - a).max() < 1e-8 * scale, (i, sol.a[i], a)

@@ -29,54 +29,58 @@ FIELDS = ("beam", "bcol", "bdat", "bdof", "grav")
 FFR_M, FFR_Q, FFR_DQ, FFR_MXQ = np.int64(1), np.int64(2), np.int64(4), np.int64(8)
 
 
-def pack(groups) -> dict:
-    """Its fields from the flexible beams' groups (``assembly.ffr.FlexibleBeamGroup``:
-    the beams' shape integrals, computed once from the model).
+def pack(beams, gravity) -> dict:
+    """Its fields from the model's flexible beams (their shape integrals,
+    stiffness and strain data: ``FlexibleBeam.shape_integrals``,
+    ``stiffness``, ``strain_data``, computed once per beam).
 
     Parameters
     ----------
-    groups : list of FlexibleBeamGroup
-        The system's beams, grouped by their number of elastic coordinates.
+    beams : sequence of (FlexibleBeam, ndarray of int, shape (3 + nf,))
+        Each beam with its local coordinates' columns in q, in the kernels'
+        beam order (``assembly.ffr.beam_sets``).
+    gravity : ndarray, shape (2,), or None
+        [m/s^2]; None: no gravity term.
 
     Returns
     -------
     dict
         Per beam in BEAM (first entry in bcol, nf, first float in bdat,
         elements with geometric stiffening, first entry in bdof, elastic
-        coordinates per element), its columns (BCOL), its shape integrals and
-        each element's strain data on its own elastic coordinates (BDAT,
-        BDOF, the module notes), and gravity (GRAV) [m/s^2].
+        coordinates per element), its columns (BCOL: x, y, phi of its frame,
+        then its elastic coordinates), its shape integrals and each
+        element's strain data on its own elastic coordinates (BDAT, BDOF, the
+        module notes), and gravity (GRAV) [m/s^2].
     """
-    beam, bcol, bdat, bdof, grav = [], [], [], [], np.zeros(0)
-    for g in groups:
-        if g.gravity is not None:
-            grav = np.asarray(g.gravity, dtype=float)
-        for k in range(len(g.beams)):
-            ne = int(g.Bu.shape[1]) if g.stiffening[k] else 0
-            start = sum(len(x) for x in bdat)
-            parts = [np.atleast_1d(g.m[k]), g.s0[k], np.atleast_1d(g.I0[k]), g.S_bar[k].ravel(),
-                     g.a_u[k], g.a_I[k], g.M_ff[k].ravel(), g.S_tilde[k].ravel(), g.K[k].ravel()]
-            dofs = []
-            if ne:            # each element's coordinates: where its Bu or G is nonzero
-                Bu, G = g.Bu[k], g.G[k]
-                dofs = [np.flatnonzero((Bu[e] != 0) | (np.abs(G[e]).sum(0) != 0)
-                                       | (np.abs(G[e]).sum(1) != 0)) for e in range(ne)]
-            dm = max((len(d) for d in dofs), default=0)
-            beam.append((len(bcol), g.nf, start, ne, len(bdof), dm))
-            bcol.extend(int(c) for c in g.cols[k])
-            if ne:
-                idx = np.zeros((ne, dm), np.int64)
-                Bu_e, G_e = np.zeros((ne, dm)), np.zeros((ne, dm, dm))
-                for e, d in enumerate(dofs):
-                    idx[e, :len(d)] = d
-                    Bu_e[e, :len(d)] = Bu[e, d]
-                    G_e[e, :len(d), :len(d)] = G[e][np.ix_(d, d)]
-                parts += [g.kEA[k], Bu_e.ravel(), G_e.ravel()]
-                bdof.extend(int(x) for x in idx.ravel())
-            bdat.append(np.concatenate([np.asarray(x, dtype=float).ravel() for x in parts]))
+    beam, bcol, bdat, bdof = [], [], [], []
+    for b, cols in beams:
+        s, strain = b.shape_integrals, b.strain_data
+        ne = len(strain[0]) if strain is not None else 0
+        start = sum(len(x) for x in bdat)
+        parts = [np.atleast_1d(s.mass), s.s0, np.atleast_1d(s.I0), s.S_bar.ravel(), s.a_u, s.a_I,
+                 s.M_ff.ravel(), s.S_tilde.ravel(), b.stiffness.ravel()]
+        dofs = []
+        if ne:            # each element's coordinates: where its Bu or G is nonzero
+            kEA, Bu, G = strain
+            dofs = [np.flatnonzero((Bu[e] != 0) | (np.abs(G[e]).sum(0) != 0)
+                                   | (np.abs(G[e]).sum(1) != 0)) for e in range(ne)]
+        dm = max((len(d) for d in dofs), default=0)
+        beam.append((len(bcol), b.n_elastic, start, ne, len(bdof), dm))
+        bcol.extend(int(c) for c in cols)
+        if ne:
+            idx = np.zeros((ne, dm), np.int64)
+            Bu_e, G_e = np.zeros((ne, dm)), np.zeros((ne, dm, dm))
+            for e, d in enumerate(dofs):
+                idx[e, :len(d)] = d
+                Bu_e[e, :len(d)] = Bu[e, d]
+                G_e[e, :len(d), :len(d)] = G[e][np.ix_(d, d)]
+            parts += [kEA, Bu_e.ravel(), G_e.ravel()]
+            bdof.extend(int(x) for x in idx.ravel())
+        bdat.append(np.concatenate([np.asarray(x, dtype=float).ravel() for x in parts]))
     return {"beam": np.array(beam, np.int64).reshape(-1, 6),
             "bcol": np.array(bcol, np.int64), "bdof": np.array(bdof, np.int64),
-            "bdat": np.concatenate(bdat) if bdat else np.zeros(0), "grav": grav}
+            "bdat": np.concatenate(bdat) if bdat else np.zeros(0),
+            "grav": np.zeros(0) if gravity is None or not beams else np.asarray(gravity, float)}
 
 
 @_inline
@@ -276,7 +280,7 @@ def _ffr_scratch(I):
 
 @_jit
 def _ffr_forces_add(I, Fl, qx, vx, out):
-    """out += Q of every beam (``FlexibleBeamGroup.forces``)."""
+    """out += Q of every beam (``assembly.ffr.forces``)."""
     M, Q, Qq, Qv, Mxq = _ffr_scratch(I)
     for b in range(_rows(I, BEAM)):
         _ffr_local(I, Fl, b, qx, vx, qx, FFR_Q, M, Q, Qq, Qv, Mxq)
@@ -351,7 +355,7 @@ def beam_blocks(I, Fl, b0, qx, vx, x, what, M, Q, Qq, Qv, Mxq):
     Q into Q (k, c), Q_q and Q_v into Qq, Qv (k, c, c), (M(q) x)_q into Mxq
     (k, c, c), as the FFR_* bits of ``what`` ask; qx, vx and x extended
     vectors (nx,). The one evaluation of the beams' physics that Python
-    calls (``assembly.ffr.FlexibleBeamGroup``)."""
+    calls (``assembly.ffr.local_blocks``)."""
     for k in range(M.shape[0]):
         _ffr_local(I, Fl, b0 + k, qx, vx, x, what, M[k], Q[k], Qq[k], Qv[k], Mxq[k])
 

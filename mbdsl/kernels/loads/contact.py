@@ -1,7 +1,7 @@
 """Contacts and joint limits: one-sided gaps g(q) and the Hunt-Crossley law.
 
-One instance per gap (``assembly.contact.ContactGroup``'s instances, in its
-order). KGI: (kind, line row in GEO or -1); KCOL: the six columns (x, y, phi
+One instance per gap (``Contact.gaps`` of the model's contacts and limits,
+in its order). KGI: (kind, line row in GEO or -1); KCOL: the six columns (x, y, phi
 of the first body, then of the second); KPAR: (offset, sign, s1 (2), s2 (2),
 n0 (2), r, K, n, chi, mu, v_reg, c); KIMP: the impact speed of each closed gap
 (0 while open), the contact's state, written by the time loop at its events.
@@ -23,7 +23,7 @@ import math
 
 import numpy as np
 
-from mbdsl.model.contact import SPEED_FLOOR as _CONTACT_SPEED_FLOOR
+from mbdsl.model.contact import SPEED_FLOOR as _CONTACT_SPEED_FLOOR, gap_columns
 
 from ..geometry import _direction, _direction_derivative, _line
 from ..schema import KCOL, KGI, KIMP, KPAR, _f, _i, _inline, _jit, _put, _rows
@@ -43,55 +43,57 @@ LOADS = ("contact", "limit", "rope", "cable")
 
 
 def pack(items, tables) -> dict:
-    """Its fields from the system's contact group (its gaps, one instance
-    each, built from ``items``: ``assembly.contact.ContactGroup``, which
-    also holds the contact state the time loop changes).
+    """Its fields from the model's contacts and limits: one instance per
+    gap (``Contact.gaps``), in the model's order.
 
     Parameters
     ----------
     items : list of Contact
         The model's contacts and limits, in its order.
     tables : packing context
-        ``line_row`` and the system's ``contact_group``
-        (``assembly.packing.PackingContext``).
+        ``line_row`` and ``cmap`` (``assembly.packing.PackingContext``).
 
     Returns
     -------
     dict
         KGI (kind, line row), KCOL the six columns, KPAR (offset, sign, s1,
-        s2, n0, r, K, n, chi, mu, v_reg, c), KIMP the impact speeds in force.
+        s2, n0, r, K, n, chi, mu, v_reg, c), KIMP the impact speeds in force
+        (zeros: every gap open; the time loop writes them, from
+        ``assembly.contact.ContactState``).
     """
-    group = tables.system.contact_group
-    kgi, kpar = [], []
-    for i, (geometry, data) in enumerate(group.geometry):
-        s1 = s2 = n0 = (0.0, 0.0)
-        r, row = 0.0, -1
-        if geometry == "line":          # (body L, s_L, body P, s_P, n0, r)
-            kind, row, off, sign = GAP_LINE, tables.line_row(tuple(data[:5])), data[5], 1.0
-            s1, s2, n0, r = data[1], data[3], data[4], data[5]
-        elif geometry == "slide":       # (body L, s_L, body P, s_P, u0, bound, sign)
-            kind, row, off, sign = GAP_SLIDE, tables.line_row(tuple(data[:5])), data[5], data[6]
-        elif geometry == "angle":       # (body 1, None, body 2, None, bound, sign)
-            kind, off, sign = GAP_ANGLE, data[4], data[5]
-        elif geometry == "circle":      # (body C, s_C, body P, s_P, clearance, r)
-            kind, off, sign = GAP_CIRCLE, data[4], 1.0
-            s1, s2, r = data[1], data[3], data[5]
-        else:                           # pragma: no cover (model.contact lists four)
-            raise ValueError(f"no kernel for the gap geometry {geometry!r}")
-        kgi.append((kind, row))
-        kpar.append((off, sign, *s1, *s2, *n0, r, group.k_[i], group.n_[i], group.chi[i],
-                     group.mu[i], group.v_reg[i], group.c_[i]))
+    kgi, kcol, kpar = [], [], []
+    for c in items:
+        law = (c.k, c.exponent, c.damping, c.mu, c.v_reg, c.viscous)
+        for geometry, data, _ in c.gaps:
+            s1 = s2 = n0 = (0.0, 0.0)
+            r, row = 0.0, -1
+            if geometry == "line":          # (body L, s_L, body P, s_P, n0, r)
+                kind, row, off, sign = GAP_LINE, tables.line_row(tuple(data[:5])), data[5], 1.0
+                s1, s2, n0, r = data[1], data[3], data[4], data[5]
+            elif geometry == "slide":       # (body L, s_L, body P, s_P, u0, bound, sign)
+                kind, row, off, sign = GAP_SLIDE, tables.line_row(tuple(data[:5])), data[5], data[6]
+            elif geometry == "angle":       # (body 1, None, body 2, None, bound, sign)
+                kind, off, sign = GAP_ANGLE, data[4], data[5]
+            elif geometry == "circle":      # (body C, s_C, body P, s_P, clearance, r)
+                kind, off, sign = GAP_CIRCLE, data[4], 1.0
+                s1, s2, r = data[1], data[3], data[5]
+            else:                           # pragma: no cover (model.contact lists four)
+                raise ValueError(f"no kernel for the gap geometry {geometry!r}")
+            kgi.append((kind, row))
+            kcol.append(gap_columns(geometry, data, tables.cmap))
+            kpar.append((off, sign, *s1, *s2, *n0, r, *law))
     return {"kgi": np.array(kgi, np.int64).reshape(-1, 2),
-            "kcol": group.cols.astype(np.int64).reshape(-1, 6),
+            "kcol": np.array(kcol, np.int64).reshape(-1, 6),
             "kpar": np.array(kpar, np.float64).reshape(-1, 15),
-            "kimp": group.impact_speed.astype(np.float64)}
+            "kimp": np.zeros(len(kgi))}
 
 
 def pattern(items, tables) -> tuple:
     """(the six columns of each gap, (k, 6); whether any gap is damped or has
     friction)."""
-    group = tables.system.contact_group
-    return group.cols.astype(np.int64).reshape(-1, 6), group.damped
+    cols = [gap_columns(geometry, data, tables.cmap) for c in items for geometry, data, _ in c.gaps]
+    damped = any(c.damping > 0.0 or c.mu > 0.0 or c.viscous > 0.0 for c in items)
+    return np.array(cols, np.int64).reshape(-1, 6), damped
 
 
 @_jit

@@ -55,7 +55,7 @@ def pack(items, tables) -> dict:
     dict
         field name -> array, as ``schema.MODEL_SCHEMA`` declares them.
     """
-    from ...dsl.expressions import Num
+    from mbdsl.dsl.expressions import Num     # absolute: the uncompiled copy shares the class
     points = [f.point for f in items]
     tables.elastic_spans("fel", points)
     fcol, fs = tables.points(points)
