@@ -772,20 +772,80 @@ class AssembledSystem:
     def index1_state(self, t, q, v):
         """(a, lambda) of the index-1 system at one state (t, q, v), shapes
         (n,) and (m,) [m/s^2, rad/s^2; N, N m]: [[M(q), Phi_q^T], [Phi_q, 0]]
-        [a; lambda] = [Q; gamma] (Haug, sec. 6.3).
+        [a; lambda] = [Q; gamma] (Haug, sec. 6.3); where Phi_q loses rank
+        (redundant joints, a singular position) the least-norm multipliers
+        (:meth:`index1_matrix`).
 
         Raises
         ------
         numpy.linalg.LinAlgError
-            At a singular configuration (see :meth:`index1_solve`).
+            No finite solution, or friction whose iteration does not settle
+            (see :meth:`index1_solve`).
         """
+        n = self.n
+        K, _, least_norm = self.index1_matrix(t, q)
+        sol = self.index1_solve(K, t, q, v, solve=least_norm)
+        return sol[:n], sol[n:]
+
+    def index1_matrix(self, t, q):
+        """The index-1 matrix K = [[M(q), Phi_q^T], [Phi_q, 0]] at (t, q), its
+        LU factors, and where K is singular a solve with the least-norm
+        multipliers.
+
+        Where Phi_q loses rank (a redundant joint the augmented formulation
+        accepts, a singular position) K is singular: the accelerations are
+        unique, the multipliers only up to the null space of Phi_q^T. An LU
+        solve then returns multipliers of the size of the inverse round-off
+        (1e20 N for a distance joint between two pinned points, whose
+        Hessian then made the next step's Newton matrix singular). Here a
+        pivot below 1e-14 of the largest marks K singular, and the solve
+        takes the Schur complement S = Phi_q M^-1 Phi_q^T by least squares:
+        lambda = S^+ (Phi_q M^-1 r_1 - r_2), a = M^-1 (r_1 - Phi_q^T lambda)
+        (Haug, Computer-Aided Kinematics and Dynamics of Mechanical Systems,
+        sec. 6.3; the pseudo-inverse as ``adaptive.index1_acceleration``'s).
+
+        Returns
+        -------
+        K : ndarray, shape (n + m, n + m)
+        lu : tuple
+            ``scipy.linalg.lu_factor(K)``.
+        least_norm : callable or None
+            r (n + m,) -> (a, lambda) (n + m,) where K is singular; None
+            where it is regular (solve with ``lu`` or K).
+
+        Raises
+        ------
+        numpy.linalg.LinAlgError
+            (from ``least_norm``) a solution that is not finite (a singular
+            mass matrix).
+        """
+        import warnings
+
+        import scipy.linalg
         n, m = self.n, self.m
         K = np.zeros((n + m, n + m))
         K[:n, :n] = self.mass_matrix(q)
         P = self.Phi_q(q, t)
+        P = P.toarray() if hasattr(P, "toarray") else np.asarray(P)
         K[:n, n:], K[n:, :n] = P.T, P
-        sol = self.index1_solve(K, t, q, v)
-        return sol[:n], sol[n:]
+        with np.errstate(all="ignore"), warnings.catch_warnings():
+            warnings.simplefilter("ignore", scipy.linalg.LinAlgWarning)   # judged below
+            lu = scipy.linalg.lu_factor(K, check_finite=False)
+        d = np.abs(np.diag(lu[0]))
+        if not m or (np.all(np.isfinite(d)) and d.min() > 1e-14 * d.max()):
+            return K, lu, None
+        W = self.mass_solve(q, P.T)                       # M^-1 Phi_q^T, (n, m)
+        S = P @ W
+
+        def least_norm(r):
+            """K x = r with the least-norm multipliers."""
+            with np.errstate(all="ignore"):
+                lam = np.linalg.lstsq(S, P @ self.mass_solve(q, r[:n]) - r[n:], rcond=1e-13)[0]
+                x = np.concatenate([self.mass_solve(q, r[:n] - P.T @ lam), lam])
+            if not np.all(np.isfinite(x)):
+                raise np.linalg.LinAlgError("singular index-1 matrix")
+            return x
+        return K, lu, least_norm
 
     #: Fixed-point iterations on lambda of the index-1 solve with friction.
     FRICTION_ITERATIONS = 100

@@ -581,7 +581,9 @@ def restart_after_switch(system, method, t, q, v, project=False):
     time, on the new branch: a and lambda from the index-1 system at (t, q, v)
     (a one-step method's carried a_n and force term would hold the old
     branch's for a whole step; a two-step method restarts from it with
-    BDF1). None where the index-1 system is singular (the state is kept).
+    BDF1), with the least-norm multipliers where Phi_q loses rank
+    (``AssembledSystem.index1_matrix``). None where the index-1 system has no
+    finite solution (the state is kept).
 
     Parameters
     ----------
@@ -604,18 +606,13 @@ def restart_after_switch(system, method, t, q, v, project=False):
     try:
         if project and system.m:
             import scipy.linalg
-            n, m = system.n, system.m
-            K = np.zeros((n + m, n + m))
-            K[:n, :n] = system.mass_matrix(q)
-            P = system.Phi_q(q, t)
-            K[:n, n:], K[n:, :n] = P.T, P
-            lu = scipy.linalg.lu_factor(K, check_finite=False)   # one matrix: v, then a, lambda
-            if not np.all(np.abs(np.diag(lu[0])) > 0.0):
-                raise np.linalg.LinAlgError("singular index-1 matrix")
-            drift = P @ v + system.Phi_t(q, t)
-            v = np.asarray(v, dtype=float) + scipy.linalg.lu_solve(
-                lu, np.concatenate([np.zeros(n), -drift]))[:n]
-            sol = system.index1_solve(K, t, q, v, solve=lambda r: scipy.linalg.lu_solve(lu, r))
+            n = system.n
+            # one matrix: v, then a, lambda (least-norm multipliers where K is singular)
+            K, lu, least_norm = system.index1_matrix(t, q)
+            solve = least_norm or (lambda r: scipy.linalg.lu_solve(lu, r))
+            drift = system.Phi_q(q, t) @ v + system.Phi_t(q, t)
+            v = np.asarray(v, dtype=float) + solve(np.concatenate([np.zeros(n), -drift]))[:n]
+            sol = system.index1_solve(K, t, q, v, solve=solve)
             a, lam = sol[:n], sol[n:]
         else:
             a, lam = system.index1_state(t, q, v)
