@@ -24,6 +24,12 @@ SHAPES = {"line": (2, 2, False), "circle": (1, 1, True), "polygon": (3, None, Fa
 
 
 #: flexible beam properties -> (unit, must be an integer)
+#: The most elements one flexible beam may have. Its set-up stores each element's
+#: strain data over all 3 N elastic coordinates (``BeamMesh.strain_gradients``: N^3
+#: numbers); measured on the flexible slider crank (``--set N=``, five steps): 50
+#: elements 0.27 GB and 1.3 s, 200 elements 1.8 GB and 7.6 s. A mistyped 1e12 used to
+#: run the machine out of memory.
+MAX_BEAM_ELEMENTS = 300
 BEAM_PROPERTIES = {"length": ("m", False), "E": ("Pa", False), "area": ("m^2", False),
                    "second_moment": ("m^4", False), "elements": ("", True),
                    "mass": ("kg", False), "density": ("kg/m^3", False),
@@ -289,6 +295,13 @@ def _beam_properties(c, b: BeamSpec, ctx: str):
             what = "number of elements" if key == "elements" else "number of modes"
             c.error("E301", f"the {what} of {ctx} must be an integer, got {v:g}",
                     sp, "not an integer")
+            continue
+        if key == "elements" and v > MAX_BEAM_ELEMENTS:
+            c.error("E303", f"{ctx} has {v:g} elements, more than {MAX_BEAM_ELEMENTS}", sp,
+                    "too many elements", hint="a beam's set-up keeps its strain data over all "
+                    "its elastic coordinates, per element (N^3 numbers: 200 elements take "
+                    "1.8 GB); split the beam into beams joined by fixed joints, or use fewer "
+                    "elements ('modes K' reduces the coordinates, not the mesh)")
             continue
         values[key] = v
     return props, values, stiffening
