@@ -1,6 +1,6 @@
-"""Compliant contacts and joint limits as a force group with events.
+"""Compliant contacts and joint limits: their run state through events.
 
-Each instance is one one-sided gap g(q) of :mod:`mbdsl.model.contact`
+Each gap is a one-sided g(q) of :mod:`mbdsl.model.contact`
 (a contact between a circle and a line or a hole, one side of a joint
 limit), with the Hunt-Crossley law of that module:
 
