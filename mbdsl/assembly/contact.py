@@ -73,8 +73,6 @@ class ContactState:
         then of its second.
     names : list of str
         Per gap, the element's name and the gap's label (``"stop.upper"``).
-    elements : list of str
-        Per gap, the element's name.
     impact_speed : ndarray, shape (k,) [m/s or rad/s]
         The approach speed of each closed gap when it closed; 0 while open.
     log : list of (float, int, float)
@@ -84,18 +82,22 @@ class ContactState:
 
     def __init__(self, cmap, contacts):
         self.contacts = list(contacts)
-        self.names, self.elements, owner, cols = [], [], [], []
+        self.names, owner, cols = [], [], []
         for j, c in enumerate(self.contacts):
             for geometry, data, label in c.gaps:
                 owner.append(j)
                 self.names.append(c.name + ("." + label if label else ""))
-                self.elements.append(c.name)
                 cols.append(gap_columns(geometry, data, cmap))
         self.owner = np.array(owner, dtype=np.intp)
         self.cols = np.array(cols, dtype=np.intp).reshape(-1, 6)
         self.impact_speed = np.zeros(len(self.names))
         self.log = []
         self._gaps = None
+
+    @property
+    def elements(self) -> list:
+        """Per gap, its element's name (list of str)."""
+        return [self.contacts[j].name for j in self.owner]
 
     def bind(self, gaps) -> None:
         """Evaluate the gaps through ``gaps``: qx (nx,) -> (g (k,), dg/dq over
