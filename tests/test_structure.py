@@ -354,3 +354,65 @@ def test_the_engine_version_is_read_once_per_process(monkeypatch):
     system.kernel_model()
     mbdsl.consistent_initial_state(system)
     assert cache.source_digest() == digest
+
+
+def _decorated(decorator):
+    """{function name: (path, node)} of every kernel function with a decorator."""
+    out = {}
+    for path in PACKAGE.rglob("*.py"):
+        for node in ast.parse(path.read_text()).body:
+            if isinstance(node, ast.FunctionDef) and any(
+                    getattr(d, "id", None) == decorator for d in node.decorator_list):
+                out.setdefault(node.name, []).append((path, node))
+    return out
+
+
+def _returns_arrays(node):
+    """Whether a kernel's source may return an array: a return of a
+    subscript (a view), of a name bound to a numpy allocation or a view, or
+    a tuple holding one. (A parameter returned as it came is not caught: by
+    the kernels' convention that is a count, as ``p`` of the emitters.)"""
+    views = set()
+
+    def allocation(v):
+        if isinstance(v, ast.Tuple):
+            return any(allocation(e) for e in v.elts)
+        return isinstance(v, ast.Subscript) or (
+            isinstance(v, ast.Call) and isinstance(v.func, ast.Attribute)
+            and getattr(v.func.value, "id", None) == "np")
+    for a in ast.walk(node):
+        if isinstance(a, ast.Assign) and allocation(a.value):
+            for t in a.targets:
+                views |= {n.id for n in ast.walk(t) if isinstance(n, ast.Name)}
+
+    def array_like(v):
+        if isinstance(v, ast.Tuple):
+            return any(array_like(e) for e in v.elts)
+        if isinstance(v, ast.Subscript):
+            return True
+        if isinstance(v, ast.Call) and isinstance(v.func, ast.Attribute):
+            return getattr(v.func.value, "id", None) == "np"
+        return isinstance(v, ast.Name) and v.id in views
+    return any(isinstance(r, ast.Return) and r.value is not None and array_like(r.value)
+               for r in ast.walk(node))
+
+
+def test_kernels_without_reference_counts_hold_only_their_callers_arrays():
+    """The kernels compiled without numba's reference counting (``_hot``,
+    ``kernels/jit.py``) only read and write arrays their callers own: none
+    returns an array or a view of one (its caller would drop a reference it
+    never took and free the array early), and none calls a kernel that may
+    return one (that array would never be freed). numba itself refuses an
+    allocation in them. Read from the sources; the kernels this covers are
+    the Newton iteration's."""
+    hot, jit = _decorated("_hot"), _decorated("_jit")
+    assert {"_residual", "_jacobian_triplets", "_solve", "_newton", "_state"} <= set(hot)
+    returning = {name for name, places in jit.items()
+                 if any(_returns_arrays(node) for _, node in places)}
+    assert {"_workspace", "_event_scratch", "_start_estimate"} <= returning   # the check sees them
+    for name, places in hot.items():
+        for path, node in places:
+            assert not _returns_arrays(node), f"{path.name}: {name} returns an array"
+            called = {c.func.id for c in ast.walk(node)
+                      if isinstance(c, ast.Call) and isinstance(c.func, ast.Name)}
+            assert not called & returning, (path.name, name, called & returning)

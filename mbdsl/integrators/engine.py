@@ -666,6 +666,7 @@ class KernelStepper:
         self.R, self.C = np.empty(cm.bound, np.int64), np.empty(cm.bound, np.int64)
         self.V = np.empty(cm.bound)
         n = system.n
+        self.ws = cm.K.workspace(n, system.m, size, cm.ints)     # the Newton scratch, lent
         # F_n of the first step when the start's forces are not the law's at
         # (q, v, lambda) (friction's Coulomb limit at rest, InitialState.Q); NaN: the
         # kernels compute it
@@ -724,7 +725,7 @@ class KernelStepper:
             loop.every, ls.q, ls.v, ls.a, ls.b, ls.lam, ls.mu, ls.q_prev, ls.v_prev, loop.ctl,
             self.opts, self.solver, self.lin, self.lu_state, self.R, self.C, self.V,
             *ls.outputs(), ls.counts, self.F_start if loop.step_no == 0 else self.no_F, state,
-            loop.trial)
+            loop.trial, self.ws)
         ls.buffered += nrec
         return status, taken
 

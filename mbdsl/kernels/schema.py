@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .jit import _inline, _jit  # noqa: F401  (the kernels import them from here)
+from .jit import _hot, _inline, _jit  # noqa: F401  (the kernels import them from here)
 
 #: The model data's schema, one entry per field: (name, "i" or "f", columns per
 #: instance; 0 for a 1-D field). Packing (``pack``), the kernels' named access (the

@@ -28,7 +28,7 @@ from .loads.spring_damper import _spring_energy, _spring_points, _spring_rate, _
 from .loads.torques import _rotational_energy
 from .schema import (BEAM, CROW, DROW, ECOL, FCOL, FEL, FRI, GEO, KCOL, KGI, KPAR, LROW, MASS,
                      MRIG, PROW, Q0, RCOL, ROW_ELEMENT, RPAR, SCOL1, SDV, SEL, SPAR, STQ, XTRM, ZCOL,
-                     _0, _NO, _YES, _f, _i, _inline, _jit, _put, _rows)
+                     _0, _NO, _YES, _f, _i, _inline, _hot, _jit, _put, _rows)
 
 
 #: The joint families in the order of every aggregate, each with its first field
@@ -70,7 +70,7 @@ LOADS = ((spring_damper, SCOL1), (torques, RCOL), (point_forces, FCOL), (state_l
          (state_loads, SDV), (friction, FRI), (contact, KGI))
 
 
-@_jit
+@_hot
 def _phi_time_add(I, Fl, t, out, order):
     """out (m,) += the order-th partial time derivative of Phi (1: Phi_t,
     2: Phi_tt): -f'(t) or -f''(t) in the rows of drivers f(t)."""
@@ -153,7 +153,7 @@ def forces(I, Fl, t, qx, vx, lam, out):
     _forces(I, Fl, t, qx, vx, lam, Fl[:0], out)
 
 
-@_jit
+@_hot
 def _emit_mass(I, Fl, n, qM, R, C, V, p, r0, c0, coef):
     """coef M(qM) at (r0, c0): the rigid diagonal, and every beam's block."""
     for j in range(n):

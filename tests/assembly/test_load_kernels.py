@@ -238,7 +238,7 @@ def test_no_kernel_is_compiled_once_per_constant_argument():
     modules = [importlib.import_module(name) for name in names]
     trees = [ast.parse(p.read_text()) for p in kernel_cache.kernel_sources()]
     kernels = {f.name for tree in trees for f in tree.body if isinstance(f, ast.FunctionDef)
-               and any(ast.unparse(d) == "_jit" for d in f.decorator_list)}
+               and any(ast.unparse(d) in ("_jit", "_hot") for d in f.decorator_list)}
     values = {k: v for m in modules for k, v in vars(m).items() if type(v) in (int, bool)}
     exempt = {"_Au", "_phi_time_add"}
     assert exempt <= kernels and len(kernels) > 100

@@ -67,10 +67,10 @@ from .linalg import BANDED, DENSE, _factor, _solve, lapack_band_addresses  # noq
 from .loop import _run, step_end, step_ratio  # noqa: F401
 from .recipes import accumulate  # noqa: F401
 from .entry import (force_term, index1_multipliers, index1_multipliers_band,  # noqa: F401
-                    jacobian_triplets, mobility, old_force, residual, run)
+                    jacobian_triplets, mobility, old_force, residual, run, workspace)
 
 __all__ = ["MODEL_SCHEMA", "MODEL_FIELDS", "residual", "jacobian_triplets", "force_term", "old_force",
            "predict", "state", "layout", "advance", "mobility", "index1_multipliers",
            "index1_multipliers_band",
-           "accumulate", "elements", "beam_blocks", "beam_energies", "run", "triplet_bound", "pack", "unpack", "lapack_band_addresses",
+           "accumulate", "elements", "beam_blocks", "beam_energies", "run", "workspace", "triplet_bound", "pack", "unpack", "lapack_band_addresses",
            "DENSE", "BANDED"]

@@ -6,9 +6,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...kernels.jit import borrowed as _b
 from ...kernels.schema import _HEADER, _jit
 from .index1 import _index1_multipliers, _index1_multipliers_band, _mobility
-from .loop import _run
+from .loop import _run, _workspace
 from .recipes import _force_term, _jacobian_triplets, _old_force, _residual
 
 
@@ -62,8 +63,20 @@ def mobility(I, Fl, q, out, R, C, V, qx):
 @_jit
 def run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v_prev,
         ctl, opts, solver, lin, lu_state, R, C, V, out_t, out_h, out_q, out_v, out_a,
-        out_lam, out_mu, out_stats, counts, F0, state, trial):
-    """The compiled time loop; see ``_run``."""
-    return _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev,
-                v_prev, ctl, opts, solver, lin, lu_state, R, C, V, out_t, out_h, out_q,
-                out_v, out_a, out_lam, out_mu, out_stats, counts, F0, state, trial)
+        out_lam, out_mu, out_stats, counts, F0, state, trial, ws):
+    """The compiled time loop; see ``_run``. Every array goes in as a
+    borrowed view (``kernels.jit.borrowed``): the caller holds them all
+    for the call, and the loop's kernels count no references to them."""
+    return _run(_b(mono), _b(I), _b(Fl), h, t0, t_end, step0, every, _b(q), _b(v), _b(a), _b(b),
+                _b(lam), _b(mu), _b(q_prev), _b(v_prev), _b(ctl), _b(opts), solver, _b(lin),
+                _b(lu_state), _b(R), _b(C), _b(V), _b(out_t), _b(out_h), _b(out_q), _b(out_v),
+                _b(out_a), _b(out_lam), _b(out_mu), _b(out_stats), _b(counts), _b(F0),
+                _b(state), _b(trial), _b(ws))
+
+
+@_jit
+def workspace(n, m, size, I):
+    """The time loop's scratch for a model of n coordinates and m
+    constraint rows and a Newton iteration of ``size`` unknowns, for every
+    call of ``run`` in one run; see ``_workspace``."""
+    return _workspace(n, m, size, I)

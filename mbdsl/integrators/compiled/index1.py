@@ -8,10 +8,10 @@ from __future__ import annotations
 import numpy as np
 
 from .additive import _minus_correction
-from .layout import ADDITIVE, FLOOR, FORM, HAS_Y, MU_MOB, REG, SM, SX, SY, _layout
+from .layout import ADDITIVE, FLOOR, FORM, HAS_Y, MU_MOB, REG, SM, SX, SY, _copy, _layout
 from .linalg import _fortran_call
 from mbdsl.integrators.records import (OPT_ATOL_KINEMATIC, OPT_ATOL_MULTIPLIER, OPT_RTOL)
-from ...kernels.schema import (EPS, FRI, MASS, ROW_ELEMENT, _0, _HEADER, _NO, _YES, _f, _i, _jit,
+from ...kernels.schema import (EPS, FRI, MASS, ROW_ELEMENT, _0, _HEADER, _NO, _YES, _f, _i, _hot, _jit,
                                _rows)
 from ...kernels.system import _emit_G, _emit_mass, _emit_phiq, _phi_time_add, forces, phiq_times
 
@@ -165,13 +165,13 @@ def _index1_multipliers(I, Fl, t, q, v, out, R, C, V, iterations):
             out[row, i] = lam[i] if ok else np.nan
 
 
-@_jit
+@_hot
 def _mobility(I, Fl, q, out, R, C, V, qx, per):
     """Multiplier mobility per constraint row into out (m,)
     (``AssembledSystem.multiplier_mobility``): max over the element's
     Phi_q entries of |Phi_q[k, j]| / M_jj; ``per``: scratch of n_elements."""
     n = _rows(I, MASS)
-    qx[:n] = q
+    _copy(qx, 0, q)
     p = _emit_phiq(I, Fl, n, qx, R, C, V, _0, _0, _0, 1.0, _NO)
     per[:] = 0.0
     for i in range(p):
@@ -183,7 +183,7 @@ def _mobility(I, Fl, q, out, R, C, V, qx, per):
         out[i] = per[_i(I, ROW_ELEMENT, i, 0)]
 
 
-@_jit
+@_hot
 def _scales_weights(rec, I, Fl, q, w, opts, R, C, V, qx, weight, scratch):
     """Newton weights (``Newton.solve``): scales / (atol + rtol |s w|), with the
     multipliers' relative part taken norm-wise, and the round-off floor

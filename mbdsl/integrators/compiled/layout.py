@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from mbdsl.integrators.recipe import RECIPE_FIELDS
 
-from ...kernels.schema import _jit, _put
+from ...kernels.schema import _hot, _inline, _jit, _put
 
 #: The recipe entries (``recipe.RECIPE_FIELDS``, checked below): literals here, so that
 #: numba's cache of this file never holds indices of another file's version.
@@ -24,6 +24,15 @@ if _RECIPE != RECIPE_FIELDS:     # pragma: no cover (a developer's error, caught
 
 #: The two forms of a recipe: the linear family, and HHT with additive corrections.
 LINEAR, ADDITIVE = 0, 1
+
+
+@_inline
+def _copy(dst, start, src):
+    """dst[start:start + len(src)] = src, as a loop: an array assigned to a
+    slice needs numba's reference counting (a temporary where the two
+    overlap), which the ``_hot`` kernels are compiled without."""
+    for j in range(src.shape[0]):
+        dst[start + j] = src[j]
 
 
 @_jit
@@ -47,7 +56,7 @@ def _layout(rec, n, m):
     return n + m, n, n + m, 0
 
 
-@_jit
+@_hot
 def _state(rec, n, w, q_pred, v_pred, qx, vx):
     """q_{n+1}, v_{n+1} into the extended vectors from the unknowns w."""
     cqx, cvx = rec[CQX], rec[CVX]
@@ -61,7 +70,7 @@ def _state(rec, n, w, q_pred, v_pred, qx, vx):
             vx[j] += cvy * w[n + j]
 
 
-@_jit
+@_hot
 def predict(rec, first, q, v, a, b, q_prev, v_prev, q_pred, v_pred):
     """The recipe's predictors into q_pred, v_pred (n,) from the state at t_n
     (q, v, a, the auxiliary acceleration b) and, unless ``first``, the one h
@@ -83,7 +92,7 @@ def predict(rec, first, q, v, a, b, q_prev, v_prev, q_pred, v_pred):
             v_pred[j] += vv1 * v_prev[j]
 
 
-@_jit
+@_hot
 def _advance(rec, b, a, x):
     """The auxiliary acceleration b (n,) in place from t_n to t_{n+1}:
     b_{n+1} = bb b_n + ba a_n + bx x, x = a_{n+1} (recipes without it: nothing)."""

@@ -40,7 +40,7 @@ from mbdsl.integrators.records import (LIN_AB, LIN_ADDR, LIN_B, LIN_CPERM, LIN_I
                                        LIN_TRANS, LP_BLOCKS, LP_INFO, LP_KL, LP_KU, LP_LDAB,
                                        LP_LDB, LP_M, LP_N, LP_NC, LP_NRHS)
 
-from ...kernels.schema import _jit
+from ...kernels.schema import _hot, _jit
 
 #: Linear solvers of the compiled loop: explicit inverse (LAPACK getrf/getri through
 #: numpy.linalg.inv), or LAPACK's band LU (dgbtrf/dgbtrs) on a bandwidth-reducing ordering.
@@ -158,7 +158,7 @@ def _factor(solver, lin, R, C, V, p):
     return CONVERGED
 
 
-@_jit
+@_hot
 def _solve(solver, lin, r, dw):
     """dw = J^-1 r with the factorization of ``_factor``."""
     size = r.shape[0]

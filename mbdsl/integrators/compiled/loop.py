@@ -17,21 +17,22 @@ from mbdsl.integrators.records import (CNT_STEPS, CTL_ATOL, CTL_FIXED, CTL_H_MAX
 
 from .additive import _minus_correction
 from .index1 import INDEX1_LIMIT, _index1_acceleration, _scales_weights
-from .layout import (ADDITIVE, CF, EABS, EAUX, ERR, FORM, KA1, KA2, MH, Y0V, _advance, _layout,
-                     _state, predict)
+from .layout import (ADDITIVE, CF, EABS, EAUX, ERR, FORM, KA1, KA2, MH, Y0V, _advance, _copy,
+                     _layout, _state, predict)
 from .newton import _newton
 from .recipes import _old_force
 from ...kernels.loads.contact import _gap
 from ...kernels.loads.spring_damper import _spring_passed
 from ...kernels.programs import switch_branches
 from ...kernels.schema import (EPS, FRI, KGI, MASS, ROW_ELEMENT, SCOL1, SPAR, SWP, _HEADER, _f,
-                               _jit, _rows)
+                               _hot, _jit, _rows)
 
 
 @_jit
 def _workspace(n, m, size, I):
-    """The time loops' scratch arrays, allocated once per call: (r, dw, w,
-    weight, qx, vx, work, q_pred, v_pred, qx_old, F, scratch)."""
+    """The time loop's scratch arrays: (r, dw, w, weight, qx, vx, work,
+    q_pred, v_pred, qx_old, F, scratch), allocated by the caller once per
+    run (``entry.workspace``) and lent to every call of ``_run``."""
     return (np.empty(size), np.empty(size), np.empty(size), np.empty(size), np.zeros(n + 3),
             np.zeros(n + 3), np.zeros(n + 3), np.empty(n), np.empty(n), np.zeros(n + 3),
             np.zeros(n), np.empty(m + I[_HEADER - 1] + 2 * size))
@@ -48,7 +49,7 @@ def _start_force(rc, I, Fl, t0, q, v, lam, F0, F, qx, vx, work):
             _old_force(rc, I, Fl, t0, q, v, lam, F, qx, vx, work)
 
 
-@_jit
+@_hot
 def _start_w(rc, I, Fl, q, a, v, lam, w, qx, y):
     """Newton's start: x = a_n, lambda_n; y = y0v v_n. The additive form:
     a = a_n, psi_I = psi_II = lambda_n, and dq, dv with the corrections of
@@ -58,31 +59,31 @@ def _start_w(rc, I, Fl, q, a, v, lam, w, qx, y):
     n, m = _rows(I, MASS), _rows(I, ROW_ELEMENT)
     size, l0, e0, a0 = _layout(rc, n, m)
     w[:] = 0.0
-    w[a0:a0 + n] = a
-    w[l0:l0 + m] = lam
+    _copy(w, a0, a)
+    _copy(w, l0, lam)
     if rc[FORM] == ADDITIVE:
-        qx[:n] = q
+        _copy(qx, 0, q)
         _minus_correction(I, Fl, qx, lam, y)          # y = -R_n
         for j in range(n):
             w[j] = rc[KA1] * a[j] - 0.5 * y[j]
             w[n + j] = rc[KA2] * a[j] - y[j]
-        w[e0:e0 + m] = lam
+        _copy(w, e0, lam)
     elif e0 < size:
         for j in range(n):
             w[n + j] = rc[Y0V] * v[j]
 
 
-@_jit
+@_hot
 def _record(rec, t, q, v, a, lam, mu, counts, out_t, out_q, out_v, out_a, out_lam, out_mu,
             out_stats):
     """Row ``rec`` of the out_* arrays: the state, and the Newton counts
     since the last record (then zeroed); returns rec + 1."""
     out_t[rec] = t
-    out_q[rec] = q
-    out_v[rec] = v
-    out_a[rec] = a
-    out_lam[rec] = lam
-    out_mu[rec] = mu
+    _copy(out_q[rec], 0, q)
+    _copy(out_v[rec], 0, v)
+    _copy(out_a[rec], 0, a)
+    _copy(out_lam[rec], 0, lam)
+    _copy(out_mu[rec], 0, mu)
     for i in range(6):
         out_stats[rec, i] = counts[i]
     counts[:] = 0
@@ -300,7 +301,7 @@ def _start_estimate(I, Fl, n, m, t0, q, v, a, lam, additive, fixed, index1, qx_o
 @_jit
 def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v_prev,
          ctl, opts, solver, lin, lu_state, R, C, V, out_t, out_h, out_q, out_v, out_a,
-         out_lam, out_mu, out_stats, counts, F0, state, trial):
+         out_lam, out_mu, out_stats, counts, F0, state, trial, ws):
     """The compiled time loop: steps of every method, fixed or error-controlled,
     from (t0, q, v, a, b, lam, mu) towards t_end, until t_end, a step that
     fails, an event, or the out_* arrays are full.
@@ -362,6 +363,7 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
     state passes one of its kinks (SWP), is not taken; the loop returns EVENT
     with its end (q, v) in ``trial`` (2, n) and its size in state[ST_H], for
     the time loop to land a step on the event (``events.EventLocator``).
+    ``ws``: the Newton iteration's scratch (``_workspace``), the caller's.
     Mode (state[ST_MODE]) RUN goes on until t_end, an event, a failure or a full
     output; ATTEMPT and LAND make one attempt at a step of h (with error
     control halved while Newton fails) and return: EVENT (ATTEMPT only),
@@ -376,7 +378,7 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
     fmin, fmax = ctl[CTL_MIN_FACTOR], ctl[CTL_MAX_FACTOR]
     h_min, h_max = ctl[CTL_H_MIN], ctl[CTL_H_MAX]
     fixed = ctl[CTL_FIXED] != 0.0
-    r, dw, w, weight, qx, vx, work, q_pred, v_pred, qx_old, F, scratch = _workspace(n, m, size, I)
+    r, dw, w, weight, qx, vx, work, q_pred, v_pred, qx_old, F, scratch = ws
     b_new, d_err = np.empty(n), np.empty(n)
     mode = int(state[ST_MODE])
     two_step, index1, gaps, springs, kinks = _run_flags(mono, I, Fl, rc, m, ctl, has_extra, mode)

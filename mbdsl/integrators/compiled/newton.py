@@ -15,10 +15,10 @@ from mbdsl.integrators.records import (CNT_FACTORIZATIONS, CNT_ITERATIONS, CNT_J
 from .layout import FORM, HAS_Y, LINEAR, REG, SP, SV, _layout
 from .linalg import _factor, _solve
 from .recipes import _jacobian_triplets, _residual
-from ...kernels.schema import EPS, MASS, ROUNDOFF_BAND, ROW_ELEMENT, _jit, _rows
+from ...kernels.schema import EPS, MASS, ROUNDOFF_BAND, ROW_ELEMENT, _hot, _rows
 
 
-@_jit
+@_hot
 def _newton(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, weight, opts, solver, lin, lu_state,
             R, C, V, r, dw, qx, vx, work, counts, spare):
     """One step's Newton iteration on w (in place), with the stored
@@ -112,7 +112,7 @@ def _newton(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, weight, opts, solve
 ROUNDOFF_ULPS = 8.0        # as in newton.py
 
 
-@_jit
+@_hot
 def _rest_at_roundoff(rec, I, solver, lin, r, qx, vx, weight, spare):
     """newton.py's residual test of a stagnating exact-Newton iteration at
     the iterate whose residual is r (state in qx, vx): its constraint rows

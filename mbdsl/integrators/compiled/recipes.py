@@ -7,15 +7,15 @@ from __future__ import annotations
 
 from .additive import _jacobian_additive, _mass_solve, _residual_additive
 from .layout import (ADDITIVE, CF, CM, CQX, CQY, CVX, CVY, DI, DM, DV, FORM, HAS_Y, MH, REG, SP, SV,
-                     _emit_identity, _layout, _state)
+                     _copy, _emit_identity, _layout, _state)
 from ...kernels.beams.ffr import FFR_MXQ, _beam_mass_add, _emit_beams
 from ...kernels.loads.friction import _emit_friction_lam
-from ...kernels.schema import BEAM, FRI, MASS, MRIG, ROW_ELEMENT, _0, _NO, _YES, _f, _jit, _rows
+from ...kernels.schema import BEAM, FRI, MASS, MRIG, ROW_ELEMENT, _0, _NO, _YES, _f, _hot, _jit, _rows
 from ...kernels.system import (_emit_G, _emit_force, _emit_hess, _emit_mass, _emit_phiq,
                                _phi_time_add, forces, phi, phiqT_add, phiq_times)
 
 
-@_jit
+@_hot
 def _residual(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work):
     """Upsilon(w) of the recipe ``rec``, size n + m (index 3), 2 (n + m)
     (stabilized index 2) or 3 n + 2 m (additive form).
@@ -61,7 +61,7 @@ def _residual(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work):
             r[u0 + i] *= sV
 
 
-@_jit
+@_hot
 def _jacobian_triplets(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, R, C, V, qx, vx):
     """Newton matrix entries (R, C, V) of the recipe ``rec``, in an order and
     pattern fixed by the model and the method; returns their count.
@@ -141,14 +141,14 @@ def _jacobian_triplets(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, R, C, V,
     return p
 
 
-@_jit
+@_hot
 def _old_force(rec, I, Fl, t, q, v, lam, out, qx, vx, work):
     """F_n of the recipe into out (n,): Phi_q^T lambda - Q (linear form),
     -M(q)^-1 Q (additive form: minus HHT-ADD's f_n)."""
     if rec[FORM] == ADDITIVE:
         n = q.shape[0]
-        qx[:n] = q
-        vx[:n] = v
+        _copy(qx, 0, q)
+        _copy(vx, 0, v)
         forces(I, Fl, t, qx, vx, lam, work)
         for j in range(n):
             work[j] = -work[j]
@@ -166,14 +166,14 @@ def accumulate(V, count, position, data):
         data[position[i]] += V[i]
 
 
-@_jit
+@_hot
 def _force_term(I, Fl, t, q, v, lam, out, qx, vx, work):
     """Phi_q^T lambda - Q(q, v) into out (n,) (``common.force_term``)."""
     n = q.shape[0]
-    qx[:n] = q
-    vx[:n] = v
+    _copy(qx, 0, q)
+    _copy(vx, 0, v)
     forces(I, Fl, t, qx, vx, lam, work)
     for j in range(n + 3):
         work[j] = -work[j]
     phiqT_add(I, Fl, qx, lam, 1.0, work)
-    out[:] = work[:n]
+    _copy(out, 0, work[:n])

@@ -20,7 +20,7 @@ import math
 import numpy as np
 
 from ..geometry import _Au, _direction, _direction_derivative, _eshape, _span
-from ..schema import ECOL, SCOL1, SCOL2, SEL, SPAR, SS1, SS2, _f, _i, _inline, _jit, _put, _rows
+from ..schema import ECOL, SCOL1, SCOL2, SEL, SPAR, SS1, SS2, _f, _i, _inline, _hot, _jit, _put, _rows
 
 #: Its fields in ``schema.MODEL_SCHEMA`` (the first gives the instances).
 FIELDS = ("scol1", "ss1", "scol2", "ss2", "spar", "sel")
@@ -157,7 +157,7 @@ def _spring_rate(I, Fl, qx, vx, i, ex, ey, ax1, ay1, ax2, ay2):
     return ex * ddx + ey * ddy
 
 
-@_jit
+@_hot
 def _springs_add(I, Fl, qx, vx, out):
     """The spring-dampers' Q = -D^T (f e), f = k (l - l0) + c ldot, added to
     out (n+3,) [N, N m]."""
