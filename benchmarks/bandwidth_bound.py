@@ -1,0 +1,133 @@
+"""The pendulum chain's step against the memory-bandwidth bound.
+
+A step of an implicit method on a chain of N links moves a known amount of
+data: per Newton iteration the residual reads the model data and a dozen
+vectors, and one banded solve reads the LU factors; per factorization the
+Newton matrix's triplets are written, accumulated into the band and
+factored in place. No step can take less than those bytes over the rate
+the machine moves data at, for a working set of that size (its caches or
+its memory). This script counts the bytes from the model's and the band's
+sizes and the measured iterations and factorizations per step, measures
+the machine's copy rate (numpy ``copyto``, read + write) at the step's
+working-set size, and prints the bound and the measured step beside it.
+
+Bytes per step (8-byte floats, n coordinates, m rows, size = n + m
+unknowns, band storage (2 kl + ku + 1) x size, triplet bound P):
+
+* per iteration: the residual, model data (ints + floats) + 10 vectors of
+  size; the band solve (LAPACK ``dgbtrs``), the factors + pivots + 6
+  vectors of size (permutation in, two triangular sweeps, permutation
+  out); the iteration's own updates, 5 vectors of size;
+* per factorization: the triplets written and read back (24 bytes each,
+  twice), their positions in the band (8 bytes each), the band zeroed,
+  filled and factored in place (3 passes over it);
+* per step: prediction, weights (the constraint Jacobian's triplets for
+  the multipliers' mobility, model data + 2 vectors), the output row:
+  10 vectors of size.
+
+The count leaves out the arithmetic, the LAPACK calls' per-column
+overhead and every cache miss beyond one pass: it is a lower bound.
+
+Run:  python benchmarks/bandwidth_bound.py [--sizes 1000,10000] [--method hht-i3]
+Not part of CI; docs/performance.md keeps the latest figures.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+MODEL = Path(__file__).resolve().parents[1] / "models" / "pendulum_chain.mbd"
+
+
+def copy_rate(nbytes: int, repeat: int = 5) -> float:
+    """The machine's copy rate [bytes/s, read + write] for two arrays of
+    ``nbytes`` together: the best of ``repeat`` timings."""
+    n = max(nbytes // 16, 1024)
+    a, b = np.random.rand(n), np.empty(n)
+    reps = max(1, int(2e9 // (16 * n)))
+    best = np.inf
+    for _ in range(repeat):
+        t = time.perf_counter()
+        for _ in range(reps):
+            np.copyto(b, a)
+        best = min(best, time.perf_counter() - t)
+    return 16 * n * reps / best
+
+
+def step_bytes(n: int, m: int, ldab: int, model_bytes: int, bound: int,
+               iterations: float, factorizations: float) -> tuple[float, float]:
+    """(bytes moved per step, working-set bytes) by the count of the module
+    notes."""
+    size, f = n + m, 8
+    band = ldab * size * f
+    residual = model_bytes + 10 * size * f
+    solve = band + 4 * size + 6 * size * f
+    iteration = residual + solve + 5 * size * f
+    factorization = 2 * 24 * bound + 8 * bound + 3 * band
+    step = model_bytes + 12 * size * f
+    working = band + 32 * bound + model_bytes + 20 * size * f
+    return iterations * iteration + factorizations * factorization + step, working
+
+
+def measure(N: int, method: str, steps: int, repeat: int) -> dict:
+    """One chain: its step measured, and the bound."""
+    import mbdsl
+    from mbdsl.assembly.packing import PackedModel
+    from mbdsl.integrators import engine, integrate, make_method
+    from mbdsl.integrators.newton import NewtonOptions
+    from mbdsl.kernels import cache
+    system = mbdsl.assemble(mbdsl.load(MODEL, overrides={"N": N}))
+    init = mbdsl.consistent_initial_state(system)
+    meth = make_method(method)
+    h = 1e-3
+    integrate(system, meth, 2 * h, h, initial=init, engine="compiled")      # kernels loaded
+    walls, sol = [], None
+    for _ in range(repeat):
+        t = time.perf_counter()
+        sol = integrate(system, meth, steps * h, h, initial=init, engine="compiled")
+        walls.append(time.perf_counter() - t)
+    tot = sol.stats_total
+    plan = engine.linear_solver_plan(system, meth, NewtonOptions(), init.q)
+    if plan.kind != "banded":
+        raise SystemExit(f"N = {N}: the {plan.kind} solver, not a band: no bound counted")
+    cm = PackedModel(system, cache.element_kernels(uncompiled=True))
+    ldab = 2 * plan.kl + plan.ku + 1
+    moved, working = step_bytes(system.n, system.m, ldab, cm.ints.nbytes + cm.floats.nbytes,
+                                cm.bound, tot.iterations / tot.steps,
+                                tot.factorizations / tot.steps)
+    rate = copy_rate(int(working))
+    step = statistics.median(walls) / tot.steps
+    return {"N": N, "size": system.n + system.m, "kl": plan.kl, "ku": plan.ku,
+            "iterations": tot.iterations / tot.steps,
+            "factorizations": tot.factorizations / tot.steps,
+            "MB/step": moved / 1e6, "working MB": working / 1e6, "GB/s": rate / 1e9,
+            "bound ms": 1e3 * moved / rate, "ms/step": 1e3 * step,
+            "ratio": step * rate / moved}
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--sizes", default="1000,10000")
+    p.add_argument("--method", default="hht-i3")
+    p.add_argument("--steps", type=int, default=100)
+    p.add_argument("--repeat", type=int, default=3)
+    args = p.parse_args(argv)
+    cols = ("N", "size", "kl", "ku", "iterations", "factorizations", "MB/step", "working MB",
+            "GB/s", "bound ms", "ms/step", "ratio")
+    print(" ".join(f"{c:>14}" for c in cols))
+    for N in (int(x) for x in args.sizes.split(",")):
+        r = measure(N, args.method, args.steps, args.repeat)
+        print(" ".join(f"{r[c]:>14.3g}" if isinstance(r[c], float) else f"{r[c]:>14}"
+                       for c in cols))
+        sys.stdout.flush()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
