@@ -21,6 +21,7 @@ from .layout import (ADDITIVE, CF, EABS, EAUX, ERR, FORM, KA1, KA2, MH, Y0V, _ad
                      _layout, _state, predict)
 from .newton import _newton
 from .recipes import _old_force
+from ...kernels.geometry import MEMO
 from ...kernels.loads.contact import _gap
 from ...kernels.loads.spring_damper import _spring_passed
 from ...kernels.programs import switch_branches
@@ -32,9 +33,15 @@ from ...kernels.schema import (EPS, FRI, KGI, MASS, ROW_ELEMENT, SCOL1, SPAR, SW
 def _workspace(n, m, size, I):
     """The time loop's scratch arrays: (r, dw, w, weight, qx, vx, work,
     q_pred, v_pred, qx_old, F, scratch), allocated by the caller once per
-    run (``entry.workspace``) and lent to every call of ``_run``."""
-    return (np.empty(size), np.empty(size), np.empty(size), np.empty(size), np.zeros(n + 3),
-            np.zeros(n + 3), np.zeros(n + 3), np.empty(n), np.empty(n), np.zeros(n + 3),
+    run (``entry.workspace``) and lent to every call of ``_run``. The
+    iterate's qx and the step start's qx_old carry the rotations' memo
+    after their n + 3 entries (``kernels.geometry._cos_sin``; no angle
+    remembered yet: NaN)."""
+    qx, qx_old = np.zeros((MEMO + 1) * (n + 3)), np.zeros((MEMO + 1) * (n + 3))
+    qx[n + 3:] = np.nan
+    qx_old[n + 3:] = np.nan
+    return (np.empty(size), np.empty(size), np.empty(size), np.empty(size), qx,
+            np.zeros(n + 3), np.zeros(n + 3), np.empty(n), np.empty(n), qx_old,
             np.zeros(n), np.empty(m + I[_HEADER - 1] + 2 * size))
 
 
