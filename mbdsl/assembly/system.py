@@ -292,6 +292,7 @@ class AssembledSystem:
         state = self.__dict__.copy()
         state["_kernel_models"], state["_kernels_built"] = {}, None
         state.pop("_compiled_model", None)
+        state.pop("_run_models", None)
         return state
 
     # -- helpers ------------------------------------------------------------------
