@@ -684,7 +684,13 @@ class KernelStepper:
         self.R, self.C = np.empty(cm.bound, np.int64), np.empty(cm.bound, np.int64)
         self.V = np.empty(cm.bound)
         n = system.n
-        self.ws = cm.K.workspace(n, system.m, size, cm.ints)     # the Newton scratch, lent
+        # the Newton scratch, lent to every call of the loop, which sizes its
+        # unknowns from the recipe (``compiled.layout``): the two must agree,
+        # as the loop writes without bounds checks
+        if cm.K.layout(mono[1][0].copy(), n, system.m)[0] != size:
+            raise RuntimeError(f"{method.name}: the compiled loop's unknowns differ from "
+                               f"newton_size ({size})")
+        self.ws = cm.K.workspace(n, system.m, size, cm.ints)
         # F_n of the first step when the start's forces are not the law's at
         # (q, v, lambda) (friction's Coulomb limit at rest, InitialState.Q); NaN: the
         # kernels compute it
