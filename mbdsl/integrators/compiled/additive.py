@@ -9,8 +9,8 @@ import numpy as np
 from .layout import CF, CQ, CQX, CVY, KA1, KA2, KB, SP, SV, _layout, _state
 from ...kernels.beams.ffr import FFR_M, FFR_MXQ, _emit_beams, _ffr_local, _ffr_scratch
 from ...kernels.loads.friction import _emit_friction_lam
-from ...kernels.schema import (BCOL, BEAM, FRI, MASS, MRIG, ROW_ELEMENT, _0, _NO, _YES, _f, _i,
-                               _jit, _put, _rows)
+from ...kernels.schema import (BCOL, BEAM, FRI, MASS, MRIG, ROW_ELEMENT, _0, _NO, _YES, _f, _hot,
+                               _i, _jit, _put, _rows)
 from ...kernels.system import (_emit_G, _emit_force, _emit_hess, _emit_mass, _emit_phiq,
                                _phi_time_add, forces, phi, phiq_times, phiq_triplets,
                                phiqT_add)
@@ -36,7 +36,7 @@ def _mass_solve(I, Fl, qM, x, out):
                 out[_i(I, BCOL, k0 + a, 0)] = y[a]
 
 
-@_jit
+@_hot
 def _minus_correction(I, Fl, qx, psi, y):
     """y[:n] = M(q)^-1 Phi_q(q)^T psi at qx: minus the additive form's
     correction r(q, psi) (``HHTADD._r``); y of size n + 3, overwritten."""
@@ -45,7 +45,7 @@ def _minus_correction(I, Fl, qx, psi, y):
     _mass_solve(I, Fl, qx, y, y)
 
 
-@_jit
+@_hot
 def _rigid_mass_times(I, Fl, x):
     """x[:n] = M x[:n] on the rigid bodies' rows (the constant diagonal), 0
     on the beams' rows."""
@@ -58,7 +58,7 @@ def _rigid_mass_times(I, Fl, x):
             x[_i(I, BCOL, k0 + a, 0)] = 0.0
 
 
-@_jit
+@_hot
 def _additive_parts(rec, I, Fl, t, F_old, qx_old, w, qx, vx, z1, z2, z5, y):
     """The vectors M(q) multiplies in HHT-ADD's scaled rows 1, 2 and 5 (the
     state (qx, vx) already set): z1 = dq - ka1 a + (1 - kb)/2 y, z2 = dv -
