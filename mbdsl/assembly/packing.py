@@ -81,14 +81,24 @@ class PackedModel:
         self._views()
 
     def _views(self):
-        """The run state's views into the packed floats."""
+        """The run state's views into the packed floats (and where they sit,
+        for the copies of ``fresh``)."""
         fields = self.K.unpack(self.ints, self.floats)
+        start = self.floats.ctypes.data
+        self._places = {name: ((fields[name].ctypes.data - start) // 8 if fields[name].size
+                               else 0, fields[name].shape) for name in ("kimp", "spar")}
+        self._set_views()
+
+    def _set_views(self):
+        def view(name):
+            at, shape = self._places[name]
+            return self.floats[at:at + int(np.prod(shape))].reshape(shape)
         #: the contacts' impact speeds (k,) [m/s or rad/s]: a view into the packed
         #: floats, the contact state the kernels read, written at events
-        self.impact_speed = fields["kimp"]
+        self.impact_speed = view("kimp")
         #: the springs' held directions (k, 2) (``kernels.loads.spring_damper._free_length``): a view
         #: into the packed floats, written while a step is landed on a pass
-        spar = fields["spar"]
+        spar = view("spar")
         self.spring_held = spar[:, 3:5] if spar.ndim == 2 and spar.shape[1] >= 5 else None
 
     def fresh(self):
@@ -100,7 +110,7 @@ class PackedModel:
         model, which every ``integrate`` call paid."""
         out = copy.copy(self)
         out.ints, out.floats = self.ints.copy(), self.floats.copy()
-        out._views()
+        out._set_views()
         return out
 
 

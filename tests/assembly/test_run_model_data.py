@@ -25,6 +25,12 @@ def test_a_runs_model_data_are_a_fresh_packing_of_its_own(name):
     for cm in (first, second):
         assert np.array_equal(cm.ints, packed.ints) and np.array_equal(cm.floats, packed.floats)
     assert not np.shares_memory(first.floats, second.floats)
+    for cm in (first, second):                   # the views sit where the kernels read them
+        fields = cm.K.unpack(cm.ints, cm.floats)
+        assert cm.impact_speed.__array_interface__ == fields["kimp"].__array_interface__
+        if cm.spring_held is not None:
+            held = fields["spar"][:, 3:5]
+            assert cm.spring_held.__array_interface__ == held.__array_interface__
     if first.impact_speed.size:
         first.impact_speed[:] = 7.0
         assert not np.any(second.impact_speed == 7.0)
