@@ -89,16 +89,18 @@ class PackedModel:
                                else 0, fields[name].shape) for name in ("kimp", "spar")}
         self._set_views()
 
+    def _view(self, name):
+        """Field ``name`` of the packed floats, as a view at its recorded place."""
+        at, shape = self._places[name]
+        return self.floats[at:at + int(np.prod(shape))].reshape(shape)
+
     def _set_views(self):
-        def view(name):
-            at, shape = self._places[name]
-            return self.floats[at:at + int(np.prod(shape))].reshape(shape)
         #: the contacts' impact speeds (k,) [m/s or rad/s]: a view into the packed
         #: floats, the contact state the kernels read, written at events
-        self.impact_speed = view("kimp")
+        self.impact_speed = self._view("kimp")
         #: the springs' held directions (k, 2) (``kernels.loads.spring_damper._free_length``): a view
         #: into the packed floats, written while a step is landed on a pass
-        spar = view("spar")
+        spar = self._view("spar")
         self.spring_held = spar[:, 3:5] if spar.ndim == 2 and spar.shape[1] >= 5 else None
 
     def fresh(self):

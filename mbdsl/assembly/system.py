@@ -291,7 +291,6 @@ class AssembledSystem:
         """Pickled without the kernel models (they hold a module)."""
         state = self.__dict__.copy()
         state["_kernel_models"], state["_kernels_built"] = {}, None
-        state.pop("_compiled_model", None)
         state.pop("_run_models", None)
         return state
 

@@ -54,7 +54,8 @@ from .base import StepState
 from .records import (LAPACK_FIELDS, LIN_FIELDS, LU_FIELDS, LU_VALID, OPTION_FIELDS, OPT_REFRESH,
                       vector)
 
-__all__ = ["ENGINES", "unsupported", "CompiledModel", "select_engine", "prepare_compiled",
+__all__ = ["ENGINES", "unsupported", "CompiledModel", "select_engine", "run_model",
+           "prepare_compiled",
            "KernelStepper",
            "newton_size", "SparseAdapter", "LinearSolverPlan", "linear_solver_plan", "band_plan",
            "band_ordering"]
@@ -135,9 +136,7 @@ def index1_multipliers(system, t, q, v) -> np.ndarray:
     if not loaded() or _unsupported_elements(system) is not None:
         return _per_contact_state(system, blocks, speeds, system.m, lambda i0, i1: (
             system.index1_multipliers(t[i0:i1], q[i0:i1], v[i0:i1])))
-    cm = getattr(system, "_compiled_model", None)
-    if cm is None:
-        cm = system._compiled_model = CompiledModel(system)
+    cm = run_model(system)                    # its impact speeds are set per block below
     out = np.empty((len(t), system.m))
     R, C = np.empty(cm.bound, np.int64), np.empty(cm.bound, np.int64)
     band = _index1_band(system)
@@ -254,8 +253,9 @@ def recipe_monomials(method):
     # per parameter set: fitted from 13 recipes, 0.2 ms of every integrate call
     key = (type(method), tuple(sorted(vars(method).items())))
     try:
-        mono = _MONOMIALS[key] if key in _MONOMIALS else _MONOMIALS.setdefault(
-            key, _fit_monomials(method))
+        if key not in _MONOMIALS:
+            _MONOMIALS[key] = _fit_monomials(method)
+        mono = _MONOMIALS[key]
     except TypeError:                         # a parameter that is not a scalar: not kept
         mono = _fit_monomials(method)
     return None if mono is None else mono.copy()
@@ -395,6 +395,18 @@ def select_engine(engine: str, system, method, compile_policy: str = "wait",
     return "compiled"
 
 
+def run_model(system, uncompiled: bool = False) -> "CompiledModel":
+    """The system's model data for one run (or one evaluation that writes
+    the run state, as the multipliers' contact blocks do): a copy
+    (``PackedModel.fresh``) of the packing kept on the system, made once
+    per system and kind of kernels."""
+    templates = system.__dict__.setdefault("_run_models", {})
+    if uncompiled not in templates:
+        templates[uncompiled] = CompiledModel(system, _kernels(uncompiled=True) if uncompiled
+                                              else None)
+    return templates[uncompiled].fresh()
+
+
 def prepare_compiled(system, method, options, q, announce=None, python_loop=False,
                      uncompiled=False):
     """(CompiledModel, LinearSolverPlan, seconds): the kernels' model data and
@@ -409,11 +421,7 @@ def prepare_compiled(system, method, options, q, announce=None, python_loop=Fals
     t0 = time.perf_counter()
     if not uncompiled:
         ensure_loaded(None, announce)         # compiles everything, announced, if not built
-    templates = system.__dict__.setdefault("_run_models", {})   # packed once per system
-    if uncompiled not in templates:
-        templates[uncompiled] = CompiledModel(system, _kernels(uncompiled=True) if uncompiled
-                                              else None)
-    cm = templates[uncompiled].fresh()        # the run's own copy: its events write into it
+    cm = run_model(system, uncompiled)        # the run's own copy: its events write into it
     plan = linear_solver_plan(system, method, options, q, cm)  # banded: calls a kernel
     if not uncompiled:                        # this loop's entry points
         ensure_loaded("sparse" if python_loop else plan.kind, announce)
