@@ -15,7 +15,7 @@ Bytes per step (8-byte floats, n coordinates, m rows, size = n + m
 unknowns, band storage (2 kl + ku + 1) x size, triplet bound P):
 
 * per iteration: the residual, model data (ints + floats) + 10 vectors of
-  size; the band solve (LAPACK ``dgbtrs``), the factors + pivots + 6
+  size; the band solve (``linalg._band_substitute``), the factors + pivots + 6
   vectors of size (permutation in, two triangular sweeps, permutation
   out); the iteration's own updates, 5 vectors of size;
 * per factorization: the triplets written and read back (24 bytes each,
@@ -25,8 +25,8 @@ unknowns, band storage (2 kl + ku + 1) x size, triplet bound P):
   the multipliers' mobility, model data + 2 vectors), the output row:
   10 vectors of size.
 
-The count leaves out the arithmetic, the LAPACK calls' per-column
-overhead and every cache miss beyond one pass: it is a lower bound.
+The count leaves out the arithmetic, the band LU's per-column library
+calls and every cache miss beyond one pass: it is a lower bound.
 
 Run:  python benchmarks/bandwidth_bound.py [--sizes 1000,10000] [--method hht-i3]
 Not part of CI; docs/performance.md keeps the latest figures.

@@ -2,7 +2,7 @@
 
 The Newton matrices of a step are small: the compiled loop's dense inverse
 (up to ``assembly.sparse.DENSE_LIMIT`` unknowns) and band LU (LAPACK
-dgetrf/dgetri and dgbtrf/dgbtrs, called from the kernels through scipy's
+dgetrf/dgetri and dgbtrf, called from the kernels through scipy's
 OpenBLAS), the numpy engine's dense LU. A threaded BLAS gains nothing on
 them, and where the cores are shared it loses badly: OpenBLAS's threads
 wait for one another by spinning, so a run beside other busy processes

@@ -16,7 +16,7 @@ events and switches, halves failed steps and lets Ctrl-C through:
 * above it, when a bandwidth-reducing ordering (reverse Cuthill-McKee,
   scipy.sparse.csgraph) makes the Newton matrix narrow-banded (chains,
   linkages built link by link), the same compiled loop with LAPACK's band
-  LU (dgbtrf/dgbtrs, called from the kernels);
+  LU (dgbtrf, called from the kernels, and its band substitution);
 * otherwise, the Python Newton iteration (``python_stepper.PythonStepper``,
   :mod:`.newton`) on compiled residuals and Newton matrices assembled on a
   CSC pattern fixed at the start (:class:`SparseAdapter`), with SuperLU.
@@ -461,8 +461,8 @@ class LinearSolverPlan:
     blocks : int
         "banded": 1, or 2 for HHT-SI2 split into its (a, lambda) and (abar,
         mu) blocks (see ``compiled``, "Linear solvers").
-    addresses : ndarray of int64, shape (2,) or None
-        "banded": dgbtrf and dgbtrs (``integrators.compiled.linalg.lapack_band_addresses``).
+    addresses : ndarray of int64, shape (1,) or None
+        "banded": dgbtrf's (``integrators.compiled.linalg.lapack_band_addresses``).
     why : str
         The reason for the choice, for reports.
     """
@@ -493,7 +493,7 @@ class LinearSolverPlan:
         if self.kind == "dense":
             J, Jinv, AB = np.empty((size, size)), np.empty((size, size)), one
             ipiv, rperm, cperm = np.zeros(1, np.int32), np.zeros(1, i8), np.zeros(1, i8)
-            addresses, Lr, Lc, Lv = np.zeros(2, i8), np.zeros(1, i8), np.zeros(1, i8), np.zeros(1)
+            addresses, Lr, Lc, Lv = np.zeros(1, i8), np.zeros(1, i8), np.zeros(1, i8), np.zeros(1)
         else:
             J = Jinv = one
             AB = np.zeros((size, ldab))
@@ -502,11 +502,10 @@ class LinearSolverPlan:
             nL = bound if self.blocks == 2 else 1
             Lr, Lc, Lv = np.zeros(nL, i8), np.zeros(nL, i8), np.zeros(nL)
         s = size // max(self.blocks, 1)
-        lp = vector(LAPACK_FIELDS, np.int32, m=s, n=s, kl=self.kl, ku=self.ku, ldab=ldab, nrhs=1,
-                    ldb=s, info=0, blocks=self.blocks, nc=0)
+        lp = vector(LAPACK_FIELDS, np.int32, m=s, n=s, kl=self.kl, ku=self.ku, ldab=ldab, info=0,
+                    blocks=self.blocks, nc=0)
         lin = dict(J=J, Jinv=Jinv, AB=AB, ipiv=ipiv, rperm=rperm, cperm=cperm, lp=lp,
-                   addr=addresses, trans=np.array([ord("N")], np.uint8), b=np.empty(size),
-                   Lr=Lr, Lc=Lc, Lv=Lv)
+                   addr=addresses, b=np.empty(size), Lr=Lr, Lc=Lc, Lv=Lv)
         return tuple(lin[name] for name in LIN_FIELDS)
 
 

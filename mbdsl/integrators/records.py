@@ -55,19 +55,18 @@ LU_VALID, LU_RATE, LU_STEP, LU_C0 = range(4)
 
 #: The linear solver's workspace (a tuple, ``engine.SolverPlan.workspace``): the dense
 #: Newton matrix and its inverse, the band storage, pivots, the band ordering's row and
-#: column permutations, LAPACK's arguments (``LAPACK_FIELDS``), the two LAPACK routines'
-#: addresses, the transpose flag, the right-hand side, and the triplets of the additive
-#: form's lower block.
-LIN_FIELDS = ("J", "Jinv", "AB", "ipiv", "rperm", "cperm", "lp", "addr", "trans", "b", "Lr",
-              "Lc", "Lv")
-(LIN_J, LIN_JINV, LIN_AB, LIN_IPIV, LIN_RPERM, LIN_CPERM, LIN_LP, LIN_ADDR, LIN_TRANS, LIN_B,
- LIN_LR, LIN_LC, LIN_LV) = range(13)
+#: column permutations, LAPACK's arguments (``LAPACK_FIELDS``), the address of LAPACK's
+#: band LU (dgbtrf), the right-hand side, and the triplets of the additive form's lower
+#: block.
+LIN_FIELDS = ("J", "Jinv", "AB", "ipiv", "rperm", "cperm", "lp", "addr", "b", "Lr", "Lc", "Lv")
+(LIN_J, LIN_JINV, LIN_AB, LIN_IPIV, LIN_RPERM, LIN_CPERM, LIN_LP, LIN_ADDR, LIN_B,
+ LIN_LR, LIN_LC, LIN_LV) = range(12)
 
 #: LAPACK's integer arguments (int32, ``lin[LIN_LP]``), passed by reference as one-entry
-#: slices: dgbtrf's M and N, KL, KU, LDAB, dgbtrs' NRHS and LDB, INFO; then the blocks
-#: of the matrix (1, or 2 for the additive form) and the lower block's triplets.
-LAPACK_FIELDS = ("m", "n", "kl", "ku", "ldab", "nrhs", "ldb", "info", "blocks", "nc")
-(LP_M, LP_N, LP_KL, LP_KU, LP_LDAB, LP_NRHS, LP_LDB, LP_INFO, LP_BLOCKS, LP_NC) = range(10)
+#: slices: dgbtrf's M and N, KL, KU, LDAB, INFO; then the blocks of the matrix (1, or 2
+#: for the additive form) and the lower block's triplets.
+LAPACK_FIELDS = ("m", "n", "kl", "ku", "ldab", "info", "blocks", "nc")
+(LP_M, LP_N, LP_KL, LP_KU, LP_LDAB, LP_INFO, LP_BLOCKS, LP_NC) = range(8)
 
 #: The Newton counts since the last recorded row (int64, ``loop.RowBuffers.counts``):
 #: iterations, residuals, Newton matrices, factorizations, steps whose multipliers

@@ -223,6 +223,41 @@ def test_band_factor_and_solve_against_numpy():
     assert K._factor(K.BANDED, lin, R, C, V, len(R)) == K.NONFINITE
 
 
+@pytest.mark.parametrize("size, kl, ku", [(60, 4, 4), (200, 2, 7), (30, 0, 3), (40, 3, 0),
+                                          (1, 2, 2), (7, 5, 5)])
+def test_band_substitution_is_lapacks_dgbtrs_bit_for_bit(size, kl, ku):
+    """The kernels' band substitution on dgbtrf's factors gives LAPACK's
+    dgbtrs result to the last bit (scipy's, the same library), on random
+    band matrices that pivot, with the factors of a second block beside
+    the first (HHT-SI2's split) and with no sub- or superdiagonal."""
+    from scipy.linalg import lapack
+    from mbdsl.integrators.compiled.linalg import _band_substitute
+    rng = np.random.default_rng(size + 10 * kl + 100 * ku)
+    ldab = 2 * kl + ku + 1
+    ab = np.zeros((ldab, size))                    # LAPACK's band storage, column-major
+    for j in range(size):
+        for i in range(max(0, j - ku), min(size, j + kl + 1)):
+            ab[kl + ku + i - j, j] = rng.standard_normal()
+    lu, piv, info = lapack.dgbtrf(ab, kl, ku)
+    assert info == 0
+    if kl and size > 1:
+        assert (piv != np.arange(size)).any()      # rows were interchanged
+    b = rng.standard_normal(size)
+    x_lapack, info = lapack.dgbtrs(lu, kl, ku, b, piv)
+    assert info == 0
+    AB = np.vstack([np.zeros((size, ldab)), lu.T])  # the kernels' (size x ldab) storage
+    ipiv = np.concatenate([np.ones(size), piv + 1]).astype(np.int32)   # 1-based
+    x = np.concatenate([np.full(size, 7.0), b])
+    _band_substitute(AB, ipiv, x, size, size, kl, ku)
+    assert np.array_equal(x[size:], x_lapack)
+    assert (x[:size] == 7.0).all()                 # the other block untouched
+    A = np.zeros((size, size))                     # and it solves the matrix
+    for j in range(size):
+        for i in range(max(0, j - ku), min(size, j + kl + 1)):
+            A[i, j] = ab[kl + ku + i - j, j]
+    assert np.abs(A @ x[size:] - b).max() < 1e-10 * max(1.0, np.abs(x_lapack).max())
+
+
 def test_band_ordering_of_a_chain_and_the_automatic_choice():
     # a pendulum chain is a path graph: each link couples only to its neighbours,
     # so the reordered HHT-I3 matrix (3 coordinates + 2 multipliers per link) has a

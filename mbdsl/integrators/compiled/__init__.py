@@ -36,10 +36,11 @@ one of two linear solvers (``_factor``, ``_solve``):
   through ``numpy.linalg.inv``; the inverse is only used to compute Newton
   updates, while the residual is evaluated exactly, so its round-off
   changes the contraction, never the converged solution;
-* BANDED: LAPACK's band LU with partial pivoting (dgbtrf, dgbtrs) on the
-  Newton matrix reordered by reverse Cuthill-McKee (``engine.band_ordering``),
-  called through the addresses scipy.linalg.cython_lapack exports. The
-  addresses are arguments, not constants, so the kernels stay cacheable
+* BANDED: LAPACK's band LU with partial pivoting (dgbtrf) on the Newton
+  matrix reordered by reverse Cuthill-McKee (``engine.band_ordering``),
+  called through the address scipy.linalg.cython_lapack exports, and its
+  band substitution (dgbtrs's operations, ``linalg._band_substitute``). The
+  address is an argument, not constants, so the kernels stay cacheable
   (numba refuses to cache code that embeds a ctypes pointer).
 """
 

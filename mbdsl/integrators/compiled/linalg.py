@@ -1,16 +1,17 @@
 """The linear solvers of the compiled Newton iteration: an explicit dense
 inverse (LAPACK through ``numpy.linalg.inv``) or LAPACK's band LU (dgbtrf,
-dgbtrs) called through the addresses scipy exports.
+called through the address scipy exports) with the band substitution of
+LAPACK's dgbtrs written here (``_band_substitute`` says why).
 
-``lin`` = (J, Jinv^T, AB, ipiv, rperm, cperm, lp, addr, trans, b, Lr, Lc, Lv):
+``lin`` = (J, Jinv^T, AB, ipiv, rperm, cperm, lp, addr, b, Lr, Lc, Lv):
 the dense Newton matrix and its inverse, stored transposed (size x size;
 DENSE), and for BANDED: the band storage AB (size x ldab in C order, i.e. LAPACK's
 column-major ldab x size, ldab = 2 kl + ku + 1), LAPACK's pivots, the
 orderings (equation i is row rperm[i], unknown j is column cperm[j] of the
-band matrix), the integer arguments lp = (s, s, kl, ku, ldab, 1, s, info,
-blocks, coupling count) with s = size / blocks, the addresses of dgbtrf
-and dgbtrs (``lapack_band_addresses``), the character "N", a right-hand
-side buffer, and the triplets of the coupling block (below).
+band matrix), the integer arguments lp = (s, s, kl, ku, ldab, info,
+blocks, coupling count) with s = size / blocks, dgbtrf's address
+(``lapack_band_addresses``), a right-hand side buffer, and the triplets of
+the coupling block (below).
 
 Blocks: with one block the band matrix is the Newton matrix reordered.
 With two (HHT-SI2: block 0 = the (a, lambda) unknowns with the dynamics
@@ -37,13 +38,14 @@ import numpy as np
 from mbdsl.integrators.outcomes import (CONVERGED, NONFINITE, SINGULAR)
 from mbdsl.integrators.records import (LIN_AB, LIN_ADDR, LIN_B, LIN_CPERM, LIN_IPIV, LIN_J,
                                        LIN_JINV, LIN_LC, LIN_LP, LIN_LR, LIN_LV, LIN_RPERM,
-                                       LIN_TRANS, LP_BLOCKS, LP_INFO, LP_KL, LP_KU, LP_LDAB,
-                                       LP_LDB, LP_M, LP_N, LP_NC, LP_NRHS)
+                                       LP_BLOCKS, LP_INFO, LP_KL, LP_KU, LP_LDAB, LP_M, LP_N,
+                                       LP_NC)
 
 from ...kernels.schema import _hot, _jit
 
 #: Linear solvers of the compiled loop: explicit inverse (LAPACK getrf/getri through
-#: numpy.linalg.inv), or LAPACK's band LU (dgbtrf/dgbtrs) on a bandwidth-reducing ordering.
+#: numpy.linalg.inv), or LAPACK's band LU (dgbtrf, then ``_band_substitute``) on a
+#: bandwidth-reducing ordering.
 DENSE, BANDED = 0, 1
 
 
@@ -71,9 +73,9 @@ def _fortran_call(typingctx, address, args):
     return sig, codegen
 
 
-def lapack_band_addresses(names=("dgbtrf", "dgbtrs")):
+def lapack_band_addresses(names=("dgbtrf",)):
     """int64 array: the addresses of LAPACK's routines ``names`` (default the
-    band LU, dgbtrf and dgbtrs; the band Cholesky is dpbtrf, dpbtrs) in
+    band LU's factorization dgbtrf; the band Cholesky is dpbtrf, dpbtrs) in
     scipy.linalg.cython_lapack (the LAPACK scipy itself links), or None when
     that build uses 64-bit integers (the kernels pass 32-bit ones)."""
     import scipy
@@ -159,6 +161,45 @@ def _factor(solver, lin, R, C, V, p):
 
 
 @_hot
+def _band_substitute(AB, ipiv, b, off, s, kl, ku):
+    """b[off:off + s] = A^-1 b[off:off + s] for the band matrix A whose LU
+    factors dgbtrf left in AB[off:off + s] with pivots ipiv[off:off + s]
+    (1-based, as LAPACK writes them): the row interchanges and unit lower
+    factor column by column, then the banded upper triangle of kl + ku
+    superdiagonals from the last column back; the operations of LAPACK's
+    dgbtrs (TRANS = 'N'; its dger and dtbsv, Golub and Van Loan, Matrix
+    Computations, 4th ed., sec. 4.3.5) in the same order.
+
+    Written here, not called: dgbtrs makes two BLAS calls per column (dger,
+    and dtbsv's daxpy) on kl or kl + ku numbers, and on a chain's band of 4
+    their call and dispatch outweigh the arithmetic. On the 1 000-link chain
+    (hht-i3) perf put 36 % of a step in those calls; with this loop the step
+    fell from 1.6-1.7 to 1.2 ms, with results equal to the bit
+    (``docs/performance.md``). The factorization stays LAPACK's: the same
+    loop for dgbtf2 was measured no faster than the library."""
+    diag = kl + ku
+    if kl > 0:
+        for j in range(s - 1):
+            col = off + j
+            lm = min(kl, s - 1 - j)
+            piv = off + ipiv[col] - 1
+            bj = b[piv]
+            if piv != col:
+                b[piv] = b[col]
+                b[col] = bj
+            if bj != 0.0:
+                for i in range(1, lm + 1):
+                    b[col + i] -= AB[col, diag + i] * bj
+    for j in range(s - 1, -1, -1):
+        col = off + j
+        if b[col] != 0.0:
+            bj = b[col] / AB[col, diag]
+            b[col] = bj
+            for i in range(1, min(diag, j) + 1):
+                b[col - i] -= bj * AB[col, diag - i]
+
+
+@_hot
 def _solve(solver, lin, r, dw):
     """dw = J^-1 r with the factorization of ``_factor``."""
     size = r.shape[0]
@@ -176,7 +217,7 @@ def _solve(solver, lin, r, dw):
                 dw[i] += JinvT[k, i] * rk
         return
     AB, ipiv, rperm, cperm = lin[LIN_AB], lin[LIN_IPIV], lin[LIN_RPERM], lin[LIN_CPERM]
-    lp, addr, trans, b = lin[LIN_LP], lin[LIN_ADDR], lin[LIN_TRANS], lin[LIN_B]
+    lp, b = lin[LIN_LP], lin[LIN_B]
     Lr, Lc, Lv = lin[LIN_LR], lin[LIN_LC], lin[LIN_LV]
     s, blocks = lp[LP_M], lp[LP_BLOCKS]
     for i in range(size):
@@ -185,11 +226,6 @@ def _solve(solver, lin, r, dw):
         if blk == 1:                                   # block 1's rows: r2 - L21 x1
             for k in range(lp[LP_NC]):
                 b[s + Lr[k]] -= Lv[k] * b[Lc[k]]
-        # dgbtrs(TRANS, N, KL, KU, NRHS, AB, LDAB, IPIV, B, LDB, INFO)
-        _fortran_call(addr[1], (trans, lp[LP_N:LP_N + 1], lp[LP_KL:LP_KL + 1],
-                                lp[LP_KU:LP_KU + 1], lp[LP_NRHS:LP_NRHS + 1],
-                                AB[blk * s:(blk + 1) * s], lp[LP_LDAB:LP_LDAB + 1],
-                                ipiv[blk * s:(blk + 1) * s], b[blk * s:(blk + 1) * s],
-                                lp[LP_LDB:LP_LDB + 1], lp[LP_INFO:LP_INFO + 1]))
+        _band_substitute(AB, ipiv, b, blk * s, s, lp[LP_KL], lp[LP_KU])
     for i in range(size):
         dw[i] = b[cperm[i]]
