@@ -90,8 +90,10 @@ class StepControl:
     safety, min_factor, max_factor : float
         The step-size rule's safety factor and its bounds on one change.
     index1 : bool
-        An index-3 method's estimate on its index-1 accelerations
-        (:func:`index1_acceleration`; module notes); False: on its own.
+        An index-3 method's estimate, and HHT-ADD's on a + R_II, on their
+        index-1 projections (:func:`index1_acceleration`,
+        ``Method.estimate_on_index1``; docs/methods.md); False: on the
+        accelerations themselves.
 
     Raises
     ------

@@ -149,6 +149,27 @@ class Method(ABC):
     #: (``newton.py``) reads the constraint rows by it.
     saddle_point_rows: bool = True
 
+    @property
+    def estimate_on_index1(self) -> bool:
+        """Whether an error-controlled step's estimate reads the index-1
+        projection of :meth:`estimate_acceleration` (``StepControl.index1``,
+        ``adaptive.index1_acceleration``): the index-3 methods, whose own a
+        meets only Phi = 0, its normal part the multipliers' round-off over
+        beta h^2."""
+        return self.index == 3
+
+    def constraint_rows(self, system) -> np.ndarray | None:
+        """The residual's rows that hold Phi and, at index 2, Phi_q v + Phi_t,
+        shape (N,) of bool, where they are not the rows of the multiplier
+        unknowns (Newton's round-off test, ``newton.py``); None: they are
+        (``saddle_point_rows``)."""
+        return None
+
+    def estimate_acceleration(self, system, state: StepState) -> np.ndarray:
+        """The acceleration (n,) [m/s^2, rad/s^2] whose change over a step the
+        error estimate reads (``local_error``): the carried a."""
+        return state.a
+
     #: epsilon = AUGMENTED_EPSILON / (largest body mass): small against the
     #: smallest non-zero singular value of Phi_q M^-1 Phi_q^T of a mechanism
     #: away from a singular position (so a full-rank step converges as with

@@ -60,7 +60,7 @@ the other rows alone ask for, J^-1 r with the constraint rows of r set to
 zero, meets the tolerance, the step is converged at round-off as well
 (counted in ``multipliers_stalled``). The constraint rows are the rows of
 the multiplier unknowns (``kinds``), as in every saddle-point form here but
-HHT-ADD's, which passes no test.
+HHT-ADD's, which names its own (``Method.constraint_rows``).
 
 Jacobian policies (:class:`JacobianUpdate`):
 
@@ -298,7 +298,7 @@ class Newton:
         self._lu, self._key = None, None
 
     def solve(self, residual, jacobian, w0: np.ndarray, kinds: np.ndarray, scales: np.ndarray,
-              key=None, floor=0.0, at_roundoff=None) -> NewtonResult:
+              key=None, floor=0.0, at_roundoff=None, constraint_rows=None) -> NewtonResult:
         """Solve residual(w) = 0 from w0.
 
         Parameters
@@ -319,7 +319,11 @@ class Newton:
         at_roundoff : callable w -> bool, optional
             Whether the iterate w meets its constraints to round-off (the
             residual test of the module docstring); its rows are those of
-            ``kinds``. None: the stall is read on the update alone.
+            ``kinds`` unless ``constraint_rows`` says otherwise. None: the
+            stall is read on the update alone.
+        constraint_rows : ndarray of bool, shape (N,), optional
+            The residual's constraint rows, where they are not the rows of
+            the multiplier unknowns (HHT-ADD: ``Method.constraint_rows``).
 
         Returns
         -------
@@ -373,7 +377,8 @@ class Newton:
             diverging = theta > 100.0 or (grows >= 2 and norm > ROUNDOFF_BAND)
             if ((stalls >= 2 or diverging) and not roundoff and norm > 1.0
                     and at_roundoff is not None and at_roundoff(w + dw)
-                    and self._rest_converged(lu, r, mult, weight)):
+                    and self._rest_converged(lu, r, mult if constraint_rows is None
+                                             else constraint_rows, weight)):
                 w = w + dw          # the iterate whose residual r was read
                 roundoff = True
             if norm == 0.0 or (eta * norm <= 1.0 and norm <= 1.0) or roundoff:

@@ -84,9 +84,12 @@ class PythonStepper:
         blocks = method.blocks(system)
         self.kinds = np.concatenate([np.full(b.size, b.kind == "multiplier") for b in blocks])
         # Newton's round-off test on the residual (newton.py): the saddle-point forms, their
-        # Phi_q v + Phi_t rows too at index 2 (a second block of multipliers)
-        self.roundoff_rows = (None if not method.saddle_point_rows
-                              else int(self.kinds.sum()) == 2 * system.m)
+        # Phi_q v + Phi_t rows too at index 2 (a second block of multipliers); the
+        # additive form on the constraint rows it names, both levels
+        self.constraint_rows = method.constraint_rows(system)
+        self.roundoff_rows = (int(self.kinds.sum()) == 2 * system.m
+                              if method.saddle_point_rows or self.constraint_rows is not None
+                              else None)
         sparse = _loop.sparse_newton(newton.options, len(self.kinds))
         self.assembler = JacobianAssembler(len(self.kinds), sparse=sparse)
         self.history = None
@@ -160,8 +163,8 @@ class PythonStepper:
         from .engine import _kernels
         K = _kernels(uncompiled=system.kernel_model().uncompiled)
         step_end, step_ratio = K.step_end, K.step_ratio    # the compiled loop's rules (compiled/loop.py)
-        # an index-3 method's error estimate on its index-1 accelerations (as compiled)
-        index1 = (not fixed and control.index1 and method.index == 3
+        # the error estimate on the index-1 accelerations (as compiled)
+        index1 = (not fixed and control.index1 and method.estimate_on_index1
                   and 0 < system.m <= K.INDEX1_LIMIT and not system.frictions)
         clock = _time.perf_counter
         started = clock()
@@ -229,22 +232,25 @@ class PythonStepper:
 
     def _error_norm(self, ctx, new, step, index1) -> float:
         """The weighted norm of the step's local error estimate (at most 1:
-        accepted), on the index-1 accelerations for an index-3 method where
-        ``index1`` says so (:meth:`_index1_error`)."""
+        accepted), on the index-1 accelerations where ``index1`` says so
+        (``Method.estimate_on_index1``, :meth:`_index1_error`)."""
         method = self.method
         e = self._index1_error(ctx, new) if index1 else method.local_error(ctx, new)
         return self.control.norm(e, ctx.last.q, new.q, step,
                                  noise=abs(method.error_coefficient(ctx)[0]) / step ** 2)
 
     def _index1_error(self, ctx, new):
-        """An index-3 method's local error estimate on its index-1 accelerations
-        (``adaptive.index1_acceleration``), that of the step's start kept from
-        the step before; new's in ``new.extra["a1"]``."""
-        system, last = self.system, ctx.last
+        """The local error estimate on the index-1 projections of the
+        method's ``estimate_acceleration`` (``adaptive.index1_acceleration``),
+        that of the step's start kept from the step before; new's in
+        ``new.extra["a1"]``."""
+        system, last, method = self.system, ctx.last, self.method
         a_old = last.extra.get("a1")
         if a_old is None:
-            a_old = index1_acceleration(system, last.t, last.q, last.v, last.a)
-        a_new = new.extra["a1"] = index1_acceleration(system, new.t, new.q, new.v, new.a)
+            a_old = index1_acceleration(system, last.t, last.q, last.v,
+                                        method.estimate_acceleration(system, last))
+        a_new = new.extra["a1"] = index1_acceleration(
+            system, new.t, new.q, new.v, method.estimate_acceleration(system, new))
         c, absolute = self.method.error_coefficient(ctx)
         return c * (a_new if absolute else a_new - a_old)
 
@@ -272,7 +278,7 @@ class PythonStepper:
         res = self.newton.solve(lambda w: method.residual(w, ctx),
                                 lambda w: method.jacobian(w, ctx), w0, self.kinds, scales,
                                 key=key, floor=method.roundoff_floor(system, step, ctx.last.q),
-                                at_roundoff=at_roundoff)
+                                at_roundoff=at_roundoff, constraint_rows=self.constraint_rows)
         return ctx, res
 
     def _accept(self, ls, new, step, t_new, carry, state, history):

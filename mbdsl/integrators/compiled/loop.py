@@ -109,6 +109,22 @@ def _total_acceleration(I, Fl, n, qx, a, psi, R, C, V, out):
 
 
 @_jit
+def _estimate_acceleration(I, Fl, n, m, t, qx, vx, a, psi, additive, index1, out, R, C, V, S1,
+                           col1, g1, y1):
+    """The acceleration at (t, qx, vx) whose change the step's error estimate
+    reads, into out (n,) [m/s^2, rad/s^2]: the additive form's a + R_II
+    (psi = psi_II), which sees the constraint forces, and with ``index1``
+    the index-1 projection of it or of a (``_index1_acceleration``, in
+    place; ``_run_flags`` says when); else nothing (the estimate reads a)."""
+    if additive:
+        _total_acceleration(I, Fl, n, qx, a, psi, R, C, V, out)
+        if index1:
+            _index1_acceleration(I, Fl, n, m, t, qx, vx, out, out, R, C, V, S1, col1, g1, y1)
+    elif index1:
+        _index1_acceleration(I, Fl, n, m, t, qx, vx, a, out, R, C, V, S1, col1, g1, y1)
+
+
+@_jit
 def _recipe_at(mono, h, c0, w0, w1, rec):
     """The recipe at step size h and BDF coefficients c0, w0, w1 from its
     monomials (``engine.recipe_monomials``, mono (5, F)): rec[i] =
@@ -267,14 +283,16 @@ def _run_flags(mono, I, Fl, rc, m, ctl, has_extra, mode):
     An index-3 recipe (no velocity constraints, not additive) takes its error
     estimate on its index-1 accelerations: the normal part of its own is the
     multipliers' round-off over beta h^2, which a tolerance per unit step
-    would chase; not where friction reads the multipliers (their oscillation
-    then moves q: the estimate sees it)."""
+    would chase. So does the additive form, on its total acceleration a +
+    R_II, whose normal part carries R_I's round-off, Phi(q_n)'s residual over
+    h^2 / 2 (``HHTADD.estimate_on_index1``). Not where friction reads the
+    multipliers (their oscillation then moves q: the estimate sees it)."""
     two_step = False                    # a recipe reading c0, w0, w1
     for i in range(mono.shape[2]):
         two_step = two_step or mono[1, 2, i] != 0.0 or mono[1, 3, i] != 0.0 \
             or mono[1, 4, i] != 0.0
     fixed = ctl[CTL_FIXED] != 0.0
-    index1 = (not fixed and ctl[CTL_INDEX1] != 0.0 and rc[FORM] != ADDITIVE and not has_extra
+    index1 = (not fixed and ctl[CTL_INDEX1] != 0.0 and (rc[FORM] == ADDITIVE or not has_extra)
               and 0 < m <= INDEX1_LIMIT and _rows(I, FRI) == 0)
     gaps = _rows(I, KGI) > 0 and mode != LAND
     springs = False                     # spring-dampers with a free length
@@ -300,8 +318,12 @@ def _start_estimate(I, Fl, n, m, t0, q, v, a, lam, additive, fixed, index1, qx_o
     if index1:
         qx_old[:n] = q
         vx[:n] = v
-        _index1_acceleration(I, Fl, n, m, t0, qx_old, vx, a, acc_old, R, C, V, S1, col1, g1,
-                             y1)
+        if additive:        # the projection of a + R_II, in place
+            _index1_acceleration(I, Fl, n, m, t0, qx_old, vx, acc_old, acc_old, R, C, V, S1,
+                                 col1, g1, y1)
+        else:
+            _index1_acceleration(I, Fl, n, m, t0, qx_old, vx, a, acc_old, R, C, V, S1, col1,
+                                 g1, y1)
     return acc_old, acc_new, S1, col1, g1, y1
 
 
@@ -438,11 +460,8 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
             _advance(rc, b_new, a, w[a0:a0 + n])
         err, factor = 0.0, fmax
         if not fixed:
-            if additive:    # HHT-ADD: the change of a + R_II, which sees the constraint forces
-                _total_acceleration(I, Fl, n, qx, w[a0:a0 + n], w[l0:l0 + m], R, C, V, acc_new)
-            elif index1:
-                _index1_acceleration(I, Fl, n, m, t_new, qx, vx, w[a0:a0 + n], acc_new, R, C, V,
-                                     S1, col1, g1, y1)
+            _estimate_acceleration(I, Fl, n, m, t_new, qx, vx, w[a0:a0 + n], w[l0:l0 + m],
+                                   additive, index1, acc_new, R, C, V, S1, col1, g1, y1)
             err = _error_norm(rc, n, q, qx, w[a0:a0 + n], a, b, b_new, additive, acc_old,
                               acc_new, rtol, atol, step, index1, d_err)
             if err > 1.0 or after_rejection:        # the filter restarts after a rejection

@@ -12,7 +12,7 @@ from mbdsl.integrators.records import (CNT_FACTORIZATIONS, CNT_ITERATIONS, CNT_J
                                        CNT_RESIDUALS, CNT_STALLED, LU_RATE, LU_VALID, OPT_FULL,
                                        OPT_MAX_ITER, OPT_REFRESH)
 
-from .layout import FORM, HAS_Y, LINEAR, REG, SP, SV, _layout
+from .layout import ADDITIVE, FORM, HAS_Y, REG, SP, SV, _layout
 from .linalg import _factor, _solve
 from .recipes import _jacobian_triplets, _residual
 from ...kernels.schema import EPS, MASS, ROUNDOFF_BAND, ROW_ELEMENT, _hot, _rows
@@ -85,8 +85,7 @@ def _newton(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, weight, opts, solve
         roundoff = stalls >= 2 and norm <= ROUNDOFF_BAND
         grows = grows + 1 if (prev >= 0.0 and theta >= 1.0 and current) else 0
         diverging = theta > 100.0 or (grows >= 2 and norm > ROUNDOFF_BAND)
-        if ((stalls >= 2 or diverging) and not roundoff and norm > 1.0 and rec[FORM] == LINEAR
-                and rec[REG] == 0.0
+        if ((stalls >= 2 or diverging) and not roundoff and norm > 1.0 and rec[REG] == 0.0
                 and _rest_at_roundoff(rec, I, solver, lin, r, qx, vx, weight, spare)):
             for i in range(size):         # the iterate whose residual r was read
                 w[i] += dw[i]
@@ -119,11 +118,16 @@ def _rest_at_roundoff(rec, I, solver, lin, r, qx, vx, weight, spare):
     (Phi scaled by sP, at index 2 Phi_q v + Phi_t scaled by sV) within
     ROUNDOFF_ULPS ulps of their terms, and the update the other rows alone
     ask for, J^-1 r' (r' = r with those rows zeroed, in spare[:size]; the
-    update in spare[size:]), within the tolerance."""
+    update in spare[size:]), within the tolerance. The additive form's
+    constraint rows are its E3 and E4 (Phi scaled by sP and Phi_q v + Phi_t
+    by sV, after the 2n rows of dq and dv: ``additive._residual_additive``)."""
     n, m = _rows(I, MASS), _rows(I, ROW_ELEMENT)
     if m == 0:
         return False
     size, l0, u0, _ = _layout(rec, n, m)
+    velocity = rec[HAS_Y] != 0.0
+    if rec[FORM] == ADDITIVE:
+        l0, u0, velocity = 2 * n, 2 * n + m, True
     qmax, vmax = 0.0, 0.0
     for j in range(n):
         qmax = max(qmax, abs(qx[j]))
@@ -132,7 +136,7 @@ def _rest_at_roundoff(rec, I, solver, lin, r, qx, vx, weight, spare):
     for i in range(m):
         if abs(r[l0 + i]) > abs(rec[SP]) * scale:
             return False
-    if rec[HAS_Y] != 0.0:
+    if velocity:
         for i in range(m):
             if abs(r[u0 + i]) > abs(rec[SV]) * scale * (1.0 + vmax):
                 return False
@@ -141,7 +145,7 @@ def _rest_at_roundoff(rec, I, solver, lin, r, qx, vx, weight, spare):
         rest[i] = r[i]
     for i in range(m):
         rest[l0 + i] = 0.0
-    if rec[HAS_Y] != 0.0:
+    if velocity:
         for i in range(m):
             rest[u0 + i] = 0.0
     _solve(solver, lin, rest, dw)
