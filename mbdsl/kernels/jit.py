@@ -66,10 +66,12 @@ def _borrowed(typingctx, value):
     """The compiled ``borrowed``: the struct with a NULL meminfo."""
     if isinstance(value, types.Array):
         def codegen(context, builder, signature, args):
+            """LLVM IR: the array's struct with a NULL meminfo (``_unowned``)."""
             return _unowned(context, builder, value, args[0])
         return value(value), codegen
     if isinstance(value, types.BaseTuple) and all(isinstance(t, types.Array) for t in value):
         def codegen(context, builder, signature, args):
+            """LLVM IR: the tuple of the arrays' structs, each with a NULL meminfo."""
             items = [_unowned(context, builder, t, v)
                      for t, v in zip(value, cgutils.unpack_tuple(builder, args[0]))]
             return context.make_tuple(builder, value, items)

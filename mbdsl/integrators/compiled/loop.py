@@ -309,21 +309,15 @@ def _start_estimate(I, Fl, n, m, t0, q, v, a, lam, additive, fixed, index1, qx_o
     last accepted state (the additive form's a + R_II, or the index-1
     acceleration), its successor's array and the index-1 acceleration's
     scratch: (acc_old, acc_new, S1, col1, g1, y1)."""
-    acc_old, acc_new = np.empty(n), np.empty(n)     # the additive form's a + R_II
-    if additive and not fixed:                      # at the last accepted state, then carried
-        qx_old[:n] = q
-        _total_acceleration(I, Fl, n, qx_old, a, lam, R, C, V, acc_old)
+    acc_old, acc_new = np.empty(n), np.empty(n)     # at the last accepted state, then carried
     k1 = m if index1 else 0                         # the index-1 acceleration's scratch
     S1, col1, g1, y1 = np.empty((k1, k1)), np.empty(k1), np.empty(k1), np.empty(n + 3)
-    if index1:
+    if not fixed:
         qx_old[:n] = q
-        vx[:n] = v
-        if additive:        # the projection of a + R_II, in place
-            _index1_acceleration(I, Fl, n, m, t0, qx_old, vx, acc_old, acc_old, R, C, V, S1,
-                                 col1, g1, y1)
-        else:
-            _index1_acceleration(I, Fl, n, m, t0, qx_old, vx, a, acc_old, R, C, V, S1, col1,
-                                 g1, y1)
+        if index1:
+            vx[:n] = v
+        _estimate_acceleration(I, Fl, n, m, t0, qx_old, vx, a, lam, additive, index1, acc_old,
+                               R, C, V, S1, col1, g1, y1)
     return acc_old, acc_new, S1, col1, g1, y1
 
 
