@@ -154,11 +154,16 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
         timings["setup"] = float(setup_time) + clock() - t0
         steppers = _steppers(system, method, initial, solver, which, control, python_loop,
                              announce, h, timings)
+        upgrade = None
+        if which == "uncompiled" and engine == "auto":   # the background build's run
+            upgrade = KernelUpgrade(system, method, initial, solver, control, python_loop,
+                                    announce, h)
         note = (engine_note or _unsupported(system, method)
                 if engine in ("auto", "auto_numpy") and which == "numpy" else None)
         sizes = StepSizes.of_run(method, h, t_start, t_end, control, max_halvings, grow_after)
         sol = _run(system, method, t_start, t_end, h, initial, steppers, control, (which, note),
-                   sizes, output_every, progress, tuple(observers), timings, output_times)
+                   sizes, output_every, progress, tuple(observers), timings, output_times,
+                   upgrade)
         return _result(sol, on_failure)
 
 
@@ -242,10 +247,11 @@ def _steppers(system, method, initial, solver, which, control, python_loop, anno
 
 
 def _run(system, method, t_start, t_end, h, initial, steppers, control, engine, sizes,
-         output_every, progress, observers, timings, output_times=None):
+         output_every, progress, observers, timings, output_times=None, upgrade=None):
     """Run the time loop (``loop.TimeLoop``) on ``steppers`` (the stepper,
-    its fallback, the linear solver's name); returns the Solution, whatever
-    ended the run."""
+    its fallback, the linear solver's name; ``upgrade``: a
+    :class:`KernelUpgrade` or None); returns the Solution, whatever ended
+    the run."""
     t0 = _time.perf_counter()
     primary, fallback, linear_solver = steppers
     functions = time_switches(system)
@@ -260,8 +266,10 @@ def _run(system, method, t_start, t_end, h, initial, steppers, control, engine, 
         sink = DenseOutput(system, sol, output_times, ls.start, ls.extra)
     sol.append(ls.start, StepStats())
     events = EventLocator(system, h, sol) if EventLocator.found_by_steps(system) else None
+    if upgrade is not None:
+        upgrade.sol = sol
     run = TimeLoop(system, method, sol, ls, primary, fallback, t_start, t_end, h, control,
-                   sizes, output_every, events, sink)
+                   sizes, output_every, events, sink, upgrade)
     for observer in observers:  # a file's head, its columns checked, before any step
         observer.on_start(sol)
     # the heads' time is output's (the observers' elapsed), neither setup's nor,
@@ -275,10 +283,92 @@ def _run(system, method, t_start, t_end, h, initial, steppers, control, engine, 
         _interrupted(sol)
     finally:
         _finish(sol, observers, loop_start, getattr(sink, "elapsed", 0.0) if sink else 0.0,
-                opened)
+                opened, upgrade.seconds if upgrade is not None else 0.0)
         if sink is not None:
             sol.timings["output"] += sink.elapsed
     return sol
+
+
+class KernelUpgrade:
+    """A run on the uncompiled kernels while the compiled ones are built in
+    the background (``compile_policy="background"``) goes on compiled once
+    they are ready.
+
+    The time loop asks it after each call of its stepper
+    (``TimeLoop.upgrade``). At most every ``interval`` seconds of wall time
+    it looks at the build's marker (``ready``, by default
+    :func:`.kernel_cache.kernels_ready`); once the marker says built, it
+    loads the compiled kernels, announced, and answers with steppers on
+    them from the loop's state: the compiled loop with the linear solver
+    chosen again (the uncompiled copy has no LAPACK band routines), its
+    packed model's run state (contact impact speeds, springs' held
+    directions) copied from the uncompiled one. Where the compiled engine
+    too takes the steps with the Python Newton on the kernels (SuperLU-sized
+    models, ``python_loop``), that stepper is kept, its history with it,
+    and only its kernels are swapped. The loading is timed as ``timings["kernels"]``,
+    never as steps; the Solution records where the switch came
+    (``sol.compiled_from``: t [s] and the steps before it) and says so in
+    its summary.
+
+    While it is awaited, the time loop cuts its stepper's calls to about
+    half a second each (``loop.UPGRADE_CALL_SECONDS``), so that the switch
+    comes soon after the build ends.
+
+    Parameters
+    ----------
+    system, method, initial, solver, control, python_loop, announce, h
+        The run's, as ``integrate`` has them.
+    ready : callable () -> bool, optional
+        Whether the compiled kernels are built.
+    interval : float [s]
+        The least wall time between two looks at ``ready``.
+    """
+
+    def __init__(self, system, method, initial, solver, control, python_loop, announce, h,
+                 ready=None, interval=1.0):
+        from .kernel_cache import kernels_ready
+        self.run = (system, method, initial, solver, control, python_loop, announce, h)
+        self.ready = ready if ready is not None else kernels_ready
+        self.interval = float(interval)
+        self.looked = _time.perf_counter()
+        self.seconds = 0.0        # loading the compiled kernels
+        self.sol = None           # set by the driver: where the switch is recorded
+
+    def __call__(self, loop):
+        """New (stepper, fallback) on the compiled kernels, or None (not
+        looked at yet, or not built)."""
+        now = _time.perf_counter()
+        if now - self.looked < self.interval:
+            return None
+        self.looked = now
+        if not self.ready():
+            return None
+        return self._switch(loop)
+
+    def _switch(self, loop):
+        """Load the compiled kernels and build the steppers on them."""
+        from .engine import KernelStepper, copy_run_state
+        system, method, initial, solver, control, python_loop, announce, h = self.run
+        t0 = _time.perf_counter()
+        if announce is not None:
+            announce(f"the compiled kernels are built: the run goes on with them from "
+                     f"t = {loop.t:.6g} s")
+        old = loop.primary
+        new, fallback, kind = _steppers(system, method, initial, solver, "compiled", control,
+                                        python_loop, None, h, {})
+        cm = new.cm if isinstance(new, KernelStepper) else new.method._cm
+        copy_run_state(cm, old.cm if isinstance(old, KernelStepper) else old.method._cm)
+        if not isinstance(new, KernelStepper) and not isinstance(old, KernelStepper):
+            # the Python Newton on the kernels (SuperLU-sized models, ``python_loop``)
+            # goes on as it was, its history with it, on the compiled kernels
+            old.method.use_kernels(cm)
+            new, fallback = old, loop.fallback
+        sol = self.sol
+        if sol is not None:
+            sol.compiled_from = (loop.t, loop.step_no)
+            sol.engine, sol.linear_solver = "compiled", kind
+        self.seconds = _time.perf_counter() - t0
+        return new, fallback
 
 
 def _interrupted(sol):
@@ -289,7 +379,7 @@ def _interrupted(sol):
                    "is kept")
 
 
-def _finish(sol, observers, loop_start, resampling=0.0, opened=0.0):
+def _finish(sol, observers, loop_start, resampling=0.0, opened=0.0, kernels=0.0):
     """Stack the recorded rows and tell the observers the run ended (a
     stream closes its file): on every exit of a run.
 
@@ -297,12 +387,15 @@ def _finish(sol, observers, loop_start, resampling=0.0, opened=0.0):
     the observers' time during it (their ``elapsed`` less ``opened`` [s],
     what they spent before the loop: a file's head), which goes to
     ``"output"`` with their final calls, as does ``resampling`` [s]
-    (the rows at requested times, ``dense.DenseOutput``); ``sol.wall_time``
+    (the rows at requested times, ``dense.DenseOutput``), and less
+    ``kernels`` [s], the compiled kernels loaded during the run
+    (:class:`KernelUpgrade`), which goes to ``"kernels"``; ``sol.wall_time``
     is the integration time.
     """
     clock = _time.perf_counter
     written = sum(o.elapsed for o in observers) - opened + resampling
-    sol.timings["integration"] = clock() - loop_start - written
+    sol.timings["kernels"] += kernels
+    sol.timings["integration"] = clock() - loop_start - written - kernels
     sol.wall_time = sol.timings["integration"]
     t0 = clock()
     if not any(o.releases_rows for o in observers):   # else the rows are read from its file

@@ -55,7 +55,7 @@ from .records import (LAPACK_FIELDS, LIN_FIELDS, LU_FIELDS, LU_VALID, OPTION_FIE
                       vector)
 
 __all__ = ["ENGINES", "unsupported", "CompiledModel", "select_engine", "run_model",
-           "prepare_compiled",
+           "prepare_compiled", "copy_run_state",
            "KernelStepper",
            "newton_size", "SparseAdapter", "LinearSolverPlan", "linear_solver_plan", "band_plan",
            "band_ordering"]
@@ -360,7 +360,8 @@ def select_engine(engine: str, system, method, compile_policy: str = "wait",
     run (the same kernels and loops, run by the interpreter; per step about
     as fast as the numpy engine with its joints on the uncompiled kernels,
     twice as fast on the slider crank: ``benchmarks/engines.py``), telling
-    ``announce``.
+    ``announce``; the run goes on compiled once the build is done
+    (``driver.KernelUpgrade``).
 
     Raises
     ------
@@ -389,8 +390,8 @@ def select_engine(engine: str, system, method, compile_policy: str = "wait",
         if not kernels_ready() and start_background_build():
             if announce is not None:
                 announce("the compiled kernels are being built for this machine in the "
-                         "background (once, about four minutes); this run uses the uncompiled "
-                         "kernels")
+                         "background (once, about three minutes); this run starts on the "
+                         "uncompiled kernels and goes on compiled once they are built")
             return "uncompiled"
     return "compiled"
 
@@ -405,6 +406,24 @@ def run_model(system, uncompiled: bool = False) -> "CompiledModel":
         templates[uncompiled] = CompiledModel(system, _kernels(uncompiled=True) if uncompiled
                                               else None)
     return templates[uncompiled].fresh()
+
+
+def copy_run_state(cm, source) -> None:
+    """The run state of ``source`` (the same system's model data on the other
+    kernels: compiled or uncompiled) into ``cm``: the packed floats, which
+    hold it (the contacts' impact speeds, the springs' held directions)
+    beside the model's constants.
+
+    Raises
+    ------
+    RuntimeError
+        The two kernels pack the model differently (they are one source:
+        a bug).
+    """
+    if (cm.ints.shape != source.ints.shape or not np.array_equal(cm.ints, source.ints)
+            or cm.floats.shape != source.floats.shape):
+        raise RuntimeError("the compiled and the uncompiled kernels pack this model differently")
+    cm.floats[:] = source.floats
 
 
 def prepare_compiled(system, method, options, q, announce=None, python_loop=False,
@@ -794,6 +813,16 @@ class SparseAdapter:
 
     def __getattr__(self, name):          # name, extras, blocks, start, predict, describe...
         return getattr(self._method, name)
+
+    def use_kernels(self, cm):
+        """Evaluate on the model data ``cm`` and its kernels from now on (a
+        run of the uncompiled kernels going on compiled: the same packing,
+        its run state copied by the caller)."""
+        if cm.bound != self._cm.bound:
+            self._R = np.empty(cm.bound, np.int64)
+            self._C = np.empty(cm.bound, np.int64)
+            self._V = np.empty(cm.bound)
+        self._cm, self._K = cm, cm.K
 
     def _get(self, rec, name):
         return rec[self._field[name]]

@@ -98,6 +98,13 @@ FLUSH_INTERVAL = 0.2
 #: in memory bounded on a machine of any speed, not only within FLUSH_INTERVAL's
 #: worth of steps.
 FLUSH_ROWS = 1 << 14
+#: A run waiting for an ``upgrade`` (its kernels being built): the stepper's first
+#: call takes this many steps, each later one about UPGRADE_CALL_SECONDS of wall time
+#: (sized by the call before), so that the switch comes soon after the build ends,
+#: not after a call of CHUNK uncompiled steps. Cutting a call costs a new Newton
+#: matrix at its start, which changes the steps only within Newton's tolerance.
+UPGRADE_FIRST_CALL = 10
+UPGRADE_CALL_SECONDS = 0.5
 #: how much longer a failed step of the augmented formulation is retried first
 JUMP = 1.5
 #: a two-step method's first step after an event, as a fraction of the
@@ -394,11 +401,20 @@ class TimeLoop:
         Where the recorded steps go: the rows at requested times
         (``dense.DenseOutput``, which needs every step: ``output_every``
         1); None: the steps are the Solution's rows.
+    upgrade : callable (TimeLoop) -> (stepper, fallback) or None, optional
+        Asked after each call of ``stepper`` that ended converged: new
+        steppers to go on with from the loop's state (a run of the
+        uncompiled kernels switching to the compiled ones once built,
+        ``driver.KernelUpgrade``), or None to go on as before. Once it has
+        answered with steppers it is not asked again.
     """
 
     def __init__(self, system, method, sol, ls, stepper, fallback, t_start, t_end, h, control,
-                 sizes, output_every, events, sink=None):
+                 sizes, output_every, events, sink=None, upgrade=None):
         self.system, self.method, self.sol, self.ls = system, method, sol, ls
+        self.upgrade = upgrade
+        # steps per call while an upgrade is awaited (UPGRADE_FIRST_CALL), else None
+        self.pace = UPGRADE_FIRST_CALL if upgrade is not None else None
         self.sink = sol if sink is None else sink
         self.stepper, self.primary, self.fallback = stepper, stepper, fallback
         self.t_start, self.t_end, self.h, self.h_cur = t_start, t_end, h, h
@@ -467,6 +483,8 @@ class TimeLoop:
                 if self.stepper is self.fallback and self._may_hand_back(status):
                     self.stepper = self.primary
                     self.primary.resync()
+                if self.upgrade is not None and self.stepper is self.primary:
+                    self._upgrade()
                 if self.t >= self.seg_end - 1e-12 * span and switch is not None:
                     ls.flush(self.sink)
                     self.t = _restart_at_switch(self.system, self.method, sol, switch, self.h,
@@ -497,6 +515,20 @@ class TimeLoop:
                 self.sink.close()
             sol.last_state = ls.step_state(state[ST_T])
         return sol
+
+    def _upgrade(self):
+        """Go on with the steppers ``upgrade`` answers with, if it does."""
+        new = self.upgrade(self)
+        if new is None:
+            return
+        self.upgrade = self.pace = None
+        self.flush()              # the rows so far, told before the engine changes
+        # a Python stepper kept (its kernels swapped) keeps its history; the
+        # compiled loop starts every call from the loop's state
+        self.stepper = self.primary = new[0]
+        self.fallback = new[1]
+        if self.events is not None:
+            self.stepper.events_changed(self)
 
     def flush(self):
         """The buffered rows to the Solution, then the progress callback (the
@@ -540,7 +572,13 @@ class TimeLoop:
             limit = 1
         if self.check_every:
             limit = min(limit, self.check_every)
+        if self.pace is not None:
+            limit = min(limit, self.pace)
+            started = _time.perf_counter()
         status, taken = self.attempt(RUN, h_try, limit)
+        if self.pace is not None and taken:
+            per_step = max(_time.perf_counter() - started, 1e-9) / taken
+            self.pace = int(min(CHUNK, max(1, UPGRADE_CALL_SECONDS / per_step)))
         if taken:                   # (the limit stops the call where the size would change)
             if self.fixed:
                 self.h_cur = sizes.grown(sizes.landed(self.h_cur), taken)

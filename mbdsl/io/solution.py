@@ -107,6 +107,9 @@ class Solution:
         #: Why the compiled engine did not run a model ``engine="auto"`` chose
         #: the numpy engine for (``engine.unsupported``), or None.
         self.engine_note = None
+        #: (t [s], steps) where a run of the uncompiled kernels went on compiled,
+        #: their background build done (``driver.KernelUpgrade``), or None.
+        self.compiled_from = None
         self.stats_total = RunStats()
         self._rows = RowStore(system.n, system.m, self._stored_extras)
         #: The result file the rows are read from (``attach_file``), or None: held.
@@ -457,6 +460,7 @@ class Solution:
         self.engine, self.linear_solver = engine, linear_solver
         self.events, self.event_cuts = [tuple(e) for e in events], int(event_cuts)
         self.contact_log, self.engine_note, self.control = [], None, None
+        self.compiled_from = None
         self.flows = None if flows is None else {k: np.asarray(x, dtype=float)
                                                  for k, x in flows.items()}
         self.dense = bool(dense) or self.flows is not None
@@ -732,6 +736,9 @@ class Solution:
             f"  steps {tot.steps} (rejected {tot.rejected}) on the {self.engine} engine "
             f"({self.linear_solver} linear solver"
             + (f"; not compiled: {self.engine_note}" if getattr(self, "engine_note", None) else "")
+            + (f"; uncompiled for the first {self.compiled_from[1]} steps, to t = "
+               f"{self.compiled_from[0]:.6g} s, while the kernels were built"
+               if getattr(self, "compiled_from", None) else "")
             + (f"): {1e6 * self.wall_time / steps:.1f} us/step" if tot.steps else
                f"): no step recorded in {self.wall_time:.3g} s"),
             "  wall time: " + ", ".join(f"{k} {v:.3f} s" for k, v in self.timings.items()),

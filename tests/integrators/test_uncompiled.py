@@ -130,3 +130,99 @@ def test_an_uncompiled_run_imports_nothing_compiled(tmp_path):
     assert done.returncode == 0, done.stderr
     text = (tmp_path / "out.csv").read_text()
     assert "# engine: uncompiled" in text
+
+
+# -- a first run: uncompiled while the kernels build, compiled once they are built -----------
+
+def _upgrading_run(monkeypatch, path, method, T, h, looks_before_ready=1, overrides=None,
+                   **kwargs):
+    """A run as the command line makes it on a machine whose kernels are being
+    built (``engine="auto"``, the background policy's choice of the uncompiled
+    kernels), whose build is found done at the ``looks_before_ready``-th look:
+    (the run, what it announced, the looks taken)."""
+    from mbdsl.integrators import driver, engine as engine_module
+    looks = []
+
+    def ready():
+        looks.append(True)
+        return len(looks) >= looks_before_ready
+
+    class Upgrade(driver.KernelUpgrade):
+        def __init__(self, *args):
+            super().__init__(*args, ready=ready, interval=0.0)
+
+    monkeypatch.setattr(driver, "KernelUpgrade", Upgrade)
+    select = engine_module.select_engine         # a warm-up of the kernels asks for "compiled"
+    monkeypatch.setattr(engine_module, "select_engine", lambda engine, *a, **k:
+                        "uncompiled" if engine == "auto" else select(engine, *a, **k))
+    system = mbdsl.assemble(mbdsl.load(path, overrides=overrides))
+    init = mbdsl.consistent_initial_state(system)
+    said = []
+    sol = integrate(system, make_method(method), T, h, initial=init, engine="auto",
+                    announce=said.append, **kwargs)
+    return sol, said, looks
+
+
+@pytest.mark.parametrize("method", ["hht-i3", "nstiff", "hht-add", "hht-si2"])
+def test_a_run_goes_on_compiled_once_the_kernels_are_built(monkeypatch, method):
+    """The switch comes after the first uncompiled call (10 steps), the run
+    records and says where, and its end agrees with a compiled run's to
+    round-off (a wrong state handed over, say the step before's q_n of a
+    two-step method or a stale multiplier, would part them by the step's
+    error, 1e-6 and more)."""
+    path = MODELS / "slider_crank.mbd"
+    sol, said, looks = _upgrading_run(monkeypatch, path, method, 0.5, 1e-3)
+    system = mbdsl.assemble(mbdsl.load(path))
+    ref = integrate(system, make_method(method), 0.5, 1e-3,
+                    initial=mbdsl.consistent_initial_state(system), engine="compiled")
+    assert sol.status == "completed" and sol.engine == "compiled"
+    assert sol.compiled_from == (pytest.approx(0.01), 10) and len(looks) == 1
+    assert any("compiled kernels are built" in s for s in said)
+    assert "uncompiled for the first 10 steps" in sol.summary()
+    assert len(sol.t) == len(ref.t)
+    scale = np.abs(ref.q).max(axis=0) + 1.0
+    assert np.max(np.abs(sol.q - ref.q) / scale) < 1e-9
+    assert np.max(np.abs(sol.lam[1:] - ref.lam[1:])) < 1e-6 * np.abs(ref.lam).max()
+    assert sol.timings["kernels"] >= 0 and sol.timings["integration"] > 0
+
+
+def test_a_run_with_contacts_goes_on_compiled_with_its_contact_state(monkeypatch):
+    """The bouncing ball's impacts set the contact state in the packed model
+    (its impact speeds): the switch after a few bounces carries it over, and
+    the heights equal a compiled run's."""
+    path = MODELS / "bouncing_ball.mbd"
+    sol, _, looks = _upgrading_run(monkeypatch, path, "hht-i3", 2.0, 1e-3, looks_before_ready=3)
+    system = mbdsl.assemble(mbdsl.load(path))
+    ref = integrate(system, make_method("hht-i3"), 2.0, 1e-3,
+                    initial=mbdsl.consistent_initial_state(system), engine="compiled")
+    assert sol.engine == "compiled" and sol.compiled_from is not None and len(looks) == 3
+    assert 0.0 < sol.compiled_from[0] < 2.0
+    assert len(sol.events) == len(ref.events) > 0
+    assert abs(sol.q[-1] - ref.q[-1]).max() < 1e-8
+
+
+def test_the_python_newton_on_the_kernels_goes_on_compiled_keeping_its_history(monkeypatch):
+    """The Python stepper on the kernels (``python_loop``; SuperLU-sized
+    models) keeps its stepper and history; only its kernels change."""
+    path = MODELS / "slider_crank.mbd"
+    sol, _, _ = _upgrading_run(monkeypatch, path, "nstiff", 0.2, 1e-3, python_loop=True)
+    system = mbdsl.assemble(mbdsl.load(path))
+    ref = integrate(system, make_method("nstiff"), 0.2, 1e-3, python_loop=True,
+                    initial=mbdsl.consistent_initial_state(system), engine="compiled")
+    assert sol.engine == "compiled" and sol.compiled_from[1] == 10
+    assert np.max(np.abs(sol.q - ref.q)) < 1e-10
+
+
+def test_a_chain_goes_on_from_the_python_newton_to_the_compiled_loop(monkeypatch):
+    """The uncompiled kernels have no LAPACK band routines: a chain of 100
+    links (500 unknowns) starts on the Python Newton with SuperLU and goes
+    on in the compiled loop with the band LU, from the loop's state."""
+    path = MODELS / "pendulum_chain.mbd"
+    sol, _, _ = _upgrading_run(monkeypatch, path, "hht-i3", 0.05, 1e-3, overrides={"N": 100})
+    system = mbdsl.assemble(mbdsl.load(path, overrides={"N": 100}))
+    ref = integrate(system, make_method("hht-i3"), 0.05, 1e-3,
+                    initial=mbdsl.consistent_initial_state(system), engine="compiled")
+    assert ref.linear_solver == "banded"
+    assert sol.engine == "compiled" and sol.linear_solver == "banded"
+    assert sol.compiled_from[1] == 10
+    assert np.max(np.abs(sol.q - ref.q)) < 1e-9
