@@ -354,8 +354,9 @@ class KernelUpgrade:
             announce(f"the compiled kernels are built: the run goes on with them from "
                      f"t = {loop.t:.6g} s")
         old = loop.primary
+        # announce: a cache the marker wrongly calls built compiles here, and says so
         new, fallback, kind = _steppers(system, method, initial, solver, "compiled", control,
-                                        python_loop, None, h, {})
+                                        python_loop, announce, h, {})
         cm = new.cm if isinstance(new, KernelStepper) else new.method._cm
         copy_run_state(cm, old.cm if isinstance(old, KernelStepper) else old.method._cm)
         if not isinstance(new, KernelStepper) and not isinstance(old, KernelStepper):
