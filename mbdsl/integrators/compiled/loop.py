@@ -22,6 +22,7 @@ from .layout import (ADDITIVE, CF, EABS, EAUX, ERR, FORM, KA1, KA2, MH, Y0V, _ad
 from .newton import _newton
 from .recipes import _old_force
 from ...kernels.geometry import MEMO
+from ...kernels.jit import borrowed as _b
 from ...kernels.loads.contact import _gap
 from ...kernels.loads.spring_damper import _spring_passed
 from ...kernels.programs import switch_branches
@@ -391,7 +392,16 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
     output; ATTEMPT and LAND make one attempt at a step of h (with error
     control halved while Newton fails) and return: EVENT (ATTEMPT only),
     REJECTED (its error estimate: the next h in state[ST_H]) or CONVERGED with
-    the step taken; LAND takes a step across an event."""
+    the step taken; LAND takes a step across an event.
+
+    Python calls this loop (``entry.run``), which works on its arrays as
+    borrowed views (``kernels.jit.borrowed``): the caller holds them for the
+    call, and the kernels below count no references to them."""
+    (mono, I, Fl, q, v, a, b, lam, mu, q_prev, v_prev, ctl, opts, lu_state, R, C, V, out_t,
+     out_h, out_q, out_v, out_a, out_lam, out_mu, out_stats, counts, F0, state, trial) = _b((
+        mono, I, Fl, q, v, a, b, lam, mu, q_prev, v_prev, ctl, opts, lu_state, R, C, V, out_t,
+        out_h, out_q, out_v, out_a, out_lam, out_mu, out_stats, counts, F0, state, trial))
+    lin, ws = _b(lin), _b(ws)
     n, m = _rows(I, MASS), _rows(I, ROW_ELEMENT)
     rc = np.empty(mono.shape[2])
     _recipe_at(mono[1], 1.0, 1.0, 1.0, 1.0, rc)
@@ -416,8 +426,7 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
     # the last attempt, before this call, was rejected
     after_rejection = state[ST_AFTER_REJECTION] != 0.0
     limit = int(state[ST_LIMIT])                 # accepted steps this call may take (0: no limit)
-    rec = 0
-    k = 0
+    rec, k = 0, 0                                # records written, steps accepted
     while t < t_end - 1e-12 * (t_end - t0) and rec < out_t.shape[0]:
         step, t_new, carry = step_end(h, t, t_end, state[ST_CARRY])
         first = two_step and state[ST_H_LAST] == 0.0
