@@ -258,7 +258,7 @@ def main(argv=None) -> int:
     growth = {}
     for name in methods:
         per = {r["model"]: r["us_per_step"] for r in rows if r["method"] == name}
-        if "chain N=1000" in per:
+        if "chain N=1000" in per and "chain N=100" in per:       # both measured (--only)
             growth[name] = per["chain N=1000"] / per["chain N=100"]
             print(f"{name}: per-step cost N = 1000 / N = 100 = {growth[name]:.2f} (linear: 10)")
     if args.markdown:
