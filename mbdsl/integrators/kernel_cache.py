@@ -1,19 +1,20 @@
 """Loading the compiled kernels: numba's on-disk cache, announced compilation,
 and a background build for a first run that should not wait.
 
-numba compiles the kernels (:mod:`mbdsl.kernels`, :mod:`.compiled`) once per machine (about a
-minute on two cores) and caches them on disk; later processes load them in
-a fraction of a second. Two things follow for a tool that reports its own
+numba compiles the kernels (:mod:`mbdsl.kernels`, :mod:`.compiled`) once per machine (about
+2 min 40 s on two cores, docs/performance.md) and caches them on disk; later
+processes load them in a fraction of a second. Two things follow for a tool that reports its own
 cost:
 
 * loading or compiling is timed apart from the time loop
   (``Solution.timings["kernels"]``) and is never step time;
-* a newcomer's first run should not sit silent for a minute. The command
+* a newcomer's first run should not sit silent for minutes. The command
   line therefore asks :func:`kernels_ready` first; when the kernels are not
   built yet it starts :func:`start_background_build` (a detached process
-  running ``python -m mbdsl.integrators.kernel_cache``) and runs this one
+  running ``python -m mbdsl.integrators.build_kernels``) and starts this one
   model on the same kernels uncompiled (:func:`uncompiled_kernels`), saying
-  so. Where waiting is wanted (the Python
+  so; the run goes on compiled once the build is done
+  (``driver.KernelUpgrade``). Where waiting is wanted (the Python
   API, ``MBDSL_BACKGROUND_COMPILE=0``), :func:`ensure_loaded` compiles in
   the process and announces it first.
 
@@ -191,7 +192,7 @@ def ensure_loaded(group: str | None = None, announce=None) -> float:
     if not ready:
         purge_kernel_caches()
         if announce is not None:
-            announce("compiling the kernels for this machine (once; about four minutes on two "
+            announce("compiling the kernels for this machine (once; about three minutes on two "
                      "cores, then cached) ...")
     elif announce is not None:
         def late():
