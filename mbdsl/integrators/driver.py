@@ -266,8 +266,6 @@ def _run(system, method, t_start, t_end, h, initial, steppers, control, engine, 
         sink = DenseOutput(system, sol, output_times, ls.start, ls.extra)
     sol.append(ls.start, StepStats())
     events = EventLocator(system, h, sol) if EventLocator.found_by_steps(system) else None
-    if upgrade is not None:
-        upgrade.sol = sol
     run = TimeLoop(system, method, sol, ls, primary, fallback, t_start, t_end, h, control,
                    sizes, output_every, events, sink, upgrade)
     for observer in observers:  # a file's head, its columns checked, before any step
@@ -332,7 +330,6 @@ class KernelUpgrade:
         self.interval = float(interval)
         self.looked = _time.perf_counter()
         self.seconds = 0.0        # loading the compiled kernels
-        self.sol = None           # set by the driver: where the switch is recorded
 
     def __call__(self, loop):
         """New (stepper, fallback) on the compiled kernels, or None (not
@@ -357,17 +354,17 @@ class KernelUpgrade:
         # announce: a cache the marker wrongly calls built compiles here, and says so
         new, fallback, kind = _steppers(system, method, initial, solver, "compiled", control,
                                         python_loop, announce, h, {})
-        cm = new.cm if isinstance(new, KernelStepper) else new.method._cm
-        copy_run_state(cm, old.cm if isinstance(old, KernelStepper) else old.method._cm)
+        def packed(stepper):      # the compiled loop's, or the Python Newton's adapter's
+            return stepper.cm if isinstance(stepper, KernelStepper) else stepper.method.cm
+        cm = packed(new)
+        copy_run_state(cm, packed(old))
         if not isinstance(new, KernelStepper) and not isinstance(old, KernelStepper):
             # the Python Newton on the kernels (SuperLU-sized models, ``python_loop``)
             # goes on as it was, its history with it, on the compiled kernels
             old.method.use_kernels(cm)
             new, fallback = old, loop.fallback
-        sol = self.sol
-        if sol is not None:
-            sol.compiled_from = (loop.t, loop.step_no)
-            sol.engine, sol.linear_solver = "compiled", kind
+        loop.sol.compiled_from = (loop.t, loop.step_no)
+        loop.sol.engine, loop.sol.linear_solver = "compiled", kind
         self.seconds = _time.perf_counter() - t0
         return new, fallback
 

@@ -814,14 +814,16 @@ class SparseAdapter:
     def __getattr__(self, name):          # name, extras, blocks, start, predict, describe...
         return getattr(self._method, name)
 
+    @property
+    def cm(self):
+        """The model data the kernels evaluate (``CompiledModel``)."""
+        return self._cm
+
     def use_kernels(self, cm):
         """Evaluate on the model data ``cm`` and its kernels from now on (a
         run of the uncompiled kernels going on compiled: the same packing,
-        its run state copied by the caller)."""
-        if cm.bound != self._cm.bound:
-            self._R = np.empty(cm.bound, np.int64)
-            self._C = np.empty(cm.bound, np.int64)
-            self._V = np.empty(cm.bound)
+        so the same triplet bound, its run state copied by the caller,
+        ``copy_run_state``)."""
         self._cm, self._K = cm, cm.K
 
     def _get(self, rec, name):
