@@ -197,18 +197,15 @@ def _per_contact_state(system, blocks, speeds, width, rows):
 
 
 def _index1_band(system):
-    """(order, kd, addresses) of ``integrators.compiled.index1_multipliers_band`` for a
+    """(order, kd) of ``integrators.compiled.index1_multipliers_band`` for a
     model of rigid bodies (constant diagonal M): the reverse Cuthill-McKee
     order of the constraint rows on the pattern of Phi_q M^-1 Phi_q^T and its
-    half-bandwidth kd there, and LAPACK's dpbtrf and dpbtrs; None for
-    flexible beams (M(q) is not diagonal: the dense index-1 matrix) or where
-    the LAPACK routines cannot be called (an ILP64 build). Cached on the
-    system."""
+    half-bandwidth kd there; None for flexible beams (M(q) is not diagonal:
+    the dense index-1 matrix). Cached on the system."""
     if hasattr(system, "_index1_band_plan"):
         return system._index1_band_plan
     plan = None
-    addresses = _kernels().lapack_band_addresses(("dpbtrf", "dpbtrs"))
-    if system.mass_is_constant and system.m and addresses is not None:
+    if system.mass_is_constant and system.m:
         import scipy.sparse
         from scipy.sparse.csgraph import reverse_cuthill_mckee
         rows, cols = system.pattern_Phi_q
@@ -219,7 +216,7 @@ def _index1_band(system):
         place = np.empty(system.m, np.int64)
         place[order] = np.arange(system.m)
         kd = int(np.max(np.abs(place[A.row] - place[A.col]), initial=0))
-        plan = (order, kd, addresses)
+        plan = (order, kd)
     system._index1_band_plan = plan
     return plan
 

@@ -258,6 +258,40 @@ def test_band_substitution_is_lapacks_dgbtrs_bit_for_bit(size, kl, ku):
     assert np.abs(A @ x[size:] - b).max() < 1e-10 * max(1.0, np.abs(x_lapack).max())
 
 
+@pytest.mark.parametrize("size, kd", [(4, 3), (60, 4), (200, 9), (30, 0), (1, 2), (7, 6)])
+def test_band_cholesky_against_lapack_and_the_dense_solve(size, kd):
+    """The kernels' band Cholesky (the output's index-1 multipliers) gives
+    LAPACK's dpbtrf factor and dpbtrs solution to round-off on random SPD
+    band matrices, solves the matrix, and refuses an indefinite one."""
+    from scipy.linalg import lapack
+    from mbdsl.integrators.compiled.linalg import _band_cholesky, _band_cholesky_solve
+    rng = np.random.default_rng(size + 10 * kd)
+    A = np.zeros((size, size))
+    for d in range(0, min(kd, size - 1) + 1):
+        vals = rng.standard_normal(size - d)
+        A += np.diag(vals, d) + (np.diag(vals, -d) if d else 0.0)
+    A += (np.abs(A).sum(axis=1).max() + 1.0) * np.eye(size)     # diagonally dominant: SPD
+    AB = np.zeros((size, kd + 1))                  # A(i, j), i <= j, at AB[j, kd + i - j]
+    for j in range(size):
+        for i in range(max(0, j - kd), j + 1):
+            AB[j, kd + i - j] = A[i, j]
+    U_lapack, info = lapack.dpbtrf(np.ascontiguousarray(AB.T))
+    assert info == 0
+    assert _band_cholesky(AB, size, kd)
+    assert np.allclose(AB, U_lapack.T, rtol=1e-13, atol=1e-13 * np.abs(U_lapack).max())
+    b = rng.standard_normal(size)
+    x_lapack, info = lapack.dpbtrs(U_lapack, b)
+    x = b.copy()
+    _band_cholesky_solve(AB, size, kd, x)
+    assert np.allclose(x, x_lapack, rtol=1e-12, atol=1e-14)
+    assert np.abs(A @ x - b).max() < 1e-12 * np.abs(A).max() * max(1.0, np.abs(x).max())
+    if size > 1:                                   # indefinite: a negative pivot is refused
+        AB2 = np.zeros_like(AB)
+        AB2[:, kd] = 1.0
+        AB2[-1, kd] = -1.0
+        assert not _band_cholesky(AB2, size, kd)
+
+
 def test_band_ordering_of_a_chain_and_the_automatic_choice():
     # a pendulum chain is a path graph: each link couples only to its neighbours,
     # so the reordered HHT-I3 matrix (3 coordinates + 2 multipliers per link) has a

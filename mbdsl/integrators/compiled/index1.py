@@ -9,7 +9,7 @@ import numpy as np
 
 from .additive import _minus_correction
 from .layout import ADDITIVE, FLOOR, FORM, HAS_Y, MU_MOB, REG, SM, SX, SY, _copy, _layout
-from .linalg import _fortran_call
+from .linalg import _band_cholesky, _band_cholesky_solve
 from mbdsl.integrators.records import (OPT_ATOL_KINEMATIC, OPT_ATOL_MULTIPLIER, OPT_RTOL)
 from ...kernels.schema import (EPS, FRI, MASS, ROW_ELEMENT, _0, _HEADER, _NO, _YES, _f, _i, _hot, _jit,
                                _rows)
@@ -28,15 +28,15 @@ def _index1_gamma(I, Fl, t, qx, vx, gam, R, C, V):
 
 
 @_jit
-def _index1_multipliers_band(I, Fl, t, q, v, out, R, C, V, iterations, order, kd, addr):
+def _index1_multipliers_band(I, Fl, t, q, v, out, R, C, V, iterations, order, kd):
     """The index-1 multipliers of ``_index1_multipliers`` for rigid bodies
     (M a constant diagonal) from the Schur complement
 
         A lambda = Phi_q M^-1 Q - gamma,    A = Phi_q M^-1 Phi_q^T (m x m, SPD),
 
     the constraint rows reordered by ``order`` (position k holds row
-    order[k]) so that A is a band of half-width kd, factored by LAPACK's
-    band Cholesky (dpbtrf, dpbtrs at ``addr``). A chain of N links costs
+    order[k]) so that A is a band of half-width kd, factored by the band
+    Cholesky of ``linalg._band_cholesky``. A chain of N links costs
     O(N) per row instead of the O((n + m)^3) of the dense index-1 matrix.
     Friction: the fixed point of ``_index1_multipliers`` on the same
     factorization. A matrix that is not positive definite, or whose
@@ -49,8 +49,6 @@ def _index1_multipliers_band(I, Fl, t, q, v, out, R, C, V, iterations, order, kd
     place = np.empty(m, np.int64)
     for k in range(m):
         place[order[k]] = k
-    ints = np.array([m, kd, ldab, 1, 0], np.int32)    # n, kd, ldab, nrhs, info
-    uplo = np.array([ord("U")], np.uint8)
     minv = np.empty(n)
     for j in range(n):
         minv[j] = 1.0 / _f(I, Fl, MASS, j, 0)
@@ -83,11 +81,9 @@ def _index1_multipliers_band(I, Fl, t, q, v, out, R, C, V, iterations, order, kd
                         else:
                             AB[j, kd + i - j] += V[ex] * V[ey] * minv[col]
         if ok:
-            ints[4] = 0
-            _fortran_call(addr[0], (uplo, ints[0:1], ints[1:2], AB, ints[2:3], ints[4:5]))
-            ok = ints[4] == 0
+            ok = _band_cholesky(AB, m, kd)
             # dependent rows leave a pivot of round-off (3e-15 of the largest on a
-            # parallelogram with a redundant link), which dpbtrf accepts
+            # parallelogram with a redundant link), which a Cholesky accepts
             dmin, dmax = np.inf, 0.0
             for k in range(m):
                 d = AB[k, kd] * AB[k, kd]
@@ -101,8 +97,7 @@ def _index1_multipliers_band(I, Fl, t, q, v, out, R, C, V, iterations, order, kd
                 b[k] = gam[order[k]]            # Phi_q M^-1 Q - gamma, reordered
             for e in range(p):
                 b[place[R[e]]] += V[e] * minv[C[e]] * work[C[e]]
-            _fortran_call(addr[1], (uplo, ints[0:1], ints[1:2], ints[3:4], AB, ints[2:3], b,
-                                    ints[0:1], ints[4:5]))
+            _band_cholesky_solve(AB, m, kd, b)
             change, big = 0.0, 0.0
             for k in range(m):
                 xk = b[place[k]]

@@ -75,8 +75,7 @@ def _fortran_call(typingctx, address, args):
 
 def lapack_band_addresses(names=("dgbtrf",)):
     """int64 array: the addresses of LAPACK's routines ``names`` (default the
-    band LU's factorization dgbtrf; the band Cholesky is dpbtrf, dpbtrs) in
-    scipy.linalg.cython_lapack (the LAPACK scipy itself links), or None when
+    band LU's factorization dgbtrf) in scipy.linalg.cython_lapack (the LAPACK scipy itself links), or None when
     that build uses 64-bit integers (the kernels pass 32-bit ones)."""
     import scipy
     from numba.extending import get_cython_function_address
@@ -128,9 +127,18 @@ def _factor(solver, lin, R, C, V, p):
     diag = kl + ku
     AB[:, :] = 0.0
     nc = 0
-    for i in range(p):
+    if blocks == 1:
+        # one block: every triplet is in the band. Apart from the loop below,
+        # whose two integer divisions a triplet (about 40 cycles each on this
+        # machine) made this gather 10 % of the 1 000-link chain's step
+        for i in range(p):
+            row, col = rperm[R[i]], cperm[C[i]]
+            if row - col > kl or col - row > ku:
+                return SINGULAR
+            AB[col, diag + row - col] += V[i]
+    for i in range(p if blocks > 1 else 0):
         row, col = rperm[R[i]], cperm[C[i]]
-        rb, cb = row // s, col // s
+        rb, cb = int(row >= s), int(col >= s)           # blocks = 2
         if rb == cb:
             row -= rb * s
             col -= cb * s
@@ -158,6 +166,51 @@ def _factor(solver, lin, R, C, V, p):
     if not (dmin >= 1e-14 * dmax) or not np.isfinite(dmax):
         return SINGULAR
     return CONVERGED
+
+
+@_hot
+def _band_cholesky(AB, s, kd):
+    """A = U^T U in place for the symmetric positive definite band matrix A
+    of half-width kd whose upper triangle AB holds in LAPACK's "U" band
+    storage (A(i, j), i <= j, at AB[j, kd + i - j]; AB of shape (s, kd + 1)
+    in C order): U(i, j) then at the same place. False when a pivot is not
+    positive (A is not positive definite) or not finite.
+
+    The column-by-column (left-looking) band Cholesky of Golub and Van Loan,
+    Matrix Computations, 4th ed., alg. 4.3.5, with dpbtrf's storage. Written
+    here, not called: dpbtrf asks ilaenv for its block size and its dpbtf2
+    makes two BLAS calls per column, and on the small Schur complements of
+    the output's index-1 multipliers (4 x 4 on the double pendulum) those
+    calls were most of the time (``index1._index1_multipliers_band``)."""
+    for j in range(s):
+        i0 = max(0, j - kd)
+        for i in range(i0, j + 1):
+            acc = AB[j, kd + i - j]
+            for k in range(max(i0, i - kd), i):
+                acc -= AB[i, kd + k - i] * AB[j, kd + k - j]
+            if i < j:
+                AB[j, kd + i - j] = acc / AB[i, kd]
+            elif not acc > 0.0 or not np.isfinite(acc):
+                return False
+            else:
+                AB[j, kd] = np.sqrt(acc)
+    return True
+
+
+@_hot
+def _band_cholesky_solve(AB, s, kd, b):
+    """b = A^-1 b with the factor U of :func:`_band_cholesky` (A = U^T U):
+    U^T y = b forward, then U x = y back (LAPACK's dpbtrs)."""
+    for j in range(s):
+        acc = b[j]
+        for k in range(max(0, j - kd), j):
+            acc -= AB[j, kd + k - j] * b[k]
+        b[j] = acc / AB[j, kd]
+    for j in range(s - 1, -1, -1):
+        acc = b[j]
+        for k in range(j + 1, min(s, j + kd + 1)):
+            acc -= AB[k, kd + j - k] * b[k]
+        b[j] = acc / AB[j, kd]
 
 
 @_hot
