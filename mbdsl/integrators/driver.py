@@ -281,7 +281,7 @@ def _run(system, method, t_start, t_end, h, initial, steppers, control, engine, 
         _interrupted(sol)
     finally:
         _finish(sol, observers, loop_start, getattr(sink, "elapsed", 0.0) if sink else 0.0,
-                opened, upgrade.seconds if upgrade is not None else 0.0)
+                opened, upgrade)
         if sink is not None:
             sol.timings["output"] += sink.elapsed
     return sol
@@ -305,8 +305,8 @@ class KernelUpgrade:
     models, ``python_loop``), that stepper is kept, its history with it,
     and only its kernels are swapped. The loading is timed as ``timings["kernels"]``,
     never as steps; the Solution records where the switch came
-    (``sol.compiled_from``: t [s] and the steps before it) and says so in
-    its summary.
+    (``sol.compiled_from``: t [s], the steps before it and, once the run
+    ends, their integration time [s]) and says so in its summary.
 
     While it is awaited, the time loop cuts its stepper's calls to about
     half a second each (``loop.UPGRADE_CALL_SECONDS``), so that the switch
@@ -330,6 +330,8 @@ class KernelUpgrade:
         self.interval = float(interval)
         self.looked = _time.perf_counter()
         self.seconds = 0.0        # loading the compiled kernels
+        #: (clock [s], the loop's output time so far [s]) at the switch, or None
+        self.at = None
 
     def __call__(self, loop):
         """New (stepper, fallback) on the compiled kernels, or None (not
@@ -347,6 +349,8 @@ class KernelUpgrade:
         from .engine import KernelStepper, copy_run_state
         system, method, initial, solver, control, python_loop, announce, h = self.run
         t0 = _time.perf_counter()
+        written = sum(o.elapsed for o in loop.observers) + getattr(loop.sink, "elapsed", 0.0)
+        self.at = (t0, written)
         if announce is not None:
             announce(f"the compiled kernels are built: the run goes on with them from "
                      f"t = {loop.t:.6g} s")
@@ -377,7 +381,7 @@ def _interrupted(sol):
                    "is kept")
 
 
-def _finish(sol, observers, loop_start, resampling=0.0, opened=0.0, kernels=0.0):
+def _finish(sol, observers, loop_start, resampling=0.0, opened=0.0, upgrade=None):
     """Stack the recorded rows and tell the observers the run ended (a
     stream closes its file): on every exit of a run.
 
@@ -385,16 +389,24 @@ def _finish(sol, observers, loop_start, resampling=0.0, opened=0.0, kernels=0.0)
     the observers' time during it (their ``elapsed`` less ``opened`` [s],
     what they spent before the loop: a file's head), which goes to
     ``"output"`` with their final calls, as does ``resampling`` [s]
-    (the rows at requested times, ``dense.DenseOutput``), and less
-    ``kernels`` [s], the compiled kernels loaded during the run
-    (:class:`KernelUpgrade`), which goes to ``"kernels"``; ``sol.wall_time``
-    is the integration time.
+    (the rows at requested times, ``dense.DenseOutput``), and less the
+    compiled kernels' loading during the run (``upgrade``, a
+    :class:`KernelUpgrade` or None), which goes to ``"kernels"``;
+    ``sol.wall_time`` is the integration time. A run that went on compiled
+    gets the integration time of its uncompiled steps as the third entry of
+    ``sol.compiled_from``, so that its summary gives each engine's time per
+    step apart.
     """
     clock = _time.perf_counter
     written = sum(o.elapsed for o in observers) - opened + resampling
+    kernels = upgrade.seconds if upgrade is not None else 0.0
     sol.timings["kernels"] += kernels
     sol.timings["integration"] = clock() - loop_start - written - kernels
     sol.wall_time = sol.timings["integration"]
+    if upgrade is not None and upgrade.at is not None and sol.compiled_from is not None:
+        clock_at, written_at = upgrade.at
+        before = max(clock_at - loop_start - (written_at - opened), 0.0)
+        sol.compiled_from = tuple(sol.compiled_from[:2]) + (before,)
     t0 = clock()
     if not any(o.releases_rows for o in observers):   # else the rows are read from its file
         sol.finalize()          # stacking the rows, and the method's output multipliers

@@ -107,8 +107,9 @@ class Solution:
         #: Why the compiled engine did not run a model ``engine="auto"`` chose
         #: the numpy engine for (``engine.unsupported``), or None.
         self.engine_note = None
-        #: (t [s], steps) where a run of the uncompiled kernels went on compiled,
-        #: their background build done (``driver.KernelUpgrade``), or None.
+        #: (t [s], steps, their integration time [s]) where a run of the
+        #: uncompiled kernels went on compiled, their background build done
+        #: (``driver.KernelUpgrade``), or None.
         self.compiled_from = None
         self.stats_total = RunStats()
         self._rows = RowStore(system.n, system.m, self._stored_extras)
@@ -714,6 +715,28 @@ class Solution:
             coordinates["body"] = ("body", bodies)
         return xr.Dataset(data, coords=coordinates, attrs=attrs)
 
+    def _steps_summary(self, steps: int) -> str:
+        """The end of the summary's line of steps: the time per step, of each
+        engine apart when the run went on compiled after uncompiled steps
+        (``compiled_from``): a mean over both would be neither's."""
+        switch = getattr(self, "compiled_from", None)
+        if not steps:
+            return f"): no step recorded in {self.wall_time:.3g} s"
+        if not switch:
+            return f"): {1e6 * self.wall_time / steps:.1f} us/step"
+        t, before = switch[0], switch[1]
+        seconds = switch[2] if len(switch) > 2 else None
+        head = f"; uncompiled for the first {before} steps"
+        if seconds is not None and before:
+            head += f" ({1e6 * seconds / before:.1f} us/step)"
+        head += f", to t = {t:.6g} s, while the kernels were built"
+        after = steps - before
+        if seconds is None:
+            return head + f"): {1e6 * self.wall_time / steps:.1f} us/step over both"
+        if after <= 0:
+            return head + "): no compiled step"
+        return head + f"): {1e6 * max(self.wall_time - seconds, 0.0) / after:.1f} us/step compiled"
+
     def summary(self) -> str:
         """A one-screen summary of the run."""
         tot = self.stats_total
@@ -736,11 +759,7 @@ class Solution:
             f"  steps {tot.steps} (rejected {tot.rejected}) on the {self.engine} engine "
             f"({self.linear_solver} linear solver"
             + (f"; not compiled: {self.engine_note}" if getattr(self, "engine_note", None) else "")
-            + (f"; uncompiled for the first {self.compiled_from[1]} steps, to t = "
-               f"{self.compiled_from[0]:.6g} s, while the kernels were built"
-               if getattr(self, "compiled_from", None) else "")
-            + (f"): {1e6 * self.wall_time / steps:.1f} us/step" if tot.steps else
-               f"): no step recorded in {self.wall_time:.3g} s"),
+            + self._steps_summary(tot.steps),
             "  wall time: " + ", ".join(f"{k} {v:.3f} s" for k, v in self.timings.items()),
             f"  Newton: {tot.iterations / steps:.2f} iterations/step, {tot.jacobians} Jacobians, "
             f"{tot.factorizations} factorizations, {tot.residuals} residuals"

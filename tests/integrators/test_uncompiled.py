@@ -12,6 +12,7 @@ error control and a flexible beam; a process that runs it never imports the
 compiled module.
 """
 
+import re
 import subprocess
 import sys
 
@@ -176,9 +177,19 @@ def test_a_run_goes_on_compiled_once_the_kernels_are_built(monkeypatch, method):
     ref = integrate(system, make_method(method), 0.5, 1e-3,
                     initial=mbdsl.consistent_initial_state(system), engine="compiled")
     assert sol.status == "completed" and sol.engine == "compiled"
-    assert sol.compiled_from == (pytest.approx(0.01), 10) and len(looks) == 1
+    assert sol.compiled_from[:2] == (pytest.approx(0.01), 10) and len(looks) == 1
     assert any("compiled kernels are built" in s for s in said)
-    assert "uncompiled for the first 10 steps" in sol.summary()
+    # each engine's time per step apart: the uncompiled steps' from their own time
+    before = sol.compiled_from[2]
+    assert 0.0 < before < sol.wall_time
+    line = next(x for x in sol.summary().splitlines() if "uncompiled for the first" in x)
+    uncompiled, compiled = (float(x) for x in re.findall(r"([0-9.]+) us/step", line))
+    assert uncompiled == pytest.approx(1e6 * before / 10, rel=1e-3, abs=0.1)
+    steps = sol.stats_total.steps
+    assert compiled == pytest.approx(1e6 * (sol.wall_time - before) / (steps - 10),
+                                     rel=1e-3, abs=0.1)
+    assert uncompiled > compiled          # the interpreter's steps are the slower ones
+    assert line.endswith("us/step compiled")
     assert len(sol.t) == len(ref.t)
     scale = np.abs(ref.q).max(axis=0) + 1.0
     assert np.max(np.abs(sol.q - ref.q) / scale) < 1e-9
