@@ -700,7 +700,8 @@ class KernelStepper:
             OPTION_FIELDS, rtol=options.rtol, atol_kinematic=options.atol_kinematic,
             atol_multiplier=options.atol_multiplier, max_iter=options.max_iter,
             refresh=options.refresh_rate(newton_matrix_cost(plan, size, system, method)),
-            full=1.0 if options.jacobian.value == "full" else 0.0)
+            full=1.0 if options.jacobian.value == "full" else 0.0,
+            extrapolate=1.0 if options.start == "extrapolated" else 0.0)
         self.solver = cm.K.DENSE if plan.kind == "dense" else cm.K.BANDED
         self.lin = plan.workspace(size, cm.bound)
         self.lu_state = vector(LU_FIELDS, valid=0.0, rate=0.5, step=0.0, c0=0.0)

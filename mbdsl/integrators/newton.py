@@ -157,6 +157,17 @@ class NewtonOptions:
         in the numpy engine, and banded or sparse in the compiled engine
         (``engine.linear_solver_plan``: banded when the band is at most a
         few times SuperLU's fill).
+    start : {"extrapolated", "last"}
+        Where the compiled time loop starts a step's iteration:
+        "extrapolated" through the unknowns the two or three steps before
+        converged to (``compiled.loop._extrapolated_start``; the last
+        state's start again where Newton does not converge from there, and
+        for the first steps of a call), or the last state's, as the Python
+        Newton (numpy engine, the driver's loop) always does. The converged
+        step is the same within the tolerances; from the extrapolated start
+        it takes fewer iterations (about 3 instead of 5 a step on the slider
+        crank and the double pendulum, docs/performance.md), and stops
+        nearer the tolerance than far below it.
     """
 
     rtol: float = 1e-8
@@ -166,6 +177,7 @@ class NewtonOptions:
     jacobian: JacobianUpdate = JacobianUpdate.MODIFIED
     rate_refresh: float | None = None
     linear_solver: str = "auto"
+    start: str = "extrapolated"
 
     def refresh_rate(self, cost: int) -> float:
         """``rate_refresh``, or its default for a Newton matrix whose renewal
@@ -180,6 +192,9 @@ class NewtonOptions:
         if self.linear_solver not in ("auto", "dense", "sparse", "banded"):
             raise ValueError("NewtonOptions.linear_solver must be 'auto', 'dense', 'sparse' or "
                              f"'banded', got {self.linear_solver!r}")
+        if self.start not in ("extrapolated", "last"):
+            raise ValueError("NewtonOptions.start must be 'extrapolated' or 'last', got "
+                             f"{self.start!r}")
         for name in ("rtol", "atol_kinematic", "atol_multiplier", "rate_refresh"):
             if name == "rate_refresh" and self.rate_refresh is None:
                 continue

@@ -44,9 +44,12 @@ CONTROL_FIELDS = ("rtol", "atol", "safety", "min_factor", "max_factor", "h_min",
 
 #: Newton's options (float64, ``engine.CompiledStepper.opts``): rtol, atol of the
 #: kinematic unknowns and of the multipliers, the most iterations, the contraction rate
-#: above which the Newton matrix is refreshed, a full Newton matrix every iteration (1).
-OPTION_FIELDS = ("rtol", "atol_kinematic", "atol_multiplier", "max_iter", "refresh", "full")
-OPT_RTOL, OPT_ATOL_KINEMATIC, OPT_ATOL_MULTIPLIER, OPT_MAX_ITER, OPT_REFRESH, OPT_FULL = range(6)
+#: above which the Newton matrix is refreshed, a full Newton matrix every iteration (1),
+#: the start extrapolated from the steps before (1) or the last state's (0).
+OPTION_FIELDS = ("rtol", "atol_kinematic", "atol_multiplier", "max_iter", "refresh", "full",
+                 "extrapolate")
+(OPT_RTOL, OPT_ATOL_KINEMATIC, OPT_ATOL_MULTIPLIER, OPT_MAX_ITER, OPT_REFRESH, OPT_FULL,
+ OPT_EXTRAPOLATE) = range(7)
 
 #: The factorization's state (float64, ``lu_state``): valid (1) or not, the last
 #: contraction rate, the step and c0 it was made for.

@@ -11,14 +11,14 @@ import numpy as np
 from mbdsl.integrators.outcomes import (CONVERGED, EVENT, LAND, REJECTED, RUN, TOLERANCE)
 from mbdsl.integrators.records import (CNT_STEPS, CTL_ATOL, CTL_FIXED, CTL_H_MAX, CTL_H_MIN,
                                        CTL_INDEX1, CTL_MAX_FACTOR, CTL_MIN_FACTOR, CTL_RTOL,
-                                       CTL_SAFETY, LU_C0, LU_STEP, LU_VALID, ST_AFTER_REJECTION,
-                                       ST_CARRY, ST_ERR, ST_H, ST_H_LAST, ST_LIMIT, ST_MODE,
-                                       ST_RATIO, ST_REJECTED, ST_T)
+                                       CTL_SAFETY, LU_C0, LU_STEP, LU_VALID, OPT_EXTRAPOLATE,
+                                       ST_AFTER_REJECTION, ST_CARRY, ST_ERR, ST_H, ST_H_LAST,
+                                       ST_LIMIT, ST_MODE, ST_RATIO, ST_REJECTED, ST_T)
 
 from .additive import _minus_correction
 from .index1 import INDEX1_LIMIT, _index1_acceleration, _scales_weights
-from .layout import (ADDITIVE, CF, EABS, EAUX, ERR, FORM, KA1, KA2, MH, Y0V, _advance, _copy,
-                     _layout, _state, predict)
+from .layout import (ADDITIVE, CF, EABS, EAUX, ERR, FORM, KA1, KA2, MH, REG, Y0V, _advance,
+                     _copy, _layout, _state, predict)
 from .newton import _newton
 from .recipes import _old_force
 from ...kernels.geometry import MEMO
@@ -79,6 +79,92 @@ def _start_w(rc, I, Fl, q, a, v, lam, w, qx, y):
     elif e0 < size:
         for j in range(n):
             w[n + j] = rc[Y0V] * v[j]
+
+
+#: The largest ratio of two successive steps across which Newton's start is
+#: extrapolated (``_extrapolated_start``); beyond it the last state's is taken.
+START_RATIO = 2.0
+
+
+@_hot
+def _extrapolated_start(w, hx, hh, s, multipliers, l0, e0, m):
+    """Newton's start of a step of size s (``_start_w``'s in w) with its
+    kinematic unknowns moved to their extrapolation to t_n + s through the
+    values the steps before it in this call converged to: hx (3, size) at
+    t_n, t_n - h1 and t_n - h1 - h2 (newest first), hh = (how many, h1,
+    h2); the quadratic through three, the line through two, by Lagrange's
+    formula on the step sizes (each ratio of two neighbouring steps at most
+    ``START_RATIO``). Returns False, w untouched, with fewer than two or
+    steps too unequal.
+
+    The converged step is the same (Newton's root, within its tolerance);
+    the start only comes closer to it. Where the motion is smooth the
+    accelerations (and the stabilized index-2 and additive forms' other
+    kinematic unknowns) change by O(h) a step: the last state's start is
+    O(h) away from the root and this one O(h^3), and the modified Newton
+    iteration, contracting by a fixed rate, takes fewer iterations to reach
+    its tolerance (docs/performance.md). The multipliers (rows l0 and, with
+    a second block, e0, m each) move with them, unless ``multipliers`` is
+    False (the augmented formulation): where Phi_q loses rank, only Phi_q^T
+    lambda is unique there, the multipliers' part in the null space of
+    Phi_q^T is set by the start alone, and extrapolated it grew by itself
+    from step to step (to 1e5 N on a redundant joint,
+    tests/regressions/test_redundant_restart.py)."""
+    k, h1, h2 = int(hh[0]), hh[1], hh[2]
+    if k < 2 or s > START_RATIO * h1 or h1 > START_RATIO * s:
+        return False
+    d1 = -h1                                    # the nodes relative to t_n: 0, d1, d2
+    if k >= 3 and h2 <= START_RATIO * h1 and h1 <= START_RATIO * h2:
+        d2 = d1 - h2
+        c0 = (s - d1) * (s - d2) / (d1 * d2)
+        c1 = s * (s - d2) / (d1 * (d1 - d2))
+        c2 = s * (s - d1) / (d2 * (d2 - d1))
+    else:
+        c0, c1, c2 = (s - d1) / -d1, s / d1, 0.0
+    for i in range(w.shape[0]):
+        if not multipliers and (l0 <= i < l0 + m or e0 <= i < e0 + m):
+            continue                                # the last state's multiplier
+        w[i] = c0 * hx[0, i] + c1 * hx[1, i] + c2 * hx[2, i]
+    return True
+
+
+@_hot
+def _push_start(w, hx, hh, s):
+    """The unknowns w a step of size s converged to, newest, into the
+    history of ``_extrapolated_start``."""
+    for i in range(w.shape[0]):
+        hx[2, i], hx[1, i], hx[0, i] = hx[1, i], hx[0, i], w[i]
+    hh[0], hh[1], hh[2] = min(hh[0] + 1.0, 3.0), s, hh[1]
+
+
+@_hot
+def _step_newton(rc, I, Fl, t_new, q, v, a, lam, q_pred, v_pred, F, qx_old, w, weight, opts,
+                 solver, lin, lu_state, R, C, V, r, dw, qx, vx, work, counts, scratch, hx, hh,
+                 step):
+    """Newton's iteration of a step of size ``step`` to t_new (``_newton``),
+    with its weights (from the last state's start, ``_start_w``), from the
+    extrapolated start (``_extrapolated_start``, unless ``opts`` says the
+    last state's: ``NewtonOptions.start``) and, when it does not
+    converge from there, once more from the last state's: a start that
+    extrapolation moved across a change the steps did not resolve (a
+    stick-slip transition, say) never fails a step the old start would
+    take. Returns Newton's status."""
+    size = w.shape[0]
+    _, l0, e0, _ = _layout(rc, a.shape[0], lam.shape[0])
+    status = CONVERGED
+    for attempt in range(2):
+        _start_w(rc, I, Fl, q, a, v, lam, w, qx, work)
+        if attempt == 0:
+            _scales_weights(rc, I, Fl, q, w, opts, R, C, V, qx, weight, scratch)
+        moved = (attempt == 0 and opts[OPT_EXTRAPOLATE] != 0.0
+                 and _extrapolated_start(w, hx, hh, step, rc[REG] == 0.0, l0, e0,
+                                         lam.shape[0]))
+        status = _newton(rc, I, Fl, t_new, q_pred, v_pred, F, qx_old, w, weight, opts, solver,
+                         lin, lu_state, R, C, V, r, dw, qx, vx, work, counts,
+                         scratch[scratch.shape[0] - 2 * size:])
+        if status == CONVERGED or not moved:
+            break
+    return status
 
 
 @_hot
@@ -413,6 +499,7 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
     fixed = ctl[CTL_FIXED] != 0.0
     r, dw, w, weight, qx, vx, work, q_pred, v_pred, qx_old, F, scratch = ws
     b_new, d_err = np.empty(n), np.empty(n)
+    hx, hh = np.zeros((3, size)), np.zeros(3)     # the steps' w Newton's start extrapolates
     mode = int(state[ST_MODE])
     two_step, index1, gaps, springs, kinks = _run_flags(mono, I, Fl, rc, m, ctl, has_extra, mode)
     ev = _event_scratch(n, I)
@@ -438,13 +525,11 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
             lu_state[LU_VALID] = 0.0
             lu_state[LU_STEP], lu_state[LU_C0] = step, c0
         predict(rc, first, q, v, a, b, q_prev, v_prev, q_pred, v_pred)
-        _start_w(rc, I, Fl, q, a, v, lam, w, qx, work)
         for j in range(n):                 # q_n (the additive form), or Mhat's q_n + mh v_n
             qx_old[j] = q[j] + rc[MH] * v[j]
-        _scales_weights(rc, I, Fl, q, w, opts, R, C, V, qx, weight, scratch)
-        status = _newton(rc, I, Fl, t_new, q_pred, v_pred, F, qx_old, w, weight, opts, solver,
-                         lin, lu_state, R, C, V, r, dw, qx, vx, work, counts,
-                         scratch[scratch.shape[0] - 2 * size:])
+        status = _step_newton(rc, I, Fl, t_new, q, v, a, lam, q_pred, v_pred, F, qx_old, w,
+                              weight, opts, solver, lin, lu_state, R, C, V, r, dw, qx, vx, work,
+                              counts, scratch, hx, hh, step)
         if status != CONVERGED:       # the driver decides: halve, jump, or hand over
             state[ST_T], state[ST_H] = t, step
             state[ST_AFTER_REJECTION] = 1.0 if after_rejection else 0.0
@@ -488,6 +573,7 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
             state[ST_ERR], state[ST_RATIO] = err, factor
         q_prev[:] = q
         v_prev[:] = v
+        _push_start(w, hx, hh, step)
         state[ST_H_LAST] = step
         q[:] = qx[:n]
         v[:] = vx[:n]
