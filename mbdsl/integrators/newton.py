@@ -163,7 +163,9 @@ class NewtonOptions:
         converged to (``compiled.loop._extrapolated_start``; the last
         state's start again where Newton does not converge from there, and
         for the first steps of a call), or the last state's, as the Python
-        Newton (numpy engine, the driver's loop) always does. The converged
+        Newton (numpy engine, the driver's loop) always does, and the
+        compiled loop where a Newton matrix costs about ten iterations
+        (HHT-ADD on flexible beams, ``engine.newton_matrix_cost``). The converged
         step is the same within the tolerances; from the extrapolated start
         it takes fewer iterations (about 3 instead of 5 a step on the slider
         crank and the double pendulum, docs/performance.md), and stops
