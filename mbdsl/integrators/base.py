@@ -336,6 +336,14 @@ class Method(ABC):
         (the recipe's ``first``); False for one-step methods."""
         return False
 
+    def output_rows(self, system, t, q, v, a, lam, extras):
+        """(multipliers (N, m), accelerations (N, n), extra columns) written to
+        the output for recorded rows: :meth:`output_multipliers`, then
+        :meth:`output_accelerations` with the multipliers it gives. A
+        method whose two come from one solve computes them together."""
+        out, more = self.output_multipliers(system, t, q, v, lam, extras)
+        return out, self.output_accelerations(system, t, q, v, a, out), more
+
     def output_accelerations(self, system, t, q, v, a, lam):
         """The accelerations written to the output for recorded rows, shape
         (N, n), given the output multipliers lam (N, m)

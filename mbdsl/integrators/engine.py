@@ -115,7 +115,7 @@ def _unsupported_elements(system) -> str | None:
     return None
 
 
-def index1_multipliers(system, t, q, v) -> np.ndarray:
+def index1_multipliers(system, t, q, v, accelerations=False):
     """The Lagrange multipliers of the index-1 system at stored rows, shape
     (N, m): ``AssembledSystem.index1_multipliers``, evaluated by the kernels
     when this process has loaded them and they cover the model (a run on the
@@ -127,29 +127,43 @@ def index1_multipliers(system, t, q, v) -> np.ndarray:
 
     Contacts: each row with the impact speeds in force at its time, from the
     contact log of the model's last run (``ContactState.log``,
-    ``speeds_at``), a block of rows per contact state."""
+    ``speeds_at``), a block of rows per contact state.
+
+    With ``accelerations``, returns (multipliers, accelerations (N, n)
+    [m/s^2, rad/s^2]), the accelerations those multipliers give
+    (:func:`index1_accelerations`), which the band kernel computes from the
+    Phi_q and Q it has at hand (0.3 of 1.4 us a row on the double pendulum
+    when computed apart, in numpy)."""
     from .kernel_cache import loaded
     t = np.ascontiguousarray(np.atleast_1d(t), dtype=float)
     q = np.ascontiguousarray(np.atleast_2d(q), dtype=float)
     v = np.ascontiguousarray(np.atleast_2d(v), dtype=float)
     blocks, speeds = _contact_blocks(system, t)
+    band = None
     if not loaded() or _unsupported_elements(system) is not None:
-        return _per_contact_state(system, blocks, speeds, system.m, lambda i0, i1: (
+        out = _per_contact_state(system, blocks, speeds, system.m, lambda i0, i1: (
             system.index1_multipliers(t[i0:i1], q[i0:i1], v[i0:i1])))
-    cm = run_model(system)                    # its impact speeds are set per block below
-    out = np.empty((len(t), system.m))
-    R, C = np.empty(cm.bound, np.int64), np.empty(cm.bound, np.int64)
-    band = _index1_band(system)
-    for i0, i1 in blocks:
-        if speeds is not None:
-            cm.impact_speed[:] = speeds[i0]
-        rows = (t[i0:i1], q[i0:i1], v[i0:i1], out[i0:i1], R, C, np.empty(cm.bound),
-                system.FRICTION_ITERATIONS)
-        if band is None:
-            _kernels().index1_multipliers(cm.ints, cm.floats, *rows)
-        else:
-            _kernels().index1_multipliers_band(cm.ints, cm.floats, *rows, *band)
-    return out
+    else:
+        cm = run_model(system)                # its impact speeds are set per block below
+        out = np.empty((len(t), system.m))
+        R, C = np.empty(cm.bound, np.int64), np.empty(cm.bound, np.int64)
+        band = _index1_band(system)
+        acc = np.empty((len(t) if accelerations and band is not None else 0, system.n))
+        for i0, i1 in blocks:
+            if speeds is not None:
+                cm.impact_speed[:] = speeds[i0]
+            rows = (t[i0:i1], q[i0:i1], v[i0:i1], out[i0:i1], R, C, np.empty(cm.bound),
+                    system.FRICTION_ITERATIONS)
+            if band is None:
+                _kernels().index1_multipliers(cm.ints, cm.floats, *rows)
+            else:
+                _kernels().index1_multipliers_band(cm.ints, cm.floats, *rows, *band,
+                                                   acc[i0:i1] if len(acc) else acc)
+    if not accelerations:
+        return out
+    if band is None:
+        acc = index1_accelerations(system, t, q, v, out)
+    return out, acc
 
 
 def index1_accelerations(system, t, q, v, lam) -> np.ndarray:

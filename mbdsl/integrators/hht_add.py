@@ -146,6 +146,14 @@ class HHTADD(Method):
         from .engine import index1_multipliers
         return index1_multipliers(system, t, q, v), {"psi2": lam}
 
+    def output_rows(self, system, t, q, v, a, lam, extras):
+        """:meth:`output_multipliers` and :meth:`output_accelerations` from one
+        call of the kernels, which give the accelerations from the Phi_q and
+        Q the multipliers' solve holds (``engine.index1_multipliers``)."""
+        from .engine import index1_multipliers
+        out, acc = index1_multipliers(system, t, q, v, accelerations=True)
+        return out, acc, {"psi2": lam}
+
     def output_accelerations(self, system, t, q, v, a, lam):
         """q'' = M^-1 (Q - Phi_q^T lambda) at each row, lambda the output's
         index-1 multipliers (:meth:`output_multipliers`): the step's own a

@@ -96,8 +96,7 @@ class Solution:
         # stored per step (the method's extras) and added on output (``output_extras``)
         self._stored_extras = tuple(method.extras)
         self.extra_names = self._stored_extras + tuple(getattr(method, "output_extras", ()))
-        self._output_map = getattr(method, "output_multipliers", None)
-        self._output_acc = getattr(method, "output_accelerations", None)
+        self._output_rows = getattr(method, "output_rows", None)
         self.h, self.t_end = float(h), float(t_end)
         self.initial = initial
         self.status, self.message, self.diagnostics = "running", "", []
@@ -314,13 +313,11 @@ class Solution:
         output multipliers and accelerations (``Method.output_multipliers``,
         ``Method.output_accelerations``)."""
         d = self._rows.get(i0, i1)
-        if self._output_map is not None and len(d["t"]):
-            lam, extras = self._output_map(self.system, d["t"], d["q"], d["v"], d["lam"],
-                                           {x: d[x] for x in self._stored_extras})
+        if self._output_rows is not None and len(d["t"]):
+            lam, a, extras = self._output_rows(self.system, d["t"], d["q"], d["v"], d["a"],
+                                               d["lam"], {x: d[x] for x in self._stored_extras})
             d.update(extras)
-            d["lam"] = lam
-            if self._output_acc is not None:
-                d["a"] = self._output_acc(self.system, d["t"], d["q"], d["v"], d["a"], lam)
+            d["lam"], d["a"] = lam, a
         return d
 
     #: A beam's elastic displacement, as a fraction of its length, above which
@@ -452,7 +449,7 @@ class Solution:
         self.system, self.model = system, system.model
         self.method_name, self.method_parameters = method_name, dict(method_parameters)
         self.extra_names = self._stored_extras = tuple(extra_names)
-        self._output_map = self._output_acc = None
+        self._output_rows = None
         self.h, self.t_end, self.initial = float(h), float(t_end), None
         self.status, self.message, self.diagnostics = status, message, []
         self.wall_time, self.stats_total = float(wall_time), stats_total

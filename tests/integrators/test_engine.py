@@ -601,7 +601,7 @@ def test_index1_multipliers_of_the_kernels_are_the_systems_dense_solves(path):
     from mbdsl.integrators import compiled, kernel_cache
     from mbdsl.integrators.engine import index1_multipliers
     kernel_cache.ensure_loaded("dense")
-    # Rigid bodies take the Schur complement Phi_q M^-1 Phi_q^T in LAPACK's band Cholesky
+    # Rigid bodies take the Schur complement Phi_q M^-1 Phi_q^T in a band Cholesky
     # (``engine._index1_band``), beams the dense index-1 matrix; both are checked here.
     system, init = _system(path)
     sol = integrate(system, make_method("hht-i3"), 0.05, 1e-3, initial=init, engine="numpy",
@@ -613,6 +613,12 @@ def test_index1_multipliers_of_the_kernels_are_the_systems_dense_solves(path):
     assert np.abs(a - b).max() < 1e-10 * max(1.0, np.abs(a).max())
     # and they are the multipliers the index-3 run converged to, to its O(h^2) accuracy
     assert np.abs(b - sol.lam).max() < 1e-2 * max(1.0, np.abs(sol.lam).max())
+    # with the accelerations they give (the band kernel's own from its Phi_q and Q; for
+    # beams the system's): the system's M a = Q - Phi_q^T lambda, evaluated in numpy
+    b2, acc = index1_multipliers(system, sol.t, sol.q, sol.v, accelerations=True)
+    assert np.array_equal(b2, b)
+    ref = system.accelerations(sol.t, sol.q, sol.v, b)
+    assert np.abs(acc - ref).max() < 1e-12 * max(1.0, np.abs(ref).max())
     cm = CompiledModel(system)
     R, C = np.empty(cm.bound, np.int64), np.empty(cm.bound, np.int64)
     if system.mass_is_constant:    # the dense kernel on rigid bodies too: the same multipliers
@@ -628,10 +634,11 @@ def test_index1_multipliers_of_the_kernels_are_the_systems_dense_solves(path):
     assert np.isnan(out).all()
     if system.mass_is_constant:
         out[:] = 0.0
+        acc = np.zeros((1, system.n))
         compiled.index1_multipliers_band(cm.ints, cm.floats, np.zeros(1), bad_q, zero_v, out, R,
                                          C, np.empty(cm.bound), 5,
-                                         *engine_module._index1_band(system))
-        assert np.isnan(out).all()
+                                         *engine_module._index1_band(system), acc)
+        assert np.isnan(out).all() and np.isnan(acc).all()
 
 
 def test_index1_multipliers_of_redundant_joints_are_nan_in_the_band_kernel():
@@ -650,10 +657,11 @@ def test_index1_multipliers_of_redundant_joints_are_nan_in_the_band_kernel():
     cm = CompiledModel(system)
     R, C = np.empty(cm.bound, np.int64), np.empty(cm.bound, np.int64)
     out = np.zeros((1, system.m))
+    acc = np.zeros((1, system.n))
     compiled.index1_multipliers_band(cm.ints, cm.floats, np.zeros(1), q[None, :],
                                      np.zeros((1, system.n)), out, R, C, np.empty(cm.bound),
-                                     5, *engine_module._index1_band(system))
-    assert np.isnan(out).all()
+                                     5, *engine_module._index1_band(system), acc)
+    assert np.isnan(out).all() and np.isnan(acc).all()
 
 
 def test_output_stride_keeps_every_kth_step_and_the_last():

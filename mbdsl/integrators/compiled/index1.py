@@ -28,7 +28,7 @@ def _index1_gamma(I, Fl, t, qx, vx, gam, R, C, V):
 
 
 @_jit
-def _index1_multipliers_band(I, Fl, t, q, v, out, R, C, V, iterations, order, kd):
+def _index1_multipliers_band(I, Fl, t, q, v, out, R, C, V, iterations, order, kd, acc):
     """The index-1 multipliers of ``_index1_multipliers`` for rigid bodies
     (M a constant diagonal) from the Schur complement
 
@@ -41,8 +41,14 @@ def _index1_multipliers_band(I, Fl, t, q, v, out, R, C, V, iterations, order, kd
     Friction: the fixed point of ``_index1_multipliers`` on the same
     factorization. A matrix that is not positive definite, or whose
     Cholesky pivots (U_kk^2) fall below 1e-13 of the largest (redundant
-    joints, a singular position), gives NaN for that row."""
+    joints, a singular position), gives NaN for that row.
+
+    With ``acc`` of N rows (else of none), also the accelerations these
+    multipliers give, a = M^-1 (Q - Phi_q^T lambda), into it (N, n)
+    (``AssembledSystem.accelerations``, from the Phi_q and Q at hand), NaN
+    where the multipliers are."""
     n, m = q.shape[1], out.shape[1]
+    with_acc = acc.shape[0] == q.shape[0]
     qx, vx, work = np.zeros(n + 3), np.zeros(n + 3), np.zeros(n + 3)
     ldab = kd + 1
     AB, b, gam, lam = np.empty((m, ldab)), np.empty(m), np.empty(m), np.zeros(m)
@@ -109,6 +115,16 @@ def _index1_multipliers_band(I, Fl, t, q, v, out, R, C, V, iterations, order, kd
                 break
         for k in range(m):
             out[row, k] = lam[k] if settled and np.isfinite(lam[k]) else np.nan
+        if with_acc:
+            if friction and settled:          # Q at the multipliers the sweeps settled on
+                forces(I, Fl, t[row], qx, vx, lam, work)
+            for j in range(n):
+                acc[row, j] = work[j]
+            for e in range(p):
+                acc[row, C[e]] -= V[e] * lam[R[e]]
+            for j in range(n):
+                # divided, as AssembledSystem.accelerations does
+                acc[row, j] = acc[row, j] / _f(I, Fl, MASS, j, 0) if settled else np.nan
 
 
 @_jit
