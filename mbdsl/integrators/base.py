@@ -128,7 +128,7 @@ class Method(ABC):
     max_step_ratio: float | None = None
     #: names of StepState.extra arrays of length m written to the output (e.g. "mu")
     extras: tuple = ()
-    #: further (m,) columns that :meth:`output_multipliers` adds to the output
+    #: further (m,) columns that :meth:`output_rows` adds to the output
     output_extras: tuple = ()
     #: "lagrange" (the Newton matrix as derived) or "augmented" (see :meth:`formulated`)
     formulation: str = "lagrange"
@@ -337,29 +337,15 @@ class Method(ABC):
         return False
 
     def output_rows(self, system, t, q, v, a, lam, extras):
-        """(multipliers (N, m), accelerations (N, n), extra columns) written to
-        the output for recorded rows: :meth:`output_multipliers`, then
-        :meth:`output_accelerations` with the multipliers it gives. A
-        method whose two come from one solve computes them together."""
-        out, more = self.output_multipliers(system, t, q, v, lam, extras)
-        return out, self.output_accelerations(system, t, q, v, a, out), more
-
-    def output_accelerations(self, system, t, q, v, a, lam):
-        """The accelerations written to the output for recorded rows, shape
-        (N, n), given the output multipliers lam (N, m)
-        (:meth:`output_multipliers`): here ``a`` unchanged (the methods whose
-        a is the motion's q'')."""
-        return a
-
-    def output_multipliers(self, system, t, q, v, lam, extras):
-        """The multipliers written to the output for recorded rows, and the
-        extra columns (``output_extras``) added to them.
+        """The multipliers and accelerations written to the output for
+        recorded rows, and the extra columns (``output_extras``) added to them.
 
         Parameters
         ----------
         system : AssembledSystem
         t : ndarray, shape (N,) [s]
-        q, v : ndarray, shape (N, n)
+        q, v, a : ndarray, shape (N, n)
+            The recorded state; ``a`` the method's acceleration-like unknown.
         lam : ndarray, shape (N, m)
             The method's multipliers as the steps computed them.
         extras : dict of str -> ndarray, shape (N, m)
@@ -368,12 +354,13 @@ class Method(ABC):
         Returns
         -------
         lam : ndarray, shape (N, m)
+        a : ndarray, shape (N, n)
         extras : dict
-            Entries for ``output_extras``. Here: ``lam`` unchanged, no extras
-            (the methods whose lambda is the Lagrange multiplier of the
-            equations of motion at t_{n+1}).
+            Entries for ``output_extras``. Here: ``lam`` and ``a`` unchanged,
+            no extras (the methods whose lambda is the Lagrange multiplier of
+            the equations of motion at t_{n+1} and whose a is the motion's q'').
         """
-        return lam, {}
+        return lam, a, {}
 
     @abstractmethod
     def amplification(self, omega_h: float) -> np.ndarray:

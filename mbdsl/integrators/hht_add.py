@@ -125,12 +125,13 @@ class HHTADD(Method):
     def _f(self, system, t, q, v, lam):
         """f = M^{-1} Q(t, q, v, lambda); lambda := psi_II, read only by
         friction (whose normal load is then psi_II: an O(h) approximation of
-        the reaction, see ``output_multipliers``)."""
+        the reaction, see ``output_rows``)."""
         return system.mass_solve(q, system.Q(t, q, v, lam))
 
-    def output_multipliers(self, system, t, q, v, lam, extras):
-        """lambda from the index-1 system at each step's (t, q, v); psi_II
-        (the step's own unknown) as the extra column ``psi2``.
+    def output_rows(self, system, t, q, v, a, lam, extras):
+        """lambda from the index-1 system at each step's (t, q, v), the
+        accelerations they give, and psi_II (the step's own unknown) as the
+        extra column ``psi2``.
 
         psi_I and psi_II are the corrections' multipliers, not the Lagrange
         multipliers of the equations of motion: psi_II converges at order 1
@@ -138,31 +139,23 @@ class HHTADD(Method):
         0.16, 0.078 N m at h = 1e-4, 5e-5, 2.5e-5 where HHT-I3's lambda is
         off by 1.5e-4, 3.7e-5, 9.0e-6), while q and v are of order 2. The
         index-1 multipliers at (q, v) inherit the order of q and v.
-        Evaluated by the compiled kernels after a compiled run
-        (``engine.index1_multipliers``: a few us per row on small models,
-        against about 0.3 ms per row by the system's dense index-1 matrix; rigid bodies by a
-        band Cholesky of Phi_q M^-1 Phi_q^T, linear in a chain's length).
-        """
-        from .engine import index1_multipliers
-        return index1_multipliers(system, t, q, v), {"psi2": lam}
 
-    def output_rows(self, system, t, q, v, a, lam, extras):
-        """:meth:`output_multipliers` and :meth:`output_accelerations` from one
-        call of the kernels, which give the accelerations from the Phi_q and
-        Q the multipliers' solve holds (``engine.index1_multipliers``)."""
+        The step's own a is M^-1 Q alone (``acceleration_is_total`` False:
+        the constraint forces' share is in psi), not the motion's
+        acceleration; written as the acceleration columns it showed a
+        pendulum's angular acceleration as 0. The columns are q'' = M^-1 (Q -
+        Phi_q^T lambda) with the output's lambda.
+
+        Both from one call of the compiled kernels after a compiled run
+        (``engine.index1_multipliers``: a few us per row on small models,
+        against about 0.3 ms per row by the system's dense index-1 matrix;
+        rigid bodies by a band Cholesky of Phi_q M^-1 Phi_q^T, linear in a
+        chain's length, whose kernel forms the accelerations from the Phi_q
+        and Q it holds).
+        """
         from .engine import index1_multipliers
         out, acc = index1_multipliers(system, t, q, v, accelerations=True)
         return out, acc, {"psi2": lam}
-
-    def output_accelerations(self, system, t, q, v, a, lam):
-        """q'' = M^-1 (Q - Phi_q^T lambda) at each row, lambda the output's
-        index-1 multipliers (:meth:`output_multipliers`): the step's own a
-        is M^-1 Q alone (``acceleration_is_total`` False: the constraint
-        forces' share is in psi), not the motion's acceleration; written as
-        the acceleration columns it showed a pendulum's angular acceleration
-        as 0 (``engine.index1_accelerations``)."""
-        from .engine import index1_accelerations
-        return index1_accelerations(system, t, q, v, lam)
 
     #: accepted steps between two looks at :meth:`stability_check` on a
     #: model whose mass matrix depends on q (flexible beams)
@@ -332,7 +325,7 @@ class HHTADD(Method):
         crank, whose beam's elastic a and R are large and of opposite
         signs, a new Newton matrix at every step instead of at 3 of 4.
         """
-        s, h = ctx.last, ctx.h
+        s = ctx.last
         R = self._r(ctx.system, s.q, s.lam)
         dq, dv = self.beta * s.a + 0.5 * R, self.gamma * s.a + R
         return np.concatenate([dq, dv, s.a, s.lam, s.lam])

@@ -310,8 +310,7 @@ class Solution:
     def rows(self, i0: int, i1: int) -> dict:
         """Rows i0..i1-1 recorded so far, as arrays ("t", "q", "v", "a",
         "lam", the extra names and the ``STAT_NAMES``), with the method's
-        output multipliers and accelerations (``Method.output_multipliers``,
-        ``Method.output_accelerations``)."""
+        output multipliers and accelerations (``Method.output_rows``)."""
         d = self._rows.get(i0, i1)
         if self._output_rows is not None and len(d["t"]):
             lam, a, extras = self._output_rows(self.system, d["t"], d["q"], d["v"], d["a"],

@@ -148,7 +148,7 @@ class RunData:
         Last time reached.
     q_end, v_end : ndarray, shape (n,)
     lam_end : ndarray, shape (m,)
-        The output multipliers at the end (``Method.output_multipliers``).
+        The output multipliers at the end (``Method.output_rows``).
         Generalized coordinates and velocities at ``t_stop``.
     coefficients : dict
         Every coefficient of the method as run.
