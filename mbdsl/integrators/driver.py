@@ -305,8 +305,8 @@ class KernelUpgrade:
     models, ``python_loop``), that stepper is kept, its history with it,
     and only its kernels are swapped. The loading is timed as ``timings["kernels"]``,
     never as steps; the Solution records where the switch came
-    (``sol.compiled_from``: t [s], the steps before it and, once the run
-    ends, their integration time [s]) and says so in its summary.
+    (``sol.compiled_from``: t [s], the steps before it and their
+    integration time [s], set when the run ends) and says so in its summary.
 
     While it is awaited, the time loop cuts its stepper's calls to about
     half a second each (``loop.UPGRADE_CALL_SECONDS``), so that the switch
@@ -330,7 +330,8 @@ class KernelUpgrade:
         self.interval = float(interval)
         self.looked = _time.perf_counter()
         self.seconds = 0.0        # loading the compiled kernels
-        #: (clock [s], the loop's output time so far [s]) at the switch, or None
+        #: (t [s], steps, clock [s], the loop's output time so far [s]) at the
+        #: switch, or None: ``_finish`` makes ``Solution.compiled_from`` of it
         self.at = None
 
     def __call__(self, loop):
@@ -350,7 +351,7 @@ class KernelUpgrade:
         system, method, initial, solver, control, python_loop, announce, h = self.run
         t0 = _time.perf_counter()
         written = sum(o.elapsed for o in loop.observers) + getattr(loop.sink, "elapsed", 0.0)
-        self.at = (t0, written)
+        self.at = (loop.t, loop.step_no, t0, written)
         if announce is not None:
             announce(f"the compiled kernels are built: the run goes on with them from "
                      f"t = {loop.t:.6g} s")
@@ -358,7 +359,9 @@ class KernelUpgrade:
         # announce: a cache the marker wrongly calls built compiles here, and says so
         new, fallback, kind = _steppers(system, method, initial, solver, "compiled", control,
                                         python_loop, announce, h, {})
-        def packed(stepper):      # the compiled loop's, or the Python Newton's adapter's
+        def packed(stepper):
+            """The model data a stepper's kernels evaluate: the compiled loop's,
+            or the Python Newton's adapter's."""
             return stepper.cm if isinstance(stepper, KernelStepper) else stepper.method.cm
         cm = packed(new)
         copy_run_state(cm, packed(old))
@@ -367,7 +370,6 @@ class KernelUpgrade:
             # goes on as it was, its history with it, on the compiled kernels
             old.method.use_kernels(cm)
             new, fallback = old, loop.fallback
-        loop.sol.compiled_from = (loop.t, loop.step_no)
         loop.sol.engine, loop.sol.linear_solver = "compiled", kind
         self.seconds = _time.perf_counter() - t0
         return new, fallback
@@ -393,9 +395,9 @@ def _finish(sol, observers, loop_start, resampling=0.0, opened=0.0, upgrade=None
     compiled kernels' loading during the run (``upgrade``, a
     :class:`KernelUpgrade` or None), which goes to ``"kernels"``;
     ``sol.wall_time`` is the integration time. A run that went on compiled
-    gets the integration time of its uncompiled steps as the third entry of
-    ``sol.compiled_from``, so that its summary gives each engine's time per
-    step apart.
+    gets ``sol.compiled_from``: where it switched and the integration time
+    of its uncompiled steps, so that its summary gives each engine's time
+    per step apart.
     """
     clock = _time.perf_counter
     written = sum(o.elapsed for o in observers) - opened + resampling
@@ -403,10 +405,10 @@ def _finish(sol, observers, loop_start, resampling=0.0, opened=0.0, upgrade=None
     sol.timings["kernels"] += kernels
     sol.timings["integration"] = clock() - loop_start - written - kernels
     sol.wall_time = sol.timings["integration"]
-    if upgrade is not None and upgrade.at is not None and sol.compiled_from is not None:
-        clock_at, written_at = upgrade.at
+    if upgrade is not None and upgrade.at is not None:
+        t_at, steps_at, clock_at, written_at = upgrade.at
         before = max(clock_at - loop_start - (written_at - opened), 0.0)
-        sol.compiled_from = tuple(sol.compiled_from[:2]) + (before,)
+        sol.compiled_from = (t_at, steps_at, before)
     t0 = clock()
     if not any(o.releases_rows for o in observers):   # else the rows are read from its file
         sol.finalize()          # stacking the rows, and the method's output multipliers

@@ -720,15 +720,12 @@ class Solution:
             return f"): no step recorded in {self.wall_time:.3g} s"
         if not switch:
             return f"): {1e6 * self.wall_time / steps:.1f} us/step"
-        t, before = switch[0], switch[1]
-        seconds = switch[2] if len(switch) > 2 else None
+        t, before, seconds = switch
         head = f"; uncompiled for the first {before} steps"
-        if seconds is not None and before:
+        if before:
             head += f" ({1e6 * seconds / before:.1f} us/step)"
         head += f", to t = {t:.6g} s, while the kernels were built"
         after = steps - before
-        if seconds is None:
-            return head + f"): {1e6 * self.wall_time / steps:.1f} us/step over both"
         if after <= 0:
             return head + "): no compiled step"
         return head + f"): {1e6 * max(self.wall_time - seconds, 0.0) / after:.1f} us/step compiled"
