@@ -23,7 +23,7 @@ def _history(values, times):
     size = len(values[0])
     hx, hh = np.zeros((3, size)), np.zeros(3)
     for k, (w, t) in enumerate(zip(values, times)):
-        _push_start(np.asarray(w, float), hx, hh, t - times[k - 1] if k else 0.0)
+        _push_start(np.asarray(w, float), hx, hh, t - times[k - 1] if k else 0.0, True)
     return hx, hh
 
 

@@ -129,9 +129,12 @@ def _extrapolated_start(w, hx, hh, s, multipliers, l0, e0, m):
 
 
 @_hot
-def _push_start(w, hx, hh, s):
+def _push_start(w, hx, hh, s, on):
     """The unknowns w a step of size s converged to, newest, into the
-    history of ``_extrapolated_start``."""
+    history of ``_extrapolated_start`` (nothing when ``on`` is False: a
+    run on the last state's start)."""
+    if not on:
+        return
     for i in range(w.shape[0]):
         hx[2, i], hx[1, i], hx[0, i] = hx[1, i], hx[0, i], w[i]
     hh[0], hh[1], hh[2] = min(hh[0] + 1.0, 3.0), s, hh[1]
@@ -140,7 +143,7 @@ def _push_start(w, hx, hh, s):
 @_hot
 def _step_newton(rc, I, Fl, t_new, q, v, a, lam, q_pred, v_pred, F, qx_old, w, weight, opts,
                  solver, lin, lu_state, R, C, V, r, dw, qx, vx, work, counts, scratch, hx, hh,
-                 step):
+                 step, l0, e0):
     """Newton's iteration of a step of size ``step`` to t_new (``_newton``),
     with its weights (from the last state's start, ``_start_w``), from the
     extrapolated start (``_extrapolated_start``, unless ``opts`` says the
@@ -148,9 +151,9 @@ def _step_newton(rc, I, Fl, t_new, q, v, a, lam, q_pred, v_pred, F, qx_old, w, w
     converge from there, once more from the last state's: a start that
     extrapolation moved across a change the steps did not resolve (a
     stick-slip transition, say) never fails a step the old start would
-    take. Returns Newton's status."""
+    take. l0, e0: where the multipliers start in w (``_layout``). Returns
+    Newton's status."""
     size = w.shape[0]
-    _, l0, e0, _ = _layout(rc, a.shape[0], lam.shape[0])
     status = CONVERGED
     for attempt in range(2):
         _start_w(rc, I, Fl, q, a, v, lam, w, qx, work)
@@ -529,7 +532,7 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
             qx_old[j] = q[j] + rc[MH] * v[j]
         status = _step_newton(rc, I, Fl, t_new, q, v, a, lam, q_pred, v_pred, F, qx_old, w,
                               weight, opts, solver, lin, lu_state, R, C, V, r, dw, qx, vx, work,
-                              counts, scratch, hx, hh, step)
+                              counts, scratch, hx, hh, step, l0, e0)
         if status != CONVERGED:       # the driver decides: halve, jump, or hand over
             state[ST_T], state[ST_H] = t, step
             state[ST_AFTER_REJECTION] = 1.0 if after_rejection else 0.0
@@ -573,7 +576,7 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
             state[ST_ERR], state[ST_RATIO] = err, factor
         q_prev[:] = q
         v_prev[:] = v
-        _push_start(w, hx, hh, step)
+        _push_start(w, hx, hh, step, opts[OPT_EXTRAPOLATE] != 0.0)
         state[ST_H_LAST] = step
         q[:] = qx[:n]
         v[:] = vx[:n]
