@@ -145,7 +145,7 @@ class StepControl:
 
 
 def index1_acceleration(system, t: float, q: np.ndarray, v: np.ndarray,
-                        a: np.ndarray) -> np.ndarray:
+                        a: np.ndarray, dense: bool = True) -> np.ndarray:
     """The acceleration a made to meet the acceleration constraints
     Phi_q a = gamma by a change along the directions M^-1 Phi_q^T lambda in
     which the multipliers act:
@@ -156,21 +156,71 @@ def index1_acceleration(system, t: float, q: np.ndarray, v: np.ndarray,
     one (Haug, Computer-Aided Kinematics and Dynamics of Mechanical Systems,
     sec. 6.3; the pseudo-inverse keeps redundant rows). An index-3 method's error
     estimate reads it (module notes): its own a meets only Phi = 0, and the
-    normal part carries the multipliers' round-off over beta h^2. The
-    compiled loop's ``integrators.compiled.index1._index1_acceleration`` is the same operation.
+    normal part carries the multipliers' round-off over beta h^2.
+
+    Rigid bodies (M a constant diagonal) solve the Schur complement
+    Phi_q M^-1 Phi_q^T by a band Cholesky in the reverse Cuthill-McKee order
+    of its rows (``engine._index1_band``), linear in the size of a chain.
+    Where that refuses the matrix (a pivot below 1e-13 of the largest:
+    redundant rows, a singular position), and for flexible beams, the dense
+    least squares does when ``dense``, else a is returned as it is. The
+    compiled loop's ``integrators.compiled.index1._index1_acceleration`` is
+    the same operation with the same rule.
 
     Parameters
     ----------
     system : AssembledSystem
     t : float [s]
     q, v, a : ndarray, shape (n,) [m, rad; m/s, rad/s; m/s^2, rad/s^2]
+    dense : bool
+        Whether the dense least squares may be used (up to ``INDEX1_LIMIT``
+        constraint rows, the compiled loop's rule).
 
     Returns
     -------
     ndarray, shape (n,) [m/s^2, rad/s^2]
     """
+    from .engine import _index1_band
+    plan = _index1_band(system)
+    if plan is not None:
+        out = _index1_acceleration_band(system, plan, t, q, v, a)
+        if out is not None:
+            return out
+    if not dense:
+        return np.array(a, dtype=float)
     Phi_q = system.Phi_q(q, t)
     Phi_q = Phi_q.toarray() if hasattr(Phi_q, "toarray") else np.asarray(Phi_q)
     W = system.mass_solve(q, Phi_q.T)                  # M^-1 Phi_q^T, (n, m)
     z = np.linalg.lstsq(Phi_q @ W, Phi_q @ a - system.gamma(q, v, t), rcond=1e-13)[0]
     return a - W @ z
+
+
+def _index1_acceleration_band(system, plan, t, q, v, a):
+    """:func:`index1_acceleration` for rigid bodies on the band Cholesky of
+    A = Phi_q M^-1 Phi_q^T, rows in the plan's order (``engine._index1_band``:
+    (order, kd)), or None where A is not positive definite or a pivot U_kk^2
+    is below 1e-13 of the largest (``compiled.index1._schur_band``'s test)."""
+    import scipy.linalg
+    import scipy.sparse
+    order, kd = plan
+    m = len(order)
+    P = scipy.sparse.csr_matrix(system.Phi_q(q, t))[order]
+    minv = 1.0 / system.mass_diag
+    A = (P @ scipy.sparse.diags(minv) @ P.T).tocoo()
+    upper = A.row <= A.col
+    if np.any(A.col[upper] - A.row[upper] > kd):
+        return None
+    ab = np.zeros((kd + 1, m))             # A(i, j), i <= j, at ab[kd + i - j, j] (LAPACK "U")
+    np.add.at(ab, (kd + A.row[upper] - A.col[upper], A.col[upper]), A.data[upper])
+    try:
+        U = scipy.linalg.cholesky_banded(ab, lower=False, check_finite=False)
+    except np.linalg.LinAlgError:
+        return None
+    pivots = U[kd] ** 2
+    if not np.all(np.isfinite(pivots)) or pivots.min() < 1e-13 * pivots.max():
+        return None
+    z = scipy.linalg.cho_solve_banded((U, False), P @ a - system.gamma(q, v, t)[order],
+                                      check_finite=False)
+    if not np.all(np.isfinite(z)):
+        return None
+    return a - minv * (P.T @ z)

@@ -242,8 +242,9 @@ def _steppers(system, method, initial, solver, which, control, python_loop, anno
     dense = not sparse_newton(options, size)
     fallback = PythonStepper(system, SparseAdapter(system, method, cm, dense=dense),
                              Newton(options), control, None)
-    return KernelStepper(system, method, mono, cm, plan, solver.options, initial, h), fallback, \
-        plan.kind
+    index1 = control is not None and control.index1 and method.estimate_on_index1
+    return KernelStepper(system, method, mono, cm, plan, solver.options, initial, h,
+                         index1=index1), fallback, plan.kind
 
 
 def _run(system, method, t_start, t_end, h, initial, steppers, control, engine, sizes,

@@ -235,6 +235,18 @@ def _index1_band(system):
     return plan
 
 
+def index1_band_vector(system) -> np.ndarray:
+    """The band plan of :func:`_index1_band` as the compiled loop reads it
+    (``compiled.index1._index1_scratch``): int64 (m + 1,), the constraint
+    rows' reverse Cuthill-McKee order then the half-bandwidth kd; empty for
+    flexible beams (no plan: the dense index-1 solve)."""
+    plan = _index1_band(system)
+    if plan is None:
+        return np.empty(0, np.int64)
+    order, kd = plan
+    return np.append(order, kd).astype(np.int64)
+
+
 def newton_size(system, method) -> int:
     """Unknowns of the Newton matrix: n + m (index 3), 2 (n + m) (stabilized index 2)."""
     return sum(b.size for b in method.blocks(system))
@@ -703,9 +715,13 @@ class KernelStepper:
         The run's start (its forces, ``InitialState.Q``, for the first step).
     h : float [s]
         The nominal or first step.
+    index1 : bool
+        Error control estimates on the index-1 accelerations (``StepControl.index1``
+        and ``Method.estimate_on_index1``): the loop gets the band plan of
+        their Schur complement (:func:`index1_band_vector`).
     """
 
-    def __init__(self, system, method, mono, cm, plan, options, initial, h):
+    def __init__(self, system, method, mono, cm, plan, options, initial, h, index1=False):
         self.system, self.method, self.cm, self.plan, self.opt = system, method, cm, plan, options
         self.K = cm.K
         self.mono = mono
@@ -733,7 +749,9 @@ class KernelStepper:
         if cm.K.layout(mono[1][0].copy(), n, system.m)[0] != size:
             raise RuntimeError(f"{method.name}: the compiled loop's unknowns differ from "
                                f"newton_size ({size})")
-        self.ws = cm.K.workspace(n, system.m, size, cm.ints)
+        # error control's index-1 accelerations on the band Schur complement
+        band = index1_band_vector(system) if index1 else np.empty(0, np.int64)
+        self.ws = cm.K.workspace(n, system.m, size, cm.ints, band)
         # F_n of the first step when the start's forces are not the law's at
         # (q, v, lambda) (friction's Coulomb limit at rest, InitialState.Q); NaN: the
         # kernels compute it

@@ -100,6 +100,9 @@ class PythonStepper:
                 self.history = [previous] + self.history
         self.failure = None          # (ctx, NewtonResult, t, step) or (None, err, t, step)
         self.crossing = None         # (t, step, ctx, NewtonResult, StepState): EVENT's step
+        # the index-1 accelerations may take the dense least squares (at most the
+        # kernels' INDEX1_LIMIT constraint rows; ``advance`` reads it)
+        self._dense_index1 = True
 
     @property
     def linear_solver(self) -> str:
@@ -163,9 +166,7 @@ class PythonStepper:
         from .engine import _kernels
         K = _kernels(uncompiled=system.kernel_model().uncompiled)
         step_end, step_ratio = K.step_end, K.step_ratio    # the compiled loop's rules (compiled/loop.py)
-        # the error estimate on the index-1 accelerations (as compiled)
-        index1 = (not fixed and control.index1 and method.estimate_on_index1
-                  and 0 < system.m <= K.INDEX1_LIMIT and not system.frictions)
+        index1 = not fixed and self._estimates_on_index1(K.INDEX1_LIMIT)
         clock = _time.perf_counter
         started = clock()
         t, taken = t0, 0
@@ -230,6 +231,20 @@ class PythonStepper:
         state[ST_T], state[ST_H], state[ST_AFTER_REJECTION] = t, h, 1.0 if after_rejection else 0.0
         return CONVERGED, taken
 
+    def _estimates_on_index1(self, limit) -> bool:
+        """Whether an error-controlled step's estimate reads the index-1
+        accelerations (``_index1_error``), by the compiled loop's rule
+        (``compiled.loop._run_flags``): the method asks for it, and a band
+        plan (rigid bodies) or at most ``limit`` constraint rows (the dense
+        least squares, ``compiled.index1.INDEX1_LIMIT``) can give it; not
+        where friction reads the multipliers."""
+        from .engine import _index1_band
+        system = self.system
+        self._dense_index1 = system.m <= limit
+        return (self.control.index1 and self.method.estimate_on_index1 and 0 < system.m
+                and (self._dense_index1 or _index1_band(system) is not None)
+                and not system.frictions)
+
     def _error_norm(self, ctx, new, step, index1) -> float:
         """The weighted norm of the step's local error estimate (at most 1:
         accepted), on the index-1 accelerations where ``index1`` says so
@@ -248,9 +263,11 @@ class PythonStepper:
         a_old = last.extra.get("a1")
         if a_old is None:
             a_old = index1_acceleration(system, last.t, last.q, last.v,
-                                        method.estimate_acceleration(system, last))
+                                        method.estimate_acceleration(system, last),
+                                        self._dense_index1)
         a_new = new.extra["a1"] = index1_acceleration(
-            system, new.t, new.q, new.v, method.estimate_acceleration(system, new))
+            system, new.t, new.q, new.v, method.estimate_acceleration(system, new),
+            self._dense_index1)
         c, absolute = self.method.error_coefficient(ctx)
         return c * (a_new if absolute else a_new - a_old)
 

@@ -16,6 +16,7 @@ import pytest
 import mbdsl
 from mbdsl.integrators import integrate, make_method
 from mbdsl.integrators.adaptive import StepControl, index1_acceleration
+from mbdsl.integrators.engine import index1_band_vector
 from mbdsl.integrators.kernel_cache import uncompiled_kernels
 
 from ..conftest import MODELS
@@ -113,7 +114,8 @@ def test_the_index1_acceleration_meets_the_acceleration_constraints(car_axis):
     that meets them unchanged, removes M^-1 Phi_q^T lambda whatever lambda
     (the directions the multipliers' round-off acts in), and at a consistent
     state is the index-1 acceleration of the model's forces; the compiled
-    loop's copy gives the same numbers."""
+    loop's copy gives the same numbers, on the band Schur complement and on
+    the dense least squares."""
     system, init = car_axis
     rng = np.random.default_rng(3)
     t, q, v = 0.7, init.q + 1e-3 * rng.standard_normal(system.n), init.v.copy()
@@ -140,9 +142,10 @@ def test_the_index1_acceleration_meets_the_acceleration_constraints(car_axis):
     out = np.empty(n)
     R, C, V = np.empty(km.bound, np.int64), np.empty(km.bound, np.int64), np.empty(km.bound)
     m = system.m
-    K._index1_acceleration(km.ints, km.floats, n, m, t, qx, vx, a, out, R, C, V,
-                           np.empty((m, m)), np.empty(m), np.empty(m), np.empty(n + 3))
-    assert np.allclose(out, a1, rtol=0, atol=1e-10)
+    for band in (index1_band_vector(system), np.empty(0, np.int64)):   # band, dense
+        scratch = K._index1_scratch(km.ints, km.floats, n, m, True, band, R, C, V)
+        K._index1_acceleration(km.ints, km.floats, n, m, t, qx, vx, a, out, R, C, V, scratch)
+        assert np.allclose(out, a1, rtol=0, atol=1e-10)
 
 
 @pytest.mark.parametrize("method", ["hht-i3", "hht-si2"])

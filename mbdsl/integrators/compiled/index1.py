@@ -28,6 +28,67 @@ def _index1_gamma(I, Fl, t, qx, vx, gam, R, C, V):
 
 
 @_jit
+def _column_groups(C, p, n):
+    """(by_col, start) of the triplets C[:p] of a fixed pattern grouped by
+    column: the entries of column j are by_col[start[j]:start[j + 1]]."""
+    by_col = np.argsort(C[:p], kind="mergesort")
+    start = np.zeros(n + 1, np.int64)
+    for i in range(p):
+        start[C[i] + 1] += 1
+    for j in range(n):
+        start[j + 1] += start[j]
+    return by_col, start
+
+
+@_hot
+def _schur_band(R, V, by_col, start, place, minv, AB, kd):
+    """A = Phi_q M^-1 Phi_q^T (m x m, M a constant diagonal of inverse minv
+    (n,)) from Phi_q's triplets R, V grouped by column (``_column_groups``),
+    row i of Phi_q at place[i], into AB (m, kd + 1) in LAPACK's "U" band
+    storage (A(i, j), i <= j, at AB[j, kd + i - j]), factored in place by
+    ``linalg._band_cholesky``. False when an entry falls outside the band,
+    A is not positive definite, or a pivot U_kk^2 is below 1e-13 of the
+    largest: dependent rows (redundant joints, a singular position) leave a
+    pivot of round-off (3e-15 of the largest on a parallelogram with a
+    redundant link), which a Cholesky accepts."""
+    m = AB.shape[0]
+    AB[:, :] = 0.0
+    for col in range(start.shape[0] - 1):
+        for x in range(start[col], start[col + 1]):
+            ex = by_col[x]
+            i = place[R[ex]]
+            for y in range(start[col], start[col + 1]):
+                ey = by_col[y]
+                j = place[R[ey]]
+                if i <= j:
+                    if j - i > kd:
+                        return False
+                    AB[j, kd + i - j] += V[ex] * V[ey] * minv[col]
+    if not _band_cholesky(AB, m, kd):
+        return False
+    dmin, dmax = np.inf, 0.0
+    for k in range(m):
+        d = AB[k, kd] * AB[k, kd]
+        dmin, dmax = min(dmin, d), max(dmax, d)
+    return dmin >= 1e-13 * dmax
+
+
+@_jit
+def _band_places(I, Fl, n, order):
+    """(place, minv) of the band Schur complement: row order[k] of Phi_q at
+    place[order[k]] = k (m,), and 1 / M_jj (n,) of the rigid bodies'
+    constant diagonal mass [1/kg, 1/(kg m^2)]."""
+    m = order.shape[0]
+    place = np.empty(m, np.int64)
+    for k in range(m):
+        place[order[k]] = k
+    minv = np.empty(n)
+    for j in range(n):
+        minv[j] = 1.0 / _f(I, Fl, MASS, j, 0)
+    return place, minv
+
+
+@_jit
 def _index1_multipliers_band(I, Fl, t, q, v, out, R, C, V, iterations, order, kd, acc):
     """The index-1 multipliers of ``_index1_multipliers`` for rigid bodies
     (M a constant diagonal) from the Schur complement
@@ -36,10 +97,10 @@ def _index1_multipliers_band(I, Fl, t, q, v, out, R, C, V, iterations, order, kd
 
     the constraint rows reordered by ``order`` (position k holds row
     order[k]) so that A is a band of half-width kd, factored by the band
-    Cholesky of ``linalg._band_cholesky``. A chain of N links costs
-    O(N) per row instead of the O((n + m)^3) of the dense index-1 matrix.
-    Friction: the fixed point of ``_index1_multipliers`` on the same
-    factorization. A matrix that is not positive definite, or whose
+    Cholesky of ``linalg._band_cholesky`` (``_schur_band``). A chain of N
+    links costs O(N) per row instead of the O((n + m)^3) of the dense
+    index-1 matrix. Friction: the fixed point of ``_index1_multipliers`` on
+    the same factorization. A matrix that is not positive definite, or whose
     Cholesky pivots (U_kk^2) fall below 1e-13 of the largest (redundant
     joints, a singular position), gives NaN for that row.
 
@@ -50,14 +111,8 @@ def _index1_multipliers_band(I, Fl, t, q, v, out, R, C, V, iterations, order, kd
     n, m = q.shape[1], out.shape[1]
     with_acc = acc.shape[0] == q.shape[0]
     qx, vx, work = np.zeros(n + 3), np.zeros(n + 3), np.zeros(n + 3)
-    ldab = kd + 1
-    AB, b, gam, lam = np.empty((m, ldab)), np.empty(m), np.empty(m), np.zeros(m)
-    place = np.empty(m, np.int64)
-    for k in range(m):
-        place[order[k]] = k
-    minv = np.empty(n)
-    for j in range(n):
-        minv[j] = 1.0 / _f(I, Fl, MASS, j, 0)
+    AB, b, gam, lam = np.empty((m, kd + 1)), np.empty(m), np.empty(m), np.zeros(m)
+    place, minv = _band_places(I, Fl, n, order)
     friction = _rows(I, FRI) > 0
     by_col = np.empty(0, np.int64)
     start = np.zeros(n + 1, np.int64)
@@ -67,34 +122,8 @@ def _index1_multipliers_band(I, Fl, t, q, v, out, R, C, V, iterations, order, kd
         _index1_gamma(I, Fl, t[row], qx, vx, gam, R, C, V)    # before R, C, V hold Phi_q
         p = _emit_phiq(I, Fl, n, qx, R, C, V, _0, _0, _0, 1.0, _NO)
         if row == 0:               # the pattern is fixed: entries grouped by column once
-            by_col = np.argsort(C[:p], kind="mergesort")
-            for i in range(p):
-                start[C[i] + 1] += 1
-            for j in range(n):
-                start[j + 1] += start[j]
-        AB[:, :] = 0.0             # A(i, j), i <= j, at AB[j, kd + i - j] (LAPACK "U")
-        ok = True
-        for col in range(n):
-            for x in range(start[col], start[col + 1]):
-                ex = by_col[x]
-                i = place[R[ex]]
-                for y in range(start[col], start[col + 1]):
-                    ey = by_col[y]
-                    j = place[R[ey]]
-                    if i <= j:
-                        if j - i > kd:
-                            ok = False
-                        else:
-                            AB[j, kd + i - j] += V[ex] * V[ey] * minv[col]
-        if ok:
-            ok = _band_cholesky(AB, m, kd)
-            # dependent rows leave a pivot of round-off (3e-15 of the largest on a
-            # parallelogram with a redundant link), which a Cholesky accepts
-            dmin, dmax = np.inf, 0.0
-            for k in range(m):
-                d = AB[k, kd] * AB[k, kd]
-                dmin, dmax = min(dmin, d), max(dmax, d)
-            ok = ok and dmin >= 1e-13 * dmax
+            by_col, start = _column_groups(C, p, n)
+        ok = _schur_band(R, V, by_col, start, place, minv, AB, kd)
         lam[:] = 0.0
         settled = False
         for sweep in range(iterations if (friction and ok) else (1 if ok else 0)):
@@ -245,13 +274,42 @@ def _scales_weights(rec, I, Fl, q, w, opts, R, C, V, qx, weight, scratch):
 
 
 #: Constraint rows up to which an index-3 method's error estimate is taken on
-#: its index-1 accelerations (``_index1_acceleration``: m Jacobian products
-#: and an m x m least-squares solve per step); above it, on a as it is.
+#: its index-1 accelerations by the dense least-squares solve
+#: (``_index1_acceleration_dense``: m Jacobian products and an m x m SVD per
+#: step). Rigid bodies take the band Cholesky of ``_index1_acceleration_band``
+#: at any size, and the dense solve only where that refuses the matrix
+#: (redundant joints, a singular position); above this size such a step's
+#: estimate reads a as it is.
 INDEX1_LIMIT = 200
 
 
 @_jit
-def _index1_acceleration(I, Fl, n, m, t, qx, vx, a, out, R, C, V, S, col, g, y):
+def _index1_scratch(I, Fl, n, m, dense, plan, R, C, V):
+    """The scratch of :func:`_index1_acceleration`, allocated once per call of
+    the time loop: (S (k, k), col, g (k,), y (n + 3,)) of the dense solve,
+    k = m when ``dense`` else 0, then (order, place, by_col, start, AB,
+    minv, rhs) of the band solve when ``plan`` (int64, m + 1: the reverse
+    Cuthill-McKee order of the constraint rows, then the half-bandwidth kd;
+    ``engine._index1_band``) holds one, else empty arrays. R, C, V: triplet
+    scratch (Phi_q's pattern is read once here)."""
+    k = m if dense else 0
+    S, col, g, y = np.empty((k, k)), np.empty(k), np.empty(k), np.empty(n + 3)
+    band = plan.shape[0] == m + 1 and m > 0
+    mb = m if band else 0
+    order = plan[:mb].copy()
+    kd = plan[m] if band else 0
+    place, minv = _band_places(I, Fl, n if band else 0, order)
+    by_col, start = np.empty(0, np.int64), np.zeros(1, np.int64)
+    if band:
+        qx = np.zeros(n + 3)
+        p = _emit_phiq(I, Fl, n, qx, R, C, V, _0, _0, _0, 1.0, _NO)
+        by_col, start = _column_groups(C, p, n)
+    return (S, col, g, y, order, place, by_col, start, np.empty((mb, kd + 1)), minv,
+            np.empty(2 * mb))
+
+
+@_jit
+def _index1_acceleration(I, Fl, n, m, t, qx, vx, a, out, R, C, V, scratch):
     """out[:n] = a - M^-1 Phi_q^T (Phi_q M^-1 Phi_q^T)^+ (Phi_q a - gamma) at
     (t, qx, vx): the acceleration a (n,) made to meet the acceleration
     constraints Phi_q a = gamma, gamma = -(Phi_q v)_q v - Phi_tt (Haug, sec.
@@ -259,8 +317,60 @@ def _index1_acceleration(I, Fl, n, m, t, qx, vx, a, out, R, C, V, S, col, g, y):
     multipliers act: the index-1 acceleration when a's tangential part is
     the true one (the pseudo-inverse keeps redundant rows). An index-3
     method's a meets only Phi = 0; its normal part is the multipliers'
-    round-off over beta h^2. R, C, V: triplet scratch; S (m, m), col, g
-    (m,), y (n + 3,): scratch, allocated once per call of the time loop."""
+    round-off over beta h^2. out may be a.
+
+    Rigid bodies with a band plan: the band Cholesky of
+    ``_index1_acceleration_band`` (O(m kd^2)); where it refuses the matrix,
+    or without a plan, the dense least squares of
+    ``_index1_acceleration_dense`` up to ``INDEX1_LIMIT`` rows, else a as it
+    is. R, C, V: triplet scratch; ``scratch``: :func:`_index1_scratch`'s."""
+    S, col, g, y, order, place, by_col, start, AB, minv, rhs = scratch
+    if order.shape[0] == m and m > 0:
+        if _index1_acceleration_band(I, Fl, n, m, t, qx, vx, a, out, R, C, V, order, place,
+                                     by_col, start, AB, minv, rhs):
+            return
+    if S.shape[0] == m and m > 0:
+        _index1_acceleration_dense(I, Fl, n, m, t, qx, vx, a, out, R, C, V, S, col, g, y)
+        return
+    for j in range(n):
+        out[j] = a[j]
+
+
+@_jit
+def _index1_acceleration_band(I, Fl, n, m, t, qx, vx, a, out, R, C, V, order, place, by_col,
+                              start, AB, minv, rhs):
+    """:func:`_index1_acceleration` for rigid bodies (M a constant diagonal,
+    1 / M_jj in minv) on the band Schur complement A = Phi_q M^-1 Phi_q^T
+    of ``_schur_band``: A z = Phi_q a - gamma, out = a - M^-1 Phi_q^T z.
+    False (out untouched) where ``_schur_band`` refuses A or z is not
+    finite. rhs (2 m,): scratch."""
+    kd = AB.shape[1] - 1
+    gam = rhs[m:]
+    _index1_gamma(I, Fl, t, qx, vx, gam, R, C, V)     # -gamma, before R, C, V hold Phi_q
+    for k in range(m):                                # reordered
+        rhs[k] = gam[order[k]]
+    p = _emit_phiq(I, Fl, n, qx, R, C, V, _0, _0, _0, 1.0, _NO)
+    for e in range(p):
+        rhs[place[R[e]]] += V[e] * a[C[e]]
+    if not _schur_band(R, V, by_col, start, place, minv, AB, kd):
+        return False
+    _band_cholesky_solve(AB, m, kd, rhs)
+    for k in range(m):
+        if not np.isfinite(rhs[k]):
+            return False
+    for j in range(n):
+        out[j] = a[j]
+    for e in range(p):
+        out[C[e]] -= minv[C[e]] * V[e] * rhs[place[R[e]]]
+    return True
+
+
+@_jit
+def _index1_acceleration_dense(I, Fl, n, m, t, qx, vx, a, out, R, C, V, S, col, g, y):
+    """:func:`_index1_acceleration` by the dense least-squares solve of the
+    Schur complement (its pseudo-inverse; M^-1 Phi_q^T by ``_minus_correction``,
+    flexible beams too): m Jacobian products and an m x m SVD. S (m, m),
+    col, g (m,), y (n + 3,): scratch."""
     for i in range(m):
         col[:] = 0.0
         col[i] = 1.0

@@ -16,7 +16,7 @@ from mbdsl.integrators.records import (CNT_STEPS, CTL_ATOL, CTL_FIXED, CTL_H_MAX
                                        ST_LIMIT, ST_MODE, ST_RATIO, ST_REJECTED, ST_T)
 
 from .additive import _minus_correction
-from .index1 import INDEX1_LIMIT, _index1_acceleration, _scales_weights
+from .index1 import INDEX1_LIMIT, _index1_acceleration, _index1_scratch, _scales_weights
 from .layout import (ADDITIVE, CF, EABS, EAUX, ERR, FORM, KA1, KA2, MH, REG, Y0V, _advance,
                      _copy, _layout, _state, predict)
 from .newton import _newton
@@ -31,10 +31,12 @@ from ...kernels.schema import (EPS, FRI, KGI, MASS, ROW_ELEMENT, SCOL1, SPAR, SW
 
 
 @_jit
-def _workspace(n, m, size, I):
+def _workspace(n, m, size, I, plan):
     """The time loop's scratch arrays: (r, dw, w, weight, qx, vx, work,
-    q_pred, v_pred, qx_old, F, scratch), allocated by the caller once per
-    run (``entry.workspace``) and lent to every call of ``_run``. The
+    q_pred, v_pred, qx_old, F, scratch, plan), allocated by the caller once
+    per run (``entry.workspace``) and lent to every call of ``_run``;
+    ``plan`` (int64) is the caller's band plan of the index-1 accelerations
+    (``index1._index1_scratch``: m + 1 entries, or none). The
     iterate's qx and the step start's qx_old carry the rotations' memo
     after their n + 3 entries (``kernels.geometry._cos_sin``; no angle
     remembered yet: NaN)."""
@@ -43,7 +45,7 @@ def _workspace(n, m, size, I):
     qx_old[n + 3:] = np.nan
     return (np.empty(size), np.empty(size), np.empty(size), np.empty(size), qx,
             np.zeros(n + 3), np.zeros(n + 3), np.empty(n), np.empty(n), qx_old,
-            np.zeros(n), np.empty(m + I[_HEADER - 1] + 2 * size))
+            np.zeros(n), np.empty(m + I[_HEADER - 1] + 2 * size), plan)
 
 
 @_jit
@@ -199,19 +201,20 @@ def _total_acceleration(I, Fl, n, qx, a, psi, R, C, V, out):
 
 
 @_jit
-def _estimate_acceleration(I, Fl, n, m, t, qx, vx, a, psi, additive, index1, out, R, C, V, S1,
-                           col1, g1, y1):
+def _estimate_acceleration(I, Fl, n, m, t, qx, vx, a, psi, additive, index1, out, R, C, V,
+                           est):
     """The acceleration at (t, qx, vx) whose change the step's error estimate
     reads, into out (n,) [m/s^2, rad/s^2]: the additive form's a + R_II
     (psi = psi_II), which sees the constraint forces, and with ``index1``
     the index-1 projection of it or of a (``_index1_acceleration``, in
-    place; ``_run_flags`` says when); else nothing (the estimate reads a)."""
+    place; ``_run_flags`` says when; ``est``: its scratch); else nothing (the
+    estimate reads a)."""
     if additive:
         _total_acceleration(I, Fl, n, qx, a, psi, R, C, V, out)
         if index1:
-            _index1_acceleration(I, Fl, n, m, t, qx, vx, out, out, R, C, V, S1, col1, g1, y1)
+            _index1_acceleration(I, Fl, n, m, t, qx, vx, out, out, R, C, V, est)
     elif index1:
-        _index1_acceleration(I, Fl, n, m, t, qx, vx, a, out, R, C, V, S1, col1, g1, y1)
+        _index1_acceleration(I, Fl, n, m, t, qx, vx, a, out, R, C, V, est)
 
 
 @_jit
@@ -364,7 +367,7 @@ def step_end(h, t, t_end, carry):
 
 
 @_jit
-def _run_flags(mono, I, Fl, rc, m, ctl, has_extra, mode):
+def _run_flags(mono, I, Fl, rc, ctl, has_extra, mode, plan):
     """What a run of ``_run`` does besides its steps: (a two-step recipe,
     reading c0, w0, w1; the error estimated on the index-1 accelerations;
     events of gaps; events of spring-dampers with a free length; events of
@@ -376,14 +379,18 @@ def _run_flags(mono, I, Fl, rc, m, ctl, has_extra, mode):
     would chase. So does the additive form, on its total acceleration a +
     R_II, whose normal part carries R_I's round-off, Phi(q_n)'s residual over
     h^2 / 2 (``HHTADD.estimate_on_index1``). Not where friction reads the
-    multipliers (their oscillation then moves q: the estimate sees it)."""
+    multipliers (their oscillation then moves q: the estimate sees it).
+    Rigid bodies with a band plan (``plan``, m + 1 entries) at any size, else up to
+    ``INDEX1_LIMIT`` constraint rows (``index1._index1_acceleration``)."""
     two_step = False                    # a recipe reading c0, w0, w1
     for i in range(mono.shape[2]):
         two_step = two_step or mono[1, 2, i] != 0.0 or mono[1, 3, i] != 0.0 \
             or mono[1, 4, i] != 0.0
     fixed = ctl[CTL_FIXED] != 0.0
+    m = _rows(I, ROW_ELEMENT)
+    band = plan.shape[0] == m + 1
     index1 = (not fixed and ctl[CTL_INDEX1] != 0.0 and (rc[FORM] == ADDITIVE or not has_extra)
-              and 0 < m <= INDEX1_LIMIT and _rows(I, FRI) == 0)
+              and 0 < m and (band or m <= INDEX1_LIMIT) and _rows(I, FRI) == 0)
     gaps = _rows(I, KGI) > 0 and mode != LAND
     springs = False                     # spring-dampers with a free length
     for i in range(_rows(I, SCOL1)):
@@ -394,21 +401,22 @@ def _run_flags(mono, I, Fl, rc, m, ctl, has_extra, mode):
 
 @_jit
 def _start_estimate(I, Fl, n, m, t0, q, v, a, lam, additive, fixed, index1, qx_old, vx, R, C,
-                    V):
+                    V, plan):
     """The acceleration the first step's error estimate compares with, at the
     last accepted state (the additive form's a + R_II, or the index-1
     acceleration), its successor's array and the index-1 acceleration's
-    scratch: (acc_old, acc_new, S1, col1, g1, y1)."""
+    scratch (``index1._index1_scratch``, on the band ``plan`` when it holds
+    one): (acc_old, acc_new, est)."""
     acc_old, acc_new = np.empty(n), np.empty(n)     # at the last accepted state, then carried
-    k1 = m if index1 else 0                         # the index-1 acceleration's scratch
-    S1, col1, g1, y1 = np.empty((k1, k1)), np.empty(k1), np.empty(k1), np.empty(n + 3)
+    est = _index1_scratch(I, Fl, n, m, index1 and m <= INDEX1_LIMIT,
+                          plan if index1 else plan[:0], R, C, V)
     if not fixed:
         qx_old[:n] = q
         if index1:
             vx[:n] = v
         _estimate_acceleration(I, Fl, n, m, t0, qx_old, vx, a, lam, additive, index1, acc_old,
-                               R, C, V, S1, col1, g1, y1)
-    return acc_old, acc_new, S1, col1, g1, y1
+                               R, C, V, est)
+    return acc_old, acc_new, est
 
 
 @_jit
@@ -500,15 +508,15 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
     fmin, fmax = ctl[CTL_MIN_FACTOR], ctl[CTL_MAX_FACTOR]
     h_min, h_max = ctl[CTL_H_MIN], ctl[CTL_H_MAX]
     fixed = ctl[CTL_FIXED] != 0.0
-    r, dw, w, weight, qx, vx, work, q_pred, v_pred, qx_old, F, scratch = ws
+    r, dw, w, weight, qx, vx, work, q_pred, v_pred, qx_old, F, scratch, plan = ws
     b_new, d_err = np.empty(n), np.empty(n)
     hx, hh = np.zeros((3, size)), np.zeros(3)     # the steps' w Newton's start extrapolates
     mode = int(state[ST_MODE])
-    two_step, index1, gaps, springs, kinks = _run_flags(mono, I, Fl, rc, m, ctl, has_extra, mode)
+    two_step, index1, gaps, springs, kinks = _run_flags(mono, I, Fl, rc, ctl, has_extra, mode, plan)
     ev = _event_scratch(n, I)
     additive = rc[FORM] == ADDITIVE
-    acc_old, acc_new, S1, col1, g1, y1 = _start_estimate(I, Fl, n, m, t0, q, v, a, lam, additive,
-                                                         fixed, index1, qx_old, vx, R, C, V)
+    acc_old, acc_new, est = _start_estimate(I, Fl, n, m, t0, q, v, a, lam, additive, fixed,
+                                            index1, qx_old, vx, R, C, V, plan)
     _start_force(rc, I, Fl, t0, q, v, lam, F0, F, qx, vx, work)
     t = t0
     # the step, start-up flag and c0, w0, w1 of the recipe in rc
@@ -552,7 +560,7 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
         err, factor = 0.0, fmax
         if not fixed:
             _estimate_acceleration(I, Fl, n, m, t_new, qx, vx, w[a0:a0 + n], w[l0:l0 + m],
-                                   additive, index1, acc_new, R, C, V, S1, col1, g1, y1)
+                                   additive, index1, acc_new, R, C, V, est)
             err = _error_norm(rc, n, q, qx, w[a0:a0 + n], a, b, b_new, additive, acc_old,
                               acc_new, rtol, atol, step, index1, d_err)
             if err > 1.0 or after_rejection:        # the filter restarts after a rejection
