@@ -6,8 +6,8 @@ setuptools' ``build_py``: once the package is copied to the build folder,
 ``python -m mbdsl.integrators.build_kernels`` runs on that copy and leaves
 numba's cache of every kernel in the copy's ``__pycache__`` folders (numba's
 in-tree cache), which the wheel carries into site-packages beside the same
-sources. numba keys a cached function on the SHA-256 of its source file and
-on this machine's CPU, and mbdsl's marker on the kernels' sources, numba's
+sources. numba (0.68 and later) keys a cached function on the SHA-256 of its
+source file and on this machine's CPU, and mbdsl's marker on the kernels' sources, numba's
 version and the CPU (``mbdsl.kernels.cache``): an installed copy on this
 machine loads them, and anywhere else they are simply not used (the first
 run builds them then, as without this step).
@@ -26,6 +26,19 @@ from setuptools import setup
 from setuptools.command.build_py import build_py
 
 
+def _cache_moves() -> bool:
+    """Whether numba keys a cached function on its source's content (numba
+    0.68 and later: the SHA-256 of the file), so that its cache is valid in
+    site-packages; before, on the file's time stamp, which installing
+    changes."""
+    from importlib.metadata import PackageNotFoundError, version
+    try:
+        major, minor = (int(x) for x in version("numba").split(".")[:2])
+    except (PackageNotFoundError, ValueError):
+        return False
+    return (major, minor) >= (0, 68)
+
+
 class BuildPyWithKernels(build_py):
     """setuptools' ``build_py``, then the kernels compiled in the build folder."""
 
@@ -33,6 +46,10 @@ class BuildPyWithKernels(build_py):
         """Copy the package, then compile its kernels there (module notes)."""
         super().run()
         if getattr(self, "editable_mode", False) or os.environ.get("MBDSL_BUILD_KERNELS") == "0":
+            return
+        if not _cache_moves():
+            print("mbdsl: numba before 0.68 keys its cache on the source files' time stamps, "
+                  "which the install changes; the first run builds the kernels", flush=True)
             return
         build_lib = os.path.abspath(self.build_lib)
         # the build folder first; pip's isolated build environment is on PYTHONPATH too
