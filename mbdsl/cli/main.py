@@ -20,11 +20,10 @@ import os
 import sys
 from pathlib import Path
 
-from .. import (METHODS, AssemblyError, MbdError, __version__, load,
-                render, simulate)
+from .. import METHODS, AssemblyError, MbdError, __version__, load, render, simulate
 from ..errors import Diagnostic
 from ..io import HDF5_SUFFIXES, load_solution
-from ..io.csvfile import CsvStream
+from ..io.csvfile import CsvStream, written_report
 from ..io.observers import RunObserver
 
 __all__ = ["main", "build_parser"]
@@ -639,8 +638,8 @@ def _simulate(args) -> int:
         print(sol.initial.report(), file=report)
         print(sol.summary(), file=report)
         written = getattr(writer, "names", None) or sol.columns
-        print(f"wrote {'standard output' if to_stdout else out} ({len(sol.t)} rows, "
-              f"{len(written)} columns)", file=report)
+        print(written_report(None if to_stdout else out, len(sol.t), len(written), sol.timings,
+                             isinstance(writer, CsvStream)), file=report)
     if args.plot:
         from ..graphics.plotting import plot_solution
         fig_path = out.with_suffix(".png")

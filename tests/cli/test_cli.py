@@ -166,3 +166,26 @@ def test_csv_on_standard_output(tmp_path, capsys, monkeypatch):
     assert np.array_equal(values[:, [t, phi]], values_file[:, [t, phi]])
     assert main(["simulate", str(MODELS / "slider_crank.mbd"), "-o", "-", "--plot"]) == 2
     assert "give -o FILE" in capsys.readouterr().err
+
+
+def test_a_csv_slower_to_write_than_the_run_gets_a_note():
+    """The line on the written result points at HDF5 and the output options
+    when writing the CSV took at least CSV_NOTE_SECONDS and longer than the
+    integration (the 100-link chain over 10 s at rtol 1e-3: 38 s of CSV after
+    6.4 s of steps), and says nothing more for an HDF5 file, standard output,
+    a short write, or a write shorter than the steps."""
+    from pathlib import Path
+
+    from mbdsl.io.csvfile import CSV_NOTE_SECONDS, written_report
+    slow = {"output": 38.0, "integration": 6.4}
+    first, note = written_report(Path("runs/chain.csv"), 68_774, 1414, slow).split("\n")
+    assert first == "wrote runs/chain.csv (68774 rows, 1414 columns)"
+    assert note.startswith("note: writing 97,246,436 values as CSV took 38 s")
+    assert "-o chain.h5" in note and "--output-every" in note and "--columns" in note
+    plain = "wrote chain.h5 (68774 rows, 1414 columns)"
+    assert written_report(Path("chain.h5"), 68_774, 1414, slow, csv=False) == plain
+    assert written_report(None, 2, 3, slow) == "wrote standard output (2 rows, 3 columns)"
+    short = {"output": CSV_NOTE_SECONDS - 0.1, "integration": 0.0}
+    assert "\n" not in written_report(Path("c.CSV"), 2, 3, short)
+    assert "\n" not in written_report(Path("c.csv"), 2, 3, {"output": 38.0, "integration": 40.0})
+    assert "\n" not in written_report(Path("c.csv"), 2, 3, {})
