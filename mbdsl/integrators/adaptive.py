@@ -173,7 +173,7 @@ def index1_acceleration(system, t: float, q: np.ndarray, v: np.ndarray,
     t : float [s]
     q, v, a : ndarray, shape (n,) [m, rad; m/s, rad/s; m/s^2, rad/s^2]
     dense : bool
-        Whether the dense least squares may be used (up to ``INDEX1_LIMIT``
+        Whether the dense least squares may be used (up to ``records.INDEX1_LIMIT``
         constraint rows, the compiled loop's rule).
 
     Returns

@@ -20,7 +20,7 @@ from . import loop as _loop      # its FLUSH_INTERVAL read at each call
 from .newton import ROUNDOFF_ULPS
 from .outcomes import CONVERGED, EVENT, LAND, REJECTED, RUN, TOLERANCE
 from .records import (CNT_FACTORIZATIONS, CNT_ITERATIONS, CNT_JACOBIANS, CNT_RESIDUALS,
-                      CNT_STALLED, CNT_STEPS, CTL_H_MAX, CTL_H_MIN, ST_AFTER_REJECTION, ST_CARRY,
+                      CNT_STALLED, INDEX1_LIMIT, CNT_STEPS, CTL_H_MAX, CTL_H_MIN, ST_AFTER_REJECTION, ST_CARRY,
                       ST_ERR, ST_H, ST_H_LAST, ST_RATIO, ST_REJECTED, ST_T)
 
 __all__ = ["PythonStepper", "constraints_at_roundoff"]
@@ -100,9 +100,6 @@ class PythonStepper:
                 self.history = [previous] + self.history
         self.failure = None          # (ctx, NewtonResult, t, step) or (None, err, t, step)
         self.crossing = None         # (t, step, ctx, NewtonResult, StepState): EVENT's step
-        # the index-1 accelerations may take the dense least squares (at most the
-        # kernels' INDEX1_LIMIT constraint rows; ``advance`` reads it)
-        self._dense_index1 = True
 
     @property
     def linear_solver(self) -> str:
@@ -166,7 +163,7 @@ class PythonStepper:
         from .engine import _kernels
         K = _kernels(uncompiled=system.kernel_model().uncompiled)
         step_end, step_ratio = K.step_end, K.step_ratio    # the compiled loop's rules (compiled/loop.py)
-        index1 = not fixed and self._estimates_on_index1(K.INDEX1_LIMIT)
+        index1 = not fixed and self._estimates_on_index1()
         clock = _time.perf_counter
         started = clock()
         t, taken = t0, 0
@@ -231,18 +228,17 @@ class PythonStepper:
         state[ST_T], state[ST_H], state[ST_AFTER_REJECTION] = t, h, 1.0 if after_rejection else 0.0
         return CONVERGED, taken
 
-    def _estimates_on_index1(self, limit) -> bool:
+    def _estimates_on_index1(self) -> bool:
         """Whether an error-controlled step's estimate reads the index-1
         accelerations (``_index1_error``), by the compiled loop's rule
         (``compiled.loop._run_flags``): the method asks for it, and a band
-        plan (rigid bodies) or at most ``limit`` constraint rows (the dense
-        least squares, ``compiled.index1.INDEX1_LIMIT``) can give it; not
-        where friction reads the multipliers."""
+        plan (rigid bodies) or at most ``INDEX1_LIMIT`` constraint rows (the
+        dense least squares) can give it; not where friction reads the
+        multipliers."""
         from .engine import _index1_band
         system = self.system
-        self._dense_index1 = system.m <= limit
         return (self.control.index1 and self.method.estimate_on_index1 and 0 < system.m
-                and (self._dense_index1 or _index1_band(system) is not None)
+                and (system.m <= INDEX1_LIMIT or _index1_band(system) is not None)
                 and not system.frictions)
 
     def _error_norm(self, ctx, new, step, index1) -> float:
@@ -260,14 +256,13 @@ class PythonStepper:
         that of the step's start kept from the step before; new's in
         ``new.extra["a1"]``."""
         system, last, method = self.system, ctx.last, self.method
+        dense = system.m <= INDEX1_LIMIT
         a_old = last.extra.get("a1")
         if a_old is None:
             a_old = index1_acceleration(system, last.t, last.q, last.v,
-                                        method.estimate_acceleration(system, last),
-                                        self._dense_index1)
+                                        method.estimate_acceleration(system, last), dense)
         a_new = new.extra["a1"] = index1_acceleration(
-            system, new.t, new.q, new.v, method.estimate_acceleration(system, new),
-            self._dense_index1)
+            system, new.t, new.q, new.v, method.estimate_acceleration(system, new), dense)
         c, absolute = self.method.error_coefficient(ctx)
         return c * (a_new if absolute else a_new - a_old)
 

@@ -113,3 +113,14 @@ def vector(fields, dtype=float, **values):
     if set(values) != set(fields):
         raise ValueError(f"record fields {sorted(set(fields) ^ set(values))} missing or unknown")
     return np.array([values[name] for name in fields], dtype=dtype)
+
+
+#: Constraint rows up to which an index-3 method's error estimate is taken on
+#: its index-1 accelerations by the dense least-squares solve
+#: (``compiled.index1._index1_acceleration_dense``: m Jacobian products and an
+#: m x m SVD per step). Rigid bodies take the band Cholesky of
+#: ``compiled.index1._index1_acceleration_band`` at any size, and the dense
+#: solve only where that refuses the matrix (redundant joints, a singular
+#: position); above this size such a step's estimate reads a as it is. Both
+#: engines read it (``compiled.loop._run_flags``, ``PythonStepper``).
+INDEX1_LIMIT = 200

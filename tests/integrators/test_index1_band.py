@@ -17,6 +17,7 @@ from mbdsl.integrators.adaptive import (StepControl, _index1_acceleration_band,
                                         index1_acceleration)
 from mbdsl.integrators.engine import _index1_band, index1_band_vector
 from mbdsl.integrators.kernel_cache import uncompiled_kernels
+from mbdsl.integrators.records import INDEX1_LIMIT
 
 from ..conftest import MODELS
 
@@ -62,7 +63,7 @@ def test_a_chain_above_the_dense_limit_is_projected_on_the_band():
     gives the dense projection to 1e-9 of |a| in both engines' copies, with
     Phi_q a1 = gamma; the plan is a band of half-width 3 (2 rows a pin)."""
     system, init = _system(MODELS / "pendulum_chain.mbd", N=150)
-    assert system.m == 300 > uncompiled_kernels().INDEX1_LIMIT
+    assert system.m == 300 > INDEX1_LIMIT
     order, kd = _index1_band(system)
     assert kd <= 3
     t, (q, v, a) = 0.3, _state(system, init, 5)

@@ -61,7 +61,7 @@ from ...kernels.system import (C_PHI, C_PHI_T, C_PHI_TT, C_PHIQ, C_PHIQ_Y,  # no
                                 L_Q, L_QLAM, L_QQ, L_QV, L_SENSORS, L_SLIP, L_SPRINGS,
                                 JOINT_FAMILIES, LOAD_FAMILIES, SENSOR_FRICTION, SENSOR_GAP, SENSOR_SPRING,
                                 elements, forces, joint_hook, phi, triplet_bound)
-from .index1 import (INDEX1_LIMIT, _index1_acceleration, _index1_multipliers,  # noqa: F401
+from .index1 import (_index1_acceleration, _index1_multipliers,  # noqa: F401
                      _index1_scratch,
                      _index1_multipliers_band, _mobility)
 from .layout import advance, layout, predict, state  # noqa: F401

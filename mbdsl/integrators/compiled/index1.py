@@ -273,16 +273,6 @@ def _scales_weights(rec, I, Fl, q, w, opts, R, C, V, qx, weight, scratch):
             weight[l0 + i] = 0.0
 
 
-#: Constraint rows up to which an index-3 method's error estimate is taken on
-#: its index-1 accelerations by the dense least-squares solve
-#: (``_index1_acceleration_dense``: m Jacobian products and an m x m SVD per
-#: step). Rigid bodies take the band Cholesky of ``_index1_acceleration_band``
-#: at any size, and the dense solve only where that refuses the matrix
-#: (redundant joints, a singular position); above this size such a step's
-#: estimate reads a as it is.
-INDEX1_LIMIT = 200
-
-
 @_jit
 def _index1_scratch(I, Fl, n, m, dense, plan, R, C, V):
     """The scratch of :func:`_index1_acceleration`, allocated once per call of
@@ -322,7 +312,7 @@ def _index1_acceleration(I, Fl, n, m, t, qx, vx, a, out, R, C, V, scratch):
     Rigid bodies with a band plan: the band Cholesky of
     ``_index1_acceleration_band`` (O(m kd^2)); where it refuses the matrix,
     or without a plan, the dense least squares of
-    ``_index1_acceleration_dense`` up to ``INDEX1_LIMIT`` rows, else a as it
+    ``_index1_acceleration_dense`` up to ``records.INDEX1_LIMIT`` rows, else a as it
     is. R, C, V: triplet scratch; ``scratch``: :func:`_index1_scratch`'s."""
     S, col, g, y, order, place, by_col, start, AB, minv, rhs = scratch
     if order.shape[0] == m and m > 0:

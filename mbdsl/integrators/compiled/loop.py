@@ -11,12 +11,13 @@ import numpy as np
 from mbdsl.integrators.outcomes import (CONVERGED, EVENT, LAND, REJECTED, RUN, TOLERANCE)
 from mbdsl.integrators.records import (CNT_STEPS, CTL_ATOL, CTL_FIXED, CTL_H_MAX, CTL_H_MIN,
                                        CTL_INDEX1, CTL_MAX_FACTOR, CTL_MIN_FACTOR, CTL_RTOL,
-                                       CTL_SAFETY, LU_C0, LU_STEP, LU_VALID, OPT_EXTRAPOLATE,
+                                       CTL_SAFETY, INDEX1_LIMIT, LU_C0, LU_STEP, LU_VALID,
+                                       OPT_EXTRAPOLATE,
                                        ST_AFTER_REJECTION, ST_CARRY, ST_ERR, ST_H, ST_H_LAST,
                                        ST_LIMIT, ST_MODE, ST_RATIO, ST_REJECTED, ST_T)
 
 from .additive import _minus_correction
-from .index1 import INDEX1_LIMIT, _index1_acceleration, _index1_scratch, _scales_weights
+from .index1 import _index1_acceleration, _index1_scratch, _scales_weights
 from .layout import (ADDITIVE, CF, EABS, EAUX, ERR, FORM, KA1, KA2, MH, REG, Y0V, _advance,
                      _copy, _layout, _state, predict)
 from .newton import _newton
