@@ -811,8 +811,8 @@ def dof_diagnostic(model, dof: int, by: str):
     """E501 when the model's initial position or velocity conditions (not
     guesses) are more than ``dof`` degrees of freedom allow, else None; ``by``
     says how the DOF were counted ("rank", "count")."""
-    pos = [ic for ic in model.initials if not ic.guess and not ic.is_velocity]
-    vel = [ic for ic in model.initials if not ic.guess and ic.is_velocity]
+    pos = [ic for ic in model.initials if not ic.guess and not ic.is_velocity and ic.counted]
+    vel = [ic for ic in model.initials if not ic.guess and ic.is_velocity and ic.counted]
     for kind, ics in (("position", pos), ("velocity", vel)):
         if dof >= 0 and len(ics) > dof:
             return Diagnostic("error", "E501", f"{len(ics)} initial {kind} conditions fix more "

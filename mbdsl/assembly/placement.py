@@ -48,6 +48,8 @@ def place_bodies(system, t0: float = 0.0, notes: list | None = None, kernels=Non
     ndarray, shape (n,)
     """
     model = system.model
+    if system.cmap.spatial:
+        return _place_spatial(system)
     g = np.asarray(model.gravity, float) if model.gravity is not None else np.zeros(2)
     down, along = ((g / np.linalg.norm(g), "gravity") if np.linalg.norm(g) > 0.0
                    else (np.array([0.0, -1.0]), "-y"))
@@ -108,3 +110,40 @@ def place_bodies(system, t0: float = 0.0, notes: list | None = None, kernels=Non
                 q[(cx, cy)[k]] = given[(child, name)]
         placed.add(child)
     return q[:system.n]
+
+
+def _place_spatial(system) -> np.ndarray:
+    """The first guess of a spatial model (``model.spatial``): each body's
+    directors as its ``initial`` or ``guess`` lines give them (else the
+    world axes), then, along the spanning tree, its centre of mass where
+    its joint's point meets the placed body's, r = p - A s (else its given
+    x, y, z, or the origin)."""
+    model, cmap = system.model, system.cmap
+    q = np.zeros(system.n)
+    given = {(ic.body, ic.field): ic.value for ic in model.initials if not ic.is_velocity}
+    fields = model.bodies[0].coordinate_fields if model.bodies else ()
+    for b, col in cmap.spatial.items():
+        q[col + 3:col + 12] = np.eye(3).T.ravel()
+        for k, name in enumerate(fields):
+            if (b, name) in given:
+                q[col + k] = given[(b, name)]
+
+    def _frame(b):
+        col = cmap.spatial[b]
+        return q[col:col + 3], q[col + 3:col + 12].reshape(3, 3).T
+
+    for parent, child, joint in graph.spanning_tree_edges(model):
+        col = cmap.spatial[child]
+        if joint is not None:
+            mine, theirs = ((joint.second, joint.first) if joint.second.body == child
+                            else (joint.first, joint.second))
+            if theirs.body == GROUND:
+                target = np.asarray(theirs.local, float)
+            else:
+                r, A = _frame(theirs.body)
+                target = r + A @ theirs.local
+            q[col:col + 3] = target - _frame(child)[1] @ mine.local
+        for k in range(3):
+            if (child, fields[k]) in given:
+                q[col + k] = given[(child, fields[k])]
+    return q

@@ -86,14 +86,17 @@ class AssembledSystem:
         n = self.n = model.n_coordinates
         self.m = model.n_constraints
         self.nx = n + 3                      # extended: ground coordinates at n..n+2
-        nb = len(model.bodies)
         mass = np.zeros(n)
         cmap = self.cmap = model.coordinate_map
-        if nb:
+        planar = [b for b in model.bodies if b.index not in cmap.spatial]
+        if planar:
             # a particle's phi is the ground's dummy n+2, outside q: dropped
-            mass[cmap.table[:, 0]] = mass[cmap.table[:, 1]] = [b.mass for b in model.bodies]
-            own = cmap.table[:, 2] < n
-            mass[cmap.table[own, 2]] = [b.inertia for b, o in zip(model.bodies, own) if o]
+            table = cmap.table[[b.index for b in planar]]
+            mass[table[:, 0]] = mass[table[:, 1]] = [b.mass for b in planar]
+            own = table[:, 2] < n
+            mass[table[own, 2]] = [b.inertia for b, o in zip(planar, own) if o]
+        for i, col in cmap.spatial.items():          # m, m, m, Jbar_k (``model.spatial``)
+            mass[col:col + 12] = model.bodies[i].mass_diagonal
         self.beam_gravity = model.gravity if model.gravity is not None \
             and np.any(model.gravity != 0.0) else None
         self.beam_sets = ffr.beam_sets(cmap, model.flexible_bodies)
@@ -147,7 +150,7 @@ class AssembledSystem:
             for b in model.bodies:
                 if not isinstance(b, FlexibleBeam):      # beams: in their own group
                     with np.errstate(over="ignore"):     # an overflow is E506 at the start
-                        Qg[cmap.table[b.index, :2]] = b.mass * model.gravity
+                        Qg[cmap.table[b.index, :len(model.gravity)]] = b.mass * model.gravity
             self.gravity_force = Qg
         self._load_groups(model)
         rc = self._rigid_cols
@@ -383,7 +386,11 @@ class AssembledSystem:
         far more than a translation (1/m ~ 30).
         """
         rows, cols = self.pattern_Phi_q
-        ratio = np.abs(self.Phi_q_values(q, t)) / self.mass_diag[cols]
+        # a column without mass (a spatial body's director of a flat plate or a thin rod,
+        # ``model.spatial``) is moved by no multiplier's force alone: left out
+        mass = self.mass_diag[cols]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = np.where(mass > 0.0, np.abs(self.Phi_q_values(q, t)) / mass, 0.0)
         element = self.layout.row_element            # constraint row -> element number
         per_element = np.zeros(self.layout.n_elements)
         np.maximum.at(per_element, element[rows], ratio)

@@ -373,7 +373,8 @@ class _Flattener:
         if isinstance(e, Dotted):
             return self.ref(e, scope)
         if isinstance(e, Vec):
-            return Vec(self.expr(e.x, scope), self.expr(e.y, scope), self.span(e.span, scope))
+            return Vec(self.expr(e.x, scope), self.expr(e.y, scope), self.span(e.span, scope),
+                       None if e.z is None else self.expr(e.z, scope))
         if isinstance(e, Unary):
             return Unary(e.op, self.expr(e.operand, scope), self.span(e.span, scope))
         if isinstance(e, Binary):
@@ -665,7 +666,7 @@ def _has_ref(e) -> bool:
     if isinstance(e, (Num, Name, IndexedName)) or e is None:
         return False
     if isinstance(e, Vec):
-        return _has_ref(e.x) or _has_ref(e.y)
+        return _has_ref(e.x) or _has_ref(e.y) or _has_ref(e.z)
     if isinstance(e, Unary):
         return _has_ref(e.operand)
     if isinstance(e, Call):

@@ -145,11 +145,13 @@ class Cond:
 
 @dataclass(frozen=True)
 class Vec:
-    """A planar vector ``(x, y)`` of two expressions."""
+    """A vector ``(x, y)`` of two expressions, or ``(x, y, z)`` of three in a
+    spatial model (``z`` None in a planar vector)."""
 
     x: "Expr"
     y: "Expr"
     span: Span | None = None
+    z: "Expr | None" = None
 
 
 Expr = Union[Num, Name, Dotted, Unary, Binary, Call, Cond, IndexedName, TableCall]

@@ -261,8 +261,9 @@ class ToExpression(Transformer):
 
     @v_args(meta=True)
     def vec(self, meta, children):
-        """``(x, y)`` -> Vec."""
-        return Vec(children[0], children[1], self._span(meta))
+        """``(x, y)`` or ``(x, y, z)`` -> Vec."""
+        z = children[2] if len(children) == 3 else None
+        return Vec(children[0], children[1], self._span(meta), z)
 
     def _bin(op):
         @v_args(meta=True)
@@ -362,6 +363,8 @@ class ToExpression(Transformer):
             return Binary(name, args[0], args[1], span)
         if name == "clip" and len(args) == 3:
             return Binary("max", args[1], Binary("min", args[0], args[2], span), span)
+        if name == "zyx" and len(args) == 3:        # an orientation: initial b.orientation
+            return Call(name, Vec(args[0], args[1], span, args[2]), span)
         if name == "if" and len(args) == 3:
             return Cond(args[0], args[1], args[2], span)
         if len(args) != 1:

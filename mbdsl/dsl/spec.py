@@ -36,10 +36,12 @@ __all__ = [
 
 
 def _vec(value) -> Vec:
-    """(x, y) -> Vec; a pair whose second item is a pair (a point and a
-    direction, ``line = ("ground.origin", (1, 0))``) nests."""
+    """(x, y) -> Vec, (x, y, z) -> Vec with z; a pair whose second item is a
+    pair (a point and a direction, ``line = ("ground.origin", (1, 0))``) nests."""
     if isinstance(value, Vec):
         return value
+    if len(value) == 3:
+        return Vec(*(as_expr(c) for c in value[:2]), None, as_expr(value[2]))
     x, y = value
     return Vec(as_expr(x), _vec(y) if isinstance(y, (tuple, list, Vec)) else as_expr(y))
 
@@ -136,14 +138,16 @@ class PointSpec:
 
 @dataclass(frozen=True)
 class PropertySpec:
-    """``mass m1`` inside a body block: a named scalar property."""
+    """``mass m1`` inside a body block: a named property, a scalar or, in a
+    spatial model, a vector (``inertia (1, 2, 3)``)."""
 
     name: str
     value: Any
     span: Span | None = None
 
     def __post_init__(self):
-        _set(self, "value", as_expr(self.value))
+        _set(self, "value", _vec(self.value) if isinstance(self.value, (tuple, list, Vec))
+             else as_expr(self.value))
 
 
 @dataclass(frozen=True)
@@ -362,7 +366,8 @@ class InitialSpec:
 
     def __post_init__(self):
         _set(self, "target", _ref(self.target))
-        _set(self, "value", as_expr(self.value))
+        _set(self, "value", _vec(self.value) if isinstance(self.value, (tuple, list, Vec))
+             else as_expr(self.value))
 
 
 @dataclass(frozen=True)
@@ -565,6 +570,8 @@ class ModelSpec:
         (:func:`mbdsl.dsl.components.flatten`).
     library : bool
         A library file (``library NAME``): components and imports only.
+    space : {2, 3}
+        ``space 3d``: a spatial model (3); planar (2) by default.
     """
 
     name: str
@@ -591,6 +598,8 @@ class ModelSpec:
     components: tuple = ()
     instances: tuple = ()
     library: bool = False
+    space: int = 2
+    space_span: Span | None = None
 
     def __post_init__(self):
         for f in ("parameters", "ground_points", "bodies", "joints", "forces",

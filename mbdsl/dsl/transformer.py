@@ -39,10 +39,12 @@ class ToSpec(ToExpression):
                                    "instances")}
         kinds = ((S.ImportSpec, "imports"), (S.ComponentSpec, "components"),
                  (S.InstanceSpec, "instances"))
-        gravity, gspan, static = None, None, None
+        gravity, gspan, static, space = None, None, None, (2, None)
         for it in items:
             if isinstance(it, tuple) and it and it[0] == "static":
                 static = it[1]
+            elif isinstance(it, tuple) and it and it[0] == "space":
+                space = it[1:]
             elif isinstance(it, S.ParameterSpec):
                 buckets["parameters"].append(it)
             elif isinstance(it, tuple) and it and it[0] == "gravity":
@@ -74,7 +76,8 @@ class ToSpec(ToExpression):
         return S.ModelSpec(name=header[0], gravity=gravity, gravity_span=gspan,
                            file=self.file, source=self.source, span=header[1],
                            static=static is not None, static_span=static,
-                           library=header[2], **buckets)
+                           library=header[2], space=space[0], space_span=space[1],
+                           **buckets)
 
     @v_args(meta=True)
     def static_decl(self, meta, children):
@@ -157,6 +160,11 @@ class ToSpec(ToExpression):
     def table_points(self, meta, children):
         """``[(x, y), ...]`` -> (tuple of Vec, span)."""
         return tuple(children), self._span(meta)
+
+    @v_args(meta=True)
+    def space_decl(self, meta, children):
+        """``space 3d`` -> ('space', 3, span)."""
+        return ("space", int(str(children[0])[0]), self._span(meta))
 
     @v_args(meta=True)
     def gravity_decl(self, meta, children):

@@ -72,9 +72,11 @@ def expr_text(e) -> str:
     if isinstance(e, Dotted):
         return f"{_name(e.obj)}.{_name(e.attr)}"
     if isinstance(e, Vec):
-        return f"({expr_text(e.x)}, {expr_text(e.y)})"
-    if isinstance(e, Call):
-        return f"{e.func}({expr_text(e.arg)})"
+        z = "" if e.z is None else f", {expr_text(e.z)}"
+        return f"({expr_text(e.x)}, {expr_text(e.y)}{z})"
+    if isinstance(e, Call):          # zyx(yaw, pitch, roll) holds its arguments as a Vec
+        return (f"{e.func}{expr_text(e.arg)}" if isinstance(e.arg, Vec)
+                else f"{e.func}({expr_text(e.arg)})")
     if isinstance(e, TableCall):           # a derivative (from diff) as name', name'', ...
         return f"{e.table.name}{chr(39) * e.order}({expr_text(e.arg)})"
     if isinstance(e, Cond):
@@ -183,6 +185,8 @@ def spec_text(spec) -> str:
                   else "[" + ", ".join(expr_text(v) for v in tb.points) + "]")
         options = "".join(f", {_args([a])}" for a in tb.args)
         lines.append(f"table {tb.name}({tb.argument}) = {source}{options}")
+    if getattr(spec, "space", 2) == 3:
+        lines.append("space 3d")
     if spec.gravity is not None:
         lines.append(f"gravity {expr_text(spec.gravity)}")
     if spec.ground_points:

@@ -126,6 +126,9 @@ class Method(ABC):
     #: methods; variable-step BDF2 is zero-stable for ratios below 1 + sqrt(2)
     #: (Grigorieff 1983; Hairer & Wanner, Solving ODEs II, sec. III.5).
     max_step_ratio: float | None = None
+    #: Whether its formulas apply M^-1 (HHT-ADD's f and r): a run refuses a mass
+    #: matrix with a zero on its diagonal (``driver._mass_inverse``)
+    needs_mass_inverse: bool = False
     #: names of StepState.extra arrays of length m written to the output (e.g. "mu")
     extras: tuple = ()
     #: further (m,) columns that :meth:`output_rows` adds to the output

@@ -134,6 +134,7 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
     """
     output_every, control = _checked(h, t_start, t_end, on_failure, output_every, method,
                                      control)
+    _mass_inverse(system, method, control)
     if output_times is not None:
         if output_every != 1:
             raise ValueError("rows at requested times (output_times) and output_every "
@@ -188,6 +189,35 @@ def _checked(h, t_start, t_end, on_failure, output_every, method, control):
             and control.max_factor > method.max_step_ratio:
         control = dataclasses.replace(control, max_factor=method.max_step_ratio)
     return int(output_every), control
+
+
+def _mass_inverse(system, method, control) -> None:
+    """AssemblyError (E303) when the run applies M^-1 and a spatial body's
+    director inertia is zero: a flat plate (J3 = J1 + J2) or a thin rod has
+    a body axis that carries no mass in director coordinates
+    (``model.spatial``), so M is singular there. HHT-ADD's formulas apply
+    M^-1 (``Method.needs_mass_inverse``), and so does the index-1 projection
+    the error estimate of the index-3 methods reads (``StepControl.index1``,
+    ``Method.estimate_on_index1``). The Newton matrices of every other run
+    stay invertible: the frame rows fix that director by the other two."""
+    index1 = control is not None and control.index1 and method.estimate_on_index1
+    if not (method.needs_mass_inverse or index1):
+        return
+    for b in system.model.bodies:
+        if b.index in system.cmap.spatial and not np.all(b.mass_diagonal > 0.0):
+            from ..errors import AssemblyError, Diagnostic
+            what, hint = ((f"{method.name} needs M^-1", "run it with another method (hht-i3, "
+                           "hht-si2, genalpha, nstiff, nstiff-si2, newmark): theirs do not "
+                           "invert M") if method.needs_mass_inverse else
+                          (f"error-controlled steps of {method.name} estimate on the index-1 "
+                           "accelerations, which need M^-1", "run it with fixed steps, or "
+                           "with error control on hht-si2 or nstiff-si2 (their estimate needs "
+                           "no M^-1)"))
+            d = Diagnostic("error", "E303", f"{what}, and body '{b.name}' with principal "
+                           f"moments {tuple(float(x) for x in b.inertia)} kg m^2 has a body "
+                           "axis without mass in director coordinates (a flat plate's "
+                           "J3 = J1 + J2, or a thin rod's)", b.span, "M is singular", hint=hint)
+            raise AssemblyError(d.message, [d])
 
 
 def _engine_for(system, method, engine, control, compile_policy, announce):

@@ -86,6 +86,8 @@ class HHTADD(Method):
     extras = ("psi1",)
     output_extras = ("psi2",)
 
+    needs_mass_inverse = True
+
     def __init__(self, alpha: float = -0.05, b: float = 0.0):
         self.alpha, self.beta, self.gamma = hht_coefficients(alpha)
         self.b = check_coefficient("b", b)

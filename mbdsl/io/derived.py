@@ -373,7 +373,8 @@ def derived_columns(system, t, q, v, lam, start=None, end=None, a=None,
     kin, pot, cpos, cvel = (np.zeros(N) for _ in range(4))
     phi_t = np.zeros((N, system.m))
     joints = system.model.joints
-    reactions = _Reactions(system) if joints else None
+    spatial = bool(system.cmap.spatial)
+    reactions = _Reactions(system) if joints and not spatial else None
     reac = np.zeros((N, len(joints), 3))
     for i0 in range(0, N, _ROW_CHUNK):
         sl = slice(i0, min(i0 + _ROW_CHUNK, N))
@@ -392,8 +393,11 @@ def derived_columns(system, t, q, v, lam, start=None, end=None, a=None,
     out.update(energies)
     out.update({"constraint.position": cpos, "constraint.velocity": cvel})
     for k, j in enumerate(joints):
-        for c, comp in enumerate(("fx", "fy", "torque")):
-            out[f"reaction.{j.name}.{comp}"] = reac[:, k, c]
+        for c, comp in enumerate(reaction_fields(system)):
+            # a spherical joint's rows are p2 - p1: -lambda is the force on its second body
+            out[f"reaction.{j.name}.{comp}"] = (-lam[:, system.joint_rows[j.name] + c]
+                                                if spatial else reac[:, k, c])
+    out.update(spatial_columns(system, q, v))
     for name, row in driver_loads(system):
         out[name] = -lam[:, row]
     for name, row, factor in coupler_loads(system):
@@ -414,7 +418,8 @@ def result_columns(system, extra_names=()) -> list[str]:
     ``extra_names`` (``mu``, ``psi1``)."""
     lay, model = system.layout, system.model
     extras = [f"{x}.{name}.{k}" for x in extra_names for name, k in lay.rows]
-    reactions = [f"reaction.{j.name}.{c}" for j in model.joints for c in ("fx", "fy", "torque")]
+    reactions = [f"reaction.{j.name}.{c}" for j in model.joints for c in reaction_fields(system)]
+    reactions += list(spatial_columns(system))
     reactions += [name for name, _ in driver_loads(system)]
     reactions += [name for name, _, _ in coupler_loads(system)]
     reactions += [name for name, _ in rope_gaps(system)]
@@ -424,3 +429,30 @@ def result_columns(system, extra_names=()) -> list[str]:
             + list(DERIVED_NAMES) + beams + lay.multiplier_names()
             + extras + reactions
             + [f"newton.{k}" for k in STAT_NAMES[:-1]] + ["step.h"])
+
+
+def reaction_fields(system) -> tuple:
+    """The components of a joint's reaction columns: (fx, fy, torque) [N, N m]
+    in a planar model; in a spatial one (fx, fy, fz) [N], world axes, the
+    force a spherical joint applies on its second body."""
+    return ("fx", "fy", "fz") if system.cmap.spatial else ("fx", "fy", "torque")
+
+
+def spatial_columns(system, q=None, v=None) -> dict:
+    """Each spatial body's Euler parameters ``<body>.e0`` .. ``e3`` (e0 >= 0)
+    and its angular velocity in body axes ``<body>.wx``, ``wy``, ``wz``
+    [rad/s], from its directors and their rates (``model.spatial``), over
+    rows q, v (N, n); with q None, only the names (values None)."""
+    from ..model.spatial import body_angular_velocity, euler_parameters
+    out = {}
+    for i, col in system.cmap.spatial.items():
+        name = system.model.bodies[i].name
+        names = [f"{name}.e{k}" for k in range(4)] + [f"{name}.w{c}" for c in "xyz"]
+        if q is None:
+            out.update(dict.fromkeys(names))
+            continue
+        A = q[:, col + 3:col + 12].reshape(-1, 3, 3).transpose(0, 2, 1)
+        A_t = v[:, col + 3:col + 12].reshape(-1, 3, 3).transpose(0, 2, 1)
+        values = np.concatenate([euler_parameters(A), body_angular_velocity(A, A_t)], axis=1)
+        out.update({k: values[:, j] for j, k in enumerate(names)})
+    return out

@@ -18,7 +18,7 @@ from .beams.elastic_points import (_elastic_phiqT_add, _elastic_phiq_times, _emi
                                    _emit_elastic_hess, _emit_elastic_phiq)
 from .beams.ffr import FFR_DQ, FFR_M, _emit_beams, _ffr_energy, _ffr_forces_add
 from .geometry import _direction
-from .joints import coincidence, couplers, distance, linear_rows, point_on_line
+from .joints import coincidence, couplers, distance, linear_rows, point_on_line, spatial
 from .loads import contact, friction, point_forces, spring_damper, state_loads, torques
 from .loads.contact import (_contact_energy, _contact_friction, _contact_law, _contacts_add,
                             _emit_contacts, _gap)
@@ -27,14 +27,14 @@ from .loads.friction import (_emit_friction, _emit_friction_lam, _friction_col, 
 from .loads.spring_damper import _spring_energy, _spring_points, _spring_rate, _springs_add
 from .loads.torques import _rotational_energy
 from .schema import (BEAM, CROW, DROW, ECOL, FCOL, FEL, FRI, GEO, KCOL, KGI, KPAR, LROW, MASS,
-                     MRIG, PROW, Q0, RCOL, ROW_ELEMENT, RPAR, SCOL1, SDV, SEL, SPAR, STQ, XTRM, ZCOL,
-                     _0, _NO, _YES, _f, _i, _inline, _hot, _jit, _put, _rows)
+                     MRIG, PROW, Q0, RCOL, ROW_ELEMENT, RPAR, SCOL1, SDV, SEL, SPAR, STQ, VROW, XTRM,
+                     ZCOL, _0, _NO, _YES, _f, _i, _inline, _hot, _jit, _put, _rows)
 
 
 #: The joint families in the order of every aggregate, each with its first field
 #: (whose rows are its instances).
 JOINTS = ((coincidence, CROW), (point_on_line, PROW), (linear_rows, LROW), (distance, DROW),
-          (couplers, XTRM))
+          (couplers, XTRM), (spatial, VROW))
 #: The joint families, in that order: each declares the joints and drivers whose rows
 #: it holds (``ELEMENT_ROWS``) and packs them from the model (``pack``); a family may
 #: also say where the initial conditions' first guess puts a joint's far body
@@ -87,6 +87,8 @@ def phi(I, Fl, t, qx, out):
     distance.phi(I, Fl, t, qx, out)
     if _rows(I, XTRM) > 0:
         couplers.phi(I, Fl, t, qx, out)
+    if _rows(I, VROW) > 0:
+        spatial.phi(I, Fl, t, qx, out)
 
 
 @_jit
@@ -98,6 +100,8 @@ def phiqT_add(I, Fl, qx, lam, coef, out):
     distance.phiqT_add(I, Fl, qx, lam, coef, out)
     if _rows(I, XTRM) > 0:
         couplers.phiqT_add(I, Fl, qx, lam, coef, out)
+    if _rows(I, VROW) > 0:
+        spatial.phiqT_add(I, Fl, qx, lam, coef, out)
     if _rows(I, ECOL) > 0:
         _elastic_phiqT_add(I, Fl, qx, lam, coef, out)
         distance.elastic_phiqT_add(I, Fl, qx, lam, coef, out)
@@ -112,6 +116,8 @@ def phiq_times(I, Fl, qx, vx, out):
     distance.phiq_times(I, Fl, qx, vx, out)
     if _rows(I, XTRM) > 0:
         couplers.phiq_times(I, Fl, qx, vx, out)
+    if _rows(I, VROW) > 0:
+        spatial.phiq_times(I, Fl, qx, vx, out)
     if _rows(I, ECOL) > 0:
         _elastic_phiq_times(I, Fl, qx, vx, out)
         distance.elastic_phiq_times(I, Fl, qx, vx, out)
@@ -173,6 +179,8 @@ def _emit_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose):
     p = distance.emit_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose)
     if _rows(I, XTRM) > 0:
         p = couplers.emit_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose)
+    if _rows(I, VROW) > 0:
+        p = spatial.emit_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose)
     if _rows(I, ECOL) > 0:
         p = _emit_elastic_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose)
         p = distance.emit_elastic_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose)
@@ -187,7 +195,8 @@ def phiq_triplets(I):
             + point_on_line.PHIQ_TRIPLETS * _rows(I, PROW)
             + linear_rows.PHIQ_TRIPLETS * _rows(I, LROW)
             + distance.PHIQ_TRIPLETS * _rows(I, DROW)
-            + couplers.PHIQ_TRIPLETS * _rows(I, XTRM) + 2 * _rows(I, ECOL))
+            + couplers.PHIQ_TRIPLETS * _rows(I, XTRM)
+            + spatial.PHIQ_TRIPLETS * _rows(I, VROW) + 2 * _rows(I, ECOL))
 
 
 @_jit
@@ -198,6 +207,8 @@ def _emit_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef):
     p = distance.emit_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef)
     if _rows(I, XTRM) > 0:
         p = couplers.emit_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef)
+    if _rows(I, VROW) > 0:
+        p = spatial.emit_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef)
     if _rows(I, ECOL) > 0:
         p = _emit_elastic_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef)
         p = distance.emit_elastic_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef)
@@ -213,6 +224,8 @@ def _emit_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef):
     p = distance.emit_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef)
     if _rows(I, XTRM) > 0:
         p = couplers.emit_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef)
+    if _rows(I, VROW) > 0:
+        p = spatial.emit_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef)
     if _rows(I, ECOL) > 0:
         p = _emit_elastic_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef)
         p = distance.emit_elastic_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef)
@@ -492,7 +505,7 @@ def triplet_bound(I) -> int:
     n = rows(MASS)
     # per family: its instances (its first field's rows) times its triplets per instance
     phiq = sum(j.PHIQ_TRIPLETS * rows(field) for j, field in JOINTS)
-    hess = sum(j.HESS_TRIPLETS * rows(field) for j, field in JOINTS)
+    hess = sum(j.HESS_TRIPLETS * rows(field) for j, field in JOINTS) + spatial.hess_triplets(I)
     G = sum(j.G_TRIPLETS * rows(field) for j, field in JOINTS)
     force = (sum(load.FORCE_TRIPLETS * rows(field) for load, field in LOADS)
              + point_forces.triplets(I))

@@ -55,91 +55,9 @@ __all__ = [
     "multiplier_unit", "SENSOR_UNITS", "Model", "COORDINATES", "VELOCITIES", "ACCELERATIONS",
 ]
 
-#: Names of a body's position coordinates, and of their rates, by index.
-COORDINATES = ("x", "y", "phi")
-
-
-class CoordinateMap:
-    """Where each body's (x, y, phi) are in q extended by the ground's three
-    dummy coordinates, q_ext = [q, 0, 0, 0] (length n + 3).
-
-    Bodies take three columns each in declaration order, a particle two; the
-    ground (body ``GROUND``) is at n, n+1, n+2, and a particle's phi is the
-    ground's n+2 (always 0: a particle never turns, so nothing reads a
-    rotation of it, and what is written to that column is dropped with the
-    ground's).
-
-    Parameters
-    ----------
-    bodies : sequence of RigidBody or FlexibleBeam
-    n : int
-        The number of generalized coordinates.
-    n_states : int
-        The number of first-order states: their integrals are the last
-        n_states columns of q, their values the same columns of v; state k
-        is the pseudo body ``n_bodies + k`` with one coordinate (0).
-
-    Attributes
-    ----------
-    n : int
-    table : ndarray of int, shape (n_bodies, 3)
-        Columns of x, y, phi of each body.
-    n_bodies : int
-    state_offset : int
-        The column of the first state's integral (n - n_states).
-    """
-
-    def __init__(self, bodies, n: int, n_states: int = 0):
-        self.n = int(n)
-        self.state_offset = self.n - int(n_states)
-        rows, offset = [], 0
-        for b in bodies:
-            if getattr(b, "particle", False):
-                rows.append((offset, offset + 1, self.n + 2))
-                offset += 2
-            else:
-                rows.append((offset, offset + 1, offset + 2))
-                offset += 3
-        self.n_reference = offset
-        self.table = np.array(rows, dtype=np.intp).reshape(-1, 3)
-        self.n_bodies = len(rows)
-        #: first column of each flexible beam's elastic coordinates (body index -> column)
-        self.elastic = {i: int(b.elastic_offset) for i, b in enumerate(bodies)
-                        if isinstance(b, FlexibleBeam)}
-
-    def __call__(self, bodies) -> np.ndarray:
-        """Columns (x, y, phi) of body indices (ground -1 -> n..n+2), shape (k, 3)."""
-        b = np.asarray(bodies, dtype=np.intp).reshape(-1)
-        out = np.empty((len(b), 3), dtype=np.intp)
-        ground = b < 0
-        out[ground] = self.n + np.arange(3)
-        out[~ground] = self.table[b[~ground]]
-        return out
-
-    def column(self, body: int, coord: int) -> int:
-        """The column of coordinate ``coord`` of ``body``: 0, 1, 2 = x, y, phi,
-        and on a flexible beam 3 + j its elastic coordinate j; of a first-order
-        state's pseudo body (n_bodies + k) its integral's (coord 0)."""
-        if body < 0:
-            return self.n + coord
-        if body >= self.n_bodies:
-            return self.state_column(body - self.n_bodies)
-        if coord >= 3:
-            return self.elastic[body] + coord - 3
-        return int(self.table[body, coord])
-
-    def state_column(self, k: int) -> int:
-        """The column of first-order state k: its integral in q, its value in v."""
-        return self.state_offset + int(k)
-
-    @property
-    def states(self) -> range:
-        """The columns of the first-order states."""
-        return range(self.state_offset, self.n)
-
-
-VELOCITIES = ("vx", "vy", "omega")
-ACCELERATIONS = ("ax", "ay", "alpha")
+from .spatial import SPATIAL_COORDINATES, SPATIAL_VELOCITIES
+from .coordinates import (ACCELERATIONS, COORDINATES, VELOCITIES,  # noqa: F401 (re-exported)
+                          CoordinateMap, _fields)
 
 
 @dataclass(frozen=True)
@@ -203,6 +121,8 @@ def multiplier_unit(element, row: int) -> str:
         point = ((element.kind == "coordinate" and element.coord < 2)
                  or element.kind == "joint_distance")
         return "N" if point else "N*m"
+    if element.kind == "frame":         # a spatial body's a_k . a_l = delta_kl: a couple
+        return "N*m"
     return "N*m" if ANGLE_ROWS.get(element.kind) == row else "N"
 
 
@@ -810,6 +730,10 @@ class InitialCondition:
     value : float [m, rad, m/s or rad/s]
     guess : bool
         True: a start value the assembly may change; False: kept.
+    counted : bool
+        Whether it counts against the degrees of freedom (E501): of the
+        nine directors a spatial body's orientation line gives (and of their
+        rates), three do; the frame rows imply the other six.
     """
 
     body: int
@@ -817,22 +741,20 @@ class InitialCondition:
     value: float
     guess: bool = False
     span: Span | None = None
+    counted: bool = True
 
     @property
     def is_velocity(self) -> bool:
-        """True for vx, vy, omega."""
-        return self.field in VELOCITIES
+        """True for vx, vy, omega (and a spatial body's rates, ``vz``, ``A11_t``)."""
+        return self.field in VELOCITIES or self.field in SPATIAL_VELOCITIES
 
     def column(self, cmap: CoordinateMap) -> int:
         """Index of the coordinate in q (or v)."""
-        names = VELOCITIES if self.is_velocity else COORDINATES
+        if self.body in cmap.spatial:
+            names = SPATIAL_VELOCITIES if self.is_velocity else SPATIAL_COORDINATES
+        else:
+            names = VELOCITIES if self.is_velocity else COORDINATES
         return cmap.column(self.body, names.index(self.field))
-
-
-def _fields(body, names):
-    """The body's fields of ``names`` (x, y, phi or their rates): the first
-    two for a particle."""
-    return names[:2] if getattr(body, "particle", False) else names
 
 
 @dataclass(frozen=True)
@@ -899,13 +821,22 @@ class Model:
     states: tuple = ()
     imports: dict = field(default_factory=dict)
     instances: dict = field(default_factory=dict)
+    space: int = 2
+
+    @property
+    def frames(self) -> tuple:
+        """The spatial bodies' orthonormality rows (``model.spatial.Frame``),
+        constraint elements after the couplers."""
+        from .spatial import Frame
+        return tuple(Frame(b.index, b.name, b.span) for b in self.bodies
+                     if len(_fields(b, COORDINATES)) == 12)
 
     @property
     def n_coordinates(self) -> int:
         """n, the number of generalized coordinates (3 per body, 2 per
         particle, plus the elastic coordinates of the flexible beams, plus
         one per first-order state, its integral)."""
-        return (sum(2 if getattr(b, "particle", False) else 3 for b in self.bodies)
+        return (sum(len(_fields(b, COORDINATES)) for b in self.bodies)
                 + sum(b.n_elastic for b in self.flexible_bodies) + len(self.states))
 
     @functools.cached_property
@@ -934,7 +865,8 @@ class Model:
     @property
     def n_constraints(self) -> int:
         """m, the number of constraint equations (joints, drivers and couplers)."""
-        return sum(j.rows for j in self.joints) + len(self.drivers) + len(self.couplers)
+        return (sum(j.rows for j in self.joints) + len(self.drivers) + len(self.couplers)
+                + 6 * len(self.frames))
 
     @property
     def dof(self) -> int:
@@ -975,12 +907,12 @@ class Model:
     @property
     def constraint_elements(self) -> tuple:
         """The elements with constraint rows, in row order: the joints, the
-        drivers, then the couplers."""
-        return tuple(self.joints) + tuple(self.drivers) + tuple(self.couplers)
+        drivers, the couplers, then the spatial bodies' frames."""
+        return tuple(self.joints) + tuple(self.drivers) + tuple(self.couplers) + self.frames
 
     def constraint_names(self) -> list[tuple[str, int]]:
         """(element name, row within element) for each constraint row, shape (m,)."""
         out = [(j.name, k) for j in self.joints for k in range(j.rows)]
         out += [(d.name, 0) for d in self.drivers]
         out += [(c.name, 0) for c in self.couplers]
-        return out
+        return out + [(f.name, k) for f in self.frames for k in range(f.rows)]

@@ -55,6 +55,8 @@ def _named(code):
 def test_the_kinds_and_methods_listed_are_the_languages():
     from mbdsl import METHODS
     from mbdsl.dsl.check import FORCE_KINDS, JOINT_KINDS
+    from mbdsl.dsl.check.spatial import SPATIAL_JOINT_KINDS
     from mbdsl.dsl.check.tables import COUPLER_KINDS
-    assert _named("E205") == set(JOINT_KINDS) | set(COUPLER_KINDS) | set(FORCE_KINDS)
+    assert _named("E205") == (set(JOINT_KINDS) | set(COUPLER_KINDS) | set(FORCE_KINDS)
+                              | set(SPATIAL_JOINT_KINDS))
     assert _named("E206") == set(METHODS)

@@ -168,7 +168,8 @@ def test_the_check_is_named_passes_each_stating_its_diagnostics():
 
     from mbdsl.dsl import check
     names = [name for name, _ in check.PASSES]
-    assert names == ["parameters", "tables", "loops", "ground", "bodies", "gravity", "joints",
+    assert names == ["parameters", "tables", "loops", "space", "ground", "bodies", "gravity",
+                     "joints",
                      "couplers", "drivers", "states", "forces", "initials", "outputs",
                      "settings"]
     assert {fn.__module__ for _, fn in check.PASSES} <= {

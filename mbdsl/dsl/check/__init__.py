@@ -13,6 +13,7 @@ pass           module
 parameters     ``parameters.py``: values, units, ``--set`` overrides
 tables         ``data_tables.py``: tables y(x), inline or from data files
 loops          ``loops.py``: ``for`` blocks flattened, indexed names
+space          ``spatial.py``: what a spatial model (``space 3d``) has not
 ground         ``bodies.py``: the ground's points
 bodies         ``bodies.py``: rigid bodies, particles, flexible beams
 gravity        ``forces.py``
@@ -49,6 +50,7 @@ from .loops import expand_loops
 from .outputs import check_outputs
 from .parameters import check_parameters
 from .settings import check_settings
+from .spatial import check_space
 from .states import check_states
 from .structure import check_structure
 from .tables import FORCE_KINDS, JOINT_KINDS, KNOWN_METHODS, SETTINGS
@@ -59,7 +61,7 @@ __all__ = ["check_spec", "CheckContext", "PASSES", "JOINT_KINDS", "FORCE_KINDS",
 #: The passes in order, by name. Each takes the context; gravity's returns the
 #: model's gravity vector (or None).
 PASSES = (("parameters", check_parameters), ("tables", check_tables), ("loops", expand_loops),
-          ("ground", check_ground), ("bodies", check_bodies), ("gravity", check_gravity),
+          ("space", check_space), ("ground", check_ground), ("bodies", check_bodies), ("gravity", check_gravity),
           ("joints", check_joints), ("couplers", check_couplers), ("drivers", check_drivers),
           ("states", check_states), ("forces", check_forces),
           ("initials", check_initials), ("outputs", check_outputs),
@@ -115,7 +117,7 @@ def check_spec(spec: ModelSpec, overrides: dict | None = None,
         static=bool(spec.static), static_span=spec.static_span, outputs=tuple(c.outputs),
         couplers=tuple(c.couplers), tables=tuple(c.tables.values()),
         states=tuple(c.first_order), imports=dict(flat.sources),
-        instances=dict(flat.instances))
+        instances=dict(flat.instances), space=c.space)
     if not any(d.is_error for d in c.diags):
         check_structure(c, model)
     if any(d.is_error for d in c.diags):

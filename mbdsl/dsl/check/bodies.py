@@ -13,10 +13,11 @@ import math
 import numpy as np
 
 from ...model.beam import FRAMES
-from ...model.elements import FlexibleBeam, RigidBody, Shape
+from ...model.elements import COORDINATES, FlexibleBeam, RigidBody, Shape, _fields
 from ..expressions import Name, Vec
 from ..spec import BeamSpec
 from .context import did_you_mean
+from .spatial import check_spatial_body
 
 
 #: shape kind -> (fewest points, most points, takes a radius)
@@ -56,6 +57,9 @@ def check_bodies(c):
     c.broken_bodies = set()
     for b in c.items["bodies"]:
         if not c.claim(b.name, b.span, "body"):
+            continue
+        if c.space == 3:
+            check_spatial_body(c, b)
             continue
         if isinstance(b, BeamSpec):
             check_beam(c, b)
@@ -110,7 +114,7 @@ def check_bodies(c):
                                          values["inertia"], points, b.span, shapes)
         else:
             c.broken_bodies.add(b.name)
-    offset = sum(2 if getattr(b, "particle", False) else 3 for b in c.bodies.values())
+    offset = sum(len(_fields(b, COORDINATES)) for b in c.bodies.values())
     for name, b in c.bodies.items():
         if isinstance(b, FlexibleBeam):
             c.bodies[name] = dataclasses.replace(b, elastic_offset=offset)

@@ -89,7 +89,9 @@ class CheckContext:
         self.first_order: list = []                     # FirstOrderState, in order
         self.param_dims: dict[str, units.Dimension | None] = {}
         self.bodies: dict[str, RigidBody] = {}
-        self.ground_points: dict[str, np.ndarray] = {"origin": np.zeros(2)}
+        #: 2 (planar) or 3 (``space 3d``): the components of every point and vector
+        self.space = int(getattr(spec, "space", 2))
+        self.ground_points: dict[str, np.ndarray] = {"origin": np.zeros(self.space)}
         self.joints: dict[str, Joint] = {}
         self.element_spans: dict[str, Span | None] = {}
         # names whose own error is reported: their uses are not reported again
@@ -266,17 +268,28 @@ class CheckContext:
         return point_ref(body, expr.attr, expr.text)
 
     def vector(self, vec, span, context, unit="m"):
-        """Evaluate a Vec to an ndarray of shape (2,) (components in the SI
-        ``unit``, checked as in :meth:`number`); None after reporting."""
+        """Evaluate a Vec to an ndarray of shape (2,), or (3,) in a spatial
+        model (components in the SI ``unit``, checked as in :meth:`number`);
+        None after reporting (E305: not a vector, or a vector of the other
+        space's size)."""
+        want = "(x, y, z)" if self.space == 3 else "(x, y)"
         if not isinstance(vec, Vec):
-            self.error("E305", f"{context}: expected a vector '(x, y)'",
+            self.error("E305", f"{context}: expected a vector '{want}'",
                        getattr(vec, "span", None) or span, "not a vector")
             return None
-        x = self.number(vec.x, span, context, unit=unit)
-        y = self.number(vec.y, span, context, unit=unit)
-        if x is None or y is None:
+        if (vec.z is not None) != (self.space == 3):
+            self.error("E305", f"{context}: expected a vector '{want}', got "
+                       f"{3 if vec.z is not None else 2} components",
+                       vec.span or span, f"a vector of {self.space}",
+                       hint="a spatial model starts with 'space 3d'; its points and vectors "
+                       "have three components" if self.space == 2 else
+                       "this model is spatial ('space 3d'): write '(x, y, z)'")
             return None
-        return np.array([x, y])
+        parts = [vec.x, vec.y] + ([vec.z] if self.space == 3 else [])
+        values = [self.number(e, span, context, unit=unit) for e in parts]
+        if any(v is None for v in values):
+            return None
+        return np.array(values)
 
     def split_args(self, el, allowed: dict, n_positional: int, context: str):
         """Positional args (list) and keyword values (dict of ArgSpec)."""

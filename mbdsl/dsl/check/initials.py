@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from ...model.elements import COORDINATES, VELOCITIES, InitialCondition
 from .context import did_you_mean, plain_target
+from .spatial import check_spatial_initials
 
 
 #: the SI unit of a body coordinate or velocity
@@ -14,7 +15,10 @@ INITIAL_UNITS = {"x": "m", "y": "m", "phi": "rad", "vx": "m/s", "vy": "m/s", "om
 
 
 def check_initials(c):
-    """Resolve initial and guess lines; reject unknown fields and repeats."""
+    """Resolve initial and guess lines; reject unknown fields and repeats
+    (a spatial model's: ``spatial.check_spatial_initials``)."""
+    if c.space == 3:
+        return check_spatial_initials(c)
     c.initials = []
     seen = {}
     for ic in c.items["initials"]:

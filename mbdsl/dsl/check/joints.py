@@ -11,12 +11,16 @@ import math
 import numpy as np
 
 from ...model.elements import GROUND, Joint
+from .spatial import check_spatial_joints
 from .tables import COUPLER_KINDS, JOINT_KINDS
 
 
 def check_joints(c):
     """Resolve joint points and options; reject joints of a body to itself.
-    Couplers between joints (``COUPLER_KINDS``) are the next pass's."""
+    Couplers between joints (``COUPLER_KINDS``) are the next pass's; a
+    spatial model's joints are ``spatial.check_spatial_joints``'."""
+    if c.space == 3:
+        return check_spatial_joints(c)
     for j in c.items["joints"]:
         if j.kind in COUPLER_KINDS:
             continue

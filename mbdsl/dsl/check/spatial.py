@@ -1,0 +1,213 @@
+"""The checks of a spatial model (``space 3d``): its bodies, joints and
+initial lines, and what a spatial model does not have yet. Diagnostics:
+E205 (an element kind planar only, or a joint kind unknown in 3D), E302/E303
+(mass and inertia), E304 (an unknown property), E305 (arguments, vectors),
+E402 (a body joined to itself), E502 (initial lines), E201 (an unknown
+body), E202 (a duplicate point).
+
+A spatial body is held in director coordinates (``model.spatial``); its
+``initial`` lines give x, y, z, vx, vy, vz, an ``orientation`` (z-y'-x''
+angles, ``zyx(yaw, pitch, roll)``) and an angular velocity ``omega`` (world
+axes) or ``omega_body`` (body axes), which the check turns into the
+directors and their rates.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from ...model.elements import GROUND, InitialCondition, Joint
+from ...model.spatial import DIRECTORS, SpatialBody, zyx
+from ..expressions import Call, Vec
+from .context import did_you_mean, plain_target
+
+#: spatial joint kind -> (positional points, allowed keywords, rows)
+SPATIAL_JOINT_KINDS = {"spherical": (2, {}, 3)}
+#: the declarations a spatial model does not have yet: items key -> what they are
+PLANAR_ONLY = {"drivers": "drivers", "forces": "forces, springs and contacts",
+               "states": "first-order states", "outputs": "output lines"}
+#: initial fields of a spatial body and their SI units (besides the directors)
+SPATIAL_INITIALS = {"x": "m", "y": "m", "z": "m", "vx": "m/s", "vy": "m/s", "vz": "m/s"}
+ROTATIONS = ("orientation", "omega", "omega_body")
+
+
+def check_space(c):
+    """In a spatial model, report the declarations it does not have yet
+    (E205) and drop them, so that the planar passes never see them."""
+    if c.space != 3:
+        return
+    for key, what in PLANAR_ONLY.items():
+        found = c.items.get(key) or getattr(c.spec, key, ())
+        for it in found:
+            c.error("E205", f"a spatial model ('space 3d') has no {what} yet",
+                    getattr(it, "span", None), "planar only",
+                    hint="spatial models have bodies, spherical joints, gravity and "
+                    "initial lines; remove 'space 3d' for a planar model")
+        if key in c.items:
+            c.items[key] = []
+    c.spec = dataclasses.replace(c.spec, states=(), outputs=())
+    if c.spec.static:
+        c.error("E205", "a spatial model has no 'initial static' yet", c.spec.static_span,
+                "planar only")
+
+
+def check_spatial_body(c, b):
+    """A spatial rigid body: a positive mass, principal moments of inertia
+    ``inertia (J1, J2, J3)`` [kg m^2] about body axes through the centre of
+    mass, which a rigid body's satisfy (J_k <= J_l + J_m), and points (x, y,
+    z) in body axes."""
+    ctx = f"body '{b.name}'"
+    if getattr(b, "particle", False) or not hasattr(b, "points"):
+        c.error("E205", f"{ctx}: a spatial model has rigid bodies only (no particles or "
+                "flexible beams yet)", b.span, "planar only",
+                hint="declare 'body NAME { mass m; inertia (J1, J2, J3) }'")
+        c.broken_bodies.add(b.name)
+        return
+    props = {}
+    for prop in b.properties:
+        if prop.name not in ("mass", "inertia") or prop.name in props:
+            c.error("E304", f"{ctx}: unknown or repeated property '{prop.name}'", prop.span,
+                    "unknown property", hint=did_you_mean(prop.name, ["mass", "inertia"])
+                    or "a spatial body has 'mass', 'inertia (J1, J2, J3)' and 'point' lines")
+            continue
+        props[prop.name] = prop
+    mass = inertia = None
+    if "mass" in props:
+        mass = c.number(props["mass"].value, props["mass"].span, f"mass of {ctx}", unit="kg")
+        if mass is not None and not mass > 0:
+            c.error("E303", f"the mass of {ctx} must be positive, got {mass:g} kg",
+                    props["mass"].span, "not positive")
+            mass = None
+    else:
+        c.error("E302", f"{ctx} has no mass", b.span, "mass missing",
+                hint="add 'mass VALUE' [kg]; there is no default")
+    if "inertia" not in props:
+        c.error("E302", f"{ctx} has no inertia", b.span, "inertia missing",
+                hint="add 'inertia (J1, J2, J3)' [kg m^2], the principal moments about "
+                "the body axes through the centre of mass")
+    elif not isinstance(props["inertia"].value, Vec):
+        c.error("E305", f"{ctx}: a spatial body's inertia is '(J1, J2, J3)'",
+                props["inertia"].span, "not three moments",
+                hint="the principal moments of inertia [kg m^2] about the body axes")
+    else:
+        inertia = c.vector(props["inertia"].value, props["inertia"].span,
+                           f"inertia of {ctx}", unit="kg*m^2")
+        if inertia is not None and (not np.all(inertia > 0)
+                                    or np.any(2 * inertia > inertia.sum() * (1 + 1e-12))):
+            c.error("E303", f"{ctx}: the principal moments {tuple(inertia.tolist())} kg m^2 "
+                    "are not a rigid body's", props["inertia"].span, "not a rigid body",
+                    hint="each must be positive and at most the sum of the other two")
+            inertia = None
+    points = {"cm": np.zeros(3)}
+    for p in b.points:
+        if p.name in points:
+            c.error("E202", f"{ctx}: duplicate point '{p.name}'", p.span, "declared again")
+            continue
+        v = c.vector(p.position, p.span, f"point '{b.name}.{p.name}'")
+        if v is None:
+            c.broken_points.add((b.name, p.name))
+        else:
+            points[p.name] = v
+    for s in getattr(b, "shapes", ()):
+        c.error("E205", f"{ctx}: spatial bodies have no drawn shapes yet", s.span,
+                "planar only")
+    if mass is None or inertia is None:
+        c.broken_bodies.add(b.name)
+        return
+    c.bodies[b.name] = SpatialBody(b.name, len(c.bodies), mass, inertia, points, b.span)
+
+
+def check_spatial_joints(c):
+    """The joints of a spatial model (``SPATIAL_JOINT_KINDS``)."""
+    for j in c.items["joints"]:
+        ok = c.claim(j.name, j.span, "joint")
+        ctx = f"joint '{j.name}'"
+        if not c.known_kind(j, SPATIAL_JOINT_KINDS, "spatial joint", ctx):
+            continue
+        npos, allowed, rows = SPATIAL_JOINT_KINDS[j.kind]
+        pos, _ = c.split_args(j, allowed, npos, ctx)
+        if pos is None:
+            continue
+        first = c.point(pos[0].value, pos[0].span or j.span, ctx)
+        second = c.point(pos[1].value, pos[1].span or j.span, ctx)
+        if first is None or second is None or not ok:
+            continue
+        if first.body == second.body:
+            what = "the ground" if first.body == GROUND else f"body '{pos[0].value.obj}'"
+            c.error("E402", f"{ctx} connects {what} to itself", j.span,
+                    "both points on one body", hint="a joint connects two different bodies")
+            continue
+        c.joints[j.name] = Joint(j.name, j.kind, first, second, None, 0.0, rows, j.span)
+
+
+def check_spatial_initials(c):
+    """``initial`` and ``guess`` lines of spatial bodies: x, y, z and their
+    rates, ``orientation = zyx(yaw, pitch, roll)`` (the nine directors), and
+    ``omega = (wx, wy, wz)`` in world axes or ``omega_body`` in body axes
+    (the directors' rates A' = [omega]x A = A [omega_body]x; they need the
+    body's orientation in the same kind of line)."""
+    c.initials = []
+    seen, rotations = {}, {}
+    for ic in c.items["initials"]:
+        tgt = plain_target(ic.target)
+        kw = "guess" if ic.guess else "initial"
+        body = c.bodies.get(tgt.obj)
+        if body is None:
+            if tgt.obj not in c.broken_bodies:
+                c.error("E201", f"{kw}: unknown body '{tgt.obj}'", tgt.span or ic.span,
+                        "no body with this name", hint=did_you_mean(tgt.obj, c.bodies))
+            continue
+        fields = tuple(SPATIAL_INITIALS) + ROTATIONS
+        if tgt.attr not in fields:
+            c.error("E502", f"{kw}: '{tgt.attr}' is not a field of spatial body "
+                    f"'{tgt.obj}'", tgt.span or ic.span, "unknown field",
+                    hint=did_you_mean(tgt.attr, fields) or f"use {', '.join(fields)}")
+            continue
+        key = (tgt.obj, "omega" if tgt.attr == "omega_body" else tgt.attr)
+        if key in seen:
+            c.error("E502", f"{kw}: '{tgt.text}' is given twice (or with its other axes)",
+                    ic.span, "given again")
+            continue
+        seen[key] = ic.span
+        if tgt.attr in SPATIAL_INITIALS:
+            v = c.number(ic.value, ic.span, f"{kw} {tgt.text}", unit=SPATIAL_INITIALS[tgt.attr])
+            if v is not None:
+                c.initials.append(InitialCondition(body.index, tgt.attr, v, ic.guess, ic.span))
+            continue
+        value = _rotation_value(c, tgt, ic, kw)
+        if value is not None:
+            rotations[(body.index, tgt.attr)] = (value, ic)
+    c.body_names = {b.index: name for name, b in c.bodies.items()}
+    for (index, attr), (value, ic) in rotations.items():
+        if attr == "orientation":
+            A = value
+        elif (index, "orientation") in rotations:
+            A = rotations[(index, "orientation")][0]
+            W = np.cross(np.eye(3), value)           # the skew matrix [w]x: rows e_k x w
+            value = W @ A if attr == "omega" else A @ W
+        else:
+            c.error("E502", f"the {attr} of body '{c.body_names[index]}' needs its orientation",
+                    ic.span, "no orientation",
+                    hint="add 'initial BODY.orientation = zyx(yaw, pitch, roll)'")
+            continue
+        fields = DIRECTORS if attr == "orientation" else tuple(f"{d}_t" for d in DIRECTORS)
+        for k, name in enumerate(fields):
+            c.initials.append(InitialCondition(index, name, float(value[k % 3, k // 3]),
+                                               ic.guess, ic.span, counted=k < 3))
+
+
+def _rotation_value(c, tgt, ic, kw):
+    """The rotation matrix of an orientation line, or the angular velocity
+    (3,) [rad/s] of an omega line; None after reporting."""
+    if tgt.attr == "orientation":
+        v = ic.value
+        if not (isinstance(v, Call) and v.func == "zyx" and isinstance(v.arg, Vec)):
+            c.error("E305", f"{kw} {tgt.text}: expected 'zyx(yaw, pitch, roll)'",
+                    getattr(v, "span", None) or ic.span, "not an orientation",
+                    hint="z-y'-x'' angles: yaw about z, then pitch, then roll")
+            return None
+        angles = [c.angle(e, ic.span, f"{kw} {tgt.text}") for e in (v.arg.x, v.arg.y, v.arg.z)]
+        return None if any(a is None for a in angles) else zyx(*angles)
+    return c.vector(ic.value, ic.span, f"{kw} {tgt.text}", unit="rad/s")

@@ -1,0 +1,273 @@
+"""Spatial joints and the spatial bodies' frames as dot rows: Phi = U . W - c.
+
+A spatial body is held in director coordinates (``model.spatial``): its
+columns are r (3) and the body axes a_1, a_2, a_3 (3 each), and a body
+vector with weights w = (alpha, s1, s2, s3) is alpha r + s1 a_1 + s2 a_2 +
+s3 a_3, linear in q: a point (alpha = 1) or a direction (alpha = 0). Every
+row of this family is the dot product of two such vectors, each the sum of
+up to two bodies' vectors and a constant (the ground's part),
+
+    Phi = U(q) . W(q) - c,   U = U0 + sum_slots (alpha r + S a),   W likewise,
+
+so that its gradient is U_q^T W + W_q^T U and its Hessian U_q^T W_q +
+W_q^T U_q is constant: the frame rows a_k . a_l - delta_kl (``Frame``) and
+the spherical joint's p2 - p1 = 0 (U = p2 - p1, W = e_c) are of this form,
+as are the other joints of Haug's library (Computer-Aided Kinematics and
+Dynamics of Mechanical Systems, 1989, sec. 9.4: the dot-1 and dot-2
+constraints, the spherical and distance constraints).
+
+Fields: VROW (k,) the rows; VCOL (k, 4) the first column of the body of
+each slot (U's two, W's two; -1: none); VW (k, 16) each slot's weights
+(alpha, s1, s2, s3); VC (k, 7) U0 (3), W0 (3) and c. A slot's column of
+weight j and component c is VCOL + 3 j + c. Weights that are zero are
+structural zeros: no triplet is emitted for them, so that the pattern is
+fixed by the model.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..schema import VC, VCOL, VROW, VW, _f, _i, _inline, _jit, _put, _put_phiq, _rows
+
+#: Its fields in ``schema.MODEL_SCHEMA`` (the first gives the instances).
+FIELDS = ("vrow", "vcol", "vw", "vc")
+#: Newton-matrix triplets per instance (a dot row) at most: Phi_q and (Phi_q v)_q
+#: three per term of U and W (eight each); its Hessian's, exactly, ``hess_triplets``.
+PHIQ_TRIPLETS, HESS_TRIPLETS, G_TRIPLETS = 48, 0, 48
+#: The joints whose rows it holds: kind -> the first of them among the element's rows.
+ELEMENT_ROWS = {"spherical": 0, "frame": 0}
+#: A frame's rows: the director pairs (k, l), k <= l, of a_k . a_l = delta_kl.
+FRAME_PAIRS = ((0, 0), (1, 1), (2, 2), (0, 1), (1, 2), (0, 2))
+
+
+def _slot(tables, body, weights):
+    """(first column, weights (4,)) of a body's vector in a slot; the ground's
+    part goes to the constant (column -1)."""
+    if body < 0:
+        return -1, np.zeros(4)
+    return tables.cmap.spatial[body], np.asarray(weights, float)
+
+
+def pack(items, tables) -> dict:
+    """Its fields from the model's spherical joints and spatial frames.
+
+    Parameters
+    ----------
+    items : list of (int, Joint or Frame)
+        Per element, its first row of lambda and the element, in the model's
+        order.
+    tables : packing context
+        ``cmap.spatial``: each spatial body's first column.
+
+    Returns
+    -------
+    dict
+        field name -> array, as ``schema.MODEL_SCHEMA`` declares them.
+    """
+    rows, cols, weights, consts = [], [], [], []
+    for row, e in items:
+        if e.kind == "frame":
+            base = tables.cmap.spatial[e.body]
+            for k, (a, b) in enumerate(FRAME_PAIRS):
+                wa, wb = np.zeros(4), np.zeros(4)
+                wa[1 + a] = wb[1 + b] = 1.0
+                rows.append(row + k)
+                cols.append((base, -1, base, -1))
+                weights.append(np.concatenate([wa, np.zeros(4), wb, np.zeros(4)]))
+                consts.append(np.r_[np.zeros(6), 1.0 if a == b else 0.0])
+            continue
+        # spherical: U = p2 - p1, W = e_c (Haug 1989, eq. 9.4.4)
+        c1, w1 = _slot(tables, e.first.body, np.r_[1.0, e.first.local])
+        c2, w2 = _slot(tables, e.second.body, np.r_[1.0, e.second.local])
+        u0 = np.zeros(3)
+        if e.first.body < 0:
+            u0 -= e.first.local
+        if e.second.body < 0:
+            u0 += e.second.local
+        for c in range(3):
+            rows.append(row + c)
+            cols.append((c2, c1, -1, -1))
+            weights.append(np.concatenate([w2, -w1, np.zeros(8)]))
+            consts.append(np.r_[u0, np.eye(3)[c], 0.0])
+    return {"vrow": np.array(rows, np.int64), "vcol": np.array(cols, np.int64).reshape(-1, 4),
+            "vw": np.array(weights, np.float64).reshape(-1, 16),
+            "vc": np.array(consts, np.float64).reshape(-1, 7)}
+
+
+def hess_triplets(I) -> int:
+    """An upper bound of the triplets of the family's Hessian
+    (:func:`emit_hess`: 2 x 3 per pair of a weight of U and one of W), from
+    the packed integers ``I`` alone: every weight of a slot with a body
+    counted (4 per slot), zero or not."""
+    out = 0
+    rows = int(I[3 * VROW + 1])
+    o = int(I[3 * VCOL])
+    for i in range(rows):
+        nu = sum(4 for s in (0, 1) if I[o + 4 * i + s] >= 0)
+        nw = sum(4 for s in (2, 3) if I[o + 4 * i + s] >= 0)
+        out += 6 * nu * nw
+    return out
+
+
+@_inline
+def _vector(I, Fl, qx, i, first, out):
+    """U (first = 0) or W (first = 2) of dot row i at qx into out (3,)."""
+    for c in range(3):
+        out[c] = _f(I, Fl, VC, i, 3 * (first // 2) + c)
+    for s in range(first, first + 2):
+        base = _i(I, VCOL, i, s)
+        if base >= 0:
+            for j in range(4):
+                w = _f(I, Fl, VW, i, 4 * s + j)
+                if w != 0.0:
+                    for c in range(3):
+                        out[c] += w * qx[base + 3 * j + c]
+
+
+@_inline
+def phi(I, Fl, t, qx, out):
+    """Phi into out (m,) [m, or 1 for the frame rows]."""
+    if _rows(I, VROW) == 0:
+        return
+    U, W = np.empty(3), np.empty(3)
+    for i in range(_rows(I, VROW)):
+        _vector(I, Fl, qx, i, 0, U)
+        _vector(I, Fl, qx, i, 2, W)
+        out[_i(I, VROW, i, 0)] = U[0] * W[0] + U[1] * W[1] + U[2] * W[2] - _f(I, Fl, VC, i, 6)
+
+
+@_jit
+def _gradient(I, Fl, qx, i, U, W, cols, vals):
+    """The entries of dot row i's gradient, U_q^T W + W_q^T U, into cols,
+    vals (48,) (a column may repeat: the entries add); returns their count."""
+    _vector(I, Fl, qx, i, 0, U)
+    _vector(I, Fl, qx, i, 2, W)
+    p = 0
+    for s in range(4):
+        base = _i(I, VCOL, i, s)
+        if base < 0:
+            continue
+        other = W if s < 2 else U
+        for j in range(4):
+            w = _f(I, Fl, VW, i, 4 * s + j)
+            if w != 0.0:
+                for c in range(3):
+                    cols[p] = base + 3 * j + c
+                    vals[p] = w * other[c]
+                    p += 1
+    return p
+
+
+@_inline
+def phiqT_add(I, Fl, qx, lam, coef, out):
+    """out (n+3,) += coef Phi_q^T lambda."""
+    if _rows(I, VROW) == 0:
+        return
+    U, W = np.empty(3), np.empty(3)
+    cols, vals = np.empty(48, np.int64), np.empty(48)
+    for i in range(_rows(I, VROW)):
+        k = _gradient(I, Fl, qx, i, U, W, cols, vals)
+        lv = coef * lam[_i(I, VROW, i, 0)]
+        for e in range(k):
+            out[cols[e]] += lv * vals[e]
+
+
+@_inline
+def phiq_times(I, Fl, qx, vx, out):
+    """Phi_q v into out (m,)."""
+    if _rows(I, VROW) == 0:
+        return
+    U, W = np.empty(3), np.empty(3)
+    cols, vals = np.empty(48, np.int64), np.empty(48)
+    for i in range(_rows(I, VROW)):
+        k = _gradient(I, Fl, qx, i, U, W, cols, vals)
+        acc = 0.0
+        for e in range(k):
+            acc += vals[e] * vx[cols[e]]
+        out[_i(I, VROW, i, 0)] = acc
+
+
+@_inline
+def emit_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose):
+    """coef Phi_q at (r0, c0), or coef Phi_q^T when transpose; returns p."""
+    if _rows(I, VROW) == 0:
+        return p
+    U, W = np.empty(3), np.empty(3)
+    cols, vals = np.empty(48, np.int64), np.empty(48)
+    for i in range(_rows(I, VROW)):
+        k = _gradient(I, Fl, qx, i, U, W, cols, vals)
+        row = _i(I, VROW, i, 0)
+        for e in range(k):
+            p = _put_phiq(R, C, V, p, r0, c0, row, cols[e], coef * vals[e], transpose)
+    return p
+
+
+@_inline
+def emit_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef):
+    """coef (Phi_q^T lambda)_q at (r0, c0): lambda (U_q^T W_q + W_q^T U_q),
+    constant in q; returns p."""
+    if _rows(I, VROW) == 0:
+        return p
+    for i in range(_rows(I, VROW)):
+        lv = coef * lam[_i(I, VROW, i, 0)]
+        for su in range(2):
+            bu = _i(I, VCOL, i, su)
+            if bu < 0:
+                continue
+            for sw in range(2, 4):
+                bw = _i(I, VCOL, i, sw)
+                if bw < 0:
+                    continue
+                for ju in range(4):
+                    wu = _f(I, Fl, VW, i, 4 * su + ju)
+                    if wu == 0.0:
+                        continue
+                    for jw in range(4):
+                        ww = _f(I, Fl, VW, i, 4 * sw + jw)
+                        if ww == 0.0:
+                            continue
+                        for c in range(3):
+                            a, b = bu + 3 * ju + c, bw + 3 * jw + c
+                            p = _put(R, C, V, p, r0 + a, c0 + b, lv * wu * ww)
+                            p = _put(R, C, V, p, r0 + b, c0 + a, lv * wu * ww)
+    return p
+
+
+@_inline
+def emit_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef):
+    """coef (Phi_q v)_q at (r0, c0): the gradient of U . W with U, W
+    replaced by U_q v, W_q v (the Hessian times v); returns p."""
+    if _rows(I, VROW) == 0:
+        return p
+    U, W = np.empty(3), np.empty(3)
+    for i in range(_rows(I, VROW)):
+        # U_q v and W_q v are U and W of the velocities without the constants
+        for c in range(3):
+            U[c] = 0.0
+            W[c] = 0.0
+        for s in range(4):
+            base = _i(I, VCOL, i, s)
+            if base < 0:
+                continue
+            for j in range(4):
+                w = _f(I, Fl, VW, i, 4 * s + j)
+                if w != 0.0:
+                    for c in range(3):
+                        if s < 2:
+                            U[c] += w * vx[base + 3 * j + c]
+                        else:
+                            W[c] += w * vx[base + 3 * j + c]
+        row = _i(I, VROW, i, 0)
+        for s in range(4):
+            base = _i(I, VCOL, i, s)
+            if base < 0:
+                continue
+            other = W if s < 2 else U
+            for j in range(4):
+                w = _f(I, Fl, VW, i, 4 * s + j)
+                if w != 0.0:
+                    for c in range(3):
+                        p = _put(R, C, V, p, r0 + row, c0 + base + 3 * j + c,
+                                 coef * w * other[c])
+    return p

@@ -1,0 +1,199 @@
+"""Spatial rigid bodies in director (natural) coordinates.
+
+A spatial body's configuration is its centre of mass r and the three body
+axes in world components, the columns of its rotation matrix
+A = [a1 a2 a3] (the *directors*): twelve coordinates,
+
+    q_i = (x, y, z, A11, A21, A31, A12, A22, A32, A13, A23, A33),
+
+held orthonormal by six constraint rows per body (:class:`Frame`),
+a_k . a_l - delta_kl = 0 (k <= l). A body point is at r + A s = r + sum_k
+s_k a_k, linear in q. With the body axes principal, the kinetic energy is
+
+    T = 1/2 m |r'|^2 + 1/2 sum_k Jbar_k |a_k'|^2,   Jbar_k = int rho s_k^2 dV
+                                                          = (J_l + J_m - J_k) / 2,
+
+so the mass matrix is constant and diagonal, diag(m I3, Jbar_1 I3,
+Jbar_2 I3, Jbar_3 I3), and the equations of motion keep the paper's form
+M q'' + Phi_q^T lambda = Q, Phi(q, t) = 0 with no quadratic velocity term:
+the gyroscopic couples are carried by the frame rows' multipliers. Every
+joint of Haug's library is a polynomial of degree at most 2 in q (a point is
+linear, a dot product of two body vectors bilinear), so Phi's Hessians are
+constant. Sources: J. Garcia de Jalon and E. Bayo, Kinematic and Dynamic
+Simulation of Multibody Systems (1994), ch. 3 (natural coordinates); P.
+Betsch and P. Steinmann, Constrained integration of rigid body dynamics,
+CMAME 191 (2001) 467-488 (the director formulation and its mass matrix);
+docs/methods.md, "Spatial bodies", says why mbdsl uses it instead of Euler
+parameters.
+
+Rotation helpers: :func:`zyx`, :func:`axis_angle`, :func:`euler_parameters`
+(Shepperd's method) and :func:`body_angular_velocity`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import Span
+
+__all__ = ["SpatialBody", "Frame", "DIRECTORS", "SPATIAL_COORDINATES", "SPATIAL_VELOCITIES",
+           "SPATIAL_ACCELERATIONS", "zyx", "axis_angle", "euler_parameters",
+           "body_angular_velocity", "director_inertia"]
+
+#: The directors' coordinate names: A_ij, row i (world axis), column j (body axis).
+DIRECTORS = tuple(f"A{i}{j}" for j in (1, 2, 3) for i in (1, 2, 3))
+SPATIAL_COORDINATES = ("x", "y", "z") + DIRECTORS
+SPATIAL_VELOCITIES = ("vx", "vy", "vz") + tuple(f"{d}_t" for d in DIRECTORS)
+SPATIAL_ACCELERATIONS = ("ax", "ay", "az") + tuple(f"{d}_tt" for d in DIRECTORS)
+
+
+def director_inertia(inertia) -> np.ndarray:
+    """Jbar (3,) [kg m^2], the second moments int rho s_k^2 dV of a body
+    with principal moments of inertia J (3,): Jbar_k = (J_l + J_m - J_k) / 2
+    (Betsch and Steinmann 2001, eq. 2.5). Non-negative exactly when J
+    satisfies the triangle inequalities."""
+    J = np.asarray(inertia, float)
+    return 0.5 * (J.sum() - 2.0 * J)
+
+
+@dataclass(frozen=True)
+class SpatialBody:
+    """A spatial rigid body (``space 3d``), in director coordinates.
+
+    Attributes
+    ----------
+    name : str
+    index : int
+        Position in the model's body list.
+    mass : float [kg]
+    inertia : ndarray, shape (3,) [kg m^2]
+        Principal moments of inertia about the centre of mass, along the
+        body axes.
+    points : dict of str -> ndarray, shape (3,) [m]
+        Body-fixed points relative to the centre of mass, in body axes;
+        ``cm`` is (0, 0, 0).
+    shapes : tuple
+        What is drawn (none yet for spatial bodies).
+    """
+
+    name: str
+    index: int
+    mass: float
+    inertia: np.ndarray
+    points: dict
+    span: Span | None = None
+    shapes: tuple = ()
+    particle: bool = False
+
+    #: Its coordinates, velocities and accelerations, in order (12 each).
+    coordinate_fields = SPATIAL_COORDINATES
+    velocity_fields = SPATIAL_VELOCITIES
+    acceleration_fields = SPATIAL_ACCELERATIONS
+
+    @property
+    def mass_diagonal(self) -> np.ndarray:
+        """The diagonal of its block of M, shape (12,): m three times, then
+        Jbar_k three times for each director (:func:`director_inertia`)."""
+        return np.repeat(np.concatenate([[self.mass], director_inertia(self.inertia)]), 3)
+
+
+@dataclass(frozen=True)
+class Frame:
+    """The six orthonormality rows of a spatial body's directors,
+    a_k . a_l - delta_kl = 0 for k <= l (in the order (1, 1), (2, 2), (3, 3),
+    (1, 2), (2, 3), (1, 3): ``kernels.joints.spatial``): a constraint
+    element of its own, after the joints, drivers and couplers. Their
+    multipliers are the internal stresses that keep the body rigid [N m].
+
+    Attributes
+    ----------
+    body : int
+        The body's index.
+    name : str
+        The body's name (the rows' element name: ``lambda.<body>.k``).
+    """
+
+    body: int
+    name: str
+    span: Span | None = None
+    kind: str = "frame"
+    rows: int = 6
+
+
+def zyx(yaw: float, pitch: float, roll: float) -> np.ndarray:
+    """The rotation matrix (3, 3) of z-y'-x'' angles [rad] (yaw about z,
+    then pitch about the new y, then roll about the newest x): A = Rz Ry Rx,
+    its columns the body axes in world components."""
+    cz, sz, cy, sy, cx, sx = (np.cos(yaw), np.sin(yaw), np.cos(pitch), np.sin(pitch),
+                              np.cos(roll), np.sin(roll))
+    Rz = np.array([[cz, -sz, 0.0], [sz, cz, 0.0], [0.0, 0.0, 1.0]])
+    Ry = np.array([[cy, 0.0, sy], [0.0, 1.0, 0.0], [-sy, 0.0, cy]])
+    Rx = np.array([[1.0, 0.0, 0.0], [0.0, cx, -sx], [0.0, sx, cx]])
+    return Rz @ Ry @ Rx
+
+
+def axis_angle(axis, angle: float) -> np.ndarray:
+    """The rotation matrix (3, 3) of ``angle`` [rad] about ``axis`` (3,)
+    (normalized here; Rodrigues' formula).
+
+    Raises
+    ------
+    ValueError
+        A zero axis.
+    """
+    u = np.asarray(axis, float)
+    norm = np.linalg.norm(u)
+    if not norm > 0.0:
+        raise ValueError("the rotation axis is zero")
+    u = u / norm
+    K = np.array([[0.0, -u[2], u[1]], [u[2], 0.0, -u[0]], [-u[1], u[0], 0.0]])
+    return np.eye(3) + np.sin(angle) * K + (1.0 - np.cos(angle)) * K @ K
+
+
+def euler_parameters(A: np.ndarray) -> np.ndarray:
+    """Euler parameters (..., 4) = (e0, e1, e2, e3), e0 >= 0, of rotation
+    matrices A (..., 3, 3), by Shepperd's method (Shepperd, J. Guidance
+    Control 1 (1978) 223; Haug 1989, sec. 9.3.3): the largest of the four
+    squares is taken first, so that no division is by a small number."""
+    A = np.asarray(A, float)
+    tr = np.trace(A, axis1=-2, axis2=-1)
+    d = np.stack([tr, A[..., 0, 0], A[..., 1, 1], A[..., 2, 2]], axis=-1)
+    k = np.argmax(d, axis=-1)
+    e = np.empty(A.shape[:-2] + (4,))
+    a = lambda i, j: A[..., i, j]                                   # noqa: E731
+    with np.errstate(divide="ignore", invalid="ignore"):   # each case on every row; kept where chosen
+        _shepperd(A, a, tr, k, e)
+    return np.where(e[..., :1] < 0.0, -e, e)
+
+
+def _shepperd(A, a, tr, k, e):
+    """The four cases of :func:`euler_parameters` into e, each where k chose it."""
+    for case in range(4):
+        sel = k == case
+        if not np.any(sel):
+            continue
+        if case == 0:
+            w = np.sqrt(np.maximum(1.0 + tr, 0.0)) / 2.0
+            v = np.stack([w, (a(2, 1) - a(1, 2)) / (4 * w), (a(0, 2) - a(2, 0)) / (4 * w),
+                          (a(1, 0) - a(0, 1)) / (4 * w)], axis=-1)
+        else:
+            i = case - 1
+            j, m = (i + 1) % 3, (i + 2) % 3
+            w = np.sqrt(np.maximum(1.0 + 2.0 * a(i, i) - tr, 0.0)) / 2.0
+            v = np.empty(A.shape[:-2] + (4,))
+            v[..., 0] = (a(m, j) - a(j, m)) / (4 * w)
+            v[..., 1 + i] = w
+            v[..., 1 + j] = (a(j, i) + a(i, j)) / (4 * w)
+            v[..., 1 + m] = (a(m, i) + a(i, m)) / (4 * w)
+        e[sel] = v[sel]
+
+
+def body_angular_velocity(A: np.ndarray, A_t: np.ndarray) -> np.ndarray:
+    """Angular velocity in body axes (..., 3) [rad/s] from the directors and
+    their rates (..., 3, 3): the skew matrix A^T A' = [omega]x (Haug 1989,
+    eq. 9.2.30), read from its antisymmetric part."""
+    W = np.swapaxes(A, -1, -2) @ A_t
+    return 0.5 * np.stack([W[..., 2, 1] - W[..., 1, 2], W[..., 0, 2] - W[..., 2, 0],
+                           W[..., 1, 0] - W[..., 0, 1]], axis=-1)
