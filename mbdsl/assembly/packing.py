@@ -342,9 +342,10 @@ def _timed(f) -> bool:
 
 
 def _joint_fields(system, tables, families) -> dict:
-    """The joints' and drivers' model data, each family packing the elements of
-    the kinds its ``ELEMENT_ROWS`` names, in the model's order (joints, then
-    drivers), with its rows of lambda.
+    """The joints' and drivers' model data, each family of the model's space
+    (``SPACE``, 2 unless a family says 3) packing the elements of the kinds
+    its ``ELEMENT_ROWS`` names, in the model's order (joints, then drivers),
+    with its rows of lambda.
 
     Raises
     ------
@@ -354,7 +355,10 @@ def _joint_fields(system, tables, families) -> dict:
     d = {}
     elements = system.constraint_elements
     held = set()
+    space = getattr(system.model, "space", 2)
     for family in families:
+        if getattr(family, "SPACE", 2) != space:      # a kind name of both: revolute, distance
+            continue
         mine = [(row + family.ELEMENT_ROWS[e.kind], e) for row, e in elements
                 if e.kind in family.ELEMENT_ROWS]
         held.update(family.ELEMENT_ROWS)

@@ -145,7 +145,13 @@ def analyse_structure(system, q: np.ndarray, t: float) -> StructureReport:
     if not np.all(finite):
         name = lay.rows[int(np.argmin(finite))][0]
         raise FloatingPointError(name)
-    ind, dep = independent_rows(A)
+    # a spatial body's frame rows first (``model.spatial.Frame``): they always hold, and
+    # a dependent row is then a joint's, the one the report can tell the user to remove
+    frames = {f.name for f in system.model.frames}
+    first = np.array([name in frames for name, _ in lay.rows], dtype=bool)
+    order = np.r_[np.flatnonzero(first), np.flatnonzero(~first)]
+    ind, dep = independent_rows(A[order])
+    ind, dep = np.sort(order[ind]), np.sort(order[dep])
     report = StructureReport(n, system.m, len(ind))
     by_element: dict[str, list[int]] = {}
     for i in dep:

@@ -126,11 +126,14 @@ class StateSpec:
 @dataclass(frozen=True)
 class PointSpec:
     """``point NAME (x, y)``: a body-fixed point [m], relative to the centre
-    of mass in the body frame (or a ground point in the global frame)."""
+    of mass in the body frame (or a ground point in the global frame); with
+    ``axis`` True, ``axis NAME (x, y, z)``: a spatial body's direction for
+    its joints, in its frame (the ground's in the global frame)."""
 
     name: str
     position: Any
     span: Span | None = None
+    axis: bool = False
 
     def __post_init__(self):
         _set(self, "position", _vec(self.position))

@@ -237,6 +237,13 @@ class ToSpec(ToExpression):
         return S.PointSpec(self._name(children[0]), children[1], self._nspan(children[0]))
 
     @v_args(meta=True)
+    def axis_decl(self, meta, children):
+        """``axis NAME (x, y, z)`` -> PointSpec(axis=True): a direction of a
+        spatial body (or of the ground), for its joints."""
+        return S.PointSpec(self._name(children[0]), children[1], self._nspan(children[0]),
+                           axis=True)
+
+    @v_args(meta=True)
     def property(self, meta, children):
         """``mass m1`` -> PropertySpec."""
         return S.PropertySpec(str(children[0]), children[1], self._tspan(children[0]))

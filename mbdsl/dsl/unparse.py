@@ -116,7 +116,8 @@ def _item(it, indent: str) -> list[str]:
     from . import spec as S
     if isinstance(it, S.BodySpec):
         parts = [f"{p.name} {expr_text(p.value)}" for p in it.properties]
-        parts += [f"point {_name(p.name)} {expr_text(p.position)}" for p in it.points]
+        parts += [f"{_point_word(p)} {_name(p.name)} {expr_text(p.position)}"
+                  for p in it.points]
         parts += [f"shape {s.kind}({_args(s.args)})" for s in it.shapes]
         kind = "particle" if it.particle else "body"
         return [f"{indent}{kind} {_name(it.name)} {{ {'; '.join(parts)} }}"]
@@ -137,7 +138,8 @@ def _item(it, indent: str) -> list[str]:
         word = "guess" if it.guess else "initial"
         return [f"{indent}{word} {expr_text(it.target)} = {expr_text(it.value)}"]
     if isinstance(it, S.GroundSpec):
-        pts = "; ".join(f"point {_name(p.name)} {expr_text(p.position)}" for p in it.points)
+        pts = "; ".join(f"{_point_word(p)} {_name(p.name)} {expr_text(p.position)}"
+                        for p in it.points)
         return [f"{indent}ground {{ {pts} }}"]
     if isinstance(it, S.ForSpec):
         return _block(f"for {it.var} in {expr_text(it.start)}..{expr_text(it.end)}", it.items,
@@ -190,7 +192,7 @@ def spec_text(spec) -> str:
     if spec.gravity is not None:
         lines.append(f"gravity {expr_text(spec.gravity)}")
     if spec.ground_points:
-        pts = "; ".join(f"point {_name(p.name)} {expr_text(p.position)}"
+        pts = "; ".join(f"{_point_word(p)} {_name(p.name)} {expr_text(p.position)}"
                         for p in spec.ground_points)
         lines.append(f"ground {{ {pts} }}")
     # instances after the blocks: a model built in Python orders its coordinates
@@ -211,3 +213,8 @@ def spec_text(spec) -> str:
                  for s in spec.settings]
         lines.append(f"simulate {{ {'; '.join(parts)} }}")
     return "\n".join(lines) + "\n"
+
+
+def _point_word(p) -> str:
+    """``point`` or ``axis`` (a spatial body's direction, ``PointSpec.axis``)."""
+    return "axis" if getattr(p, "axis", False) else "point"

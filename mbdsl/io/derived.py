@@ -375,7 +375,7 @@ def derived_columns(system, t, q, v, lam, start=None, end=None, a=None,
     joints = system.model.joints
     spatial = bool(system.cmap.spatial)
     reactions = _Reactions(system) if joints and not spatial else None
-    reac = np.zeros((N, len(joints), 3))
+    reac = np.zeros((N, len(joints), len(reaction_fields(system))))
     for i0 in range(0, N, _ROW_CHUNK):
         sl = slice(i0, min(i0 + _ROW_CHUNK, N))
         qs, vs, ts = q[sl], v[sl], t[sl]
@@ -392,11 +392,11 @@ def derived_columns(system, t, q, v, lam, start=None, end=None, a=None,
     carry = energies.pop("_end")
     out.update(energies)
     out.update({"constraint.position": cpos, "constraint.velocity": cvel})
+    if spatial and joints:
+        reac = spatial_reactions(system, t, q, lam)
     for k, j in enumerate(joints):
         for c, comp in enumerate(reaction_fields(system)):
-            # a spherical joint's rows are p2 - p1: -lambda is the force on its second body
-            out[f"reaction.{j.name}.{comp}"] = (-lam[:, system.joint_rows[j.name] + c]
-                                                if spatial else reac[:, k, c])
+            out[f"reaction.{j.name}.{comp}"] = reac[:, k, c]
     out.update(spatial_columns(system, q, v))
     for name, row in driver_loads(system):
         out[name] = -lam[:, row]
@@ -433,19 +433,53 @@ def result_columns(system, extra_names=()) -> list[str]:
 
 def reaction_fields(system) -> tuple:
     """The components of a joint's reaction columns: (fx, fy, torque) [N, N m]
-    in a planar model; in a spatial one (fx, fy, fz) [N], world axes, the
-    force a spherical joint applies on its second body."""
-    return ("fx", "fy", "fz") if system.cmap.spatial else ("fx", "fy", "torque")
+    in a planar model; in a spatial one (fx, fy, fz, tx, ty, tz) [N, N m]
+    (:func:`spatial_reactions`)."""
+    return (("fx", "fy", "fz", "tx", "ty", "tz") if system.cmap.spatial
+            else ("fx", "fy", "torque"))
 
 
-def spatial_columns(system, q=None, v=None) -> dict:
+def spatial_reactions(system, t, q, lam) -> np.ndarray:
+    """The force and couple each joint of a spatial model applies on its
+    second body, shape (N, joints, 6) [N, N m], world axes, the couple about
+    the body's centre of mass; when the second body is the ground, minus
+    those on the first body (about the first body's centre of mass).
+
+    The joint's constraint load on the body's coordinates is
+    G = -(Phi_q^T lambda) over the joint's rows; in director coordinates its
+    force is G on r and its couple sum_k a_k x G on a_k (virtual work
+    G_ak . (dtheta x a_k) = dtheta . (a_k x G_ak)).
+
+    Rows: t (N,), q (N, n), lam (N, m).
+    """
+    rows, cols = system.pattern_Phi_q
+    values = system.Phi_q_values(q, t)                     # (N, nnz)
+    load = -values * lam[:, rows]
+    out = np.zeros((len(t), len(system.model.joints), 6))
+    for k, j in enumerate(system.model.joints):
+        r0 = system.joint_rows[j.name]
+        body, sign = ((j.second.body, 1.0) if j.second.body >= 0 else (j.first.body, -1.0))
+        c0 = system.cmap.spatial[body]
+        mine = (rows >= r0) & (rows < r0 + j.rows) & (cols >= c0) & (cols < c0 + 12)
+        G = np.zeros((len(t), 12))
+        np.add.at(G.T, cols[mine] - c0, load[:, mine].T)
+        A = q[:, c0 + 3:c0 + 12].reshape(-1, 3, 3)         # rows: a_1, a_2, a_3
+        couple = np.cross(A, G[:, 3:].reshape(-1, 3, 3)).sum(axis=1)
+        out[:, k, :3], out[:, k, 3:] = sign * G[:, :3], sign * couple
+    return out
+
+
+def spatial_columns(system, q=None, v=None, body=None) -> dict:
     """Each spatial body's Euler parameters ``<body>.e0`` .. ``e3`` (e0 >= 0)
     and its angular velocity in body axes ``<body>.wx``, ``wy``, ``wz``
     [rad/s], from its directors and their rates (``model.spatial``), over
-    rows q, v (N, n); with q None, only the names (values None)."""
+    rows q, v (N, n); with q None, only the names (values None); with
+    ``body`` (an index), that body's only."""
     from ..model.spatial import body_angular_velocity, euler_parameters
     out = {}
     for i, col in system.cmap.spatial.items():
+        if body is not None and i != body:
+            continue
         name = system.model.bodies[i].name
         names = [f"{name}.e{k}" for k in range(4)] + [f"{name}.w{c}" for c in "xyz"]
         if q is None:

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .derived import DERIVED_NAMES, derived_columns, result_columns
+from .derived import DERIVED_NAMES, derived_columns, result_columns, spatial_columns
 from .rows import (STAT_NAMES, Extent, RunStats, StepStats, FileArrays, RowArray,
                    RowStore)
 
@@ -562,6 +562,22 @@ class Solution:
                 return b.mesh.deflection_mid(self._field("q", list(b.elastic_columns())))
         return None
 
+    def _spatial_column(self, name: str):
+        """A spatial body's Euler parameters or body-axis angular velocity
+        (``derived.spatial_columns``) computed from q and v, for a result whose
+        derived columns were read from its file without them; else None."""
+        head, _, tail = name.rpartition(".")
+        if tail not in ("e0", "e1", "e2", "e3", "wx", "wy", "wz"):
+            return None
+        cmap = self.system.cmap
+        for i, col in cmap.spatial.items():
+            if self.model.bodies[i].name == head:
+                cols = list(range(col, col + 12))
+                q, v = (np.zeros((self.n_rows, self.system.n)) for _ in range(2))
+                q[:, cols], v[:, cols] = self._field("q", cols), self._field("v", cols)
+                return spatial_columns(self.system, q, v, body=i)[name]
+        return None
+
     def derived(self) -> dict:
         """Energies, constraint norms and joint reactions: name -> ndarray, shape (N,)."""
         return dict(self._compute_derived())
@@ -604,6 +620,9 @@ class Solution:
         beam = self._beam_column(name)
         if beam is not None:
             return beam
+        turning = self._spatial_column(name)
+        if turning is not None:
+            return turning
         if where is not None:                       # a multiplier
             return self._field(*where)
         head, _, rest = name.partition(".")

@@ -362,7 +362,10 @@ class Joint:
     Attributes
     ----------
     name : str
-    kind : {"revolute", "prismatic", "point_on_line", "fixed", "distance"}
+    kind : str
+        Planar: "revolute", "prismatic", "point_on_line", "fixed", "distance";
+        spatial (``dsl.check.spatial.SPATIAL_JOINT_KINDS``): "spherical", "revolute",
+        "universal", "cylindrical", "point_on_line", "point_on_plane", "distance".
     first, second : PointRef
         The two points as written. For ``point_on_line`` and ``prismatic``
         the first point moves on the line through the second point.
@@ -374,6 +377,9 @@ class Joint:
         Number of constraint equations.
     length : float [m]
         The distance a ``distance`` joint holds (0 for the others).
+    axes : tuple of (int, ndarray (3,))
+        A spatial joint's axes: (body, unit direction in its frame) each
+        (``dsl.check.spatial.SPATIAL_JOINT_KINDS``); empty in a planar model.
     """
 
     name: str
@@ -385,6 +391,7 @@ class Joint:
     rows: int = 2
     span: Span | None = None
     length: float = 0.0
+    axes: tuple = ()
 
     @property
     def bodies(self) -> tuple[int, int]:

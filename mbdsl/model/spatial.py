@@ -32,7 +32,7 @@ Rotation helpers: :func:`zyx`, :func:`axis_angle`, :func:`euler_parameters`
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -76,6 +76,9 @@ class SpatialBody:
         ``cm`` is (0, 0, 0).
     shapes : tuple
         What is drawn (none yet for spatial bodies).
+    axes : dict of str -> ndarray, shape (3,)
+        Unit directions for its joints, in body axes: x, y, z and its
+        ``axis`` lines.
     """
 
     name: str
@@ -86,6 +89,7 @@ class SpatialBody:
     span: Span | None = None
     shapes: tuple = ()
     particle: bool = False
+    axes: dict = field(default_factory=dict)
 
     #: Its coordinates, velocities and accelerations, in order (12 each).
     coordinate_fields = SPATIAL_COORDINATES

@@ -183,8 +183,8 @@ def test_the_heavy_top_keeps_its_constants_of_motion(method):
     ("body b { mass 1; inertia (1, 1, 1); point A (1, 0) }", "E305", "point 'b.A'"),
     ("body b { mass 1; inertia 1 }", "E305", "inertia"),
     ("body b { mass 1; inertia (1, 1, 3) }", "E303", "not a rigid body"),
-    ("body b { mass 1; inertia (1, 1, 1) }\njoint J: revolute(ground.origin, b.cm)", "E205",
-     "spatial joint type 'revolute'"),
+    ("body b { mass 1; inertia (1, 1, 1) }\njoint J: prismatic(ground.origin, b.cm)", "E205",
+     "spatial joint type 'prismatic'"),
     ("body b { mass 1; inertia (1, 1, 1) }\nforce F: torque(b, 1)", "E205", "no forces"),
     ("body b { mass 1; inertia (1, 1, 1) }\ninitial b.omega = (0, 0, 1)", "E502",
      "needs its orientation"),
@@ -263,5 +263,6 @@ def test_the_command_line_writes_the_spatial_columns_with_their_units(tmp_path):
     units = json.loads(units) if isinstance(units, str) else units
     for name, unit in (("top.z", "m"), ("top.vz", "m/s"), ("top.A13", ""), ("top.A13_t", "1/s"),
                        ("top.wz", "rad/s"), ("top.e0", ""), ("reaction.O.fz", "N"),
+                       ("reaction.O.tz", "N*m"),
                        ("lambda.top.0", "N*m"), ("lambda.O.0", "N")):
         assert units[name] == unit, name

@@ -17,7 +17,7 @@ from ...model.elements import COORDINATES, FlexibleBeam, RigidBody, Shape, _fiel
 from ..expressions import Name, Vec
 from ..spec import BeamSpec
 from .context import did_you_mean
-from .spatial import check_spatial_body
+from .spatial import check_axis, check_spatial_body
 
 
 #: shape kind -> (fewest points, most points, takes a radius)
@@ -38,8 +38,11 @@ BEAM_PROPERTIES = {"length": ("m", False), "E": ("Pa", False), "area": ("m^2", F
 
 
 def check_ground(c):
-    """Collect the ground's named points."""
+    """Collect the ground's named points (and, in a spatial model, its axes)."""
     for p in c.items["ground_points"]:
+        if p.axis:
+            check_axis(c, "ground", p, c.ground_axes)
+            continue
         if p.name in c.ground_points:
             c.error("E202", f"duplicate ground point '{p.name}'", p.span, "declared again")
             continue
@@ -98,6 +101,9 @@ def check_bodies(c):
             values[key] = v
         points = {"cm": np.zeros(2)}
         for p in b.points:
+            if p.axis:
+                check_axis(c, b.name, p, {})
+                continue
             if p.name in points:
                 c.error("E202", f"body '{b.name}': duplicate point '{p.name}'", p.span,
                         "declared again" if p.name != "cm" else "'cm' is the centre of mass, always defined")

@@ -92,6 +92,8 @@ class CheckContext:
         #: 2 (planar) or 3 (``space 3d``): the components of every point and vector
         self.space = int(getattr(spec, "space", 2))
         self.ground_points: dict[str, np.ndarray] = {"origin": np.zeros(self.space)}
+        #: a spatial model's ground axes (world frame): x, y, z and its ``axis`` lines
+        self.ground_axes: dict[str, np.ndarray] = {k: v for k, v in zip("xyz", np.eye(3))}
         self.joints: dict[str, Joint] = {}
         self.element_spans: dict[str, Span | None] = {}
         # names whose own error is reported: their uses are not reported again

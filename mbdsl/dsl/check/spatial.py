@@ -3,7 +3,7 @@ initial lines, and what a spatial model does not have yet. Diagnostics:
 E205 (an element kind planar only, or a joint kind unknown in 3D), E302/E303
 (mass and inertia), E304 (an unknown property), E305 (arguments, vectors),
 E402 (a body joined to itself), E502 (initial lines), E201 (an unknown
-body), E202 (a duplicate point).
+body or axis), E202 (a duplicate point or axis), E306 (a zero axis).
 
 A spatial body is held in director coordinates (``model.spatial``); its
 ``initial`` lines give x, y, z, vx, vy, vz, an ``orientation`` (z-y'-x''
@@ -23,8 +23,17 @@ from ...model.spatial import DIRECTORS, SpatialBody, zyx
 from ..expressions import Call, Vec
 from .context import did_you_mean, plain_target
 
-#: spatial joint kind -> (positional points, allowed keywords, rows)
-SPATIAL_JOINT_KINDS = {"spherical": (2, {}, 3)}
+#: spatial joint kind -> (points, then axes, as positional arguments; allowed keywords;
+#: rows). Axes are ``body.axis`` references: a body's x, y, z or its ``axis`` lines.
+SPATIAL_JOINT_KINDS = {
+    "spherical": (2, 0, {}, 3),          # the points coincide
+    "revolute": (2, 2, {}, 5),           # ... and the two axes are parallel
+    "universal": (2, 2, {}, 4),          # ... and the two axes are perpendicular (Cardan)
+    "cylindrical": (2, 2, {}, 4),        # the axes parallel, the first point on the second's line
+    "point_on_line": (2, 1, {}, 2),      # the first point on the line through the second
+    "point_on_plane": (2, 1, {}, 1),     # ... on the plane through the second, normal to the axis
+    "distance": (2, 0, {"length": None}, 1),
+}
 #: the declarations a spatial model does not have yet: items key -> what they are
 PLANAR_ONLY = {"drivers": "drivers", "forces": "forces, springs and contacts",
                "states": "first-order states", "outputs": "output lines"}
@@ -101,7 +110,11 @@ def check_spatial_body(c, b):
                     hint="each must be positive and at most the sum of the other two")
             inertia = None
     points = {"cm": np.zeros(3)}
+    axes = {k: v for k, v in zip("xyz", np.eye(3))}
     for p in b.points:
+        if p.axis:
+            check_axis(c, b.name, p, axes)
+            continue
         if p.name in points:
             c.error("E202", f"{ctx}: duplicate point '{p.name}'", p.span, "declared again")
             continue
@@ -116,7 +129,8 @@ def check_spatial_body(c, b):
     if mass is None or inertia is None:
         c.broken_bodies.add(b.name)
         return
-    c.bodies[b.name] = SpatialBody(b.name, len(c.bodies), mass, inertia, points, b.span)
+    c.bodies[b.name] = SpatialBody(b.name, len(c.bodies), mass, inertia, points, b.span,
+                                   axes=axes)
 
 
 def check_spatial_joints(c):
@@ -126,20 +140,87 @@ def check_spatial_joints(c):
         ctx = f"joint '{j.name}'"
         if not c.known_kind(j, SPATIAL_JOINT_KINDS, "spatial joint", ctx):
             continue
-        npos, allowed, rows = SPATIAL_JOINT_KINDS[j.kind]
-        pos, _ = c.split_args(j, allowed, npos, ctx)
+        npoints, naxes, allowed, rows = SPATIAL_JOINT_KINDS[j.kind]
+        pos, kw = c.split_args(j, allowed, npoints + naxes, ctx)
         if pos is None:
             continue
         first = c.point(pos[0].value, pos[0].span or j.span, ctx)
         second = c.point(pos[1].value, pos[1].span or j.span, ctx)
-        if first is None or second is None or not ok:
+        axes = [_axis_ref(c, a.value, a.span or j.span, ctx) for a in pos[npoints:]]
+        length = 0.0
+        if "length" in kw:
+            length = c.number(kw["length"].value, kw["length"].span, ctx, unit="m")
+            if length is not None and not length > 0:
+                c.error("E303", f"{ctx}: the length must be positive, got {length:g} m",
+                        kw["length"].span, "not positive")
+                length = None
+        if first is None or second is None or not ok or length is None or None in axes:
             continue
         if first.body == second.body:
             what = "the ground" if first.body == GROUND else f"body '{pos[0].value.obj}'"
             c.error("E402", f"{ctx} connects {what} to itself", j.span,
                     "both points on one body", hint="a joint connects two different bodies")
             continue
-        c.joints[j.name] = Joint(j.name, j.kind, first, second, None, 0.0, rows, j.span)
+        if naxes == 2 and (axes[0][0], axes[1][0]) != (first.body, second.body):
+            c.error("E305", f"{ctx}: its axes are the first body's, then the second's",
+                    pos[npoints].span or j.span, "axes of other bodies",
+                    hint=f"write {j.kind}(A.p, B.q, A.a, B.b): points, then axes, of A then B")
+            continue
+        if naxes == 1 and axes[0][0] != second.body:
+            c.error("E305", f"{ctx}: its axis is the second body's (the line's or "
+                    "the plane's)", pos[npoints].span or j.span, "an axis of another body",
+                    hint=f"write {j.kind}(A.p, B.q, B.a)")
+            continue
+        c.joints[j.name] = Joint(j.name, j.kind, first, second, None, 0.0, rows, j.span,
+                                 length, axes=tuple(axes))
+
+
+def check_axis(c, owner, p, axes):
+    """An ``axis NAME (x, y, z)`` line of body ``owner`` (or of the ground):
+    its unit direction into ``axes``; E205 in a planar model, E306 for a
+    zero direction, E202 for a repeated name."""
+    if c.space != 3:
+        c.error("E205", f"'{owner}': an axis line is for spatial models ('space 3d')", p.span,
+                "planar model", hint="a planar joint takes its direction as 'direction = (x, y)'")
+        return
+    if p.name in axes and p.name not in "xyz":
+        c.error("E202", f"'{owner}': duplicate axis '{p.name}'", p.span, "declared again")
+        return
+    v = c.vector(p.position, p.span, f"axis '{owner}.{p.name}'", unit=None)
+    if v is None:
+        return
+    norm = float(np.linalg.norm(v))
+    if not norm > 0.0 or not np.isfinite(norm):
+        c.error("E306", f"axis '{owner}.{p.name}' must be a non-zero vector", p.span,
+                "zero direction")
+        return
+    axes[p.name] = v / norm
+
+
+def _axis_ref(c, expr, span, ctx):
+    """(body index, unit direction (3,) in its frame) of an axis reference
+    ``body.axis`` (the ground's in the world frame); None after reporting."""
+    from ..expressions import Dotted
+    if not isinstance(expr, Dotted) or not isinstance(expr.obj, str):
+        c.error("E305", f"{ctx}: expected an axis like 'body.z'", getattr(expr, "span", None)
+                or span, "not an axis", hint="a body's x, y, z, or one of its 'axis' lines")
+        return None
+    if expr.obj == "ground":
+        body, axes = GROUND, c.ground_axes
+    else:
+        b = c.bodies.get(expr.obj)
+        if b is None:
+            if expr.obj not in c.broken_bodies:
+                c.error("E201", f"{ctx}: unknown body '{expr.obj}'", expr.span or span,
+                        "no body with this name", hint=did_you_mean(expr.obj, c.bodies))
+            return None
+        body, axes = b.index, b.axes
+    if expr.attr not in axes:
+        c.error("E201", f"{ctx}: '{expr.obj}' has no axis '{expr.attr}'", expr.span or span,
+                "unknown axis", hint=did_you_mean(expr.attr, axes)
+                or f"its axes are {', '.join(sorted(axes))}")
+        return None
+    return body, axes[expr.attr]
 
 
 def check_spatial_initials(c):

@@ -36,21 +36,75 @@ FIELDS = ("vrow", "vcol", "vw", "vc")
 #: three per term of U and W (eight each); its Hessian's, exactly, ``hess_triplets``.
 PHIQ_TRIPLETS, HESS_TRIPLETS, G_TRIPLETS = 48, 0, 48
 #: The joints whose rows it holds: kind -> the first of them among the element's rows.
-ELEMENT_ROWS = {"spherical": 0, "frame": 0}
+ELEMENT_ROWS = {"spherical": 0, "revolute": 0, "universal": 0, "cylindrical": 0,
+                "point_on_line": 0, "point_on_plane": 0, "distance": 0, "frame": 0}
+#: The model space whose joints it holds (``assembly.packing``: the planar families hold
+#: a planar model's revolute, distance and point_on_line joints, this one a spatial model's).
+SPACE = 3
 #: A frame's rows: the director pairs (k, l), k <= l, of a_k . a_l = delta_kl.
 FRAME_PAIRS = ((0, 0), (1, 1), (2, 2), (0, 1), (1, 2), (0, 2))
 
 
-def _slot(tables, body, weights):
-    """(first column, weights (4,)) of a body's vector in a slot; the ground's
-    part goes to the constant (column -1)."""
-    if body < 0:
-        return -1, np.zeros(4)
-    return tables.cmap.spatial[body], np.asarray(weights, float)
+def _side(tables, terms):
+    """One side of a dot row: (slot columns [2], weights (8,), constant (3,))
+    of the sum of ``terms`` (body, alpha, s (3,), sign): a body's point
+    (alpha 1) or direction (alpha 0) s in its frame, or the ground's, whose
+    world components go to the constant."""
+    cols, weights, const, k = [-1, -1], np.zeros(8), np.zeros(3), 0
+    for body, alpha, local, sign in terms:
+        local = np.asarray(local, float)
+        if body < 0:
+            const += sign * local
+            continue
+        cols[k] = tables.cmap.spatial[body]
+        weights[4 * k:4 * k + 4] = sign * np.r_[alpha, local]
+        k += 1
+    return cols, weights, const
+
+
+def _perpendiculars(axis):
+    """Two unit vectors (3,) perpendicular to ``axis`` and to each other: f
+    across the world axis least aligned with it, g = axis x f."""
+    a = np.asarray(axis, float)
+    f = np.cross(np.eye(3)[int(np.argmin(np.abs(a)))], a)
+    f /= np.linalg.norm(f)
+    return f, np.cross(a, f)
+
+
+def _rows_of(e, point, direction):
+    """The dot rows (U terms, W terms, c) of a spatial joint or frame, in its
+    row order (Haug 1989, sec. 9.4: the spherical, dot-1 and dot-2
+    constraints)."""
+    if e.kind == "frame":
+        return [([(e.body, 0.0, np.eye(3)[a], 1.0)], [(e.body, 0.0, np.eye(3)[b], 1.0)],
+                 1.0 if a == b else 0.0) for a, b in FRAME_PAIRS]
+    d = [point(e.second, 1.0), point(e.first, -1.0)]                  # p2 - p1
+    sphere = [(d, [(-1, 0.0, np.eye(3)[c], 1.0)], 0.0) for c in range(3)]
+    if e.kind == "spherical":
+        return sphere
+    if e.kind == "distance":            # (d . d - L^2) / (2 L): a length; its multiplier N
+        L = e.length
+        return [([(b, al, s, sg / (2.0 * L)) for b, al, s, sg in d], d, L / 2.0)]
+    if e.kind in ("revolute", "universal", "cylindrical"):
+        (b1, a1), (b2, a2) = e.axes
+        f2, g2 = _perpendiculars(a2)
+        across = [[direction(b1, a1)], [direction(b2, f2)]], [[direction(b1, a1)],
+                                                             [direction(b2, g2)]]
+        if e.kind == "universal":
+            return sphere + [([direction(b1, a1)], [direction(b2, a2)], 0.0)]
+        parallel = [(u, w, 0.0) for u, w in across]
+        if e.kind == "revolute":
+            return sphere + parallel
+        return parallel + [([direction(b2, f2)], d, 0.0), ([direction(b2, g2)], d, 0.0)]
+    (b2, a2), = e.axes
+    if e.kind == "point_on_plane":
+        return [([direction(b2, a2)], d, 0.0)]
+    f2, g2 = _perpendiculars(a2)           # point_on_line
+    return [([direction(b2, f2)], d, 0.0), ([direction(b2, g2)], d, 0.0)]
 
 
 def pack(items, tables) -> dict:
-    """Its fields from the model's spherical joints and spatial frames.
+    """Its fields from the model's spatial joints and frames.
 
     Parameters
     ----------
@@ -65,31 +119,21 @@ def pack(items, tables) -> dict:
     dict
         field name -> array, as ``schema.MODEL_SCHEMA`` declares them.
     """
+    def point(ref, sign):
+        return (ref.body, 1.0, ref.local, sign)
+
+    def direction(body, axis):
+        return (body, 0.0, axis, 1.0)
+
     rows, cols, weights, consts = [], [], [], []
     for row, e in items:
-        if e.kind == "frame":
-            base = tables.cmap.spatial[e.body]
-            for k, (a, b) in enumerate(FRAME_PAIRS):
-                wa, wb = np.zeros(4), np.zeros(4)
-                wa[1 + a] = wb[1 + b] = 1.0
-                rows.append(row + k)
-                cols.append((base, -1, base, -1))
-                weights.append(np.concatenate([wa, np.zeros(4), wb, np.zeros(4)]))
-                consts.append(np.r_[np.zeros(6), 1.0 if a == b else 0.0])
-            continue
-        # spherical: U = p2 - p1, W = e_c (Haug 1989, eq. 9.4.4)
-        c1, w1 = _slot(tables, e.first.body, np.r_[1.0, e.first.local])
-        c2, w2 = _slot(tables, e.second.body, np.r_[1.0, e.second.local])
-        u0 = np.zeros(3)
-        if e.first.body < 0:
-            u0 -= e.first.local
-        if e.second.body < 0:
-            u0 += e.second.local
-        for c in range(3):
-            rows.append(row + c)
-            cols.append((c2, c1, -1, -1))
-            weights.append(np.concatenate([w2, -w1, np.zeros(8)]))
-            consts.append(np.r_[u0, np.eye(3)[c], 0.0])
+        for k, (U, W, c) in enumerate(_rows_of(e, point, direction)):
+            cu, wu, u0 = _side(tables, U)
+            cw, ww, w0 = _side(tables, W)
+            rows.append(row + k)
+            cols.append(cu + cw)
+            weights.append(np.r_[wu, ww])
+            consts.append(np.r_[u0, w0, c])
     return {"vrow": np.array(rows, np.int64), "vcol": np.array(cols, np.int64).reshape(-1, 4),
             "vw": np.array(weights, np.float64).reshape(-1, 16),
             "vc": np.array(consts, np.float64).reshape(-1, 7)}
