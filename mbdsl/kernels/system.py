@@ -1,8 +1,8 @@
 """The aggregates over the element families, in a fixed order.
 
 Phi, Phi_q^T lambda, Phi_q v (coincidence, point on line, linear rows,
-distance, couplers, then the elastic columns of beam points), Q (gravity, springs,
-rotational springs and torques, point forces, loads of the state, friction,
+distance, couplers, spatial dot rows, then the elastic columns of beam points), Q
+(gravity, springs, spatial springs, rotational springs and torques, point forces, loads of the state, friction,
 contacts, beams), the Newton-matrix emitters of their derivatives, the
 loads' potential energy and power, and :func:`elements`, the evaluations
 Python asks for. The order is that of the triplets and of every sum, so the
@@ -19,7 +19,8 @@ from .beams.elastic_points import (_elastic_phiqT_add, _elastic_phiq_times, _emi
 from .beams.ffr import FFR_DQ, FFR_M, _emit_beams, _ffr_energy, _ffr_forces_add
 from .geometry import _direction
 from .joints import coincidence, couplers, distance, linear_rows, point_on_line, spatial
-from .loads import contact, friction, point_forces, spring_damper, state_loads, torques
+from .loads import (contact, friction, point_forces, spatial_springs, spring_damper, state_loads,
+                    torques)
 from .loads.contact import (_contact_energy, _contact_friction, _contact_law, _contacts_add,
                             _emit_contacts, _gap)
 from .loads.friction import (_emit_friction, _emit_friction_lam, _friction_col, _friction_kin,
@@ -27,8 +28,8 @@ from .loads.friction import (_emit_friction, _emit_friction_lam, _friction_col, 
 from .loads.spring_damper import _spring_energy, _spring_points, _spring_rate, _springs_add
 from .loads.torques import _rotational_energy
 from .schema import (BEAM, CROW, DROW, ECOL, FCOL, FEL, FRI, GEO, KCOL, KGI, KPAR, LROW, MASS,
-                     MRIG, PROW, Q0, RCOL, ROW_ELEMENT, RPAR, SCOL1, SDV, SEL, SPAR, STQ, VROW, XTRM,
-                     ZCOL, _0, _NO, _YES, _f, _i, _inline, _hot, _jit, _put, _rows)
+                     MRIG, PROW, Q0, RCOL, ROW_ELEMENT, RPAR, SCOL1, SDV, SEL, SPAR, STQ, VROW, WCOL,
+                     XTRM, ZCOL, _0, _NO, _YES, _f, _i, _inline, _hot, _jit, _put, _rows)
 
 
 #: The joint families in the order of every aggregate, each with its first field
@@ -63,11 +64,12 @@ def joint_hook(kind: str, name: str):
 #: kinds it holds (``LOADS``, the model elements' ``kind``), packs them from the
 #: model (``pack``) and says which columns the derivatives of its loads may fill
 #: (``pattern``; friction also its reaction rows: ``multiplier_pattern``).
-LOAD_FAMILIES = (spring_damper, torques, state_loads, point_forces, friction, contact)
+LOAD_FAMILIES = (spring_damper, torques, state_loads, point_forces, friction, contact,
+                 spatial_springs)
 #: The load families with a force block, each with the field that counts it
 #: (a load of the state counts twice: per load, STQ, and per partial derivative, SDV).
 LOADS = ((spring_damper, SCOL1), (torques, RCOL), (point_forces, FCOL), (state_loads, STQ),
-         (state_loads, SDV), (friction, FRI), (contact, KGI))
+         (state_loads, SDV), (friction, FRI), (contact, KGI), (spatial_springs, WCOL))
 
 
 @_hot
@@ -142,6 +144,8 @@ def _forces(I, Fl, t, qx, vx, lam, slip, out):
     for j in range(out.shape[0]):       # a loop: numba's array-to-array slice copy checks overlap
         out[j] = _f(I, Fl, Q0, j, 0)
     _springs_add(I, Fl, qx, vx, out)
+    if _rows(I, WCOL) > 0:                         # spatial spring-dampers
+        spatial_springs.forces_add(I, Fl, qx, vx, out)
     torques.forces_add(I, Fl, qx, vx, out)
     _inputs_add(I, Fl, t, qx, vx, out)
     if _rows(I, FRI) > 0:                          # friction: tau w
@@ -273,6 +277,8 @@ def _constraints_row(I, Fl, n, what, r, t, qx, y, out, R, C, V):
 def _emit_force(I, Fl, t, n, qx, vx, lam, R, C, V, p, r0, c0, cq, cv):
     """-(cq Q_q + cv Q_v) at (r0, c0) of every applied load (the load families' notes)."""
     p = spring_damper.emit_force(I, Fl, n, qx, vx, R, C, V, p, r0, c0, cq, cv)
+    if _rows(I, WCOL) > 0:
+        p = spatial_springs.emit_force(I, Fl, n, qx, vx, R, C, V, p, r0, c0, cq, cv)
     p = torques.emit_force(I, Fl, n, R, C, V, p, r0, c0, cq, cv)
     p = point_forces.emit_force(I, Fl, t, n, qx, vx, R, C, V, p, r0, c0, cq, cv)
     p = state_loads.emit_force(I, Fl, t, n, qx, vx, R, C, V, p, r0, c0, cq, cv)
@@ -305,6 +311,7 @@ def _potential(I, Fl, qx):
     -Q0 . q, the caller's."""
     e = 0.0
     e = spring_damper.energy_add(I, Fl, qx, e)
+    e = spatial_springs.energy_add(I, Fl, qx, e)
     e = torques.energy_add(I, Fl, qx, e)
     e = contact.energy_add(I, Fl, qx, e)
     for b in range(_rows(I, BEAM)):
@@ -331,6 +338,7 @@ def _power(I, Fl, t, qx, vx, lam, speeds, work):
         p_in += work[j] * vx[j]
     p = 0.0
     p = spring_damper.power_add(I, Fl, qx, vx, p)
+    p = spatial_springs.power_add(I, Fl, qx, vx, p)
     p = torques.power_add(I, Fl, vx, p)
     p = friction.power_add(I, Fl, qx, vx, lam, p)
     p = contact.power_add(I, Fl, qx, vx, speeds, p)

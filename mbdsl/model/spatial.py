@@ -38,7 +38,7 @@ import numpy as np
 
 from ..errors import Span
 
-__all__ = ["SpatialBody", "Frame", "DIRECTORS", "SPATIAL_COORDINATES", "SPATIAL_VELOCITIES",
+__all__ = ["SpatialBody", "Frame", "SpatialSpring", "DIRECTORS", "SPATIAL_COORDINATES", "SPATIAL_VELOCITIES",
            "SPATIAL_ACCELERATIONS", "zyx", "axis_angle", "euler_parameters",
            "body_angular_velocity", "director_inertia"]
 
@@ -124,6 +124,35 @@ class Frame:
     span: Span | None = None
     kind: str = "frame"
     rows: int = 6
+
+
+@dataclass(frozen=True)
+class SpatialSpring:
+    """A spring-damper-actuator between two points of a spatial model (TSDA,
+    ``kernels.loads.spatial_springs``): tension f = k (l - length) + c dl/dt
+    along the line of the points, pulling them together when positive.
+
+    Attributes
+    ----------
+    name : str
+    first, second : PointRef
+        Local points (3,) [m] of spatial bodies (or the ground's, world).
+    k : float [N/m]
+    c : float [N s/m]
+    length : float [m]
+        The free length.
+    """
+
+    name: str
+    first: object
+    second: object
+    k: float
+    c: float
+    length: float
+    span: Span | None = None
+
+    #: The load kind (its kernel family: ``kernels.system.LOAD_FAMILIES``).
+    kind = "tsda"
 
 
 def zyx(yaw: float, pitch: float, roll: float) -> np.ndarray:

@@ -28,7 +28,8 @@ JOINTS = {"coincidence": VALID / "all_elements.mbd", "point_on_line": VALID / "a
 LOADS = {"spring_damper": VALID / "all_elements.mbd", "torques": VALID / "all_elements.mbd",
          "point_forces": VALID / "follower_elements.mbd", "state_loads": VALID / "all_elements.mbd",
          "friction": VALID / "friction_elements.mbd",
-         "contact": MODELS / "bouncing_ball.mbd"}
+         "contact": MODELS / "bouncing_ball.mbd",
+         "spatial_springs": MODELS / "spatial_spring_pendulum.mbd"}
 OTHERS = ("programs", "geometry", "beams.ffr", "beams.elastic_points")
 
 
@@ -152,7 +153,7 @@ def test_a_load_emits_at_most_its_triplet_count(family):
     if family == "state_loads":         # per load and per partial derivative
         k += int(I[3 * schema.MODEL_FIELDS.index("sdv") + 1])
     assert k > 0
-    if family == "spring_damper":
+    if family in ("spring_damper", "spatial_springs"):
         p = module.emit_force(I, Fl, n, qx, vx, R, C, V, 0, 0, 0, 1.0, 1.0)
     elif family == "torques":
         p = module.emit_force(I, Fl, n, R, C, V, 0, 0, 0, 1.0, 1.0)

@@ -89,8 +89,11 @@ def check_forces(c):
 
 
 def force_element(c, f, pos, opts, ctx):
-    """Build one force element from checked arguments (by kind, :data:`BUILDERS`);
-    None after reporting."""
+    """Build one force element from checked arguments (by kind, :data:`BUILDERS`;
+    a spatial model's: ``spatial.spatial_spring``); None after reporting."""
+    if c.space == 3:
+        from .spatial import spatial_spring
+        return spatial_spring(c, f, pos, opts, ctx)
     return BUILDERS[f.kind](c, f, pos, opts, ctx)
 
 

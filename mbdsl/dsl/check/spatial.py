@@ -19,7 +19,7 @@ import dataclasses
 import numpy as np
 
 from ...model.elements import GROUND, InitialCondition, Joint
-from ...model.spatial import DIRECTORS, SpatialBody, zyx
+from ...model.spatial import DIRECTORS, SpatialBody, SpatialSpring, zyx
 from ..expressions import Call, Vec
 from .context import did_you_mean, plain_target
 
@@ -35,8 +35,9 @@ SPATIAL_JOINT_KINDS = {
     "distance": (2, 0, {"length": None}, 1),
 }
 #: the declarations a spatial model does not have yet: items key -> what they are
-PLANAR_ONLY = {"drivers": "drivers", "forces": "forces, springs and contacts",
-               "states": "first-order states", "outputs": "output lines"}
+PLANAR_ONLY = {"drivers": "drivers", "states": "first-order states", "outputs": "output lines"}
+#: the force kinds of a spatial model (the planar check reads their options)
+SPATIAL_FORCE_KINDS = ("spring_damper",)
 #: initial fields of a spatial body and their SI units (besides the directors)
 SPATIAL_INITIALS = {"x": "m", "y": "m", "z": "m", "vx": "m/s", "vy": "m/s", "vz": "m/s"}
 ROTATIONS = ("orientation", "omega", "omega_body")
@@ -52,10 +53,20 @@ def check_space(c):
         for it in found:
             c.error("E205", f"a spatial model ('space 3d') has no {what} yet",
                     getattr(it, "span", None), "planar only",
-                    hint="spatial models have bodies, spherical joints, gravity and "
-                    "initial lines; remove 'space 3d' for a planar model")
+                    hint="spatial models have bodies, joints, spring-dampers, gravity "
+                    "and initial lines; remove 'space 3d' for a planar model")
         if key in c.items:
             c.items[key] = []
+    kept = []
+    for f in c.items.get("forces", ()):
+        if f.kind in SPATIAL_FORCE_KINDS:
+            kept.append(f)
+        else:
+            c.error("E205", f"a spatial model ('space 3d') has no force '{f.kind}' yet",
+                    getattr(f, "kind_span", None) or f.span, "planar only",
+                    hint="spatial forces: " + ", ".join(SPATIAL_FORCE_KINDS))
+    if "forces" in c.items:
+        c.items["forces"] = kept
     c.spec = dataclasses.replace(c.spec, states=(), outputs=())
     if c.spec.static:
         c.error("E205", "a spatial model has no 'initial static' yet", c.spec.static_span,
@@ -292,3 +303,18 @@ def _rotation_value(c, tgt, ic, kw):
         angles = [c.angle(e, ic.span, f"{kw} {tgt.text}") for e in (v.arg.x, v.arg.y, v.arg.z)]
         return None if any(a is None for a in angles) else zyx(*angles)
     return c.vector(ic.value, ic.span, f"{kw} {tgt.text}", unit="rad/s")
+
+
+def spatial_spring(c, f, pos, opts, ctx):
+    """A spring-damper between two points of a spatial model
+    (``model.spatial.SpatialSpring``); None after reporting (E402: both
+    points on one body)."""
+    a = c.point(pos[0].value, pos[0].span or f.span, ctx)
+    b = c.point(pos[1].value, pos[1].span or f.span, ctx)
+    if a is None or b is None:
+        return None
+    if a.body == b.body:
+        c.error("E402", f"{ctx} connects a body to itself", f.span, "no effect",
+                hint="a spring-damper acts between two different bodies")
+        return None
+    return SpatialSpring(f.name, a, b, opts["k"], opts["c"], opts["length"], f.span)
