@@ -123,6 +123,9 @@ def multiplier_unit(element, row: int) -> str:
         return "N" if point else "N*m"
     if element.kind == "frame":         # a spatial body's a_k . a_l = delta_kl: a couple
         return "N*m"
+    if getattr(element, "space", 2) == 3:
+        from .spatial import SPATIAL_ROW_UNITS
+        return "N*m" if SPATIAL_ROW_UNITS[element.kind][row] == "T" else "N"
     return "N*m" if ANGLE_ROWS.get(element.kind) == row else "N"
 
 
@@ -365,7 +368,8 @@ class Joint:
     kind : str
         Planar: "revolute", "prismatic", "point_on_line", "fixed", "distance";
         spatial (``dsl.check.spatial.SPATIAL_JOINT_KINDS``): "spherical", "revolute",
-        "universal", "cylindrical", "point_on_line", "point_on_plane", "distance".
+        "universal", "cylindrical", "point_on_line", "point_on_plane", "distance",
+        "fixed", "prismatic".
     first, second : PointRef
         The two points as written. For ``point_on_line`` and ``prismatic``
         the first point moves on the line through the second point.
@@ -380,6 +384,8 @@ class Joint:
     axes : tuple of (int, ndarray (3,))
         A spatial joint's axes: (body, unit direction in its frame) each
         (``dsl.check.spatial.SPATIAL_JOINT_KINDS``); empty in a planar model.
+    space : {2, 3}
+        The model's: a spatial joint's rows are ``kernels.joints.spatial``'s.
     """
 
     name: str
@@ -392,6 +398,7 @@ class Joint:
     span: Span | None = None
     length: float = 0.0
     axes: tuple = ()
+    space: int = 2
 
     @property
     def bodies(self) -> tuple[int, int]:

@@ -49,6 +49,14 @@ SPATIAL_VELOCITIES = ("vx", "vy", "vz") + tuple(f"{d}_t" for d in DIRECTORS)
 SPATIAL_ACCELERATIONS = ("ax", "ay", "az") + tuple(f"{d}_tt" for d in DIRECTORS)
 
 
+#: Per spatial joint kind, what each row holds, in row order: F, a point (its multiplier a
+#: force [N]), or T, a direction (a dot product of two body axes: a couple [N m]);
+#: ``kernels.joints.spatial._rows_of`` writes the rows in this order.
+SPATIAL_ROW_UNITS = {"spherical": "FFF", "revolute": "FFFTT", "universal": "FFFT",
+                     "cylindrical": "TTFF", "point_on_line": "FF", "point_on_plane": "F",
+                     "distance": "F", "fixed": "FFFTTT", "prismatic": "TTTFF"}
+
+
 def director_inertia(inertia) -> np.ndarray:
     """Jbar (3,) [kg m^2], the second moments int rho s_k^2 dV of a body
     with principal moments of inertia J (3,): Jbar_k = (J_l + J_m - J_k) / 2

@@ -89,7 +89,8 @@ def test_every_joint_kind_holds_its_geometry(all_joints):
     """After 0.5 s of motion under gravity, each joint's condition holds to
     Newton's tolerance, read from the bodies' coordinates: coincident points,
     parallel (revolute, cylindrical) or perpendicular (universal) axes, a
-    point on a line or a plane, a distance."""
+    point on a line or a plane, a distance, a slider's axes kept (prismatic),
+    a body welded to another (fixed)."""
     sol = mbdsl.simulate(all_joints, method="hht-si2", h=1e-3, t_end=0.5)
     F = {b.name: _frames(sol, b.name) for b in all_joints.bodies}
     ground_axes = {"x": np.eye(3)[0], "y": np.eye(3)[1], "z": np.eye(3)[2]}
@@ -127,6 +128,15 @@ def test_every_joint_kind_holds_its_geometry(all_joints):
     # distance: 0.7 m between g's point and the ground's (2, 0, 0)
     dist = np.linalg.norm(point("g", (0, 0, 0.3)) - [2.0, 0, 0], axis=1)
     assert np.max(np.abs(dist - 0.7)) < tol
+    # prismatic: h's axes stay the ground's, h's point on the slope's line through S
+    assert np.max(np.abs(F["h"][1] - np.eye(3))) < tol
+    slope = np.array([1.0, 0.0, 0.2]) / np.linalg.norm([1.0, 0.0, 0.2])
+    off = point("h", (0, 0, 0.4)) - [0.0, 3.0, 0.0]
+    assert np.max(np.linalg.norm(np.cross(off, slope), axis=1)) < tol
+    assert np.ptp(off @ slope) > 0.05                               # it slides
+    # fixed: k welded to h, its point at h's centre of mass, its axes h's
+    assert np.max(np.abs(F["k"][1] - F["h"][1])) < tol
+    assert np.max(np.abs(point("k", (0.1, 0.2, 0)) - F["h"][0])) < tol
 
 
 def test_the_dot_rows_of_every_kind_against_finite_differences(all_joints):
@@ -173,7 +183,7 @@ def test_the_model_counts_its_degrees_of_freedom(all_joints):
     bodies = len(all_joints.bodies)
     rows = sum(j.rows for j in all_joints.joints)
     assert all_joints.dof == 6 * bodies - rows
-    assert [j.rows for j in all_joints.joints] == [5, 4, 3, 4, 2, 1, 1]
+    assert [j.rows for j in all_joints.joints] == [5, 4, 3, 4, 2, 1, 1, 5, 6]
 
 
 @pytest.mark.parametrize("text, code, where", [

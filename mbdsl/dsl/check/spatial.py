@@ -33,7 +33,10 @@ SPATIAL_JOINT_KINDS = {
     "point_on_line": (2, 1, {}, 2),      # the first point on the line through the second
     "point_on_plane": (2, 1, {}, 1),     # ... on the plane through the second, normal to the axis
     "distance": (2, 0, {"length": None}, 1),
+    "fixed": (2, 0, {}, 6),              # the points together, the bodies' axes parallel
+    "prismatic": (2, 1, {}, 5),          # the axes parallel, the first point on the second's line
 }
+
 #: the declarations a spatial model does not have yet: items key -> what they are
 PLANAR_ONLY = {"drivers": "drivers", "states": "first-order states", "outputs": "output lines"}
 #: the force kinds of a spatial model (the planar check reads their options)
@@ -183,7 +186,7 @@ def check_spatial_joints(c):
                     hint=f"write {j.kind}(A.p, B.q, B.a)")
             continue
         c.joints[j.name] = Joint(j.name, j.kind, first, second, None, 0.0, rows, j.span,
-                                 length, axes=tuple(axes))
+                                 length, axes=tuple(axes), space=3)
 
 
 def check_axis(c, owner, p, axes):

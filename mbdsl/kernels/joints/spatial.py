@@ -37,7 +37,8 @@ FIELDS = ("vrow", "vcol", "vw", "vc")
 PHIQ_TRIPLETS, HESS_TRIPLETS, G_TRIPLETS = 48, 0, 48
 #: The joints whose rows it holds: kind -> the first of them among the element's rows.
 ELEMENT_ROWS = {"spherical": 0, "revolute": 0, "universal": 0, "cylindrical": 0,
-                "point_on_line": 0, "point_on_plane": 0, "distance": 0, "frame": 0}
+                "point_on_line": 0, "point_on_plane": 0, "distance": 0, "fixed": 0,
+                "prismatic": 0, "frame": 0}
 #: The model space whose joints it holds (``assembly.packing``: the planar families hold
 #: a planar model's revolute, distance and point_on_line joints, this one a spatial model's).
 SPACE = 3
@@ -82,6 +83,17 @@ def _rows_of(e, point, direction):
     sphere = [(d, [(-1, 0.0, np.eye(3)[c], 1.0)], 0.0) for c in range(3)]
     if e.kind == "spherical":
         return sphere
+    b1, b2 = e.first.body, e.second.body
+    # the bodies' axes held parallel, x to x, y to y, z to z: x1 . y2 = y1 . z2 = z1 . x2 = 0
+    # (with the frames orthonormal, the small relative rotation's three components)
+    aligned = [([direction(b1, np.eye(3)[a])], [direction(b2, np.eye(3)[(a + 1) % 3])], 0.0)
+               for a in range(3)]
+    if e.kind == "fixed":
+        return sphere + aligned
+    if e.kind == "prismatic":                    # aligned, and p1 on the line through p2
+        (_, a2), = e.axes
+        f2, g2 = _perpendiculars(a2)
+        return aligned + [([direction(b2, f2)], d, 0.0), ([direction(b2, g2)], d, 0.0)]
     if e.kind == "distance":            # (d . d - L^2) / (2 L): a length; its multiplier N
         L = e.length
         return [([(b, al, s, sg / (2.0 * L)) for b, al, s, sg in d], d, L / 2.0)]
