@@ -469,24 +469,31 @@ def spatial_reactions(system, t, q, lam) -> np.ndarray:
     return out
 
 
-def spatial_columns(system, q=None, v=None, body=None) -> dict:
+def spatial_columns(system, q=None, v=None) -> dict:
     """Each spatial body's Euler parameters ``<body>.e0`` .. ``e3`` (e0 >= 0)
     and its angular velocity in body axes ``<body>.wx``, ``wy``, ``wz``
-    [rad/s], from its directors and their rates (``model.spatial``), over
-    rows q, v (N, n); with q None, only the names (values None); with
-    ``body`` (an index), that body's only."""
-    from ..model.spatial import body_angular_velocity, euler_parameters
+    [rad/s] (:func:`rotation_columns`) over rows q, v (N, n); with q None,
+    only the names (values None)."""
     out = {}
     for i, col in system.cmap.spatial.items():
-        if body is not None and i != body:
-            continue
         name = system.model.bodies[i].name
-        names = [f"{name}.e{k}" for k in range(4)] + [f"{name}.w{c}" for c in "xyz"]
         if q is None:
-            out.update(dict.fromkeys(names))
+            out.update(dict.fromkeys(rotation_columns(name)))
             continue
-        A = q[:, col + 3:col + 12].reshape(-1, 3, 3).transpose(0, 2, 1)
-        A_t = v[:, col + 3:col + 12].reshape(-1, 3, 3).transpose(0, 2, 1)
-        values = np.concatenate([euler_parameters(A), body_angular_velocity(A, A_t)], axis=1)
-        out.update({k: values[:, j] for j, k in enumerate(names)})
+        out.update(rotation_columns(name, q[:, col + 3:col + 12], v[:, col + 3:col + 12]))
     return out
+
+
+def rotation_columns(name, directors=None, rates=None) -> dict:
+    """One spatial body's ``<name>.e0`` .. ``e3`` and ``<name>.wx``, ``wy``,
+    ``wz`` from its directors and their rates (``model.spatial``), each
+    (N, 9) in column order A11, A21, ..., A33; with directors None, the
+    names (values None)."""
+    from ..model.spatial import body_angular_velocity, euler_parameters
+    names = [f"{name}.e{k}" for k in range(4)] + [f"{name}.w{c}" for c in "xyz"]
+    if directors is None:
+        return dict.fromkeys(names)
+    A = np.asarray(directors).reshape(-1, 3, 3).transpose(0, 2, 1)
+    A_t = np.asarray(rates).reshape(-1, 3, 3).transpose(0, 2, 1)
+    values = np.concatenate([euler_parameters(A), body_angular_velocity(A, A_t)], axis=1)
+    return {k: values[:, j] for j, k in enumerate(names)}

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .derived import DERIVED_NAMES, derived_columns, result_columns, spatial_columns
+from .derived import DERIVED_NAMES, derived_columns, result_columns, rotation_columns
 from .rows import (STAT_NAMES, Extent, RunStats, StepStats, FileArrays, RowArray,
                    RowStore)
 
@@ -569,13 +569,11 @@ class Solution:
         head, _, tail = name.rpartition(".")
         if tail not in ("e0", "e1", "e2", "e3", "wx", "wy", "wz"):
             return None
-        cmap = self.system.cmap
-        for i, col in cmap.spatial.items():
+        for i, col in self.system.cmap.spatial.items():
             if self.model.bodies[i].name == head:
-                cols = list(range(col, col + 12))
-                q, v = (np.zeros((self.n_rows, self.system.n)) for _ in range(2))
-                q[:, cols], v[:, cols] = self._field("q", cols), self._field("v", cols)
-                return spatial_columns(self.system, q, v, body=i)[name]
+                cols = list(range(col + 3, col + 12))           # the directors
+                return rotation_columns(head, self._field("q", cols),
+                                        self._field("v", cols))[name]
         return None
 
     def derived(self) -> dict:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...model.spatial import SpatialSpring
 from ...model.elements import (GROUND, FlexibleBeam, Friction, JointForce, JointTorque, PointForce,
                                RotationalSpringDamper, SpringDamper, StateFunction, StateSwitch,
                                StateVariable, Torque)
@@ -89,16 +90,14 @@ def check_forces(c):
 
 
 def force_element(c, f, pos, opts, ctx):
-    """Build one force element from checked arguments (by kind, :data:`BUILDERS`;
-    a spatial model's: ``spatial.spatial_spring``); None after reporting."""
-    if c.space == 3:
-        from .spatial import spatial_spring
-        return spatial_spring(c, f, pos, opts, ctx)
+    """Build one force element from checked arguments (by kind, :data:`BUILDERS`);
+    None after reporting."""
     return BUILDERS[f.kind](c, f, pos, opts, ctx)
 
 
 def _spring_damper(c, f, pos, opts, ctx):
-    """A spring-damper-actuator between two points (``model.elements.SpringDamper``)."""
+    """A spring-damper-actuator between two points (``model.elements.SpringDamper``,
+    in a spatial model ``model.spatial.SpatialSpring``)."""
     a = c.point(pos[0].value, pos[0].span or f.span, ctx)
     b = c.point(pos[1].value, pos[1].span or f.span, ctx)
     if a is None or b is None:
@@ -107,7 +106,8 @@ def _spring_damper(c, f, pos, opts, ctx):
         c.error("E402", f"{ctx} connects a body to itself", f.span, "no effect",
                 hint="a spring-damper acts between two different bodies")
         return None
-    return SpringDamper(f.name, a, b, opts["k"], opts["c"], opts["length"], f.span)
+    element = SpatialSpring if c.space == 3 else SpringDamper
+    return element(f.name, a, b, opts["k"], opts["c"], opts["length"], f.span)
 
 
 def _rotational_spring_damper(c, f, pos, opts, ctx):

@@ -19,7 +19,7 @@ import dataclasses
 import numpy as np
 
 from ...model.elements import GROUND, InitialCondition, Joint
-from ...model.spatial import DIRECTORS, SpatialBody, SpatialSpring, zyx
+from ...model.spatial import DIRECTORS, SpatialBody, zyx
 from ..expressions import Call, Vec
 from .context import did_you_mean, plain_target
 
@@ -307,17 +307,3 @@ def _rotation_value(c, tgt, ic, kw):
         return None if any(a is None for a in angles) else zyx(*angles)
     return c.vector(ic.value, ic.span, f"{kw} {tgt.text}", unit="rad/s")
 
-
-def spatial_spring(c, f, pos, opts, ctx):
-    """A spring-damper between two points of a spatial model
-    (``model.spatial.SpatialSpring``); None after reporting (E402: both
-    points on one body)."""
-    a = c.point(pos[0].value, pos[0].span or f.span, ctx)
-    b = c.point(pos[1].value, pos[1].span or f.span, ctx)
-    if a is None or b is None:
-        return None
-    if a.body == b.body:
-        c.error("E402", f"{ctx} connects a body to itself", f.span, "no effect",
-                hint="a spring-damper acts between two different bodies")
-        return None
-    return SpatialSpring(f.name, a, b, opts["k"], opts["c"], opts["length"], f.span)
