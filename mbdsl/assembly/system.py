@@ -953,7 +953,11 @@ class AssembledSystem:
         or shape (N,) for rows q of shape (N, n)."""
         e = np.zeros(np.shape(q)[:-1])
         if self.gravity_force is not None:
-            e = e - np.asarray(q) @ self.gravity_force
+            # each row summed alike whatever the number of rows (a matrix product
+            # would round a row by how BLAS blocks the batch: the CSV writer's
+            # chunks then differ from the whole run in the last bit)
+            cols = np.flatnonzero(self.gravity_force)
+            e = e - (np.asarray(q)[..., cols] * self.gravity_force[cols]).sum(axis=-1)
         if self.has_loads:
             rows, lead = self._ext_rows(q)
             out = np.empty((len(rows), 1))

@@ -232,3 +232,20 @@ def test_bricard_runs_ten_seconds_holding_its_loop(method):
     E, T = sol.column("energy.total"), sol.column("energy.kinetic")
     assert np.max(T) > 1.0                       # it moves
     assert abs(E[-1] - E[0]) < 1e-6 * np.max(T), (E[-1] - E[0], np.max(T))
+
+
+@pytest.mark.parametrize("line", [
+    "body c { mass 1; inertia (1, 2, 3) }",          # a spatial inertia in a planar model
+    "body c { mass (1, 2); inertia 1 }",
+    "force f: torque(b, (1, 2, 3))",
+    "force s: spring_damper(b.A, ground.origin, k = (1, 2), c = 1, length = 1)",
+    "initial b.x = (1, 2)",
+])
+def test_a_vector_where_a_number_belongs_is_an_error_at_its_line(line):
+    """E305 at the vector (before: a TypeError traceback from the evaluator)."""
+    text = ("model t\nbody b { mass 1; inertia 1; point A (0, 0) }\n"
+            f"joint A: revolute(ground.origin, b.A)\n{line}\n")
+    with pytest.raises(MbdModelError) as err:
+        mbdsl.load_text(text)
+    d = err.value.diagnostics[0]
+    assert d.code == "E305" and "got a vector" in d.message and d.span.line == 4

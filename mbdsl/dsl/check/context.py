@@ -162,6 +162,8 @@ class CheckContext:
         A value is remembered per expression object: the copies a ``for``
         block makes share the parts that do not read its variable
         (:meth:`instantiate`), so ``mass m`` of 10 000 links is evaluated once."""
+        if self._vector_for_number(expr, span, context):
+            return None
         memo = self._numbers
         key = (id(expr), unit, allow_t, len(self.params))     # parameters only grow
         hit = memo.get(key)
@@ -177,6 +179,17 @@ class CheckContext:
         memo[key] = (expr, value)
         return value
 
+    def _vector_for_number(self, expr, span, context) -> bool:
+        """True after reporting E305 when a vector stands where a number is
+        expected (``inertia (1, 2, 3)`` in a planar model)."""
+        if not isinstance(expr, Vec):
+            return False
+        self.error("E305", f"{context}: expected a number, got a vector",
+                   expr.span or span, "a vector",
+                   hint="a spatial model ('space 3d') takes a body's inertia as (J1, J2, J3); "
+                   "here give one value" if self.space == 2 else "give one value")
+        return True
+
     def angle(self, expr, span, context, unit="rad"):
         """A constant angle [rad] (or None after reporting); a plain number
         above 2 pi in magnitude gets W301 (degrees are the usual mistake)."""
@@ -191,6 +204,8 @@ class CheckContext:
         """Compile f(t) with its exact first and second derivatives (``unit``:
         the SI unit of its value, checked as in :meth:`number`); None after
         reporting."""
+        if self._vector_for_number(expr, span, context):
+            return None
         if not self.dimension(expr, unit, span, context):
             return None
         try:
