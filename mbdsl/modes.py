@@ -328,7 +328,10 @@ def step_warning(system, initial, method, h: float, t_span: float):
     """W606, or None: a mode the step h does not follow (omega h > 1) that
     ``method`` does not damp within the run either (99 % of its energy lasts
     more than the run's t_span / h steps) or amplifies (rho > 1): its error
-    stays in the motion, at the wrong frequency, for the whole run. The modes
+    stays in the motion, at the wrong frequency, for the whole run. A mode
+    that its own damping removes within the run, or an overdamped one (zeta
+    >= 1: it does not oscillate), is not kept by any of the methods (they are
+    A-stable) and is not reported. The modes
     are those about the initial state (``initial``: an InitialState); models
     of more than ``STEP_CHECK_LIMIT`` coordinates are not checked.
     """
@@ -344,6 +347,12 @@ def step_warning(system, initial, method, h: float, t_span: float):
     worst = None
     for i, mo in enumerate(found, 1):
         if not mo.stable or mo.omega * h <= 1.0:
+            continue
+        # its own damping removes 99 % of its energy (exp(-2 zeta omega t)) within the
+        # run, or it does not oscillate at all (zeta >= 1, a stiff damper's decay):
+        # the methods, A-stable, decay it too and nothing is kept
+        zeta = mo.damping_ratio if np.isfinite(mo.damping_ratio) else 0.0
+        if zeta >= 1.0 or 2.0 * zeta * mo.omega * t_span >= np.log(100.0):
             continue
         try:            # a mode of an overflowing model (a damper of 1e308 N s/m) has none
             sp = spectrum(method.amplification(mo.omega * h), mo.omega * h)

@@ -379,6 +379,24 @@ simulate { method newmark; gamma 0.5; beta 0.25; h 1e-2; t_end 1 }
         .steps_to_damp < 100
 
 
+@pytest.mark.parametrize("c, warned", [(20.0, True), (2000.0, False), (4e4, False)])
+def test_a_mode_its_own_damper_removes_is_not_warned(c, warned):
+    """The 159 Hz block of the test above with a damper: zeta = c / (2 sqrt(k m))
+    = 0.01 keeps 99 % of its energy for 2 ln(10) / (zeta omega) = 0.46 s, more
+    than the run's 0.2 s: warned; zeta = 1 (critical) and 20 (overdamped,
+    the stiff flyball governor's kind) do not oscillate past the first steps,
+    and the trapezoidal rule, A-stable, decays them: not warned."""
+    model = mbdsl.load_text(f"""model trapezoid
+body block {{ mass 1; inertia 0.1 }}
+joint G: prismatic(ground.origin, block.cm, direction = (1, 0))
+force s: spring_damper(ground.origin, block.cm, k = 1e6, c = {c}, length = 0)
+initial block.x = 0.001;  initial block.vx = 0
+simulate {{ method newmark; gamma 0.5; beta 0.25; h 1e-2; t_end 0.2 }}
+""")
+    sol = mbdsl.simulate(model)
+    assert bool([d for d in sol.initial.warnings if d.code == "W606"]) == warned
+
+
 def test_a_mode_is_animated_as_its_shape_moving(tmp_path, capsys):
     """--animate: the elbow mode's shape moving, one period a second; the
     frames keep the joints closed (each taken back onto Phi = 0) and the
