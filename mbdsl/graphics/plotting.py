@@ -301,6 +301,9 @@ class AnimationResult:
         With its axes at the first frame's limits, for mapping data to pixels.
     colors : dict of str -> tuple
         RGB (0..1) of each body, by name.
+    camera : Camera or None
+        A spatial model's perspective (:class:`mbdsl.graphics.scene3d.Camera`):
+        ``camera.project`` gives the screen coordinates the axes map to pixels.
     """
 
     path: Path
@@ -308,6 +311,7 @@ class AnimationResult:
     times: np.ndarray
     figure: Figure
     colors: dict = field(default_factory=dict)
+    camera: object = None
 
     @property
     def axes(self):
@@ -326,6 +330,11 @@ def animate_solution(solution, path, fps: float = 25.0, speed: float = 1.0,
                      size=(6.0, 4.5), dpi: int = 100,
                      deform_scale: float = 1.0) -> AnimationResult:
     """Draw the mechanism's motion to a GIF (Pillow) or MP4 (ffmpeg).
+
+    A spatial model (``space 3d``) is drawn in perspective
+    (:class:`mbdsl.graphics.scene3d.SpatialScene`): its bodies' shapes
+    (lines, spheres, cylinders, boxes) or lines from their centres of mass to
+    their points, a dot at each centre of mass, in the painter's order.
 
     Rigid bodies are drawn with their ``shape`` lines (lines, circles,
     polygons in the body frame), or without them as the outline through
@@ -375,6 +384,8 @@ def animate_solution(solution, path, fps: float = 25.0, speed: float = 1.0,
     n_frames = int(np.floor((t[-1] - t[0]) * fps / speed + 1e-9)) + 1
     times = t[0] + np.arange(n_frames) * speed / fps
     qs = _interpolated(t, sol.q, times) if len(t) > 1 else np.repeat(sol.q[:1], n_frames, 0)
+    if getattr(model, "space", 2) == 3:
+        return _animate_spatial(model, path, writer, animation, times, qs, size, dpi)
     scene = Scene(model, deform_scale)
     lo, hi = scene.frame_extent(qs)
     scale = scene.scale
@@ -411,6 +422,87 @@ def animate_solution(solution, path, fps: float = 25.0, speed: float = 1.0,
     fig.canvas.draw()              # final limits (equal aspect) for data -> pixel maps
     return AnimationResult(path=path, frames=n_frames, times=times, figure=fig, colors=colors)
 
+
+
+def _animate_spatial(model, path, writer, animation, times, qs, size, dpi) -> AnimationResult:
+    """The spatial model's frames qs (N, n) at ``times`` through a
+    perspective camera (:meth:`SpatialScene.camera`), written by ``writer``;
+    the result's axes map screen coordinates (``camera.project``) to pixels."""
+    from matplotlib.patches import Circle, Polygon
+
+    from .scene3d import BOX_FACES, SpatialScene
+    scene = SpatialScene(model)
+    cam = scene.camera(qs)
+    fig = _figure(*size)
+    fig.set_dpi(dpi)
+    fig.set_layout_engine(None)
+    ax = fig.add_axes((0.02, 0.02, 0.96, 0.96))
+    pts = [scene.ground_points()] + [c for q in qs[:: max(1, len(qs) // 50)]
+                                     for c in scene.coordinates(q)]
+    xy = cam.project(np.vstack(pts))
+    lo, hi = xy.min(axis=0), xy.max(axis=0)
+    pad = 0.08 * max(float(np.max(hi - lo)), 1e-9)
+    ax.set_xlim(lo[0] - pad, hi[0] + pad)
+    ax.set_ylim(lo[1] - pad, hi[1] + pad)
+    ax.set_aspect("equal", adjustable="box")
+    ax.set_xticks([])
+    ax.set_yticks([])
+    for line in scene.floor(np.vstack(pts), cam.up):            # the floor's grid, beneath all
+        g = cam.project(line)
+        ax.plot(g[:, 0], g[:, 1], lw=0.5, color="0.85", zorder=-1e6)
+    ground = cam.project(scene.ground_points())
+    ax.plot(ground[:, 0], ground[:, 1], "x", ms=9, mew=2, color="0.45", zorder=0)
+    rgb = {name: tuple(int(h[i:i + 2], 16) / 255 for i in (1, 3, 5))
+           for name, h in scene.colors.items()}
+    artists = []
+    for item in scene.items:
+        col = rgb.get(item.body, (0.0, 0.0, 0.0))
+        if item.kind == "box":
+            artists.append([ax.add_patch(Polygon(np.zeros((4, 2)), closed=True, lw=1.0,
+                                                 facecolor=(*col, 0.3), edgecolor=col))
+                            for _ in BOX_FACES])
+        elif item.kind in ("sphere", "cylinder"):
+            patch = Circle((0, 0), 1.0) if item.kind == "sphere" else Polygon(np.zeros((4, 2)))
+            patch.set(facecolor=(*col, 0.45), edgecolor=col, lw=1.5)
+            artists.append([ax.add_patch(patch)])
+        elif item.kind == "cm":
+            artists.append(ax.plot([], [], "o", ms=7, color=col, mec="k", mew=0.8))
+        elif item.kind == "joint":
+            artists.append(ax.plot([], [], "o", ms=6, color="white", mec="k", mew=1.0))
+        else:
+            artists.append(ax.plot([], [], lw=1.0 if item.kind == "spring" else 3.0,
+                                   color=col, solid_capstyle="round"))
+    label = ax.text(0.02, 0.97, "", transform=ax.transAxes, va="top", fontsize=10)
+
+    def draw(k):
+        """Move every artist to frame k, farther ones beneath nearer ones."""
+        for item, arts, w in zip(scene.items, artists, scene.coordinates(qs[k])):
+            p, depth = cam.project(w), cam.depth(w)
+            on_top = 1000.0 if item.kind in ("cm", "joint") else 0.0
+            for a in arts:
+                a.set_zorder(on_top - float(np.mean(depth)))
+            if item.kind == "box":
+                for a, face in zip(arts, BOX_FACES):
+                    a.set_xy(p[list(face)])
+                    a.set_zorder(-float(np.mean(depth[list(face)])))
+            elif item.kind == "sphere":
+                arts[0].center, arts[0].radius = tuple(p[0]), cam.focal * item.radius / depth[0]
+            elif item.kind == "cylinder":
+                d = p[1] - p[0]
+                n = np.array([-d[1], d[0]]) / max(np.linalg.norm(d), 1e-12)
+                ra, rb = cam.focal * item.radius / depth
+                arts[0].set_xy([p[0] + ra * n, p[1] + rb * n, p[1] - rb * n, p[0] - ra * n])
+            else:
+                arts[0].set_data(p[:, 0], p[:, 1])
+        label.set_text(f"t = {times[k]:.3f} s")
+        return []
+
+    anim = animation.FuncAnimation(fig, draw, frames=len(times), blit=False, repeat=False)
+    anim.save(str(path), writer=writer, dpi=dpi)
+    draw(0)
+    fig.canvas.draw()
+    return AnimationResult(path=path, frames=len(times), times=times, figure=fig, colors=rgb,
+                           camera=cam)
 
 
 def _movie_writer(animation, path, ext, fps):
@@ -568,7 +660,7 @@ def write_figure(panels, stem, title: str = "", columns: int | None = None) -> l
         ax.set_xlabel(panel.xlabel)
         ax.set_ylabel(panel.ylabel)
         if panel.equal:
-            ax.set_aspect("equal", adjustable="datalim")
+            ax.set_aspect("equal", adjustable="box")
             ax.ticklabel_format(style="sci", scilimits=(-2, 3))
         ax.grid(True, which="both", alpha=0.3)
         _readable_log_ticks(ax)

@@ -69,13 +69,14 @@ class Scene:
     ------
     ValueError
         A negative or non-finite deformation scale, or a spatial model
-        (``space 3d``: its drawing in 3D is not written yet).
+        (``space 3d``: :class:`mbdsl.graphics.scene3d.SpatialScene` draws it).
     """
 
     def __init__(self, model, deform_scale: float = 1.0):
         if getattr(model, "space", 2) == 3:
-            raise ValueError("a spatial model (space 3d) is not drawn yet: mbdsl animate and "
-                             "mbdsl view draw planar models; mbdsl plot draws its columns")
+            raise ValueError("the browser view draws planar models only: draw a spatial model "
+                             "(space 3d) with mbdsl animate (in perspective) and its columns "
+                             "with mbdsl plot")
         if not (deform_scale >= 0 and np.isfinite(deform_scale)):
             raise ValueError(f"the deformation scale must be zero or positive, got {deform_scale}")
         self.model, self.deform_scale = model, float(deform_scale)

@@ -199,11 +199,12 @@ class Shape:
 
     Attributes
     ----------
-    kind : {"line", "circle", "polygon"}
-    points : ndarray, shape (k, 2) [m]
-        Line: its two ends; circle: its centre; polygon: its vertices.
+    kind : {"line", "circle", "polygon"}, or in a spatial body {"line", "sphere", "cylinder", "box"}
+    points : ndarray, shape (k, 2), or (k, 3) in a spatial body [m]
+        Line: its two ends; circle, sphere: its centre; polygon: its
+        vertices; cylinder: its two ends' centres; box: its eight corners.
     radius : float [m]
-        Circles only (0 otherwise).
+        Circles, spheres and cylinders only (0 otherwise).
     """
 
     kind: str

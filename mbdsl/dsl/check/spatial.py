@@ -18,7 +18,7 @@ import dataclasses
 
 import numpy as np
 
-from ...model.elements import GROUND, InitialCondition, Joint
+from ...model.elements import GROUND, InitialCondition, Joint, Shape
 from ...model.spatial import DIRECTORS, SpatialBody, zyx
 from ..expressions import Call, Vec
 from .context import did_you_mean, plain_target
@@ -44,6 +44,14 @@ SPATIAL_FORCE_KINDS = ("spring_damper",)
 #: initial fields of a spatial body and their SI units (besides the directors)
 SPATIAL_INITIALS = {"x": "m", "y": "m", "z": "m", "vx": "m/s", "vy": "m/s", "vz": "m/s"}
 ROTATIONS = ("orientation", "omega", "omega_body")
+#: spatial shape kind -> (points, what follows them, usage): what ``mbdsl animate`` draws
+SPATIAL_SHAPES = {
+    "line": (2, None, "two points: line(A, B)"),
+    "sphere": (1, "radius", "a centre point and a radius: sphere(cm, 0.05)"),
+    "cylinder": (2, "radius", "the two ends' centres and a radius: cylinder(A, B, 0.01)"),
+    "box": (1, "sides", "a centre point and the sides along the body axes: "
+            "box(cm, (0.1, 0.02, 0.02))"),
+}
 
 
 def check_space(c):
@@ -137,14 +145,67 @@ def check_spatial_body(c, b):
             c.broken_points.add((b.name, p.name))
         else:
             points[p.name] = v
-    for s in getattr(b, "shapes", ()):
-        c.error("E205", f"{ctx}: spatial bodies have no drawn shapes yet", s.span,
-                "planar only")
+    shapes = tuple(s for s in (spatial_shape(c, b.name, sp, points)
+                               for sp in getattr(b, "shapes", ())) if s is not None)
     if mass is None or inertia is None:
         c.broken_bodies.add(b.name)
         return
     c.bodies[b.name] = SpatialBody(b.name, len(c.bodies), mass, inertia, points, b.span,
-                                   axes=axes)
+                                   shapes=shapes, axes=axes)
+
+
+def spatial_shape(c, body, sp, points):
+    """A spatial body's drawn Shape from its ShapeSpec (``SPATIAL_SHAPES``),
+    in its frame; None after reporting (E205 an unknown kind, E305 wrong
+    arguments, E201 an unknown point, E303 a size not positive). A box's
+    points are its eight corners."""
+    ctx = f"shape {sp.kind} of body '{body}'"
+    if sp.kind not in SPATIAL_SHAPES:
+        c.error("E205", f"body '{body}': unknown shape '{sp.kind}' of a spatial body",
+                sp.kind_span or sp.span, "unknown shape",
+                hint=did_you_mean(sp.kind, SPATIAL_SHAPES)
+                or f"spatial shapes are {', '.join(SPATIAL_SHAPES)}")
+        return None
+    npoints, last, usage = SPATIAL_SHAPES[sp.kind]
+    args = list(sp.args)
+    if len(args) != npoints + (last is not None) or any(a.keyword for a in args):
+        c.error("E305", f"{ctx}: expected {usage}", sp.kind_span or sp.span,
+                "wrong arguments")
+        return None
+    xyz = []
+    for a in args[:npoints]:
+        v = a.value
+        if isinstance(v, Vec):
+            p = c.vector(v, a.span or sp.span, ctx)
+        elif getattr(v, "name", None) in points:
+            p = np.asarray(points[v.name], float)
+        else:
+            c.error("E201", f"{ctx}: body '{body}' has no point '{getattr(v, 'name', v)}'",
+                    a.span or sp.span, "unknown point",
+                    hint=did_you_mean(getattr(v, "name", ""), points)
+                    or "name a point of the body, or give (x, y, z) in its frame")
+            return None
+        if p is None:
+            return None
+        xyz.append(p)
+    radius = 0.0
+    if last == "radius":
+        radius = c.number(args[-1].value, args[-1].span or sp.span, ctx, unit="m")
+        if radius is None or not radius > 0:
+            if radius is not None:
+                c.error("E303", f"{ctx}: the radius must be positive, got {radius:g} m",
+                        args[-1].span or sp.span, "not positive")
+            return None
+    elif last == "sides":
+        sides = c.vector(args[-1].value, args[-1].span or sp.span, ctx)
+        if sides is None or not np.all(sides > 0):
+            if sides is not None:
+                c.error("E303", f"{ctx}: the sides must be positive, got "
+                        f"{tuple(sides.tolist())} m", args[-1].span or sp.span, "not positive")
+            return None
+        signs = np.array([(i, j, k) for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)])
+        xyz = list(xyz[0] + 0.5 * signs * sides)
+    return Shape(sp.kind, np.array(xyz), radius)
 
 
 def check_spatial_joints(c):
