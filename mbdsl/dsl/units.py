@@ -408,7 +408,8 @@ COLUMN_UNITS = {"t": "s", "x": "m", "y": "m", "phi": "rad", "vx": "m/s", "vy": "
                 # spatial bodies (``model.spatial``): directors are numbers, their rates 1/s
                 "z": "m", "vz": "m/s", "az": "m/s^2", "fz": "N", "tx": "N*m", "ty": "N*m",
                 "tz": "N*m", "wx": "rad/s",
-                "wy": "rad/s", "wz": "rad/s", "e0": "", "e1": "", "e2": "", "e3": ""}
+                "wy": "rad/s", "wz": "rad/s", "e0": "", "e1": "", "e2": "", "e3": "",
+                "yaw": "rad", "pitch": "rad", "roll": "rad"}
 COLUMN_UNITS.update({f"A{i}{j}{rate}": unit for i in "123" for j in "123"
                      for rate, unit in (("", ""), ("_t", "1/s"), ("_tt", "1/s^2"))})
 

@@ -469,11 +469,16 @@ def spatial_reactions(system, t, q, lam) -> np.ndarray:
     return out
 
 
+#: a spatial body's readable angles (z-y'-x''), as its columns name them
+ROTATION_ANGLES = ("yaw", "pitch", "roll")
+
+
 def spatial_columns(system, q=None, v=None) -> dict:
-    """Each spatial body's Euler parameters ``<body>.e0`` .. ``e3`` (e0 >= 0)
-    and its angular velocity in body axes ``<body>.wx``, ``wy``, ``wz``
-    [rad/s] (:func:`rotation_columns`) over rows q, v (N, n); with q None,
-    only the names (values None)."""
+    """Each spatial body's Euler parameters ``<body>.e0`` .. ``e3`` (e0 >= 0),
+    its z-y'-x'' angles ``<body>.yaw``, ``pitch``, ``roll`` [rad] and its
+    angular velocity in body axes ``<body>.wx``, ``wy``, ``wz`` [rad/s]
+    (:func:`rotation_columns`) over rows q, v (N, n); with q None, only the
+    names (values None)."""
     out = {}
     for i, col in system.cmap.spatial.items():
         name = system.model.bodies[i].name
@@ -485,15 +490,19 @@ def spatial_columns(system, q=None, v=None) -> dict:
 
 
 def rotation_columns(name, directors=None, rates=None) -> dict:
-    """One spatial body's ``<name>.e0`` .. ``e3`` and ``<name>.wx``, ``wy``,
-    ``wz`` from its directors and their rates (``model.spatial``), each
-    (N, 9) in column order A11, A21, ..., A33; with directors None, the
-    names (values None)."""
-    from ..model.spatial import body_angular_velocity, euler_parameters
-    names = [f"{name}.e{k}" for k in range(4)] + [f"{name}.w{c}" for c in "xyz"]
+    """One spatial body's ``<name>.e0`` .. ``e3``, ``<name>.yaw``, ``pitch``,
+    ``roll`` (:func:`mbdsl.model.spatial.zyx_angles`, each row on its own:
+    no unwrapping across rows, so a file written in pieces equals one written
+    at once) and ``<name>.wx``, ``wy``, ``wz`` from its directors and their
+    rates (``model.spatial``), each (N, 9) in column order A11, A21, ...,
+    A33; with directors None, the names (values None)."""
+    from ..model.spatial import body_angular_velocity, euler_parameters, zyx_angles
+    names = ([f"{name}.e{k}" for k in range(4)] + [f"{name}.{a}" for a in ROTATION_ANGLES]
+             + [f"{name}.w{c}" for c in "xyz"])
     if directors is None:
         return dict.fromkeys(names)
     A = np.asarray(directors).reshape(-1, 3, 3).transpose(0, 2, 1)
     A_t = np.asarray(rates).reshape(-1, 3, 3).transpose(0, 2, 1)
-    values = np.concatenate([euler_parameters(A), body_angular_velocity(A, A_t)], axis=1)
+    values = np.concatenate([euler_parameters(A), zyx_angles(A),
+                             body_angular_velocity(A, A_t)], axis=1)
     return {k: values[:, j] for j, k in enumerate(names)}

@@ -563,11 +563,11 @@ class Solution:
         return None
 
     def _spatial_column(self, name: str):
-        """A spatial body's Euler parameters or body-axis angular velocity
-        (``derived.spatial_columns``) computed from q and v, for a result whose
+        """A spatial body's Euler parameters, z-y'-x'' angles or body-axis
+        angular velocity (``derived.spatial_columns``) computed from q and v, for a result whose
         derived columns were read from its file without them; else None."""
         head, _, tail = name.rpartition(".")
-        if tail not in ("e0", "e1", "e2", "e3", "wx", "wy", "wz"):
+        if tail not in ("e0", "e1", "e2", "e3", "yaw", "pitch", "roll", "wx", "wy", "wz"):
             return None
         for i, col in self.system.cmap.spatial.items():
             if self.model.bodies[i].name == head:

@@ -39,7 +39,7 @@ import numpy as np
 from ..errors import Span
 
 __all__ = ["SpatialBody", "Frame", "SpatialSpring", "DIRECTORS", "SPATIAL_COORDINATES", "SPATIAL_VELOCITIES",
-           "SPATIAL_ACCELERATIONS", "zyx", "axis_angle", "euler_parameters",
+           "SPATIAL_ACCELERATIONS", "zyx", "zyx_angles", "axis_angle", "euler_parameters",
            "body_angular_velocity", "director_inertia"]
 
 #: The directors' coordinate names: A_ij, row i (world axis), column j (body axis).
@@ -173,6 +173,21 @@ def zyx(yaw: float, pitch: float, roll: float) -> np.ndarray:
     Ry = np.array([[cy, 0.0, sy], [0.0, 1.0, 0.0], [-sy, 0.0, cy]])
     Rx = np.array([[1.0, 0.0, 0.0], [0.0, cx, -sx], [0.0, sx, cx]])
     return Rz @ Ry @ Rx
+
+
+def zyx_angles(A) -> np.ndarray:
+    """The z-y'-x'' angles (..., 3) = (yaw, pitch, roll) [rad] of rotation
+    matrices A (..., 3, 3), the inverse of :func:`zyx`: yaw and roll in
+    (-pi, pi], pitch in [-pi/2, pi/2] (at pitch = +-pi/2, gimbal lock, the
+    split between yaw and roll is arbitrary: roll is taken 0). Source:
+    Diebel, "Representing attitude", 2006, sec. 5.6 (the 3-2-1 sequence)."""
+    A = np.asarray(A, float)
+    pitch = np.arcsin(np.clip(-A[..., 2, 0], -1.0, 1.0))
+    locked = np.hypot(A[..., 0, 0], A[..., 1, 0]) < 1e-12
+    yaw = np.where(locked, np.arctan2(-A[..., 0, 1], A[..., 1, 1]),
+                   np.arctan2(A[..., 1, 0], A[..., 0, 0]))
+    roll = np.where(locked, 0.0, np.arctan2(A[..., 2, 1], A[..., 2, 2]))
+    return np.stack([yaw, pitch, roll], axis=-1)
 
 
 def axis_angle(axis, angle: float) -> np.ndarray:
