@@ -231,11 +231,17 @@ def test_band_factor_and_solve_against_numpy():
 
 @pytest.mark.parametrize("size, kl, ku", [(60, 4, 4), (200, 2, 7), (30, 0, 3), (40, 3, 0),
                                           (1, 2, 2), (7, 5, 5)])
-def test_band_substitution_is_lapacks_dgbtrs_bit_for_bit(size, kl, ku):
+def test_band_substitution_is_lapacks_dgbtrs(size, kl, ku):
     """The kernels' band substitution on dgbtrf's factors gives LAPACK's
-    dgbtrs result to the last bit (scipy's, the same library), on random
-    band matrices that pivot, with the factors of a second block beside
-    the first (HHT-SI2's split) and with no sub- or superdiagonal."""
+    dgbtrs result (scipy's, the same library) to rounding, on random band
+    matrices that pivot, with the factors of a second block beside the first
+    (HHT-SI2's split) and with no sub- or superdiagonal. Both run the
+    reference algorithm's operations in its order; the optimized BLAS
+    kernels LAPACK calls may fuse multiply-adds (OpenBLAS 0.3.30, scipy 1.17,
+    differs in the last bits where older builds agreed bit for bit), and
+    these random matrices are ill-conditioned (solutions up to 1e12), where
+    back substitution grows that difference: agreement to 1e-12 of the
+    largest entry (a wrong pivot or index is off by the entry's size)."""
     from scipy.linalg import lapack
     from mbdsl.integrators.compiled.linalg import _band_substitute
     rng = np.random.default_rng(size + 10 * kl + 100 * ku)
@@ -255,7 +261,7 @@ def test_band_substitution_is_lapacks_dgbtrs_bit_for_bit(size, kl, ku):
     ipiv = np.concatenate([np.ones(size), piv + 1]).astype(np.int32)   # 1-based
     x = np.concatenate([np.full(size, 7.0), b])
     _band_substitute(AB, ipiv, x, size, size, kl, ku)
-    assert np.array_equal(x[size:], x_lapack)
+    assert np.max(np.abs(x[size:] - x_lapack)) <= 1e-12 * np.max(np.abs(x_lapack))
     assert (x[:size] == 7.0).all()                 # the other block untouched
     A = np.zeros((size, size))                     # and it solves the matrix
     for j in range(size):
