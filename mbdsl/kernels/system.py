@@ -19,8 +19,8 @@ from .beams.elastic_points import (_elastic_phiqT_add, _elastic_phiq_times, _emi
 from .beams.ffr import FFR_DQ, FFR_M, _emit_beams, _ffr_energy, _ffr_forces_add
 from .geometry import _direction
 from .joints import coincidence, couplers, distance, linear_rows, point_on_line, spatial
-from .loads import (contact, friction, point_forces, spatial_springs, spring_damper, state_loads,
-                    torques)
+from .loads import (contact, friction, point_forces, spatial_loads, spatial_springs, spring_damper,
+                    state_loads, torques)
 from .loads.contact import (_contact_energy, _contact_friction, _contact_law, _contacts_add,
                             _emit_contacts, _gap)
 from .loads.friction import (_emit_friction, _emit_friction_lam, _friction_col, _friction_kin,
@@ -29,7 +29,7 @@ from .loads.spring_damper import _spring_energy, _spring_points, _spring_rate, _
 from .loads.torques import _rotational_energy
 from .schema import (BEAM, CROW, DROW, ECOL, FCOL, FEL, FRI, GEO, KCOL, KGI, KPAR, LROW, MASS,
                      MRIG, PROW, Q0, RCOL, ROW_ELEMENT, RPAR, SCOL1, SDV, SEL, SPAR, STQ, VROW, WCOL,
-                     XTRM, ZCOL, _0, _NO, _YES, _f, _i, _inline, _hot, _jit, _put, _rows)
+                     XTRM, YCOL, ZCOL, _0, _NO, _YES, _f, _i, _inline, _hot, _jit, _put, _rows)
 
 
 #: The joint families in the order of every aggregate, each with its first field
@@ -65,11 +65,12 @@ def joint_hook(kind: str, name: str):
 #: model (``pack``) and says which columns the derivatives of its loads may fill
 #: (``pattern``; friction also its reaction rows: ``multiplier_pattern``).
 LOAD_FAMILIES = (spring_damper, torques, state_loads, point_forces, friction, contact,
-                 spatial_springs)
+                 spatial_springs, spatial_loads)
 #: The load families with a force block, each with the field that counts it
 #: (a load of the state counts twice: per load, STQ, and per partial derivative, SDV).
 LOADS = ((spring_damper, SCOL1), (torques, RCOL), (point_forces, FCOL), (state_loads, STQ),
-         (state_loads, SDV), (friction, FRI), (contact, KGI), (spatial_springs, WCOL))
+         (state_loads, SDV), (friction, FRI), (contact, KGI), (spatial_springs, WCOL),
+          (spatial_loads, YCOL))
 
 
 @_hot
@@ -129,10 +130,13 @@ def phiq_times(I, Fl, qx, vx, out):
 def _inputs_add(I, Fl, t, qx, vx, out):
     """The loads that put work in, added to out (n+3,) [N, N m]: point
     forces F(t) (J^T F), torques tau(t) and loads of the state tau(t, x) w
-    (+-tau on a joint's bodies, or tau grad s along a sliding line)."""
+    (+-tau on a joint's bodies, or tau grad s along a sliding line), spatial
+    forces and torques."""
     point_forces.forces_add(I, Fl, t, qx, vx, out)
     torques.time_torques_add(I, Fl, t, out)
     state_loads.forces_add(I, Fl, t, qx, vx, out)
+    if _rows(I, YCOL) > 0:                         # spatial forces and torques
+        spatial_loads.forces_add(I, Fl, t, qx, out)
 
 
 @_jit
@@ -282,6 +286,8 @@ def _emit_force(I, Fl, t, n, qx, vx, lam, R, C, V, p, r0, c0, cq, cv):
     p = torques.emit_force(I, Fl, n, R, C, V, p, r0, c0, cq, cv)
     p = point_forces.emit_force(I, Fl, t, n, qx, vx, R, C, V, p, r0, c0, cq, cv)
     p = state_loads.emit_force(I, Fl, t, n, qx, vx, R, C, V, p, r0, c0, cq, cv)
+    if _rows(I, YCOL) > 0:
+        p = spatial_loads.emit_force(I, Fl, t, qx, R, C, V, p, r0, c0, cq)
     if _rows(I, FRI) > 0:
         p = _emit_friction(I, Fl, n, qx, vx, lam, R, C, V, p, r0, c0, cq, cv)
     if _rows(I, KGI) > 0:

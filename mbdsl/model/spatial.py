@@ -38,7 +38,7 @@ import numpy as np
 
 from ..errors import Span
 
-__all__ = ["SpatialBody", "Frame", "SpatialSpring", "DIRECTORS", "SPATIAL_COORDINATES", "SPATIAL_VELOCITIES",
+__all__ = ["SpatialBody", "Frame", "SpatialSpring", "SpatialLoad", "DIRECTORS", "SPATIAL_COORDINATES", "SPATIAL_VELOCITIES",
            "SPATIAL_ACCELERATIONS", "zyx", "zyx_angles", "axis_angle", "euler_parameters",
            "body_angular_velocity", "director_inertia"]
 
@@ -161,6 +161,37 @@ class SpatialSpring:
 
     #: The load kind (its kernel family: ``kernels.system.LOAD_FAMILIES``).
     kind = "tsda"
+
+
+@dataclass(frozen=True)
+class SpatialLoad:
+    """A force on a point or a torque on a spatial body, of time, in world
+    or body axes (``kernels.loads.spatial_loads``). Its generalized force
+    (Haug 1989, sec. 11.3; the director form of ``model.spatial``): a force F
+    at s gives F on r and s_k F on the director a_k; a torque T gives
+    T x a_k / 2 on a_k (sum_k a_k x (T x a_k) / 2 = T for orthonormal a_k,
+    so its virtual work on a rotation d theta is T . d theta).
+
+    Attributes
+    ----------
+    name : str
+    kind : {"spatial_force", "spatial_torque"}
+    body : int
+    local : ndarray, shape (3,) [m]
+        The force's point in body axes (zeros for a torque).
+    components : tuple of 3 TimeFunction
+        [N] or [N m], along the world axes, or the body's with ``frame``
+        "body" (then turning with it: a follower load).
+    frame : {"world", "body"}
+    """
+
+    name: str
+    kind: str
+    body: int
+    local: np.ndarray
+    components: tuple
+    frame: str = "world"
+    span: Span | None = None
 
 
 def zyx(yaw: float, pitch: float, roll: float) -> np.ndarray:

@@ -29,7 +29,8 @@ LOADS = {"spring_damper": VALID / "all_elements.mbd", "torques": VALID / "all_el
          "point_forces": VALID / "follower_elements.mbd", "state_loads": VALID / "all_elements.mbd",
          "friction": VALID / "friction_elements.mbd",
          "contact": MODELS / "bouncing_ball.mbd",
-         "spatial_springs": MODELS / "spatial_spring_pendulum.mbd"}
+         "spatial_springs": MODELS / "spatial_spring_pendulum.mbd",
+         "spatial_loads": VALID / "spatial_loads.mbd"}
 OTHERS = ("programs", "geometry", "beams.ffr", "beams.elastic_points")
 
 
@@ -165,6 +166,8 @@ def test_a_load_emits_at_most_its_triplet_count(family):
         p = module.emit_force(I, Fl, t, n, qx, vx, R, C, V, 0, 0, 0, 1.0, 1.0)
     elif family == "friction":
         p = module._emit_friction(I, Fl, n, qx, vx, lam, R, C, V, 0, 0, 0, 1.0, 1.0)
+    elif family == "spatial_loads":
+        p = module.emit_force(I, Fl, t, qx, R, C, V, 0, 0, 0, 1.0)
     else:
         kimp = schema.MODEL_FIELDS.index("kimp")
         Fl = Fl.copy()

@@ -17,6 +17,7 @@ from ...model.elements import (GROUND, FlexibleBeam, Friction, JointForce, Joint
 from ..expressions import (Binary, Call, compile_state_function, diff, Dotted, ExprError,
                            kinked_tables, Name, Num, simplify, substitute, Unary, Vec)
 from .contact import contact_element, rope_element
+from .spatial import spatial_load
 from .context import BrokenReference, did_you_mean, point_ref
 from .tables import (BODY_STATE, FORCE_FRAMES, FORCE_KINDS, GEOMETRY_OPTIONS, JOINT_MOTION,
                      REVOLUTE_STATE, SLIDING_STATE, WORD_OPTIONS)
@@ -121,7 +122,14 @@ def _rotational_spring_damper(c, f, pos, opts, ctx):
 
 
 def _torque(c, f, pos, opts, ctx):
-    """A torque on a body, of time and of the motion [N m]."""
+    """A torque on a body, of time and of the motion [N m] (in a spatial
+    model a vector: ``check.spatial.spatial_load``)."""
+    if c.space == 3:
+        return spatial_load(c, f, pos, opts, ctx)
+    if frame_span(f) is not None:
+        c.error("E304", f"{ctx}: a planar torque has no 'frame' (it acts about the plane's "
+                "normal)", frame_span(f), "unknown option")
+        return None
     ref = pos[0].value
     if not isinstance(ref, Name) or ref.name not in c.bodies:
         name = ref.name if isinstance(ref, Name) else "?"
@@ -179,7 +187,10 @@ def _point_force(c, f, pos, opts, ctx):
     """A point force (fx, fy) [N] in world or body axes, of time and of the
     state (``model.elements.PointForce``): components in body axes turned to
     world axes by the body's angle (on a flexible beam the cross-section's
-    at the point), so that the Newton matrix has their exact derivatives."""
+    at the point), so that the Newton matrix has their exact derivatives.
+    In a spatial model: ``check.spatial.spatial_load``."""
+    if c.space == 3:
+        return spatial_load(c, f, pos, opts, ctx)
     p = c.point(pos[0].value, pos[0].span or f.span, ctx)
     vec, span = pos[1].value, pos[1].span or f.span
     frame = opts["frame"]

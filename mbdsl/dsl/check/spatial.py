@@ -19,8 +19,8 @@ import dataclasses
 import numpy as np
 
 from ...model.elements import GROUND, InitialCondition, Joint, Shape
-from ...model.spatial import DIRECTORS, SpatialBody, zyx
-from ..expressions import Call, Vec
+from ...model.spatial import DIRECTORS, SpatialBody, SpatialLoad, zyx
+from ..expressions import Call, Dotted, Vec, children
 from .context import did_you_mean, plain_target
 
 #: spatial joint kind -> (points, then axes, as positional arguments; allowed keywords;
@@ -40,7 +40,7 @@ SPATIAL_JOINT_KINDS = {
 #: the declarations a spatial model does not have yet: items key -> what they are
 PLANAR_ONLY = {"drivers": "drivers", "states": "first-order states", "outputs": "output lines"}
 #: the force kinds of a spatial model (the planar check reads their options)
-SPATIAL_FORCE_KINDS = ("spring_damper",)
+SPATIAL_FORCE_KINDS = ("spring_damper", "force", "torque")
 #: initial fields of a spatial body and their SI units (besides the directors)
 SPATIAL_INITIALS = {"x": "m", "y": "m", "z": "m", "vx": "m/s", "vy": "m/s", "vz": "m/s"}
 ROTATIONS = ("orientation", "omega", "omega_body")
@@ -368,3 +368,70 @@ def _rotation_value(c, tgt, ic, kw):
         return None if any(a is None for a in angles) else zyx(*angles)
     return c.vector(ic.value, ic.span, f"{kw} {tgt.text}", unit="rad/s")
 
+
+
+def spatial_load(c, f, pos, opts, ctx):
+    """``force(B.p, (fx, fy, fz) [, frame = body])`` [N] or ``torque(B, (tx,
+    ty, tz) [, frame = body])`` [N m] in a spatial model
+    (``model.spatial.SpatialLoad``): components constant or of time; None
+    after reporting (E201 an unknown body, E305 not a vector or frame, E402
+    on the ground, E205 a component that reads the motion)."""
+    torque = f.kind == "torque"
+    if torque:
+        ref = pos[0].value
+        body = c.bodies.get(getattr(ref, "name", None)) if not isinstance(ref, Dotted) else None
+        if body is None:
+            name = getattr(ref, "name", "?")
+            if name not in c.broken_bodies:
+                c.error("E201", f"{ctx}: expected the name of a body, got '{name}'",
+                        getattr(ref, "span", None) or f.span, "not a body",
+                        hint=did_you_mean(name, c.bodies))
+            return None
+        index, local = body.index, np.zeros(3)
+    else:
+        p = c.point(pos[0].value, pos[0].span or f.span, ctx)
+        if p is None:
+            return None
+        if p.body == GROUND:
+            c.error("E402", f"{ctx} acts on the ground", f.span, "no effect",
+                    hint="apply the force to a moving body")
+            return None
+        index, local = p.body, np.asarray(p.local, float)
+    frame = opts.get("frame", "world")
+    if not isinstance(frame, str):
+        frame = getattr(frame.value, "name", None)
+        if frame not in ("world", "body"):
+            c.error("E305", f"{ctx}: 'frame' is world or body", f.span, "not a frame",
+                    hint="frame = body: the components turn with the body (a follower load)")
+            return None
+    vec, span = pos[1].value, pos[1].span or f.span
+    unit = "N*m" if torque else "N"
+    if not isinstance(vec, Vec) or vec.z is None:
+        c.error("E305", f"{ctx}: expected the {'torque' if torque else 'force'} as a vector "
+                f"'({'tx, ty, tz' if torque else 'fx, fy, fz'})' [{unit}]", span, "not a vector")
+        return None
+    parts = []
+    for e in (vec.x, vec.y, vec.z):
+        motion = _motion_name(e)
+        if motion is not None:
+            c.error("E205", f"{ctx}: a spatial load of the motion ('{motion}') is not "
+                    "supported yet", getattr(e, "span", None) or span, "reads the motion",
+                    hint="give constants or functions of time t")
+            return None
+        fn = c.time_function(e, span, ctx, unit=unit)
+        if fn is None:
+            return None
+        parts.append(fn)
+    kind = "spatial_torque" if torque else "spatial_force"
+    return SpatialLoad(f.name, kind, index, local, tuple(parts), frame, f.span)
+
+
+def _motion_name(e):
+    """The first ``body.field`` an expression reads, as written, or None."""
+    if isinstance(e, Dotted):
+        return f"{e.obj}.{e.attr}"
+    for sub in children(e):
+        found = _motion_name(sub)
+        if found is not None:
+            return found
+    return None

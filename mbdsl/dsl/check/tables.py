@@ -49,7 +49,7 @@ UNSET = float("nan")
 FORCE_KINDS = {
     "spring_damper": {"k": None, "c": 0.0, "length": None},
     "rotational_spring_damper": {"k": None, "c": 0.0, "angle": 0.0},
-    "torque": {},
+    "torque": {"frame": "world"},          # frame: a spatial torque's axes
     "joint_torque": {},
     "joint_force": {},
     "friction": {"mu": None, "radius": UNSET, "mu_static": UNSET, "v_stribeck": 0.0,
