@@ -3,8 +3,10 @@ and the whole ``mbdsl simulate`` command as a user runs it.
 
 Models (h = 1e-3 s unless said): the slider crank (T = 2 s), the double
 pendulum (T = 2 s), pendulum chains of N = 10 (T = 1 s), 100 and 1000 links
-(T = 0.1 s, 100 steps), the flexible slider crank (T = 0.2 s) and Andrews'
-mechanism (h = 1e-5 s, T = 3e-3 s). Per model and method (all six by
+(T = 0.1 s, 100 steps), the flexible slider crank (T = 0.2 s), Andrews'
+mechanism (h = 1e-5 s, T = 3e-3 s), and spatial models: the IFToMM spatial
+slider-crank (T = 2 s) and spatial chains of N = 10 (T = 1 s), 100 and 1000
+links (T = 0.1 s). Per model and method (all six by
 default, ``--methods``) it prints:
 
 * set-up, timed apart from the steps: parse and check, assembly, consistent
@@ -67,6 +69,10 @@ CASES = [  # (label, model file, overrides, T, reference, h)
     ("chain N=1000", "pendulum_chain.mbd", {"N": 1000}, 0.1, None, H),
     ("flexible slider crank", "flexible_slider_crank.mbd", None, 0.2, None, H),
     ("andrews", "andrews.mbd", None, 3e-3, None, 1e-5),
+    ("spatial slider crank", "spatial_slider_crank.mbd", None, 2.0, "index1", H),
+    ("spatial chain N=10", "spatial_chain.mbd", {"N": 10}, 1.0, "index1", H),
+    ("spatial chain N=100", "spatial_chain.mbd", {"N": 100}, 0.1, None, H),
+    ("spatial chain N=1000", "spatial_chain.mbd", {"N": 1000}, 0.1, None, H),
 ]
 
 
@@ -241,7 +247,7 @@ def main(argv=None) -> int:
     commands = {suffix: whole_command(suffix) for suffix in (".csv", ".h5")}
     rows = []
     for case in CASES:
-        if (args.quick and case[0] == "chain N=1000") or (
+        if (args.quick and case[0].endswith("chain N=1000")) or (
                 args.only and case[0] not in args.only.split(",")):
             continue
         rows += measure(*case, methods, args.repeat, with_exudyn, alpha=args.alpha)
