@@ -365,6 +365,8 @@ class ToExpression(Transformer):
             return Binary("max", args[1], Binary("min", args[0], args[2], span), span)
         if name == "zyx" and len(args) == 3:        # an orientation: initial b.orientation
             return Call(name, Vec(args[0], args[1], span, args[2]), span)
+        if name == "axis_angle" and len(args) == 4:  # an orientation: axis x, y, z, angle
+            return Call(name, Vec(Vec(args[0], args[1], span, args[2]), args[3], span), span)
         if name == "if" and len(args) == 3:
             return Cond(args[0], args[1], args[2], span)
         if len(args) != 1:

@@ -74,6 +74,10 @@ def expr_text(e) -> str:
     if isinstance(e, Vec):
         z = "" if e.z is None else f", {expr_text(e.z)}"
         return f"({expr_text(e.x)}, {expr_text(e.y)}{z})"
+    if isinstance(e, Call) and e.func == "axis_angle" and isinstance(e.arg, Vec):
+        axis = e.arg.x                   # axis_angle(x, y, z, angle): ((x, y, z), angle)
+        return (f"axis_angle({expr_text(axis.x)}, {expr_text(axis.y)}, {expr_text(axis.z)}, "
+                f"{expr_text(e.arg.y)})")
     if isinstance(e, Call):          # zyx(yaw, pitch, roll) holds its arguments as a Vec
         return (f"{e.func}{expr_text(e.arg)}" if isinstance(e.arg, Vec)
                 else f"{e.func}({expr_text(e.arg)})")

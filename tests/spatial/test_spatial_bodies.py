@@ -116,6 +116,26 @@ def test_readable_angles_invert_zyx():
         np.testing.assert_allclose(zyx(*zyx_angles(A)), A, atol=1e-12)
 
 
+def test_an_orientation_by_axis_and_angle():
+    """``axis_angle(1, 1, 0, 30 deg)`` gives Rodrigues' rotation (the axis
+    normalized): it turns the axis into itself and x by 30 degrees about it;
+    a zero axis is E306 at its line."""
+    text = ("model t\nspace 3d\nbody b {{ mass 1; inertia (1, 2, 2.5) }}\n"
+            "initial b.orientation = axis_angle({axis}, 30 deg)\n"
+            "initial b.x = 0; initial b.y = 0; initial b.z = 0\n")
+    sol = mbdsl.simulate(mbdsl.load_text(text.format(axis="1, 1, 0")), h=1e-3, t_end=1e-3)
+    A = _directors(sol, "b")[0]
+    u = np.array([1.0, 1.0, 0.0]) / np.sqrt(2.0)
+    np.testing.assert_allclose(A @ u, u, atol=1e-14)
+    x = np.array([1.0, 0.0, 0.0])
+    expected = (np.cos(np.pi / 6) * x + np.sin(np.pi / 6) * np.cross(u, x)
+                + (1 - np.cos(np.pi / 6)) * (u @ x) * u)
+    np.testing.assert_allclose(A @ x, expected, atol=1e-14)
+    with pytest.raises(MbdModelError) as err:
+        mbdsl.load_text(text.format(axis="0, 0, 0"))
+    assert err.value.diagnostics[0].code == "E306" and err.value.diagnostics[0].span.line == 4
+
+
 def test_the_angle_columns_follow_the_directors_in_runs_and_files(tmp_path):
     """The heavy top started at zyx(0, 20 deg, 0): its pitch column starts at
     20 deg; yaw, pitch, roll rebuild the directors at every row; a result

@@ -19,7 +19,7 @@ import dataclasses
 import numpy as np
 
 from ...model.elements import GROUND, InitialCondition, Joint, Shape
-from ...model.spatial import DIRECTORS, SpatialBody, SpatialLoad, zyx
+from ...model.spatial import DIRECTORS, SpatialBody, SpatialLoad, axis_angle, zyx
 from ..expressions import Call, Dotted, Vec, children
 from .context import did_you_mean, plain_target
 
@@ -359,12 +359,25 @@ def _rotation_value(c, tgt, ic, kw):
     (3,) [rad/s] of an omega line; None after reporting."""
     if tgt.attr == "orientation":
         v = ic.value
+        ctx = f"{kw} {tgt.text}"
+        if isinstance(v, Call) and v.func == "axis_angle" and isinstance(v.arg, Vec):
+            axis = c.vector(v.arg.x, ic.span, ctx, unit=None)
+            angle = c.angle(v.arg.y, ic.span, ctx)
+            if axis is None or angle is None:
+                return None
+            if not np.linalg.norm(axis) > 0.0:
+                c.error("E306", f"{ctx}: the rotation axis is zero",
+                        getattr(v.arg.x, "span", None) or ic.span, "zero axis")
+                return None
+            return axis_angle(axis, angle)
         if not (isinstance(v, Call) and v.func == "zyx" and isinstance(v.arg, Vec)):
-            c.error("E305", f"{kw} {tgt.text}: expected 'zyx(yaw, pitch, roll)'",
+            c.error("E305", f"{ctx}: expected 'zyx(yaw, pitch, roll)' or "
+                    "'axis_angle(x, y, z, angle)'",
                     getattr(v, "span", None) or ic.span, "not an orientation",
-                    hint="z-y'-x'' angles: yaw about z, then pitch, then roll")
+                    hint="z-y'-x'' angles: yaw about z, then pitch, then roll; or a turn "
+                    "by an angle about an axis (world axes)")
             return None
-        angles = [c.angle(e, ic.span, f"{kw} {tgt.text}") for e in (v.arg.x, v.arg.y, v.arg.z)]
+        angles = [c.angle(e, ic.span, ctx) for e in (v.arg.x, v.arg.y, v.arg.z)]
         return None if any(a is None for a in angles) else zyx(*angles)
     return c.vector(ic.value, ic.span, f"{kw} {tgt.text}", unit="rad/s")
 
