@@ -125,8 +125,13 @@ def apex_of_the_reduced_ode(e=0.8, k=1e7, n=1.5, r=0.05, drop=1.0, g=9.81):
     return y + vy ** 2 / (2 * g)
 
 
-@pytest.mark.parametrize("engine", ["compiled", "numpy"])
-@pytest.mark.parametrize("method", ["hht-i3", "nstiff-si2", "genalpha-si2"])
+# the numpy engine with the stabilized index-2 methods (26 s and 16 s) runs with -m slow;
+# CI keeps every method compiled and hht-i3 on both engines
+@pytest.mark.parametrize("method, engine", [
+    ("hht-i3", "compiled"), ("hht-i3", "numpy"), ("nstiff-si2", "compiled"),
+    ("genalpha-si2", "compiled"),
+    pytest.param("nstiff-si2", "numpy", marks=pytest.mark.slow),
+    pytest.param("genalpha-si2", "numpy", marks=pytest.mark.slow)])
 def test_bouncing_ball_a_row_every_millisecond(method, engine):
     """Error control at rtol 1e-6, a row every ms: 3001 rows on the grid plus
     two per event (the landed state and the restart, at the event's time); the
