@@ -452,8 +452,7 @@ def _animate_spatial(model, path, writer, animation, times, qs, size, dpi) -> An
         ax.plot(g[:, 0], g[:, 1], lw=0.5, color="0.85", zorder=-1e6)
     ground = cam.project(scene.ground_points())
     ax.plot(ground[:, 0], ground[:, 1], "x", ms=9, mew=2, color="0.45", zorder=0)
-    rgb = {name: tuple(int(h[i:i + 2], 16) / 255 for i in (1, 3, 5))
-           for name, h in scene.colors.items()}
+    rgb = {name: _rgb(h) for name, h in scene.colors.items()}
     artists = []
     for item in scene.items:
         col = rgb.get(item.body, (0.0, 0.0, 0.0))
@@ -518,6 +517,11 @@ def _movie_writer(animation, path, ext, fps):
     raise ValueError(f"cannot write an animation as '{ext or path.name}': use .gif or .mp4")
 
 
+def _rgb(h):
+    """``#rrggbb`` as an RGB tuple in [0, 1]."""
+    return tuple(int(h[i:i + 2], 16) / 255 for i in (1, 3, 5))
+
+
 def _mechanism_artists(ax, scene, r_joint) -> tuple:
     """The ground (a hatched block under every ground attachment, the guides
     of sliders on the ground) and one artist per item of ``scene``, in its
@@ -531,13 +535,10 @@ def _mechanism_artists(ax, scene, r_joint) -> tuple:
     for ends in guides:
         ax.plot(ends[:, 0], ends[:, 1], ls="--", lw=0.8, color="0.5", zorder=0)
 
-    def rgb(h):
-        """``#rrggbb`` as an RGB tuple in [0, 1]."""
-        return tuple(int(h[i:i + 2], 16) / 255 for i in (1, 3, 5))
-    colors = {name: rgb(h) for name, h in scene.colors.items()}
+    colors = {name: _rgb(h) for name, h in scene.colors.items()}
     artists = []
     for item in scene.items:
-        col = rgb(item.color)
+        col = _rgb(item.color)
         if item.kind == "circle":
             artists.append(ax.add_patch(Circle((0, 0), item.radius, lw=2.0,
                                                facecolor=(*col, 0.35), edgecolor=col)))

@@ -19,7 +19,7 @@ import numpy as np
 
 from ..model.elements import GROUND, FlexibleBeam
 
-__all__ = ["Scene", "Item", "COLORS"]
+__all__ = ["Drawing", "Scene", "Item", "COLORS"]
 
 #: Body colours, by body index (matplotlib's tab10).
 COLORS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2",
@@ -50,7 +50,21 @@ class Item:
     radius: float = 0.0
 
 
-class Scene:
+class Drawing:
+    """What a drawing of a model holds in common, planar or spatial: its items
+    in drawing order, each with how to place it, and the bodies' colours."""
+
+    def _add(self, item, part):
+        self.items.append(item)
+        self._parts.append(part)
+
+    @property
+    def colors(self) -> dict:
+        """Body name -> colour (``#rrggbb``)."""
+        return {b.name: COLORS[b.index % len(COLORS)] for b in self.model.bodies}
+
+
+class Scene(Drawing):
     """The drawing of a model's mechanism (module notes).
 
     Parameters
@@ -119,15 +133,6 @@ class Scene:
         for p in self.joint_points:
             self._add(Item("joint", None, "#000000"), (None, "joint", p))
         self.scale = 1.0             # the scene's size [m] (``frame_extent``)
-
-    def _add(self, item, part):
-        self.items.append(item)
-        self._parts.append(part)
-
-    @property
-    def colors(self) -> dict:
-        """Body name -> colour (``#rrggbb``)."""
-        return {b.name: COLORS[b.index % len(COLORS)] for b in self.model.bodies}
 
     def located(self, q, body, local) -> np.ndarray:
         """World position (1, 2) [m] of a body-frame point (on a beam: the

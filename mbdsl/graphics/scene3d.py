@@ -20,9 +20,18 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..model.elements import GROUND
-from .scene import COLORS
+from .scene import COLORS, Drawing
 
 __all__ = ["Camera", "SpatialScene", "Item3D"]
+
+
+def _up_frame(up):
+    """(u, e1, e2): ``up`` made a unit vector and two unit vectors across it,
+    a right-handed frame (the floor's plane, the camera's azimuth)."""
+    u = np.asarray(up, float) / np.linalg.norm(up)
+    e1 = np.cross(u, [1.0, 0.0, 0.0] if abs(u[0]) < 0.9 else [0.0, 1.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    return u, e1, np.cross(u, e1)
 
 
 @dataclass(frozen=True)
@@ -68,10 +77,7 @@ class Camera:
         pts = np.asarray(points, float).reshape(-1, 3)
         lo, hi = pts.min(axis=0), pts.max(axis=0)
         centre, size = 0.5 * (lo + hi), max(float(np.max(hi - lo)), 0.1)
-        u = np.asarray(up, float) / np.linalg.norm(up)
-        e1 = np.cross(u, [1.0, 0.0, 0.0] if abs(u[0]) < 0.9 else [0.0, 1.0, 0.0])
-        e1 /= np.linalg.norm(e1)
-        e2 = np.cross(u, e1)
+        u, e1, e2 = _up_frame(up)
         az, el = np.radians(azimuth), np.radians(elevation)
         d = np.cos(el) * (np.cos(az) * e1 + np.sin(az) * e2) + np.sin(el) * u
         return Camera(centre + distance * size * d, centre, u)
@@ -102,7 +108,7 @@ class Item3D:
 BOX_FACES = ((0, 1, 3, 2), (4, 5, 7, 6), (0, 1, 5, 4), (2, 3, 7, 6), (0, 2, 6, 4), (1, 3, 7, 5))
 
 
-class SpatialScene:
+class SpatialScene(Drawing):
     """The drawing of a spatial model (module notes).
 
     Parameters
@@ -146,15 +152,6 @@ class SpatialScene:
             if getattr(j, "first", None) is not None:
                 self._add(Item3D("joint", None, "#000000"), (None, (j.first,)))
 
-    def _add(self, item, part):
-        self.items.append(item)
-        self._parts.append(part)
-
-    @property
-    def colors(self) -> dict:
-        """Body name -> colour (``#rrggbb``)."""
-        return {b.name: COLORS[b.index % len(COLORS)] for b in self.model.bodies}
-
     def frame(self, q, body):
         """(r (3,), A (3, 3)) of a spatial body at q (n,): its centre of mass
         and the rotation matrix whose columns are its axes (its directors)."""
@@ -194,10 +191,7 @@ class SpatialScene:
         """A square grid (``lines`` lines each way) under ``points`` (k, 3),
         normal to ``up``, one spread wide: a list of (2, 3) segments [m]."""
         pts = np.asarray(points, float).reshape(-1, 3)
-        u = np.asarray(up, float) / np.linalg.norm(up)
-        e1 = np.cross(u, [1.0, 0.0, 0.0] if abs(u[0]) < 0.9 else [0.0, 1.0, 0.0])
-        e1 /= np.linalg.norm(e1)
-        e2 = np.cross(u, e1)
+        u, e1, e2 = _up_frame(up)
         heights, a, b = pts @ u, pts @ e1, pts @ e2
         half = 0.6 * max(np.ptp(a), np.ptp(b), 0.1)
         o = heights.min() * u + 0.5 * (a.min() + a.max()) * e1 + 0.5 * (b.min() + b.max()) * e2
