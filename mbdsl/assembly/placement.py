@@ -49,7 +49,7 @@ def place_bodies(system, t0: float = 0.0, notes: list | None = None, kernels=Non
     """
     model = system.model
     if system.cmap.spatial:
-        return _place_spatial(system)
+        return _place_spatial(system, t0)
     g = np.asarray(model.gravity, float) if model.gravity is not None else np.zeros(2)
     down, along = ((g / np.linalg.norm(g), "gravity") if np.linalg.norm(g) > 0.0
                    else (np.array([0.0, -1.0]), "-y"))
@@ -112,15 +112,17 @@ def place_bodies(system, t0: float = 0.0, notes: list | None = None, kernels=Non
     return q[:system.n]
 
 
-def _place_spatial(system) -> np.ndarray:
+def _place_spatial(system, t0) -> np.ndarray:
     """The first guess of a spatial model (``model.spatial``): each body's
     directors as its ``initial`` or ``guess`` lines give them (else the
     world axes), then, along the spanning tree, its centre of mass where
     its joint's point meets the placed body's, r = p - A s (else its given
-    x, y, z, or the origin)."""
+    or driven x, y, z at t0, or the origin)."""
     model, cmap = system.model, system.cmap
     q = np.zeros(system.n)
     given = {(ic.body, ic.field): ic.value for ic in model.initials if not ic.is_velocity}
+    given.update({(d.body, "xyz"[d.coord]): d.function.f(t0) for d in model.drivers
+                  if d.kind == "coordinate"})
     fields = model.bodies[0].coordinate_fields if model.bodies else ()
     for b, col in cmap.spatial.items():
         q[col + 3:col + 12] = np.eye(3).T.ravel()

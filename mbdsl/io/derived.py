@@ -148,7 +148,7 @@ def energy_flows(system, t, q, v, lam, total, phi_t=None, start=None, contact_lo
 
 def driver_loads(system) -> list[tuple[str, int]]:
     """(column, constraint row) of every driver's load: ``driver.<name>.force``
-    [N] for a driven x, y or joint distance, ``driver.<name>.torque`` [N m]
+    [N] for a driven x, y (z) or joint distance, ``driver.<name>.torque`` [N m]
     for a driven phi or joint angle. The load is -lambda of the driver's row
     (sign convention M a + Phi_q^T lambda = Q, a driver row q_c - f(t)): the
     generalized force the driver applies to the driven coordinate, i.e. on
@@ -157,8 +157,7 @@ def driver_loads(system) -> list[tuple[str, int]]:
     out = []
     for d in system.model.drivers:
         row = system.layout.element_rows[d.name][0]
-        force = (d.kind == "coordinate" and d.coord < 2) or d.kind == "joint_distance"
-        out.append((f"driver.{d.name}.{'force' if force else 'torque'}", int(row)))
+        out.append((f"driver.{d.name}.{d.load}", int(row)))
     return out
 
 

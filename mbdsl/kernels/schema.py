@@ -69,6 +69,9 @@ MODEL_SCHEMA = (
     ("vrow", "i", 0), ("vcol", "i", 4), ("vw", "f", 16), ("vc", "f", 7),  # spatial dot rows
     ("wcol", "i", 2), ("ws", "f", 8), ("w0", "f", 3), ("wpar", "f", 3),   # spatial springs
     ("ycol", "i", 2), ("ypar", "f", 6), ("yfn", "i", 3),               # spatial forces, torques
+    ("vfn", "i", 3),                                                   # spatial dot rows: f, f', f''
+    ("arow", "i", 0), ("acol", "i", 2), ("av", "f", 9), ("afn", "i", 3),  # spatial joint angles
+    ("hcol", "i", 2), ("hv", "f", 9), ("hpar", "f", 3),                # spatial rotational springs
 )
 #: The fields no element family owns: the mass diagonal, the constant forces (gravity),
 #: the constraint rows' elements, the rigid bodies' mass diagonal and the columns of
@@ -98,7 +101,8 @@ _0, _YES, _NO = np.int64(0), np.bool_(True), np.bool_(False)
  VAR, VARC, XVAL, STQ, SDV, PFN, GEO, GEOF, FRI, FRP,
  DROW, DCOL1, DS1, DCOL2, DS2, DLEN, MRIG, BEAM, BCOL, BDAT, BDOF, GRAV, CEL, PEL, ECOL,
  ESHP, KGI, KCOL, KPAR, KIMP, SEL, FEL, DSP, XTRM, XTC, XROW, XOFF, FDV, TBL, TBD,
- ZCOL, SWP, VROW, VCOL, VW, VC, WCOL, WS, W0, WPAR, YCOL, YPAR, YFN) = range(89)
+ ZCOL, SWP, VROW, VCOL, VW, VC, WCOL, WS, W0, WPAR, YCOL, YPAR, YFN, VFN,
+ AROW, ACOL, AV, AFN, HCOL, HV, HPAR) = range(97)
 if any(globals()[name.upper()] != k for k, (name, _, _) in enumerate(MODEL_SCHEMA)):
     raise ImportError("schema.py's field indices differ from MODEL_SCHEMA")   # pragma: no cover
 

@@ -1,9 +1,10 @@
 """The aggregates over the element families, in a fixed order.
 
 Phi, Phi_q^T lambda, Phi_q v (coincidence, point on line, linear rows,
-distance, couplers, spatial dot rows, then the elastic columns of beam points), Q
-(gravity, springs, spatial springs, rotational springs and torques, point forces, loads of the state, friction,
-contacts, beams), the Newton-matrix emitters of their derivatives, the
+distance, couplers, spatial dot rows, spatial joint angles, then the elastic
+columns of beam points), Q (gravity, springs, spatial springs and rotational
+springs, rotational springs and torques, point forces, loads of the state,
+friction, contacts, beams), the Newton-matrix emitters of their derivatives, the
 loads' potential energy and power, and :func:`elements`, the evaluations
 Python asks for. The order is that of the triplets and of every sum, so the
 results do not depend on which families a model declares.
@@ -18,16 +19,17 @@ from .beams.elastic_points import (_elastic_phiqT_add, _elastic_phiq_times, _emi
                                    _emit_elastic_hess, _emit_elastic_phiq)
 from .beams.ffr import FFR_DQ, FFR_M, _emit_beams, _ffr_energy, _ffr_forces_add
 from .geometry import _direction
-from .joints import coincidence, couplers, distance, linear_rows, point_on_line, spatial
-from .loads import (contact, friction, point_forces, spatial_loads, spatial_springs, spring_damper,
-                    state_loads, torques)
+from .joints import (coincidence, couplers, distance, linear_rows, point_on_line, spatial,
+                     spatial_angles)
+from .loads import (contact, friction, point_forces, spatial_loads, spatial_rotational,
+                    spatial_springs, spring_damper, state_loads, torques)
 from .loads.contact import (_contact_energy, _contact_friction, _contact_law, _contacts_add,
                             _emit_contacts, _gap)
 from .loads.friction import (_emit_friction, _emit_friction_lam, _friction_col, _friction_kin,
                              _friction_law)
 from .loads.spring_damper import _spring_energy, _spring_points, _spring_rate, _springs_add
 from .loads.torques import _rotational_energy
-from .schema import (BEAM, CROW, DROW, ECOL, FCOL, FEL, FRI, GEO, KCOL, KGI, KPAR, LROW, MASS,
+from .schema import (AROW, BEAM, CROW, HCOL, DROW, ECOL, FCOL, FEL, FRI, GEO, KCOL, KGI, KPAR, LROW, MASS,
                      MRIG, PROW, Q0, RCOL, ROW_ELEMENT, RPAR, SCOL1, SDV, SEL, SPAR, STQ, VROW, WCOL,
                      XTRM, YCOL, ZCOL, _0, _NO, _YES, _f, _i, _inline, _hot, _jit, _put, _rows)
 
@@ -35,7 +37,7 @@ from .schema import (BEAM, CROW, DROW, ECOL, FCOL, FEL, FRI, GEO, KCOL, KGI, KPA
 #: The joint families in the order of every aggregate, each with its first field
 #: (whose rows are its instances).
 JOINTS = ((coincidence, CROW), (point_on_line, PROW), (linear_rows, LROW), (distance, DROW),
-          (couplers, XTRM), (spatial, VROW))
+          (couplers, XTRM), (spatial, VROW), (spatial_angles, AROW))
 #: The joint families, in that order: each declares the joints and drivers whose rows
 #: it holds (``ELEMENT_ROWS``) and packs them from the model (``pack``); a family may
 #: also say where the initial conditions' first guess puts a joint's far body
@@ -65,12 +67,12 @@ def joint_hook(kind: str, name: str):
 #: model (``pack``) and says which columns the derivatives of its loads may fill
 #: (``pattern``; friction also its reaction rows: ``multiplier_pattern``).
 LOAD_FAMILIES = (spring_damper, torques, state_loads, point_forces, friction, contact,
-                 spatial_springs, spatial_loads)
+                 spatial_springs, spatial_loads, spatial_rotational)
 #: The load families with a force block, each with the field that counts it
 #: (a load of the state counts twice: per load, STQ, and per partial derivative, SDV).
 LOADS = ((spring_damper, SCOL1), (torques, RCOL), (point_forces, FCOL), (state_loads, STQ),
          (state_loads, SDV), (friction, FRI), (contact, KGI), (spatial_springs, WCOL),
-          (spatial_loads, YCOL))
+          (spatial_loads, YCOL), (spatial_rotational, HCOL))
 
 
 @_hot
@@ -79,6 +81,10 @@ def _phi_time_add(I, Fl, t, out, order):
     2: Phi_tt): -f'(t) or -f''(t) in the rows of drivers f(t)."""
     linear_rows.phi_time_add(I, Fl, t, out, order)
     point_on_line.phi_time_add(I, Fl, t, out, order)
+    if _rows(I, VROW) > 0:
+        spatial.phi_time_add(I, Fl, t, out, order)
+    if _rows(I, AROW) > 0:
+        spatial_angles.phi_time_add(I, Fl, t, out, order)
 
 
 @_jit
@@ -92,6 +98,8 @@ def phi(I, Fl, t, qx, out):
         couplers.phi(I, Fl, t, qx, out)
     if _rows(I, VROW) > 0:
         spatial.phi(I, Fl, t, qx, out)
+    if _rows(I, AROW) > 0:
+        spatial_angles.phi(I, Fl, t, qx, out)
 
 
 @_jit
@@ -105,6 +113,8 @@ def phiqT_add(I, Fl, qx, lam, coef, out):
         couplers.phiqT_add(I, Fl, qx, lam, coef, out)
     if _rows(I, VROW) > 0:
         spatial.phiqT_add(I, Fl, qx, lam, coef, out)
+    if _rows(I, AROW) > 0:
+        spatial_angles.phiqT_add(I, Fl, qx, lam, coef, out)
     if _rows(I, ECOL) > 0:
         _elastic_phiqT_add(I, Fl, qx, lam, coef, out)
         distance.elastic_phiqT_add(I, Fl, qx, lam, coef, out)
@@ -121,6 +131,8 @@ def phiq_times(I, Fl, qx, vx, out):
         couplers.phiq_times(I, Fl, qx, vx, out)
     if _rows(I, VROW) > 0:
         spatial.phiq_times(I, Fl, qx, vx, out)
+    if _rows(I, AROW) > 0:
+        spatial_angles.phiq_times(I, Fl, qx, vx, out)
     if _rows(I, ECOL) > 0:
         _elastic_phiq_times(I, Fl, qx, vx, out)
         distance.elastic_phiq_times(I, Fl, qx, vx, out)
@@ -150,6 +162,8 @@ def _forces(I, Fl, t, qx, vx, lam, slip, out):
     _springs_add(I, Fl, qx, vx, out)
     if _rows(I, WCOL) > 0:                         # spatial spring-dampers
         spatial_springs.forces_add(I, Fl, qx, vx, out)
+    if _rows(I, HCOL) > 0:                         # spatial rotational spring-dampers
+        spatial_rotational.forces_add(I, Fl, qx, vx, out)
     torques.forces_add(I, Fl, qx, vx, out)
     _inputs_add(I, Fl, t, qx, vx, out)
     if _rows(I, FRI) > 0:                          # friction: tau w
@@ -189,6 +203,8 @@ def _emit_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose):
         p = couplers.emit_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose)
     if _rows(I, VROW) > 0:
         p = spatial.emit_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose)
+    if _rows(I, AROW) > 0:
+        p = spatial_angles.emit_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose)
     if _rows(I, ECOL) > 0:
         p = _emit_elastic_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose)
         p = distance.emit_elastic_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose)
@@ -204,7 +220,8 @@ def phiq_triplets(I):
             + linear_rows.PHIQ_TRIPLETS * _rows(I, LROW)
             + distance.PHIQ_TRIPLETS * _rows(I, DROW)
             + couplers.PHIQ_TRIPLETS * _rows(I, XTRM)
-            + spatial.PHIQ_TRIPLETS * _rows(I, VROW) + 2 * _rows(I, ECOL))
+            + spatial.PHIQ_TRIPLETS * _rows(I, VROW)
+            + spatial_angles.PHIQ_TRIPLETS * _rows(I, AROW) + 2 * _rows(I, ECOL))
 
 
 @_jit
@@ -217,6 +234,8 @@ def _emit_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef):
         p = couplers.emit_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef)
     if _rows(I, VROW) > 0:
         p = spatial.emit_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef)
+    if _rows(I, AROW) > 0:
+        p = spatial_angles.emit_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef)
     if _rows(I, ECOL) > 0:
         p = _emit_elastic_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef)
         p = distance.emit_elastic_hess(I, Fl, n, qx, lam, R, C, V, p, r0, c0, coef)
@@ -234,6 +253,8 @@ def _emit_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef):
         p = couplers.emit_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef)
     if _rows(I, VROW) > 0:
         p = spatial.emit_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef)
+    if _rows(I, AROW) > 0:
+        p = spatial_angles.emit_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef)
     if _rows(I, ECOL) > 0:
         p = _emit_elastic_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef)
         p = distance.emit_elastic_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef)
@@ -283,6 +304,8 @@ def _emit_force(I, Fl, t, n, qx, vx, lam, R, C, V, p, r0, c0, cq, cv):
     p = spring_damper.emit_force(I, Fl, n, qx, vx, R, C, V, p, r0, c0, cq, cv)
     if _rows(I, WCOL) > 0:
         p = spatial_springs.emit_force(I, Fl, n, qx, vx, R, C, V, p, r0, c0, cq, cv)
+    if _rows(I, HCOL) > 0:
+        p = spatial_rotational.emit_force(I, Fl, n, qx, vx, R, C, V, p, r0, c0, cq, cv)
     p = torques.emit_force(I, Fl, n, R, C, V, p, r0, c0, cq, cv)
     p = point_forces.emit_force(I, Fl, t, n, qx, vx, R, C, V, p, r0, c0, cq, cv)
     p = state_loads.emit_force(I, Fl, t, n, qx, vx, R, C, V, p, r0, c0, cq, cv)
@@ -318,6 +341,7 @@ def _potential(I, Fl, qx):
     e = 0.0
     e = spring_damper.energy_add(I, Fl, qx, e)
     e = spatial_springs.energy_add(I, Fl, qx, e)
+    e = spatial_rotational.energy_add(I, Fl, qx, e)
     e = torques.energy_add(I, Fl, qx, e)
     e = contact.energy_add(I, Fl, qx, e)
     for b in range(_rows(I, BEAM)):
@@ -345,6 +369,7 @@ def _power(I, Fl, t, qx, vx, lam, speeds, work):
     p = 0.0
     p = spring_damper.power_add(I, Fl, qx, vx, p)
     p = spatial_springs.power_add(I, Fl, qx, vx, p)
+    p = spatial_rotational.power_add(I, Fl, qx, vx, p)
     p = torques.power_add(I, Fl, vx, p)
     p = friction.power_add(I, Fl, qx, vx, lam, p)
     p = contact.power_add(I, Fl, qx, vx, speeds, p)

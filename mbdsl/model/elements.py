@@ -434,6 +434,11 @@ class Driver:
     ``kind == "joint_distance"`` (prismatic, point_on_line): u . (p1 - p2) - f(t)
     = 0, u the line's unit direction turning with the second body, p1 the
     first (sliding) point, p2 the line's point.
+
+    In a spatial model (``space == 3``) ``coord`` 0, 1, 2 is x, y, z of the
+    centre of mass, a joint angle is a revolute's or cylindrical's turn
+    about its first body's axis (``kernels.joints.spatial_angles``) and a
+    distance is a prismatic's, cylindrical's or point_on_line's.
     """
 
     name: str
@@ -444,6 +449,16 @@ class Driver:
     joint: Joint | None = None
     span: Span | None = None
     rows: int = 1
+    space: int = 2
+
+    @property
+    def load(self) -> str:
+        """What -lambda of its row is: "force" [N] for a driven x, y, z or
+        distance, "torque" [N m] for a driven phi or joint angle."""
+        if self.kind == "joint_distance" or (self.kind == "coordinate"
+                                             and (self.coord < 2 or self.space == 3)):
+            return "force"
+        return "torque"
 
 
 @dataclass(frozen=True)

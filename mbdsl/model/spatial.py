@@ -38,7 +38,7 @@ import numpy as np
 
 from ..errors import Span
 
-__all__ = ["SpatialBody", "Frame", "SpatialSpring", "SpatialLoad", "DIRECTORS", "SPATIAL_COORDINATES", "SPATIAL_VELOCITIES",
+__all__ = ["SpatialBody", "Frame", "SpatialSpring", "SpatialRotationalSpring", "SpatialLoad", "DIRECTORS", "SPATIAL_COORDINATES", "SPATIAL_VELOCITIES",
            "SPATIAL_ACCELERATIONS", "zyx", "zyx_angles", "axis_angle", "euler_parameters",
            "body_angular_velocity", "director_inertia"]
 
@@ -161,6 +161,37 @@ class SpatialSpring:
 
     #: The load kind (its kernel family: ``kernels.system.LOAD_FAMILIES``).
     kind = "tsda"
+
+
+@dataclass(frozen=True)
+class SpatialRotationalSpring:
+    """A rotational spring-damper-actuator about a spatial revolute's or
+    cylindrical's axis (RSDA, ``kernels.loads.spatial_rotational``): torque
+    -(k (theta - angle) + c dtheta/dt) about the first body's joint axis on
+    the second body, the opposite on the first; theta the joint's angle
+    (``kernels.joints.spatial_angles``), theta - angle taken within half a
+    turn.
+
+    Attributes
+    ----------
+    name : str
+    joint : Joint
+        A spatial revolute or cylindrical joint.
+    k : float [N m/rad]
+    c : float [N m s/rad]
+    angle : float [rad]
+        The spring's rest angle.
+    """
+
+    name: str
+    joint: object
+    k: float
+    c: float
+    angle: float
+    span: Span | None = None
+
+    #: The load kind (its kernel family: ``kernels.system.LOAD_FAMILIES``).
+    kind = "rsda"
 
 
 @dataclass(frozen=True)

@@ -29,11 +29,13 @@ COUPLERS = VALID / "coupler_elements.mbd"
 FOLLOWER = VALID / "follower_elements.mbd"
 TABLES = VALID / "table_elements.mbd"
 STATES = VALID / "state_elements.mbd"
+SPATIAL = VALID / "spatial_drivers.mbd"
 EPS = 1e-6
 
 
-@pytest.fixture(scope="module", params=[MODEL, FLEXIBLE, COUPLERS, FOLLOWER, TABLES, STATES],
-                ids=["rigid", "flexible", "couplers", "follower", "tables", "states"])
+@pytest.fixture(scope="module", params=[MODEL, FLEXIBLE, COUPLERS, FOLLOWER, TABLES, STATES,
+                                        SPATIAL],
+                ids=["rigid", "flexible", "couplers", "follower", "tables", "states", "spatial"])
 def system(request):
     return assemble(mbdsl.load(request.param))
 
@@ -91,6 +93,12 @@ def test_model_declares_every_element_type(system):
         assert {"O.rate", "wf", "ie", "S.distance", "tip", "rod.theta3"} <= read
         loads = {f.kind for f in system.model.forces}
         assert loads == {"joint_torque", "joint_force", "point_force", "state_torque"}
+        return
+    if system.model.space == 3:          # every spatial driver, a rotational spring-damper
+        assert {(d.kind, d.joint.kind if d.joint else None) for d in system.model.drivers} == {
+            ("joint_angle", "revolute"), ("joint_distance", "prismatic"),
+            ("coordinate", None), ("joint_angle", "cylindrical")}
+        assert {f.kind for f in system.model.forces} == {"rsda"}
         return
     if system.model.flexible_bodies:
         assert {j.kind for j in system.model.joints} == {"revolute", "prismatic",
@@ -165,8 +173,10 @@ def test_potential_energy_gradient_is_minus_conservative_force(system):
     model = system.model
     from dataclasses import replace
     from mbdsl.model.elements import SpringDamper, RotationalSpringDamper
+    from mbdsl.model.spatial import SpatialRotationalSpring, SpatialSpring
     forces = tuple(replace(f, c=0.0) for f in model.forces
-                   if isinstance(f, (SpringDamper, RotationalSpringDamper)))
+                   if isinstance(f, (SpringDamper, RotationalSpringDamper, SpatialSpring,
+                                     SpatialRotationalSpring)))
     sys2 = assemble(replace(model, forces=forces, states=()))   # a state's rate is no force
     for q, v, lam, t in states(sys2):
         grad = fd(lambda x: np.array([sys2.potential_energy(x)]), q)[0]

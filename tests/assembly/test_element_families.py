@@ -24,13 +24,15 @@ VALID = MODELS.parent / "tests" / "dsl" / "valid"
 #: family module -> a model that declares it
 JOINTS = {"coincidence": VALID / "all_elements.mbd", "point_on_line": VALID / "all_elements.mbd",
           "linear_rows": VALID / "all_elements.mbd", "distance": VALID / "distance_elements.mbd",
-          "couplers": VALID / "coupler_elements.mbd", "spatial": MODELS / "heavy_top.mbd"}
+          "couplers": VALID / "coupler_elements.mbd", "spatial": MODELS / "heavy_top.mbd",
+          "spatial_angles": VALID / "spatial_drivers.mbd"}
 LOADS = {"spring_damper": VALID / "all_elements.mbd", "torques": VALID / "all_elements.mbd",
          "point_forces": VALID / "follower_elements.mbd", "state_loads": VALID / "all_elements.mbd",
          "friction": VALID / "friction_elements.mbd",
          "contact": MODELS / "bouncing_ball.mbd",
          "spatial_springs": MODELS / "spatial_spring_pendulum.mbd",
-         "spatial_loads": VALID / "spatial_loads.mbd"}
+         "spatial_loads": VALID / "spatial_loads.mbd",
+         "spatial_rotational": VALID / "spatial_drivers.mbd"}
 OTHERS = ("programs", "geometry", "beams.ffr", "beams.elastic_points")
 
 
@@ -154,7 +156,7 @@ def test_a_load_emits_at_most_its_triplet_count(family):
     if family == "state_loads":         # per load and per partial derivative
         k += int(I[3 * schema.MODEL_FIELDS.index("sdv") + 1])
     assert k > 0
-    if family in ("spring_damper", "spatial_springs"):
+    if family in ("spring_damper", "spatial_springs", "spatial_rotational"):
         p = module.emit_force(I, Fl, n, qx, vx, R, C, V, 0, 0, 0, 1.0, 1.0)
     elif family == "torques":
         p = module.emit_force(I, Fl, n, R, C, V, 0, 0, 0, 1.0, 1.0)

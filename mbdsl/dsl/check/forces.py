@@ -10,14 +10,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...model.spatial import SpatialSpring
+from ...model.spatial import SpatialRotationalSpring, SpatialSpring
 from ...model.elements import (GROUND, FlexibleBeam, Friction, JointForce, JointTorque, PointForce,
                                RotationalSpringDamper, SpringDamper, StateFunction, StateSwitch,
                                StateVariable, Torque)
 from ..expressions import (Binary, Call, compile_state_function, diff, Dotted, ExprError,
                            kinked_tables, Name, Num, simplify, substitute, Unary, Vec)
 from .contact import contact_element, rope_element
-from .spatial import spatial_load
+from .spatial import ANGLE_JOINTS, spatial_load
 from .context import BrokenReference, did_you_mean, point_ref
 from .tables import (BODY_STATE, FORCE_FRAMES, FORCE_KINDS, GEOMETRY_OPTIONS, JOINT_MOTION,
                      REVOLUTE_STATE, SLIDING_STATE, WORD_OPTIONS)
@@ -112,8 +112,19 @@ def _spring_damper(c, f, pos, opts, ctx):
 
 
 def _rotational_spring_damper(c, f, pos, opts, ctx):
-    """A rotational spring-damper on a revolute's relative angle."""
+    """A rotational spring-damper on a revolute's relative angle (in a
+    spatial model a revolute's or cylindrical's angle about its axis:
+    ``model.spatial.SpatialRotationalSpring``)."""
     joint = c.joint_argument(pos[0], f, ctx)
+    if joint is not None and c.space == 3:
+        if joint.kind not in ANGLE_JOINTS:
+            c.error("E201", f"{ctx}: a rotational spring-damper acts about a revolute's or "
+                    f"cylindrical's axis, not on a {joint.kind} joint",
+                    pos[0].span or f.span, "no joint angle",
+                    hint="name a revolute or cylindrical joint")
+            return None
+        return SpatialRotationalSpring(f.name, joint, opts["k"], opts["c"], opts["angle"],
+                                       f.span)
     if joint is None or not c.turning(joint.bodies, ctx, f.span,
                                       "a rotational spring acts on a relative angle"):
         return None

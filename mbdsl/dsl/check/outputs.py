@@ -90,8 +90,7 @@ def _dotted_variable(c, ref: Dotted, fail) -> OutputVariable:
         if mid not in drivers:
             raise fail("no such driver", "E201", did_you_mean(mid, drivers))
         d = drivers[mid]
-        force = (d.kind == "coordinate" and d.coord < 2) or d.kind == "joint_distance"
-        want = "force" if force else "torque"
+        want = d.load
         if attr != want:
             raise fail(f"driver '{mid}' applies a {want}", hint=f"write driver.{mid}.{want}")
         return OutputVariable(ref.text, "column", column=ref.text)

@@ -38,9 +38,13 @@ SPATIAL_JOINT_KINDS = {
 }
 
 #: the declarations a spatial model does not have yet: items key -> what they are
-PLANAR_ONLY = {"drivers": "drivers", "states": "first-order states", "outputs": "output lines"}
+PLANAR_ONLY = {"states": "first-order states", "outputs": "output lines"}
 #: the force kinds of a spatial model (the planar check reads their options)
-SPATIAL_FORCE_KINDS = ("spring_damper", "force", "torque")
+SPATIAL_FORCE_KINDS = ("spring_damper", "rotational_spring_damper", "force", "torque")
+#: the spatial joints with an angle (drivers, rotational spring-dampers) and with a
+#: distance along a line (drivers)
+ANGLE_JOINTS = ("revolute", "cylindrical")
+DISTANCE_JOINTS = ("prismatic", "cylindrical", "point_on_line")
 #: initial fields of a spatial body and their SI units (besides the directors)
 SPATIAL_INITIALS = {"x": "m", "y": "m", "z": "m", "vx": "m/s", "vy": "m/s", "vz": "m/s"}
 ROTATIONS = ("orientation", "omega", "omega_body")
@@ -64,7 +68,7 @@ def check_space(c):
         for it in found:
             c.error("E205", f"a spatial model ('space 3d') has no {what} yet",
                     getattr(it, "span", None), "planar only",
-                    hint="spatial models have bodies, joints, spring-dampers, gravity "
+                    hint="spatial models have bodies, joints, drivers, forces, gravity "
                     "and initial lines; remove 'space 3d' for a planar model")
         if key in c.items:
             c.items[key] = []

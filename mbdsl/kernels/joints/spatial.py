@@ -16,9 +16,16 @@ as are the other joints of Haug's library (Computer-Aided Kinematics and
 Dynamics of Mechanical Systems, 1989, sec. 9.4: the dot-1 and dot-2
 constraints, the spherical and distance constraints).
 
+Drivers of a body's x, y or z and of a sliding joint's distance are dot rows
+whose c is a function of time f(t): Phi = U . W - f(t), U the body's centre
+of mass or the sliding point's offset p1 - p2, W a world axis or the line's
+unit direction turning with its body, so that Phi_t = -f'(t), Phi_tt =
+-f''(t) and Phi_qt = 0 (Haug 1989, sec. 11.4: driving constraints).
+
 Fields: VROW (k,) the rows; VCOL (k, 4) the first column of the body of
 each slot (U's two, W's two; -1: none); VW (k, 16) each slot's weights
-(alpha, s1, s2, s3); VC (k, 7) U0 (3), W0 (3) and c. A slot's column of
+(alpha, s1, s2, s3); VC (k, 7) U0 (3), W0 (3) and c, VFN (k, 3) the programs of a driver's f,
+f', f'' (-1: none; a constant driver's value is c). A slot's column of
 weight j and component c is VCOL + 3 j + c. Weights that are zero are
 structural zeros: no triplet is emitted for them, so that the pattern is
 fixed by the model.
@@ -28,17 +35,19 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..schema import VC, VCOL, VROW, VW, _f, _i, _inline, _jit, _put, _put_phiq, _rows
+from ..programs import _eval
+from ..schema import VC, VCOL, VFN, VROW, VW, _f, _i, _inline, _jit, _put, _put_phiq, _rows
 
 #: Its fields in ``schema.MODEL_SCHEMA`` (the first gives the instances).
-FIELDS = ("vrow", "vcol", "vw", "vc")
+FIELDS = ("vrow", "vcol", "vw", "vc", "vfn")
 #: Newton-matrix triplets per instance (a dot row) at most: Phi_q and (Phi_q v)_q
 #: three per term of U and W (eight each); its Hessian's, exactly, ``hess_triplets``.
 PHIQ_TRIPLETS, HESS_TRIPLETS, G_TRIPLETS = 48, 0, 48
-#: The joints whose rows it holds: kind -> the first of them among the element's rows.
+#: The joints and drivers whose rows it holds: kind -> the first of them among the
+#: element's rows.
 ELEMENT_ROWS = {"spherical": 0, "revolute": 0, "universal": 0, "cylindrical": 0,
                 "point_on_line": 0, "point_on_plane": 0, "distance": 0, "fixed": 0,
-                "prismatic": 0, "frame": 0}
+                "prismatic": 0, "frame": 0, "coordinate": 0, "joint_distance": 0}
 #: The model space whose joints it holds (``assembly.packing``: the planar families hold
 #: a planar model's revolute, distance and point_on_line joints, this one a spatial model's).
 SPACE = 3
@@ -76,6 +85,12 @@ def _rows_of(e, point, direction):
     """The dot rows (U terms, W terms, c) of a spatial joint or frame, in its
     row order (Haug 1989, sec. 9.4: the spherical, dot-1 and dot-2
     constraints)."""
+    if e.kind == "coordinate":               # the centre of mass's x, y or z
+        return [([(e.body, 1.0, np.zeros(3), 1.0)], [(-1, 0.0, np.eye(3)[e.coord], 1.0)], 0.0)]
+    if e.kind == "joint_distance":           # u . (p1 - p2), u the line's (the second body's)
+        j = e.joint
+        b2, u = j.axes[-1]
+        return [([point(j.first, 1.0), point(j.second, -1.0)], [direction(b2, u)], 0.0)]
     if e.kind == "frame":
         return [([(e.body, 0.0, np.eye(3)[a], 1.0)], [(e.body, 0.0, np.eye(3)[b], 1.0)],
                  1.0 if a == b else 0.0) for a, b in FRAME_PAIRS]
@@ -132,23 +147,29 @@ def pack(items, tables) -> dict:
         field name -> array, as ``schema.MODEL_SCHEMA`` declares them.
     """
     def point(ref, sign):
+        """The term (body, alpha, s, sign) of a point: sign (r + A s)."""
         return (ref.body, 1.0, ref.local, sign)
 
     def direction(body, axis):
+        """The term of a direction A s of a body's frame."""
         return (body, 0.0, axis, 1.0)
 
-    rows, cols, weights, consts = [], [], [], []
+    rows, cols, weights, consts, fns = [], [], [], [], []
     for row, e in items:
+        f = getattr(e, "function", None)               # a driver's f(t)
+        constant = f is not None and f.constant
         for k, (U, W, c) in enumerate(_rows_of(e, point, direction)):
             cu, wu, u0 = _side(tables, U)
             cw, ww, w0 = _side(tables, W)
             rows.append(row + k)
             cols.append(cu + cw)
             weights.append(np.r_[wu, ww])
-            consts.append(np.r_[u0, w0, c])
+            consts.append(np.r_[u0, w0, c + (f.f(0.0) if constant else 0.0)])
+            fns.append(tables.programs(f) if f is not None else (-1, -1, -1))
     return {"vrow": np.array(rows, np.int64), "vcol": np.array(cols, np.int64).reshape(-1, 4),
             "vw": np.array(weights, np.float64).reshape(-1, 16),
-            "vc": np.array(consts, np.float64).reshape(-1, 7)}
+            "vc": np.array(consts, np.float64).reshape(-1, 7),
+            "vfn": np.array(fns, np.int64).reshape(-1, 3)}
 
 
 def hess_triplets(I) -> int:
@@ -190,7 +211,19 @@ def phi(I, Fl, t, qx, out):
     for i in range(_rows(I, VROW)):
         _vector(I, Fl, qx, i, 0, U)
         _vector(I, Fl, qx, i, 2, W)
-        out[_i(I, VROW, i, 0)] = U[0] * W[0] + U[1] * W[1] + U[2] * W[2] - _f(I, Fl, VC, i, 6)
+        c = _f(I, Fl, VC, i, 6)
+        if _i(I, VFN, i, 0) >= 0:                     # a driver's f(t)
+            c += _eval(I, Fl, _i(I, VFN, i, 0), t)
+        out[_i(I, VROW, i, 0)] = U[0] * W[0] + U[1] * W[1] + U[2] * W[2] - c
+
+
+@_inline
+def phi_time_add(I, Fl, t, out, order):
+    """out (m,) += -f'(t) (order 1) or -f''(t) (order 2) of the drivers' rows."""
+    for i in range(_rows(I, VROW)):
+        prog = _i(I, VFN, i, order)
+        if prog >= 0:
+            out[_i(I, VROW, i, 0)] -= _eval(I, Fl, prog, t)
 
 
 @_jit
