@@ -38,6 +38,7 @@ from .sparse import DENSE_LIMIT, issparse
 from .structure import (RANK_LIMIT, StructureReport, analyse_structure,
                         friction_on_redundant_joints, joint_miss, miss_diagnosis,
                         redundancy_diagnostics)
+from ..model.spatial import DIRECTORS
 from .placement import place_bodies
 from .system import AssembledSystem
 
@@ -403,6 +404,27 @@ def _static_matrix_sparse(system, t0, q, v0, lam, E):
     return sp.bmat([[K, -Pq.T, -Es.T], [Pq, None, None], [Es, None, None]], format="csc")
 
 
+def _held_turns(system, q, hold_initials):
+    """The rows that hold a spatial body's orientation, given by an
+    ``initial`` line, in a static equilibrium: a_2 . a0_3, a_3 . a0_1 and
+    a_1 . a0_2 at the given axes a0_k (their changes are the small
+    rotation's components along a0_1, a0_2, a0_3: d a_k = d theta x a0_k).
+    Three rows where holding the nine directors would make six of them
+    redundant with the body's frame rows (``model.spatial``). Shape (3 k,
+    n) for k such bodies; None without."""
+    bodies = sorted({ic.body for ic in system.model.initials
+                     if hold_initials and not ic.guess and ic.field in DIRECTORS})
+    if not bodies:
+        return None
+    rows = np.zeros((3 * len(bodies), system.n))
+    for k, b in enumerate(bodies):
+        col = system.cmap.spatial[b]
+        A0 = q[col + 3:col + 12].reshape(3, 3).T          # columns: the given axes a0_k
+        for r, (i, j) in enumerate(((1, 2), (2, 0), (0, 1))):
+            rows[3 * k + r, col + 3 + 3 * i:col + 6 + 3 * i] = A0[:, j]
+    return rows
+
+
 def static_positions(system, t0: float, q: np.ndarray, lam: np.ndarray,
                      hold_initials: bool = True) -> np.ndarray:
     """Positions of static equilibrium: Q(t0, q, 0) = Phi_q^T lambda, Phi(q, t0) = 0,
@@ -433,11 +455,24 @@ def static_positions(system, t0: float, q: np.ndarray, lam: np.ndarray,
     """
     model, n, m = system.model, system.n, system.m
     iq = np.array([ic.column(system.cmap) for ic in model.initials
-                   if hold_initials and not ic.guess and not ic.is_velocity]
+                   if hold_initials and not ic.guess and not ic.is_velocity
+                   and ic.field not in DIRECTORS]
                   + list(system.state_cols), dtype=int)     # a state's integral: always held
-    given = q[iq].copy()
-    f = len(iq)
-    E = _selection(iq, n, n + m > STATIC_DENSE_LIMIT)
+    sparse = n + m > STATIC_DENSE_LIMIT
+    E = _selection(iq, n, sparse)
+    turns = _held_turns(system, q, hold_initials)
+    if turns is None:
+        def held(x):
+            """The held coordinates' values."""
+            return x[iq]
+    else:                                     # spatial orientations: three rows each
+        E = scipy.sparse.vstack([E, turns], "csr") if sparse else np.vstack([E, turns])
+
+        def held(x):
+            """The held coordinates' and turns' values."""
+            return E @ x
+    given = held(q).copy()
+    f = E.shape[0]
     v0 = np.zeros(n)            # at rest; the first-order states at their initial values
     for ic in model.state_conditions:
         if ic.is_velocity:
@@ -449,7 +484,7 @@ def static_positions(system, t0: float, q: np.ndarray, lam: np.ndarray,
         q, lam, mu = x[:n], x[n:n + m], x[n + m:]
         with np.errstate(all="ignore"):
             r = np.concatenate([system.Q(t0, q, v0, lam) - system.PhiqT_times(q, t0, lam) - E.T @ mu,
-                                system.Phi(q, t0), q[iq] - given])
+                                system.Phi(q, t0), held(q) - given])
             J = (_static_matrix_sparse(system, t0, q, v0, lam, E) if n + m > STATIC_DENSE_LIMIT
                  else _static_matrix(system, t0, q, v0, lam, E))
         residual = float(np.max(np.abs(r[:n]), initial=0.0)) / scale

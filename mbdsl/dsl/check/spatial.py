@@ -83,9 +83,6 @@ def check_space(c):
     if "forces" in c.items:
         c.items["forces"] = kept
     c.spec = dataclasses.replace(c.spec, states=(), outputs=())
-    if c.spec.static:
-        c.error("E205", "a spatial model has no 'initial static' yet", c.spec.static_span,
-                "planar only")
 
 
 def check_spatial_body(c, b):
