@@ -10,7 +10,7 @@ parameter ranges; each is checked (``mbdsl.check``) and run for 150 steps
 with a random method and step mode. Every example must satisfy the scene
 matrix's invariants (``tests/matrix/matrix.py``): no traceback, a completed
 run whose energy balance is within 1 % of the energy exchanged or flagged
-(W602), or a coded refusal. CI runs 200 derandomized examples; ``-m
+(W602), or a coded refusal. CI runs 100 derandomized examples; ``-m
 nightly`` runs 5000 random ones.
 """
 
@@ -215,7 +215,7 @@ def check_mechanism(case):
         assert "W602" in codes, (text, method, rtol)
 
 
-@settings(max_examples=int(os.environ.get("MBDSL_SEMANTIC_FUZZ", 200)), deadline=None,
+@settings(max_examples=int(os.environ.get("MBDSL_SEMANTIC_FUZZ", 100)), deadline=None,
           derandomize=True, database=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
 @given(mechanisms())
