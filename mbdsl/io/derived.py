@@ -293,6 +293,8 @@ def output_columns(system, t, q, v, a, derived, lam=None, contact_log=None,
                     s, grad = line_distance(var.line, qx[r], cmap)
                     vals[r] = s if var.field == "distance" else grad @ vx[r, cols]
                 env[var.name] = vals
+            elif var.kind == "spatial_joint":
+                env[var.name] = _spatial_joint(system, var, qx, vx)
             elif var.kind == "joint":
                 src = qx if var.field == "angle" else vx
                 val = np.zeros(N)
@@ -302,6 +304,9 @@ def output_columns(system, t, q, v, a, derived, lam=None, contact_log=None,
                 env[var.name] = val
             else:                               # a point of a rigid body (or the ground)
                 b, s = var.point.body, np.asarray(var.point.local, dtype=float)
+                if system.cmap.spatial:
+                    env[var.name] = _spatial_point(system, b, s, qx, vx, var.field)
+                    continue
                 if b < 0:
                     pos, vel = np.tile(s, (N, 1)), np.zeros((N, 2))
                 else:
@@ -315,6 +320,62 @@ def output_columns(system, t, q, v, a, derived, lam=None, contact_log=None,
         out[f"output.{o.name}"] = np.broadcast_to(
             evaluate_rows(o.expr, env, np.asarray(t, dtype=float)), (N,)).astype(float)
     return out
+
+
+def _spatial_frame(system, b, x, rate) -> np.ndarray:
+    """A spatial body's axes (``rate``: their rates) over the rows, (N, 3, 3)
+    with rows a_1, a_2, a_3 (the ground's: the world axes, at rest)."""
+    N = len(x)
+    if b < 0:
+        return np.zeros((N, 3, 3)) if rate else np.broadcast_to(np.eye(3), (N, 3, 3))
+    c = system.cmap.spatial[b]
+    return x[:, c + 3:c + 12].reshape(N, 3, 3)
+
+
+def _spatial_point(system, b, s, qx, vx, field) -> np.ndarray:
+    """x, y, z [m] or vx, vy, vz [m/s] of the point s (3,) of a spatial body
+    (or the ground) over the rows: r + sum_k s_k a_k and its rate."""
+    rate = field.startswith("v")
+    x = vx if rate else qx
+    if b < 0:
+        value = np.zeros((len(x), 3)) if rate else np.broadcast_to(s, (len(x), 3))
+    else:
+        c = system.cmap.spatial[b]
+        value = x[:, c:c + 3] + s @ _spatial_frame(system, b, x, rate)
+    return value[:, "xyz".index(field[-1])]
+
+
+def _spatial_joint(system, var, qx, vx) -> np.ndarray:
+    """A spatial joint's angle theta [rad] or rate [rad/s]
+    (``kernels.joints.spatial_angles``: atan2(G1 . F2, F1 . F2), its rate
+    (c s' - s c') / (s^2 + c^2)), or its distance u . (p1 - p2) [m] or speed
+    [m/s] (u turning with the line's body), over the rows."""
+    if var.line[0] == "angle":
+        from ..kernels.joints.spatial_angles import reference_vectors
+        _, b1, b2, a1, a2 = var.line
+        v9 = reference_vectors(a1, a2)
+        f1, g1, f2 = v9[:3], v9[3:6], v9[6:]
+        A1, A2 = (_spatial_frame(system, b, qx, False) for b in (b1, b2))
+        F1, G1, F2 = f1 @ A1, g1 @ A1, f2 @ A2
+        s, c = np.sum(G1 * F2, axis=1), np.sum(F1 * F2, axis=1)
+        if var.field == "angle":
+            return np.arctan2(s, c)
+        D1, D2 = (_spatial_frame(system, b, vx, True) for b in (b1, b2))
+        ds = np.sum((g1 @ D1) * F2 + G1 * (f2 @ D2), axis=1)
+        dc = np.sum((f1 @ D1) * F2 + F1 * (f2 @ D2), axis=1)
+        return (c * ds - s * dc) / (s * s + c * c)
+    _, bp, sp, bq, sq, bu, u = var.line
+    sp, sq, u = (np.asarray(x, dtype=float) for x in (sp, sq, u))
+    d = np.stack([_spatial_point(system, bp, sp, qx, vx, f) - _spatial_point(system, bq, sq, qx,
+                                                                           vx, f)
+                  for f in ("x", "y", "z")], axis=1)
+    U = u @ _spatial_frame(system, bu, qx, False)
+    if var.field == "distance":
+        return np.sum(U * d, axis=1)
+    dd = np.stack([_spatial_point(system, bp, sp, qx, vx, f) - _spatial_point(system, bq, sq, qx,
+                                                                            vx, f)
+                   for f in ("vx", "vy", "vz")], axis=1)
+    return np.sum((u @ _spatial_frame(system, bu, vx, True)) * d + U * dd, axis=1)
 
 
 def _beam_point(system, var, qx, vx) -> np.ndarray:

@@ -111,16 +111,14 @@ SENSOR_UNITS = {
 def multiplier_unit(element, row: int) -> str:
     """The SI unit of row ``row``'s Lagrange multiplier of a joint or driver:
     the load that row carries, N for a row that holds a point (revolute,
-    fixed, point_on_line, distance; a driven x, y or joint distance), N*m
-    for one that holds an angle (a fixed joint's third row, a prismatic
+    fixed, point_on_line, distance; a driven x, y (z) or joint distance),
+    N*m for one that holds an angle (a fixed joint's third row, a prismatic
     joint's second; a driven phi or joint angle)."""
     if isinstance(element, Coupler):
         first = element.variables[0] if element.variables else None
         return "N" if first is not None and first.line is not None else "N*m"
     if isinstance(element, Driver):
-        point = ((element.kind == "coordinate" and element.coord < 2)
-                 or element.kind == "joint_distance")
-        return "N" if point else "N*m"
+        return "N" if element.load == "force" else "N*m"
     if element.kind == "frame":         # a spatial body's a_k . a_l = delta_kl: a couple
         return "N*m"
     if getattr(element, "space", 2) == 3:

@@ -149,3 +149,61 @@ def test_a_wrong_spatial_driver_is_an_error_at_its_line(line, code):
     at = next(i for i, s in enumerate(lines, 1) if s == line)
     found = [d for d in err.value.diagnostics if d.code == code]
     assert found and found[0].span.line == at, err.value
+
+
+OUTPUTS = """
+output theta   = R.angle
+output theta_t = R.rate
+output s       = S.distance
+output s_t     = S.speed
+output turn    = L.angle
+output tip_z   = arm.T.z
+output tip_vx  = arm.T.vx
+output spin    = lift.wz
+output load    = reaction.A.tz
+"""
+
+
+def test_output_lines_read_the_spatial_joints_points_and_bodies():
+    """``output`` lines of a spatial model (hht-si2: velocities on their
+    constraints): a revolute's angle is its driver's f(t) within half a turn
+    and its rate f'(t); a prismatic's distance and speed are s(t), s'(t);
+    the lift's joint angle is -1.5 t and its body-axis wz is +1.5 rad/s (the
+    ground turns by -1.5 t relative to the lift); a point is r + A s; a
+    reaction's couple is its column."""
+    text = DRIVERS.read_text().replace("point O (-0.3, 0, 0) }",
+                                       "point O (-0.3, 0, 0); point T (0.3, 0.1, -0.2) }")
+    text = text.replace("simulate {", OUTPUTS + "simulate {")
+    sol = mbdsl.simulate(mbdsl.load_text(text), method="hht-si2", h=1e-3, t_end=1.0)
+    t = sol.column("t")
+    f = 2 * np.pi * t + 0.3 * np.sin(5 * t)
+    np.testing.assert_allclose(sol.column("output.theta"), np.angle(np.exp(1j * f)), atol=1e-9)
+    np.testing.assert_allclose(sol.column("output.theta_t"), 2 * np.pi + 1.5 * np.cos(5 * t),
+                               atol=1e-8)
+    np.testing.assert_allclose(sol.column("output.s"), 0.1 * np.sin(3 * t), atol=1e-12)
+    np.testing.assert_allclose(sol.column("output.s_t"), 0.3 * np.cos(3 * t), atol=1e-9)
+    np.testing.assert_allclose(sol.column("output.turn"), np.angle(np.exp(-1.5j * t)), atol=1e-9)
+    np.testing.assert_allclose(sol.column("output.spin"), 1.5, atol=1e-8)
+    A = _frames(sol, "arm")
+    s = np.array([0.3, 0.1, -0.2])
+    np.testing.assert_allclose(sol.column("output.tip_z"),
+                               sol.column("arm.z") + (A @ s)[:, 2], atol=1e-14)
+    A_t = np.stack([sol.column(f"arm.A{i}{j}_t") for j in (1, 2, 3) for i in (1, 2, 3)],
+                   axis=1).reshape(-1, 3, 3).transpose(0, 2, 1)
+    np.testing.assert_allclose(sol.column("output.tip_vx"),
+                               sol.column("arm.vx") + (A_t @ s)[:, 0], atol=1e-14)
+    np.testing.assert_array_equal(sol.column("output.load"), sol.column("reaction.A.tz"))
+    assert sol.column_units()["output.theta_t"] == "rad/s"
+    assert sol.column_units()["output.tip_vx"] == "m/s"
+    units = sol.column_units()
+    assert (units["lambda.up.0"], units["lambda.push.0"], units["lambda.motor.0"]) == (
+        "N", "N", "N*m")
+
+
+@pytest.mark.parametrize("line", ["output w = R.distance", "output w = arm.O.w",
+                                  "output w = reaction.R.torque"])
+def test_a_wrong_spatial_output_is_an_error(line):
+    text = DRIVERS.read_text().replace("simulate {", line + "\nsimulate {")
+    with pytest.raises(MbdModelError) as err:
+        mbdsl.load_text(text)
+    assert err.value.diagnostics[0].code in ("E201", "E304"), err.value

@@ -9,12 +9,14 @@ from __future__ import annotations
 
 from functools import partial
 
+from ...model.spatial import SPATIAL_ACCELERATIONS, SPATIAL_COORDINATES, SPATIAL_VELOCITIES
 from ...model.elements import (ACCELERATIONS, COORDINATES, VELOCITIES, FlexibleBeam, Friction,
                                Output, OutputVariable, RotationalSpringDamper, SpringDamper)
 from .. import units
 from ..expressions import Dotted, ExprError, Name, substitute
 from .context import BrokenReference, did_you_mean, point_ref
 from .loops import instantiate
+from .spatial import ANGLE_JOINTS, DISTANCE_JOINTS
 from .tables import SLIDING_STATE
 
 
@@ -80,8 +82,9 @@ def _dotted_variable(c, ref: Dotted, fail) -> OutputVariable:
         # declared, but left out after an error reported at its declaration
         raise BrokenReference(ref.text, "E201", ref.span)
     if head == "reaction":
-        if mid not in c.joints or attr not in ("fx", "fy", "torque"):
-            raise fail("a reaction is reaction.<joint>.fx|fy|torque",
+        fields = ("fx", "fy", "fz", "tx", "ty", "tz") if c.space == 3 else ("fx", "fy", "torque")
+        if mid not in c.joints or attr not in fields:
+            raise fail("a reaction is reaction.<joint>." + "|".join(fields),
                        "E201" if mid not in c.joints else "E304",
                        did_you_mean(mid, c.joints))
         return OutputVariable(ref.text, "column", column=ref.text)
@@ -109,9 +112,10 @@ def _dotted_variable(c, ref: Dotted, fail) -> OutputVariable:
         c.output_units[ref.text] = "m/s" if attr[0] == "v" else "m"
         return OutputVariable(ref.text, "beam_point", field=attr,
                               bodies=(body.index,), arc=float(body.points[mid]))
-    if attr not in ("x", "y", "vx", "vy"):
-        raise fail("a point's field is x, y, vx or vy",
-                   hint=did_you_mean(attr, ("x", "y", "vx", "vy")))
+    fields = ("x", "y", "z", "vx", "vy", "vz") if c.space == 3 else ("x", "y", "vx", "vy")
+    if attr not in fields:
+        raise fail(f"a point's field is {', '.join(fields[:-1])} or {fields[-1]}",
+                   hint=did_you_mean(attr, fields))
     return OutputVariable(ref.text, "point", point=point_ref(body, mid, ref.text),
                           field=attr)
 
@@ -121,6 +125,9 @@ def _body_variable(c, ref: Dotted, fail) -> OutputVariable:
     elastic coordinates and their rates)."""
     obj, attr = ref.obj, ref.attr
     fields = COORDINATES + VELOCITIES + ACCELERATIONS
+    if c.space == 3:                    # its coordinates, their rates, the derived columns
+        fields = (SPATIAL_COORDINATES + SPATIAL_VELOCITIES + SPATIAL_ACCELERATIONS
+                  + ("e0", "e1", "e2", "e3", "yaw", "pitch", "roll", "wx", "wy", "wz"))
     if getattr(c.bodies[obj], "particle", False):
         fields = ("x", "y", "vx", "vy", "ax", "ay")
     if isinstance(c.bodies[obj], FlexibleBeam):     # and its elastic coordinates
@@ -141,6 +148,8 @@ def _joint_variable(c, ref: Dotted, fail) -> OutputVariable:
     """A revolute's angle or rate, a sliding joint's distance or speed."""
     obj, attr = ref.obj, ref.attr
     j = c.joints[obj]
+    if c.space == 3:
+        return _spatial_joint_variable(ref, j, attr, fail)
     if j.kind in ("prismatic", "point_on_line"):
         if attr not in SLIDING_STATE:
             raise fail("an output reads a sliding joint's distance or speed",
@@ -158,6 +167,27 @@ def _joint_variable(c, ref: Dotted, fail) -> OutputVariable:
     if any(c.is_particle(b) for b in j.bodies):
         raise fail("the joint holds a particle, which does not turn")
     return OutputVariable(ref.text, "joint", field=attr, bodies=j.bodies)
+
+
+def _spatial_joint_variable(ref, j, attr, fail) -> OutputVariable:
+    """A spatial revolute's or cylindrical's angle or rate (the angle of its
+    drivers and rotational spring-dampers: ``kernels.joints.spatial_angles``),
+    a prismatic's, cylindrical's or point_on_line's distance u . (p1 - p2) or
+    speed: kind "spatial_joint", its geometry in ``line`` (``io.derived``)."""
+    if attr in ("angle", "rate") and j.kind in ANGLE_JOINTS:
+        (b1, a1), (b2, a2) = j.axes
+        line = ("angle", b1, b2, tuple(a1), tuple(a2))
+    elif attr in SLIDING_STATE and j.kind in DISTANCE_JOINTS:
+        b2, u = j.axes[-1]
+        line = ("distance", j.first.body, tuple(j.first.local), j.second.body,
+                tuple(j.second.local), b2, tuple(u))
+    else:
+        fields = ((("angle", "rate") if j.kind in ANGLE_JOINTS else ())
+                  + (tuple(SLIDING_STATE) if j.kind in DISTANCE_JOINTS else ()))
+        raise fail(f"a spatial {j.kind} joint's outputs are "
+                   + (", ".join(fields) if fields else "its reactions only"),
+                   hint=did_you_mean(attr, fields) or f"reaction.{j.name}.fx, ...")
+    return OutputVariable(ref.text, "spatial_joint", field=attr, bodies=j.bodies, line=line)
 
 
 def _sensor_elements(c) -> dict:

@@ -38,7 +38,7 @@ SPATIAL_JOINT_KINDS = {
 }
 
 #: the declarations a spatial model does not have yet: items key -> what they are
-PLANAR_ONLY = {"states": "first-order states", "outputs": "output lines"}
+PLANAR_ONLY = {"states": "first-order states"}
 #: the force kinds of a spatial model (the planar check reads their options)
 SPATIAL_FORCE_KINDS = ("spring_damper", "rotational_spring_damper", "force", "torque")
 #: the spatial joints with an angle (drivers, rotational spring-dampers) and with a
@@ -82,7 +82,7 @@ def check_space(c):
                     hint="spatial forces: " + ", ".join(SPATIAL_FORCE_KINDS))
     if "forces" in c.items:
         c.items["forces"] = kept
-    c.spec = dataclasses.replace(c.spec, states=(), outputs=())
+    c.spec = dataclasses.replace(c.spec, states=())
 
 
 def check_spatial_body(c, b):
