@@ -153,6 +153,30 @@ def _rho(s, c):
     return rho if rho > 0.0 else 1.0
 
 
+@_inline
+def rate(b1, b2, g, vx):
+    """theta' = theta_q v [rad/s] from theta_q over the 18 director entries g
+    (18,) of bodies whose first columns are b1, b2."""
+    acc = 0.0
+    for k in range(18):
+        col = column(b1, b2, k)
+        if col >= 0:
+            acc += g[k] * vx[col]
+    return acc
+
+
+@_inline
+def hessian_times(b1, b2, H, vx, out):
+    """v^T theta_qq (the rate's gradient in q) into out (18,), from theta_qq
+    H (18, 18) of bodies whose first columns are b1, b2."""
+    for b in range(18):
+        out[b] = 0.0
+        for a in range(18):
+            ca = column(b1, b2, a)
+            if ca >= 0:
+                out[b] += vx[ca] * H[a, b]
+
+
 @_jit
 def gradient(s, c, sq, cq, grad):
     """theta_q into grad (18,) from s, c and their gradients."""
@@ -233,13 +257,7 @@ def phiq_times(I, Fl, qx, vx, out):
     for i in range(_rows(I, AROW)):
         th, s, c = angle(I, Fl, ACOL, AV, i, qx, sq, cq)
         gradient(s, c, sq, cq, g)
-        b1, b2 = _i(I, ACOL, i, 0), _i(I, ACOL, i, 1)
-        acc = 0.0
-        for k in range(18):
-            col = column(b1, b2, k)
-            if col >= 0:
-                acc += g[k] * vx[col]
-        out[_i(I, AROW, i, 0)] = acc
+        out[_i(I, AROW, i, 0)] = rate(_i(I, ACOL, i, 0), _i(I, ACOL, i, 1), g, vx)
 
 
 @_inline
@@ -288,20 +306,15 @@ def emit_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef):
     """coef (Phi_q v)_q = coef v^T theta_qq at (r0, c0); returns p."""
     if _rows(I, AROW) == 0:
         return p
-    sq, cq, H = np.empty(18), np.empty(18), np.empty((18, 18))
+    sq, cq, H, hv = np.empty(18), np.empty(18), np.empty((18, 18)), np.empty(18)
     for i in range(_rows(I, AROW)):
         th, s, c = angle(I, Fl, ACOL, AV, i, qx, sq, cq)
         hessian(I, Fl, AV, i, s, c, sq, cq, H)
         b1, b2 = _i(I, ACOL, i, 0), _i(I, ACOL, i, 1)
+        hessian_times(b1, b2, H, vx, hv)
         row = _i(I, AROW, i, 0)
         for b in range(18):
             cb = column(b1, b2, b)
-            if cb < 0:
-                continue
-            acc = 0.0
-            for a in range(18):
-                ca = column(b1, b2, a)
-                if ca >= 0:
-                    acc += vx[ca] * H[a, b]
-            p = _put(R, C, V, p, r0 + row, c0 + cb, coef * acc)
+            if cb >= 0:
+                p = _put(R, C, V, p, r0 + row, c0 + cb, coef * hv[b])
     return p

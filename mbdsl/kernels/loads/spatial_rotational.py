@@ -25,7 +25,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..joints.spatial_angles import angle, column, gradient, hessian, reference_vectors, wrap
+from ..joints.spatial_angles import (angle, column, gradient, hessian, hessian_times, rate,
+                                     reference_vectors, wrap)
+from .spatial_springs import body_columns
 from ..schema import HCOL, HPAR, HV, _f, _i, _inline, _jit, _put, _rows
 
 #: Its fields in ``schema.MODEL_SCHEMA`` (the first gives the instances).
@@ -64,14 +66,7 @@ def pack(items, tables) -> dict:
 def pattern(items, tables) -> tuple:
     """(columns (k, 24) in q_ext whose Q_q, Q_v entries a spring may fill, both
     bodies' twelve, the ground's none (n + 2); whether any is damped)."""
-    n = tables.n
-    rows = []
-    for s in items:
-        cols = []
-        for body, _ in s.joint.axes:
-            base = tables.cmap.spatial.get(body)
-            cols += list(range(base, base + 12)) if base is not None else [n + 2] * 12
-        rows.append(cols)
+    rows = [body_columns([body for body, _ in s.joint.axes], tables) for s in items]
     return np.array(rows, np.int64).reshape(-1, 24), any(s.c != 0.0 for s in items)
 
 
@@ -80,15 +75,10 @@ def _state(I, Fl, qx, vx, i, sq, cq, g):
     """(theta, theta', tau, s, c) of spring i, theta_q into g (18,)."""
     th, s, c = angle(I, Fl, HCOL, HV, i, qx, sq, cq)
     gradient(s, c, sq, cq, g)
-    b1, b2 = _i(I, HCOL, i, 0), _i(I, HCOL, i, 1)
-    rate = 0.0
-    for k in range(18):
-        col = column(b1, b2, k)
-        if col >= 0:
-            rate += g[k] * vx[col]
+    thd = rate(_i(I, HCOL, i, 0), _i(I, HCOL, i, 1), g, vx)
     tau = (_f(I, Fl, HPAR, i, 0) * wrap(th - _f(I, Fl, HPAR, i, 2))
-           + _f(I, Fl, HPAR, i, 1) * rate)
-    return th, rate, tau, s, c
+           + _f(I, Fl, HPAR, i, 1) * thd)
+    return th, thd, tau, s, c
 
 
 @_inline
@@ -98,7 +88,7 @@ def forces_add(I, Fl, qx, vx, out):
         return
     sq, cq, g = np.empty(18), np.empty(18), np.empty(18)
     for i in range(_rows(I, HCOL)):
-        th, rate, tau, s, c = _state(I, Fl, qx, vx, i, sq, cq, g)
+        th, thd, tau, s, c = _state(I, Fl, qx, vx, i, sq, cq, g)
         b1, b2 = _i(I, HCOL, i, 0), _i(I, HCOL, i, 1)
         for k in range(18):
             col = column(b1, b2, k)
@@ -115,16 +105,11 @@ def emit_force(I, Fl, n, qx, vx, R, C, V, p, r0, c0, cq, cv):
     sq, cqq, g = np.empty(18), np.empty(18), np.empty(18)
     H, hv = np.empty((18, 18)), np.empty(18)
     for i in range(_rows(I, HCOL)):
-        th, rate, tau, s, c = _state(I, Fl, qx, vx, i, sq, cqq, g)
+        th, thd, tau, s, c = _state(I, Fl, qx, vx, i, sq, cqq, g)
         hessian(I, Fl, HV, i, s, c, sq, cqq, H)
         k, damping = _f(I, Fl, HPAR, i, 0), _f(I, Fl, HPAR, i, 1)
         b1, b2 = _i(I, HCOL, i, 0), _i(I, HCOL, i, 1)
-        for b in range(18):                 # v^T theta_qq: the rate's gradient in q
-            hv[b] = 0.0
-            for a in range(18):
-                ca = column(b1, b2, a)
-                if ca >= 0:
-                    hv[b] += vx[ca] * H[a, b]
+        hessian_times(b1, b2, H, vx, hv)              # the rate's gradient in q
         for a in range(18):
             ca = column(b1, b2, a)
             if ca < 0:
@@ -160,6 +145,6 @@ def power_add(I, Fl, qx, vx, p):
     for i in range(_rows(I, HCOL)):
         damping = _f(I, Fl, HPAR, i, 1)
         if damping != 0.0:
-            th, rate, tau, s, c = _state(I, Fl, qx, vx, i, sq, cq, g)
-            p += damping * rate * rate
+            th, thd, tau, s, c = _state(I, Fl, qx, vx, i, sq, cq, g)
+            p += damping * thd * thd
     return p

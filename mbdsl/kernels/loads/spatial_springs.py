@@ -74,15 +74,18 @@ def pack(items, tables) -> dict:
 def pattern(items, tables) -> tuple:
     """(columns (k, 24) in q_ext whose Q_q, Q_v entries a spring may fill, both
     bodies' twelve, the ground's none (n + 2); whether any is damped)."""
-    n = tables.n
-    rows = []
-    for s in items:
-        cols = []
-        for ref in (s.second, s.first):
-            base = tables.cmap.spatial.get(ref.body)
-            cols += list(range(base, base + 12)) if base is not None else [n + 2] * 12
-        rows.append(cols)
+    rows = [body_columns([s.second.body, s.first.body], tables) for s in items]
     return np.array(rows, np.int64).reshape(-1, 24), any(s.c != 0.0 for s in items)
+
+
+def body_columns(bodies, tables) -> list:
+    """The columns in q_ext of spatial bodies, twelve each in their order (the
+    ground's: n + 2, never written): a force block's pattern."""
+    cols = []
+    for body in bodies:
+        base = tables.cmap.spatial.get(body)
+        cols += list(range(base, base + 12)) if base is not None else [tables.n + 2] * 12
+    return cols
 
 
 @_inline
