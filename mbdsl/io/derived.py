@@ -294,7 +294,9 @@ def output_columns(system, t, q, v, a, derived, lam=None, contact_log=None,
                     vals[r] = s if var.field == "distance" else grad @ vx[r, cols]
                 env[var.name] = vals
             elif var.kind == "spatial_joint":
-                env[var.name] = _spatial_joint(system, var, qx, vx)
+                env[var.name] = _spatial_joint(system, var.line, var.field, qx, vx)
+            elif var.kind in ("spatial_spring", "spatial_rotational"):
+                env[var.name] = _spatial_sensor(system, var, qx, vx)
             elif var.kind == "joint":
                 src = qx if var.field == "angle" else vx
                 val = np.zeros(N)
@@ -345,37 +347,67 @@ def _spatial_point(system, b, s, qx, vx, field) -> np.ndarray:
     return value[:, "xyz".index(field[-1])]
 
 
-def _spatial_joint(system, var, qx, vx) -> np.ndarray:
+def _spatial_joint(system, line, field, qx, vx) -> np.ndarray:
     """A spatial joint's angle theta [rad] or rate [rad/s]
     (``kernels.joints.spatial_angles``: atan2(G1 . F2, F1 . F2), its rate
     (c s' - s c') / (s^2 + c^2)), or its distance u . (p1 - p2) [m] or speed
-    [m/s] (u turning with the line's body), over the rows."""
-    if var.line[0] == "angle":
+    [m/s] (u turning with the line's body), over the rows: ``field`` of the
+    joint geometry ``line`` (``check.outputs._spatial_joint_variable``)."""
+    if line[0] == "angle":
         from ..kernels.joints.spatial_angles import reference_vectors
-        _, b1, b2, a1, a2 = var.line
+        _, b1, b2, a1, a2 = line
         v9 = reference_vectors(a1, a2)
         f1, g1, f2 = v9[:3], v9[3:6], v9[6:]
         A1, A2 = (_spatial_frame(system, b, qx, False) for b in (b1, b2))
         F1, G1, F2 = f1 @ A1, g1 @ A1, f2 @ A2
         s, c = np.sum(G1 * F2, axis=1), np.sum(F1 * F2, axis=1)
-        if var.field == "angle":
+        if field == "angle":
             return np.arctan2(s, c)
         D1, D2 = (_spatial_frame(system, b, vx, True) for b in (b1, b2))
         ds = np.sum((g1 @ D1) * F2 + G1 * (f2 @ D2), axis=1)
         dc = np.sum((f1 @ D1) * F2 + F1 * (f2 @ D2), axis=1)
         return (c * ds - s * dc) / (s * s + c * c)
-    _, bp, sp, bq, sq, bu, u = var.line
+    _, bp, sp, bq, sq, bu, u = line
     sp, sq, u = (np.asarray(x, dtype=float) for x in (sp, sq, u))
     d = np.stack([_spatial_point(system, bp, sp, qx, vx, f) - _spatial_point(system, bq, sq, qx,
                                                                            vx, f)
                   for f in ("x", "y", "z")], axis=1)
     U = u @ _spatial_frame(system, bu, qx, False)
-    if var.field == "distance":
+    if field == "distance":
         return np.sum(U * d, axis=1)
     dd = np.stack([_spatial_point(system, bp, sp, qx, vx, f) - _spatial_point(system, bq, sq, qx,
                                                                             vx, f)
                    for f in ("vx", "vy", "vz")], axis=1)
     return np.sum((u @ _spatial_frame(system, bu, vx, True)) * d + U * dd, axis=1)
+
+
+def _spatial_sensor(system, var, qx, vx) -> np.ndarray:
+    """What a spatial spring-damper does over the rows (``SENSOR_UNITS``):
+    length l [m], rate [m/s], tension k (l - l0) + c dl/dt [N], energy
+    k (l - l0)^2 / 2 [J], power c (dl/dt)^2 [W] (``kernels.loads.spatial_springs``);
+    of a rotational one its joint's angle [rad] and rate [rad/s], torque
+    k wrap(theta - theta_0) + c dtheta/dt [N m], energy, power
+    (``kernels.loads.spatial_rotational``)."""
+    kind = "tsda" if var.kind == "spatial_spring" else "rsda"
+    e = [f for f in system.model.forces if f.kind == kind][var.index]
+    if kind == "tsda":
+        d, dd = (np.stack([_spatial_point(system, e.second.body, e.second.local, qx, vx, f)
+                           - _spatial_point(system, e.first.body, e.first.local, qx, vx, f)
+                           for f in fields], axis=1)
+                 for fields in (("x", "y", "z"), ("vx", "vy", "vz")))
+        x = np.linalg.norm(d, axis=1)
+        rate = np.sum(d * dd, axis=1) / x
+        stretch = x - e.length
+    else:
+        (b1, a1), (b2, a2) = e.joint.axes
+        line = ("angle", b1, b2, tuple(a1), tuple(a2))
+        x = _spatial_joint(system, line, "angle", qx, vx)
+        rate = _spatial_joint(system, line, "rate", qx, vx)
+        stretch = np.mod(x - e.angle + np.pi, 2 * np.pi) - np.pi        # within [-pi, pi)
+    value = {"length": x, "angle": x, "rate": rate, "tension": e.k * stretch + e.c * rate,
+             "torque": e.k * stretch + e.c * rate, "energy": 0.5 * e.k * stretch ** 2,
+             "power": e.c * rate ** 2}
+    return value[var.field]
 
 
 def _beam_point(system, var, qx, vx) -> np.ndarray:

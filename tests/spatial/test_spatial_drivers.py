@@ -207,3 +207,41 @@ def test_a_wrong_spatial_output_is_an_error(line):
     with pytest.raises(MbdModelError) as err:
         mbdsl.load_text(text)
     assert err.value.diagnostics[0].code in ("E201", "E304"), err.value
+
+
+def test_the_spring_dampers_sensors_in_a_spatial_model():
+    """``spring.length|rate|tension|energy|power`` of a spatial spring-damper
+    (TSDA) and ``angle|rate|torque|energy|power`` of a rotational one: the
+    TSDA's energy is the potential energy less gravity's (m g z), its
+    length |hook - top| from the body's columns, its rate dl/dt by central
+    differences, its power's integral the energy dissipated; the RSDA's
+    angle is its joint's, its torque k (theta - 0.2) + c theta' and its
+    energy k (theta - 0.2)^2 / 2."""
+    text = (MODELS / "spatial_spring_pendulum.mbd").read_text().replace(
+        "simulate {", "output l = spring.length\noutput ld = spring.rate\n"
+        "output T = spring.tension\noutput e = spring.energy\noutput p = spring.power\n"
+        "simulate {")
+    sol = mbdsl.simulate(mbdsl.load_text(text), method="hht-si2", h=1e-3, t_end=1.0)
+    t = sol.column("t")
+    gravity = 2 * 9.81 * sol.column("box.z")
+    np.testing.assert_allclose(sol.column("output.e"), sol.column("energy.potential") - gravity,
+                               atol=1e-9)
+    top = np.column_stack([sol.column(f"box.{c}") for c in "xyz"]) + _frames(sol, "box") @ [
+        0.02, 0.01, 0.1]
+    l = np.linalg.norm(top - [0, 0, 1], axis=1)
+    np.testing.assert_allclose(sol.column("output.l"), l, atol=1e-13)
+    ld = sol.column("output.ld")
+    np.testing.assert_allclose(ld[1:-1], (l[2:] - l[:-2]) / (t[2:] - t[:-2]),
+                               atol=1e-3 * np.max(np.abs(ld)))   # O((omega h)^2)
+    np.testing.assert_allclose(sol.column("output.T"), 400 * (l - 0.5) + 0.5 * ld, atol=1e-9)
+    p = sol.column("output.p")
+    dissipated = np.concatenate([[0.0], np.cumsum(0.5 * np.diff(t) * (p[1:] + p[:-1]))])
+    np.testing.assert_allclose(dissipated, sol.column("energy.dissipated"), atol=1e-10)
+    text = DRIVERS.read_text().replace(
+        "simulate {", "output a = spring.angle\noutput ja = A.angle\noutput r = spring.rate\n"
+        "output tq = spring.torque\noutput e = spring.energy\nsimulate {")
+    sol = mbdsl.simulate(mbdsl.load_text(text), method="hht-si2", h=1e-3, t_end=1.0)
+    a, r = sol.column("output.a"), sol.column("output.r")
+    np.testing.assert_array_equal(a, sol.column("output.ja"))
+    np.testing.assert_allclose(sol.column("output.tq"), 20 * (a - 0.2) + 0.3 * r, atol=1e-12)
+    np.testing.assert_allclose(sol.column("output.e"), 10 * (a - 0.2) ** 2, atol=1e-12)

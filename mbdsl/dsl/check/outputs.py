@@ -9,7 +9,8 @@ from __future__ import annotations
 
 from functools import partial
 
-from ...model.spatial import SPATIAL_ACCELERATIONS, SPATIAL_COORDINATES, SPATIAL_VELOCITIES
+from ...model.spatial import (SPATIAL_ACCELERATIONS, SPATIAL_COORDINATES, SPATIAL_VELOCITIES,
+                              SpatialRotationalSpring, SpatialSpring)
 from ...model.elements import (ACCELERATIONS, COORDINATES, VELOCITIES, FlexibleBeam, Friction,
                                Output, OutputVariable, RotationalSpringDamper, SpringDamper)
 from .. import units
@@ -195,7 +196,8 @@ def _sensor_elements(c) -> dict:
     sensors read)."""
     from ...model.contact import Contact
     return {f.name: f for f in c.forces
-            if isinstance(f, (Contact, Friction, SpringDamper, RotationalSpringDamper))}
+            if isinstance(f, (Contact, Friction, SpringDamper, RotationalSpringDamper,
+                              SpatialSpring, SpatialRotationalSpring))}
 
 
 def _multiplier_variable(c, ref, mid, attr, fail) -> OutputVariable:
@@ -220,10 +222,11 @@ def _sensor_variable(c, ref, element, label, attr, fail) -> OutputVariable:
     does at the stored rows."""
     from ...model.contact import Contact
     from ...model.elements import SENSOR_UNITS
-    kind = {Friction: "friction", SpringDamper: "spring",
-            RotationalSpringDamper: "rotational"}.get(type(element))
+    kind = {Friction: "friction", SpringDamper: "spring", RotationalSpringDamper: "rotational",
+            SpatialSpring: "spatial_spring",
+            SpatialRotationalSpring: "spatial_rotational"}.get(type(element))
     if kind is not None:
-        fields = SENSOR_UNITS[kind]
+        fields = SENSOR_UNITS[kind.replace("spatial_", "")]
         if label is not None or attr not in fields:
             raise fail(f"a {kind} element's fields are {', '.join(fields)}",
                        hint=did_you_mean(str(attr), fields))
