@@ -63,9 +63,9 @@ def test_the_driven_bodies_move_as_their_drivers_say(driven):
 def test_the_drivers_loads_are_what_the_motion_needs(driven):
     """driver.motor.torque = J_nn f'', driver.push.force = m (s'' - g . u),
     driver.up.force = m (1 + 9.81), driver.turn.torque = 0 (a steady turn
-    about a principal axis): within 1 % of the largest value after 0.1 s
-    (the index-3 methods' multipliers start with a transient), for every
-    method."""
+    about a principal axis): within 0.1 % of the largest value after 0.1 s
+    (the index-3 methods' multipliers start with a transient; measured 1e-9
+    to 4.4e-4), NEWMARK (first order) within 1 % (measured 6.3e-3)."""
     method, sol = driven
     t = sol.column("t")
     late = t > 0.1
@@ -77,7 +77,8 @@ def test_the_drivers_loads_are_what_the_motion_needs(driven):
                          ("driver.up.force", np.full_like(t, 0.5 * (1 + 9.81)))):
         got = sol.column(column)
         scale = np.max(np.abs(want))
-        assert np.max(np.abs(got[late] - want[late])) < 0.01 * scale, (method, column)
+        tol = 1e-2 if method == "newmark" else 1e-3
+        assert np.max(np.abs(got[late] - want[late])) < tol * scale, (method, column)
     assert np.max(np.abs(sol.column("driver.turn.torque")[late])) < 1e-3
 
 
