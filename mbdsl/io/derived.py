@@ -307,7 +307,9 @@ def output_columns(system, t, q, v, a, derived, lam=None, contact_log=None,
             else:                               # a point of a rigid body (or the ground)
                 b, s = var.point.body, np.asarray(var.point.local, dtype=float)
                 if system.cmap.spatial:
-                    env[var.name] = _spatial_point(system, b, s, qx, vx, var.field)
+                    rate = var.field.startswith("v")
+                    env[var.name] = _spatial_point(system, b, s, vx if rate else qx,
+                                                   rate)[:, "xyz".index(var.field[-1])]
                     continue
                 if b < 0:
                     pos, vel = np.tile(s, (N, 1)), np.zeros((N, 2))
@@ -334,17 +336,14 @@ def _spatial_frame(system, b, x, rate) -> np.ndarray:
     return x[:, c + 3:c + 12].reshape(N, 3, 3)
 
 
-def _spatial_point(system, b, s, qx, vx, field) -> np.ndarray:
-    """x, y, z [m] or vx, vy, vz [m/s] of the point s (3,) of a spatial body
-    (or the ground) over the rows: r + sum_k s_k a_k and its rate."""
-    rate = field.startswith("v")
-    x = vx if rate else qx
+def _spatial_point(system, b, s, x, rate) -> np.ndarray:
+    """The point s (3,) of a spatial body (or the ground) over the rows x
+    (N, nx), (N, 3) world axes: r + sum_k s_k a_k [m], or with ``rate`` (x
+    the velocities) its velocity [m/s]."""
     if b < 0:
-        value = np.zeros((len(x), 3)) if rate else np.broadcast_to(s, (len(x), 3))
-    else:
-        c = system.cmap.spatial[b]
-        value = x[:, c:c + 3] + s @ _spatial_frame(system, b, x, rate)
-    return value[:, "xyz".index(field[-1])]
+        return np.zeros((len(x), 3)) if rate else np.broadcast_to(s, (len(x), 3))
+    c = system.cmap.spatial[b]
+    return x[:, c:c + 3] + s @ _spatial_frame(system, b, x, rate)
 
 
 def _spatial_joint(system, line, field, qx, vx) -> np.ndarray:
@@ -369,15 +368,11 @@ def _spatial_joint(system, line, field, qx, vx) -> np.ndarray:
         return (c * ds - s * dc) / (s * s + c * c)
     _, bp, sp, bq, sq, bu, u = line
     sp, sq, u = (np.asarray(x, dtype=float) for x in (sp, sq, u))
-    d = np.stack([_spatial_point(system, bp, sp, qx, vx, f) - _spatial_point(system, bq, sq, qx,
-                                                                           vx, f)
-                  for f in ("x", "y", "z")], axis=1)
+    d = _spatial_point(system, bp, sp, qx, False) - _spatial_point(system, bq, sq, qx, False)
     U = u @ _spatial_frame(system, bu, qx, False)
     if field == "distance":
         return np.sum(U * d, axis=1)
-    dd = np.stack([_spatial_point(system, bp, sp, qx, vx, f) - _spatial_point(system, bq, sq, qx,
-                                                                            vx, f)
-                   for f in ("vx", "vy", "vz")], axis=1)
+    dd = _spatial_point(system, bp, sp, vx, True) - _spatial_point(system, bq, sq, vx, True)
     return np.sum((u @ _spatial_frame(system, bu, vx, True)) * d + U * dd, axis=1)
 
 
@@ -391,10 +386,10 @@ def _spatial_sensor(system, var, qx, vx) -> np.ndarray:
     kind = "tsda" if var.kind == "spatial_spring" else "rsda"
     e = [f for f in system.model.forces if f.kind == kind][var.index]
     if kind == "tsda":
-        d, dd = (np.stack([_spatial_point(system, e.second.body, e.second.local, qx, vx, f)
-                           - _spatial_point(system, e.first.body, e.first.local, qx, vx, f)
-                           for f in fields], axis=1)
-                 for fields in (("x", "y", "z"), ("vx", "vy", "vz")))
+        d, dd = (_spatial_point(system, e.second.body, np.asarray(e.second.local, float), x,
+                                rate)
+                 - _spatial_point(system, e.first.body, np.asarray(e.first.local, float), x, rate)
+                 for x, rate in ((qx, False), (vx, True)))
         x = np.linalg.norm(d, axis=1)
         rate = np.sum(d * dd, axis=1) / x
         stretch = x - e.length
