@@ -16,6 +16,11 @@ REFERENCE = Path(__file__).resolve().parent / "reference"
 # processes they start, which inherit this) compile in the process instead,
 # so that which engine runs never depends on how far a background build got.
 os.environ["MBDSL_BACKGROUND_COMPILE"] = "0"
+# The mbdsl processes the tests start (``python -c``, ``python -m mbdsl`` in the
+# checkout) import the copy the tests import: pytest's importlib mode (pyproject)
+# imports mbdsl as installed, and without this a child started in the checkout would
+# put it first on sys.path, import its copy and compile that copy's kernels again.
+os.environ["PYTHONSAFEPATH"] = "1"
 
 
 @pytest.fixture(scope="session")

@@ -15,6 +15,7 @@ import shutil
 import subprocess
 import sys
 import zipfile
+from pathlib import Path
 
 import pytest
 
@@ -60,7 +61,9 @@ def test_the_kernel_cache_moves_with_the_package(tmp_path):
         pytest.skip("NUMBA_CACHE_DIR is set: numba's cache is not in the package's folders")
     from mbdsl.integrators import kernel_cache
     kernel_cache.ensure_loaded("dense")           # built in-tree here when it is not yet
-    shutil.copytree(ROOT / "mbdsl", tmp_path / "mbdsl", copy_function=shutil.copyfile,
+    import mbdsl                                  # the copy these tests import
+    shutil.copytree(Path(mbdsl.__file__).parent, tmp_path / "mbdsl",
+                    copy_function=shutil.copyfile,
                     ignore=shutil.ignore_patterns("*.pyc", "mbdsl-kernels.lock"))
     got = _probe(tmp_path)
     assert got["ready"] and got["status"] == "completed", got

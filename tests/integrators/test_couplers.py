@@ -14,6 +14,7 @@ in ``test_derivatives.py``.
 """
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -114,7 +115,7 @@ def test_a_rack_on_a_turning_arm_holds_its_relation_as_the_line_turns():
     """A rack whose line turns with an arm (the distance's Hessian in the
     Newton matrix, its (Phi_q v)_q in gamma): the relation s - r theta holds
     to round-off at every step, and the run agrees with the numpy engine."""
-    path = mbdsl.__path__[0] + "/../tests/dsl/valid/coupler_elements.mbd"
+    path = Path(__file__).resolve().parents[1] / "dsl" / "valid" / "coupler_elements.mbd"
     model = mbdsl.load(path)
     sols = [mbdsl.simulate(model, method="hht-si2", h=1e-3, t_end=1.0, engine=e)
             for e in ("compiled", "numpy")]
@@ -244,7 +245,6 @@ def test_the_language_docs_example_moves_as_its_text_says():
     """docs/language.md's gear-and-rack model: the three bodies move as one of
     inertia 0.01 + 0.05/9 + 4 (0.05/3)^2 kg m^2 referred to the motor."""
     import re
-    from pathlib import Path
     doc = (Path(__file__).resolve().parents[2] / "docs" / "language.md").read_text()
     (text,) = [b for b in re.findall(r"```\n(.*?)```", doc, re.S)
                if b.startswith("model gear_and_rack")]
