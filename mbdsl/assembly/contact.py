@@ -44,7 +44,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..model.contact import SPEED_FLOOR, gap_columns
+from ..model.contact import GAP_WIDTH, SPEED_FLOOR, gap_columns
 
 __all__ = ["ContactState"]
 
@@ -68,9 +68,10 @@ class ContactState:
     contacts : list of Contact
     owner : ndarray of intp, shape (k,)
         Per gap, its element in ``contacts``.
-    cols : ndarray of intp, shape (k, 6)
-        Per gap, the columns of q_ext it reads: x, y, phi of its first body,
-        then of its second.
+    cols : ndarray of intp, shape (k, GAP_WIDTH)
+        Per gap, the columns of q_ext it reads (``model.contact.gap_columns``):
+        x, y, phi of its first body, then of its second (a spatial gap: their
+        twelve each), the rest the ground's n + 2.
     names : list of str
         Per gap, the element's name and the gap's label (``"stop.upper"``).
     impact_speed : ndarray, shape (k,) [m/s or rad/s]
@@ -89,7 +90,7 @@ class ContactState:
                 self.names.append(c.name + ("." + label if label else ""))
                 cols.append(gap_columns(geometry, data, cmap))
         self.owner = np.array(owner, dtype=np.intp)
-        self.cols = np.array(cols, dtype=np.intp).reshape(-1, 6)
+        self.cols = np.array(cols, dtype=np.intp).reshape(-1, GAP_WIDTH)
         self.impact_speed = np.zeros(len(self.names))
         self.log = []
         self._gaps = None
@@ -101,7 +102,7 @@ class ContactState:
 
     def bind(self, gaps) -> None:
         """Evaluate the gaps through ``gaps``: qx (nx,) -> (g (k,), dg/dq over
-        each gap's columns (k, 6)) (``AssembledSystem.contact_gaps``)."""
+        each gap's columns (k, GAP_WIDTH)) (``AssembledSystem.contact_gaps``)."""
         self._gaps = gaps
 
     # -- the contact state (set by the time loop) ------------------------------------------

@@ -45,7 +45,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..gcpause import paused
-from ..model.contact import Contact
+from ..model.contact import GAP_WIDTH, Contact
 from ..model.elements import FlexibleBeam, Model
 from . import ffr
 from .layout import Layout
@@ -517,12 +517,12 @@ class AssembledSystem:
 
     def contact_gaps(self, qx):
         """The contacts' gaps g, shape (k,) [m or rad], and their gradients
-        over each gap's six columns (``ContactState.cols``), shape (k, 6), at
-        the extended configuration qx (nx,)."""
+        over each gap's columns (``ContactState.cols``), shape (k, GAP_WIDTH),
+        at the extended configuration qx (nx,)."""
         k = len(self.contact_state.names)
-        out = np.empty((1, 7 * k))
+        out = np.empty((1, (1 + GAP_WIDTH) * k))
         self._elements(_L_GAPS, np.ascontiguousarray(qx, dtype=float)[None], 0.0, None, None, out)
-        return out[0, :k], out[0, k:].reshape(k, 6)
+        return out[0, :k], out[0, k:].reshape(k, GAP_WIDTH)
 
     def sensor_values(self, t, q, v, lam, contact_log=()):
         """What the force elements do at rows of a run.

@@ -52,7 +52,7 @@ MODEL_SCHEMA = (
                                                                        # first dof, dofs/element)
     ("cel", "i", 4), ("pel", "i", 4),                                  # elastic terms of joint points:
     ("ecol", "i", 0), ("eshp", "f", 2),                                # spans; column, shape (S_x, S_y)
-    ("kgi", "i", 2), ("kcol", "i", 6),                                 # contact gaps: kind, line row;
+    ("kgi", "i", 2), ("kcol", "i", 24),                                # contact gaps: kind, line row;
     ("kpar", "f", 15), ("kimp", "f", 0),                               # columns; data, law; impact speed
     ("sel", "i", 4), ("fel", "i", 2),                                  # elastic terms of spring and
     ("dsp", "i", 4),                                                   # point-force points, distance
@@ -72,6 +72,7 @@ MODEL_SCHEMA = (
     ("vfn", "i", 3),                                                   # spatial dot rows: f, f', f''
     ("arow", "i", 0), ("acol", "i", 2), ("av", "f", 9), ("afn", "i", 3),  # spatial joint angles
     ("hcol", "i", 2), ("hv", "f", 9), ("hpar", "f", 3),                # spatial rotational springs
+    ("kbody", "i", 2), ("kgeo", "f", 22),                              # spatial gaps: bodies, geometry
 )
 #: The fields no element family owns: the mass diagonal, the constant forces (gravity),
 #: the constraint rows' elements, the rigid bodies' mass diagonal and the columns of
@@ -102,7 +103,7 @@ _0, _YES, _NO = np.int64(0), np.bool_(True), np.bool_(False)
  DROW, DCOL1, DS1, DCOL2, DS2, DLEN, MRIG, BEAM, BCOL, BDAT, BDOF, GRAV, CEL, PEL, ECOL,
  ESHP, KGI, KCOL, KPAR, KIMP, SEL, FEL, DSP, XTRM, XTC, XROW, XOFF, FDV, TBL, TBD,
  ZCOL, SWP, VROW, VCOL, VW, VC, WCOL, WS, W0, WPAR, YCOL, YPAR, YFN, VFN,
- AROW, ACOL, AV, AFN, HCOL, HV, HPAR) = range(97)
+ AROW, ACOL, AV, AFN, HCOL, HV, HPAR, KBODY, KGEO) = range(99)
 if any(globals()[name.upper()] != k for k, (name, _, _) in enumerate(MODEL_SCHEMA)):
     raise ImportError("schema.py's field indices differ from MODEL_SCHEMA")   # pragma: no cover
 

@@ -397,7 +397,8 @@ def elements(I, Fl, what, t, qx, vx, y, slip, speeds, out, R, C, V):
     * L_POWER: the power put in and dissipated into out[:, 0], out[:, 1],
       the contacts at the impact speeds speeds (N, k) (``_power``);
     * L_GAPS: the contacts' gaps g into out[:, :k] and their gradients over
-      their six columns into out[:, k + 6 i: k + 6 i + 6];
+      their ``contact.WIDTH`` columns (KCOL) into out[:, k + W i: k + W (i + 1)]
+      (a planar gap's past its six: zeros);
     * L_SPRINGS: d = p2 - p1 of spring-damper i into out[:, 2 i: 2 i + 2];
     * L_SLIP: the friction joints' speeds z into out[:, :k] and their rates
       dz/dt = w . a + v^T (d^2 s) v, a = y, into out[:, k:];
@@ -422,7 +423,7 @@ def elements(I, Fl, what, t, qx, vx, y, slip, speeds, out, R, C, V):
     p = 0
     nx = qx.shape[1]
     work = np.empty(nx)
-    grad, H = np.empty(6), np.empty((6, 6))
+    grad, H = np.empty(contact.WIDTH), np.empty((contact.WIDTH, contact.WIDTH))
     for r in range(qx.shape[0]):
         if what < L_Q:
             p = _constraints_row(I, Fl, n, what, r, t, qx, y, out, R, C, V)
@@ -442,8 +443,9 @@ def elements(I, Fl, what, t, qx, vx, y, slip, speeds, out, R, C, V):
             k = _rows(I, KGI)
             for i in range(k):
                 out[r, i] = _gap(I, Fl, qx[r], i, grad, H)
-                for a in range(6):
-                    out[r, k + 6 * i + a] = grad[a]
+                nc = contact.width(I, i)
+                for a in range(contact.WIDTH):
+                    out[r, k + contact.WIDTH * i + a] = grad[a] if a < nc else 0.0
         elif what == L_SPRINGS:
             for i in range(_rows(I, SCOL1)):
                 dx, dy, ax1, ay1, ax2, ay2 = _spring_points(I, Fl, qx[r], i)
@@ -468,7 +470,7 @@ def _sensors_row(I, Fl, qx_r, vx_r, y_r, speeds_r, grad, H, out_r):
             I, Fl, qx_r, vx_r, i, speeds_r[i], grad, H)
         if g >= 0.0:         # open: the gap's rate all the same
             ddelta = 0.0
-            for a in range(6):
+            for a in range(contact.width(I, i)):
                 ddelta -= grad[a] * vx_r[_i(I, KCOL, i, a)]
         ft, dissipated = 0.0, 0.0
         if delta > 0.0:
@@ -527,7 +529,8 @@ def triplet_bound(I) -> int:
     """An upper bound of the Newton-matrix triplets any recipe emits for the
     packed model data ``I`` (its header's row counts): up to five mass (and
     identity) blocks, four Hessian, two force, two G and six Phi_q blocks (a force
-    block: 36 entries per spring-damper and per contact gap, 4 per rotational one, 1 per point
+    block: 36 entries per spring-damper and per planar contact gap (576 per spatial one),
+    4 per rotational one, 1 per point
     force (and 6 (3 + e) per partial derivative of a point force of the state,
     ``point_forces.triplets``), 36 per partial derivative of a load of the state (6 rows by 6
     columns) and 36 per load of the state (tau d^2 s of a joint force)), and the
@@ -547,7 +550,7 @@ def triplet_bound(I) -> int:
     hess = sum(j.HESS_TRIPLETS * rows(field) for j, field in JOINTS) + spatial.hess_triplets(I)
     G = sum(j.G_TRIPLETS * rows(field) for j, field in JOINTS)
     force = (sum(load.FORCE_TRIPLETS * rows(field) for load, field in LOADS)
-             + point_forces.triplets(I))
+             + point_forces.triplets(I) + contact.triplets(I))
     beams, csum = 0, 0
     for b in range(rows(BEAM)):     # blocks, and the additive form's M M_n^-1 Phi_q^T (twice)
         c = 3 + int(I[int(I[3 * BEAM]) + 6 * b + 1])

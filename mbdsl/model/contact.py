@@ -17,6 +17,23 @@ between rigid bodies (or the ground):
 * ``slide``: a sliding joint's distance s (:func:`~.elements.line_distance`)
   against a bound, likewise.
 
+and two between spatial bodies, held in director coordinates
+(``model.spatial``: r and the body axes a_1..a_3, so that a body's point
+r + A s and direction A s are linear in q):
+
+* ``dot``: sign (U . W - offset), U and W each a sum of the two bodies'
+  points or directions and a constant: a sphere (centre P, radius r) on a
+  plane fixed in a body or the ground (point L, unit normal n0 in its
+  frame), g = (A_L n0) . (p_P - p_L) - r, the sphere on the normal's side;
+  and a sliding joint's distance u . (p_1 - p_2) (u the line's direction,
+  turning with the second body, as ``J.distance``) against a bound. Its
+  gradient is linear in q and its Hessian constant (Haug 1989, sec. 9.4: the
+  dot-2 constraint);
+* ``spatial_angle``: a spatial revolute's (or cylindrical's) angle
+  theta = atan2(G_1 . F_2, F_1 . F_2) about its axis
+  (``kernels/joints/spatial_angles.py``, as ``J.angle``) against a bound,
+  within (-pi, pi).
+
 The force law, along the gap's normal, is Hunt and Crossley's (Hunt &
 Crossley 1975, J. Appl. Mech. 42, 440) with a restitution-derived damping as
 in Lankarani & Nikravesh (1990, J. Mech. Des. 112, 369) and Flores et al.
@@ -187,10 +204,98 @@ def contact_duration(k: float, exponent: float, mass: float, speed: float) -> fl
     return 2.0 * x_max / v * math.sqrt(math.pi) * math.gamma(1.0 + p) / math.gamma(0.5 + p)
 
 
+#: The columns a gap reads at most (``gap_columns``): two spatial bodies' twelve.
+GAP_WIDTH = 24
+#: The gap geometries between spatial bodies (the module notes).
+SPATIAL_GAPS = ("dot", "spatial_angle")
+
+
 def gap_columns(geometry: str, data, cmap) -> list[int]:
-    """The six columns (x, y, phi of the first body, then of the second) in
-    q extended by the ground's three, that a gap reads."""
-    return [int(c) for c in cmap([data[0], data[2]]).ravel()]
+    """The ``GAP_WIDTH`` columns in q extended by the ground's three that a
+    gap reads: a planar gap's six (x, y, phi of the first body, then of the
+    second), a spatial gap's twelve of each of its two bodies; the rest, and a
+    spatial ground's, the ground's last column n + 2 (outside q: never read
+    or written)."""
+    if geometry in SPATIAL_GAPS:
+        cols = []
+        for body in data[:2]:
+            base = cmap.spatial.get(body)
+            cols += list(range(base, base + 12)) if base is not None else [cmap.n + 2] * 12
+        return cols
+    cols = [int(c) for c in cmap([data[0], data[2]]).ravel()]
+    return cols + [cmap.n + 2] * (GAP_WIDTH - len(cols))
+
+
+def spatial_dot_gap(u_terms, w_terms, offset, sign, label=""):
+    """A ``dot`` gap sign (U . W - offset) between spatial bodies (module
+    notes): U and W sums of terms (body, alpha, s (3,), factor), each
+    factor (alpha r + A s) of a body (GROUND: s in world axes, a constant).
+
+    Returns
+    -------
+    tuple
+        ("dot", (body A, body B, U's weights (8,), U's constant (3,), W's
+        weights (8,), W's constant (3,), offset, sign), label): each side's
+        weights (alpha, s1, s2, s3) on body A, then on body B (GROUND -1
+        where the gap reads one body only).
+
+    Raises
+    ------
+    ValueError
+        Terms on more than two bodies.
+    """
+    bodies = []
+    for body, *_ in list(u_terms) + list(w_terms):
+        if body != GROUND and body not in bodies:
+            bodies.append(body)
+    if len(bodies) > 2:
+        raise ValueError("a dot gap reads two bodies at most")
+    bodies += [GROUND] * (2 - len(bodies))
+
+    def side(terms):
+        weights, const = np.zeros(8), np.zeros(3)
+        for body, alpha, local, factor in terms:
+            if body == GROUND:
+                const += factor * np.asarray(local, float)
+            else:
+                k = bodies.index(body)
+                weights[4 * k:4 * k + 4] += factor * np.r_[alpha, local]
+        return tuple(weights), tuple(const)
+
+    (wu, u0), (ww, w0) = side(u_terms), side(w_terms)
+    return ("dot", (bodies[0], bodies[1], wu, u0, ww, w0, float(offset), float(sign)), label)
+
+
+def contact_geometry_plane(centre, radius, plane_point, normal):
+    """The ``dot`` gap of a sphere (PointRef ``centre`` of a spatial body,
+    radius [m]) on a plane through the PointRef ``plane_point`` with
+    ``normal`` (3,) in that body's frame (world axes on the ground):
+    g = n . (p_P - p_L) - r, open on the normal's side."""
+    n0 = np.asarray(normal, float) / np.linalg.norm(normal)
+    return spatial_dot_gap([(plane_point.body, 0.0, n0, 1.0)],
+                           [(centre.body, 1.0, centre.local, 1.0),
+                            (plane_point.body, 1.0, plane_point.local, -1.0)], radius, 1.0)
+
+
+def spatial_limit_gaps(joint, lower, upper):
+    """The gaps of a limit on a spatial joint (``model.spatial.SpatialJoint``)
+    between ``lower`` and ``upper`` (NaN: none), one per bound given: a
+    revolute's angle (``spatial_angle``: (body 1, body 2, axis 1, axis 2,
+    bound, sign)), a prismatic's or point_on_line's distance u . (p_1 - p_2)
+    along the second body's line (``dot``, as ``kernels/joints/spatial.py``'s
+    joint_distance row); sign 1 for the lower bound (g = s - lower), -1 for
+    the upper (g = upper - s)."""
+    bounds = [(b, sign, label) for b, sign, label in
+              ((lower, 1.0, "lower"), (upper, -1.0, "upper")) if not math.isnan(b)]
+    if joint.kind == "revolute":
+        (b1, a1), (b2, a2) = joint.axes
+        return tuple(("spatial_angle", (b1, b2, tuple(a1), tuple(a2), b, sign), label)
+                     for b, sign, label in bounds)
+    b2, u = joint.axes[-1]
+    p1 = (joint.first.body, 1.0, joint.first.local, 1.0)
+    p2 = (joint.second.body, 1.0, joint.second.local, -1.0)
+    return tuple(spatial_dot_gap([p1, p2], [(b2, 0.0, u, 1.0)], b, sign, label)
+                 for b, sign, label in bounds)
 
 
 def contact_geometry_line(centre, radius, line_point, direction):
@@ -217,4 +322,6 @@ def contact_geometry_circle(pin, radius, hole_centre, hole_radius):
                        tuple(pin.local), float(hole_radius) - float(radius), float(radius)), "")
 
 
-__all__ += ["contact_geometry_line", "contact_geometry_circle", "rope_geometry", "GROUND"]
+__all__ += ["contact_geometry_line", "contact_geometry_circle", "rope_geometry", "GROUND",
+            "GAP_WIDTH", "SPATIAL_GAPS", "spatial_dot_gap", "contact_geometry_plane",
+            "spatial_limit_gaps"]

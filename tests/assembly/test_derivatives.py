@@ -30,12 +30,14 @@ FOLLOWER = VALID / "follower_elements.mbd"
 TABLES = VALID / "table_elements.mbd"
 STATES = VALID / "state_elements.mbd"
 SPATIAL = VALID / "spatial_drivers.mbd"
+SPATIAL_GAPS = VALID / "spatial_contacts.mbd"
 EPS = 1e-6
 
 
 @pytest.fixture(scope="module", params=[MODEL, FLEXIBLE, COUPLERS, FOLLOWER, TABLES, STATES,
-                                        SPATIAL],
-                ids=["rigid", "flexible", "couplers", "follower", "tables", "states", "spatial"])
+                                        SPATIAL, SPATIAL_GAPS],
+                ids=["rigid", "flexible", "couplers", "follower", "tables", "states", "spatial",
+                     "spatial-gaps"])
 def system(request):
     return assemble(mbdsl.load(request.param))
 
@@ -93,6 +95,10 @@ def test_model_declares_every_element_type(system):
         assert {"O.rate", "wf", "ie", "S.distance", "tip", "rod.theta3"} <= read
         loads = {f.kind for f in system.model.forces}
         assert loads == {"joint_torque", "joint_force", "point_force", "state_torque"}
+        return
+    if system.model.name == "spatial_contacts":      # every spatial gap geometry
+        gaps = [(c.name, g[0]) for c in system.model.forces for g in c.gaps]
+        assert {g for _, g in gaps} == {"dot", "spatial_angle"} and len(gaps) == 6
         return
     if system.model.space == 3:          # every spatial driver, a rotational spring-damper
         assert {(d.kind, d.joint.kind if d.joint else None) for d in system.model.drivers} == {

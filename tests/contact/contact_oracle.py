@@ -170,7 +170,7 @@ class ContactOracle:
             for geometry, data, label in c.gaps:
                 self.geometry.append((geometry, data))
                 self.names.append(c.name + ("." + label if label else ""))
-                cols.append(gap_columns(geometry, data, self.cmap))
+                cols.append(gap_columns(geometry, data, self.cmap)[:6])   # planar: six
                 law.append((c.k, c.exponent, c.damping, c.mu, c.v_reg, c.viscous))
         self.cols = np.array(cols, dtype=np.intp).reshape(-1, 6)
         self.k_, self.n_, self.chi, self.mu, self.v_reg, self.c_ = np.array(law).reshape(-1, 6).T

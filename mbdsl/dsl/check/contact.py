@@ -1,19 +1,25 @@
 """One-sided elements (part of the loads' pass): contact, a circle on a body
 point against a line or in a circular hole of another body or the ground;
-limit, a revolute's angle or a sliding joint's distance between bounds; both
-with the Hunt-Crossley law of ``model.contact``; and rope (or cable), a
-tension-only linear spring-damper between two points. Diagnostics: E305
-(neither or both of ``line`` and ``circle``, their arguments, a limit without
-bounds or on another joint), E304 (a contact or rope on a flexible beam), E303
-(radius, stiffness, exponent, restitution, bounds, a rope's length out of
-range), E402 (a body against itself).
+limit, a revolute's angle or a sliding joint's distance between bounds; in a
+spatial model a sphere on a body point against a plane and the same limits
+on spatial joints; all with the Hunt-Crossley law of ``model.contact``; and
+rope (or cable), a tension-only linear spring-damper between two points.
+Diagnostics: E305 (neither or both of ``line`` and ``circle``, ``plane`` in
+the other space, their arguments, a limit without bounds or on another
+joint), E304 (a contact or rope on a flexible beam), E303 (radius,
+stiffness, exponent, restitution, bounds, a rope's length out of range, a
+zero normal), E402 (a body against itself), E205 (friction at a spatial
+contact).
 """
 
 from __future__ import annotations
 
 import math
 
-from ...model.contact import Contact, contact_geometry_circle, contact_geometry_line, rope_geometry
+import numpy as np
+
+from ...model.contact import (Contact, contact_geometry_circle, contact_geometry_line,
+                              contact_geometry_plane, rope_geometry, spatial_limit_gaps)
 from ...model.elements import GROUND, FlexibleBeam
 from ..expressions import ExprError, Vec
 from .tables import GEOMETRY_OPTIONS
@@ -39,8 +45,11 @@ def contact_element(c, f, pos, opts, ctx):
         return None
     common = (opts["k"], opts["exponent"], opts["restitution"], f.span)
     if f.kind == "limit":
-        gaps = _limit_gaps(c, f, pos, opts, ctx)
+        gaps = (_spatial_limit_gaps if c.space == 3 else _limit_gaps)(c, f, pos, opts, ctx)
         return None if gaps is None else Contact(f.name, "limit", gaps, *common)
+    if c.space == 3:
+        geometry = _plane_geometry(c, f, pos, opts, ctx)
+        return None if geometry is None else Contact(f.name, "contact", (geometry,), *common)
     geometry = _contact_geometry(c, f, pos, opts, ctx)
     if geometry is None:
         return None
@@ -88,15 +97,10 @@ def _limit_gaps(c, f, pos, opts, ctx):
     joint = c.joint_argument(pos[0], f, ctx)
     if joint is None:
         return None
-    lower, upper = opts["lower"], opts["upper"]
-    if math.isnan(lower) and math.isnan(upper):
-        c.error("E305", f"{ctx}: a limit needs 'lower', 'upper' or both", f.span,
-                "no bound", hint="e.g. limit(O, lower = -pi/4, upper = pi/4, k = 1e5)")
+    bounds = _bounds(c, f, opts, ctx)
+    if bounds is None:
         return None
-    if not (math.isnan(lower) or math.isnan(upper)) and not lower < upper:
-        c.error("E303", f"{ctx}: 'lower' ({lower:g}) must be below 'upper' ({upper:g})",
-                f.span, "empty range")
-        return None
+    lower, upper = bounds
     if joint.kind == "revolute":
         if not c.turning(joint.bodies, ctx, f.span, "a limit on an angle turns bodies"):
             return None
@@ -121,12 +125,92 @@ def _limit_gaps(c, f, pos, opts, ctx):
     return gaps
 
 
+def _bounds(c, f, opts, ctx):
+    """(lower, upper) of a limit (NaN: not given); None after reporting E305
+    (neither) or E303 (lower >= upper)."""
+    lower, upper = opts["lower"], opts["upper"]
+    if math.isnan(lower) and math.isnan(upper):
+        c.error("E305", f"{ctx}: a limit needs 'lower', 'upper' or both", f.span,
+                "no bound", hint="e.g. limit(O, lower = -pi/4, upper = pi/4, k = 1e5)")
+        return None
+    if not (math.isnan(lower) or math.isnan(upper)) and not lower < upper:
+        c.error("E303", f"{ctx}: 'lower' ({lower:g}) must be below 'upper' ({upper:g})",
+                f.span, "empty range")
+        return None
+    return lower, upper
+
+
+def _spatial_limit_gaps(c, f, pos, opts, ctx):
+    """A spatial limit's gaps (``model.contact.spatial_limit_gaps``): a
+    revolute's angle within (-pi, pi), a prismatic's or point_on_line's
+    distance; None after reporting (E305 another joint, E303 an angle bound
+    beyond +-pi)."""
+    joint = c.joint_argument(pos[0], f, ctx)
+    if joint is None:
+        return None
+    bounds = _bounds(c, f, opts, ctx)
+    if bounds is None:
+        return None
+    if joint.kind not in ("revolute", "prismatic", "point_on_line"):
+        c.error("E305", f"{ctx}: a limit acts on a revolute's angle or a prismatic or "
+                f"point_on_line joint's distance; '{joint.name}' is a {joint.kind} joint",
+                getattr(pos[0].value, "span", None) or f.span, "no motion to limit")
+        return None
+    if joint.kind == "revolute" and any(abs(b) >= math.pi for b in bounds if not math.isnan(b)):
+        c.error("E303", f"{ctx}: a spatial revolute's angle is read within (-pi, pi); its "
+                "bounds must be too", f.span, "beyond a half turn")
+        return None
+    return spatial_limit_gaps(joint, *bounds)
+
+
+def _plane_geometry(c, f, pos, opts, ctx):
+    """The gap of a sphere on a spatial body's point against a plane,
+    ``plane = (point, (nx, ny, nz))`` (the normal in that body's frame, on
+    the side the sphere stays); None after reporting (E305 another geometry or
+    not a plane, E205 friction, E402 a body against itself, E303 a zero normal)."""
+    centre = c.point(pos[0].value, pos[0].span or f.span, ctx)
+    if centre is None:
+        return None
+    arg = opts["plane"]
+    if isinstance(arg, float) or any(not isinstance(opts[g], float) for g in ("line", "circle")):
+        c.error("E305", f"{ctx}: a contact in a spatial model is a sphere against a plane: "
+                "'plane = (point, (nx, ny, nz))'", f.span, "not a plane",
+                hint="a floor: plane = (ground.origin, (0, 0, 1))")
+        return None
+    if opts["mu"] != 0.0:
+        c.error("E205", f"{ctx}: friction at a spatial contact is not supported yet",
+                next((a.span for a in f.args if a.keyword == "mu"), f.span), "friction",
+                hint="leave out 'mu': the contact is frictionless")
+        return None
+    val = arg.value
+    if not (isinstance(val, Vec) and isinstance(val.y, Vec) and val.y.z is not None):
+        c.error("E305", f"{ctx}: expected plane = (point, (nx, ny, nz))", arg.span or f.span,
+                "not a plane")
+        return None
+    other = c.point(val.x, arg.span or f.span, ctx)
+    normal = c.vector(val.y, arg.span or f.span, ctx, unit=None)
+    if other is None or normal is None:
+        return None
+    if centre.body == other.body:
+        c.error("E402", f"{ctx} puts a body in contact with itself", f.span, "no effect")
+        return None
+    if not float(np.linalg.norm(normal)) > 0.0:
+        c.error("E303", f"{ctx}: the plane's normal is zero", arg.span or f.span,
+                "zero direction")
+        return None
+    return contact_geometry_plane(centre, opts["radius"], other, normal)
+
+
 def _contact_geometry(c, f, pos, opts, ctx):
     """The gap of a circle on a body point against a line (``line = (point,
     (dx, dy))``) or in a hole (``circle = (point, radius)``) of another body or
     the ground (``model.contact``); None after reporting."""
     centre = c.point(pos[0].value, pos[0].span or f.span, ctx)
     if centre is None:
+        return None
+    if not isinstance(opts["plane"], float):
+        c.error("E305", f"{ctx}: 'plane' is a spatial contact's ('space 3d'); a planar "
+                "contact takes 'line' or 'circle'", opts["plane"].span or f.span, "planar model")
         return None
     given = [g for g in GEOMETRY_OPTIONS if not isinstance(opts[g], float)]
     if len(given) != 1:

@@ -40,7 +40,8 @@ SPATIAL_JOINT_KINDS = {
 #: the declarations a spatial model does not have yet: items key -> what they are
 PLANAR_ONLY = {"states": "first-order states"}
 #: the force kinds of a spatial model (the planar check reads their options)
-SPATIAL_FORCE_KINDS = ("spring_damper", "rotational_spring_damper", "force", "torque")
+SPATIAL_FORCE_KINDS = ("spring_damper", "rotational_spring_damper", "force", "torque",
+                       "contact", "limit")
 #: the spatial joints with an angle (drivers, rotational spring-dampers) and with a
 #: distance along a line (drivers)
 ANGLE_JOINTS = ("revolute", "cylindrical")

@@ -56,7 +56,8 @@ FORCE_KINDS = {
                  "viscous": 0.0, "v_reg": 1e-4},
     "force": {"frame": "world"},
     # a circle against a line or in a hole (``model.contact``); line/circle: one of them
-    "contact": {"radius": None, "line": UNSET, "circle": UNSET, "k": None, "exponent": 1.5,
+    "contact": {"radius": None, "line": UNSET, "circle": UNSET, "plane": UNSET, "k": None,
+                "exponent": 1.5,
                 "restitution": 1.0, "mu": 0.0, "v_reg": 1e-4},
     # a revolute's angle or a sliding joint's distance between bounds (one of them or both)
     "limit": {"lower": UNSET, "upper": UNSET, "k": None, "exponent": 1.0, "restitution": 1.0},
@@ -66,7 +67,7 @@ FORCE_KINDS = {
 }
 
 #: keywords whose value is a geometry, read by the element, not a number
-GEOMETRY_OPTIONS = ("line", "circle")
+GEOMETRY_OPTIONS = ("line", "circle", "plane")
 #: ... or a word (a point force's axes)
 WORD_OPTIONS = ("frame",)
 

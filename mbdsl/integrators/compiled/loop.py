@@ -24,7 +24,7 @@ from .newton import _newton
 from .recipes import _old_force
 from ...kernels.geometry import MEMO
 from ...kernels.jit import borrowed as _b
-from ...kernels.loads.contact import _gap
+from ...kernels.loads.contact import WIDTH, _gap
 from ...kernels.loads.spring_damper import _spring_passed
 from ...kernels.programs import switch_branches
 from ...kernels.schema import (EPS, FRI, KGI, MASS, ROW_ELEMENT, SCOL1, SPAR, SWP, _HEADER, _f,
@@ -246,9 +246,9 @@ def _bdf_ratio(two_step, h, h_last):
 
 @_jit
 def _event_scratch(n, I):
-    """``_crossed``'s scratch: (qs, vs (n + 3,), grad6 (6,), H6 (6, 6), b0, b1
-    (rows of SWP,) int64)."""
-    return (np.zeros(n + 3), np.zeros(n + 3), np.empty(6), np.empty((6, 6)),
+    """``_crossed``'s scratch: (qs, vs (n + 3,), grad6 (WIDTH,), H6 (WIDTH, WIDTH):
+    a gap's, ``contact.WIDTH``, b0, b1 (rows of SWP,) int64)."""
+    return (np.zeros(n + 3), np.zeros(n + 3), np.empty(WIDTH), np.empty((WIDTH, WIDTH)),
             np.empty(_rows(I, SWP), np.int64), np.empty(_rows(I, SWP), np.int64))
 
 
