@@ -259,7 +259,8 @@ def consistent_initial_state(system: AssembledSystem, t0: float = 0.0,
         raise ValueError(f"redundant must be 'error' or 'accept', got {redundant!r}")
     state = _consistent_state(system, t0, tol, max_iter, None, redundant=redundant)
     if system.model.static:
-        q = static_positions(system, t0, state.q, state.lam)
+        dependent = state.structure.dependent if state.structure is not None else ()
+        q = static_positions(system, t0, state.q, state.lam, dependent=dependent)
         return _consistent_state(system, t0, tol, max_iter, None, q_start=q,
                                  redundant=redundant)
     if not system.beam_sets:
@@ -426,7 +427,7 @@ def _held_turns(system, q, hold_initials):
 
 
 def static_positions(system, t0: float, q: np.ndarray, lam: np.ndarray,
-                     hold_initials: bool = True) -> np.ndarray:
+                     hold_initials: bool = True, dependent=()) -> np.ndarray:
     """Positions of static equilibrium: Q(t0, q, 0) = Phi_q^T lambda, Phi(q, t0) = 0,
     with the coordinates the ``initial`` lines give held at their values
     (``hold_initials``; False: only the drivers hold, as for the modes about
@@ -445,6 +446,12 @@ def static_positions(system, t0: float, q: np.ndarray, lam: np.ndarray,
     Mechanical Systems, sec. 9.1, with the equilibrium found by Newton's
     method on the constrained equations rather than by minimising the
     potential, so that non-conservative loads are allowed.)
+
+    Redundant constraint rows (``dependent``: their indices in lambda,
+    ``StructureReport.dependent``) would make the matrix singular; they hold
+    wherever the independent rows do, so Newton runs on the independent rows
+    with the dependent rows' multipliers at zero (a statically indeterminate
+    mechanism: its reactions are not unique, only Phi_q^T lambda is).
 
     Raises
     ------
@@ -478,6 +485,11 @@ def static_positions(system, t0: float, q: np.ndarray, lam: np.ndarray,
         if ic.is_velocity:
             v0[ic.column(system.cmap)] = ic.value
     x = np.concatenate([q, lam, np.zeros(f)])
+    live = None                  # the unknowns Newton solves for: all but redundant rows'
+    if len(dependent):
+        x[n + np.asarray(dependent, dtype=int)] = 0.0
+        kept = np.setdiff1d(np.arange(m), dependent)
+        live = np.r_[np.arange(n), n + kept, n + m + np.arange(f)]
     scale = 1.0 + float(np.max(np.abs(system.Q(t0, q, v0, lam)), initial=0.0))
     residual = np.inf
     for _ in range(STATIC_ITERATIONS):
@@ -490,6 +502,9 @@ def static_positions(system, t0: float, q: np.ndarray, lam: np.ndarray,
         residual = float(np.max(np.abs(r[:n]), initial=0.0)) / scale
         if not np.all(np.isfinite(r)):
             break
+        if live is not None:
+            J, r = (J[live][:, live] if n + m > STATIC_DENSE_LIMIT else J[np.ix_(live, live)],
+                    r[live])
         try:
             if n + m > STATIC_DENSE_LIMIT:
                 import scipy.sparse.linalg
@@ -502,6 +517,10 @@ def static_positions(system, t0: float, q: np.ndarray, lam: np.ndarray,
                 dx = np.linalg.solve(J, r)
         except (np.linalg.LinAlgError, Warning, RuntimeError):   # SuperLU: MatrixRankWarning
             break
+        if live is not None:             # the redundant rows' multipliers stay at zero
+            full = np.zeros_like(x)
+            full[live] = dx
+            dx = full
         x = x - dx
         if np.max(np.abs(dx[:n]), initial=0.0) <= 1e-14 * (1.0 + np.max(np.abs(x[:n]))):
             q = x[:n]

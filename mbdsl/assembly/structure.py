@@ -94,12 +94,16 @@ class StructureReport:
     rank : int
         Numerical rank of Phi_q at the configuration.
     redundant : list of Redundancy
+    dependent : list of int
+        The rows of Phi_q that repeat earlier ones (the redundant joints'
+        rows, indices into lambda), sorted; the others are independent.
     """
 
     n: int
     m: int
     rank: int
     redundant: list = field(default_factory=list)
+    dependent: list = field(default_factory=list)
 
     @property
     def dof_count(self) -> int:
@@ -152,7 +156,7 @@ def analyse_structure(system, q: np.ndarray, t: float) -> StructureReport:
     order = np.r_[np.flatnonzero(first), np.flatnonzero(~first)]
     ind, dep = independent_rows(A[order])
     ind, dep = np.sort(order[ind]), np.sort(order[dep])
-    report = StructureReport(n, system.m, len(ind))
+    report = StructureReport(n, system.m, len(ind), dependent=[int(i) for i in dep])
     by_element: dict[str, list[int]] = {}
     for i in dep:
         by_element.setdefault(lay.rows[i][0], []).append(int(i))

@@ -426,8 +426,8 @@ def _static(args) -> int:
     model = dataclasses.replace(model, static=True)
     t0 = float(model.settings.get("t_start", 0.0))
     system = assemble(model)
-    try:
-        init = consistent_initial_state(system, t0)
+    try:        # redundant joints (W405): the equilibrium is unique, their reactions not
+        init = consistent_initial_state(system, t0, redundant="accept")
     except MbdError as exc:
         _print_diagnostics(exc.diagnostics)
         return 4
@@ -439,7 +439,9 @@ def _static(args) -> int:
                               init.lam[None])
     loads = [k for k in derived if k.startswith(LOAD_PREFIXES)]
     if loads:
-        print("  loads [N, N m]:")
+        indeterminate = init.structure is not None and init.structure.dependent
+        print("  loads [N, N m]:" + (" (redundant joints: one set of reactions of many that "
+                                      "hold the equilibrium)" if indeterminate else ""))
         for k in loads:
             print(f"  {k:<24} {derived[k][0]: .6g}")
     print(f"  energy.potential         {derived['energy.potential'][0]: .9g} J")

@@ -70,3 +70,43 @@ def test_a_free_turn_has_no_static_equilibrium():
         mbdsl.simulate(mbdsl.load_text(HUNG.replace(
             "initial box.orientation", "guess box.orientation")))
     assert err.value.diagnostics[0].code == "E507"
+
+
+def test_bricards_static_equilibrium_with_its_redundant_row():
+    """Bricard's linkage (one row redundant, 1 DOF by rank) under gravity: the
+    static solve runs on the independent rows, and the equilibrium is one:
+    the loop closed, and gravity does no work along the one motion the
+    constraints allow (the null space of Phi_q, from scipy here)."""
+    import dataclasses
+
+    from scipy.linalg import null_space
+
+    from mbdsl.assembly.initial import consistent_initial_state
+    from mbdsl.assembly.system import assemble
+    from ..conftest import MODELS
+    model = dataclasses.replace(mbdsl.load(MODELS / "bricard.mbd"), static=True)
+    system = assemble(model)
+    init = consistent_initial_state(system, 0.0, redundant="accept")
+    assert len(init.structure.dependent) == 1
+    q = init.q
+    assert np.max(np.abs(system.Phi(q, 0.0))) < 1e-12
+    N = null_space(system.Phi_q(q, 0.0), rcond=1e-9)
+    assert N.shape[1] == 1
+    Q = system.Q(0.0, q, np.zeros(system.n))
+    assert abs(float(N[:, 0] @ Q)) < 1e-10 * np.max(np.abs(Q))
+    # the start was not one: gravity worked along the motion there
+    start = consistent_initial_state(assemble(mbdsl.load(MODELS / "bricard.mbd")), 0.0,
+                                     redundant="accept").q
+    N0 = null_space(system.Phi_q(start, 0.0), rcond=1e-9)
+    assert abs(float(N0[:, 0] @ system.Q(0.0, start, np.zeros(system.n)))) > 1e-3
+
+
+def test_mbdsl_static_prints_bricards_equilibrium(capsys):
+    """``mbdsl static`` on Bricard: the redundant row named (W405), the
+    equilibrium printed, its reactions said to be one set of many."""
+    from mbdsl.cli.main import main
+    from ..conftest import MODELS
+    assert main(["static", str(MODELS / "bricard.mbd")]) == 0
+    out = capsys.readouterr()
+    assert "W405" in out.out + out.err and "static equilibrium of model bricard" in out.out
+    assert "one set of reactions of many" in out.out
