@@ -101,28 +101,31 @@ def bounce(x0, v0, b, m, k, n, e, t_end):
     return x
 
 
-@pytest.mark.parametrize("method, engine", [("hht-i3", "compiled"), ("hht-si2", "compiled"),
-                                            ("genalpha", "compiled"), ("nstiff-si2", "compiled"),
-                                            ("hht-i3", "numpy")])
-def test_a_ball_bounces_on_a_floor_as_the_one_dimensional_impact(method, engine):
+ALL = ["newmark", "hht-i3", "nstiff", "nstiff-si2", "hht-add", "hht-si2", "genalpha",
+       "genalpha-si2"]
+
+
+@pytest.mark.parametrize("method", ALL)
+def test_a_ball_bounces_on_a_floor_as_the_one_dimensional_impact(method):
     """Dropped from 1 m (0.9 m above contact) with e = 0.8: its height follows
-    the reduced impact ODE within 1 mm over three bounces, the first impact
-    at sqrt(2 g 0.9), its sideways motion and spin untouched (frictionless),
-    and its frame orthonormal; on both engines."""
-    sol = mbdsl.simulate(mbdsl.load_text(BALL), method=method, rtol=1e-7, atol=1e-7,
-                         engine=engine)
-    assert sol.completed and sol.engine == engine
+    the reduced impact ODE within 1 mm (NEWMARK, first order: 5 mm) over
+    three bounces, the first impact at sqrt(2 g 0.9), its sideways motion and
+    spin untouched (frictionless), and its frame orthonormal; every method."""
+    sol = mbdsl.simulate(mbdsl.load_text(BALL), method=method, rtol=1e-7, atol=1e-7)
+    assert sol.completed and sol.engine == "compiled"
     kinds = [e[2] for e in sol.events]
     assert kinds[:4] == ["closed", "opened", "closed", "opened"]
     assert sol.events[0][3] == pytest.approx(math.sqrt(2 * G * 0.9), rel=1e-5)
     t = sol.column("t")
     z = bounce(0.9, 0.0, -G, 0.5, 1e6, 1.5, 0.8, 1.5)(t) + 0.1
-    assert np.max(np.abs(sol.column("ball.z") - z)) < 1e-3
+    assert np.max(np.abs(sol.column("ball.z") - z)) < (5e-3 if method == "newmark" else 1e-3)
     # a wrong chi (Lankarani-Nikravesh's 3 (1 - e^2) / 4) would move it by centimetres
     np.testing.assert_allclose(sol.column("ball.x"), 0.5 * t, atol=1e-9)
     np.testing.assert_allclose(sol.column("ball.y"), -0.2 * t, atol=1e-9)
+    # the spin: untouched (the methods' numerical damping: NEWMARK takes 4e-4 of it in 1.5 s)
+    spin_tol = 1e-3 if method == "newmark" else 1e-7
     for c, w in zip(("wx", "wy", "wz"), (1, 2, 3)):
-        np.testing.assert_allclose(sol.column("ball." + c), w, atol=1e-8)
+        np.testing.assert_allclose(sol.column("ball." + c), w, rtol=0, atol=spin_tol * w)
     A = sol.q[:, 3:12].reshape(-1, 3, 3)
     assert np.max(np.abs(A @ np.swapaxes(A, 1, 2) - np.eye(3))) < 1e-10
 
@@ -186,11 +189,18 @@ def test_the_gaps_gradients_and_hessians_are_their_derivatives():
             np.testing.assert_allclose(mine, d, atol=1e-6 * max(1.0, np.max(np.abs(d))))
 
 
-def test_the_gap_is_a_column_of_the_run():
+@pytest.mark.parametrize("engine", ["compiled", "numpy"])
+def test_the_gap_is_a_column_of_the_run(engine):
     """``floor.gap`` of the ball is its centre's height less the radius, at
-    fixed steps (the closing landed on)."""
+    fixed steps (the closing landed on: a row where the gap is zero), on both
+    engines alike."""
     text = BALL.replace("simulate {", "output h = floor.gap\nsimulate {")
-    sol = mbdsl.simulate(mbdsl.load_text(text), method="hht-i3", h=1e-3, t_end=0.6)
+    sol = mbdsl.simulate(mbdsl.load_text(text), method="hht-i3", h=1e-3, t_end=0.6,
+                         engine=engine)
+    assert sol.engine == engine
+    closing = sol.events[0][0]
+    assert closing == pytest.approx(math.sqrt(2 * 0.9 / G), abs=1e-9)
+    assert sol.column("output.h")[np.searchsorted(sol.t, closing)] == pytest.approx(0, abs=1e-8)
     np.testing.assert_allclose(sol.column("output.h"), sol.column("ball.z") - 0.1, atol=1e-12)
     assert np.min(sol.column("output.h")) < -1e-3          # the run went through an impact
 
