@@ -88,9 +88,8 @@ class Scene(Drawing):
 
     def __init__(self, model, deform_scale: float = 1.0):
         if getattr(model, "space", 2) == 3:
-            raise ValueError("the browser view draws planar models only: draw a spatial model "
-                             "(space 3d) with mbdsl animate (in perspective) and its columns "
-                             "with mbdsl plot")
+            raise ValueError("Scene draws planar models; scene3d.SpatialScene draws a "
+                             "spatial one (space 3d)")
         if not (deform_scale >= 0 and np.isfinite(deform_scale)):
             raise ValueError(f"the deformation scale must be zero or positive, got {deform_scale}")
         self.model, self.deform_scale = model, float(deform_scale)

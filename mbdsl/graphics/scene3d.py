@@ -22,7 +22,7 @@ import numpy as np
 from ..model.elements import GROUND
 from .scene import COLORS, Drawing
 
-__all__ = ["Camera", "SpatialScene", "Item3D"]
+__all__ = ["Camera", "SpatialScene", "Item3D", "circle"]
 
 
 def _up_frame(up):
@@ -106,6 +106,16 @@ class Item3D:
 
 #: a box's twelve edges (pairs of its corners, ``Shape.points`` order) and six faces
 BOX_FACES = ((0, 1, 3, 2), (4, 5, 7, 6), (0, 1, 5, 4), (2, 3, 7, 6), (0, 2, 6, 4), (1, 3, 7, 5))
+#: points of a wireframe's circle (``SpatialScene.wires``)
+WIRE_CIRCLE = 25
+
+
+def circle(centre, normal, radius, points: int = WIRE_CIRCLE) -> np.ndarray:
+    """A closed circle (points, 3) [m] about ``centre`` (3,) in the plane
+    normal to ``normal`` (3,), its first point repeated last."""
+    _, e1, e2 = _up_frame(normal)
+    a = np.linspace(0.0, 2.0 * np.pi, points)[:, None]
+    return np.asarray(centre, float) + radius * (np.cos(a) * e1 + np.sin(a) * e2)
 
 
 class SpatialScene(Drawing):
@@ -175,6 +185,28 @@ class SpatialScene(Drawing):
                 out.append(self.world(q, body, what))
             else:
                 out.append(np.vstack([self.world(q, p.body, p.local) for p in what]))
+        return out
+
+    def wires(self, q) -> list:
+        """Per item, the polylines (k, 3) [m] that draw it at q (n,) as a
+        wireframe (``mbdsl view``): a line, spring or box edge as itself, a
+        sphere as three great circles about its body's axes (so that its
+        turning shows), a cylinder as its two end circles and four lines
+        along it; a centre of mass or joint as its one point (1, 3)."""
+        out = []
+        for (body, _), item, w in zip(self._parts, self.items, self.coordinates(q)):
+            if item.kind == "box":
+                out.append([w[list(f) + [f[0]]] for f in BOX_FACES])
+            elif item.kind == "sphere":
+                A = self.frame(q, body)[1]
+                out.append([circle(w[0], A[:, k], item.radius) for k in range(3)])
+            elif item.kind == "cylinder":
+                ends = [circle(c, w[1] - w[0], item.radius) for c in w[:2]]
+                quarter = (WIRE_CIRCLE - 1) // 4
+                out.append(ends + [np.array([ends[0][k], ends[1][k]])
+                                   for k in range(0, 4 * quarter, quarter)])
+            else:
+                out.append([w])
         return out
 
     def ground_points(self) -> np.ndarray:

@@ -1,7 +1,9 @@
 """A run in the browser: one self-contained HTML file (``mbdsl view``).
 
 The page holds the mechanism animated (the drawing of :mod:`mbdsl.graphics.scene`:
-bodies with their shapes, beams deformed, springs, rods and joints), a time
+bodies with their shapes, beams deformed, springs, rods and joints; of a spatial
+model, :mod:`mbdsl.graphics.scene3d`'s, as wireframes in a 3D scene the reader
+turns and zooms), a time
 slider with play and pause at three speeds, and time plots beside it (the
 standard panels, or the columns asked for) that zoom, pan and show values
 on hover, each with a cursor at the slider's time and the run's events as
@@ -30,8 +32,9 @@ from pathlib import Path
 import numpy as np
 
 from .scene import Scene
+from .scene3d import SpatialScene
 
-__all__ = ["write_html", "MAX_FRAMES"]
+__all__ = ["write_html", "figure", "MAX_FRAMES"]
 
 #: Frames of the animation at most (downsampled in time).
 MAX_FRAMES = 200
@@ -60,6 +63,9 @@ def _joined(parts, closed: bool) -> tuple[np.ndarray, np.ndarray]:
 class _Drawing:
     """The scene's items grouped into plotly traces (one per colour and way
     of drawing), and their x, y at a state."""
+
+    #: whether plotly redraws the figure at each frame (its 3D scenes need it)
+    redraw = False
 
     def __init__(self, scene: Scene):
         self.scene = scene
@@ -117,6 +123,108 @@ class _Drawing:
                 out.append(_joined(parts, closed=style == "fill"))
         return out
 
+    def frame_traces(self, go, q) -> list:
+        """The moving traces' data at q (n,), for a frame."""
+        return [go.Scatter(x=x, y=y) for x, y in self.xy(q)]
+
+    def add_to(self, fig, go, q0, qs) -> list:
+        """The mechanism's panel (row 1, column 1) at q0, framed to hold every
+        frame of qs; returns its moving traces' indices."""
+        lo, hi = self.scene.frame_extent(qs)
+        mech = _add_mechanism(fig, go, self.scene, self, q0)
+        fig.update_xaxes(range=[lo[0], hi[0]], row=1, col=1, showgrid=False, zeroline=False)
+        fig.update_yaxes(range=[lo[1], hi[1]], row=1, col=1, scaleanchor="x", scaleratio=1,
+                         showgrid=False, zeroline=False)
+        return mech
+
+
+class _Drawing3D:
+    """A spatial model's items (``SpatialScene``) grouped into plotly 3D traces
+    (one per colour and way of drawing: the bodies' wireframes, the centres of
+    mass, springs, joints), their x, y, z at a state; a perspective scene
+    looking from above and beside the motion, as ``mbdsl animate`` does,
+    that the reader turns and zooms."""
+
+    redraw = True
+
+    def __init__(self, scene: SpatialScene):
+        self.scene = scene
+        self.groups = {}
+        for i, item in enumerate(scene.items):
+            style = item.kind if item.kind in ("cm", "spring", "joint") else "wire"
+            self.groups.setdefault((style, item.color), []).append(i)
+        self.keys = list(self.groups)
+
+    def traces(self):
+        """The traces' static attributes (plotly dicts), in :attr:`keys` order."""
+        out = []
+        for style, color in self.keys:
+            names = sorted({self.scene.items[i].body for i in self.groups[(style, color)]
+                            if self.scene.items[i].body})
+            base = {"showlegend": False, "hoverinfo": "name",
+                    "name": ", ".join(names[:4]) + (" ..." if len(names) > 4 else "") or style}
+            if style == "wire":
+                base.update(mode="lines", line={"color": color, "width": 5})
+            elif style == "cm":
+                base.update(mode="markers", marker={"color": color, "size": 5})
+            elif style == "spring":
+                base.update(mode="lines", line={"color": "#000000", "width": 2})
+            else:
+                base.update(mode="markers", marker={"color": "#000000", "size": 4,
+                                                    "symbol": "circle-open"})
+            out.append(base)
+        return out
+
+    def xyz(self, q):
+        """Per trace (x, y, z) at q (n,): the polylines joined with gaps."""
+        wires = self.scene.wires(q)
+        out = []
+        for key in self.keys:
+            parts = [w for i in self.groups[key] for w in wires[i]]
+            joined = np.vstack([np.vstack([w, np.full((1, 3), np.nan)]) for w in parts])[:-1]
+            out.append((joined[:, 0], joined[:, 1], joined[:, 2]))
+        return out
+
+    def frame_traces(self, go, q) -> list:
+        """The moving traces' data at q (n,), for a frame."""
+        return [go.Scatter3d(x=x, y=y, z=z) for x, y, z in self.xyz(q)]
+
+    def add_to(self, fig, go, q0, qs) -> list:
+        """The 3D scene (row 1, column 1) at q0: a floor grid and the
+        ground's points (static), the bodies' traces; its axes fixed to hold
+        every frame of qs, equal in scale. Returns the moving traces."""
+        sc = self.scene
+        pts = [sc.ground_points()] + [w for q in qs[:: max(1, len(qs) // 50)]
+                                      for ws in sc.wires(q) for w in ws]
+        pts = np.vstack(pts)
+        up = sc.camera(qs[:1]).up
+        for seg in sc.floor(pts, up):
+            fig.add_trace(go.Scatter3d(x=seg[:, 0], y=seg[:, 1], z=seg[:, 2], mode="lines",
+                                       showlegend=False, hoverinfo="skip",
+                                       line={"color": "#cccccc", "width": 1}), row=1, col=1)
+        ground = sc.ground_points()
+        if len(ground):
+            fig.add_trace(go.Scatter3d(x=ground[:, 0], y=ground[:, 1], z=ground[:, 2],
+                                       mode="markers", showlegend=False, name="ground",
+                                       marker={"symbol": "x", "size": 4, "color": "#777777"}),
+                          row=1, col=1)
+        first = len(fig.data)
+        for base, (x, y, z) in zip(self.traces(), self.xyz(q0)):
+            fig.add_trace(go.Scatter3d(x=x, y=y, z=z, **base), row=1, col=1)
+        lo, hi = pts.min(axis=0), pts.max(axis=0)
+        half = 0.55 * max(float(np.max(hi - lo)), 0.1)
+        mid = 0.5 * (lo + hi)
+        cam = sc.camera(qs)
+        eye = (cam.eye - mid) / half
+        axis = {"showbackground": False, "zeroline": False}
+        fig.update_scenes(
+            xaxis={**axis, "range": [mid[0] - half, mid[0] + half], "title": "x [m]"},
+            yaxis={**axis, "range": [mid[1] - half, mid[1] + half], "title": "y [m]"},
+            zaxis={**axis, "range": [mid[2] - half, mid[2] + half], "title": "z [m]"},
+            aspectmode="cube", camera={"eye": dict(zip("xyz", eye.tolist())),
+                                       "up": dict(zip("xyz", cam.up.tolist()))})
+        return list(range(first, len(fig.data)))
+
 
 def _panels(sol, columns, bodies):
     """[(title, [columns], log scale)] of the time plots."""
@@ -172,6 +280,35 @@ def write_html(solution, path, columns=None, bodies=None, max_frames: int = MAX_
     OSError
         The file cannot be written.
     """
+    sol = solution
+    fig, info = figure(sol, columns, bodies, max_frames, deform_scale)
+    embedded = fig.to_html(include_plotlyjs=True, full_html=False, div_id="mechanism",
+                           config={"responsive": True, "displaylogo": False})
+    warnings = "".join(f"<li>{html.escape(w.code)}: {html.escape(w.message)}</li>"
+                       for w in sol.warnings)
+    page = _PAGE.format(title=html.escape(f"{sol.model.name}: {sol.method_name}"),
+                        summary=html.escape(sol.summary()),
+                        warnings=f"<ul class='warn'>{warnings}</ul>" if warnings else "",
+                        figure=embedded, info=json.dumps(info))
+    path = Path(path)
+    path.write_text(page, encoding="utf-8")
+    return path
+
+
+def figure(solution, columns=None, bodies=None, max_frames: int = MAX_FRAMES,
+           deform_scale: float = 1.0) -> tuple:
+    """The page's plotly figure and what it shows (:func:`write_html`, whose
+    parameters and errors these are).
+
+    Returns
+    -------
+    (plotly Figure, dict)
+        The figure, its frames at ``times``, and ``{"frames", "times",
+        "traces", "cursors"}``: the number of frames, their times [s], the
+        mechanism's moving traces (``{"trace", "style", "color"}``: their
+        index in the figure, how they draw and their colour) and the time
+        plots' cursors' indices.
+    """
     import plotly.graph_objects as go
     from plotly.subplots import make_subplots
     from .plotting import _interpolated
@@ -185,38 +322,23 @@ def write_html(solution, path, columns=None, bodies=None, max_frames: int = MAX_
     n_frames = int(min(max_frames, max(len(t), 2)))
     times = np.linspace(t[0], t[-1], n_frames)
     qs = _interpolated(t, sol.q, times) if len(t) > 1 else np.repeat(sol.q[:1], n_frames, 0)
-    scene = Scene(sol.model, deform_scale)
-    lo, hi = scene.frame_extent(qs)
-    drawing = _Drawing(scene)
-
+    spatial = getattr(sol.model, "space", 2) == 3
+    drawing = (_Drawing3D(SpatialScene(sol.model)) if spatial
+               else _Drawing(Scene(sol.model, deform_scale)))
     rows = max(len(panels), 1)
+    first = {"rowspan": rows, **({"type": "scene"} if spatial else {})}
     fig = make_subplots(rows=rows, cols=2, column_widths=[0.5, 0.5],
-                        specs=[[{"rowspan": rows}, {}]] + [[None, {}] for _ in range(rows - 1)],
+                        specs=[[first, {}]] + [[None, {}] for _ in range(rows - 1)],
                         shared_xaxes=False, vertical_spacing=0.04 if rows > 4 else 0.08,
                         subplot_titles=[""] + [p[0] for p in panels])
-    mech = _add_mechanism(fig, go, scene, drawing, qs[0])
+    mech = drawing.add_to(fig, go, qs[0], qs)
     cursors, bounds = _add_time_plots(fig, go, sol, panels, t, times)
     fig.update_xaxes(title_text="t [s]", row=rows, col=2)
-    fig.update_xaxes(range=[lo[0], hi[0]], row=1, col=1, showgrid=False, zeroline=False)
-    fig.update_yaxes(range=[lo[1], hi[1]], row=1, col=1, scaleanchor="x", scaleratio=1,
-                     showgrid=False, zeroline=False)
-
     _add_frames(fig, go, drawing, qs, times, bounds, mech + cursors, rows)
-    figure = fig.to_html(include_plotlyjs=True, full_html=False, div_id="mechanism",
-                         config={"responsive": True, "displaylogo": False})
     described = [{"trace": i, "style": s, "color": c}
                  for i, (s, c) in zip(mech, drawing.keys)]
-    info = {"frames": n_frames, "times": times.tolist(), "traces": described,
-            "cursors": cursors}
-    warnings = "".join(f"<li>{html.escape(w.code)}: {html.escape(w.message)}</li>"
-                       for w in sol.warnings)
-    page = _PAGE.format(title=html.escape(f"{sol.model.name}: {sol.method_name}"),
-                        summary=html.escape(sol.summary()),
-                        warnings=f"<ul class='warn'>{warnings}</ul>" if warnings else "",
-                        figure=figure, info=json.dumps(info))
-    path = Path(path)
-    path.write_text(page, encoding="utf-8")
-    return path
+    return fig, {"frames": n_frames, "times": times.tolist(), "traces": described,
+                 "cursors": cursors}
 
 
 
@@ -292,7 +414,7 @@ def _add_frames(fig, go, drawing, qs, times, bounds, moving, rows) -> None:
     n_frames = len(times)
     frames = []
     for k in range(n_frames):
-        data = [go.Scatter(x=x, y=y) for x, y in drawing.xy(qs[k])]
+        data = drawing.frame_traces(go, qs[k])
         data += [go.Scatter(x=[times[k], times[k]], y=list(b)) for b in bounds]
         frames.append(go.Frame(name=f"f{k}", data=data, traces=moving))
     fig.frames = frames
@@ -303,7 +425,7 @@ def _add_frames(fig, go, drawing, qs, times, bounds, moving, rows) -> None:
         """The play button at ``speed`` times real time (frames >= 16 ms apart)."""
         return {"label": f"play x{speed:g}", "method": "animate",
                 "args": [None, {"frame": {"duration": max(step_ms / speed, 16.0),
-                                          "redraw": False},
+                                          "redraw": drawing.redraw},
                                 "transition": {"duration": 0}, "fromcurrent": True,
                                 "mode": "immediate"}]}
     fig.update_layout(
@@ -320,7 +442,8 @@ def _add_frames(fig, go, drawing, qs, times, bounds, moving, rows) -> None:
                   "yanchor": "top", "currentvalue": {"prefix": "t = ", "suffix": " s"},
                   "steps": [{"label": f"{times[k]:.4g}", "method": "animate",
                              "args": [[f"f{k}"], {"mode": "immediate",
-                                                  "frame": {"duration": 0, "redraw": False},
+                                                  "frame": {"duration": 0,
+                                                            "redraw": drawing.redraw},
                                                   "transition": {"duration": 0}}]}
                             for k in range(n_frames)]}])
 

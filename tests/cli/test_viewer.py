@@ -190,3 +190,25 @@ def test_play_moves_the_frames(browser, tmp_path):
         "return document.getElementById('mechanism').layout.sliders[0].active")
     assert k > 5
     assert _errors(browser) == []
+
+
+def test_a_spatial_page_in_a_browser(browser, tmp_path):
+    """The spatial slider-crank's page: it loads without a script error, its
+    mechanism is a 3D scene of scatter3d traces, and its slider moves the
+    bodies (the crank's centre-of-mass marker leaves where it started)."""
+    sol = mbdsl.simulate(mbdsl.load(MODELS / "spatial_slider_crank.mbd"), t_end=0.5)
+    page = write_html(sol, tmp_path / "crank.html", max_frames=50)
+    browser.get(page.as_uri())
+    time.sleep(1.0)
+    assert not _errors(browser)
+    info = browser.execute_script("return window.mbdslViewer")
+    kinds = browser.execute_script(
+        "var gd = document.getElementById('mechanism');"
+        "return window.mbdslViewer.traces.map(t => gd._fullData[t.trace].type);")
+    assert set(kinds) == {"scatter3d"} and info["frames"] == 50
+    cm = next(t["trace"] for t in info["traces"] if t["style"] == "cm")
+    where = ("var gd = document.getElementById('mechanism');"
+             f"return Array.from(gd._fullData[{cm}].x);")
+    first = browser.execute_script(where)
+    _click_slider(browser, 0.6)
+    assert browser.execute_script(where) != first

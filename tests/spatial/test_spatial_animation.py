@@ -90,3 +90,49 @@ def test_a_wrong_spatial_shape_is_an_error_at_its_line(line, code):
         mbdsl.load_text(text)
     d = err.value.diagnostics[0]
     assert d.code == code and d.span.line == 4, (d.code, d.message)
+
+
+def test_the_browser_view_draws_a_spatial_model_in_3d(tmp_path):
+    """``mbdsl view`` of the spatial slider-crank: a 3D scene whose frames
+    put each body's centre-of-mass marker at the run's x, y, z at the
+    frame's time (frames on the rows), the crank's cylinder as two end
+    circles of its radius about its axis, and the page written."""
+    from mbdsl.graphics.viewer import figure
+    sol = mbdsl.simulate(mbdsl.load(MODELS / "spatial_slider_crank.mbd"), h=1e-3, t_end=0.1)
+    fig, info = figure(sol, max_frames=101)
+    assert info["frames"] == 101
+    np.testing.assert_allclose(info["times"], sol.t, atol=1e-12)
+    styles = {d["trace"]: (d["style"], d["color"]) for d in info["traces"]}
+    assert {s for s, _ in styles.values()} >= {"wire", "cm", "joint"}
+    assert all(fig.data[i].type == "scatter3d" for i in styles)
+    colors = {b.name: c for b, c in zip(sol.model.bodies, ("#1f77b4", "#ff7f0e", "#2ca02c"))}
+    cm = [i for i, (s, _) in styles.items() if s == "cm"]
+    moving = [d["trace"] for d in info["traces"]] + info["cursors"]
+    for k in (0, 37, 100):
+        frame = fig.frames[k].data
+        for i in cm:
+            data = frame[moving.index(i)]
+            color = styles[i][1]
+            names = [n for n, c in colors.items() if c == color]
+            for (x, y, z), name in zip(zip(data.x, data.y, data.z), names):
+                want = [sol.column(f"{name}.{c}")[k] for c in "xyz"]
+                np.testing.assert_allclose([x, y, z], want, atol=1e-12)
+    # the crank's cylinder: its end circles lie at its radius about its axis
+    crank = next(b for b in sol.model.bodies if b.name == "crank")
+    (shape,) = [s for s in crank.shapes if s.kind == "cylinder"]
+    from mbdsl.graphics.scene3d import SpatialScene
+    scene = SpatialScene(sol.model)
+    wires = scene.wires(sol.q[50])
+    i = next(j for j, it in enumerate(scene.items) if it.body == "crank" and it.kind == "cylinder")
+    ends = scene.world(sol.q[50], crank.index, shape.points)
+    axis = (ends[1] - ends[0]) / np.linalg.norm(ends[1] - ends[0])
+    for circle, end in zip(wires[i][:2], ends):
+        d = circle - end
+        np.testing.assert_allclose(d @ axis, 0.0, atol=1e-12)
+        np.testing.assert_allclose(np.linalg.norm(d, axis=1), shape.radius, rtol=1e-12)
+    h5 = tmp_path / "crank.h5"
+    assert main(["simulate", str(MODELS / "spatial_slider_crank.mbd"), "--t-end", "0.1", "-q",
+                 "-o", str(h5)]) == 0
+    assert main(["view", str(h5), "-o", str(tmp_path / "crank.html")]) == 0
+    text = (tmp_path / "crank.html").read_text()
+    assert "scatter3d" in text and "window.mbdslViewer" in text
