@@ -60,32 +60,43 @@ def _joined(parts, closed: bool) -> tuple[np.ndarray, np.ndarray]:
     return np.concatenate(xs)[:-1], np.concatenate(ys)[:-1]
 
 
-class _Drawing:
+class _Grouped:
+    """A scene's items grouped into plotly traces, one per way of drawing
+    (``style_of`` an item's kind) and colour: ``groups`` (style, colour) ->
+    item indices, ``keys`` their order."""
+
+    def __init__(self, scene, style_of):
+        self.scene = scene
+        self.groups = {}
+        for i, item in enumerate(scene.items):
+            self.groups.setdefault((style_of(item.kind), item.color), []).append(i)
+        self.keys = list(self.groups)
+
+    def _name(self, key) -> str:
+        """A trace's hover name: the bodies it draws (four at most), or its style."""
+        names = sorted({self.scene.items[i].body for i in self.groups[key]
+                        if self.scene.items[i].body})
+        return ", ".join(names[:4]) + (" ..." if len(names) > 4 else "") or key[0]
+
+
+class _Drawing(_Grouped):
     """The scene's items grouped into plotly traces (one per colour and way
     of drawing), and their x, y at a state."""
 
     #: whether plotly redraws the figure at each frame (its 3D scenes need it)
     redraw = False
+    STYLES = {"polygon": "fill", "circle": "fill", "line": "line", "beam": "beam",
+              "point": "point", "spring": "spring", "rod": "rod", "joint": "joint"}
 
     def __init__(self, scene: Scene):
-        self.scene = scene
-        self.groups = {}              # (style, colour) -> item indices
-        for i, item in enumerate(scene.items):
-            style = {"polygon": "fill", "circle": "fill", "line": "line", "beam": "beam",
-                     "point": "point", "spring": "spring", "rod": "rod",
-                     "joint": "joint"}[item.kind]
-            self.groups.setdefault((style, item.color), []).append(i)
-        self.keys = list(self.groups)
+        super().__init__(scene, self.STYLES.__getitem__)
 
     def traces(self):
         """The traces' static attributes (plotly dicts), in :attr:`keys` order."""
         out = []
         for style, color in self.keys:
-            names = sorted({self.scene.items[i].body for i in self.groups[(style, color)]
-                            if self.scene.items[i].body})
             base = {"type": "scatter", "xaxis": "x", "yaxis": "y", "showlegend": False,
-                    "hoverinfo": "name", "name": ", ".join(names[:4])
-                    + (" ..." if len(names) > 4 else "") or style}
+                    "hoverinfo": "name", "name": self._name((style, color))}
             if style == "fill":
                 base.update(mode="lines", fill="toself", fillcolor=_rgba(color, 0.35),
                             line={"color": color, "width": 2})
@@ -138,7 +149,7 @@ class _Drawing:
         return mech
 
 
-class _Drawing3D:
+class _Drawing3D(_Grouped):
     """A spatial model's items (``SpatialScene``) grouped into plotly 3D traces
     (one per colour and way of drawing: the bodies' wireframes, the centres of
     mass, springs, joints), their x, y, z at a state; a perspective scene
@@ -148,21 +159,14 @@ class _Drawing3D:
     redraw = True
 
     def __init__(self, scene: SpatialScene):
-        self.scene = scene
-        self.groups = {}
-        for i, item in enumerate(scene.items):
-            style = item.kind if item.kind in ("cm", "spring", "joint") else "wire"
-            self.groups.setdefault((style, item.color), []).append(i)
-        self.keys = list(self.groups)
+        super().__init__(scene, lambda kind: kind if kind in ("cm", "spring", "joint")
+                         else "wire")
 
     def traces(self):
         """The traces' static attributes (plotly dicts), in :attr:`keys` order."""
         out = []
         for style, color in self.keys:
-            names = sorted({self.scene.items[i].body for i in self.groups[(style, color)]
-                            if self.scene.items[i].body})
-            base = {"showlegend": False, "hoverinfo": "name",
-                    "name": ", ".join(names[:4]) + (" ..." if len(names) > 4 else "") or style}
+            base = {"showlegend": False, "hoverinfo": "name", "name": self._name((style, color))}
             if style == "wire":
                 base.update(mode="lines", line={"color": color, "width": 5})
             elif style == "cm":

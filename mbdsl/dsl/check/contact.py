@@ -94,13 +94,10 @@ def _limit_gaps(c, f, pos, opts, ctx):
     """A limit's gaps: ("angle", (body1, None, body2, None, bound, sign), label)
     for a revolute, ("slide", line + (bound, sign), label) for a sliding joint,
     one per bound given; None after reporting."""
-    joint = c.joint_argument(pos[0], f, ctx)
-    if joint is None:
+    target = _limit_target(c, f, pos, opts, ctx)
+    if target is None:
         return None
-    bounds = _bounds(c, f, opts, ctx)
-    if bounds is None:
-        return None
-    lower, upper = bounds
+    joint, (lower, upper) = target
     if joint.kind == "revolute":
         if not c.turning(joint.bodies, ctx, f.span, "a limit on an angle turns bodies"):
             return None
@@ -125,9 +122,12 @@ def _limit_gaps(c, f, pos, opts, ctx):
     return gaps
 
 
-def _bounds(c, f, opts, ctx):
-    """(lower, upper) of a limit (NaN: not given); None after reporting E305
-    (neither) or E303 (lower >= upper)."""
+def _limit_target(c, f, pos, opts, ctx):
+    """(the joint a limit names, (lower, upper): NaN where not given); None
+    after reporting (an unknown joint, E305 no bound, E303 lower >= upper)."""
+    joint = c.joint_argument(pos[0], f, ctx)
+    if joint is None:
+        return None
     lower, upper = opts["lower"], opts["upper"]
     if math.isnan(lower) and math.isnan(upper):
         c.error("E305", f"{ctx}: a limit needs 'lower', 'upper' or both", f.span,
@@ -137,7 +137,7 @@ def _bounds(c, f, opts, ctx):
         c.error("E303", f"{ctx}: 'lower' ({lower:g}) must be below 'upper' ({upper:g})",
                 f.span, "empty range")
         return None
-    return lower, upper
+    return joint, (lower, upper)
 
 
 def _spatial_limit_gaps(c, f, pos, opts, ctx):
@@ -145,12 +145,10 @@ def _spatial_limit_gaps(c, f, pos, opts, ctx):
     revolute's angle within (-pi, pi), a prismatic's or point_on_line's
     distance; None after reporting (E305 another joint, E303 an angle bound
     beyond +-pi)."""
-    joint = c.joint_argument(pos[0], f, ctx)
-    if joint is None:
+    target = _limit_target(c, f, pos, opts, ctx)
+    if target is None:
         return None
-    bounds = _bounds(c, f, opts, ctx)
-    if bounds is None:
-        return None
+    joint, bounds = target
     if joint.kind not in ("revolute", "prismatic", "point_on_line"):
         c.error("E305", f"{ctx}: a limit acts on a revolute's angle or a prismatic or "
                 f"point_on_line joint's distance; '{joint.name}' is a {joint.kind} joint",
