@@ -534,7 +534,9 @@ def static_positions(system, t0: float, q: np.ndarray, lam: np.ndarray,
                    "the mechanism may not be held against its loads",
                    model.static_span, "initial static",
                    hint="a degree of freedom that only gravity or a constant load acts on has "
-                   "no equilibrium: add a spring, hold it with an 'initial' line, or drive it")
+                   "no equilibrium, and one that nothing acts on (a free body's place on a "
+                   "frictionless floor, its turn) no single one: add a spring, hold it with "
+                   "an 'initial' line, or drive it")
     raise AssemblyError(d.message, [d])
 
 
