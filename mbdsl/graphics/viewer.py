@@ -201,8 +201,8 @@ class _Drawing3D(_Grouped):
         pts = [sc.ground_points()] + [w for q in qs[:: max(1, len(qs) // 50)]
                                       for ws in sc.wires(q) for w in ws]
         pts = np.vstack(pts)
-        up = sc.camera(qs[:1]).up
-        for seg in sc.floor(pts, up):
+        cam = sc.camera(qs)
+        for seg in sc.floor(pts, cam.up):
             fig.add_trace(go.Scatter3d(x=seg[:, 0], y=seg[:, 1], z=seg[:, 2], mode="lines",
                                        showlegend=False, hoverinfo="skip",
                                        line={"color": "#cccccc", "width": 1}), row=1, col=1)
@@ -218,7 +218,6 @@ class _Drawing3D(_Grouped):
         lo, hi = pts.min(axis=0), pts.max(axis=0)
         half = 0.55 * max(float(np.max(hi - lo)), 0.1)
         mid = 0.5 * (lo + hi)
-        cam = sc.camera(qs)
         eye = (cam.eye - mid) / half
         axis = {"showbackground": False, "zeroline": False}
         fig.update_scenes(

@@ -253,6 +253,8 @@ def spatial_dot_gap(u_terms, w_terms, offset, sign, label=""):
     bodies += [GROUND] * (2 - len(bodies))
 
     def side(terms):
+        """(weights (8,): (alpha, s) on body A, then on body B; constant (3,)
+        [m]: the ground's terms) of one side's sum of terms."""
         weights, const = np.zeros(8), np.zeros(3)
         for body, alpha, local, factor in terms:
             if body == GROUND:
