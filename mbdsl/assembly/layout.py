@@ -29,6 +29,9 @@ class Layout:
         (joint or driver name, row within it).
     row_element : ndarray of int, shape (m,)
         Number of the joint or driver each row belongs to.
+    frame_rows : ndarray of int, shape (6 b,)
+        The spatial bodies' orthonormality rows a_k . a_l - delta_kl
+        (``model.spatial.Frame``), which Newton holds to ``newton.FRAME_TOL``.
     """
 
     def __init__(self, model: Model):
@@ -45,6 +48,8 @@ class Layout:
         numbers = {name: k for k, name in enumerate(self.element_rows)}
         self.row_element = np.array([numbers[name] for name, _ in self.rows], dtype=np.intp)
         self.n_elements = len(numbers)
+        self.frame_rows = np.array([r for f in model.frames for r in self.element_rows[f.name]],
+                                   dtype=np.intp)
 
     def multiplier_names(self) -> list[str]:
         """``lambda.<joint>.<k>`` column names, length m."""

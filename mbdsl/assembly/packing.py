@@ -74,6 +74,7 @@ class PackedModel:
         d["Q0"] = Q0
         d["zcol"] = system.state_cols.astype(np.int64)
         d["row_element"] = system.layout.row_element.astype(np.int64)
+        d["frow"] = system.layout.frame_rows.astype(np.int64)
         d["n_elements"] = int(system.layout.n_elements)
         self.ints, self.floats = K.pack(d)
         self.n, self.m = n, system.m

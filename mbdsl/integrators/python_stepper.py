@@ -17,7 +17,7 @@ from .base import StepState
 from .common import EPS
 from .diagnosis import fail, fail_tolerance
 from . import loop as _loop      # its FLUSH_INTERVAL read at each call
-from .newton import ROUNDOFF_ULPS
+from .newton import FRAME_TOL, ROUNDOFF_ULPS
 from .outcomes import CONVERGED, EVENT, LAND, REJECTED, RUN, TOLERANCE
 from .records import (CNT_FACTORIZATIONS, CNT_ITERATIONS, CNT_JACOBIANS, CNT_RESIDUALS,
                       CNT_STALLED, INDEX1_LIMIT, CNT_STEPS, CTL_H_MAX, CTL_H_MIN, ST_AFTER_REJECTION, ST_CARRY,
@@ -287,10 +287,18 @@ class PythonStepper:
                 """Whether the iterate w meets its constraints to round-off."""
                 s = method.accept(w, ctx)
                 return constraints_at_roundoff(system, s.t, s.q, s.v, self.roundoff_rows)
+        frames_held = None
+        if system.layout.frame_rows.size and not augmented:
+            def frames_held(w):
+                """Whether the iterate w holds the spatial bodies' frames."""
+                s = method.accept(w, ctx)
+                rows = system.layout.frame_rows
+                return bool(np.max(np.abs(system.Phi(s.q, s.t)[rows])) <= FRAME_TOL)
         res = self.newton.solve(lambda w: method.residual(w, ctx),
                                 lambda w: method.jacobian(w, ctx), w0, self.kinds, scales,
                                 key=key, floor=method.roundoff_floor(system, step, ctx.last.q),
-                                at_roundoff=at_roundoff, constraint_rows=self.constraint_rows)
+                                at_roundoff=at_roundoff, constraint_rows=self.constraint_rows,
+                                frames_held=frames_held)
         return ctx, res
 
     def _accept(self, ls, new, step, t_new, carry, state, history):

@@ -73,15 +73,18 @@ MODEL_SCHEMA = (
     ("arow", "i", 0), ("acol", "i", 2), ("av", "f", 9), ("afn", "i", 3),  # spatial joint angles
     ("hcol", "i", 2), ("hv", "f", 9), ("hpar", "f", 3),                # spatial rotational springs
     ("kbody", "i", 2), ("kgeo", "f", 22),                              # spatial gaps: bodies, geometry
+    ("frow", "i", 0),                                                  # spatial bodies' frame rows
 )
 #: The fields no element family owns: the mass diagonal, the constant forces (gravity),
-#: the constraint rows' elements, the rigid bodies' mass diagonal and the columns of
-#: the first-order states (``model.elements.FirstOrderState``).
-FIELDS = ("mass", "Q0", "row_element", "mrig", "zcol")
+#: the constraint rows' elements, the rigid bodies' mass diagonal, the columns of
+#: the first-order states (``model.elements.FirstOrderState``) and the spatial bodies'
+#: frame rows (``model.spatial.Frame``: Newton's test of orthonormality).
+FIELDS = ("mass", "Q0", "row_element", "mrig", "zcol", "frow")
 #: The field names, and the scalar "n_elements" (the header's last entry).
 MODEL_FIELDS = tuple(name for name, _, _ in MODEL_SCHEMA) + ("n_elements",)
 
 ROUNDOFF_BAND = 1e3        # as in newton.py
+FRAME_TOL = 1e-12          # as in newton.py
 EPS = 2.220446049250313e-16
 
 
@@ -103,7 +106,7 @@ _0, _YES, _NO = np.int64(0), np.bool_(True), np.bool_(False)
  DROW, DCOL1, DS1, DCOL2, DS2, DLEN, MRIG, BEAM, BCOL, BDAT, BDOF, GRAV, CEL, PEL, ECOL,
  ESHP, KGI, KCOL, KPAR, KIMP, SEL, FEL, DSP, XTRM, XTC, XROW, XOFF, FDV, TBL, TBD,
  ZCOL, SWP, VROW, VCOL, VW, VC, WCOL, WS, W0, WPAR, YCOL, YPAR, YFN, VFN,
- AROW, ACOL, AV, AFN, HCOL, HV, HPAR, KBODY, KGEO) = range(99)
+ AROW, ACOL, AV, AFN, HCOL, HV, HPAR, KBODY, KGEO, FROW) = range(100)
 if any(globals()[name.upper()] != k for k, (name, _, _) in enumerate(MODEL_SCHEMA)):
     raise ImportError("schema.py's field indices differ from MODEL_SCHEMA")   # pragma: no cover
 

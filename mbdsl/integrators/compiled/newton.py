@@ -15,7 +15,8 @@ from mbdsl.integrators.records import (CNT_FACTORIZATIONS, CNT_ITERATIONS, CNT_J
 from .layout import ADDITIVE, FORM, HAS_Y, REG, SP, SV, _layout
 from .linalg import _factor, _solve
 from .recipes import _jacobian_triplets, _residual
-from ...kernels.schema import EPS, MASS, ROUNDOFF_BAND, ROW_ELEMENT, _hot, _rows
+from ...kernels.schema import (EPS, FRAME_TOL, FROW, MASS, ROUNDOFF_BAND, ROW_ELEMENT, _hot, _i,
+                               _rows)
 
 
 @_hot
@@ -90,7 +91,8 @@ def _newton(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, weight, opts, solve
             for i in range(size):         # the iterate whose residual r was read
                 w[i] += dw[i]
             roundoff = True
-        if norm == 0.0 or (eta * norm <= 1.0 and norm <= 1.0) or roundoff:
+        if norm == 0.0 or roundoff or (eta * norm <= 1.0 and norm <= 1.0     # and newton.py's
+                                       and _frames_held(rec, I, r)):        # frame test
             if roundoff:
                 counts[CNT_STALLED] += 1
             lu_state[LU_RATE] = min(max(theta, 1e-3), 0.9) if np.isfinite(theta) else 0.5
@@ -112,6 +114,34 @@ ROUNDOFF_ULPS = 8.0        # as in newton.py
 
 
 @_hot
+def _constraint_rows(rec, n, m):
+    """(first row of Phi, first row of Phi_q v + Phi_t, whether the latter
+    are rows) in the residual of the recipe ``rec``: after the unknowns' rows,
+    and the additive form's E3 and E4 after its 2n rows of dq and dv."""
+    _, l0, u0, _ = _layout(rec, n, m)
+    if rec[FORM] == ADDITIVE:
+        return 2 * n, 2 * n + m, True
+    return l0, u0, rec[HAS_Y] != 0.0
+
+
+@_hot
+def _frames_held(rec, I, r):
+    """newton.py's test of the spatial bodies' frames at the iterate whose
+    residual is r: every frame row |a_k . a_l - delta_kl| within FRAME_TOL
+    (its row of r is Phi scaled by sP). True without spatial bodies, and in
+    the augmented formulation (its rows hold a regularized Phi)."""
+    k = _rows(I, FROW)
+    if k == 0 or rec[REG] != 0.0:
+        return True
+    l0, _, _ = _constraint_rows(rec, _rows(I, MASS), _rows(I, ROW_ELEMENT))
+    tol = abs(rec[SP]) * FRAME_TOL
+    for i in range(k):
+        if abs(r[l0 + _i(I, FROW, i, 0)]) > tol:
+            return False
+    return True
+
+
+@_hot
 def _rest_at_roundoff(rec, I, solver, lin, r, qx, vx, weight, spare):
     """newton.py's residual test of a stagnating exact-Newton iteration at
     the iterate whose residual is r (state in qx, vx): its constraint rows
@@ -124,10 +154,8 @@ def _rest_at_roundoff(rec, I, solver, lin, r, qx, vx, weight, spare):
     n, m = _rows(I, MASS), _rows(I, ROW_ELEMENT)
     if m == 0:
         return False
-    size, l0, u0, _ = _layout(rec, n, m)
-    velocity = rec[HAS_Y] != 0.0
-    if rec[FORM] == ADDITIVE:
-        l0, u0, velocity = 2 * n, 2 * n + m, True
+    size = _layout(rec, n, m)[0]
+    l0, u0, velocity = _constraint_rows(rec, n, m)
     qmax, vmax = 0.0, 0.0
     for j in range(n):
         qmax = max(qmax, abs(qx[j]))
