@@ -38,7 +38,8 @@ import numpy as np
 
 from ..errors import Span
 
-__all__ = ["SpatialBody", "Frame", "SpatialSpring", "SpatialRotationalSpring", "SpatialLoad", "DIRECTORS", "SPATIAL_COORDINATES", "SPATIAL_VELOCITIES",
+__all__ = ["SpatialBody", "Frame", "SpatialSpring", "SpatialRotationalSpring", "SpatialLoad",
+           "SpatialStateLoad", "DIRECTORS", "SPATIAL_COORDINATES", "SPATIAL_VELOCITIES",
            "SPATIAL_ACCELERATIONS", "zyx", "zyx_angles", "axis_angle", "euler_parameters",
            "body_angular_velocity", "director_inertia"]
 
@@ -223,6 +224,45 @@ class SpatialLoad:
     components: tuple
     frame: str = "world"
     span: Span | None = None
+
+
+@dataclass(frozen=True)
+class SpatialStateLoad:
+    """A force on a point or a torque on a spatial body that reads the motion
+    (``force(B.p, (fx, fy, fz))`` with components of the state), held as
+    its generalized force entry by entry: each a function of t and of state
+    variables that are linear in q or v (the body's r, directors a_k and
+    their rates), so that the Newton matrix has its exact derivatives by
+    symbolic differentiation (``kernels.loads.state_loads``, Q = sum over
+    the entries of Q_j(t, x) on column j). The entries are those of
+    :class:`SpatialLoad`'s generalized force: F on r and s_k F on a_k for
+    a force F at s, T x a_k / 2 on a_k for a torque T, with F (T) in body
+    axes turned to the world's by the directors, F = sum_l f_l a_l.
+
+    Attributes
+    ----------
+    name : str
+    body : int
+    entries : tuple of (int, StateFunction)
+        (coordinate of the body, 0..11 as ``SPATIAL_COORDINATES``, its
+        generalized force [N] on r, [N m] on a director).
+    torque : bool
+        A torque (else a force), for messages.
+    """
+
+    name: str
+    body: int
+    entries: tuple
+    torque: bool = False
+    span: Span | None = None
+
+    #: The load kind (its kernel family: ``kernels.system.LOAD_FAMILIES``).
+    kind = "spatial_state_load"
+
+    @property
+    def functions(self) -> tuple:
+        """Its entries' functions of time and the state, in order."""
+        return tuple(fn for _, fn in self.entries)
 
 
 def zyx(yaw: float, pitch: float, roll: float) -> np.ndarray:

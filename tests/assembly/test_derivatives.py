@@ -31,13 +31,14 @@ TABLES = VALID / "table_elements.mbd"
 STATES = VALID / "state_elements.mbd"
 SPATIAL = VALID / "spatial_drivers.mbd"
 SPATIAL_GAPS = VALID / "spatial_contacts.mbd"
+SPATIAL_STATE = VALID / "spatial_state_loads.mbd"
 EPS = 1e-6
 
 
 @pytest.fixture(scope="module", params=[MODEL, FLEXIBLE, COUPLERS, FOLLOWER, TABLES, STATES,
-                                        SPATIAL, SPATIAL_GAPS],
+                                        SPATIAL, SPATIAL_GAPS, SPATIAL_STATE],
                 ids=["rigid", "flexible", "couplers", "follower", "tables", "states", "spatial",
-                     "spatial-gaps"])
+                     "spatial-gaps", "spatial-state-loads"])
 def system(request):
     return assemble(mbdsl.load(request.param))
 
@@ -99,6 +100,15 @@ def test_model_declares_every_element_type(system):
     if system.model.name == "spatial_contacts":      # every spatial gap geometry
         gaps = [(c.name, g[0]) for c in system.model.forces for g in c.gaps]
         assert {g for _, g in gaps} == {"dot", "spatial_angle"} and len(gaps) == 6
+        return
+    if system.model.name == "spatial_state_loads":   # forces and torques of the motion
+        loads = system.model.forces
+        assert {f.kind for f in loads} == {"spatial_state_load"}
+        # F on r and s_k F on a_k: a.P 3 + 9, b.Q (s_3 = 0) 3 + 6; a torque 9
+        assert sorted(len(f.entries) for f in loads) == [9, 9, 9, 12]
+        read = {v.name for f in loads for fn in f.functions for v in fn.variables}
+        assert {"a.P.vx"} & read == set()             # a point is read through its body's
+        assert {"a.vx", "a.A11_t", "b.vz", "b.A12_t", "b.A31", "a.z", "b.z"} <= read
         return
     if system.model.space == 3:          # every spatial driver, a rotational spring-damper
         assert {(d.kind, d.joint.kind if d.joint else None) for d in system.model.drivers} == {

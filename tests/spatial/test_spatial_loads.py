@@ -108,7 +108,7 @@ def test_a_follower_force_and_torque_in_body_axes():
 
 @pytest.mark.parametrize("line, code", [
     ("force m: torque(b, (1, 2))", "E305"),
-    ("force m: torque(b, (b.wx, 0, 0))", "E205"),
+    ("force m: torque(b, (b.yaw, 0, 0))", "E304"),
     ("force f: force(ground.origin, (1, 2, 3))", "E402"),
     ("force f: force(b.P, (1, 2, 3), frame = sideways)", "E305"),
     ("force m: torque(c, (1, 2, 3))", "E201"),

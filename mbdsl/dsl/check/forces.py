@@ -12,11 +12,11 @@ import numpy as np
 
 from ...model.spatial import SpatialRotationalSpring, SpatialSpring
 from ...model.elements import (GROUND, FlexibleBeam, Friction, JointForce, JointTorque, PointForce,
-                               RotationalSpringDamper, SpringDamper, StateFunction, StateSwitch,
-                               StateVariable, Torque)
-from ..expressions import (Binary, Call, compile_state_function, diff, Dotted, ExprError,
-                           kinked_tables, Name, Num, simplify, substitute, Unary, Vec)
+                               RotationalSpringDamper, SpringDamper, StateVariable, Torque)
+from ..expressions import (Binary, Call, Dotted, ExprError, Name, Num, simplify, substitute, Unary,
+                           Vec)
 from .contact import contact_element, rope_element
+from .state_functions import state_function
 from .spatial import ANGLE_JOINTS, spatial_load
 from .context import BrokenReference, did_you_mean, point_ref
 from .tables import (BODY_STATE, FORCE_FRAMES, FORCE_KINDS, GEOMETRY_OPTIONS, JOINT_MOTION,
@@ -338,31 +338,6 @@ def force_function(c, expr, span, context, unit=None):
     if not found:
         return c.time_function(expr, span, context, unit)
     return state_function(c, e, tuple(found.values()), span, context)
-
-
-def state_function(c, e, variables, span, context):
-    """f(t, x) (StateFunction) of an expression ``e`` whose state variables
-    are named (``state_expression``), with its exact partial derivatives
-    with respect to each of ``variables``; None after reporting."""
-    names = tuple(v.name for v in variables)
-    try:
-        grads = tuple(diff(e, name) for name in names)
-    except ExprError as err:
-        c.expr_error(err, span, context)
-        return None
-    return StateFunction(compile_state_function(e, names),
-                         tuple(compile_state_function(g, names) for g in grads),
-                         variables, expr=e, grad_exprs=grads,
-                         switches=state_switches(e, names, variables))
-
-
-def state_switches(e, names, variables) -> tuple:
-    """The kinks of the tables of the state in ``e`` (``kinked_tables``), as
-    :class:`~mbdsl.model.elements.StateSwitch` es: located as events."""
-    from ..unparse import expr_text
-    return tuple(StateSwitch(f"{call.table.name}({expr_text(call.arg)})",
-                             compile_state_function(call.arg, names), call.arg, variables, kinks)
-                 for call, kinks in kinked_tables(e))
 
 
 def state_expression(c, expr, span, context):

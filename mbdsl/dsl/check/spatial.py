@@ -20,8 +20,9 @@ import numpy as np
 
 from ...model.elements import GROUND, InitialCondition, Joint, Shape
 from ...model.spatial import DIRECTORS, SpatialBody, SpatialLoad, axis_angle, zyx
-from ..expressions import Call, Dotted, Vec, children
+from ..expressions import Call, Dotted, Vec
 from .context import did_you_mean, plain_target
+from .spatial_state import reads_motion, spatial_state_load
 
 #: spatial joint kind -> (points, then axes, as positional arguments; allowed keywords;
 #: rows). Axes are ``body.axis`` references: a body's x, y, z or its ``axis`` lines.
@@ -388,9 +389,10 @@ def _rotation_value(c, tgt, ic, kw):
 def spatial_load(c, f, pos, opts, ctx):
     """``force(B.p, (fx, fy, fz) [, frame = body])`` [N] or ``torque(B, (tx,
     ty, tz) [, frame = body])`` [N m] in a spatial model
-    (``model.spatial.SpatialLoad``): components constant or of time; None
-    after reporting (E201 an unknown body, E305 not a vector or frame, E402
-    on the ground, E205 a component that reads the motion)."""
+    (``model.spatial.SpatialLoad``): components constant or of time, or,
+    where one reads the motion, ``check.spatial_state.spatial_state_load``;
+    None after reporting (E201 an unknown body, E305 not a vector or frame,
+    E402 on the ground)."""
     torque = f.kind == "torque"
     if torque:
         ref = pos[0].value
@@ -425,28 +427,14 @@ def spatial_load(c, f, pos, opts, ctx):
         c.error("E305", f"{ctx}: expected the {'torque' if torque else 'force'} as a vector "
                 f"'({'tx, ty, tz' if torque else 'fx, fy, fz'})' [{unit}]", span, "not a vector")
         return None
+    if any(reads_motion(e) for e in (vec.x, vec.y, vec.z)):
+        return spatial_state_load(c, f.name, torque, index, local, (vec.x, vec.y, vec.z),
+                                  frame, span, ctx)
     parts = []
     for e in (vec.x, vec.y, vec.z):
-        motion = _motion_name(e)
-        if motion is not None:
-            c.error("E205", f"{ctx}: a spatial load of the motion ('{motion}') is not "
-                    "supported yet", getattr(e, "span", None) or span, "reads the motion",
-                    hint="give constants or functions of time t")
-            return None
         fn = c.time_function(e, span, ctx, unit=unit)
         if fn is None:
             return None
         parts.append(fn)
     kind = "spatial_torque" if torque else "spatial_force"
     return SpatialLoad(f.name, kind, index, local, tuple(parts), frame, f.span)
-
-
-def _motion_name(e):
-    """The first ``body.field`` an expression reads, as written, or None."""
-    if isinstance(e, Dotted):
-        return f"{e.obj}.{e.attr}"
-    for sub in children(e):
-        found = _motion_name(sub)
-        if found is not None:
-            return found
-    return None

@@ -1,13 +1,15 @@
 """Loads of the state: a torque tau(t, x) between a joint's two bodies, or a force
 tau(t, x) along a sliding joint's line, x the state variables the expression
-reads (a joint's angle or distance and their rates, body coordinates); and the
+reads (a joint's angle or distance and their rates, body coordinates); the
 rates f(t, x) of the first-order states, each the generalized force on its
-integral's column (``model.elements.FirstOrderState``).
+integral's column (``model.elements.FirstOrderState``); and a spatial force or
+torque of the state, entry by entry of its generalized force, each on one
+column of its body (``model.spatial.SpatialStateLoad``).
 
-Q = tau w, w = (+1, -1) on the two bodies' angles or grad s of the line
-(``geometry._line``); its derivatives: tau dw/dq (a line's Hessian) and
-w (dtau/dx_k) (dx_k/dq, dx_k/dv) for every partial derivative the checker
-wrote as a program (SDV).
+Q = tau w, w = (+1, -1) on the two bodies' angles (a spatial entry: +1 on its
+column) or grad s of the line (``geometry._line``); its derivatives: tau dw/dq
+(a line's Hessian) and w (dtau/dx_k) (dx_k/dq, dx_k/dv) for every partial
+derivative the checker wrote as a program (SDV).
 
 Fields: STQ (k, 4) (program of tau, +column, -column, line row or -1), SDV
 (j, 3) (load, variable, program of dtau/dx_k), VAR, VARC, XVAL the state
@@ -28,15 +30,30 @@ FIELDS = ("stq", "sdv")
 #: a 6 x 6 block.
 FORCE_TRIPLETS = 36
 #: The loads it holds (``model.elements``: ``Torque.kind`` of a torque that reads
-#: the motion, ``JointTorque.kind``, ``JointForce.kind``, ``FirstOrderState.kind``).
-LOADS = ("state_torque", "joint_torque", "joint_force", "state_rate")
+#: the motion, ``JointTorque.kind``, ``JointForce.kind``, ``FirstOrderState.kind``;
+#: ``model.spatial.SpatialStateLoad.kind``).
+LOADS = ("state_torque", "joint_torque", "joint_force", "state_rate", "spatial_state_load")
 
 
-def _direction(f, cmap) -> tuple:
+def _instances(items):
+    """The field's instances: (load, coordinate, function) per load, and per
+    entry of a spatial load's generalized force (coordinate of its body)."""
+    for f in items:
+        if f.kind == "spatial_state_load":
+            for coord, fn in f.entries:
+                yield f, coord, fn
+        else:
+            yield f, None, f.function
+
+
+def _direction(f, coord, cmap) -> tuple:
     """(+column, -column, line) of a load: the angles of the bodies tau acts
     on with + and - (a joint's second and first body, or one body and the
     ground's phi), or the ground's and a sliding joint's line; a first-order
-    state's rate: its column and the ground's phi."""
+    state's rate: its column and the ground's phi; a spatial entry: the
+    column of its body's coordinate ``coord`` and the ground's phi."""
+    if f.kind == "spatial_state_load":
+        return cmap.column(f.body, coord), cmap.n + 2, None
     if f.kind == "joint_force":
         return None, None, f.joint.line
     if f.kind == "state_rate":
@@ -54,7 +71,7 @@ def pack(items, tables) -> dict:
 
     Parameters
     ----------
-    items : list of Torque, JointTorque, JointForce or FirstOrderState
+    items : list of Torque, JointTorque, JointForce, FirstOrderState or SpatialStateLoad
         The model's loads of the kinds of ``LOADS``, in its order.
     tables : packing context
         ``variable_rows``, ``value_program``, ``program`` and ``line_row``
@@ -67,13 +84,12 @@ def pack(items, tables) -> dict:
     """
     ground_phi = tables.n + 2
     stq, sdv = [], []
-    for f in items:
-        names = tables.variable_rows(f.function)
-        program = tables.value_program(f.function, names)
-        a, b, line = _direction(f, tables.cmap)
+    for f, coord, fn in _instances(items):
+        names = tables.variable_rows(fn)
+        program = tables.value_program(fn, names)
+        a, b, line = _direction(f, coord, tables.cmap)
         stq.append((program, a, b, -1) if line is None
                    else (program, ground_phi, ground_phi, tables.line_row(line)))
-        fn = f.function
         for v, ge in zip(getattr(fn, "variables", ()), getattr(fn, "grad_exprs", ())):
             sdv.append((len(stq) - 1, names[v.name], tables.program(ge, names)))
     return {"stq": np.array(stq, np.int64).reshape(-1, 4),
@@ -85,10 +101,10 @@ def pattern(items, tables) -> tuple:
     direction (two angles, or a line's six), then those its state variables
     read; whether any reads a rate)."""
     cmap, per, damped = tables.cmap, [], False
-    for f in items:
-        a, b, line = _direction(f, cmap)
+    for f, coord, fn in _instances(items):
+        a, b, line = _direction(f, coord, cmap)
         cols = [a, b] if line is None else tables.line_columns(line)
-        for var in getattr(f.function, "variables", ()):
+        for var in getattr(fn, "variables", ()):
             cols += var.columns(cmap)
             damped = damped or var.level == 1
         per.append(list(dict.fromkeys(cols)))

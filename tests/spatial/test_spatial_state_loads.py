@@ -1,0 +1,173 @@
+"""Spatial forces and torques that read the motion (``force``, ``torque`` in a
+``space 3d`` model whose components read bodies and points:
+``model.spatial.SpatialStateLoad``, ``dsl.check.spatial_state``).
+
+Oracles, each independent of mbdsl's equations:
+* a body under gravity and linear drag -c v: the closed form of m v' = m g - c v;
+* a body under a damping torque -c w: Euler's equations J w' = (J w) x w - c w,
+  integrated by scipy's DOP853 at rtol 1e-12;
+* a point pulled to a fixed point by the vector spring -k (p - p0): the same
+  force as a spring-damper of zero free length (an independent element);
+* a body hanging on such a spring at rest: z = z0 - m g / k.
+(Q_q and Q_v against central differences: ``tests/assembly/test_derivatives.py``,
+``tests/dsl/valid/spatial_state_loads.mbd``.)
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+import mbdsl
+from mbdsl.errors import MbdModelError
+
+METHODS = ("newmark", "hht-i3", "hht-add", "hht-si2", "nstiff", "nstiff-si2", "genalpha",
+           "genalpha-si2")
+
+BODY = """model state_loads3d
+space 3d
+{gravity}
+ground {{ point F (0.2, -0.1, 1.0) }}
+body b {{ mass 2; inertia ({J}); point P (0.3, -0.1, 0.2) }}
+{loads}
+initial b.orientation = zyx(0.3, -0.2, 0.5)
+initial b.omega_body = ({w})
+initial b.x = 0; initial b.y = 0; initial b.z = 0
+initial b.vx = {v0}; initial b.vy = -0.5; initial b.vz = 3
+"""
+
+
+def _model(loads, J="0.1, 0.2, 0.25", w="0, 0, 0", gravity="gravity (0, 0, -9.81)", v0=1):
+    return mbdsl.load_text(BODY.format(loads=loads, J=J, w=w, gravity=gravity, v0=v0))
+
+
+def _drag_exact(t, v0, m, c, g):
+    """Position and velocity (N, 3) of m x'' = m g - c x' from x = 0, x' = v0."""
+    tau, vinf = m / c, m * np.asarray(g) / c
+    e = np.exp(-np.asarray(t)[:, None] / tau)
+    v = vinf + (np.asarray(v0) - vinf) * e
+    x = vinf * np.asarray(t)[:, None] + (np.asarray(v0) - vinf) * tau * (1 - e)
+    return x, v
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_linear_drag_against_the_closed_form(method):
+    """A body thrown under gravity with drag -c v (c = 0.5 N s/m) on its
+    centre of mass, 2 s at h = 1e-3: its path within 2e-6 m of the closed
+    form (NEWMARK, first order: 2e-3 m; NSTIFF's BDF1 first step leaves
+    h^2 |g| / 2 = 5e-6 m: 1e-5), and the work the drag takes equals the
+    mechanical energy lost (the energy balance holds: the drag's power is
+    counted)."""
+    model = _model("force drag: force(b.cm, (-0.5*b.vx, -0.5*b.vy, -0.5*b.vz))")
+    sol = mbdsl.simulate(model, method=method, h=1e-3, t_end=2.0)
+    t = sol.column("t")
+    x, v = _drag_exact(t, (1.0, -0.5, 3.0), 2.0, 0.5, (0.0, 0.0, -9.81))
+    got = np.column_stack([sol.column(f"b.{c}") for c in "xyz"])
+    tol = {"newmark": 2e-3, "nstiff": 1e-5, "nstiff-si2": 1e-5}.get(method, 2e-6)
+    assert np.max(np.abs(got - x)) < tol
+    assert np.max(np.abs(sol.column("b.vz") - v[:, 2])) < 50 * tol
+    total = sol.column("energy.kinetic") + sol.column("energy.potential")
+    lost = total[-1] - total[0]
+    assert lost < -1.0
+    assert sol.column("energy.work")[-1] == pytest.approx(lost, rel=1e-3 if method == "newmark"
+                                                          else 1e-5)
+
+
+@pytest.mark.parametrize("engine", ["compiled", "numpy"])
+def test_both_engines_give_the_same_motion(engine):
+    """The compiled and numpy engines agree with the closed form alike."""
+    model = _model("force drag: force(b.cm, (-0.5*b.vx, -0.5*b.vy, -0.5*b.vz))")
+    sol = mbdsl.simulate(model, method="hht-si2", h=2e-3, t_end=0.5, engine=engine)
+    x, _ = _drag_exact(sol.column("t"), (1.0, -0.5, 3.0), 2.0, 0.5, (0.0, 0.0, -9.81))
+    got = np.column_stack([sol.column(f"b.{c}") for c in "xyz"])
+    assert np.max(np.abs(got - x)) < 2e-6
+
+
+def _euler_damped(J, w0, c, t):
+    """Body-axis angular velocity (N, 3) of J w' = (J w) x w - c w."""
+    J = np.asarray(J)
+    sol = solve_ivp(lambda _, w: (np.cross(J * w, w) - c * w) / J, (0, t[-1]), w0,
+                    method="DOP853", t_eval=t, rtol=1e-12, atol=1e-14)
+    return sol.y.T
+
+
+@pytest.mark.parametrize("method", ["hht-i3", "nstiff-si2", "genalpha"])
+@pytest.mark.parametrize("frame", ["body", "world"])
+def test_a_damping_torque_against_eulers_equations(method, frame):
+    """A tumbling body (J = 0.1, 0.2, 0.25 kg m^2) under the damping torque
+    -c w (c = 0.05 N m s): in body axes it reads wx, wy, wz; in world axes
+    the same torque reads the directors too, -c A w'. Its body-axis angular
+    velocity converges to Euler's equations at order 2; the kinetic energy
+    it takes equals the work of the torque."""
+    w0, c = np.array([0.4, 3.0, 0.8]), 0.05
+    if frame == "body":
+        load = "force d: torque(b, (-0.05*b.wx, -0.05*b.wy, -0.05*b.wz), frame = body)"
+    else:
+        comps = [" + ".join(f"b.A{i}{k}*b.w{'xyz'[k - 1]}" for k in (1, 2, 3)) for i in (1, 2, 3)]
+        load = "force d: torque(b, ({}))".format(", ".join(f"-0.05*({e})" for e in comps))
+    model = _model(load, w="0.4, 3, 0.8", gravity="")
+    errors = []
+    for h in (4e-3, 2e-3):
+        sol = mbdsl.simulate(model, method=method, h=h, t_end=3.0)
+        t = sol.column("t")
+        w = np.column_stack([sol.column(f"b.w{a}") for a in "xyz"])
+        late = t >= 0.5                        # NSTIFF's first step: O(h) in the velocity
+        errors.append(np.max(np.abs(w - _euler_damped((0.1, 0.2, 0.25), w0, c, t))[late]))
+        gained = sol.column("energy.kinetic")[-1] - sol.column("energy.kinetic")[0]
+        assert gained < -0.05
+        # the work's quadrature against the method's own kinetic energy: O(h^2)
+        # (NSTIFF's first step O(h), 1.1e-4 at h = 4e-3)
+        assert sol.column("energy.work")[-1] == pytest.approx(
+            gained, rel=5e-4 if method == "nstiff-si2" else 1e-4)
+    assert errors[1] < 1e-4
+    assert abs(np.log2(errors[0] / errors[1]) - 2.0) < 0.2, errors
+
+
+@pytest.mark.parametrize("method", ["hht-si2", "nstiff"])
+def test_a_spring_reading_a_point_equals_a_spring_damper(method):
+    """The vector spring -k (b.P - F) (k = 50 N/m) written as a force that
+    reads the point b.P moves the body as a spring-damper of zero free length
+    between the same points (c = 0: the same force, F = -k d): both runs agree
+    to the Newton tolerance's level."""
+    vector = ("force s: force(b.P, (-50*(b.P.x - 0.2), -50*(b.P.y + 0.1), "
+              "-50*(b.P.z - 1)))")
+    spring = "force s: spring_damper(b.P, ground.F, k = 50, c = 0, length = 0)"
+    runs = [mbdsl.simulate(_model(load, w="1, -2, 0.5"), method=method, h=1e-3, t_end=1.5)
+            for load in (vector, spring)]
+    for col in ("b.x", "b.y", "b.z", "b.A12", "b.A31", "b.wz"):
+        assert np.max(np.abs(runs[0].column(col) - runs[1].column(col))) < 1e-7, col
+    assert np.ptp(runs[0].column("b.wz")) > 0.5          # the spring turns the body
+
+
+def test_initial_static_with_a_spring_reading_the_motion():
+    """A body hung on the vertical spring -k (z - 1) at its centre of mass
+    (k = 100 N/m), turning held by its orientation line: at rest at z = 1 -
+    m g / k."""
+    text = BODY.format(loads="force s: force(b.cm, (-100*b.x, -100*b.y, -100*(b.z - 1)))",
+                       J="0.1, 0.2, 0.25", w="0, 0, 0", gravity="gravity (0, 0, -9.81)", v0=0)
+    text = text.replace("initial b.x = 0; initial b.y = 0; initial b.z = 0\n", "")
+    text = text.replace("initial b.vx = 0; initial b.vy = -0.5; initial b.vz = 3\n",
+                        "initial static\n")
+    sol = mbdsl.simulate(mbdsl.load_text(text), h=1e-3, t_end=0.01)
+    assert sol.column("b.z")[0] == pytest.approx(1 - 2 * 9.81 / 100, abs=1e-10)
+    assert abs(sol.column("b.x")[0]) < 1e-12
+    assert np.max(np.abs(sol.column("b.vz"))) < 1e-9
+
+
+@pytest.mark.parametrize("line, code", [
+    ("force m: torque(b, (b.yaw, 0, 0))", "E304"),
+    ("force m: torque(b, (c.wx, 0, 0))", "E201"),
+    ("force f: force(b.P, (b.Z.vx, 0, 0))", "E201"),
+    ("force f: force(b.P, (b.P.omega, 0, 0))", "E304"),
+    ("force f: force(b.P, (-b.vx, 0, 0))\njoint J: spherical(ground.F, b.P)\n"
+     "force m: torque(b, (J.angle, 0, 0))", "E205"),
+])
+def test_a_wrong_read_is_an_error_at_its_line(line, code):
+    """An unknown field, body or point, or a joint's angle (not read by
+    spatial loads yet), is reported at the load's line."""
+    with pytest.raises(MbdModelError) as err:
+        _model(line)
+    d = err.value.diagnostics[0]
+    assert d.code == code, (d.code, d.message)
+    assert d.span.line == 6 + line.count("\n"), d.span
