@@ -82,7 +82,7 @@ def _turning_exchange(sol) -> float:
     gyroscopic term would misroute. 0 without spatial bodies."""
     out = 0.0
     for b in sol.model.bodies:
-        if not hasattr(b, "velocity_fields"):
+        if not hasattr(b, "velocity_fields") or getattr(b, "particle", False):
             continue
         for k, c in enumerate("xyz"):
             w = sol.extent(f"{b.name}.w{c}")

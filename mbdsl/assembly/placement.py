@@ -123,15 +123,19 @@ def _place_spatial(system, t0) -> np.ndarray:
     given = {(ic.body, ic.field): ic.value for ic in model.initials if not ic.is_velocity}
     given.update({(d.body, "xyz"[d.coord]): d.function.f(t0) for d in model.drivers
                   if d.kind == "coordinate"})
-    fields = model.bodies[0].coordinate_fields if model.bodies else ()
     for b, col in cmap.spatial.items():
-        q[col + 3:col + 12] = np.eye(3).T.ravel()
+        fields = model.bodies[b].coordinate_fields
+        if cmap.spatial_width[b] == 12:
+            q[col + 3:col + 12] = np.eye(3).T.ravel()
         for k, name in enumerate(fields):
             if (b, name) in given:
                 q[col + k] = given[(b, name)]
 
     def _frame(b):
+        """(r, A) of body b; a particle's A the identity (its point is cm)."""
         col = cmap.spatial[b]
+        if cmap.spatial_width[b] == 3:
+            return q[col:col + 3], np.eye(3)
         return q[col:col + 3], q[col + 3:col + 12].reshape(3, 3).T
 
     for parent, child, joint in graph.spanning_tree_edges(model):
@@ -146,6 +150,6 @@ def _place_spatial(system, t0) -> np.ndarray:
                 target = r + A @ theirs.local
             q[col:col + 3] = target - _frame(child)[1] @ mine.local
         for k in range(3):
-            if (child, fields[k]) in given:
-                q[col + k] = given[(child, fields[k])]
+            if (child, "xyz"[k]) in given:
+                q[col + k] = given[(child, "xyz"[k])]
     return q

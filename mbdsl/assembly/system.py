@@ -96,7 +96,7 @@ class AssembledSystem:
             own = table[:, 2] < n
             mass[table[own, 2]] = [b.inertia for b, o in zip(planar, own) if o]
         for i, col in cmap.spatial.items():          # m, m, m, Jbar_k (``model.spatial``)
-            mass[col:col + 12] = model.bodies[i].mass_diagonal
+            mass[col:col + cmap.spatial_width[i]] = model.bodies[i].mass_diagonal
         self.beam_gravity = model.gravity if model.gravity is not None \
             and np.any(model.gravity != 0.0) else None
         self.beam_sets = ffr.beam_sets(cmap, model.flexible_bodies)

@@ -81,16 +81,16 @@ def standard_columns(model, bodies=None) -> tuple[dict, str]:
         chosen = list(model.bodies[:MAX_BODIES])
         shown = "" if len(model.bodies) <= MAX_BODIES else \
             f" (first {MAX_BODIES} of {len(model.bodies)} bodies; choose with --bodies)"
+    turning = [b for b in chosen if not getattr(b, "particle", False)]
     if getattr(model, "space", 2) == 3:       # spatial bodies: orientation by Euler parameters,
         return {                              # angular velocity in body axes
             "position": ("[m]", [f"{b.name}.{c}" for b in chosen for c in "xyz"]),
-            "angle": ("(Euler parameters)", [f"{b.name}.e{k}" for b in chosen for k in range(4)]),
+            "angle": ("(Euler parameters)", [f"{b.name}.e{k}" for b in turning for k in range(4)]),
             "velocity": ("[m/s]", [f"{b.name}.v{c}" for b in chosen for c in "xyz"]),
-            "angular velocity": ("[rad/s]", [f"{b.name}.w{c}" for b in chosen for c in "xyz"]),
+            "angular velocity": ("[rad/s]", [f"{b.name}.w{c}" for b in turning for c in "xyz"]),
             "energy": ("[J]", ["energy.kinetic", "energy.potential", "energy.total"]),
             "first-order states": ("", []),
         }, shown
-    turning = [b for b in chosen if not getattr(b, "particle", False)]
     return {
         "position": ("[m]", [f"{b.name}.{c}" for b in chosen for c in ("x", "y")]),
         # a particle (a point mass) has no angle: no line in the angle panels

@@ -164,8 +164,11 @@ class SpatialScene(Drawing):
 
     def frame(self, q, body):
         """(r (3,), A (3, 3)) of a spatial body at q (n,): its centre of mass
-        and the rotation matrix whose columns are its axes (its directors)."""
+        and the rotation matrix whose columns are its axes (its directors); a
+        particle's A the identity (it does not turn)."""
         col = self.cmap.spatial[body]
+        if self.cmap.spatial_width[body] != 12:
+            return q[col:col + 3], np.eye(3)
         return q[col:col + 3], q[col + 3:col + 12].reshape(3, 3).T
 
     def world(self, q, body, local) -> np.ndarray:

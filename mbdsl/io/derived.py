@@ -328,9 +328,10 @@ def output_columns(system, t, q, v, a, derived, lam=None, contact_log=None,
 
 def _spatial_frame(system, b, x, rate) -> np.ndarray:
     """A spatial body's axes (``rate``: their rates) over the rows, (N, 3, 3)
-    with rows a_1, a_2, a_3 (the ground's: the world axes, at rest)."""
+    with rows a_1, a_2, a_3 (the ground's: the world axes, at rest; a
+    particle's too: its one point is its centre, s = 0)."""
     N = len(x)
-    if b < 0:
+    if b < 0 or system.cmap.spatial_width[b] != 12:   # the ground, or a particle's cm only
         return np.zeros((N, 3, 3)) if rate else np.broadcast_to(np.eye(3), (N, 3, 3))
     c = system.cmap.spatial[b]
     return x[:, c + 3:c + 12].reshape(N, 3, 3)
@@ -353,7 +354,7 @@ def _spatial_joint(system, line, field, qx, vx) -> np.ndarray:
     [m/s] (u turning with the line's body), over the rows: ``field`` of the
     joint geometry ``line`` (``check.outputs._spatial_joint_variable``)."""
     if line[0] == "angle":
-        from ..kernels.joints.spatial_angles import reference_vectors
+        from ..model.spatial import reference_vectors
         _, b1, b2, a1, a2 = line
         v9 = reference_vectors(a1, a2)
         f1, g1, f2 = v9[:3], v9[3:6], v9[6:]
@@ -546,13 +547,14 @@ def spatial_reactions(system, t, q, lam) -> np.ndarray:
     for k, j in enumerate(system.model.joints):
         r0 = system.joint_rows[j.name]
         body, sign = ((j.second.body, 1.0) if j.second.body >= 0 else (j.first.body, -1.0))
-        c0 = system.cmap.spatial[body]
-        mine = (rows >= r0) & (rows < r0 + j.rows) & (cols >= c0) & (cols < c0 + 12)
-        G = np.zeros((len(t), 12))
+        c0, width = system.cmap.spatial[body], system.cmap.spatial_width[body]
+        mine = (rows >= r0) & (rows < r0 + j.rows) & (cols >= c0) & (cols < c0 + width)
+        G = np.zeros((len(t), width))
         np.add.at(G.T, cols[mine] - c0, load[:, mine].T)
-        A = q[:, c0 + 3:c0 + 12].reshape(-1, 3, 3)         # rows: a_1, a_2, a_3
-        couple = np.cross(A, G[:, 3:].reshape(-1, 3, 3)).sum(axis=1)
-        out[:, k, :3], out[:, k, 3:] = sign * G[:, :3], sign * couple
+        out[:, k, :3] = sign * G[:, :3]
+        if width == 12:                  # a particle takes no couple
+            A = q[:, c0 + 3:c0 + 12].reshape(-1, 3, 3)         # rows: a_1, a_2, a_3
+            out[:, k, 3:] = sign * np.cross(A, G[:, 3:].reshape(-1, 3, 3)).sum(axis=1)
     return out
 
 
@@ -568,6 +570,8 @@ def spatial_columns(system, q=None, v=None) -> dict:
     names (values None)."""
     out = {}
     for i, col in system.cmap.spatial.items():
+        if system.cmap.spatial_width[i] != 12:          # a particle does not turn
+            continue
         name = system.model.bodies[i].name
         if q is None:
             out.update(dict.fromkeys(rotation_columns(name)))

@@ -570,7 +570,7 @@ class Solution:
         if tail not in ("e0", "e1", "e2", "e3", "yaw", "pitch", "roll", "wx", "wy", "wz"):
             return None
         for i, col in self.system.cmap.spatial.items():
-            if self.model.bodies[i].name == head:
+            if self.model.bodies[i].name == head and self.system.cmap.spatial_width[i] == 12:
                 cols = list(range(col + 3, col + 12))           # the directors
                 return rotation_columns(head, self._field("q", cols),
                                         self._field("v", cols))[name]

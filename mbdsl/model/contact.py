@@ -218,9 +218,10 @@ def gap_columns(geometry: str, data, cmap) -> list[int]:
     or written)."""
     if geometry in SPATIAL_GAPS:
         cols = []
-        for body in data[:2]:
+        for body in data[:2]:          # a particle's three, then the ground's n + 2
             base = cmap.spatial.get(body)
-            cols += list(range(base, base + 12)) if base is not None else [cmap.n + 2] * 12
+            width = 0 if base is None else cmap.spatial_width[body]
+            cols += list(range(base or 0, (base or 0) + width)) + [cmap.n + 2] * (12 - width)
         return cols
     cols = [int(c) for c in cmap([data[0], data[2]]).ravel()]
     return cols + [cmap.n + 2] * (GAP_WIDTH - len(cols))

@@ -14,7 +14,8 @@ class CoordinateMap:
     """Where each body's (x, y, phi) are in q extended by the ground's three
     dummy coordinates, q_ext = [q, 0, 0, 0] (length n + 3).
 
-    Bodies take three columns each in declaration order, a particle two; the
+    Bodies take three columns each in declaration order, a particle two (a
+    spatial body twelve, a spatial particle three: ``model.spatial``); the
     ground (body ``GROUND``) is at n, n+1, n+2, and a particle's phi is the
     ground's n+2 (always 0: a particle never turns, so nothing reads a
     rotation of it, and what is written to that column is dropped with the
@@ -44,13 +45,17 @@ class CoordinateMap:
         self.n = int(n)
         self.state_offset = self.n - int(n_states)
         rows, offset = [], 0
-        #: first column of each spatial body's twelve (body index -> column)
+        #: first column of each spatial body's twelve, or of a spatial particle's
+        #: three (body index -> column)
         self.spatial = {}
+        #: how many columns each of them has: 12 (x, y, z, then A's columns) or 3
+        self.spatial_width = {}
         for i, b in enumerate(bodies):
-            if len(_fields(b, COORDINATES)) == 12:           # x, y, z, then A's columns
+            if getattr(b, "space", 2) == 3:
                 self.spatial[i] = offset
+                self.spatial_width[i] = len(b.coordinate_fields)
                 rows.append((offset, offset + 1, offset + 2))
-                offset += 12
+                offset += len(b.coordinate_fields)
             elif getattr(b, "particle", False):
                 rows.append((offset, offset + 1, self.n + 2))
                 offset += 2
@@ -103,7 +108,8 @@ ACCELERATIONS = ("ax", "ay", "alpha")
 
 def _fields(body, names):
     """The body's fields of ``names`` (x, y, phi or their rates): the first
-    two for a particle; a spatial body's twelve (``model.spatial``)."""
+    two for a particle; a spatial body's twelve, a spatial particle's three
+    (``model.spatial``)."""
     if hasattr(body, "velocity_fields"):
         return {COORDINATES: body.coordinate_fields, VELOCITIES: body.velocity_fields}.get(
             names, getattr(body, "acceleration_fields", names))

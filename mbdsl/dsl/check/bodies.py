@@ -14,10 +14,11 @@ import numpy as np
 
 from ...model.beam import FRAMES
 from ...model.elements import COORDINATES, FlexibleBeam, RigidBody, Shape, _fields
+from ...model.spatial import SpatialParticle
 from ..expressions import Name, Vec
 from ..spec import BeamSpec
 from .context import did_you_mean
-from .spatial import check_axis, check_spatial_body
+from .spatial import check_axis, check_spatial_body, spatial_shape
 
 
 #: shape kind -> (fewest points, most points, takes a radius)
@@ -61,7 +62,7 @@ def check_bodies(c):
     for b in c.items["bodies"]:
         if not c.claim(b.name, b.span, "body"):
             continue
-        if c.space == 3:
+        if c.space == 3 and not getattr(b, "particle", False):
             check_spatial_body(c, b)
             continue
         if isinstance(b, BeamSpec):
@@ -129,7 +130,8 @@ def check_bodies(c):
 
 def check_particle(c, b):
     """A particle (point mass): a positive mass, no inertia, no points
-    but ``cm``; shapes are drawn at its position without turning."""
+    but ``cm``; shapes are drawn at its position without turning. In a
+    spatial model a :class:`~mbdsl.model.spatial.SpatialParticle` (x, y, z)."""
     ctx = f"particle '{b.name}'"
     mass = None
     for prop in b.properties:
@@ -157,11 +159,15 @@ def check_particle(c, b):
                 "a point off the particle",
                 hint="joints and forces attach at NAME.cm; for points that turn with "
                 "the mass, declare a body")
-    points = {"cm": np.zeros(2)}
-    shapes = tuple(s for s in (shape(c, b.name, sp, points) for sp in b.shapes)
+    points = {"cm": np.zeros(c.space)}
+    drawn = spatial_shape if c.space == 3 else shape
+    shapes = tuple(s for s in (drawn(c, b.name, sp, points) for sp in b.shapes)
                    if s is not None)
     if mass is None or not math.isfinite(mass) or b.points:
         c.broken_bodies.add(b.name)
+        return
+    if c.space == 3:
+        c.bodies[b.name] = SpatialParticle(b.name, len(c.bodies), mass, points, b.span, shapes)
         return
     c.bodies[b.name] = RigidBody(b.name, len(c.bodies), mass, 0.0, points, b.span,
                                  shapes, particle=True)

@@ -192,6 +192,12 @@ def _plane_geometry(c, f, pos, opts, ctx):
     if centre.body == other.body:
         c.error("E402", f"{ctx} puts a body in contact with itself", f.span, "no effect")
         return None
+    if c.is_particle(other.body):
+        c.error("E305", f"{ctx}: the plane is fixed in a body or the ground; "
+                f"'{c.model_body(other.body).name}' is a particle, which has no axes",
+                arg.span or f.span, "a plane on a particle",
+                hint="put the sphere on the particle: contact(P.cm, radius = ..., plane = ...)")
+        return None
     if not float(np.linalg.norm(normal)) > 0.0:
         c.error("E303", f"{ctx}: the plane's normal is zero", arg.span or f.span,
                 "zero direction")

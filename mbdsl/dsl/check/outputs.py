@@ -129,8 +129,10 @@ def _body_variable(c, ref: Dotted, fail) -> OutputVariable:
     if c.space == 3:                    # its coordinates, their rates, the derived columns
         fields = (SPATIAL_COORDINATES + SPATIAL_VELOCITIES + SPATIAL_ACCELERATIONS
                   + ("e0", "e1", "e2", "e3", "yaw", "pitch", "roll", "wx", "wy", "wz"))
-    if getattr(c.bodies[obj], "particle", False):
+    if getattr(c.bodies[obj], "particle", False):       # a point mass: its position's
         fields = ("x", "y", "vx", "vy", "ax", "ay")
+        if c.space == 3:
+            fields = ("x", "y", "z", "vx", "vy", "vz", "ax", "ay", "az")
     if isinstance(c.bodies[obj], FlexibleBeam):     # and its elastic coordinates
         names = c.bodies[obj].mesh.names
         elastic = tuple(names) + tuple(f"{x}_t" for x in names) + tuple(

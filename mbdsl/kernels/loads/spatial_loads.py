@@ -29,6 +29,7 @@ import numpy as np
 
 from ..programs import _eval
 from ..schema import YCOL, YFN, YPAR, _f, _i, _inline, _jit, _put, _rows
+from .spatial_springs import body_columns
 
 #: Its fields in ``schema.MODEL_SCHEMA`` (the first gives the instances).
 FIELDS = ("ycol", "ypar", "yfn")
@@ -73,9 +74,8 @@ def pack(items, tables) -> dict:
 
 def pattern(items, tables) -> tuple:
     """(columns (k, 12) in q_ext whose Q_q entries a load may fill: its
-    body's twelve; none reads the velocities)."""
-    rows = [list(range(tables.cmap.spatial[ld.body], tables.cmap.spatial[ld.body] + 12))
-            for ld in items]
+    body's twelve (a particle's three); none reads the velocities)."""
+    rows = [body_columns([ld.body], tables) for ld in items]
     return np.array(rows, np.int64).reshape(-1, 12), False
 
 
@@ -116,8 +116,9 @@ def forces_add(I, Fl, t, qx, out):
                 out[base + c] += F[c]
             for k in range(3):
                 s = _f(I, Fl, YPAR, i, k)
-                for c in range(3):
-                    out[base + 3 + 3 * k + c] += s * F[c]
+                if s != 0.0:                # a particle has no a_k: its point is s = 0
+                    for c in range(3):
+                        out[base + 3 + 3 * k + c] += s * F[c]
         else:                               # a torque: T x a_k / 2 on a_k
             for k in range(3):
                 a0 = qx[base + 3 + 3 * k]

@@ -80,11 +80,13 @@ def pattern(items, tables) -> tuple:
 
 def body_columns(bodies, tables) -> list:
     """The columns in q_ext of spatial bodies, twelve each in their order (the
-    ground's: n + 2, never written): a force block's pattern."""
+    ground's, and those a particle does not have beyond its three: n + 2,
+    never written): a force block's pattern."""
     cols = []
     for body in bodies:
         base = tables.cmap.spatial.get(body)
-        cols += list(range(base, base + 12)) if base is not None else [tables.n + 2] * 12
+        width = 0 if base is None else tables.cmap.spatial_width[body]
+        cols += list(range(base or 0, (base or 0) + width)) + [tables.n + 2] * (12 - width)
     return cols
 
 
