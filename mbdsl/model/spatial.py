@@ -38,10 +38,10 @@ import numpy as np
 
 from ..errors import Span
 
-__all__ = ["SpatialBody", "Frame", "SpatialSpring", "SpatialRotationalSpring", "SpatialLoad",
+__all__ = ["SpatialBody", "SpatialParticle", "Frame", "SpatialSpring", "SpatialRotationalSpring", "SpatialLoad",
            "SpatialStateLoad", "DIRECTORS", "SPATIAL_COORDINATES", "SPATIAL_VELOCITIES",
            "SPATIAL_ACCELERATIONS", "zyx", "zyx_angles", "axis_angle", "euler_parameters",
-           "body_angular_velocity", "director_inertia"]
+           "body_angular_velocity", "director_inertia", "reference_vectors"]
 
 #: The directors' coordinate names: A_ij, row i (world axis), column j (body axis).
 DIRECTORS = tuple(f"A{i}{j}" for j in (1, 2, 3) for i in (1, 2, 3))
@@ -104,12 +104,55 @@ class SpatialBody:
     coordinate_fields = SPATIAL_COORDINATES
     velocity_fields = SPATIAL_VELOCITIES
     acceleration_fields = SPATIAL_ACCELERATIONS
+    #: The space it moves in (``model.coordinates.CoordinateMap``).
+    space = 3
 
     @property
     def mass_diagonal(self) -> np.ndarray:
         """The diagonal of its block of M, shape (12,): m three times, then
         Jbar_k three times for each director (:func:`director_inertia`)."""
         return np.repeat(np.concatenate([[self.mass], director_inertia(self.inertia)]), 3)
+
+
+@dataclass(frozen=True)
+class SpatialParticle:
+    """A point mass of a spatial model (``particle NAME { mass m }``): three
+    coordinates, its position r, and no directors: it does not turn, so
+    joints and loads attach at its one point ``cm`` and none reads an axis
+    of it. Its block of M is m I (3 x 3).
+
+    Attributes
+    ----------
+    name : str
+    index : int
+        Position in the model's body list.
+    mass : float [kg]
+    points : dict of str -> ndarray, shape (3,) [m]
+        ``cm`` only, (0, 0, 0).
+    shapes : tuple
+        What is drawn at its position (spheres).
+    """
+
+    name: str
+    index: int
+    mass: float
+    points: dict
+    span: Span | None = None
+    shapes: tuple = ()
+    particle: bool = True
+    axes: dict = field(default_factory=dict)
+
+    #: Its coordinates, velocities and accelerations, in order (3 each).
+    coordinate_fields = SPATIAL_COORDINATES[:3]
+    velocity_fields = SPATIAL_VELOCITIES[:3]
+    acceleration_fields = SPATIAL_ACCELERATIONS[:3]
+    #: The space it moves in (``model.coordinates.CoordinateMap``).
+    space = 3
+
+    @property
+    def mass_diagonal(self) -> np.ndarray:
+        """The diagonal of its block of M, shape (3,): m three times."""
+        return np.full(3, self.mass)
 
 
 @dataclass(frozen=True)
@@ -228,30 +271,31 @@ class SpatialLoad:
 
 @dataclass(frozen=True)
 class SpatialStateLoad:
-    """A force on a point or a torque on a spatial body that reads the motion
-    (``force(B.p, (fx, fy, fz))`` with components of the state), held as
-    its generalized force entry by entry: each a function of t and of state
-    variables that are linear in q or v (the body's r, directors a_k and
-    their rates), so that the Newton matrix has its exact derivatives by
-    symbolic differentiation (``kernels.loads.state_loads``, Q = sum over
-    the entries of Q_j(t, x) on column j). The entries are those of
-    :class:`SpatialLoad`'s generalized force: F on r and s_k F on a_k for
-    a force F at s, T x a_k / 2 on a_k for a torque T, with F (T) in body
-    axes turned to the world's by the directors, F = sum_l f_l a_l.
+    """A load of a spatial model that reads the motion, or acts along a
+    joint's turning axis or line: ``force(B.p, (fx, fy, fz))`` and
+    ``torque(B, ...)`` with components of the state, ``joint_torque(J, tau)``
+    and ``joint_force(J, F)``. It is held as its generalized force entry by
+    entry: each a function of t and of state variables linear in q or v
+    (the bodies' r, directors a_k and their rates), so that the Newton
+    matrix has its exact derivatives by symbolic differentiation
+    (``kernels.loads.state_loads``: Q = sum over the entries of Q_j(t, x) on
+    its column). The entries are :class:`SpatialLoad`'s generalized force: F
+    on r and s_k F on a_k for a force F at s, T x a_k / 2 on a_k for a
+    torque T, with F (T) in body axes turned to the world's by the
+    directors, F = sum_l f_l a_l; a joint's torque tau u on its second body
+    and -tau u on its first, a joint's force F u and -F u on its points.
 
     Attributes
     ----------
     name : str
-    body : int
-    entries : tuple of (int, StateFunction)
-        (coordinate of the body, 0..11 as ``SPATIAL_COORDINATES``, its
+    entries : tuple of (int, int, StateFunction)
+        (body, its coordinate 0..11 as ``SPATIAL_COORDINATES``, the
         generalized force [N] on r, [N m] on a director).
     torque : bool
         A torque (else a force), for messages.
     """
 
     name: str
-    body: int
     entries: tuple
     torque: bool = False
     span: Span | None = None
@@ -262,7 +306,28 @@ class SpatialStateLoad:
     @property
     def functions(self) -> tuple:
         """Its entries' functions of time and the state, in order."""
-        return tuple(fn for _, fn in self.entries)
+        return tuple(fn for _, _, fn in self.entries)
+
+
+def reference_vectors(first_axis, second_axis) -> np.ndarray:
+    """(f_1, g_1, f_2) (9,) of a joint whose axes are ``first_axis`` (body 1)
+    and ``second_axis`` (body 2), unit (3,) in body axes, across which its
+    angle is measured (``kernels.joints.spatial_angles``' notes): f_1
+    across a_1 (across the body axis least aligned with it), g_1 = a_1 x f_1,
+    f_2 = R_m f_1 with R_m the least rotation taking a_1 to a_2 (Rodrigues;
+    for opposite axes a half turn about f_1)."""
+    a1 = np.asarray(first_axis, float) / np.linalg.norm(first_axis)
+    a2 = np.asarray(second_axis, float) / np.linalg.norm(second_axis)
+    f1 = np.cross(np.eye(3)[int(np.argmin(np.abs(a1)))], a1)
+    f1 /= np.linalg.norm(f1)
+    g1 = np.cross(a1, f1)
+    k, cos = np.cross(a1, a2), float(a1 @ a2)
+    if np.linalg.norm(k) < 1e-12:
+        f2 = f1.copy()                          # the same axis, or a half turn about f_1
+    else:
+        K = np.cross(k, np.eye(3))              # rows k x e_i: x @ K = k x x
+        f2 = f1 + f1 @ K + (f1 @ K) @ K / (1.0 + cos)
+    return np.r_[f1, g1, f2]
 
 
 def zyx(yaw: float, pitch: float, roll: float) -> np.ndarray:

@@ -104,11 +104,13 @@ def test_model_declares_every_element_type(system):
     if system.model.name == "spatial_state_loads":   # forces and torques of the motion
         loads = system.model.forces
         assert {f.kind for f in loads} == {"spatial_state_load"}
-        # F on r and s_k F on a_k: a.P 3 + 9, b.Q (s_3 = 0) 3 + 6; a torque 9
-        assert sorted(len(f.entries) for f in loads) == [9, 9, 9, 12]
+        # F on r and s_k F on a_k: a.P 3 + 9, b.Q (s_3 = 0) 3 + 6; a torque 9; in
+        # joints: on both bodies, 9 + 9, and F at e.cm 3, -F at a.O 3 + 3
+        assert sorted(len(f.entries) for f in loads) == [9, 9, 9, 9, 12, 18]
         read = {v.name for f in loads for fn in f.functions for v in fn.variables}
-        assert {"a.P.vx"} & read == set()             # a point is read through its body's
-        assert {"a.vx", "a.A11_t", "b.vz", "b.A12_t", "b.A31", "a.z", "b.z"} <= read
+        assert {"a.P.vx", "H.angle", "L.speed"} & read == set()   # read through the bodies'
+        assert {"a.vx", "a.A11_t", "b.vz", "b.A12_t", "b.A31", "a.z", "b.z", "d.A23_t",
+                "e.x"} <= read
         return
     if system.model.space == 3:          # every spatial driver, a rotational spring-damper
         assert {(d.kind, d.joint.kind if d.joint else None) for d in system.model.drivers} == {

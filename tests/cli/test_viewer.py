@@ -195,7 +195,8 @@ def test_play_moves_the_frames(browser, tmp_path):
 def test_a_spatial_page_in_a_browser(browser, tmp_path):
     """The spatial slider-crank's page: it loads without a script error, its
     mechanism is a 3D scene of scatter3d traces, and its slider moves the
-    bodies (the crank's centre-of-mass marker leaves where it started)."""
+    bodies (the slider's centre-of-mass marker leaves where it started; the
+    crank's sits on its axis)."""
     sol = mbdsl.simulate(mbdsl.load(MODELS / "spatial_slider_crank.mbd"), t_end=0.5)
     page = write_html(sol, tmp_path / "crank.html", max_frames=50)
     browser.get(page.as_uri())
@@ -206,7 +207,7 @@ def test_a_spatial_page_in_a_browser(browser, tmp_path):
         "var gd = document.getElementById('mechanism');"
         "return window.mbdslViewer.traces.map(t => gd._fullData[t.trace].type);")
     assert set(kinds) == {"scatter3d"} and info["frames"] == 50
-    cm = next(t["trace"] for t in info["traces"] if t["style"] == "cm")
+    cm = [t["trace"] for t in info["traces"] if t["style"] == "cm"][-1]     # the slider's
     where = ("var gd = document.getElementById('mechanism');"
              f"return Array.from(gd._fullData[{cm}].x);")
     first = browser.execute_script(where)

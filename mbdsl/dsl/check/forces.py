@@ -16,6 +16,7 @@ from ...model.elements import (GROUND, FlexibleBeam, Friction, JointForce, Joint
 from ..expressions import (Binary, Call, Dotted, ExprError, Name, Num, simplify, substitute, Unary,
                            Vec)
 from .contact import contact_element, rope_element
+from .spatial_state import spatial_joint_load
 from .state_functions import state_function
 from .spatial import ANGLE_JOINTS, spatial_load
 from .context import BrokenReference, did_you_mean, point_ref
@@ -157,7 +158,10 @@ def _torque(c, f, pos, opts, ctx):
 
 
 def _joint_torque(c, f, pos, opts, ctx):
-    """A torque in a revolute joint, equal and opposite on its bodies [N m]."""
+    """A torque in a revolute joint, equal and opposite on its bodies [N m]
+    (in a spatial model: ``check.spatial_state.spatial_joint_load``)."""
+    if c.space == 3:
+        return spatial_joint_load(c, f, pos, ctx)
     joint = c.joint_argument(pos[0], f, ctx)
     if joint is None:
         return None
@@ -175,7 +179,10 @@ def _joint_torque(c, f, pos, opts, ctx):
 
 
 def _joint_force(c, f, pos, opts, ctx):
-    """A force along a sliding joint's line, equal and opposite on its bodies [N]."""
+    """A force along a sliding joint's line, equal and opposite on its bodies [N]
+    (in a spatial model: ``check.spatial_state.spatial_joint_load``)."""
+    if c.space == 3:
+        return spatial_joint_load(c, f, pos, ctx)
     joint = c.joint_argument(pos[0], f, ctx)
     if joint is None:
         return None

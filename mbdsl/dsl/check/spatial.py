@@ -42,7 +42,7 @@ SPATIAL_JOINT_KINDS = {
 PLANAR_ONLY = {"states": "first-order states"}
 #: the force kinds of a spatial model (the planar check reads their options)
 SPATIAL_FORCE_KINDS = ("spring_damper", "rotational_spring_damper", "force", "torque",
-                       "contact", "limit")
+                       "joint_torque", "joint_force", "contact", "limit")
 #: the spatial joints with an angle (drivers, rotational spring-dampers) and with a
 #: distance along a line (drivers)
 ANGLE_JOINTS = ("revolute", "cylindrical")
@@ -93,8 +93,8 @@ def check_spatial_body(c, b):
     mass, which a rigid body's satisfy (J_k <= J_l + J_m), and points (x, y,
     z) in body axes."""
     ctx = f"body '{b.name}'"
-    if getattr(b, "particle", False) or not hasattr(b, "points"):
-        c.error("E205", f"{ctx}: a spatial model has rigid bodies only (no particles or "
+    if not hasattr(b, "points"):
+        c.error("E205", f"{ctx}: a spatial model has rigid bodies and particles only (no "
                 "flexible beams yet)", b.span, "planar only",
                 hint="declare 'body NAME { mass m; inertia (J1, J2, J3) }'")
         c.broken_bodies.add(b.name)
@@ -239,6 +239,13 @@ def check_spatial_joints(c):
             c.error("E402", f"{ctx} connects {what} to itself", j.span,
                     "both points on one body", hint="a joint connects two different bodies")
             continue
+        held = [b for b in (first.body, second.body) if c.is_particle(b)]
+        if held and j.kind in ("fixed", "prismatic"):
+            c.error("E305", f"{ctx}: particle '{c.model_body(held[0]).name}' does not turn, "
+                    f"and a {j.kind} joint holds its axes parallel to the other body's", j.span,
+                    "a particle's axes", hint="a particle on a line: point_on_line(P.cm, B.q, "
+                    "B.b); at a point: spherical")
+            continue
         if naxes == 2 and (axes[0][0], axes[1][0]) != (first.body, second.body):
             c.error("E305", f"{ctx}: its axes are the first body's, then the second's",
                     pos[npoints].span or j.span, "axes of other bodies",
@@ -293,6 +300,12 @@ def _axis_ref(c, expr, span, ctx):
                         "no body with this name", hint=did_you_mean(expr.obj, c.bodies))
             return None
         body, axes = b.index, b.axes
+        if getattr(b, "particle", False):
+            c.error("E305", f"{ctx}: particle '{expr.obj}' does not turn: it has no axes",
+                    expr.span or span, "a particle's axis",
+                    hint="join a particle at its cm by a spherical, distance, point_on_line "
+                    "or point_on_plane joint (the line or plane on the other body)")
+            return None
     if expr.attr not in axes:
         c.error("E201", f"{ctx}: '{expr.obj}' has no axis '{expr.attr}'", expr.span or span,
                 "unknown axis", hint=did_you_mean(expr.attr, axes)
@@ -318,11 +331,14 @@ def check_spatial_initials(c):
                 c.error("E201", f"{kw}: unknown body '{tgt.obj}'", tgt.span or ic.span,
                         "no body with this name", hint=did_you_mean(tgt.obj, c.bodies))
             continue
-        fields = tuple(SPATIAL_INITIALS) + ROTATIONS
+        particle = getattr(body, "particle", False)
+        fields = tuple(SPATIAL_INITIALS) + (() if particle else ROTATIONS)
         if tgt.attr not in fields:
-            c.error("E502", f"{kw}: '{tgt.attr}' is not a field of spatial body "
-                    f"'{tgt.obj}'", tgt.span or ic.span, "unknown field",
-                    hint=did_you_mean(tgt.attr, fields) or f"use {', '.join(fields)}")
+            c.error("E502", f"{kw}: '{tgt.attr}' is not a field of spatial "
+                    f"{'particle' if particle else 'body'} '{tgt.obj}'", tgt.span or ic.span,
+                    "unknown field", hint=did_you_mean(tgt.attr, fields)
+                    or f"use {', '.join(fields)}" + (" (a particle does not turn)"
+                                                      if particle else ""))
             continue
         key = (tgt.obj, "omega" if tgt.attr == "omega_body" else tgt.attr)
         if key in seen:
@@ -421,6 +437,11 @@ def spatial_load(c, f, pos, opts, ctx):
             c.error("E305", f"{ctx}: 'frame' is world or body", f.span, "not a frame",
                     hint="frame = body: the components turn with the body (a follower load)")
             return None
+    if c.is_particle(index) and (torque or frame == "body"):
+        c.error("E305", f"{ctx}: particle '{c.model_body(index).name}' does not turn: it "
+                f"takes no {'torque' if torque else 'force in body axes'}", f.span,
+                "a particle's rotation", hint="a force on a particle is in world axes")
+        return None
     vec, span = pos[1].value, pos[1].span or f.span
     unit = "N*m" if torque else "N"
     if not isinstance(vec, Vec) or vec.z is None:

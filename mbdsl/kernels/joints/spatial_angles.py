@@ -38,6 +38,8 @@ import math
 
 import numpy as np
 
+from mbdsl.model.spatial import reference_vectors
+
 from ..programs import _eval
 from ..schema import ACOL, AFN, AROW, AV, _f, _i, _inline, _jit, _put, _put_phiq, _rows
 
@@ -51,26 +53,6 @@ ELEMENT_ROWS = {"joint_angle": 0}
 #: The model space whose drivers it holds (``assembly.packing``).
 SPACE = 3
 TWO_PI = 2.0 * math.pi
-
-
-def reference_vectors(first_axis, second_axis) -> np.ndarray:
-    """(f_1, g_1, f_2) (9,) of a joint whose axes are ``first_axis`` (body 1)
-    and ``second_axis`` (body 2), unit (3,) in body axes (module notes): f_1
-    across a_1 (across the body axis least aligned with it), g_1 = a_1 x f_1,
-    f_2 = R_m f_1 with R_m the least rotation taking a_1 to a_2 (Rodrigues;
-    for opposite axes a half turn about f_1)."""
-    a1 = np.asarray(first_axis, float) / np.linalg.norm(first_axis)
-    a2 = np.asarray(second_axis, float) / np.linalg.norm(second_axis)
-    f1 = np.cross(np.eye(3)[int(np.argmin(np.abs(a1)))], a1)
-    f1 /= np.linalg.norm(f1)
-    g1 = np.cross(a1, f1)
-    k, cos = np.cross(a1, a2), float(a1 @ a2)
-    if np.linalg.norm(k) < 1e-12:
-        f2 = f1.copy()                          # the same axis, or a half turn about f_1
-    else:
-        K = np.cross(k, np.eye(3))              # rows k x e_i: x @ K = k x x
-        f2 = f1 + f1 @ K + (f1 @ K) @ K / (1.0 + cos)
-    return np.r_[f1, g1, f2]
 
 
 def pack(items, tables) -> dict:

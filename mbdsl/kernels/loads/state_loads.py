@@ -36,12 +36,12 @@ LOADS = ("state_torque", "joint_torque", "joint_force", "state_rate", "spatial_s
 
 
 def _instances(items):
-    """The field's instances: (load, coordinate, function) per load, and per
-    entry of a spatial load's generalized force (coordinate of its body)."""
+    """The field's instances: (load, (body, coordinate) or None, function) per
+    load, and per entry of a spatial load's generalized force."""
     for f in items:
         if f.kind == "spatial_state_load":
-            for coord, fn in f.entries:
-                yield f, coord, fn
+            for body, coord, fn in f.entries:
+                yield f, (body, coord), fn
         else:
             yield f, None, f.function
 
@@ -51,9 +51,9 @@ def _direction(f, coord, cmap) -> tuple:
     on with + and - (a joint's second and first body, or one body and the
     ground's phi), or the ground's and a sliding joint's line; a first-order
     state's rate: its column and the ground's phi; a spatial entry: the
-    column of its body's coordinate ``coord`` and the ground's phi."""
+    column of ``coord`` = (body, coordinate) and the ground's phi."""
     if f.kind == "spatial_state_load":
-        return cmap.column(f.body, coord), cmap.n + 2, None
+        return cmap.column(*coord), cmap.n + 2, None
     if f.kind == "joint_force":
         return None, None, f.joint.line
     if f.kind == "state_rate":
