@@ -379,6 +379,8 @@ STATIC_ITERATIONS = 50
 #: sparse (SuperLU): a 1000-link chain's (5000 unknowns) Newton step drops
 #: from seconds (dense LU) to milliseconds.
 STATIC_DENSE_LIMIT = 400
+#: Gauss-Newton iterations of a retraction onto the constraints (``_retract``).
+RETRACTION_ITERATIONS = 20
 
 
 def _static_matrix(system, t0, q, v0, lam, E):
@@ -426,6 +428,33 @@ def _held_turns(system, q, hold_initials):
     return rows
 
 
+def _retract(system, t0, q, E, given, sparse) -> np.ndarray:
+    """q brought back onto the constraints and the held values, Phi(q, t0) = 0
+    and E q = given, by the least change (Gauss-Newton on the minimum-norm
+    correction, C dq = c with C = [Phi_q; E]): the static Newton's step on a
+    spatial model moves the directors along the tangent of the rotation, off
+    their frame rows by about the square of the turn, and a step of half a
+    radian then lands where the angles it reads no longer mean a turn (the
+    retraction of Newton's method on a manifold: Absil, Mahony and
+    Sepulchre, Optimization Algorithms on Matrix Manifolds, 2008, sec. 4.1).
+    Returns the projected q (n,); q itself where it does not converge."""
+    out = q.copy()
+    for _ in range(RETRACTION_ITERATIONS):
+        c = np.concatenate([system.Phi(out, t0), E @ out - given])
+        if np.max(np.abs(c), initial=0.0) <= 1e-13 * (1.0 + np.max(np.abs(out))):
+            return out
+        Phi_q = system.Phi_q(out, t0)
+        if sparse:
+            import scipy.sparse.linalg
+            C = scipy.sparse.vstack([scipy.sparse.csr_matrix(Phi_q), E], "csr")
+            dq = scipy.sparse.linalg.lsqr(C, c, atol=1e-15, btol=1e-15)[0]
+        else:
+            C = np.vstack([Phi_q.toarray() if hasattr(Phi_q, "toarray") else Phi_q, E])
+            dq = np.linalg.lstsq(C, c, rcond=None)[0]
+        out = out - dq
+    return q
+
+
 def static_positions(system, t0: float, q: np.ndarray, lam: np.ndarray,
                      hold_initials: bool = True, dependent=()) -> np.ndarray:
     """Positions of static equilibrium: Q(t0, q, 0) = Phi_q^T lambda, Phi(q, t0) = 0,
@@ -445,7 +474,11 @@ def static_positions(system, t0: float, q: np.ndarray, lam: np.ndarray,
     (A static analysis as in Haug, Computer-Aided Kinematics and Dynamics of
     Mechanical Systems, sec. 9.1, with the equilibrium found by Newton's
     method on the constrained equations rather than by minimising the
-    potential, so that non-conservative loads are allowed.)
+    potential, so that non-conservative loads are allowed.) Where Newton's
+    method does not converge on a spatial model it runs again with each step
+    brought back onto the constraints (``_retract``): an equilibrium a large
+    turn away (a servo's set point 0.8 rad off) is then reached, where the
+    plain steps leave the directors' frames and diverge.
 
     Redundant constraint rows (``dependent``: their indices in lambda,
     ``StructureReport.dependent``) would make the matrix singular; they hold
@@ -460,12 +493,24 @@ def static_positions(system, t0: float, q: np.ndarray, lam: np.ndarray,
         assembled configuration, or the mechanism is not held: a free
         degree of freedom under a load that no spring resists).
     """
-    model, n, m = system.model, system.n, system.m
-    iq = np.array([ic.column(system.cmap) for ic in model.initials
+    try:
+        return _static_newton(system, t0, q, lam, hold_initials, dependent, False)
+    except AssemblyError:
+        if not system.layout.frame_rows.size:
+            raise
+        return _static_newton(system, t0, q, lam, hold_initials, dependent, True)
+
+
+def _held_rows(system, q, hold_initials, sparse):
+    """(E, held, given) of the static equilibrium: the rows E (f, n) of the
+    held coordinates (``initial`` lines, the first-order states' integrals)
+    and of the held turns (``_held_turns``), the function x -> their values,
+    and their values at q."""
+    n = system.n
+    iq = np.array([ic.column(system.cmap) for ic in system.model.initials
                    if hold_initials and not ic.guess and not ic.is_velocity
                    and ic.field not in DIRECTORS]
                   + list(system.state_cols), dtype=int)     # a state's integral: always held
-    sparse = n + m > STATIC_DENSE_LIMIT
     E = _selection(iq, n, sparse)
     turns = _held_turns(system, q, hold_initials)
     if turns is None:
@@ -478,7 +523,16 @@ def static_positions(system, t0: float, q: np.ndarray, lam: np.ndarray,
         def held(x):
             """The held coordinates' and turns' values."""
             return E @ x
-    given = held(q).copy()
+    return E, held, held(q).copy()
+
+
+def _static_newton(system, t0, q, lam, hold_initials, dependent, retract) -> np.ndarray:
+    """``static_positions``' Newton iteration; with ``retract``, each step
+    brought back onto the constraints (``_retract``). AssemblyError (E507)
+    when it does not converge."""
+    model, n, m = system.model, system.n, system.m
+    sparse = n + m > STATIC_DENSE_LIMIT
+    E, held, given = _held_rows(system, q, hold_initials, sparse)
     f = E.shape[0]
     v0 = np.zeros(n)            # at rest; the first-order states at their initial values
     for ic in model.state_conditions:
@@ -522,6 +576,8 @@ def static_positions(system, t0: float, q: np.ndarray, lam: np.ndarray,
             full[live] = dx
             dx = full
         x = x - dx
+        if retract:
+            x[:n] = _retract(system, t0, x[:n], E, given, sparse)
         if np.max(np.abs(dx[:n]), initial=0.0) <= 1e-14 * (1.0 + np.max(np.abs(x[:n]))):
             q = x[:n]
             r = system.Q(t0, q, v0, x[n:n + m]) - system.PhiqT_times(q, t0, x[n:n + m]) - E.T @ x[n + m:]

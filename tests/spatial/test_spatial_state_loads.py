@@ -254,3 +254,36 @@ def test_a_wrong_joint_load_is_an_error_at_its_line(line, code):
         mbdsl.load_text(text)
     d = err.value.diagnostics[0]
     assert (d.code, d.span.line) == (code, 6), (d.code, d.span.line, d.message)
+
+
+def _arm_pitch_at_rest(kp=200.0, setpoint=-0.3):
+    """The arm's pitch at rest in models/spatial_arm.mbd: the servo's torque
+    kp (set - theta) against gravity's (m_arm 0.3 + m_payload 0.6) g cos(theta)
+    about the pitch axis (a positive pitch lowers the tip)."""
+    from scipy.optimize import brentq
+    moment = (2.0 * 0.3 + 1.0 * 0.6) * 9.81
+    return brentq(lambda th: kp * (setpoint - th) + moment * np.cos(th), -1.5, 1.5)
+
+
+def test_the_servoed_arm_comes_to_rest_where_its_torques_balance():
+    """models/spatial_arm.mbd (PD joint torques on a yaw and a pitch joint, a
+    particle payload): after 6 s the yaw stands at its set point 0.8 rad and
+    the pitch where the servo balances gravity (brentq on the two torques),
+    both within 1e-5 rad; ``initial static`` finds the same pitch at once
+    (1e-10 rad)."""
+    from tests.conftest import MODELS
+    text = (MODELS / "spatial_arm.mbd").read_text()
+    pitch = _arm_pitch_at_rest()
+    assert pitch == pytest.approx(-0.243, abs=2e-3)
+    sol = mbdsl.simulate(mbdsl.load_text(text.replace(
+        "output tip_height = payload.z", "output tip_height = payload.z\n"
+        "output pitch_angle = pitch.angle\noutput yaw_angle = yaw.angle")),
+        method="hht-si2", h=2e-3, t_end=6.0)
+    assert sol.column("output.yaw_angle")[-1] == pytest.approx(0.8, abs=1e-5)
+    assert sol.column("output.pitch_angle")[-1] == pytest.approx(pitch, abs=1e-5)
+    assert sol.column("output.tip_height")[-1] == pytest.approx(
+        0.6 - 0.6 * np.sin(pitch), abs=1e-5)
+    rest = mbdsl.simulate(mbdsl.load_text(text.replace(
+        "output tip_height = payload.z", "output pitch_angle = pitch.angle\ninitial static")),
+        method="hht-si2", h=2e-3, t_end=0.01)
+    assert rest.column("output.pitch_angle")[0] == pytest.approx(pitch, abs=1e-10)
