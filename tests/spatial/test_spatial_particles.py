@@ -23,18 +23,23 @@ from mbdsl.errors import MbdModelError
 METHODS = ("newmark", "hht-i3", "hht-add", "hht-si2", "nstiff", "nstiff-si2", "genalpha",
            "genalpha-si2")
 
+
+def start(name, x, v, guess=()):
+    """The ``initial`` lines of a particle's position x (3,) [m] and velocity
+    v (3,) [m/s]; the fields named in ``guess`` (``"z"``, ``"vz"``) as
+    ``guess`` lines, for the assembly to solve from its joints."""
+    lines = []
+    for fields, values in (("xyz", x), (("vx", "vy", "vz"), v)):
+        for f, value in zip(fields, values):
+            lines.append(f"{'guess' if f in guess else 'initial'} {name}.{f} = {value!r}")
+    return "\n".join(lines) + "\n"
+
 PENDULUM = """model spherical_pendulum
 space 3d
 gravity (0, 0, -9.81)
 particle bob {{ mass 0.5; shape sphere(cm, 0.03) }}
 joint rod: distance(ground.origin, bob.cm, length = 1)
-initial bob.x = 0.6
-initial bob.y = 0
-guess bob.z = -0.8
-initial bob.vx = 0
-initial bob.vy = 1.5
-guess bob.vz = 0
-{extra}
+""" + start("bob", (0.6, 0, -0.8), (0, 1.5, 0), guess=("z", "vz")) + """{extra}
 """
 
 
@@ -117,13 +122,7 @@ gravity (0, 0, -9.81)
 ground {{ axis n ({n[0]!r}, 0, {n[2]!r}) }}
 particle p {{ mass 2 }}
 joint J: point_on_plane(p.cm, ground.origin, ground.n)
-initial p.x = 0
-initial p.y = 0
-guess p.z = 0
-initial p.vx = 0
-initial p.vy = 0.3
-guess p.vz = 0
-"""
+""" + start("p", (0, 0, 0), (0, 0.3, 0), guess=("z", "vz"))
     sol = mbdsl.simulate(mbdsl.load_text(text), method="hht-i3", h=1e-3, t_end=1.0)
     t = sol.column("t")
     down = np.array([-np.cos(a), 0.0, -np.sin(a)])       # down the slope
@@ -146,19 +145,7 @@ space 3d
 particle a { mass 1 }
 particle b { mass 3 }
 force s: spring_damper(a.cm, b.cm, k = 120, c = 0, length = 0.5)
-initial a.x = 0
-initial a.y = 0
-initial a.z = 0
-initial b.x = 0.7
-initial b.y = 0
-initial b.z = 0
-initial a.vx = 0
-initial a.vy = 0.9
-initial a.vz = 0.1
-initial b.vx = 0.2
-initial b.vy = -0.1
-initial b.vz = 0
-"""
+""" + start("a", (0, 0, 0), (0, 0.9, 0.1)) + start("b", (0.7, 0, 0), (0.2, -0.1, 0))
     sol = mbdsl.simulate(mbdsl.load_text(text), method="hht-si2", h=1e-4, t_end=1.0)
     t = sol.column("t")
     cm = (np.column_stack([sol.column(f"a.{c}") for c in "xyz"])
@@ -183,13 +170,7 @@ gravity (0, 0, -9.81)
 particle ball { mass 0.2 }
 force floor: contact(ball.cm, radius = 0.1, plane = (ground.origin, (0, 0, 1)), k = 1e6,
                      exponent = 1.5, restitution = 0.8)
-initial ball.x = 0
-initial ball.y = 0
-initial ball.z = 1
-initial ball.vx = 0.5
-initial ball.vy = 0
-initial ball.vz = 0
-"""
+""" + start("ball", (0, 0, 1), (0.5, 0, 0))
     model = mbdsl.load_text(text)
     sol = mbdsl.simulate(model, method="hht-i3", h=1e-3, t_end=0.8, rtol=1e-7, atol=1e-7)
     assert [e[2] for e in sol.events][:2] == ["closed", "opened"]
@@ -208,13 +189,7 @@ space 3d
 particle p { mass 2 }
 force drag: force(p.cm, (-0.5*p.vx, -0.5*p.vy, -0.5*p.vz))
 output up = p.z
-initial p.x = 0
-initial p.y = 0
-initial p.z = 0
-initial p.vx = 1
-initial p.vy = 0
-initial p.vz = 3
-"""
+""" + start("p", (0, 0, 0), (1, 0, 3))
     sol = mbdsl.simulate(mbdsl.load_text(text), method="genalpha", h=1e-3, t_end=2.0)
     t = sol.column("t")
     np.testing.assert_allclose(sol.column("p.vz"), 3 * np.exp(-0.25 * t), atol=1e-6)
@@ -235,13 +210,7 @@ joint O: spherical(ground.origin, rod.top)
 joint T: distance(rod.tip, bob.cm, length = 0.4)
 initial rod.orientation = zyx(0, 40 deg, 0)
 initial rod.omega = (0, 0, 2)
-initial bob.x = -0.55
-guess bob.y = 0
-guess bob.z = -0.7
-guess bob.vx = 0
-initial bob.vy = 0.5
-guess bob.vz = 0
-"""
+""" + start("bob", (-0.55, 0, -0.7), (0, 0.5, 0), guess=("y", "z", "vx", "vz"))
     model = mbdsl.load_text(text)
     sol = mbdsl.simulate(model, method="hht-si2", h=1e-4, t_end=1.0)
     e, k = sol.column("energy.total"), sol.column("energy.kinetic")
