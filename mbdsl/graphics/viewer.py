@@ -285,8 +285,10 @@ def write_html(solution, path, columns=None, bodies=None, max_frames: int = MAX_
     """
     sol = solution
     fig, info = figure(sol, columns, bodies, max_frames, deform_scale)
+    # auto_play: plotly starts a figure's frames on load unless told not to;
+    # the page opens at the run's start and plays when the reader asks
     embedded = fig.to_html(include_plotlyjs=True, full_html=False, div_id="mechanism",
-                           config={"responsive": True, "displaylogo": False})
+                           config={"responsive": True, "displaylogo": False}, auto_play=False)
     warnings = "".join(f"<li>{html.escape(w.code)}: {html.escape(w.message)}</li>"
                        for w in sol.warnings)
     page = _PAGE.format(title=html.escape(f"{sol.model.name}: {sol.method_name}"),

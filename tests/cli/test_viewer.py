@@ -196,7 +196,7 @@ def test_a_spatial_page_in_a_browser(browser, tmp_path):
     """The spatial slider-crank's page: it loads without a script error, its
     mechanism is a 3D scene of scatter3d traces, and its slider moves the
     bodies (the slider's centre-of-mass marker leaves where it started; the
-    crank's sits on its axis)."""
+    crank's sits on its axis); it does not play by itself on load."""
     sol = mbdsl.simulate(mbdsl.load(MODELS / "spatial_slider_crank.mbd"), t_end=0.5)
     page = write_html(sol, tmp_path / "crank.html", max_frames=50)
     browser.get(page.as_uri())
@@ -211,5 +211,7 @@ def test_a_spatial_page_in_a_browser(browser, tmp_path):
     where = ("var gd = document.getElementById('mechanism');"
              f"return Array.from(gd._fullData[{cm}].x);")
     first = browser.execute_script(where)
+    time.sleep(1.0)
+    assert browser.execute_script(where) == first            # no autoplay
     _click_slider(browser, 0.6)
     assert browser.execute_script(where) != first
