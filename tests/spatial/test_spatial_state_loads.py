@@ -287,3 +287,39 @@ def test_the_servoed_arm_comes_to_rest_where_its_torques_balance():
         "output tip_height = payload.z", "output pitch_angle = pitch.angle\ninitial static")),
         method="hht-si2", h=2e-3, t_end=0.01)
     assert rest.column("output.pitch_angle")[0] == pytest.approx(pitch, abs=1e-10)
+
+
+@pytest.mark.parametrize("engine", ["compiled", "numpy"])
+def test_a_servo_under_error_controlled_steps(engine):
+    """The PD rotor of ``test_a_joint_torque_reading_the_joints_angle_and_rate``
+    with error-controlled steps (rtol = atol = 1e-7, hht-i3), on both
+    engines: the closed form within 1e-5 rad at every output row; on the
+    compiled engine over 2 s, the steps of the settled end longer than those
+    of the fast start (the numpy engine runs the first 0.3 s: its time)."""
+    pd = mbdsl.load_text(ROTOR.format(
+        load="force pd: joint_torque(R, -8*(R.angle - 0.5) - 0.1*R.rate)"))
+    t_end = 2.0 if engine == "compiled" else 0.3
+    sol = mbdsl.simulate(pd, method="hht-i3", h=1e-3, t_end=t_end, rtol=1e-7, atol=1e-7,
+                         engine=engine)
+    t, theta = sol.column("t"), sol.column("output.angle")
+    assert np.max(np.abs(theta - _damped(t, theta[0], 0.5, 8.0, 0.1, 0.04))) < 1e-5
+    if engine == "compiled":
+        h = sol.column("step.h")
+        assert np.median(h[t > 1.5]) > 1.5 * np.median(h[(t > 0.05) & (t < 0.5)])
+
+
+def test_the_arm_through_the_command_line(tmp_path):
+    """``mbdsl simulate models/spatial_arm.mbd -o arm.h5`` then ``mbdsl view``:
+    the file holds the payload's columns and the servo's work, and the page
+    is written (the whole path a user takes, joint loads and a particle in
+    it)."""
+    from mbdsl.cli.main import main
+    from tests.conftest import MODELS
+    out = tmp_path / "arm.h5"
+    assert main(["simulate", str(MODELS / "spatial_arm.mbd"), "--t-end", "0.2",
+                 "-o", str(out)]) == 0
+    sol = mbdsl.load_solution(out)
+    assert {"payload.x", "payload.vz", "energy.work"} <= set(sol.columns)
+    assert abs(sol.column("energy.work")[-1]) > 1e-3            # the servos work
+    assert main(["view", str(out), "-o", str(tmp_path / "arm.html")]) == 0
+    assert (tmp_path / "arm.html").stat().st_size > 1e5

@@ -10,13 +10,14 @@ from ...model.functions import StateFunction, StateSwitch
 from ..expressions import ExprError, compile_state_function, diff, kinked_tables
 
 
-def state_function(c, e, variables, span, context):
+def state_function(c, e, variables, span, context, grads=None):
     """f(t, x) (StateFunction) of an expression ``e`` whose state variables
     are named (``state_expression``), with its exact partial derivatives
-    with respect to each of ``variables``; None after reporting."""
+    with respect to each of ``variables`` (or ``grads``, where the caller
+    has them: one expression per variable); None after reporting."""
     names = tuple(v.name for v in variables)
     try:
-        grads = tuple(diff(e, name) for name in names)
+        grads = tuple(grads) if grads is not None else tuple(diff(e, name) for name in names)
     except ExprError as err:
         c.expr_error(err, span, context)
         return None
