@@ -21,7 +21,7 @@ from ..errors import Span
 __all__ = [
     "Num", "Name", "IndexedName", "Dotted", "Unary", "Binary", "Call", "TableCall", "Vec", "Expr",
     "FUNCTIONS", "PAIR_FUNCTIONS", "OPCODES", "ExprError", "evaluate", "evaluate_rows", "free_names",
-    "substitute", "diff",
+    "substitute", "diff", "sum_of",
     "postfix",
     "simplify", "compile_function", "compile_state_function",
 ]
@@ -437,6 +437,15 @@ def _function_error(call: Call) -> ExprError:
 
 def _n(v: float) -> Num:
     return Num(float(v))
+
+
+def sum_of(terms) -> Expr:
+    """The expression sum of the expressions ``terms``, left to right
+    (Num 0 for none): a load's terms as the check writes them."""
+    out = None
+    for e in terms:
+        out = e if out is None else Binary("+", out, e)
+    return Num(0.0) if out is None else out
 
 
 def _is(e: Expr, v: float) -> bool:

@@ -13,8 +13,8 @@ import numpy as np
 from ...model.spatial import SpatialRotationalSpring, SpatialSpring
 from ...model.elements import (GROUND, FlexibleBeam, Friction, JointForce, JointTorque, PointForce,
                                RotationalSpringDamper, SpringDamper, StateVariable, Torque)
-from ..expressions import (Binary, Call, Dotted, ExprError, Name, Num, simplify, substitute, Unary,
-                           Vec)
+from ..expressions import (Binary, Call, Dotted, ExprError, Name, Num, simplify, substitute,
+                           sum_of, Unary, Vec)
 from .contact import contact_element, rope_element
 from .spatial_state import spatial_joint_load
 from .state_functions import state_function
@@ -271,7 +271,7 @@ def _section_angle(c, body, p, record):
         names = body.mesh.names
         terms += [_scaled(float(s), body_variable(c, body, names[j], record))
                   for j, s in enumerate(slope) if s != 0.0]
-    return simplify(_sum(terms))
+    return simplify(sum_of(terms))
 
 
 def body_variable(c, body, field, record, span=None) -> Name:
@@ -484,14 +484,6 @@ def elastic_variable(beam, ref: Dotted) -> StateVariable:
 POINT_STATE = ("x", "y", "vx", "vy")
 
 
-def _sum(terms):
-    """An expression: the sum of the expressions ``terms`` (0 for none)."""
-    out = None
-    for e in terms:
-        out = e if out is None else Binary("+", out, e)
-    return Num(0.0) if out is None else out
-
-
 def _scaled(coef: float, e):
     """coef * e as an expression (None for coef 0, e for coef 1)."""
     if coef == 0.0:
@@ -560,8 +552,8 @@ def point_state(c, ref: Dotted, record):
         for terms, rates, s in ((ex, dex, sx), (ey, dey, sy)):
             terms.append(_scaled(s, var(e)))
             rates.append(_scaled(s, var(e + "_t")))
-    ex, ey = _sum([t for t in ex if t is not None]), _sum([t for t in ey if t is not None])
-    dex, dey = _sum([t for t in dex if t is not None]), _sum([t for t in dey if t is not None])
+    ex, ey = sum_of([t for t in ex if t is not None]), sum_of([t for t in ey if t is not None])
+    dex, dey = sum_of([t for t in dex if t is not None]), sum_of([t for t in dey if t is not None])
     phi = var("phi")
     C, S = Call("cos", phi), Call("sin", phi)
 
@@ -574,7 +566,7 @@ def point_state(c, ref: Dotted, record):
     # omega A' u = omega (-(A u)_y, (A u)_x)
     turn = Binary("*", var("omega"), rot(ex, ey, axis == "y"))
     turn = Unary("-", turn) if axis == "x" else turn
-    return simplify(_sum([own, turn, rot(dex, dey, axis == "x")]))
+    return simplify(sum_of([own, turn, rot(dex, dey, axis == "x")]))
 
 
 def check_gravity(c):

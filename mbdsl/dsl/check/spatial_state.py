@@ -39,7 +39,7 @@ from ...model.elements import GROUND
 from ...model.functions import StateVariable
 from ...model.spatial import DIRECTORS, SPATIAL_COORDINATES, SpatialStateLoad, reference_vectors
 from ..expressions import (Binary, Call, Dotted, ExprError, Name, Num, children, diff, free_names,
-                           simplify, substitute)
+                           simplify, substitute, sum_of)
 from .context import BrokenReference, did_you_mean
 from .state_functions import state_function
 
@@ -66,17 +66,9 @@ def _director(i: int, k: int) -> str:
     return f"A{i + 1}{k + 1}"
 
 
-def _sum(terms):
-    """The sum of expressions (0 for none)."""
-    out = None
-    for e in terms:
-        out = e if out is None else Binary("+", out, e)
-    return Num(0.0) if out is None else out
-
-
 def _dot(u, w):
     """u . w of two 3-vectors of expressions."""
-    return _sum(Binary("*", a, b) for a, b in zip(u, w))
+    return sum_of(Binary("*", a, b) for a, b in zip(u, w))
 
 
 def _scale(a, u):
@@ -126,7 +118,7 @@ class _Reader:
             terms += [Binary("*", Num(float(s)), self.variable(
                 body, _director(i, k) + ("_t" if rate else "")))
                 for k, s in enumerate(local) if s != 0.0]
-            out.append(_sum(terms))
+            out.append(sum_of(terms))
         return out
 
     def body_field(self, body, field: str, span):
@@ -230,7 +222,7 @@ class _Reader:
             return None
 
 
-def _force_entries(reader, index, local, F, sign=1.0):
+def _force_entries(index, local, F, sign=1.0):
     """(body, coordinate, expression) of a force F (world, 3 expressions) at
     the body point ``local``: F on r and s_k F on a_k (``sign`` -1: -F);
     none on the ground."""
@@ -273,7 +265,7 @@ def _product_grads(tau, dtau, e, variables):
             parts.append(Binary("*", dtau[v.name], e))
         if v.name in read:
             parts.append(Binary("*", tau, simplify(diff(e, v.name))))
-        out.append(_sum(parts))
+        out.append(sum_of(parts))
     return out
 
 
@@ -330,10 +322,10 @@ def spatial_state_load(c, name, torque, index, local, parts, frame, span, ctx):
         return None
     if frame == "body":
         e = np.eye(3)
-        read = [_sum(Binary("*", reader.vector(index, e[l])[i], read[l]) for l in range(3))
+        read = [sum_of(Binary("*", reader.vector(index, e[l])[i], read[l]) for l in range(3))
                 for i in range(3)]
     entries = (_torque_entries(reader, index, read) if torque
-               else _force_entries(reader, index, local, read))
+               else _force_entries(index, local, read))
     return _load(c, reader, name, entries, torque, span, ctx)
 
 
@@ -370,6 +362,6 @@ def spatial_joint_load(c, f, pos, ctx):
         bu, u = joint.axes[-1]
         u = reader.vector(bu, u)
         p1, p2 = joint.first, joint.second
-        entries = (_force_entries(reader, p1.body, p1.local, u)
-                   + _force_entries(reader, p2.body, p2.local, u, -1.0))
+        entries = (_force_entries(p1.body, p1.local, u)
+                   + _force_entries(p2.body, p2.local, u, -1.0))
     return _load(c, reader, f.name, entries, torque, f.span, ctx, tau=value)
