@@ -15,7 +15,7 @@ Bytes per step (8-byte floats, n coordinates, m rows, size = n + m
 unknowns, band storage (2 kl + ku + 1) x size, triplet bound P):
 
 * per iteration: the residual, model data (ints + floats) + 10 vectors of
-  size; the band solve (``linalg._band_substitute``), the factors + pivots + 6
+  size; the band solve (``band._band_substitute``), the factors + pivots + 6
   vectors of size (permutation in, two triangular sweeps, permutation
   out); the iteration's own updates, 5 vectors of size;
 * per factorization: the triplets written and read back (24 bytes each,

@@ -144,9 +144,10 @@ def integrate(system, method: Method, t_end: float, h: float, *, t_start: float 
         which, engine, engine_note = _engine_for(system, method, engine, control,
                                                  compile_policy, announce)
         solver = Newton(newton)
-        if which == "numpy" and solver.options.linear_solver == "banded":
-            raise ValueError("linear_solver='banded' is a solver of the compiled engine, which "
-                             "cannot run this model or was not asked for")
+        if which == "numpy" and solver.options.linear_solver in ("banded", "condensed"):
+            raise ValueError(f"linear_solver='{solver.options.linear_solver}' is a solver of "
+                             "the compiled engine, which cannot run this model or was not "
+                             "asked for")
         clock = _time.perf_counter
         timings = dict.fromkeys(Solution.TIMING_NAMES, 0.0)
         t0 = clock()
@@ -267,7 +268,7 @@ def _steppers(system, method, initial, solver, which, control, python_loop, anno
                                 control, initial)
         return stepper, None, stepper.linear_solver
     options = solver.options
-    if options.linear_solver == "banded":           # the fallback's own choice
+    if options.linear_solver in ("banded", "condensed"):   # the fallback's own choice
         options = dataclasses.replace(options, linear_solver="auto")
     dense = not sparse_newton(options, size)
     fallback = PythonStepper(system, SparseAdapter(system, method, cm, dense=dense),

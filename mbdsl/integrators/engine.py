@@ -16,7 +16,11 @@ events and switches, halves failed steps and lets Ctrl-C through:
 * above it, when a bandwidth-reducing ordering (reverse Cuthill-McKee,
   scipy.sparse.csgraph) makes the Newton matrix narrow-banded (chains,
   linkages built link by link), the same compiled loop with LAPACK's band
-  LU (dgbtrf, called from the kernels, and its band substitution);
+  LU (dgbtrf, called from the kernels, and its band substitution), or,
+  where the coordinates fall into small groups (spatial bodies), with the
+  coordinates eliminated group by group and the band LU of the constraint
+  rows' Schur complement (:mod:`.compiled.condensed`; the plans are
+  :mod:`.solver_plans`');
 * otherwise, the Python Newton iteration (``python_stepper.PythonStepper``,
   :mod:`.newton`) on compiled residuals and Newton matrices assembled on a
   CSC pattern fixed at the start (:class:`SparseAdapter`), with SuperLU.
@@ -48,46 +52,24 @@ from __future__ import annotations
 import numpy as np
 import scipy
 
-from ..assembly.packing import PackedModel
-from ..assembly.sparse import DENSE_LIMIT
 from .base import StepState
-from .records import (LAPACK_FIELDS, LIN_FIELDS, LU_FIELDS, LU_VALID, OPTION_FIELDS, OPT_REFRESH,
-                      vector)
+from .records import LU_FIELDS, LU_VALID, OPTION_FIELDS, OPT_REFRESH, vector
+from .solver_plans import (BAND_LIMIT, BAND_MIN_SIZE, CompiledModel, LinearSolverPlan,  # noqa: F401
+                           _kernels, _recipe_value, band_ordering, band_plan, condensed_cost,
+                           condensed_solver_plan, linear_solver_plan, newton_pattern,
+                           newton_size)
 
+# the linear solvers' plans (``solver_plans``) are read from here too, where the
+# compiled engine's other set-up is
 __all__ = ["ENGINES", "unsupported", "CompiledModel", "select_engine", "run_model",
            "prepare_compiled", "copy_run_state",
            "KernelStepper",
            "newton_size", "SparseAdapter", "LinearSolverPlan", "linear_solver_plan", "band_plan",
-           "band_ordering"]
+           "band_ordering", "condensed_solver_plan", "condensed_cost", "newton_pattern",
+           "BAND_LIMIT", "BAND_MIN_SIZE"]
 
 #: Engine names accepted by ``integrate(..., engine=...)`` and ``--engine``.
 ENGINES = ("auto", "numpy", "compiled", "uncompiled")
-
-#: The band LU is taken when the reordered Newton matrix has at most this many sub-
-#: and super-diagonals and its band (2 kl + ku + 1 entries per unknown) is at most
-#: half a dense row: a band solve then costs a few hundred flops per unknown with no
-#: indexing or call overhead, inside the compiled loop. Measured on pendulum chains
-#: (kl = ku = 4 for HHT-I3, 11 for HHT-SI2): N = 100, HHT-SI2, 0.37 ms per step
-#: against 1.05 ms with SuperLU in the Python Newton loop; N = 1000, 4.5-5.5 ms
-#: against 10.7 ms. Against the dense inverse (us per step, dense / band): chain of
-#: 6 links, HHT-I3 (30 unknowns) 45 / 38, NSTIFF-SI2 (60) 94 / 72, HHT-ADD (78) 204
-#: / 157; 10 links, NSTIFF-SI2 (100) 215 / 77; Andrews' mechanism, HHT-I3 (41
-#: unknowns, kl = ku = 9: more than half a row) 27 / 34, so kept dense.
-BAND_LIMIT = 32
-#: Below this many unknowns the dense inverse is kept without looking for a band.
-BAND_MIN_SIZE = 30
-
-
-def _kernels(uncompiled: bool = False):
-    """The kernels: the compiled module (imports numba, loads the cached
-    kernels), or with ``uncompiled`` the same source run by the interpreter
-    (:func:`.kernel_cache.uncompiled_kernels`)."""
-    if uncompiled:
-        from .kernel_cache import uncompiled_kernels
-        return uncompiled_kernels()
-    from . import compiled
-    return compiled
-
 
 def numba_available() -> bool:
     """True when numba can be imported."""
@@ -247,11 +229,6 @@ def index1_band_vector(system) -> np.ndarray:
     return np.append(order, kd).astype(np.int64)
 
 
-def newton_size(system, method) -> int:
-    """Unknowns of the Newton matrix: n + m (index 3), 2 (n + m) (stabilized index 2)."""
-    return sum(b.size for b in method.blocks(system))
-
-
 def recipe(method, h, first):
     """The method's recipe at step size h [s] (``first``: a start-up step),
     with its constraint formulation: ``reg`` = epsilon of the augmented
@@ -364,11 +341,6 @@ def step_recipe(method, history, h):
     return recipe(method, h, first), first
 
 
-def _recipe_value(method, name, h=1e-3):
-    from .recipe import RECIPE_FIELDS
-    return float(method.kernel_recipe(h, False)[RECIPE_FIELDS.index(name)])
-
-
 def select_engine(engine: str, system, method, compile_policy: str = "wait",
                   announce=None) -> str:
     """'numpy', 'compiled' or 'uncompiled' for a requested engine.
@@ -466,227 +438,9 @@ def prepare_compiled(system, method, options, q, announce=None, python_loop=Fals
     cm = run_model(system, uncompiled)        # the run's own copy: its events write into it
     plan = linear_solver_plan(system, method, options, q, cm)  # banded: calls a kernel
     if not uncompiled:                        # this loop's entry points
-        ensure_loaded("sparse" if python_loop else plan.kind, announce)
+        ensure_loaded("sparse" if python_loop else
+                      {"condensed": "banded"}.get(plan.kind, plan.kind), announce)
     return cm, plan, time.perf_counter() - t0
-
-
-class CompiledModel(PackedModel):
-    """:class:`~mbdsl.assembly.packing.PackedModel` on the compiled kernels by default.
-
-    Parameters
-    ----------
-    system : AssembledSystem
-        A model :func:`unsupported` accepts.
-    kernels : module, optional
-        The kernels the model data are for and the run calls (``K``):
-        :mod:`.compiled` (the default) or its uncompiled copy
-        (``_kernels(uncompiled=True)``).
-    """
-
-    def __init__(self, system, kernels=None):
-        super().__init__(system, kernels if kernels is not None else _kernels())
-
-
-class LinearSolverPlan:
-    """How the compiled engine solves with the Newton matrix.
-
-    Attributes
-    ----------
-    kind : {"dense", "banded", "sparse"}
-        Explicit inverse in the compiled loop, LAPACK band LU in the compiled
-        loop, or SuperLU in the Python Newton loop (:class:`SparseAdapter`).
-    rperm, cperm : ndarray of int64, shape (size,) or None
-        "banded": equation i is row rperm[i], unknown j column cperm[j] of
-        the band matrix.
-    kl, ku : int
-        "banded": sub- and super-diagonals of each diagonal block.
-    blocks : int
-        "banded": 1, or 2 for HHT-SI2 split into its (a, lambda) and (abar,
-        mu) blocks (see ``compiled``, "Linear solvers").
-    addresses : ndarray of int64, shape (1,) or None
-        "banded": dgbtrf's (``integrators.compiled.linalg.lapack_band_addresses``).
-    why : str
-        The reason for the choice, for reports.
-    """
-
-    def __init__(self, kind, why, rperm=None, cperm=None, kl=0, ku=0, blocks=1, addresses=None):
-        self.kind, self.why = kind, why
-        self.rperm, self.cperm, self.kl, self.ku = rperm, cperm, int(kl), int(ku)
-        self.blocks, self.addresses = int(blocks), addresses
-
-    def factorization_is_expensive(self, size) -> bool:
-        """Whether a factorization costs more than about six Newton iterations
-        (``NewtonOptions.refresh_rate``). Dense: an inverse costs about size/6
-        iterations (measured: at 17 unknowns the cheap policy is fastest, at 50
-        and 100 unknowns the expensive one). Band: dgbtrf's 2 kl (kl + ku + 1)
-        flops per unknown against an iteration's band solve, 2 (2 kl + ku + 1),
-        and a residual of about 20 (measured on chains: kl = ku = 11 is
-        fastest with the cheap policy)."""
-        if self.kind == "dense":
-            return size >= 40
-        return self.kl * (self.kl + self.ku + 1) > 6 * (2 * self.kl + self.ku + 11)
-
-    def workspace(self, size, bound):
-        """The kernels' ``lin`` tuple (``records.LIN_FIELDS``, read by
-        ``integrators.compiled.linalg._factor``) for this plan; ``bound``: the
-        triplet bound of the model."""
-        one, i8 = np.zeros((1, 1)), np.int64
-        ldab = 2 * self.kl + self.ku + 1
-        if self.kind == "dense":
-            J, Jinv, AB = np.empty((size, size)), np.empty((size, size)), one
-            ipiv, rperm, cperm = np.zeros(1, np.int32), np.zeros(1, i8), np.zeros(1, i8)
-            addresses, Lr, Lc, Lv = np.zeros(1, i8), np.zeros(1, i8), np.zeros(1, i8), np.zeros(1)
-        else:
-            J = Jinv = one
-            AB = np.zeros((size, ldab))
-            ipiv, rperm, cperm, addresses = (np.zeros(size, np.int32), self.rperm, self.cperm,
-                                             self.addresses)
-            nL = bound if self.blocks == 2 else 1
-            Lr, Lc, Lv = np.zeros(nL, i8), np.zeros(nL, i8), np.zeros(nL)
-        s = size // max(self.blocks, 1)
-        lp = vector(LAPACK_FIELDS, np.int32, m=s, n=s, kl=self.kl, ku=self.ku, ldab=ldab, info=0,
-                    blocks=self.blocks, nc=0)
-        lin = dict(J=J, Jinv=Jinv, AB=AB, ipiv=ipiv, rperm=rperm, cperm=cperm, lp=lp,
-                   addr=addresses, b=np.empty(size), Lr=Lr, Lc=Lc, Lv=Lv)
-        return tuple(lin[name] for name in LIN_FIELDS)
-
-
-def newton_pattern(system, method, q, cm=None):
-    """(rows, cols) of the Newton matrix's triplets, evaluated at configuration
-    q (n,) [m, rad] at rest (h = 1e-3 s); the pattern is the model's, fixed
-    at build, whatever the configuration."""
-    cm = cm or CompiledModel(system)
-    K = cm.K
-    size = newton_size(system, method)
-    n = system.n
-    R, C, V = (np.empty(cm.bound, np.int64), np.empty(cm.bound, np.int64), np.empty(cm.bound))
-    qx = np.zeros(n + 3)
-    qx[:n] = q
-    p = K.jacobian_triplets(method.kernel_recipe(1e-3, False), cm.ints, cm.floats, 0.0,
-                            np.asarray(q, dtype=float), np.zeros(n), np.zeros(n), qx, np.zeros(size),
-                            R, C, V, np.zeros(n + 3), np.zeros(n + 3))
-    return R[:p], C[:p]
-
-
-def _rcm(R, C, size):
-    """iperm (size,): the reverse Cuthill-McKee ordering (scipy.sparse.csgraph)
-    of the pattern (R, C) made symmetric, index i going to position iperm[i]."""
-    from scipy.sparse.csgraph import reverse_cuthill_mckee
-    A = scipy.sparse.csr_matrix((np.ones(len(R)), (R, C)), shape=(size, size))
-    perm = reverse_cuthill_mckee((A + A.T).tocsr(), symmetric_mode=True)
-    iperm = np.empty(size, np.int64)
-    iperm[perm] = np.arange(size)
-    return iperm
-
-
-def band_ordering(system, method, q, split=False, cm=None):
-    """(rperm, cperm, kl, ku, blocks): the band matrix of the Newton matrix.
-
-    One block: the reverse Cuthill-McKee ordering of J + J^T for rows and
-    columns alike. ``split`` (a recipe with ``split``, HHT-SI2): two blocks,
-    equations (R1, R4) and unknowns (x, lambda) first, equations (R2, R3)
-    and unknowns (y, mu) second, each ordered by reverse Cuthill-McKee of its own
-    diagonal block. kl, ku: the largest sub- and super-diagonals of the
-    diagonal blocks.
-    """
-    size = newton_size(system, method)
-    R, C = newton_pattern(system, method, q, cm)
-    if not split:
-        # Equation i is paired with unknown pair[i] (the diagonal of the band matrix):
-        # itself where the equations come in the unknowns' order; for HHT-ADD's
-        # additive form, whose rows are (E1, E2, E3, E4, E5) and unknowns (dq, dv, a,
-        # psi_I, psi_II), E5 (M a - ...) pairs with a, and the constraint rows E3, E4
-        # with psi_I, psi_II. Without it, reverse Cuthill-McKee of a chain's matrix
-        # found a bandwidth of 368 instead of a few tens.
-        if _recipe_value(method, "form") == 1.0:
-            n, m = system.n, system.m
-            pair = np.concatenate([np.arange(2 * n), 3 * n + np.arange(2 * m),
-                                   2 * n + np.arange(n)])
-            iperm = _rcm(pair[R], C, size)
-            rperm, cperm = iperm[pair], iperm
-        else:
-            iperm = _rcm(R, C, size)
-            rperm = cperm = iperm
-    else:
-        if _recipe_value(method, "split") == 0.0:
-            raise ValueError(f"the {method.name} Newton matrix is not split into blocks")
-        n, m = system.n, system.m
-        s = n + m
-        j, i = np.arange(n), np.arange(m)
-        # local position within its block of each equation (row) and unknown (column)
-        row_block = np.concatenate([np.zeros(n, np.int64), np.ones(n, np.int64),
-                                    np.ones(m, np.int64), np.zeros(m, np.int64)])
-        row_local = np.concatenate([j, j, n + i, n + i])
-        col_block = np.concatenate([np.zeros(n, np.int64), np.ones(n, np.int64),
-                                    np.zeros(m, np.int64), np.ones(m, np.int64)])
-        col_local = np.concatenate([j, j, n + i, n + i])
-        rperm, cperm = np.empty(size, np.int64), np.empty(size, np.int64)
-        for blk in (0, 1):
-            keep = (row_block[R] == blk) & (col_block[C] == blk)
-            iperm = _rcm(row_local[R[keep]], col_local[C[keep]], s)
-            rows, cols = row_block == blk, col_block == blk
-            rperm[rows] = blk * s + iperm[row_local[rows]]
-            cperm[cols] = blk * s + iperm[col_local[cols]]
-        diagonal = (row_block[R] == col_block[C])
-        R, C = R[diagonal], C[diagonal]
-    kl = int(np.max(rperm[R] - cperm[C], initial=0))
-    ku = int(np.max(cperm[C] - rperm[R], initial=0))
-    return rperm, cperm, kl, ku, (2 if split else 1)
-
-
-def band_plan(system, method, q, split, addresses, cm=None) -> LinearSolverPlan:
-    """The "banded" plan of ``band_ordering`` (arguments as there; addresses
-    from ``integrators.compiled.linalg.lapack_band_addresses``)."""
-    rperm, cperm, kl, ku, blocks = band_ordering(system, method, q, split, cm)
-    return LinearSolverPlan("banded", f"band LU, kl = {kl}, ku = {ku}, {blocks} block(s) "
-                            f"({newton_size(system, method)} unknowns)", rperm, cperm, kl, ku,
-                            blocks, addresses)
-
-
-def linear_solver_plan(system, method, options, q, cm=None, split_si2=True) -> LinearSolverPlan:
-    """The compiled engine's linear solver for this model and method, its
-    pattern judged at configuration q (n,). The HHT-SI2 band matrix is split
-    into its two blocks unless ``split_si2`` is False.
-
-    ``options.linear_solver``: "dense" and "sparse" are taken as asked,
-    "banded" whenever LAPACK's band routines are usable; "auto" takes the
-    band LU when the reordered matrix is narrow (``BAND_LIMIT``, a band of
-    at most half the unknowns, at least ``BAND_MIN_SIZE`` unknowns),
-    else the dense inverse up to ``DENSE_LIMIT`` unknowns and SuperLU above.
-
-    Raises
-    ------
-    ValueError
-        "banded" asked for where the LAPACK routines cannot be called (an
-        ILP64 LAPACK build).
-    """
-    choice = options.linear_solver
-    size = newton_size(system, method)
-    dense = LinearSolverPlan("dense", f"explicit inverse ({size} unknowns)")
-    if choice == "dense" or (choice == "auto" and size < BAND_MIN_SIZE):
-        return dense
-    if choice == "sparse":
-        return LinearSolverPlan("sparse", "SuperLU, as asked")
-    uncompiled = cm is not None and cm.uncompiled
-    addresses = None if uncompiled else _kernels().lapack_band_addresses()
-    if addresses is None:
-        if choice == "banded" and uncompiled:
-            raise ValueError("linear_solver='banded' calls LAPACK from compiled kernels; "
-                             "the uncompiled engine takes 'dense' or 'sparse'")
-        if choice == "banded":
-            raise ValueError("linear_solver='banded' needs a LAPACK with 32-bit integers; "
-                             "this scipy is built with ILP64")
-        return dense if size <= DENSE_LIMIT else LinearSolverPlan(
-            "sparse", "SuperLU (uncompiled kernels: no LAPACK band routines)" if uncompiled
-            else "SuperLU (the LAPACK band routines use 64-bit integers here)")
-    plan = band_plan(system, method, q, _recipe_value(method, "split") != 0.0 and split_si2,
-                     addresses, cm)
-    kl, ku = plan.kl, plan.ku
-    if choice == "banded" or (max(kl, ku) <= BAND_LIMIT and 2 * (2 * kl + ku + 1) <= size):
-        return plan
-    if size <= DENSE_LIMIT:
-        return dense
-    return LinearSolverPlan("sparse", f"SuperLU (reordered bandwidth kl = {kl}, ku = {ku})")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -737,7 +491,8 @@ class KernelStepper:
             refresh=options.refresh_rate(cost),
             full=1.0 if options.jacobian.value == "full" else 0.0,
             extrapolate=1.0 if options.start == "extrapolated" and cost < 2 else 0.0)
-        self.solver = cm.K.DENSE if plan.kind == "dense" else cm.K.BANDED
+        self.solver = {"dense": cm.K.DENSE, "condensed": cm.K.CONDENSED}.get(plan.kind,
+                                                                            cm.K.BANDED)
         self.lin = plan.workspace(size, cm.bound)
         self.lu_state = vector(LU_FIELDS, valid=0.0, rate=0.5, step=0.0, c0=0.0)
         self.R, self.C = np.empty(cm.bound, np.int64), np.empty(cm.bound, np.int64)
@@ -782,16 +537,18 @@ class KernelStepper:
         """Nothing kept: the compiled loop solves every step it is asked for."""
 
     def newton_failed(self, loop):
-        """A fixed step Newton did not converge: HHT-SI2's split band Newton
-        matrix (two blocks) leaves out O(h) terms; where they matter (stiff
-        forces, fast rotation), go on with the whole band matrix."""
+        """A fixed step Newton did not converge: HHT-SI2's split Newton
+        matrix (two blocks, band or condensed) leaves out O(h) terms; where
+        they matter (stiff forces, fast rotation), go on with the whole band
+        matrix."""
         plan = self.plan
-        if plan.kind != "banded" or plan.blocks != 2:
+        if plan.kind not in ("banded", "condensed") or plan.blocks != 2:
             return
         system, method, size = self.system, self.method, self.size
         why = f"{plan.why}; whole band matrix after a failed step at t = {loop.t:.6g} s"
         plan = self.plan = band_plan(system, method, loop.ls.q, False, plan.addresses, self.cm)
         plan.why = why
+        self.solver = self.K.BANDED              # from the condensed solver too
         self.lin = plan.workspace(size, self.cm.bound)
         cost = newton_matrix_cost(plan, size, system, method)
         self.opts[OPT_REFRESH] = self.opt.refresh_rate(cost)

@@ -290,7 +290,8 @@ def uncompiled_kernels():
 
     # every module of the copy that calls them reads its own global
     replaced = {kernel_solve: _solve, kernel_factor: _factor,
-                linalg._fortran_call: _fortran_call}
+                sys.modules[UNCOMPILED_ROOT + ".integrators.compiled.band"]._fortran_call:
+                _fortran_call}
     for copy in copies:
         for name, value in list(vars(copy).items()):
             if callable(value) and value in replaced:

@@ -164,15 +164,18 @@ class NewtonOptions:
         0.18 and 7.6 at 0.3, 25% less time per step. 0.8 for HHT-ADD on
         flexible beams, whose Newton matrix costs some 10 iterations; above
         1/2 it is also the stall rule's ratio (module docstring).
-    linear_solver : {"auto", "dense", "sparse", "banded"}
+    linear_solver : {"auto", "dense", "sparse", "banded", "condensed"}
         LU of the Newton matrix: LAPACK on a dense array, or SuperLU
         (scipy.sparse.linalg.splu) on a CSC matrix assembled on the
         pattern fixed at model build, or (compiled engine only) LAPACK's
         band LU on a reverse Cuthill-McKee ordering. "auto" takes dense up
         to ``mbdsl.assembly.sparse.DENSE_LIMIT`` unknowns; above it, sparse
-        in the numpy engine, and banded or sparse in the compiled engine
-        (``engine.linear_solver_plan``: banded when the band is at most a
-        few times SuperLU's fill).
+        in the numpy engine, and banded, condensed or sparse in the compiled
+        engine (``solver_plans.linear_solver_plan``: banded when the band is at most
+        a few times SuperLU's fill; condensed, the coordinates eliminated
+        body by body before a band LU of the constraint rows' Schur
+        complement, where that costs at most a quarter of the flops:
+        ``integrators.compiled.condensed``).
     start : {"extrapolated", "last"}
         Where the compiled time loop starts a step's iteration:
         "extrapolated" through the unknowns the two or three steps before
@@ -207,9 +210,9 @@ class NewtonOptions:
         return (0.1, 0.3, 0.8)[int(cost)]
 
     def __post_init__(self):
-        if self.linear_solver not in ("auto", "dense", "sparse", "banded"):
-            raise ValueError("NewtonOptions.linear_solver must be 'auto', 'dense', 'sparse' or "
-                             f"'banded', got {self.linear_solver!r}")
+        if self.linear_solver not in ("auto", "dense", "sparse", "banded", "condensed"):
+            raise ValueError("NewtonOptions.linear_solver must be 'auto', 'dense', 'sparse', "
+                             f"'banded' or 'condensed', got {self.linear_solver!r}")
         if self.start not in ("extrapolated", "last"):
             raise ValueError("NewtonOptions.start must be 'extrapolated' or 'last', got "
                              f"{self.start!r}")

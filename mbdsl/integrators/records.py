@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["STATE_FIELDS", "CONTROL_FIELDS", "OPTION_FIELDS", "LU_FIELDS", "LIN_FIELDS",
-           "LAPACK_FIELDS", "COUNT_FIELDS"]
+           "LAPACK_FIELDS", "COUNT_FIELDS", "CONDENSED_FIELDS"]
 
 #: The run's state (float64, ``loop.Loop.state``): t at the last accepted step [s], the
 #: next step's size [s], the error control's rejections, the last step's size (0: none,
@@ -59,11 +59,34 @@ LU_VALID, LU_RATE, LU_STEP, LU_C0 = range(4)
 #: The linear solver's workspace (a tuple, ``engine.SolverPlan.workspace``): the dense
 #: Newton matrix and its inverse, the band storage, pivots, the band ordering's row and
 #: column permutations, LAPACK's arguments (``LAPACK_FIELDS``), the address of LAPACK's
-#: band LU (dgbtrf), the right-hand side, and the triplets of the additive form's lower
-#: block.
-LIN_FIELDS = ("J", "Jinv", "AB", "ipiv", "rperm", "cperm", "lp", "addr", "b", "Lr", "Lc", "Lv")
+#: band LU (dgbtrf), the right-hand side, the triplets of the split form's lower
+#: block, and the condensed solver's plan (int64, ``CONDENSED_FIELDS``) and float
+#: workspace (``compiled.condensed``).
+LIN_FIELDS = ("J", "Jinv", "AB", "ipiv", "rperm", "cperm", "lp", "addr", "b", "Lr", "Lc", "Lv",
+              "cp", "cw")
 (LIN_J, LIN_JINV, LIN_AB, LIN_IPIV, LIN_RPERM, LIN_CPERM, LIN_LP, LIN_ADDR, LIN_B,
- LIN_LR, LIN_LC, LIN_LV) = range(12)
+ LIN_LR, LIN_LC, LIN_LV, LIN_CP, LIN_CW) = range(14)
+
+#: The condensed solver's plan (int64, ``lin[LIN_CP]``, ``solver_plans.condensed_solver_plan``): its
+#: header, then arrays at the offsets the header names. n coordinates and m constraint
+#: rows per block; the coordinate groups (``groups``) the Newton matrix's coordinate
+#: block falls into; floats per block in ``cw`` (``wstride``); the offsets of: each
+#: Newton row's and column's code (block * (n + m) + place in the block: coordinate j,
+#: or n + constraint row i), each coordinate's group and place in it, each constraint
+#: row's groups and slots (``tstart``, ``tg``, ``tslot``), each group's coordinates
+#: (``gkoff``, ``gcoord``) and slotted rows (``groff``, ``grows``), its blocks' offset in
+#: ``cw`` (``goff``), the rows' order in the Schur complement's band (``sperm``), the
+#: groups' LU pivots (``pivots``, n per block); the offset in ``cw`` of its scratch;
+#: and the triplets of the pattern it was made on (their count, rows ``tr`` and
+#: columns ``tc``) with each one's place (``dest``: in ``cw``, or -1 left out, or
+#: -2 - k the lower block's k-th entry); each group's slotted rows' places in the
+#: Schur complement's band (``gband``, as ``grows``).
+CONDENSED_FIELDS = ("n", "m", "groups", "wstride", "rmap", "cmap", "comp", "pos", "tstart",
+                    "tg", "tslot", "gkoff", "gcoord", "groff", "grows", "goff", "sperm",
+                    "pivots", "scratch", "triplets", "tr", "tc", "dest", "gband")
+(CP_N, CP_M, CP_GROUPS, CP_WSTRIDE, CP_RMAP, CP_CMAP, CP_COMP, CP_POS, CP_TSTART, CP_TG,
+ CP_TSLOT, CP_GKOFF, CP_GCOORD, CP_GROFF, CP_GROWS, CP_GOFF, CP_SPERM, CP_PIVOTS,
+ CP_SCRATCH, CP_TRIPLETS, CP_TR, CP_TC, CP_DEST, CP_GBAND) = range(24)
 
 #: LAPACK's integer arguments (int32, ``lin[LIN_LP]``), passed by reference as one-entry
 #: slices: dgbtrf's M and N, KL, KU, LDAB, INFO; then the blocks of the matrix (1, or 2
@@ -85,7 +108,8 @@ def _check():
     g = globals()
     for prefix, fields in (("ST_", STATE_FIELDS), ("CTL_", CONTROL_FIELDS),
                            ("OPT_", OPTION_FIELDS), ("LU_", LU_FIELDS), ("LIN_", LIN_FIELDS),
-                           ("LP_", LAPACK_FIELDS), ("CNT_", COUNT_FIELDS)):
+                           ("LP_", LAPACK_FIELDS), ("CNT_", COUNT_FIELDS),
+                           ("CP_", CONDENSED_FIELDS)):
         for k, name in enumerate(fields):
             if g.get(prefix + name.upper()) != k:
                 raise ImportError(f"records.py: {prefix}{name.upper()} is not {k}")

@@ -243,7 +243,7 @@ def test_band_substitution_is_lapacks_dgbtrs(size, kl, ku):
     back substitution grows that difference: agreement to 1e-12 of the
     largest entry (a wrong pivot or index is off by the entry's size)."""
     from scipy.linalg import lapack
-    from mbdsl.integrators.compiled.linalg import _band_substitute
+    from mbdsl.integrators.compiled.band import _band_substitute
     rng = np.random.default_rng(size + 10 * kl + 100 * ku)
     ldab = 2 * kl + ku + 1
     ab = np.zeros((ldab, size))                    # LAPACK's band storage, column-major
@@ -260,7 +260,7 @@ def test_band_substitution_is_lapacks_dgbtrs(size, kl, ku):
     AB = np.vstack([np.zeros((size, ldab)), lu.T])  # the kernels' (size x ldab) storage
     ipiv = np.concatenate([np.ones(size), piv + 1]).astype(np.int32)   # 1-based
     x = np.concatenate([np.full(size, 7.0), b])
-    _band_substitute(AB, ipiv, x, size, size, kl, ku)
+    _band_substitute(AB, ipiv, x, size, size, kl, ku, size)
     assert np.max(np.abs(x[size:] - x_lapack)) <= 1e-12 * np.max(np.abs(x_lapack))
     assert (x[:size] == 7.0).all()                 # the other block untouched
     A = np.zeros((size, size))                     # and it solves the matrix
@@ -276,7 +276,7 @@ def test_band_cholesky_against_lapack_and_the_dense_solve(size, kd):
     LAPACK's dpbtrf factor and dpbtrs solution to round-off on random SPD
     band matrices, solves the matrix, and refuses an indefinite one."""
     from scipy.linalg import lapack
-    from mbdsl.integrators.compiled.linalg import _band_cholesky, _band_cholesky_solve
+    from mbdsl.integrators.compiled.band import _band_cholesky, _band_cholesky_solve
     rng = np.random.default_rng(size + 10 * kd)
     A = np.zeros((size, size))
     for d in range(0, min(kd, size - 1) + 1):

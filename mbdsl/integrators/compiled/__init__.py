@@ -37,9 +37,9 @@ one of two linear solvers (``_factor``, ``_solve``):
   updates, while the residual is evaluated exactly, so its round-off
   changes the contraction, never the converged solution;
 * BANDED: LAPACK's band LU with partial pivoting (dgbtrf) on the Newton
-  matrix reordered by reverse Cuthill-McKee (``engine.band_ordering``),
+  matrix reordered by reverse Cuthill-McKee (``solver_plans.band_ordering``),
   called through the address scipy.linalg.cython_lapack exports, and its
-  band substitution (dgbtrs's operations, ``linalg._band_substitute``). The
+  band substitution (dgbtrs's operations, ``band._band_substitute``). The
   address is an argument, not constants, so the kernels stay cacheable
   (numba refuses to cache code that embeds a ctypes pointer).
 """
@@ -65,7 +65,7 @@ from .index1 import (_index1_acceleration, _index1_multipliers,  # noqa: F401
                      _index1_scratch,
                      _index1_multipliers_band, _mobility)
 from .layout import advance, layout, predict, state  # noqa: F401
-from .linalg import BANDED, DENSE, _factor, _solve, lapack_band_addresses  # noqa: F401
+from .linalg import BANDED, CONDENSED, DENSE, _factor, _solve, lapack_band_addresses  # noqa: F401
 from .loop import _run, step_end, step_ratio  # noqa: F401
 from .recipes import accumulate  # noqa: F401
 from .entry import (force_term, index1_multipliers, index1_multipliers_band,  # noqa: F401
@@ -75,4 +75,4 @@ __all__ = ["MODEL_SCHEMA", "MODEL_FIELDS", "residual", "jacobian_triplets", "for
            "predict", "state", "layout", "advance", "mobility", "index1_multipliers",
            "index1_multipliers_band",
            "accumulate", "elements", "beam_blocks", "beam_energies", "run", "workspace", "triplet_bound", "pack", "unpack", "lapack_band_addresses",
-           "DENSE", "BANDED"]
+           "DENSE", "BANDED", "CONDENSED"]

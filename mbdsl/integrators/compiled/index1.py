@@ -9,7 +9,7 @@ import numpy as np
 
 from .additive import _minus_correction
 from .layout import ADDITIVE, FLOOR, FORM, HAS_Y, MU_MOB, REG, SM, SX, SY, _copy, _layout
-from .linalg import _band_cholesky, _band_cholesky_solve
+from .band import _band_cholesky, _band_cholesky_solve
 from mbdsl.integrators.records import (OPT_ATOL_KINEMATIC, OPT_ATOL_MULTIPLIER, OPT_RTOL)
 from ...kernels.schema import (EPS, FRI, MASS, ROW_ELEMENT, _0, _HEADER, _NO, _YES, _f, _i, _hot, _jit,
                                _rows)
@@ -46,7 +46,7 @@ def _schur_band(R, V, by_col, start, place, minv, AB, kd):
     (n,)) from Phi_q's triplets R, V grouped by column (``_column_groups``),
     row i of Phi_q at place[i], into AB (m, kd + 1) in LAPACK's "U" band
     storage (A(i, j), i <= j, at AB[j, kd + i - j]), factored in place by
-    ``linalg._band_cholesky``. False when an entry falls outside the band,
+    ``band._band_cholesky``. False when an entry falls outside the band,
     A is not positive definite, or a pivot U_kk^2 is below 1e-13 of the
     largest: dependent rows (redundant joints, a singular position) leave a
     pivot of round-off (3e-15 of the largest on a parallelogram with a
@@ -97,7 +97,7 @@ def _index1_multipliers_band(I, Fl, t, q, v, out, R, C, V, iterations, order, kd
 
     the constraint rows reordered by ``order`` (position k holds row
     order[k]) so that A is a band of half-width kd, factored by the band
-    Cholesky of ``linalg._band_cholesky`` (``_schur_band``). A chain of N
+    Cholesky of ``band._band_cholesky`` (``_schur_band``). A chain of N
     links costs O(N) per row instead of the O((n + m)^3) of the dense
     index-1 matrix. Friction: the fixed point of ``_index1_multipliers`` on
     the same factorization. A matrix that is not positive definite, or whose

@@ -1,9 +1,11 @@
 """The linear solvers of the compiled Newton iteration: an explicit dense
-inverse (LAPACK through ``numpy.linalg.inv``) or LAPACK's band LU (dgbtrf,
+inverse (LAPACK through ``numpy.linalg.inv``), LAPACK's band LU (dgbtrf,
 called through the address scipy exports) with the band substitution of
-LAPACK's dgbtrs written here (``_band_substitute`` says why).
+LAPACK's dgbtrs written here (``band``), or the coordinates eliminated
+group by group before a band LU of the constraint rows' Schur complement
+(``condensed``, whose docstring says when and why).
 
-``lin`` = (J, Jinv^T, AB, ipiv, rperm, cperm, lp, addr, b, Lr, Lc, Lv):
+``lin`` = (J, Jinv^T, AB, ipiv, rperm, cperm, lp, addr, b, Lr, Lc, Lv, cp, cw):
 the dense Newton matrix and its inverse, stored transposed (size x size;
 DENSE), and for BANDED: the band storage AB (size x ldab in C order, i.e. LAPACK's
 column-major ldab x size, ldab = 2 kl + ku + 1), LAPACK's pivots, the
@@ -11,7 +13,8 @@ orderings (equation i is row rperm[i], unknown j is column cperm[j] of the
 band matrix), the integer arguments lp = (s, s, kl, ku, ldab, info,
 blocks, coupling count) with s = size / blocks, dgbtrf's address
 (``lapack_band_addresses``), a right-hand side buffer, and the triplets of
-the coupling block (below).
+the coupling block (below); for CONDENSED the plan and workspace of
+``condensed`` (AB, ipiv and lp then hold the Schur complement's band).
 
 Blocks: with one block the band matrix is the Newton matrix reordered.
 With two (HHT-SI2: block 0 = the (a, lambda) unknowns with the dynamics
@@ -30,9 +33,6 @@ placeholders, so that every solver shares one compiled signature.
 
 from __future__ import annotations
 
-from llvmlite import ir
-from numba.extending import intrinsic
-import numba
 import numpy as np
 
 from mbdsl.integrators.outcomes import (CONVERGED, NONFINITE, SINGULAR)
@@ -41,52 +41,15 @@ from mbdsl.integrators.records import (LIN_AB, LIN_ADDR, LIN_B, LIN_CPERM, LIN_I
                                        LP_BLOCKS, LP_INFO, LP_KL, LP_KU, LP_LDAB, LP_M, LP_N,
                                        LP_NC)
 
+from .band import _band_substitute, _fortran_call, lapack_band_addresses  # noqa: F401
+from .condensed import _condensed_factor, _condensed_solve
 from ...kernels.schema import _hot, _jit
 
 #: Linear solvers of the compiled loop: explicit inverse (LAPACK getrf/getri through
-#: numpy.linalg.inv), or LAPACK's band LU (dgbtrf, then ``_band_substitute``) on a
-#: bandwidth-reducing ordering.
-DENSE, BANDED = 0, 1
-
-
-@intrinsic
-def _fortran_call(typingctx, address, args):
-    """Call the Fortran-convention routine at ``address`` (an int64 known only
-    at run time, so the calling function stays cacheable) with the data
-    pointers of the arrays in the tuple ``args``: every argument of a LAPACK
-    routine is passed by reference."""
-    sig = numba.types.void(address, args)
-
-    def codegen(context, builder, signature, llargs):
-        """LLVM IR: the arrays' data pointers, cast to i8*, passed to the
-        routine at ``addr`` as a void function of as many pointers."""
-        addr, tup = llargs
-        byte_ptr = ir.IntType(8).as_pointer()
-        ptrs = []
-        for i, ty in enumerate(signature.args[1]):
-            arr = context.make_array(ty)(context, builder, builder.extract_value(tup, i))
-            ptrs.append(builder.bitcast(arr.data, byte_ptr))
-        fnty = ir.FunctionType(ir.VoidType(), [byte_ptr] * len(ptrs))
-        builder.call(builder.inttoptr(addr, fnty.as_pointer()), ptrs)
-        return context.get_dummy_value()
-
-    return sig, codegen
-
-
-def lapack_band_addresses(names=("dgbtrf",)):
-    """int64 array: the addresses of LAPACK's routines ``names`` (default the
-    band LU's factorization dgbtrf) in scipy.linalg.cython_lapack (the LAPACK scipy itself links), or None when
-    that build uses 64-bit integers (the kernels pass 32-bit ones)."""
-    import scipy
-    from numba.extending import get_cython_function_address
-    try:
-        blas = scipy.show_config(mode="dicts")["Build Dependencies"]["blas"]
-        if any("ilp64" in str(k) and v not in (False, "False", None) for k, v in blas.items()):
-            return None
-    except Exception:       # noqa: BLE001 - an older scipy without the dict: LP64 builds only
-        pass
-    return np.array([get_cython_function_address("scipy.linalg.cython_lapack", name)
-                     for name in names], np.int64)
+#: numpy.linalg.inv), LAPACK's band LU (dgbtrf, then ``_band_substitute``) on a
+#: bandwidth-reducing ordering, or the coordinates eliminated group by group and the
+#: Schur complement's band LU (``condensed``).
+DENSE, BANDED, CONDENSED = 0, 1, 2
 
 
 @_jit
@@ -118,6 +81,8 @@ def _factor(solver, lin, R, C, V, p):
     for i in range(p):
         if not np.isfinite(V[i]):
             return NONFINITE
+    if solver == CONDENSED:
+        return _condensed_factor(lin, R, C, V, p)
     if solver == DENSE:
         J[:, :] = 0.0
         for i in range(p):
@@ -169,90 +134,6 @@ def _factor(solver, lin, R, C, V, p):
 
 
 @_hot
-def _band_cholesky(AB, s, kd):
-    """A = U^T U in place for the symmetric positive definite band matrix A
-    of half-width kd whose upper triangle AB holds in LAPACK's "U" band
-    storage (A(i, j), i <= j, at AB[j, kd + i - j]; AB of shape (s, kd + 1)
-    in C order): U(i, j) then at the same place. False when a pivot is not
-    positive (A is not positive definite) or not finite.
-
-    The column-by-column (left-looking) band Cholesky of Golub and Van Loan,
-    Matrix Computations, 4th ed., alg. 4.3.5, with dpbtrf's storage. Written
-    here, not called: dpbtrf asks ilaenv for its block size and its dpbtf2
-    makes two BLAS calls per column, and on the small Schur complements of
-    the output's index-1 multipliers (4 x 4 on the double pendulum) those
-    calls were most of the time (``index1._index1_multipliers_band``)."""
-    for j in range(s):
-        i0 = max(0, j - kd)
-        for i in range(i0, j + 1):
-            acc = AB[j, kd + i - j]
-            for k in range(max(i0, i - kd), i):
-                acc -= AB[i, kd + k - i] * AB[j, kd + k - j]
-            if i < j:
-                AB[j, kd + i - j] = acc / AB[i, kd]
-            elif not acc > 0.0 or not np.isfinite(acc):
-                return False
-            else:
-                AB[j, kd] = np.sqrt(acc)
-    return True
-
-
-@_hot
-def _band_cholesky_solve(AB, s, kd, b):
-    """b = A^-1 b with the factor U of :func:`_band_cholesky` (A = U^T U):
-    U^T y = b forward, then U x = y back (LAPACK's dpbtrs)."""
-    for j in range(s):
-        acc = b[j]
-        for k in range(max(0, j - kd), j):
-            acc -= AB[j, kd + k - j] * b[k]
-        b[j] = acc / AB[j, kd]
-    for j in range(s - 1, -1, -1):
-        acc = b[j]
-        for k in range(j + 1, min(s, j + kd + 1)):
-            acc -= AB[k, kd + j - k] * b[k]
-        b[j] = acc / AB[j, kd]
-
-
-@_hot
-def _band_substitute(AB, ipiv, b, off, s, kl, ku):
-    """b[off:off + s] = A^-1 b[off:off + s] for the band matrix A whose LU
-    factors dgbtrf left in AB[off:off + s] with pivots ipiv[off:off + s]
-    (1-based, as LAPACK writes them): the row interchanges and unit lower
-    factor column by column, then the banded upper triangle of kl + ku
-    superdiagonals from the last column back; the operations of LAPACK's
-    dgbtrs (TRANS = 'N'; its dger and dtbsv, Golub and Van Loan, Matrix
-    Computations, 4th ed., sec. 4.3.5) in the same order.
-
-    Written here, not called: dgbtrs makes two BLAS calls per column (dger,
-    and dtbsv's daxpy) on kl or kl + ku numbers, and on a chain's band of 4
-    their call and dispatch outweigh the arithmetic. On the 1 000-link chain
-    (hht-i3) perf put 36 % of a step in those calls; with this loop the step
-    fell from 1.6-1.7 to 1.2 ms, with results equal to the bit
-    (``docs/performance.md``). The factorization stays LAPACK's: the same
-    loop for dgbtf2 was measured no faster than the library."""
-    diag = kl + ku
-    if kl > 0:
-        for j in range(s - 1):
-            col = off + j
-            lm = min(kl, s - 1 - j)
-            piv = off + ipiv[col] - 1
-            bj = b[piv]
-            if piv != col:
-                b[piv] = b[col]
-                b[col] = bj
-            if bj != 0.0:
-                for i in range(1, lm + 1):
-                    b[col + i] -= AB[col, diag + i] * bj
-    for j in range(s - 1, -1, -1):
-        col = off + j
-        if b[col] != 0.0:
-            bj = b[col] / AB[col, diag]
-            b[col] = bj
-            for i in range(1, min(diag, j) + 1):
-                b[col - i] -= bj * AB[col, diag - i]
-
-
-@_hot
 def _solve(solver, lin, r, dw):
     """dw = J^-1 r with the factorization of ``_factor``."""
     size = r.shape[0]
@@ -269,6 +150,9 @@ def _solve(solver, lin, r, dw):
             for i in range(size):
                 dw[i] += JinvT[k, i] * rk
         return
+    if solver == CONDENSED:
+        _condensed_solve(lin, r, dw)
+        return
     AB, ipiv, rperm, cperm = lin[LIN_AB], lin[LIN_IPIV], lin[LIN_RPERM], lin[LIN_CPERM]
     lp, b = lin[LIN_LP], lin[LIN_B]
     Lr, Lc, Lv = lin[LIN_LR], lin[LIN_LC], lin[LIN_LV]
@@ -279,6 +163,6 @@ def _solve(solver, lin, r, dw):
         if blk == 1:                                   # block 1's rows: r2 - L21 x1
             for k in range(lp[LP_NC]):
                 b[s + Lr[k]] -= Lv[k] * b[Lc[k]]
-        _band_substitute(AB, ipiv, b, blk * s, s, lp[LP_KL], lp[LP_KU])
+        _band_substitute(AB, ipiv, b, blk * s, s, lp[LP_KL], lp[LP_KU], blk * s)
     for i in range(size):
         dw[i] = b[cperm[i]]

@@ -1,0 +1,139 @@
+"""Band matrices in the compiled engine: LAPACK's band LU (dgbtrf) called
+through the address scipy exports (``_fortran_call``), its substitution
+(dgbtrs's operations, written here: ``_band_substitute`` says why), and a
+band Cholesky for symmetric positive definite Schur complements.
+"""
+
+from __future__ import annotations
+
+from llvmlite import ir
+from numba.extending import intrinsic
+import numba
+import numpy as np
+
+from ...kernels.schema import _hot
+
+
+@intrinsic
+def _fortran_call(typingctx, address, args):
+    """Call the Fortran-convention routine at ``address`` (an int64 known only
+    at run time, so the calling function stays cacheable) with the data
+    pointers of the arrays in the tuple ``args``: every argument of a LAPACK
+    routine is passed by reference."""
+    sig = numba.types.void(address, args)
+
+    def codegen(context, builder, signature, llargs):
+        """LLVM IR: the arrays' data pointers, cast to i8*, passed to the
+        routine at ``addr`` as a void function of as many pointers."""
+        addr, tup = llargs
+        byte_ptr = ir.IntType(8).as_pointer()
+        ptrs = []
+        for i, ty in enumerate(signature.args[1]):
+            arr = context.make_array(ty)(context, builder, builder.extract_value(tup, i))
+            ptrs.append(builder.bitcast(arr.data, byte_ptr))
+        fnty = ir.FunctionType(ir.VoidType(), [byte_ptr] * len(ptrs))
+        builder.call(builder.inttoptr(addr, fnty.as_pointer()), ptrs)
+        return context.get_dummy_value()
+
+    return sig, codegen
+
+
+def lapack_band_addresses(names=("dgbtrf",)):
+    """int64 array: the addresses of LAPACK's routines ``names`` (default the
+    band LU's factorization dgbtrf) in scipy.linalg.cython_lapack (the LAPACK scipy itself links), or None when
+    that build uses 64-bit integers (the kernels pass 32-bit ones)."""
+    import scipy
+    from numba.extending import get_cython_function_address
+    try:
+        blas = scipy.show_config(mode="dicts")["Build Dependencies"]["blas"]
+        if any("ilp64" in str(k) and v not in (False, "False", None) for k, v in blas.items()):
+            return None
+    except Exception:       # noqa: BLE001 - an older scipy without the dict: LP64 builds only
+        pass
+    return np.array([get_cython_function_address("scipy.linalg.cython_lapack", name)
+                     for name in names], np.int64)
+
+
+@_hot
+def _band_cholesky(AB, s, kd):
+    """A = U^T U in place for the symmetric positive definite band matrix A
+    of half-width kd whose upper triangle AB holds in LAPACK's "U" band
+    storage (A(i, j), i <= j, at AB[j, kd + i - j]; AB of shape (s, kd + 1)
+    in C order): U(i, j) then at the same place. False when a pivot is not
+    positive (A is not positive definite) or not finite.
+
+    The column-by-column (left-looking) band Cholesky of Golub and Van Loan,
+    Matrix Computations, 4th ed., alg. 4.3.5, with dpbtrf's storage. Written
+    here, not called: dpbtrf asks ilaenv for its block size and its dpbtf2
+    makes two BLAS calls per column, and on the small Schur complements of
+    the output's index-1 multipliers (4 x 4 on the double pendulum) those
+    calls were most of the time (``index1._index1_multipliers_band``)."""
+    for j in range(s):
+        i0 = max(0, j - kd)
+        for i in range(i0, j + 1):
+            acc = AB[j, kd + i - j]
+            for k in range(max(i0, i - kd), i):
+                acc -= AB[i, kd + k - i] * AB[j, kd + k - j]
+            if i < j:
+                AB[j, kd + i - j] = acc / AB[i, kd]
+            elif not acc > 0.0 or not np.isfinite(acc):
+                return False
+            else:
+                AB[j, kd] = np.sqrt(acc)
+    return True
+
+
+@_hot
+def _band_cholesky_solve(AB, s, kd, b):
+    """b = A^-1 b with the factor U of :func:`_band_cholesky` (A = U^T U):
+    U^T y = b forward, then U x = y back (LAPACK's dpbtrs)."""
+    for j in range(s):
+        acc = b[j]
+        for k in range(max(0, j - kd), j):
+            acc -= AB[j, kd + k - j] * b[k]
+        b[j] = acc / AB[j, kd]
+    for j in range(s - 1, -1, -1):
+        acc = b[j]
+        for k in range(j + 1, min(s, j + kd + 1)):
+            acc -= AB[k, kd + j - k] * b[k]
+        b[j] = acc / AB[j, kd]
+
+
+@_hot
+def _band_substitute(AB, ipiv, b, off, s, kl, ku, boff):
+    """b[boff:boff + s] = A^-1 b[boff:boff + s] for the band matrix A whose LU
+    factors dgbtrf left in AB[off:off + s] with pivots ipiv[off:off + s]
+    (1-based, as LAPACK writes them): the row interchanges and unit lower
+    factor column by column, then the banded upper triangle of kl + ku
+    superdiagonals from the last column back; the operations of LAPACK's
+    dgbtrs (TRANS = 'N'; its dger and dtbsv, Golub and Van Loan, Matrix
+    Computations, 4th ed., sec. 4.3.5) in the same order.
+
+    Written here, not called: dgbtrs makes two BLAS calls per column (dger,
+    and dtbsv's daxpy) on kl or kl + ku numbers, and on a chain's band of 4
+    their call and dispatch outweigh the arithmetic. On the 1 000-link chain
+    (hht-i3) perf put 36 % of a step in those calls; with this loop the step
+    fell from 1.6-1.7 to 1.2 ms, with results equal to the bit
+    (``docs/performance.md``). The factorization stays LAPACK's: the same
+    loop for dgbtf2 was measured no faster than the library."""
+    diag = kl + ku
+    d = boff - off                 # b's place of the band's column col
+    if kl > 0:
+        for j in range(s - 1):
+            col = off + j
+            lm = min(kl, s - 1 - j)
+            piv = off + ipiv[col] - 1
+            bj = b[piv + d]
+            if piv != col:
+                b[piv + d] = b[col + d]
+                b[col + d] = bj
+            if bj != 0.0:
+                for i in range(1, lm + 1):
+                    b[col + d + i] -= AB[col, diag + i] * bj
+    for j in range(s - 1, -1, -1):
+        col = off + j
+        if b[col + d] != 0.0:
+            bj = b[col + d] / AB[col, diag]
+            b[col + d] = bj
+            for i in range(1, min(diag, j) + 1):
+                b[col + d - i] -= bj * AB[col, diag - i]

@@ -1,0 +1,360 @@
+"""The condensed linear solver of the compiled Newton iteration: the Newton
+matrix of a block
+
+    [[A,  C^T],     A: coordinate rows x coordinates (n x n),
+     [B,  0  ]]     C^T: their multiplier columns, B: the constraint rows
+
+solved by eliminating the coordinates where A falls into small independent
+groups (``condensation.condensed_plan`` finds them in the pattern fixed at build:
+a spatial body's 12 coordinates, coupled by its mass, its frame rows'
+Hessian and the forces on it alone). Each group's A_g is factored by a
+dense LU with partial pivoting, X_g = A_g^-1 C_g^T is formed, and the Schur
+complement
+
+    S = B A^-1 C^T = sum_g B_g X_g          (m x m)
+
+is assembled as a band (rows ordered by reverse Cuthill-McKee at build)
+and factored by LAPACK's band LU. A solve is then
+
+    z = A^-1 r_c,   S y = B z - r_k,   x = z - X y.
+
+This is the range-space (Schur complement) method of saddle-point systems
+(Benzi, Golub and Liesen, Numerical solution of saddle point problems, Acta
+Numerica 14, 2005, sec. 5), the elimination of each body's accelerations
+that recursive and "body-by-body" multibody solvers make (Featherstone,
+Rigid Body Dynamics Algorithms, 2008, ch. 6-7; Baraff, Linear-time dynamics
+using Lagrange multipliers, SIGGRAPH 1996). It solves the same Newton
+matrix as the band LU of the whole block, in other arithmetic: the
+iterates agree to round-off, the converged step within Newton's tolerance.
+
+Why: a spatial body carries 12 coordinates and 6 frame rows, and the band
+of the whole matrix of a chain of them is 29 wide each way (reverse
+Cuthill-McKee): its LU costs about 2 s kl (kl + ku) flops for s unknowns.
+Eliminating the coordinates leaves S on the m constraint rows, about 10
+wide, and 12 x 12 dense blocks: on the spatial chain of 10 links the
+factorization took 22 us instead of 109, an iteration's solve 9 us instead
+of 17 (``docs/performance.md``).
+
+With two blocks (HHT-SI2's split, ``linalg``) each block is condensed on
+its own and the lower block L21 enters the second block's right-hand side,
+as in the band solver; the triplets of the upper block are left out.
+
+``cp`` is the plan (``records.CONDENSED_FIELDS``: a header of offsets into
+``cp`` itself), ``cw`` the float workspace: per block and group, A_g (k x k,
+row-major, then its LU), X_g (k x r, C_g^T before the factorization) and
+B_g (r x k), for a group of k coordinates touched by r constraint rows;
+after the blocks, scratch for a right-hand side of S and a group's z or a
+row of B_g X_g.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mbdsl.integrators.outcomes import CONVERGED, SINGULAR
+from mbdsl.integrators.records import (CP_CMAP, CP_COMP, CP_GCOORD, CP_GKOFF, CP_GOFF,
+                                       CP_GBAND, CP_GROFF, CP_GROUPS, CP_GROWS, CP_M, CP_N, CP_PIVOTS,
+                                       CP_POS, CP_RMAP, CP_SCRATCH, CP_SPERM, CP_TG, CP_TSLOT,
+                                       CP_TSTART, CP_WSTRIDE, CP_TR, CP_TC, CP_DEST,
+                                       CP_TRIPLETS, LIN_AB, LIN_ADDR, LIN_B, LIN_CP,
+                                       LIN_CW, LIN_IPIV, LIN_LC, LIN_LP, LIN_LR, LIN_LV, LP_BLOCKS,
+                                       LP_INFO, LP_KL, LP_KU, LP_LDAB, LP_M, LP_N, LP_NC)
+
+from .band import _band_substitute, _fortran_call
+from ...kernels.schema import _hot, _inline
+
+#: A group's LU pivot below this fraction of its largest entry is singular
+#: (SparseLU's and the band solver's threshold).
+PIVOT_FLOOR = 1e-14
+
+
+@_hot
+def _lu_small(a, o, k, piv, po, r):
+    """The k x k row-major matrix at a[o:o + k k] = P L U in place (unit
+    lower L below the diagonal, U on and above), with row interchanges in
+    piv[po:po + k] (the row swapped with row j at step j), and the k x r
+    row-major matrix after it, at a[o + k k:], times A^-1 in place; Golub and
+    Van Loan, Matrix Computations, 4th ed., alg. 3.4.1 and 3.1.1-2. False
+    where a pivot is below PIVOT_FLOOR of the largest entry or an entry is
+    not finite.
+
+    One function for the whole group: numba passes each array to a call as
+    its seven fields, and calling a solve per column of X took 40 us of the
+    50 us a block's groups took on the spatial chain of 10 links."""
+    amax = 0.0
+    for i in range(k * k):
+        amax = max(amax, abs(a[o + i]))
+    if not np.isfinite(amax):
+        return False
+    x = o + k * k
+    for j in range(k):
+        p, best = j, abs(a[o + j * k + j])
+        for i in range(j + 1, k):
+            v = abs(a[o + i * k + j])
+            if v > best:
+                p, best = i, v
+        piv[po + j] = p
+        if not best > PIVOT_FLOOR * amax:
+            return False
+        if p != j:
+            for c in range(k):
+                t = a[o + j * k + c]
+                a[o + j * k + c] = a[o + p * k + c]
+                a[o + p * k + c] = t
+            for c in range(r):
+                t = a[x + j * r + c]
+                a[x + j * r + c] = a[x + p * r + c]
+                a[x + p * r + c] = t
+        d = a[o + j * k + j]
+        for i in range(j + 1, k):
+            f = a[o + i * k + j] / d
+            a[o + i * k + j] = f
+            if f != 0.0:
+                for c in range(j + 1, k):
+                    a[o + i * k + c] -= f * a[o + j * k + c]
+                for c in range(r):
+                    a[x + i * r + c] -= f * a[x + j * r + c]
+    for i in range(k - 1, -1, -1):             # U X = L^-1 P C^T, row by row from the last
+        for c in range(r):
+            acc = a[x + i * r + c]
+            for j in range(i + 1, k):
+                acc -= a[o + i * k + j] * a[x + j * r + c]
+            a[x + i * r + c] = acc / a[o + i * k + i]
+    return True
+
+
+@_inline
+def _lu_small_solve(a, o, k, piv, po, x, xo, stride):
+    """x[xo + i stride], i < k, = A^-1 x with the factors of :func:`_lu_small`."""
+    for j in range(k):
+        p = piv[po + j]
+        if p != j:
+            t = x[xo + j * stride]
+            x[xo + j * stride] = x[xo + p * stride]
+            x[xo + p * stride] = t
+    for i in range(k):
+        acc = x[xo + i * stride]
+        for c in range(i):
+            acc -= a[o + i * k + c] * x[xo + c * stride]
+        x[xo + i * stride] = acc
+    for i in range(k - 1, -1, -1):
+        acc = x[xo + i * stride]
+        for c in range(i + 1, k):
+            acc -= a[o + i * k + c] * x[xo + c * stride]
+        x[xo + i * stride] = acc / a[o + i * k + i]
+
+
+@_inline
+def _slot(cp, i, g):
+    """Constraint row i's slot in group g (-1: it does not touch g)."""
+    t0 = cp[CP_TSTART]
+    for t in range(cp[t0 + i], cp[t0 + i + 1]):
+        if cp[cp[CP_TG] + t] == g:
+            return cp[cp[CP_TSLOT] + t]
+    return -1
+
+
+@_inline
+def _group(cp, g):
+    """(k, r, o, c): group g's coordinates and constraint rows, the offset
+    of its blocks in a block of cw, and where its coordinates start in
+    ``gcoord`` (and its pivots in a block's)."""
+    gk, gr = cp[CP_GKOFF], cp[CP_GROFF]
+    return (cp[gk + g + 1] - cp[gk + g], cp[gr + g + 1] - cp[gr + g], cp[cp[CP_GOFF] + g],
+            cp[gk + g])
+
+
+@_hot
+def _scatter(cp, cw, R, C, V, p, s, Lr, Lc, Lv):
+    """The triplets into each block's groups (A_g, C_g^T, B_g) and the lower
+    block L21 (its count returned; -2: an entry outside the plan's
+    pattern, between two multipliers or outside its groups and slots)."""
+    n, ws = cp[CP_N], cp[CP_WSTRIDE]
+    rmap, cmap, comp, pos = cp[CP_RMAP], cp[CP_CMAP], cp[CP_COMP], cp[CP_POS]
+    nc = 0
+    for t in range(p):
+        v = V[t]
+        rc, cc = cp[rmap + R[t]], cp[cmap + C[t]]
+        rb, cb = int(rc >= s), int(cc >= s)
+        if rb != cb:
+            if rb > cb:                        # the lower block L21, in block-local places
+                Lr[nc], Lc[nc], Lv[nc] = rc - s, cc, v
+                nc += 1
+            continue                           # the upper block: left out (``linalg``)
+        rl, cl = rc - rb * s, cc - cb * s
+        if rl < n:
+            g = cp[comp + rl]
+            k, r, o, _ = _group(cp, g)
+            o += rb * ws
+            if cl < n:                         # A_g
+                if cp[comp + cl] != g:         # a coupling the plan's groups lack
+                    return -2
+                cw[o + cp[pos + rl] * k + cp[pos + cl]] += v
+            else:                              # C_g^T
+                slot = _slot(cp, cl - n, g)
+                if slot < 0:                   # a row the plan's Schur complement lacks
+                    return -2
+                cw[o + k * k + cp[pos + rl] * r + slot] += v
+        elif cl < n:                           # B_g
+            g = cp[comp + cl]
+            k, r, o, _ = _group(cp, g)
+            slot = _slot(cp, rl - n, g)
+            if slot < 0:
+                return -2
+            cw[rb * ws + o + k * k + k * r + slot * k + cp[pos + cl]] += v
+        elif v != 0.0:
+            return -2
+    return nc
+
+
+@_hot
+def _scatter_planned(cp, cw, R, C, V, p, s, Lr, Lc, Lv):
+    """:func:`_scatter` by the places the plan found for its triplets
+    (``dest``), when R and C are those triplets (the pattern and order are
+    the model's and method's, fixed at build): one indexed add each, where
+    the search of the constraint rows' slots took 8 ns a triplet (55 us of
+    HHT-SI2's factorization on the spatial chain of 10 links). -1 when the
+    triplets differ from the plan's."""
+    if p != cp[CP_TRIPLETS]:
+        return -1
+    tr, tc, dest = cp[CP_TR], cp[CP_TC], cp[CP_DEST]
+    for t in range(p):
+        if R[t] != cp[tr + t] or C[t] != cp[tc + t]:
+            return -1
+    rmap, cmap = cp[CP_RMAP], cp[CP_CMAP]
+    nc = 0
+    for t in range(p):
+        d = cp[dest + t]
+        if d >= 0:
+            cw[d] += V[t]
+        elif d <= -2:                          # the lower block L21, in block-local places
+            k = -2 - d
+            Lr[k], Lc[k], Lv[k] = cp[rmap + R[t]] - s, cp[cmap + C[t]], V[t]
+            nc = max(nc, k + 1)
+    return nc
+
+
+@_hot
+def _condensed_factor(lin, R, C, V, p):
+    """Factor the Newton matrix given by p triplets (module docstring); the
+    Newton status code (CONVERGED, or SINGULAR)."""
+    cp, cw, AB, ipiv, lp, addr = (lin[LIN_CP], lin[LIN_CW], lin[LIN_AB], lin[LIN_IPIV],
+                                  lin[LIN_LP], lin[LIN_ADDR])
+    n, m, G, ws = cp[CP_N], cp[CP_M], cp[CP_GROUPS], cp[CP_WSTRIDE]
+    s, blocks = n + m, lp[LP_BLOCKS]
+    kl, ku = lp[LP_KL], lp[LP_KU]
+    diag = kl + ku
+    cw[:blocks * ws] = 0.0
+    AB[:, :] = 0.0
+    nc = _scatter_planned(cp, cw, R, C, V, p, s, lin[LIN_LR], lin[LIN_LC], lin[LIN_LV])
+    if nc == -1:                               # triplets other than the plan's: one by one
+        cw[:blocks * ws] = 0.0
+        nc = _scatter(cp, cw, R, C, V, p, s, lin[LIN_LR], lin[LIN_LC], lin[LIN_LV])
+    if nc < 0:
+        return SINGULAR
+    lp[LP_NC] = nc
+    groff, gband = cp[CP_GROFF], cp[CP_GBAND]
+    y0 = cp[CP_SCRATCH] + m                    # a row of B_g X_g
+    for blk in range(blocks):
+        for g in range(G):
+            k, r, o, c0 = _group(cp, g)
+            o += blk * ws
+            po = cp[CP_PIVOTS] + blk * n + c0
+            if not _lu_small(cw, o, k, cp, po, r):
+                return SINGULAR
+            xo, bo = o + k * k, o + k * k + k * r
+            band = gband + cp[groff + g]       # the slots' places in S's band
+            for a in range(r):                 # S += B_g X_g (in the band: the plan's pattern)
+                for b in range(r):             # row a of B_g X_g, along X_g's rows
+                    cw[y0 + b] = 0.0
+                for j in range(k):
+                    baj = cw[bo + a * k + j]
+                    if baj != 0.0:
+                        for b in range(r):
+                            cw[y0 + b] += baj * cw[xo + j * r + b]
+                row = diag + cp[band + a]
+                for b in range(r):
+                    col = cp[band + b]
+                    AB[blk * m + col, row - col] += cw[y0 + b]
+        if m == 0:
+            continue
+        lp[LP_INFO] = 0
+        _fortran_call(addr[0], (lp[LP_M:LP_M + 1], lp[LP_N:LP_N + 1], lp[LP_KL:LP_KL + 1],
+                                lp[LP_KU:LP_KU + 1], AB[blk * m:(blk + 1) * m],
+                                lp[LP_LDAB:LP_LDAB + 1], ipiv[blk * m:(blk + 1) * m],
+                                lp[LP_INFO:LP_INFO + 1]))
+        if lp[LP_INFO] != 0:
+            return SINGULAR
+        dmin, dmax = np.inf, 0.0
+        for j in range(blk * m, (blk + 1) * m):
+            d = abs(AB[j, diag])
+            dmin, dmax = min(dmin, d), max(dmax, d)
+        if not (dmin >= PIVOT_FLOOR * dmax) or not np.isfinite(dmax):
+            return SINGULAR
+    return CONVERGED
+
+
+@_hot
+def _condensed_block(lin, b, blk):
+    """b[blk (n + m):(blk + 1) (n + m)] = J_blk^-1 of itself, in the block's
+    places (coordinates, then constraint rows): z = A^-1 r_c, S y = B z -
+    r_k, x = z - X y."""
+    cp, cw, AB, ipiv, lp = lin[LIN_CP], lin[LIN_CW], lin[LIN_AB], lin[LIN_IPIV], lin[LIN_LP]
+    n, m, G, ws = cp[CP_N], cp[CP_M], cp[CP_GROUPS], cp[CP_WSTRIDE]
+    off = blk * (n + m)
+    grows, groff, sperm, gcoord = cp[CP_GROWS], cp[CP_GROFF], cp[CP_SPERM], cp[CP_GCOORD]
+    gband = cp[CP_GBAND]
+    t0 = cp[CP_SCRATCH]                        # S's right-hand side, then y, in band order
+    zo = t0 + m                                # a group's z
+    for i in range(m):
+        cw[t0 + cp[sperm + i]] = -b[off + n + i]
+    for g in range(G):
+        k, r, o, c0 = _group(cp, g)
+        o += blk * ws
+        po = cp[CP_PIVOTS] + blk * n + c0
+        c0 += gcoord
+        for a in range(k):
+            cw[zo + a] = b[off + cp[c0 + a]]
+        _lu_small_solve(cw, o, k, cp, po, cw, zo, 1)
+        for a in range(k):
+            b[off + cp[c0 + a]] = cw[zo + a]
+        bo = o + k * k + k * r
+        band = gband + cp[groff + g]
+        for a in range(r):
+            acc = 0.0
+            for j in range(k):
+                acc += cw[bo + a * k + j] * cw[zo + j]
+            cw[t0 + cp[band + a]] += acc
+    if m > 0:
+        _band_substitute(AB, ipiv, cw, blk * m, m, lp[LP_KL], lp[LP_KU], t0)
+    for i in range(m):
+        b[off + n + i] = cw[t0 + cp[sperm + i]]
+    for g in range(G):
+        k, r, o, c0 = _group(cp, g)
+        xo = o + blk * ws + k * k
+        c0 += gcoord
+        r0 = grows + cp[groff + g]
+        for a in range(k):
+            acc = b[off + cp[c0 + a]]
+            for c in range(r):
+                acc -= cw[xo + a * r + c] * b[off + n + cp[r0 + c]]
+            b[off + cp[c0 + a]] = acc
+
+
+@_hot
+def _condensed_solve(lin, r, dw):
+    """dw = J^-1 r with the factorization of :func:`_condensed_factor`."""
+    cp, b, lp = lin[LIN_CP], lin[LIN_B], lin[LIN_LP]
+    Lr, Lc, Lv = lin[LIN_LR], lin[LIN_LC], lin[LIN_LV]
+    size = r.shape[0]
+    s = cp[CP_N] + cp[CP_M]
+    rmap, cmap = cp[CP_RMAP], cp[CP_CMAP]
+    for i in range(size):
+        b[cp[rmap + i]] = r[i]
+    for blk in range(lp[LP_BLOCKS]):
+        if blk == 1:                           # block 1's rows: r2 - L21 x1
+            for k in range(lp[LP_NC]):
+                b[s + Lr[k]] -= Lv[k] * b[Lc[k]]
+        _condensed_block(lin, b, blk)
+    for j in range(size):
+        dw[j] = b[cp[cmap + j]]

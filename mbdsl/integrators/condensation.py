@@ -1,0 +1,223 @@
+"""The plan of the compiled engine's condensed linear solver
+(:mod:`mbdsl.integrators.compiled.condensed`, whose docstring gives the
+method): from the Newton matrix's pattern, fixed at build, the coordinate
+groups, the constraint rows each group touches, the Schur complement's
+band ordering, and the flop counts that decide between this solver and the
+band LU of the whole matrix.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse
+from scipy.sparse.csgraph import connected_components, reverse_cuthill_mckee
+
+from .records import CONDENSED_FIELDS
+
+__all__ = ["CondensedPlan", "condensed_plan", "band_flops", "GROUP_LIMIT"]
+
+#: The largest coordinate group the condensed solver eliminates by a dense LU:
+#: four spatial bodies whose Hessians couple them, or a short flexible beam.
+#: A larger group (a long beam) is the band LU's.
+GROUP_LIMIT = 48
+
+
+class CondensedPlan:
+    """The condensed solver's plan for one model and method.
+
+    Attributes
+    ----------
+    cp : ndarray of int64
+        ``records.CONDENSED_FIELDS``' header and arrays, with room for the
+        groups' pivots (the kernels write them).
+    wsize : int
+        Floats of the workspace ``cw``: the blocks' groups and the scratch.
+    kl, ku : int
+        The Schur complement's band (rows in ``sperm``'s order).
+    m : int
+        Its rows: the constraint rows of one block.
+    blocks : int
+        1, or 2 (HHT-SI2's split Newton matrix).
+    groups : list of ndarray of int64
+        Each group's coordinates.
+    factor_flops, solve_flops : int
+        A factorization's and a solve's floating-point operations, counted
+        as :func:`band_flops` counts the band LU's.
+    """
+
+    def __init__(self, cp, wsize, kl, ku, m, blocks, groups, factor_flops, solve_flops):
+        self.cp, self.wsize, self.kl, self.ku, self.m = cp, int(wsize), int(kl), int(ku), int(m)
+        self.blocks, self.groups = int(blocks), groups
+        self.factor_flops, self.solve_flops = int(factor_flops), int(solve_flops)
+
+
+def band_flops(size, kl, ku, blocks):
+    """(factorization, solve) flops of the band LU of ``blocks`` blocks of
+    size/blocks unknowns and kl, ku off-diagonals: 2 kl (kl + ku + 1) and
+    2 (2 kl + ku + 1) per unknown (Golub and Van Loan, Matrix Computations,
+    4th ed., sec. 4.3.5, with partial pivoting's fill)."""
+    return 2 * size * kl * (kl + ku + 1), 2 * size * (2 * kl + ku + 1)
+
+
+def _codes(size, n, m, split):
+    """(row codes, column codes): each Newton row's and column's block * (n +
+    m) + place in its block (coordinate j, or n + constraint row i). One
+    block: the Newton matrix's own order, coordinates then multipliers. Two
+    (the split HHT-SI2 layout: unknowns a, abar, lambda, mu; rows of the
+    dynamics, of abar, of Phi, of Phi_q v + Phi_t): block 0 = (a, lambda)
+    with the dynamics and velocity rows, block 1 = (abar, mu) with the abar
+    and position rows (``solver_plans.band_ordering``'s blocks)."""
+    if not split:
+        code = np.arange(size, dtype=np.int64)
+        return code, code
+    s, j, i = n + m, np.arange(n), np.arange(m)
+    rows = np.concatenate([j, s + j, s + n + i, n + i])
+    cols = np.concatenate([j, s + j, n + i, s + n + i])
+    return rows.astype(np.int64), cols.astype(np.int64)
+
+
+def _places(rb, cb, rl, cl, n, comp, pos, ks, rs, goff, wstride, tstart, tg, tslot):
+    """Each triplet's place (``records.CONDENSED_FIELDS``' ``dest``): its
+    entry of A_g, C_g^T or B_g in ``cw``, -1 for the upper block (left out),
+    -2 - k for the k-th entry of the lower block, in the triplets' order."""
+    dest = np.full(len(rb), -1, np.int64)
+    slot = {}
+    for i in range(len(tstart) - 1):
+        for t in range(tstart[i], tstart[i + 1]):
+            slot[(i, int(tg[t]))] = int(tslot[t])
+    lower = np.flatnonzero(rb > cb)
+    dest[lower] = -2 - np.arange(len(lower))
+    for t in np.flatnonzero(rb == cb):
+        r_, c_ = int(rl[t]), int(cl[t])
+        g = int(comp[r_]) if r_ < n else int(comp[c_])
+        k, r, o = int(ks[g]), int(rs[g]), int(rb[t]) * wstride + int(goff[g])
+        if r_ < n and c_ < n:
+            dest[t] = o + pos[r_] * k + pos[c_]
+        elif r_ < n:
+            dest[t] = o + k * k + pos[r_] * r + slot[(c_ - n, g)]
+        else:
+            dest[t] = o + k * k + k * r + slot[(r_ - n, g)] * k + pos[c_]
+    return dest
+
+
+def _groups(rl, cl, same, n):
+    """(groups, comp, touch pairs (constraint row, group) sorted): the
+    coordinate groups of the coordinate block's pattern (its rows rl and
+    columns cl where ``same``, the entries of one block), and which
+    constraint rows touch which group (a C^T entry: coordinate row,
+    multiplier column; a B entry: constraint row, coordinate column).
+
+    Groups are the connected components of the pattern, over both blocks;
+    components touched by the same rows are one group (a supernode): a
+    spatial body's three director triples, coupled to each other by nothing
+    but sharing its frame rows and joints, make one group of 9 whose
+    contribution to S is scattered once (a third of the scattering, the
+    most of S's assembly)."""
+    inA = same & (rl < n) & (cl < n)
+    A = scipy.sparse.coo_matrix((np.ones(int(inA.sum())), (rl[inA], cl[inA])), shape=(n, n))
+    ncomp, comp = connected_components(A + A.T, directed=False)
+    ct = same & (rl < n) & (cl >= n)
+    bb = same & (rl >= n) & (cl < n)
+    touch = np.concatenate([np.stack([cl[ct] - n, comp[rl[ct]]], axis=1),
+                            np.stack([rl[bb] - n, comp[cl[bb]]], axis=1)]).reshape(-1, 2)
+    rows_by_comp = [[] for _ in range(ncomp)]
+    for i, c in np.unique(touch, axis=0):
+        rows_by_comp[c].append(i)
+    merged = {}
+    of_comp = np.array([merged.setdefault(tuple(r) if r else ("free", c), len(merged))
+                        for c, r in enumerate(rows_by_comp)], np.int64)
+    comp = of_comp[comp]
+    groups = [np.flatnonzero(comp == g) for g in range(len(merged))]
+    pairs = np.unique(np.stack([touch[:, 0], of_comp[touch[:, 1]]], axis=1).reshape(-1, 2),
+                      axis=0)
+    return groups, comp, pairs
+
+
+def _schur_band(rows_of, m):
+    """(sperm, kl, ku): the Schur complement's rows in the reverse
+    Cuthill-McKee order of its pattern (every pair of rows that touch one
+    group), and its band."""
+    si, sj = [np.arange(m)], [np.arange(m)]
+    for rows in rows_of:
+        r = np.asarray(rows, np.int64)
+        si.append(np.repeat(r, len(r)))
+        sj.append(np.tile(r, len(r)))
+    si, sj = np.concatenate(si), np.concatenate(sj)
+    S = scipy.sparse.csr_matrix((np.ones(len(si)), (si, sj)), shape=(m, m))
+    perm = reverse_cuthill_mckee(S, symmetric_mode=True) if m else np.zeros(0, np.int64)
+    sperm = np.empty(m, np.int64)
+    sperm[perm] = np.arange(m)
+    return (sperm, int(np.max(sperm[si] - sperm[sj], initial=0)),
+            int(np.max(sperm[sj] - sperm[si], initial=0)))
+
+
+def _pack(header, arrays):
+    """The plan's int64 array: the header's values and the arrays' offsets
+    in ``CONDENSED_FIELDS``' order, then the arrays."""
+    cp = np.zeros(len(CONDENSED_FIELDS), np.int64)
+    parts, at = [], len(CONDENSED_FIELDS)
+    for k, name in enumerate(CONDENSED_FIELDS):
+        if name in arrays:
+            cp[k] = at
+            parts.append(np.asarray(arrays[name], np.int64))
+            at += len(arrays[name])
+        else:
+            cp[k] = header[name]
+    return np.concatenate([cp] + parts).astype(np.int64)
+
+
+def condensed_plan(R, C, n, m, split=False):
+    """The plan for the Newton matrix with triplet pattern (R, C) (p,) on n
+    coordinates and m constraint rows per block, or None where the solver
+    does not apply: an entry between two multipliers in a block (a
+    regularized or additive form), a coordinate group above GROUP_LIMIT
+    (:func:`_groups` finds them, :func:`_schur_band` orders S).
+    """
+    blocks = 2 if split else 1
+    s = n + m
+    rcode, ccode = _codes(blocks * s, n, m, split)
+    rc, cc = rcode[R], ccode[C]
+    rb, cb, rl, cl = rc // s, cc // s, rc % s, cc % s
+    same = rb == cb
+    if np.any(same & (rl >= n) & (cl >= n)):
+        return None
+    groups, comp, pairs = _groups(rl, cl, same, n)
+    if max((len(g) for g in groups), default=0) > GROUP_LIMIT:
+        return None
+    pos = np.empty(n, np.int64)
+    for g in groups:
+        pos[g] = np.arange(len(g))
+    rows_of = [[] for _ in groups]
+    tg, tslot, tstart = [], [], np.zeros(m + 1, np.int64)
+    for i, g in pairs:                       # sorted by row, then group
+        tg.append(g)
+        tslot.append(len(rows_of[g]))
+        rows_of[g].append(i)
+        tstart[i + 1] += 1
+    tstart = np.cumsum(tstart)
+    sperm, kl, ku = _schur_band(rows_of, m)
+    # each group's place in a block of the workspace: A_g (k x k), X_g (k x r), B_g (r x k)
+    ks = np.array([len(g) for g in groups], np.int64)
+    rs = np.array([len(r) for r in rows_of], np.int64)
+    sizes = ks * ks + 2 * ks * rs
+    goff = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64)
+    wstride = int(sizes.sum())
+    grows = np.concatenate([np.asarray(r, np.int64) for r in rows_of] + [np.zeros(0, np.int64)])
+    tg, tslot = np.asarray(tg, np.int64), np.asarray(tslot, np.int64)
+    arrays = {
+        "rmap": rcode, "cmap": ccode, "comp": comp, "pos": pos, "tstart": tstart, "tg": tg,
+        "tslot": tslot, "gkoff": np.concatenate([[0], np.cumsum(ks)]),
+        "gcoord": np.concatenate(groups + [np.zeros(0, np.int64)]),
+        "groff": np.concatenate([[0], np.cumsum(rs)]), "grows": grows, "goff": goff,
+        "sperm": sperm, "pivots": np.zeros(blocks * n, np.int64), "tr": R, "tc": C,
+        "dest": _places(rb, cb, rl, cl, n, comp, pos, ks, rs, goff, wstride, tstart, tg, tslot),
+        "gband": sperm[grows]}
+    cp = _pack(dict(n=n, m=m, groups=len(groups), wstride=wstride, scratch=blocks * wstride,
+                    triplets=len(R)), arrays)
+    wsize = blocks * wstride + m + max(ks.max(initial=0), rs.max(initial=0), 1)
+    kk, rr = ks.astype(float), rs.astype(float)
+    per_factor = np.sum(2 / 3 * kk ** 3 + 2 * kk ** 2 * rr + 2 * rr * rr * kk)
+    per_solve = np.sum(4 * kk * kk + 4 * kk * rr)
+    sf, ss = band_flops(m, kl, ku, 1)
+    return CondensedPlan(cp, wsize, kl, ku, m, blocks, groups, blocks * (per_factor + sf),
+                         blocks * (per_solve + ss))

@@ -1,0 +1,193 @@
+"""The compiled engine's condensed linear solver (``integrators.compiled.condensed``):
+the coordinates eliminated group by group, the constraint rows' Schur complement
+factored as a band. Checked against numpy's dense solve of the same Newton matrix,
+against the band LU on whole runs, and in its choice by "auto"."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import mbdsl
+from mbdsl.integrators import NewtonOptions, integrate, make_method
+from mbdsl.integrators import compiled as K
+from mbdsl.integrators.adaptive import StepControl
+from mbdsl.integrators.condensation import _codes, condensed_plan
+from mbdsl.integrators.engine import (CompiledModel, condensed_solver_plan, linear_solver_plan,
+                                      newton_pattern, newton_size)
+
+from ..conftest import MODELS
+
+VALID = MODELS.parent / "tests" / "dsl" / "valid"
+
+#: Methods whose Newton matrix is laid out as coordinates and multipliers (one
+#: block), or split in two such blocks (HHT-SI2, generalized-alpha SI2)
+CONDENSABLE = ["newmark", "hht-i3", "nstiff", "genalpha", "hht-si2", "genalpha-si2"]
+
+
+def _system(path, **overrides):
+    system = mbdsl.assemble(mbdsl.load(path, overrides=overrides or None))
+    return system, mbdsl.consistent_initial_state(system)
+
+
+def _newton_matrix(system, method, init, rng):
+    """(plan, R, C, V, p, J): the kernels' Newton-matrix triplets at a perturbed
+    iterate (multipliers nonzero, so that every Hessian block is), and the
+    dense matrix the condensed solver solves: the whole one, or for a split
+    method its block lower-triangular part (the upper block left out, as in
+    the band solver)."""
+    cm = CompiledModel(system)
+    n, m = system.n, system.m
+    size = newton_size(system, method)
+    split = method.name in ("hht-si2", "genalpha-si2")
+    plan = condensed_solver_plan(system, method, init.q, split, K.lapack_band_addresses(), cm)
+    assert plan is not None and plan.kind == "condensed"
+    R, C, V = (np.empty(cm.bound, np.int64), np.empty(cm.bound, np.int64), np.empty(cm.bound))
+    qx = np.zeros(n + 3)
+    qx[:n] = init.q
+    w = 0.1 * rng.standard_normal(size)
+    w[:n] += init.a
+    p = cm.K.jacobian_triplets(method.kernel_recipe(1e-3, False), cm.ints, cm.floats, 0.0,
+                               np.asarray(init.q, float), np.asarray(init.v, float), np.zeros(n),
+                               qx, w, R, C, V, np.zeros(n + 3), np.zeros(n + 3))
+    J = np.zeros((size, size))
+    np.add.at(J, (R[:p], C[:p]), V[:p])
+    if split:
+        rows, cols = _codes(size, n, m, True)
+        J[(rows[:, None] // (n + m)) < (cols[None, :] // (n + m))] = 0.0
+    return plan, R, C, V, p, J
+
+
+@pytest.mark.parametrize("method", CONDENSABLE)
+@pytest.mark.parametrize("path, overrides", [
+    (MODELS / "spatial_chain.mbd", {"N": 4}), (MODELS / "spatial_slider_crank.mbd", {}),
+    (MODELS / "spherical_pendulum.mbd", {}), (MODELS / "spatial_spring_pendulum.mbd", {}),
+    (VALID / "spatial_drivers.mbd", {}), (MODELS / "pendulum_chain.mbd", {"N": 6}),
+    (VALID / "compiled_elements.mbd", {})])
+def test_the_condensed_solve_is_numpys_dense_solve(path, overrides, method):
+    # the elimination of each coordinate group, the Schur complement's band and its
+    # ordering, the lower block of a split matrix: a misplaced entry, a wrong slot or
+    # a wrong sign gives another solution
+    system, init = _system(path, **overrides)
+    rng = np.random.default_rng(3)
+    plan, R, C, V, p, J = _newton_matrix(system, make_method(method), init, rng)
+    lin = plan.workspace(J.shape[0], len(R))
+    assert K._factor(K.CONDENSED, lin, R, C, V, p) == K.CONVERGED
+    for _ in range(2):                          # the factorization is reused
+        r = rng.standard_normal(J.shape[0])
+        dw = np.empty_like(r)
+        K._solve(K.CONDENSED, lin, r, dw)
+        x = np.linalg.solve(J, r)
+        assert np.abs(dw - x).max() <= 1e-9 * np.abs(x).max()
+        assert np.abs(J @ dw - r).max() <= 1e-9 * np.abs(J).max() * np.abs(dw).max()
+
+
+def test_triplets_out_of_the_plans_order_are_placed_one_by_one():
+    # the planned scatter trusts the triplets' order fixed at build and checks it;
+    # shuffled, the solver places each by its row's slot search, to the same solve,
+    # and a triplet outside the plan's groups makes the matrix singular, not wrong
+    system, init = _system(MODELS / "spatial_chain.mbd", N=3)
+    rng = np.random.default_rng(5)
+    plan, R, C, V, p, J = _newton_matrix(system, make_method("hht-si2"), init, rng)
+    order = rng.permutation(p)
+    R2, C2, V2 = R[:p][order].copy(), C[:p][order].copy(), V[:p][order].copy()
+    lin = plan.workspace(J.shape[0], len(R))
+    assert K._factor(K.CONDENSED, lin, R2, C2, V2, p) == K.CONVERGED
+    r = rng.standard_normal(J.shape[0])
+    dw = np.empty_like(r)
+    K._solve(K.CONDENSED, lin, r, dw)
+    assert np.abs(dw - np.linalg.solve(J, r)).max() <= 1e-9 * np.abs(dw).max()
+    n = system.n                                # body 1's x row against body 2's x column
+    extra = np.array([0]), np.array([12]), np.array([1.0])
+    R3, C3, V3 = (np.concatenate([a, b]) for a, b in zip((R2, C2, V2), extra))
+    assert n > 12 and K._factor(K.CONDENSED, lin, R3, C3, V3, p + 1) == K.SINGULAR
+
+
+def test_a_singular_schur_complement_is_reported():
+    # a constraint row without entries (its joint lost) makes the Newton matrix
+    # singular whatever the solver: the Schur complement's row is zero, and the
+    # condensed solver says SINGULAR rather than solving
+    system, init = _system(MODELS / "spatial_chain.mbd", N=3)
+    rng = np.random.default_rng(2)
+    plan, R, C, V, p, J = _newton_matrix(system, make_method("hht-i3"), init, rng)
+    V = V.copy()
+    V[:p][R[:p] == system.n + 4] = 0.0           # constraint row 4: a zero row of J
+    lin = plan.workspace(J.shape[0], len(R))
+    assert K._factor(K.CONDENSED, lin, R, C, V, p) == K.SINGULAR
+    # the augmented formulation of redundant joints (Bricard's linkage) couples the
+    # multipliers: not the condensed solver's
+    model = mbdsl.load(MODELS / "bricard.mbd")
+    sol = mbdsl.simulate(model, method="hht-i3", h=1e-3, t_end=2e-3)
+    assert sol.completed and sol.linear_solver != "condensed"
+
+
+def test_the_groups_of_a_spatial_chain():
+    # a spatial body's 12 coordinates fall into its 3 positions (coupled by nothing
+    # but its joints) and its 9 directors (coupled by the frame rows' Hessian),
+    # each touched by the same rows: 2 groups per body, a Schur complement on the
+    # 6 frame and 3 joint rows per body whose band does not grow with N
+    for N in (4, 12):
+        system, init = _system(MODELS / "spatial_chain.mbd", N=N)
+        R, C = newton_pattern(system, make_method("hht-i3"), init.q)
+        plan = condensed_plan(R, C, system.n, system.m)
+        assert len(plan.groups) == 2 * N
+        assert sorted(len(g) for g in plan.groups) == [3] * N + [9] * N
+        assert plan.m == 9 * N and plan.kl <= 12 and plan.ku <= 12
+    # NSTIFF-SI2's unsplit stabilized index-2 layout and HHT-ADD's additive form
+    # are not coordinates-then-multipliers: the band LU's
+    for name in ("nstiff-si2", "hht-add"):
+        assert condensed_solver_plan(system, make_method(name), init.q, False,
+                                     K.lapack_band_addresses()) is None
+    with pytest.raises(ValueError, match="does not apply"):
+        linear_solver_plan(system, make_method("nstiff-si2"),
+                           NewtonOptions(linear_solver="condensed"), init.q)
+
+
+def test_auto_takes_the_condensed_solver_where_it_costs_a_quarter():
+    # the spatial chain's band (29 each way) costs five times the condensed flops;
+    # the planar chain's band (4 each way) about twice, the N-four-bar's three
+    # times: they keep the band LU, and small models the dense inverse
+    system, init = _system(MODELS / "spatial_chain.mbd", N=10)
+    for name in ("hht-i3", "hht-si2", "genalpha"):
+        plan = linear_solver_plan(system, make_method(name), NewtonOptions(), init.q)
+        assert plan.kind == "condensed" and plan.blocks == (2 if name == "hht-si2" else 1)
+    for path, overrides, kinds in [(MODELS / "pendulum_chain.mbd", {"N": 60}, ("banded", "banded")),
+                                   (MODELS / "n_fourbar.mbd", {}, ("dense", "banded")),
+                                   (MODELS / "spatial_slider_crank.mbd", {}, ("dense", "banded"))]:
+        system, init = _system(path, **overrides)
+        for name, kind in zip(("hht-i3", "hht-si2"), kinds):
+            assert linear_solver_plan(system, make_method(name), NewtonOptions(),
+                                      init.q).kind == kind, (path.name, name)
+
+
+@pytest.mark.parametrize("method", ["hht-i3", "hht-si2", "genalpha", "nstiff"])
+def test_condensed_and_band_runs_agree(method):
+    # the same Newton matrix (the same split one for HHT-SI2) in other arithmetic,
+    # refreshed by the same rule: the same steps and iterations, within Newton's
+    # tolerance
+    system, init = _system(MODELS / "spatial_chain.mbd", N=5)
+    runs = {}
+    for solver in ("condensed", "banded"):
+        runs[solver] = integrate(system, make_method(method), 0.2, 1e-3, initial=init,
+                                 engine="compiled",
+                                 newton=NewtonOptions(linear_solver=solver, rate_refresh=0.3))
+        assert runs[solver].status == "completed"
+        assert runs[solver].linear_solver == solver
+    a, b = runs["condensed"], runs["banded"]
+    assert np.abs(a.q - b.q).max() < 1e-9
+    assert np.abs(a.v - b.v).max() < 1e-7
+    assert a.stats_total.iterations == pytest.approx(b.stats_total.iterations, rel=0.03)
+
+
+def test_condensed_under_error_control_and_a_failed_split_step():
+    # error-controlled steps (rejections refactor at a new h) and, for HHT-SI2, the
+    # fallback to the whole band matrix after a failed step keep the run's solution
+    system, init = _system(MODELS / "spatial_double_pendulum.mbd")
+    ctl = StepControl(1e-6, 1e-6)
+    a = integrate(system, make_method("hht-si2"), 0.5, 1e-3, initial=init, engine="compiled",
+                  control=ctl, newton=NewtonOptions(linear_solver="condensed"))
+    b = integrate(system, make_method("hht-si2"), 0.5, 1e-3, initial=init, engine="compiled",
+                  control=ctl, newton=NewtonOptions(linear_solver="banded"))
+    assert a.status == b.status == "completed" and a.linear_solver == "condensed"
+    assert len(a.t) == len(b.t) and np.abs(a.t - b.t).max() < 1e-9
+    assert np.abs(a.q - b.q).max() < 1e-8
