@@ -76,27 +76,29 @@ def _codes(size, n, m, split):
     return rows.astype(np.int64), cols.astype(np.int64)
 
 
-def _places(rb, cb, rl, cl, n, comp, pos, ks, rs, goff, wstride, tstart, tg, tslot):
+def _places(rb, cb, rl, cl, n, comp, pos, ks, rs, goff, wstride, pairs, tslot):
     """Each triplet's place (``records.CONDENSED_FIELDS``' ``dest``): its
     entry of A_g, C_g^T or B_g in ``cw``, -1 for the upper block (left out),
-    -2 - k for the k-th entry of the lower block, in the triplets' order."""
+    -2 - k for the k-th entry of the lower block, in the triplets' order;
+    ``pairs`` (constraint row, group), sorted, with their slots ``tslot``."""
     dest = np.full(len(rb), -1, np.int64)
-    slot = {}
-    for i in range(len(tstart) - 1):
-        for t in range(tstart[i], tstart[i + 1]):
-            slot[(i, int(tg[t]))] = int(tslot[t])
     lower = np.flatnonzero(rb > cb)
     dest[lower] = -2 - np.arange(len(lower))
-    for t in np.flatnonzero(rb == cb):
-        r_, c_ = int(rl[t]), int(cl[t])
-        g = int(comp[r_]) if r_ < n else int(comp[c_])
-        k, r, o = int(ks[g]), int(rs[g]), int(rb[t]) * wstride + int(goff[g])
-        if r_ < n and c_ < n:
-            dest[t] = o + pos[r_] * k + pos[c_]
-        elif r_ < n:
-            dest[t] = o + k * k + pos[r_] * r + slot[(c_ - n, g)]
-        else:
-            dest[t] = o + k * k + k * r + slot[(r_ - n, g)] * k + pos[c_]
+    t = np.flatnonzero(rb == cb)
+    r_, c_ = rl[t], cl[t]
+    coord = np.where(r_ < n, r_, c_)                  # the coordinate of the entry
+    g = comp[coord]
+    k, r, o = ks[g], rs[g], rb[t] * wstride + goff[g]
+    G = max(len(ks), 1)
+    keys = pairs[:, 0] * G + pairs[:, 1]              # sorted: rows, then groups
+    row = np.where(r_ < n, c_ - n, r_ - n)            # the constraint row, where one is
+    found = np.searchsorted(keys, np.maximum(row, 0) * G + g)
+    slot = tslot[np.minimum(found, len(tslot) - 1)] if len(tslot) else np.zeros_like(g)
+    in_a = (r_ < n) & (c_ < n)
+    in_ct = (r_ < n) & (c_ >= n)
+    dest[t] = np.where(in_a, o + pos[np.minimum(r_, n - 1)] * k + pos[np.minimum(c_, n - 1)],
+                       np.where(in_ct, o + k * k + pos[np.minimum(r_, n - 1)] * r + slot,
+                                o + k * k + k * r + slot * k + pos[np.minimum(c_, n - 1)]))
     return dest
 
 
@@ -121,16 +123,18 @@ def _groups(rl, cl, same, n):
     touch = np.concatenate([np.stack([cl[ct] - n, comp[rl[ct]]], axis=1),
                             np.stack([rl[bb] - n, comp[cl[bb]]], axis=1)]).reshape(-1, 2)
     rows_by_comp = [[] for _ in range(ncomp)]
-    for i, c in np.unique(touch, axis=0):
+    key = np.unique(touch[:, 0] * ncomp + touch[:, 1])     # (row, component), sorted by row
+    for i, c in zip((key // ncomp).tolist(), (key % ncomp).tolist()):
         rows_by_comp[c].append(i)
     merged = {}
     of_comp = np.array([merged.setdefault(tuple(r) if r else ("free", c), len(merged))
                         for c, r in enumerate(rows_by_comp)], np.int64)
     comp = of_comp[comp]
-    groups = [np.flatnonzero(comp == g) for g in range(len(merged))]
-    pairs = np.unique(np.stack([touch[:, 0], of_comp[touch[:, 1]]], axis=1).reshape(-1, 2),
-                      axis=0)
-    return groups, comp, pairs
+    order = np.argsort(comp, kind="stable")             # each group's coordinates, ascending
+    groups = np.split(order, np.cumsum(np.bincount(comp, minlength=len(merged)))[:-1])
+    G = max(len(merged), 1)
+    key = np.unique(touch[:, 0] * G + of_comp[touch[:, 1]])
+    return groups, comp, np.stack([key // G, key % G], axis=1).reshape(-1, 2)
 
 
 def _schur_band(rows_of, m):
@@ -188,13 +192,11 @@ def condensed_plan(R, C, n, m, split=False):
     for g in groups:
         pos[g] = np.arange(len(g))
     rows_of = [[] for _ in groups]
-    tg, tslot, tstart = [], [], np.zeros(m + 1, np.int64)
-    for i, g in pairs:                       # sorted by row, then group
-        tg.append(g)
+    tslot = []
+    for i, g in pairs.tolist():              # sorted by row, then group
         tslot.append(len(rows_of[g]))
         rows_of[g].append(i)
-        tstart[i + 1] += 1
-    tstart = np.cumsum(tstart)
+    tstart = np.concatenate([[0], np.cumsum(np.bincount(pairs[:, 0], minlength=m))])
     sperm, kl, ku = _schur_band(rows_of, m)
     # each group's place in a block of the workspace: A_g (k x k), X_g (k x r), B_g (r x k)
     ks = np.array([len(g) for g in groups], np.int64)
@@ -203,14 +205,14 @@ def condensed_plan(R, C, n, m, split=False):
     goff = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64)
     wstride = int(sizes.sum())
     grows = np.concatenate([np.asarray(r, np.int64) for r in rows_of] + [np.zeros(0, np.int64)])
-    tg, tslot = np.asarray(tg, np.int64), np.asarray(tslot, np.int64)
+    tg, tslot = pairs[:, 1].astype(np.int64), np.asarray(tslot, np.int64)
     arrays = {
         "rmap": rcode, "cmap": ccode, "comp": comp, "pos": pos, "tstart": tstart, "tg": tg,
         "tslot": tslot, "gkoff": np.concatenate([[0], np.cumsum(ks)]),
         "gcoord": np.concatenate(groups + [np.zeros(0, np.int64)]),
         "groff": np.concatenate([[0], np.cumsum(rs)]), "grows": grows, "goff": goff,
         "sperm": sperm, "pivots": np.zeros(blocks * n, np.int64), "tr": R, "tc": C,
-        "dest": _places(rb, cb, rl, cl, n, comp, pos, ks, rs, goff, wstride, tstart, tg, tslot),
+        "dest": _places(rb, cb, rl, cl, n, comp, pos, ks, rs, goff, wstride, pairs, tslot),
         "gband": sperm[grows]}
     cp = _pack(dict(n=n, m=m, groups=len(groups), wstride=wstride, scratch=blocks * wstride,
                     triplets=len(R)), arrays)

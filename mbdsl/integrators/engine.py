@@ -600,7 +600,8 @@ class SparseAdapter:
         self._R = np.empty(self._cm.bound, np.int64)
         self._C = np.empty(self._cm.bound, np.int64)
         self._V = np.empty(self._cm.bound)
-        self._qx, self._vx, self._work = np.zeros(n + 3), np.zeros(n + 3), np.zeros(n + 3)
+        # the residual's scratch has two halves (``compiled.recipes._residual``)
+        self._qx, self._vx, self._work = np.zeros(n + 3), np.zeros(n + 3), np.zeros(2 * (n + 3))
         self._pattern = None
 
     def __getattr__(self, name):          # name, extras, blocks, start, predict, describe...
@@ -638,7 +639,7 @@ class SparseAdapter:
         self._K.predict(rec, first, s.q, s.v, s.a, b, p.q, p.v, q_pred, v_pred)
         F = np.empty(system.n)
         self._K.old_force(rec, self._cm.ints, self._cm.floats, s.t, s.q, s.v, s.lam, F, self._qx,
-                          self._vx, self._work)
+                          self._vx, self._work[:system.n + 3])
         qx_old = np.zeros(system.n + 3)          # q_n, or Mhat's q_n + mh v_n
         qx_old[:system.n] = s.q + self._get(rec, "mh") * s.v
         ctx.cache.update(recipe=rec, kq_pred=q_pred, kv_pred=v_pred, kF=F, kqx_old=qx_old,

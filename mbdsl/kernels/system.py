@@ -139,6 +139,44 @@ def phiq_times(I, Fl, qx, vx, out):
 
 
 @_jit
+def phiq_products(I, Fl, qx, vx, lam, mu, out_l, out_mu, out_v):
+    """out_l (n+3,) += Phi_q^T lambda, out_mu (n+3,) += Phi_q^T mu and out_v
+    (m,) = Phi_q v: the sums of :func:`phiqT_add` (coef 1) and
+    :func:`phiq_times`, family by family in their order (the same numbers),
+    with one gradient per row of the spatial families (their ``products``):
+    the stabilized index-2 residual's three products, which three passes
+    over the spatial rows made 12 of its 16 us on the spatial chain of 10
+    links."""
+    coincidence.phiqT_add(I, Fl, qx, lam, 1.0, out_l)
+    coincidence.phiqT_add(I, Fl, qx, mu, 1.0, out_mu)
+    coincidence.phiq_times(I, Fl, qx, vx, out_v)
+    point_on_line.phiqT_add(I, Fl, qx, lam, 1.0, out_l)
+    point_on_line.phiqT_add(I, Fl, qx, mu, 1.0, out_mu)
+    point_on_line.phiq_times(I, Fl, qx, vx, out_v)
+    linear_rows.phiqT_add(I, Fl, qx, lam, 1.0, out_l)
+    linear_rows.phiqT_add(I, Fl, qx, mu, 1.0, out_mu)
+    linear_rows.phiq_times(I, Fl, qx, vx, out_v)
+    distance.phiqT_add(I, Fl, qx, lam, 1.0, out_l)
+    distance.phiqT_add(I, Fl, qx, mu, 1.0, out_mu)
+    distance.phiq_times(I, Fl, qx, vx, out_v)
+    if _rows(I, XTRM) > 0:
+        couplers.phiqT_add(I, Fl, qx, lam, 1.0, out_l)
+        couplers.phiqT_add(I, Fl, qx, mu, 1.0, out_mu)
+        couplers.phiq_times(I, Fl, qx, vx, out_v)
+    if _rows(I, VROW) > 0:
+        spatial.products(I, Fl, qx, vx, lam, mu, out_l, out_mu, out_v)
+    if _rows(I, AROW) > 0:
+        spatial_angles.products(I, Fl, qx, vx, lam, mu, out_l, out_mu, out_v)
+    if _rows(I, ECOL) > 0:
+        _elastic_phiqT_add(I, Fl, qx, lam, 1.0, out_l)
+        distance.elastic_phiqT_add(I, Fl, qx, lam, 1.0, out_l)
+        _elastic_phiqT_add(I, Fl, qx, mu, 1.0, out_mu)
+        distance.elastic_phiqT_add(I, Fl, qx, mu, 1.0, out_mu)
+        _elastic_phiq_times(I, Fl, qx, vx, out_v)
+        distance.elastic_phiq_times(I, Fl, qx, vx, out_v)
+
+
+@_jit
 def _inputs_add(I, Fl, t, qx, vx, out):
     """The loads that put work in, added to out (n+3,) [N, N m]: point
     forces F(t) (J^T F), torques tau(t) and loads of the state tau(t, x) w

@@ -25,7 +25,8 @@ from mbdsl.integrators import engine as engine_module
 from mbdsl.integrators import loop as loop_module
 from mbdsl.integrators.common import force_term
 from mbdsl.integrators.engine import (CompiledModel, SparseAdapter, band_ordering,
-                                     linear_solver_plan, select_engine, unsupported)
+                                     linear_solver_plan, newton_size, select_engine,
+                                     unsupported)
 
 from ..conftest import MODELS, interrupted_run
 
@@ -1031,3 +1032,33 @@ def test_observers_are_told_of_every_event_after_the_rows_before_it(engine):
     kinds = [e[2] for e in sol.events]
     assert "closed" in kinds and "opened" in kinds
     assert events == list(sol.events)
+
+
+@pytest.mark.parametrize("method", ["hht-si2", "nstiff-si2", "genalpha-si2", "hht-i3"])
+@pytest.mark.parametrize("path, overrides", [(MODELS / "spatial_chain.mbd", {"N": 3}),
+                                             (MODELS / "spatial_slider_crank.mbd", {}),
+                                             (VALID / "spatial_drivers.mbd", {}),
+                                             (VALID / "compiled_elements.mbd", {}),
+                                             (VALID / "flexible_distance.mbd", {})])
+def test_the_residuals_products_in_one_pass_are_the_three_passes(path, overrides, method):
+    # with a scratch of 2 (n + 3) the stabilized index-2 residual makes Phi_q^T lambda,
+    # Phi_q^T mu and Phi_q v in one pass over the rows (system.phiq_products), with
+    # n + 3 in three (phiqT_add twice, phiq_times): the same sums in the same order,
+    # so the same numbers to the bit, in every row
+    system, init = _system(path, **overrides)
+    cm = CompiledModel(system)
+    n, m = system.n, system.m
+    meth = make_method(method)
+    size = newton_size(system, meth)
+    rng = np.random.default_rng(11)
+    w = rng.standard_normal(size)
+    rec = meth.kernel_recipe(1e-3, False)
+    out = []
+    for width in (n + 3, 2 * (n + 3)):
+        r, qx = np.empty(size), np.zeros(n + 3)
+        assert cm.K.residual(rec, cm.ints, cm.floats, 0.1, np.asarray(init.q, float),
+                             np.asarray(init.v, float) + 0.5,
+                             np.zeros(n), qx.copy(), w, r, qx, np.zeros(n + 3), np.zeros(width))
+        out.append(r)
+    assert np.array_equal(out[0], out[1])
+    assert np.abs(out[0]).max() > 0.0

@@ -37,7 +37,9 @@ def _workspace(n, m, size, I, plan):
     q_pred, v_pred, qx_old, F, scratch, plan), allocated by the caller once
     per run (``entry.workspace``) and lent to every call of ``_run``;
     ``plan`` (int64) is the caller's band plan of the index-1 accelerations
-    (``index1._index1_scratch``: m + 1 entries, or none). The
+    (``index1._index1_scratch``: m + 1 entries, or none); ``work`` has 2 (n
+    + 3) entries, the residual's two halves (``recipes._residual``), its
+    first half the other kernels' force-sized scratch. The
     iterate's qx and the step start's qx_old carry the rotations' memo
     after their n + 3 entries (``kernels.geometry._cos_sin``; no angle
     remembered yet: NaN)."""
@@ -45,7 +47,7 @@ def _workspace(n, m, size, I, plan):
     qx[n + 3:] = np.nan
     qx_old[n + 3:] = np.nan
     return (np.empty(size), np.empty(size), np.empty(size), np.empty(size), qx,
-            np.zeros(n + 3), np.zeros(n + 3), np.empty(n), np.empty(n), qx_old,
+            np.zeros(n + 3), np.zeros(2 * (n + 3)), np.empty(n), np.empty(n), qx_old,
             np.zeros(n), np.empty(m + I[_HEADER - 1] + 2 * size), plan)
 
 
@@ -154,12 +156,13 @@ def _step_newton(rc, I, Fl, t_new, q, v, a, lam, q_pred, v_pred, F, qx_old, w, w
     converge from there, once more from the last state's: a start that
     extrapolation moved across a change the steps did not resolve (a
     stick-slip transition, say) never fails a step the old start would
-    take. l0, e0: where the multipliers start in w (``_layout``). Returns
-    Newton's status."""
+    take. l0, e0: where the multipliers start in w (``_layout``); ``work``:
+    2 (n + 3), the residual's (``recipes._residual``). Returns Newton's
+    status."""
     size = w.shape[0]
     status = CONVERGED
     for attempt in range(2):
-        _start_w(rc, I, Fl, q, a, v, lam, w, qx, work)
+        _start_w(rc, I, Fl, q, a, v, lam, w, qx, work[:work.shape[0] // 2])
         if attempt == 0:
             _scales_weights(rc, I, Fl, q, w, opts, R, C, V, qx, weight, scratch)
         moved = (attempt == 0 and opts[OPT_EXTRAPOLATE] != 0.0
@@ -509,7 +512,7 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
     fmin, fmax = ctl[CTL_MIN_FACTOR], ctl[CTL_MAX_FACTOR]
     h_min, h_max = ctl[CTL_H_MIN], ctl[CTL_H_MAX]
     fixed = ctl[CTL_FIXED] != 0.0
-    r, dw, w, weight, qx, vx, work, q_pred, v_pred, qx_old, F, scratch, plan = ws
+    r, dw, w, weight, qx, vx, wide, q_pred, v_pred, qx_old, F, scratch, plan = ws
     b_new, d_err = np.empty(n), np.empty(n)
     hx, hh = np.zeros((3, size)), np.zeros(3)     # the steps' w Newton's start extrapolates
     mode = int(state[ST_MODE])
@@ -518,7 +521,7 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
     additive = rc[FORM] == ADDITIVE
     acc_old, acc_new, est = _start_estimate(I, Fl, n, m, t0, q, v, a, lam, additive, fixed,
                                             index1, qx_old, vx, R, C, V, plan)
-    _start_force(rc, I, Fl, t0, q, v, lam, F0, F, qx, vx, work)
+    _start_force(rc, I, Fl, t0, q, v, lam, F0, F, qx, vx, wide[:n + 3])   # half of it
     t = t0
     # the step, start-up flag and c0, w0, w1 of the recipe in rc
     h_rc, first_rc, c0_rc, w0_rc, w1_rc = -1.0, False, -1.0, -1.0, -1.0
@@ -540,7 +543,7 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
         for j in range(n):                 # q_n (the additive form), or Mhat's q_n + mh v_n
             qx_old[j] = q[j] + rc[MH] * v[j]
         status = _step_newton(rc, I, Fl, t_new, q, v, a, lam, q_pred, v_pred, F, qx_old, w,
-                              weight, opts, solver, lin, lu_state, R, C, V, r, dw, qx, vx, work,
+                              weight, opts, solver, lin, lu_state, R, C, V, r, dw, qx, vx, wide,
                               counts, scratch, hx, hh, step, l0, e0)
         if status != CONVERGED:       # the driver decides: halve, jump, or hand over
             state[ST_T], state[ST_H] = t, step
@@ -602,7 +605,7 @@ def _run(mono, I, Fl, h, t0, t_end, step0, every, q, v, a, b, lam, mu, q_prev, v
         t = t_new
         state[ST_CARRY] = carry
         if rc[CF] != 0.0:                  # F_n enters the next residual only through cF
-            _old_force(rc, I, Fl, t, q, v, lam, F, qx, vx, work)
+            _old_force(rc, I, Fl, t, q, v, lam, F, qx, vx, wide[:n + 3])
         counts[CNT_STEPS] += 1
         k += 1
         if not fixed:

@@ -12,7 +12,8 @@ from ...kernels.beams.ffr import FFR_MXQ, _beam_mass_add, _emit_beams
 from ...kernels.loads.friction import _emit_friction_lam
 from ...kernels.schema import BEAM, FRI, MASS, MRIG, ROW_ELEMENT, _0, _NO, _YES, _f, _hot, _jit, _rows
 from ...kernels.system import (_emit_G, _emit_force, _emit_hess, _emit_mass, _emit_phiq,
-                               _phi_time_add, forces, phi, phiqT_add, phiq_times)
+                               _phi_time_add, forces, phi, phiq_products, phiqT_add,
+                               phiq_times)
 
 
 @_hot
@@ -20,26 +21,37 @@ def _residual(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work):
     """Upsilon(w) of the recipe ``rec``, size n + m (index 3), 2 (n + m)
     (stabilized index 2) or 3 n + 2 m (additive form).
 
-    ``qx``, ``vx``, ``work`` are scratch vectors of size n + 3 (ground entries
-    zero); ``qx_old`` the extended q_n + mh v_n (the additive form's q_n of
-    Phi_q(q_n), or where a held Mhat is evaluated). The
-    same equations as each method's numpy ``residual`` (the additive form's
-    rows 1, 2 and 5 multiplied by M).
+    ``qx``, ``vx`` are scratch vectors of size n + 3 (ground entries zero),
+    ``work`` of n + 3 or 2 (n + 3): with the second half, the stabilized
+    index-2 residual's products Phi_q^T lambda, Phi_q^T mu and Phi_q v are
+    made in one pass over the rows (``system.phiq_products``; the same
+    numbers); ``qx_old`` the extended q_n + mh v_n (the additive form's q_n
+    of Phi_q(q_n), or where a held Mhat is evaluated). The same equations as
+    each method's numpy ``residual`` (the additive form's rows 1, 2 and 5
+    multiplied by M).
     """
-    if rec[FORM] == ADDITIVE:
-        _residual_additive(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work)
-        return
     n, m = _rows(I, MASS), _rows(I, ROW_ELEMENT)
+    wk = work[:n + 3]
+    if rec[FORM] == ADDITIVE:
+        _residual_additive(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, wk)
+        return
     size, l0, u0, a0 = _layout(rec, n, m)
     _state(rec, n, w, q_pred, v_pred, qx, vx)
     cM, cF = rec[CM], rec[CF]
     qM = qx_old if rec[MH] != 0.0 else qx      # M held at q_n + mh v_n, or M(q)
-    forces(I, Fl, t, qx, vx, w[l0:l0 + m], work)
+    forces(I, Fl, t, qx, vx, w[l0:l0 + m], wk)
     for j in range(n):
-        work[j] = -work[j]
-    phiqT_add(I, Fl, qx, w[l0:l0 + m], 1.0, work)
+        wk[j] = -wk[j]
+    fused = rec[HAS_Y] != 0.0 and work.shape[0] >= 2 * (n + 3)
+    mw = work[n + 3:2 * (n + 3)] if fused else wk     # Phi_q^T mu
+    if fused:
+        for j in range(n + 3):
+            mw[j] = 0.0
+        phiq_products(I, Fl, qx, vx, w[l0:l0 + m], w[u0:], wk, mw, r[u0:])
+    else:
+        phiqT_add(I, Fl, qx, w[l0:l0 + m], 1.0, wk)
     for j in range(n):
-        r[j] = cM * _f(I, Fl, MRIG, j, 0) * w[j] + work[j] - cF * F_old[j]
+        r[j] = cM * _f(I, Fl, MRIG, j, 0) * w[j] + wk[j] - cF * F_old[j]
     if _rows(I, BEAM) > 0:
         _beam_mass_add(I, Fl, qM, w, cM, r)
     phi(I, Fl, t, qx, r[l0:l0 + m])
@@ -48,13 +60,15 @@ def _residual(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work):
         r[l0 + i] *= sP
     if rec[HAS_Y] != 0.0:
         dM, dI, dV = rec[DM], rec[DI], rec[DV]
-        work[:] = 0.0
-        phiqT_add(I, Fl, qx, w[u0:], 1.0, work)
+        if not fused:
+            mw[:] = 0.0
+            phiqT_add(I, Fl, qx, w[u0:], 1.0, mw)
         for j in range(n):
-            r[n + j] = (dM * _f(I, Fl, MRIG, j, 0) + dI) * w[n + j] + dV * vx[j] + work[j]
+            r[n + j] = (dM * _f(I, Fl, MRIG, j, 0) + dI) * w[n + j] + dV * vx[j] + mw[j]
         if dM != 0.0 and _rows(I, BEAM) > 0:
             _beam_mass_add(I, Fl, qM, w[n:2 * n], dM, r[n:2 * n])
-        phiq_times(I, Fl, qx, vx, r[u0:])
+        if not fused:
+            phiq_times(I, Fl, qx, vx, r[u0:])
         _phi_time_add(I, Fl, t, r[u0:], 1)
         sV = rec[SV]
         for i in range(m):

@@ -226,7 +226,7 @@ def phi_time_add(I, Fl, t, out, order):
             out[_i(I, VROW, i, 0)] -= _eval(I, Fl, prog, t)
 
 
-@_jit
+@_inline
 def _gradient(I, Fl, qx, i, U, W, cols, vals):
     """The entries of dot row i's gradient, U_q^T W + W_q^T U, into cols,
     vals (48,) (a column may repeat: the entries add); returns their count."""
@@ -275,6 +275,37 @@ def phiq_times(I, Fl, qx, vx, out):
         for e in range(k):
             acc += vals[e] * vx[cols[e]]
         out[_i(I, VROW, i, 0)] = acc
+
+
+@_inline
+def products(I, Fl, qx, vx, lam, mu, out_l, out_mu, out_v):
+    """The three products of the stabilized index-2 residual at one gradient
+    per row: out_l (n+3,) += Phi_q^T lambda, out_mu (n+3,) += Phi_q^T mu,
+    out_v (m,) = Phi_q v; each the sum :func:`phiqT_add` (coef 1) and
+    :func:`phiq_times` make, in their order (the same numbers)."""
+    if _rows(I, VROW) == 0:
+        return
+    U, W = np.empty(3), np.empty(3)
+    for i in range(_rows(I, VROW)):
+        _vector(I, Fl, qx, i, 0, U)
+        _vector(I, Fl, qx, i, 2, W)
+        row = _i(I, VROW, i, 0)
+        lv, mv, acc = 1.0 * lam[row], 1.0 * mu[row], 0.0
+        for s in range(4):
+            base = _i(I, VCOL, i, s)
+            if base < 0:
+                continue
+            other = W if s < 2 else U
+            for j in range(4):
+                w = _f(I, Fl, VW, i, 4 * s + j)
+                if w != 0.0:
+                    for c in range(3):
+                        col = base + 3 * j + c
+                        val = w * other[c]
+                        out_l[col] += lv * val
+                        out_mu[col] += mv * val
+                        acc += val * vx[col]
+        out_v[row] = acc
 
 
 @_inline

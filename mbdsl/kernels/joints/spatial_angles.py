@@ -243,6 +243,26 @@ def phiq_times(I, Fl, qx, vx, out):
 
 
 @_inline
+def products(I, Fl, qx, vx, lam, mu, out_l, out_mu, out_v):
+    """out_l (n+3,) += Phi_q^T lambda, out_mu (n+3,) += Phi_q^T mu, out_v
+    (m,) = Phi_q v [rad/s] at one gradient per row: the sums of
+    :func:`phiqT_add` (coef 1) and :func:`phiq_times`, in their order."""
+    sq, cq, g = np.empty(18), np.empty(18), np.empty(18)
+    for i in range(_rows(I, AROW)):
+        th, s, c = angle(I, Fl, ACOL, AV, i, qx, sq, cq)
+        gradient(s, c, sq, cq, g)
+        row = _i(I, AROW, i, 0)
+        lv, mv = 1.0 * lam[row], 1.0 * mu[row]
+        b1, b2 = _i(I, ACOL, i, 0), _i(I, ACOL, i, 1)
+        for k in range(18):
+            col = column(b1, b2, k)
+            if col >= 0:
+                out_l[col] += lv * g[k]
+                out_mu[col] += mv * g[k]
+        out_v[row] = rate(b1, b2, g, vx)
+
+
+@_inline
 def emit_phiq(I, Fl, n, qx, R, C, V, p, r0, c0, coef, transpose):
     """coef Phi_q at (r0, c0), or coef Phi_q^T when transpose; returns p."""
     if _rows(I, AROW) == 0:
