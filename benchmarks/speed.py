@@ -12,7 +12,9 @@ default, ``--methods``) it prints:
 * set-up, timed apart from the steps: parse and check, assembly, consistent
   initial state [ms];
 * wall time per step, the median of --repeat runs (the first, which loads the
-  compiled kernels, is reported separately as "first run");
+  compiled kernels, is reported separately as "first run"), Exudyn's run and
+  each method's taken in turn, so that the machine's drift in speed between
+  runs falls on both sides of the ratio;
 * Newton iterations, Jacobian evaluations and factorizations per step;
 * the error at T: max |q - q_ref| over all coordinates, against the published
   slider-crank reference (tests/reference/slider_crank.json: crank angle) or
@@ -143,13 +145,6 @@ def measure(label, file, overrides, T, ref_kind, h, methods, repeat, with_exudyn
     init = mbdsl.consistent_initial_state(system)
     t3 = time.perf_counter()
     qref = reference_q(ref_kind, system, T)
-    exu = None
-    if with_exudyn:
-        try:
-            exu = exudyn_side.run_exudyn(model, init.q, init.v, T, h, alpha, repeat=repeat)
-            exu["error"] = error(exu["q"], qref)
-        except NotImplementedError as exc:          # an element Exudyn's side lacks
-            print(f"  {label}: not run in Exudyn ({exc})", file=sys.stderr)
 
     def method_of(name):
         """The method with HHT's alpha where it takes one, and generalized-alpha at
@@ -158,21 +153,41 @@ def measure(label, file, overrides, T, ref_kind, h, methods, repeat, with_exudyn
         given = {"alpha": alpha, "rho_inf": (1.0 + alpha) / (1.0 - alpha)}
         return make_method(name, **{k: v for k, v in given.items() if k in taken})
 
+    first, walls, sols = {}, {name: [] for name in methods}, {}
     for name in methods:
         f0 = time.perf_counter()
-        sol = integrate(system, method_of(name), T, h, initial=init)
-        first = time.perf_counter() - f0
-        walls = []
-        for _ in range(repeat):
+        sols[name] = integrate(system, method_of(name), T, h, initial=init)
+        first[name] = time.perf_counter() - f0
+    # Exudyn and each method in turn, repeat times: the machine's speed drifts
+    # between runs (by up to a third on this one), and the ratio of two medians
+    # taken minutes apart carried that drift
+    exu, exu_walls = None, []
+    for _ in range(repeat):
+        if with_exudyn and exu is not False:
+            try:
+                exu = exudyn_side.run_exudyn(model, init.q, init.v, T, h, alpha, repeat=1)
+                exu_walls.append(exu["s_per_step"])
+            except NotImplementedError as exc:      # an element Exudyn's side lacks
+                print(f"  {label}: not run in Exudyn ({exc})", file=sys.stderr)
+                exu = False
+        for name in methods:
             w0 = time.perf_counter()
-            sol = integrate(system, method_of(name), T, h, initial=init)
-            walls.append(time.perf_counter() - w0)
+            sols[name] = integrate(system, method_of(name), T, h, initial=init)
+            walls[name].append(time.perf_counter() - w0)
+    if exu:
+        exu["s_per_step"] = statistics.median(exu_walls)
+        exu["error"] = error(exu["q"], qref)
+    else:
+        exu = None
+
+    for name in methods:
+        sol, first_run = sols[name], first[name]
         tot = sol.stats_total
         row = {"model": label, "method": name, "n+m": system.n + system.m,
                "engine": f"{sol.engine}/{sol.linear_solver}",
                "parse_ms": 1e3 * (t1 - t0), "assemble_ms": 1e3 * (t2 - t1),
-               "initial_ms": 1e3 * (t3 - t2), "first_s": first,
-               "us_per_step": 1e6 * statistics.median(walls) / tot.steps,
+               "initial_ms": 1e3 * (t3 - t2), "first_s": first_run,
+               "us_per_step": 1e6 * statistics.median(walls[name]) / tot.steps,
                "iterations": tot.iterations / tot.steps, "jacobians": tot.jacobians / tot.steps,
                "factorizations": tot.factorizations / tot.steps,
                "error": error(sol.q[-1], qref), "status": sol.status}

@@ -191,3 +191,25 @@ def test_condensed_under_error_control_and_a_failed_split_step():
     assert a.status == b.status == "completed" and a.linear_solver == "condensed"
     assert len(a.t) == len(b.t) and np.abs(a.t - b.t).max() < 1e-9
     assert np.abs(a.q - b.q).max() < 1e-8
+
+
+@pytest.mark.parametrize("method", ["hht-i3", "hht-si2", "genalpha"])
+@pytest.mark.parametrize("path", [VALID / "spatial_contacts.mbd", VALID / "spatial_state_loads.mbd",
+                                  MODELS / "spatial_spring_pendulum.mbd"])
+def test_condensed_runs_with_contacts_limits_springs_and_loads_of_the_state(path, method):
+    # the elements where they meet the solver: contacts and joint limits (events land
+    # steps and change the law between calls), springs between bodies (their
+    # Jacobian couples two bodies' groups: one larger group), loads reading the
+    # motion; under error control; the band LU's solution within Newton's tolerance
+    # (the step sizes follow the error estimate, which Newton's tolerance perturbs)
+    system, init = _system(path)
+    ctl = StepControl(1e-5, 1e-5)
+    runs = {}
+    for solver in ("condensed", "banded"):
+        runs[solver] = integrate(system, make_method(method), 0.4, 1e-3, initial=init,
+                                 engine="compiled", control=ctl,
+                                 newton=NewtonOptions(linear_solver=solver, rate_refresh=0.3))
+    a, b = runs["condensed"], runs["banded"]
+    assert a.status == b.status == "completed" and a.linear_solver == "condensed"
+    assert len(a.t) == len(b.t) and np.abs(a.t - b.t).max() < 1e-7
+    assert np.abs(a.q - b.q).max() < 1e-6
