@@ -286,25 +286,15 @@ def products(I, Fl, qx, vx, lam, mu, out_l, out_mu, out_v):
     if _rows(I, VROW) == 0:
         return
     U, W = np.empty(3), np.empty(3)
+    cols, vals = np.empty(48, np.int64), np.empty(48)
     for i in range(_rows(I, VROW)):
-        _vector(I, Fl, qx, i, 0, U)
-        _vector(I, Fl, qx, i, 2, W)
+        k = _gradient(I, Fl, qx, i, U, W, cols, vals)
         row = _i(I, VROW, i, 0)
         lv, mv, acc = 1.0 * lam[row], 1.0 * mu[row], 0.0
-        for s in range(4):
-            base = _i(I, VCOL, i, s)
-            if base < 0:
-                continue
-            other = W if s < 2 else U
-            for j in range(4):
-                w = _f(I, Fl, VW, i, 4 * s + j)
-                if w != 0.0:
-                    for c in range(3):
-                        col = base + 3 * j + c
-                        val = w * other[c]
-                        out_l[col] += lv * val
-                        out_mu[col] += mv * val
-                        acc += val * vx[col]
+        for e in range(k):
+            out_l[cols[e]] += lv * vals[e]
+            out_mu[cols[e]] += mv * vals[e]
+            acc += vals[e] * vx[cols[e]]
         out_v[row] = acc
 
 
