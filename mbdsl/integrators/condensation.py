@@ -14,7 +14,7 @@ from scipy.sparse.csgraph import connected_components, reverse_cuthill_mckee
 
 from .records import CONDENSED_FIELDS
 
-__all__ = ["CondensedPlan", "condensed_plan", "band_flops", "GROUP_LIMIT"]
+__all__ = ["CondensedPlan", "condensed_plan", "band_flops", "block_codes", "GROUP_LIMIT"]
 
 #: The largest coordinate group the condensed solver eliminates by a dense LU:
 #: four spatial bodies whose Hessians couple them, or a short flexible beam.
@@ -59,14 +59,14 @@ def band_flops(size, kl, ku, blocks):
     return 2 * size * kl * (kl + ku + 1), 2 * size * (2 * kl + ku + 1)
 
 
-def _codes(size, n, m, split):
+def block_codes(size, n, m, split):
     """(row codes, column codes): each Newton row's and column's block * (n +
     m) + place in its block (coordinate j, or n + constraint row i). One
     block: the Newton matrix's own order, coordinates then multipliers. Two
     (the split HHT-SI2 layout: unknowns a, abar, lambda, mu; rows of the
     dynamics, of abar, of Phi, of Phi_q v + Phi_t): block 0 = (a, lambda)
     with the dynamics and velocity rows, block 1 = (abar, mu) with the abar
-    and position rows (``solver_plans.band_ordering``'s blocks)."""
+    and position rows (``solver_plans.band_ordering`` reads them too)."""
     if not split:
         code = np.arange(size, dtype=np.int64)
         return code, code
@@ -179,7 +179,7 @@ def condensed_plan(R, C, n, m, split=False):
     """
     blocks = 2 if split else 1
     s = n + m
-    rcode, ccode = _codes(blocks * s, n, m, split)
+    rcode, ccode = block_codes(blocks * s, n, m, split)
     rc, cc = rcode[R], ccode[C]
     rb, cb, rl, cl = rc // s, cc // s, rc % s, cc % s
     same = rb == cb

@@ -13,7 +13,7 @@ import scipy
 
 from ..assembly.packing import PackedModel
 from ..assembly.sparse import DENSE_LIMIT
-from .condensation import GROUP_LIMIT, band_flops, condensed_plan
+from .condensation import GROUP_LIMIT, band_flops, block_codes, condensed_plan
 from .records import LAPACK_FIELDS, LIN_FIELDS, vector
 
 __all__ = ["CompiledModel", "LinearSolverPlan", "linear_solver_plan", "band_plan",
@@ -184,7 +184,7 @@ def _rcm(R, C, size):
     return iperm
 
 
-def band_ordering(system, method, q, split=False, cm=None):
+def band_ordering(system, method, q, split=False, cm=None, pattern=None):
     """(rperm, cperm, kl, ku, blocks): the band matrix of the Newton matrix.
 
     One block: the reverse Cuthill-McKee ordering of J + J^T for rows and
@@ -192,10 +192,11 @@ def band_ordering(system, method, q, split=False, cm=None):
     equations (R1, R4) and unknowns (x, lambda) first, equations (R2, R3)
     and unknowns (y, mu) second, each ordered by reverse Cuthill-McKee of its own
     diagonal block. kl, ku: the largest sub- and super-diagonals of the
-    diagonal blocks.
+    diagonal blocks. ``pattern``: the (rows, cols) of :func:`newton_pattern`,
+    when the caller has them.
     """
     size = newton_size(system, method)
-    R, C = newton_pattern(system, method, q, cm)
+    R, C = pattern if pattern is not None else newton_pattern(system, method, q, cm)
     if not split:
         # Equation i is paired with unknown pair[i] (the diagonal of the band matrix):
         # itself where the equations come in the unknowns' order; for HHT-ADD's
@@ -217,14 +218,9 @@ def band_ordering(system, method, q, split=False, cm=None):
             raise ValueError(f"the {method.name} Newton matrix is not split into blocks")
         n, m = system.n, system.m
         s = n + m
-        j, i = np.arange(n), np.arange(m)
-        # local position within its block of each equation (row) and unknown (column)
-        row_block = np.concatenate([np.zeros(n, np.int64), np.ones(n, np.int64),
-                                    np.ones(m, np.int64), np.zeros(m, np.int64)])
-        row_local = np.concatenate([j, j, n + i, n + i])
-        col_block = np.concatenate([np.zeros(n, np.int64), np.ones(n, np.int64),
-                                    np.zeros(m, np.int64), np.ones(m, np.int64)])
-        col_local = np.concatenate([j, j, n + i, n + i])
+        # each equation's (row's) and unknown's (column's) block and place in it
+        rcode, ccode = block_codes(size, n, m, True)
+        row_block, row_local, col_block, col_local = rcode // s, rcode % s, ccode // s, ccode % s
         rperm, cperm = np.empty(size, np.int64), np.empty(size, np.int64)
         for blk in (0, 1):
             keep = (row_block[R] == blk) & (col_block[C] == blk)
@@ -239,10 +235,10 @@ def band_ordering(system, method, q, split=False, cm=None):
     return rperm, cperm, kl, ku, (2 if split else 1)
 
 
-def band_plan(system, method, q, split, addresses, cm=None) -> LinearSolverPlan:
+def band_plan(system, method, q, split, addresses, cm=None, pattern=None) -> LinearSolverPlan:
     """The "banded" plan of ``band_ordering`` (arguments as there; addresses
-    from ``integrators.compiled.linalg.lapack_band_addresses``)."""
-    rperm, cperm, kl, ku, blocks = band_ordering(system, method, q, split, cm)
+    from ``integrators.compiled.band.lapack_band_addresses``)."""
+    rperm, cperm, kl, ku, blocks = band_ordering(system, method, q, split, cm, pattern)
     return LinearSolverPlan("banded", f"band LU, kl = {kl}, ku = {ku}, {blocks} block(s) "
                             f"({newton_size(system, method)} unknowns)", rperm, cperm, kl, ku,
                             blocks, addresses)
@@ -290,14 +286,16 @@ def linear_solver_plan(system, method, options, q, cm=None, split_si2=True) -> L
             "sparse", "SuperLU (uncompiled kernels: no LAPACK band routines)" if uncompiled
             else "SuperLU (the LAPACK band routines use 64-bit integers here)")
     split = _recipe_value(method, "split") != 0.0 and split_si2
-    condensed = condensed_solver_plan(system, method, q, split, addresses, cm)
+    pattern = newton_pattern(system, method, q, cm)          # once, for both plans
+    condensed = (None if choice == "banded" else
+                 condensed_solver_plan(system, method, q, split, addresses, cm, pattern))
     if choice == "condensed":
         if condensed is None:
             raise ValueError(f"linear_solver='condensed' does not apply to {method.name} on "
                              "this model: its Newton matrix's coordinates do not fall into "
                              f"groups of at most {GROUP_LIMIT}, or it couples two multipliers")
         return condensed
-    plan = band_plan(system, method, q, split, addresses, cm)
+    plan = band_plan(system, method, q, split, addresses, cm, pattern)
     kl, ku = plan.kl, plan.ku
     if choice == "banded":
         return plan
@@ -337,13 +335,14 @@ def condensed_cost(plan) -> int:
     return c.factor_flops + 6 * c.solve_flops
 
 
-def condensed_solver_plan(system, method, q, split, addresses, cm=None):
+def condensed_solver_plan(system, method, q, split, addresses, cm=None, pattern=None):
     """The "condensed" plan (:mod:`.condensation`) of this model and method,
     its pattern judged at q (n,), or None where it does not apply: a Newton
     matrix not laid out as coordinates and multipliers (HHT-ADD's additive
     form; NSTIFF-SI2 and the other unsplit stabilized index-2 layouts), the
     augmented formulation (its multiplier block -epsilon I), or one
-    :func:`.condensation.condensed_plan` refuses."""
+    :func:`.condensation.condensed_plan` refuses. ``pattern``: as
+    :func:`band_ordering`'s."""
     n, m = system.n, system.m
     size = newton_size(system, method)
     if size != (2 if split else 1) * (n + m) or _recipe_value(method, "form") != 0.0:
@@ -352,7 +351,7 @@ def condensed_solver_plan(system, method, q, split, addresses, cm=None):
         return None
     if not split and _recipe_value(method, "has_y") != 0.0:
         return None
-    R, C = newton_pattern(system, method, q, cm)
+    R, C = pattern if pattern is not None else newton_pattern(system, method, q, cm)
     c = condensed_plan(R, C, n, m, split)
     if c is None:
         return None

@@ -12,7 +12,7 @@ import mbdsl
 from mbdsl.integrators import NewtonOptions, integrate, make_method
 from mbdsl.integrators import compiled as K
 from mbdsl.integrators.adaptive import StepControl
-from mbdsl.integrators.condensation import _codes, condensed_plan
+from mbdsl.integrators.condensation import block_codes, condensed_plan
 from mbdsl.integrators.engine import (CompiledModel, condensed_solver_plan, linear_solver_plan,
                                       newton_pattern, newton_size)
 
@@ -53,7 +53,7 @@ def _newton_matrix(system, method, init, rng):
     J = np.zeros((size, size))
     np.add.at(J, (R[:p], C[:p]), V[:p])
     if split:
-        rows, cols = _codes(size, n, m, True)
+        rows, cols = block_codes(size, n, m, True)
         J[(rows[:, None] // (n + m)) < (cols[None, :] // (n + m))] = 0.0
     return plan, R, C, V, p, J
 
