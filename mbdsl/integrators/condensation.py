@@ -21,6 +21,10 @@ __all__ = ["CondensedPlan", "condensed_plan", "band_flops", "block_codes", "GROU
 #: A larger group (a long beam) is the band LU's.
 GROUP_LIMIT = 48
 
+#: Floats of the shared factorization's record in ``cw``: whether block 1 is solved
+#: with block 0's factors, and the scalars cA, cC, cB, cL (``compiled.condensed``).
+SHARE_RECORD = 5
+
 
 class CondensedPlan:
     """The condensed solver's plan for one model and method.
@@ -214,9 +218,15 @@ def condensed_plan(R, C, n, m, split=False):
         "sperm": sperm, "pivots": np.zeros(blocks * n, np.int64), "tr": R, "tc": C,
         "dest": _places(rb, cb, rl, cl, n, comp, pos, ks, rs, goff, wstride, pairs, tslot),
         "gband": sperm[grows]}
-    cp = _pack(dict(n=n, m=m, groups=len(groups), wstride=wstride, scratch=blocks * wstride,
-                    triplets=len(R)), arrays)
-    wsize = blocks * wstride + m + max(ks.max(initial=0), rs.max(initial=0), 1)
+    # cw: the blocks' groups; with two, the lower block in block 1's places
+    # (``condensed._lower_places``); the shared factorization's record (5 floats);
+    # scratch for up to two right-hand sides of S and of a group
+    lower = blocks * wstride
+    share = lower + (wstride if split else 0)
+    scratch = share + SHARE_RECORD
+    cp = _pack(dict(n=n, m=m, groups=len(groups), wstride=wstride, scratch=scratch,
+                    triplets=len(R), lower=lower, share=share), arrays)
+    wsize = scratch + 2 * (m + max(ks.max(initial=0), rs.max(initial=0), 1))
     kk, rr = ks.astype(float), rs.astype(float)
     per_factor = np.sum(2 / 3 * kk ** 3 + 2 * kk ** 2 * rr + 2 * rr * rr * kk)
     per_solve = np.sum(4 * kk * kk + 4 * kk * rr)

@@ -12,7 +12,9 @@ import mbdsl
 from mbdsl.integrators import NewtonOptions, integrate, make_method
 from mbdsl.integrators import compiled as K
 from mbdsl.integrators.adaptive import StepControl
+from mbdsl.integrators.compiled.condensed import SHARE_TOL
 from mbdsl.integrators.condensation import block_codes, condensed_plan
+from mbdsl.integrators.records import CP_SHARE, LIN_CP, LIN_CW
 from mbdsl.integrators.engine import (CompiledModel, condensed_solver_plan, linear_solver_plan,
                                       newton_pattern, newton_size)
 
@@ -58,21 +60,68 @@ def _newton_matrix(system, method, init, rng):
     return plan, R, C, V, p, J
 
 
+def _shared_matrix(J, plan, n, m):
+    """The split Newton matrix J as the condensed solver solves it, derived here
+    in numpy: block 1 and the lower block replaced by multiples of block 0's parts,
+
+        J1 -> [[cA A0, cC C0^T], [cB B0, 0]],    L21 -> [[0, 0], [cL B0, 0]],
+
+    (least-squares scalars) where every group's parts are within SHARE_TOL of
+    them (``condensed._shareable``); else J itself. (matrix, shared)."""
+    size, s = J.shape[0], n + m
+    rows, cols = block_codes(size, n, m, True)
+    Jb = np.zeros_like(J)
+    Jb[np.ix_(rows, cols)] = J
+    A0, C0, B0 = Jb[:n, :n], Jb[:n, n:s], Jb[n:s, :n]
+    A1, C1, B1 = Jb[s:s + n, s:s + n], Jb[s:s + n, s + n:], Jb[s + n:, s:s + n]
+    LA, LB, Lm = Jb[s:s + n, :n], Jb[s + n:, :n], Jb[s:, n:s]
+    cA, cC, cB, cL = (np.sum(x * y) / np.sum(y * y) for x, y in
+                      ((A1, A0), (C1, C0), (B1, B0), (LB, B0)))
+    inside = np.zeros((n, n), bool)
+    for g in plan.condensed.groups:
+        inside[np.ix_(g, g)] = True
+    shared = not Lm.any() and not LA[~inside].any()
+    for g in plan.condensed.groups:
+        a = np.ix_(g, g)
+        for d, x in ((np.sum((A1[a] - cA * A0[a]) ** 2) + np.sum(LA[a] ** 2), A1[a]),
+                     (np.sum((C1[g] - cC * C0[g]) ** 2), C1[g]),
+                     (np.sum((B1[:, g] - cB * B0[:, g]) ** 2), B1[:, g]),
+                     (np.sum((LB[:, g] - cL * B0[:, g]) ** 2), LB[:, g])):
+            shared = shared and d <= SHARE_TOL ** 2 * np.sum(x * x)
+    if not shared:
+        return J, False
+    Jt = np.zeros_like(Jb)
+    Jt[:s, :s] = Jb[:s, :s]
+    Jt[s:s + n, s:s + n], Jt[s:s + n, s + n:], Jt[s + n:, s:s + n] = cA * A0, cC * C0, cB * B0
+    Jt[s + n:, :n] = cL * B0
+    return Jt[np.ix_(rows, cols)], True
+
+
 @pytest.mark.parametrize("method", CONDENSABLE)
 @pytest.mark.parametrize("path, overrides", [
     (MODELS / "spatial_chain.mbd", {"N": 4}), (MODELS / "spatial_slider_crank.mbd", {}),
     (MODELS / "spherical_pendulum.mbd", {}), (MODELS / "spatial_spring_pendulum.mbd", {}),
     (VALID / "spatial_drivers.mbd", {}), (MODELS / "pendulum_chain.mbd", {"N": 6}),
-    (VALID / "compiled_elements.mbd", {})])
+    (VALID / "compiled_elements.mbd", {}), (MODELS / "double_pendulum_stiff.mbd", {})])
 def test_the_condensed_solve_is_numpys_dense_solve(path, overrides, method):
     # the elimination of each coordinate group, the Schur complement's band and its
     # ordering, the lower block of a split matrix: a misplaced entry, a wrong slot or
-    # a wrong sign gives another solution
+    # a wrong sign gives another solution. A split matrix whose block 1 is near a
+    # multiple of block 0 is solved with block 0's factors: the matrix that solve
+    # inverts, and the decision, derived in numpy (``_shared_matrix``); the stiff
+    # double pendulum (its torsional spring of 1e7 N m/rad: h^2 K against the mass) keeps
+    # its own block 1
     system, init = _system(path, **overrides)
     rng = np.random.default_rng(3)
-    plan, R, C, V, p, J = _newton_matrix(system, make_method(method), init, rng)
+    method = make_method(method)
+    plan, R, C, V, p, J = _newton_matrix(system, method, init, rng)
     lin = plan.workspace(J.shape[0], len(R))
     assert K._factor(K.CONDENSED, lin, R, C, V, p) == K.CONVERGED
+    if method.name in ("hht-si2", "genalpha-si2"):
+        J, shared = _shared_matrix(J, plan, system.n, system.m)
+        cp = lin[LIN_CP]
+        assert bool(lin[LIN_CW][cp[CP_SHARE]]) == shared
+        assert shared == (path.name != "double_pendulum_stiff.mbd")
     for _ in range(2):                          # the factorization is reused
         r = rng.standard_normal(J.shape[0])
         dw = np.empty_like(r)
@@ -89,6 +138,8 @@ def test_triplets_out_of_the_plans_order_are_placed_one_by_one():
     system, init = _system(MODELS / "spatial_chain.mbd", N=3)
     rng = np.random.default_rng(5)
     plan, R, C, V, p, J = _newton_matrix(system, make_method("hht-si2"), init, rng)
+    J, shared = _shared_matrix(J, plan, system.n, system.m)
+    assert shared
     order = rng.permutation(p)
     R2, C2, V2 = R[:p][order].copy(), C[:p][order].copy(), V[:p][order].copy()
     lin = plan.workspace(J.shape[0], len(R))
