@@ -14,7 +14,8 @@ from scipy.sparse.csgraph import connected_components, reverse_cuthill_mckee
 
 from .records import CONDENSED_FIELDS
 
-__all__ = ["CondensedPlan", "condensed_plan", "band_flops", "block_codes", "GROUP_LIMIT"]
+__all__ = ["CondensedPlan", "condensed_plan", "coordinate_groups", "band_flops", "block_codes",
+           "GROUP_LIMIT"]
 
 #: The largest coordinate group the condensed solver eliminates by a dense LU:
 #: four spatial bodies whose Hessians couple them, or a short flexible beam.
@@ -172,6 +173,18 @@ def _pack(header, arrays):
         else:
             cp[k] = header[name]
     return np.concatenate([cp] + parts).astype(np.int64)
+
+
+def coordinate_groups(R, C, n, m, split):
+    """(comp (n,), count): each coordinate's group in the Newton matrix with
+    triplet pattern (R, C) (the groups of :func:`_groups`, on which the
+    shared factorization of HHT-SI2's split matrix is tested:
+    ``compiled.condensed._shareable``, ``compiled.dense._split_shareable``)."""
+    s = n + m
+    rcode, ccode = block_codes((2 if split else 1) * s, n, m, split)
+    rc, cc = rcode[R], ccode[C]
+    groups, comp, _ = _groups(rc % s, cc % s, rc // s == cc // s, n)
+    return comp.astype(np.int64), len(groups)
 
 
 def condensed_plan(R, C, n, m, split=False):

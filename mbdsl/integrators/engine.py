@@ -295,6 +295,15 @@ def _fit_monomials(method):
     return np.stack(out)
 
 
+def solver_code(K, plan) -> int:
+    """The kernels' code (``integrators.compiled.linalg``) of the linear
+    solver of ``plan``: DENSE, DENSE_SPLIT (two blocks' inverses), BANDED
+    or CONDENSED."""
+    if plan.kind == "dense":
+        return K.DENSE_SPLIT if plan.blocks == 2 else K.DENSE
+    return K.CONDENSED if plan.kind == "condensed" else K.BANDED
+
+
 def newton_matrix_cost(plan, size, system, method) -> int:
     """The cost class of a Newton matrix for ``NewtonOptions.refresh_rate``:
     0 when a new one costs about as much as a few iterations, 1 when its
@@ -491,8 +500,7 @@ class KernelStepper:
             refresh=options.refresh_rate(cost),
             full=1.0 if options.jacobian.value == "full" else 0.0,
             extrapolate=1.0 if options.start == "extrapolated" and cost < 2 else 0.0)
-        self.solver = {"dense": cm.K.DENSE, "condensed": cm.K.CONDENSED}.get(plan.kind,
-                                                                            cm.K.BANDED)
+        self.solver = solver_code(cm.K, plan)
         self.lin = plan.workspace(size, cm.bound)
         self.lu_state = vector(LU_FIELDS, valid=0.0, rate=0.5, step=0.0, c0=0.0)
         self.R, self.C = np.empty(cm.bound, np.int64), np.empty(cm.bound, np.int64)
@@ -538,17 +546,22 @@ class KernelStepper:
 
     def newton_failed(self, loop):
         """A fixed step Newton did not converge: HHT-SI2's split Newton
-        matrix (two blocks, band or condensed) leaves out O(h) terms; where
-        they matter (stiff forces, fast rotation), go on with the whole band
-        matrix."""
+        matrix (two blocks, band, condensed or dense) leaves out O(h) terms;
+        where they matter (stiff forces, fast rotation), go on with the whole
+        band matrix (the whole matrix's inverse after the dense blocks')."""
         plan = self.plan
-        if plan.kind not in ("banded", "condensed") or plan.blocks != 2:
+        if plan.blocks != 2:
             return
         system, method, size = self.system, self.method, self.size
-        why = f"{plan.why}; whole band matrix after a failed step at t = {loop.t:.6g} s"
-        plan = self.plan = band_plan(system, method, loop.ls.q, False, plan.addresses, self.cm)
+        if plan.kind == "dense":
+            why = f"{plan.why}; whole matrix's inverse after a failed step at t = {loop.t:.6g} s"
+            plan = self.plan = LinearSolverPlan("dense", f"explicit inverse ({size} unknowns)")
+        else:                                    # from the condensed solver too
+            why = f"{plan.why}; whole band matrix after a failed step at t = {loop.t:.6g} s"
+            plan = self.plan = band_plan(system, method, loop.ls.q, False, plan.addresses,
+                                         self.cm)
         plan.why = why
-        self.solver = self.K.BANDED              # from the condensed solver too
+        self.solver = solver_code(self.K, plan)
         self.lin = plan.workspace(size, self.cm.bound)
         cost = newton_matrix_cost(plan, size, system, method)
         self.opts[OPT_REFRESH] = self.opt.refresh_rate(cost)

@@ -13,7 +13,8 @@ import scipy
 
 from ..assembly.packing import PackedModel
 from ..assembly.sparse import DENSE_LIMIT
-from .condensation import GROUP_LIMIT, band_flops, block_codes, condensed_plan
+from .condensation import (GROUP_LIMIT, band_flops, block_codes, condensed_plan,
+                           coordinate_groups)
 from .records import LAPACK_FIELDS, LIN_FIELDS, vector
 
 __all__ = ["CompiledModel", "LinearSolverPlan", "linear_solver_plan", "band_plan",
@@ -79,34 +80,41 @@ class LinearSolverPlan:
     Attributes
     ----------
     kind : {"dense", "banded", "condensed", "sparse"}
-        Explicit inverse in the compiled loop, LAPACK band LU in the compiled
+        Explicit inverse (of each block where split) in the compiled loop,
+        LAPACK band LU in the compiled
         loop, the coordinates eliminated group by group and the Schur
         complement's band LU in the compiled loop
         (:mod:`.compiled.condensed`), or SuperLU in the Python Newton loop
         (:class:`SparseAdapter`).
     rperm, cperm : ndarray of int64, shape (size,) or None
         "banded": equation i is row rperm[i], unknown j column cperm[j] of
-        the band matrix.
+        the band matrix; "dense" with two blocks: their block codes
+        (``condensation.block_codes``).
     kl, ku : int
         "banded": sub- and super-diagonals of each diagonal block;
         "condensed": of the Schur complement.
     blocks : int
-        "banded": 1, or 2 for HHT-SI2 split into its (a, lambda) and (abar,
-        mu) blocks (see ``compiled``, "Linear solvers").
+        "banded", "condensed", "dense": 1, or 2 for HHT-SI2 split into its
+        (a, lambda) and (abar, mu) blocks (see ``compiled.linalg``).
     addresses : ndarray of int64, shape (1,) or None
         "banded", "condensed": dgbtrf's (``integrators.compiled.band.lapack_band_addresses``).
     condensed : condensation.CondensedPlan or None
         "condensed": the groups, the Schur complement's ordering, the flops.
     why : str
         The reason for the choice, for reports.
+    groups : ndarray of int64 or None
+        "dense" with two blocks: (n, G, each coordinate's group), n the
+        coordinates of a block (the rest of its s = size / 2 unknowns are
+        multipliers), G the coordinate groups
+        (``condensation.coordinate_groups``).
     """
 
     def __init__(self, kind, why, rperm=None, cperm=None, kl=0, ku=0, blocks=1, addresses=None,
-                 condensed=None):
+                 condensed=None, groups=None):
         self.kind, self.why = kind, why
         self.rperm, self.cperm, self.kl, self.ku = rperm, cperm, int(kl), int(ku)
         self.blocks, self.addresses = int(blocks), addresses
-        self.condensed = condensed
+        self.condensed, self.groups = condensed, groups
 
     def factorization_is_expensive(self, size) -> bool:
         """Whether a factorization costs more than about six Newton iterations
@@ -116,8 +124,8 @@ class LinearSolverPlan:
         flops per unknown against an iteration's band solve, 2 (2 kl + ku + 1),
         and a residual of about 20 (measured on chains: kl = ku = 11 is
         fastest with the cheap policy)."""
-        if self.kind == "dense":
-            return size >= 40
+        if self.kind == "dense":               # per block where split
+            return size // self.blocks >= 40
         if self.kind == "condensed":        # the same rule, on the counted flops
             c = self.condensed
             return c.factor_flops > 6 * (c.solve_flops + 20 * size)
@@ -134,6 +142,10 @@ class LinearSolverPlan:
             J, Jinv, AB = np.empty((size, size)), np.empty((size, size)), one
             ipiv, rperm, cperm = np.zeros(1, np.int32), np.zeros(1, i8), np.zeros(1, i8)
             addresses, Lr, Lc, Lv = np.zeros(1, i8), np.zeros(1, i8), np.zeros(1, i8), np.zeros(1)
+            if self.blocks == 2:                    # ``compiled.dense``: the blocks' places
+                rperm, cperm = self.rperm, self.cperm
+                cp = self.groups.copy()
+                cw = np.zeros(5 + size + 8 * int(cp[1]))
         else:
             J = Jinv = one
             rows = size
@@ -254,7 +266,9 @@ def linear_solver_plan(system, method, options, q, cm=None, split_si2=True) -> L
     for "condensed", the Newton matrix's coordinates fall into small groups:
     :func:`condensed_solver_plan`); "auto" takes the band LU when the
     reordered matrix is narrow (``BAND_LIMIT``, a band of at most half the
-    unknowns, at least ``BAND_MIN_SIZE`` unknowns), else the dense inverse
+    unknowns, at least ``BAND_MIN_SIZE`` unknowns), and for HHT-SI2's split
+    matrix in its place the two blocks' dense inverses where their counted
+    flops are fewer (:func:`dense_split_cost`), else the dense inverse
     up to ``DENSE_LIMIT`` unknowns and SuperLU above; and in place of the
     band LU or the dense inverse the condensed solver, where it applies and
     its counted flops (a factorization and six solves) are at most a quarter
@@ -301,6 +315,9 @@ def linear_solver_plan(system, method, options, q, cm=None, split_si2=True) -> L
         return plan
     if max(kl, ku) <= BAND_LIMIT and 2 * (2 * kl + ku + 1) <= size:
         cost = sum(f * w for f, w in zip(band_flops(size, kl, ku, plan.blocks), (1, 6)))
+        if split and dense_split_cost(size) < cost:
+            plan = dense_split_plan(system, method, q, cm, pattern, condensed)
+            cost = dense_split_cost(size)
     elif size <= DENSE_LIMIT:
         plan, cost = dense, (2 * size ** 3 + 6 * 2 * size ** 2) / DENSE_FLOP_RATE
     else:
@@ -327,6 +344,38 @@ CONDENSED_GAIN = 0.25
 #: 155 000, and 35 against 43 us per step: about 6; 8 keeps the dense inverse on
 #: every model of up to a few bodies.
 DENSE_FLOP_RATE = 8.0
+
+
+def dense_split_plan(system, method, q, cm=None, pattern=None, condensed=None):
+    """The "dense" plan of HHT-SI2's split Newton matrix: the explicit
+    inverses of its two diagonal blocks of n + m unknowns, in the block
+    codes of ``condensation.block_codes``, and the coordinate groups on
+    which block 1 is tested against block 0 (``integrators.compiled.dense``);
+    the pattern judged at q (n,) as in :func:`linear_solver_plan`, the
+    groups those of the split's ``condensed`` plan where one was made."""
+    size, n, m = newton_size(system, method), system.n, system.m
+    rcode, ccode = block_codes(size, n, m, True)
+    if condensed is not None:
+        count, comp = len(condensed.condensed.groups), np.empty(n, np.int64)
+        for g, coords in enumerate(condensed.condensed.groups):
+            comp[coords] = g
+    else:
+        R, C = pattern if pattern is not None else newton_pattern(system, method, q, cm)
+        comp, count = coordinate_groups(R, C, n, m, True)
+    return LinearSolverPlan("dense", f"explicit inverses of 2 blocks of {n + m} unknowns "
+                            f"({size} unknowns)", rcode, ccode, blocks=2,
+                            groups=np.concatenate([[n, count], comp]).astype(np.int64))
+
+
+def dense_split_cost(size) -> float:
+    """A factorization's and six solves' flops of :func:`dense_split_plan`
+    for ``size`` unknowns, weighed by ``DENSE_FLOP_RATE`` as the band LU's:
+    two inverses of s = size / 2 unknowns (2 s^3 each), and per solve two
+    products with them and one with L21 (2 s^2 each). On the IFToMM spatial
+    slider-crank (s = 71, band kl = ku = 16) 201 000 against the band LU's
+    233 000; on the planar chains the band LU stays far below."""
+    s = size // 2
+    return (4 * s ** 3 + 6 * 6 * s ** 2) / DENSE_FLOP_RATE
 
 
 def condensed_cost(plan) -> int:

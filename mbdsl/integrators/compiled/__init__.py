@@ -30,12 +30,16 @@ arrays by ``assembly.packing.PackedModel``). This package holds the step kernels
 The Newton iteration is the one of :mod:`mbdsl.integrators.newton`
 (weighted velocity-equivalent norm, contraction-based stopping, modified
 Newton with refresh on poor contraction, the round-off stall rule), with
-one of two linear solvers (``_factor``, ``_solve``):
+one of four linear solvers (``_factor``, ``_solve``):
 
 * DENSE: an explicit inverse of the (small) Newton matrix computed by LAPACK
   through ``numpy.linalg.inv``; the inverse is only used to compute Newton
   updates, while the residual is evaluated exactly, so its round-off
   changes the contraction, never the converged solution;
+* DENSE_SPLIT: the explicit inverses of HHT-SI2's two diagonal blocks, or of
+  the first alone where the second is a multiple of it (``dense``);
+* CONDENSED: the coordinates eliminated group by group, then the Schur
+  complement's band LU (``condensed``);
 * BANDED: LAPACK's band LU with partial pivoting (dgbtrf) on the Newton
   matrix reordered by reverse Cuthill-McKee (``solver_plans.band_ordering``),
   called through the address scipy.linalg.cython_lapack exports, and its
@@ -65,7 +69,8 @@ from .index1 import (_index1_acceleration, _index1_multipliers,  # noqa: F401
                      _index1_scratch,
                      _index1_multipliers_band, _mobility)
 from .layout import advance, layout, predict, state  # noqa: F401
-from .linalg import BANDED, CONDENSED, DENSE, _factor, _solve, lapack_band_addresses  # noqa: F401
+from .linalg import (BANDED, CONDENSED, DENSE, DENSE_SPLIT, _factor, _solve,  # noqa: F401
+                     lapack_band_addresses)
 from .loop import _run, step_end, step_ratio  # noqa: F401
 from .recipes import accumulate  # noqa: F401
 from .entry import (force_term, index1_multipliers, index1_multipliers_band,  # noqa: F401
@@ -75,4 +80,4 @@ __all__ = ["MODEL_SCHEMA", "MODEL_FIELDS", "residual", "jacobian_triplets", "for
            "predict", "state", "layout", "advance", "mobility", "index1_multipliers",
            "index1_multipliers_band",
            "accumulate", "elements", "beam_blocks", "beam_energies", "run", "workspace", "triplet_bound", "pack", "unpack", "lapack_band_addresses",
-           "DENSE", "BANDED", "CONDENSED"]
+           "DENSE", "BANDED", "CONDENSED", "DENSE_SPLIT"]

@@ -3,7 +3,8 @@ inverse (LAPACK through ``numpy.linalg.inv``), LAPACK's band LU (dgbtrf,
 called through the address scipy exports) with the band substitution of
 LAPACK's dgbtrs written here (``band``), or the coordinates eliminated
 group by group before a band LU of the constraint rows' Schur complement
-(``condensed``, whose docstring says when and why).
+(``condensed``, whose docstring says when and why), or the explicit inverses
+of HHT-SI2's two diagonal blocks (``dense``).
 
 ``lin`` = (J, Jinv^T, AB, ipiv, rperm, cperm, lp, addr, b, Lr, Lc, Lv, cp, cw):
 the dense Newton matrix and its inverse, stored transposed (size x size;
@@ -43,32 +44,15 @@ from mbdsl.integrators.records import (LIN_AB, LIN_ADDR, LIN_B, LIN_CPERM, LIN_I
 
 from .band import _band_substitute, _fortran_call, lapack_band_addresses  # noqa: F401
 from .condensed import _condensed_factor, _condensed_solve
+from .dense import _invert, _split_factor, _split_solve
 from ...kernels.schema import _hot, _jit
 
 #: Linear solvers of the compiled loop: explicit inverse (LAPACK getrf/getri through
 #: numpy.linalg.inv), LAPACK's band LU (dgbtrf, then ``_band_substitute``) on a
-#: bandwidth-reducing ordering, or the coordinates eliminated group by group and the
-#: Schur complement's band LU (``condensed``).
-DENSE, BANDED, CONDENSED = 0, 1, 2
-
-
-@_jit
-def _invert(J, Jinv):
-    """Jinv = (J^-1)^T, the inverse stored transposed (``_solve`` then reads
-    it along memory); False when J is singular or too ill-conditioned to use
-    (1-norm condition number above 1e15)."""
-    if not np.all(np.isfinite(J)):    # whole-array: also the uncompiled copy's speed
-        return False
-    try:
-        inv = np.linalg.inv(J)
-    except Exception:      # noqa: BLE001 - numba raises LinAlgError for an exactly singular J
-        return False
-    na = np.max(np.sum(np.abs(J), axis=0))
-    ni = np.max(np.sum(np.abs(inv), axis=0))
-    if not np.isfinite(ni) or na * ni > 1e15:
-        return False
-    Jinv[:, :] = inv.T
-    return True
+#: bandwidth-reducing ordering, the coordinates eliminated group by group and the
+#: Schur complement's band LU (``condensed``), or the explicit inverses of HHT-SI2's
+#: two diagonal blocks (``dense``).
+DENSE, BANDED, CONDENSED, DENSE_SPLIT = 0, 1, 2, 3
 
 
 @_jit
@@ -83,6 +67,8 @@ def _factor(solver, lin, R, C, V, p):
             return NONFINITE
     if solver == CONDENSED:
         return _condensed_factor(lin, R, C, V, p)
+    if solver == DENSE_SPLIT:
+        return _split_factor(lin, R, C, V, p)
     if solver == DENSE:
         J[:, :] = 0.0
         for i in range(p):
@@ -152,6 +138,9 @@ def _solve(solver, lin, r, dw):
         return
     if solver == CONDENSED:
         _condensed_solve(lin, r, dw)
+        return
+    if solver == DENSE_SPLIT:
+        _split_solve(lin, r, dw)
         return
     AB, ipiv, rperm, cperm = lin[LIN_AB], lin[LIN_IPIV], lin[LIN_RPERM], lin[LIN_CPERM]
     lp, b = lin[LIN_LP], lin[LIN_B]
