@@ -8,16 +8,17 @@ abar and position-constraint rows, each of s = n + m unknowns in its local
 order (coordinates, then constraint rows: ``condensation.block_codes``, in
 ``rperm`` and ``cperm``); the lower block L21 enters block 1's right-hand
 side by a product; the upper block is left out. Two inverses of s unknowns
-cost a quarter of one of 2 s, and a solve two products of s^2 instead of
-one of 4 s^2.
+cost a quarter of one of 2 s, and a solve two or three products of s^2
+instead of one of 4 s^2.
 
 Where block 1 and L21 are, coordinate group by group, within ``condensed.SHARE_TOL`` of
 multiples of block 0's parts (:func:`_split_shareable`: HHT-SI2 without a
 stiff spring or damper, the test the condensed solver makes group by
 group), only block 0 is inverted and both right-hand sides, known before
 either solve (:func:`_shared_rhs`), go through its inverse together. On the
-IFToMM spatial slider-crank (71 unknowns a block) this solver took an
-iteration's solve from the band LU's 10.6 to 3 us (``docs/performance.md``).
+IFToMM spatial slider-crank (71 unknowns a block) an iteration's solve took
+2.2 us against the split band LU's 6.5, a factorization 150 us against 30
+(``docs/performance.md``, ``benchmarks/split_solvers.py``).
 
 ``lin`` for the split: J and Jinv (2 s x 2 s, C order) hold, in their first
 s^2, 2 s^2 and 3 s^2 floats, block 0, block 1 and L21 (row-major, s x s)
