@@ -107,6 +107,41 @@ def _places(rb, cb, rl, cl, n, comp, pos, ks, rs, goff, wstride, pairs, tslot):
     return dest
 
 
+def _lower_places(rb, cb, rl, cl, n, comp, pos, ks, rs, goff, pairs, tslot, lower):
+    """Each lower-block triplet's place in the lower area of ``cw`` (``lplace``,
+    in the order of ``dest``'s -2 - k): block 1's place of its entry, an A_g
+    entry on a coordinate (abar) row, a B_g entry on a constraint row, where
+    the sharing test of ``condensed._shareable`` reads it; -1 where it has
+    none (a multiplier column, a coupling of two groups, a row the Schur
+    complement lacks): such a nonzero entry keeps block 1's own
+    factorization (``condensed._lower_places``, the same places found one
+    by one for triplets other than the plan's)."""
+    t = np.flatnonzero(rb > cb)
+    r_, c_ = rl[t], cl[t]
+    place = np.full(len(t), -1, np.int64)
+    if n == 0 or len(t) == 0:
+        return place
+    ok = c_ < n
+    ci, ri = np.minimum(c_, n - 1), np.minimum(r_, n - 1)
+    g = comp[ci]
+    k, r, o = ks[g], rs[g], lower + goff[g]
+    in_a = ok & (r_ < n) & (comp[ri] == g)
+    G = max(len(ks), 1)
+    keys = pairs[:, 0] * G + pairs[:, 1]
+    want = np.maximum(r_ - n, 0) * G + g
+    found = np.minimum(np.searchsorted(keys, want), max(len(keys) - 1, 0))
+    in_b = ok & (r_ >= n)
+    if len(keys):
+        in_b &= keys[found] == want
+        slot = tslot[found]
+    else:
+        in_b[:] = False
+        slot = np.zeros_like(g)
+    place[in_a] = (o + pos[ri] * k + pos[ci])[in_a]
+    place[in_b] = (o + k * k + k * r + slot * k + pos[ci])[in_b]
+    return place
+
+
 def _groups(rl, cl, same, n):
     """(groups, comp, touch pairs (constraint row, group) sorted): the
     coordinate groups of the coordinate block's pattern (its rows rl and
@@ -232,9 +267,11 @@ def condensed_plan(R, C, n, m, split=False):
         "dest": _places(rb, cb, rl, cl, n, comp, pos, ks, rs, goff, wstride, pairs, tslot),
         "gband": sperm[grows]}
     # cw: the blocks' groups; with two, the lower block in block 1's places
-    # (``condensed._lower_places``); the shared factorization's record (5 floats);
+    # (``lplace``); the shared factorization's record (5 floats);
     # scratch for up to two right-hand sides of S and of a group
     lower = blocks * wstride
+    arrays["lplace"] = _lower_places(rb, cb, rl, cl, n, comp, pos, ks, rs, goff, pairs, tslot,
+                                     lower)
     share = lower + (wstride if split else 0)
     scratch = share + SHARE_RECORD
     cp = _pack(dict(n=n, m=m, groups=len(groups), wstride=wstride, scratch=scratch,

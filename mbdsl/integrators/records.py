@@ -83,14 +83,16 @@ LIN_FIELDS = ("J", "Jinv", "AB", "ipiv", "rperm", "cperm", "lp", "addr", "b", "L
 #: Schur complement's band (``gband``, as ``grows``); the offsets in ``cw`` of the lower
 #: block's area (``lower``: L21 in block 1's places, one block's floats where there are
 #: two blocks) and of the shared factorization's record (``share``: whether block 1 is
-#: solved with block 0's factors, and the scalars cA, cC, cB, cL of ``condensed``).
+#: solved with block 0's factors, and the scalars cA, cC, cB, cL of ``condensed``); each
+#: lower-block triplet's place in the lower area (``lplace``, -1: none).
 CONDENSED_FIELDS = ("n", "m", "groups", "wstride", "rmap", "cmap", "comp", "pos", "tstart",
                     "tg", "tslot", "gkoff", "gcoord", "groff", "grows", "goff", "sperm",
                     "pivots", "scratch", "triplets", "tr", "tc", "dest", "gband", "lower",
-                    "share")
+                    "share", "lplace")
 (CP_N, CP_M, CP_GROUPS, CP_WSTRIDE, CP_RMAP, CP_CMAP, CP_COMP, CP_POS, CP_TSTART, CP_TG,
  CP_TSLOT, CP_GKOFF, CP_GCOORD, CP_GROFF, CP_GROWS, CP_GOFF, CP_SPERM, CP_PIVOTS,
- CP_SCRATCH, CP_TRIPLETS, CP_TR, CP_TC, CP_DEST, CP_GBAND, CP_LOWER, CP_SHARE) = range(26)
+ CP_SCRATCH, CP_TRIPLETS, CP_TR, CP_TC, CP_DEST, CP_GBAND, CP_LOWER, CP_SHARE,
+ CP_LPLACE) = range(27)
 
 #: LAPACK's integer arguments (int32, ``lin[LIN_LP]``), passed by reference as one-entry
 #: slices: dgbtrf's M and N, KL, KU, LDAB, INFO; then the blocks of the matrix (1, or 2

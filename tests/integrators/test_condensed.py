@@ -14,7 +14,8 @@ from mbdsl.integrators import compiled as K
 from mbdsl.integrators.adaptive import StepControl
 from mbdsl.integrators.compiled.condensed import SHARE_TOL
 from mbdsl.integrators.condensation import block_codes, condensed_plan
-from mbdsl.integrators.records import CP_SHARE, LIN_CP, LIN_CW
+from mbdsl.integrators.records import (CP_CMAP, CP_LOWER, CP_RMAP, CP_SHARE, LIN_CP,
+                                       LIN_CW)
 from mbdsl.integrators.engine import (CompiledModel, condensed_solver_plan, linear_solver_plan,
                                       newton_pattern, newton_size)
 
@@ -152,6 +153,72 @@ def test_triplets_out_of_the_plans_order_are_placed_one_by_one():
     extra = np.array([0]), np.array([12]), np.array([1.0])
     R3, C3, V3 = (np.concatenate([a, b]) for a, b in zip((R2, C2, V2), extra))
     assert n > 12 and K._factor(K.CONDENSED, lin, R3, C3, V3, p + 1) == K.SINGULAR
+
+
+@pytest.mark.parametrize("method", ["hht-si2", "genalpha-si2"])
+@pytest.mark.parametrize("path, overrides", [
+    (MODELS / "spatial_chain.mbd", {"N": 4}), (MODELS / "spatial_spring_pendulum.mbd", {}),
+    (VALID / "spatial_drivers.mbd", {}), (MODELS / "double_pendulum_stiff.mbd", {})])
+def test_the_lower_blocks_places_found_at_build_are_the_ones_found_one_by_one(path, overrides,
+                                                                            method):
+    # the plan places each lower-block triplet in the sharing test's area at build
+    # (``lplace``); triplets out of the plan's order are placed one by one by their
+    # rows' slots (``_lower_places``): the same area (up to the order of the sums of
+    # duplicate entries) and the same decision, shared or not
+    system, init = _system(path, **overrides)
+    rng = np.random.default_rng(7)
+    plan, R, C, V, p, J = _newton_matrix(system, make_method(method), init, rng)
+    cp = plan.condensed.cp
+    lower, share = cp[CP_LOWER], cp[CP_SHARE]
+    order = rng.permutation(p)
+    areas = []
+    for rows, cols, vals in [(R, C, V), (R[:p][order].copy(), C[:p][order].copy(),
+                                         V[:p][order].copy())]:
+        lin = plan.workspace(J.shape[0], len(R))
+        assert K._factor(K.CONDENSED, lin, rows, cols, vals, p) == K.CONVERGED
+        areas.append((lin[LIN_CW][lower:share].copy(), lin[LIN_CW][share]))
+    (planned, shared), (one_by_one, shared_too) = areas
+    assert np.any(planned != 0.0) and shared == shared_too
+    assert np.abs(planned - one_by_one).max() <= 1e-14 * np.abs(planned).max()
+
+
+def test_the_shared_pair_is_two_solves_of_block_0_to_the_bit():
+    # with the shared factorization both blocks' right-hand sides go through block
+    # 0's factors interleaved; each must get the operations of a solve of its own,
+    # in the same order: block 0's through the solver with the sharing switched off
+    # (block 0 then solved alone), block 1's as a block-0 right-hand side there, its
+    # (x, y) then divided by cA and cC (``_shared_pair``, ``_condensed_solve``)
+    system, init = _system(MODELS / "spatial_chain.mbd", N=4)
+    rng = np.random.default_rng(11)
+    plan, R, C, V, p, J = _newton_matrix(system, make_method("hht-si2"), init, rng)
+    lin = plan.workspace(J.shape[0], len(R))
+    assert K._factor(K.CONDENSED, lin, R, C, V, p) == K.CONVERGED
+    cp, cw = lin[LIN_CP], lin[LIN_CW]
+    sh, n, m = cp[CP_SHARE], system.n, system.m
+    s = n + m
+    assert cw[sh] == 1.0
+    rmap = cp[cp[CP_RMAP]:cp[CP_RMAP] + 2 * s]
+    cmap = cp[cp[CP_CMAP]:cp[CP_CMAP] + 2 * s]
+    r = rng.standard_normal(2 * s)
+    dw = np.empty_like(r)
+    K._solve(K.CONDENSED, lin, r, dw)
+    b = np.empty(2 * s)
+    b[rmap] = r
+    b1 = b[s:].copy()                           # block 1's right-hand side for block 0
+    b1[n:] = cw[sh + 1] / cw[sh + 3] * (b1[n:] - cw[sh + 4] * b[n:s])
+    cw[sh] = 0.0                                # block 0 alone (block 1's part unused)
+    x0, x1 = np.empty_like(r), np.empty_like(r)
+    with np.errstate(all="ignore"):
+        K._solve(K.CONDENSED, lin, r, x0)
+        b2 = b.copy()
+        b2[:s] = b1
+        K._solve(K.CONDENSED, lin, b2[rmap], x1)
+    first = cmap < s
+    assert np.array_equal(dw[first], x0[first])
+    y = np.empty(2 * s)
+    y[cmap] = x1
+    expect = np.concatenate([y[:n] / cw[sh + 1], y[n:s] / cw[sh + 2]])
+    assert np.array_equal(dw[~first], expect[cmap[~first] - s])
 
 
 def test_a_singular_schur_complement_is_reported():

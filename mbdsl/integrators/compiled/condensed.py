@@ -62,15 +62,15 @@ import numpy as np
 from mbdsl.integrators.outcomes import CONVERGED, SINGULAR
 from mbdsl.integrators.records import (CP_CMAP, CP_COMP, CP_DEST, CP_GBAND, CP_GCOORD,
                                        CP_GKOFF, CP_GOFF, CP_GROFF, CP_GROUPS, CP_GROWS,
-                                       CP_LOWER, CP_M, CP_N, CP_PIVOTS, CP_POS, CP_RMAP,
-                                       CP_SCRATCH, CP_SHARE, CP_SPERM, CP_TC, CP_TG, CP_TR,
-                                       CP_TRIPLETS, CP_TSLOT, CP_TSTART, CP_WSTRIDE, LIN_AB,
-                                       LIN_ADDR, LIN_B, LIN_CP, LIN_CW, LIN_IPIV, LIN_LC, LIN_LP,
-                                       LIN_LR, LIN_LV, LP_BLOCKS, LP_INFO, LP_KL, LP_KU, LP_LDAB,
-                                       LP_M, LP_N, LP_NC)
+                                       CP_LOWER, CP_LPLACE, CP_M, CP_N, CP_PIVOTS, CP_POS,
+                                       CP_RMAP, CP_SCRATCH, CP_SHARE, CP_SPERM, CP_TC, CP_TG,
+                                       CP_TR, CP_TRIPLETS, CP_TSLOT, CP_TSTART, CP_WSTRIDE,
+                                       LIN_AB, LIN_ADDR, LIN_B, LIN_CP, LIN_CW, LIN_IPIV, LIN_LC,
+                                       LIN_LP, LIN_LR, LIN_LV, LP_BLOCKS, LP_INFO, LP_KL, LP_KU,
+                                       LP_LDAB, LP_M, LP_N, LP_NC)
 
 from .band import _band_substitute, _band_substitute_pair, _fortran_call
-from ...kernels.schema import _0, _NO, _YES, _hot, _inline
+from ...kernels.schema import _hot, _inline
 
 #: A group's LU pivot below this fraction of its largest entry is singular
 #: (SparseLU's and the band solver's threshold).
@@ -138,24 +138,48 @@ def _lu_small(a, o, k, piv, po, r):
 
 
 @_inline
-def _lu_small_solve(a, o, k, piv, po, x, xo, stride):
-    """x[xo + i stride], i < k, = A^-1 x with the factors of :func:`_lu_small`."""
+def _lu_small_solve(a, o, k, piv, po, x, xo):
+    """x[xo:xo + k] = A^-1 x with the factors of :func:`_lu_small`."""
     for j in range(k):
         p = piv[po + j]
         if p != j:
-            t = x[xo + j * stride]
-            x[xo + j * stride] = x[xo + p * stride]
-            x[xo + p * stride] = t
+            x[xo + j], x[xo + p] = x[xo + p], x[xo + j]
     for i in range(k):
-        acc = x[xo + i * stride]
+        acc = x[xo + i]
         for c in range(i):
-            acc -= a[o + i * k + c] * x[xo + c * stride]
-        x[xo + i * stride] = acc
+            acc -= a[o + i * k + c] * x[xo + c]
+        x[xo + i] = acc
     for i in range(k - 1, -1, -1):
-        acc = x[xo + i * stride]
+        acc = x[xo + i]
         for c in range(i + 1, k):
-            acc -= a[o + i * k + c] * x[xo + c * stride]
-        x[xo + i * stride] = acc / a[o + i * k + i]
+            acc -= a[o + i * k + c] * x[xo + c]
+        x[xo + i] = acc / a[o + i * k + i]
+
+
+@_inline
+def _lu_small_solve_pair(a, o, k, piv, po, x, xo, yo):
+    """:func:`_lu_small_solve` of x[xo:xo + k] and x[yo:yo + k] together,
+    the same operations on each in the same order."""
+    for j in range(k):
+        p = piv[po + j]
+        if p != j:
+            x[xo + j], x[xo + p] = x[xo + p], x[xo + j]
+            x[yo + j], x[yo + p] = x[yo + p], x[yo + j]
+    for i in range(k):
+        acc0, acc1 = x[xo + i], x[yo + i]
+        for c in range(i):
+            f = a[o + i * k + c]
+            acc0 -= f * x[xo + c]
+            acc1 -= f * x[yo + c]
+        x[xo + i], x[yo + i] = acc0, acc1
+    for i in range(k - 1, -1, -1):
+        acc0, acc1 = x[xo + i], x[yo + i]
+        for c in range(i + 1, k):
+            f = a[o + i * k + c]
+            acc0 -= f * x[xo + c]
+            acc1 -= f * x[yo + c]
+        d = a[o + i * k + i]
+        x[xo + i], x[yo + i] = acc0 / d, acc1 / d
 
 
 @_inline
@@ -227,25 +251,35 @@ def _scatter_planned(cp, cw, R, C, V, p, s, Lr, Lc, Lv):
     (``dest``), when R and C are those triplets (the pattern and order are
     the model's and method's, fixed at build): one indexed add each, where
     the search of the constraint rows' slots took 8 ns a triplet (55 us of
-    HHT-SI2's factorization on the spatial chain of 10 links). -1 when the
-    triplets differ from the plan's."""
+    HHT-SI2's factorization on the spatial chain of 10 links). The lower
+    block's triplets go to the L21 list and, by the places the plan found
+    (``lplace``), to the lower area, as :func:`_lower_places` places them
+    one by one (4 us of a 67 us factorization there). (nc, placed): the
+    lower block's count (-1 when the triplets differ from the plan's), and
+    whether each of its nonzero entries had a place in the lower area."""
     if p != cp[CP_TRIPLETS]:
-        return -1
+        return -1, False
     tr, tc, dest = cp[CP_TR], cp[CP_TC], cp[CP_DEST]
     for t in range(p):
         if R[t] != cp[tr + t] or C[t] != cp[tc + t]:
-            return -1
-    rmap, cmap = cp[CP_RMAP], cp[CP_CMAP]
-    nc = 0
+            return -1, False
+    rmap, cmap, lplace = cp[CP_RMAP], cp[CP_CMAP], cp[CP_LPLACE]
+    nc, placed = 0, True
     for t in range(p):
         d = cp[dest + t]
         if d >= 0:
             cw[d] += V[t]
         elif d <= -2:                          # the lower block L21, in block-local places
             k = -2 - d
-            Lr[k], Lc[k], Lv[k] = cp[rmap + R[t]] - s, cp[cmap + C[t]], V[t]
+            v = V[t]
+            Lr[k], Lc[k], Lv[k] = cp[rmap + R[t]] - s, cp[cmap + C[t]], v
             nc = max(nc, k + 1)
-    return nc
+            at = cp[lplace + k]
+            if at >= 0:
+                cw[at] += v
+            elif v != 0.0:
+                placed = False
+    return nc, placed
 
 
 @_hot
@@ -372,15 +406,17 @@ def _condensed_factor(lin, R, C, V, p):
     sh = cp[CP_SHARE]
     cw[:sh + 1] = 0.0                          # the blocks, the lower block, not shared
     AB[:, :] = 0.0
-    nc = _scatter_planned(cp, cw, R, C, V, p, s, lin[LIN_LR], lin[LIN_LC], lin[LIN_LV])
+    nc, placed = _scatter_planned(cp, cw, R, C, V, p, s, lin[LIN_LR], lin[LIN_LC],
+                                  lin[LIN_LV])
     if nc == -1:                               # triplets other than the plan's: one by one
         cw[:blocks * ws] = 0.0
         nc = _scatter(cp, cw, R, C, V, p, s, lin[LIN_LR], lin[LIN_LC], lin[LIN_LV])
+        placed = blocks == 2 and nc >= 0 and _lower_places(cp, cw, lin[LIN_LR], lin[LIN_LC],
+                                                           lin[LIN_LV], nc)
     if nc < 0:
         return SINGULAR
     lp[LP_NC] = nc
-    if (blocks == 2 and _lower_places(cp, cw, lin[LIN_LR], lin[LIN_LC], lin[LIN_LV], nc)
-            and _shareable(cp, cw)):
+    if blocks == 2 and placed and _shareable(cp, cw):
         cw[sh] = 1.0                           # block 1 by block 0's factors
         blocks = 1
     groff, gband = cp[CP_GROFF], cp[CP_GBAND]
@@ -425,24 +461,19 @@ def _condensed_factor(lin, R, C, V, p):
 
 
 @_hot
-def _condensed_block(lin, b, blk, pair):
-    """b[(blk + j) (n + m):(blk + j + 1) (n + m)], j < 1, or j < 2 with
-    ``pair``, = J_blk^-1 of itself, in the block's places (coordinates, then
-    constraint rows): z = A^-1 r_c, S y = B z - r_k, x = z - X y. A pair of
-    right-hand sides (the shared factorization, blk = 0) goes through each
-    group's factors and S's band factors together."""
+def _condensed_block(lin, b, blk):
+    """b[blk (n + m):(blk + 1) (n + m)] = J_blk^-1 of itself, in the block's
+    places (coordinates, then constraint rows): z = A^-1 r_c, S y = B z -
+    r_k, x = z - X y."""
     cp, cw, AB, ipiv, lp = lin[LIN_CP], lin[LIN_CW], lin[LIN_AB], lin[LIN_IPIV], lin[LIN_LP]
     n, m, G, ws = cp[CP_N], cp[CP_M], cp[CP_GROUPS], cp[CP_WSTRIDE]
-    s, nrhs = n + m, 2 if pair else 1
     grows, groff, sperm, gcoord = cp[CP_GROWS], cp[CP_GROFF], cp[CP_SPERM], cp[CP_GCOORD]
     gband = cp[CP_GBAND]
-    t0 = cp[CP_SCRATCH]                        # S's right-hand sides, then y, in band order
-    zo = t0 + nrhs * m                         # a group's z, per right-hand side
-    zs = (cw.shape[0] - zo) // 2               # (room for two: ``condensation``)
-    for j in range(nrhs):
-        off = (blk + j) * s
-        for i in range(m):
-            cw[t0 + j * m + cp[sperm + i]] = -b[off + n + i]
+    off = blk * (n + m)
+    t0 = cp[CP_SCRATCH]                        # S's right-hand side, then y, in band order
+    z = t0 + 2 * m                             # a group's z
+    for i in range(m):
+        cw[t0 + cp[sperm + i]] = -b[off + n + i]
     for g in range(G):
         k, r, o, c0 = _group(cp, g)
         o += blk * ws
@@ -450,38 +481,94 @@ def _condensed_block(lin, b, blk, pair):
         c0 += gcoord
         bo = o + k * k + k * r
         band = gband + cp[groff + g]
-        for j in range(nrhs):
-            off, z = (blk + j) * s, zo + j * zs
-            for a in range(k):
-                cw[z + a] = b[off + cp[c0 + a]]
-            _lu_small_solve(cw, o, k, cp, po, cw, z, 1)
-            for a in range(k):
-                b[off + cp[c0 + a]] = cw[z + a]
-            for a in range(r):
-                acc = 0.0
-                for i in range(k):
-                    acc += cw[bo + a * k + i] * cw[z + i]
-                cw[t0 + j * m + cp[band + a]] += acc
-    if m > 0 and pair:
-        _band_substitute_pair(AB, ipiv, cw, blk * m, m, lp[LP_KL], lp[LP_KU], t0, t0 + m)
-    elif m > 0:
+        for a in range(k):
+            cw[z + a] = b[off + cp[c0 + a]]
+        _lu_small_solve(cw, o, k, cp, po, cw, z)
+        for a in range(k):
+            b[off + cp[c0 + a]] = cw[z + a]
+        for a in range(r):
+            acc = 0.0
+            for i in range(k):
+                acc += cw[bo + a * k + i] * cw[z + i]
+            cw[t0 + cp[band + a]] += acc
+    if m > 0:
         _band_substitute(AB, ipiv, cw, blk * m, m, lp[LP_KL], lp[LP_KU], t0)
-    for j in range(nrhs):
-        off = (blk + j) * s
-        for i in range(m):
-            b[off + n + i] = cw[t0 + j * m + cp[sperm + i]]
+    for i in range(m):
+        b[off + n + i] = cw[t0 + cp[sperm + i]]
     for g in range(G):
         k, r, o, c0 = _group(cp, g)
         xo = o + blk * ws + k * k
         c0 += gcoord
         r0 = grows + cp[groff + g]
-        for j in range(nrhs):
-            off = (blk + j) * s
-            for a in range(k):
-                acc = b[off + cp[c0 + a]]
-                for c in range(r):
-                    acc -= cw[xo + a * r + c] * b[off + n + cp[r0 + c]]
-                b[off + cp[c0 + a]] = acc
+        for a in range(k):
+            acc = b[off + cp[c0 + a]]
+            for c in range(r):
+                acc -= cw[xo + a * r + c] * b[off + n + cp[r0 + c]]
+            b[off + cp[c0 + a]] = acc
+
+
+@_hot
+def _condensed_pair(lin, b):
+    """Both blocks' places of b = J_0^-1 of themselves (the shared
+    factorization, :func:`_shareable`): :func:`_condensed_block`'s
+    operations on each right-hand side in the same order, so the same
+    results to the bit, but interleaved, two independent sums in each inner
+    loop: the dot products of length 3 to 12 wait on their additions'
+    latency, and a second sum fills the wait (14.3 against 11.5 us on the
+    spatial chain of 10 links, where the pair went through the block
+    twice over)."""
+    cp, cw, AB, ipiv, lp = lin[LIN_CP], lin[LIN_CW], lin[LIN_AB], lin[LIN_IPIV], lin[LIN_LP]
+    n, m, G = cp[CP_N], cp[CP_M], cp[CP_GROUPS]
+    s = n + m
+    grows, groff, sperm, gcoord = cp[CP_GROWS], cp[CP_GROFF], cp[CP_SPERM], cp[CP_GCOORD]
+    gband = cp[CP_GBAND]
+    t0 = cp[CP_SCRATCH]                        # S's two right-hand sides, then y, in band order
+    t1 = t0 + m
+    z0 = t0 + 2 * m                            # a group's two z
+    z1 = z0 + (cw.shape[0] - z0) // 2          # (room for two: ``condensation``)
+    for i in range(m):
+        cw[t0 + cp[sperm + i]] = -b[n + i]
+        cw[t1 + cp[sperm + i]] = -b[s + n + i]
+    for g in range(G):
+        k, r, o, c0 = _group(cp, g)
+        po = cp[CP_PIVOTS] + c0
+        c0 += gcoord
+        bo = o + k * k + k * r
+        band = gband + cp[groff + g]
+        for a in range(k):
+            c = cp[c0 + a]
+            cw[z0 + a], cw[z1 + a] = b[c], b[s + c]
+        _lu_small_solve_pair(cw, o, k, cp, po, cw, z0, z1)
+        for a in range(k):
+            c = cp[c0 + a]
+            b[c], b[s + c] = cw[z0 + a], cw[z1 + a]
+        for a in range(r):
+            acc0, acc1 = 0.0, 0.0
+            for i in range(k):
+                f = cw[bo + a * k + i]
+                acc0 += f * cw[z0 + i]
+                acc1 += f * cw[z1 + i]
+            slot = cp[band + a]
+            cw[t0 + slot] += acc0
+            cw[t1 + slot] += acc1
+    if m > 0:
+        _band_substitute_pair(AB, ipiv, cw, 0, m, lp[LP_KL], lp[LP_KU], t0, t1)
+    for i in range(m):
+        slot = cp[sperm + i]
+        b[n + i], b[s + n + i] = cw[t0 + slot], cw[t1 + slot]
+    for g in range(G):
+        k, r, o, c0 = _group(cp, g)
+        xo = o + k * k
+        c0 += gcoord
+        r0 = grows + cp[groff + g]
+        for a in range(k):
+            c = cp[c0 + a]
+            acc0, acc1 = b[c], b[s + c]
+            for j in range(r):
+                f, row = cw[xo + a * r + j], n + cp[r0 + j]
+                acc0 -= f * b[row]
+                acc1 -= f * b[s + row]
+            b[c], b[s + c] = acc0, acc1
 
 
 @_hot
@@ -497,7 +584,7 @@ def _condensed_solve(lin, r, dw):
     sh = cp[CP_SHARE]
     if lp[LP_BLOCKS] == 2 and cw[sh] != 0.0:
         _shared_pair(cp, cw, b, sh)
-        _condensed_block(lin, b, _0, _YES)
+        _condensed_pair(lin, b)
         n = cp[CP_N]
         for j in range(n):
             b[s + j] /= cw[sh + 1]
@@ -508,7 +595,7 @@ def _condensed_solve(lin, r, dw):
             if blk == 1:                       # block 1's rows: r2 - L21 x1
                 for k in range(lp[LP_NC]):
                     b[s + Lr[k]] -= Lv[k] * b[Lc[k]]
-            _condensed_block(lin, b, blk, _NO)
+            _condensed_block(lin, b, blk)
     for j in range(size):
         dw[j] = b[cp[cmap + j]]
 
