@@ -74,6 +74,7 @@ MODEL_SCHEMA = (
     ("hcol", "i", 2), ("hv", "f", 9), ("hpar", "f", 3),                # spatial rotational springs
     ("kbody", "i", 2), ("kgeo", "f", 22),                              # spatial gaps: bodies, geometry
     ("frow", "i", 0),                                                  # spatial bodies' frame rows
+    ("vtn", "i", 2), ("vtc", "i", 16), ("vtw", "f", 16),               # spatial dot rows' terms
 )
 #: The fields no element family owns: the mass diagonal, the constant forces (gravity),
 #: the constraint rows' elements, the rigid bodies' mass diagonal, the columns of
@@ -106,7 +107,7 @@ _0, _YES, _NO = np.int64(0), np.bool_(True), np.bool_(False)
  DROW, DCOL1, DS1, DCOL2, DS2, DLEN, MRIG, BEAM, BCOL, BDAT, BDOF, GRAV, CEL, PEL, ECOL,
  ESHP, KGI, KCOL, KPAR, KIMP, SEL, FEL, DSP, XTRM, XTC, XROW, XOFF, FDV, TBL, TBD,
  ZCOL, SWP, VROW, VCOL, VW, VC, WCOL, WS, W0, WPAR, YCOL, YPAR, YFN, VFN,
- AROW, ACOL, AV, AFN, HCOL, HV, HPAR, KBODY, KGEO, FROW) = range(100)
+ AROW, ACOL, AV, AFN, HCOL, HV, HPAR, KBODY, KGEO, FROW, VTN, VTC, VTW) = range(103)
 if any(globals()[name.upper()] != k for k, (name, _, _) in enumerate(MODEL_SCHEMA)):
     raise ImportError("schema.py's field indices differ from MODEL_SCHEMA")   # pragma: no cover
 

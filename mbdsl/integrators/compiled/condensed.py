@@ -260,9 +260,11 @@ def _scatter_planned(cp, cw, R, C, V, p, s, Lr, Lc, Lv):
     if p != cp[CP_TRIPLETS]:
         return -1, False
     tr, tc, dest = cp[CP_TR], cp[CP_TC], cp[CP_DEST]
+    differ = 0                                 # without a branch a triplet: vectorized
     for t in range(p):
-        if R[t] != cp[tr + t] or C[t] != cp[tc + t]:
-            return -1, False
+        differ |= (R[t] ^ cp[tr + t]) | (C[t] ^ cp[tc + t])
+    if differ != 0:
+        return -1, False
     rmap, cmap, lplace = cp[CP_RMAP], cp[CP_CMAP], cp[CP_LPLACE]
     nc, placed = 0, True
     for t in range(p):

@@ -28,7 +28,13 @@ each slot (U's two, W's two; -1: none); VW (k, 16) each slot's weights
 f', f'' (-1: none; a constant driver's value is c). A slot's column of
 weight j and component c is VCOL + 3 j + c. Weights that are zero are
 structural zeros: no triplet is emitted for them, so that the pattern is
-fixed by the model.
+fixed by the model. The nonzero weights again as a list of terms, U's then
+W's, each in slot and weight order: VTN (k, 2) their counts, VTC (k, 16)
+each term's column (VCOL + 3 j), VTW (k, 16) its weight. The loops over the
+rows (U, W, the gradient) run over the terms: the same sums in the same
+order as over the slots and their weights, without the tests of empty
+slots and zero weights (Phi_q^T lambda took 3.7 instead of 2.4 us on the
+spatial chain of 10 links).
 """
 
 from __future__ import annotations
@@ -36,10 +42,11 @@ from __future__ import annotations
 import numpy as np
 
 from ..programs import _eval
-from ..schema import VC, VCOL, VFN, VROW, VW, _f, _i, _inline, _jit, _put, _put_phiq, _rows
+from ..schema import (VC, VCOL, VFN, VROW, VTC, VTN, VTW, VW, _f, _i, _inline, _jit, _put,
+                      _put_phiq, _rows)
 
 #: Its fields in ``schema.MODEL_SCHEMA`` (the first gives the instances).
-FIELDS = ("vrow", "vcol", "vw", "vc", "vfn")
+FIELDS = ("vrow", "vcol", "vw", "vc", "vfn", "vtn", "vtc", "vtw")
 #: Newton-matrix triplets per instance (a dot row) at most: Phi_q and (Phi_q v)_q
 #: three per term of U and W (eight each); its Hessian's, exactly, ``hess_triplets``.
 PHIQ_TRIPLETS, HESS_TRIPLETS, G_TRIPLETS = 48, 0, 48
@@ -154,7 +161,7 @@ def pack(items, tables) -> dict:
         """The term of a direction A s of a body's frame."""
         return (body, 0.0, axis, 1.0)
 
-    rows, cols, weights, consts, fns = [], [], [], [], []
+    rows, cols, weights, consts, fns, counts, tcols, tweights = [], [], [], [], [], [], [], []
     for row, e in items:
         f = getattr(e, "function", None)               # a driver's f(t)
         constant = f is not None and f.constant
@@ -166,10 +173,35 @@ def pack(items, tables) -> dict:
             weights.append(np.r_[wu, ww])
             consts.append(np.r_[u0, w0, c + (f.f(0.0) if constant else 0.0)])
             fns.append(tables.programs(f) if f is not None else (-1, -1, -1))
+            n_terms, tc, tw = _terms(cu + cw, np.r_[wu, ww])
+            counts.append(n_terms)
+            tcols.append(tc)
+            tweights.append(tw)
     return {"vrow": np.array(rows, np.int64), "vcol": np.array(cols, np.int64).reshape(-1, 4),
             "vw": np.array(weights, np.float64).reshape(-1, 16),
             "vc": np.array(consts, np.float64).reshape(-1, 7),
-            "vfn": np.array(fns, np.int64).reshape(-1, 3)}
+            "vfn": np.array(fns, np.int64).reshape(-1, 3),
+            "vtn": np.array(counts, np.int64).reshape(-1, 2),
+            "vtc": np.array(tcols, np.int64).reshape(-1, 16),
+            "vtw": np.array(tweights, np.float64).reshape(-1, 16)}
+
+
+def _terms(cols, weights):
+    """A dot row's nonzero weights as terms: ((U's count, W's count), each
+    term's column (16,), its weight (16,)), U's then W's, each in slot and
+    weight order (the order the loops over slots and weights take); from the
+    slots' first columns ``cols`` (4,) (-1: none) and their weights (16,)."""
+    counts, tc, tw = [0, 0], np.zeros(16, np.int64), np.zeros(16)
+    t = 0
+    for s in range(4):
+        if cols[s] < 0:
+            continue
+        for j in range(4):
+            if weights[4 * s + j] != 0.0:
+                tc[t], tw[t] = cols[s] + 3 * j, weights[4 * s + j]
+                counts[s // 2] += 1
+                t += 1
+    return counts, tc, tw
 
 
 def hess_triplets(I) -> int:
@@ -192,14 +224,12 @@ def _vector(I, Fl, qx, i, first, out):
     """U (first = 0) or W (first = 2) of dot row i at qx into out (3,)."""
     for c in range(3):
         out[c] = _f(I, Fl, VC, i, 3 * (first // 2) + c)
-    for s in range(first, first + 2):
-        base = _i(I, VCOL, i, s)
-        if base >= 0:
-            for j in range(4):
-                w = _f(I, Fl, VW, i, 4 * s + j)
-                if w != 0.0:
-                    for c in range(3):
-                        out[c] += w * qx[base + 3 * j + c]
+    nu = _i(I, VTN, i, 0)
+    t0, t1 = (0, nu) if first == 0 else (nu, nu + _i(I, VTN, i, 1))
+    for t in range(t0, t1):
+        w, col = _f(I, Fl, VTW, i, t), _i(I, VTC, i, t)
+        for c in range(3):
+            out[c] += w * qx[col + c]
 
 
 @_inline
@@ -233,18 +263,14 @@ def _gradient(I, Fl, qx, i, U, W, cols, vals):
     _vector(I, Fl, qx, i, 0, U)
     _vector(I, Fl, qx, i, 2, W)
     p = 0
-    for s in range(4):
-        base = _i(I, VCOL, i, s)
-        if base < 0:
-            continue
-        other = W if s < 2 else U
-        for j in range(4):
-            w = _f(I, Fl, VW, i, 4 * s + j)
-            if w != 0.0:
-                for c in range(3):
-                    cols[p] = base + 3 * j + c
-                    vals[p] = w * other[c]
-                    p += 1
+    nu = _i(I, VTN, i, 0)
+    for t in range(nu + _i(I, VTN, i, 1)):
+        w, col = _f(I, Fl, VTW, i, t), _i(I, VTC, i, t)
+        other = W if t < nu else U
+        for c in range(3):
+            cols[p] = col + c
+            vals[p] = w * other[c]
+            p += 1
     return p
 
 
@@ -356,28 +382,19 @@ def emit_G(I, Fl, n, qx, vx, R, C, V, p, r0, c0, coef):
         for c in range(3):
             U[c] = 0.0
             W[c] = 0.0
-        for s in range(4):
-            base = _i(I, VCOL, i, s)
-            if base < 0:
-                continue
-            for j in range(4):
-                w = _f(I, Fl, VW, i, 4 * s + j)
-                if w != 0.0:
-                    for c in range(3):
-                        if s < 2:
-                            U[c] += w * vx[base + 3 * j + c]
-                        else:
-                            W[c] += w * vx[base + 3 * j + c]
+        nu = _i(I, VTN, i, 0)
+        k = nu + _i(I, VTN, i, 1)
+        for t in range(k):
+            w, col = _f(I, Fl, VTW, i, t), _i(I, VTC, i, t)
+            for c in range(3):
+                if t < nu:
+                    U[c] += w * vx[col + c]
+                else:
+                    W[c] += w * vx[col + c]
         row = _i(I, VROW, i, 0)
-        for s in range(4):
-            base = _i(I, VCOL, i, s)
-            if base < 0:
-                continue
-            other = W if s < 2 else U
-            for j in range(4):
-                w = _f(I, Fl, VW, i, 4 * s + j)
-                if w != 0.0:
-                    for c in range(3):
-                        p = _put(R, C, V, p, r0 + row, c0 + base + 3 * j + c,
-                                 coef * w * other[c])
+        for t in range(k):
+            w, col = _f(I, Fl, VTW, i, t), _i(I, VTC, i, t)
+            other = W if t < nu else U
+            for c in range(3):
+                p = _put(R, C, V, p, r0 + row, c0 + col + c, coef * w * other[c])
     return p
