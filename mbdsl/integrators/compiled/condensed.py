@@ -70,7 +70,7 @@ from mbdsl.integrators.records import (CP_CMAP, CP_COMP, CP_DEST, CP_GBAND, CP_G
                                        LP_LDAB, LP_M, LP_N, LP_NC)
 
 from .band import _band_substitute, _band_substitute_pair, _fortran_call
-from ...kernels.schema import _hot, _inline
+from ...kernels.schema import _0, _hot, _inline
 
 #: A group's LU pivot below this fraction of its largest entry is singular
 #: (SparseLU's and the band solver's threshold).
@@ -554,7 +554,7 @@ def _condensed_pair(lin, b):
             cw[t0 + slot] += acc0
             cw[t1 + slot] += acc1
     if m > 0:
-        _band_substitute_pair(AB, ipiv, cw, 0, m, lp[LP_KL], lp[LP_KU], t0, t1)
+        _band_substitute_pair(AB, ipiv, cw, _0, m, lp[LP_KL], lp[LP_KU], t0, t1)
     for i in range(m):
         slot = cp[sperm + i]
         b[n + i], b[s + n + i] = cw[t0 + slot], cw[t1 + slot]
