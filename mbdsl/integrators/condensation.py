@@ -94,11 +94,8 @@ def _places(rb, cb, rl, cl, n, comp, pos, ks, rs, goff, wstride, pairs, tslot):
     coord = np.where(r_ < n, r_, c_)                  # the coordinate of the entry
     g = comp[coord]
     k, r, o = ks[g], rs[g], rb[t] * wstride + goff[g]
-    G = max(len(ks), 1)
-    keys = pairs[:, 0] * G + pairs[:, 1]              # sorted: rows, then groups
     row = np.where(r_ < n, c_ - n, r_ - n)            # the constraint row, where one is
-    found = np.searchsorted(keys, np.maximum(row, 0) * G + g)
-    slot = tslot[np.minimum(found, len(tslot) - 1)] if len(tslot) else np.zeros_like(g)
+    slot, _ = _slots(pairs, tslot, len(ks), row, g)
     in_a = (r_ < n) & (c_ < n)
     in_ct = (r_ < n) & (c_ >= n)
     dest[t] = np.where(in_a, o + pos[np.minimum(r_, n - 1)] * k + pos[np.minimum(c_, n - 1)],
@@ -107,7 +104,20 @@ def _places(rb, cb, rl, cl, n, comp, pos, ks, rs, goff, wstride, pairs, tslot):
     return dest
 
 
-def _lower_places(rb, cb, rl, cl, n, comp, pos, ks, rs, goff, pairs, tslot, lower):
+def _slots(pairs, tslot, groups, row, g):
+    """(slot, found): each constraint row's slot in group g (``tslot`` of the
+    sorted (row, group) ``pairs``), and whether the pair is there (slot 0
+    where not); a row below 0 is looked up as row 0."""
+    G = max(groups, 1)
+    keys = pairs[:, 0] * G + pairs[:, 1]              # sorted: rows, then groups
+    want = np.maximum(row, 0) * G + g
+    if len(keys) == 0:
+        return np.zeros_like(g), np.zeros(len(g), bool)
+    found = np.minimum(np.searchsorted(keys, want), len(keys) - 1)
+    return tslot[found], keys[found] == want
+
+
+def _lower_area_places(rb, cb, rl, cl, n, comp, pos, ks, rs, goff, pairs, tslot, lower):
     """Each lower-block triplet's place in the lower area of ``cw`` (``lplace``,
     in the order of ``dest``'s -2 - k): block 1's place of its entry, an A_g
     entry on a coordinate (abar) row, a B_g entry on a constraint row, where
@@ -121,22 +131,12 @@ def _lower_places(rb, cb, rl, cl, n, comp, pos, ks, rs, goff, pairs, tslot, lowe
     place = np.full(len(t), -1, np.int64)
     if n == 0 or len(t) == 0:
         return place
-    ok = c_ < n
     ci, ri = np.minimum(c_, n - 1), np.minimum(r_, n - 1)
     g = comp[ci]
     k, r, o = ks[g], rs[g], lower + goff[g]
-    in_a = ok & (r_ < n) & (comp[ri] == g)
-    G = max(len(ks), 1)
-    keys = pairs[:, 0] * G + pairs[:, 1]
-    want = np.maximum(r_ - n, 0) * G + g
-    found = np.minimum(np.searchsorted(keys, want), max(len(keys) - 1, 0))
-    in_b = ok & (r_ >= n)
-    if len(keys):
-        in_b &= keys[found] == want
-        slot = tslot[found]
-    else:
-        in_b[:] = False
-        slot = np.zeros_like(g)
+    slot, found = _slots(pairs, tslot, len(ks), r_ - n, g)
+    in_a = (c_ < n) & (r_ < n) & (comp[ri] == g)
+    in_b = (c_ < n) & (r_ >= n) & found
     place[in_a] = (o + pos[ri] * k + pos[ci])[in_a]
     place[in_b] = (o + k * k + k * r + slot * k + pos[ci])[in_b]
     return place
@@ -270,8 +270,8 @@ def condensed_plan(R, C, n, m, split=False):
     # (``lplace``); the shared factorization's record (5 floats);
     # scratch for up to two right-hand sides of S and of a group
     lower = blocks * wstride
-    arrays["lplace"] = _lower_places(rb, cb, rl, cl, n, comp, pos, ks, rs, goff, pairs, tslot,
-                                     lower)
+    arrays["lplace"] = _lower_area_places(rb, cb, rl, cl, n, comp, pos, ks, rs, goff, pairs,
+                                          tslot, lower)
     share = lower + (wstride if split else 0)
     scratch = share + SHARE_RECORD
     cp = _pack(dict(n=n, m=m, groups=len(groups), wstride=wstride, scratch=scratch,
