@@ -17,7 +17,7 @@ from .base import StepState
 from .common import EPS
 from .diagnosis import fail, fail_tolerance
 from . import loop as _loop      # its FLUSH_INTERVAL read at each call
-from .newton import FRAME_TOL, ROUNDOFF_ULPS
+from .newton import FRAME_HOLD, ROUNDOFF_ULPS
 from .outcomes import CONVERGED, EVENT, LAND, REJECTED, RUN, TOLERANCE
 from .records import (CNT_FACTORIZATIONS, CNT_ITERATIONS, CNT_JACOBIANS, CNT_RESIDUALS,
                       CNT_STALLED, INDEX1_LIMIT, CNT_STEPS, CTL_H_MAX, CTL_H_MIN, ST_AFTER_REJECTION, ST_CARRY,
@@ -293,7 +293,7 @@ class PythonStepper:
                 """Whether the iterate w holds the spatial bodies' frames."""
                 s = method.accept(w, ctx)
                 rows = system.layout.frame_rows
-                return bool(np.max(np.abs(system.Phi(s.q, s.t)[rows])) <= FRAME_TOL)
+                return bool(np.max(np.abs(system.Phi(s.q, s.t)[rows])) <= FRAME_HOLD)
         res = self.newton.solve(lambda w: method.residual(w, ctx),
                                 lambda w: method.jacobian(w, ctx), w0, self.kinds, scales,
                                 key=key, floor=method.roundoff_floor(system, step, ctx.last.q),

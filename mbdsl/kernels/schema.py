@@ -85,7 +85,8 @@ FIELDS = ("mass", "Q0", "row_element", "mrig", "zcol", "frow")
 MODEL_FIELDS = tuple(name for name, _, _ in MODEL_SCHEMA) + ("n_elements",)
 
 ROUNDOFF_BAND = 1e3        # as in newton.py
-FRAME_TOL = 1e-12          # as in newton.py
+FRAME_TOL = 1e-12          # as in newton.py (the bound; FRAME_HOLD, the read iterate's)
+FRAME_HOLD = 0.5e-12       # as in newton.py
 EPS = 2.220446049250313e-16
 
 

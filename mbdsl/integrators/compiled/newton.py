@@ -15,7 +15,7 @@ from mbdsl.integrators.records import (CNT_FACTORIZATIONS, CNT_ITERATIONS, CNT_J
 from .layout import ADDITIVE, FORM, HAS_Y, REG, SP, SV, _layout
 from .linalg import _factor, _solve
 from .recipes import _jacobian_triplets, _residual
-from ...kernels.schema import (EPS, FRAME_TOL, FROW, MASS, ROUNDOFF_BAND, ROW_ELEMENT, _hot, _i,
+from ...kernels.schema import (EPS, FRAME_HOLD, FROW, MASS, ROUNDOFF_BAND, ROW_ELEMENT, _hot, _i,
                                _rows)
 
 
@@ -127,14 +127,15 @@ def _constraint_rows(rec, n, m):
 @_hot
 def _frames_held(rec, I, r):
     """newton.py's test of the spatial bodies' frames at the iterate whose
-    residual is r: every frame row |a_k . a_l - delta_kl| within FRAME_TOL
-    (its row of r is Phi scaled by sP). True without spatial bodies, and in
-    the augmented formulation (its rows hold a regularized Phi)."""
+    residual is r: every frame row |a_k . a_l - delta_kl| within FRAME_HOLD
+    (its row of r is Phi scaled by sP), so that the update after it leaves
+    them within FRAME_TOL. True without spatial bodies, and in the augmented
+    formulation (its rows hold a regularized Phi)."""
     k = _rows(I, FROW)
     if k == 0 or rec[REG] != 0.0:
         return True
     l0, _, _ = _constraint_rows(rec, _rows(I, MASS), _rows(I, ROW_ELEMENT))
-    tol = abs(rec[SP]) * FRAME_TOL
+    tol = abs(rec[SP]) * FRAME_HOLD
     for i in range(k):
         if abs(r[l0 + _i(I, FROW, i, 0)]) > tol:
             return False
