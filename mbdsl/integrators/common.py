@@ -213,8 +213,9 @@ def bdf_coefficients(history, h: float):
     regrown step, the last step shortened to land on t_end). Otherwise
     BDF1 (c0 = 1/h, xi = x_n), the start-up step (also after an event,
     where the driver drops the history): its local error O(h^2) enters the
-    global error once, so the order stays 2, but the velocities of an
-    index-3 BDF1 step are only O(h) accurate, in that step's row.
+    global error once, so the order stays 2. NSTIFF takes that step's q by
+    the trapezoidal rule instead (``nstiff.py``): an index-3 step with q by
+    BDF1 leaves its velocities O(h) off the constraints' tangent.
 
     Returns
     -------
@@ -241,7 +242,7 @@ def bdf_error_coefficient(ctx) -> tuple[float, bool]:
     times h^2, with a_{n+1} - a_n standing for h times the third derivative
     of q (Hairer & Wanner II, sec. III.2); a BDF1 start-up step
     (``ctx.cache["bdf_order"]`` 1): h^2 / 2 times a_{n+1}, its own leading
-    term."""
+    term (NSTIFF's start-up too, whose own error is smaller: ``nstiff.py``)."""
     if ctx.cache["bdf_order"] == 1:
         return 0.5 * ctx.h ** 2, True
     return (2.0 / 9.0) * ctx.h ** 2, False

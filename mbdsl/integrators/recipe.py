@@ -135,8 +135,16 @@ def bdf_recipe(h: float, first: bool, index2: bool, c0: float | None = None,
     NSTIFF has x = D v, q = xi(q) + xi(v)/c0 + x/c0^2; NSTIFF-SI2 has x = D v,
     y = D q, q = xi(q) + y/c0, v = xi(v) + x/c0 (``nstiff.py``, ``nstiff_si2.py``).
     c0, w0, w1 given: xi(x) = w0 x_n + w1 x_{n-1} with that c0 (the
-    variable-step coefficients). Error estimate: 2/9 h^2 (x - x_n); BDF1
-    h^2 / 2 x (``common.bdf_error_coefficient``).
+    variable-step coefficients). Error estimate: 2/9 h^2 (x - x_n); a
+    start-up step h^2 / 2 x (``common.bdf_error_coefficient``).
+
+    NSTIFF's start-up step is BDF1 in v and the trapezoidal rule in q,
+    q = q_n + h (v_n + v_{n+1}) / 2 = q_n + h v_n + x / (2 c0^2), its
+    constraint rows scaled by 2 c0^2. BDF1 in both (x / c0^2) would put half
+    of the normal acceleration on a curved constraint into Phi(q) = 0 and
+    leave v off its tangent by O(h), an offset the index-3 BDF2 steps after
+    it keep (``nstiff.py``). NSTIFF-SI2's start-up is BDF1 in both (its v
+    obeys the velocity constraints).
     """
     if c0 is None:
         c0, w0, w1 = (1.0 / h, 1.0, 0.0) if first else (1.5 / h, 4.0 / 3.0, -1.0 / 3.0)
@@ -144,7 +152,9 @@ def bdf_recipe(h: float, first: bool, index2: bool, c0: float | None = None,
                   pq0=w0, pq1=w1, vv0=w0, vv1=w1,
                   err=(0.5 if first else 2.0 / 9.0) * h * h, eabs=1.0 if first else 0.0)
     if not index2:
-        return make_recipe(cqx=1.0 / c0 ** 2, sP=c0 * c0, pv0=w0 / c0, pv1=w1 / c0, **common)
+        k = 0.5 if first else 1.0         # dq/dx = k / c0^2; the rows scaled by its inverse
+        return make_recipe(cqx=k / c0 ** 2, sP=c0 * c0 / k, pv0=w0 / c0, pv1=w1 / c0,
+                           **common)
     return make_recipe(has_y=1.0, cqy=1.0 / c0, dI=1.0, dV=-1.0, sP=c0, sV=c0, sy=1.0,
                        y0v=1.0, **common)
 

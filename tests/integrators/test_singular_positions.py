@@ -312,7 +312,7 @@ def test_a_newton_matrix_per_step_keeps_the_steps_past_a_singular_position():
 
 
 def _bdf2_index3_rod(h, T, g=9.81):
-    """Index-3 BDF2 (its first step BDF1) for a uniform rod (1 kg, 1 m)
+    """Index-3 BDF2 (its first step BDF1 in v, trapezoidal in q) for a uniform rod (1 kg, 1 m)
     pinned at one end to the ground, in the absolute coordinates q = (x, y,
     phi) of its centre, written here apart from mbdsl: the formulas of
     NSTIFF (docs/methods.md) with an exact Newton iteration. The rod starts
@@ -333,27 +333,28 @@ def _bdf2_index3_rod(h, T, g=9.81):
     w = np.linalg.solve(kkt, np.r_[Q, -0.5 * c * v[2] ** 2, -0.5 * s * v[2] ** 2])
     past, out = [(q, v)], [q]
     for n in range(int(round(T / h))):
-        if n == 0:
-            c0, xq, xv = 1.0 / h, q, v
-        else:
-            c0 = 1.5 / h
+        if n == 0:          # v_1 = v_0 + h a_1, q_1 = q_0 + h (v_0 + v_1) / 2
+            c0, xv, k = 1.0 / h, v, 0.5 * h
+            xq = q + k * v
+        else:               # v = xi(v) + a / c0, q = xi(q) + v / c0
+            c0, k = 1.5 / h, 1.0 / (1.5 / h)
             xq = 4 / 3 * past[-1][0] - 1 / 3 * past[-2][0]
             xv = 4 / 3 * past[-1][1] - 1 / 3 * past[-2][1]
         for _ in range(20):
             v = xv + w[:3] / c0
-            q = xq + v / c0
+            q = xq + k * v
             Phi, Phi_q, c, s = parts(q)
-            r = np.r_[M @ w[:3] + Phi_q.T @ w[3:] - Q, c0 * c0 * Phi]
+            r = np.r_[M @ w[:3] + Phi_q.T @ w[3:] - Q, c0 / k * Phi]
             if np.max(np.abs(r)) < 1e-12:
                 break
             J = np.zeros((5, 5))
             J[:3, :3] = M
-            J[2, 2] += 0.5 * (c * w[3] + s * w[4]) / c0 ** 2
+            J[2, 2] += 0.5 * (c * w[3] + s * w[4]) * k / c0
             J[:3, 3:] = Phi_q.T
             J[3:, :3] = Phi_q
             w = w - np.linalg.solve(J, r)
         v = xv + w[:3] / c0
-        q = xq + v / c0
+        q = xq + k * v
         past = [past[-1], (q, v)]
         out.append(q)
     return np.array(out)

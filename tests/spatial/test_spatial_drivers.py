@@ -88,8 +88,9 @@ def test_the_energy_balance_holds_with_the_drivers_work(driven):
     method, sol = driven
     work = np.max(np.abs(sol.column("energy.work")))
     assert work > 1.0
-    # NEWMARK's damping; the NSTIFF methods' BDF1 first step (2e-4 J at step 1)
-    tol = {"newmark": 5e-3, "nstiff": 3e-4, "nstiff-si2": 3e-4}.get(method, 1e-4)
+    # NEWMARK's damping; NSTIFF-SI2's BDF1 first step (2e-4 J at step 1). Measured:
+    # nstiff 5.8e-5, nstiff-si2 1.3e-4, hht-i3 2.2e-5
+    tol = {"newmark": 5e-3, "nstiff-si2": 3e-4}.get(method, 1e-4)
     assert np.max(np.abs(sol.column("energy.balance"))) < tol * work
 
 
