@@ -183,3 +183,17 @@ def test_a_stall_at_the_constraints_round_off_is_converged():
     # the constraint met to its round-off (x within delta / c), lambda to what that leaves
     assert abs(1e-4 * res.w[0] - 2e-4) <= 2e-13
     assert res.w[1] == pytest.approx(exact[1], rel=1e-4)
+
+
+def test_the_kernels_copies_of_newtons_constants_are_newtons():
+    """newton.py's constants are written again in ``kernels.schema`` and
+    ``integrators.compiled.newton`` (importing the kernels' modules from
+    newton.py would load numba with ``import mbdsl``); the copies must agree,
+    the frame test's hold below the bound it protects."""
+    from mbdsl.integrators import newton
+    from mbdsl.integrators.compiled import newton as compiled_newton
+    from mbdsl.kernels import schema
+    assert schema.ROUNDOFF_BAND == newton.ROUNDOFF_BAND
+    assert schema.FRAME_TOL == newton.FRAME_TOL
+    assert schema.FRAME_HOLD == newton.FRAME_HOLD < newton.FRAME_TOL
+    assert compiled_newton.ROUNDOFF_ULPS == newton.ROUNDOFF_ULPS
