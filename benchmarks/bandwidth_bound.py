@@ -25,10 +25,22 @@ unknowns, band storage (2 kl + ku + 1) x size, triplet bound P):
   the multipliers' mobility, model data + 2 vectors), the output row:
   10 vectors of size.
 
+Where "auto" takes the condensed solver (the planar chains: each
+coordinate eliminated on its own, the constraint rows' Schur complement S
+factored by Cholesky, ``integrators.compiled.condensed``), the solve's
+bytes are its plan's integer arrays that a solve reads (each group's
+offsets and rows, each row's entries of B, the orderings), the groups'
+workspace (A_g, X_g, B_g) and S's factor, and 6 vectors of size; a
+factorization's, the triplets written, read back and checked against the
+plan's (24 + 24 + 16 bytes each) with their places (8), the workspace and
+S's band zeroed, filled and factored (3 passes over each). ``--solver
+banded`` counts and measures the band LU of the whole matrix instead.
+
 The count leaves out the arithmetic, the band LU's per-column library
 calls and every cache miss beyond one pass: it is a lower bound.
 
 Run:  python benchmarks/bandwidth_bound.py [--sizes 1000,10000] [--method hht-i3]
+      [--solver auto|banded|condensed]
 Not part of CI; docs/performance.md keeps the latest figures.
 """
 
@@ -60,22 +72,44 @@ def copy_rate(nbytes: int, repeat: int = 5) -> float:
     return 16 * n * reps / best
 
 
+def band_bytes(size: int, ldab: int, bound: int) -> tuple[int, int, int]:
+    """(bytes a solve reads, bytes a factorization moves, the band's bytes) of
+    the band LU of the whole Newton matrix, by the count of the module notes."""
+    band = ldab * size * 8
+    return band + 4 * size + 6 * size * 8, 2 * 24 * bound + 8 * bound + 3 * band, band
+
+
+def condensed_bytes(plan, size: int, bound: int) -> tuple[int, int, int]:
+    """(bytes a solve reads, bytes a factorization moves, workspace bytes) of
+    the condensed solver's plan, by the count of the module notes."""
+    from mbdsl.integrators.records import CP_BRPTR, CP_GROFF, CP_GROUPS, CP_M, CP_WSTRIDE
+    c = plan.condensed
+    cp, f = c.cp, 8
+    G, m, ws = int(cp[CP_GROUPS]), int(cp[CP_M]), int(cp[CP_WSTRIDE])
+    rows = int(cp[cp[CP_GROFF] + G])                   # the groups' slotted rows
+    entries = int(cp[cp[CP_BRPTR] + m]) if c.unit else rows
+    ints = f * (3 * G + 1 + rows + m + 1 + 2 * entries + m + 2 * size)
+    band = c.blocks * m * (2 * c.kl + c.ku + 1) * f
+    work = c.blocks * ws * f
+    solve = ints + work + band + 6 * size * f
+    factor = (24 + 24 + 16 + 8) * bound + 3 * work + 3 * band
+    return solve, factor, work + band + ints
+
+
 def step_bytes(n: int, m: int, ldab: int, model_bytes: int, bound: int,
                iterations: float, factorizations: float) -> tuple[float, float]:
     """(bytes moved per step, working-set bytes) by the count of the module
-    notes."""
+    notes, with the band LU of the whole Newton matrix."""
     size, f = n + m, 8
-    band = ldab * size * f
+    solve, factorization, band = band_bytes(size, ldab, bound)
     residual = model_bytes + 10 * size * f
-    solve = band + 4 * size + 6 * size * f
     iteration = residual + solve + 5 * size * f
-    factorization = 2 * 24 * bound + 8 * bound + 3 * band
     step = model_bytes + 12 * size * f
     working = band + 32 * bound + model_bytes + 20 * size * f
     return iterations * iteration + factorizations * factorization + step, working
 
 
-def measure(N: int, method: str, steps: int, repeat: int) -> dict:
+def measure(N: int, method: str, steps: int, repeat: int, solver: str = "auto") -> dict:
     """One chain: its step measured, and the bound."""
     import mbdsl
     from mbdsl.assembly.packing import PackedModel
@@ -85,25 +119,33 @@ def measure(N: int, method: str, steps: int, repeat: int) -> dict:
     system = mbdsl.assemble(mbdsl.load(MODEL, overrides={"N": N}))
     init = mbdsl.consistent_initial_state(system)
     meth = make_method(method)
+    opts = NewtonOptions(linear_solver=solver)
     h = 1e-3
-    integrate(system, meth, 2 * h, h, initial=init, engine="compiled")      # kernels loaded
+    integrate(system, meth, 2 * h, h, initial=init, engine="compiled", newton=opts)  # loaded
     walls, sol = [], None
     for _ in range(repeat):
         t = time.perf_counter()
-        sol = integrate(system, meth, steps * h, h, initial=init, engine="compiled")
+        sol = integrate(system, meth, steps * h, h, initial=init, engine="compiled", newton=opts)
         walls.append(time.perf_counter() - t)
     tot = sol.stats_total
-    plan = engine.linear_solver_plan(system, meth, NewtonOptions(), init.q)
-    if plan.kind != "banded":
-        raise SystemExit(f"N = {N}: the {plan.kind} solver, not a band: no bound counted")
+    plan = engine.linear_solver_plan(system, meth, opts, init.q)
+    if plan.kind not in ("banded", "condensed"):
+        raise SystemExit(f"N = {N}: the {plan.kind} solver: no bound counted")
     cm = PackedModel(system, cache.element_kernels(uncompiled=True))
     ldab = 2 * plan.kl + plan.ku + 1
+    its, lus = tot.iterations / tot.steps, tot.factorizations / tot.steps
     moved, working = step_bytes(system.n, system.m, ldab, cm.ints.nbytes + cm.floats.nbytes,
-                                cm.bound, tot.iterations / tot.steps,
-                                tot.factorizations / tot.steps)
+                                cm.bound, its, lus)
+    if plan.kind == "condensed":                 # its solve and factorization for the band's
+        size = system.n + system.m
+        band_solve, band_factor, band = band_bytes(size, ldab, cm.bound)
+        solve, factor, work = condensed_bytes(plan, size, cm.bound)
+        moved += its * (solve - band_solve) + lus * (factor - band_factor)
+        working += work - band
     rate = copy_rate(int(working))
     step = statistics.median(walls) / tot.steps
-    return {"N": N, "size": system.n + system.m, "kl": plan.kl, "ku": plan.ku,
+    return {"N": N, "size": system.n + system.m, "solver": plan.kind, "kl": plan.kl,
+            "ku": plan.ku,
             "iterations": tot.iterations / tot.steps,
             "factorizations": tot.factorizations / tot.steps,
             "MB/step": moved / 1e6, "working MB": working / 1e6, "GB/s": rate / 1e9,
@@ -117,12 +159,13 @@ def main(argv=None) -> int:
     p.add_argument("--method", default="hht-i3")
     p.add_argument("--steps", type=int, default=100)
     p.add_argument("--repeat", type=int, default=3)
+    p.add_argument("--solver", default="auto", choices=("auto", "banded", "condensed"))
     args = p.parse_args(argv)
-    cols = ("N", "size", "kl", "ku", "iterations", "factorizations", "MB/step", "working MB",
+    cols = ("N", "size", "solver", "kl", "ku", "iterations", "factorizations", "MB/step", "working MB",
             "GB/s", "bound ms", "ms/step", "ratio")
     print(" ".join(f"{c:>14}" for c in cols))
     for N in (int(x) for x in args.sizes.split(",")):
-        r = measure(N, args.method, args.steps, args.repeat)
+        r = measure(N, args.method, args.steps, args.repeat, args.solver)
         print(" ".join(f"{r[c]:>14.3g}" if isinstance(r[c], float) else f"{r[c]:>14}"
                        for c in cols))
         sys.stdout.flush()

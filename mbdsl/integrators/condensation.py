@@ -48,12 +48,17 @@ class CondensedPlan:
     factor_flops, solve_flops : int
         A factorization's and a solve's floating-point operations, counted
         as :func:`band_flops` counts the band LU's.
+    unit : bool
+        Every group is one coordinate (the coordinate block is diagonal):
+        the kernels take their one-coordinate loops (``compiled.condensed``).
     """
 
-    def __init__(self, cp, wsize, kl, ku, m, blocks, groups, factor_flops, solve_flops):
+    def __init__(self, cp, wsize, kl, ku, m, blocks, groups, factor_flops, solve_flops,
+                 unit=False):
         self.cp, self.wsize, self.kl, self.ku, self.m = cp, int(wsize), int(kl), int(ku), int(m)
         self.blocks, self.groups = int(blocks), groups
         self.factor_flops, self.solve_flops = int(factor_flops), int(solve_flops)
+        self.unit = bool(unit)
 
 
 def band_flops(size, kl, ku, blocks):
@@ -195,6 +200,22 @@ def _schur_band(rows_of, m):
             int(np.max(sperm[sj] - sperm[si], initial=0)))
 
 
+def _unit_rows(ks, rs, goff, gcoord, grows, m, unit):
+    """The plan's arrays ``brptr``, ``brsrc`` and ``brcoord`` (``records.CONDENSED_FIELDS``):
+    each constraint row's entries of B, the place of each in a block of the
+    workspace (group g's B_g after its 1 x 1 A_g and its r_g entries of X_g)
+    and its coordinate, sorted by row; where a group has more than one
+    coordinate (``unit`` False) the offsets are zero and the entries none."""
+    if not unit:
+        return {"brptr": np.zeros(m + 1, np.int64), "brsrc": np.zeros(0, np.int64),
+                "brcoord": np.zeros(0, np.int64)}
+    g = np.repeat(np.arange(len(ks)), rs)
+    slot = np.arange(len(g)) - np.repeat(np.cumsum(rs) - rs, rs)
+    order = np.argsort(grows, kind="stable")
+    return {"brptr": np.concatenate([[0], np.cumsum(np.bincount(grows, minlength=m))]),
+            "brsrc": (goff[g] + 1 + rs[g] + slot)[order], "brcoord": gcoord[g][order]}
+
+
 def _pack(header, arrays):
     """The plan's int64 array: the header's values and the arrays' offsets
     in ``CONDENSED_FIELDS``' order, then the arrays."""
@@ -274,12 +295,14 @@ def condensed_plan(R, C, n, m, split=False):
                                           tslot, lower)
     share = lower + (wstride if split else 0)
     scratch = share + SHARE_RECORD
+    unit = bool(len(groups)) and int(ks.max()) == 1
+    arrays.update(_unit_rows(ks, rs, goff, arrays["gcoord"], grows, m, unit))
     cp = _pack(dict(n=n, m=m, groups=len(groups), wstride=wstride, scratch=scratch,
-                    triplets=len(R), lower=lower, share=share), arrays)
+                    triplets=len(R), lower=lower, share=share, unit=int(unit)), arrays)
     wsize = scratch + 2 * (m + max(ks.max(initial=0), rs.max(initial=0), 1))
     kk, rr = ks.astype(float), rs.astype(float)
     per_factor = np.sum(2 / 3 * kk ** 3 + 2 * kk ** 2 * rr + 2 * rr * rr * kk)
     per_solve = np.sum(4 * kk * kk + 4 * kk * rr)
     sf, ss = band_flops(m, kl, ku, 1)
     return CondensedPlan(cp, wsize, kl, ku, m, blocks, groups, blocks * (per_factor + sf),
-                         blocks * (per_solve + ss))
+                         blocks * (per_solve + ss), unit)

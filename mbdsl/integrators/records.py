@@ -84,15 +84,19 @@ LIN_FIELDS = ("J", "Jinv", "AB", "ipiv", "rperm", "cperm", "lp", "addr", "b", "L
 #: block's area (``lower``: L21 in block 1's places, one block's floats where there are
 #: two blocks) and of the shared factorization's record (``share``: whether block 1 is
 #: solved with block 0's factors, and the scalars cA, cC, cB, cL of ``condensed``); each
-#: lower-block triplet's place in the lower area (``lplace``, -1: none).
+#: lower-block triplet's place in the lower area (``lplace``, -1: none); whether every
+#: group is one coordinate (``unit``: a diagonal coordinate block), and then each
+#: constraint row's entries of B (``brptr``, m + 1 offsets into ``brsrc``, each entry's
+#: place in a block of ``cw``, and ``brcoord``, its coordinate), which the solve reads
+#: row by row (``compiled.condensed._unit_block``).
 CONDENSED_FIELDS = ("n", "m", "groups", "wstride", "rmap", "cmap", "comp", "pos", "tstart",
                     "tg", "tslot", "gkoff", "gcoord", "groff", "grows", "goff", "sperm",
                     "pivots", "scratch", "triplets", "tr", "tc", "dest", "gband", "lower",
-                    "share", "lplace")
+                    "share", "lplace", "unit", "brptr", "brsrc", "brcoord")
 (CP_N, CP_M, CP_GROUPS, CP_WSTRIDE, CP_RMAP, CP_CMAP, CP_COMP, CP_POS, CP_TSTART, CP_TG,
  CP_TSLOT, CP_GKOFF, CP_GCOORD, CP_GROFF, CP_GROWS, CP_GOFF, CP_SPERM, CP_PIVOTS,
  CP_SCRATCH, CP_TRIPLETS, CP_TR, CP_TC, CP_DEST, CP_GBAND, CP_LOWER, CP_SHARE,
- CP_LPLACE) = range(27)
+ CP_LPLACE, CP_UNIT, CP_BRPTR, CP_BRSRC, CP_BRCOORD) = range(31)
 
 #: LAPACK's integer arguments (int32, ``lin[LIN_LP]``), passed by reference as one-entry
 #: slices: dgbtrf's M and N, KL, KU, LDAB, INFO; then the blocks of the matrix (1, or 2

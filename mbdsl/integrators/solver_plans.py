@@ -323,8 +323,8 @@ def linear_solver_plan(system, method, options, q, cm=None, split_si2=True) -> L
     else:
         plan, cost = LinearSolverPlan("sparse", f"SuperLU (reordered bandwidth kl = {kl}, "
                                       f"ku = {ku})"), None
-    if condensed is not None and (cost is None or condensed_cost(condensed) <= CONDENSED_GAIN
-                                  * cost):
+    gain = UNIT_GAIN if condensed is not None and condensed.condensed.unit else CONDENSED_GAIN
+    if condensed is not None and (cost is None or condensed_cost(condensed) <= gain * cost):
         return condensed
     return plan
 
@@ -335,8 +335,15 @@ def linear_solver_plan(system, method, options, q, cm=None, split_si2=True) -> L
 #: its plan. Measured (``benchmarks/speed.py``, h = 1e-3 s): the spatial chains at
 #: 0.20 of the band's flops take 0.6 to 0.7 of its time per step; the planar
 #: N-four-bar at 0.31 the same time (hht-i3 28.9 against 27.7 us, hht-si2 44.8 and
-#: 44.8), so it keeps the band LU, as do the planar chains (0.57).
+#: 44.8), so it keeps the band LU (but see UNIT_GAIN).
 CONDENSED_GAIN = 0.25
+#: The same where every group is one coordinate (``CondensedPlan.unit``: a diagonal
+#: coordinate block, as on the planar chains), whose kernels skip the small LU's loops,
+#: read B row by row and factor a symmetric positive definite S by Cholesky
+#: (``compiled.condensed._unit_groups``, ``_unit_block``).
+#: Measured on the 1 000-link chain (hht-i3), at 0.57 of the band's flops: a
+#: factorization in 0.45 of the band LU's time and a solve in 0.9 of its time.
+UNIT_GAIN = 0.6
 #: The dense inverse's flops (LAPACK's getrf and getri, then a product the compiler
 #: vectorises) against the band and condensed loops' in the same time. Measured on
 #: the spatial slider-crank (hht-i3, 71 unknowns): the dense inverse's 776 000

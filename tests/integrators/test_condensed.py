@@ -13,9 +13,10 @@ from mbdsl.integrators import NewtonOptions, integrate, make_method
 from mbdsl.integrators import compiled as K
 from mbdsl.integrators.adaptive import StepControl
 from mbdsl.integrators.compiled.condensed import SHARE_TOL
-from mbdsl.integrators.condensation import block_codes, condensed_plan
-from mbdsl.integrators.records import (CP_CMAP, CP_LOWER, CP_RMAP, CP_SHARE, LIN_CP,
-                                       LIN_CW)
+from mbdsl.integrators.condensation import band_flops, block_codes, condensed_plan
+from mbdsl.integrators.solver_plans import CONDENSED_GAIN, UNIT_GAIN, condensed_cost
+from mbdsl.integrators.records import (CP_BRCOORD, CP_BRPTR, CP_BRSRC, CP_CMAP, CP_LOWER,
+                                       CP_RMAP, CP_SHARE, CP_UNIT, LIN_CP, LIN_CW, LIN_IPIV)
 from mbdsl.integrators.engine import (CompiledModel, condensed_solver_plan, linear_solver_plan,
                                       newton_pattern, newton_size)
 
@@ -264,19 +265,33 @@ def test_the_groups_of_a_spatial_chain():
 def test_auto_takes_the_condensed_solver_where_it_costs_a_quarter():
     # the spatial chain's band (29 each way) costs five times the condensed flops;
     # the planar chain's band (4 each way) about twice, the N-four-bar's three
-    # times: they keep the band LU, and small models the dense inverse (the
-    # spatial slider-crank's split HHT-SI2 matrix its two blocks' inverses)
+    # times, but their coordinate blocks are diagonal: one-coordinate groups, whose
+    # loops take the condensed solver at 0.6 of the band's flops (``UNIT_GAIN``);
+    # small models keep the dense inverse (the spatial slider-crank's split HHT-SI2
+    # matrix its two blocks' inverses)
     system, init = _system(MODELS / "spatial_chain.mbd", N=10)
     for name in ("hht-i3", "hht-si2", "genalpha"):
         plan = linear_solver_plan(system, make_method(name), NewtonOptions(), init.q)
         assert plan.kind == "condensed" and plan.blocks == (2 if name == "hht-si2" else 1)
-    for path, overrides, kinds in [(MODELS / "pendulum_chain.mbd", {"N": 60}, ("banded", "banded")),
-                                   (MODELS / "n_fourbar.mbd", {}, ("dense", "banded")),
+        assert not plan.condensed.unit
+    for path, overrides, kinds in [(MODELS / "pendulum_chain.mbd", {"N": 60},
+                                    ("condensed", "condensed")),
+                                   (MODELS / "n_fourbar.mbd", {}, ("condensed", "condensed")),
                                    (MODELS / "spatial_slider_crank.mbd", {}, ("dense", "dense"))]:
         system, init = _system(path, **overrides)
         for name, kind in zip(("hht-i3", "hht-si2"), kinds):
-            assert linear_solver_plan(system, make_method(name), NewtonOptions(),
-                                      init.q).kind == kind, (path.name, name)
+            plan = linear_solver_plan(system, make_method(name), NewtonOptions(), init.q)
+            assert plan.kind == kind, (path.name, name)
+            assert kind != "condensed" or plan.condensed.unit
+    # without the one-coordinate loops' gain the planar chain keeps its band LU: the
+    # rule, not the flops, made the choice
+    system, init = _system(MODELS / "pendulum_chain.mbd", N=60)
+    plan = linear_solver_plan(system, make_method("hht-i3"), NewtonOptions(), init.q)
+    flops = condensed_cost(plan)
+    band = linear_solver_plan(system, make_method("hht-i3"),
+                              NewtonOptions(linear_solver="banded"), init.q)
+    cost = sum(f * w for f, w in zip(band_flops(5 * 60, band.kl, band.ku, 1), (1, 6)))
+    assert CONDENSED_GAIN * cost < flops <= UNIT_GAIN * cost
 
 
 @pytest.mark.parametrize("method", ["hht-i3", "hht-si2", "genalpha", "nstiff"])
@@ -332,3 +347,101 @@ def test_condensed_runs_with_contacts_limits_springs_and_loads_of_the_state(path
     assert a.status == b.status == "completed" and a.linear_solver == "condensed"
     assert len(a.t) == len(b.t) and np.abs(a.t - b.t).max() < 1e-7
     assert np.abs(a.q - b.q).max() < 1e-6
+
+
+def _plan_array(cp, field, length):
+    return cp[cp[field]:cp[field] + length]
+
+
+def test_a_diagonal_coordinate_block_is_planned_as_one_coordinate_groups():
+    # the planar chain's coordinate block is diagonal (the mass, and each revolute
+    # joint's Hessian on its body's angle alone): every group is one coordinate, and
+    # the plan lists each constraint row's entries of B with their places in the
+    # workspace, which after the scatter hold the Newton matrix's B (rows n + i,
+    # coordinate columns): every entry of B once, and nothing else
+    system, init = _system(MODELS / "pendulum_chain.mbd", N=7)
+    n, m = system.n, system.m
+    plan, R, C, V, p, J = _newton_matrix(system, make_method("hht-i3"), init,
+                                         np.random.default_rng(13))
+    c = plan.condensed
+    assert c.unit and all(len(g) == 1 for g in c.groups) and len(c.groups) == n
+    lin = plan.workspace(J.shape[0], len(R))
+    assert K._factor(K.CONDENSED, lin, R, C, V, p) == K.CONVERGED
+    cp, cw = lin[LIN_CP], lin[LIN_CW]
+    assert cp[CP_UNIT] == 1
+    ptr = _plan_array(cp, CP_BRPTR, m + 1)
+    src = _plan_array(cp, CP_BRSRC, ptr[-1])
+    coord = _plan_array(cp, CP_BRCOORD, ptr[-1])
+    B = np.zeros((m, n))
+    for i in range(m):
+        for k in range(ptr[i], ptr[i + 1]):
+            B[i, coord[k]] += cw[src[k]]
+    Bj = J[n:, :n]
+    assert np.count_nonzero(Bj) == ptr[-1]
+    assert np.array_equal(B, Bj)
+    # a spatial body's groups are not one coordinate: the k x k code, no rows listed
+    system, init = _system(MODELS / "spatial_chain.mbd", N=3)
+    R, C = newton_pattern(system, make_method("hht-i3"), init.q)
+    c = condensed_plan(R, C, system.n, system.m)
+    assert not c.unit and c.cp[CP_UNIT] == 0
+    assert _plan_array(c.cp, CP_BRPTR, system.m + 1).max() == 0
+
+
+@pytest.mark.parametrize("method", ["hht-i3", "genalpha", "nstiff", "hht-si2", "newmark"])
+def test_the_one_coordinate_loops_are_the_k_by_k_code(method):
+    # the one-coordinate loops (``_unit_groups``, ``_unit_block``) against the k x k
+    # code on the same plan, switched to it by the plan's flag, and both against
+    # numpy's dense solve. Where the coordinate block is positive and the constraint
+    # columns are the constraint rows' transpose (derived here from the dense
+    # matrix), S = B A^-1 B^T is factored by Cholesky (a zero first pivot marks it),
+    # else by the band LU; HHT-SI2's blocks, shared or not
+    system, init = _system(MODELS / "pendulum_chain.mbd", N=40)
+    n, m = system.n, system.m
+    rng = np.random.default_rng(17)
+    plan, R, C, V, p, J = _newton_matrix(system, make_method(method), init, rng)
+    split = method == "hht-si2"
+    Jd = _shared_matrix(J, plan, n, m)[0] if split else J
+    s = n + m
+    A, Ct, B = J[:n, :n], J[:n, n:s], J[n:s, :n]
+    spd = bool(np.all(np.diag(A) > 0) and np.array_equal(B, Ct.T))
+    r = rng.standard_normal(J.shape[0])
+    x = np.linalg.solve(Jd, r)
+    out = {}
+    for unit in (1, 0):
+        lin = plan.workspace(J.shape[0], len(R))
+        lin[LIN_CP][CP_UNIT] = unit
+        assert K._factor(K.CONDENSED, lin, R, C, V, p) == K.CONVERGED
+        assert (lin[LIN_IPIV][0] == 0) == (unit == 1 and spd)
+        dw = np.empty_like(r)
+        K._solve(K.CONDENSED, lin, r, dw)
+        assert np.abs(dw - x).max() <= 1e-9 * np.abs(x).max()
+        out[unit] = dw
+    assert np.abs(out[1] - out[0]).max() <= 1e-12 * np.abs(out[0]).max()
+    if method in ("hht-i3", "genalpha"):        # the chain's own case: Cholesky taken
+        assert spd
+
+
+def test_an_indefinite_schur_complement_takes_the_band_lu():
+    # the coordinate block made negative (a_g < 0: S negative definite) or one
+    # constraint row's column scaled (B != C^T: S not symmetric): the one-coordinate
+    # loops keep the band LU, and the solve is numpy's
+    system, init = _system(MODELS / "pendulum_chain.mbd", N=12)
+    n = system.n
+    rng = np.random.default_rng(19)
+    plan, R, C, V, p, J = _newton_matrix(system, make_method("hht-i3"), init, rng)
+    for change in ("negative", "unsymmetric"):
+        V2 = V.copy()
+        if change == "negative":
+            V2[:p][(R[:p] < n) & (C[:p] < n)] *= -1.0
+        else:
+            V2[:p][(R[:p] < n) & (C[:p] == n + 3)] *= 1.5
+        J2 = np.zeros_like(J)
+        np.add.at(J2, (R[:p], C[:p]), V2[:p])
+        lin = plan.workspace(J.shape[0], len(R))
+        assert K._factor(K.CONDENSED, lin, R, C, V2, p) == K.CONVERGED
+        assert lin[LIN_IPIV][0] != 0, change
+        r = rng.standard_normal(J.shape[0])
+        dw = np.empty_like(r)
+        K._solve(K.CONDENSED, lin, r, dw)
+        x = np.linalg.solve(J2, r)
+        assert np.abs(dw - x).max() <= 1e-9 * np.abs(x).max(), change

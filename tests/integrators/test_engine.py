@@ -277,7 +277,8 @@ def test_band_cholesky_against_lapack_and_the_dense_solve(size, kd):
     LAPACK's dpbtrf factor and dpbtrs solution to round-off on random SPD
     band matrices, solves the matrix, and refuses an indefinite one."""
     from scipy.linalg import lapack
-    from mbdsl.integrators.compiled.band import _band_cholesky, _band_cholesky_solve
+    from mbdsl.integrators.compiled.band import (NO_RECIPROCAL, _band_cholesky,
+                                                 _band_cholesky_solve)
     rng = np.random.default_rng(size + 10 * kd)
     A = np.zeros((size, size))
     for d in range(0, min(kd, size - 1) + 1):
@@ -290,19 +291,36 @@ def test_band_cholesky_against_lapack_and_the_dense_solve(size, kd):
             AB[j, kd + i - j] = A[i, j]
     U_lapack, info = lapack.dpbtrf(np.ascontiguousarray(AB.T))
     assert info == 0
-    assert _band_cholesky(AB, size, kd)
+    # the same matrix in the upper part of the band LU's storage (diagonal at dg =
+    # kl + ku), below 3 other rows, and its right-hand side at an offset: the
+    # condensed solver's use (``condensed._unit_groups``): the same factor, to the bit
+    kl = kd + 2
+    dg, off, boff = 2 * kl, 3, 5
+    big = np.full((off + size, 3 * kl + 1), np.nan)
+    big[off:, dg - kd:dg + 1] = AB
+    zero = np.int64(0)
+    assert _band_cholesky(AB, zero, size, kd, kd)
     assert np.allclose(AB, U_lapack.T, rtol=1e-13, atol=1e-13 * np.abs(U_lapack).max())
+    assert _band_cholesky(big, np.int64(off), size, kd, dg)
+    assert np.array_equal(big[off:, dg - kd:dg + 1], AB) and np.isnan(big[:off]).all()
     b = rng.standard_normal(size)
     x_lapack, info = lapack.dpbtrs(U_lapack, b)
     x = b.copy()
-    _band_cholesky_solve(AB, size, kd, x)
+    _band_cholesky_solve(AB, zero, size, kd, kd, x, zero, NO_RECIPROCAL)
     assert np.allclose(x, x_lapack, rtol=1e-12, atol=1e-14)
     assert np.abs(A @ x - b).max() < 1e-12 * np.abs(A).max() * max(1.0, np.abs(x).max())
+    y = np.concatenate([np.zeros(boff), b])
+    _band_cholesky_solve(big, np.int64(off), size, kd, dg, y, np.int64(boff), NO_RECIPROCAL)
+    assert np.array_equal(y[boff:], x)
+    big[off:, dg + 1] = 1.0 / big[off:, dg]        # the reciprocals' column: products
+    z = np.concatenate([np.zeros(boff), b])
+    _band_cholesky_solve(big, np.int64(off), size, kd, dg, z, np.int64(boff), np.int64(dg + 1))
+    assert np.allclose(z[boff:], x, rtol=1e-12, atol=1e-14)
     if size > 1:                                   # indefinite: a negative pivot is refused
         AB2 = np.zeros_like(AB)
         AB2[:, kd] = 1.0
         AB2[-1, kd] = -1.0
-        assert not _band_cholesky(AB2, size, kd)
+        assert not _band_cholesky(AB2, zero, size, kd, kd)
 
 
 def test_band_ordering_of_a_chain_and_the_automatic_choice():
@@ -329,7 +347,11 @@ def test_band_ordering_of_a_chain_and_the_automatic_choice():
         rperm, cperm, kl3, ku3, _ = band_ordering(system, make_method("hht-add"), init.q)
         assert sorted(rperm) == sorted(cperm) == list(range(13 * N))
         assert kl3 <= 16 and ku3 <= 16
+    # "auto" eliminates the chain's coordinates one by one (its coordinate block is
+    # diagonal: ``test_condensed``); HHT-ADD's additive form keeps the band LU
     plan = linear_solver_plan(system, make_method("hht-i3"), NewtonOptions(), init.q)
+    assert plan.kind == "condensed" and plan.condensed.unit
+    plan = linear_solver_plan(system, make_method("hht-add"), NewtonOptions(), init.q)
     assert plan.kind == "banded"
     crank, init = _system(MODELS / "slider_crank.mbd")
     assert linear_solver_plan(crank, make_method("hht-i3"), NewtonOptions(), init.q).kind == "dense"

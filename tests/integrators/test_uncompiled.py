@@ -105,12 +105,13 @@ def test_band_solver_is_refused_with_a_reason():
 
 
 def test_a_large_model_takes_superlu_uncompiled():
-    """A pendulum chain above the dense limit: the band LU it would take
-    compiled is LAPACK's, out of the interpreter's reach; SuperLU instead."""
+    """A pendulum chain above the dense limit: the condensed solver it takes
+    compiled factors by LAPACK's band LU where S is not definite, out of the
+    interpreter's reach; SuperLU instead."""
     model = mbdsl.load(MODELS / "pendulum_chain.mbd", overrides={"N": 100})
     sol = mbdsl.simulate(model, method="hht-i3", h=1e-3, t_end=0.005, engine="uncompiled")
     ref = mbdsl.simulate(model, method="hht-i3", h=1e-3, t_end=0.005, engine="compiled")
-    assert sol.linear_solver == "sparse" and ref.linear_solver == "banded"
+    assert sol.linear_solver == "sparse" and ref.linear_solver == "condensed"
     assert np.abs(sol.q - ref.q).max() < 1e-11
 
 
@@ -232,13 +233,14 @@ def test_the_python_newton_on_the_kernels_goes_on_compiled_keeping_its_history(m
 def test_a_chain_goes_on_from_the_python_newton_to_the_compiled_loop(monkeypatch):
     """The uncompiled kernels have no LAPACK band routines: a chain of 100
     links (500 unknowns) starts on the Python Newton with SuperLU and goes
-    on in the compiled loop with the band LU, from the loop's state."""
+    on in the compiled loop with the condensed solver, from the loop's
+    state."""
     path = MODELS / "pendulum_chain.mbd"
     sol, _, _ = _upgrading_run(monkeypatch, path, "hht-i3", 0.05, 1e-3, overrides={"N": 100})
     system = mbdsl.assemble(mbdsl.load(path, overrides={"N": 100}))
     ref = integrate(system, make_method("hht-i3"), 0.05, 1e-3,
                     initial=mbdsl.consistent_initial_state(system), engine="compiled")
-    assert ref.linear_solver == "banded"
-    assert sol.engine == "compiled" and sol.linear_solver == "banded"
+    assert ref.linear_solver == "condensed"
+    assert sol.engine == "compiled" and sol.linear_solver == "condensed"
     assert sol.compiled_from[1] == 10
     assert np.max(np.abs(sol.q - ref.q)) < 1e-9

@@ -55,12 +55,14 @@ def lapack_band_addresses(names=("dgbtrf",)):
 
 
 @_hot
-def _band_cholesky(AB, s, kd):
+def _band_cholesky(AB, off, s, kd, dg):
     """A = U^T U in place for the symmetric positive definite band matrix A
-    of half-width kd whose upper triangle AB holds in LAPACK's "U" band
-    storage (A(i, j), i <= j, at AB[j, kd + i - j]; AB of shape (s, kd + 1)
-    in C order): U(i, j) then at the same place. False when a pivot is not
-    positive (A is not positive definite) or not finite.
+    of s unknowns and half-width kd whose upper triangle AB holds column by
+    column from row ``off`` (A(i, j), i <= j, at AB[off + j, dg + i - j]; U(i,
+    j) then at the same place): LAPACK's "U" band storage (dg = kd, AB of
+    shape (s, kd + 1) in C order) or the upper part of the band LU's storage
+    (dg = kl + ku, as ``_band_substitute`` reads it). False when a pivot is
+    not positive (A is not positive definite) or not finite.
 
     The column-by-column (left-looking) band Cholesky of Golub and Van Loan,
     Matrix Computations, 4th ed., alg. 4.3.5, with dpbtrf's storage. Written
@@ -70,33 +72,45 @@ def _band_cholesky(AB, s, kd):
     calls were most of the time (``index1._index1_multipliers_band``)."""
     for j in range(s):
         i0 = max(0, j - kd)
+        cj = off + j
         for i in range(i0, j + 1):
-            acc = AB[j, kd + i - j]
+            ci = off + i
+            acc = AB[cj, dg + i - j]
             for k in range(max(i0, i - kd), i):
-                acc -= AB[i, kd + k - i] * AB[j, kd + k - j]
+                acc -= AB[ci, dg + k - i] * AB[cj, dg + k - j]
             if i < j:
-                AB[j, kd + i - j] = acc / AB[i, kd]
+                AB[cj, dg + i - j] = acc / AB[ci, dg]
             elif not acc > 0.0 or not np.isfinite(acc):
                 return False
             else:
-                AB[j, kd] = np.sqrt(acc)
+                AB[cj, dg] = np.sqrt(acc)
     return True
 
 
+#: ``_band_cholesky_solve``'s ``rc`` where it divides by the diagonal.
+NO_RECIPROCAL = np.int64(-1)
+
+
 @_hot
-def _band_cholesky_solve(AB, s, kd, b):
-    """b = A^-1 b with the factor U of :func:`_band_cholesky` (A = U^T U):
-    U^T y = b forward, then U x = y back (LAPACK's dpbtrs)."""
+def _band_cholesky_solve(AB, off, s, kd, dg, b, boff, rc):
+    """b[boff:boff + s] = A^-1 b with the factor U of :func:`_band_cholesky`
+    (A = U^T U, the same ``off`` and ``dg``): U^T y = b forward, then U x = y
+    back (LAPACK's dpbtrs). ``rc``: the column of AB that holds 1 / U(j, j)
+    in row off + j, or NO_RECIPROCAL to divide by U(j, j). Each unknown waits
+    for the one before it through one multiply-add and this division or
+    product, and a product's latency is a fraction of a division's (the
+    condensed solver stores the reciprocals: ``condensed._unit_cholesky``)."""
+    recip = rc >= 0
     for j in range(s):
-        acc = b[j]
+        acc = b[boff + j]
         for k in range(max(0, j - kd), j):
-            acc -= AB[j, kd + k - j] * b[k]
-        b[j] = acc / AB[j, kd]
+            acc -= AB[off + j, dg + k - j] * b[boff + k]
+        b[boff + j] = acc * AB[off + j, rc] if recip else acc / AB[off + j, dg]
     for j in range(s - 1, -1, -1):
-        acc = b[j]
+        acc = b[boff + j]
         for k in range(j + 1, min(s, j + kd + 1)):
-            acc -= AB[k, kd + j - k] * b[k]
-        b[j] = acc / AB[j, kd]
+            acc -= AB[off + k, dg + j - k] * b[boff + k]
+        b[boff + j] = acc * AB[off + j, rc] if recip else acc / AB[off + j, dg]
 
 
 @_hot

@@ -60,16 +60,17 @@ from __future__ import annotations
 import numpy as np
 
 from mbdsl.integrators.outcomes import CONVERGED, SINGULAR
-from mbdsl.integrators.records import (CP_CMAP, CP_COMP, CP_DEST, CP_GBAND, CP_GCOORD,
-                                       CP_GKOFF, CP_GOFF, CP_GROFF, CP_GROUPS, CP_GROWS,
-                                       CP_LOWER, CP_LPLACE, CP_M, CP_N, CP_PIVOTS, CP_POS,
-                                       CP_RMAP, CP_SCRATCH, CP_SHARE, CP_SPERM, CP_TC, CP_TG,
-                                       CP_TR, CP_TRIPLETS, CP_TSLOT, CP_TSTART, CP_WSTRIDE,
-                                       LIN_AB, LIN_ADDR, LIN_B, LIN_CP, LIN_CW, LIN_IPIV, LIN_LC,
-                                       LIN_LP, LIN_LR, LIN_LV, LP_BLOCKS, LP_INFO, LP_KL, LP_KU,
-                                       LP_LDAB, LP_M, LP_N, LP_NC)
+from mbdsl.integrators.records import (CP_BRCOORD, CP_BRPTR, CP_BRSRC, CP_CMAP, CP_COMP, CP_DEST,
+                                       CP_GBAND, CP_GCOORD, CP_GKOFF, CP_GOFF, CP_GROFF, CP_GROUPS,
+                                       CP_GROWS, CP_LOWER, CP_LPLACE, CP_M, CP_N, CP_PIVOTS,
+                                       CP_POS, CP_RMAP, CP_SCRATCH, CP_SHARE, CP_SPERM, CP_TC,
+                                       CP_TG, CP_TR, CP_TRIPLETS, CP_TSLOT, CP_TSTART, CP_UNIT,
+                                       CP_WSTRIDE, LIN_AB, LIN_ADDR, LIN_B, LIN_CP, LIN_CW,
+                                       LIN_IPIV, LIN_LC, LIN_LP, LIN_LR, LIN_LV, LP_BLOCKS,
+                                       LP_INFO, LP_KL, LP_KU, LP_LDAB, LP_M, LP_N, LP_NC)
 
-from .band import _band_substitute, _band_substitute_pair, _fortran_call
+from .band import (_band_cholesky, _band_cholesky_solve, _band_substitute,
+                   _band_substitute_pair, _fortran_call)
 from ...kernels.schema import _0, _hot, _inline
 
 #: A group's LU pivot below this fraction of its largest entry is singular
@@ -424,7 +425,14 @@ def _condensed_factor(lin, R, C, V, p):
     groff, gband = cp[CP_GROFF], cp[CP_GBAND]
     y0 = cp[CP_SCRATCH] + m                    # a row of B_g X_g
     for blk in range(blocks):
-        for g in range(G):
+        chol = False
+        if cp[CP_UNIT] != 0:
+            ok, spd = _unit_groups(cp, cw, blk)
+            if not ok:
+                return SINGULAR
+            _unit_schur(cp, cw, AB, blk, diag)
+            chol = spd and _unit_cholesky(cp, cw, AB, blk, kl, ku)
+        for g in range(G if cp[CP_UNIT] == 0 else 0):
             k, r, o, c0 = _group(cp, g)
             o += blk * ws
             po = cp[CP_PIVOTS] + blk * n + c0
@@ -446,20 +454,132 @@ def _condensed_factor(lin, R, C, V, p):
                     AB[blk * m + col, row - col] += cw[y0 + b]
         if m == 0:
             continue
-        lp[LP_INFO] = 0
-        _fortran_call(addr[0], (lp[LP_M:LP_M + 1], lp[LP_N:LP_N + 1], lp[LP_KL:LP_KL + 1],
-                                lp[LP_KU:LP_KU + 1], AB[blk * m:(blk + 1) * m],
-                                lp[LP_LDAB:LP_LDAB + 1], ipiv[blk * m:(blk + 1) * m],
-                                lp[LP_INFO:LP_INFO + 1]))
-        if lp[LP_INFO] != 0:
-            return SINGULAR
+        if chol:                               # LAPACK's pivots are 1-based: 0 marks U^T U
+            ipiv[blk * m] = 0
+        else:
+            lp[LP_INFO] = 0
+            _fortran_call(addr[0], (lp[LP_M:LP_M + 1], lp[LP_N:LP_N + 1], lp[LP_KL:LP_KL + 1],
+                                    lp[LP_KU:LP_KU + 1], AB[blk * m:(blk + 1) * m],
+                                    lp[LP_LDAB:LP_LDAB + 1], ipiv[blk * m:(blk + 1) * m],
+                                    lp[LP_INFO:LP_INFO + 1]))
+            if lp[LP_INFO] != 0:
+                return SINGULAR
         dmin, dmax = np.inf, 0.0
         for j in range(blk * m, (blk + 1) * m):
             d = abs(AB[j, diag])
+            if chol:                           # the pivots of its LDL^T, as the LU's
+                d *= d
             dmin, dmax = min(dmin, d), max(dmax, d)
         if not (dmin >= PIVOT_FLOOR * dmax) or not np.isfinite(dmax):
             return SINGULAR
     return CONVERGED
+
+
+@_hot
+def _unit_groups(cp, cw, blk):
+    """:func:`_condensed_factor`'s groups where each is one coordinate (a
+    diagonal coordinate block, ``CP_UNIT``: the planar chains): X_g = C_g^T /
+    a_g, the k x k code's operations at k = 1 without its loops over k and
+    its pivot search. (ok, spd): ok False where an a_g is zero or not finite
+    (the k x k code's pivot test at k = 1); spd where every a_g is positive
+    and B_g = C_g (the Newton matrix symmetric in its constraint rows, as
+    HHT-I3's, NSTIFF's and generalized-alpha's are): S = B A^-1 B^T is then
+    symmetric positive semidefinite, and definite where B has full rank."""
+    G, ws, n = cp[CP_GROUPS], cp[CP_WSTRIDE], cp[CP_N]
+    goff, groff, piv = cp[CP_GOFF], cp[CP_GROFF], cp[CP_PIVOTS] + blk * n
+    spd = True
+    for g in range(G):
+        o = cp[goff + g] + blk * ws
+        r = cp[groff + g + 1] - cp[groff + g]
+        a = cw[o]
+        if not np.isfinite(a) or a == 0.0:
+            return False, False
+        spd = spd and a > 0.0
+        cp[piv + g] = 0
+        xo = o + 1
+        for j in range(r):
+            spd = spd and cw[xo + r + j] == cw[xo + j]
+            cw[xo + j] = cw[xo + j] / a
+    return True, spd
+
+
+@_hot
+def _unit_schur(cp, cw, AB, blk, diag):
+    """S += B_g X_g over the one-coordinate groups (:func:`_unit_groups`), into
+    the block's rows of the band AB: the k x k code's sums at k = 1."""
+    G, ws, m = cp[CP_GROUPS], cp[CP_WSTRIDE], cp[CP_M]
+    goff, groff, gband = cp[CP_GOFF], cp[CP_GROFF], cp[CP_GBAND]
+    for g in range(G):
+        xo = cp[goff + g] + blk * ws + 1
+        r0 = cp[groff + g]
+        r = cp[groff + g + 1] - r0
+        bo, band = xo + r, gband + r0
+        for i in range(r):
+            bi = cw[bo + i]
+            row = diag + cp[band + i]
+            for j in range(r):
+                col = cp[band + j]
+                AB[blk * m + col, row - col] += bi * cw[xo + j]
+
+
+@_hot
+def _unit_cholesky(cp, cw, AB, blk, kl, ku):
+    """S = U^T U in place in the block's rows of the band AB (S symmetric
+    positive semidefinite by :func:`_unit_groups`), with 1 / U(j, j) in the
+    column after the diagonal, which the band LU's storage has free (kl > 0)
+    and the solve multiplies by (``band._band_cholesky_solve``). Where the
+    Cholesky refuses S (not numerically definite), S is assembled again for
+    the band LU, and False."""
+    m, diag = cp[CP_M], kl + ku
+    if kl != ku or kl == 0 or m == 0:
+        return False
+    if not _band_cholesky(AB, blk * m, m, ku, diag):
+        AB[blk * m:(blk + 1) * m, :] = 0.0
+        _unit_schur(cp, cw, AB, blk, diag)
+        return False
+    for j in range(blk * m, (blk + 1) * m):
+        AB[j, diag + 1] = 1.0 / AB[j, diag]
+    return True
+
+
+@_hot
+def _unit_block(cp, cw, AB, ipiv, lp, b, blk):
+    """:func:`_condensed_block` where each group is one coordinate: z = r_c /
+    a, S's right-hand side B z - r_k gathered row by row (``brptr``: each
+    sum in registers, where the group-by-group scatter of the k x k code
+    chains its additions through memory from one body to the next), S y =
+    that by S's Cholesky factor or its band LU (``_condensed_factor``), x = z -
+    X y. The same sums as the k x k code, in another order: equal to
+    round-off. Measured against the band LU of the whole Newton matrix in
+    ``docs/performance.md`` (the pendulum chain)."""
+    n, m, G, ws = cp[CP_N], cp[CP_M], cp[CP_GROUPS], cp[CP_WSTRIDE]
+    goff, groff, gcoord, grows = cp[CP_GOFF], cp[CP_GROFF], cp[CP_GCOORD], cp[CP_GROWS]
+    brptr, brsrc, brcoord, sperm = cp[CP_BRPTR], cp[CP_BRSRC], cp[CP_BRCOORD], cp[CP_SPERM]
+    off, wo = blk * (n + m), blk * ws
+    t0 = cp[CP_SCRATCH]                        # S's right-hand side, then y, in band order
+    for g in range(G):
+        c = off + cp[gcoord + g]
+        b[c] = b[c] / cw[cp[goff + g] + wo]
+    for i in range(m):
+        acc = -b[off + n + i]
+        for k in range(cp[brptr + i], cp[brptr + i + 1]):
+            acc += cw[cp[brsrc + k] + wo] * b[off + cp[brcoord + k]]
+        cw[t0 + cp[sperm + i]] = acc
+    if m > 0 and ipiv[blk * m] == 0:           # S = U^T U (``_condensed_factor``)
+        diag = lp[LP_KL] + lp[LP_KU]
+        _band_cholesky_solve(AB, blk * m, m, lp[LP_KU], diag, cw, t0, diag + 1)
+    elif m > 0:
+        _band_substitute(AB, ipiv, cw, blk * m, m, lp[LP_KL], lp[LP_KU], t0)
+    for i in range(m):
+        b[off + n + i] = cw[t0 + cp[sperm + i]]
+    for g in range(G):
+        xo = cp[goff + g] + wo + 1
+        r0 = cp[groff + g]
+        c = off + cp[gcoord + g]
+        acc = b[c]
+        for j in range(cp[groff + g + 1] - r0):
+            acc -= cw[xo + j] * b[off + n + cp[grows + r0 + j]]
+        b[c] = acc
 
 
 @_hot
@@ -468,6 +588,9 @@ def _condensed_block(lin, b, blk):
     places (coordinates, then constraint rows): z = A^-1 r_c, S y = B z -
     r_k, x = z - X y."""
     cp, cw, AB, ipiv, lp = lin[LIN_CP], lin[LIN_CW], lin[LIN_AB], lin[LIN_IPIV], lin[LIN_LP]
+    if cp[CP_UNIT] != 0:
+        _unit_block(cp, cw, AB, ipiv, lp, b, blk)
+        return
     n, m, G, ws = cp[CP_N], cp[CP_M], cp[CP_GROUPS], cp[CP_WSTRIDE]
     grows, groff, sperm, gcoord = cp[CP_GROWS], cp[CP_GROFF], cp[CP_SPERM], cp[CP_GCOORD]
     gband = cp[CP_GBAND]
@@ -553,7 +676,11 @@ def _condensed_pair(lin, b):
             slot = cp[band + a]
             cw[t0 + slot] += acc0
             cw[t1 + slot] += acc1
-    if m > 0:
+    if m > 0 and ipiv[0] == 0:                 # S = U^T U (``_condensed_factor``)
+        diag = lp[LP_KL] + lp[LP_KU]
+        _band_cholesky_solve(AB, _0, m, lp[LP_KU], diag, cw, t0, diag + 1)
+        _band_cholesky_solve(AB, _0, m, lp[LP_KU], diag, cw, t1, diag + 1)
+    elif m > 0:
         _band_substitute_pair(AB, ipiv, cw, _0, m, lp[LP_KL], lp[LP_KU], t0, t1)
     for i in range(m):
         slot = cp[sperm + i]

@@ -9,7 +9,7 @@ import numpy as np
 
 from .additive import _minus_correction
 from .layout import ADDITIVE, FLOOR, FORM, HAS_Y, MU_MOB, REG, SM, SX, SY, _copy, _layout
-from .band import _band_cholesky, _band_cholesky_solve
+from .band import NO_RECIPROCAL, _band_cholesky, _band_cholesky_solve
 from mbdsl.integrators.records import (OPT_ATOL_KINEMATIC, OPT_ATOL_MULTIPLIER, OPT_RTOL)
 from ...kernels.schema import (EPS, FRI, MASS, ROW_ELEMENT, _0, _HEADER, _NO, _YES, _f, _i, _hot, _jit,
                                _rows)
@@ -64,7 +64,7 @@ def _schur_band(R, V, by_col, start, place, minv, AB, kd):
                     if j - i > kd:
                         return False
                     AB[j, kd + i - j] += V[ex] * V[ey] * minv[col]
-    if not _band_cholesky(AB, m, kd):
+    if not _band_cholesky(AB, _0, m, kd, kd):
         return False
     dmin, dmax = np.inf, 0.0
     for k in range(m):
@@ -132,7 +132,7 @@ def _index1_multipliers_band(I, Fl, t, q, v, out, R, C, V, iterations, order, kd
                 b[k] = gam[order[k]]            # Phi_q M^-1 Q - gamma, reordered
             for e in range(p):
                 b[place[R[e]]] += V[e] * minv[C[e]] * work[C[e]]
-            _band_cholesky_solve(AB, m, kd, b)
+            _band_cholesky_solve(AB, _0, m, kd, kd, b, _0, NO_RECIPROCAL)
             change, big = 0.0, 0.0
             for k in range(m):
                 xk = b[place[k]]
@@ -344,7 +344,7 @@ def _index1_acceleration_band(I, Fl, n, m, t, qx, vx, a, out, R, C, V, order, pl
         rhs[place[R[e]]] += V[e] * a[C[e]]
     if not _schur_band(R, V, by_col, start, place, minv, AB, kd):
         return False
-    _band_cholesky_solve(AB, m, kd, rhs)
+    _band_cholesky_solve(AB, _0, m, kd, kd, rhs, _0, NO_RECIPROCAL)
     for k in range(m):
         if not np.isfinite(rhs[k]):
             return False
