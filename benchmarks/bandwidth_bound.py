@@ -9,7 +9,9 @@ the machine moves data at, for a working set of that size (its caches or
 its memory). This script counts the bytes from the model's and the band's
 sizes and the measured iterations and factorizations per step, measures
 the machine's copy rate (numpy ``copyto``, read + write) at the step's
-working-set size, and prints the bound and the measured step beside it.
+working-set size, and prints the bound and the measured step beside it
+(the run's time less a one-step run's, the set-up, as benchmarks/speed.py
+times a step).
 
 Bytes per step (8-byte floats, n coordinates, m rows, size = n + m
 unknowns, band storage (2 kl + ku + 1) x size, triplet bound P):
@@ -123,10 +125,13 @@ def measure(N: int, method: str, steps: int, repeat: int, solver: str = "auto") 
     h = 1e-3
     integrate(system, meth, 2 * h, h, initial=init, engine="compiled", newton=opts)  # loaded
     walls, sol = [], None
-    for _ in range(repeat):
+    for _ in range(repeat):                     # as benchmarks/speed.py: a one-step run's
+        t = time.perf_counter()                 # time (the set-up) subtracted
+        integrate(system, meth, h, h, initial=init, engine="compiled", newton=opts)
+        one = time.perf_counter() - t
         t = time.perf_counter()
         sol = integrate(system, meth, steps * h, h, initial=init, engine="compiled", newton=opts)
-        walls.append(time.perf_counter() - t)
+        walls.append((time.perf_counter() - t - one) / (sol.stats_total.steps - 1))
     tot = sol.stats_total
     plan = engine.linear_solver_plan(system, meth, opts, init.q)
     if plan.kind not in ("banded", "condensed"):
@@ -143,7 +148,7 @@ def measure(N: int, method: str, steps: int, repeat: int, solver: str = "auto") 
         moved += its * (solve - band_solve) + lus * (factor - band_factor)
         working += work - band
     rate = copy_rate(int(working))
-    step = statistics.median(walls) / tot.steps
+    step = statistics.median(walls)
     return {"N": N, "size": system.n + system.m, "solver": plan.kind, "kl": plan.kl,
             "ku": plan.ku,
             "iterations": tot.iterations / tot.steps,
