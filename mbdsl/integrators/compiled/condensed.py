@@ -397,12 +397,43 @@ def _shareable(cp, cw):
 
 
 @_hot
+def _kxk_schur(cp, cw, AB, blk, diag):
+    """:func:`_condensed_factor`'s groups of k coordinates: each A_g = P L U by
+    :func:`_lu_small` with X_g = A_g^-1 C_g^T, and S += B_g X_g into the
+    block's rows of the band AB. False where a group's LU is singular."""
+    n, m, G, ws = cp[CP_N], cp[CP_M], cp[CP_GROUPS], cp[CP_WSTRIDE]
+    groff, gband = cp[CP_GROFF], cp[CP_GBAND]
+    y0 = cp[CP_SCRATCH] + m                    # a row of B_g X_g
+    for g in range(G):
+        k, r, o, c0 = _group(cp, g)
+        o += blk * ws
+        po = cp[CP_PIVOTS] + blk * n + c0
+        if not _lu_small(cw, o, k, cp, po, r):
+            return False
+        xo, bo = o + k * k, o + k * k + k * r
+        band = gband + cp[groff + g]           # the slots' places in S's band
+        for a in range(r):                     # S += B_g X_g (in the band: the plan's pattern)
+            for b in range(r):                 # row a of B_g X_g, along X_g's rows
+                cw[y0 + b] = 0.0
+            for j in range(k):
+                baj = cw[bo + a * k + j]
+                if baj != 0.0:
+                    for b in range(r):
+                        cw[y0 + b] += baj * cw[xo + j * r + b]
+            row = diag + cp[band + a]
+            for b in range(r):
+                col = cp[band + b]
+                AB[blk * m + col, row - col] += cw[y0 + b]
+    return True
+
+
+@_hot
 def _condensed_factor(lin, R, C, V, p):
     """Factor the Newton matrix given by p triplets (module docstring); the
     Newton status code (CONVERGED, or SINGULAR)."""
     cp, cw, AB, ipiv, lp, addr = (lin[LIN_CP], lin[LIN_CW], lin[LIN_AB], lin[LIN_IPIV],
                                   lin[LIN_LP], lin[LIN_ADDR])
-    n, m, G, ws = cp[CP_N], cp[CP_M], cp[CP_GROUPS], cp[CP_WSTRIDE]
+    n, m, ws = cp[CP_N], cp[CP_M], cp[CP_WSTRIDE]
     s, blocks = n + m, lp[LP_BLOCKS]
     kl, ku = lp[LP_KL], lp[LP_KU]
     diag = kl + ku
@@ -422,8 +453,6 @@ def _condensed_factor(lin, R, C, V, p):
     if blocks == 2 and placed and _shareable(cp, cw):
         cw[sh] = 1.0                           # block 1 by block 0's factors
         blocks = 1
-    groff, gband = cp[CP_GROFF], cp[CP_GBAND]
-    y0 = cp[CP_SCRATCH] + m                    # a row of B_g X_g
     for blk in range(blocks):
         chol = False
         if cp[CP_UNIT] != 0:
@@ -432,26 +461,8 @@ def _condensed_factor(lin, R, C, V, p):
                 return SINGULAR
             _unit_schur(cp, cw, AB, blk, diag)
             chol = spd and _unit_cholesky(cp, cw, AB, blk, kl, ku)
-        for g in range(G if cp[CP_UNIT] == 0 else 0):
-            k, r, o, c0 = _group(cp, g)
-            o += blk * ws
-            po = cp[CP_PIVOTS] + blk * n + c0
-            if not _lu_small(cw, o, k, cp, po, r):
-                return SINGULAR
-            xo, bo = o + k * k, o + k * k + k * r
-            band = gband + cp[groff + g]       # the slots' places in S's band
-            for a in range(r):                 # S += B_g X_g (in the band: the plan's pattern)
-                for b in range(r):             # row a of B_g X_g, along X_g's rows
-                    cw[y0 + b] = 0.0
-                for j in range(k):
-                    baj = cw[bo + a * k + j]
-                    if baj != 0.0:
-                        for b in range(r):
-                            cw[y0 + b] += baj * cw[xo + j * r + b]
-                row = diag + cp[band + a]
-                for b in range(r):
-                    col = cp[band + b]
-                    AB[blk * m + col, row - col] += cw[y0 + b]
+        elif not _kxk_schur(cp, cw, AB, blk, diag):
+            return SINGULAR
         if m == 0:
             continue
         if chol:                               # LAPACK's pivots are 1-based: 0 marks U^T U
@@ -543,6 +554,22 @@ def _unit_cholesky(cp, cw, AB, blk, kl, ku):
 
 
 @_hot
+def _schur_solve(AB, ipiv, lp, cw, off, m, t):
+    """cw[t:t + m] = S^-1 of itself for the block of S whose factor
+    :func:`_condensed_factor` left in AB's rows off:off + m: its Cholesky
+    factor where the block's first pivot is 0 (LAPACK's are 1-based; the
+    diagonal's reciprocals in the column after it, ``_unit_cholesky``), else
+    dgbtrf's LU."""
+    if m == 0:
+        return
+    kl, ku = lp[LP_KL], lp[LP_KU]
+    if ipiv[off] == 0:
+        _band_cholesky_solve(AB, off, m, ku, kl + ku, cw, t, kl + ku + 1)
+    else:
+        _band_substitute(AB, ipiv, cw, off, m, kl, ku, t)
+
+
+@_hot
 def _unit_block(cp, cw, AB, ipiv, lp, b, blk):
     """:func:`_condensed_block` where each group is one coordinate: z = r_c /
     a, S's right-hand side B z - r_k gathered row by row (``brptr``: each
@@ -565,11 +592,7 @@ def _unit_block(cp, cw, AB, ipiv, lp, b, blk):
         for k in range(cp[brptr + i], cp[brptr + i + 1]):
             acc += cw[cp[brsrc + k] + wo] * b[off + cp[brcoord + k]]
         cw[t0 + cp[sperm + i]] = acc
-    if m > 0 and ipiv[blk * m] == 0:           # S = U^T U (``_condensed_factor``)
-        diag = lp[LP_KL] + lp[LP_KU]
-        _band_cholesky_solve(AB, blk * m, m, lp[LP_KU], diag, cw, t0, diag + 1)
-    elif m > 0:
-        _band_substitute(AB, ipiv, cw, blk * m, m, lp[LP_KL], lp[LP_KU], t0)
+    _schur_solve(AB, ipiv, lp, cw, blk * m, m, t0)
     for i in range(m):
         b[off + n + i] = cw[t0 + cp[sperm + i]]
     for g in range(G):
@@ -616,8 +639,7 @@ def _condensed_block(lin, b, blk):
             for i in range(k):
                 acc += cw[bo + a * k + i] * cw[z + i]
             cw[t0 + cp[band + a]] += acc
-    if m > 0:
-        _band_substitute(AB, ipiv, cw, blk * m, m, lp[LP_KL], lp[LP_KU], t0)
+    _schur_solve(AB, ipiv, lp, cw, blk * m, m, t0)
     for i in range(m):
         b[off + n + i] = cw[t0 + cp[sperm + i]]
     for g in range(G):
@@ -676,10 +698,9 @@ def _condensed_pair(lin, b):
             slot = cp[band + a]
             cw[t0 + slot] += acc0
             cw[t1 + slot] += acc1
-    if m > 0 and ipiv[0] == 0:                 # S = U^T U (``_condensed_factor``)
-        diag = lp[LP_KL] + lp[LP_KU]
-        _band_cholesky_solve(AB, _0, m, lp[LP_KU], diag, cw, t0, diag + 1)
-        _band_cholesky_solve(AB, _0, m, lp[LP_KU], diag, cw, t1, diag + 1)
+    if m > 0 and ipiv[0] == 0:                 # S = U^T U: one sweep each
+        _schur_solve(AB, ipiv, lp, cw, _0, m, t0)
+        _schur_solve(AB, ipiv, lp, cw, _0, m, t1)
     elif m > 0:
         _band_substitute_pair(AB, ipiv, cw, _0, m, lp[LP_KL], lp[LP_KU], t0, t1)
     for i in range(m):
