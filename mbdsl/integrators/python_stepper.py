@@ -298,7 +298,7 @@ class PythonStepper:
                                 lambda w: method.jacobian(w, ctx), w0, self.kinds, scales,
                                 key=key, floor=method.roundoff_floor(system, step, ctx.last.q),
                                 at_roundoff=at_roundoff, constraint_rows=self.constraint_rows,
-                                frames_held=frames_held)
+                                frames_held=frames_held, velocity_rows=method.index == 2)
         return ctx, res
 
     def _accept(self, ls, new, step, t_new, carry, state, history):

@@ -185,6 +185,41 @@ def test_a_stall_at_the_constraints_round_off_is_converged():
     assert res.w[1] == pytest.approx(exact[1], rel=1e-4)
 
 
+def test_modified_newton_stops_where_its_estimate_is_within_kappa():
+    """A linear system A w = b with a Newton matrix A / (1 - theta): the
+    error goes as theta^k exactly, the k-th update is (1 - theta) times the
+    error before it, and the observed rate is theta, so the estimate eta
+    ||dw_k|| (eta = theta / (1 - theta)) is the true error of iterate k. At
+    theta = 0.05 from an error of 1.6 / theta^4 tolerances, iterate 5's
+    error is 0.08 tolerances, within KAPPA = 0.1, its update 1.52: the
+    iteration stops there. Where the update itself must be within the
+    tolerance (velocity-level rows: ``velocity_rows``), one iteration more;
+    the same from an error a fifth larger, whose iterate 5 (0.4) is within
+    the tolerance but not within KAPPA of it."""
+    from mbdsl.integrators.newton import KAPPA
+    theta, tol = 0.05, 1e-6
+    A = np.array([[3.0, 1.0], [1.0, 2.0]])
+    exact = np.array([0.25, -0.5])
+    b = A @ exact
+    F = lambda w: A @ w - b
+    J = lambda w: A / (1.0 - theta)
+
+    def solve(e0, velocity_rows=False):
+        return Newton(NewtonOptions(jacobian="modified", rtol=1e-14, atol_kinematic=tol,
+                                    rate_refresh=0.9)).solve(
+            F, J, exact + [e0, 0.0], np.zeros(2, bool), np.ones(2), velocity_rows=velocity_rows)
+    e0 = 1.6 * tol / theta ** 4
+    assert theta ** 5 * e0 / tol <= KAPPA < theta ** 4 * e0 / tol
+    res = solve(e0)
+    assert res.converged and res.n_iter == 5 and res.n_factor == 1
+    assert res.norms[-1] == pytest.approx((1 - theta) * 1.6, rel=1e-6)     # not within it
+    assert np.max(np.abs(res.w - exact)) == pytest.approx(0.08 * tol, rel=1e-6)
+    held = solve(e0, velocity_rows=True)
+    assert held.converged and held.n_iter == 6 and held.norms[-1] <= 1.0
+    later = solve(5.0 * tol / theta ** 4)
+    assert later.converged and later.n_iter == 6
+
+
 def test_the_kernels_copies_of_newtons_constants_are_newtons():
     """newton.py's constants are written again in ``kernels.schema`` and
     ``integrators.compiled.newton`` (importing the kernels' modules from
@@ -197,3 +232,4 @@ def test_the_kernels_copies_of_newtons_constants_are_newtons():
     assert schema.FRAME_TOL == newton.FRAME_TOL
     assert schema.FRAME_HOLD == newton.FRAME_HOLD < newton.FRAME_TOL
     assert compiled_newton.ROUNDOFF_ULPS == newton.ROUNDOFF_ULPS
+    assert compiled_newton.KAPPA == newton.KAPPA < 1.0

@@ -44,6 +44,11 @@ def _newton(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, weight, opts, solve
     grows = 0
     theta = lu_state[LU_RATE]
     n_jac = 0
+    # the last update itself within the tolerance, as well as the iterate's
+    # estimated error, with velocity-level rows or spatial frames; without,
+    # an estimated error within KAPPA of it will do (newton.py)
+    hold_update = (_constraint_rows(rec, _rows(I, MASS), _rows(I, ROW_ELEMENT))[2]
+                   or (_rows(I, FROW) > 0 and rec[REG] == 0.0))
     for _ in range(max_iter):
         if not valid:
             p = _jacobian_triplets(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, R, C, V, qx,
@@ -64,18 +69,13 @@ def _newton(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, weight, opts, solve
                 lu_state[LU_VALID] = 0.0
                 return NONFINITE
         _solve(solver, lin, r, dw)
-        norm = 0.0
-        for i in range(size):
-            norm = max(norm, abs(dw[i] * weight[i]))
-        for i in range(size):
-            w[i] -= dw[i]
+        norm, finite = _update(w, dw, weight, size)
         counts[CNT_ITERATIONS] += 1
         current = age == 0
         age += 1
-        for i in range(size):
-            if not np.isfinite(w[i]):
-                lu_state[LU_VALID] = 0.0
-                return NONFINITE
+        if not finite:
+            lu_state[LU_VALID] = 0.0
+            return NONFINITE
         if prev > 0.0:
             theta = norm / prev
         eta = max(theta / (1.0 - theta), 1e-2) if theta < 1.0 else np.inf
@@ -91,7 +91,8 @@ def _newton(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, weight, opts, solve
             for i in range(size):         # the iterate whose residual r was read
                 w[i] += dw[i]
             roundoff = True
-        if norm == 0.0 or roundoff or (eta * norm <= 1.0 and norm <= 1.0     # and newton.py's
+        within = norm <= 1.0 or (prev > 0.0 and not hold_update and eta * norm <= KAPPA)
+        if norm == 0.0 or roundoff or (eta * norm <= 1.0 and within       # and newton.py's
                                        and _frames_held(rec, I, r)):        # frame test
             if roundoff:
                 counts[CNT_STALLED] += 1
@@ -111,6 +112,34 @@ def _newton(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, weight, opts, solve
 
 
 ROUNDOFF_ULPS = 8.0        # as in newton.py
+KAPPA = 0.1                # as in newton.py
+
+
+@_hot
+def _update(w, dw, weight, size):
+    """w -= dw, in one pass with the update's norm max_i |dw_i weight_i| and
+    whether every new w_i is finite: (norm, finite). The maximum runs in four
+    lanes, each a chain of its own (a single chain waits on each comparison:
+    numba compiles without fast-math, so LLVM does not split it), and the
+    finiteness is or-ed without a branch. The same norm as one lane: a
+    maximum does not round."""
+    n0, n1, n2, n3 = 0.0, 0.0, 0.0, 0.0
+    bad = False
+    i = 0
+    while i + 4 <= size:
+        n0 = max(n0, abs(dw[i] * weight[i]))
+        n1 = max(n1, abs(dw[i + 1] * weight[i + 1]))
+        n2 = max(n2, abs(dw[i + 2] * weight[i + 2]))
+        n3 = max(n3, abs(dw[i + 3] * weight[i + 3]))
+        for j in range(i, i + 4):
+            w[j] -= dw[j]
+            bad = bad | (not np.isfinite(w[j]))
+        i += 4
+    for j in range(i, size):
+        n0 = max(n0, abs(dw[j] * weight[j]))
+        w[j] -= dw[j]
+        bad = bad | (not np.isfinite(w[j]))
+    return max(max(n0, n1), max(n2, n3)), not bad
 
 
 @_hot
