@@ -32,7 +32,9 @@ coordinate eliminated on its own, the constraint rows' Schur complement S
 factored by Cholesky, ``integrators.compiled.condensed``), the solve's
 bytes are its plan's integer arrays that a solve reads (each group's
 offsets and rows, each row's entries of B, the orderings), the groups'
-workspace (A_g, X_g, B_g) and S's factor, and 6 vectors of size; a
+workspace (A_g, X_g, B_g) and S's factor, and 6 vectors of size (4 where
+the block is solved in the update's own array, without the row and column
+codes: the index-3 forms); a
 factorization's, the triplets written, read back and checked against the
 plan's (24 + 24 + 16 bytes each) with their places (8), the workspace and
 S's band zeroed, filled and factored (3 passes over each). ``--solver
@@ -84,16 +86,18 @@ def band_bytes(size: int, ldab: int, bound: int) -> tuple[int, int, int]:
 def condensed_bytes(plan, size: int, bound: int) -> tuple[int, int, int]:
     """(bytes a solve reads, bytes a factorization moves, workspace bytes) of
     the condensed solver's plan, by the count of the module notes."""
-    from mbdsl.integrators.records import CP_BRPTR, CP_GROFF, CP_GROUPS, CP_M, CP_WSTRIDE
+    from mbdsl.integrators.records import (CP_BRPTR, CP_DIRECT, CP_GROFF, CP_GROUPS, CP_M,
+                                           CP_WSTRIDE)
     c = plan.condensed
     cp, f = c.cp, 8
     G, m, ws = int(cp[CP_GROUPS]), int(cp[CP_M]), int(cp[CP_WSTRIDE])
     rows = int(cp[cp[CP_GROFF] + G])                   # the groups' slotted rows
     entries = int(cp[cp[CP_BRPTR] + m]) if c.unit else rows
-    ints = f * (3 * G + 1 + rows + m + 1 + 2 * entries + m + 2 * size)
+    direct = bool(cp[CP_DIRECT])                       # solved in place: no row, column codes
+    ints = f * (3 * G + 1 + rows + m + 1 + 2 * entries + m + (0 if direct else 2 * size))
     band = c.blocks * m * (2 * c.kl + c.ku + 1) * f
     work = c.blocks * ws * f
-    solve = ints + work + band + 6 * size * f
+    solve = ints + work + band + (4 if direct else 6) * size * f
     factor = (24 + 24 + 16 + 8) * bound + 3 * work + 3 * band
     return solve, factor, work + band + ints
 

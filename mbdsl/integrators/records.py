@@ -88,15 +88,17 @@ LIN_FIELDS = ("J", "Jinv", "AB", "ipiv", "rperm", "cperm", "lp", "addr", "b", "L
 #: group is one coordinate (``unit``: a diagonal coordinate block), and then each
 #: constraint row's entries of B (``brptr``, m + 1 offsets into ``brsrc``, each entry's
 #: place in a block of ``cw``, and ``brcoord``, its coordinate), which the solve reads
-#: row by row (``compiled.condensed._unit_block``).
+#: row by row (``compiled.condensed._unit_block``); whether the Newton rows' and
+#: columns' codes are their own indices, one block (``direct``: the solve works in the
+#: update's own array, ``compiled.condensed._condensed_solve``).
 CONDENSED_FIELDS = ("n", "m", "groups", "wstride", "rmap", "cmap", "comp", "pos", "tstart",
                     "tg", "tslot", "gkoff", "gcoord", "groff", "grows", "goff", "sperm",
                     "pivots", "scratch", "triplets", "tr", "tc", "dest", "gband", "lower",
-                    "share", "lplace", "unit", "brptr", "brsrc", "brcoord")
+                    "share", "lplace", "unit", "brptr", "brsrc", "brcoord", "direct")
 (CP_N, CP_M, CP_GROUPS, CP_WSTRIDE, CP_RMAP, CP_CMAP, CP_COMP, CP_POS, CP_TSTART, CP_TG,
  CP_TSLOT, CP_GKOFF, CP_GCOORD, CP_GROFF, CP_GROWS, CP_GOFF, CP_SPERM, CP_PIVOTS,
  CP_SCRATCH, CP_TRIPLETS, CP_TR, CP_TC, CP_DEST, CP_GBAND, CP_LOWER, CP_SHARE,
- CP_LPLACE, CP_UNIT, CP_BRPTR, CP_BRSRC, CP_BRCOORD) = range(31)
+ CP_LPLACE, CP_UNIT, CP_BRPTR, CP_BRSRC, CP_BRCOORD, CP_DIRECT) = range(32)
 
 #: LAPACK's integer arguments (int32, ``lin[LIN_LP]``), passed by reference as one-entry
 #: slices: dgbtrf's M and N, KL, KU, LDAB, INFO; then the blocks of the matrix (1, or 2

@@ -87,10 +87,9 @@ def _phi_time_add(I, Fl, t, out, order):
         spatial_angles.phi_time_add(I, Fl, t, out, order)
 
 
-@_jit
-def phi(I, Fl, t, qx, out):
-    """Phi(q) into out (m,) [m or rad]: every joint family's rows."""
-    coincidence.phi(I, Fl, t, qx, out)
+@_inline
+def _phi_others(I, Fl, t, qx, out):
+    """Phi's rows of every joint family but the revolute joints' (``coincidence``)."""
     point_on_line.phi(I, Fl, t, qx, out)
     linear_rows.phi(I, Fl, t, qx, out)
     distance.phi(I, Fl, t, qx, out)
@@ -102,10 +101,9 @@ def phi(I, Fl, t, qx, out):
         spatial_angles.phi(I, Fl, t, qx, out)
 
 
-@_jit
-def phiqT_add(I, Fl, qx, lam, coef, out):
-    """out[:n+3] += coef Phi_q^T lambda."""
-    coincidence.phiqT_add(I, Fl, qx, lam, coef, out)
+@_inline
+def _phiqT_others_add(I, Fl, qx, lam, coef, out):
+    """out += coef Phi_q^T lambda of every joint family but the revolute joints'."""
     point_on_line.phiqT_add(I, Fl, qx, lam, coef, out)
     linear_rows.phiqT_add(I, Fl, qx, lam, coef, out)
     distance.phiqT_add(I, Fl, qx, lam, coef, out)
@@ -118,6 +116,33 @@ def phiqT_add(I, Fl, qx, lam, coef, out):
     if _rows(I, ECOL) > 0:
         _elastic_phiqT_add(I, Fl, qx, lam, coef, out)
         distance.elastic_phiqT_add(I, Fl, qx, lam, coef, out)
+
+
+@_jit
+def phi(I, Fl, t, qx, out):
+    """Phi(q) into out (m,) [m or rad]: every joint family's rows."""
+    coincidence.phi(I, Fl, t, qx, out)
+    _phi_others(I, Fl, t, qx, out)
+
+
+@_jit
+def phiqT_add(I, Fl, qx, lam, coef, out):
+    """out[:n+3] += coef Phi_q^T lambda."""
+    coincidence.phiqT_add(I, Fl, qx, lam, coef, out)
+    _phiqT_others_add(I, Fl, qx, lam, coef, out)
+
+
+@_jit
+def phi_phiqT_add(I, Fl, t, qx, lam, out_phi, out):
+    """:func:`phi` into out_phi (m,) and out (n+3,) += Phi_q^T lambda
+    (:func:`phiqT_add`, coef 1): the index-3 residual's joint terms, the
+    revolute joints' in one pass that rotates each point once for both
+    (``coincidence.phi_phiqT_add``). The same numbers: every row of Phi is
+    written once, and Phi_q^T lambda summed family by family in
+    :func:`phiqT_add`'s order."""
+    coincidence.phi_phiqT_add(I, Fl, qx, lam, out_phi, out)
+    _phi_others(I, Fl, t, qx, out_phi)
+    _phiqT_others_add(I, Fl, qx, lam, 1.0, out)
 
 
 @_jit

@@ -271,7 +271,8 @@ def test_band_substitution_is_lapacks_dgbtrs(size, kl, ku):
     assert np.abs(A @ x[size:] - b).max() < 1e-10 * max(1.0, np.abs(x_lapack).max())
 
 
-@pytest.mark.parametrize("size, kd", [(4, 3), (60, 4), (200, 9), (30, 0), (1, 2), (7, 6)])
+@pytest.mark.parametrize("size, kd", [(4, 3), (50, 3), (60, 4), (200, 9), (30, 0), (1, 2),
+                                      (7, 6)])
 def test_band_cholesky_against_lapack_and_the_dense_solve(size, kd):
     """The kernels' band Cholesky (the output's index-1 multipliers) gives
     LAPACK's dpbtrf factor and dpbtrs solution to round-off on random SPD
@@ -316,6 +317,20 @@ def test_band_cholesky_against_lapack_and_the_dense_solve(size, kd):
     z = np.concatenate([np.zeros(boff), b])
     _band_cholesky_solve(big, np.int64(off), size, kd, dg, z, np.int64(boff), np.int64(dg + 1))
     assert np.allclose(z[boff:], x, rtol=1e-12, atol=1e-14)
+    # the loop's operations in its order, run by the interpreter: equal to the bit,
+    # also at kd = 3, whose sweeps are written out (``band._cholesky_solve_3``)
+    w = b.copy()
+    for j in range(size):
+        acc = w[j]
+        for k in range(max(0, j - kd), j):
+            acc -= big[off + j, dg + k - j] * w[k]
+        w[j] = acc * big[off + j, dg + 1]
+    for j in range(size - 1, -1, -1):
+        acc = w[j]
+        for k in range(j + 1, min(size, j + kd + 1)):
+            acc -= big[off + k, dg + j - k] * w[k]
+        w[j] = acc * big[off + j, dg + 1]
+    assert np.array_equal(z[boff:], w)
     if size > 1:                                   # indefinite: a negative pivot is refused
         AB2 = np.zeros_like(AB)
         AB2[:, kd] = 1.0
@@ -1054,6 +1069,30 @@ def test_observers_are_told_of_every_event_after_the_rows_before_it(engine):
     kinds = [e[2] for e in sol.events]
     assert "closed" in kinds and "opened" in kinds
     assert events == list(sol.events)
+
+
+@pytest.mark.parametrize("path, overrides", [(MODELS / "pendulum_chain.mbd", {"N": 4}),
+                                             (MODELS / "spatial_slider_crank.mbd", {}),
+                                             (VALID / "all_elements.mbd", {}),
+                                             (VALID / "compiled_elements.mbd", {}),
+                                             (VALID / "flexible_distance.mbd", {})])
+def test_phi_and_its_transpose_product_in_one_pass_are_the_two_passes(path, overrides):
+    # the index-3 residual's joint terms: Phi and Phi_q^T lambda, the revolute joints'
+    # rows in one pass (system.phi_phiqT_add), are phi's and phiqT_add's to the bit
+    from mbdsl.kernels import system as kernels
+    system, init = _system(path, **overrides)
+    cm = CompiledModel(system)
+    n, m = system.n, system.m
+    rng = np.random.default_rng(5)
+    qx, lam = np.zeros(n + 3), rng.standard_normal(m)
+    qx[:n] = np.asarray(init.q, float) + 0.1 * rng.standard_normal(n)
+    phi_two, f_two = np.full(m, np.nan), rng.standard_normal(n + 3)
+    phi_one, f_one = np.full(m, np.nan), f_two.copy()
+    kernels.phi(cm.ints, cm.floats, 0.3, qx, phi_two)
+    kernels.phiqT_add(cm.ints, cm.floats, qx, lam, 1.0, f_two)
+    kernels.phi_phiqT_add(cm.ints, cm.floats, 0.3, qx, lam, phi_one, f_one)
+    assert np.array_equal(phi_one, phi_two) and np.array_equal(f_one, f_two)
+    assert np.isfinite(phi_one).all() and m > 0
 
 
 @pytest.mark.parametrize("method", ["hht-si2", "nstiff-si2", "genalpha-si2", "hht-i3"])

@@ -61,12 +61,12 @@ import numpy as np
 
 from mbdsl.integrators.outcomes import CONVERGED, SINGULAR
 from mbdsl.integrators.records import (CP_BRCOORD, CP_BRPTR, CP_BRSRC, CP_CMAP, CP_COMP, CP_DEST,
-                                       CP_GBAND, CP_GCOORD, CP_GKOFF, CP_GOFF, CP_GROFF, CP_GROUPS,
-                                       CP_GROWS, CP_LOWER, CP_LPLACE, CP_M, CP_N, CP_PIVOTS,
-                                       CP_POS, CP_RMAP, CP_SCRATCH, CP_SHARE, CP_SPERM, CP_TC,
-                                       CP_TG, CP_TR, CP_TRIPLETS, CP_TSLOT, CP_TSTART, CP_UNIT,
-                                       CP_WSTRIDE, LIN_AB, LIN_ADDR, LIN_B, LIN_CP, LIN_CW,
-                                       LIN_IPIV, LIN_LC, LIN_LP, LIN_LR, LIN_LV, LP_BLOCKS,
+                                       CP_DIRECT, CP_GBAND, CP_GCOORD, CP_GKOFF, CP_GOFF, CP_GROFF,
+                                       CP_GROUPS, CP_GROWS, CP_LOWER, CP_LPLACE, CP_M, CP_N,
+                                       CP_PIVOTS, CP_POS, CP_RMAP, CP_SCRATCH, CP_SHARE, CP_SPERM,
+                                       CP_TC, CP_TG, CP_TR, CP_TRIPLETS, CP_TSLOT, CP_TSTART,
+                                       CP_UNIT, CP_WSTRIDE, LIN_AB, LIN_ADDR, LIN_B, LIN_CP,
+                                       LIN_CW, LIN_IPIV, LIN_LC, LIN_LP, LIN_LR, LIN_LV, LP_BLOCKS,
                                        LP_INFO, LP_KL, LP_KU, LP_LDAB, LP_M, LP_N, LP_NC)
 
 from .band import (_band_cholesky, _band_cholesky_solve, _band_substitute,
@@ -723,10 +723,18 @@ def _condensed_pair(lin, b):
 
 @_hot
 def _condensed_solve(lin, r, dw):
-    """dw = J^-1 r with the factorization of :func:`_condensed_factor`."""
+    """dw = J^-1 r with the factorization of :func:`_condensed_factor`. Where
+    the Newton rows and columns are in the block's own order (``CP_DIRECT``:
+    one block, the index-3 forms), the block is solved in dw itself, without
+    the two passes through the row and column codes."""
     cp, cw, b, lp = lin[LIN_CP], lin[LIN_CW], lin[LIN_B], lin[LIN_LP]
     Lr, Lc, Lv = lin[LIN_LR], lin[LIN_LC], lin[LIN_LV]
     size = r.shape[0]
+    if cp[CP_DIRECT] != 0:
+        for i in range(size):
+            dw[i] = r[i]
+        _condensed_block(lin, dw, _0)
+        return
     s = cp[CP_N] + cp[CP_M]
     rmap, cmap = cp[CP_RMAP], cp[CP_CMAP]
     for i in range(size):

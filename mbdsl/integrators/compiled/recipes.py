@@ -12,8 +12,8 @@ from ...kernels.beams.ffr import FFR_MXQ, _beam_mass_add, _emit_beams
 from ...kernels.loads.friction import _emit_friction_lam
 from ...kernels.schema import BEAM, FRI, MASS, MRIG, ROW_ELEMENT, _0, _NO, _YES, _f, _hot, _jit, _rows
 from ...kernels.system import (_emit_G, _emit_force, _emit_hess, _emit_mass, _emit_phiq,
-                               _phi_time_add, forces, phi, phiq_products, phiqT_add,
-                               phiq_times)
+                               _phi_time_add, forces, phi, phi_phiqT_add, phiq_products,
+                               phiqT_add, phiq_times)
 
 
 @_hot
@@ -48,13 +48,13 @@ def _residual(rec, I, Fl, t, q_pred, v_pred, F_old, qx_old, w, r, qx, vx, work):
         for j in range(n + 3):
             mw[j] = 0.0
         phiq_products(I, Fl, qx, vx, w[l0:l0 + m], w[u0:], wk, mw, r[u0:])
-    else:
-        phiqT_add(I, Fl, qx, w[l0:l0 + m], 1.0, wk)
+        phi(I, Fl, t, qx, r[l0:l0 + m])
+    else:                               # Phi and Phi_q^T lambda in one pass
+        phi_phiqT_add(I, Fl, t, qx, w[l0:l0 + m], r[l0:l0 + m], wk)
     for j in range(n):
         r[j] = cM * _f(I, Fl, MRIG, j, 0) * w[j] + wk[j] - cF * F_old[j]
     if _rows(I, BEAM) > 0:
         _beam_mass_add(I, Fl, qM, w, cM, r)
-    phi(I, Fl, t, qx, r[l0:l0 + m])
     sP = rec[SP]
     for i in range(m):
         r[l0 + i] *= sP

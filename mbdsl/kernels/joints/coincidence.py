@@ -50,28 +50,52 @@ PHIQ_TRIPLETS, HESS_TRIPLETS, G_TRIPLETS = 8, 2, 4
 
 
 @_inline
+def _phi_rows(I, qx, i, ax1, ay1, ax2, ay2, out):
+    """Instance i's two rows of Phi into out, its points' A u given."""
+    out[_i(I, CROW, i, 0)] = (qx[_i(I, CCOL2, i, 0)] - qx[_i(I, CCOL1, i, 0)]) + (ax2 - ax1)
+    out[_i(I, CROW, i, 1)] = (qx[_i(I, CCOL2, i, 1)] - qx[_i(I, CCOL1, i, 1)]) + (ay2 - ay1)
+
+
+@_inline
+def _phiqT_rows_add(I, lam, coef, i, ax1, ay1, ax2, ay2, out):
+    """out += coef (instance i's rows of Phi_q)^T lambda, its points' A u given."""
+    l0, l1 = coef * lam[_i(I, CROW, i, 0)], coef * lam[_i(I, CROW, i, 1)]
+    out[_i(I, CCOL1, i, 0)] -= l0
+    out[_i(I, CCOL1, i, 1)] -= l1
+    out[_i(I, CCOL1, i, 2)] -= -ay1 * l0 + ax1 * l1
+    out[_i(I, CCOL2, i, 0)] += l0
+    out[_i(I, CCOL2, i, 1)] += l1
+    out[_i(I, CCOL2, i, 2)] += -ay2 * l0 + ax2 * l1
+
+
+@_inline
 def phi(I, Fl, t, qx, out):
     """Phi into out (m,) [m]."""
     for i in range(_rows(I, CROW)):
         ax1, ay1 = _Au(I, Fl, qx, CCOL1, CS1, CEL, 0, i)
         ax2, ay2 = _Au(I, Fl, qx, CCOL2, CS2, CEL, 1, i)
-        out[_i(I, CROW, i, 0)] = (qx[_i(I, CCOL2, i, 0)] - qx[_i(I, CCOL1, i, 0)]) + (ax2 - ax1)
-        out[_i(I, CROW, i, 1)] = (qx[_i(I, CCOL2, i, 1)] - qx[_i(I, CCOL1, i, 1)]) + (ay2 - ay1)
+        _phi_rows(I, qx, i, ax1, ay1, ax2, ay2, out)
 
 
 @_inline
 def phiqT_add(I, Fl, qx, lam, coef, out):
     """out (n+3,) += coef Phi_q^T lambda [N, N m] (rigid columns)."""
     for i in range(_rows(I, CROW)):
-        l0, l1 = coef * lam[_i(I, CROW, i, 0)], coef * lam[_i(I, CROW, i, 1)]
         ax1, ay1 = _Au(I, Fl, qx, CCOL1, CS1, CEL, 0, i)
         ax2, ay2 = _Au(I, Fl, qx, CCOL2, CS2, CEL, 1, i)
-        out[_i(I, CCOL1, i, 0)] -= l0
-        out[_i(I, CCOL1, i, 1)] -= l1
-        out[_i(I, CCOL1, i, 2)] -= -ay1 * l0 + ax1 * l1
-        out[_i(I, CCOL2, i, 0)] += l0
-        out[_i(I, CCOL2, i, 1)] += l1
-        out[_i(I, CCOL2, i, 2)] += -ay2 * l0 + ax2 * l1
+        _phiqT_rows_add(I, lam, coef, i, ax1, ay1, ax2, ay2, out)
+
+
+@_inline
+def phi_phiqT_add(I, Fl, qx, lam, out_phi, out):
+    """:func:`phi` into out_phi and :func:`phiqT_add` (coef 1) into out in
+    one pass: each instance's points rotated once for both (the index-3
+    residual's two joint terms; ``system.phi_phiqT_add``)."""
+    for i in range(_rows(I, CROW)):
+        ax1, ay1 = _Au(I, Fl, qx, CCOL1, CS1, CEL, 0, i)
+        ax2, ay2 = _Au(I, Fl, qx, CCOL2, CS2, CEL, 1, i)
+        _phi_rows(I, qx, i, ax1, ay1, ax2, ay2, out_phi)
+        _phiqT_rows_add(I, lam, 1.0, i, ax1, ay1, ax2, ay2, out)
 
 
 @_inline
