@@ -19,6 +19,7 @@ import numpy as np
 
 from ..assembly.initial import InitialState, consistent_initial_state
 from ..errors import ConvergenceError
+from ..gcpause import paused
 from ..io.solution import Solution
 from ..io.rows import StepStats
 from .adaptive import StepControl
@@ -241,6 +242,7 @@ def _engine_for(system, method, engine, control, compile_policy, announce):
     return which, engine, engine_note
 
 
+@paused
 def _steppers(system, method, initial, solver, which, control, python_loop, announce, h,
               timings):
     """(the stepper, its fallback or None, the linear solver's name): on the
