@@ -182,6 +182,12 @@ def _groups(rl, cl, same, n):
     return groups, comp, np.stack([key // G, key % G], axis=1).reshape(-1, 2)
 
 
+def _run_positions(lengths):
+    """Each entry's position within its run, for runs of the given lengths
+    laid end to end: [0, 1, .., l_0 - 1, 0, 1, .., l_1 - 1, ...]."""
+    return np.arange(int(lengths.sum())) - np.repeat(np.cumsum(lengths) - lengths, lengths)
+
+
 def _schur_band(grows, groff, m):
     """(sperm, kl, ku): the Schur complement's rows in the reverse
     Cuthill-McKee order of its pattern (every pair of rows that touch one
@@ -191,10 +197,8 @@ def _schur_band(grows, groff, m):
     rs = np.diff(groff)
     g = np.repeat(np.arange(len(rs)), rs)            # each slotted row's group
     cnt = rs[g]                                      # the pairs it makes: its group's rows
-    start = np.repeat(np.cumsum(cnt) - cnt, cnt)
     si = np.concatenate([np.arange(m), np.repeat(grows, cnt)])
-    sj = np.concatenate([np.arange(m), grows[np.repeat(groff[g], cnt)
-                                             + np.arange(int(cnt.sum())) - start]])
+    sj = np.concatenate([np.arange(m), grows[np.repeat(groff[g], cnt) + _run_positions(cnt)]])
     S = scipy.sparse.csr_matrix((np.ones(len(si)), (si, sj)), shape=(m, m))
     perm = reverse_cuthill_mckee(S, symmetric_mode=True) if m else np.zeros(0, np.int64)
     sperm = np.empty(m, np.int64)
@@ -213,7 +217,7 @@ def _unit_rows(ks, rs, goff, gcoord, grows, m, unit):
         return {"brptr": np.zeros(m + 1, np.int64), "brsrc": np.zeros(0, np.int64),
                 "brcoord": np.zeros(0, np.int64)}
     g = np.repeat(np.arange(len(ks)), rs)
-    slot = np.arange(len(g)) - np.repeat(np.cumsum(rs) - rs, rs)
+    slot = _run_positions(rs)
     order = np.argsort(grows, kind="stable")
     return {"brptr": np.concatenate([[0], np.cumsum(np.bincount(grows, minlength=m))]),
             "brsrc": (goff[g] + 1 + rs[g] + slot)[order], "brcoord": gcoord[g][order]}
