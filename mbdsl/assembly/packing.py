@@ -354,7 +354,9 @@ def _joint_fields(system, tables, families) -> dict:
         An element of a kind no family holds the rows of.
     """
     d = {}
-    elements = system.constraint_elements
+    # (first row of lambda, element) in row order
+    elements = list(zip(system.layout.element_start[:-1].tolist(),
+                        system.model.constraint_elements))
     held = set()
     space = getattr(system.model, "space", 2)
     for family in families:

@@ -152,7 +152,7 @@ def analyse_structure(system, q: np.ndarray, t: float) -> StructureReport:
     # a spatial body's frame rows first (``model.spatial.Frame``): they always hold, and
     # a dependent row is then a joint's, the one the report can tell the user to remove
     frames = {f.name for f in system.model.frames}
-    first = np.array([name in frames for name, _ in lay.rows], dtype=bool)
+    first = lay.element_mask(frames)
     order = np.r_[np.flatnonzero(first), np.flatnonzero(~first)]
     ind, dep = independent_rows(A[order])
     ind, dep = np.sort(order[ind]), np.sort(order[dep])
@@ -259,7 +259,7 @@ def miss_diagnosis(system, q_start: np.ndarray, t0: float, fixed: list[tuple[int
         return None
     tree = {j.name for _, _, j in graph.spanning_tree_edges(model) if j is not None}
     drivers = {d.name for d in model.drivers}
-    hard_rows = np.array([lay.rows[i][0] in tree or lay.rows[i][0] in drivers for i in range(m)])
+    hard_rows = lay.element_mask(tree | drivers)
     iq = np.array([i for i, _ in fixed], dtype=int)
     vq = np.array([v for _, v in fixed], dtype=float)
 
@@ -402,8 +402,7 @@ def involved_names(system, method, vector: np.ndarray, share: float = 0.1) -> tu
         i += b.size
     big = max(kin.max(initial=0.0), mult.max(initial=0.0))
     coords = [lay.coordinates[k] for k in np.argsort(-kin) if kin[k] > share * big][:6]
-    elements = []
-    for k in np.argsort(-mult):
-        if mult[k] > share * big and lay.rows[k][0] not in elements:
-            elements.append(lay.rows[k][0])
+    order = np.argsort(-mult, kind="stable")
+    named = lay.row_element[order[mult[order] > share * big]]
+    elements = list(dict.fromkeys(lay.element_names[e] for e in named.tolist()))
     return coords, elements[:6]

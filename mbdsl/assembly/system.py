@@ -42,15 +42,19 @@ things fixed by the model.
 
 from __future__ import annotations
 
+import operator
+
 import numpy as np
 
 from ..gcpause import paused
 from ..model.contact import GAP_WIDTH, Contact
-from ..model.elements import FlexibleBeam, Model
+from ..model.elements import Model
 from . import ffr
 from .layout import Layout
 
 __all__ = ["AssembledSystem", "assemble"]
+
+_mass, _inertia = operator.attrgetter("mass"), operator.attrgetter("inertia")
 
 
 class AssembledSystem:
@@ -88,13 +92,16 @@ class AssembledSystem:
         self.nx = n + 3                      # extended: ground coordinates at n..n+2
         mass = np.zeros(n)
         cmap = self.cmap = model.coordinate_map
-        planar = [b for b in model.bodies if b.index not in cmap.spatial]
-        if planar:
-            # a particle's phi is the ground's dummy n+2, outside q: dropped
-            table = cmap.table[[b.index for b in planar]]
-            mass[table[:, 0]] = mass[table[:, 1]] = [b.mass for b in planar]
-            own = table[:, 2] < n
-            mass[table[own, 2]] = [b.inertia for b, o in zip(planar, own) if o]
+        kinds, bodies = model.body_kinds, model.bodies
+        #: each body's mass [kg], shape (n_bodies,)
+        self.body_mass = np.fromiter(map(_mass, bodies), dtype=float, count=len(bodies))
+        planar = kinds.code_in(kinds.space == 2)
+        # a particle's phi is the ground's dummy n+2, outside q: dropped
+        mass[cmap.table[planar, :2]] = self.body_mass[planar, None]
+        own = planar[cmap.table[planar, 2] < n]
+        mass[cmap.table[own, 2]] = np.fromiter(
+            map(_inertia, bodies if len(own) == len(bodies) else [bodies[i] for i in own]),
+            dtype=float, count=len(own))
         for i, col in cmap.spatial.items():          # m, m, m, Jbar_k (``model.spatial``)
             mass[col:col + cmap.spatial_width[i]] = model.bodies[i].mass_diagonal
         self.beam_gravity = model.gravity if model.gravity is not None \
@@ -123,18 +130,10 @@ class AssembledSystem:
         model by the kernels' joint families (``packing.PackedModel``); their
         sparsity patterns are the kernels' triplets, read once, on first use
         (``_constraint_pattern``)."""
-        row = 0
-        #: joint name -> its first row of lambda
-        self.joint_rows = {}
-        #: (first row of lambda, Joint, Driver or Coupler) of every constraint element,
-        #: in row order
-        self.constraint_elements = []
-        for k, e in enumerate(model.constraint_elements):
-            if k < len(model.joints):
-                self.joint_rows[e.name] = row
-            self.constraint_elements.append((row, e))
-            row += e.rows
-        assert row == self.m
+        lay = self.layout
+        #: joint name -> its first row of lambda (a mapping)
+        self.joint_rows = lay.first_rows(len(model.joints))
+        assert lay.element_start[-1] == self.m
         #: the drivers' functions of time f(t) (rows q_c - f, phi2 - phi1 - f, s - f)
         self.driver_functions = [d.function for d in model.drivers]
         self._patterns = {}
@@ -147,10 +146,11 @@ class AssembledSystem:
         self.gravity_force = None
         if model.gravity is not None and np.any(model.gravity != 0.0):
             Qg = np.zeros(n)
-            for b in model.bodies:
-                if not isinstance(b, FlexibleBeam):      # beams: in their own group
-                    with np.errstate(over="ignore"):     # an overflow is E506 at the start
-                        Qg[cmap.table[b.index, :len(model.gravity)]] = b.mass * model.gravity
+            kinds = model.body_kinds
+            own = kinds.code_in(~kinds.flexible)             # beams: in their own group
+            with np.errstate(over="ignore"):                 # an overflow is E506 at the start
+                Qg[cmap.table[own, :len(model.gravity)]] = \
+                    self.body_mass[own, None] * model.gravity
             self.gravity_force = Qg
         self._load_groups(model)
         rc = self._rigid_cols

@@ -37,6 +37,7 @@ Conventions (stated once for the whole package)
 from __future__ import annotations
 
 import functools
+import operator
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -57,7 +58,7 @@ __all__ = [
 
 from .spatial import SPATIAL_COORDINATES, SPATIAL_VELOCITIES
 from .coordinates import (ACCELERATIONS, COORDINATES, VELOCITIES,  # noqa: F401 (re-exported)
-                          CoordinateMap, _fields)
+                          BodyKinds, CoordinateMap, body_names)
 
 
 @dataclass(frozen=True)
@@ -267,6 +268,9 @@ class FlexibleBeam:
     span: Span | None = None
     stiffening: bool = True
     modes: int = 0
+
+    #: Never a point mass (read with every body's: ``model.coordinates.BodyKinds``).
+    particle = False
 
     @property
     def mesh(self):
@@ -851,26 +855,38 @@ class Model:
     instances: dict = field(default_factory=dict)
     space: int = 2
 
-    @property
+    # The model never changes once checked (a frozen dataclass): what is derived
+    # from its bodies and joints below is derived once, each in one pass over them,
+    # not again at each use (a 100 000-link chain's set-up reads them many times).
+    @functools.cached_property
+    def body_kinds(self) -> BodyKinds:
+        """The bodies' kinds (:class:`~.coordinates.BodyKinds`): each one's
+        width in q, names and space, read once per kind."""
+        return BodyKinds(self.bodies)
+
+    @functools.cached_property
     def frames(self) -> tuple:
         """The spatial bodies' orthonormality rows (``model.spatial.Frame``),
         constraint elements after the couplers."""
         from .spatial import Frame
-        return tuple(Frame(b.index, b.name, b.span) for b in self.bodies
-                     if len(_fields(b, COORDINATES)) == 12)
+        kinds = self.body_kinds
+        return tuple(Frame(b.index, b.name, b.span) for b in
+                     (self.bodies[i] for i in kinds.code_in(kinds.width == 12).tolist()))
 
-    @property
+    @functools.cached_property
     def n_coordinates(self) -> int:
         """n, the number of generalized coordinates (3 per body, 2 per
         particle, plus the elastic coordinates of the flexible beams, plus
         one per first-order state, its integral)."""
-        return (sum(len(_fields(b, COORDINATES)) for b in self.bodies)
+        kinds = self.body_kinds
+        return (int(kinds.width[kinds.code].sum())
                 + sum(b.n_elastic for b in self.flexible_bodies) + len(self.states))
 
     @functools.cached_property
     def coordinate_map(self) -> CoordinateMap:
         """Where each body's coordinates are in q (:class:`CoordinateMap`)."""
-        return CoordinateMap(self.bodies, self.n_coordinates, len(self.states))
+        return CoordinateMap(self.bodies, self.n_coordinates, len(self.states),
+                             self.body_kinds)
 
     @property
     def loads(self) -> tuple:
@@ -885,16 +901,24 @@ class Model:
         nb = len(self.bodies)
         return tuple(ic for s in self.states for ic in s.conditions(nb))
 
-    @property
+    @functools.cached_property
     def flexible_bodies(self) -> tuple:
         """The :class:`FlexibleBeam` bodies, in body order."""
-        return tuple(b for b in self.bodies if isinstance(b, FlexibleBeam))
+        kinds = self.body_kinds
+        return tuple(self.bodies[i] for i in kinds.code_in(kinds.flexible).tolist())
+
+    @functools.cached_property
+    def constraint_rows(self) -> np.ndarray:
+        """The number of constraint rows of each element of
+        :attr:`constraint_elements`, in row order, shape (elements,)."""
+        elements = self.constraint_elements
+        return np.fromiter(map(_rows, elements), dtype=np.intp, count=len(elements))
 
     @property
     def n_constraints(self) -> int:
-        """m, the number of constraint equations (joints, drivers and couplers)."""
-        return (sum(j.rows for j in self.joints) + len(self.drivers) + len(self.couplers)
-                + 6 * len(self.frames))
+        """m, the number of constraint equations (joints, drivers, couplers and
+        the spatial bodies' frames)."""
+        return int(self.constraint_rows.sum())
 
     @property
     def dof(self) -> int:
@@ -914,25 +938,33 @@ class Model:
                 return b
         raise KeyError(name)
 
+    @functools.cached_property
+    def body_names(self) -> list[str]:
+        """The bodies' names, in order, length n_bodies."""
+        return body_names(self.bodies)
+
+    def _names(self, which: int, elastic: str, state: str) -> list[str]:
+        """The names of q's (``which`` 0), v's (1) or a's (2) entries: the
+        bodies' by their kinds, the beams' elastic coordinates with the suffix
+        ``elastic``, the first-order states' as ``state.<name><state>``."""
+        names = self.body_kinds.names(self.body_names, which)
+        names += [f"{b.name}.{c}{elastic}" for b in self.flexible_bodies for c in b.mesh.names]
+        names += [f"state.{s.name}{state}" for s in self.states]
+        return names
+
     def coordinate_names(self) -> list[str]:
         """``["crank.x", "crank.y", "crank.phi", ...]``, shape (n,)."""
-        return ([f"{b.name}.{c}" for b in self.bodies for c in _fields(b, COORDINATES)]
-                + [f"{b.name}.{c}" for b in self.flexible_bodies for c in b.mesh.names]
-                + [f"state.{s.name}.integral" for s in self.states])
+        return self._names(0, "", ".integral")
 
     def velocity_names(self) -> list[str]:
         """``["crank.vx", "crank.vy", "crank.omega", ...]``, shape (n,)."""
-        return ([f"{b.name}.{c}" for b in self.bodies for c in _fields(b, VELOCITIES)]
-                + [f"{b.name}.{c}_t" for b in self.flexible_bodies for c in b.mesh.names]
-                + [f"state.{s.name}" for s in self.states])
+        return self._names(1, "_t", "")
 
     def acceleration_names(self) -> list[str]:
         """``["crank.ax", "crank.ay", "crank.alpha", ...]``, shape (n,)."""
-        return ([f"{b.name}.{c}" for b in self.bodies for c in _fields(b, ACCELERATIONS)]
-                + [f"{b.name}.{c}_tt" for b in self.flexible_bodies for c in b.mesh.names]
-                + [f"state.{s.name}.rate" for s in self.states])
+        return self._names(2, "_tt", ".rate")
 
-    @property
+    @functools.cached_property
     def constraint_elements(self) -> tuple:
         """The elements with constraint rows, in row order: the joints, the
         drivers, the couplers, then the spatial bodies' frames."""
@@ -940,7 +972,8 @@ class Model:
 
     def constraint_names(self) -> list[tuple[str, int]]:
         """(element name, row within element) for each constraint row, shape (m,)."""
-        out = [(j.name, k) for j in self.joints for k in range(j.rows)]
-        out += [(d.name, 0) for d in self.drivers]
-        out += [(c.name, 0) for c in self.couplers]
-        return out + [(f.name, k) for f in self.frames for k in range(f.rows)]
+        return [(e.name, k) for e, r in zip(self.constraint_elements, self.constraint_rows.tolist())
+                for k in range(r)]
+
+
+_rows = operator.attrgetter("rows")

@@ -13,7 +13,8 @@ import math
 import numpy as np
 
 from ...model.beam import FRAMES
-from ...model.elements import COORDINATES, FlexibleBeam, RigidBody, Shape, _fields
+from ...model.coordinates import _fields
+from ...model.elements import COORDINATES, FlexibleBeam, RigidBody, Shape
 from ...model.spatial import SpatialParticle
 from ..expressions import Name, Vec
 from ..spec import BeamSpec
