@@ -32,6 +32,9 @@ class CoordinateMap:
         The number of first-order states: their integrals are the last
         n_states columns of q, their values the same columns of v; state k
         is the pseudo body ``n_bodies + k`` with one coordinate (0).
+    kinds : BodyKinds, optional
+        The bodies' kinds, when the caller has them (``Model.body_kinds``);
+        found from ``bodies`` otherwise.
 
     Attributes
     ----------
@@ -105,8 +108,9 @@ ACCELERATIONS = ("ax", "ay", "alpha")
 
 
 class BodyKinds:
-    """The kinds of a model's bodies, found in one pass: each distinct
-    (class, particle) pair once, and each body's kind as a number.
+    """The kinds of a model's bodies: each distinct (class, particle) pair
+    once, and each body's kind as a number, found by passes over the bodies
+    that make no object per body.
 
     What the model's layout needs of a body (its width in q, its names, its
     space) depends on its kind alone, so it is read once per kind, not once
