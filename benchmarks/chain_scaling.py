@@ -5,9 +5,12 @@ Each N runs in a fresh process (its peak resident memory is its own):
 parse, check (the ``for`` expansion and every check), assemble, load the
 compiled kernels, consistent initial conditions, then --steps steps of
 hht-i3 (h = 1e-3 s), the median of --repeat runs (one run above N = 10 000).
-Up to N = 10 000 the whole is done in --repeat fresh processes and each
-phase's time is their median: a phase of 15 ms timed once varies by 20 %
-from one process to the next, which is more than the growth target's margin.
+Every N's set-up is done in --setup-repeat fresh processes and each phase's
+time is their median; the first --repeat of them take the steps too (the
+first alone above N = 10 000). A phase timed once varies by 10-20 % from
+one process to the next on this 2-core machine (the 10 000-link chain's
+assembly: 11.3-13.4 ms in nine processes), more than the growth target's
+margin.
 Prints a table and checks the targets of the scaling work:
 
 * parse + check + assemble + initial conditions at N = 10 000: at most 1.5 s
@@ -34,8 +37,10 @@ MODEL = Path(__file__).resolve().parents[1] / "models" / "pendulum_chain.mbd"
 PHASES = ("parse", "check", "assemble", "kernels", "initial")
 
 
-def measure(N: int, method: str, h: float, steps: int, repeat: int) -> dict:
-    """One chain in this process: each phase's wall time [s], ms per step, peak RSS [MB]."""
+def measure(N: int, method: str, h: float, steps: int, repeat: int,
+            setup_only: bool = False) -> dict:
+    """One chain in this process: each phase's wall time [s], ms per step, peak RSS [MB]
+    (the set-up's phases alone with ``setup_only``)."""
     import mbdsl
     from mbdsl.dsl.check import check_spec
     from mbdsl.dsl.parser import parse_file
@@ -54,6 +59,8 @@ def measure(N: int, method: str, h: float, steps: int, repeat: int) -> dict:
     init = mbdsl.consistent_initial_state(system)
     out["initial"] = clock() - t
     out["setup_rss_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    if setup_only:
+        return out
     walls, sol = [], None
     for _ in range(repeat if N <= 10_000 else 1):
         t = clock()
@@ -70,12 +77,13 @@ def measure(N: int, method: str, h: float, steps: int, repeat: int) -> dict:
 
 def _median(runs: list) -> dict:
     """One row from the processes' rows: the median of each time, the largest
-    memory; the counts are the same in every process."""
-    out = dict(runs[0])
-    for k in PHASES + ("ms_per_step",):
+    memory; the counts are the same in every process that took the steps."""
+    out, stepped = dict(runs[0]), [r for r in runs if "ms_per_step" in r]
+    for k in PHASES:
         out[k] = statistics.median(r[k] for r in runs)
-    for k in ("setup_rss_mb", "rss_mb"):
-        out[k] = max(r[k] for r in runs)
+    out["ms_per_step"] = statistics.median(r["ms_per_step"] for r in stepped)
+    out["setup_rss_mb"] = max(r["setup_rss_mb"] for r in runs)
+    out["rss_mb"] = max(r["rss_mb"] for r in stepped)
     return out
 
 
@@ -86,19 +94,24 @@ def main(argv=None) -> int:
     p.add_argument("--h", type=float, default=1e-3)
     p.add_argument("--steps", type=int, default=100)
     p.add_argument("--repeat", type=int, default=3)
+    p.add_argument("--setup-repeat", type=int, default=5)
     p.add_argument("--sizes", default="10,100,1000,10000,100000")
     p.add_argument("--one", type=int, help=argparse.SUPPRESS)      # a child process: one N, JSON
+    p.add_argument("--setup-only", action="store_true", help=argparse.SUPPRESS)
     args = p.parse_args(argv)
     if args.one:
-        print(json.dumps(measure(args.one, args.method, args.h, args.steps, args.repeat)))
+        print(json.dumps(measure(args.one, args.method, args.h, args.steps, args.repeat,
+                                 args.setup_only)))
         return 0
     rows = []
     for N in (int(x) for x in args.sizes.split(",")):
         runs = []
-        for _ in range(args.repeat if N <= 10_000 else 1):
+        for k in range(max(args.setup_repeat, 1)):
+            setup_only = ["--setup-only"] if k >= (args.repeat if N <= 10_000 else 1) else []
             proc = subprocess.run([sys.executable, __file__, "--one", str(N), "--method",
                                    args.method, "--h", str(args.h), "--steps", str(args.steps),
-                                   "--repeat", str(args.repeat)], capture_output=True, text=True)
+                                   "--repeat", str(args.repeat)] + setup_only,
+                                  capture_output=True, text=True)
             if proc.returncode:
                 print(proc.stderr, file=sys.stderr)
                 return 1

@@ -31,6 +31,7 @@ structure      ``structure.py``: connectivity to the ground
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 
 from ...errors import MbdModelError
@@ -124,4 +125,6 @@ def check_spec(spec: ModelSpec, overrides: dict | None = None,
         errors = [d for d in c.diags if d.is_error]
         raise MbdModelError(f"{len(errors)} error{'s' if len(errors) != 1 else ''} in "
                             f"{spec.file}", c.diags)
-    return Model(**{**model.__dict__, "warnings": tuple(c.diags)})
+    # the fields alone: what the model derives from them (``functools.cached_property``,
+    # e.g. its coordinate map) is derived again by the new one, not passed to it
+    return dataclasses.replace(model, warnings=tuple(c.diags))
