@@ -19,7 +19,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from ..model.elements import Model
+from ..model.elements import Model, row_names
 
 __all__ = ["Layout"]
 
@@ -143,8 +143,7 @@ class _Rows(Sequence):
 
     def __iter__(self):
         lay = self._layout
-        counts = np.diff(lay.element_start).tolist()
-        return ((name, k) for name, r in zip(lay.element_names, counts) for k in range(r))
+        return row_names(lay.element_names, np.diff(lay.element_start))
 
 
 class _ElementRows(Mapping):

@@ -52,7 +52,7 @@ class CoordinateMap:
         kinds = BodyKinds(bodies) if kinds is None else kinds
         # each body's first column: the widths' running sum (arrays, not a pass over
         # the bodies: a 100 000-link chain's map is made in milliseconds)
-        width = kinds.width[kinds.code]
+        width = kinds.body_width
         first = np.zeros(len(width), dtype=np.intp)
         np.cumsum(width[:-1], out=first[1:])
         self.n_reference = int(first[-1] + width[-1]) if len(width) else 0
@@ -130,6 +130,8 @@ class BodyKinds:
         a particle; twelve for a spatial body, three for a spatial particle).
     width : ndarray of int, shape (kinds,)
         Per kind: its reference coordinates in q (3, 2, 12 or 3).
+    body_width : ndarray of int, shape (n_bodies,)
+        Each body's: ``width[code]``.
     space : ndarray of int, shape (kinds,)
         Per kind: 2 (planar) or 3 (spatial).
     flexible : ndarray of bool, shape (kinds,)
@@ -156,6 +158,7 @@ class BodyKinds:
         self.fields = [tuple(_fields(b, names) for names in (COORDINATES, VELOCITIES,
                                                              ACCELERATIONS)) for b in reps]
         self.width = np.array([len(f[0]) for f in self.fields], dtype=np.intp)
+        self.body_width = self.width[self.code]
         self.space = np.array([getattr(b, "space", 2) for b in reps], dtype=np.intp)
         self.flexible = np.array([hasattr(b, "n_elastic") for b in reps], dtype=bool)
         self.planar_particle = np.array([k[1] for k in number], dtype=bool) & (self.space == 2)

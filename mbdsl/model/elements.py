@@ -883,7 +883,7 @@ class Model:
         particle, plus the elastic coordinates of the flexible beams, plus
         one per first-order state, its integral)."""
         kinds = self.body_kinds
-        return (int(kinds.width[kinds.code].sum())
+        return (int(kinds.body_width.sum())
                 + sum(b.n_elastic for b in self.flexible_bodies) + len(self.states))
 
     @functools.cached_property
@@ -976,8 +976,13 @@ class Model:
 
     def constraint_names(self) -> list[tuple[str, int]]:
         """(element name, row within element) for each constraint row, shape (m,)."""
-        return [(e.name, k) for e, r in zip(self.constraint_elements, self.constraint_rows.tolist())
-                for k in range(r)]
+        return list(row_names([e.name for e in self.constraint_elements], self.constraint_rows))
 
 
 _rows = operator.attrgetter("rows")
+
+
+def row_names(names, counts):
+    """(element name, row within it) of each constraint row, in row order,
+    from the elements' names and their numbers of rows (an iterator)."""
+    return ((name, k) for name, r in zip(names, np.asarray(counts).tolist()) for k in range(r))
